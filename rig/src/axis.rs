@@ -1,0 +1,137 @@
+//! The axis abstraction shared by every stage: Thorlabs steppers (x, z, y), Modbus y stages and
+//! the manual y stage.
+
+use crate::units::Millimetres;
+use std::fmt;
+use std::time::Duration;
+
+/// How to stop a motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopMode {
+    /// Decelerate along the motion profile.
+    Profiled,
+    /// Stop at once.
+    Immediate,
+}
+
+/// What an axis reports about itself.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisStatus {
+    pub position: Millimetres,
+    pub moving: bool,
+    pub homed: bool,
+    /// Names of the status flags that are set ("moving forward", "homed", "motion error", ...),
+    /// in the vocabulary of the controller.
+    pub flags: Vec<&'static str>,
+    /// Flags that mean the axis cannot be trusted (limit hit, motion error, alarm...).
+    pub faults: Vec<&'static str>,
+}
+
+impl fmt::Display for AxisStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "position {:.4}", self.position)?;
+        if self.flags.is_empty() {
+            write!(f, ", no status flags set")
+        } else {
+            write!(f, ", flags: {}", self.flags.join(", "))
+        }
+    }
+}
+
+/// Errors from any axis, naming the axis and its endpoint.
+#[derive(Debug, thiserror::Error)]
+pub enum AxisError {
+    #[error("axis {axis} ({endpoint}): {message}")]
+    Device { axis: String, endpoint: String, message: String },
+    #[error("axis {axis} ({endpoint}): timed out after {timeout:?} waiting for {what}{}", status_suffix(.flags))]
+    Timeout { axis: String, endpoint: String, what: String, timeout: Duration, flags: Vec<&'static str> },
+    #[error("axis {axis}: target {target:.4} is outside the soft limits {min:.4} .. {max:.4}; nothing was sent (change the target or the limits in the configuration)")]
+    SoftLimit { axis: String, target: Millimetres, min: Millimetres, max: Millimetres },
+    #[error("axis {axis} ({endpoint}): fault while {what}: {}", .flags.join(", "))]
+    Fault { axis: String, endpoint: String, what: String, flags: Vec<&'static str> },
+    #[error("axis {axis} ({endpoint}): configuration mismatch: {message}")]
+    Mismatch { axis: String, endpoint: String, message: String },
+    #[error("axis {axis} ({endpoint}): link error: {source}")]
+    Io {
+        axis: String,
+        endpoint: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("axis {axis}: cancelled by the operator")]
+    Cancelled { axis: String },
+}
+
+fn status_suffix(flags: &[&'static str]) -> String {
+    if flags.is_empty() {
+        String::new()
+    } else {
+        format!(" (status: {})", flags.join(", "))
+    }
+}
+
+/// Soft limits in millimetres, checked before any move is sent.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SoftLimits {
+    pub min: Millimetres,
+    pub max: Millimetres,
+}
+
+impl SoftLimits {
+    /// Checks `target` against the limits, naming `axis` in the error.
+    pub fn check(&self, axis: &str, target: Millimetres) -> Result<(), AxisError> {
+        if target.0.is_finite() && target >= self.min && target <= self.max {
+            Ok(())
+        } else {
+            Err(AxisError::SoftLimit { axis: axis.to_string(), target, min: self.min, max: self.max })
+        }
+    }
+}
+
+/// A linear axis in millimetres.
+///
+/// Motion is split into `begin_*` (send the command, return at once) and [`Axis::wait_idle`] so a
+/// scan can watch the force while the axis moves; the blocking helpers combine the two.
+pub trait Axis: Send {
+    /// The axis name from configuration ("x", "z", "y").
+    fn name(&self) -> &str;
+
+    /// What the axis is connected through, for messages ("serial /dev/ttyUSB0", "manual").
+    fn endpoint(&self) -> String;
+
+    /// Starts homing.
+    fn begin_home(&mut self) -> Result<(), AxisError>;
+
+    /// Starts an absolute move; soft limits are checked before anything is sent.
+    fn begin_move_to(&mut self, target: Millimetres) -> Result<(), AxisError>;
+
+    /// Starts a relative move; the resulting target is checked against the soft limits first.
+    fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError>;
+
+    /// Waits until the current motion has ended, and returns the final status.
+    fn wait_idle(&mut self, timeout: Duration) -> Result<AxisStatus, AxisError>;
+
+    /// Stops motion.
+    fn stop(&mut self, mode: StopMode) -> Result<(), AxisError>;
+
+    /// Current status.
+    fn status(&mut self) -> Result<AxisStatus, AxisError>;
+
+    /// Homes and waits.
+    fn home(&mut self, timeout: Duration) -> Result<AxisStatus, AxisError> {
+        self.begin_home()?;
+        self.wait_idle(timeout)
+    }
+
+    /// Moves to `target` and waits.
+    fn move_to(&mut self, target: Millimetres, timeout: Duration) -> Result<AxisStatus, AxisError> {
+        self.begin_move_to(target)?;
+        self.wait_idle(timeout)
+    }
+
+    /// Moves by `delta` and waits.
+    fn move_by(&mut self, delta: Millimetres, timeout: Duration) -> Result<AxisStatus, AxisError> {
+        self.begin_move_by(delta)?;
+        self.wait_idle(timeout)
+    }
+}

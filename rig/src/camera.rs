@@ -1,0 +1,154 @@
+//! The camera abstraction shared by the Aravis backend, recorded camera traces and the
+//! simulated camera.
+
+use crate::clock::HostTime;
+use crate::units::{Decibels, Hertz, Microseconds};
+use std::time::Duration;
+
+/// Pixel layout of a frame buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PixelFormat {
+    /// 8-bit grey.
+    Mono8,
+    /// 8-bit RGB, interleaved.
+    Rgb8,
+    /// 8-bit Bayer RG mosaic (as delivered by colour Basler cameras).
+    BayerRg8,
+}
+
+impl PixelFormat {
+    /// Bytes per pixel.
+    pub fn bytes_per_pixel(self) -> usize {
+        match self {
+            PixelFormat::Mono8 | PixelFormat::BayerRg8 => 1,
+            PixelFormat::Rgb8 => 3,
+        }
+    }
+}
+
+/// How frames are started.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "mode", content = "line")]
+pub enum TriggerMode {
+    /// The camera runs at its frame rate.
+    FreeRun,
+    /// Each frame is started by [`Camera::trigger`].
+    Software,
+    /// Each frame is started by a rising edge on a hardware line ("Line1").
+    Hardware(String),
+}
+
+/// A region of interest in sensor pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Roi {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Everything set on a camera before acquisition.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CameraSettings {
+    pub exposure: Microseconds,
+    pub gain: Decibels,
+    pub frame_rate: Hertz,
+    /// `None` = full sensor.
+    pub roi: Option<Roi>,
+    pub pixel_format: PixelFormat,
+    pub trigger: TriggerMode,
+    /// Output line that carries the exposure-active signal ("Line2"), if wired to the DAQ.
+    pub exposure_active_line: Option<String>,
+}
+
+impl Default for CameraSettings {
+    /// The reference rig: free run at 50 fps, 2000 us exposure, gain 0, full frame RGB.
+    fn default() -> Self {
+        CameraSettings {
+            exposure: Microseconds(2000.0),
+            gain: Decibels(0.0),
+            frame_rate: Hertz(50.0),
+            roi: None,
+            pixel_format: PixelFormat::Rgb8,
+            trigger: TriggerMode::FreeRun,
+            exposure_active_line: None,
+        }
+    }
+}
+
+/// One frame with its timing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The camera's frame id (gaps mean dropped frames).
+    pub id: u64,
+    /// Device timestamp in device ticks (ns on Basler ace USB).
+    pub device_timestamp: u64,
+    /// Host monotonic time at which the frame arrived.
+    pub host_arrival: HostTime,
+    pub width: u32,
+    pub height: u32,
+    pub format: PixelFormat,
+    pub data: Vec<u8>,
+}
+
+/// One timestamp-latch exchange: the device clock read between two host times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TimestampLatch {
+    pub host_before: HostTime,
+    pub device_ticks: u64,
+    pub host_after: HostTime,
+}
+
+/// Identification of a camera.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CameraInfo {
+    pub vendor: String,
+    pub model: String,
+    pub serial: String,
+    pub id: String,
+    /// Device timestamp ticks per second.
+    pub tick_frequency: u64,
+}
+
+/// Errors from a camera, naming the device.
+#[derive(Debug, thiserror::Error)]
+pub enum CameraError {
+    #[error("camera {camera}: {message}")]
+    Device { camera: String, message: String },
+    #[error("camera {camera}: feature {feature} {message}")]
+    Feature { camera: String, feature: String, message: String },
+    #[error("camera {camera}: no frame for {waited:?} (check the trigger mode, the cable and the frame rate)")]
+    NoFrame { camera: String, waited: Duration },
+    #[error("camera {camera}: {source}")]
+    Io {
+        camera: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// A camera that delivers timestamped frames.
+pub trait Camera: Send {
+    /// Identification.
+    fn info(&self) -> CameraInfo;
+
+    /// Applies settings (exposure, gain, rate, ROI, format, trigger, strobe output) and reads them
+    /// back; fails if the camera refuses one.
+    fn configure(&mut self, settings: &CameraSettings) -> Result<(), CameraError>;
+
+    /// Starts acquisition.
+    fn start(&mut self) -> Result<(), CameraError>;
+
+    /// Issues a software trigger (only in [`TriggerMode::Software`]).
+    fn trigger(&mut self) -> Result<(), CameraError>;
+
+    /// Returns the next frame, or `None` if none arrived within `timeout`.
+    fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError>;
+
+    /// Stops acquisition.
+    fn stop(&mut self) -> Result<(), CameraError>;
+
+    /// Latches the device clock and reads it, bracketed by host times.
+    fn latch_timestamp(&mut self) -> Result<TimestampLatch, CameraError>;
+}

@@ -1,0 +1,15 @@
+//! Traces: what crossed a transport, on disk, in a human-readable format.
+//!
+//! A trace is recorded by wrapping any link in a [`RecordingLink`] / [`RecordingDatagramLink`]
+//! (`--record-trace DIR` on every `fringe` command that opens devices), and replayed by a
+//! [`ReplayLink`] / [`ReplayDatagramLink`] that feeds the recorded replies to a driver and checks
+//! that the driver sends exactly the recorded bytes. The format is documented in
+//! `docs/trace-format.md` and in [`format`].
+
+pub mod format;
+pub mod record;
+pub mod replay;
+
+pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
+pub use record::{record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter};
+pub use replay::{ReplayDatagramLink, ReplayHandle, ReplayLink, ReplayOptions, ReplayReport};
