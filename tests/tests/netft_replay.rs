@@ -14,7 +14,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 fn trace_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("traces/netft").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("traces/netft")
+        .join(name)
 }
 
 // ---------------------------------------------------------------- trace generator
@@ -52,7 +54,12 @@ impl Builder {
 }
 
 fn rec(rdt: u32, status: u32, counts: [i32; 6]) -> Record {
-    Record { rdt_sequence: rdt, ft_sequence: 500_000 + rdt, status, counts }
+    Record {
+        rdt_sequence: rdt,
+        ft_sequence: 500_000 + rdt,
+        status,
+        counts,
+    }
 }
 
 /// Counts of the scaling scenario: with 1 000 000 counts per N and 1 000 counts per N mm.
@@ -61,11 +68,17 @@ const LOAD: [i32; 6] = [1_500_000, -250_000, 12_000_000, 40_000, -7_500, 1_000];
 fn generate() -> Vec<(&'static str, String)> {
     let mut out = Vec::new();
 
-    let mut b = Builder::new("The first start request is lost (no reply within 100 ms); the driver sends it again.");
+    let mut b = Builder::new(
+        "The first start request is lost (no reply within 100 ms); the driver sends it again.",
+    );
     b.send(0.0, Command::RealTime, "start, lost");
     b.send(0.1, Command::RealTime, "start, retried");
     for i in 1..=3 {
-        b.records(0.0004 + PERIOD * (i - 1) as f64, &[rec(i, 0, [i as i32 * 100; 6])], "");
+        b.records(
+            0.0004 + PERIOD * (i - 1) as f64,
+            &[rec(i, 0, [i as i32 * 100; 6])],
+            "",
+        );
     }
     b.send(0.001, Command::Stop, "stop");
     out.push(("start_retry.trace", b.text));
@@ -86,19 +99,30 @@ fn generate() -> Vec<(&'static str, String)> {
     b.send(0.001, Command::Stop, "stop");
     out.push(("lost_packets.trace", b.text));
 
-    let mut b = Builder::new("Record 3 arrives after record 4: it is dropped, and not counted as lost.");
+    let mut b =
+        Builder::new("Record 3 arrives after record 4: it is dropped, and not counted as lost.");
     b.send(0.0, Command::RealTime, "start");
     for i in [1, 2, 4, 3, 5] {
-        b.records(PERIOD, &[rec(i, 0, [i as i32; 6])], if i == 3 { "late" } else { "" });
+        b.records(
+            PERIOD,
+            &[rec(i, 0, [i as i32; 6])],
+            if i == 3 { "late" } else { "" },
+        );
     }
     b.send(0.001, Command::Stop, "stop");
     out.push(("out_of_order.trace", b.text));
 
-    let mut b = Builder::new("Record 3 carries status 0x40000000 (Axia: out of range); the stream goes on.");
+    let mut b = Builder::new(
+        "Record 3 carries status 0x40000000 (Axia: out of range); the stream goes on.",
+    );
     b.send(0.0, Command::RealTime, "start");
     for i in 1..=4 {
         let status = if i == 3 { 0x4000_0000 } else { 0 };
-        b.records(PERIOD, &[rec(i, status, [i as i32; 6])], if i == 3 { "out of range" } else { "" });
+        b.records(
+            PERIOD,
+            &[rec(i, status, [i as i32; 6])],
+            if i == 3 { "out of range" } else { "" },
+        );
     }
     b.send(0.001, Command::Stop, "stop");
     out.push(("status_error.trace", b.text));
@@ -115,8 +139,16 @@ fn generate() -> Vec<(&'static str, String)> {
 
     let mut b = Builder::new("Buffered mode (0x03): three records per datagram.");
     b.send(0.0, Command::Buffered, "start buffered");
-    b.records(0.0005, &[rec(1, 0, [1; 6]), rec(2, 0, [2; 6]), rec(3, 0, [3; 6])], "");
-    b.records(3.0 * PERIOD, &[rec(4, 0, [4; 6]), rec(5, 0, [5; 6]), rec(6, 0, [6; 6])], "");
+    b.records(
+        0.0005,
+        &[rec(1, 0, [1; 6]), rec(2, 0, [2; 6]), rec(3, 0, [3; 6])],
+        "",
+    );
+    b.records(
+        3.0 * PERIOD,
+        &[rec(4, 0, [4; 6]), rec(5, 0, [5; 6]), rec(6, 0, [6; 6])],
+        "",
+    );
     b.send(0.001, Command::Stop, "stop");
     out.push(("buffered.trace", b.text));
 
@@ -144,7 +176,12 @@ fn config() -> NetFtConfig {
 
 fn replay(name: &str, options: NetFtOptions) -> (NetFt<ReplayDatagramLink>, ReplayHandle) {
     let trace = Trace::load(&trace_path(name)).expect("load trace");
-    let (link, handle) = ReplayDatagramLink::new(trace, ReplayOptions { speed: f64::INFINITY });
+    let (link, handle) = ReplayDatagramLink::new(
+        trace,
+        ReplayOptions {
+            speed: f64::INFINITY,
+        },
+    );
     (NetFt::new(link, config(), options), handle)
 }
 
@@ -163,23 +200,42 @@ fn a_lost_start_request_is_sent_again() {
     let (mut ft, handle) = replay("start_retry.trace", NetFtOptions::default());
     let t0 = std::time::Instant::now();
     ft.start().expect("start after one retry");
-    assert!(t0.elapsed() >= Duration::from_millis(100), "waited for the first start: {:?}", t0.elapsed());
+    assert!(
+        t0.elapsed() >= Duration::from_millis(100),
+        "waited for the first start: {:?}",
+        t0.elapsed()
+    );
     assert_eq!(drain(&mut ft), vec![1, 2, 3]);
     ft.stop().expect("stop");
-    handle.finish().expect("the driver sent both start requests and the stop");
+    handle
+        .finish()
+        .expect("the driver sent both start requests and the stop");
 }
 
 #[test]
 fn start_gives_up_with_a_message_naming_the_address() {
     let text = "# fringe-trace 1\n# kind: datagram\n0.0 > 12 34 00 02 00 00 00 00\n0.03 > 12 34 00 02 00 00 00 00\n";
-    let (link, handle) =
-        ReplayDatagramLink::new(Trace::parse(text, "silent.trace").expect("parse"), ReplayOptions { speed: f64::INFINITY });
-    let options = NetFtOptions { start_wait: Duration::from_millis(30), start_tries: 2, ..NetFtOptions::default() };
+    let (link, handle) = ReplayDatagramLink::new(
+        Trace::parse(text, "silent.trace").expect("parse"),
+        ReplayOptions {
+            speed: f64::INFINITY,
+        },
+    );
+    let options = NetFtOptions {
+        start_wait: Duration::from_millis(30),
+        start_tries: 2,
+        ..NetFtOptions::default()
+    };
     let mut ft = NetFt::new(link, config(), options);
     let e = ft.start().expect_err("no records");
     let text = e.to_string();
     assert!(matches!(e, ForceError::NoData { .. }), "{text}");
-    assert!(text.contains("silent.trace") && text.contains("2 start requests") && text.contains("49152"), "{text}");
+    assert!(
+        text.contains("silent.trace")
+            && text.contains("2 start requests")
+            && text.contains("49152"),
+        "{text}"
+    );
     handle.finish().expect("two tries sent");
 }
 
@@ -193,14 +249,25 @@ fn records_are_scaled_and_stamped() {
         assert_eq!(s.transport_seq, Some(seq));
         assert_eq!(s.device_tick, 500_000 + u64::from(seq));
         assert_eq!(s.status, 0);
-        assert_eq!(s.wrench.to_array(), [1.5, -0.25, 12.0, 0.04, -0.0075, 0.001]);
+        assert_eq!(
+            s.wrench.to_array(),
+            [1.5, -0.25, 12.0, 0.04, -0.0075, 0.001]
+        );
         if let Some(p) = previous {
             assert!(s.host_time >= p, "host receive times are monotonic");
         }
         previous = Some(s.host_time);
     }
     ft.stop().expect("stop");
-    assert_eq!(ft.stats(), StreamStats { received: 5, lost: 0, out_of_order: 0, errored: 0 });
+    assert_eq!(
+        ft.stats(),
+        StreamStats {
+            received: 5,
+            lost: 0,
+            out_of_order: 0,
+            errored: 0
+        }
+    );
     handle.finish().expect("replay matched");
 }
 
@@ -210,7 +277,15 @@ fn sequence_gaps_count_lost_packets() {
     ft.start().expect("start");
     assert_eq!(drain(&mut ft), vec![1, 2, 5, 6, 10]);
     ft.stop().expect("stop");
-    assert_eq!(ft.stats(), StreamStats { received: 5, lost: 5, out_of_order: 0, errored: 0 });
+    assert_eq!(
+        ft.stats(),
+        StreamStats {
+            received: 5,
+            lost: 5,
+            out_of_order: 0,
+            errored: 0
+        }
+    );
     handle.finish().expect("replay matched");
 }
 
@@ -220,7 +295,15 @@ fn a_late_packet_is_dropped() {
     ft.start().expect("start");
     assert_eq!(drain(&mut ft), vec![1, 2, 4, 5]);
     ft.stop().expect("stop");
-    assert_eq!(ft.stats(), StreamStats { received: 4, lost: 0, out_of_order: 1, errored: 0 });
+    assert_eq!(
+        ft.stats(),
+        StreamStats {
+            received: 4,
+            lost: 0,
+            out_of_order: 1,
+            errored: 0
+        }
+    );
     handle.finish().expect("replay matched");
 }
 
@@ -228,11 +311,26 @@ fn a_late_packet_is_dropped() {
 fn a_non_zero_status_is_an_error_naming_its_meaning() {
     let (mut ft, handle) = replay("status_error.trace", NetFtOptions::default());
     ft.start().expect("start");
-    assert_eq!(ft.next_sample(WAIT).expect("1").and_then(|s| s.transport_seq), Some(1));
-    assert_eq!(ft.next_sample(WAIT).expect("2").and_then(|s| s.transport_seq), Some(2));
+    assert_eq!(
+        ft.next_sample(WAIT)
+            .expect("1")
+            .and_then(|s| s.transport_seq),
+        Some(1)
+    );
+    assert_eq!(
+        ft.next_sample(WAIT)
+            .expect("2")
+            .and_then(|s| s.transport_seq),
+        Some(2)
+    );
     let e = ft.next_sample(WAIT).expect_err("record 3 is out of range");
     match &e {
-        ForceError::Status { status, tick, meaning, .. } => {
+        ForceError::Status {
+            status,
+            tick,
+            meaning,
+            ..
+        } => {
             assert_eq!(*status, 0x4000_0000);
             assert_eq!(*tick, 500_003);
             assert!(meaning.contains("out of range"), "{meaning}");
@@ -240,7 +338,13 @@ fn a_non_zero_status_is_an_error_naming_its_meaning() {
         other => panic!("expected a status error, got {other}"),
     }
     assert!(e.to_string().contains("0x40000000"), "{e}");
-    assert_eq!(ft.next_sample(WAIT).expect("4").and_then(|s| s.transport_seq), Some(4), "the stream goes on");
+    assert_eq!(
+        ft.next_sample(WAIT)
+            .expect("4")
+            .and_then(|s| s.transport_seq),
+        Some(4),
+        "the stream goes on"
+    );
     ft.stop().expect("stop");
     assert_eq!(ft.stats().errored, 1);
     handle.finish().expect("replay matched");
@@ -250,19 +354,30 @@ fn a_non_zero_status_is_an_error_naming_its_meaning() {
 fn software_bias_sends_0x42() {
     let (mut ft, handle) = replay("software_bias.trace", NetFtOptions::default());
     ft.start().expect("start");
-    assert_eq!(ft.next_sample(WAIT).expect("ok").expect("1").wrench.fz.0, 12.0);
-    assert_eq!(ft.next_sample(WAIT).expect("ok").expect("2").wrench.fz.0, 12.0);
+    assert_eq!(
+        ft.next_sample(WAIT).expect("ok").expect("1").wrench.fz.0,
+        12.0
+    );
+    assert_eq!(
+        ft.next_sample(WAIT).expect("ok").expect("2").wrench.fz.0,
+        12.0
+    );
     ft.bias().expect("bias");
     let s = ft.next_sample(WAIT).expect("ok").expect("3");
     assert_eq!(s.wrench.to_array(), [0.0; 6]);
     assert_eq!(drain(&mut ft), vec![4]);
     ft.stop().expect("stop");
-    handle.finish().expect("the bias command was sent between records 2 and 3");
+    handle
+        .finish()
+        .expect("the bias command was sent between records 2 and 3");
 }
 
 #[test]
 fn buffered_datagrams_yield_every_record() {
-    let options = NetFtOptions { mode: Command::Buffered, ..NetFtOptions::default() };
+    let options = NetFtOptions {
+        mode: Command::Buffered,
+        ..NetFtOptions::default()
+    };
     let (mut ft, handle) = replay("buffered.trace", options);
     ft.start().expect("start");
     let mut fx = Vec::new();
