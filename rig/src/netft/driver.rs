@@ -195,8 +195,9 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
 
     fn stop(&mut self) -> Result<(), ForceError> {
         self.send(Command::Stop)?;
+        // Records already received stay readable (and records in flight still arrive);
+        // `start` discards whatever is left.
         self.streaming = false;
-        self.pending.clear();
         Ok(())
     }
 

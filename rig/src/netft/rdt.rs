@@ -160,7 +160,7 @@ impl Record {
 ///
 /// Fails without decoding anything if the length is zero or not a multiple of 36.
 pub fn decode_datagram(bytes: &[u8]) -> Result<Records<'_>, RdtError> {
-    if bytes.is_empty() || bytes.len() % RECORD_LEN != 0 {
+    if bytes.is_empty() || !bytes.chunks_exact(RECORD_LEN).remainder().is_empty() {
         return Err(RdtError::DatagramLength { len: bytes.len() });
     }
     Ok(Records {

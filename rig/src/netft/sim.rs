@@ -194,6 +194,13 @@ fn serve(socket: UdpSocket, options: SimOptions, stop: Arc<AtomicBool>) -> io::R
             stream = None;
         }
     }
+    // Record requests that arrived before the stop but were not read yet (a final stop).
+    socket.set_nonblocking(true)?;
+    while let Ok((n, _)) = socket.recv_from(&mut buf) {
+        if let Ok(req) = Request::decode(&buf[..n]) {
+            report.requests.push(req);
+        }
+    }
     Ok(report)
 }
 
