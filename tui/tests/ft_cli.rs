@@ -1,11 +1,14 @@
 //! `fringe ft ... stream` against a simulated Net F/T on loopback (UDP RDT + HTTP
 //! netftapi2.xml), checking the CSV rows and the printed sample count, rate and lost packets.
 
+use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::sim::{SimHttp, SimNetFt, SimOptions};
-use fringe_rig::netft::Command;
+use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
+use fringe_rig::trace::{ReplayDatagramLink, ReplayOptions, Trace};
 use std::path::PathBuf;
 use std::process::Command as Process;
 use std::sync::Arc;
+use std::time::Duration;
 
 const XML: &str = "<?xml version=\"1.0\"?><netft><cfgcpf>1000000</cfgcpf><cfgcpt>1000</cfgcpt><scfgfu>N</scfgfu><scfgtu>N-mm</scfgtu><comrdtrate>1000</comrdtrate></netft>";
 
@@ -120,6 +123,36 @@ fn stream_reads_the_configuration_page_and_writes_csv() {
         trace.contains("# device: netft") && trace.contains("> 12 34 00 02 00 00 00 00"),
         "{trace}"
     );
+    // The recorded trace replays through the driver: same requests, same samples.
+    let recorded = Trace::load(&traces.join("netft.trace")).expect("parse recorded trace");
+    let (link, handle) = ReplayDatagramLink::new(
+        recorded,
+        ReplayOptions {
+            speed: f64::INFINITY,
+        },
+    );
+    let config = NetFtConfig::new(1e6, 1e3, "N", "N-mm", "test").expect("config");
+    let mut replayed = NetFt::new(link, config, NetFtOptions::default());
+    replayed.start().expect("replay start");
+    let mut fz = Vec::new();
+    while let Some(s) = replayed
+        .next_sample(Duration::from_millis(20))
+        .expect("replayed sample")
+    {
+        fz.push(s.wrench.fz.0);
+    }
+    replayed.stop().expect("replay stop");
+    handle.finish().expect("the driver sent what was recorded");
+    assert!(
+        fz.len() as f64 >= count,
+        "{} replayed, {count} in the CSV",
+        fz.len()
+    );
+    assert!(
+        rows.iter().zip(&fz).all(|(r, f)| r[5] == *f),
+        "replayed Fz equals the CSV"
+    );
+
     let report = sim.finish().expect("sim report");
     assert_eq!(
         report.requests.first().map(|r| r.command),
@@ -234,5 +267,45 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     assert!(
         stderr.contains(&addr) && stderr.contains("start requests") && stderr.contains("powered"),
         "{stderr}"
+    );
+}
+
+#[test]
+fn bias_sends_the_software_bias_command_and_reads_zero_after_it() {
+    let sim = SimNetFt::spawn(SimOptions {
+        rate_hz: 1000.0,
+        counts: Arc::new(|_| [5_000_000, -3_000_000, 1_000_000, 200_000, 0, 7]),
+        ..SimOptions::default()
+    })
+    .expect("sim");
+    let out = fringe()
+        .args([
+            "ft",
+            "--netft",
+            &sim.addr().to_string(),
+            "--cpf",
+            "1000000",
+            "--cpt",
+            "1000000",
+            "bias",
+        ])
+        .output()
+        .expect("run fringe");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("software bias sent"), "{stdout}");
+    assert!(
+        stdout.contains("Fx 0.0000 N  Fy 0.0000 N  Fz 0.0000 N"),
+        "{stdout}"
+    );
+    let report = sim.finish().expect("report");
+    let commands: Vec<Command> = report.requests.iter().map(|r| r.command).collect();
+    assert_eq!(
+        commands,
+        vec![Command::RealTime, Command::SoftwareBias, Command::Stop]
     );
 }
