@@ -8,10 +8,13 @@
 //!
 //! Protocol codecs are pure (bytes <-> messages, no I/O); drivers combine a codec with a link.
 
+pub mod atical;
 pub mod axis;
 pub mod camera;
 pub mod clock;
 pub mod force;
+pub mod ft_units;
+pub mod netft;
 pub mod trace;
 pub mod transport;
 pub mod units;

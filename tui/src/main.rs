@@ -27,6 +27,8 @@ pub struct Global {
 enum Command {
     /// List serial ports (Thorlabs controllers marked) and cameras.
     Devices(cmd::devices::DevicesArgs),
+    /// ATI Net F/T / Ethernet Axia force/torque sensor: stream to CSV, software bias.
+    Ft(cmd::ft::FtArgs),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +38,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Devices(args) => cmd::devices::run(args, &global),
+        Command::Ft(args) => cmd::ft::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,19 @@
+//! ATI Net F/T and Ethernet Axia force/torque sensors over RDT (UDP).
+//!
+//! - [`rdt`]: the pure request/record codec.
+//! - [`config`]: counts per force/torque and units, from configuration or the sensor's
+//!   `netftapi2.xml`.
+//! - [`stream`]: sequence accounting (lost, out-of-order) and status words.
+//! - [`driver`]: [`NetFt`], a [`crate::force::ForceSensor`] on any datagram link.
+//! - [`sim`]: a simulated sensor on loopback UDP (and its HTTP configuration page) for tests and
+//!   benchmarks.
+
+pub mod config;
+pub mod driver;
+pub mod rdt;
+pub mod sim;
+pub mod stream;
+
+pub use config::{fetch_config, netftapi2_url, NetFtConfig};
+pub use driver::{BiasMode, NetFt, NetFtOptions};
+pub use rdt::{Command, Record, Request, DEFAULT_PORT};
