@@ -12,6 +12,8 @@ pub mod axis;
 pub mod camera;
 pub mod clock;
 pub mod force;
+pub mod manual;
+pub mod modbus;
 pub mod trace;
 pub mod transport;
 pub mod units;
