@@ -2,3 +2,4 @@
 //! engine crates; none holds device or protocol logic of its own.
 
 pub mod devices;
+pub mod ystage;

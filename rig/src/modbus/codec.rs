@@ -302,7 +302,7 @@ pub fn decode_response_pdu(pdu: &[u8]) -> Result<Response, CodecError> {
     match function {
         0x03 => {
             let n = pdu.get(1).copied().unwrap_or(0) as usize;
-            if n % 2 != 0 {
+            if n & 1 != 0 {
                 return Err(CodecError::Malformed(format!(
                     "odd byte count {n} in a register read reply"
                 )));

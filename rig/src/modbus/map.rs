@@ -250,7 +250,7 @@ impl RegisterMap {
     /// Loads a built-in map by name, or a TOML file by path.
     pub fn load(spec: &str) -> Result<RegisterMap, MapError> {
         if let Some((name, text)) = BUILTIN_MAPS.iter().find(|(n, _)| *n == spec) {
-            return RegisterMap::parse(text, &format!("built-in map {name}"));
+            return RegisterMap::parse(text, &format!("{name} (built-in)"));
         }
         let path = Path::new(spec);
         if !path.exists() {
