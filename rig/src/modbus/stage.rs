@@ -651,3 +651,120 @@ impl Axis for ModbusStage {
         Ok(self.to_status(&poll))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::collections::VecDeque;
+    use std::io;
+
+    /// Hands out canned replies, one per read, and keeps what was written.
+    struct Canned {
+        replies: VecDeque<Vec<u8>>,
+        sent: Vec<Vec<u8>>,
+    }
+
+    impl ByteLink for Canned {
+        fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+            self.sent.push(bytes.to_vec());
+            Ok(())
+        }
+        fn read(&mut self, buf: &mut [u8], _timeout: Duration) -> io::Result<usize> {
+            let Some(mut r) = self.replies.pop_front() else {
+                return Ok(0);
+            };
+            let n = r.len().min(buf.len());
+            buf[..n].copy_from_slice(&r[..n]);
+            if n < r.len() {
+                self.replies.push_front(r.split_off(n));
+            }
+            Ok(n)
+        }
+        fn describe(&self) -> String {
+            "canned".into()
+        }
+    }
+
+    fn stage(framing: Framing, replies: Vec<Vec<u8>>) -> ModbusStage {
+        let link = Canned {
+            replies: replies.into(),
+            sent: Vec::new(),
+        };
+        let options = StageOptions {
+            response_timeout: Duration::from_millis(5),
+            poll_interval: Duration::from_millis(1),
+            start_grace: Duration::ZERO,
+            ..StageOptions::default()
+        };
+        let map = RegisterMap::load("leadshine-pr").expect("map");
+        ModbusStage::new("y", Box::new(link), framing, map, options)
+    }
+
+    fn rtu_reply(pdu: &[u8]) -> Vec<u8> {
+        codec::rtu_frame(1, pdu)
+    }
+
+    #[test]
+    fn stage_that_never_starts_is_reported() {
+        let replies = vec![
+            rtu_reply(&[0x10, 0x62, 0x00, 0x00, 0x06]),
+            rtu_reply(&[0x06, 0x60, 0x02, 0x00, 0x10]),
+            rtu_reply(&[0x03, 0x02, 0x00, 0x02]),
+            rtu_reply(&[0x03, 0x04, 0x00, 0x00, 0x00, 0x00]),
+        ];
+        let mut y = stage(Framing::Rtu, replies);
+        let err = y
+            .move_to(Millimetres(1.0), Duration::from_secs(1))
+            .expect_err("never moved");
+        assert!(err.to_string().contains("did not start moving"), "{err}");
+    }
+
+    #[test]
+    fn reply_from_another_slave_is_an_error() {
+        let mut y = stage(
+            Framing::Rtu,
+            vec![codec::rtu_frame(2, &[0x03, 0x02, 0x00, 0x02])],
+        );
+        let msg = y.status().expect_err("wrong slave").to_string();
+        assert!(msg.contains("came from slave 2, expected slave 1"), "{msg}");
+    }
+
+    #[test]
+    fn stale_tcp_reply_is_skipped() {
+        let stale = codec::tcp_frame(
+            TcpHeader {
+                transaction: 9,
+                unit: 1,
+            },
+            &[0x03, 0x02, 0x00, 0x04],
+        );
+        let status = codec::tcp_frame(
+            TcpHeader {
+                transaction: 1,
+                unit: 1,
+            },
+            &[0x03, 0x02, 0x00, 0x02],
+        );
+        let pos = codec::tcp_frame(
+            TcpHeader {
+                transaction: 2,
+                unit: 1,
+            },
+            &[0x03, 0x04, 0, 0, 0x0F, 0xA0],
+        );
+        let mut y = stage(Framing::Tcp, vec![[stale, status].concat(), pos]);
+        let s = y.status().expect("status");
+        assert_eq!(s.position, Millimetres(2.0));
+        assert!(!s.moving && s.flags == vec!["enabled"], "{s:?}");
+    }
+
+    proptest! {
+        #[test]
+        fn garbage_replies_never_panic(replies in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..40), 0..6), tcp in any::<bool>()) {
+            let mut y = stage(if tcp { Framing::Tcp } else { Framing::Rtu }, replies);
+            let _ = y.status();
+            let _ = y.move_by(Millimetres(0.5), Duration::from_millis(20));
+        }
+    }
+}
