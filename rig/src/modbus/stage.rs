@@ -480,8 +480,14 @@ impl ModbusStage {
     fn finished(&mut self, motion: &mut Motion, poll: &Poll) -> Result<bool, AxisError> {
         let moving = self.has(poll.raw, Role::Moving);
         motion.seen_moving |= moving;
-        let ready = !self.defines(Role::Ready) || self.has(poll.raw, Role::Ready);
-        if moving || !ready {
+        if moving {
+            return Ok(false);
+        }
+        if matches!(motion.kind, MotionKind::Stopping) {
+            // A drive may drop "ready" after an emergency stop; not moving is enough here.
+            return Ok(true);
+        }
+        if self.defines(Role::Ready) && !self.has(poll.raw, Role::Ready) {
             return Ok(false);
         }
         let grace_over = motion.started.elapsed() >= self.options.start_grace;

@@ -12,6 +12,8 @@ use fringe_rig::transport::ByteLink;
 use fringe_rig::units::Millimetres;
 use std::time::Duration;
 
+const DEFAULT_MAP: &str = "oriental-az";
+
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("stage").required(true).args(["modbus_tcp", "modbus_rtu", "manual"])))]
 pub struct YstageArgs {
@@ -28,7 +30,7 @@ pub struct YstageArgs {
     manual: bool,
 
     /// Register map: a built-in name (oriental-az, leadshine-pr) or a TOML file.
-    #[arg(long, default_value = "oriental-az", value_name = "NAME|FILE")]
+    #[arg(long, default_value = DEFAULT_MAP, value_name = "NAME|FILE")]
     map: String,
 
     /// Slave (unit) id, overriding the map's.
@@ -39,9 +41,10 @@ pub struct YstageArgs {
     #[arg(long, value_name = "N")]
     baud: Option<u32>,
 
-    /// Soft limits in mm, checked before a move is sent.
+    /// Lower soft limit in mm, checked before a move is sent (give --max too).
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     min: Option<f64>,
+    /// Upper soft limit in mm.
     #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     max: Option<f64>,
 
@@ -83,6 +86,17 @@ impl YstageArgs {
         })
     }
 
+    /// Rejects options that the chosen kind of stage would ignore.
+    fn check_options(&self, kind: &StageKind) -> anyhow::Result<()> {
+        if self.baud.is_some() && !matches!(kind, StageKind::ModbusRtu(_)) {
+            bail!("--baud applies to --modbus-rtu only");
+        }
+        if matches!(kind, StageKind::Manual) && (self.slave.is_some() || self.map != DEFAULT_MAP) {
+            bail!("--map and --slave apply to Modbus stages, not to --manual");
+        }
+        Ok(())
+    }
+
     fn limits(&self) -> anyhow::Result<Option<SoftLimits>> {
         match (self.min, self.max) {
             (None, None) => Ok(None),
@@ -112,7 +126,9 @@ fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
         };
         Ok(Box::new(ModbusStage::new("y", link, framing, map, options)))
     };
-    match args.kind()? {
+    let kind = args.kind()?;
+    args.check_options(&kind)?;
+    match kind {
         StageKind::ModbusTcp(addr) => {
             let map = RegisterMap::load(&args.map)?;
             let link = TcpLink::connect(&addr, Duration::from_secs(3))?;
