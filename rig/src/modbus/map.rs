@@ -277,7 +277,7 @@ impl RegisterMap {
             message,
         };
         let mut map: RegisterMap =
-            toml::from_str(text).map_err(|e| err(e.to_string().trim_end().replace('\n', " ")))?;
+            toml::from_str(text).map_err(|e| err(describe_toml_error(text, &e)))?;
         map.source = source_name.to_string();
         map.check().map_err(err)?;
         Ok(map)
@@ -409,6 +409,39 @@ impl RegisterMap {
     }
 }
 
+/// A one-line message for a TOML error: line, section and key, then what was wrong.
+fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let Some(span) = e.span() else {
+        return e.message().to_string();
+    };
+    let before = text.get(..span.start).unwrap_or(text);
+    let line_no = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    // The key is the last `name =` before the error on its line.
+    let key = before[line_start..]
+        .rsplit_once('=')
+        .map(|(k, _)| k)
+        .and_then(|k| {
+            k.rsplit(|c: char| c == '{' || c == ',' || c.is_whitespace())
+                .find(|t| !t.is_empty())
+        })
+        .map(|k| k.trim().to_string());
+    let section = before
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('[') && l.ends_with(']'))
+        .map(|l| l.trim_matches(|c| c == '[' || c == ']').to_string());
+    let mut at = format!("line {line_no}");
+    match (section, key) {
+        (Some(s), Some(k)) => at.push_str(&format!(", key {s}.{k}")),
+        (None, Some(k)) => at.push_str(&format!(", key {k}")),
+        (Some(s), None) => at.push_str(&format!(", section [{s}]")),
+        (None, None) => {}
+    }
+    format!("{at}: {}", e.message().trim_end().replace('\n', " "))
+}
+
 /// Checks that `value` fits a register field of `words` registers (signed or unsigned).
 fn fits(key: &str, value: i64, words: u8) -> Result<(), String> {
     let (min, max) = if words == 1 {
@@ -479,6 +512,28 @@ mod tests {
             .to_string();
         assert!(
             msg.contains("high-first") && msg.contains("low-first"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn type_errors_name_line_and_key() {
+        let text = BUILTIN_MAPS[1]
+            .1
+            .replace("role = \"moving\"", "role = \"busy\"");
+        let msg = RegisterMap::parse(&text, "s.toml")
+            .expect_err("bad role")
+            .to_string();
+        assert!(
+            msg.contains("key status.role") && msg.contains("`moving`, `alarm`"),
+            "{msg}"
+        );
+        let text = BUILTIN_MAPS[1].1.replace("slave = 1", "slave = \"one\"");
+        let msg = RegisterMap::parse(&text, "s.toml")
+            .expect_err("bad slave")
+            .to_string();
+        assert!(
+            msg.starts_with("register map s.toml: line 7, key slave: invalid type"),
             "{msg}"
         );
     }
