@@ -14,6 +14,8 @@ pub mod camera;
 pub mod clock;
 pub mod force;
 pub mod ft_units;
+pub mod manual;
+pub mod modbus;
 pub mod netft;
 pub mod trace;
 pub mod transport;

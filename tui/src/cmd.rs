@@ -3,3 +3,4 @@
 
 pub mod devices;
 pub mod ft;
+pub mod ystage;

@@ -29,6 +29,8 @@ enum Command {
     Devices(cmd::devices::DevicesArgs),
     /// ATI Net F/T / Ethernet Axia force/torque sensor: stream to CSV, software bias.
     Ft(cmd::ft::FtArgs),
+    /// Home, query or move the y stage (Modbus TCP, Modbus RTU or manual).
+    Ystage(cmd::ystage::YstageArgs),
 }
 
 fn main() -> ExitCode {
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Devices(args) => cmd::devices::run(args, &global),
         Command::Ft(args) => cmd::ft::run(args, &global),
+        Command::Ystage(args) => cmd::ystage::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

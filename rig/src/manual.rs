@@ -1,0 +1,224 @@
+//! The manual y stage: the operator moves the stage by hand (micrometer screw) and confirms.
+//!
+//! Every motion becomes a question to the operator through an [`OperatorPrompt`]: the terminal
+//! one reads lines from stdin, the TUI supplies its own, and tests script the answers.
+
+use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
+use crate::units::Millimetres;
+use std::io::{self, BufRead, Write};
+use std::time::Duration;
+
+/// Asks the operator something and returns the line typed, or `None` if the operator cancelled
+/// (end of input).
+pub trait OperatorPrompt: Send {
+    fn ask(&mut self, question: &str) -> io::Result<Option<String>>;
+}
+
+/// A prompt on a terminal: writes the question, reads one line.
+pub struct TerminalPrompt<R, W> {
+    input: R,
+    output: W,
+}
+
+impl TerminalPrompt<io::BufReader<io::Stdin>, io::Stderr> {
+    /// Questions on stderr, answers from stdin.
+    pub fn stdio() -> Self {
+        TerminalPrompt {
+            input: io::BufReader::new(io::stdin()),
+            output: io::stderr(),
+        }
+    }
+}
+
+impl<R: BufRead + Send, W: Write + Send> TerminalPrompt<R, W> {
+    /// A prompt on any reader and writer.
+    pub fn new(input: R, output: W) -> Self {
+        TerminalPrompt { input, output }
+    }
+}
+
+impl<R: BufRead + Send, W: Write + Send> OperatorPrompt for TerminalPrompt<R, W> {
+    fn ask(&mut self, question: &str) -> io::Result<Option<String>> {
+        write!(self.output, "{question} ")?;
+        self.output.flush()?;
+        let mut line = String::new();
+        if self.input.read_line(&mut line)? == 0 {
+            return Ok(None);
+        }
+        Ok(Some(line.trim().to_string()))
+    }
+}
+
+/// How many unreadable answers are tolerated before a question fails.
+const MAX_ATTEMPTS: usize = 3;
+
+/// A y stage moved by hand.
+pub struct ManualStage {
+    axis: String,
+    prompt: Box<dyn OperatorPrompt>,
+    limits: Option<SoftLimits>,
+    position: Option<Millimetres>,
+    homed: bool,
+}
+
+impl ManualStage {
+    /// A manual axis named `axis`, asking through `prompt`.
+    pub fn new(
+        axis: &str,
+        prompt: Box<dyn OperatorPrompt>,
+        limits: Option<SoftLimits>,
+    ) -> ManualStage {
+        ManualStage {
+            axis: axis.to_string(),
+            prompt,
+            limits,
+            position: None,
+            homed: false,
+        }
+    }
+
+    fn cancelled(&self) -> AxisError {
+        AxisError::Cancelled {
+            axis: self.axis.clone(),
+        }
+    }
+
+    fn io_error(&self, source: io::Error) -> AxisError {
+        AxisError::Io {
+            axis: self.axis.clone(),
+            endpoint: self.endpoint(),
+            source,
+        }
+    }
+
+    /// Asks until the answer is a number of millimetres (or, when `default` is given, empty).
+    fn ask_mm(
+        &mut self,
+        question: &str,
+        default: Option<Millimetres>,
+    ) -> Result<Millimetres, AxisError> {
+        let mut q = question.to_string();
+        for _ in 0..MAX_ATTEMPTS {
+            let answer = self.prompt.ask(&q).map_err(|e| self.io_error(e))?;
+            let Some(answer) = answer else {
+                return Err(self.cancelled());
+            };
+            let text = answer.trim().trim_end_matches("mm").trim();
+            if text.eq_ignore_ascii_case("q") {
+                return Err(self.cancelled());
+            }
+            match (text.is_empty(), default) {
+                (true, Some(d)) => return Ok(d),
+                _ => match text.parse::<f64>() {
+                    Ok(v) if v.is_finite() => return Ok(Millimetres(v)),
+                    _ => q = format!("\"{answer}\" is not a number of millimetres. {question}"),
+                },
+            }
+        }
+        Err(AxisError::Device {
+            axis: self.axis.clone(),
+            endpoint: self.endpoint(),
+            message: format!("no readable position after {MAX_ATTEMPTS} answers"),
+        })
+    }
+
+    fn current(&mut self) -> Result<Millimetres, AxisError> {
+        match self.position {
+            Some(p) => Ok(p),
+            None => {
+                let q = format!(
+                    "type the current {} reading in mm and press Enter (q to cancel):",
+                    self.axis
+                );
+                let p = self.ask_mm(&q, None)?;
+                self.position = Some(p);
+                Ok(p)
+            }
+        }
+    }
+
+    fn snapshot(&self, position: Millimetres) -> AxisStatus {
+        AxisStatus {
+            position,
+            moving: false,
+            homed: self.homed,
+            flags: if self.homed {
+                vec!["referenced by the operator"]
+            } else {
+                Vec::new()
+            },
+            faults: Vec::new(),
+        }
+    }
+}
+
+impl Axis for ManualStage {
+    fn name(&self) -> &str {
+        &self.axis
+    }
+
+    fn endpoint(&self) -> String {
+        "manual (operator)".to_string()
+    }
+
+    fn begin_home(&mut self) -> Result<(), AxisError> {
+        let q = format!(
+            "type the current {} reading in mm to reference the axis (q to cancel):",
+            self.axis
+        );
+        let p = self.ask_mm(&q, None)?;
+        self.position = Some(p);
+        self.homed = true;
+        Ok(())
+    }
+
+    fn begin_move_to(&mut self, target: Millimetres) -> Result<(), AxisError> {
+        if let Some(limits) = self.limits {
+            limits.check(&self.axis, target)?;
+        }
+        let q = format!(
+            "move {} to {target:.3} and press Enter (or type the reading in mm if it differs; q to cancel):",
+            self.axis
+        );
+        let reached = self.ask_mm(&q, Some(target))?;
+        self.position = Some(reached);
+        Ok(())
+    }
+
+    fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError> {
+        let from = self.current()?;
+        self.begin_move_to(from + delta)
+    }
+
+    fn wait_idle(&mut self, _timeout: Duration) -> Result<AxisStatus, AxisError> {
+        // The operator confirmed the motion before begin_* returned.
+        let p = self.current()?;
+        Ok(self.snapshot(p))
+    }
+
+    fn stop(&mut self, _mode: StopMode) -> Result<(), AxisError> {
+        // Nothing moves unless the operator moves it; there is nothing to stop.
+        Ok(())
+    }
+
+    fn status(&mut self) -> Result<AxisStatus, AxisError> {
+        let p = self.current()?;
+        Ok(self.snapshot(p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn terminal_prompt_reads_lines_and_reports_end_of_input() {
+        let mut out = Vec::new();
+        {
+            let mut p = TerminalPrompt::new(io::Cursor::new(b"  12.5 \n".to_vec()), &mut out);
+            assert_eq!(p.ask("where?").expect("ask"), Some("12.5".to_string()));
+            assert_eq!(p.ask("again?").expect("ask"), None);
+        }
+        assert_eq!(String::from_utf8(out).expect("utf8"), "where? again? ");
+    }
+}

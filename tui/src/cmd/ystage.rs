@@ -1,0 +1,163 @@
+//! `fringe ystage`: home, query or move the y stage (Modbus TCP, Modbus RTU or manual).
+
+use crate::Global;
+use anyhow::{bail, Context};
+use fringe_rig::axis::{Axis, SoftLimits};
+use fringe_rig::manual::{ManualStage, TerminalPrompt};
+use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::trace::record_stream;
+use fringe_rig::transport::serial::SerialLink;
+use fringe_rig::transport::tcp::TcpLink;
+use fringe_rig::transport::ByteLink;
+use fringe_rig::units::Millimetres;
+use std::time::Duration;
+
+const DEFAULT_MAP: &str = "oriental-az";
+
+#[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("stage").required(true).args(["modbus_tcp", "modbus_rtu", "manual"])))]
+pub struct YstageArgs {
+    /// Modbus TCP stage at HOST:PORT.
+    #[arg(long, value_name = "HOST:PORT")]
+    modbus_tcp: Option<String>,
+
+    /// Modbus RTU stage on the serial port PATH.
+    #[arg(long, value_name = "PATH")]
+    modbus_rtu: Option<String>,
+
+    /// A stage moved by hand: fringe asks the operator on the terminal.
+    #[arg(long)]
+    manual: bool,
+
+    /// Register map: a built-in name (oriental-az, leadshine-pr) or a TOML file.
+    #[arg(long, default_value = DEFAULT_MAP, value_name = "NAME|FILE")]
+    map: String,
+
+    /// Slave (unit) id, overriding the map's.
+    #[arg(long, value_name = "N")]
+    slave: Option<u8>,
+
+    /// Baud rate for --modbus-rtu, overriding the map's.
+    #[arg(long, value_name = "N")]
+    baud: Option<u32>,
+
+    /// Lower soft limit in mm, checked before a move is sent (give --max too).
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    min: Option<f64>,
+    /// Upper soft limit in mm.
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
+    max: Option<f64>,
+
+    /// Seconds to wait for homing or a move to finish.
+    #[arg(long, default_value_t = 60.0, value_name = "S")]
+    timeout: f64,
+
+    #[command(subcommand)]
+    action: Action,
+}
+
+#[derive(clap::Subcommand)]
+enum Action {
+    /// Home the stage (needs a [homing] section in the map).
+    Home,
+    /// Print the position and status flags.
+    Status,
+    /// Move to MM (absolute) and wait.
+    Move {
+        #[arg(allow_negative_numbers = true, value_name = "MM")]
+        mm: f64,
+    },
+}
+
+/// What the y stage is; add a variant and an arm in [`open`] for another kind of stage.
+enum StageKind {
+    ModbusTcp(String),
+    ModbusRtu(String),
+    Manual,
+}
+
+impl YstageArgs {
+    fn kind(&self) -> anyhow::Result<StageKind> {
+        Ok(match (&self.modbus_tcp, &self.modbus_rtu, self.manual) {
+            (Some(addr), None, false) => StageKind::ModbusTcp(addr.clone()),
+            (None, Some(path), false) => StageKind::ModbusRtu(path.clone()),
+            (None, None, true) => StageKind::Manual,
+            _ => bail!("give exactly one of --modbus-tcp, --modbus-rtu, --manual"),
+        })
+    }
+
+    /// Rejects options that the chosen kind of stage would ignore.
+    fn check_options(&self, kind: &StageKind) -> anyhow::Result<()> {
+        if self.baud.is_some() && !matches!(kind, StageKind::ModbusRtu(_)) {
+            bail!("--baud applies to --modbus-rtu only");
+        }
+        if matches!(kind, StageKind::Manual) && (self.slave.is_some() || self.map != DEFAULT_MAP) {
+            bail!("--map and --slave apply to Modbus stages, not to --manual");
+        }
+        Ok(())
+    }
+
+    fn limits(&self) -> anyhow::Result<Option<SoftLimits>> {
+        match (self.min, self.max) {
+            (None, None) => Ok(None),
+            (Some(min), Some(max)) if min <= max => Ok(Some(SoftLimits {
+                min: Millimetres(min),
+                max: Millimetres(max),
+            })),
+            (Some(_), Some(_)) => bail!("--min must not exceed --max"),
+            _ => bail!("give both --min and --max, or neither"),
+        }
+    }
+}
+
+/// Opens the y stage described by the arguments.
+fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
+    let limits = args.limits()?;
+    let modbus = |link: Box<dyn ByteLink>,
+                  framing: Framing,
+                  map: RegisterMap|
+     -> anyhow::Result<Box<dyn Axis>> {
+        let link = record_stream(link, global.record_trace.as_deref(), "ystage")
+            .context("cannot start the trace recording")?;
+        let options = StageOptions {
+            slave: args.slave,
+            limits,
+            ..StageOptions::default()
+        };
+        Ok(Box::new(ModbusStage::new("y", link, framing, map, options)))
+    };
+    let kind = args.kind()?;
+    args.check_options(&kind)?;
+    match kind {
+        StageKind::ModbusTcp(addr) => {
+            let map = RegisterMap::load(&args.map)?;
+            let link = TcpLink::connect(&addr, Duration::from_secs(3))?;
+            modbus(Box::new(link), Framing::Tcp, map)
+        }
+        StageKind::ModbusRtu(path) => {
+            let map = RegisterMap::load(&args.map)?;
+            let link = SerialLink::open(&path, &map.serial_settings(args.baud))?;
+            modbus(Box::new(link), Framing::Rtu, map)
+        }
+        StageKind::Manual => Ok(Box::new(ManualStage::new(
+            "y",
+            Box::new(TerminalPrompt::stdio()),
+            limits,
+        ))),
+    }
+}
+
+pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        bail!("--timeout must be a positive number of seconds");
+    }
+    let timeout = Duration::from_secs_f64(args.timeout);
+    let mut y = open(&args, global)?;
+    let status = match args.action {
+        Action::Home => y.home(timeout)?,
+        Action::Status => y.status()?,
+        Action::Move { mm } => y.move_to(Millimetres(mm), timeout)?,
+    };
+    println!("y: {status}{}", if status.homed { ", homed" } else { "" });
+    Ok(())
+}
