@@ -3,4 +3,5 @@
 
 pub mod devices;
 pub mod ft;
+pub mod selfcheck;
 pub mod ystage;

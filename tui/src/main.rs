@@ -15,7 +15,7 @@ struct Cli {
     record_trace: Option<PathBuf>,
 
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 /// Options shared by every command that opens devices.
@@ -39,9 +39,10 @@ fn main() -> ExitCode {
         record_trace: cli.record_trace,
     };
     let result = match cli.command {
-        Command::Devices(args) => cmd::devices::run(args, &global),
-        Command::Ft(args) => cmd::ft::run(args, &global),
-        Command::Ystage(args) => cmd::ystage::run(args, &global),
+        None => cmd::selfcheck::run(&global),
+        Some(Command::Devices(args)) => cmd::devices::run(args, &global),
+        Some(Command::Ft(args)) => cmd::ft::run(args, &global),
+        Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
