@@ -411,6 +411,11 @@ impl ThorlabsAxis {
         self.info.as_ref()
     }
 
+    /// Flashes the controller's front-panel LED (MOD_IDENTIFY), to find it on the bench.
+    pub fn identify(&mut self) -> Result<(), AxisError> {
+        self.send(Message::ModIdentify { channel: self.config.channel })
+    }
+
     /// The configuration this axis runs with.
     pub fn config(&self) -> &AptConfig {
         &self.config
@@ -874,10 +879,10 @@ impl Axis for ThorlabsAxis {
                 self.latest()
             };
             if let Some(o) = o {
-                let faults = StatusBits(o.status & FAULT_MASK).names(polarity);
-                if !faults.is_empty() {
+                if o.status & FAULT_MASK != 0 {
                     self.pending = None;
-                    return Err(self.fault(pending.what(), faults));
+                    let flags = StatusBits(o.status).move_faults(polarity);
+                    return Err(self.fault(pending.what(), flags));
                 }
             }
         };
