@@ -27,6 +27,8 @@ pub struct Global {
 enum Command {
     /// List serial ports (Thorlabs controllers marked) and cameras.
     Devices(cmd::devices::DevicesArgs),
+    /// Drive one Thorlabs stepper axis (KST101/KST201/BSC20x): home, status, move, stop.
+    Axis(cmd::axis::AxisArgs),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +38,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Devices(args) => cmd::devices::run(args, &global),
+        Command::Axis(args) => cmd::axis::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
