@@ -3,8 +3,8 @@
 //! FRINGE_PYTHON (set by scripts/test; falls back to python3).
 
 use fringe_rig::apt::codec::{
-    decode, encode, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
-    USB_UNIT,
+    decode, encode, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock,
+    VelParams, USB_UNIT,
 };
 use std::collections::HashMap;
 use std::io::Write;
@@ -20,7 +20,9 @@ fn peer(commands: &[String]) -> Vec<String> {
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap_or_else(|e| panic!("cannot start {python} ({e}); run scripts/test, which sets FRINGE_PYTHON"));
+        .unwrap_or_else(|e| {
+            panic!("cannot start {python} ({e}); run scripts/test, which sets FRINGE_PYTHON")
+        });
     {
         let mut stdin = child.stdin.take().expect("stdin");
         for c in commands {
@@ -34,17 +36,30 @@ fn peer(commands: &[String]) -> Vec<String> {
         out.status,
         String::from_utf8_lossy(&out.stderr)
     );
-    let lines: Vec<String> = String::from_utf8_lossy(&out.stdout).lines().map(str::to_string).collect();
-    assert_eq!(lines.len(), commands.len(), "one answer per command: {lines:?}");
+    let lines: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect();
+    assert_eq!(
+        lines.len(),
+        commands.len(),
+        "one answer per command: {lines:?}"
+    );
     lines
 }
 
 fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
+    bytes
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn unhex(s: &str) -> Vec<u8> {
-    s.split_whitespace().map(|b| u8::from_str_radix(b, 16).expect("hex from the peer")).collect()
+    s.split_whitespace()
+        .map(|b| u8::from_str_radix(b, 16).expect("hex from the peer"))
+        .collect()
 }
 
 #[test]
@@ -54,39 +69,107 @@ fn host_messages_encode_to_the_same_bytes_and_decode_back() {
     for dest in [USB_UNIT, 0x22] {
         let mut add = |m: Message, call: &str| {
             let (f, args) = call.split_once(' ').unwrap_or((call, ""));
-            cases.push((Packet::to_device(dest, m), format!("pack {f} {dest} 1 {args}")));
+            cases.push((
+                Packet::to_device(dest, m),
+                format!("pack {f} {dest} 1 {args}"),
+            ));
         };
         add(Message::ModIdentify { channel: 1 }, "mod_identify 1");
-        add(Message::SetChanEnableState { channel: 1, enable: true }, "mod_set_chanenablestate 1 1");
-        add(Message::SetChanEnableState { channel: 2, enable: false }, "mod_set_chanenablestate 2 2");
-        add(Message::ReqChanEnableState { channel: 1 }, "mod_req_chanenablestate 1");
+        add(
+            Message::SetChanEnableState {
+                channel: 1,
+                enable: true,
+            },
+            "mod_set_chanenablestate 1 1",
+        );
+        add(
+            Message::SetChanEnableState {
+                channel: 2,
+                enable: false,
+            },
+            "mod_set_chanenablestate 2 2",
+        );
+        add(
+            Message::ReqChanEnableState { channel: 1 },
+            "mod_req_chanenablestate 1",
+        );
         add(Message::HwReqInfo, "hw_req_info");
         add(Message::HwStartUpdateMsgs, "hw_start_updatemsgs");
         add(Message::HwStopUpdateMsgs, "hw_stop_updatemsgs");
         add(Message::HwNoFlashProgramming, "hw_no_flash_programming");
         add(Message::MoveHome { channel: 1 }, "mot_move_home 1");
-        add(Message::ReqHomeParams { channel: 1 }, "mot_req_homeparams 1");
+        add(
+            Message::ReqHomeParams { channel: 1 },
+            "mot_req_homeparams 1",
+        );
         add(Message::ReqVelParams { channel: 1 }, "mot_req_velparams 1");
-        add(Message::ReqPosCounter { channel: 1 }, "mot_req_poscounter 1");
-        add(Message::ReqStatusUpdate { channel: 1 }, "mot_req_statusupdate 1");
-        add(Message::ReqUStatusUpdate { channel: 1 }, "mot_req_dcstatusupdate 1");
+        add(
+            Message::ReqPosCounter { channel: 1 },
+            "mot_req_poscounter 1",
+        );
+        add(
+            Message::ReqStatusUpdate { channel: 1 },
+            "mot_req_statusupdate 1",
+        );
+        add(
+            Message::ReqUStatusUpdate { channel: 1 },
+            "mot_req_dcstatusupdate 1",
+        );
         add(Message::AckUStatusUpdate, "mot_ack_dcstatusupdate");
-        add(Message::MoveStop { channel: 1, mode: StopMode::Immediate }, "mot_move_stop 1 1");
-        add(Message::MoveStop { channel: 1, mode: StopMode::Profiled }, "mot_move_stop 1 2");
+        add(
+            Message::MoveStop {
+                channel: 1,
+                mode: StopMode::Immediate,
+            },
+            "mot_move_stop 1 1",
+        );
+        add(
+            Message::MoveStop {
+                channel: 1,
+                mode: StopMode::Profiled,
+            },
+            "mot_move_stop 1 2",
+        );
         add(Message::SuspendEndOfMoveMsgs, "mot_suspend_endofmovemsges");
         add(Message::ResumeEndOfMoveMsgs, "mot_resume_endofmovemsges");
         // The peer packs short parameters as signed bytes, so only codes below 0x80 go through it.
         for code in [0x30u8, 0x42, 0x51] {
-            add(Message::SetTstActuatorType { actuator: code }, &format!("mot_set_tssactuatortype {code}"));
+            add(
+                Message::SetTstActuatorType { actuator: code },
+                &format!("mot_set_tssactuatortype {code}"),
+            );
         }
         for v in [0i32, 1, 2048, -2048, 27_306_600, i32::MAX, i32::MIN] {
-            add(Message::MoveAbsolute { channel: 1, position: v }, &format!("mot_move_absolute 1 {v}"));
-            add(Message::MoveRelative { channel: 1, distance: v }, &format!("mot_move_relative 1 {v}"));
-            add(Message::SetPosCounter { channel: 1, position: v }, &format!("mot_set_poscounter 1 {v}"));
+            add(
+                Message::MoveAbsolute {
+                    channel: 1,
+                    position: v,
+                },
+                &format!("mot_move_absolute 1 {v}"),
+            );
+            add(
+                Message::MoveRelative {
+                    channel: 1,
+                    distance: v,
+                },
+                &format!("mot_move_relative 1 {v}"),
+            );
+            add(
+                Message::SetPosCounter {
+                    channel: 1,
+                    position: v,
+                },
+                &format!("mot_set_poscounter 1 {v}"),
+            );
         }
         for (a, v) in [(4506, 21_987_328), (13_744, 13_421_773), (0, -1)] {
             add(
-                Message::SetVelParams(VelParams { channel: 1, min_velocity: 0, acceleration: a, max_velocity: v }),
+                Message::SetVelParams(VelParams {
+                    channel: 1,
+                    min_velocity: 0,
+                    acceleration: a,
+                    max_velocity: v,
+                }),
                 &format!("mot_set_velparams 1 0 {a} {v}"),
             );
         }
@@ -107,9 +190,18 @@ fn host_messages_encode_to_the_same_bytes_and_decode_back() {
     for ((packet, call), answer) in cases.iter().zip(&answers) {
         assert!(!answer.starts_with("error"), "{call}: {answer}");
         let ours = encode(packet);
-        assert_eq!(hex(&ours), *answer, "{call}: our {} differs from the peer", packet.message.name());
+        assert_eq!(
+            hex(&ours),
+            *answer,
+            "{call}: our {} differs from the peer",
+            packet.message.name()
+        );
         let theirs = unhex(answer);
-        assert_eq!(decode(&theirs).as_ref(), Ok(packet), "{call}: the peer's frame decodes differently");
+        assert_eq!(
+            decode(&theirs).as_ref(),
+            Ok(packet),
+            "{call}: the peer's frame decodes differently"
+        );
     }
 }
 
@@ -140,7 +232,11 @@ fn fields(line: &str) -> HashMap<String, String> {
 fn check_flags(f: &HashMap<String, String>, status: u32, what: &str) {
     for (name, bit) in FLAG_BITS {
         let expected = if status & bit != 0 { "true" } else { "false" };
-        assert_eq!(f.get(*name).map(String::as_str), Some(expected), "{what}: flag {name}");
+        assert_eq!(
+            f.get(*name).map(String::as_str),
+            Some(expected),
+            "{what}: flag {name}"
+        );
     }
 }
 
@@ -156,32 +252,92 @@ fn device_messages_we_encode_unpack_to_the_same_fields_in_the_peer() {
         mod_state: 0,
         channels: 1,
     };
-    let block = StatusBlock { channel: 1, position: -409_600, encoder: 1234, status: 0x9000_4411 };
-    let ublock = UStatusBlock { channel: 1, position: 27_306_600, velocity: -300, current_ma: 250, status: 0x8000_2420 };
-    let vel = VelParams { channel: 1, min_velocity: 0, acceleration: 4506, max_velocity: 21_987_328 };
-    let home = HomeParams { channel: 1, direction: 2, limit_switch: 1, velocity: 117_265_749, offset: -7 };
+    let block = StatusBlock {
+        channel: 1,
+        position: -409_600,
+        encoder: 1234,
+        status: 0x9000_4411,
+    };
+    let ublock = UStatusBlock {
+        channel: 1,
+        position: 27_306_600,
+        velocity: -300,
+        current_ma: 250,
+        status: 0x8000_2420,
+    };
+    let vel = VelParams {
+        channel: 1,
+        min_velocity: 0,
+        acceleration: 4506,
+        max_velocity: 21_987_328,
+    };
+    let home = HomeParams {
+        channel: 1,
+        direction: 2,
+        limit_switch: 1,
+        velocity: 117_265_749,
+        offset: -7,
+    };
     let messages = vec![
         Message::HwGetInfo(info.clone()),
-        Message::GetChanEnableState { channel: 1, enabled: true },
+        Message::GetChanEnableState {
+            channel: 1,
+            enabled: true,
+        },
         Message::MoveHomed { channel: 1 },
-        Message::MoveCompleted { channel: 1, status: None },
-        Message::MoveCompleted { channel: 1, status: Some(StatusBlock { encoder: 0, ..block }) },
-        Message::MoveStopped { channel: 1, status: Some(StatusBlock { encoder: 0, ..block }) },
+        Message::MoveCompleted {
+            channel: 1,
+            status: None,
+        },
+        Message::MoveCompleted {
+            channel: 1,
+            status: Some(StatusBlock {
+                encoder: 0,
+                ..block
+            }),
+        },
+        Message::MoveStopped {
+            channel: 1,
+            status: Some(StatusBlock {
+                encoder: 0,
+                ..block
+            }),
+        },
         Message::GetStatusUpdate(block),
         Message::GetUStatusUpdate(ublock),
-        Message::GetStatusBits { channel: 1, status: 0x8000_4002 },
+        Message::GetStatusBits {
+            channel: 1,
+            status: 0x8000_4002,
+        },
         Message::GetVelParams(vel),
         Message::GetHomeParams(home),
-        Message::GetPosCounter { channel: 1, position: -123_456 },
+        Message::GetPosCounter {
+            channel: 1,
+            position: -123_456,
+        },
     ];
-    let packets: Vec<Packet> = messages.into_iter().map(|m| Packet::from_device(0x22, m)).collect();
-    let commands: Vec<String> = packets.iter().map(|p| format!("unpack {}", hex(&encode(p)))).collect();
+    let packets: Vec<Packet> = messages
+        .into_iter()
+        .map(|m| Packet::from_device(0x22, m))
+        .collect();
+    let commands: Vec<String> = packets
+        .iter()
+        .map(|p| format!("unpack {}", hex(&encode(p))))
+        .collect();
     let answers = peer(&commands);
     for (p, answer) in packets.iter().zip(&answers) {
-        assert!(!answer.starts_with("error"), "{}: {answer}", p.message.name());
+        assert!(
+            !answer.starts_with("error"),
+            "{}: {answer}",
+            p.message.name()
+        );
         let f = fields(answer);
         let name = p.message.name();
-        let get = |k: &str| f.get(k).cloned().unwrap_or_else(|| panic!("{name}: the peer gave no {k}: {answer}"));
+        let get = |k: &str| {
+            f.get(k)
+                .cloned()
+                .unwrap_or_else(|| panic!("{name}: the peer gave no {k}: {answer}"))
+        };
         assert_eq!(get("msgid"), p.message.id().to_string(), "{name}");
         assert_eq!(get("source"), "34", "{name}");
         assert_eq!(get("dest"), "1", "{name}");
@@ -203,7 +359,8 @@ fn device_messages_we_encode_unpack_to_the_same_fields_in_the_peer() {
                 assert_eq!(get("enabled"), enabled.to_string());
             }
             Message::MoveHomed { channel } => assert_eq!(get("chan_ident"), channel.to_string()),
-            Message::MoveCompleted { channel, status } | Message::MoveStopped { channel, status } => {
+            Message::MoveCompleted { channel, status }
+            | Message::MoveStopped { channel, status } => {
                 assert_eq!(get("chan_ident"), channel.to_string());
                 if let Some(b) = status {
                     assert_eq!(get("position"), b.position.to_string());

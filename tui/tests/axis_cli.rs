@@ -24,7 +24,12 @@ fn responder(mut pty: PtyDevice, stop: Arc<AtomicBool>) {
     let reply = |pty: &mut PtyDevice, m: Message| {
         let _ = pty.write_all(&encode(&Packet::from_device(USB_UNIT, m)));
     };
-    let block = |position| StatusBlock { channel: 1, position, encoder: 0, status: ENABLED_HOMED };
+    let block = |position| StatusBlock {
+        channel: 1,
+        position,
+        encoder: 0,
+        status: ENABLED_HOMED,
+    };
     while !stop.load(Ordering::Relaxed) {
         let n = pty.read(&mut buf, Duration::from_millis(20)).unwrap_or(0);
         decoder.push(&buf[..n]);
@@ -43,9 +48,13 @@ fn responder(mut pty: PtyDevice, stop: Arc<AtomicBool>) {
                         channels: 1,
                     }),
                 ),
-                Message::ReqChanEnableState { channel } => {
-                    reply(&mut pty, Message::GetChanEnableState { channel, enabled: true })
-                }
+                Message::ReqChanEnableState { channel } => reply(
+                    &mut pty,
+                    Message::GetChanEnableState {
+                        channel,
+                        enabled: true,
+                    },
+                ),
                 Message::SetVelParams(v) => vel = Some(v),
                 Message::ReqVelParams { .. } => {
                     if let Some(v) = vel {
@@ -63,7 +72,13 @@ fn responder(mut pty: PtyDevice, stop: Arc<AtomicBool>) {
                 }
                 Message::MoveAbsolute { channel, position } => {
                     reply(&mut pty, Message::GetStatusUpdate(block(position)));
-                    reply(&mut pty, Message::MoveCompleted { channel, status: Some(block(position)) });
+                    reply(
+                        &mut pty,
+                        Message::MoveCompleted {
+                            channel,
+                            status: Some(block(position)),
+                        },
+                    );
                 }
                 _ => {}
             }
@@ -90,7 +105,10 @@ fn fringe(args: &[&str], answer: bool) -> Output {
     };
     let mut full = vec!["axis", "--port", &path, "--actuator", "ZFS25B"];
     full.extend_from_slice(args);
-    let out = Command::new(env!("CARGO_BIN_EXE_fringe")).args(&full).output().expect("run fringe");
+    let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args(&full)
+        .output()
+        .expect("run fringe");
     stop.store(true, Ordering::Relaxed);
     worker.join().expect("responder");
     out
@@ -106,14 +124,27 @@ fn status_prints_position_and_named_bits_and_records_a_trace() {
     let dir_text = dir.to_string_lossy().into_owned();
     let out = fringe(&["--record-trace", &dir_text, "status"], true);
     let stdout = text(&out.stdout);
-    assert!(out.status.success(), "stdout: {stdout}\nstderr: {}", text(&out.stderr));
-    assert!(stdout.contains("controller: KST101 serial 26000042 firmware 1.0.4"), "{stdout}");
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        text(&out.stderr)
+    );
+    assert!(
+        stdout.contains("controller: KST101 serial 26000042 firmware 1.0.4"),
+        "{stdout}"
+    );
     assert!(stdout.contains("position: 1.0000 mm"), "{stdout}");
-    assert!(stdout.contains("status bits: homed, power ok, channel enabled"), "{stdout}");
+    assert!(
+        stdout.contains("status bits: homed, power ok, channel enabled"),
+        "{stdout}"
+    );
     let trace_text = std::fs::read_to_string(dir.join("apt.trace")).expect("DIR/apt.trace written");
     let trace = Trace::parse(&trace_text, "apt.trace").expect("recorded trace parses");
     let sent: Vec<&[u8]> = trace.entries.iter().map(|e| e.bytes.as_slice()).collect();
-    assert!(sent.contains(&&[0x05u8, 0x00, 0x00, 0x00, 0x50, 0x01][..]), "HW_REQ_INFO recorded");
+    assert!(
+        sent.contains(&&[0x05u8, 0x00, 0x00, 0x00, 0x50, 0x01][..]),
+        "HW_REQ_INFO recorded"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -121,7 +152,11 @@ fn status_prints_position_and_named_bits_and_records_a_trace() {
 fn move_prints_the_final_position() {
     let out = fringe(&["--min", "0", "--max", "10", "move", "2.5"], true);
     let stdout = text(&out.stdout);
-    assert!(out.status.success(), "stdout: {stdout}\nstderr: {}", text(&out.stderr));
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        text(&out.stderr)
+    );
     assert!(stdout.contains("position: 2.5000 mm"), "{stdout}");
 }
 
@@ -131,7 +166,10 @@ fn a_move_outside_the_soft_limits_fails_in_one_line() {
     assert!(!out.status.success());
     let stderr = text(&out.stderr);
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("outside the soft limits") && stderr.contains("nothing was sent"), "{stderr}");
+    assert!(
+        stderr.contains("outside the soft limits") && stderr.contains("nothing was sent"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -140,5 +178,8 @@ fn a_silent_controller_fails_in_one_line_naming_what_to_check() {
     assert!(!out.status.success());
     let stderr = text(&out.stderr);
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("HW_GET_INFO") && stderr.contains("is the controller powered"), "{stderr}");
+    assert!(
+        stderr.contains("HW_GET_INFO") && stderr.contains("is the controller powered"),
+        "{stderr}"
+    );
 }

@@ -413,7 +413,9 @@ impl ThorlabsAxis {
 
     /// Flashes the controller's front-panel LED (MOD_IDENTIFY), to find it on the bench.
     pub fn identify(&mut self) -> Result<(), AxisError> {
-        self.send(Message::ModIdentify { channel: self.config.channel })
+        self.send(Message::ModIdentify {
+            channel: self.config.channel,
+        })
     }
 
     /// The configuration this axis runs with.

@@ -35,10 +35,20 @@ pub struct AxisArgs {
     #[arg(long, value_name = "MM_S2", default_value_t = 1.0)]
     acceleration: f64,
     /// Lower soft limit in mm (needs --max).
-    #[arg(long, value_name = "MM", requires = "max", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "max",
+        allow_negative_numbers = true
+    )]
     min: Option<f64>,
     /// Upper soft limit in mm (needs --min).
-    #[arg(long, value_name = "MM", requires = "min", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "min",
+        allow_negative_numbers = true
+    )]
     max: Option<f64>,
     /// Seconds to wait for a home or move to finish.
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
@@ -85,15 +95,25 @@ fn print_status(s: &AxisStatus) {
 
 pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
     let actuator = Actuator::by_name(&args.actuator).with_context(|| {
-        format!("unknown actuator `{}` (known: {})", args.actuator, Actuator::known_names())
+        format!(
+            "unknown actuator `{}` (known: {})",
+            args.actuator,
+            Actuator::known_names()
+        )
     })?;
-    for (name, v) in [("--velocity", args.velocity), ("--acceleration", args.acceleration)] {
+    for (name, v) in [
+        ("--velocity", args.velocity),
+        ("--acceleration", args.acceleration),
+    ] {
         if !(v.is_finite() && v > 0.0) {
             bail!("{name} must be a positive number, got {v}");
         }
     }
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
-        bail!("--timeout must be a positive number of seconds, got {}", args.timeout);
+        bail!(
+            "--timeout must be a positive number of seconds, got {}",
+            args.timeout
+        );
     }
     let mut config = AptConfig::new("axis", args.controller, actuator);
     config.bay = args.bay;
@@ -103,10 +123,13 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
     config.home.velocity = MillimetresPerSecond(args.velocity.min(1.0));
     config.timeouts = Timeouts::default();
     if let (Some(min), Some(max)) = (args.min, args.max) {
-        if !(min <= max) {
-            bail!("--min {min} must not be above --max {max}");
+        if !(min.is_finite() && max.is_finite() && min <= max) {
+            bail!("--min {min} and --max {max} must be numbers with min not above max");
         }
-        config.soft_limits = Some(SoftLimits { min: Millimetres(min), max: Millimetres(max) });
+        config.soft_limits = Some(SoftLimits {
+            min: Millimetres(min),
+            max: Millimetres(max),
+        });
     }
     let serial = open_serial(&args.port)?;
     let link: Box<dyn ByteLink> = Box::new(serial);
@@ -129,7 +152,11 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
         Action::Move { mm } => axis.move_to(Millimetres(mm), timeout)?,
         Action::MoveRel { mm } => axis.move_by(Millimetres(mm), timeout)?,
         Action::Stop { immediate } => {
-            axis.stop(if immediate { StopMode::Immediate } else { StopMode::Profiled })?;
+            axis.stop(if immediate {
+                StopMode::Immediate
+            } else {
+                StopMode::Profiled
+            })?;
             axis.status()?
         }
     };
