@@ -204,6 +204,8 @@ struct Observed {
 #[derive(Default)]
 struct Shared {
     latest: Option<Observed>,
+    /// Status messages seen so far (to tell a fresh status from one older than a motion).
+    updates: u64,
     link_error: Option<String>,
 }
 
@@ -306,7 +308,9 @@ impl IoThread {
         };
         if let Some((channel, o)) = observed {
             if channel == self.channel {
-                lock(&self.shared).latest = Some(o);
+                let mut shared = lock(&self.shared);
+                shared.latest = Some(o);
+                shared.updates += 1;
             }
         }
         let is_update = matches!(
@@ -353,6 +357,8 @@ pub struct ThorlabsAxis {
     shared: Arc<Mutex<Shared>>,
     thread: Option<JoinHandle<()>>,
     pending: Option<Pending>,
+    /// Status messages seen when the current motion was sent.
+    updates_at_start: u64,
 }
 
 impl ThorlabsAxis {
@@ -401,6 +407,7 @@ impl ThorlabsAxis {
             shared,
             thread: Some(thread),
             pending: None,
+            updates_at_start: 0,
         };
         axis.initialise()?;
         Ok(axis)
@@ -749,6 +756,7 @@ impl ThorlabsAxis {
 
     /// Forgets stale end-of-move messages before a new motion starts.
     fn clear_events(&mut self) {
+        self.updates_at_start = lock(&self.shared).updates;
         self.backlog.retain(|p| !is_end_of_move(p));
         while let Ok(p) = self.events.try_recv() {
             if !is_end_of_move(&p) {
@@ -878,7 +886,11 @@ impl Axis for ThorlabsAxis {
             let o = if polled {
                 Some(self.observe()?)
             } else {
-                self.latest()
+                // Only a status sent after the motion started says something about it.
+                let shared = lock(&self.shared);
+                shared
+                    .latest
+                    .filter(|_| shared.updates > self.updates_at_start)
             };
             if let Some(o) = o {
                 if o.status & FAULT_MASK != 0 {
