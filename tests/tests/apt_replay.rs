@@ -350,3 +350,45 @@ fn public_example_frames_identify_move_and_complete() {
     let report = close(axis, handle);
     assert_eq!(report.unread_replies, 0);
 }
+
+#[test]
+fn a_fault_bit_from_before_the_move_does_not_fail_the_next_move() {
+    // Paced: the first status after the move arrives 0.1 s after it, so the driver looks at the
+    // old status (with its motion error) several times while waiting.
+    let (mut axis, handle) = connect("stale_fault.trace", kcube(), ReplayOptions::default());
+    let t0 = Instant::now();
+    loop {
+        let s = axis.status().expect("status");
+        if near(s.position, 43_690_667.0 / ZFS) {
+            assert!(s.faults.contains(&"motion error"), "{s}");
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(2),
+            "the stale status never arrived"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let s = axis
+        .move_to(Millimetres(10.0), WAIT)
+        .expect("a fresh status clears the old fault");
+    assert!(near(s.position, 21_845_333.0 / ZFS), "{s}");
+    assert!(s.faults.is_empty());
+    close(axis, handle);
+}
+
+#[test]
+fn a_controller_error_report_ends_the_wait_with_its_text() {
+    let (mut axis, handle) = connect("rich_response.trace", kcube(), fast());
+    let err = axis.home(WAIT).expect_err("the controller refused to home");
+    let text = err.to_string();
+    assert!(
+        text.contains("axis x (replay of rich_response.trace)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("error 10 about message 0x0443: Homing not possible: no stage connected"),
+        "{text}"
+    );
+    close(axis, handle);
+}
