@@ -28,7 +28,7 @@ pub struct AxisArgs {
     /// Channel ident in messages.
     #[arg(long, default_value_t = 1)]
     channel: u8,
-    /// Maximum velocity in mm/s.
+    /// Maximum velocity in mm/s (homing runs at the smaller of this and 1 mm/s).
     #[arg(long, value_name = "MM_S", default_value_t = 1.0)]
     velocity: f64,
     /// Acceleration in mm/s^2.
