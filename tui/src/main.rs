@@ -31,6 +31,8 @@ enum Command {
     Ft(cmd::ft::FtArgs),
     /// Home, query or move the y stage (Modbus TCP, Modbus RTU or manual).
     Ystage(cmd::ystage::YstageArgs),
+    /// Drive one Thorlabs stepper axis (KST101/KST201/BSC20x): home, status, move, stop.
+    Axis(cmd::axis::AxisArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Some(Command::Devices(args)) => cmd::devices::run(args, &global),
         Some(Command::Ft(args)) => cmd::ft::run(args, &global),
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
+        Some(Command::Axis(args)) => cmd::axis::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

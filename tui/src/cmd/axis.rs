@@ -1,0 +1,165 @@
+//! `fringe axis`: bring up one Thorlabs stepper axis from the command line.
+
+use crate::Global;
+use anyhow::{bail, Context};
+use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};
+use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
+use fringe_rig::axis::{Axis, AxisStatus, SoftLimits, StopMode};
+use fringe_rig::trace::record_stream;
+use fringe_rig::transport::ByteLink;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use std::time::Duration;
+
+#[derive(clap::Args)]
+pub struct AxisArgs {
+    /// Serial port of the controller (see `fringe devices`), e.g. /dev/ttyUSB0.
+    #[arg(long, value_name = "PATH")]
+    port: String,
+    /// Actuator model: ZFS06/13/25, ZST206/213/225, DRV013/014/225/250/208/001, NRT100/150,
+    /// LTS150/300.
+    #[arg(long, value_name = "NAME")]
+    actuator: String,
+    /// Controller: kst101, kst201, bsc201, bsc202, bsc203.
+    #[arg(long, default_value = "kst101")]
+    controller: Controller,
+    /// Rack bay (0..=9) of a BSC202/203 channel.
+    #[arg(long)]
+    bay: Option<u8>,
+    /// Channel ident in messages.
+    #[arg(long, default_value_t = 1)]
+    channel: u8,
+    /// Maximum velocity in mm/s (homing runs at the smaller of this and 1 mm/s).
+    #[arg(long, value_name = "MM_S", default_value_t = 1.0)]
+    velocity: f64,
+    /// Acceleration in mm/s^2.
+    #[arg(long, value_name = "MM_S2", default_value_t = 1.0)]
+    acceleration: f64,
+    /// Lower soft limit in mm (needs --max).
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "max",
+        allow_negative_numbers = true
+    )]
+    min: Option<f64>,
+    /// Upper soft limit in mm (needs --min).
+    #[arg(
+        long,
+        value_name = "MM",
+        requires = "min",
+        allow_negative_numbers = true
+    )]
+    max: Option<f64>,
+    /// Seconds to wait for a home or move to finish.
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
+    timeout: f64,
+    #[command(subcommand)]
+    action: Action,
+}
+
+#[derive(clap::Subcommand)]
+enum Action {
+    /// Home the axis and wait.
+    Home,
+    /// Print position and status bits.
+    Status,
+    /// Move to an absolute position in mm and wait.
+    Move {
+        #[arg(value_name = "MM", allow_negative_numbers = true)]
+        mm: f64,
+    },
+    /// Move by a distance in mm and wait.
+    MoveRel {
+        #[arg(value_name = "MM", allow_negative_numbers = true)]
+        mm: f64,
+    },
+    /// Stop (profiled unless --immediate).
+    Stop {
+        #[arg(long)]
+        immediate: bool,
+    },
+}
+
+fn print_status(s: &AxisStatus) {
+    println!("position: {:.4}", s.position);
+    println!("moving: {}, homed: {}", s.moving, s.homed);
+    if s.flags.is_empty() {
+        println!("status bits: (none set)");
+    } else {
+        println!("status bits: {}", s.flags.join(", "));
+    }
+    if !s.faults.is_empty() {
+        println!("faults: {}", s.faults.join(", "));
+    }
+}
+
+pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
+    let actuator = Actuator::by_name(&args.actuator).with_context(|| {
+        format!(
+            "unknown actuator `{}` (known: {})",
+            args.actuator,
+            Actuator::known_names()
+        )
+    })?;
+    for (name, v) in [
+        ("--velocity", args.velocity),
+        ("--acceleration", args.acceleration),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name} must be a positive number, got {v}");
+        }
+    }
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        bail!(
+            "--timeout must be a positive number of seconds, got {}",
+            args.timeout
+        );
+    }
+    let mut config = AptConfig::new("axis", args.controller, actuator);
+    config.bay = args.bay;
+    config.channel = args.channel;
+    config.velocity = MillimetresPerSecond(args.velocity);
+    config.acceleration = MillimetresPerSecondSquared(args.acceleration);
+    config.home.velocity = MillimetresPerSecond(args.velocity.min(1.0));
+    config.timeouts = Timeouts::default();
+    if let (Some(min), Some(max)) = (args.min, args.max) {
+        if !(min.is_finite() && max.is_finite() && min <= max) {
+            bail!("--min {min} and --max {max} must be numbers with min not above max");
+        }
+        config.soft_limits = Some(SoftLimits {
+            min: Millimetres(min),
+            max: Millimetres(max),
+        });
+    }
+    let serial = open_serial(&args.port)?;
+    let link: Box<dyn ByteLink> = Box::new(serial);
+    let link = record_stream(link, global.record_trace.as_deref(), "apt")
+        .context("cannot start the trace recording (check --record-trace DIR)")?;
+    let mut axis = ThorlabsAxis::connect(link, config)?;
+    if let Some(info) = axis.info() {
+        println!(
+            "controller: {} serial {} firmware {} on {}",
+            info.model,
+            info.serial_number,
+            info.firmware_version(),
+            axis.endpoint()
+        );
+    }
+    let timeout = Duration::from_secs_f64(args.timeout);
+    let status = match args.action {
+        Action::Status => axis.status()?,
+        Action::Home => axis.home(timeout)?,
+        Action::Move { mm } => axis.move_to(Millimetres(mm), timeout)?,
+        Action::MoveRel { mm } => axis.move_by(Millimetres(mm), timeout)?,
+        Action::Stop { immediate } => {
+            axis.stop(if immediate {
+                StopMode::Immediate
+            } else {
+                StopMode::Profiled
+            })?;
+            axis.status()?
+        }
+    };
+    print_status(&status);
+    Ok(())
+}
