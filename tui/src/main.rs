@@ -29,7 +29,7 @@ enum Command {
     Devices(cmd::devices::DevicesArgs),
     /// ATI Net F/T / Ethernet Axia force/torque sensor: stream to CSV, software bias.
     Ft(cmd::ft::FtArgs),
-    /// Home, query or move the y stage (Modbus TCP, Modbus RTU or manual).
+    /// Home, query or move the y stage (Modbus TCP, Modbus RTU, manual or a Thorlabs axis).
     Ystage(cmd::ystage::YstageArgs),
     /// Drive one Thorlabs stepper axis (KST101/KST201/BSC20x): home, status, move, stop.
     Axis(cmd::axis::AxisArgs),

@@ -87,6 +87,18 @@ fn responder(mut pty: PtyDevice, stop: Arc<AtomicBool>) {
 }
 
 fn fringe(args: &[&str], answer: bool) -> Output {
+    fringe_on_pty(
+        |path| {
+            let mut full = vec!["axis", "--port", path, "--actuator", "ZFS25B"];
+            full.extend_from_slice(args);
+            full.into_iter().map(String::from).collect()
+        },
+        answer,
+    )
+}
+
+/// Runs fringe with the arguments `make(pty path)` against the responder on a pseudo-terminal.
+fn fringe_on_pty(make: impl Fn(&str) -> Vec<String>, answer: bool) -> Output {
     let pty = PtyDevice::open().expect("pseudo-terminal");
     let path = pty.slave_path().to_string();
     let stop = Arc::new(AtomicBool::new(false));
@@ -103,8 +115,7 @@ fn fringe(args: &[&str], answer: bool) -> Output {
             }
         })
     };
-    let mut full = vec!["axis", "--port", &path, "--actuator", "ZFS25B"];
-    full.extend_from_slice(args);
+    let full = make(&path);
     let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
         .args(&full)
         .output()
@@ -182,4 +193,35 @@ fn a_silent_controller_fails_in_one_line_naming_what_to_check() {
         stderr.contains("HW_GET_INFO") && stderr.contains("is the controller powered"),
         "{stderr}"
     );
+}
+
+#[test]
+fn a_thorlabs_axis_serves_as_the_y_stage() {
+    let out = fringe_on_pty(
+        |path| {
+            [
+                "ystage",
+                "--apt",
+                path,
+                "--actuator",
+                "ZFS25B",
+                "--min",
+                "0",
+                "--max",
+                "10",
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .chain(["move".to_string(), "2.5".to_string()])
+            .collect()
+        },
+        true,
+    );
+    let stdout = text(&out.stdout);
+    assert!(
+        out.status.success(),
+        "stdout: {stdout}\nstderr: {}",
+        text(&out.stderr)
+    );
+    assert!(stdout.contains("2.5000 mm"), "{stdout}");
 }

@@ -1,7 +1,9 @@
-//! `fringe ystage`: home, query or move the y stage (Modbus TCP, Modbus RTU or manual).
+//! `fringe ystage`: home, query or move the y stage (Modbus TCP, Modbus RTU, manual or a Thorlabs axis).
 
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
 use fringe_rig::axis::{Axis, SoftLimits};
 use fringe_rig::manual::{ManualStage, TerminalPrompt};
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
@@ -15,7 +17,7 @@ use std::time::Duration;
 const DEFAULT_MAP: &str = "oriental-az";
 
 #[derive(clap::Args)]
-#[command(group(clap::ArgGroup::new("stage").required(true).args(["modbus_tcp", "modbus_rtu", "manual"])))]
+#[command(group(clap::ArgGroup::new("stage").required(true).args(["modbus_tcp", "modbus_rtu", "manual", "apt"])))]
 pub struct YstageArgs {
     /// Modbus TCP stage at HOST:PORT.
     #[arg(long, value_name = "HOST:PORT")]
@@ -28,6 +30,18 @@ pub struct YstageArgs {
     /// A stage moved by hand: fringe asks the operator on the terminal.
     #[arg(long)]
     manual: bool,
+
+    /// A Thorlabs APT stepper as the y stage: serial port of its controller.
+    #[arg(long, value_name = "PATH", requires = "actuator")]
+    apt: Option<String>,
+
+    /// Actuator of the Thorlabs y stage (ZFS25, ZST225, DRV250, ...); with --apt.
+    #[arg(long, value_name = "NAME", requires = "apt")]
+    actuator: Option<String>,
+
+    /// Controller of the Thorlabs y stage: kst101, kst201, bsc201, bsc202, bsc203; with --apt.
+    #[arg(long, value_name = "NAME", requires = "apt")]
+    controller: Option<Controller>,
 
     /// Register map: a built-in name (oriental-az, leadshine-pr) or a TOML file.
     #[arg(long, default_value = DEFAULT_MAP, value_name = "NAME|FILE")]
@@ -74,16 +88,20 @@ enum StageKind {
     ModbusTcp(String),
     ModbusRtu(String),
     Manual,
+    Thorlabs(String),
 }
 
 impl YstageArgs {
     fn kind(&self) -> anyhow::Result<StageKind> {
-        Ok(match (&self.modbus_tcp, &self.modbus_rtu, self.manual) {
-            (Some(addr), None, false) => StageKind::ModbusTcp(addr.clone()),
-            (None, Some(path), false) => StageKind::ModbusRtu(path.clone()),
-            (None, None, true) => StageKind::Manual,
-            _ => bail!("give exactly one of --modbus-tcp, --modbus-rtu, --manual"),
-        })
+        Ok(
+            match (&self.modbus_tcp, &self.modbus_rtu, self.manual, &self.apt) {
+                (Some(addr), None, false, None) => StageKind::ModbusTcp(addr.clone()),
+                (None, Some(path), false, None) => StageKind::ModbusRtu(path.clone()),
+                (None, None, true, None) => StageKind::Manual,
+                (None, None, false, Some(path)) => StageKind::Thorlabs(path.clone()),
+                _ => bail!("give exactly one of --modbus-tcp, --modbus-rtu, --manual, --apt"),
+            },
+        )
     }
 
     /// Rejects options that the chosen kind of stage would ignore.
@@ -91,8 +109,10 @@ impl YstageArgs {
         if self.baud.is_some() && !matches!(kind, StageKind::ModbusRtu(_)) {
             bail!("--baud applies to --modbus-rtu only");
         }
-        if matches!(kind, StageKind::Manual) && (self.slave.is_some() || self.map != DEFAULT_MAP) {
-            bail!("--map and --slave apply to Modbus stages, not to --manual");
+        if matches!(kind, StageKind::Manual | StageKind::Thorlabs(_))
+            && (self.slave.is_some() || self.map != DEFAULT_MAP)
+        {
+            bail!("--map and --slave apply to Modbus stages, not to --manual or --apt");
         }
         Ok(())
     }
@@ -144,6 +164,22 @@ fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
             Box::new(TerminalPrompt::stdio()),
             limits,
         ))),
+        StageKind::Thorlabs(path) => {
+            let name = args.actuator.as_deref().unwrap_or_default();
+            let actuator = Actuator::by_name(name).with_context(|| {
+                format!(
+                    "unknown actuator `{name}` (known: {})",
+                    Actuator::known_names()
+                )
+            })?;
+            let controller = args.controller.unwrap_or(Controller::Kst101);
+            let mut config = AptConfig::new("y", controller, actuator);
+            config.soft_limits = limits;
+            let link: Box<dyn ByteLink> = Box::new(open_serial(&path)?);
+            let link = record_stream(link, global.record_trace.as_deref(), "ystage")
+                .context("cannot start the trace recording")?;
+            Ok(Box::new(ThorlabsAxis::connect(link, config)?))
+        }
     }
 }
 
