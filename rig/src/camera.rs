@@ -1,6 +1,11 @@
 //! The camera abstraction shared by the Aravis backend, recorded camera traces and the
 //! simulated camera.
 
+#[cfg(feature = "aravis")]
+pub mod aravis;
+pub mod trace;
+pub mod writer;
+
 use crate::clock::HostTime;
 use crate::units::{Decibels, Hertz, Microseconds};
 use std::time::Duration;
@@ -117,7 +122,11 @@ pub enum CameraError {
     #[error("camera {camera}: {message}")]
     Device { camera: String, message: String },
     #[error("camera {camera}: feature {feature} {message}")]
-    Feature { camera: String, feature: String, message: String },
+    Feature {
+        camera: String,
+        feature: String,
+        message: String,
+    },
     #[error("camera {camera}: no frame for {waited:?} (check the trigger mode, the cable and the frame rate)")]
     NoFrame { camera: String, waited: Duration },
     #[error("camera {camera}: {source}")]
