@@ -42,39 +42,15 @@ impl fmt::Display for AxisStatus {
 #[derive(Debug, thiserror::Error)]
 pub enum AxisError {
     #[error("axis {axis} ({endpoint}): {message}")]
-    Device {
-        axis: String,
-        endpoint: String,
-        message: String,
-    },
+    Device { axis: String, endpoint: String, message: String },
     #[error("axis {axis} ({endpoint}): timed out after {timeout:?} waiting for {what}{}", status_suffix(.flags))]
-    Timeout {
-        axis: String,
-        endpoint: String,
-        what: String,
-        timeout: Duration,
-        flags: Vec<&'static str>,
-    },
+    Timeout { axis: String, endpoint: String, what: String, timeout: Duration, flags: Vec<&'static str> },
     #[error("axis {axis}: target {target:.4} is outside the soft limits {min:.4} .. {max:.4}; nothing was sent (change the target or the limits in the configuration)")]
-    SoftLimit {
-        axis: String,
-        target: Millimetres,
-        min: Millimetres,
-        max: Millimetres,
-    },
+    SoftLimit { axis: String, target: Millimetres, min: Millimetres, max: Millimetres },
     #[error("axis {axis} ({endpoint}): fault while {what}: {}", .flags.join(", "))]
-    Fault {
-        axis: String,
-        endpoint: String,
-        what: String,
-        flags: Vec<&'static str>,
-    },
+    Fault { axis: String, endpoint: String, what: String, flags: Vec<&'static str> },
     #[error("axis {axis} ({endpoint}): configuration mismatch: {message}")]
-    Mismatch {
-        axis: String,
-        endpoint: String,
-        message: String,
-    },
+    Mismatch { axis: String, endpoint: String, message: String },
     #[error("axis {axis} ({endpoint}): link error: {source}")]
     Io {
         axis: String,
@@ -107,12 +83,7 @@ impl SoftLimits {
         if target.0.is_finite() && target >= self.min && target <= self.max {
             Ok(())
         } else {
-            Err(AxisError::SoftLimit {
-                axis: axis.to_string(),
-                target,
-                min: self.min,
-                max: self.max,
-            })
+            Err(AxisError::SoftLimit { axis: axis.to_string(), target, min: self.min, max: self.max })
         }
     }
 }

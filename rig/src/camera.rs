@@ -122,11 +122,7 @@ pub enum CameraError {
     #[error("camera {camera}: {message}")]
     Device { camera: String, message: String },
     #[error("camera {camera}: feature {feature} {message}")]
-    Feature {
-        camera: String,
-        feature: String,
-        message: String,
-    },
+    Feature { camera: String, feature: String, message: String },
     #[error("camera {camera}: no frame for {waited:?} (check the trigger mode, the cable and the frame rate)")]
     NoFrame { camera: String, waited: Duration },
     #[error("camera {camera}: {source}")]

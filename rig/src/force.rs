@@ -41,18 +41,9 @@ pub enum ForceError {
     #[error("force sensor {device}: {message}")]
     Device { device: String, message: String },
     #[error("force sensor {device}: no data for {waited:?} ({hint})")]
-    NoData {
-        device: String,
-        waited: Duration,
-        hint: String,
-    },
+    NoData { device: String, waited: Duration, hint: String },
     #[error("force sensor {device}: status word {status:#010x} ({meaning}) at sample {tick}")]
-    Status {
-        device: String,
-        status: u32,
-        meaning: String,
-        tick: u64,
-    },
+    Status { device: String, status: u32, meaning: String, tick: u64 },
     #[error("force sensor {device}: link error: {source}")]
     Io {
         device: String,

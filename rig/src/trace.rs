@@ -11,7 +11,5 @@ pub mod record;
 pub mod replay;
 
 pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
-pub use record::{
-    record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter,
-};
+pub use record::{record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter};
 pub use replay::{ReplayDatagramLink, ReplayHandle, ReplayLink, ReplayOptions, ReplayReport};

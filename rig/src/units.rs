@@ -186,13 +186,6 @@ mod tests {
         let w = Wrench::from_array([1.0, -2.0, 3.0, 0.1, 0.2, -0.3]);
         assert_eq!(w.to_array(), [1.0, -2.0, 3.0, 0.1, 0.2, -0.3]);
         assert_eq!((w - w).to_array(), [0.0; 6]);
-        assert!(
-            (Wrench::from_arrays([3.0, 4.0, 0.0], [0.0; 3])
-                .force_magnitude()
-                .0
-                - 5.0)
-                .abs()
-                < 1e-12
-        );
+        assert!((Wrench::from_arrays([3.0, 4.0, 0.0], [0.0; 3]).force_magnitude().0 - 5.0).abs() < 1e-12);
     }
 }

@@ -31,9 +31,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let global = Global {
-        record_trace: cli.record_trace,
-    };
+    let global = Global { record_trace: cli.record_trace };
     let result = match cli.command {
         Command::Devices(args) => cmd::devices::run(args, &global),
     };

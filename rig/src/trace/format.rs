@@ -93,11 +93,7 @@ pub enum TraceError {
         source: std::io::Error,
     },
     #[error("{source_name} line {line}: {message}")]
-    Syntax {
-        source_name: String,
-        line: usize,
-        message: String,
-    },
+    Syntax { source_name: String, line: usize, message: String },
 }
 
 /// Formats bytes as space-separated two-digit hex.
@@ -128,11 +124,7 @@ fn parse_directed_hex(text: &str) -> Result<(Direction, Vec<u8>), String> {
     let (dir, rest) = match text.chars().next() {
         Some('>') => (Direction::ToDevice, &text[1..]),
         Some('<') => (Direction::FromDevice, &text[1..]),
-        _ => {
-            return Err(format!(
-                "expected `>` or `<` before the bytes, found `{text}`"
-            ))
-        }
+        _ => return Err(format!("expected `>` or `<` before the bytes, found `{text}`")),
     };
     let bytes = parse_hex(rest)?;
     if bytes.is_empty() {
@@ -180,21 +172,14 @@ impl Trace {
                                 "stream" => LinkKind::Stream,
                                 "datagram" => LinkKind::Datagram,
                                 other => {
-                                    return Err(err(
-                                        lineno,
-                                        format!("kind `{other}`: allowed are stream, datagram"),
-                                    ))
+                                    return Err(err(lineno, format!("kind `{other}`: allowed are stream, datagram")))
                                 }
                             }
                         }
                         "unordered" => {
-                            let (dir, bytes) =
-                                parse_directed_hex(value).map_err(|m| err(lineno, m))?;
+                            let (dir, bytes) = parse_directed_hex(value).map_err(|m| err(lineno, m))?;
                             if dir != Direction::ToDevice {
-                                return Err(err(
-                                    lineno,
-                                    "unordered messages must be host to device (`>`)".into(),
-                                ));
+                                return Err(err(lineno, "unordered messages must be host to device (`>`)".into()));
                             }
                             trace.unordered.push(bytes);
                         }
@@ -204,55 +189,35 @@ impl Trace {
                 continue;
             }
             let body = line.split_once('#').map(|(b, _)| b).unwrap_or(line).trim();
-            let (time_text, rest) = body.split_once(char::is_whitespace).ok_or_else(|| {
-                err(
-                    lineno,
-                    "expected `SECONDS > HEX...` or `SECONDS < HEX...`".into(),
-                )
-            })?;
+            let (time_text, rest) = body
+                .split_once(char::is_whitespace)
+                .ok_or_else(|| err(lineno, "expected `SECONDS > HEX...` or `SECONDS < HEX...`".into()))?;
             let secs: f64 = time_text
                 .parse()
                 .map_err(|_| err(lineno, format!("`{time_text}` is not a time in seconds")))?;
             if !secs.is_finite() || secs < 0.0 {
-                return Err(err(
-                    lineno,
-                    format!("time {secs} must be a non-negative number of seconds"),
-                ));
+                return Err(err(lineno, format!("time {secs} must be a non-negative number of seconds")));
             }
             let time = Duration::from_secs_f64(secs);
             if time < last_time {
-                return Err(err(
-                    lineno,
-                    format!("time {secs} goes backwards (previous line was later)"),
-                ));
+                return Err(err(lineno, format!("time {secs} goes backwards (previous line was later)")));
             }
             last_time = time;
             let (direction, bytes) = parse_directed_hex(rest).map_err(|m| err(lineno, m))?;
-            trace.entries.push(TraceEntry {
-                time,
-                direction,
-                bytes,
-                line: lineno,
-            });
+            trace.entries.push(TraceEntry { time, direction, bytes, line: lineno });
         }
         Ok(trace)
     }
 
     /// Loads and parses a trace file.
     pub fn load(path: &Path) -> Result<Trace, TraceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io { path: path.to_path_buf(), source })?;
         Trace::parse(&text, &path.display().to_string())
     }
 
     /// The header text of a trace with these properties.
     pub fn header(device: &str, endpoint: &str, kind: LinkKind, unordered: &[Vec<u8>]) -> String {
-        let mut s = format!(
-            "# fringe-trace 1\n# device: {device}\n# endpoint: {endpoint}\n# kind: {}\n",
-            kind.name()
-        );
+        let mut s = format!("# fringe-trace 1\n# device: {device}\n# endpoint: {endpoint}\n# kind: {}\n", kind.name());
         for u in unordered {
             let _ = writeln!(s, "# unordered: > {}", hex(u));
         }
@@ -261,12 +226,7 @@ impl Trace {
 
     /// Formats one data line (without comment).
     pub fn data_line(time: Duration, direction: Direction, bytes: &[u8]) -> String {
-        format!(
-            "{:12.6} {} {}\n",
-            time.as_secs_f64(),
-            direction.symbol(),
-            hex(bytes)
-        )
+        format!("{:12.6} {} {}\n", time.as_secs_f64(), direction.symbol(), hex(bytes))
     }
 
     /// Serialises the trace back to text.
@@ -312,12 +272,7 @@ mod tests {
     fn round_trips_through_text() {
         let t = Trace::parse(SAMPLE, "sample").expect("parse");
         let again = Trace::parse(&t.to_text(), "again").expect("reparse");
-        let key = |t: &Trace| {
-            t.entries
-                .iter()
-                .map(|e| (e.time, e.direction, e.bytes.clone()))
-                .collect::<Vec<_>>()
-        };
+        let key = |t: &Trace| t.entries.iter().map(|e| (e.time, e.direction, e.bytes.clone())).collect::<Vec<_>>();
         assert_eq!(key(&t), key(&again));
         assert_eq!(t.unordered, again.unordered);
     }
@@ -326,15 +281,9 @@ mod tests {
     fn errors_name_the_line() {
         let bad = "# fringe-trace 1\n0.1 > 12 zz\n";
         let e = Trace::parse(bad, "bad.trace").expect_err("must fail");
-        assert_eq!(
-            e.to_string(),
-            "bad.trace line 2: `zz` is not a two-digit hex byte"
-        );
+        assert_eq!(e.to_string(), "bad.trace line 2: `zz` is not a two-digit hex byte");
         let back = "# fringe-trace 1\n0.2 > 12\n0.1 < 13\n";
-        assert!(Trace::parse(back, "b")
-            .expect_err("backwards")
-            .to_string()
-            .contains("line 3"));
+        assert!(Trace::parse(back, "b").expect_err("backwards").to_string().contains("line 3"));
         assert!(Trace::parse("hello\n", "h").is_err());
     }
 }

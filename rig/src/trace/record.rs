@@ -18,23 +18,14 @@ pub struct TraceWriter {
 
 impl TraceWriter {
     /// Creates `path` (and its directory) and writes the header.
-    pub fn create(
-        path: &Path,
-        device: &str,
-        endpoint: &str,
-        kind: LinkKind,
-    ) -> io::Result<TraceWriter> {
+    pub fn create(path: &Path, device: &str, endpoint: &str, kind: LinkKind) -> io::Result<TraceWriter> {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| annotate(e, path))?;
         }
         let file = File::create(path).map_err(|e| annotate(e, path))?;
         let mut out = LineWriter::new(file);
         out.write_all(Trace::header(device, endpoint, kind, &[]).as_bytes())?;
-        Ok(TraceWriter {
-            out,
-            start: Instant::now(),
-            path: path.to_path_buf(),
-        })
+        Ok(TraceWriter { out, start: Instant::now(), path: path.to_path_buf() })
     }
 
     /// Appends one data line stamped with the time since the trace started.
@@ -43,14 +34,8 @@ impl TraceWriter {
     }
 
     /// Appends one data line with an explicit time since the trace started.
-    pub fn append_at(
-        &mut self,
-        time: Duration,
-        direction: Direction,
-        bytes: &[u8],
-    ) -> io::Result<()> {
-        self.out
-            .write_all(Trace::data_line(time, direction, bytes).as_bytes())
+    pub fn append_at(&mut self, time: Duration, direction: Direction, bytes: &[u8]) -> io::Result<()> {
+        self.out.write_all(Trace::data_line(time, direction, bytes).as_bytes())
     }
 
     /// The file being written.
@@ -60,10 +45,7 @@ impl TraceWriter {
 }
 
 fn annotate(e: io::Error, path: &Path) -> io::Error {
-    io::Error::new(
-        e.kind(),
-        format!("cannot write trace {}: {e}", path.display()),
-    )
+    io::Error::new(e.kind(), format!("cannot write trace {}: {e}", path.display()))
 }
 
 /// A byte link that records both directions to a trace.
@@ -137,17 +119,9 @@ impl<L: DatagramLink> DatagramLink for RecordingDatagramLink<L> {
 }
 
 /// Wraps `link` in a recorder writing `DIR/<device>.trace` when `dir` is given.
-pub fn record_stream(
-    link: Box<dyn ByteLink>,
-    dir: Option<&Path>,
-    device: &str,
-) -> io::Result<Box<dyn ByteLink>> {
+pub fn record_stream(link: Box<dyn ByteLink>, dir: Option<&Path>, device: &str) -> io::Result<Box<dyn ByteLink>> {
     match dir {
-        Some(dir) => Ok(Box::new(RecordingLink::new(
-            link,
-            &dir.join(format!("{device}.trace")),
-            device,
-        )?)),
+        Some(dir) => Ok(Box::new(RecordingLink::new(link, &dir.join(format!("{device}.trace")), device)?)),
         None => Ok(link),
     }
 }
@@ -159,11 +133,7 @@ pub fn record_datagrams(
     device: &str,
 ) -> io::Result<Box<dyn DatagramLink>> {
     match dir {
-        Some(dir) => Ok(Box::new(RecordingDatagramLink::new(
-            link,
-            &dir.join(format!("{device}.trace")),
-            device,
-        )?)),
+        Some(dir) => Ok(Box::new(RecordingDatagramLink::new(link, &dir.join(format!("{device}.trace")), device)?)),
         None => Ok(link),
     }
 }

@@ -81,10 +81,7 @@ impl Core {
                         writes.push(i);
                     }
                 }
-                Direction::FromDevice => reads.push(ReadStep {
-                    entry: i,
-                    gate: writes.len().checked_sub(1),
-                }),
+                Direction::FromDevice => reads.push(ReadStep { entry: i, gate: writes.len().checked_sub(1) }),
             }
         }
         Core {
@@ -96,11 +93,7 @@ impl Core {
             read_cursor: 0,
             read_offset: 0,
             start: Instant::now(),
-            speed: if options.speed > 0.0 {
-                options.speed
-            } else {
-                1.0
-            },
+            speed: if options.speed > 0.0 { options.speed } else { 1.0 },
             unordered_sent: Vec::new(),
             error: None,
             trace,
@@ -128,11 +121,7 @@ impl Core {
                 }
             },
         };
-        Some(if due <= now {
-            Readiness::Ready
-        } else {
-            Readiness::At(due)
-        })
+        Some(if due <= now { Readiness::Ready } else { Readiness::At(due) })
     }
 
     fn fail(&mut self, message: String) -> io::Error {
@@ -237,11 +226,7 @@ fn lock(shared: &Shared) -> MutexGuard<'_, Core> {
 }
 
 /// Waits until something can be delivered or `deadline` passes, calling `take` each time.
-fn wait_for<T>(
-    shared: &Shared,
-    deadline: Instant,
-    mut take: impl FnMut(&mut Core, Instant) -> Option<T>,
-) -> Option<T> {
+fn wait_for<T>(shared: &Shared, deadline: Instant, mut take: impl FnMut(&mut Core, Instant) -> Option<T>) -> Option<T> {
     let mut core = lock(shared);
     loop {
         let now = Instant::now();
@@ -256,11 +241,7 @@ fn wait_for<T>(
             _ => deadline,
         };
         let wait = until.saturating_duration_since(now);
-        core = shared
-            .1
-            .wait_timeout(core, wait)
-            .map(|(g, _)| g)
-            .unwrap_or_else(|p| p.into_inner().0);
+        core = shared.1.wait_timeout(core, wait).map(|(g, _)| g).unwrap_or_else(|p| p.into_inner().0);
     }
 }
 
@@ -311,13 +292,7 @@ impl ReplayLink {
     pub fn new(trace: Trace, options: ReplayOptions) -> (ReplayLink, ReplayHandle) {
         let name = format!("replay of {}", trace.source);
         let shared: Shared = Arc::new((Mutex::new(Core::new(trace, options)), Condvar::new()));
-        (
-            ReplayLink {
-                shared: shared.clone(),
-                name,
-            },
-            ReplayHandle { shared },
-        )
+        (ReplayLink { shared: shared.clone(), name }, ReplayHandle { shared })
     }
 }
 
@@ -356,13 +331,7 @@ impl ReplayDatagramLink {
     pub fn new(trace: Trace, options: ReplayOptions) -> (ReplayDatagramLink, ReplayHandle) {
         let name = format!("replay of {}", trace.source);
         let shared: Shared = Arc::new((Mutex::new(Core::new(trace, options)), Condvar::new()));
-        (
-            ReplayDatagramLink {
-                shared: shared.clone(),
-                name,
-            },
-            ReplayHandle { shared },
-        )
+        (ReplayDatagramLink { shared: shared.clone(), name }, ReplayHandle { shared })
     }
 }
 
@@ -375,9 +344,7 @@ impl DatagramLink for ReplayDatagramLink {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         let deadline = Instant::now() + timeout;
-        Ok(wait_for(&self.shared, deadline, |core, now| {
-            core.take_datagram(buf, now)
-        }))
+        Ok(wait_for(&self.shared, deadline, |core, now| core.take_datagram(buf, now)))
     }
 
     fn describe(&self) -> String {
@@ -396,33 +363,21 @@ mod tests {
     const TEXT: &str = "# fringe-trace 1\n# kind: stream\n# unordered: > 92 04 00 00 50 01\n0.000 > 05 00 00 00 50 01\n0.010 < aa bb\n0.020 < cc\n0.030 > 11 00 00 00 50 01\n0.040 < dd\n";
 
     fn fast() -> ReplayOptions {
-        ReplayOptions {
-            speed: f64::INFINITY,
-        }
+        ReplayOptions { speed: f64::INFINITY }
     }
 
     #[test]
     fn replies_wait_for_the_request_that_caused_them() {
         let (mut link, handle) = ReplayLink::new(trace(TEXT), fast());
         let mut buf = [0u8; 8];
-        assert_eq!(
-            link.read(&mut buf, Duration::from_millis(20))
-                .expect("read"),
-            0,
-            "no reply before the request"
-        );
+        assert_eq!(link.read(&mut buf, Duration::from_millis(20)).expect("read"), 0, "no reply before the request");
         link.write_all(&[0x05, 0, 0, 0, 0x50, 0x01]).expect("write");
-        let n = link
-            .read(&mut buf, Duration::from_millis(20))
-            .expect("read");
+        let n = link.read(&mut buf, Duration::from_millis(20)).expect("read");
         assert_eq!(&buf[..n], &[0xaa, 0xbb, 0xcc]);
-        link.write_all(&[0x92, 0x04, 0, 0, 0x50, 0x01])
-            .expect("keep-alive anywhere");
+        link.write_all(&[0x92, 0x04, 0, 0, 0x50, 0x01]).expect("keep-alive anywhere");
         link.write_all(&[0x11, 0, 0]).expect("partial");
         link.write_all(&[0, 0x50, 0x01]).expect("rest");
-        let n = link
-            .read(&mut buf, Duration::from_millis(20))
-            .expect("read");
+        let n = link.read(&mut buf, Duration::from_millis(20)).expect("read");
         assert_eq!(&buf[..n], &[0xdd]);
         let report = handle.finish().expect("clean replay");
         assert_eq!(report.unread_replies, 0);
@@ -432,18 +387,10 @@ mod tests {
     #[test]
     fn a_wrong_byte_fails_with_a_diff_naming_the_line() {
         let (mut link, handle) = ReplayLink::new(trace(TEXT), fast());
-        let err = link
-            .write_all(&[0x05, 0, 0, 0, 0x51, 0x01])
-            .expect_err("mismatch");
+        let err = link.write_all(&[0x05, 0, 0, 0, 0x51, 0x01]).expect_err("mismatch");
         let text = err.to_string();
-        assert!(
-            text.contains("trace line 4 expects > 05 00 00 00 50 01"),
-            "{text}"
-        );
-        assert!(
-            text.contains("the driver sent         > 05 00 00 00 51 01"),
-            "{text}"
-        );
+        assert!(text.contains("trace line 4 expects > 05 00 00 00 50 01"), "{text}");
+        assert!(text.contains("the driver sent         > 05 00 00 00 51 01"), "{text}");
         assert!(text.contains("byte 4: expected 50, sent 51"), "{text}");
         assert!(handle.finish().is_err());
     }
@@ -453,21 +400,14 @@ mod tests {
         let (mut link, handle) = ReplayLink::new(trace(TEXT), fast());
         link.write_all(&[0x05, 0, 0, 0, 0x50, 0x01]).expect("write");
         let e = handle.finish().expect_err("second request missing");
-        assert!(
-            e.to_string().contains("never sent the message at line 7"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("never sent the message at line 7"), "{e}");
     }
 
     #[test]
     fn writes_past_the_end_fail() {
         let (mut link, _h) = ReplayLink::new(trace("# fringe-trace 1\n0.0 > 01\n"), fast());
         link.write_all(&[1]).expect("expected");
-        assert!(link
-            .write_all(&[2])
-            .expect_err("extra")
-            .to_string()
-            .contains("after the last message"));
+        assert!(link.write_all(&[2]).expect_err("extra").to_string().contains("after the last message"));
     }
 
     #[test]
@@ -477,22 +417,9 @@ mod tests {
         let mut buf = [0u8; 4];
         link.send(&[1, 2]).expect("send");
         let t0 = Instant::now();
-        assert_eq!(
-            link.recv(&mut buf, Duration::from_millis(10))
-                .expect("recv"),
-            None,
-            "reply is not due yet"
-        );
-        assert_eq!(
-            link.recv(&mut buf, Duration::from_millis(500))
-                .expect("recv"),
-            Some(1)
-        );
-        assert!(
-            t0.elapsed() >= Duration::from_millis(45),
-            "{:?}",
-            t0.elapsed()
-        );
+        assert_eq!(link.recv(&mut buf, Duration::from_millis(10)).expect("recv"), None, "reply is not due yet");
+        assert_eq!(link.recv(&mut buf, Duration::from_millis(500)).expect("recv"), Some(1));
+        assert!(t0.elapsed() >= Duration::from_millis(45), "{:?}", t0.elapsed());
         assert!(handle.finish().is_ok());
     }
 

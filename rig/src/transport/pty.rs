@@ -39,19 +39,12 @@ impl PtyDevice {
             return Err(io::Error::last_os_error());
         }
         // SAFETY: openpty succeeded, so both fds are open and owned by us from here on.
-        let (master, slave) =
-            unsafe { (OwnedFd::from_raw_fd(master), OwnedFd::from_raw_fd(slave)) };
+        let (master, slave) = unsafe { (OwnedFd::from_raw_fd(master), OwnedFd::from_raw_fd(slave)) };
         // SAFETY: `name` was NUL-terminated by openpty.
-        let slave_path = unsafe { CStr::from_ptr(name.as_ptr()) }
-            .to_string_lossy()
-            .into_owned();
+        let slave_path = unsafe { CStr::from_ptr(name.as_ptr()) }.to_string_lossy().into_owned();
         make_raw(slave.as_raw_fd())?;
         make_raw(master.as_raw_fd())?;
-        Ok(PtyDevice {
-            master,
-            _slave: slave,
-            slave_path,
-        })
+        Ok(PtyDevice { master, _slave: slave, slave_path })
     }
 
     /// The path a client opens (`/dev/pts/N`).
@@ -80,11 +73,7 @@ impl ByteLink for PtyDevice {
         while !bytes.is_empty() {
             // SAFETY: writing from a live slice to an fd we own.
             let n = unsafe {
-                libc::write(
-                    self.master.as_raw_fd(),
-                    bytes.as_ptr() as *const libc::c_void,
-                    bytes.len(),
-                )
+                libc::write(self.master.as_raw_fd(), bytes.as_ptr() as *const libc::c_void, bytes.len())
             };
             if n < 0 {
                 let e = io::Error::last_os_error();
@@ -99,38 +88,22 @@ impl ByteLink for PtyDevice {
     }
 
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        let mut pfd = libc::pollfd {
-            fd: self.master.as_raw_fd(),
-            events: libc::POLLIN,
-            revents: 0,
-        };
+        let mut pfd = libc::pollfd { fd: self.master.as_raw_fd(), events: libc::POLLIN, revents: 0 };
         let ms = timeout.as_millis().min(i32::MAX as u128) as libc::c_int;
         // SAFETY: one valid pollfd.
         let rc = unsafe { libc::poll(&mut pfd, 1, ms) };
         if rc < 0 {
             let e = io::Error::last_os_error();
-            return if e.kind() == io::ErrorKind::Interrupted {
-                Ok(0)
-            } else {
-                Err(e)
-            };
+            return if e.kind() == io::ErrorKind::Interrupted { Ok(0) } else { Err(e) };
         }
         if rc == 0 {
             return Ok(0);
         }
         // SAFETY: reading into a live mutable slice from an fd we own.
-        let n = unsafe {
-            libc::read(
-                self.master.as_raw_fd(),
-                buf.as_mut_ptr() as *mut libc::c_void,
-                buf.len(),
-            )
-        };
+        let n = unsafe { libc::read(self.master.as_raw_fd(), buf.as_mut_ptr() as *mut libc::c_void, buf.len()) };
         if n < 0 {
             let e = io::Error::last_os_error();
-            return if e.kind() == io::ErrorKind::WouldBlock
-                || e.kind() == io::ErrorKind::Interrupted
-            {
+            return if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::Interrupted {
                 Ok(0)
             } else {
                 Err(e)
@@ -160,10 +133,8 @@ mod tests {
     #[test]
     fn serial_port_on_a_pty_round_trips_bytes() {
         let mut dev = PtyDevice::open().expect("openpty");
-        let mut port = SerialLink::open(dev.slave_path(), &SerialSettings::plain(115_200))
-            .expect("open slave");
-        port.write_all(&[0x23, 0x02, 0x01, 0x00, 0x50, 0x01])
-            .expect("write");
+        let mut port = SerialLink::open(dev.slave_path(), &SerialSettings::plain(115_200)).expect("open slave");
+        port.write_all(&[0x23, 0x02, 0x01, 0x00, 0x50, 0x01]).expect("write");
         let mut buf = [0u8; 16];
         let mut got = Vec::new();
         for _ in 0..20 {
@@ -175,9 +146,7 @@ mod tests {
         }
         assert_eq!(got, [0x23, 0x02, 0x01, 0x00, 0x50, 0x01]);
         dev.write_all(&[1, 2, 3]).expect("reply");
-        let n = port
-            .read(&mut buf, Duration::from_millis(500))
-            .expect("read back");
+        let n = port.read(&mut buf, Duration::from_millis(500)).expect("read back");
         assert_eq!(&buf[..n], &[1, 2, 3]);
     }
 }

@@ -26,12 +26,7 @@ pub struct SerialSettings {
 impl SerialSettings {
     /// 8N1 at `baud`, no flow control.
     pub fn plain(baud: u32) -> Self {
-        SerialSettings {
-            baud,
-            parity: Parity::None,
-            stop_bits: 1,
-            rts_cts: false,
-        }
+        SerialSettings { baud, parity: Parity::None, stop_bits: 1, rts_cts: false }
     }
 }
 
@@ -70,17 +65,12 @@ impl SerialLink {
                 ),
             )
         })?;
-        Ok(SerialLink {
-            port,
-            path: path.to_string(),
-        })
+        Ok(SerialLink { port, path: path.to_string() })
     }
 
     /// Sets the RTS line (used by the Thorlabs open sequence).
     pub fn set_rts(&mut self, level: bool) -> io::Result<()> {
-        self.port
-            .write_request_to_send(level)
-            .map_err(io::Error::from)
+        self.port.write_request_to_send(level).map_err(io::Error::from)
     }
 
     /// The path this port was opened with.
@@ -96,24 +86,16 @@ impl ByteLink for SerialLink {
     }
 
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        self.port
-            .set_timeout(timeout.max(Duration::from_millis(1)))
-            .map_err(io::Error::from)?;
+        self.port.set_timeout(timeout.max(Duration::from_millis(1))).map_err(io::Error::from)?;
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e)
-                if e.kind() == io::ErrorKind::TimedOut || e.kind() == io::ErrorKind::WouldBlock =>
-            {
-                Ok(0)
-            }
+            Err(e) if e.kind() == io::ErrorKind::TimedOut || e.kind() == io::ErrorKind::WouldBlock => Ok(0),
             Err(e) => Err(e),
         }
     }
 
     fn purge(&mut self) -> io::Result<()> {
-        self.port
-            .clear(serialport::ClearBuffer::All)
-            .map_err(io::Error::from)
+        self.port.clear(serialport::ClearBuffer::All).map_err(io::Error::from)
     }
 
     fn describe(&self) -> String {
@@ -150,12 +132,7 @@ pub fn list_ports() -> io::Result<Vec<PortInfo>> {
                 serial_number: u.serial_number,
                 product: u.product,
             },
-            _ => PortInfo {
-                path: p.port_name,
-                usb: None,
-                serial_number: None,
-                product: None,
-            },
+            _ => PortInfo { path: p.port_name, usb: None, serial_number: None, product: None },
         })
         .collect())
 }

@@ -16,22 +16,14 @@ impl TcpLink {
     pub fn connect(addr: &str, timeout: Duration) -> io::Result<TcpLink> {
         let addrs: Vec<_> = addr
             .to_socket_addrs()
-            .map_err(|e| {
-                io::Error::new(
-                    e.kind(),
-                    format!("cannot resolve {addr}: {e} (expected HOST:PORT)"),
-                )
-            })?
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot resolve {addr}: {e} (expected HOST:PORT)")))?
             .collect();
         let mut last = None;
         for a in addrs {
             match TcpStream::connect_timeout(&a, timeout) {
                 Ok(stream) => {
                     stream.set_nodelay(true)?;
-                    return Ok(TcpLink {
-                        stream,
-                        peer: addr.to_string(),
-                    });
+                    return Ok(TcpLink { stream, peer: addr.to_string() });
                 }
                 Err(e) => last = Some(e),
             }
@@ -45,10 +37,7 @@ impl TcpLink {
 
     /// Wraps an accepted or connected stream.
     pub fn from_stream(stream: TcpStream) -> io::Result<TcpLink> {
-        let peer = stream
-            .peer_addr()
-            .map(|a| a.to_string())
-            .unwrap_or_else(|_| "?".into());
+        let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_else(|_| "?".into());
         stream.set_nodelay(true)?;
         Ok(TcpLink { stream, peer })
     }
@@ -60,19 +49,14 @@ impl ByteLink for TcpLink {
     }
 
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        self.stream
-            .set_read_timeout(Some(timeout.max(Duration::from_millis(1))))?;
+        self.stream.set_read_timeout(Some(timeout.max(Duration::from_millis(1))))?;
         match self.stream.read(buf) {
             Ok(0) => Err(io::Error::new(
                 io::ErrorKind::ConnectionAborted,
                 format!("tcp {} closed the connection", self.peer),
             )),
             Ok(n) => Ok(n),
-            Err(e)
-                if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::TimedOut =>
-            {
-                Ok(0)
-            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::TimedOut => Ok(0),
             Err(e) => Err(e),
         }
     }

@@ -16,24 +16,10 @@ impl UdpLink {
     pub fn connect(addr: &str) -> io::Result<UdpLink> {
         let peer = addr
             .to_socket_addrs()
-            .map_err(|e| {
-                io::Error::new(
-                    e.kind(),
-                    format!("cannot resolve {addr}: {e} (expected HOST:PORT)"),
-                )
-            })?
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot resolve {addr}: {e} (expected HOST:PORT)")))?
             .next()
-            .ok_or_else(|| {
-                io::Error::new(
-                    io::ErrorKind::NotFound,
-                    format!("{addr} resolves to no address"),
-                )
-            })?;
-        let local = if peer.is_ipv4() {
-            "0.0.0.0:0"
-        } else {
-            "[::]:0"
-        };
+            .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{addr} resolves to no address")))?;
+        let local = if peer.is_ipv4() { "0.0.0.0:0" } else { "[::]:0" };
         let socket = UdpSocket::bind(local)?;
         socket.connect(peer)?;
         set_receive_buffer(&socket, 4 << 20);
@@ -70,15 +56,10 @@ impl DatagramLink for UdpLink {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
-        self.socket
-            .set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
+        self.socket.set_read_timeout(Some(timeout.max(Duration::from_micros(100))))?;
         match self.socket.recv(buf) {
             Ok(n) => Ok(Some(n)),
-            Err(e)
-                if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::TimedOut =>
-            {
-                Ok(None)
-            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::TimedOut => Ok(None),
             // A previous datagram hit a closed port (ICMP unreachable): report as nothing received.
             Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => Ok(None),
             Err(e) => Err(e),
