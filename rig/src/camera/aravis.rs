@@ -93,7 +93,9 @@ fn close(a: f64, b: f64) -> bool {
 
 impl AravisCamera {
     /// Opens the camera with Aravis id `id` (as listed by [`list_cameras`] or `fringe devices`,
-    /// e.g. "Basler-12345678" or an IP address), or the first camera found when `None`.
+    /// e.g. "Basler-acA1440-220uc-12345678") or, for GigE Vision, its IP address; the first camera
+    /// found when `None`. Opening a GigE camera by address makes Aravis stream over the route to
+    /// that address (needed for the loopback fake camera when other interfaces exist).
     pub fn open(id: Option<&str>) -> Result<AravisCamera, CameraError> {
         let _ = aravis();
         let name = id.unwrap_or("(first camera)").to_string();
@@ -111,9 +113,18 @@ impl AravisCamera {
             id: text(camera.device_id()),
             tick_frequency: 1_000_000_000,
         };
-        if info.id.is_empty() {
-            info.id = name;
-        }
+        // Name the camera by its Aravis id even when opened by address or as "first".
+        let listed = list_cameras().unwrap_or_default();
+        let found = match id {
+            Some(id) => listed.iter().find(|d| d.id == id || d.address == id),
+            None => listed.first(),
+        };
+        info.id = match (found, id) {
+            (Some(d), _) => d.id.clone(),
+            (None, Some(id)) => id.to_string(),
+            (None, None) if !info.id.is_empty() => info.id.clone(),
+            (None, None) => name,
+        };
         let mut cam = AravisCamera {
             camera,
             stream: None,
