@@ -1,4 +1,5 @@
 //! One module per `fringe` subcommand. Each parses its arguments with clap and calls into the
 //! engine crates; none holds device or protocol logic of its own.
 
+pub mod camera;
 pub mod devices;

@@ -27,6 +27,8 @@ pub struct Global {
 enum Command {
     /// List serial ports (Thorlabs controllers marked) and cameras.
     Devices(cmd::devices::DevicesArgs),
+    /// Grab frames from a camera (Aravis) or a recorded camera trace.
+    Camera(cmd::camera::CameraArgs),
 }
 
 fn main() -> ExitCode {
@@ -34,6 +36,7 @@ fn main() -> ExitCode {
     let global = Global { record_trace: cli.record_trace };
     let result = match cli.command {
         Command::Devices(args) => cmd::devices::run(args, &global),
+        Command::Camera(args) => cmd::camera::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

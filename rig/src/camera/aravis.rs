@@ -71,6 +71,30 @@ pub struct AravisCamera {
     latch_tick_frequency: u64,
     applied: Option<CameraSettings>,
     incomplete_buffers: u64,
+    /// GigE Vision 1.x block ids are 16 bit and wrap from 65535 to 1: these extend them.
+    gv_ids: Option<GvIdUnwrap>,
+}
+
+/// Extends wrapping 16-bit GigE Vision block ids (1..=65535) to a monotonic u64.
+#[derive(Debug, Clone, Copy, Default)]
+struct GvIdUnwrap {
+    last_raw: Option<u64>,
+    wraps: u64,
+}
+
+impl GvIdUnwrap {
+    fn extend(&mut self, raw: u64) -> u64 {
+        if raw > 0xFFFF {
+            return raw; // extended (64-bit) ids: nothing to do
+        }
+        if let Some(last) = self.last_raw {
+            if raw < last && last - raw > 0x8000 {
+                self.wraps += 1;
+            }
+        }
+        self.last_raw = Some(raw);
+        self.wraps * 0xFFFF + raw
+    }
 }
 
 fn to_aravis_format(f: PixelFormat) -> ::aravis::PixelFormat {
@@ -132,7 +156,11 @@ impl AravisCamera {
             latch_tick_frequency: 1_000_000_000,
             applied: None,
             incomplete_buffers: 0,
+            gv_ids: None,
         };
+        if cam.camera.is_gv_device() {
+            cam.gv_ids = Some(GvIdUnwrap::default());
+        }
         if cam.available("GevTimestampTickFrequency") {
             let f = cam
                 .camera
@@ -347,7 +375,11 @@ impl AravisCamera {
                 });
             };
             let mut data = buffer.image_data();
-            let id = buffer.frame_id();
+            let raw_id = buffer.frame_id();
+            let id = match &mut self.gv_ids {
+                Some(u) => u.extend(raw_id),
+                None => raw_id,
+            };
             let device_timestamp = buffer.timestamp();
             stream.push_buffer(buffer);
             let expected = width as usize * height as usize * format.bytes_per_pixel();
@@ -566,6 +598,25 @@ impl Camera for AravisCamera {
             device_ticks: ns as u64,
             host_after,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GvIdUnwrap;
+
+    #[test]
+    fn gige_block_ids_are_extended_across_the_wrap() {
+        let mut u = GvIdUnwrap::default();
+        let ids: Vec<u64> = [65533, 65535, 1, 3]
+            .into_iter()
+            .map(|r| u.extend(r))
+            .collect();
+        assert_eq!(ids, vec![65533, 65535, 65536, 65538]);
+        // A gap across the wrap stays visible: 65535 -> 1 is consecutive, 65534 -> 2 misses two.
+        let mut u = GvIdUnwrap::default();
+        assert_eq!(u.extend(65534), 65534);
+        assert_eq!(u.extend(2), 65537);
     }
 }
 
