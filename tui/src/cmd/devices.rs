@@ -18,21 +18,9 @@ pub fn run(_args: DevicesArgs, _global: &Global) -> anyhow::Result<()> {
             Some((vid, pid)) => format!(" usb {vid:04x}:{pid:04x}"),
             None => String::new(),
         };
-        let serial = p
-            .serial_number
-            .as_deref()
-            .map(|s| format!(" serial {s}"))
-            .unwrap_or_default();
-        let product = p
-            .product
-            .as_deref()
-            .map(|s| format!(" \"{s}\""))
-            .unwrap_or_default();
-        let mark = if p.is_thorlabs() {
-            "  [Thorlabs APT controller]"
-        } else {
-            ""
-        };
+        let serial = p.serial_number.as_deref().map(|s| format!(" serial {s}")).unwrap_or_default();
+        let product = p.product.as_deref().map(|s| format!(" \"{s}\"")).unwrap_or_default();
+        let mark = if p.is_thorlabs() { "  [Thorlabs APT controller]" } else { "" };
         println!("  {}{usb}{serial}{product}{mark}", p.path);
     }
     list_cameras()
