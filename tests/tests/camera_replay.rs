@@ -4,9 +4,12 @@
 //! The committed trace was written by `generate_committed_camera_trace` (ignored; run it with
 //! `cargo test -p fringe-tests --test camera_replay -- --ignored` to regenerate).
 
-use fringe_rig::camera::trace::{CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace};
+use fringe_rig::camera::trace::{
+    CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
+};
 use fringe_rig::camera::{
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch, TriggerMode,
+    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch,
+    TriggerMode,
 };
 use fringe_rig::clock::HostTime;
 use std::path::{Path, PathBuf};
@@ -66,13 +69,20 @@ fn generate_committed_camera_trace() {
     for f in expected_frames() {
         w.frame(&f).expect("frame");
     }
-    w.latch(&TimestampLatch { host_before: HostTime(150_000_000), device_ticks: 1_147_000_000, host_after: HostTime(150_080_000) })
-        .expect("latch");
+    w.latch(&TimestampLatch {
+        host_before: HostTime(150_000_000),
+        device_ticks: 1_147_000_000,
+        host_after: HostTime(150_080_000),
+    })
+    .expect("latch");
 }
 
 fn drain(cam: &mut dyn Camera) -> Vec<Frame> {
     let mut out = Vec::new();
-    while let Some(f) = cam.next_frame(Duration::from_millis(500)).expect("next frame") {
+    while let Some(f) = cam
+        .next_frame(Duration::from_millis(500))
+        .expect("next frame")
+    {
         out.push(f);
     }
     out
@@ -83,45 +93,85 @@ fn committed_camera_trace_replays_ids_timestamps_gaps_and_pixels() {
     let trace = CameraTrace::load(&committed_dir()).expect("load committed trace");
     assert_eq!(trace.info, info());
     assert_eq!(trace.configured.len(), 1);
-    assert!(trace.configured[0].contains("mono8"), "{:?}", trace.configured);
+    assert!(
+        trace.configured[0].contains("mono8"),
+        "{:?}",
+        trace.configured
+    );
     let expected = expected_frames();
     // Host arrival offsets are kept to the nanosecond.
-    let offsets: Vec<u64> = trace.frames.iter().map(|f| f.host_offset.as_nanos() as u64).collect();
-    assert_eq!(offsets, expected.iter().map(|f| f.host_arrival.nanos()).collect::<Vec<_>>());
+    let offsets: Vec<u64> = trace
+        .frames
+        .iter()
+        .map(|f| f.host_offset.as_nanos() as u64)
+        .collect();
+    assert_eq!(
+        offsets,
+        expected
+            .iter()
+            .map(|f| f.host_arrival.nanos())
+            .collect::<Vec<_>>()
+    );
 
     let mut cam = ReplayCamera::new(trace, ReplayPace::AsFastAsPossible);
-    cam.configure(&CameraSettings::default()).expect("configure");
+    cam.configure(&CameraSettings::default())
+        .expect("configure");
     cam.start().expect("start");
     let frames = drain(&mut cam);
     assert_eq!(frames.len(), expected.len());
     for (got, want) in frames.iter().zip(&expected) {
-        assert_eq!((got.id, got.device_timestamp), (want.id, want.device_timestamp));
-        assert_eq!((got.width, got.height, got.format), (W, H, PixelFormat::Mono8));
+        assert_eq!(
+            (got.id, got.device_timestamp),
+            (want.id, want.device_timestamp)
+        );
+        assert_eq!(
+            (got.width, got.height, got.format),
+            (W, H, PixelFormat::Mono8)
+        );
         assert_eq!(got.data, want.data, "pixels of frame {}", want.id);
     }
     // The dropped frame is visible as a gap in the ids, and in the device timestamps.
     let gaps: Vec<u64> = frames.windows(2).map(|w| w[1].id - w[0].id).collect();
     assert_eq!(gaps, vec![1, 1, 2, 1]);
-    assert_eq!(frames[3].device_timestamp - frames[2].device_timestamp, 2 * PERIOD_NS);
+    assert_eq!(
+        frames[3].device_timestamp - frames[2].device_timestamp,
+        2 * PERIOD_NS
+    );
 
     let latch = cam.latch_timestamp().expect("recorded latch");
     assert_eq!(latch.device_ticks, 1_147_000_000);
-    assert_eq!(latch.host_after.since(latch.host_before), Duration::from_micros(80));
-    assert!(cam.latch_timestamp().is_err(), "only one latch was recorded");
+    assert_eq!(
+        latch.host_after.since(latch.host_before),
+        Duration::from_micros(80)
+    );
+    assert!(
+        cam.latch_timestamp().is_err(),
+        "only one latch was recorded"
+    );
 }
 
 #[test]
 fn paced_replay_keeps_the_recorded_arrival_times() {
     let mut cam = ReplayCamera::open(&committed_dir(), ReplayPace::Recorded).expect("open");
-    cam.configure(&CameraSettings::default()).expect("configure");
+    cam.configure(&CameraSettings::default())
+        .expect("configure");
     let t0 = Instant::now();
     cam.start().expect("start");
     let frames = drain(&mut cam);
     let elapsed = t0.elapsed();
-    let last = expected_frames().last().map(|f| f.host_arrival.nanos()).unwrap_or(0);
+    let last = expected_frames()
+        .last()
+        .map(|f| f.host_arrival.nanos())
+        .unwrap_or(0);
     assert_eq!(frames.len(), IDS.len());
-    assert!(elapsed >= Duration::from_nanos(last), "replayed in {elapsed:?}, recorded over {last} ns");
-    assert!(elapsed < Duration::from_nanos(last) + Duration::from_millis(500), "{elapsed:?}");
+    assert!(
+        elapsed >= Duration::from_nanos(last),
+        "replayed in {elapsed:?}, recorded over {last} ns"
+    );
+    assert!(
+        elapsed < Duration::from_nanos(last) + Duration::from_millis(500),
+        "{elapsed:?}"
+    );
     // Arrival spacing follows the recording (2 periods across the dropped frame).
     let spacing = frames[3].host_arrival.since(frames[2].host_arrival);
     assert!(spacing >= Duration::from_millis(35), "{spacing:?}");
@@ -134,10 +184,21 @@ fn replay_in_software_trigger_mode_gives_one_frame_per_trigger() {
     s.trigger = TriggerMode::Software;
     cam.configure(&s).expect("configure");
     cam.start().expect("start");
-    assert!(cam.next_frame(Duration::from_millis(20)).expect("wait").is_none());
+    assert!(cam
+        .next_frame(Duration::from_millis(20))
+        .expect("wait")
+        .is_none());
     cam.trigger().expect("trigger");
-    assert_eq!(cam.next_frame(Duration::from_millis(20)).expect("frame").map(|f| f.id), Some(1));
-    assert!(cam.next_frame(Duration::from_millis(20)).expect("wait").is_none());
+    assert_eq!(
+        cam.next_frame(Duration::from_millis(20))
+            .expect("frame")
+            .map(|f| f.id),
+        Some(1)
+    );
+    assert!(cam
+        .next_frame(Duration::from_millis(20))
+        .expect("wait")
+        .is_none());
 }
 
 /// A camera delivering given frames, for recording.
@@ -173,7 +234,11 @@ impl Camera for ScriptedCamera {
     fn latch_timestamp(&mut self) -> Result<TimestampLatch, CameraError> {
         self.ticks += 1_000;
         let host_before = HostTime::now();
-        Ok(TimestampLatch { host_before, device_ticks: self.ticks, host_after: HostTime::now() })
+        Ok(TimestampLatch {
+            host_before,
+            device_ticks: self.ticks,
+            host_after: HostTime::now(),
+        })
     }
 }
 
@@ -186,9 +251,13 @@ fn recording_camera_round_trip_replays_what_was_delivered() {
     originals[1].format = PixelFormat::Rgb8;
     originals[1].data = (0..W * H * 3).map(|i| (i * 7 % 256) as u8).collect();
     originals[2].format = PixelFormat::BayerRg8;
-    let scripted = ScriptedCamera { frames: originals.clone().into_iter(), ticks: 0 };
+    let scripted = ScriptedCamera {
+        frames: originals.clone().into_iter(),
+        ticks: 0,
+    };
     let mut rec = RecordingCamera::new(scripted, &dir, "camera").expect("recorder");
-    rec.configure(&CameraSettings::default()).expect("configure");
+    rec.configure(&CameraSettings::default())
+        .expect("configure");
     rec.start().expect("start");
     let delivered = drain(&mut rec);
     let latch = rec.latch_timestamp().expect("latch");
@@ -199,19 +268,41 @@ fn recording_camera_round_trip_replays_what_was_delivered() {
     assert_eq!(trace.info, info());
     // Host arrival differences survive to the nanosecond.
     for (pair, rec_pair) in delivered.windows(2).zip(trace.frames.windows(2)) {
-        assert_eq!(pair[1].host_arrival.since(pair[0].host_arrival), rec_pair[1].host_offset - rec_pair[0].host_offset);
+        assert_eq!(
+            pair[1].host_arrival.since(pair[0].host_arrival),
+            rec_pair[1].host_offset - rec_pair[0].host_offset
+        );
     }
     let mut replay = ReplayCamera::new(trace, ReplayPace::AsFastAsPossible);
-    replay.configure(&CameraSettings::default()).expect("configure");
+    replay
+        .configure(&CameraSettings::default())
+        .expect("configure");
     replay.start().expect("start");
     let replayed = drain(&mut replay);
     assert_eq!(replayed.len(), delivered.len());
     for (r, d) in replayed.iter().zip(&delivered) {
         assert_eq!(
-            (r.id, r.device_timestamp, r.width, r.height, r.format, &r.data),
-            (d.id, d.device_timestamp, d.width, d.height, d.format, &d.data)
+            (
+                r.id,
+                r.device_timestamp,
+                r.width,
+                r.height,
+                r.format,
+                &r.data
+            ),
+            (
+                d.id,
+                d.device_timestamp,
+                d.width,
+                d.height,
+                d.format,
+                &d.data
+            )
         );
     }
-    assert_eq!(replay.latch_timestamp().expect("latch").device_ticks, latch.device_ticks);
+    assert_eq!(
+        replay.latch_timestamp().expect("latch").device_ticks,
+        latch.device_ticks
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
