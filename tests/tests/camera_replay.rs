@@ -63,8 +63,10 @@ fn info() -> CameraInfo {
 fn generate_committed_camera_trace() {
     let dir = committed_dir();
     let mut w = CameraTraceWriter::create(&dir, "camera", &info(), HostTime(0)).expect("create");
-    let mut s = CameraSettings::default();
-    s.pixel_format = PixelFormat::Mono8;
+    let s = CameraSettings {
+        pixel_format: PixelFormat::Mono8,
+        ..Default::default()
+    };
     w.configured(&s).expect("configured");
     for f in expected_frames() {
         w.frame(&f).expect("frame");
@@ -180,8 +182,10 @@ fn paced_replay_keeps_the_recorded_arrival_times() {
 #[test]
 fn replay_in_software_trigger_mode_gives_one_frame_per_trigger() {
     let mut cam = ReplayCamera::open(&committed_dir(), ReplayPace::AsFastAsPossible).expect("open");
-    let mut s = CameraSettings::default();
-    s.trigger = TriggerMode::Software;
+    let s = CameraSettings {
+        trigger: TriggerMode::Software,
+        ..Default::default()
+    };
     cam.configure(&s).expect("configure");
     cam.start().expect("start");
     assert!(cam

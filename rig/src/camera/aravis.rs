@@ -601,6 +601,14 @@ impl Camera for AravisCamera {
     }
 }
 
+impl Drop for AravisCamera {
+    fn drop(&mut self) {
+        if self.stream.take().is_some() {
+            let _ = self.camera.stop_acquisition();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::GvIdUnwrap;
@@ -617,13 +625,5 @@ mod tests {
         let mut u = GvIdUnwrap::default();
         assert_eq!(u.extend(65534), 65534);
         assert_eq!(u.extend(2), 65537);
-    }
-}
-
-impl Drop for AravisCamera {
-    fn drop(&mut self) {
-        if self.stream.take().is_some() {
-            let _ = self.camera.stop_acquisition();
-        }
     }
 }
