@@ -1,6 +1,11 @@
 //! The camera abstraction shared by the Aravis backend, recorded camera traces and the
 //! simulated camera.
 
+#[cfg(feature = "aravis")]
+pub mod aravis;
+pub mod trace;
+pub mod writer;
+
 use crate::clock::HostTime;
 use crate::units::{Decibels, Hertz, Microseconds};
 use std::time::Duration;

@@ -33,6 +33,8 @@ enum Command {
     Ystage(cmd::ystage::YstageArgs),
     /// Drive one Thorlabs stepper axis (KST101/KST201/BSC20x): home, status, move, stop.
     Axis(cmd::axis::AxisArgs),
+    /// Grab frames from a camera (Aravis) or a recorded camera trace.
+    Camera(cmd::camera::CameraArgs),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Some(Command::Ft(args)) => cmd::ft::run(args, &global),
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
         Some(Command::Axis(args)) => cmd::axis::run(args, &global),
+        Some(Command::Camera(args)) => cmd::camera::run(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

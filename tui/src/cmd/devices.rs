@@ -35,5 +35,28 @@ pub fn run(_args: DevicesArgs, _global: &Global) -> anyhow::Result<()> {
         };
         println!("  {}{usb}{serial}{product}{mark}", p.path);
     }
+    list_cameras()
+}
+
+#[cfg(feature = "aravis")]
+fn list_cameras() -> anyhow::Result<()> {
+    let cameras =
+        fringe_rig::camera::aravis::list_cameras().context("cannot list Aravis cameras")?;
+    println!("cameras (Aravis):");
+    if cameras.is_empty() {
+        println!("  (none found)");
+    }
+    for c in &cameras {
+        println!(
+            "  {}  {} {}  {} {}",
+            c.id, c.vendor, c.model, c.protocol, c.address
+        );
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "aravis"))]
+fn list_cameras() -> anyhow::Result<()> {
+    println!("cameras: not listed (built without Aravis; rebuild with --features aravis)");
     Ok(())
 }

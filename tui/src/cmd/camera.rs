@@ -1,0 +1,226 @@
+//! `fringe camera`: grab frames from a GenICam camera (Aravis) or a recorded camera trace.
+
+use crate::Global;
+use anyhow::{bail, Context};
+use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
+use fringe_rig::camera::writer::FrameWriter;
+use fringe_rig::camera::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
+use fringe_rig::units::{Decibels, Hertz, Microseconds};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["aravis", "replay"])))]
+pub struct CameraArgs {
+    /// Aravis camera id or GigE address (see `fringe devices`); needs `--features aravis`.
+    #[arg(long, value_name = "ID")]
+    aravis: Option<String>,
+
+    /// A recorded camera trace directory, played as fast as possible.
+    #[arg(long, value_name = "TRACE_DIR")]
+    replay: Option<PathBuf>,
+
+    #[command(subcommand)]
+    action: CameraAction,
+}
+
+#[derive(clap::Subcommand)]
+enum CameraAction {
+    /// Grab frames: lossless PNGs and frames.csv (seq, id, device timestamp, host arrival) in DIR.
+    Grab(GrabArgs),
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum TriggerArg {
+    FreeRun,
+    Software,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FormatArg {
+    Mono8,
+    Rgb8,
+    Bayerrg8,
+}
+
+#[derive(clap::Args)]
+struct GrabArgs {
+    /// Number of frames.
+    #[arg(long, default_value_t = 10)]
+    count: u64,
+    /// Output directory (created if needed).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// free-run (at --frame-rate) or software (one trigger per frame).
+    #[arg(long, value_enum, default_value = "free-run")]
+    trigger: TriggerArg,
+    /// Exposure in microseconds.
+    #[arg(long, default_value_t = 2000.0)]
+    exposure_us: f64,
+    /// Gain in dB.
+    #[arg(long, default_value_t = 0.0)]
+    gain_db: f64,
+    /// Frame rate in Hz.
+    #[arg(long, default_value_t = 50.0)]
+    frame_rate: f64,
+    /// Pixel format.
+    #[arg(long, value_enum, default_value = "rgb8")]
+    pixel_format: FormatArg,
+    /// Region of interest X,Y,WIDTH,HEIGHT (default: full sensor).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_roi)]
+    roi: Option<Roi>,
+    /// Give up when no frame arrives for this many milliseconds.
+    #[arg(long, default_value_t = 2000)]
+    timeout_ms: u64,
+}
+
+fn parse_roi(text: &str) -> Result<Roi, String> {
+    let v: Vec<u32> = text
+        .split(',')
+        .map(|p| p.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("bad ROI {text:?}: expected X,Y,WIDTH,HEIGHT in pixels"))?;
+    match v[..] {
+        [x, y, width, height] if width > 0 && height > 0 => Ok(Roi {
+            x,
+            y,
+            width,
+            height,
+        }),
+        _ => Err(format!(
+            "bad ROI {text:?}: expected X,Y,WIDTH,HEIGHT with WIDTH and HEIGHT > 0"
+        )),
+    }
+}
+
+#[cfg(feature = "aravis")]
+fn open_aravis(id: &str) -> anyhow::Result<Box<dyn Camera>> {
+    let cam = fringe_rig::camera::aravis::AravisCamera::open(Some(id))?;
+    Ok(Box::new(cam))
+}
+
+#[cfg(not(feature = "aravis"))]
+fn open_aravis(_id: &str) -> anyhow::Result<Box<dyn Camera>> {
+    bail!(
+        "this fringe was built without Aravis camera support: rebuild with `cargo build --release --features aravis` \
+         (needs `sudo apt install libaravis-dev libusb-1.0-0-dev`)"
+    )
+}
+
+/// Boxed cameras are cameras, so a recorder can wrap whichever source was opened.
+struct Boxed(Box<dyn Camera>);
+
+impl Camera for Boxed {
+    fn info(&self) -> fringe_rig::camera::CameraInfo {
+        self.0.info()
+    }
+    fn configure(&mut self, s: &CameraSettings) -> Result<(), fringe_rig::camera::CameraError> {
+        self.0.configure(s)
+    }
+    fn start(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.0.start()
+    }
+    fn trigger(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.0.trigger()
+    }
+    fn next_frame(
+        &mut self,
+        timeout: Duration,
+    ) -> Result<Option<fringe_rig::camera::Frame>, fringe_rig::camera::CameraError> {
+        self.0.next_frame(timeout)
+    }
+    fn stop(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.0.stop()
+    }
+    fn latch_timestamp(
+        &mut self,
+    ) -> Result<fringe_rig::camera::TimestampLatch, fringe_rig::camera::CameraError> {
+        self.0.latch_timestamp()
+    }
+}
+
+pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
+    let source: Box<dyn Camera> = match (&args.aravis, &args.replay) {
+        (Some(id), _) => open_aravis(id)?,
+        (None, Some(dir)) => Box::new(
+            ReplayCamera::open(dir, ReplayPace::AsFastAsPossible)
+                .with_context(|| format!("cannot open the camera trace {}", dir.display()))?,
+        ),
+        (None, None) => bail!("give a camera source: --aravis ID or --replay TRACE_DIR"),
+    };
+    let mut camera: Box<dyn Camera> = match &global.record_trace {
+        Some(dir) => Box::new(RecordingCamera::new(
+            Boxed(source),
+            &dir.join("camera"),
+            "camera",
+        )?),
+        None => source,
+    };
+    match args.action {
+        CameraAction::Grab(grab) => run_grab(camera.as_mut(), &grab),
+    }
+}
+
+fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
+    let trigger = match args.trigger {
+        TriggerArg::FreeRun => TriggerMode::FreeRun,
+        TriggerArg::Software => TriggerMode::Software,
+    };
+    let settings = CameraSettings {
+        exposure: Microseconds(args.exposure_us),
+        gain: Decibels(args.gain_db),
+        frame_rate: Hertz(args.frame_rate),
+        roi: args.roi,
+        pixel_format: match args.pixel_format {
+            FormatArg::Mono8 => PixelFormat::Mono8,
+            FormatArg::Rgb8 => PixelFormat::Rgb8,
+            FormatArg::Bayerrg8 => PixelFormat::BayerRg8,
+        },
+        trigger: trigger.clone(),
+        exposure_active_line: None,
+    };
+    let info = camera.info();
+    camera.configure(&settings)?;
+    let mut writer = FrameWriter::create(&args.out)?;
+    camera.start()?;
+    let timeout = Duration::from_millis(args.timeout_ms);
+    let result = (|| -> anyhow::Result<()> {
+        let mut last_id: Option<u64> = None;
+        let mut dropped = 0u64;
+        while writer.count() < args.count {
+            if trigger == TriggerMode::Software {
+                camera.trigger()?;
+            }
+            let Some(frame) = camera.next_frame(timeout)? else {
+                bail!(
+                    "camera {}: no frame within {} ms after {} of {} frames (check the trigger mode, cable and frame rate)",
+                    info.id,
+                    args.timeout_ms,
+                    writer.count(),
+                    args.count
+                );
+            };
+            if let Some(prev) = last_id {
+                dropped += frame.id.saturating_sub(prev + 1);
+            }
+            last_id = Some(frame.id);
+            writer.write(&frame)?;
+        }
+        println!(
+            "camera {}: {} frames written to {} (frames.csv){}",
+            info.id,
+            writer.count(),
+            args.out.display(),
+            if dropped > 0 {
+                format!("; {dropped} frame ids missing (dropped frames)")
+            } else {
+                String::new()
+            }
+        );
+        Ok(())
+    })();
+    let stopped = camera.stop();
+    result?;
+    stopped?;
+    Ok(())
+}
