@@ -18,6 +18,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod sim;
 pub mod trace;
 pub mod transport;
 pub mod units;

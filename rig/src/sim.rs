@@ -1,0 +1,13 @@
+//! Physics core of the simulated bench: pure functions, no I/O.
+//!
+//! - [`stress`]: Boussinesq point-load stress integrated through the photoelastic layer.
+//! - [`indenter`]: indenter outlines and their contact pressure maps.
+//! - [`fringe_field`]: fringe order per newton around an indenter (FFT convolution).
+//! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
+//!
+//! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
+
+pub mod colour;
+pub mod fringe_field;
+pub mod indenter;
+pub mod stress;

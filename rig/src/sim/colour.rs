@@ -1,0 +1,174 @@
+//! Colour of a fringe order under a white LED, seen by an RGB camera through a dark-field circular
+//! polariscope.
+//!
+//! For each channel c (docs/photoelastic-sim.md, "Colour"; the spectral sum follows
+//! diegoeusse/CreacionImagenesMultipolarizadas):
+//!
+//! I_c(N) = sum_lambda S(lambda) Q_c(lambda) sin^2(pi N l_ref / lambda) / sum_lambda S Q_c,
+//!
+//! with N the fringe order at l_ref = 550 nm, a white-LED spectrum
+//! S = exp(-(l - 450)^2 / (2 10^2)) + 1.2 exp(-(l - 565)^2 / (2 50^2)) and camera responses Q_c as
+//! Gaussians at 600, 535 and 460 nm (sigma 30, 35, 25 nm). The sin^2 law is the dark-field circular
+//! polariscope (Freire & Voloshin, "Photoelasticity", EOLSS). Low orders give saturated colours;
+//! beyond about N = 5 the channels average towards grey ("high-order white").
+//!
+//! The sum is baked once into a table over N and read with linear interpolation.
+
+use std::f64::consts::PI;
+
+/// Reference wavelength at which fringe orders are given, nm.
+pub const REFERENCE_WAVELENGTH_NM: f64 = 550.0;
+
+/// Spectral sampling: 380..=780 nm in 1 nm steps.
+const LAMBDA_MIN_NM: f64 = 380.0;
+const LAMBDA_STEPS: usize = 401;
+
+fn gaussian(x: f64, centre: f64, sigma: f64) -> f64 {
+    let d = (x - centre) / sigma;
+    (-0.5 * d * d).exp()
+}
+
+/// Relative spectral power of the white LED (blue pump plus phosphor) at `lambda_nm`.
+pub fn led_spectrum(lambda_nm: f64) -> f64 {
+    gaussian(lambda_nm, 450.0, 10.0) + 1.2 * gaussian(lambda_nm, 565.0, 50.0)
+}
+
+/// Relative response of camera channel 0 = R, 1 = G, 2 = B at `lambda_nm`.
+pub fn camera_response(channel: usize, lambda_nm: f64) -> f64 {
+    match channel {
+        0 => gaussian(lambda_nm, 600.0, 30.0),
+        1 => gaussian(lambda_nm, 535.0, 35.0),
+        _ => gaussian(lambda_nm, 460.0, 25.0),
+    }
+}
+
+/// R, G, B intensity (0 = dark, 1 = the channel's full unpolarised-through value) at fringe order N,
+/// computed by the spectral sum.
+pub fn spectral_colour(fringe_order: f64) -> [f64; 3] {
+    let mut num = [0.0; 3];
+    let mut den = [0.0; 3];
+    for k in 0..LAMBDA_STEPS {
+        let lambda = LAMBDA_MIN_NM + k as f64;
+        let s = led_spectrum(lambda);
+        let transmitted = (PI * fringe_order * REFERENCE_WAVELENGTH_NM / lambda)
+            .sin()
+            .powi(2);
+        for c in 0..3 {
+            let w = s * camera_response(c, lambda);
+            num[c] += w * transmitted;
+            den[c] += w;
+        }
+    }
+    [num[0] / den[0], num[1] / den[1], num[2] / den[2]]
+}
+
+/// Colour contrast of an RGB triple: largest minus smallest channel.
+pub fn contrast(rgb: [f64; 3]) -> f64 {
+    let max = rgb.iter().copied().fold(f64::MIN, f64::max);
+    let min = rgb.iter().copied().fold(f64::MAX, f64::min);
+    max - min
+}
+
+/// [`spectral_colour`] baked into a table over 0..=`max_order`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourTable {
+    max_order: f64,
+    entries: Vec<[f32; 3]>,
+}
+
+impl ColourTable {
+    /// Default table: 4096 entries up to N = 20.
+    pub fn standard() -> ColourTable {
+        ColourTable::new(4096, 20.0)
+    }
+
+    /// `entries` (at least 2) samples evenly spaced over fringe orders 0..=`max_order`.
+    pub fn new(entries: usize, max_order: f64) -> ColourTable {
+        let entries = entries.max(2);
+        let step = max_order / (entries - 1) as f64;
+        let entries = (0..entries)
+            .map(|k| {
+                let [r, g, b] = spectral_colour(k as f64 * step);
+                [r as f32, g as f32, b as f32]
+            })
+            .collect();
+        ColourTable { max_order, entries }
+    }
+
+    /// Largest fringe order in the table; larger orders read the last entry.
+    pub fn max_order(&self) -> f64 {
+        self.max_order
+    }
+
+    /// R, G, B in 0..=1 at `fringe_order`, interpolated linearly; negative or NaN orders read N = 0.
+    pub fn lookup(&self, fringe_order: f64) -> [f32; 3] {
+        let last = self.entries.len() - 1;
+        let pos = if fringe_order.is_nan() {
+            0.0
+        } else {
+            (fringe_order / self.max_order * last as f64).clamp(0.0, last as f64)
+        };
+        let k = (pos.floor() as usize).min(last - 1);
+        let t = (pos - k as f64) as f32;
+        let (a, b) = (self.entries[k], self.entries[k + 1]);
+        [
+            a[0] + (b[0] - a[0]) * t,
+            a[1] + (b[1] - a[1]) * t,
+            a[2] + (b[2] - a[2]) * t,
+        ]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn peak_contrast(from: f64, to: f64) -> f64 {
+        (0..=200)
+            .map(|k| contrast(spectral_colour(from + (to - from) * k as f64 / 200.0)))
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn unloaded_sensor_is_black() {
+        assert_eq!(spectral_colour(0.0), [0.0, 0.0, 0.0]);
+        assert_eq!(ColourTable::standard().lookup(0.0), [0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn first_orders_are_strongly_coloured_and_high_orders_fade_to_grey() {
+        let at_two = contrast(spectral_colour(2.0));
+        let low = peak_contrast(1.0, 3.0);
+        let fifth = peak_contrast(4.0, 5.0);
+        let tenth = peak_contrast(9.0, 10.0);
+        let fifteenth = peak_contrast(14.0, 15.0);
+        eprintln!("contrast N=2 {at_two}; peaks 1..3 {low}, 4..5 {fifth}, 9..10 {tenth}, 14..15 {fifteenth}");
+        assert!(at_two > 0.6, "{at_two}");
+        assert!(low > 0.8, "{low}");
+        assert!(low > fifth && fifth > tenth && tenth > fifteenth);
+        assert!(fifteenth < 0.05, "{fifteenth}");
+        // High-order white: every channel near half its full intensity.
+        for c in spectral_colour(20.0) {
+            assert!((c - 0.5).abs() < 0.01, "{c}");
+        }
+    }
+
+    #[test]
+    fn table_lookup_matches_the_spectral_sum() {
+        let table = ColourTable::standard();
+        let mut worst: f64 = 0.0;
+        for k in 0..97 {
+            let n = 0.2063 * k as f64;
+            let exact = spectral_colour(n);
+            let looked = table.lookup(n);
+            for c in 0..3 {
+                worst = worst.max((exact[c] - looked[c] as f64).abs());
+            }
+        }
+        eprintln!("table interpolation max error {worst:e}");
+        assert!(worst < 1e-3, "{worst}");
+        // Beyond the table the last entry holds; negative orders read as unloaded.
+        assert_eq!(table.lookup(25.0), table.lookup(20.0));
+        assert_eq!(table.lookup(-1.0), [0.0, 0.0, 0.0]);
+    }
+}
