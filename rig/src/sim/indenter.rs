@@ -142,8 +142,9 @@ impl PressureMap {
     /// Rasterise `shape` on an `n` x `n` grid of `cell_mm` cells carrying total force `force_n`.
     ///
     /// Each cell averages the pressure law over 3 x 3 sub-samples. Returns an all-zero map when the
-    /// outline misses every sub-sample (an indenter smaller than a cell).
+    /// outline misses every sub-sample (an indenter smaller than a cell). `n` below 2 is raised to 2.
     pub fn new(shape: &Shape, n: usize, cell_mm: f64, force_n: f64) -> PressureMap {
+        let n = n.max(2);
         let eps = 0.5 * cell_mm;
         let half = (n / 2) as f64;
         let mut values = vec![0.0; n * n];
@@ -171,6 +172,7 @@ impl PressureMap {
     }
 
     /// A map whose whole force sits in the single cell (i, j): the discrete point load.
+    /// Panics if (i, j) lies outside the `n` x `n` grid.
     pub fn point(n: usize, cell_mm: f64, i: usize, j: usize, force_n: f64) -> PressureMap {
         let mut values = vec![0.0; n * n];
         values[j * n + i] = force_n / (cell_mm * cell_mm);
