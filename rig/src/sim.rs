@@ -4,9 +4,11 @@
 //! - [`indenter`]: indenter outlines and their contact pressure maps.
 //! - [`fringe_field`]: fringe order per newton around an indenter (FFT convolution).
 //! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
+//! - [`blurred_colour`]: that colour averaged over a spread of fringe orders (defocus).
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
+pub mod blurred_colour;
 pub mod colour;
 pub mod fringe_field;
 pub mod indenter;

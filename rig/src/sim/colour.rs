@@ -42,17 +42,56 @@ pub fn camera_response(channel: usize, lambda_nm: f64) -> f64 {
     }
 }
 
+/// The circular polariser in front of the mirrored layer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Polariser {
+    /// Ideal quarter-wave plate at every wavelength: the unloaded sensor is black.
+    Ideal,
+    /// Film plate that is quarter-wave at `design_wavelength_nm` only
+    /// (docs/photoelastic-sim.md, "Optics"): it leaks cos^2(Gamma), Gamma = (pi/2)(l0 / lambda).
+    Film {
+        /// l0, the wavelength at which the film is exactly quarter-wave, nm.
+        design_wavelength_nm: f64,
+    },
+}
+
+impl Polariser {
+    /// Film plate quarter-wave at 560 nm: faint bluish unloaded background.
+    pub const FILM_560: Polariser = Polariser::Film {
+        design_wavelength_nm: 560.0,
+    };
+
+    /// Fraction of the light that reaches the camera from the unloaded sensor at `lambda_nm`.
+    pub fn leak(self, lambda_nm: f64) -> f64 {
+        match self {
+            Polariser::Ideal => 0.0,
+            Polariser::Film {
+                design_wavelength_nm,
+            } => (0.5 * PI * design_wavelength_nm / lambda_nm).cos().powi(2),
+        }
+    }
+}
+
 /// R, G, B intensity (0 = dark, 1 = the channel's full unpolarised-through value) at fringe order N,
-/// computed by the spectral sum.
+/// computed by the spectral sum with an ideal quarter-wave plate.
 pub fn spectral_colour(fringe_order: f64) -> [f64; 3] {
+    spectral_colour_with(fringe_order, Polariser::Ideal)
+}
+
+/// [`spectral_colour`] behind `polariser`. The leak L(lambda) of a film plate fills the dark part of
+/// the fringe law: I = sin^2 + L (1 - sin^2), so the unloaded sensor shows L and full-wave bright
+/// orders stay at 1 (a first-order model of the imperfect plate, exact at N = 0).
+pub fn spectral_colour_with(fringe_order: f64, polariser: Polariser) -> [f64; 3] {
     let mut num = [0.0; 3];
     let mut den = [0.0; 3];
     for k in 0..LAMBDA_STEPS {
         let lambda = LAMBDA_MIN_NM + k as f64;
         let s = led_spectrum(lambda);
-        let transmitted = (PI * fringe_order * REFERENCE_WAVELENGTH_NM / lambda)
+        let dark_field = (PI * fringe_order * REFERENCE_WAVELENGTH_NM / lambda)
             .sin()
             .powi(2);
+        let leak = polariser.leak(lambda);
+        let transmitted = dark_field + leak * (1.0 - dark_field);
         for c in 0..3 {
             let w = s * camera_response(c, lambda);
             num[c] += w * transmitted;
@@ -84,11 +123,16 @@ impl ColourTable {
 
     /// `entries` (at least 2) samples evenly spaced over fringe orders 0..=`max_order`.
     pub fn new(entries: usize, max_order: f64) -> ColourTable {
+        ColourTable::with_polariser(entries, max_order, Polariser::Ideal)
+    }
+
+    /// [`ColourTable::new`] behind `polariser` (see [`spectral_colour_with`]).
+    pub fn with_polariser(entries: usize, max_order: f64, polariser: Polariser) -> ColourTable {
         let entries = entries.max(2);
         let step = max_order / (entries - 1) as f64;
         let entries = (0..entries)
             .map(|k| {
-                let [r, g, b] = spectral_colour(k as f64 * step);
+                let [r, g, b] = spectral_colour_with(k as f64 * step, polariser);
                 [r as f32, g as f32, b as f32]
             })
             .collect();
@@ -170,5 +214,31 @@ mod tests {
         // Beyond the table the last entry holds; negative orders read as unloaded.
         assert_eq!(table.lookup(25.0), table.lookup(20.0));
         assert_eq!(table.lookup(-1.0), [0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn film_plate_leaks_a_faint_bluish_background() {
+        let film = Polariser::FILM_560;
+        let (blue, red) = (film.leak(450.0), film.leak(650.0));
+        eprintln!(
+            "film leak at 450 nm {blue}, at 650 nm {red}, at 560 nm {}",
+            film.leak(560.0)
+        );
+        assert!((blue - 0.14).abs() < 0.005, "{blue}");
+        assert!((red - 0.05).abs() < 0.005, "{red}");
+        assert!(film.leak(560.0) < 1e-12);
+        assert_eq!(Polariser::Ideal.leak(450.0), 0.0);
+
+        let background = spectral_colour_with(0.0, film);
+        eprintln!("unloaded film background RGB {background:?}");
+        assert!(background[2] > background[0], "{background:?}");
+        assert!(background.iter().all(|&c| c > 0.0 && c < 0.2));
+        let table = ColourTable::with_polariser(1024, 10.0, film);
+        assert!(table.lookup(0.0)[2] > table.lookup(0.0)[0]);
+        // The ideal plate is unchanged by the option.
+        assert_eq!(
+            spectral_colour_with(1.3, Polariser::Ideal),
+            spectral_colour(1.3)
+        );
     }
 }
