@@ -26,6 +26,26 @@ pub struct FringeField {
     cell_mm: f64,
     /// Row-major fringe order per newton.
     values: Vec<f64>,
+    /// Row-major |grad N_unit|, fringe orders per newton per mm.
+    gradient: Vec<f64>,
+}
+
+/// |grad| of a row-major `n` x `n` grid with cell side `cell_mm`, per mm: central differences inside,
+/// one-sided differences on the edges.
+fn gradient_magnitude(values: &[f64], n: usize, cell_mm: f64) -> Vec<f64> {
+    let at = |i: usize, j: usize| values[j * n + i];
+    let diff = |lo: usize, hi: usize, a: f64, b: f64| (b - a) / ((hi - lo) as f64 * cell_mm);
+    let mut out = Vec::with_capacity(n * n);
+    for j in 0..n {
+        let (j0, j1) = (j.saturating_sub(1), (j + 1).min(n - 1));
+        for i in 0..n {
+            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            let gx = diff(i0, i1, at(i0, j), at(i1, j));
+            let gy = diff(j0, j1, at(i, j0), at(i, j1));
+            out.push(gx.hypot(gy));
+        }
+    }
+    out
 }
 
 /// In-place 2-D FFT of an `m` x `m` row-major complex array (rows, then columns).
@@ -105,10 +125,18 @@ impl FringeField {
         let d = integrated_stress(unit_pressure, layer);
         // D is in N/mm = 1000 N/m.
         let scale = 2.0 * 1000.0 / f_sigma_n_per_m;
+        let values: Vec<f64> = d.iter().map(|c| scale * c.norm()).collect();
+        FringeField::from_values(unit_pressure.size(), unit_pressure.cell_mm(), values)
+    }
+
+    /// Field from row-major values on an `n` x `n` grid (n at least 2), with its gradient.
+    fn from_values(n: usize, cell_mm: f64, values: Vec<f64>) -> FringeField {
+        let gradient = gradient_magnitude(&values, n, cell_mm);
         FringeField {
-            n: unit_pressure.size(),
-            cell_mm: unit_pressure.cell_mm(),
-            values: d.iter().map(|c| scale * c.norm()).collect(),
+            n,
+            cell_mm,
+            values,
+            gradient,
         }
     }
 
@@ -132,9 +160,25 @@ impl FringeField {
         self.values.iter().copied().fold(0.0, f64::max)
     }
 
+    /// |grad N_unit| at cell (i, j), fringe orders per newton per mm.
+    pub fn gradient_at(&self, i: usize, j: usize) -> f64 {
+        self.gradient[j * self.n + i]
+    }
+
     /// Fringe order per newton at (x_mm, y_mm) in the indenter frame, bilinear between cell centres.
     /// Points beyond the grid take the value at the nearest grid edge.
     pub fn sample(&self, x_mm: f64, y_mm: f64) -> f64 {
+        self.bilinear(&self.values, x_mm, y_mm)
+    }
+
+    /// |grad N_unit| (fringe orders per newton per mm) at (x_mm, y_mm), sampled like
+    /// [`FringeField::sample`]. For a force F the blur spread is sigma_N = F |grad N_unit| sigma_blur.
+    pub fn sample_gradient(&self, x_mm: f64, y_mm: f64) -> f64 {
+        self.bilinear(&self.gradient, x_mm, y_mm)
+    }
+
+    fn bilinear(&self, grid: &[f64], x_mm: f64, y_mm: f64) -> f64 {
+        let at = |i: usize, j: usize| grid[j * self.n + i];
         let half = (self.n / 2) as f64;
         let last = (self.n - 1) as f64;
         let u = (x_mm / self.cell_mm + half).clamp(0.0, last);
@@ -142,8 +186,8 @@ impl FringeField {
         let (i0, j0) = (u.floor() as usize, v.floor() as usize);
         let (i1, j1) = ((i0 + 1).min(self.n - 1), (j0 + 1).min(self.n - 1));
         let (fu, fv) = (u - i0 as f64, v - j0 as f64);
-        let top = self.at(i0, j0) * (1.0 - fu) + self.at(i1, j0) * fu;
-        let bottom = self.at(i0, j1) * (1.0 - fu) + self.at(i1, j1) * fu;
+        let top = at(i0, j0) * (1.0 - fu) + at(i1, j0) * fu;
+        let bottom = at(i0, j1) * (1.0 - fu) + at(i1, j1) * fu;
         top * (1.0 - fv) + bottom * fv
     }
 }
@@ -239,5 +283,50 @@ mod tests {
         assert_eq!(field.sample(4.0, 0.0), field.at(40, 32));
         let mid = field.sample(4.25, 0.0);
         assert!((mid - 0.5 * (field.at(40, 32) + field.at(41, 32))).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gradient_of_a_plane_is_its_slope_everywhere() {
+        let (n, cell) = (16, 0.5);
+        // N = 0.3 x + 0.4 y per mm (plus an offset): |grad N| = 0.5 per mm.
+        let values = (0..n * n)
+            .map(|k| 2.0 + 0.3 * (k % n) as f64 * cell + 0.4 * (k / n) as f64 * cell)
+            .collect();
+        let field = FringeField::from_values(n, cell, values);
+        for j in 0..n {
+            for i in 0..n {
+                assert!((field.gradient_at(i, j) - 0.5).abs() < 1e-12);
+            }
+        }
+        assert!((field.sample_gradient(1.23, -2.1) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences_of_the_sampled_field() {
+        use rand::{Rng, SeedableRng};
+        let (n, cell) = (128, 0.5);
+        let map = PressureMap::new(&Shape::Circle { radius_mm: 5.0 }, n, cell, 1.0);
+        let field = FringeField::new(&map, &Layer::INTEGRATED, 100.0);
+        let steepest = field.gradient.iter().copied().fold(0.0, f64::max);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut worst: f64 = 0.0;
+        for _ in 0..200 {
+            // Interior points clear of the punch edge (r = 5 mm) and of the grid edge (32 mm).
+            let r = rng.gen_range(8.0..28.0);
+            let a = rng.gen_range(0.0..2.0 * PI);
+            let (x, y) = (r * a.cos(), r * a.sin());
+            let h = cell;
+            let gx = (field.sample(x + h, y) - field.sample(x - h, y)) / (2.0 * h);
+            let gy = (field.sample(x, y + h) - field.sample(x, y - h)) / (2.0 * h);
+            let err = (field.sample_gradient(x, y) - gx.hypot(gy)).abs() / steepest;
+            worst = worst.max(err);
+        }
+        eprintln!("|grad N_unit| vs finite differences: max error / steepest {worst:e}");
+        assert!(worst < 0.01, "{worst}");
+        let near = field.sample_gradient(6.0, 0.0);
+        let far = field.sample_gradient(28.0, 0.0);
+        eprintln!("steepest {steepest}, at 6 mm {near}, at 28 mm {far} per newton per mm");
+        assert!(far < 0.01 * steepest, "far {far} steepest {steepest}");
+        assert!(near > 10.0 * far, "near {near} far {far}");
     }
 }
