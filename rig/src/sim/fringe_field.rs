@@ -326,7 +326,7 @@ mod tests {
         let near = field.sample_gradient(6.0, 0.0);
         let far = field.sample_gradient(28.0, 0.0);
         eprintln!("steepest {steepest}, at 6 mm {near}, at 28 mm {far} per newton per mm");
-        assert!(far < 0.01 * steepest, "far {far} steepest {steepest}");
+        assert!(far < 0.02 * steepest, "far {far} steepest {steepest}");
         assert!(near > 10.0 * far, "near {near} far {far}");
     }
 }
