@@ -457,9 +457,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn hex(s: &str) -> Vec<u8> {
-        s.split_whitespace()
-            .map(|b| u8::from_str_radix(b, 16).expect("hex"))
-            .collect()
+        crate::trace::format::parse_hex(s).expect("hex")
     }
 
     #[test]

@@ -112,7 +112,8 @@ pub fn hex(bytes: &[u8]) -> String {
     s
 }
 
-fn parse_hex(text: &str) -> Result<Vec<u8>, String> {
+/// Parses space-separated two-digit hex (the inverse of [`hex`]).
+pub fn parse_hex(text: &str) -> Result<Vec<u8>, String> {
     text.split_whitespace()
         .map(|tok| {
             if tok.len() != 2 {
