@@ -5,6 +5,7 @@
 //! port, on a simulated device, on a recording wrapper ([`crate::trace::RecordingLink`]) or on a
 //! replayed trace ([`crate::trace::ReplayLink`]).
 
+pub mod memory;
 pub mod pty;
 pub mod serial;
 pub mod tcp;
