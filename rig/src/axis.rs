@@ -101,7 +101,24 @@ pub struct SoftLimits {
     pub max: Millimetres,
 }
 
+/// Soft limits that are not a finite range with min <= max.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("soft limits min {min} and max {max}: both must be finite numbers with min not above max")]
+pub struct InvalidSoftLimits {
+    pub min: Millimetres,
+    pub max: Millimetres,
+}
+
 impl SoftLimits {
+    /// Limits from `min` to `max`, refused unless both are finite and `min <= max`.
+    pub fn new(min: Millimetres, max: Millimetres) -> Result<SoftLimits, InvalidSoftLimits> {
+        if min.0.is_finite() && max.0.is_finite() && min <= max {
+            Ok(SoftLimits { min, max })
+        } else {
+            Err(InvalidSoftLimits { min, max })
+        }
+    }
+
     /// Checks `target` against the limits, naming `axis` in the error.
     pub fn check(&self, axis: &str, target: Millimetres) -> Result<(), AxisError> {
         if target.0.is_finite() && target >= self.min && target <= self.max {
@@ -162,5 +179,20 @@ pub trait Axis: Send {
     fn move_by(&mut self, delta: Millimetres, timeout: Duration) -> Result<AxisStatus, AxisError> {
         self.begin_move_by(delta)?;
         self.wait_idle(timeout)
+    }
+}
+
+#[cfg(test)]
+mod soft_limit_tests {
+    use super::*;
+
+    #[test]
+    fn limits_must_be_a_finite_ordered_range() {
+        assert!(SoftLimits::new(Millimetres(0.0), Millimetres(10.0)).is_ok());
+        assert!(SoftLimits::new(Millimetres(2.0), Millimetres(2.0)).is_ok());
+        let err = SoftLimits::new(Millimetres(5.0), Millimetres(1.0)).expect_err("inverted");
+        assert!(err.to_string().contains("min not above max"), "{err}");
+        assert!(SoftLimits::new(Millimetres(f64::NAN), Millimetres(1.0)).is_err());
+        assert!(SoftLimits::new(Millimetres(0.0), Millimetres(f64::INFINITY)).is_err());
     }
 }

@@ -5,5 +5,6 @@ pub mod axis;
 pub mod camera;
 pub mod devices;
 pub mod ft;
+pub mod limits;
 pub mod selfcheck;
 pub mod ystage;

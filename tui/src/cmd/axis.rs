@@ -1,10 +1,11 @@
 //! `fringe axis`: bring up one Thorlabs stepper axis from the command line.
 
+use super::limits::SoftLimitArgs;
 use crate::Global;
 use anyhow::{bail, Context};
 use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};
 use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
-use fringe_rig::axis::{Axis, AxisStatus, SoftLimits, StopMode};
+use fringe_rig::axis::{Axis, AxisStatus, StopMode};
 use fringe_rig::trace::record_stream;
 use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
@@ -34,22 +35,8 @@ pub struct AxisArgs {
     /// Acceleration in mm/s^2.
     #[arg(long, value_name = "MM_S2", default_value_t = 1.0)]
     acceleration: f64,
-    /// Lower soft limit in mm (needs --max).
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "max",
-        allow_negative_numbers = true
-    )]
-    min: Option<f64>,
-    /// Upper soft limit in mm (needs --min).
-    #[arg(
-        long,
-        value_name = "MM",
-        requires = "min",
-        allow_negative_numbers = true
-    )]
-    max: Option<f64>,
+    #[command(flatten)]
+    limits: SoftLimitArgs,
     /// Seconds to wait for a home or move to finish.
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
     timeout: f64,
@@ -122,15 +109,7 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
     config.acceleration = MillimetresPerSecondSquared(args.acceleration);
     config.home.velocity = MillimetresPerSecond(args.velocity.min(1.0));
     config.timeouts = Timeouts::default();
-    if let (Some(min), Some(max)) = (args.min, args.max) {
-        if !(min.is_finite() && max.is_finite() && min <= max) {
-            bail!("--min {min} and --max {max} must be numbers with min not above max");
-        }
-        config.soft_limits = Some(SoftLimits {
-            min: Millimetres(min),
-            max: Millimetres(max),
-        });
-    }
+    config.soft_limits = args.limits.limits()?;
     let serial = open_serial(&args.port)?;
     let link: Box<dyn ByteLink> = Box::new(serial);
     let link = record_stream(link, global.record_trace.as_deref(), "apt")

@@ -1,10 +1,11 @@
 //! `fringe ystage`: home, query or move the y stage (Modbus TCP, Modbus RTU, manual or a Thorlabs axis).
 
+use super::limits::SoftLimitArgs;
 use crate::Global;
 use anyhow::{bail, Context};
 use fringe_rig::apt::driver::{AptConfig, Controller};
 use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
-use fringe_rig::axis::{Axis, SoftLimits};
+use fringe_rig::axis::Axis;
 use fringe_rig::manual::{ManualStage, TerminalPrompt};
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::trace::record_stream;
@@ -55,12 +56,8 @@ pub struct YstageArgs {
     #[arg(long, value_name = "N")]
     baud: Option<u32>,
 
-    /// Lower soft limit in mm, checked before a move is sent (give --max too).
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    min: Option<f64>,
-    /// Upper soft limit in mm.
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    max: Option<f64>,
+    #[command(flatten)]
+    limits: SoftLimitArgs,
 
     /// Seconds to wait for homing or a move to finish.
     #[arg(long, default_value_t = 60.0, value_name = "S")]
@@ -116,23 +113,11 @@ impl YstageArgs {
         }
         Ok(())
     }
-
-    fn limits(&self) -> anyhow::Result<Option<SoftLimits>> {
-        match (self.min, self.max) {
-            (None, None) => Ok(None),
-            (Some(min), Some(max)) if min <= max => Ok(Some(SoftLimits {
-                min: Millimetres(min),
-                max: Millimetres(max),
-            })),
-            (Some(_), Some(_)) => bail!("--min must not exceed --max"),
-            _ => bail!("give both --min and --max, or neither"),
-        }
-    }
 }
 
 /// Opens the y stage described by the arguments.
 fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
-    let limits = args.limits()?;
+    let limits = args.limits.limits()?;
     let modbus = |link: Box<dyn ByteLink>,
                   framing: Framing,
                   map: RegisterMap|
