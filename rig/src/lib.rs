@@ -19,6 +19,7 @@ pub mod manual;
 pub mod modbus;
 pub mod netft;
 pub mod sim;
+pub mod sync;
 pub mod trace;
 pub mod transport;
 pub mod units;

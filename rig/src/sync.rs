@@ -1,0 +1,17 @@
+//! Synchronisation: one clock model and the ways to fit it, and exposure-window force labels.
+//!
+//! - [`clock_map`]: the one clock model of the project, device ticks <-> host nanoseconds (offset
+//!   and rate).
+//! - [`one_way`]: fitting it from device timestamps and host arrival times (lower convex hull,
+//!   TICSync).
+//! - [`latch`]: fitting it from timestamp-latch exchanges (host before, device value, host after).
+//! - [`strobe`]: exposure windows found in a sampled exposure-active channel, in sample index.
+//! - [`window`]: the force averaged over an exposure window (interpolated at the edges).
+//!
+//! Methods and facts: docs of the shared project, hardware.md section E.
+
+pub mod clock_map;
+pub mod latch;
+pub mod one_way;
+pub mod strobe;
+pub mod window;
