@@ -8,6 +8,7 @@
 //!
 //! Protocol codecs are pure (bytes <-> messages, no I/O); drivers combine a codec with a link.
 
+pub mod acquire;
 pub mod apt;
 pub mod atical;
 pub mod axis;
