@@ -233,8 +233,10 @@ mod tests {
             }
             std::thread::sleep(Duration::from_micros(200));
             self.n += 1;
-            let mut wrench = Wrench::default();
-            wrench.fz = Newtons(-(self.n as f64) / 1000.0);
+            let wrench = Wrench {
+                fz: Newtons(-(self.n as f64) / 1000.0),
+                ..Wrench::default()
+            };
             Ok(Some(ForceSample {
                 device_tick: self.n,
                 transport_seq: None,
