@@ -19,6 +19,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod scan;
 pub mod sim;
 pub mod sync;
 pub mod trace;

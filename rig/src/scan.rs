@@ -1,0 +1,6 @@
+//! Scans: moving the indenter and pressing under force control.
+//!
+//! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
+//!   reading, retract; every step checks the force ceiling and a cancel flag.
+
+pub mod press;
