@@ -21,6 +21,7 @@ pub mod modbus;
 pub mod netft;
 pub mod scan;
 pub mod sim;
+pub mod store;
 pub mod sync;
 pub mod trace;
 pub mod transport;

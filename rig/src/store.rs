@@ -1,0 +1,65 @@
+//! The run store: one directory per scan, written append-only and crash-safe.
+//!
+//! ```text
+//! runs/<run-id>/
+//!   start.json        start document: plan, rig, sensor, profile, software version, seed
+//!   frames.jsonl      one record per frame (appended, one line each)
+//!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
+//!   force.bin         the complete raw force stream at full rate (fixed-size records)
+//!   frames/NNNNNNNN.png  lossless frames
+//!   stop.json         stop document: exit status and counts (absent after a crash)
+//!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
+//! ```
+//!
+//! - [`documents`]: the documents and records, serde types.
+//! - [`force_log`]: the binary force stream format (pure encode/decode).
+//! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
+//! - [`manifest`]: the checksum manifest.
+//! - [`verify`]: checking a run directory.
+//! - [`run_list`]: the runs under a directory, newest first.
+
+pub mod documents;
+pub mod force_log;
+pub mod manifest;
+pub mod run_list;
+pub mod run_writer;
+pub mod verify;
+
+use std::path::PathBuf;
+
+/// File names inside a run directory.
+pub const START: &str = "start.json";
+pub const FRAMES: &str = "frames.jsonl";
+pub const EVENTS: &str = "events.jsonl";
+pub const FORCE: &str = "force.bin";
+pub const FRAME_DIR: &str = "frames";
+pub const STOP: &str = "stop.json";
+pub const MANIFEST: &str = "MANIFEST.sha256";
+
+/// Errors of the run store, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: line {line}: {message}")]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Content { path: PathBuf, message: String },
+}
+
+impl StoreError {
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> StoreError {
+        StoreError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,167 @@
+//! What a run directory holds: the start and stop documents, frame records and events.
+
+use crate::units::{Millimetres, Wrench};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// Version of the run layout written by this build.
+pub const LAYOUT_VERSION: u32 = 1;
+
+/// Written once when a run starts.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StartDocument {
+    pub layout_version: u32,
+    pub run_id: String,
+    /// UTC wall-clock time, RFC 3339.
+    pub started_utc: String,
+    pub software: String,
+    pub sensor_id: String,
+    /// The scan plan as given (TOML text).
+    pub plan: String,
+    /// The rig configuration as used (TOML text; "simulated" details included).
+    pub rig: String,
+    /// Calibration profile used for contact labels, if any (path and its content).
+    pub calibration_profile: Option<ProfileRef>,
+    /// Seed of the simulated bench, when the run is simulated.
+    pub seed: Option<u64>,
+    /// Synchronisation method ("strobe", "clock-fit", "host").
+    pub sync_method: String,
+}
+
+/// A calibration profile as recorded by a run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ProfileRef {
+    pub path: String,
+    pub content: String,
+}
+
+/// An exposure window on the host time base.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Exposure {
+    pub start_ns: f64,
+    pub end_ns: f64,
+    /// Estimated error of the window's placement, ns.
+    pub error_ns: f64,
+}
+
+/// Stage positions of one frame.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Position {
+    pub x: Millimetres,
+    pub y: Millimetres,
+    pub z: Millimetres,
+}
+
+/// One frame with its labels.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameRecord {
+    /// Index of the record in the run (0, 1, 2, ...).
+    pub index: u64,
+    /// Camera frame id (gaps = dropped frames).
+    pub frame_id: u64,
+    /// Frame file, relative to the run directory.
+    pub file: String,
+    pub device_timestamp: u64,
+    pub host_arrival_ns: u64,
+    pub exposure: Option<Exposure>,
+    /// Grid point and repetition the frame belongs to.
+    pub point: u64,
+    pub commanded: Position,
+    pub measured: Position,
+    /// Six-axis force averaged over the exposure (N, N m).
+    pub wrench: Option<Wrench>,
+    /// "None" when |Fz| is under the noise floor, otherwise the indenter's name.
+    pub shape: String,
+    /// Contact point in mm relative to the sensor centre; `None` when there is no contact.
+    pub contact: Option<[f64; 2]>,
+    /// False when the label cannot be trusted (force gap in the window, axis moving, ...).
+    pub valid: bool,
+    /// Why not valid, or other notes.
+    pub notes: Vec<String>,
+}
+
+/// Something that happened during a run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Event {
+    /// Host time, ns.
+    pub host_ns: u64,
+    pub utc: String,
+    /// "checkpoint", "pause", "resume", "watcher", "prompt", "resume-run", ...
+    pub kind: String,
+    /// Grid point concerned, if any.
+    pub point: Option<u64>,
+    pub message: String,
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ExitStatus {
+    Completed,
+    Aborted,
+    Failed,
+}
+
+/// Written once when a run ends.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StopDocument {
+    pub exit_status: ExitStatus,
+    pub reason: String,
+    pub stopped_utc: String,
+    pub frames: u64,
+    pub dropped_frames: u64,
+    pub force_samples: u64,
+    pub lost_force_samples: u64,
+    pub points_done: u64,
+}
+
+/// `t` as an RFC 3339 UTC timestamp with milliseconds ("2026-11-22T03:45:12.345Z").
+pub fn rfc3339_utc(t: SystemTime) -> String {
+    let d = t.duration_since(UNIX_EPOCH).unwrap_or_default();
+    let secs = d.as_secs();
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    let (y, m, day) = civil_from_days(days as i64);
+    format!(
+        "{y:04}-{m:02}-{day:02}T{:02}:{:02}:{:02}.{:03}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60,
+        d.subsec_millis()
+    )
+}
+
+/// The current time as [`rfc3339_utc`].
+pub fn now_utc() -> String {
+    rfc3339_utc(SystemTime::now())
+}
+
+/// Year, month, day of the proleptic Gregorian calendar from days since 1970-01-01
+/// (H. Hinnant's civil_from_days algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (if m <= 2 { y + 1 } else { y }, m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn timestamps_are_rfc3339_utc() {
+        assert_eq!(rfc3339_utc(UNIX_EPOCH), "1970-01-01T00:00:00.000Z");
+        // 2026-11-22T03:45:12.345Z
+        let t = UNIX_EPOCH + Duration::from_millis(1_795_319_112_345);
+        assert_eq!(rfc3339_utc(t), "2026-11-22T03:45:12.345Z");
+        // Leap day.
+        let t = UNIX_EPOCH + Duration::from_secs(951_782_400);
+        assert_eq!(rfc3339_utc(t), "2000-02-29T00:00:00.000Z");
+    }
+}

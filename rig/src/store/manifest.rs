@@ -1,0 +1,97 @@
+//! The checksum manifest: SHA-256 of every file in a run, in `sha256sum` format, so that
+//! `sha256sum -c MANIFEST.sha256` works as well as `fringe verify`.
+
+use super::{StoreError, MANIFEST};
+use sha2::{Digest, Sha256};
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// Every regular file under `dir` except the manifest, as paths relative to `dir` with `/`,
+/// sorted.
+pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
+    let mut out = Vec::new();
+    let mut stack = vec![PathBuf::new()];
+    while let Some(rel) = stack.pop() {
+        let here = dir.join(&rel);
+        let entries = std::fs::read_dir(&here).map_err(|e| StoreError::io(&here, e))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| StoreError::io(&here, e))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let kind = entry
+                .file_type()
+                .map_err(|e| StoreError::io(entry.path(), e))?;
+            let child = rel.join(&name);
+            if kind.is_dir() {
+                stack.push(child);
+            } else if kind.is_file() && child != Path::new(MANIFEST) && !name.ends_with(".tmp") {
+                out.push(child.to_string_lossy().replace('\\', "/"));
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// SHA-256 of a file, lower-case hex.
+pub fn sha256_file(path: &Path) -> Result<String, StoreError> {
+    let mut file = File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = file.read(&mut buf).map_err(|e| StoreError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
+/// Writes `dir/MANIFEST.sha256` covering every file (atomically: temp file, fsync, rename).
+pub fn write(dir: &Path) -> Result<(), StoreError> {
+    let mut text = String::new();
+    for rel in files(dir)? {
+        let hash = sha256_file(&dir.join(&rel))?;
+        text.push_str(&format!("{hash}  {rel}\n"));
+    }
+    super::run_writer::write_atomic(&dir.join(MANIFEST), text.as_bytes())
+}
+
+/// Compares the files with the manifest; returns one message per difference.
+pub fn check(dir: &Path) -> Result<Vec<String>, StoreError> {
+    let path = dir.join(MANIFEST);
+    let text = std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?;
+    let mut problems = Vec::new();
+    let mut listed = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let Some((hash, rel)) = line.split_once("  ") else {
+            problems.push(format!("{MANIFEST} line {}: not `<sha256>  <file>`", k + 1));
+            continue;
+        };
+        listed.push(rel.to_string());
+        let file = dir.join(rel);
+        if !file.is_file() {
+            problems.push(format!("{rel}: listed in {MANIFEST} but missing"));
+            continue;
+        }
+        let actual = sha256_file(&file)?;
+        if actual != hash {
+            problems.push(format!(
+                "{rel}: checksum differs from {MANIFEST} (file changed or damaged)"
+            ));
+        }
+    }
+    for rel in files(dir)? {
+        if !listed.contains(&rel) {
+            problems.push(format!(
+                "{rel}: not listed in {MANIFEST} (added after the run ended)"
+            ));
+        }
+    }
+    Ok(problems)
+}

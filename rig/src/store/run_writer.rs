@@ -1,0 +1,344 @@
+//! Writing a run: create, append, checkpoint, reopen after a crash, finish.
+//!
+//! Crash safety: the start and stop documents and the manifest are written atomically (temp file,
+//! fsync, rename, fsync of the directory); records are appended one whole line per write, frame
+//! images are renamed into place before their record is appended, and [`RunWriter::checkpoint`]
+//! fsyncs everything (the scan calls it before each grid point). After a crash, whatever reached
+//! the disk is a valid prefix except possibly one torn line or force record at the end, which
+//! [`RunWriter::reopen`] cuts off.
+
+use super::documents::{now_utc, Event, FrameRecord, StartDocument, StopDocument};
+use super::{force_log, manifest, StoreError, EVENTS, FORCE, FRAMES, FRAME_DIR, START, STOP};
+use crate::camera::writer::save_png;
+use crate::camera::Frame;
+use crate::clock::HostTime;
+use crate::force::ForceSample;
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Writes `bytes` to `path` atomically.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
+    let tmp = path.with_extension("tmp");
+    let mut f = File::create(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| StoreError::io(&tmp, e))?;
+    f.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| StoreError::io(path, e))?;
+    if let Some(dir) = path.parent() {
+        sync_dir(dir)?;
+    }
+    Ok(())
+}
+
+fn sync_dir(dir: &Path) -> Result<(), StoreError> {
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(|e| StoreError::io(dir, e))
+}
+
+fn json<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, StoreError> {
+    serde_json::to_string(value).map_err(|e| StoreError::Content {
+        path: path.to_path_buf(),
+        message: format!("cannot encode: {e}"),
+    })
+}
+
+/// Reads a JSON document.
+pub fn read_document<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StoreError> {
+    let text = std::fs::read_to_string(path).map_err(|e| StoreError::io(path, e))?;
+    serde_json::from_str(&text).map_err(|e| StoreError::Parse {
+        path: path.to_path_buf(),
+        line: e.line(),
+        message: e.to_string(),
+    })
+}
+
+/// Reads a JSON-lines file; a torn last line (no newline) is returned separately, not parsed.
+pub fn read_lines<T: serde::de::DeserializeOwned>(
+    path: &Path,
+) -> Result<(Vec<T>, Option<String>), StoreError> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((Vec::new(), None)),
+        Err(e) => return Err(StoreError::io(path, e)),
+    };
+    let (complete, torn) = match text.rfind('\n') {
+        Some(i) if i + 1 < text.len() => (&text[..=i], Some(text[i + 1..].to_string())),
+        Some(_) => (text.as_str(), None),
+        None if text.is_empty() => ("", None),
+        None => ("", Some(text.clone())),
+    };
+    let mut out = Vec::new();
+    for (k, line) in complete.lines().enumerate() {
+        out.push(serde_json::from_str(line).map_err(|e| StoreError::Parse {
+            path: path.to_path_buf(),
+            line: k + 1,
+            message: e.to_string(),
+        })?);
+    }
+    Ok((out, torn))
+}
+
+fn open_append(path: &Path) -> Result<File, StoreError> {
+    OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| StoreError::io(path, e))
+}
+
+/// What a reopened run already holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Existing {
+    pub start: StartDocument,
+    pub frames: Vec<FrameRecord>,
+    pub events: Vec<Event>,
+    pub force_samples: u64,
+    /// Bytes cut from torn ends (frames, events, force).
+    pub cut_bytes: u64,
+}
+
+/// An open run directory.
+pub struct RunWriter {
+    dir: PathBuf,
+    frames: File,
+    events: File,
+    force: BufWriter<File>,
+    next_index: u64,
+    force_samples: u64,
+}
+
+impl RunWriter {
+    /// Creates `root/<run_id>` and writes the start document; refuses an existing directory.
+    pub fn create(root: &Path, start: &StartDocument) -> Result<RunWriter, StoreError> {
+        std::fs::create_dir_all(root).map_err(|e| StoreError::io(root, e))?;
+        let dir = root.join(&start.run_id);
+        std::fs::create_dir(&dir).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::AlreadyExists {
+                StoreError::Content {
+                    path: dir.clone(),
+                    message: "a run with this id exists already (resume it, or choose another id)"
+                        .into(),
+                }
+            } else {
+                StoreError::io(&dir, e)
+            }
+        })?;
+        let frame_dir = dir.join(FRAME_DIR);
+        std::fs::create_dir(&frame_dir).map_err(|e| StoreError::io(&frame_dir, e))?;
+        let start_path = dir.join(START);
+        let text = serde_json::to_string_pretty(start).map_err(|e| StoreError::Content {
+            path: start_path.clone(),
+            message: format!("cannot encode: {e}"),
+        })?;
+        write_atomic(&start_path, text.as_bytes())?;
+        let force_path = dir.join(FORCE);
+        let mut force = File::create(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
+        force
+            .write_all(&force_log::header())
+            .map_err(|e| StoreError::io(&force_path, e))?;
+        let writer = RunWriter {
+            frames: open_append(&dir.join(FRAMES))?,
+            events: open_append(&dir.join(EVENTS))?,
+            force: BufWriter::with_capacity(1 << 20, force),
+            dir,
+            next_index: 0,
+            force_samples: 0,
+        };
+        sync_dir(&writer.dir)?;
+        Ok(writer)
+    }
+
+    /// Reopens an unfinished run after a crash: cuts torn ends, returns what is there.
+    pub fn reopen(dir: &Path) -> Result<(RunWriter, Existing), StoreError> {
+        let stop = dir.join(STOP);
+        if stop.exists() {
+            return Err(StoreError::Content {
+                path: stop,
+                message: "the run has ended; start a new run instead of resuming".into(),
+            });
+        }
+        let start: StartDocument = read_document(&dir.join(START))?;
+        let mut cut = 0u64;
+        let frames_path = dir.join(FRAMES);
+        let (frames, torn) = read_lines::<FrameRecord>(&frames_path)?;
+        if let Some(t) = torn {
+            cut += t.len() as u64;
+            truncate_by(&frames_path, t.len() as u64)?;
+        }
+        let events_path = dir.join(EVENTS);
+        let (events, torn) = read_lines::<Event>(&events_path)?;
+        if let Some(t) = torn {
+            cut += t.len() as u64;
+            truncate_by(&events_path, t.len() as u64)?;
+        }
+        let force_path = dir.join(FORCE);
+        let bytes = std::fs::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
+        let (samples, torn) =
+            force_log::decode_all(&bytes).map_err(|message| StoreError::Content {
+                path: force_path.clone(),
+                message,
+            })?;
+        if torn > 0 {
+            cut += torn as u64;
+            truncate_by(&force_path, torn as u64)?;
+        }
+        for (k, f) in frames.iter().enumerate() {
+            if f.index != k as u64 {
+                return Err(StoreError::Content {
+                    path: frames_path,
+                    message: format!(
+                        "record {} has index {} (records must count up from 0); run `fringe verify`",
+                        k + 1,
+                        f.index
+                    ),
+                });
+            }
+        }
+        let force_file = open_append(&force_path)?;
+        let writer = RunWriter {
+            frames: open_append(&frames_path)?,
+            events: open_append(&events_path)?,
+            force: BufWriter::with_capacity(1 << 20, force_file),
+            dir: dir.to_path_buf(),
+            next_index: frames.len() as u64,
+            force_samples: samples.len() as u64,
+        };
+        Ok((
+            writer,
+            Existing {
+                start,
+                frames,
+                events,
+                force_samples: samples.len() as u64,
+                cut_bytes: cut,
+            },
+        ))
+    }
+
+    /// The run directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Index the next frame record must have.
+    pub fn next_index(&self) -> u64 {
+        self.next_index
+    }
+
+    /// Force samples written so far.
+    pub fn force_samples(&self) -> u64 {
+        self.force_samples
+    }
+
+    /// Saves a frame image under frames/ (renamed into place when complete); returns its path
+    /// relative to the run directory.
+    pub fn save_frame_image(&self, frame: &Frame) -> Result<String, StoreError> {
+        let rel = format!("{FRAME_DIR}/{:08}.png", frame.id);
+        let path = self.dir.join(&rel);
+        let tmp = self
+            .dir
+            .join(format!("{FRAME_DIR}/{:08}.png.tmp", frame.id));
+        save_png(frame, &tmp).map_err(|e| StoreError::Content {
+            path: tmp.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::rename(&tmp, &path).map_err(|e| StoreError::io(&path, e))?;
+        Ok(rel)
+    }
+
+    /// Appends a frame record; its index must be [`RunWriter::next_index`].
+    pub fn append_frame(&mut self, record: &FrameRecord) -> Result<(), StoreError> {
+        let path = self.dir.join(FRAMES);
+        if record.index != self.next_index {
+            return Err(StoreError::Content {
+                path,
+                message: format!(
+                    "frame record index {} out of order (expected {})",
+                    record.index, self.next_index
+                ),
+            });
+        }
+        let mut line = json(&path, record)?;
+        line.push('\n');
+        self.frames
+            .write_all(line.as_bytes())
+            .map_err(|e| StoreError::io(&path, e))?;
+        self.next_index += 1;
+        Ok(())
+    }
+
+    /// Appends an event.
+    pub fn append_event(
+        &mut self,
+        kind: &str,
+        point: Option<u64>,
+        message: &str,
+    ) -> Result<(), StoreError> {
+        let path = self.dir.join(EVENTS);
+        let event = Event {
+            host_ns: HostTime::now().0,
+            utc: now_utc(),
+            kind: kind.to_string(),
+            point,
+            message: message.to_string(),
+        };
+        let mut line = json(&path, &event)?;
+        line.push('\n');
+        self.events
+            .write_all(line.as_bytes())
+            .map_err(|e| StoreError::io(&path, e))
+    }
+
+    /// Appends raw force samples (buffered; made durable by [`RunWriter::checkpoint`]).
+    pub fn append_force(&mut self, samples: &[ForceSample]) -> Result<(), StoreError> {
+        for s in samples {
+            self.force
+                .write_all(&force_log::encode(s))
+                .map_err(|e| StoreError::io(self.dir.join(FORCE), e))?;
+        }
+        self.force_samples += samples.len() as u64;
+        Ok(())
+    }
+
+    /// Makes everything written so far durable.
+    pub fn checkpoint(&mut self) -> Result<(), StoreError> {
+        let force = self.dir.join(FORCE);
+        self.force.flush().map_err(|e| StoreError::io(&force, e))?;
+        self.force
+            .get_ref()
+            .sync_data()
+            .map_err(|e| StoreError::io(&force, e))?;
+        self.frames
+            .sync_data()
+            .map_err(|e| StoreError::io(self.dir.join(FRAMES), e))?;
+        self.events
+            .sync_data()
+            .map_err(|e| StoreError::io(self.dir.join(EVENTS), e))?;
+        sync_dir(&self.dir.join(FRAME_DIR))
+    }
+
+    /// Ends the run: checkpoint, stop document, manifest. Returns the run directory.
+    pub fn finish(mut self, stop: &StopDocument) -> Result<PathBuf, StoreError> {
+        self.checkpoint()?;
+        let path = self.dir.join(STOP);
+        let text = serde_json::to_string_pretty(stop).map_err(|e| StoreError::Content {
+            path: path.clone(),
+            message: format!("cannot encode: {e}"),
+        })?;
+        write_atomic(&path, text.as_bytes())?;
+        manifest::write(&self.dir)?;
+        Ok(self.dir)
+    }
+}
+
+fn truncate_by(path: &Path, bytes: u64) -> Result<(), StoreError> {
+    let f = OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(|e| StoreError::io(path, e))?;
+    let len = f.metadata().map_err(|e| StoreError::io(path, e))?.len();
+    f.set_len(len.saturating_sub(bytes))
+        .and_then(|_| f.sync_all())
+        .map_err(|e| StoreError::io(path, e))
+}

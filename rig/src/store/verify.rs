@@ -1,0 +1,123 @@
+//! Checking a run directory: documents parse, records are consecutive and point at existing
+//! frames, the force log is whole, counts agree with the stop document and every file matches the
+//! manifest.
+
+use super::documents::{FrameRecord, StartDocument, StopDocument};
+use super::run_writer::{read_document, read_lines};
+use super::{force_log, manifest, StoreError, FORCE, FRAMES, MANIFEST, START, STOP};
+use std::path::Path;
+
+/// What `fringe verify` found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VerifyReport {
+    pub run_id: String,
+    pub frames: u64,
+    pub force_samples: u64,
+    /// The run ended (a stop document exists).
+    pub ended: bool,
+    /// Every problem found, one line each; empty means the run is intact.
+    pub problems: Vec<String>,
+}
+
+impl VerifyReport {
+    pub fn ok(&self) -> bool {
+        self.problems.is_empty()
+    }
+}
+
+/// Checks the run in `dir`. Fails only when `dir` is not a run at all (no readable start
+/// document); everything else is reported as a problem.
+pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
+    let start: StartDocument = read_document(&dir.join(START))?;
+    let mut problems = Vec::new();
+    let frames: Vec<FrameRecord> = match read_lines(&dir.join(FRAMES)) {
+        Ok((frames, torn)) => {
+            if let Some(t) = torn {
+                problems.push(format!(
+                    "{FRAMES}: torn last line ({} bytes, a crash mid-write)",
+                    t.len()
+                ));
+            }
+            frames
+        }
+        Err(e) => {
+            problems.push(e.to_string());
+            Vec::new()
+        }
+    };
+    for (k, f) in frames.iter().enumerate() {
+        if f.index != k as u64 {
+            problems.push(format!(
+                "{FRAMES}: record {} has index {}, expected {k}",
+                k + 1,
+                f.index
+            ));
+        }
+        if !dir.join(&f.file).is_file() {
+            problems.push(format!(
+                "{}: frame of record {} is missing",
+                f.file, f.index
+            ));
+        }
+    }
+    let force_path = dir.join(FORCE);
+    let force_samples = match std::fs::read(&force_path) {
+        Ok(bytes) => match force_log::decode_all(&bytes) {
+            Ok((samples, torn)) => {
+                if torn > 0 {
+                    problems.push(format!("{FORCE}: {torn} bytes of a torn record at the end"));
+                }
+                samples.len() as u64
+            }
+            Err(message) => {
+                problems.push(format!("{FORCE}: {message}"));
+                0
+            }
+        },
+        Err(e) => {
+            problems.push(format!("{FORCE}: {e}"));
+            0
+        }
+    };
+    let stop_path = dir.join(STOP);
+    let ended = stop_path.exists();
+    if ended {
+        match read_document::<StopDocument>(&stop_path) {
+            Ok(stop) => {
+                if stop.frames != frames.len() as u64 {
+                    problems.push(format!(
+                        "{STOP}: says {} frames, {FRAMES} holds {}",
+                        stop.frames,
+                        frames.len()
+                    ));
+                }
+                if stop.force_samples != force_samples {
+                    problems.push(format!(
+                        "{STOP}: says {} force samples, {FORCE} holds {force_samples}",
+                        stop.force_samples
+                    ));
+                }
+            }
+            Err(e) => problems.push(e.to_string()),
+        }
+        if dir.join(MANIFEST).is_file() {
+            problems.extend(manifest::check(dir)?);
+        } else {
+            problems.push(format!(
+                "{MANIFEST}: missing (the run ended without its manifest)"
+            ));
+        }
+    } else {
+        problems.push(format!(
+            "{STOP}: missing: the run did not finish (resume it with `fringe scan PLAN --resume {}`)",
+            dir.display()
+        ));
+    }
+    Ok(VerifyReport {
+        run_id: start.run_id,
+        frames: frames.len() as u64,
+        force_samples,
+        ended,
+        problems,
+    })
+}

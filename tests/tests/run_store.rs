@@ -1,0 +1,237 @@
+//! The run store: a run written, closed and verified; a crash mid-write reopened without losing
+//! or duplicating anything; damage of every kind reported by verify.
+
+use fringe_rig::camera::{Frame, PixelFormat};
+use fringe_rig::clock::HostTime;
+use fringe_rig::force::ForceSample;
+use fringe_rig::store::documents::{
+    ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
+};
+use fringe_rig::store::run_list::list;
+use fringe_rig::store::run_writer::RunWriter;
+use fringe_rig::store::verify::verify;
+use fringe_rig::store::{FORCE, FRAMES};
+use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fringe-store-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn start(id: &str) -> StartDocument {
+    StartDocument {
+        layout_version: 1,
+        run_id: id.into(),
+        started_utc: fringe_rig::store::documents::now_utc(),
+        software: "fringe test".into(),
+        sensor_id: "layered-01".into(),
+        plan: "[grid]\nx = [0.0, 5.0]\n".into(),
+        rig: "simulated = true\n".into(),
+        calibration_profile: None,
+        seed: Some(42),
+        sync_method: "strobe".into(),
+    }
+}
+
+fn frame(id: u64) -> Frame {
+    Frame {
+        id,
+        device_timestamp: id * 20_000_000,
+        host_arrival: HostTime(id * 20_000_000 + 3_000_000),
+        width: 8,
+        height: 4,
+        format: PixelFormat::Rgb8,
+        data: (0..96).map(|k| (k as u64 * 7 + id) as u8).collect(),
+    }
+}
+
+fn record(index: u64, file: String, fz: f64) -> FrameRecord {
+    let pos = Position {
+        x: Millimetres(index as f64),
+        y: Millimetres(0.0),
+        z: Millimetres(5.0),
+    };
+    FrameRecord {
+        index,
+        frame_id: index,
+        file,
+        device_timestamp: index * 20_000_000,
+        host_arrival_ns: index * 20_000_000 + 3_000_000,
+        exposure: None,
+        point: index / 2,
+        commanded: pos,
+        measured: pos,
+        wrench: Some(Wrench {
+            fz: Newtons(fz),
+            ..Wrench::default()
+        }),
+        shape: "pentagon".into(),
+        contact: Some([index as f64, 0.0]),
+        valid: true,
+        notes: vec![],
+    }
+}
+
+fn samples(from: u64, n: u64) -> Vec<ForceSample> {
+    (from..from + n)
+        .map(|k| ForceSample {
+            device_tick: k,
+            transport_seq: Some(k as u32),
+            host_time: HostTime(k * 200_000),
+            wrench: Wrench {
+                fz: Newtons(-(k as f64) * 1e-3),
+                ..Wrench::default()
+            },
+            status: 0,
+            strobe: None,
+        })
+        .collect()
+}
+
+/// Writes `frames` frames (with force) to an open writer.
+fn write_frames(w: &mut RunWriter, frames: std::ops::Range<u64>) {
+    for id in frames {
+        let file = w.save_frame_image(&frame(id)).expect("frame image");
+        let index = w.next_index();
+        w.append_frame(&record(index, file, -(id as f64)))
+            .expect("record");
+        let from = w.force_samples();
+        w.append_force(&samples(from, 100)).expect("force");
+    }
+}
+
+fn stop(frames: u64, force: u64) -> StopDocument {
+    StopDocument {
+        exit_status: ExitStatus::Completed,
+        reason: "all points done".into(),
+        stopped_utc: fringe_rig::store::documents::now_utc(),
+        frames,
+        dropped_frames: 0,
+        force_samples: force,
+        lost_force_samples: 0,
+        points_done: frames / 2,
+    }
+}
+
+fn finished_run(root: &Path, id: &str) -> PathBuf {
+    let mut w = RunWriter::create(root, &start(id)).expect("create");
+    w.append_event("checkpoint", Some(0), "point 0")
+        .expect("event");
+    write_frames(&mut w, 0..6);
+    w.checkpoint().expect("checkpoint");
+    w.finish(&stop(6, 600)).expect("finish")
+}
+
+#[test]
+fn a_finished_run_verifies_and_is_listed() {
+    let root = scratch("finished");
+    let dir = finished_run(&root, "run-a");
+    let report = verify(&dir).expect("verify");
+    assert!(report.ok(), "{:?}", report.problems);
+    assert_eq!((report.frames, report.force_samples), (6, 600));
+    let (runs, unreadable) = list(&root).expect("list");
+    assert!(unreadable.is_empty());
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0].frames, 6);
+    assert_eq!(
+        runs[0].stop.as_ref().map(|s| s.exit_status),
+        Some(ExitStatus::Completed)
+    );
+    let err = RunWriter::create(&root, &start("run-a"))
+        .err()
+        .expect("an existing run id is refused");
+    assert!(err.to_string().contains("exists already"), "{err}");
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn a_crash_mid_write_is_reopened_without_loss_or_duplicates() {
+    let root = scratch("crash");
+    let mut w = RunWriter::create(&root, &start("run-b")).expect("create");
+    write_frames(&mut w, 0..4);
+    w.checkpoint().expect("checkpoint");
+    let dir = w.dir().to_path_buf();
+    drop(w); // the process dies here...
+             // ...in the middle of a record and of a force sample.
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(dir.join(FRAMES))
+        .expect("frames");
+    f.write_all(b"{\"index\":4,\"frame_id\":4,\"fi")
+        .expect("torn");
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(dir.join(FORCE))
+        .expect("force");
+    f.write_all(&[1, 2, 3, 4, 5]).expect("torn");
+    let before = verify(&dir).expect("verify");
+    assert!(!before.ok());
+    assert!(
+        before.problems.iter().any(|p| p.contains("torn")),
+        "{:?}",
+        before.problems
+    );
+
+    let (mut w, existing) = RunWriter::reopen(&dir).expect("reopen");
+    assert_eq!(existing.frames.len(), 4);
+    assert_eq!(existing.force_samples, 400);
+    assert!(existing.cut_bytes >= 5);
+    assert_eq!(existing.start.seed, Some(42));
+    write_frames(&mut w, 4..7);
+    w.finish(&stop(7, 700)).expect("finish");
+    let after = verify(&dir).expect("verify");
+    assert!(after.ok(), "{:?}", after.problems);
+    let (frames, _) =
+        fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES)).expect("read");
+    let ids: Vec<u64> = frames.iter().map(|f| f.frame_id).collect();
+    assert_eq!(ids, (0..7).collect::<Vec<_>>());
+    let err = RunWriter::reopen(&dir)
+        .err()
+        .expect("an ended run cannot resume");
+    assert!(err.to_string().contains("has ended"), "{err}");
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn damage_of_every_kind_is_reported() {
+    let root = scratch("damage");
+    let dir = finished_run(&root, "run-c");
+    // A frame changed, another deleted, a stray file, a truncated force log.
+    let png = dir.join("frames/00000001.png");
+    let mut bytes = std::fs::read(&png).expect("png");
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0xff;
+    std::fs::write(&png, bytes).expect("write");
+    std::fs::remove_file(dir.join("frames/00000003.png")).expect("remove");
+    std::fs::write(dir.join("notes.txt"), "added later").expect("stray");
+    let force = dir.join(FORCE);
+    let len = std::fs::metadata(&force).expect("meta").len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&force)
+        .and_then(|f| f.set_len(len - 80))
+        .expect("truncate");
+    let report = verify(&dir).expect("verify");
+    let all = report.problems.join("\n");
+    assert!(
+        all.contains("frames/00000001.png: checksum differs"),
+        "{all}"
+    );
+    assert!(
+        all.contains("frames/00000003.png: frame of record 3 is missing"),
+        "{all}"
+    );
+    assert!(all.contains("notes.txt: not listed"), "{all}");
+    assert!(
+        all.contains("says 600 force samples, force.bin holds 599"),
+        "{all}"
+    );
+    assert!(all.contains("force.bin: checksum differs"), "{all}");
+    // Not a run at all: a clear error naming the file.
+    let err = verify(&root).expect_err("not a run");
+    assert!(err.to_string().contains("start.json"), "{err}");
+    let _ = std::fs::remove_dir_all(root);
+}
