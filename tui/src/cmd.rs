@@ -6,5 +6,6 @@ pub mod camera;
 pub mod devices;
 pub mod ft;
 pub mod limits;
+pub mod runs;
 pub mod selfcheck;
 pub mod ystage;

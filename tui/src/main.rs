@@ -35,6 +35,10 @@ enum Command {
     Axis(cmd::axis::AxisArgs),
     /// Grab frames from a camera (Aravis) or a recorded camera trace.
     Camera(cmd::camera::CameraArgs),
+    /// List the runs in a directory (default runs/), newest first.
+    Runs(cmd::runs::RunsArgs),
+    /// Check a run directory: records, frames, force log and checksums.
+    Verify(cmd::runs::VerifyArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +53,8 @@ fn main() -> ExitCode {
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
         Some(Command::Axis(args)) => cmd::axis::run(args, &global),
         Some(Command::Camera(args)) => cmd::camera::run(args, &global),
+        Some(Command::Runs(args)) => cmd::runs::run_list(args, &global),
+        Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,76 @@
+//! `fringe runs` and `fringe verify`: what runs exist and whether one is intact.
+
+use crate::Global;
+use anyhow::Context;
+use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::run_list::list;
+use fringe_rig::store::verify::verify;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct RunsArgs {
+    /// Directory holding the runs.
+    #[arg(long, value_name = "DIR", default_value = "runs")]
+    root: PathBuf,
+}
+
+#[derive(clap::Args)]
+pub struct VerifyArgs {
+    /// The run directory to check.
+    run: PathBuf,
+}
+
+pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
+    let (runs, unreadable) =
+        list(&args.root).with_context(|| format!("cannot list runs in {}", args.root.display()))?;
+    if runs.is_empty() && unreadable.is_empty() {
+        println!("no runs in {}", args.root.display());
+        return Ok(());
+    }
+    println!(
+        "{:<32} {:<24} {:<16} {:>7}  status",
+        "run", "started (UTC)", "sensor", "frames"
+    );
+    for r in &runs {
+        let status = match &r.stop {
+            None => "unfinished (resumable)".to_string(),
+            Some(s) => match s.exit_status {
+                ExitStatus::Completed => "completed".to_string(),
+                ExitStatus::Aborted => format!("aborted: {}", s.reason),
+                ExitStatus::Failed => format!("failed: {}", s.reason),
+            },
+        };
+        println!(
+            "{:<32} {:<24} {:<16} {:>7}  {status}",
+            r.start.run_id, r.start.started_utc, r.start.sensor_id, r.frames
+        );
+    }
+    for u in &unreadable {
+        println!("unreadable: {u}");
+    }
+    Ok(())
+}
+
+pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
+    let report = verify(&args.run)
+        .with_context(|| format!("{} is not a readable run", args.run.display()))?;
+    println!(
+        "run {}: {} frames, {} force samples, {}",
+        report.run_id,
+        report.frames,
+        report.force_samples,
+        if report.ended { "ended" } else { "not ended" }
+    );
+    if report.ok() {
+        println!("ok: every file matches the manifest and the records are complete");
+        return Ok(());
+    }
+    for p in &report.problems {
+        println!("  problem: {p}");
+    }
+    anyhow::bail!(
+        "run {} has {} problem(s)",
+        args.run.display(),
+        report.problems.len()
+    )
+}
