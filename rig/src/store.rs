@@ -17,8 +17,10 @@
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
 //! - [`run_list`]: the runs under a directory, newest first.
+//! - [`export`]: the reference pipeline's `0.images/` + `0.labels.csv` layout.
 
 pub mod documents;
+pub mod export;
 pub mod force_log;
 pub mod manifest;
 pub mod run_list;

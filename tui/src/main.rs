@@ -39,6 +39,8 @@ enum Command {
     Runs(cmd::runs::RunsArgs),
     /// Check a run directory: records, frames, force log and checksums.
     Verify(cmd::runs::VerifyArgs),
+    /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv).
+    Export(cmd::runs::ExportArgs),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +57,7 @@ fn main() -> ExitCode {
         Some(Command::Camera(args)) => cmd::camera::run(args, &global),
         Some(Command::Runs(args)) => cmd::runs::run_list(args, &global),
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
+        Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

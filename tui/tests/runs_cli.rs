@@ -6,7 +6,7 @@ use fringe_rig::store::documents::{
     now_utc, ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
 };
 use fringe_rig::store::run_writer::RunWriter;
-use fringe_rig::units::Millimetres;
+use fringe_rig::units::{Millimetres, Newtons, Wrench};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -65,9 +65,13 @@ fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
             point: 0,
             commanded: p,
             measured: p,
-            wrench: None,
-            shape: "None".into(),
-            contact: None,
+            // Frames 0 and 1 are labelled (1 in contact), frame 2 has no force label.
+            wrench: (id < 2).then(|| Wrench {
+                fz: Newtons(-(id as f64) * 2.5),
+                ..Wrench::default()
+            }),
+            shape: if id == 1 { "rectangle" } else { "None" }.into(),
+            contact: (id == 1).then_some([1.5, -2.0]),
             valid: true,
             notes: vec![],
         })
@@ -135,5 +139,47 @@ fn runs_lists_and_verify_judges_runs() {
     let out = fringe(&["verify", root.join("nope").to_str().expect("utf-8")]);
     assert!(!out.status.success());
     assert!(text(&out).contains("start.json"), "{}", text(&out));
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn export_writes_the_reference_layout() {
+    let root = std::env::temp_dir().join(format!("fringe-export-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let a = write_run(&root, "run-a", true);
+    let b = write_run(&root, "run-b", true);
+    let out = root.join("dataset");
+    let args = [
+        "export",
+        a.to_str().expect("utf-8"),
+        b.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ];
+    let result = fringe(&args);
+    assert!(result.status.success(), "{}", text(&result));
+    let csv = std::fs::read_to_string(out.join("0.labels.csv")).expect("labels");
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape")
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    assert_eq!(rows[0], "image_0.tiff,0,0,0,0,0,0,0,NaN,NaN,None");
+    assert_eq!(rows[1], "image_1.tiff,0,0,-2.5,0,0,0,2.5,1.5,-2,rectangle");
+    assert!(rows[3].starts_with("image_3.tiff,"));
+    for k in 0..4 {
+        let img = image::open(out.join(format!("0.images/image_{k}.tiff"))).expect("tiff");
+        assert_eq!((img.width(), img.height()), (4, 2));
+    }
+    assert!(
+        text(&result).contains("2 invalid frames left out"),
+        "{}",
+        text(&result)
+    );
+    let again = fringe(&args);
+    assert!(!again.status.success());
+    assert!(text(&again).contains("already there"), "{}", text(&again));
     let _ = std::fs::remove_dir_all(&root);
 }

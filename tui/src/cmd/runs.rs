@@ -74,3 +74,62 @@ pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
         report.problems.len()
     )
 }
+
+/// Layouts `fringe export` writes.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// `0.images/image_K.tiff` + `0.labels.csv`, as the paper's training code reads.
+    Reference,
+}
+
+#[derive(clap::Args)]
+pub struct ExportArgs {
+    /// Run directories, exported in the order given.
+    #[arg(required = true)]
+    runs: Vec<PathBuf>,
+    #[arg(long, value_enum, default_value = "reference")]
+    format: ExportFormat,
+    /// Output directory (created).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Round forces, torques and positions to this step (the reference trained on 0.1).
+    #[arg(long, value_name = "STEP")]
+    round: Option<f64>,
+}
+
+pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
+    if let Some(step) = args.round {
+        if !(step.is_finite() && step > 0.0) {
+            anyhow::bail!("--round {step}: give a positive step such as 0.1");
+        }
+    }
+    for run in &args.runs {
+        let report =
+            verify(run).with_context(|| format!("{} is not a readable run", run.display()))?;
+        if !report.ok() {
+            eprintln!(
+                "warning: {} has {} problem(s) (see `fringe verify {}`); exporting what is there",
+                run.display(),
+                report.problems.len(),
+                run.display()
+            );
+        }
+    }
+    let ExportFormat::Reference = args.format;
+    let options = fringe_rig::store::export::ExportOptions { round: args.round };
+    let summary =
+        fringe_rig::store::export::export_reference(&args.runs, &args.out, &options, |k| {
+            if k % 250 == 0 {
+                eprint!("\r{k} images");
+            }
+        })?;
+    eprintln!();
+    println!(
+        "exported {} images ({} without contact) to {}; {} invalid frames left out",
+        summary.images,
+        summary.without_contact,
+        summary.labels.display(),
+        summary.skipped_invalid
+    );
+    Ok(())
+}
