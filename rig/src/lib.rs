@@ -14,6 +14,7 @@ pub mod atical;
 pub mod axis;
 pub mod camera;
 pub mod clock;
+pub mod config_file;
 pub mod force;
 pub mod ft_units;
 pub mod manual;

@@ -276,8 +276,7 @@ impl RegisterMap {
             source_name: source_name.to_string(),
             message,
         };
-        let mut map: RegisterMap =
-            toml::from_str(text).map_err(|e| err(describe_toml_error(text, &e)))?;
+        let mut map: RegisterMap = crate::config_file::parse_toml(text).map_err(err)?;
         map.source = source_name.to_string();
         map.check().map_err(err)?;
         Ok(map)
@@ -407,39 +406,6 @@ impl RegisterMap {
             _ => 0,
         }
     }
-}
-
-/// A one-line message for a TOML error: line, section and key, then what was wrong.
-fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
-    let Some(span) = e.span() else {
-        return e.message().to_string();
-    };
-    let before = text.get(..span.start).unwrap_or(text);
-    let line_no = before.matches('\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    // The key is the last `name =` before the error on its line.
-    let key = before[line_start..]
-        .rsplit_once('=')
-        .map(|(k, _)| k)
-        .and_then(|k| {
-            k.rsplit(|c: char| c == '{' || c == ',' || c.is_whitespace())
-                .find(|t| !t.is_empty())
-        })
-        .map(|k| k.trim().to_string());
-    let section = before
-        .lines()
-        .rev()
-        .map(str::trim)
-        .find(|l| l.starts_with('[') && l.ends_with(']'))
-        .map(|l| l.trim_matches(|c| c == '[' || c == ']').to_string());
-    let mut at = format!("line {line_no}");
-    match (section, key) {
-        (Some(s), Some(k)) => at.push_str(&format!(", key {s}.{k}")),
-        (None, Some(k)) => at.push_str(&format!(", key {k}")),
-        (Some(s), None) => at.push_str(&format!(", section [{s}]")),
-        (None, None) => {}
-    }
-    format!("{at}: {}", e.message().trim_end().replace('\n', " "))
 }
 
 /// Checks that `value` fits a register field of `words` registers (signed or unsigned).
