@@ -1,0 +1,553 @@
+//! Scan plans (`plan.toml`): a grid of stage positions, indenters, and how each point is pressed.
+//!
+//! ```toml
+//! name = "pentagon-grid"
+//! [grid]
+//! x = { start = -10.0, stop = 10.0, step = 5.0 }   # or explicit: x = [-10.0, 0.0, 10.0]
+//! y = [0.0]
+//! order = "snake"                                   # or "raster"
+//! [indenters]
+//! shapes = ["pentagon", "rectangle"]                # the operator is asked to change between
+//! [approach]
+//! safe_z = 0.0              # z (mm) for lateral moves
+//! contact_threshold = 0.3   # N: first contact
+//! [indentation]
+//! force_targets = [1.0, 4.0, 9.0]                   # N, closed loop on the F/T; or depth_targets (mm past contact)
+//! ramp_rate = 2.0           # N/s (or mm/s for depth)
+//! dwell = 1.0               # s at each target
+//! repetitions = 1
+//! [safety]
+//! force_ceiling = 12.0      # N
+//! ```
+//!
+//! The order is: indenter (outermost: a prompt to change it), then y rows (a manual y stage is
+//! asked once per row), then x along the row (snake reverses every other row), then repetitions.
+
+use crate::axis::SoftLimits;
+use crate::config_file::{load_toml, parse_toml, ConfigError};
+use crate::sim::motion::Kinematics;
+use crate::units::{Millimetres, Newtons};
+use std::path::Path;
+use std::time::Duration;
+
+/// A list of coordinates, as a range or explicitly.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum Axis1d {
+    Range { start: f64, stop: f64, step: f64 },
+    Points(Vec<f64>),
+}
+
+impl Axis1d {
+    /// The coordinates; a range includes `stop` when it falls on the step (within 1e-9 mm).
+    pub fn values(&self, key: &str) -> Result<Vec<f64>, String> {
+        match self {
+            Axis1d::Points(p) if p.is_empty() => Err(format!("key {key}: give at least one point")),
+            Axis1d::Points(p) => match p.iter().find(|v| !v.is_finite()) {
+                Some(v) => Err(format!("key {key}: {v} is not a number")),
+                None => Ok(p.clone()),
+            },
+            Axis1d::Range { start, stop, step } => {
+                if !(start.is_finite() && stop.is_finite() && step.is_finite() && *step > 0.0) {
+                    return Err(format!(
+                        "key {key}: start, stop must be numbers and step a positive number"
+                    ));
+                }
+                let span = stop - start;
+                let n = (span.abs() / step + 1e-9).floor() as usize;
+                if n > 100_000 {
+                    return Err(format!("key {key}: {} points is too many", n + 1));
+                }
+                let dir = if span < 0.0 { -1.0 } else { 1.0 };
+                Ok((0..=n).map(|k| start + dir * step * k as f64).collect())
+            }
+        }
+    }
+}
+
+/// Grid ordering.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Order {
+    /// Every row in the same x direction.
+    Raster,
+    /// Every other row reversed (shortest path).
+    #[default]
+    Snake,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSection {
+    pub x: Axis1d,
+    pub y: Axis1d,
+    #[serde(default)]
+    pub order: Order,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IndenterSection {
+    pub shapes: Vec<String>,
+}
+
+fn default_threshold() -> f64 {
+    0.3
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ApproachSection {
+    /// z for lateral moves, away from the sensor.
+    pub safe_z: f64,
+    /// Pressing force that means first contact, N.
+    #[serde(default = "default_threshold")]
+    pub contact_threshold: f64,
+}
+
+fn default_one() -> u32 {
+    1
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IndentationSection {
+    /// Force targets, N, reached under closed-loop control on the F/T reading.
+    #[serde(default)]
+    pub force_targets: Vec<f64>,
+    /// Depth targets, mm past first contact.
+    #[serde(default)]
+    pub depth_targets: Vec<f64>,
+    /// N/s for force targets, mm/s for depth targets.
+    pub ramp_rate: f64,
+    /// Seconds held at each target.
+    pub dwell: f64,
+    #[serde(default = "default_one")]
+    pub repetitions: u32,
+}
+
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SafetySection {
+    pub force_ceiling: f64,
+}
+
+/// A scan plan as written.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plan {
+    pub name: String,
+    pub grid: GridSection,
+    pub indenters: IndenterSection,
+    pub approach: ApproachSection,
+    pub indentation: IndentationSection,
+    pub safety: SafetySection,
+}
+
+/// What is pressed at a point.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Targets {
+    Force(Vec<Newtons>),
+    Depth(Vec<Millimetres>),
+}
+
+/// One indentation of the scan, in execution order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanPoint {
+    /// Position in the execution order (0, 1, ...): the checkpoint number.
+    pub index: u64,
+    pub shape: String,
+    pub x: Millimetres,
+    pub y: Millimetres,
+    pub repetition: u32,
+    /// The operator must change the indenter to `shape` before this point.
+    pub change_indenter: bool,
+    /// y differs from the previous point's (a manual y stage asks the operator).
+    pub new_row: bool,
+}
+
+/// What the bench can do, for validation and duration estimates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchLimits {
+    pub x: SoftLimits,
+    pub y: SoftLimits,
+    pub z: SoftLimits,
+    pub x_motion: Kinematics,
+    pub y_motion: Kinematics,
+    pub z_motion: Kinematics,
+    /// The y stage is moved by hand (rows are grouped and the operator asked once per row).
+    pub manual_y: bool,
+    /// The largest force the F/T sensor and the sensor under test may see.
+    pub max_force: Newtons,
+    /// z of first contact, roughly (for the approach time estimate).
+    pub contact_z: Millimetres,
+}
+
+/// A plan checked against the bench, expanded into points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanProgram {
+    pub plan: Plan,
+    pub targets: Targets,
+    pub points: Vec<ScanPoint>,
+}
+
+impl Plan {
+    /// Parses plan text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Plan, ConfigError> {
+        parse_toml(text).map_err(|message| ConfigError {
+            origin: origin.to_string(),
+            message,
+        })
+    }
+
+    /// Loads a plan file.
+    pub fn load(path: &Path) -> Result<(Plan, String), ConfigError> {
+        load_toml(path)
+    }
+
+    /// Checks the plan against `bench` before any motion and expands it; errors name the key.
+    pub fn program(&self, bench: &BenchLimits, origin: &str) -> Result<ScanProgram, ConfigError> {
+        let err = |message: String| ConfigError {
+            origin: origin.to_string(),
+            message,
+        };
+        let xs = self.grid.x.values("grid.x").map_err(err)?;
+        let ys = self.grid.y.values("grid.y").map_err(err)?;
+        for (key, values, limits) in [("grid.x", &xs, &bench.x), ("grid.y", &ys, &bench.y)] {
+            if let Some(v) = values
+                .iter()
+                .find(|v| limits.check(key, Millimetres(**v)).is_err())
+            {
+                return Err(err(format!(
+                    "key {key}: {v} mm is outside the soft limits {:.3} .. {:.3} mm of the rig",
+                    limits.min.0, limits.max.0
+                )));
+            }
+        }
+        if bench
+            .z
+            .check("z", Millimetres(self.approach.safe_z))
+            .is_err()
+        {
+            return Err(err(format!(
+                "key approach.safe_z: {} mm is outside the z soft limits {:.3} .. {:.3} mm",
+                self.approach.safe_z, bench.z.min.0, bench.z.max.0
+            )));
+        }
+        if self.indenters.shapes.is_empty() {
+            return Err(err(
+                "key indenters.shapes: name at least one indenter".into()
+            ));
+        }
+        let ceiling = self.safety.force_ceiling;
+        if !(ceiling.is_finite() && ceiling > 0.0) || ceiling > bench.max_force.0 {
+            return Err(err(format!(
+                "key safety.force_ceiling: {ceiling} N must be positive and at most the rig's {:.1} N",
+                bench.max_force.0
+            )));
+        }
+        let ind = &self.indentation;
+        let targets = match (ind.force_targets.is_empty(), ind.depth_targets.is_empty()) {
+            (false, true) => {
+                if let Some(t) = ind
+                    .force_targets
+                    .iter()
+                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < ceiling))
+                {
+                    return Err(err(format!(
+                        "key indentation.force_targets: {t} N must be above 0 and below the force ceiling {ceiling} N"
+                    )));
+                }
+                Targets::Force(ind.force_targets.iter().map(|t| Newtons(*t)).collect())
+            }
+            (true, false) => {
+                if let Some(t) = ind
+                    .depth_targets
+                    .iter()
+                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < 5.0))
+                {
+                    return Err(err(format!(
+                        "key indentation.depth_targets: {t} mm must be above 0 and below 5 mm"
+                    )));
+                }
+                Targets::Depth(ind.depth_targets.iter().map(|t| Millimetres(*t)).collect())
+            }
+            _ => {
+                return Err(err(
+                    "section [indentation]: give either force_targets or depth_targets".into(),
+                ))
+            }
+        };
+        if !(ind.ramp_rate.is_finite() && ind.ramp_rate > 0.0) {
+            return Err(err(format!(
+                "key indentation.ramp_rate: {} must be a positive number",
+                ind.ramp_rate
+            )));
+        }
+        if !(ind.dwell.is_finite() && ind.dwell >= 0.0) {
+            return Err(err(format!(
+                "key indentation.dwell: {} s must be zero or more",
+                ind.dwell
+            )));
+        }
+        if ind.repetitions == 0 {
+            return Err(err("key indentation.repetitions: at least 1".into()));
+        }
+        let mut points = Vec::new();
+        let mut last: Option<(String, f64)> = None;
+        for shape in &self.indenters.shapes {
+            for (row, y) in ys.iter().enumerate() {
+                let reverse = self.grid.order == Order::Snake && row % 2 == 1;
+                let row_xs: Vec<f64> = if reverse {
+                    xs.iter().rev().copied().collect()
+                } else {
+                    xs.clone()
+                };
+                for x in row_xs {
+                    for repetition in 0..ind.repetitions {
+                        let change_indenter = last.as_ref().is_none_or(|(s, _)| s != shape);
+                        let new_row = last.as_ref().is_none_or(|(_, ly)| ly != y);
+                        points.push(ScanPoint {
+                            index: points.len() as u64,
+                            shape: shape.clone(),
+                            x: Millimetres(x),
+                            y: Millimetres(*y),
+                            repetition,
+                            change_indenter,
+                            new_row,
+                        });
+                        last = Some((shape.clone(), *y));
+                    }
+                }
+            }
+        }
+        Ok(ScanProgram {
+            plan: self.clone(),
+            targets,
+            points,
+        })
+    }
+}
+
+/// Time of a trapezoidal move of `distance` with `k` (rest to rest).
+pub fn move_time(distance: f64, k: &Kinematics) -> Duration {
+    let d = distance.abs();
+    let (v, a) = (
+        k.velocity.0.abs().max(1e-9),
+        k.acceleration.0.abs().max(1e-9),
+    );
+    let secs = if d <= v * v / a {
+        2.0 * (d / a).sqrt()
+    } else {
+        d / v + v / a
+    };
+    Duration::from_secs_f64(secs)
+}
+
+/// The estimate of a dry run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    pub total: Duration,
+    pub lateral_path_mm: f64,
+    pub indenter_changes: usize,
+    pub manual_rows: usize,
+}
+
+impl ScanProgram {
+    /// Estimated duration from the bench kinematics (operator prompts not counted).
+    pub fn estimate(&self, bench: &BenchLimits) -> Estimate {
+        let plan = &self.plan;
+        let ind = &plan.indentation;
+        let (mut secs, mut path) = (0.0f64, 0.0f64);
+        let (mut changes, mut rows) = (0, 0);
+        let approach = (bench.contact_z.0 - plan.approach.safe_z).abs();
+        // Per indentation: approach, ramps through the targets, dwell at each, retract.
+        let ramps: f64 = match &self.targets {
+            Targets::Force(t) => t.last().map_or(0.0, |m| m.0) / ind.ramp_rate,
+            Targets::Depth(t) => t.last().map_or(0.0, |m| m.0) / ind.ramp_rate,
+        };
+        let n_targets = match &self.targets {
+            Targets::Force(t) => t.len(),
+            Targets::Depth(t) => t.len(),
+        };
+        let per_press = move_time(approach, &bench.z_motion).as_secs_f64()
+            + 2.0 * ramps
+            + n_targets as f64 * ind.dwell
+            + move_time(approach + 1.0, &bench.z_motion).as_secs_f64();
+        let mut at: Option<(f64, f64)> = None;
+        for p in &self.points {
+            if p.change_indenter {
+                changes += 1;
+            }
+            if p.new_row && bench.manual_y {
+                rows += 1;
+            }
+            if let Some((x0, y0)) = at {
+                let (dx, dy) = (p.x.0 - x0, p.y.0 - y0);
+                path += dx.abs() + dy.abs();
+                secs += move_time(dx, &bench.x_motion)
+                    .max(if bench.manual_y {
+                        Duration::ZERO
+                    } else {
+                        move_time(dy, &bench.y_motion)
+                    })
+                    .as_secs_f64();
+            }
+            at = Some((p.x.0, p.y.0));
+            secs += per_press;
+        }
+        Estimate {
+            total: Duration::from_secs_f64(secs),
+            lateral_path_mm: path,
+            indenter_changes: changes,
+            manual_rows: rows,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::{MillimetresPerSecond, MillimetresPerSecondSquared};
+
+    const PLAN: &str = r#"
+name = "test"
+[grid]
+x = { start = -5.0, stop = 5.0, step = 5.0 }
+y = [0.0, 2.0]
+[indenters]
+shapes = ["pentagon", "rectangle"]
+[approach]
+safe_z = 1.0
+[indentation]
+force_targets = [1.0, 4.0]
+ramp_rate = 2.0
+dwell = 0.5
+[safety]
+force_ceiling = 10.0
+"#;
+
+    fn bench() -> BenchLimits {
+        let k = Kinematics {
+            velocity: MillimetresPerSecond(2.0),
+            acceleration: MillimetresPerSecondSquared(4.0),
+        };
+        let lim = |a, b| SoftLimits::new(Millimetres(a), Millimetres(b)).expect("limits");
+        BenchLimits {
+            x: lim(-12.0, 12.0),
+            y: lim(-12.0, 12.0),
+            z: lim(0.0, 25.0),
+            x_motion: k,
+            y_motion: k,
+            z_motion: k,
+            manual_y: true,
+            max_force: Newtons(20.0),
+            contact_z: Millimetres(5.0),
+        }
+    }
+
+    #[test]
+    fn snake_order_groups_shapes_and_rows() {
+        let plan = Plan::parse(PLAN, "plan.toml").expect("parse");
+        let program = plan.program(&bench(), "plan.toml").expect("valid");
+        let xy: Vec<(String, f64, f64)> = program
+            .points
+            .iter()
+            .map(|p| (p.shape.clone(), p.x.0, p.y.0))
+            .collect();
+        assert_eq!(xy.len(), 12);
+        assert_eq!(
+            &xy[..6],
+            &[
+                ("pentagon".into(), -5.0, 0.0),
+                ("pentagon".into(), 0.0, 0.0),
+                ("pentagon".into(), 5.0, 0.0),
+                ("pentagon".into(), 5.0, 2.0),
+                ("pentagon".into(), 0.0, 2.0),
+                ("pentagon".into(), -5.0, 2.0),
+            ]
+        );
+        assert!(program.points[6].change_indenter && program.points[6].new_row);
+        assert_eq!(
+            program.points.iter().filter(|p| p.change_indenter).count(),
+            2
+        );
+        let est = program.estimate(&bench());
+        assert_eq!(est.indenter_changes, 2);
+        assert_eq!(est.manual_rows, 4);
+        // lateral: 5+5 per row, plus row changes of 2 mm (3 of them, one with the shape change
+        // going back from (-5, 2) to (-5, 0)).
+        assert!(
+            (est.lateral_path_mm - (4.0 * 10.0 + 3.0 * 2.0)).abs() < 1e-9,
+            "{est:?}"
+        );
+        assert!(est.total > Duration::from_secs(12 * 5), "{est:?}");
+    }
+
+    #[test]
+    fn plans_outside_the_rig_are_refused_naming_the_key() {
+        let too_far = PLAN.replace("stop = 5.0", "stop = 15.0");
+        let err = Plan::parse(&too_far, "plan.toml")
+            .expect("parse")
+            .program(&bench(), "plan.toml")
+            .expect_err("outside limits");
+        assert!(
+            err.to_string().starts_with("plan.toml: key grid.x: 15 mm"),
+            "{err}"
+        );
+        let too_hard = PLAN.replace("[1.0, 4.0]", "[1.0, 11.0]");
+        let err = Plan::parse(&too_hard, "p")
+            .expect("parse")
+            .program(&bench(), "p")
+            .expect_err("above ceiling");
+        assert!(
+            err.to_string().contains("indentation.force_targets: 11 N"),
+            "{err}"
+        );
+        let both = PLAN.replace("ramp_rate", "depth_targets = [0.5]\nramp_rate");
+        let err = Plan::parse(&both, "p")
+            .expect("parse")
+            .program(&bench(), "p")
+            .expect_err("both kinds");
+        assert!(
+            err.to_string()
+                .contains("either force_targets or depth_targets"),
+            "{err}"
+        );
+        let typo = PLAN.replace("dwell", "dwel");
+        let err = Plan::parse(&typo, "plan.toml").expect_err("unknown key");
+        assert!(err.to_string().contains("dwel"), "{err}");
+    }
+
+    #[test]
+    fn ranges_include_the_stop_and_count_down() {
+        let r = Axis1d::Range {
+            start: 1.0,
+            stop: -1.0,
+            step: 0.5,
+        };
+        assert_eq!(
+            r.values("x").expect("values"),
+            vec![1.0, 0.5, 0.0, -0.5, -1.0]
+        );
+        let bad = Axis1d::Range {
+            start: 0.0,
+            stop: 1.0,
+            step: 0.0,
+        };
+        assert!(bad
+            .values("grid.x")
+            .expect_err("zero step")
+            .contains("grid.x"));
+    }
+
+    #[test]
+    fn move_time_is_the_trapezoid() {
+        let k = Kinematics {
+            velocity: MillimetresPerSecond(2.0),
+            acceleration: MillimetresPerSecondSquared(4.0),
+        };
+        assert!((move_time(5.0, &k).as_secs_f64() - 3.0).abs() < 1e-9);
+        assert!((move_time(0.25, &k).as_secs_f64() - 0.5).abs() < 1e-9);
+    }
+}
