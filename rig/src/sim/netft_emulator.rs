@@ -212,6 +212,8 @@ pub struct NetFtCore<P> {
     latched: u32,
     injected: Arc<AtomicU32>,
     starts_ignored: u32,
+    /// Internal sample index of the last record measured (a new stream never repeats it).
+    last_measured: Option<u64>,
     report: NetFtReport,
 }
 
@@ -235,6 +237,7 @@ impl<P: Clone> NetFtCore<P> {
             latched: 0,
             injected: Arc::new(AtomicU32::new(0)),
             starts_ignored: 0,
+            last_measured: None,
             report: NetFtReport::default(),
         })
     }
@@ -316,7 +319,11 @@ impl<P: Clone> NetFtCore<P> {
                 self.stream = Some(Stream {
                     peer: from,
                     per_datagram,
-                    first: self.sample_index_at(now),
+                    // The sample just taken, unless the previous stream already sent it.
+                    first: match self.last_measured {
+                        Some(last) => self.sample_index_at(now).max(last + 1),
+                        None => self.sample_index_at(now),
+                    },
                     evaluated: 0,
                     next_rdt: 1,
                     remaining: (request.sample_count > 0).then_some(request.sample_count),
@@ -372,6 +379,7 @@ impl<P: Clone> NetFtCore<P> {
     }
 
     fn measure(&mut self, n: u64, t: HostTime, rdt_sequence: u32) -> Record {
+        self.last_measured = Some(n);
         let raw = self.reading.reading_at(t);
         let biased = raw - self.bias;
         let exceeds = |limits: &Option<[f64; 6]>, w: &Wrench| {
