@@ -139,6 +139,21 @@ fn driver_over_modbus_rtu_on_a_pseudo_terminal() {
     let m = map("leadshine-pr");
     let emulator = ModbusEmulator::spawn_rtu_pty(m.clone(), motor(1.0)).expect("emulator");
     let path = emulator.pty_path().expect("pty").to_string();
+    // A driver addressing another slave id gets silence, as on a real RS-485 bus.
+    let other = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
+    let mut wrong = ModbusStage::new(
+        "y",
+        Box::new(other),
+        Framing::Rtu,
+        m.clone(),
+        StageOptions {
+            slave: Some(7),
+            response_timeout: Duration::from_millis(200),
+            ..options()
+        },
+    );
+    assert!(matches!(wrong.status(), Err(AxisError::Timeout { .. })));
+    drop(wrong);
     let link = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
     let mut y = stage(Box::new(link), Framing::Rtu, "leadshine-pr");
 

@@ -786,6 +786,36 @@ mod tests {
     }
 
     #[test]
+    fn a_fast_box_clock_runs_ahead_and_readings_follow_it() {
+        let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let log = seen.clone();
+        let reading = move |t: HostTime| {
+            log.lock().expect("log").push(t);
+            Wrench::default()
+        };
+        let config = NetFtEmulatorConfig {
+            clock_ppm: 100.0,
+            ..NetFtEmulatorConfig::default()
+        };
+        let mut c: NetFtCore<u8> = NetFtCore::new(config, Box::new(reading), at(0.0)).expect("c");
+        let mut out = start(&mut c, at(0.0), Command::RealTime, 0);
+        c.poll(at(10.0), &mut out);
+        let recs = records(&out);
+        // 10 s of host time on a clock 100 ppm fast: 70007 samples after the first.
+        assert_eq!(recs.len(), 1 + 70_007);
+        let times = seen.lock().expect("log").clone();
+        assert_eq!(times.len(), recs.len());
+        for (r, t) in recs.iter().zip(&times) {
+            assert_eq!(
+                c.sample_time(u64::from(r.ft_sequence)),
+                *t,
+                "read at its sample time"
+            );
+        }
+        assert!(times.windows(2).all(|w| w[1] > w[0]));
+    }
+
+    #[test]
     fn buffered_mode_sample_count_and_stop() {
         let mut c = core(NetFtEmulatorConfig {
             buffered_records: 10,
