@@ -288,9 +288,10 @@ impl<P: Clone> NetFtCore<P> {
     /// When the next datagram is due, if a stream runs.
     pub fn next_due(&self) -> Option<HostTime> {
         let s = self.stream.as_ref()?;
-        let in_datagram = s.pending.len() as u64;
-        let mut last =
-            s.evaluated + (s.per_datagram as u64 - 1 - in_datagram.min(s.per_datagram as u64 - 1));
+        // The datagram being filled goes out with its last record; `pending` is always shorter
+        // than a datagram between polls.
+        let missing = (s.per_datagram - s.pending.len().min(s.per_datagram - 1)) as u64;
+        let mut last = s.evaluated + missing - 1;
         if let Some(r) = s.remaining {
             last = last.min(s.evaluated + u64::from(r).saturating_sub(1));
         }
@@ -426,6 +427,28 @@ trait Port {
 
 struct UdpPort(UdpSocket);
 
+impl UdpPort {
+    /// A request already waiting on the (non-blocking) socket.
+    fn try_recv(&mut self, buf: &mut [u8]) -> io::Result<Option<(usize, SocketAddr)>> {
+        loop {
+            return match self.0.recv_from(buf) {
+                Ok(got) => Ok(Some(got)),
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => Ok(None),
+                // An ICMP unreachable from an earlier send to a client that went away.
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::ConnectionRefused | io::ErrorKind::Interrupted
+                    ) =>
+                {
+                    continue
+                }
+                Err(e) => Err(e),
+            };
+        }
+    }
+}
+
 impl Port for UdpPort {
     type Peer = SocketAddr;
 
@@ -435,16 +458,8 @@ impl Port for UdpPort {
         timeout: Duration,
     ) -> io::Result<Option<(usize, SocketAddr)>> {
         use std::os::fd::AsRawFd;
-        loop {
-            match self.0.recv_from(buf) {
-                Ok((n, from)) => return Ok(Some((n, from))),
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
-                // An ICMP unreachable from an earlier send to a client that went away.
-                Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e) => return Err(e),
-            }
-            break;
+        if let Some(got) = self.try_recv(buf)? {
+            return Ok(Some(got));
         }
         if timeout.is_zero() {
             return Ok(None);
@@ -462,20 +477,7 @@ impl Port for UdpPort {
             // SAFETY: one valid pollfd on a socket we own.
             unsafe { libc::poll(&mut pfd, 1, ms) };
         }
-        match self.0.recv_from(buf) {
-            Ok((n, from)) => Ok(Some((n, from))),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock
-                        | io::ErrorKind::ConnectionRefused
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(None)
-            }
-            Err(e) => Err(e),
-        }
+        self.try_recv(buf)
     }
 
     fn send(&mut self, bytes: &[u8], to: &SocketAddr) -> io::Result<()> {
