@@ -958,4 +958,26 @@ mod tests {
         let replies = rtu_exchange(&mut buf, &core, 1, true);
         assert_eq!(replies, vec![rtu_frame(1, &[0xAB, 0x01])]);
     }
+
+    proptest::proptest! {
+        #[test]
+        fn garbage_never_panics_and_always_gets_a_well_formed_answer(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300),
+        ) {
+            let core = Mutex::new(core("oriental-az"));
+            let now = HostTime::now();
+            let reply = lock(&core).handle_pdu(&bytes, now);
+            proptest::prop_assert!(!reply.is_empty());
+            if reply[0] & 0x80 != 0 {
+                proptest::prop_assert_eq!(reply.len(), 2);
+            }
+            let mut buf = bytes.clone();
+            for r in rtu_exchange(&mut buf, &core, 1, true) {
+                proptest::prop_assert_eq!(crc16(&r[..r.len() - 2]).to_le_bytes(), [r[r.len() - 2], r[r.len() - 1]]);
+            }
+            proptest::prop_assert!(buf.is_empty());
+            let mut buf = bytes;
+            while let Ok(Some(_)) = tcp_exchange(&mut buf, &core, 1) {}
+        }
+    }
 }
