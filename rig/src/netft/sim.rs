@@ -1,14 +1,18 @@
-//! A simulated Net F/T on loopback: answers RDT requests over UDP like the real box, paced at a
-//! configurable rate, and serves a `netftapi2.xml` page over HTTP. Used by tests, the receive
-//! benchmark and bench-free development.
+//! A simulated Net F/T on loopback with the load given in raw counts, for tests and the receive
+//! benchmark ([`SimNetFt`], a thin wrapper around the emulated box
+//! [`crate::sim::netft_emulator::NetFtEmulator`]), and the small HTTP server that serves a
+//! `netftapi2.xml` page ([`SimHttp`]).
 
-use super::rdt::{encode_datagram, Command, Record, Request};
+use super::rdt::Request;
+use crate::clock::HostTime;
+use crate::sim::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+use crate::units::Wrench;
 use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, UdpSocket};
+use std::net::{SocketAddr, TcpListener};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Counts (Fx..Tz) for a given internal sample number.
 pub type CountsFn = Arc<dyn Fn(u32) -> [i32; 6] + Send + Sync>;
@@ -52,156 +56,62 @@ pub struct SimReport {
     pub records_sent: u64,
 }
 
-/// A running simulated sensor; stops when dropped or on [`SimNetFt::finish`].
+/// A running simulated sensor on loopback; stops when dropped or on [`SimNetFt::finish`].
+///
+/// A thin wrapper around the emulated box [`NetFtEmulator`]: one count per newton and per newton
+/// metre, the internal clock at the output rate (so `ft_sequence` steps by one per record) and the
+/// load given in counts per internal sample number.
 pub struct SimNetFt {
-    addr: SocketAddr,
-    stop: Arc<AtomicBool>,
-    thread: Option<JoinHandle<io::Result<SimReport>>>,
+    emulator: NetFtEmulator,
 }
 
 impl SimNetFt {
     /// Binds a UDP socket on 127.0.0.1 (ephemeral port) and starts serving.
     pub fn spawn(options: SimOptions) -> io::Result<SimNetFt> {
-        let socket = UdpSocket::bind("127.0.0.1:0")?;
-        let addr = socket.local_addr()?;
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let thread = std::thread::Builder::new()
-            .name("sim-netft".into())
-            .spawn(move || serve(socket, options, flag))?;
-        Ok(SimNetFt {
-            addr,
-            stop,
-            thread: Some(thread),
-        })
+        let rate = options.rate_hz.max(1.0);
+        let config = NetFtEmulatorConfig {
+            counts_per_force: 1.0,
+            counts_per_torque: 1.0,
+            force_unit: "N".into(),
+            torque_unit: "N-m".into(),
+            rdt_rate_hz: rate,
+            internal_rate_hz: rate,
+            buffered_records: options.buffered_records.max(1),
+            ft_sequence_at_power_up: options.ft_sequence_start,
+            range: None,
+            ignore_starts: options.ignore_starts,
+            ..NetFtEmulatorConfig::default()
+        };
+        let power_up = HostTime::now();
+        let counts = options.counts;
+        let ft0 = options.ft_sequence_start;
+        // Host time back to the internal sample number (sample times are whole nanoseconds).
+        let reading = move |t: HostTime| {
+            let n = (t.since(power_up).as_nanos() as f64 * rate / 1e9).round() as u64;
+            let c = counts(ft0.wrapping_add(n as u32));
+            Wrench::from_array(c.map(f64::from))
+        };
+        let loopback = SocketAddr::from(([127, 0, 0, 1], 0));
+        let emulator =
+            NetFtEmulator::spawn_udp_at(loopback, None, config, Box::new(reading), power_up)?;
+        Ok(SimNetFt { emulator })
     }
 
     /// The RDT address to connect to.
     pub fn addr(&self) -> SocketAddr {
-        self.addr
+        self.emulator
+            .addr()
+            .unwrap_or_else(|| SocketAddr::from(([127, 0, 0, 1], 0)))
     }
 
     /// Stops the simulator and reports what it did.
-    pub fn finish(mut self) -> io::Result<SimReport> {
-        self.stop.store(true, Ordering::SeqCst);
-        match self.thread.take().map(|t| t.join()) {
-            Some(Ok(r)) => r,
-            Some(Err(_)) => Err(io::Error::other("the simulated Net F/T thread panicked")),
-            None => Ok(SimReport::default()),
-        }
+    pub fn finish(self) -> io::Result<SimReport> {
+        let report = self.emulator.stop()?;
+        Ok(SimReport {
+            requests: report.requests,
+            records_sent: report.records_sent,
+        })
     }
-}
-
-impl Drop for SimNetFt {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
-struct Stream {
-    peer: SocketAddr,
-    mode: Command,
-    next_rdt: u32,
-    remaining: Option<u32>,
-    next_due: Instant,
-}
-
-fn serve(socket: UdpSocket, options: SimOptions, stop: Arc<AtomicBool>) -> io::Result<SimReport> {
-    let period = Duration::from_secs_f64(1.0 / options.rate_hz.max(1.0));
-    let mut report = SimReport::default();
-    let mut stream: Option<Stream> = None;
-    let mut ft_sequence = options.ft_sequence_start;
-    let mut bias = [0i32; 6];
-    let mut ignored = 0u32;
-    let mut buf = [0u8; 64];
-    socket.set_read_timeout(Some(Duration::from_millis(5)))?;
-    let mut records = Vec::with_capacity(options.buffered_records.max(1));
-    while !stop.load(Ordering::Relaxed) {
-        // Requests: block briefly when idle, poll while streaming.
-        socket.set_nonblocking(stream.is_some())?;
-        match socket.recv_from(&mut buf) {
-            Ok((n, from)) => {
-                if let Ok(req) = Request::decode(&buf[..n]) {
-                    report.requests.push(req);
-                    match req.command {
-                        Command::RealTime | Command::Buffered => {
-                            if ignored < options.ignore_starts {
-                                ignored += 1;
-                            } else {
-                                stream = Some(Stream {
-                                    peer: from,
-                                    mode: req.command,
-                                    next_rdt: 1,
-                                    remaining: (req.sample_count > 0).then_some(req.sample_count),
-                                    next_due: Instant::now(),
-                                });
-                            }
-                        }
-                        Command::Stop => stream = None,
-                        Command::SoftwareBias => bias = (options.counts)(ft_sequence),
-                        Command::MultiUnit | Command::ResetThresholdLatch => {}
-                    }
-                }
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) => {}
-            Err(e) => return Err(e),
-        }
-        let Some(s) = stream.as_mut() else { continue };
-        let now = Instant::now();
-        if now < s.next_due {
-            let wait = s.next_due - now;
-            if wait > Duration::from_micros(200) {
-                std::thread::sleep(wait - Duration::from_micros(100));
-            } else {
-                std::thread::yield_now();
-            }
-            continue;
-        }
-        // Send everything that is due (catching up after a late wake-up).
-        let per_datagram = if s.mode == Command::Buffered {
-            options.buffered_records.max(1)
-        } else {
-            1
-        };
-        while s.next_due <= now && s.remaining != Some(0) {
-            records.clear();
-            while records.len() < per_datagram && s.remaining != Some(0) {
-                let c = (options.counts)(ft_sequence);
-                records.push(Record {
-                    rdt_sequence: s.next_rdt,
-                    ft_sequence,
-                    status: 0,
-                    counts: std::array::from_fn(|i| c[i].wrapping_sub(bias[i])),
-                });
-                s.next_rdt = s.next_rdt.wrapping_add(1);
-                ft_sequence = ft_sequence.wrapping_add(1);
-                s.next_due += period;
-                if let Some(r) = s.remaining.as_mut() {
-                    *r -= 1;
-                }
-            }
-            socket.send_to(&encode_datagram(&records), s.peer)?;
-            report.records_sent += records.len() as u64;
-        }
-        if s.remaining == Some(0) {
-            stream = None;
-        }
-    }
-    // Record requests that arrived before the stop but were not read yet (a final stop).
-    socket.set_nonblocking(true)?;
-    while let Ok((n, _)) = socket.recv_from(&mut buf) {
-        if let Ok(req) = Request::decode(&buf[..n]) {
-            report.requests.push(req);
-        }
-    }
-    Ok(report)
 }
 
 /// A tiny HTTP server on 127.0.0.1 answering every GET of `path` with `body` (and 404
@@ -213,8 +123,14 @@ pub struct SimHttp {
 }
 
 impl SimHttp {
+    /// Serves on 127.0.0.1, an ephemeral port.
     pub fn spawn(path: &str, body: String) -> io::Result<SimHttp> {
-        let listener = TcpListener::bind("127.0.0.1:0")?;
+        SimHttp::bind(SocketAddr::from(([127, 0, 0, 1], 0)), path, body)
+    }
+
+    /// Serves on `addr` (port 0 = ephemeral).
+    pub fn bind(addr: SocketAddr, path: &str, body: String) -> io::Result<SimHttp> {
+        let listener = TcpListener::bind(addr)?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
         let stop = Arc::new(AtomicBool::new(false));
@@ -239,7 +155,12 @@ impl SimHttp {
         })
     }
 
-    /// `http://127.0.0.1:PORT` + `path`.
+    /// The address it listens on.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// `http://IP:PORT` + `path`.
     pub fn url(&self, path: &str) -> String {
         format!("http://{}{path}", self.addr)
     }

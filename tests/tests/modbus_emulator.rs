@@ -1,0 +1,251 @@
+//! The emulated Modbus y stage (fringe_rig::sim::modbus_emulator) against the real ModbusStage
+//! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
+//! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
+
+use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
+use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::sim::modbus_emulator::ModbusEmulator;
+use fringe_rig::sim::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_rig::transport::serial::SerialLink;
+use fringe_rig::transport::tcp::TcpLink;
+use fringe_rig::transport::ByteLink;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use std::net::SocketAddr;
+use std::process::Command;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+fn motor(power_up_mm: f64) -> Arc<SimMotor> {
+    Arc::new(SimMotor::new(MotorSpec {
+        name: "y".into(),
+        travel: Millimetres(50.0),
+        power_up_position: Millimetres(power_up_mm),
+        kinematics: Kinematics {
+            velocity: MillimetresPerSecond(5.0),
+            acceleration: MillimetresPerSecondSquared(50.0),
+        },
+    }))
+}
+
+fn map(name: &str) -> RegisterMap {
+    RegisterMap::load(name).expect("built-in map")
+}
+
+fn options() -> StageOptions {
+    StageOptions {
+        response_timeout: Duration::from_secs(1),
+        poll_interval: Duration::from_millis(20),
+        limits: Some(SoftLimits {
+            min: Millimetres(-10.0),
+            max: Millimetres(20.0),
+        }),
+        ..StageOptions::default()
+    }
+}
+
+fn loopback() -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], 0))
+}
+
+fn stage(link: Box<dyn ByteLink>, framing: Framing, map_name: &str) -> ModbusStage {
+    ModbusStage::new("y", link, framing, map(map_name), options())
+}
+
+/// Absolute and relative moves end exactly on target (one step is 1/200 or 1/2000 mm), the
+/// motor really moved, and soft limits stop a move before anything is sent.
+fn moves_and_limits(y: &mut ModbusStage, emulator: &ModbusEmulator, steps_per_mm: f64) {
+    let step = 1.0 / steps_per_mm;
+    let t0 = Instant::now();
+    let s = y
+        .move_to(Millimetres(2.5), Duration::from_secs(5))
+        .expect("move");
+    // 2.5 mm at 5 mm/s with 50 mm/s^2 ramps: 0.6 s.
+    assert!(
+        t0.elapsed() >= Duration::from_millis(500),
+        "{:?}",
+        t0.elapsed()
+    );
+    assert!((s.position.0 - 2.5).abs() <= step, "{s}");
+    assert!(!s.moving);
+    let truth = emulator
+        .motor()
+        .status_at(fringe_rig::clock::HostTime::now());
+    assert!((truth.position.0 - 2.5).abs() < 1e-9, "{truth:?}");
+    let s = y
+        .move_by(Millimetres(-1.0), Duration::from_secs(5))
+        .expect("relative");
+    assert!((s.position.0 - 1.5).abs() <= step, "{s}");
+    assert!((y.status().expect("status").position.0 - 1.5).abs() <= step);
+    let requests = emulator.requests();
+    assert!(matches!(
+        y.begin_move_to(Millimetres(25.0)),
+        Err(AxisError::SoftLimit { .. })
+    ));
+    assert_eq!(
+        emulator.requests(),
+        requests,
+        "nothing sent past a soft limit"
+    );
+}
+
+#[test]
+fn driver_over_modbus_tcp_with_two_clients() {
+    let emulator =
+        ModbusEmulator::spawn_tcp(loopback(), map("oriental-az"), motor(10.0)).expect("emulator");
+    let addr = emulator.addr().expect("tcp").to_string();
+    let link = TcpLink::connect(&addr, Duration::from_secs(1)).expect("connect");
+    let mut y = stage(Box::new(link), Framing::Tcp, "oriental-az");
+    moves_and_limits(&mut y, &emulator, 200.0);
+
+    // A second client watches the first one's move.
+    let watcher = TcpLink::connect(&addr, Duration::from_secs(1)).expect("connect");
+    let mut w = stage(Box::new(watcher), Framing::Tcp, "oriental-az");
+    y.begin_move_to(Millimetres(0.0)).expect("start");
+    std::thread::sleep(Duration::from_millis(100));
+    let seen = w.status().expect("watch");
+    assert!(seen.moving && seen.flags.contains(&"MOVE"), "{seen}");
+    let s = y.wait_idle(Duration::from_secs(5)).expect("done");
+    assert_eq!(s.position, Millimetres(0.0));
+    assert_eq!(w.status().expect("watch").position, Millimetres(0.0));
+
+    // The AZ map has no stop value: the driver says so instead of sending anything.
+    let err = y.stop(StopMode::Profiled).expect_err("no stop register");
+    assert!(err.to_string().contains("defines no stop value"), "{err}");
+
+    // A drive alarm surfaces as a fault naming the map's alarm bit.
+    emulator.set_alarm(true);
+    let err = y
+        .move_to(Millimetres(1.0), Duration::from_secs(2))
+        .expect_err("alarm");
+    assert!(
+        matches!(&err, AxisError::Fault { flags, .. } if flags.contains(&"ALM-A (alarm)")),
+        "{err}"
+    );
+    emulator.clear_alarm();
+    y.move_to(Millimetres(1.0), Duration::from_secs(5))
+        .expect("after reset");
+
+    // A driver whose map names a register the drive lacks gets the drive's exception.
+    let mut wrong = map("oriental-az");
+    wrong.registers.feedback_position = 0x0300;
+    let link = TcpLink::connect(&addr, Duration::from_secs(1)).expect("connect");
+    let mut bad = ModbusStage::new("y", Box::new(link), Framing::Tcp, wrong, options());
+    let err = bad.status().expect_err("exception");
+    assert!(err.to_string().contains("illegal data address"), "{err}");
+}
+
+#[test]
+fn driver_over_modbus_rtu_on_a_pseudo_terminal() {
+    let m = map("leadshine-pr");
+    let emulator = ModbusEmulator::spawn_rtu_pty(m.clone(), motor(1.0)).expect("emulator");
+    let path = emulator.pty_path().expect("pty").to_string();
+    // A driver addressing another slave id gets silence, as on a real RS-485 bus.
+    let other = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
+    let mut wrong = ModbusStage::new(
+        "y",
+        Box::new(other),
+        Framing::Rtu,
+        m.clone(),
+        StageOptions {
+            slave: Some(7),
+            response_timeout: Duration::from_millis(200),
+            ..options()
+        },
+    );
+    assert!(matches!(wrong.status(), Err(AxisError::Timeout { .. })));
+    drop(wrong);
+    let link = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
+    let mut y = stage(Box::new(link), Framing::Rtu, "leadshine-pr");
+
+    // Homing runs to the reverse switch 1 mm away and zeroes the counter.
+    let s = y.home(Duration::from_secs(5)).expect("home");
+    assert!(s.homed && s.flags.contains(&"homing completed"), "{s}");
+    assert_eq!(s.position, Millimetres(0.0));
+    moves_and_limits(&mut y, &emulator, 2000.0);
+
+    // An emergency stop mid-move leaves the stage between start and target.
+    y.begin_move_to(Millimetres(15.0)).expect("start");
+    std::thread::sleep(Duration::from_millis(400));
+    y.stop(StopMode::Immediate).expect("stop");
+    let s = y.wait_idle(Duration::from_secs(2)).expect("stopped");
+    assert!(
+        !s.moving && s.position.0 > 1.6 && s.position.0 < 14.0,
+        "{s}"
+    );
+}
+
+#[test]
+fn driver_in_process_both_framings_and_overtravel_alarm() {
+    for framing in [Framing::Tcp, Framing::Rtu] {
+        let (emulator, link) =
+            ModbusEmulator::spawn_in_process(map("leadshine-pr"), motor(10.0), framing)
+                .expect("emulator");
+        let mut y = stage(Box::new(link), framing, "leadshine-pr");
+        moves_and_limits(&mut y, &emulator, 2000.0);
+        drop(y);
+    }
+
+    // Past the end of travel: the carriage stops on the limit switch and the drive alarms.
+    let (emulator, link) =
+        ModbusEmulator::spawn_in_process(map("oriental-az"), motor(48.0), Framing::Tcp)
+            .expect("emulator");
+    let mut y = stage(Box::new(link), Framing::Tcp, "oriental-az");
+    let err = y
+        .move_to(Millimetres(5.0), Duration::from_secs(5))
+        .expect_err("over-travel");
+    assert!(matches!(err, AxisError::Fault { .. }), "{err}");
+    let truth = emulator
+        .motor()
+        .status_at(fringe_rig::clock::HostTime::now());
+    assert!(
+        truth.forward_limit && (truth.position.0 - 2.0).abs() < 1e-9,
+        "{truth:?}"
+    );
+}
+
+fn python() -> String {
+    std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string())
+}
+
+#[test]
+fn pymodbus_from_pypi_moves_the_tcp_emulator() {
+    let check = Command::new(python())
+        .args(["-c", "import pymodbus"])
+        .output()
+        .expect("run the Python interpreter (FRINGE_PYTHON or python3)");
+    assert!(
+        check.status.success(),
+        "pymodbus is not importable by {}: run scripts/test (it installs tests/python/requirements.txt into .venv and sets FRINGE_PYTHON)",
+        python()
+    );
+    let motor = motor(10.0);
+    let emulator =
+        ModbusEmulator::spawn_tcp(loopback(), map("oriental-az"), motor.clone()).expect("emulator");
+    let port = emulator.addr().expect("tcp").port();
+    let script = format!("{}/python/modbus_client.py", env!("CARGO_MANIFEST_DIR"));
+    let out = Command::new(python())
+        .arg(&script)
+        .arg(port.to_string())
+        .output()
+        .expect("run modbus_client.py");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "pymodbus client failed:\n{stdout}\n{stderr}"
+    );
+    let has = |s: &str| assert!(stdout.contains(s), "`{s}` not in:\n{stdout}\n{stderr}");
+    has("{\"step\": \"start\", \"position\": 0}");
+    has("{\"step\": \"moved\", \"position\": 500, \"status\": 32,");
+    has("{\"step\": \"input\", \"position\": 500}");
+    has("{\"step\": \"missing\", \"exception\": 2}");
+    let polls = stdout
+        .split("\"polls_moving\": ")
+        .nth(1)
+        .and_then(|r| r.split('}').next())
+        .and_then(|n| n.trim().parse::<u32>().ok())
+        .expect("polls_moving");
+    assert!(polls >= 5, "the move takes 0.6 s: {polls} polls saw MOVE");
+    let truth = motor.status_at(fringe_rig::clock::HostTime::now());
+    assert!((truth.position.0 - 2.5).abs() < 1e-9, "{truth:?}");
+}

@@ -1,0 +1,337 @@
+//! The emulated Net F/T box (fringe_rig::sim::netft_emulator) against the real NetFt driver, in
+//! process and over loopback UDP with the configuration read over HTTP, and against an independent
+//! client from PyPI (pynetft, driven by tests/python/netft_client.py).
+
+use fringe_rig::clock::HostTime;
+use fringe_rig::force::{ForceError, ForceSample, ForceSensor};
+use fringe_rig::netft::{fetch_config, Command, NetFt, NetFtOptions};
+use fringe_rig::sim::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+use fringe_rig::sim::scene::ForceReading;
+use fringe_rig::transport::udp::UdpLink;
+use fringe_rig::transport::DatagramLink;
+use fringe_rig::units::Wrench;
+use std::net::SocketAddr;
+use std::process::Command as Process;
+use std::time::{Duration, Instant};
+
+const LOAD: [f64; 6] = [1.5, -2.25, 10.0, 0.05, -0.02, 0.001];
+
+fn constant(w: [f64; 6]) -> Box<dyn ForceReading> {
+    Box::new(move |_| Wrench::from_array(w))
+}
+
+fn loopback() -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], 0))
+}
+
+/// Streams for `seconds`, then stops and drains; returns every sample.
+fn stream<L: DatagramLink>(ft: &mut NetFt<L>, seconds: f64) -> Vec<ForceSample> {
+    ft.start().expect("start");
+    let t0 = Instant::now();
+    let mut got = Vec::with_capacity(15_000);
+    while t0.elapsed() < Duration::from_secs_f64(seconds) {
+        if let Some(s) = ft.next_sample(Duration::from_millis(100)).expect("sample") {
+            got.push(s);
+        }
+    }
+    ft.stop().expect("stop");
+    while let Some(s) = ft.next_sample(Duration::from_millis(50)).expect("tail") {
+        got.push(s);
+    }
+    got
+}
+
+fn assert_continuous(samples: &[ForceSample], rate: f64, seconds: f64) {
+    let n = samples.len() as f64;
+    assert!(
+        n >= rate * seconds * 0.9 && n <= rate * (seconds + 0.2),
+        "{n} samples in {seconds} s at {rate} Hz"
+    );
+    for w in samples.windows(2) {
+        assert_eq!(w[1].transport_seq, w[0].transport_seq.map(|s| s + 1));
+        assert_eq!(
+            w[1].device_tick,
+            w[0].device_tick + 1,
+            "ft_sequence at 7 kHz"
+        );
+    }
+    assert_eq!(samples[0].transport_seq, Some(1));
+}
+
+fn assert_wrench(w: &Wrench, want: [f64; 6], tol: f64) {
+    for (got, want) in w.to_array().iter().zip(want) {
+        assert!((got - want).abs() <= tol, "{:?} vs {want:?}", w.to_array());
+    }
+}
+
+#[test]
+fn driver_in_process_at_7khz_loses_nothing_and_scales_counts_back() {
+    let config = NetFtEmulatorConfig::default();
+    let driver_config = config.driver_config().expect("page");
+    let (emulator, link) =
+        NetFtEmulator::spawn_in_process(config, constant(LOAD)).expect("emulator");
+    let mut ft = NetFt::new(link, driver_config, NetFtOptions::default());
+    let samples = stream(&mut ft, 1.5);
+    assert_eq!(ft.stats().lost, 0, "{:?}", ft.stats());
+    assert_continuous(&samples, 7000.0, 1.5);
+    for s in &samples {
+        assert_eq!(s.status, 0);
+        assert_wrench(&s.wrench, LOAD, 1e-6);
+    }
+    // A second stream restarts rdt_sequence; ft_sequence keeps running since power-up.
+    let last_tick = samples.last().map(|s| s.device_tick).unwrap_or(0);
+    std::thread::sleep(Duration::from_millis(100));
+    let again = stream(&mut ft, 0.2);
+    assert_eq!(again[0].transport_seq, Some(1));
+    assert!(
+        again[0].device_tick >= last_tick + 600,
+        "{} after {last_tick}",
+        again[0].device_tick
+    );
+    let report = emulator.stop().expect("report");
+    assert_eq!(report.records_sent, (samples.len() + again.len()) as u64);
+    assert_eq!(
+        report.requests.last().map(|r| r.command),
+        Some(Command::Stop)
+    );
+}
+
+#[test]
+fn driver_over_udp_reads_the_configuration_page_and_keeps_up() {
+    // Imperial units: the driver must take them from netftapi2.xml to get newtons back.
+    let config = NetFtEmulatorConfig {
+        counts_per_force: 100_000.0,
+        counts_per_torque: 10_000.0,
+        force_unit: "lbf".into(),
+        torque_unit: "lbf-in".into(),
+        ..NetFtEmulatorConfig::default()
+    };
+    let emulator =
+        NetFtEmulator::spawn_udp(loopback(), None, config, constant(LOAD)).expect("emulator");
+    let url = emulator.http_url().expect("http");
+    let driver_config = fetch_config(&url, Duration::from_secs(2)).expect("netftapi2.xml");
+    assert_eq!(driver_config.rdt_rate.map(|r| r.0), Some(7000.0));
+    let addr = emulator.addr().expect("udp").to_string();
+    for mode in [Command::RealTime, Command::Buffered] {
+        let link = UdpLink::connect(&addr).expect("udp");
+        let mut ft = NetFt::new(
+            link,
+            driver_config.clone(),
+            NetFtOptions {
+                mode,
+                ..NetFtOptions::default()
+            },
+        );
+        let samples = stream(&mut ft, 1.0);
+        assert_eq!(ft.stats().lost, 0, "{mode:?}: {:?}", ft.stats());
+        assert_continuous(&samples, 7000.0, 1.0);
+        // One count is 1e-5 lbf (45 uN) and 1e-4 lbf-in (11 uN m).
+        assert_wrench(&samples[samples.len() / 2].wrench, LOAD, 3e-5);
+    }
+}
+
+#[test]
+fn software_bias_zeroes_the_reading() {
+    let config = NetFtEmulatorConfig {
+        rdt_rate_hz: 1000.0,
+        ..NetFtEmulatorConfig::default()
+    };
+    let driver_config = config.driver_config().expect("page");
+    // A load that drifts slowly: the bias removes its value at the bias command.
+    let start = HostTime::now();
+    let reading = move |t: HostTime| {
+        let mut w = LOAD;
+        w[2] += 0.001 * t.since(start).as_secs_f64();
+        Wrench::from_array(w)
+    };
+    let (_emulator, link) =
+        NetFtEmulator::spawn_in_process(config, Box::new(reading)).expect("emulator");
+    let mut ft = NetFt::new(link, driver_config, NetFtOptions::default());
+    ft.start().expect("start");
+    let before = ft
+        .next_sample(Duration::from_secs(1))
+        .expect("ok")
+        .expect("sample");
+    assert!((before.wrench.fz.0 - LOAD[2]).abs() < 1e-3);
+    ft.bias().expect("bias");
+    let t0 = Instant::now();
+    let mut zeroed = None;
+    while t0.elapsed() < Duration::from_secs(1) {
+        let s = ft
+            .next_sample(Duration::from_millis(100))
+            .expect("ok")
+            .expect("sample");
+        if s.wrench.fx.0 == 0.0 {
+            zeroed = Some(s);
+            break;
+        }
+    }
+    let s = zeroed.expect("the reading went to zero within a second of the bias");
+    assert_wrench(&s.wrench, [0.0; 6], 2e-5);
+    ft.stop().expect("stop");
+}
+
+#[test]
+fn saturation_and_injected_faults_surface_as_driver_errors() {
+    // In process: Fz beyond the Mini40's 120 N range saturates the transducer.
+    let mut over = LOAD;
+    over[2] = 150.0;
+    let config = NetFtEmulatorConfig::default();
+    let driver_config = config.driver_config().expect("page");
+    let (_e, link) = NetFtEmulator::spawn_in_process(config, constant(over)).expect("emulator");
+    let mut ft = NetFt::new(link, driver_config, NetFtOptions::default());
+    ft.start().expect("start");
+    match ft.next_sample(Duration::from_secs(1)) {
+        Err(ForceError::Status { status, .. }) => assert_eq!(status, 0x8002_0000),
+        other => panic!("expected a status error, got {other:?}"),
+    }
+
+    // Over UDP: a fault injected while streaming.
+    let config = NetFtEmulatorConfig {
+        rdt_rate_hz: 1000.0,
+        ..NetFtEmulatorConfig::default()
+    };
+    let driver_config = config.driver_config().expect("page");
+    let emulator =
+        NetFtEmulator::spawn_udp(loopback(), None, config, constant(LOAD)).expect("emulator");
+    let link = UdpLink::connect(&emulator.addr().expect("udp").to_string()).expect("udp");
+    let mut ft = NetFt::new(link, driver_config, NetFtOptions::default());
+    ft.start().expect("start");
+    for _ in 0..50 {
+        ft.next_sample(Duration::from_secs(1))
+            .expect("healthy")
+            .expect("sample");
+    }
+    emulator.inject_status(0x8000_0004);
+    let t0 = Instant::now();
+    let err = loop {
+        match ft.next_sample(Duration::from_millis(100)) {
+            Err(e) => break e,
+            Ok(_) => assert!(t0.elapsed() < Duration::from_secs(1), "no status error"),
+        }
+    };
+    let text = err.to_string();
+    assert!(
+        text.contains("0x80000004") && text.contains("bit 31"),
+        "{text}"
+    );
+}
+
+fn python() -> String {
+    std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string())
+}
+
+#[test]
+fn pynetft_from_pypi_reads_forces_and_biases_the_udp_emulator() {
+    let check = Process::new(python())
+        .args(["-c", "import pynetft"])
+        .output()
+        .expect("run the Python interpreter (FRINGE_PYTHON or python3)");
+    assert!(
+        check.status.success(),
+        "pynetft is not importable by {}: run scripts/test (it installs tests/python/requirements.txt into .venv and sets FRINGE_PYTHON)",
+        python()
+    );
+    // The common ATI combination: counts per N and per N mm.
+    let config = NetFtEmulatorConfig {
+        counts_per_force: 1_000_000.0,
+        counts_per_torque: 1_000.0,
+        force_unit: "N".into(),
+        torque_unit: "N-mm".into(),
+        rdt_rate_hz: 1000.0,
+        ..NetFtEmulatorConfig::default()
+    };
+    let emulator =
+        NetFtEmulator::spawn_udp(loopback(), None, config, constant(LOAD)).expect("emulator");
+    let rdt = emulator.addr().expect("udp");
+    let http = emulator.http_addr().expect("http");
+    let script = format!("{}/python/netft_client.py", env!("CARGO_MANIFEST_DIR"));
+    let out = Process::new(python())
+        .arg(&script)
+        .args([
+            "127.0.0.1",
+            &rdt.port().to_string(),
+            &http.port().to_string(),
+            "300",
+        ])
+        .output()
+        .expect("run netft_client.py");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "pynetft client failed:\n{stdout}\n{stderr}"
+    );
+    let line = |phase: &str| -> String {
+        stdout
+            .lines()
+            .find(|l| l.contains(&format!("\"phase\": \"{phase}\"")))
+            .unwrap_or_else(|| panic!("no {phase} line in:\n{stdout}\n{stderr}"))
+            .to_string()
+    };
+    let numbers = |l: &str, key: &str| -> Vec<f64> {
+        let from = l.find(&format!("\"{key}\": [")).expect("key") + key.len() + 5;
+        let to = from + l[from..].find(']').expect("]");
+        l[from..to]
+            .split(',')
+            .map(|v| v.trim().parse().expect("number"))
+            .collect()
+    };
+    let streamed = line("stream");
+    assert!(streamed.contains("\"count\": 300"), "{streamed}");
+    assert!(streamed.contains("\"force_unit\": \"N\""), "{streamed}");
+    assert!(streamed.contains("\"torque_unit\": \"N-mm\""), "{streamed}");
+    assert!(streamed.contains("\"status_nonzero\": 0"), "{streamed}");
+    assert!(streamed.contains("\"ft_increasing\": true"), "{streamed}");
+    assert!(streamed.contains("\"rdt_increasing\": true"), "{streamed}");
+    // Forces in N; torques in the box's N mm.
+    let want = [
+        LOAD[0],
+        LOAD[1],
+        LOAD[2],
+        LOAD[3] * 1e3,
+        LOAD[4] * 1e3,
+        LOAD[5] * 1e3,
+    ];
+    for (got, want) in numbers(&streamed, "mean").iter().zip(want) {
+        assert!((got - want).abs() < 1e-3, "{streamed}");
+    }
+    let biased = line("biased");
+    assert!(biased.contains("\"count\": 300"), "{biased}");
+    assert!(
+        numbers(&biased, "mean").iter().all(|v| v.abs() < 1e-9),
+        "{biased}"
+    );
+    // Before the bias: a clean stream by pynetft's own accounting.
+    let before = line("health_before_bias");
+    for key in [
+        "lost",
+        "out_of_order",
+        "duplicates",
+        "malformed",
+        "device_errors",
+        "ft_stall",
+        "ft_backward",
+    ] {
+        assert!(before.contains(&format!("\"{key}\": 0")), "{key}: {before}");
+    }
+    assert!(before.contains("Net F/T (fringe emulator)"), "{before}");
+    // pynetft restarts streaming after its bias command; the box numbers the new stream from 1
+    // again (pynetft counts those as out of order), but nothing is lost and the device clock
+    // never stalls or runs backwards.
+    let after = line("health");
+    for key in [
+        "lost",
+        "malformed",
+        "device_errors",
+        "ft_stall",
+        "ft_backward",
+    ] {
+        assert!(after.contains(&format!("\"{key}\": 0")), "{key}: {after}");
+    }
+    assert!(after.contains("\"fault\": \"none\""), "{after}");
+    let report = emulator.stop().expect("report");
+    let commands: Vec<Command> = report.requests.iter().map(|r| r.command).collect();
+    assert_eq!(commands.first(), Some(&Command::RealTime), "{commands:?}");
+    assert!(commands.contains(&Command::SoftwareBias), "{commands:?}");
+}
