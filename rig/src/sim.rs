@@ -6,10 +6,13 @@
 //! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
 //! - [`blurred_colour`]: that colour averaged over a spread of fringe orders (defocus).
 //! - [`motion`]: simulated axes with trapezoidal motion profiles in host time.
+//! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
+//!   byte link, driving a [`motion::SimMotor`].
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
+pub mod apt_emulator;
 pub mod blurred_colour;
 pub mod colour;
 pub mod fringe_field;

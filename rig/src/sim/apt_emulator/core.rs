@@ -1,0 +1,617 @@
+//! The controller logic: host packets in, reply packets out, with the host time passed in. No I/O
+//! and no threads, so unit tests drive time by hand; [`super::server`] runs it on a link.
+
+use crate::apt::actuator::{Actuator, ACTUATORS};
+use crate::apt::codec::{
+    bay_address, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock,
+    VelParams, RACK, USB_UNIT,
+};
+use crate::apt::status::{self as bits, LimitPolarity};
+use crate::clock::HostTime;
+use crate::sim::motion::{Kinematics, MotorStatus, SimMotor};
+use crate::units::Millimetres;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// Which status message the controller sends while update messages run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UpdateMessage {
+    /// MOT_GET_STATUSUPDATE (0x0481), what a real KST101 sends.
+    StatusUpdate,
+    /// MOT_GET_USTATUSUPDATE (0x0491).
+    UStatusUpdate,
+}
+
+/// How the controller treats the MOT_ACK_USTATUSUPDATE keep-alive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum KeepAlive {
+    /// K-Cube: update messages stop when no keep-alive arrived for `timeout`.
+    Required { timeout: Duration },
+    /// BSC20x: keep-alives are ignored and update messages stop `silent_after` the
+    /// HW_START_UPDATEMSGS (poll MOT_REQ_STATUSUPDATE instead).
+    Ignored { silent_after: Duration },
+}
+
+/// What the emulated controller is and how it behaves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AptEmulatorConfig {
+    /// Model reported by HW_GET_INFO ("KST101").
+    pub model: String,
+    pub serial_number: u32,
+    /// Firmware bytes as sent: `[minor, interim, major, unused]`.
+    pub firmware: [u8; 4],
+    pub hw_type: u16,
+    pub notes: String,
+    /// The controller's own address (0x50 for a K-Cube, 0x21.. for a rack bay).
+    pub address: u8,
+    /// Channel ident put in replies.
+    pub channel: u16,
+    /// The actuator fitted, which sets the position, velocity and acceleration scales (changed
+    /// by MOT_SET_TSTACTUATORTYPE to a known actuator code).
+    pub actuator: Actuator,
+    /// Period of update messages (real controllers: about 100 ms).
+    pub update_period: Duration,
+    pub update_message: UpdateMessage,
+    pub keepalive: KeepAlive,
+    /// Which limit switch status bit 0 stands for.
+    pub limit_polarity: LimitPolarity,
+    /// Channel enabled at power-up.
+    pub enabled_at_power_up: bool,
+}
+
+impl AptEmulatorConfig {
+    /// A KST101 K-Cube at the USB unit address: update messages with a required keep-alive
+    /// (3 s without MOT_ACK_USTATUSUPDATE ends them).
+    pub fn kst101(actuator: Actuator) -> Self {
+        AptEmulatorConfig {
+            model: "KST101".into(),
+            serial_number: 26_000_001,
+            firmware: [8, 0, 1, 0],
+            hw_type: 16,
+            notes: "APT Stepper Motor Controller".into(),
+            address: USB_UNIT,
+            channel: 1,
+            actuator,
+            update_period: Duration::from_millis(100),
+            update_message: UpdateMessage::StatusUpdate,
+            keepalive: KeepAlive::Required {
+                timeout: Duration::from_secs(3),
+            },
+            limit_polarity: LimitPolarity::Bit0Forward,
+            enabled_at_power_up: true,
+        }
+    }
+
+    /// One channel of a BSC20x rack (`model` "BSC202"/"BSC203") in bay `bay` (0..=9): addressed
+    /// as 0x21 + bay (or as the rack 0x11); update messages ignore the keep-alive and stop
+    /// after 5 s. `None` for a bay past 9.
+    pub fn bsc20x_channel(model: &str, bay: u8, actuator: Actuator) -> Option<Self> {
+        Some(AptEmulatorConfig {
+            model: model.into(),
+            serial_number: 70_000_001,
+            notes: "APT Stepper Motor Controller (rack)".into(),
+            address: bay_address(bay)?,
+            keepalive: KeepAlive::Ignored {
+                silent_after: Duration::from_secs(5),
+            },
+            ..AptEmulatorConfig::kst101(actuator)
+        })
+    }
+}
+
+/// What the controller has seen and done, for tests and the `sim serve` report.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EmulatorCounters {
+    /// Host messages addressed to this controller and understood.
+    pub messages: u64,
+    /// Well-formed frames of message ids the controller does not implement (ignored).
+    pub unknown: u64,
+    /// Messages addressed to another controller (ignored).
+    pub not_for_us: u64,
+    /// Bytes dropped while resynchronising on garbage.
+    pub dropped_bytes: u64,
+    /// Packets sent to the host (replies, end-of-move and update messages).
+    pub sent: u64,
+    /// Unsolicited status update messages sent.
+    pub status_updates: u64,
+    /// MOT_ACK_USTATUSUPDATE received.
+    pub keepalives: u64,
+    /// Times update messages stopped for want of a keep-alive.
+    pub updates_lapsed: u64,
+    /// Move and home commands accepted.
+    pub motions: u64,
+    /// Move and home commands refused because the channel was disabled.
+    pub refused: u64,
+    /// MOD_IDENTIFY received (the front-panel LED would flash).
+    pub identify: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum HomeStage {
+    /// Travelling to the home switch.
+    Seeking,
+    /// Moving by the home offset; the counter is zeroed at the end.
+    Offset,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Motion {
+    Move { target: i32 },
+    Home(HomeStage),
+    Stop,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Updates {
+    started: HostTime,
+    last_ack: HostTime,
+    next_due: HostTime,
+}
+
+/// The emulated controller state.
+#[derive(Debug)]
+pub struct EmulatorCore {
+    config: AptEmulatorConfig,
+    motor: Arc<SimMotor>,
+    actuator: Actuator,
+    enabled: bool,
+    vel: VelParams,
+    home: HomeParams,
+    abs_param: i32,
+    rel_param: i32,
+    actuator_code: Option<u8>,
+    updates: Option<Updates>,
+    end_of_move_msgs: bool,
+    motion: Option<Motion>,
+    /// Sign of the last commanded motion (+1 forward, -1 reverse).
+    direction: f64,
+    counters: EmulatorCounters,
+}
+
+fn after(t: HostTime, d: Duration) -> HostTime {
+    HostTime(t.0.saturating_add(d.as_nanos() as u64))
+}
+
+fn saturate_i32(x: f64) -> i32 {
+    x.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32
+}
+
+impl EmulatorCore {
+    /// A controller at power-up driving `motor`; velocity and home parameters start from the
+    /// motor's kinematics in the actuator's device units.
+    pub fn new(config: AptEmulatorConfig, motor: Arc<SimMotor>) -> EmulatorCore {
+        let a = config.actuator;
+        let k = motor.kinematics();
+        let channel = config.channel;
+        let velocity = saturate_i32(k.velocity.0 * a.microsteps_per_mm * VEL);
+        EmulatorCore {
+            vel: VelParams {
+                channel,
+                min_velocity: 0,
+                acceleration: saturate_i32(k.acceleration.0 * a.microsteps_per_mm * ACC),
+                max_velocity: velocity,
+            },
+            home: HomeParams {
+                channel,
+                direction: 2,
+                limit_switch: 1,
+                velocity,
+                offset: 0,
+            },
+            actuator: a,
+            enabled: config.enabled_at_power_up,
+            abs_param: 0,
+            rel_param: 0,
+            actuator_code: a.type_code,
+            updates: None,
+            end_of_move_msgs: true,
+            motion: None,
+            direction: 1.0,
+            counters: EmulatorCounters::default(),
+            config,
+            motor,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &AptEmulatorConfig {
+        &self.config
+    }
+
+    /// The counters so far.
+    pub fn counters(&self) -> EmulatorCounters {
+        self.counters
+    }
+
+    /// Adds bytes dropped by the stream decoder to the counters.
+    pub fn note_dropped_bytes(&mut self, n: u64) {
+        self.counters.dropped_bytes += n;
+    }
+
+    /// Counts a well-formed frame of a message id the controller does not implement.
+    pub fn note_unknown(&mut self) {
+        self.counters.unknown += 1;
+    }
+
+    /// The actuator whose scale is in use.
+    pub fn actuator(&self) -> Actuator {
+        self.actuator
+    }
+
+    /// The actuator type code last set by MOT_SET_TSTACTUATORTYPE (or the configured one).
+    pub fn actuator_code(&self) -> Option<u8> {
+        self.actuator_code
+    }
+
+    /// True while update messages run.
+    pub fn updates_running(&self) -> bool {
+        self.updates.is_some()
+    }
+
+    /// True if the channel is enabled.
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// How long the server may wait for host bytes before calling [`EmulatorCore::tick`].
+    pub fn poll_interval(&self, now: HostTime) -> Duration {
+        let mut wait = Duration::from_millis(20);
+        if self.motion.is_some() {
+            wait = Duration::from_millis(2);
+        }
+        if let Some(u) = &self.updates {
+            wait = wait.min(u.next_due.since(now).max(Duration::from_millis(1)));
+        }
+        wait
+    }
+
+    fn accepts(&self, dest: u8) -> bool {
+        let a = self.config.address;
+        dest == a || (dest == RACK && (0x21..=0x2A).contains(&a))
+    }
+
+    fn reply(&mut self, message: Message) -> Packet {
+        self.counters.sent += 1;
+        Packet::from_device(self.config.address, message)
+    }
+
+    fn steps(&self, mm: Millimetres) -> i32 {
+        saturate_i32(mm.0 * self.actuator.microsteps_per_mm)
+    }
+
+    fn mm(&self, steps: i32) -> Millimetres {
+        self.actuator.to_mm(steps)
+    }
+
+    fn apply_kinematics(&self) {
+        self.motor.set_kinematics(Kinematics {
+            velocity: self.actuator.velocity_from_device(self.vel.max_velocity),
+            acceleration: self
+                .actuator
+                .acceleration_from_device(self.vel.acceleration),
+        });
+    }
+
+    /// The status word for a motor reading.
+    pub fn status_word(&self, st: &MotorStatus) -> u32 {
+        let (fwd, rev) = match self.config.limit_polarity {
+            LimitPolarity::Bit0Forward => (bits::LIMIT_BIT0, bits::LIMIT_BIT1),
+            LimitPolarity::Bit0Reverse => (bits::LIMIT_BIT1, bits::LIMIT_BIT0),
+        };
+        let mut w = bits::MOTOR_CONNECTED;
+        if st.forward_limit {
+            w |= fwd;
+        }
+        if st.reverse_limit {
+            w |= rev;
+        }
+        let homing = matches!(self.motion, Some(Motion::Home(_)));
+        if st.moving || homing {
+            let v = st.velocity.0;
+            let forward = if v.abs() > 1e-12 {
+                v > 0.0
+            } else {
+                self.direction > 0.0
+            };
+            w |= if forward {
+                bits::MOVING_FORWARD
+            } else {
+                bits::MOVING_REVERSE
+            };
+        }
+        if homing {
+            w |= bits::HOMING;
+        } else if st.homed {
+            w |= bits::HOMED;
+        }
+        if self.enabled {
+            w |= bits::CHANNEL_ENABLED;
+        }
+        w
+    }
+
+    fn status_block(&self, st: &MotorStatus) -> StatusBlock {
+        StatusBlock {
+            channel: self.config.channel,
+            position: self.steps(st.position),
+            encoder: 0,
+            status: self.status_word(st),
+        }
+    }
+
+    fn ustatus_block(&self, st: &MotorStatus) -> UStatusBlock {
+        let v = st.velocity.0 * self.actuator.microsteps_per_mm * VEL;
+        UStatusBlock {
+            channel: self.config.channel,
+            position: self.steps(st.position),
+            // The 16-bit field cannot hold stepper velocities in device units: saturated.
+            velocity: v.round().clamp(i16::MIN as f64, i16::MAX as f64) as i16,
+            current_ma: if st.moving { 300 } else { 100 },
+            status: self.status_word(st),
+        }
+    }
+
+    fn start_motion(&mut self, now: HostTime, motion: Motion) -> bool {
+        if !self.enabled {
+            self.counters.refused += 1;
+            return false;
+        }
+        let here = self.steps(self.motor.status_at(now).position);
+        match motion {
+            Motion::Move { target } => {
+                self.direction = if target >= here { 1.0 } else { -1.0 };
+                self.motor.move_to(now, self.mm(target));
+            }
+            Motion::Home(_) => {
+                self.direction = -1.0;
+                let v = self.actuator.velocity_from_device(self.home.velocity);
+                self.motor.home(now, v);
+            }
+            Motion::Stop => {}
+        }
+        self.counters.motions += 1;
+        self.motion = Some(motion);
+        true
+    }
+
+    fn relative_target(&self, now: HostTime, distance: i32) -> i32 {
+        let here = self.steps(self.motor.status_at(now).position);
+        here.saturating_add(distance)
+    }
+
+    /// Handles one host packet arriving at `now`; returns the replies.
+    pub fn handle(&mut self, packet: &Packet, now: HostTime) -> Vec<Packet> {
+        if !self.accepts(packet.dest) {
+            self.counters.not_for_us += 1;
+            return Vec::new();
+        }
+        let channel = self.config.channel;
+        let mut out = Vec::new();
+        let mut understood = true;
+        match &packet.message {
+            Message::HwReqInfo => {
+                let info = HwInfo {
+                    serial_number: self.config.serial_number,
+                    model: self.config.model.clone(),
+                    hw_type: self.config.hw_type,
+                    firmware: self.config.firmware,
+                    notes: self.config.notes.clone(),
+                    hw_version: 1,
+                    mod_state: 0,
+                    channels: 1,
+                };
+                out.push(self.reply(Message::HwGetInfo(info)));
+            }
+            Message::ModIdentify { .. } => self.counters.identify += 1,
+            Message::HwNoFlashProgramming => {}
+            Message::HwStartUpdateMsgs => {
+                self.updates = Some(Updates {
+                    started: now,
+                    last_ack: now,
+                    next_due: now,
+                });
+            }
+            Message::HwStopUpdateMsgs => self.updates = None,
+            Message::AckUStatusUpdate => {
+                self.counters.keepalives += 1;
+                if let Some(u) = &mut self.updates {
+                    u.last_ack = now;
+                }
+            }
+            Message::SetChanEnableState { enable, .. } => {
+                self.enabled = *enable;
+                if !*enable && self.motion.is_some() {
+                    self.motor.stop(now, true);
+                    self.motion = Some(Motion::Stop);
+                }
+            }
+            Message::ReqChanEnableState { .. } => {
+                let enabled = self.enabled;
+                out.push(self.reply(Message::GetChanEnableState {
+                    channel: channel as u8,
+                    enabled,
+                }));
+            }
+            Message::SetTstActuatorType { actuator } => {
+                self.actuator_code = Some(*actuator);
+                if let Some(a) = ACTUATORS.iter().find(|a| a.type_code == Some(*actuator)) {
+                    self.actuator = *a;
+                    self.apply_kinematics();
+                }
+            }
+            Message::SetVelParams(v) => {
+                self.vel = VelParams { channel, ..*v };
+                self.apply_kinematics();
+            }
+            Message::ReqVelParams { .. } => {
+                let v = self.vel;
+                out.push(self.reply(Message::GetVelParams(v)));
+            }
+            Message::SetHomeParams(h) => self.home = HomeParams { channel, ..*h },
+            Message::ReqHomeParams { .. } => {
+                let h = self.home;
+                out.push(self.reply(Message::GetHomeParams(h)));
+            }
+            Message::SetPosCounter { position, .. } => {
+                let mm = self.mm(*position);
+                self.motor.set_position_counter(now, mm);
+            }
+            Message::ReqPosCounter { .. } => {
+                let position = self.steps(self.motor.status_at(now).position);
+                out.push(self.reply(Message::GetPosCounter { channel, position }));
+            }
+            Message::SetMoveAbsParams { position, .. } => self.abs_param = *position,
+            Message::ReqMoveAbsParams { .. } => {
+                let position = self.abs_param;
+                out.push(self.reply(Message::GetMoveAbsParams { channel, position }));
+            }
+            Message::SetMoveRelParams { distance, .. } => self.rel_param = *distance,
+            Message::ReqMoveRelParams { .. } => {
+                let distance = self.rel_param;
+                out.push(self.reply(Message::GetMoveRelParams { channel, distance }));
+            }
+            Message::MoveHome { .. } => {
+                self.start_motion(now, Motion::Home(HomeStage::Seeking));
+            }
+            Message::MoveAbsolute { position, .. } => {
+                self.start_motion(now, Motion::Move { target: *position });
+            }
+            Message::MoveAbsoluteStored { .. } => {
+                let target = self.abs_param;
+                self.start_motion(now, Motion::Move { target });
+            }
+            Message::MoveRelative { distance, .. } => {
+                let target = self.relative_target(now, *distance);
+                self.start_motion(now, Motion::Move { target });
+            }
+            Message::MoveRelativeStored { .. } => {
+                let target = self.relative_target(now, self.rel_param);
+                self.start_motion(now, Motion::Move { target });
+            }
+            Message::MoveStop { mode, .. } => {
+                self.motor.stop(now, *mode == StopMode::Immediate);
+                self.motion = Some(Motion::Stop);
+            }
+            Message::ReqStatusUpdate { .. } => {
+                let st = self.motor.status_at(now);
+                let b = self.status_block(&st);
+                out.push(self.reply(Message::GetStatusUpdate(b)));
+            }
+            Message::ReqUStatusUpdate { .. } => {
+                let st = self.motor.status_at(now);
+                let u = self.ustatus_block(&st);
+                out.push(self.reply(Message::GetUStatusUpdate(u)));
+            }
+            Message::ReqStatusBits { .. } => {
+                let st = self.motor.status_at(now);
+                let status = self.status_word(&st);
+                out.push(self.reply(Message::GetStatusBits { channel, status }));
+            }
+            Message::SuspendEndOfMoveMsgs => self.end_of_move_msgs = false,
+            Message::ResumeEndOfMoveMsgs => self.end_of_move_msgs = true,
+            // Controller-to-host messages sent to a controller: nothing to do.
+            Message::HwGetInfo(_)
+            | Message::HwResponse { .. }
+            | Message::HwRichResponse { .. }
+            | Message::GetChanEnableState { .. }
+            | Message::MoveHomed { .. }
+            | Message::GetHomeParams(_)
+            | Message::MoveCompleted { .. }
+            | Message::MoveStopped { .. }
+            | Message::GetStatusUpdate(_)
+            | Message::GetUStatusUpdate(_)
+            | Message::GetStatusBits { .. }
+            | Message::GetVelParams(_)
+            | Message::GetPosCounter { .. }
+            | Message::GetMoveAbsParams { .. }
+            | Message::GetMoveRelParams { .. } => understood = false,
+        }
+        if understood {
+            self.counters.messages += 1;
+        } else {
+            self.counters.unknown += 1;
+        }
+        out
+    }
+
+    /// Advances to `now`: end-of-move messages for motions that finished, and the update
+    /// message when one is due (or stops them when the keep-alive lapsed).
+    pub fn tick(&mut self, now: HostTime) -> Vec<Packet> {
+        let mut out = Vec::new();
+        let st = self.motor.status_at(now);
+        if let Some(motion) = self.motion {
+            if !st.moving {
+                let end = match motion {
+                    Motion::Home(HomeStage::Seeking) if self.home.offset != 0 => {
+                        let offset = self.mm(self.home.offset);
+                        self.direction = if offset.0 >= 0.0 { 1.0 } else { -1.0 };
+                        self.motor.move_to(now, offset);
+                        self.motion = Some(Motion::Home(HomeStage::Offset));
+                        None
+                    }
+                    Motion::Home(stage) => {
+                        if stage == HomeStage::Offset {
+                            self.motor.set_position_counter(now, Millimetres(0.0));
+                        }
+                        Some(Message::MoveHomed {
+                            channel: self.config.channel as u8,
+                        })
+                    }
+                    Motion::Move { target } => {
+                        let b = self.status_block(&st);
+                        let blocked = (st.forward_limit || st.reverse_limit)
+                            && (i64::from(b.position) - i64::from(target)).abs() > 1;
+                        let (channel, status) = (self.config.channel, Some(b));
+                        Some(if blocked {
+                            Message::MoveStopped { channel, status }
+                        } else {
+                            Message::MoveCompleted { channel, status }
+                        })
+                    }
+                    Motion::Stop => Some(Message::MoveStopped {
+                        channel: self.config.channel,
+                        status: Some(self.status_block(&st)),
+                    }),
+                };
+                if let Some(m) = end {
+                    self.motion = None;
+                    if self.end_of_move_msgs {
+                        out.push(self.reply(m));
+                    }
+                }
+            }
+        }
+        if let Some(u) = self.updates {
+            let lapsed = match self.config.keepalive {
+                KeepAlive::Required { timeout } => now.since(u.last_ack) > timeout,
+                KeepAlive::Ignored { silent_after } => now.since(u.started) > silent_after,
+            };
+            if lapsed {
+                self.updates = None;
+                self.counters.updates_lapsed += 1;
+            } else if now >= u.next_due {
+                let st = self.motor.status_at(now);
+                let m = match self.config.update_message {
+                    UpdateMessage::StatusUpdate => Message::GetStatusUpdate(self.status_block(&st)),
+                    UpdateMessage::UStatusUpdate => {
+                        Message::GetUStatusUpdate(self.ustatus_block(&st))
+                    }
+                };
+                self.counters.status_updates += 1;
+                out.push(self.reply(m));
+                let period = self.config.update_period;
+                let mut next = after(u.next_due, period);
+                if next <= now {
+                    next = after(now, period);
+                }
+                if let Some(u) = &mut self.updates {
+                    u.next_due = next;
+                }
+            }
+        }
+        out
+    }
+}
+
+const VEL: f64 = crate::apt::actuator::VELOCITY_SCALE;
+const ACC: f64 = crate::apt::actuator::ACCELERATION_SCALE;
