@@ -615,3 +615,209 @@ impl EmulatorCore {
 
 const VEL: f64 = crate::apt::actuator::VELOCITY_SCALE;
 const ACC: f64 = crate::apt::actuator::ACCELERATION_SCALE;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::apt::codec::{HOST, USB_UNIT};
+    use crate::sim::motion::MotorSpec;
+    use crate::units::{MillimetresPerSecond, MillimetresPerSecondSquared};
+
+    fn zfs25() -> Actuator {
+        Actuator::by_name("ZFS25B").expect("ZFS25 is known")
+    }
+
+    fn setup() -> (EmulatorCore, Arc<SimMotor>, HostTime) {
+        let motor = Arc::new(SimMotor::new(MotorSpec {
+            name: "x".into(),
+            travel: Millimetres(25.0),
+            power_up_position: Millimetres(1.0),
+            kinematics: Kinematics {
+                velocity: MillimetresPerSecond(2.0),
+                acceleration: MillimetresPerSecondSquared(4.0),
+            },
+        }));
+        let mut config = AptEmulatorConfig::kst101(zfs25());
+        config.keepalive = KeepAlive::Required {
+            timeout: Duration::from_secs(1),
+        };
+        (
+            EmulatorCore::new(config, motor.clone()),
+            motor,
+            HostTime::now(),
+        )
+    }
+
+    fn at(t0: HostTime, s: f64) -> HostTime {
+        after(t0, Duration::from_secs_f64(s))
+    }
+
+    fn host(m: Message) -> Packet {
+        Packet::to_device(USB_UNIT, m)
+    }
+
+    #[test]
+    fn identity_enable_and_parameters_read_back() {
+        let (mut c, _, t0) = setup();
+        let r = c.handle(&host(Message::HwReqInfo), t0);
+        let [Packet {
+            dest: HOST,
+            source: USB_UNIT,
+            message: Message::HwGetInfo(info),
+        }] = r.as_slice()
+        else {
+            panic!("{r:?}")
+        };
+        assert_eq!(info.model, "KST101");
+        let vel = VelParams {
+            channel: 1,
+            min_velocity: 0,
+            acceleration: 4506,
+            max_velocity: 21_987_328,
+        };
+        assert!(c.handle(&host(Message::SetVelParams(vel)), t0).is_empty());
+        let r = c.handle(&host(Message::ReqVelParams { channel: 1 }), t0);
+        assert_eq!(r[0].message, Message::GetVelParams(vel));
+        c.handle(
+            &host(Message::SetChanEnableState {
+                channel: 1,
+                enable: false,
+            }),
+            t0,
+        );
+        let r = c.handle(&host(Message::ReqChanEnableState { channel: 1 }), t0);
+        assert_eq!(
+            r[0].message,
+            Message::GetChanEnableState {
+                channel: 1,
+                enabled: false
+            }
+        );
+        // A message addressed to a rack bay is not for a K-Cube.
+        assert!(c
+            .handle(&Packet::to_device(0x21, Message::HwReqInfo), t0)
+            .is_empty());
+        assert_eq!(c.counters().not_for_us, 1);
+    }
+
+    #[test]
+    fn absolute_move_completes_at_the_end_of_the_trapezoid() {
+        let (mut c, _, t0) = setup();
+        let a = zfs25();
+        let target = a.to_steps(Millimetres(5.0)).expect("steps");
+        c.handle(
+            &host(Message::MoveAbsolute {
+                channel: 1,
+                position: target,
+            }),
+            t0,
+        );
+        // 5 mm at 2 mm/s and 4 mm/s^2: 0.5 s ramps, 2 s cruise = 3 s.
+        assert!(c.tick(at(t0, 2.99)).is_empty());
+        let r = c.tick(at(t0, 3.001));
+        let Some(Message::MoveCompleted {
+            channel: 1,
+            status: Some(b),
+        }) = r.first().map(|p| p.message.clone())
+        else {
+            panic!("{r:?}")
+        };
+        assert!((b.position - target).abs() <= 1, "{b:?}");
+        assert_eq!(b.status & (bits::MOVING_FORWARD | bits::MOVING_REVERSE), 0);
+        assert!(c.tick(at(t0, 3.2)).is_empty(), "only one MOVE_COMPLETED");
+    }
+
+    #[test]
+    fn a_disabled_channel_refuses_to_move() {
+        let (mut c, motor, t0) = setup();
+        c.handle(
+            &host(Message::SetChanEnableState {
+                channel: 1,
+                enable: false,
+            }),
+            t0,
+        );
+        c.handle(
+            &host(Message::MoveRelative {
+                channel: 1,
+                distance: 100_000,
+            }),
+            t0,
+        );
+        assert!(c.tick(at(t0, 0.5)).is_empty());
+        assert_eq!(motor.status_at(at(t0, 0.5)).position, Millimetres(0.0));
+        assert_eq!(c.counters().refused, 1);
+    }
+
+    #[test]
+    fn update_messages_need_the_keepalive() {
+        let (mut c, _, t0) = setup();
+        c.handle(&host(Message::HwStartUpdateMsgs), t0);
+        let mut sent = 0;
+        for i in 0..=30 {
+            // 3 s in 10 ms steps, acknowledging every 0.9 s.
+            let t = at(t0, i as f64 * 0.1);
+            if i % 9 == 8 {
+                c.handle(&host(Message::AckUStatusUpdate), t);
+            }
+            sent += c.tick(t).len();
+        }
+        assert_eq!(sent, 31, "one update per 100 ms while acknowledged");
+        assert!(c.updates_running());
+        // No acknowledgement after 2.4 s: 1 s later the updates stop.
+        let mut late = 0;
+        for i in 31..=40 {
+            late += c.tick(at(t0, i as f64 * 0.1)).len();
+        }
+        assert!(!c.updates_running());
+        assert!(late < 10, "{late}");
+        assert_eq!(c.counters().updates_lapsed, 1);
+    }
+
+    #[test]
+    fn homing_with_an_offset_zeroes_the_counter_at_the_offset() {
+        let (mut c, motor, t0) = setup();
+        let a = zfs25();
+        let mut home = c.home;
+        home.offset = a.to_steps(Millimetres(0.5)).expect("steps");
+        c.handle(&host(Message::SetHomeParams(home)), t0);
+        c.handle(&host(Message::MoveHome { channel: 1 }), t0);
+        let st = motor.status_at(at(t0, 0.2));
+        assert_ne!(c.status_word(&st) & bits::HOMING, 0);
+        let mut homed_at = None;
+        for i in 1..400 {
+            let t = at(t0, i as f64 * 0.01);
+            if c.tick(t).iter().any(|p| p.message == Message::MoveHomed { channel: 1 }) {
+                homed_at = Some(t);
+                break;
+            }
+        }
+        let t = homed_at.expect("MOVE_HOMED within 4 s");
+        let st = motor.status_at(t);
+        assert!(st.position.0.abs() < 1e-9);
+        let true_pos = motor.true_position_at(t).0;
+        assert!((true_pos - 0.5).abs() < 1e-6, "{true_pos} {st:?}");
+        assert_ne!(c.status_word(&st) & bits::HOMED, 0);
+    }
+
+    #[test]
+    fn a_move_past_the_travel_stops_on_the_limit_switch() {
+        let (mut c, _, t0) = setup();
+        c.handle(
+            &host(Message::MoveAbsolute {
+                channel: 1,
+                position: zfs25().to_steps(Millimetres(-5.0)).expect("steps"),
+            }),
+            t0,
+        );
+        let r = c.tick(at(t0, 5.0));
+        let Some(Message::MoveStopped {
+            status: Some(b), ..
+        }) = r.first().map(|p| p.message.clone())
+        else {
+            panic!("{r:?}")
+        };
+        // Bit 0 is the forward limit by default, so the reverse limit is bit 1.
+        assert_eq!(b.status & 0x3, bits::LIMIT_BIT1);
+    }
+}
