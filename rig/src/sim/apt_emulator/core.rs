@@ -576,40 +576,53 @@ impl EmulatorCore {
                 if let Some(m) = end {
                     self.motion = None;
                     if self.end_of_move_msgs {
+                        // With update messages on, the final status goes out just before the
+                        // end-of-move message, so a host that reads its status then (the
+                        // short MOVE_HOMED carries none) sees the motion's end.
+                        if let Some(u) = &mut self.updates {
+                            u.next_due = now;
+                        }
+                        out.extend(self.due_update(now));
                         out.push(self.reply(m));
                     }
                 }
             }
         }
-        if let Some(u) = self.updates {
-            let lapsed = match self.config.keepalive {
-                KeepAlive::Required { timeout } => now.since(u.last_ack) > timeout,
-                KeepAlive::Ignored { silent_after } => now.since(u.started) > silent_after,
-            };
-            if lapsed {
-                self.updates = None;
-                self.counters.updates_lapsed += 1;
-            } else if now >= u.next_due {
-                let st = self.motor.status_at(now);
-                let m = match self.config.update_message {
-                    UpdateMessage::StatusUpdate => Message::GetStatusUpdate(self.status_block(&st)),
-                    UpdateMessage::UStatusUpdate => {
-                        Message::GetUStatusUpdate(self.ustatus_block(&st))
-                    }
-                };
-                self.counters.status_updates += 1;
-                out.push(self.reply(m));
-                let period = self.config.update_period;
-                let mut next = after(u.next_due, period);
-                if next <= now {
-                    next = after(now, period);
-                }
-                if let Some(u) = &mut self.updates {
-                    u.next_due = next;
-                }
-            }
-        }
+        out.extend(self.due_update(now));
         out
+    }
+
+    /// The update message, if update messages run and one is due at `now`; stops them when the
+    /// keep-alive lapsed.
+    fn due_update(&mut self, now: HostTime) -> Option<Packet> {
+        let u = self.updates?;
+        let lapsed = match self.config.keepalive {
+            KeepAlive::Required { timeout } => now.since(u.last_ack) > timeout,
+            KeepAlive::Ignored { silent_after } => now.since(u.started) > silent_after,
+        };
+        if lapsed {
+            self.updates = None;
+            self.counters.updates_lapsed += 1;
+            return None;
+        }
+        if now < u.next_due {
+            return None;
+        }
+        let st = self.motor.status_at(now);
+        let m = match self.config.update_message {
+            UpdateMessage::StatusUpdate => Message::GetStatusUpdate(self.status_block(&st)),
+            UpdateMessage::UStatusUpdate => Message::GetUStatusUpdate(self.ustatus_block(&st)),
+        };
+        self.counters.status_updates += 1;
+        let period = self.config.update_period;
+        let mut next = after(u.next_due, period);
+        if next <= now {
+            next = after(now, period);
+        }
+        if let Some(u) = &mut self.updates {
+            u.next_due = next;
+        }
+        Some(self.reply(m))
     }
 }
 
@@ -787,7 +800,10 @@ mod tests {
         let mut homed_at = None;
         for i in 1..400 {
             let t = at(t0, i as f64 * 0.01);
-            if c.tick(t).iter().any(|p| p.message == Message::MoveHomed { channel: 1 }) {
+            if c.tick(t)
+                .iter()
+                .any(|p| p.message == Message::MoveHomed { channel: 1 })
+            {
                 homed_at = Some(t);
                 break;
             }

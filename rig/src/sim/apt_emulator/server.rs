@@ -135,6 +135,8 @@ impl Runner {
             let wait = self.core.poll_interval(HostTime::now());
             let n = match self.link.read(&mut buf, wait) {
                 Ok(n) => n,
+                // The host dropped its end of an in-process link: the session is over.
+                Err(e) if e.kind() == io::ErrorKind::BrokenPipe => break Ok(()),
                 Err(e) => break Err(self.link_error("reading from the host", e)),
             };
             decoder.push(&buf[..n]);
@@ -190,14 +192,14 @@ impl AptEmulatorHandle {
         self.slave_path.as_deref()
     }
 
-    /// True while the emulator thread runs (it ends on a link error, e.g. the driver's end of
-    /// an in-process link was dropped).
+    /// True while the emulator thread runs (it also ends when the host's end of an in-process
+    /// link is dropped, or on a link error).
     pub fn is_running(&self) -> bool {
         self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
     /// Stops the emulator and returns its final counters, or the link error that ended it
-    /// earlier.
+    /// earlier (the host closing an in-process link is a normal end, not an error).
     pub fn stop(mut self) -> Result<EmulatorCounters, EmulatorError> {
         self.finish()
     }
