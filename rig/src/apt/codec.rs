@@ -1275,10 +1275,16 @@ mod tests {
             decode(&hex("53 04 00 01 d0 01")),
             Err(DecodeError::Shape { .. })
         ));
+        // A long-only message without the data flag.
         assert!(matches!(
-            decode(&hex("53 04 06 00 50 01")),
+            decode(&hex("13 04 06 00 50 01")),
             Err(DecodeError::Shape { .. })
         ));
+        // MOT_MOVE_ABSOLUTE has a short form: move to the stored absolute position.
+        assert_eq!(
+            decode(&hex("53 04 01 00 50 01")).map(|p| p.message),
+            Ok(Message::MoveAbsoluteStored { channel: 1 })
+        );
         assert_eq!(decode(&hex("23 02")), Err(DecodeError::TooShort(2)));
     }
 
