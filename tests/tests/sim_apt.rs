@@ -1,7 +1,7 @@
 //! The emulated APT stepper controller (fringe_rig::sim::apt_emulator) against the real
 //! ThorlabsAxis driver (in process and over a pseudo-terminal), against raw bytes, and against
-//! an independent client from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py run
-//! with FRINGE_PYTHON).
+//! two independent clients from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py,
+//! and pyLabLib's KinesisMotor, tests/python/apt_pylablib_client.py), run with FRINGE_PYTHON.
 
 use fringe_rig::apt::codec::{encode, Flow, Message, Packet, StreamDecoder, USB_UNIT};
 use fringe_rig::apt::{open_serial, Actuator, AptConfig, Controller, ThorlabsAxis};
@@ -409,4 +409,54 @@ fn thorlabs_apt_device_from_pypi_drives_the_emulator_on_a_pty() {
     assert_eq!(c.identify, 1);
     assert!(c.unknown >= 2, "jog/general move parameter requests: {c:?}");
     assert!((m.true_position_at(HostTime::now()).0 - 1.0).abs() <= one_step());
+}
+
+/// Most of this test's time is pyLabLib's import (numpy, scipy, pandas): several seconds.
+#[test]
+fn pylablib_kinesis_motor_drives_the_emulator_on_a_pty() {
+    let m = motor(0.5);
+    let emu = AptEmulator::spawn_pty(emulator_config(Duration::from_secs(3)), m.clone())
+        .expect("spawn on a pty");
+    let path = emu.slave_path().expect("slave path").to_string();
+    let python = std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string());
+    let script = format!(
+        "{}/python/apt_pylablib_client.py",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let target = zfs25().to_steps(Millimetres(0.25)).expect("steps");
+    let out = Command::new(&python)
+        .arg(&script)
+        .arg(&path)
+        .arg(target.to_string())
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot start {python} ({e}); run scripts/test, which sets FRINGE_PYTHON")
+        });
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "the pylablib client failed ({}): {}\n{stdout}\nrun scripts/test to install \
+         tests/python/requirements.txt (pylablib) into .venv\nemulator: {:?}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr),
+        emu.counters()
+    );
+    let field = |name: &str| -> String {
+        stdout
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("{name}=")))
+            .unwrap_or_else(|| panic!("no {name}= in the client's output:\n{stdout}"))
+            .to_string()
+    };
+    assert_eq!(field("model"), "KST101");
+    assert_eq!(field("homed"), "True");
+    assert_eq!(field("position"), target.to_string());
+    let status = field("status");
+    assert!(
+        status.contains("enabled") && status.contains("homed") && !status.contains("moving"),
+        "{status}"
+    );
+    assert!((m.true_position_at(HostTime::now()).0 - 0.25).abs() <= one_step());
+    let c = emu.stop().expect("no link error");
+    assert_eq!(c.motions, 2, "{c:?}");
 }
