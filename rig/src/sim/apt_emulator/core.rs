@@ -228,9 +228,14 @@ impl EmulatorCore {
         self.counters.dropped_bytes += n;
     }
 
-    /// Counts a well-formed frame of a message id the controller does not implement.
-    pub fn note_unknown(&mut self) {
-        self.counters.unknown += 1;
+    /// Counts a well-formed frame, sent to `dest`, of a message id the controller does not
+    /// implement.
+    pub fn note_unknown(&mut self, dest: u8) {
+        if self.accepts(dest) {
+            self.counters.unknown += 1;
+        } else {
+            self.counters.not_for_us += 1;
+        }
     }
 
     /// The actuator whose scale is in use.

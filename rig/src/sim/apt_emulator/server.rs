@@ -144,7 +144,7 @@ impl Runner {
             while let Some(item) = decoder.next_item() {
                 match item {
                     Decoded::Packet(p) => replies.extend(self.core.handle(&p, HostTime::now())),
-                    Decoded::Unknown { .. } => self.core.note_unknown(),
+                    Decoded::Unknown { dest, .. } => self.core.note_unknown(dest),
                 }
             }
             self.core.note_dropped_bytes(decoder.dropped() - dropped);
