@@ -165,6 +165,10 @@ pub struct EmulatorCore {
     motion: Option<Motion>,
     /// Sign of the last commanded motion (+1 forward, -1 reverse).
     direction: f64,
+    /// The controller has completed a homing run since power-up.
+    homed: bool,
+    /// Move kinematics to restore after a forward homing run (which runs at the home velocity).
+    saved_kinematics: Option<Kinematics>,
     counters: EmulatorCounters,
 }
 
@@ -207,6 +211,8 @@ impl EmulatorCore {
             end_of_move_msgs: true,
             motion: None,
             direction: 1.0,
+            homed: false,
+            saved_kinematics: None,
             counters: EmulatorCounters::default(),
             config,
             motor,
@@ -326,7 +332,7 @@ impl EmulatorCore {
         }
         if homing {
             w |= bits::HOMING;
-        } else if st.homed {
+        } else if self.homed {
             w |= bits::HOMED;
         }
         if self.enabled {
@@ -356,11 +362,22 @@ impl EmulatorCore {
         }
     }
 
+    fn homes_forward(&self) -> bool {
+        self.home.direction == 1
+    }
+
+    fn restore_kinematics(&mut self) {
+        if let Some(k) = self.saved_kinematics.take() {
+            self.motor.set_kinematics(k);
+        }
+    }
+
     fn start_motion(&mut self, now: HostTime, motion: Motion) -> bool {
         if !self.enabled {
             self.counters.refused += 1;
             return false;
         }
+        self.restore_kinematics();
         let here = self.steps(self.motor.status_at(now).position);
         match motion {
             Motion::Move { target } => {
@@ -368,9 +385,23 @@ impl EmulatorCore {
                 self.motor.move_to(now, self.mm(target));
             }
             Motion::Home(_) => {
-                self.direction = -1.0;
                 let v = self.actuator.velocity_from_device(self.home.velocity);
-                self.motor.home(now, v);
+                if self.homes_forward() {
+                    // Onto the forward limit switch at the home velocity; the counter is
+                    // zeroed there when the run ends.
+                    self.direction = 1.0;
+                    let k = self.motor.kinematics();
+                    self.saved_kinematics = Some(k);
+                    self.motor.set_kinematics(Kinematics {
+                        velocity: v,
+                        acceleration: k.acceleration,
+                    });
+                    let beyond = 2.0 * self.motor.spec().travel.0 + 1.0;
+                    self.motor.move_by(now, Millimetres(beyond));
+                } else {
+                    self.direction = -1.0;
+                    self.motor.home(now, v);
+                }
             }
             Motion::Stop => {}
         }
@@ -426,6 +457,7 @@ impl EmulatorCore {
             Message::SetChanEnableState { enable, .. } => {
                 self.enabled = *enable;
                 if !*enable && self.motion.is_some() {
+                    self.restore_kinematics();
                     self.motor.stop(now, true);
                     self.motion = Some(Motion::Stop);
                 }
@@ -494,6 +526,7 @@ impl EmulatorCore {
                 self.start_motion(now, Motion::Move { target });
             }
             Message::MoveStop { mode, .. } => {
+                self.restore_kinematics();
                 self.motor.stop(now, *mode == StopMode::Immediate);
                 self.motion = Some(Motion::Stop);
             }
@@ -547,17 +580,33 @@ impl EmulatorCore {
         if let Some(motion) = self.motion {
             if !st.moving {
                 let end = match motion {
-                    Motion::Home(HomeStage::Seeking) if self.home.offset != 0 => {
-                        let offset = self.mm(self.home.offset);
-                        self.direction = if offset.0 >= 0.0 { 1.0 } else { -1.0 };
-                        self.motor.move_to(now, offset);
-                        self.motion = Some(Motion::Home(HomeStage::Offset));
-                        None
-                    }
-                    Motion::Home(stage) => {
-                        if stage == HomeStage::Offset {
+                    Motion::Home(HomeStage::Seeking) => {
+                        self.restore_kinematics();
+                        if self.homes_forward() {
                             self.motor.set_position_counter(now, Millimetres(0.0));
                         }
+                        if self.home.offset != 0 {
+                            // The offset leads away from the home switch.
+                            let offset = self.mm(self.home.offset);
+                            let target = if self.homes_forward() {
+                                Millimetres(-offset.0)
+                            } else {
+                                offset
+                            };
+                            self.direction = if target.0 >= 0.0 { 1.0 } else { -1.0 };
+                            self.motor.move_to(now, target);
+                            self.motion = Some(Motion::Home(HomeStage::Offset));
+                            None
+                        } else {
+                            self.homed = true;
+                            Some(Message::MoveHomed {
+                                channel: self.config.channel as u8,
+                            })
+                        }
+                    }
+                    Motion::Home(HomeStage::Offset) => {
+                        self.motor.set_position_counter(now, Millimetres(0.0));
+                        self.homed = true;
                         Some(Message::MoveHomed {
                             channel: self.config.channel as u8,
                         })
@@ -819,6 +868,47 @@ mod tests {
         let true_pos = motor.true_position_at(t).0;
         assert!((true_pos - 0.5).abs() < 1e-6, "{true_pos} {st:?}");
         assert_ne!(c.status_word(&st) & bits::HOMED, 0);
+    }
+
+    #[test]
+    fn forward_homing_zeroes_at_the_forward_switch_and_keeps_the_move_speed() {
+        let (mut c, motor, t0) = setup();
+        let a = zfs25();
+        let mut home = c.home;
+        home.direction = 1;
+        home.limit_switch = 4;
+        home.velocity = a
+            .velocity_to_device(MillimetresPerSecond(8.0))
+            .expect("device units");
+        c.handle(&host(Message::SetHomeParams(home)), t0);
+        let before = motor.kinematics();
+        c.handle(&host(Message::MoveHome { channel: 1 }), t0);
+        let st = motor.status_at(at(t0, 1.0));
+        let w = c.status_word(&st);
+        assert_ne!(w & bits::HOMING, 0);
+        assert_ne!(w & bits::MOVING_FORWARD, 0);
+        // 24 mm to the forward switch at 8 mm/s with 4 mm/s^2: 5 s.
+        let mut homed_at = None;
+        for i in 1..700 {
+            let t = at(t0, i as f64 * 0.01);
+            if c.tick(t)
+                .iter()
+                .any(|p| p.message == Message::MoveHomed { channel: 1 })
+            {
+                homed_at = Some(t);
+                break;
+            }
+        }
+        let t = homed_at.expect("MOVE_HOMED within 7 s");
+        let st = motor.status_at(t);
+        assert!(st.position.0.abs() < 1e-9 && st.forward_limit, "{st:?}");
+        assert!((motor.true_position_at(t).0 - 25.0).abs() < 1e-9);
+        assert_ne!(c.status_word(&st) & bits::HOMED, 0);
+        assert_eq!(
+            motor.kinematics(),
+            before,
+            "moves run at the move velocity again"
+        );
     }
 
     #[test]
