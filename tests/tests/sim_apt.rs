@@ -337,12 +337,12 @@ fn real_driver_over_a_pseudo_terminal() {
 fn real_driver_polls_a_bsc203_bay() {
     let m = motor(1.0);
     let (host, device) = byte_pair("apt-y", "bsc203-bay1");
-    let config =
-        AptEmulatorConfig::bsc20x_channel("BSC203", 1, zfs25()).expect("bay 1 is a rack bay");
-    let emu = AptEmulator::spawn(config, m, Box::new(device)).expect("spawn");
     let mut dc = driver_config();
     dc.controller = Controller::Bsc203;
     dc.bay = Some(1);
+    let config = AptEmulatorConfig::matching(&dc).expect("bay 1 is a rack bay");
+    assert_eq!(config.address, 0x22);
+    let emu = AptEmulator::spawn(config, m, Box::new(device)).expect("spawn");
     let mut axis = ThorlabsAxis::connect(Box::new(host), dc).expect("connect to bay 1");
     assert_eq!(axis.info().map(|i| i.model.as_str()), Some("BSC203"));
     let st = axis

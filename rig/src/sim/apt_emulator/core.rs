@@ -6,6 +6,7 @@ use crate::apt::codec::{
     bay_address, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock,
     VelParams, RACK, USB_UNIT,
 };
+use crate::apt::driver::{AptConfig, Controller};
 use crate::apt::status::{self as bits, LimitPolarity};
 use crate::clock::HostTime;
 use crate::sim::motion::{Kinematics, MotorStatus, SimMotor};
@@ -96,6 +97,29 @@ impl AptEmulatorConfig {
             },
             ..AptEmulatorConfig::kst101(actuator)
         })
+    }
+}
+
+impl AptEmulatorConfig {
+    /// The controller a driver configuration expects: same model, address, channel, actuator
+    /// and limit polarity (a BSC201 reports itself as "SCC201", as the real one does). `None`
+    /// when the configured bay is not a rack bay.
+    pub fn matching(driver: &AptConfig) -> Option<Self> {
+        let address = driver.controller.address(driver.bay)?;
+        let mut c = match driver.controller {
+            Controller::Kst101 | Controller::Kst201 => AptEmulatorConfig::kst101(driver.actuator),
+            Controller::Bsc201 | Controller::Bsc202 | Controller::Bsc203 => {
+                AptEmulatorConfig::bsc20x_channel("BSC203", 0, driver.actuator)?
+            }
+        };
+        c.model = match driver.controller {
+            Controller::Bsc201 => "SCC201".to_string(),
+            other => other.to_string(),
+        };
+        c.address = address;
+        c.channel = u16::from(driver.channel);
+        c.limit_polarity = driver.limit_polarity;
+        Some(c)
     }
 }
 
@@ -909,6 +933,26 @@ mod tests {
             before,
             "moves run at the move velocity again"
         );
+    }
+
+    #[test]
+    fn the_matching_controller_has_the_driver_s_address_and_model() {
+        let mut d = AptConfig::new("y", Controller::Bsc203, zfs25());
+        d.bay = Some(2);
+        let c = AptEmulatorConfig::matching(&d).expect("bay 2");
+        assert_eq!((c.model.as_str(), c.address), ("BSC203", 0x23));
+        assert!(matches!(c.keepalive, KeepAlive::Ignored { .. }));
+        d.controller = Controller::Bsc201;
+        d.bay = None;
+        let c = AptEmulatorConfig::matching(&d).expect("USB unit");
+        assert_eq!((c.model.as_str(), c.address), ("SCC201", USB_UNIT));
+        let c = AptEmulatorConfig::matching(&AptConfig::new("x", Controller::Kst201, zfs25()))
+            .expect("K-Cube");
+        assert_eq!((c.model.as_str(), c.address), ("KST201", USB_UNIT));
+        assert!(matches!(c.keepalive, KeepAlive::Required { .. }));
+        d.bay = Some(10);
+        d.controller = Controller::Bsc202;
+        assert_eq!(AptEmulatorConfig::matching(&d), None);
     }
 
     #[test]
