@@ -8,10 +8,13 @@
 //! - [`motion`]: simulated axes with trapezoidal motion profiles in host time.
 //! - [`modbus_emulator`]: an emulated Modbus y stage (TCP, RTU on a pty, in process) from a register map.
 //! - [`netft_emulator`]: an emulated ATI Net F/T box (RDT over UDP or in process, netftapi2.xml).
+//! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
+//!   byte link, driving a [`motion::SimMotor`].
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
+pub mod apt_emulator;
 pub mod blurred_colour;
 pub mod colour;
 pub mod fringe_field;

@@ -53,9 +53,15 @@ pub mod id {
     pub const MOT_SET_HOMEPARAMS: u16 = 0x0440;
     pub const MOT_REQ_HOMEPARAMS: u16 = 0x0441;
     pub const MOT_GET_HOMEPARAMS: u16 = 0x0442;
+    pub const MOT_SET_MOVERELPARAMS: u16 = 0x0445;
+    pub const MOT_REQ_MOVERELPARAMS: u16 = 0x0446;
+    pub const MOT_GET_MOVERELPARAMS: u16 = 0x0447;
     pub const MOT_MOVE_HOME: u16 = 0x0443;
     pub const MOT_MOVE_HOMED: u16 = 0x0444;
     pub const MOT_MOVE_RELATIVE: u16 = 0x0448;
+    pub const MOT_SET_MOVEABSPARAMS: u16 = 0x0450;
+    pub const MOT_REQ_MOVEABSPARAMS: u16 = 0x0451;
+    pub const MOT_GET_MOVEABSPARAMS: u16 = 0x0452;
     pub const MOT_MOVE_ABSOLUTE: u16 = 0x0453;
     pub const MOT_MOVE_COMPLETED: u16 = 0x0464;
     pub const MOT_MOVE_STOP: u16 = 0x0465;
@@ -110,8 +116,14 @@ fn shape(message_id: u16) -> Option<(Shape, &'static str)> {
         MOT_GET_HOMEPARAMS => (Long(14), "MOT_GET_HOMEPARAMS"),
         MOT_MOVE_HOME => (Short, "MOT_MOVE_HOME"),
         MOT_MOVE_HOMED => (Short, "MOT_MOVE_HOMED"),
-        MOT_MOVE_RELATIVE => (Long(6), "MOT_MOVE_RELATIVE"),
-        MOT_MOVE_ABSOLUTE => (Long(6), "MOT_MOVE_ABSOLUTE"),
+        MOT_MOVE_RELATIVE => (ShortOrLong(6), "MOT_MOVE_RELATIVE"),
+        MOT_MOVE_ABSOLUTE => (ShortOrLong(6), "MOT_MOVE_ABSOLUTE"),
+        MOT_SET_MOVERELPARAMS => (Long(6), "MOT_SET_MOVERELPARAMS"),
+        MOT_REQ_MOVERELPARAMS => (Short, "MOT_REQ_MOVERELPARAMS"),
+        MOT_GET_MOVERELPARAMS => (Long(6), "MOT_GET_MOVERELPARAMS"),
+        MOT_SET_MOVEABSPARAMS => (Long(6), "MOT_SET_MOVEABSPARAMS"),
+        MOT_REQ_MOVEABSPARAMS => (Short, "MOT_REQ_MOVEABSPARAMS"),
+        MOT_GET_MOVEABSPARAMS => (Long(6), "MOT_GET_MOVEABSPARAMS"),
         MOT_MOVE_COMPLETED => (ShortOrLong(14), "MOT_MOVE_COMPLETED"),
         MOT_MOVE_STOP => (Short, "MOT_MOVE_STOP"),
         MOT_MOVE_STOPPED => (ShortOrLong(14), "MOT_MOVE_STOPPED"),
@@ -262,6 +274,36 @@ pub enum Message {
         channel: u16,
         distance: i32,
     },
+    /// Short MOT_MOVE_ABSOLUTE: move to the position stored by MOT_SET_MOVEABSPARAMS.
+    MoveAbsoluteStored {
+        channel: u8,
+    },
+    /// Short MOT_MOVE_RELATIVE: move by the distance stored by MOT_SET_MOVERELPARAMS.
+    MoveRelativeStored {
+        channel: u8,
+    },
+    SetMoveAbsParams {
+        channel: u16,
+        position: i32,
+    },
+    ReqMoveAbsParams {
+        channel: u8,
+    },
+    GetMoveAbsParams {
+        channel: u16,
+        position: i32,
+    },
+    SetMoveRelParams {
+        channel: u16,
+        distance: i32,
+    },
+    ReqMoveRelParams {
+        channel: u8,
+    },
+    GetMoveRelParams {
+        channel: u16,
+        distance: i32,
+    },
     /// Short form carries only the channel; the long form a status block.
     MoveCompleted {
         channel: u16,
@@ -338,6 +380,14 @@ impl Message {
             GetHomeParams(_) => MOT_GET_HOMEPARAMS,
             MoveAbsolute { .. } => MOT_MOVE_ABSOLUTE,
             MoveRelative { .. } => MOT_MOVE_RELATIVE,
+            MoveAbsoluteStored { .. } => MOT_MOVE_ABSOLUTE,
+            MoveRelativeStored { .. } => MOT_MOVE_RELATIVE,
+            SetMoveAbsParams { .. } => MOT_SET_MOVEABSPARAMS,
+            ReqMoveAbsParams { .. } => MOT_REQ_MOVEABSPARAMS,
+            GetMoveAbsParams { .. } => MOT_GET_MOVEABSPARAMS,
+            SetMoveRelParams { .. } => MOT_SET_MOVERELPARAMS,
+            ReqMoveRelParams { .. } => MOT_REQ_MOVERELPARAMS,
+            GetMoveRelParams { .. } => MOT_GET_MOVERELPARAMS,
             MoveCompleted { .. } => MOT_MOVE_COMPLETED,
             MoveStopped { .. } => MOT_MOVE_STOPPED,
             MoveStop { .. } => MOT_MOVE_STOP,
@@ -439,7 +489,11 @@ pub fn encode(packet: &Packet) -> Vec<u8> {
         | ReqUStatusUpdate { channel }
         | ReqStatusBits { channel }
         | ReqVelParams { channel }
-        | ReqPosCounter { channel } => short(*channel, 0),
+        | ReqPosCounter { channel }
+        | MoveAbsoluteStored { channel }
+        | MoveRelativeStored { channel }
+        | ReqMoveAbsParams { channel }
+        | ReqMoveRelParams { channel } => short(*channel, 0),
         SetChanEnableState { channel, enable } => short(*channel, if *enable { 1 } else { 2 }),
         GetChanEnableState { channel, enabled } => short(*channel, if *enabled { 1 } else { 2 }),
         HwReqInfo | HwStartUpdateMsgs | HwStopUpdateMsgs | HwNoFlashProgramming
@@ -487,6 +541,22 @@ pub fn encode(packet: &Packet) -> Vec<u8> {
         | GetPosCounter {
             channel,
             position: value,
+        }
+        | SetMoveAbsParams {
+            channel,
+            position: value,
+        }
+        | GetMoveAbsParams {
+            channel,
+            position: value,
+        }
+        | SetMoveRelParams {
+            channel,
+            distance: value,
+        }
+        | GetMoveRelParams {
+            channel,
+            distance: value,
         } => {
             let mut d = channel.to_le_bytes().to_vec();
             d.extend_from_slice(&value.to_le_bytes());
@@ -683,11 +753,31 @@ pub fn decode(frame: &[u8]) -> Result<Packet, DecodeError> {
             }
         }
         id::MOT_REQ_HOMEPARAMS => ReqHomeParams { channel: p1 },
+        id::MOT_MOVE_ABSOLUTE if !is_long => MoveAbsoluteStored { channel: p1 },
         id::MOT_MOVE_ABSOLUTE => MoveAbsolute {
             channel: f.u16(),
             position: f.i32(),
         },
+        id::MOT_MOVE_RELATIVE if !is_long => MoveRelativeStored { channel: p1 },
         id::MOT_MOVE_RELATIVE => MoveRelative {
+            channel: f.u16(),
+            distance: f.i32(),
+        },
+        id::MOT_SET_MOVEABSPARAMS => SetMoveAbsParams {
+            channel: f.u16(),
+            position: f.i32(),
+        },
+        id::MOT_REQ_MOVEABSPARAMS => ReqMoveAbsParams { channel: p1 },
+        id::MOT_GET_MOVEABSPARAMS => GetMoveAbsParams {
+            channel: f.u16(),
+            position: f.i32(),
+        },
+        id::MOT_SET_MOVERELPARAMS => SetMoveRelParams {
+            channel: f.u16(),
+            distance: f.i32(),
+        },
+        id::MOT_REQ_MOVERELPARAMS => ReqMoveRelParams { channel: p1 },
+        id::MOT_GET_MOVERELPARAMS => GetMoveRelParams {
             channel: f.u16(),
             distance: f.i32(),
         },
@@ -773,6 +863,20 @@ pub enum Flow {
     ToDevice,
 }
 
+/// One item read by [`StreamDecoder::next_item`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Decoded {
+    Packet(Packet),
+    /// A well-addressed frame of a message id this codec does not know, skipped whole.
+    Unknown {
+        message_id: u16,
+        dest: u8,
+        source: u8,
+        /// Frame length including the 6-byte header.
+        len: usize,
+    },
+}
+
 /// Splits a byte stream into packets, dropping one byte at a time to resynchronise on an unknown
 /// id, an impossible length or an unexpected address. Never panics.
 #[derive(Debug)]
@@ -817,12 +921,48 @@ impl StreamDecoder {
 
     /// The next complete packet, if the buffer holds one.
     pub fn next_packet(&mut self) -> Option<Packet> {
+        match self.next(false) {
+            Some(Decoded::Packet(p)) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// Like [`StreamDecoder::next_packet`], but a frame of an unknown message id whose header
+    /// has plausible addresses (and a data length within 255) is skipped whole and reported, as
+    /// a controller does with messages it does not implement.
+    pub fn next_item(&mut self) -> Option<Decoded> {
+        self.next(true)
+    }
+
+    fn next(&mut self, skip_unknown: bool) -> Option<Decoded> {
         loop {
             if self.buf.len() < 6 {
                 return None;
             }
-            let len = match frame_len(&self.buf[..6]) {
-                Ok(n) if self.addresses_ok(&self.buf[..6]) => n,
+            let header = &self.buf[..6];
+            let addresses_ok = self.addresses_ok(header);
+            let len = match frame_len(header) {
+                Ok(n) if addresses_ok => n,
+                Err(DecodeError::UnknownId(message_id)) if skip_unknown && addresses_ok => {
+                    let data_len = u16::from_le_bytes([header[2], header[3]]) as usize;
+                    let is_long = header[4] & 0x80 != 0;
+                    if is_long && data_len > MAX_DATA_LEN {
+                        self.drop_one();
+                        continue;
+                    }
+                    let len = if is_long { 6 + data_len } else { 6 };
+                    if self.buf.len() < len {
+                        return None;
+                    }
+                    let (dest, source) = (header[4] & 0x7f, header[5]);
+                    self.buf.drain(..len);
+                    return Some(Decoded::Unknown {
+                        message_id,
+                        dest,
+                        source,
+                        len,
+                    });
+                }
                 _ => {
                     self.drop_one();
                     continue;
@@ -834,7 +974,7 @@ impl StreamDecoder {
             match decode(&self.buf[..len]) {
                 Ok(p) => {
                     self.buf.drain(..len);
-                    return Some(p);
+                    return Some(Decoded::Packet(p));
                 }
                 Err(_) => self.drop_one(),
             }
@@ -1094,6 +1234,26 @@ mod tests {
                 position: 77,
             },
             Message::SetTstActuatorType { actuator: 0x42 },
+            Message::MoveAbsoluteStored { channel: 1 },
+            Message::MoveRelativeStored { channel: 1 },
+            Message::SetMoveAbsParams {
+                channel: 1,
+                position: 4096,
+            },
+            Message::ReqMoveAbsParams { channel: 1 },
+            Message::GetMoveAbsParams {
+                channel: 1,
+                position: -4096,
+            },
+            Message::SetMoveRelParams {
+                channel: 1,
+                distance: -2,
+            },
+            Message::ReqMoveRelParams { channel: 1 },
+            Message::GetMoveRelParams {
+                channel: 1,
+                distance: 2,
+            },
             Message::SuspendEndOfMoveMsgs,
             Message::ResumeEndOfMoveMsgs,
         ];
@@ -1115,10 +1275,16 @@ mod tests {
             decode(&hex("53 04 00 01 d0 01")),
             Err(DecodeError::Shape { .. })
         ));
+        // A long-only message without the data flag.
         assert!(matches!(
-            decode(&hex("53 04 06 00 50 01")),
+            decode(&hex("13 04 06 00 50 01")),
             Err(DecodeError::Shape { .. })
         ));
+        // MOT_MOVE_ABSOLUTE has a short form: move to the stored absolute position.
+        assert_eq!(
+            decode(&hex("53 04 01 00 50 01")).map(|p| p.message),
+            Ok(Message::MoveAbsoluteStored { channel: 1 })
+        );
         assert_eq!(decode(&hex("23 02")), Err(DecodeError::TooShort(2)));
     }
 
@@ -1154,6 +1320,39 @@ mod tests {
             d.next_packet().map(|p| p.message),
             Some(Message::ModIdentify { channel: 1 })
         );
+    }
+
+    #[test]
+    fn next_item_skips_unknown_host_frames_whole() {
+        let mut d = StreamDecoder::new(Flow::ToDevice);
+        // MOT_REQ_JOGPARAMS (short, unknown here), a long unknown frame whose data would look
+        // like an identify, then a real MOD_IDENTIFY.
+        d.push(&hex("17 04 01 00 50 01"));
+        d.push(&hex("16 04 06 00 d0 01 23 02 01 00 50 01"));
+        d.push(&hex("23 02 01 00 50 01"));
+        let items: Vec<Decoded> = std::iter::from_fn(|| d.next_item()).collect();
+        assert_eq!(
+            items,
+            vec![
+                Decoded::Unknown {
+                    message_id: 0x0417,
+                    dest: USB_UNIT,
+                    source: HOST,
+                    len: 6
+                },
+                Decoded::Unknown {
+                    message_id: 0x0416,
+                    dest: USB_UNIT,
+                    source: HOST,
+                    len: 12
+                },
+                Decoded::Packet(Packet::to_device(
+                    USB_UNIT,
+                    Message::ModIdentify { channel: 1 }
+                )),
+            ]
+        );
+        assert_eq!(d.dropped(), 0);
     }
 
     proptest! {

@@ -322,6 +322,16 @@ impl SimMotor {
         }
     }
 
+    /// Redefines the counter at `t` so that the carriage's position then reads `position`
+    /// (what MOT_SET_POSCOUNTER does); the carriage does not move and a move under way keeps its
+    /// mechanical target.
+    pub fn set_position_counter(&self, t: HostTime, position: Millimetres) {
+        let mut s = self.lock();
+        self.settle(&mut s, t);
+        let (p, _) = s.segment.state_at(t);
+        s.zero_offset = p - position.0;
+    }
+
     /// The controller's view at `t`.
     pub fn status_at(&self, t: HostTime) -> MotorStatus {
         let mut s = self.lock();
@@ -451,6 +461,17 @@ mod tests {
         assert!(!end.moving && end.forward_limit && !end.reverse_limit);
         assert!((m.true_position_at(after(t0, 60.0)).0 - 25.0).abs() < 1e-9);
         assert!((end.position.0 - 15.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn setting_the_counter_shifts_readings_but_not_the_carriage() {
+        let m = motor();
+        let t0 = HostTime::now();
+        m.set_position_counter(t0, Millimetres(2.0));
+        assert!((m.status_at(t0).position.0 - 2.0).abs() < 1e-12);
+        assert!((m.true_position_at(t0).0 - 10.0).abs() < 1e-12);
+        m.move_to(t0, Millimetres(3.0));
+        assert!((m.true_position_at(after(t0, 10.0)).0 - 11.0).abs() < 1e-9);
     }
 
     #[test]
