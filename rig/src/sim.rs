@@ -6,13 +6,25 @@
 //! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
 //! - [`blurred_colour`]: that colour averaged over a spread of fringe orders (defocus).
 //! - [`motion`]: simulated axes with trapezoidal motion profiles in host time.
+//! - [`contact`]: force against indentation depth in the soft layer, relaxation, surface height.
+//! - [`ft_sensor`]: the F/T sensor's moments, noise, drift and power-up bias.
+//! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
+//! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
+//! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
+//! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
+pub mod bench;
 pub mod blurred_colour;
+pub mod camera_emulator;
 pub mod colour;
+pub mod contact;
+pub mod daq_emulator;
 pub mod fringe_field;
+pub mod ft_sensor;
+pub mod ground_truth;
 pub mod indenter;
 pub mod motion;
 pub mod scene;
