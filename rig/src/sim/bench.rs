@@ -24,7 +24,9 @@ use super::indenter::Shape;
 use super::motion::{Kinematics, MotorSpec, SimMotor};
 use super::scene::{Contact, LoadSource, Scene, SceneSource};
 use crate::clock::HostTime;
-use crate::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench};
+use crate::units::{
+    Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench,
+};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -489,7 +491,9 @@ impl Bench {
 impl LoadSource for Bench {
     fn true_wrench_at(&self, t: HostTime) -> Wrench {
         let truth = self.truth_at(t);
-        self.config.mount.wrench_from_normal_force(truth.normal_force.0)
+        self.config
+            .mount
+            .wrench_from_normal_force(truth.normal_force.0)
     }
 }
 
@@ -556,7 +560,10 @@ mod tests {
         assert!(truth.normal_force.0 > 5.0, "{truth:?}");
         let scene = bench.scene_at(t);
         let c = scene.contact.expect("pressing");
-        assert!((c.x.0 - 3.0).abs() < 1e-9 && (c.y.0 + 4.0).abs() < 1e-9, "{c:?}");
+        assert!(
+            (c.x.0 - 3.0).abs() < 1e-9 && (c.y.0 + 4.0).abs() < 1e-9,
+            "{c:?}"
+        );
         // Fz negative when pressing (ATI compression), |Fz| = normal force.
         let w = bench.true_wrench_at(t);
         assert!((w.fz.0 + truth.normal_force.0).abs() < 1e-9);

@@ -57,7 +57,9 @@ impl DeviceClock {
     /// The device clock at host time `t`.
     pub fn ticks_at(&self, t: HostTime) -> u64 {
         let dt = t.0 as f64 - self.reference.0 as f64;
-        (self.ticks_at_ref as f64 + dt * self.rate()).round().max(0.0) as u64
+        (self.ticks_at_ref as f64 + dt * self.rate())
+            .round()
+            .max(0.0) as u64
     }
 
     /// The host time at which the device clock reads `ticks`.
@@ -219,7 +221,13 @@ impl Shared {
         }
     }
 
-    fn record(&self, job: &Job, arrival: Option<HostTime>, fate: FrameFate, contact: Option<(f64, f64, f64)>) {
+    fn record(
+        &self,
+        job: &Job,
+        arrival: Option<HostTime>,
+        fate: FrameFate,
+        contact: Option<(f64, f64, f64)>,
+    ) {
         if let Some(sink) = &self.truth {
             sink.record(TruthRecord::Frame(FrameTruth {
                 id: job.window.id,
@@ -306,6 +314,8 @@ pub struct SimCamera {
     stats: Arc<Mutex<SimCameraStats>>,
     latch_rng: StdRng,
     running: Option<Running>,
+    /// Frames delivered before the last stop and not fetched yet.
+    leftover: Option<Receiver<Frame>>,
 }
 
 impl SimCamera {
@@ -334,6 +344,7 @@ impl SimCamera {
             truth: None,
             stats: Arc::new(Mutex::new(SimCameraStats::default())),
             running: None,
+            leftover: None,
         }
     }
 
@@ -390,9 +401,15 @@ impl SimCamera {
     }
 }
 
-fn timing_free_run(shared: Arc<Shared>, render: Sender<Job>, next_id: Arc<Mutex<(u64, Option<HostTime>)>>) {
+fn timing_free_run(
+    shared: Arc<Shared>,
+    render: Sender<Job>,
+    next_id: Arc<Mutex<(u64, Option<HostTime>)>>,
+) {
     let period_ticks = (1e9 / shared.settings.frame_rate.0).round() as u64;
-    let first = shared.clock.ticks_at(HostTime(HostTime::now().0 + 2_000_000));
+    let first = shared
+        .clock
+        .ticks_at(HostTime(HostTime::now().0 + 2_000_000));
     let mut rng = StdRng::seed_from_u64(mix_seed(shared.config.seed, 0xd40b));
     let job_for = |k: u64| shared.job(k, first + k * period_ticks);
     shared.schedule.push(job_for(0).window);
@@ -474,7 +491,8 @@ fn render_loop(
         let expected = (width * renderer.height() * 3) as usize;
         rgb.resize(expected, 0);
         let data = convert_frame(&rgb, width, &shared.settings, roi);
-        let mut jitter_rng = StdRng::seed_from_u64(mix_seed(shared.config.seed, job.window.id ^ 0x717e));
+        let mut jitter_rng =
+            StdRng::seed_from_u64(mix_seed(shared.config.seed, job.window.id ^ 0x717e));
         let jitter_ns = shared.config.arrival_jitter_ms.max(0.0) * 1e6 * jitter_rng.gen::<f64>();
         let due = HostTime(
             job.window.end.0 + (shared.config.readout_ms.max(0.0) * 1e6 + jitter_ns) as u64,
@@ -546,14 +564,19 @@ impl Camera for SimCamera {
         if !(rate > 0.0 && rate <= self.config.max_frame_rate_hz) {
             return Err(self.feature(
                 "AcquisitionFrameRate",
-                format!("{rate} Hz is outside 0..{} Hz", self.config.max_frame_rate_hz),
+                format!(
+                    "{rate} Hz is outside 0..{} Hz",
+                    self.config.max_frame_rate_hz
+                ),
             ));
         }
         let exposure = settings.exposure.0;
         if !(exposure > 0.0 && exposure * 1e-6 < 1.0 / rate) {
             return Err(self.feature(
                 "ExposureTime",
-                format!("{exposure} us must be positive and shorter than the frame period at {rate} Hz"),
+                format!(
+                    "{exposure} us must be positive and shorter than the frame period at {rate} Hz"
+                ),
             ));
         }
         if let TriggerMode::Hardware(line) = &settings.trigger {
@@ -570,7 +593,10 @@ impl Camera for SimCamera {
             {
                 return Err(self.feature(
                     "Width/Height/OffsetX/OffsetY",
-                    format!("ROI {roi:?} does not fit the {}x{} sensor", self.width, self.height),
+                    format!(
+                        "ROI {roi:?} does not fit the {}x{} sensor",
+                        self.width, self.height
+                    ),
                 ));
             }
         }
@@ -589,6 +615,7 @@ impl Camera for SimCamera {
             });
         };
         *self.stats.lock().unwrap_or_else(|e| e.into_inner()) = SimCameraStats::default();
+        self.leftover = None;
         let stop = Arc::new(AtomicBool::new(false));
         let shared = Arc::new(Shared {
             config: self.config.clone(),
@@ -706,6 +733,10 @@ impl Camera for SimCamera {
 
     fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
         let Some(run) = &self.running else {
+            // After a stop, frames already delivered can still be fetched.
+            if let Some(left) = &self.leftover {
+                return Ok(left.try_recv().ok());
+            }
             return Err(CameraError::Device {
                 camera: self.name(),
                 message: "no acquisition running; call start first".into(),
@@ -727,6 +758,7 @@ impl Camera for SimCamera {
         };
         run.stop.store(true, Ordering::Relaxed);
         drop(run.triggers);
+        self.leftover = Some(run.frames);
         let timing_ok = run.timing.join().is_ok();
         let renderer = run.render.join();
         let delivery_ok = run.delivery.join().is_ok();

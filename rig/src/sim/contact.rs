@@ -108,7 +108,11 @@ pub fn layer_correction(chi: f64) -> f64 {
 }
 
 /// The instantaneous elastic force at `depth` (0 when not touching).
-pub fn elastic_force(material: &ContactMaterial, geometry: ContactGeometry, depth: Millimetres) -> Newtons {
+pub fn elastic_force(
+    material: &ContactMaterial,
+    geometry: ContactGeometry,
+    depth: Millimetres,
+) -> Newtons {
     let d = depth.0;
     if d <= 0.0 {
         return Newtons(0.0);
@@ -192,7 +196,11 @@ impl ContactModel {
             let x = dt / tau;
             let decay = (-x).exp();
             // (1 - e^-x) / x, -> 1 as x -> 0.
-            let ramp = if x < 1e-9 { 1.0 - 0.5 * x } else { (1.0 - decay) / x };
+            let ramp = if x < 1e-9 {
+                1.0 - 0.5 * x
+            } else {
+                (1.0 - decay) / x
+            };
             *h = decay * *h + term.weight * dfe * ramp;
         }
         self.elastic = fe;
@@ -205,7 +213,8 @@ impl ContactModel {
 
     /// The force after the last [`ContactModel::advance`].
     pub fn force(&self) -> Newtons {
-        let f = self.material.long_term_fraction() * self.elastic + self.internal.iter().sum::<f64>();
+        let f =
+            self.material.long_term_fraction() * self.elastic + self.internal.iter().sum::<f64>();
         Newtons(f.max(0.0))
     }
 
@@ -260,7 +269,12 @@ impl SurfaceHeight {
                 let wavelength = lo + (hi - lo) * rng.gen::<f64>();
                 let dir = 2.0 * PI * rng.gen::<f64>();
                 let k = 2.0 * PI / wavelength;
-                (k * dir.cos(), k * dir.sin(), 2.0 * PI * rng.gen::<f64>(), amp)
+                (
+                    k * dir.cos(),
+                    k * dir.sin(),
+                    2.0 * PI * rng.gen::<f64>(),
+                    amp,
+                )
             })
             .collect();
         SurfaceHeight { modes }
@@ -301,7 +315,8 @@ mod tests {
         };
         let es = 0.6 / (1.0 - 0.49f64 * 0.49);
         let chi = PENTAGON_A / 20.0;
-        let kappa = 1.0 + 1.133 * chi + 1.283 * chi * chi + 0.769 * chi.powi(3) + 0.0975 * chi.powi(4);
+        let kappa =
+            1.0 + 1.133 * chi + 1.283 * chi * chi + 0.769 * chi.powi(3) + 0.0975 * chi.powi(4);
         for d in [0.1, 0.5, 1.0, 1.5] {
             let f = elastic_force(&m, g, Millimetres(d)).0;
             let want = 2.0 * PENTAGON_A * es * d * kappa;
@@ -341,13 +356,20 @@ mod tests {
         }
         let fe = elastic_force(&m, g, Millimetres(1.0)).0;
         let f0 = c.force().0;
-        assert!(f0 > 0.97 * fe && f0 <= fe, "just after the ramp: {f0} vs {fe}");
+        assert!(
+            f0 > 0.97 * fe && f0 <= fe,
+            "just after the ramp: {f0} vs {fe}"
+        );
         let f_half = c.advance(at(0.51), Millimetres(1.0)).0;
         // After one tau of the fast term: g_inf + 0.2 e^-1 + 0.1 e^-0.05, within the ramp's error.
         let want = fe * (0.7 + 0.2 * (-1.0f64).exp() + 0.1 * (-0.05f64).exp());
         assert!((f_half - want).abs() < 0.01 * fe, "{f_half} vs {want}");
         let f_end = c.advance(at(200.0), Millimetres(1.0)).0;
-        assert!((f_end - 0.7 * fe).abs() < 1e-3 * fe, "{f_end} vs {}", 0.7 * fe);
+        assert!(
+            (f_end - 0.7 * fe).abs() < 1e-3 * fe,
+            "{f_end} vs {}",
+            0.7 * fe
+        );
         // Monotonic decay in between.
         assert!(f0 > f_half && f_half > f_end);
     }
@@ -410,6 +432,9 @@ mod tests {
         }
         let rms_um = (sum2 / n).sqrt() * 1e3;
         assert!(rms_um > 8.0 && rms_um < 40.0, "{rms_um}");
-        assert_ne!(s1.height(Millimetres(0.0), Millimetres(0.0)), s3.height(Millimetres(0.0), Millimetres(0.0)));
+        assert_ne!(
+            s1.height(Millimetres(0.0), Millimetres(0.0)),
+            s3.height(Millimetres(0.0), Millimetres(0.0))
+        );
     }
 }

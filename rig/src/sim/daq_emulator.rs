@@ -127,7 +127,11 @@ impl SimDaq {
                 origin: calibration.source.clone(),
                 message: "the calibration matrix is singular, so no gauge voltages give a wrench; use another .cal file".into(),
             })?;
-        if !(config.rate_hz > 0.0) || config.block_size == 0 || config.bits == 0 || !(config.range_v > 0.0) {
+        if !(config.rate_hz > 0.0)
+            || config.block_size == 0
+            || config.bits == 0
+            || !(config.range_v > 0.0)
+        {
             return Err(ForceError::Config {
                 origin: config.device.clone(),
                 message: format!(
@@ -190,7 +194,11 @@ struct Acquisition {
 }
 
 impl Acquisition {
-    fn run(self, mut reading: Box<dyn ForceReading>, out: crossbeam_channel::Sender<GaugeReading>) -> Box<dyn ForceReading> {
+    fn run(
+        self,
+        mut reading: Box<dyn ForceReading>,
+        out: crossbeam_channel::Sender<GaugeReading>,
+    ) -> Box<dyn ForceReading> {
         let lsb = 2.0 * self.config.range_v / 2f64.powi(self.config.bits as i32);
         let block = self.config.block_size as u64;
         let mut n = 0u64;
@@ -255,7 +263,9 @@ impl GaugeSource for SimDaq {
         let Some(reading) = self.reading.take() else {
             return Err(ForceError::Device {
                 device: self.config.device.clone(),
-                message: "the force source was lost when acquisition panicked; create the DAQ again".into(),
+                message:
+                    "the force source was lost when acquisition panicked; create the DAQ again"
+                        .into(),
             });
         };
         let clock = DaqClock {
@@ -271,7 +281,8 @@ impl GaugeSource for SimDaq {
                 drift_ppm: clock.drift_ppm,
             });
         }
-        let capacity = ((self.config.rate_hz * self.config.buffer_s) as usize).max(self.config.block_size * 2);
+        let capacity =
+            ((self.config.rate_hz * self.config.buffer_s) as usize).max(self.config.block_size * 2);
         let (tx, rx) = bounded(capacity);
         let stop = Arc::new(AtomicBool::new(false));
         let overflow = Arc::new(AtomicBool::new(false));

@@ -223,7 +223,8 @@ impl ForceReading for SimFtSensor {
             if dt > 0.0 {
                 self.drift[i] += walk[i] * dt.sqrt() * standard_normal(&mut self.rng);
             }
-            out[i] = truth[i] + self.bias[i] + self.drift[i] + noise[i] * standard_normal(&mut self.rng);
+            out[i] =
+                truth[i] + self.bias[i] + self.drift[i] + noise[i] * standard_normal(&mut self.rng);
         }
         Wrench::from_array(out)
     }
@@ -272,12 +273,18 @@ mod tests {
             ..mount
         };
         let w = turned.wrench_from_tip_force([1.0, 0.0, 0.0]);
-        assert!((w.fy.0 + 1.0).abs() < 1e-12 && w.fx.0.abs() < 1e-12, "{w:?}");
+        assert!(
+            (w.fy.0 + 1.0).abs() < 1e-12 && w.fx.0.abs() < 1e-12,
+            "{w:?}"
+        );
     }
 
     fn samples(s: &mut SimFtSensor, n: usize) -> Vec<[f64; 6]> {
         (0..n)
-            .map(|k| s.reading_at(HostTime(1_000_000_000 + k as u64 * 200_000)).to_array())
+            .map(|k| {
+                s.reading_at(HostTime(1_000_000_000 + k as u64 * 200_000))
+                    .to_array()
+            })
             .collect()
     }
 
@@ -286,18 +293,26 @@ mod tests {
         let cfg = FtNoiseConfig::default();
         let mut s = SimFtSensor::new(Arc::new(Constant(Wrench::default())), cfg);
         let data = samples(&mut s, 5000); // 1 s at 5 kHz
-        let bias: [f64; 6] = std::array::from_fn(|i| data[..500].iter().map(|d| d[i]).sum::<f64>() / 500.0);
+        let bias: [f64; 6] =
+            std::array::from_fn(|i| data[..500].iter().map(|d| d[i]).sum::<f64>() / 500.0);
         let mean_z = data.iter().map(|d| d[2]).sum::<f64>() / data.len() as f64;
-        let sd_z = (data.iter().map(|d| (d[2] - mean_z).powi(2)).sum::<f64>() / data.len() as f64).sqrt();
+        let sd_z =
+            (data.iter().map(|d| (d[2] - mean_z).powi(2)).sum::<f64>() / data.len() as f64).sqrt();
         assert!((sd_z - 0.05).abs() < 0.006, "sigma Fz {sd_z}");
         let mut over = 0;
         for d in &data {
-            let f = ((d[0] - bias[0]).powi(2) + (d[1] - bias[1]).powi(2) + (d[2] - bias[2]).powi(2)).sqrt();
+            let f =
+                ((d[0] - bias[0]).powi(2) + (d[1] - bias[1]).powi(2) + (d[2] - bias[2]).powi(2))
+                    .sqrt();
             if f >= 0.2 {
                 over += 1;
             }
         }
-        assert!(over < data.len() / 100, "{over} of {} samples over 0.2 N", data.len());
+        assert!(
+            over < data.len() / 100,
+            "{over} of {} samples over 0.2 N",
+            data.len()
+        );
         // A 20 ms frame average of the tared signal is far below the floor.
         let avg: f64 = data[4000..4100].iter().map(|d| d[2] - bias[2]).sum::<f64>() / 100.0;
         assert!(avg.abs() < 0.05, "{avg}");
@@ -333,7 +348,10 @@ mod tests {
         let mut sum2 = 0.0;
         let n = 200;
         for seed in 0..n {
-            let mut s = SimFtSensor::new(Arc::new(Constant(Wrench::default())), FtNoiseConfig { seed, ..cfg });
+            let mut s = SimFtSensor::new(
+                Arc::new(Constant(Wrench::default())),
+                FtNoiseConfig { seed, ..cfg },
+            );
             let b = s.bias().fz.0;
             s.reading_at(HostTime(0));
             for k in 1..=100u64 {

@@ -69,7 +69,10 @@ pub struct FrameTruth {
 /// One ground-truth record.
 #[derive(Debug, Clone, PartialEq)]
 pub enum TruthRecord {
-    Bench { truth: BenchTruth, wrench: Wrench },
+    Bench {
+        truth: BenchTruth,
+        wrench: Wrench,
+    },
     Frame(FrameTruth),
     CameraClock {
         t: HostTime,
@@ -205,7 +208,10 @@ impl TruthLog {
 
     /// A copy of every record so far.
     pub fn records(&self) -> Vec<TruthRecord> {
-        self.records.lock().unwrap_or_else(|e| e.into_inner()).clone()
+        self.records
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
     }
 
     /// The frame records so far.
@@ -328,7 +334,11 @@ mod tests {
         let text = std::fs::read_to_string(&path).expect("read");
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 2, "{text}");
-        assert!(lines[0].starts_with("{\"kind\":\"bench\",\"t_ns\":"), "{}", lines[0]);
+        assert!(
+            lines[0].starts_with("{\"kind\":\"bench\",\"t_ns\":"),
+            "{}",
+            lines[0]
+        );
         assert!(lines[0].contains("\"indenter\":\"pentagon\""));
         assert!(lines[0].contains("\"normal_n\":0,"), "{}", lines[0]);
         assert!(lines[1].contains("\"fate\":\"render_busy\""));
