@@ -205,7 +205,7 @@ impl ContactModel {
         }
         self.elastic = fe;
         self.depth = depth.0;
-        if self.last.map_or(true, |l| t > l) {
+        if !matches!(self.last, Some(l) if t <= l) {
             self.last = Some(t);
         }
         self.force()
@@ -258,7 +258,7 @@ pub struct SurfaceHeight {
 impl SurfaceHeight {
     /// A surface drawn from `seed`; the RMS over random positions is `config.rms_um`.
     pub fn new(config: &SurfaceConfig, seed: u64) -> SurfaceHeight {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x5eed_5u64.rotate_left(32));
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x0005_eed5_u64.rotate_left(32));
         let n = config.modes.max(1);
         // A sum of n cosines with random phases and amplitude A has RMS A sqrt(n / 2).
         let amp = config.rms_um.max(0.0) * 1e-3 / (n as f64 / 2.0).sqrt();

@@ -127,10 +127,12 @@ impl SimDaq {
                 origin: calibration.source.clone(),
                 message: "the calibration matrix is singular, so no gauge voltages give a wrench; use another .cal file".into(),
             })?;
-        if !(config.rate_hz > 0.0)
+        if config.rate_hz.is_nan()
+            || config.rate_hz <= 0.0
             || config.block_size == 0
             || config.bits == 0
-            || !(config.range_v > 0.0)
+            || config.range_v.is_nan()
+            || config.range_v <= 0.0
         {
             return Err(ForceError::Config {
                 origin: config.device.clone(),

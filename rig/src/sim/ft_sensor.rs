@@ -209,7 +209,7 @@ impl ForceReading for SimFtSensor {
             Some(l) if t > l => t.since(l).as_secs_f64(),
             _ => 0.0,
         };
-        if self.last.map_or(true, |l| t > l) {
+        if !matches!(self.last, Some(l) if t <= l) {
             self.last = Some(t);
         }
         let walk = self.sigmas(
