@@ -32,6 +32,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Mechanical construction of one stage axis.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct AxisConfig {
     /// Travel between the limit switches, mm.
     pub travel_mm: f64,
@@ -41,6 +42,18 @@ pub struct AxisConfig {
     pub velocity_mm_s: f64,
     /// Default move acceleration, mm/s^2.
     pub acceleration_mm_s2: f64,
+}
+
+impl Default for AxisConfig {
+    /// A 50 mm stage at its middle, 2 mm/s, 4 mm/s^2.
+    fn default() -> Self {
+        AxisConfig {
+            travel_mm: 50.0,
+            power_up_mm: 25.0,
+            velocity_mm_s: 2.0,
+            acceleration_mm_s2: 4.0,
+        }
+    }
 }
 
 impl AxisConfig {
@@ -203,12 +216,7 @@ pub struct BenchConfig {
 
 impl Default for BenchConfig {
     fn default() -> Self {
-        let stage = AxisConfig {
-            travel_mm: 50.0,
-            power_up_mm: 25.0,
-            velocity_mm_s: 2.0,
-            acceleration_mm_s2: 4.0,
-        };
+        let stage = AxisConfig::default();
         BenchConfig {
             seed: 1,
             x: stage,
@@ -283,6 +291,8 @@ pub struct Bench {
     config: BenchConfig,
     motors: [Arc<SimMotor>; 3],
     surface: SurfaceHeight,
+    /// The F/T wrench per newton of normal force (mount geometry, precomputed).
+    unit_wrench: [f64; 6],
     state: Mutex<State>,
 }
 
@@ -310,6 +320,7 @@ impl Bench {
                 indenter: config.indenter,
                 history: VecDeque::new(),
             }),
+            unit_wrench: config.mount.wrench_from_normal_force(1.0).to_array(),
             config,
             motors,
             surface,
@@ -490,10 +501,8 @@ impl Bench {
 
 impl LoadSource for Bench {
     fn true_wrench_at(&self, t: HostTime) -> Wrench {
-        let truth = self.truth_at(t);
-        self.config
-            .mount
-            .wrench_from_normal_force(truth.normal_force.0)
+        let n = self.truth_at(t).normal_force.0;
+        Wrench::from_array(self.unit_wrench.map(|u| u * n))
     }
 }
 
@@ -527,6 +536,28 @@ mod tests {
             height_mm: 6.0,
         };
         assert!((r.area_mm2() - 60.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn config_round_trips_through_toml_and_fills_defaults() {
+        let config = BenchConfig::default();
+        let text = toml::to_string(&config).expect("serialise");
+        assert!(text.contains("shape = \"pentagon\""), "{text}");
+        let back: BenchConfig = toml::from_str(&text).expect("parse");
+        assert_eq!(back, config);
+        let partial: BenchConfig = toml::from_str(
+            "seed = 9\n[indenter]\nangle_deg = 30.0\n[indenter.tip]\nshape = \"rectangle\"\nwidth_mm = 8.0\nheight_mm = 6.0\n",
+        )
+        .expect("partial");
+        assert_eq!(partial.seed, 9);
+        assert_eq!(
+            partial.indenter.tip,
+            IndenterTip::Rectangle {
+                width_mm: 8.0,
+                height_mm: 6.0
+            }
+        );
+        assert_eq!(partial.geometry, BenchGeometry::default());
     }
 
     #[test]

@@ -19,6 +19,7 @@
 //! drawn per power cycle (sigma 2 N, 50 mN m) from the seed and the power-cycle number: the same
 //! seed and cycle give the same bias, another cycle another one.
 
+use super::ground_truth::{TruthRecord, TruthSink};
 use super::scene::{ForceReading, LoadSource};
 use crate::clock::HostTime;
 use crate::units::Wrench;
@@ -146,6 +147,7 @@ pub struct SimFtSensor {
     drift: [f64; 6],
     rng: StdRng,
     last: Option<HostTime>,
+    truth: Option<Arc<dyn TruthSink>>,
 }
 
 impl SimFtSensor {
@@ -159,6 +161,7 @@ impl SimFtSensor {
             drift: [0.0; 6],
             rng: StdRng::seed_from_u64(0),
             last: None,
+            truth: None,
         };
         s.power_up(0);
         s
@@ -176,6 +179,24 @@ impl SimFtSensor {
         self.drift = [0.0; 6];
         self.rng = StdRng::seed_from_u64(mix_seed(self.config.seed, 2 * cycle + 2));
         self.last = None;
+        self.record_bias();
+    }
+
+    fn record_bias(&self) {
+        if let Some(sink) = &self.truth {
+            sink.record(TruthRecord::FtBias {
+                t: HostTime::now(),
+                power_cycle: self.power_cycle,
+                bias: self.bias(),
+            });
+        }
+    }
+
+    /// Records the power-up bias now and at every power cycle into `sink`.
+    pub fn with_truth(mut self, sink: Arc<dyn TruthSink>) -> SimFtSensor {
+        self.truth = Some(sink);
+        self.record_bias();
+        self
     }
 
     /// Switches the sensor off and on: a new power-up bias, drift restarts from zero.
@@ -334,6 +355,21 @@ mod tests {
         assert!((a.bias().fz.0 - first.fz.0).abs() > 1e-3);
         b.power_cycle();
         assert_eq!(a.bias(), b.bias());
+        // The ground truth hears of every power-up bias.
+        let log = crate::sim::ground_truth::TruthLog::new();
+        let mut c = SimFtSensor::new(load.clone(), cfg).with_truth(log.clone());
+        c.power_cycle();
+        let biases: Vec<(u64, Wrench)> = log
+            .records()
+            .into_iter()
+            .filter_map(|r| match r {
+                TruthRecord::FtBias {
+                    power_cycle, bias, ..
+                } => Some((power_cycle, bias)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(biases, vec![(0, first), (1, a.bias())]);
         let other = SimFtSensor::new(load, FtNoiseConfig { seed: 2, ..cfg });
         assert_ne!(other.bias(), first);
     }
