@@ -306,6 +306,61 @@ pub fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
     sink.record(TruthRecord::Bench { truth, wrench });
 }
 
+/// A thread recording the bench's true state at a fixed period until dropped or stopped.
+pub struct BenchRecorder {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl BenchRecorder {
+    /// Records `bench` into `sink` every `period` (e.g. 1 ms) from now on.
+    pub fn spawn(
+        bench: Arc<Bench>,
+        sink: Arc<dyn TruthSink>,
+        period: std::time::Duration,
+    ) -> io::Result<BenchRecorder> {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let period_ns = period.as_nanos().max(1) as u64;
+        let thread = std::thread::Builder::new()
+            .name("sim-truth-bench".into())
+            .spawn(move || {
+                let mut next = HostTime::now();
+                while !flag.load(Ordering::Relaxed) {
+                    record_bench(&bench, sink.as_ref(), next);
+                    next = HostTime(next.0 + period_ns);
+                    let now = HostTime::now();
+                    if next > now {
+                        std::thread::sleep(next.since(now));
+                    }
+                }
+            })?;
+        Ok(BenchRecorder {
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// Stops recording and waits for the thread.
+    pub fn stop(mut self) {
+        self.finish();
+    }
+
+    fn finish(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for BenchRecorder {
+    fn drop(&mut self) {
+        self.finish();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -346,5 +401,29 @@ mod tests {
         assert!(lines[1].ends_with('}'));
         assert!(w.error().is_none());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn recorder_samples_the_bench_at_its_period() {
+        let bench = Bench::new(BenchConfig::default());
+        let log = TruthLog::new();
+        let rec = BenchRecorder::spawn(bench, log.clone(), std::time::Duration::from_millis(2))
+            .expect("spawn");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        rec.stop();
+        let times: Vec<u64> = log
+            .records()
+            .iter()
+            .filter_map(|r| match r {
+                TruthRecord::Bench { truth, .. } => Some(truth.t.0),
+                _ => None,
+            })
+            .collect();
+        assert!(
+            times.len() >= 20 && times.len() <= 52,
+            "{} records",
+            times.len()
+        );
+        assert!(times.windows(2).all(|p| p[1] - p[0] == 2_000_000));
     }
 }
