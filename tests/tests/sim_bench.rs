@@ -262,6 +262,14 @@ fn camera_clock_ids_drops_latch_and_strobe_agree_with_the_truth() {
     let complete: Vec<_> = runs.iter().filter(|r| r.0 > first_t).collect();
     assert!(exposures.len() >= 40, "{} exposures", exposures.len());
     assert_eq!(complete.len(), exposures.len(), "strobe runs vs exposures");
+    eprintln!(
+        "{} frames, {missing} ids skipped, drift estimated {estimated_ppm:.0} ppm (true {drift_ppm}), \
+         {} scans, {} strobe runs for {} exposures",
+        frames.len(),
+        samples.len(),
+        complete.len(),
+        exposures.len()
+    );
     let period = 200_000u64;
     for (run, exp) in complete.iter().zip(&exposures) {
         assert!(

@@ -6,7 +6,7 @@
 //! loses at most the line being written. Every line has `"kind"`; times are host nanoseconds
 //! (`HostTime`, the process's monotonic epoch), device clocks in their own ticks. Kinds and keys:
 //!
-//! - `bench` (sampled by [`record_bench`] or by the caller): `t_ns`; `motor_x_mm`, `motor_y_mm`,
+//! - `bench` (sampled by [`record_bench`], or every period by a [`BenchRecorder`] thread): `t_ns`; `motor_x_mm`, `motor_y_mm`,
 //!   `motor_z_mm` (mechanical, from the reverse limits); `contact_x_mm`, `contact_y_mm` (indenter
 //!   centre, sensor frame); `depth_mm` (`null` off the disc); `normal_n` (positive = pressing);
 //!   `fx_n`..`tz_nm` (true wrench, F/T frame, no noise or bias); `indenter`, `angle_deg`.
