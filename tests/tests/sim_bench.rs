@@ -505,3 +505,59 @@ fn lowering_z_over_the_sensor_reads_growing_force_through_the_daq() {
     assert!((tx - 0.00025 * fz).abs() < 0.001, "tx {tx} fz {fz}");
     assert!((ty + 0.0004 * fz).abs() < 0.001, "ty {ty} fz {fz}");
 }
+
+#[test]
+fn frames_show_the_scene_at_mid_exposure() {
+    use fringe_rig::sim::indenter::Shape;
+    use fringe_rig::sim::scene::Contact;
+    use fringe_rig::units::Newtons;
+    /// Force = host milliseconds modulo 20, so the rendered level (10 DN per N) tells the instant.
+    struct Clockwork;
+    impl SceneSource for Clockwork {
+        fn scene_at(&self, t: HostTime) -> Scene {
+            Scene {
+                contact: Some(Contact {
+                    shape: Shape::DEFAULT_PENTAGON,
+                    force: Newtons((t.0 % 20_000_000) as f64 * 1e-6),
+                    x: Millimetres(0.0),
+                    y: Millimetres(0.0),
+                    angle_deg: 0.0,
+                }),
+            }
+        }
+    }
+    let truth = TruthLog::new();
+    let mut camera = SimCamera::new(
+        SimCameraConfig::default(),
+        Arc::new(Clockwork),
+        Box::new(TinyRenderer {
+            delay: Duration::ZERO,
+        }),
+    )
+    .with_truth(truth.clone());
+    camera.start().expect("start");
+    std::thread::sleep(Duration::from_millis(300));
+    camera.stop().expect("stop");
+    let frames = drain(&mut camera);
+    assert!(frames.len() >= 10);
+    let clock = camera.clock();
+    for f in &frames {
+        let mid = clock.host_at(f.device_timestamp + 1_000_000);
+        let want = ((mid.0 % 20_000_000) as f64 * 1e-5) as u8;
+        assert!(
+            (f.data[0] as i32 - want as i32).abs() <= 1,
+            "frame {}: level {} for mid-exposure level {want}",
+            f.id,
+            f.data[0]
+        );
+        let t = truth
+            .frames()
+            .into_iter()
+            .find(|r| r.id == f.id)
+            .expect("truth of every frame");
+        assert_eq!(t.fate, FrameFate::Delivered);
+        assert_eq!(t.exposure_start_ticks, f.device_timestamp);
+        assert_eq!(t.arrival, Some(f.host_arrival));
+        assert_eq!(f.data.len(), 16 * 8 * 3);
+    }
+}
