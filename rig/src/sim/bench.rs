@@ -2,8 +2,8 @@
 //! contact between them.
 //!
 //! **Geometry.** Motor positions are mechanical (millimetres from each axis's reverse limit
-//! switch, [`SimMotor::true_position_at`]). The indenter centre is over the sensor centre when x and
-//! y stand at [`BenchGeometry::x_centre_mm`], [`BenchGeometry::y_centre_mm`]; the sensor frame
+//! switch, [`SimMotor::true_position_at`]). The indenter centre is over the sensor centre when x
+//! and y stand at [`BenchGeometry::x_centre_mm`], [`BenchGeometry::y_centre_mm`]; the sensor frame
 //! (scene.rs) has +x along the stage x, +y along the stage y, origin at the disc centre, so the
 //! contact point is (x - x_centre, y - y_centre). The tip touches the nominal surface at
 //! z = [`BenchGeometry::z_touch_mm`]; with [`BenchGeometry::z_down_positive`] (default) a larger z
@@ -206,7 +206,8 @@ pub struct BenchConfig {
     pub surface: SurfaceConfig,
     /// Where the indenter tip sits relative to the F/T origin.
     pub mount: FtMount,
-    /// Noise, drift and bias of the F/T sensor built on this bench ([`super::ft_sensor::SimFtSensor`]).
+    /// Noise, drift and bias of the F/T sensor built on this bench
+    /// ([`super::ft_sensor::SimFtSensor`]).
     pub ft_noise: FtNoiseConfig,
     /// Longest contact-model step while advancing, ms.
     pub max_step_ms: f64,

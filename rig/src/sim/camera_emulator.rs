@@ -8,16 +8,16 @@
 //!   starts `trigger_latency_us` after [`Camera::trigger`]; triggers faster than
 //!   `max_frame_rate_hz` are ignored (counted).
 //! - Every exposure gets the next frame id (from 0 at each start) and is written to the shared
-//!   [`ExposureSchedule`] before it starts, which the DAQ emulator samples as the ExposureActive
-//!   strobe.
+//!   [`ExposureSchedule`] before it starts (free run: two periods ahead), which the DAQ emulator
+//!   samples as the ExposureActive strobe.
 //! - After the exposure ends, the frame is dropped with `drop_probability` (its id is skipped) or
 //!   handed to the render thread, which renders [`SceneSource::scene_at`] the middle of the
-//!   exposure. The renderer holds one pending frame: an exposure ending while the renderer is still
-//!   busy with an earlier one and another one is waiting is dropped (counted as `render_busy`), so a
-//!   slow renderer drops frames instead of delaying the schedule.
+//!   exposure. The renderer holds one pending frame: an exposure ending while the renderer is
+//!   still busy with an earlier one and another one is waiting is dropped (counted as
+//!   `render_busy`), so a slow renderer drops frames instead of delaying the schedule.
 //! - A delivery thread hands the frame to the host at exposure end + `readout_ms` + a uniform
-//!   jitter in [0, `arrival_jitter_ms`] (or when rendering finishes, if later). Frames the host does
-//!   not fetch fill `host_buffers`; further frames are dropped (`no_buffer`).
+//!   jitter in [0, `arrival_jitter_ms`] (or when rendering finishes, if later). Frames the host
+//!   does not fetch fill `host_buffers`; further frames are dropped (`no_buffer`).
 //! - `device_timestamp` is the device clock at exposure start (Basler's chunk timestamp).
 //! - [`Camera::latch_timestamp`] takes about `latch_round_trip_us` and latches the device clock at
 //!   a random instant inside the host bracket.
@@ -413,11 +413,13 @@ fn timing_free_run(
     let mut rng = StdRng::seed_from_u64(mix_seed(shared.config.seed, 0xd40b));
     let job_for = |k: u64| shared.job(k, first + k * period_ticks);
     shared.schedule.push(job_for(0).window);
+    shared.schedule.push(job_for(1).window);
     let mut k = 0;
     loop {
         let job = job_for(k);
-        // The next window is known one period ahead, so the strobe never misses its start.
-        shared.schedule.push(job_for(k + 1).window);
+        // Windows are published two periods ahead, so the strobe never misses a start even when
+        // this thread wakes late.
+        shared.schedule.push(job_for(k + 2).window);
         if let Ok(mut n) = next_id.lock() {
             *n = (k + 1, Some(job.window.start));
         }

@@ -425,7 +425,7 @@ mod tests {
                 assert_eq!(h, s2.height(x, y).0);
                 sum2 += h * h;
                 n += 1.0;
-                // Smooth: 0.1 mm apart differs by far less than a micrometre per 0.1 mm... of RMS.
+                // Smooth: points 0.1 mm apart differ by under 2 um.
                 let dh = (s1.height(Millimetres(x.0 + 0.1), y).0 - h).abs();
                 assert!(dh < 2e-3, "{dh}");
             }

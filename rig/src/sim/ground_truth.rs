@@ -6,15 +6,16 @@
 //! loses at most the line being written. Every line has `"kind"`; times are host nanoseconds
 //! (`HostTime`, the process's monotonic epoch), device clocks in their own ticks. Kinds and keys:
 //!
-//! - `bench` (sampled by [`record_bench`], or every period by a [`BenchRecorder`] thread): `t_ns`; `motor_x_mm`, `motor_y_mm`,
-//!   `motor_z_mm` (mechanical, from the reverse limits); `contact_x_mm`, `contact_y_mm` (indenter
-//!   centre, sensor frame); `depth_mm` (`null` off the disc); `normal_n` (positive = pressing);
+//! - `bench` (sampled by [`record_bench`], or every period by a [`BenchRecorder`] thread):
+//!   `t_ns`; `motor_x_mm`, `motor_y_mm`, `motor_z_mm` (mechanical, from the reverse limits);
+//!   `contact_x_mm`, `contact_y_mm` (indenter centre, sensor frame); `depth_mm` (`null` off the disc); `normal_n` (positive = pressing);
 //!   `fx_n`..`tz_nm` (true wrench, F/T frame, no noise or bias); `indenter`, `angle_deg`.
 //! - `frame` (camera emulator, every exposure): `id`; `exposure_start_ns`, `exposure_end_ns`
 //!   (host); `exposure_start_ticks`, `exposure_end_ticks` (device clock); `arrival_ns` (host,
 //!   `null` if never delivered); `fate` (`delivered`, `dropped` = lost at random on the link,
 //!   `render_busy` = the renderer was still busy, `no_buffer` = the host did not fetch frames);
-//!   `contact_force_n`, `contact_x_mm`, `contact_y_mm` (scene at mid-exposure, `null` when no contact).
+//!   `contact_force_n`, `contact_x_mm`, `contact_y_mm` (scene at mid-exposure, `null` when no
+//!   contact).
 //! - `camera_clock`: `t_ns`, `ticks_at_ref`, `ref_ns`, `drift_ppm` (device ticks =
 //!   ticks_at_ref + (t - ref) (1 + drift_ppm 1e-6)).
 //! - `daq_clock`: `start_ns`, `rate_hz`, `drift_ppm` (sample n is taken at host
