@@ -10,14 +10,26 @@
 //! - [`netft_emulator`]: an emulated ATI Net F/T box (RDT over UDP or in process, netftapi2.xml).
 //! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
 //!   byte link, driving a [`motion::SimMotor`].
+//! - [`contact`]: force against indentation depth in the soft layer, relaxation, surface height.
+//! - [`ft_sensor`]: the F/T sensor's moments, noise, drift and power-up bias.
+//! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
+//! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
+//! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
+//! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
 pub mod apt_emulator;
+pub mod bench;
 pub mod blurred_colour;
+pub mod camera_emulator;
 pub mod colour;
+pub mod contact;
+pub mod daq_emulator;
 pub mod fringe_field;
+pub mod ft_sensor;
+pub mod ground_truth;
 pub mod indenter;
 pub mod modbus_emulator;
 pub mod motion;
