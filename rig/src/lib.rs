@@ -15,6 +15,7 @@ pub mod axis;
 pub mod camera;
 pub mod clock;
 pub mod config_file;
+pub mod devices;
 pub mod force;
 pub mod ft_units;
 pub mod manual;

@@ -104,6 +104,8 @@ pub struct ForceGuard<'a> {
     monitor: &'a ForceMonitor,
     settings: &'a PressSettings,
     cancel: Arc<AtomicBool>,
+    /// Fz offset (N) subtracted from every reading: the no-contact reading (tare).
+    tare_fz: f64,
 }
 
 impl<'a> ForceGuard<'a> {
@@ -116,7 +118,14 @@ impl<'a> ForceGuard<'a> {
             monitor,
             settings,
             cancel,
+            tare_fz: 0.0,
         }
+    }
+
+    /// Subtracts `fz` (the no-contact Fz reading, N) from every reading.
+    pub fn with_tare(mut self, fz: Newtons) -> Self {
+        self.tare_fz = fz.0;
+        self
     }
 
     fn force_error(&self, message: String) -> PressError {
@@ -145,14 +154,14 @@ impl<'a> ForceGuard<'a> {
             .monitor
             .mean_of_last(self.settings.average_samples)
             .ok_or_else(|| self.force_error("no samples yet".into()))?;
-        Ok(Newtons(-mean[2]))
+        Ok(Newtons(self.tare_fz - mean[2]))
     }
 
     /// The newest single sample's pressing force (for the fast ceiling check).
     fn instant_force(&self) -> Result<Newtons, PressError> {
         self.monitor
             .mean_of_last(5)
-            .map(|(_, m)| Newtons(-m[2]))
+            .map(|(_, m)| Newtons(self.tare_fz - m[2]))
             .ok_or_else(|| self.force_error("no samples yet".into()))
     }
 
@@ -323,6 +332,8 @@ mod tests {
 
     const SURFACE: f64 = 5.0;
     const STIFFNESS: f64 = 13.0;
+    /// The F/T reads this Fz with nothing touching (tared away by the guard).
+    const BIAS: f64 = 1.5;
 
     /// An axis straight on a simulated motor.
     struct MotorAxis(Arc<SimMotor>);
@@ -381,7 +392,7 @@ mod tests {
         }
     }
 
-    /// A linear spring under the indenter: Fz = -k (z - surface) in contact, at 5 kHz.
+    /// A linear spring under the indenter: Fz = bias - k (z - surface) in contact, at 5 kHz.
     struct Spring {
         motor: Arc<SimMotor>,
         n: u64,
@@ -409,7 +420,7 @@ mod tests {
                 transport_seq: None,
                 host_time: t,
                 wrench: Wrench {
-                    fz: Newtons(-STIFFNESS * depth),
+                    fz: Newtons(BIAS - STIFFNESS * depth),
                     ..Wrench::default()
                 },
                 status: 0,
@@ -456,7 +467,8 @@ mod tests {
             average_samples: 10,
             ..PressSettings::default()
         };
-        let guard = ForceGuard::new(&monitor, &settings, Arc::new(AtomicBool::new(false)));
+        let guard = ForceGuard::new(&monitor, &settings, Arc::new(AtomicBool::new(false)))
+            .with_tare(Newtons(BIAS));
         let contact = approach(&mut z, &guard).expect("contact");
         // 0.3 N at 13 N/mm is 23 um past the surface; stopping at 2 mm/s adds a few um.
         assert!(
@@ -487,7 +499,8 @@ mod tests {
             average_samples: 10,
             ..PressSettings::default()
         };
-        let guard = ForceGuard::new(&monitor, &settings, Arc::new(AtomicBool::new(false)));
+        let guard = ForceGuard::new(&monitor, &settings, Arc::new(AtomicBool::new(false)))
+            .with_tare(Newtons(BIAS));
         approach(&mut z, &guard).expect("contact");
         let err = press_to(&mut z, &guard, Newtons(0.9)).expect_err("ceiling");
         match err {
@@ -513,12 +526,12 @@ mod tests {
             approach_limit: Millimetres(3.0),
             ..PressSettings::default()
         };
-        let guard = ForceGuard::new(&monitor, &settings, cancel.clone());
+        let guard = ForceGuard::new(&monitor, &settings, cancel.clone()).with_tare(Newtons(BIAS));
         let err = approach(&mut z, &guard).expect_err("no contact above 3 mm");
         assert!(matches!(err, PressError::NoContact { .. }), "{err}");
         assert!(err.to_string().contains("approach limit"));
         let settings = PressSettings::default();
-        let guard = ForceGuard::new(&monitor, &settings, cancel.clone());
+        let guard = ForceGuard::new(&monitor, &settings, cancel.clone()).with_tare(Newtons(BIAS));
         let flag = cancel.clone();
         let t = std::thread::spawn(move || {
             std::thread::sleep(Duration::from_millis(100));
