@@ -2,5 +2,10 @@
 //!
 //! - [`force_stream`]: a force/torque sensor read continuously; every sample goes to the recorder
 //!   channel and the latest ones to a monitor that control loops and safety watchers read.
+//! - [`camera_stream`]: a camera read continuously, frames to a channel.
+//! - [`strobe_labeler`]: frames matched with their exposure windows found in the strobe channel,
+//!   labelled with the force averaged over the window.
 
+pub mod camera_stream;
 pub mod force_stream;
+pub mod strobe_labeler;

@@ -1,0 +1,235 @@
+//! Labels frames with the force measured during their exposure, using the exposure strobe
+//! recorded beside the force gauges (synchronisation method `strobe`).
+//!
+//! The strobe channel gives each exposure's window in the force stream's own sample index (no
+//! clock model needed for the label itself). Frames are matched to windows by sequence: once one
+//! frame is matched, frame id n belongs to window n - offset, so dropped frames (id gaps) keep the
+//! match. Each match is checked against host arrival times (a frame arrives a few milliseconds
+//! after its window ends); a failed check re-matches by nearest arrival.
+
+use crate::clock::HostTime;
+use crate::force::ForceSample;
+use crate::sync::strobe::{StrobeDetector, StrobeWindow};
+use crate::sync::window::{mean_over, WindowMean};
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// A frame's label.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StrobeLabel {
+    /// Exposure window in the force stream's sample index.
+    pub window: StrobeWindow,
+    /// Host time at which the sample at the window's end arrived (coarse, for display).
+    pub window_end_arrival: HostTime,
+    /// Six-axis force averaged over the window (raw, not tared).
+    pub mean: WindowMean,
+}
+
+/// What [`StrobeLabeler::label`] found for a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LabelOutcome {
+    Ready(StrobeLabel),
+    /// The frame's window (or the samples after it) has not arrived yet: ask again later.
+    NotYet,
+    /// No window belongs to this frame (it is older than the kept history, or the strobe is
+    /// missing).
+    Unmatched,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Seen {
+    seq: u64,
+    window: StrobeWindow,
+    end_arrival: HostTime,
+}
+
+/// Matches frames to strobe windows and averages the force over them.
+pub struct StrobeLabeler {
+    detector: StrobeDetector,
+    samples: VecDeque<(f64, [f64; 6], HostTime)>,
+    windows: VecDeque<Seen>,
+    next_seq: u64,
+    offset: Option<i64>,
+    expected_lag_ns: f64,
+    tolerance_ns: f64,
+    keep_samples: usize,
+}
+
+impl StrobeLabeler {
+    /// `threshold`: strobe level in volts; `expected_lag`: frame arrival minus the arrival of the
+    /// window's last sample, typically a few ms; `tolerance`: how far a match may be off (less
+    /// than half a frame period).
+    pub fn new(threshold: f64, expected_lag: Duration, tolerance: Duration) -> StrobeLabeler {
+        StrobeLabeler {
+            detector: StrobeDetector::new(threshold),
+            samples: VecDeque::new(),
+            windows: VecDeque::new(),
+            next_seq: 0,
+            offset: None,
+            expected_lag_ns: expected_lag.as_nanos() as f64,
+            tolerance_ns: tolerance.as_nanos() as f64,
+            keep_samples: 20_000,
+        }
+    }
+
+    /// Feeds one force sample (in stream order). Samples without a strobe value are kept for
+    /// averaging but find no windows.
+    pub fn push_sample(&mut self, s: &ForceSample) {
+        let tick = s.device_tick;
+        if let Some(volts) = s.strobe {
+            if let Some(window) = self.detector.push(tick, volts.0) {
+                self.windows.push_back(Seen {
+                    seq: self.next_seq,
+                    window,
+                    end_arrival: s.host_time,
+                });
+                self.next_seq += 1;
+                if self.windows.len() > 500 {
+                    self.windows.pop_front();
+                }
+            }
+        }
+        self.samples
+            .push_back((tick as f64, s.wrench.to_array(), s.host_time));
+        if self.samples.len() > self.keep_samples {
+            self.samples.pop_front();
+        }
+    }
+
+    fn lag_error(&self, seen: &Seen, arrival: HostTime) -> f64 {
+        arrival.0 as f64 - seen.end_arrival.0 as f64 - self.expected_lag_ns
+    }
+
+    fn label_of(&self, seen: &Seen) -> LabelOutcome {
+        let newest = self.samples.back().map_or(f64::NEG_INFINITY, |s| s.0);
+        if newest < seen.window.end + 1.0 {
+            return LabelOutcome::NotYet;
+        }
+        let span: Vec<(f64, [f64; 6])> = self
+            .samples
+            .iter()
+            .filter(|s| s.0 >= seen.window.start - 2.0 && s.0 <= seen.window.end + 2.0)
+            .map(|s| (s.0, s.1))
+            .collect();
+        match mean_over(&span, seen.window.start, seen.window.end) {
+            Ok(mean) => LabelOutcome::Ready(StrobeLabel {
+                window: seen.window,
+                window_end_arrival: seen.end_arrival,
+                mean,
+            }),
+            Err(_) => LabelOutcome::Unmatched,
+        }
+    }
+
+    /// The label of frame `frame_id` that arrived at `arrival`.
+    pub fn label(&mut self, frame_id: u64, arrival: HostTime) -> LabelOutcome {
+        if let Some(offset) = self.offset {
+            let seq = frame_id as i64 - offset;
+            if seq >= self.next_seq as i64 {
+                return LabelOutcome::NotYet;
+            }
+            if let Some(seen) = self.windows.iter().find(|w| w.seq as i64 == seq).copied() {
+                if self.lag_error(&seen, arrival).abs() <= self.tolerance_ns {
+                    return self.label_of(&seen);
+                }
+            }
+            self.offset = None;
+        }
+        let best = self
+            .windows
+            .iter()
+            .min_by(|a, b| {
+                self.lag_error(a, arrival)
+                    .abs()
+                    .total_cmp(&self.lag_error(b, arrival).abs())
+            })
+            .copied();
+        match best {
+            Some(seen) if self.lag_error(&seen, arrival).abs() <= self.tolerance_ns => {
+                self.offset = Some(frame_id as i64 - seen.seq as i64);
+                self.label_of(&seen)
+            }
+            // The frame arrived after every window seen so far: its window is still to come.
+            Some(seen) if self.lag_error(&seen, arrival) > 0.0 && seen.seq + 1 == self.next_seq => {
+                LabelOutcome::NotYet
+            }
+            None => LabelOutcome::NotYet,
+            _ => LabelOutcome::Unmatched,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::{Volts, Wrench};
+
+    /// 5 kHz samples; exposures of 10 samples every 100 samples starting at sample 37; Fz equals
+    /// the sample index / 1000; samples arrive in blocks of 50 (arrival = end of block).
+    fn samples(n: u64) -> Vec<ForceSample> {
+        (0..n)
+            .map(|k| {
+                let phase = (k + 100 - 37) % 100;
+                let block_end = (k / 50 + 1) * 50;
+                ForceSample {
+                    device_tick: k,
+                    transport_seq: None,
+                    host_time: HostTime(block_end * 200_000),
+                    wrench: Wrench::from_array([0.0, 0.0, k as f64 / 1000.0, 0.0, 0.0, 0.0]),
+                    status: 0,
+                    strobe: Some(Volts(if k >= 37 && phase < 10 { 3.3 } else { 0.0 })),
+                }
+            })
+            .collect()
+    }
+
+    /// Frame n's exposure ends at sample 37 + 100 n + 10; it arrives 6 ms later.
+    fn arrival(n: u64) -> HostTime {
+        HostTime((37 + 100 * n + 10) * 200_000 + 6_000_000)
+    }
+
+    #[test]
+    fn frames_get_their_own_window_and_dropped_ids_keep_the_match() {
+        let mut l = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+        let all = samples(1000);
+        // Frame ids start at 500 (the camera ran before); id 503 is dropped.
+        let mut fed = 0;
+        for n in [0u64, 1, 2, 4, 5, 6, 7, 8] {
+            // Feed samples up to the frame's arrival, then ask (and ask again after more samples).
+            while fed < all.len() && all[fed].host_time <= arrival(n) {
+                l.push_sample(&all[fed]);
+                fed += 1;
+            }
+            let mut outcome = l.label(500 + n, arrival(n));
+            while outcome == LabelOutcome::NotYet && fed < all.len() {
+                l.push_sample(&all[fed]);
+                fed += 1;
+                outcome = l.label(500 + n, arrival(n));
+            }
+            let LabelOutcome::Ready(label) = outcome else {
+                panic!("frame {n}: {outcome:?}");
+            };
+            let start = (37 + 100 * n) as f64;
+            // The strobe is high on samples start..start+9: edges half a sample outside.
+            assert!(
+                (label.window.start - (start - 0.5)).abs() < 1e-9,
+                "{label:?}"
+            );
+            assert!((label.window.end - (start + 9.5)).abs() < 1e-9, "{label:?}");
+            // Fz is a ramp: the mean is its value at the window's middle.
+            assert!((label.mean.mean[2] - (start + 4.5) / 1000.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_frame_with_no_window_is_unmatched() {
+        let mut l = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+        for s in samples(600) {
+            l.push_sample(&s);
+        }
+        // Arrived before the first exposure the strobe shows: no window is its own.
+        assert_eq!(l.label(7, HostTime(1_000_000)), LabelOutcome::Unmatched);
+        // Arrived after every window seen so far: its window is still to come.
+        assert_eq!(l.label(8, HostTime(arrival(9).0)), LabelOutcome::NotYet);
+    }
+}
