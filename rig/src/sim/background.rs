@@ -223,7 +223,7 @@ fn residual_field(
     if mean == 0.0 {
         return out;
     }
-    let mut state = config.seed ^ 0x5EED_0F_B1BE;
+    let mut state = config.seed ^ 0x005E_ED0F_B1BE;
     // Three plane waves with wavelengths 25-80 mm, random directions and phases.
     let waves: Vec<[f64; 3]> = (0..3)
         .map(|_| {
