@@ -6,4 +6,5 @@ pub mod camera;
 pub mod devices;
 pub mod ft;
 pub mod selfcheck;
+pub mod sim_render;
 pub mod ystage;

@@ -35,6 +35,16 @@ enum Command {
     Axis(cmd::axis::AxisArgs),
     /// Grab frames from a camera (Aravis) or a recorded camera trace.
     Camera(cmd::camera::CameraArgs),
+    /// The simulated bench: render sensor frames.
+    #[command(subcommand)]
+    Sim(SimCommand),
+}
+
+/// `fringe sim ...` subcommands.
+#[derive(Subcommand)]
+enum SimCommand {
+    /// Render one simulated sensor frame to a PNG.
+    Render(cmd::sim_render::SimRenderArgs),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +59,7 @@ fn main() -> ExitCode {
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
         Some(Command::Axis(args)) => cmd::axis::run(args, &global),
         Some(Command::Camera(args)) => cmd::camera::run(args, &global),
+        Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
