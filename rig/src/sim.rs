@@ -17,11 +17,17 @@
 //! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
 //! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
+//! - [`sensor`]: one sensor build (layer, optics, artefacts, image geometry) from a TOML file, and
+//!   the exact sensor-frame mm <-> image px map.
+//! - [`background`]: the unloaded sensor image (illumination, rim, LED hot spots, residual
+//!   birefringence).
+//! - [`render`]: the frame renderer (fringes, blur, noise, drift, gamma) behind `FrameRenderer`.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
 pub mod apt_emulator;
 pub mod bench;
+pub mod background;
 pub mod blurred_colour;
 pub mod camera_emulator;
 pub mod colour;
@@ -34,5 +40,7 @@ pub mod indenter;
 pub mod modbus_emulator;
 pub mod motion;
 pub mod netft_emulator;
+pub mod render;
 pub mod scene;
+pub mod sensor;
 pub mod stress;

@@ -8,4 +8,5 @@ pub mod ft;
 pub mod limits;
 pub mod runs;
 pub mod selfcheck;
+pub mod sim_render;
 pub mod ystage;

@@ -41,6 +41,16 @@ enum Command {
     Verify(cmd::runs::VerifyArgs),
     /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv).
     Export(cmd::runs::ExportArgs),
+    /// The simulated bench: render sensor frames.
+    #[command(subcommand)]
+    Sim(SimCommand),
+}
+
+/// `fringe sim ...` subcommands.
+#[derive(Subcommand)]
+enum SimCommand {
+    /// Render one simulated sensor frame to a PNG.
+    Render(cmd::sim_render::SimRenderArgs),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +68,7 @@ fn main() -> ExitCode {
         Some(Command::Runs(args)) => cmd::runs::run_list(args, &global),
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
         Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
+        Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,66 @@
+//! Frame rendering time of both sensor builds at full size (1920x1200).
+//!
+//! `cargo run --release -p fringe-rig --example render_bench [-- FRAMES]` (default 200 frames per
+//! case). For each sensor and shape it renders a contact moving across the disc with a changing
+//! force and angle, and prints mean, p95 and max milliseconds per frame. Exits non-zero if a mean
+//! exceeds 20 ms (a 50 Hz camera in real time).
+
+use fringe_rig::sim::render::Renderer;
+use fringe_rig::sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::sim::sensor::SensorConfig;
+use fringe_rig::units::{Millimetres, Newtons};
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let frames: usize = match std::env::args().nth(1) {
+        Some(a) => a.parse()?,
+        None => 200,
+    };
+    let mut worst_mean: f64 = 0.0;
+    for config in [SensorConfig::layered(), SensorConfig::integrated()] {
+        let id = config.id.clone();
+        let start = Instant::now();
+        let mut renderer = Renderer::new(config)?;
+        println!(
+            "{id}: start-up {:.0} ms, {}x{}, {} threads",
+            start.elapsed().as_secs_f64() * 1e3,
+            renderer.width(),
+            renderer.height(),
+            renderer.config().threads
+        );
+        let shapes = [
+            ("pentagon", renderer.config().pentagon()),
+            ("rectangle", renderer.config().rectangle()),
+            ("none", renderer.config().rectangle()),
+        ];
+        let mut out = Vec::new();
+        for (name, shape) in shapes {
+            let mut times = Vec::with_capacity(frames);
+            for k in 0..frames {
+                let s = k as f64 / frames as f64;
+                let a = std::f64::consts::TAU * s;
+                let contact = (name != "none").then_some(Contact {
+                    shape,
+                    force: Newtons(0.5 + 8.5 * s),
+                    x: Millimetres(15.0 * a.cos()),
+                    y: Millimetres(10.0 * a.sin()),
+                    angle_deg: 90.0 * s,
+                });
+                let t = Instant::now();
+                renderer.render(&Scene { contact }, k as u64, &mut out);
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            times.sort_by(f64::total_cmp);
+            let mean = times.iter().sum::<f64>() / times.len() as f64;
+            let p95 = times[(0.95 * (times.len() - 1) as f64).round() as usize];
+            let max = times[times.len() - 1];
+            println!("  {name:<9} mean {mean:6.2} ms  p95 {p95:6.2} ms  max {max:6.2} ms  ({frames} frames)");
+            worst_mean = worst_mean.max(mean);
+        }
+    }
+    if worst_mean > 20.0 {
+        eprintln!("mean frame time {worst_mean:.2} ms exceeds 20 ms");
+        std::process::exit(1);
+    }
+    Ok(())
+}

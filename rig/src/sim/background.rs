@@ -1,0 +1,248 @@
+//! The unloaded sensor as the camera sees it, per pixel, built once per sensor.
+//!
+//! Light reaching a pixel (docs/photoelastic-sim.md, "Camera artefacts"), in linear DN:
+//!
+//! I_c = illumination(u, v) colour_c(N, sigma_N) + glow(u, v) led_c,
+//!
+//! - illumination: the LED light that passes the polariser twice, with vignetting
+//!   V = (1 + (r / f)^2)^-2, rim-bright shading 1 + k (r / R)^6 and the disc edge, all about the
+//!   optical centre. The edge is the disc mask blurred by the defocus Gaussian (sigma = blur / 2,
+//!   at least half a pixel), written with the logistic approximation of the normal CDF
+//!   1 / (1 + exp(1.702 (r - R) / sigma)).
+//! - colour: the blurred colour table at the fringe order N (residual birefringence plus contact).
+//! - glow: light added after the polariser: the LED hot spots (Gaussians at `radius_factor` R,
+//!   their variance widened by the defocus variance and their peak lowered so their energy is
+//!   kept), a thin bright ring at the disc edge (widened the same way in 1-D) and the housing's
+//!   ambient light.
+//!
+//! Residual casting birefringence is a smooth field in the sensor frame: a sum of three random
+//! low-frequency plane waves scaled to mean `residual_birefringence` and +-40 % around it.
+
+use super::blurred_colour::BlurredColourTable;
+use super::sensor::{SensorConfig, SensorGeometry};
+
+/// Colour of the LED light added after the polariser (cool white), R G B.
+pub const LED_COLOUR: [f32; 3] = [0.92, 0.97, 1.0];
+
+/// Logistic slope that makes 1 / (1 + exp(-k x)) a close approximation of the normal CDF.
+const LOGISTIC_NORMAL: f64 = 1.702;
+
+/// Light below this illumination (DN) is treated as outside the disc.
+pub const DARK_DN: f32 = 0.01;
+
+/// Linear light of a pixel that sees `illumination` times the fringe colour `rgb` plus `glow`.
+#[inline]
+pub fn pixel_light(illumination: f32, rgb: [f32; 3], glow: f32) -> [f32; 3] {
+    [
+        illumination * rgb[0] + glow * LED_COLOUR[0],
+        illumination * rgb[1] + glow * LED_COLOUR[1],
+        illumination * rgb[2] + glow * LED_COLOUR[2],
+    ]
+}
+
+/// SplitMix64 step: a small, well-mixed deterministic generator for seeded fields and noise.
+pub fn splitmix64(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Uniform in [0, 1) from the generator.
+pub fn uniform(state: &mut u64) -> f64 {
+    (splitmix64(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The unloaded sensor image and the per-pixel terms the renderer needs for loaded pixels.
+#[derive(Debug, Clone)]
+pub struct Background {
+    width: usize,
+    height: usize,
+    /// Light through the polariser at full fringe brightness, DN.
+    illumination: Vec<f32>,
+    /// Light added after the polariser, DN (times [`LED_COLOUR`]).
+    glow: Vec<f32>,
+    /// Residual fringe order.
+    residual: Vec<f32>,
+    /// Linear light of the unloaded sensor.
+    unloaded: Vec<[f32; 3]>,
+    /// Per row, the columns [start, end) with illumination above [`DARK_DN`].
+    spans: Vec<(usize, usize)>,
+}
+
+impl Background {
+    /// Builds the unloaded image of `config` seen through `geometry`, colours from `table`.
+    pub fn new(
+        config: &SensorConfig,
+        geometry: &SensorGeometry,
+        table: &BlurredColourTable,
+    ) -> Background {
+        let (width, height) = (
+            config.geometry.width as usize,
+            config.geometry.height as usize,
+        );
+        let o = &config.optics;
+        let radius = config.geometry.disc_radius_px;
+        let blur_sigma = (0.5 * o.blur_px).max(0.5);
+        let [cu, cv] = geometry.centre_px;
+        let focal = o.vignetting_factor * radius;
+        let rim_sigma = o.rim_width_px.hypot(blur_sigma);
+        let rim_peak = o.rim_glow_dn * o.rim_width_px / rim_sigma;
+
+        let mut illumination = vec![0.0f32; width * height];
+        let mut glow = vec![0.0f32; width * height];
+        let mut spans = Vec::with_capacity(height);
+        for j in 0..height {
+            let v = j as f64 + 0.5 - cv;
+            let (mut start, mut end) = (width, 0);
+            for i in 0..width {
+                let u = i as f64 + 0.5 - cu;
+                let r = u.hypot(v);
+                let mask = 1.0 / (1.0 + (LOGISTIC_NORMAL * (r - radius) / blur_sigma).exp());
+                let q = r / focal;
+                let vignetting = 1.0 / ((1.0 + q * q) * (1.0 + q * q));
+                let shading = 1.0 + o.rim_shading * (r / radius).powi(6);
+                let light = (o.illumination_dn * mask * vignetting * shading) as f32;
+                let k = j * width + i;
+                illumination[k] = light;
+                if light > DARK_DN {
+                    start = start.min(i);
+                    end = i + 1;
+                }
+                let d = (r - radius) / rim_sigma;
+                glow[k] = (o.ambient_dn + rim_peak * (-0.5 * d * d).exp()) as f32;
+            }
+            spans.push((start.min(end), end));
+        }
+        add_hot_spots(config, geometry, blur_sigma, width, height, &mut glow);
+
+        let residual = residual_field(config, geometry, width, height, &spans);
+        let mut unloaded = Vec::with_capacity(width * height);
+        for k in 0..width * height {
+            let rgb = table.lookup(f64::from(residual[k]), 0.0);
+            unloaded.push(pixel_light(illumination[k], rgb, glow[k]));
+        }
+        Background {
+            width,
+            height,
+            illumination,
+            glow,
+            residual,
+            unloaded,
+            spans,
+        }
+    }
+
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Light through the polariser at full fringe brightness at pixel index `k`, DN.
+    #[inline]
+    pub fn illumination(&self, k: usize) -> f32 {
+        self.illumination[k]
+    }
+
+    /// Light added after the polariser at pixel index `k`, DN.
+    #[inline]
+    pub fn glow(&self, k: usize) -> f32 {
+        self.glow[k]
+    }
+
+    /// Residual fringe order at pixel index `k`.
+    #[inline]
+    pub fn residual(&self, k: usize) -> f32 {
+        self.residual[k]
+    }
+
+    /// Linear light of the unloaded sensor at pixel index `k`.
+    #[inline]
+    pub fn unloaded(&self, k: usize) -> [f32; 3] {
+        self.unloaded[k]
+    }
+
+    /// Row `j`'s lit columns [start, end).
+    #[inline]
+    pub fn span(&self, j: usize) -> (usize, usize) {
+        self.spans[j]
+    }
+}
+
+/// Adds the LED ring's hot spots to `glow`. LED angles are in the sensor frame, so they turn and
+/// mirror with the image.
+fn add_hot_spots(
+    config: &SensorConfig,
+    geometry: &SensorGeometry,
+    blur_sigma: f64,
+    width: usize,
+    height: usize,
+    glow: &mut [f32],
+) {
+    let leds = &config.leds;
+    if leds.count == 0 || leds.strength_dn == 0.0 {
+        return;
+    }
+    let sigma0 = leds.width_px / 2.354_82;
+    let sigma2 = sigma0 * sigma0 + blur_sigma * blur_sigma;
+    let peak = leds.strength_dn * sigma0 * sigma0 / sigma2;
+    let reach = 4.0 * sigma2.sqrt();
+    let ring_mm = leds.radius_factor * config.geometry.disc_radius_px / geometry.px_per_mm;
+    for n in 0..leds.count {
+        let a = (leds.phase_deg + 360.0 * n as f64 / leds.count as f64).to_radians();
+        let [pu, pv] = geometry.to_pixel(ring_mm * a.cos(), ring_mm * a.sin());
+        let j0 = (pv - reach).floor().max(0.0) as usize;
+        let j1 = ((pv + reach).ceil().max(0.0) as usize).min(height);
+        let i0 = (pu - reach).floor().max(0.0) as usize;
+        let i1 = ((pu + reach).ceil().max(0.0) as usize).min(width);
+        for j in j0..j1 {
+            let dv = j as f64 + 0.5 - pv;
+            for i in i0..i1 {
+                let du = i as f64 + 0.5 - pu;
+                let e = (-0.5 * (du * du + dv * dv) / sigma2).exp();
+                glow[j * width + i] += (peak * e) as f32;
+            }
+        }
+    }
+}
+
+/// Smooth residual fringe order over the lit pixels, defined in the sensor frame.
+fn residual_field(
+    config: &SensorConfig,
+    geometry: &SensorGeometry,
+    width: usize,
+    height: usize,
+    spans: &[(usize, usize)],
+) -> Vec<f32> {
+    let mean = config.optics.residual_birefringence;
+    let mut out = vec![0.0f32; width * height];
+    if mean == 0.0 {
+        return out;
+    }
+    let mut state = config.seed ^ 0x005E_ED0F_B1BE;
+    // Three plane waves with wavelengths 25-80 mm, random directions and phases.
+    let waves: Vec<[f64; 3]> = (0..3)
+        .map(|_| {
+            let wavelength = 25.0 + 55.0 * uniform(&mut state);
+            let direction = std::f64::consts::TAU * uniform(&mut state);
+            let phase = std::f64::consts::TAU * uniform(&mut state);
+            let k = std::f64::consts::TAU / wavelength;
+            [k * direction.cos(), k * direction.sin(), phase]
+        })
+        .collect();
+    for (j, &(start, end)) in spans.iter().enumerate() {
+        for i in start..end {
+            let [x, y] = geometry.to_sensor(i as f64 + 0.5, j as f64 + 0.5);
+            let s: f64 = waves
+                .iter()
+                .map(|w| (w[0] * x + w[1] * y + w[2]).cos())
+                .sum();
+            out[j * width + i] = (mean * (1.0 + 0.4 * s / 3.0)) as f32;
+        }
+    }
+    out
+}

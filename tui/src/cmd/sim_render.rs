@@ -1,0 +1,146 @@
+//! `fringe sim render`: one simulated sensor frame as a PNG.
+
+use anyhow::{bail, Context};
+use fringe_rig::sim::indenter::Shape;
+use fringe_rig::sim::render::Renderer;
+use fringe_rig::sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::sim::sensor::SensorConfig;
+use fringe_rig::units::{Millimetres, Newtons};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct SimRenderArgs {
+    /// Sensor build: `layered`, `integrated` or a sensor TOML file (see rig/sensors/).
+    #[arg(
+        long,
+        value_name = "layered|integrated|PATH.toml",
+        default_value = "layered"
+    )]
+    sensor: String,
+    /// Indenter: pentagon, rectangle, sphere or none (sizes from the sensor file).
+    #[arg(
+        long,
+        value_name = "pentagon|rectangle|sphere|none",
+        default_value = "pentagon"
+    )]
+    shape: String,
+    /// Normal force, N.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 4.0,
+        allow_negative_numbers = true
+    )]
+    force: f64,
+    /// Contact x in the sensor frame (mm from the disc centre, along the stage's x).
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    x: f64,
+    /// Contact y in the sensor frame, mm.
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    y: f64,
+    /// Indenter rotation about the load axis, degrees counter-clockwise.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    angle: f64,
+    /// PNG file to write.
+    #[arg(long, value_name = "FILE.png")]
+    out: PathBuf,
+    /// Defocus blur radius in px (overrides the sensor's `optics.blur_px`).
+    #[arg(long, value_name = "PX")]
+    blur: Option<f64>,
+    /// Seed of noise, drift and residual birefringence (overrides the sensor's `seed`).
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
+    /// Frame number (noise and drift change from frame to frame).
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    frame: u64,
+}
+
+/// The sensor named on the command line: a variant name or a TOML file.
+pub fn load_sensor(name: &str) -> anyhow::Result<SensorConfig> {
+    match name {
+        "layered" => Ok(SensorConfig::layered()),
+        "integrated" => Ok(SensorConfig::integrated()),
+        path if path.ends_with(".toml") || Path::new(path).is_file() => {
+            Ok(SensorConfig::load(Path::new(path))?)
+        }
+        other => bail!(
+            "unknown --sensor `{other}`: use layered, integrated or the path of a sensor .toml file"
+        ),
+    }
+}
+
+pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
+    let mut config = load_sensor(&args.sensor)?;
+    if let Some(blur) = args.blur {
+        if !(blur.is_finite() && (0.0..=40.0).contains(&blur)) {
+            bail!("--blur {blur}: use 0 (sharp) to 40 px");
+        }
+        config.optics.blur_px = blur;
+    }
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    if !(args.force.is_finite() && (0.0..=100.0).contains(&args.force)) {
+        bail!("--force {}: use 0 to 100 N", args.force);
+    }
+    for (name, v) in [("--x", args.x), ("--y", args.y), ("--angle", args.angle)] {
+        if !v.is_finite() {
+            bail!("{name} {v}: not a number");
+        }
+    }
+    let disc_mm = config.geometry.disc_radius_px / config.geometry.px_per_mm;
+    if args.x.hypot(args.y) > disc_mm {
+        bail!(
+            "--x {} --y {}: the contact lies outside the sensor disc (radius {disc_mm:.1} mm)",
+            args.x,
+            args.y
+        );
+    }
+    let shape = match args.shape.as_str() {
+        "pentagon" => Some(config.pentagon()),
+        "rectangle" => Some(config.rectangle()),
+        "sphere" => Some(config.sphere(args.force)),
+        "none" => None,
+        other => bail!("unknown --shape `{other}`: use pentagon, rectangle, sphere or none"),
+    };
+    let contact = shape.map(|shape: Shape| Contact {
+        shape,
+        force: Newtons(args.force),
+        x: Millimetres(args.x),
+        y: Millimetres(args.y),
+        angle_deg: args.angle,
+    });
+    let id = config.id.clone();
+    let mut renderer = Renderer::new(config)?;
+    let mut rgb = Vec::new();
+    renderer.render(&Scene { contact }, args.frame, &mut rgb);
+    let (w, h) = (renderer.width(), renderer.height());
+    image::save_buffer(&args.out, &rgb, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    let [u, v] = renderer.geometry().to_pixel(args.x, args.y);
+    println!(
+        "wrote {} ({w}x{h}, sensor {id}, {} {} N at ({}, {}) mm, {} deg: image pixel ({u:.1}, {v:.1}))",
+        args.out.display(),
+        args.shape,
+        args.force,
+        args.x,
+        args.y,
+        args.angle
+    );
+    Ok(())
+}
