@@ -4,5 +4,6 @@
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
 
+pub mod demo;
 pub mod plan;
 pub mod press;

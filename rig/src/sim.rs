@@ -26,8 +26,8 @@
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
 pub mod apt_emulator;
-pub mod bench;
 pub mod background;
+pub mod bench;
 pub mod blurred_colour;
 pub mod camera_emulator;
 pub mod colour;
@@ -41,6 +41,7 @@ pub mod modbus_emulator;
 pub mod motion;
 pub mod netft_emulator;
 pub mod render;
+pub mod rig;
 pub mod scene;
 pub mod sensor;
 pub mod stress;

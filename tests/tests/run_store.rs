@@ -61,6 +61,7 @@ fn record(index: u64, file: String, fz: f64) -> FrameRecord {
         device_timestamp: index * 20_000_000,
         host_arrival_ns: index * 20_000_000 + 3_000_000,
         exposure: None,
+        exposure_ticks: None,
         point: index / 2,
         commanded: pos,
         measured: pos,

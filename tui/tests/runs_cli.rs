@@ -62,6 +62,7 @@ fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
             device_timestamp: id,
             host_arrival_ns: id,
             exposure: None,
+            exposure_ticks: None,
             point: 0,
             commanded: p,
             measured: p,

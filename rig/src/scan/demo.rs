@@ -157,7 +157,11 @@ fn record(
                         vec![],
                     )
                 }
-                _ => (None, None, vec!["no exposure window found in the strobe channel".to_string()]),
+                _ => (
+                    None,
+                    None,
+                    vec!["no exposure window found in the strobe channel".to_string()],
+                ),
             };
             let file = writer.save_frame_image(frame)?;
             let in_contact = wrench.is_some_and(|w| w.fz.0.abs() >= 0.2);
@@ -173,7 +177,11 @@ fn record(
                 commanded: state.commanded,
                 measured: state.measured,
                 wrench,
-                shape: if in_contact { state.shape.clone() } else { "None".into() },
+                shape: if in_contact {
+                    state.shape.clone()
+                } else {
+                    "None".into()
+                },
                 contact: in_contact.then_some(state.contact),
                 valid: wrench.is_some(),
                 notes,

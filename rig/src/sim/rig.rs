@@ -113,13 +113,18 @@ impl SimRigConfig {
 
     /// The driver configuration of the x or z axis (the emulated controller matches it).
     pub fn apt_config(&self, axis: &str) -> AptConfig {
-        let k = if axis == "z" { &self.bench.z } else { &self.bench.x };
+        let k = if axis == "z" {
+            &self.bench.z
+        } else {
+            &self.bench.x
+        };
         let actuator = Actuator::by_name("ZFS25").unwrap_or(crate::apt::actuator::ACTUATORS[0]);
         let mut c = AptConfig::new(axis, Controller::Kst101, actuator);
         c.velocity = MillimetresPerSecond(k.velocity_mm_s);
         c.acceleration = MillimetresPerSecondSquared(k.acceleration_mm_s2);
         c.home.velocity = MillimetresPerSecond(k.velocity_mm_s);
-        c.soft_limits = crate::axis::SoftLimits::new(Millimetres(0.0), Millimetres(k.travel_mm)).ok();
+        c.soft_limits =
+            crate::axis::SoftLimits::new(Millimetres(0.0), Millimetres(k.travel_mm)).ok();
         c
     }
 }
@@ -164,29 +169,32 @@ impl SimRig {
         let mut axes = Vec::new();
         for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
             let driver_config = config.apt_config(name);
-            let emulator_config = AptEmulatorConfig::matching(&driver_config)
-                .ok_or_else(|| device_error(name, "no emulated controller for this configuration"))?;
-            let (host, device) = byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
+            let emulator_config = AptEmulatorConfig::matching(&driver_config).ok_or_else(|| {
+                device_error(name, "no emulated controller for this configuration")
+            })?;
+            let (host, device) =
+                byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
             apt.push(
                 AptEmulator::spawn(emulator_config, motor, Box::new(device))
                     .map_err(|e| device_error(name, e))?,
             );
             let axis = ThorlabsAxis::connect(Box::new(host), driver_config)
                 .map_err(|e| device_error(name, e))?;
-            description.push(format!("{name}: Thorlabs KST101 + ZFS25 (emulated, in process)"));
+            description.push(format!(
+                "{name}: Thorlabs KST101 + ZFS25 (emulated, in process)"
+            ));
             axes.push(axis);
         }
         let z = axes.pop().ok_or_else(|| device_error("z", "missing"))?;
         let x = axes.pop().ok_or_else(|| device_error("x", "missing"))?;
 
         let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
-        let (modbus, link) = ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Tcp)
-            .map_err(|e| device_error("y", e))?;
-        let y_limits = crate::axis::SoftLimits::new(
-            Millimetres(0.0),
-            Millimetres(config.bench.y.travel_mm),
-        )
-        .ok();
+        let (modbus, link) =
+            ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Tcp)
+                .map_err(|e| device_error("y", e))?;
+        let y_limits =
+            crate::axis::SoftLimits::new(Millimetres(0.0), Millimetres(config.bench.y.travel_mm))
+                .ok();
         let y = ModbusStage::new(
             "y",
             Box::new(link),
@@ -229,15 +237,17 @@ impl SimRig {
                 let driver_config = emulator_config
                     .driver_config()
                     .map_err(|e| device_error("force", e))?;
-                let (emulator, link) = NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
-                    .map_err(|e| device_error("force", e))?;
+                let (emulator, link) =
+                    NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
+                        .map_err(|e| device_error("force", e))?;
                 netft = Some(emulator);
                 description.push("force: Net F/T (emulated, in process)".into());
                 Box::new(NetFt::new(link, driver_config, NetFtOptions::default()))
             }
         };
 
-        let renderer = Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
+        let renderer =
+            Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
         let scene: Arc<dyn SceneSource> = bench.clone();
         let mut camera = SimCamera::new(config.camera.clone(), scene, Box::new(renderer))
             .with_schedule(schedule);
@@ -305,20 +315,24 @@ impl SimServe {
         let mut paths = Vec::new();
         for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
             let emulator_config = AptEmulatorConfig::matching(&config.apt_config(name))
-                .ok_or_else(|| device_error(name, "no emulated controller for this configuration"))?;
-            let handle =
-                AptEmulator::spawn_pty(emulator_config, motor).map_err(|e| device_error(name, e))?;
+                .ok_or_else(|| {
+                    device_error(name, "no emulated controller for this configuration")
+                })?;
+            let handle = AptEmulator::spawn_pty(emulator_config, motor)
+                .map_err(|e| device_error(name, e))?;
             paths.push(handle.slave_path().unwrap_or_default().to_string());
             apt.push(handle);
         }
         let load: Arc<dyn LoadSource> = bench.clone();
         let ft = SimFtSensor::new(load, config.bench.ft_noise);
-        let netft = NetFtEmulator::spawn_udp(netft, None, NetFtEmulatorConfig::default(), Box::new(ft))
-            .map_err(|e| device_error("netft", e))?;
+        let netft =
+            NetFtEmulator::spawn_udp(netft, None, NetFtEmulatorConfig::default(), Box::new(ft))
+                .map_err(|e| device_error("netft", e))?;
         let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
         let tcp = ModbusEmulator::spawn_tcp(modbus, map.clone(), bench.motor_y())
             .map_err(|e| device_error("y", e))?;
-        let rtu = ModbusEmulator::spawn_rtu_pty(map, bench.motor_y()).map_err(|e| device_error("y", e))?;
+        let rtu = ModbusEmulator::spawn_rtu_pty(map, bench.motor_y())
+            .map_err(|e| device_error("y", e))?;
         let endpoints = ServeEndpoints {
             apt_x: paths[0].clone(),
             apt_z: paths[1].clone(),
@@ -326,7 +340,9 @@ impl SimServe {
                 .addr()
                 .ok_or_else(|| device_error("netft", "no UDP address"))?,
             netft_http: netft.http_url(),
-            modbus_tcp: tcp.addr().ok_or_else(|| device_error("y", "no TCP address"))?,
+            modbus_tcp: tcp
+                .addr()
+                .ok_or_else(|| device_error("y", "no TCP address"))?,
             modbus_rtu: rtu.pty_path().map(str::to_string),
         };
         Ok(SimServe {

@@ -63,6 +63,9 @@ pub struct FrameRecord {
     pub device_timestamp: u64,
     pub host_arrival_ns: u64,
     pub exposure: Option<Exposure>,
+    /// Exposure window in the force stream's sample index (strobe synchronisation).
+    #[serde(default)]
+    pub exposure_ticks: Option<[f64; 2]>,
     /// Grid point and repetition the frame belongs to.
     pub point: u64,
     pub commanded: Position,

@@ -148,6 +148,7 @@ mod tests {
             device_timestamp: 0,
             host_arrival_ns: 0,
             exposure: None,
+            exposure_ticks: None,
             point: 0,
             commanded: p,
             measured: p,
