@@ -154,7 +154,8 @@ pub trait Axis: Send {
     /// Starts a relative move; the resulting target is checked against the soft limits first.
     fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError>;
 
-    /// Waits until the current motion has ended, and returns the final status.
+    /// Waits until the current motion has ended, and returns the final status. A timeout leaves
+    /// the motion pending: waiting again continues to wait for the same motion.
     fn wait_idle(&mut self, timeout: Duration) -> Result<AxisStatus, AxisError>;
 
     /// Stops motion.

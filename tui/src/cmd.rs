@@ -3,6 +3,7 @@
 
 pub mod axis;
 pub mod camera;
+pub mod demo;
 pub mod devices;
 pub mod ft;
 pub mod limits;

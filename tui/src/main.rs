@@ -35,6 +35,10 @@ enum Command {
     Axis(cmd::axis::AxisArgs),
     /// Grab frames from a camera (Aravis) or a recorded camera trace.
     Camera(cmd::camera::CameraArgs),
+    /// The main job on the simulated bench: press, film, label and store a short run.
+    Demo(cmd::demo::DemoArgs),
+    /// Hardware-free self-check: the Net F/T driver against a loopback box, serial ports.
+    Selfcheck,
     /// List the runs in a directory (default runs/), newest first.
     Runs(cmd::runs::RunsArgs),
     /// Check a run directory: records, frames, force log and checksums.
@@ -59,7 +63,9 @@ fn main() -> ExitCode {
         record_trace: cli.record_trace,
     };
     let result = match cli.command {
-        None => cmd::selfcheck::run(&global),
+        None => cmd::demo::run(cmd::demo::DemoArgs::default(), &global),
+        Some(Command::Demo(args)) => cmd::demo::run(args, &global),
+        Some(Command::Selfcheck) => cmd::selfcheck::run(&global),
         Some(Command::Devices(args)) => cmd::devices::run(args, &global),
         Some(Command::Ft(args)) => cmd::ft::run(args, &global),
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),

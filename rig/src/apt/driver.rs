@@ -861,7 +861,8 @@ impl Axis for ThorlabsAxis {
         let end = loop {
             let now = Instant::now();
             if now >= deadline {
-                self.pending = None;
+                // The motion stays pending: a later wait continues it (a scan polls with short
+                // waits while it watches the force); a new command or a stop replaces it.
                 let expected = match pending {
                     Pending::Home => "MOT_MOVE_HOMED",
                     Pending::Move(_) => "MOT_MOVE_COMPLETED",

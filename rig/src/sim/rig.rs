@@ -71,7 +71,8 @@ pub struct SimRigConfig {
 }
 
 impl Default for SimRigConfig {
-    /// The reference bench: ZFS25 axes (25 mm) on x and z, a 50 mm Modbus y stage, a layered
+    /// The reference bench: ZFS25 axes (25 mm) on x and z, a 50 mm Modbus RTU y stage (Leadshine
+    /// PR map), a layered
     /// sensor, DAQ + strobe, camera at 50 Hz.
     fn default() -> Self {
         let mut bench = BenchConfig::default();
@@ -94,7 +95,7 @@ impl Default for SimRigConfig {
             camera: SimCameraConfig::default(),
             force_path: ForcePath::Daq,
             daq: SimDaqConfig::default(),
-            y_map: "oriental-az".into(),
+            y_map: "leadshine-pr".into(),
         }
     }
 }
@@ -190,7 +191,7 @@ impl SimRig {
 
         let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
         let (modbus, link) =
-            ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Tcp)
+            ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Rtu)
                 .map_err(|e| device_error("y", e))?;
         let y_limits =
             crate::axis::SoftLimits::new(Millimetres(0.0), Millimetres(config.bench.y.travel_mm))
@@ -198,7 +199,7 @@ impl SimRig {
         let y = ModbusStage::new(
             "y",
             Box::new(link),
-            Framing::Tcp,
+            Framing::Rtu,
             map,
             StageOptions {
                 limits: y_limits,
@@ -206,7 +207,7 @@ impl SimRig {
             },
         );
         description.push(format!(
-            "y: Modbus TCP drive, map {} (emulated, in process)",
+            "y: Modbus RTU drive, map {} (emulated, in process)",
             config.y_map
         ));
 
