@@ -10,4 +10,5 @@ pub mod limits;
 pub mod runs;
 pub mod selfcheck;
 pub mod sim_render;
+pub mod sim_serve;
 pub mod ystage;

@@ -45,7 +45,7 @@ enum Command {
     Verify(cmd::runs::VerifyArgs),
     /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv).
     Export(cmd::runs::ExportArgs),
-    /// The simulated bench: render sensor frames.
+    /// The simulated bench: render sensor frames, serve its devices.
     #[command(subcommand)]
     Sim(SimCommand),
 }
@@ -55,6 +55,8 @@ enum Command {
 enum SimCommand {
     /// Render one simulated sensor frame to a PNG.
     Render(cmd::sim_render::SimRenderArgs),
+    /// Expose the simulated devices on pseudo-terminals and loopback sockets and print where.
+    Serve(cmd::sim_serve::SimServeArgs),
 }
 
 fn main() -> ExitCode {
@@ -75,6 +77,7 @@ fn main() -> ExitCode {
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
         Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
+        Some(Command::Sim(SimCommand::Serve(args))) => cmd::sim_serve::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

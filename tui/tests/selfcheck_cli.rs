@@ -1,10 +1,11 @@
-//! `fringe` with no command runs the hardware-free self-check through the real Net F/T driver.
+//! `fringe selfcheck`: the hardware-free self-check through the real Net F/T driver.
 
 use std::process::Command;
 
 #[test]
-fn no_command_runs_the_self_check_with_no_loss_and_the_simulated_press() {
+fn selfcheck_runs_the_net_ft_driver_with_no_loss_and_the_simulated_press() {
     let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .arg("selfcheck")
         .output()
         .expect("run fringe");
     let stdout = String::from_utf8_lossy(&out.stdout);

@@ -1,0 +1,140 @@
+//! `fringe sim serve` in one process, driven by fringe's own bring-up commands in others, through
+//! the endpoints it prints.
+
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+
+fn fringe(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args(args)
+        .output()
+        .expect("run fringe")
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+struct Serve(Child);
+
+impl Drop for Serve {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn served_devices_answer_the_bring_up_commands() {
+    let link = std::env::temp_dir().join(format!("fringe-apt-x-{}", std::process::id()));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args([
+            "sim",
+            "serve",
+            "--netft",
+            "127.0.0.1:0",
+            "--modbus",
+            "127.0.0.1:0",
+            "--seconds",
+            "60",
+            "--apt-x",
+        ])
+        .arg(&link)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start fringe sim serve");
+    let stdout = child.stdout.take().expect("stdout");
+    let _serve = Serve(child);
+    let mut endpoints = HashMap::new();
+    for line in BufReader::new(stdout).lines() {
+        let line = line.expect("line");
+        if line == "ready" {
+            break;
+        }
+        let (k, v) = line.split_once(' ').expect("`name value`");
+        endpoints.insert(k.to_string(), v.to_string());
+    }
+    for key in [
+        "apt-x",
+        "apt-z",
+        "netft",
+        "netft-http",
+        "modbus-tcp",
+        "modbus-rtu",
+    ] {
+        assert!(
+            endpoints.contains_key(key),
+            "{key} missing from {endpoints:?}"
+        );
+    }
+
+    // The x controller through the stable link name.
+    let out = fringe(&[
+        "axis",
+        "--port",
+        link.to_str().expect("utf-8"),
+        "--actuator",
+        "ZFS25",
+        "--velocity",
+        "2",
+        "--acceleration",
+        "4",
+        "move-rel",
+        "1.5",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("KST101"), "{}", text(&out));
+
+    let csv = std::env::temp_dir().join(format!("fringe-serve-ft-{}.csv", std::process::id()));
+    let out = fringe(&[
+        "ft",
+        "--netft",
+        &endpoints["netft"],
+        "--cpf",
+        "1000000",
+        "--cpt",
+        "1000000",
+        "stream",
+        "--seconds",
+        "1",
+        "--csv",
+        csv.to_str().expect("utf-8"),
+    ]);
+    let report = text(&out);
+    assert!(out.status.success(), "{report}");
+    assert!(report.contains("lost packets: 0"), "{report}");
+    let rows = std::fs::read_to_string(&csv).expect("csv").lines().count();
+    assert!(rows > 5000, "{rows} rows in 1 s at 7 kHz");
+    let _ = std::fs::remove_file(&csv);
+
+    let out = fringe(&[
+        "ystage",
+        "--modbus-tcp",
+        &endpoints["modbus-tcp"],
+        "--map",
+        "leadshine-pr",
+        "move",
+        "3",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let out = fringe(&[
+        "ystage",
+        "--modbus-rtu",
+        &endpoints["modbus-rtu"],
+        "--map",
+        "leadshine-pr",
+        "status",
+    ]);
+    let status = text(&out);
+    assert!(out.status.success(), "{status}");
+    // The RTU and TCP ports drive the same simulated stage.
+    assert!(status.contains("position 3.0000"), "{status}");
+    drop(_serve);
+    std::thread::sleep(std::time::Duration::from_millis(200));
+}
