@@ -263,12 +263,6 @@ struct ContactMap<'a> {
 }
 
 impl ContactMap<'_> {
-    /// [F N_unit, sigma_N] at pixel (i, j).
-    #[inline]
-    fn at(&self, i: usize, j: usize) -> [f32; 2] {
-        self.at_point(i as f32 + 0.5, j as f32 + 0.5)
-    }
-
     /// [F N_unit, sigma_N] at image position (u, v) px.
     #[inline]
     fn at_point(&self, u: f32, v: f32) -> [f32; 2] {
