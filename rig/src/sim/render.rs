@@ -458,7 +458,6 @@ impl Renderer {
     fn render_rows(&self, params: &FrameParams, rows: std::ops::Range<usize>, out: &mut [u8]) {
         let w = self.background.width();
         let unloaded = self.background.unloaded();
-        let mut light = vec![0u16; 3 * w];
         // Fringe colours of the 2x2 blocks of the current row pair.
         let mut block_rgb = vec![[0.0f32; 3]; w.div_ceil(2)];
         let h = self.background.height();
@@ -487,7 +486,7 @@ impl Renderer {
                 let (s, e) = (start.max(lo), end.min(hi));
                 (s, e.max(s))
             };
-            let source = match params.contact {
+            match params.contact {
                 Some(map) => {
                     let (start, end) = reach(&map, j);
                     if j % 2 == 0 || r == 0 {
@@ -504,34 +503,41 @@ impl Renderer {
                             *rgb = self.colours.lookup(n + residual, sigma);
                         }
                     }
-                    light.copy_from_slice(row_light);
+                    let (a, b) = (3 * start, 3 * end);
+                    self.emit(params, &row_light[..a], &noise[..a], &mut line[..a]);
                     let (illumination, glow) = self.background.row_terms(j);
-                    for (i, px) in light[3 * start..3 * end].chunks_exact_mut(3).enumerate() {
-                        let i = start + i;
+                    let pixels = line[a..b]
+                        .chunks_exact_mut(3)
+                        .zip(noise[a..b].chunks_exact(3));
+                    for (i, (px, z)) in (start..end).zip(pixels) {
                         let lit = pixel_light(illumination[i], block_rgb[i / 2], glow[i]);
-                        px[0] = quantise_light(lit[0]);
-                        px[1] = quantise_light(lit[1]);
-                        px[2] = quantise_light(lit[2]);
+                        for ch in 0..3 {
+                            px[ch] = self.output(params, quantise_light(lit[ch]), z[ch]);
+                        }
                     }
-                    &light[..]
+                    self.emit(params, &row_light[b..], &noise[b..], &mut line[b..]);
                 }
-                None => row_light,
-            };
-            self.emit(params, source, noise, line);
+                None => self.emit(params, row_light, noise, line),
+            }
         }
+    }
+
+    /// Gain, offset, noise and gamma of one value: linear light `q` in 1/16 DN steps, noise
+    /// level `z`, to an 8-bit value.
+    #[inline(always)]
+    fn output(&self, params: &FrameParams, q: u16, z: u8) -> u8 {
+        let last = (LUT_ROWS - 1) as i32;
+        // q < 2^16 and gain < 2^14: the product fits in i32.
+        let v = ((i32::from(q) * params.gain_q) >> GAIN_BITS) + params.offset_q;
+        let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
+        self.lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)]
     }
 
     /// Gain, offset, noise and gamma: linear light in 1/16 DN steps to 8-bit values.
     #[inline]
     fn emit(&self, params: &FrameParams, light: &[u16], noise: &[u8], line: &mut [u8]) {
-        let last = (LUT_ROWS - 1) as i32;
-        let (gain, offset) = (params.gain_q, params.offset_q);
-        let lut = &self.lut[..LUT_ROWS * NOISE_LEVELS];
         for ((&q, &z), byte) in light.iter().zip(noise).zip(line.iter_mut()) {
-            // q < 2^16 and gain < 2^14: the product fits in i32.
-            let v = ((i32::from(q) * gain) >> GAIN_BITS) + offset;
-            let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
-            *byte = lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)];
+            *byte = self.output(params, q, z);
         }
     }
 }
