@@ -276,10 +276,8 @@ impl ContactMap<'_> {
 /// Per-frame settings shared by the worker threads.
 struct FrameParams<'a> {
     contact: Option<ContactMap<'a>>,
-    /// Gain times 2^GAIN_BITS.
-    gain_q: i32,
-    /// Offset in 1/16 DN steps.
-    offset_q: i32,
+    /// This frame's output table: (light row before gain and offset, noise level) to 8 bits.
+    lut: &'a [u8],
     noise_seed: u64,
 }
 
@@ -297,6 +295,8 @@ pub struct Renderer {
     noise: Vec<u8>,
     /// 8-bit output for (light row, noise level): noise sigma^2 = a I + b, then gamma.
     lut: Vec<u8>,
+    /// `lut` with this frame's gain and offset folded in (rebuilt per frame).
+    frame_lut: Vec<u8>,
     drift: Drift,
     /// Pixels where the contact changes the fringe order and its spread by less than this many
     /// fringes keep the unloaded background (0 = compute every lit pixel).
@@ -362,6 +362,7 @@ impl Renderer {
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
             noise,
             lut,
+            frame_lut: vec![0; LUT_ROWS * NOISE_LEVELS],
             drift: Drift::new(&config),
             skip_below: SKIP_BELOW_FRINGES,
             config,
@@ -426,6 +427,24 @@ impl Renderer {
             ],
             [o[0] as f32, o[1] as f32],
         )
+    }
+
+    /// `contact` mapped onto the image with `field`, for one frame.
+    fn contact_map<'a>(&self, c: &Contact, field: &'a PackedField) -> ContactMap<'a> {
+        let (a, b) = self.contact_affine(c);
+        let force = c.force.0.max(0.0) as f32;
+        let spread = force * self.blur_sigma_mm as f32;
+        let reach = field.reach_mm(force, spread, self.skip_below);
+        let [pu, pv] = self.geometry.to_pixel(c.x.0, c.y.0);
+        ContactMap {
+            field,
+            a,
+            b,
+            force,
+            spread,
+            centre_px: [pu as f32, pv as f32],
+            reach_px: reach * self.geometry.px_per_mm as f32 + 2.0,
+        }
     }
 
     /// Fringe order F N_unit caused by `contact` at every pixel (row-major, no residual
@@ -526,11 +545,21 @@ impl Renderer {
     /// level `z`, to an 8-bit value.
     #[inline(always)]
     fn output(&self, params: &FrameParams, q: u16, z: u8) -> u8 {
+        let row = usize::from(q >> LUT_ROW_SHIFT).min(LUT_ROWS - 1);
+        params.lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)]
+    }
+
+    /// Folds gain and offset into the output table: row r (light r * 4 / 16 DN before them)
+    /// reads the gamma/noise row of the light after them.
+    fn fold_gain(&mut self, gain_q: i32, offset_q: i32) {
         let last = (LUT_ROWS - 1) as i32;
-        // q < 2^16 and gain < 2^14: the product fits in i32.
-        let v = ((i32::from(q) * params.gain_q) >> GAIN_BITS) + params.offset_q;
-        let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
-        self.lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)]
+        for (r, out) in self.frame_lut.chunks_exact_mut(NOISE_LEVELS).enumerate() {
+            // r < 2^11, so q < 2^13 and the product with gain < 2^14 fits in i32.
+            let q = (r << LUT_ROW_SHIFT) as i32;
+            let v = ((q * gain_q) >> GAIN_BITS) + offset_q;
+            let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
+            out.copy_from_slice(&self.lut[row * NOISE_LEVELS..(row + 1) * NOISE_LEVELS]);
+        }
     }
 
     /// Gain, offset, noise and gamma: linear light in 1/16 DN steps to 8-bit values.
@@ -579,27 +608,14 @@ impl FrameRenderer for Renderer {
         let (w, h) = (self.background.width(), self.background.height());
         out.resize(w * h * 3, 0);
         let field = scene.contact.map(|c| (c, self.field(&c.shape)));
-        let contact = field.as_ref().map(|(c, field)| {
-            let (a, b) = self.contact_affine(c);
-            let force = c.force.0.max(0.0) as f32;
-            let spread = force * self.blur_sigma_mm as f32;
-            let reach = field.reach_mm(force, spread, self.skip_below);
-            let [pu, pv] = self.geometry.to_pixel(c.x.0, c.y.0);
-            ContactMap {
-                field,
-                a,
-                b,
-                force,
-                spread,
-                centre_px: [pu as f32, pv as f32],
-                reach_px: reach * self.geometry.px_per_mm as f32 + 2.0,
-            }
-        });
         let (gain, offset) = self.drift.at(frame_index);
+        let gain_q = (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32;
+        let offset_q = (offset * LIGHT_STEPS_PER_DN).round() as i32;
+        self.fold_gain(gain_q, offset_q);
+        let contact = field.as_ref().map(|(c, field)| self.contact_map(c, field));
         let params = FrameParams {
             contact,
-            gain_q: (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32,
-            offset_q: (offset * LIGHT_STEPS_PER_DN).round() as i32,
+            lut: &self.frame_lut,
             noise_seed: self.config.seed ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
         };
         let threads = self.config.threads.min(h).max(1);
