@@ -16,7 +16,8 @@
 //!   ambient light.
 //!
 //! Residual casting birefringence is a smooth field in the sensor frame: a sum of three random
-//! low-frequency plane waves scaled to mean `residual_birefringence` and +-40 % around it.
+//! low-frequency plane waves scaled to mean `residual_birefringence` and +-40 % around it,
+//! sampled at the centre of each 2x2 pixel block (the renderer's half-resolution grid).
 
 use super::blurred_colour::BlurredColourTable;
 use super::sensor::{SensorConfig, SensorGeometry};
@@ -26,6 +27,68 @@ pub const LED_COLOUR: [f32; 3] = [0.92, 0.97, 1.0];
 
 /// Logistic slope that makes 1 / (1 + exp(-k x)) a close approximation of the normal CDF.
 const LOGISTIC_NORMAL: f64 = 1.702;
+
+/// Light is carried in 1/16 DN steps between the background and the output stage.
+pub const LIGHT_STEPS_PER_DN: f32 = 16.0;
+
+/// `light` (DN) in 1/16 DN steps, as stored for the unloaded sensor.
+#[inline]
+pub fn quantise_light(light: f32) -> u16 {
+    // `as` saturates: negative light reads 0, overflow 65535.
+    (light * LIGHT_STEPS_PER_DN + 0.5) as u16
+}
+
+/// The blurred colour table packed for the per-pixel loop: `f32` nodes, bilinear lookup.
+#[derive(Debug, Clone)]
+pub struct PackedColours {
+    columns: usize,
+    rows: usize,
+    order_scale: f32,
+    sigma_scale: f32,
+    /// Row-major RGB at (order column, sigma row).
+    data: Vec<[f32; 3]>,
+}
+
+impl PackedColours {
+    /// Samples `table` at `columns` x `rows` nodes over its full range.
+    pub fn new(table: &BlurredColourTable, columns: usize, rows: usize) -> PackedColours {
+        let (columns, rows) = (columns.max(2), rows.max(2));
+        let mut data = Vec::with_capacity(columns * rows);
+        for j in 0..rows {
+            let sigma = table.max_sigma() * j as f64 / (rows - 1) as f64;
+            for i in 0..columns {
+                let order = table.max_order() * i as f64 / (columns - 1) as f64;
+                data.push(table.lookup(order, sigma));
+            }
+        }
+        PackedColours {
+            columns,
+            rows,
+            order_scale: ((columns - 1) as f64 / table.max_order()) as f32,
+            sigma_scale: ((rows - 1) as f64 / table.max_sigma()) as f32,
+            data,
+        }
+    }
+
+    /// Colour at fringe order `order` spread over `sigma` orders (both clamped to the table).
+    #[inline]
+    pub fn lookup(&self, order: f32, sigma: f32) -> [f32; 3] {
+        let u = (order * self.order_scale).clamp(0.0, (self.columns - 1) as f32 - 1e-3);
+        let v = (sigma * self.sigma_scale).clamp(0.0, (self.rows - 1) as f32 - 1e-3);
+        let (i, j) = (u as usize, v as usize);
+        let (fu, fv) = (u - i as f32, v - j as f32);
+        let k = j * self.columns + i;
+        let (a, b) = (self.data[k], self.data[k + 1]);
+        let (c, d) = (self.data[k + self.columns], self.data[k + self.columns + 1]);
+        let mut out = [0.0f32; 3];
+        for ch in 0..3 {
+            let top = a[ch] + (b[ch] - a[ch]) * fu;
+            let bottom = c[ch] + (d[ch] - c[ch]) * fu;
+            out[ch] = top + (bottom - top) * fv;
+        }
+        out
+    }
+}
 
 /// Light below this illumination (DN) is treated as outside the disc.
 pub const DARK_DN: f32 = 0.01;
@@ -65,18 +128,18 @@ pub struct Background {
     glow: Vec<f32>,
     /// Residual fringe order.
     residual: Vec<f32>,
-    /// Linear light of the unloaded sensor.
-    unloaded: Vec<[f32; 3]>,
+    /// Linear light of the unloaded sensor, interleaved RGB in 1/16 DN steps.
+    unloaded: Vec<u16>,
     /// Per row, the columns [start, end) with illumination above [`DARK_DN`].
     spans: Vec<(usize, usize)>,
 }
 
 impl Background {
-    /// Builds the unloaded image of `config` seen through `geometry`, colours from `table`.
+    /// Builds the unloaded image of `config` seen through `geometry`, colours from `colours`.
     pub fn new(
         config: &SensorConfig,
         geometry: &SensorGeometry,
-        table: &BlurredColourTable,
+        colours: &PackedColours,
     ) -> Background {
         let (width, height) = (
             config.geometry.width as usize,
@@ -118,10 +181,10 @@ impl Background {
         add_hot_spots(config, geometry, blur_sigma, width, height, &mut glow);
 
         let residual = residual_field(config, geometry, width, height, &spans);
-        let mut unloaded = Vec::with_capacity(width * height);
+        let mut unloaded = Vec::with_capacity(3 * width * height);
         for k in 0..width * height {
-            let rgb = table.lookup(f64::from(residual[k]), 0.0);
-            unloaded.push(pixel_light(illumination[k], rgb, glow[k]));
+            let rgb = colours.lookup(residual[k], 0.0);
+            unloaded.extend(pixel_light(illumination[k], rgb, glow[k]).map(quantise_light));
         }
         Background {
             width,
@@ -154,16 +217,23 @@ impl Background {
         self.glow[k]
     }
 
+    /// Row `j`'s illumination and glow, DN.
+    #[inline]
+    pub fn row_terms(&self, j: usize) -> (&[f32], &[f32]) {
+        let range = j * self.width..(j + 1) * self.width;
+        (&self.illumination[range.clone()], &self.glow[range])
+    }
+
     /// Residual fringe order at pixel index `k`.
     #[inline]
     pub fn residual(&self, k: usize) -> f32 {
         self.residual[k]
     }
 
-    /// Linear light of the unloaded sensor at pixel index `k`.
+    /// Linear light of the unloaded sensor, interleaved RGB in 1/16 DN steps.
     #[inline]
-    pub fn unloaded(&self, k: usize) -> [f32; 3] {
-        self.unloaded[k]
+    pub fn unloaded(&self) -> &[u16] {
+        &self.unloaded
     }
 
     /// Row `j`'s lit columns [start, end).
@@ -234,9 +304,16 @@ fn residual_field(
             [k * direction.cos(), k * direction.sin(), phase]
         })
         .collect();
-    for (j, &(start, end)) in spans.iter().enumerate() {
+    for j in 0..height {
+        // Every pixel of a block with a lit pixel: the renderer reads the block's top-left value.
+        let top = j & !1;
+        let (s0, e0) = spans[top];
+        let (s1, e1) = spans[(top + 1).min(height - 1)];
+        let (start, end) = (s0.min(s1).saturating_sub(1), (e0.max(e1) + 1).min(width));
         for i in start..end {
-            let [x, y] = geometry.to_sensor(i as f64 + 0.5, j as f64 + 0.5);
+            // At the centre of the pixel's 2x2 block: the renderer samples colours per block.
+            let (bu, bv) = ((i & !1) as f64 + 1.0, (j & !1) as f64 + 1.0);
+            let [x, y] = geometry.to_sensor(bu, bv);
             let s: f64 = waves
                 .iter()
                 .map(|w| (w[0] * x + w[1] * y + w[2]).cos())

@@ -7,10 +7,12 @@
 //! table. Spheres change their Hertz contact radius with force: their fields are computed on first
 //! use and cached by the contact radius rounded to [`SPHERE_RADIUS_STEP_MM`].
 //!
-//! Per frame, for every lit pixel: map the pixel centre to the indenter frame (inverse of the
-//! [`SensorGeometry`], then the contact's offset and rotation), N = F N_unit + N_residual,
+//! Per frame, at half resolution (one sample per 2x2 block of lit pixels, at the block centre):
+//! map the point to the indenter frame (inverse of the [`SensorGeometry`], then the contact's
+//! offset and rotation), N = F N_unit + N_residual,
 //! sigma_N = F |grad N_unit| sigma_blur with sigma_blur the defocus Gaussian (blur / 2) combined
-//! with the pixel footprint ([`PIXEL_SIGMA_PX`]), colour from the table; then gain drift, LED
+//! with the pixel footprint ([`PIXEL_SIGMA_PX`]), colour from the table; at full resolution that
+//! colour times the pixel's illumination plus its glow; then gain drift, LED
 //! flicker, offset drift, Poisson-Gaussian noise (variance a I + b, from a random place in the
 //! noise tile) and the gamma table. Rows are split across `threads` scoped threads. The same seed,
 //! scene and frame index give the same bytes.
@@ -18,7 +20,9 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use super::background::{pixel_light, splitmix64, uniform, Background};
+use super::background::{
+    pixel_light, quantise_light, splitmix64, uniform, Background, PackedColours, LIGHT_STEPS_PER_DN,
+};
 use super::blurred_colour::BlurredColourTable;
 use super::colour::Polariser;
 use super::fringe_field::FringeField;
@@ -33,12 +37,24 @@ pub const SPHERE_RADIUS_STEP_MM: f64 = 0.05;
 /// fringes from aliasing in sharp frames.
 pub const PIXEL_SIGMA_PX: f64 = 0.3;
 
-/// Gamma table steps per DN, and its length (linear light 0..512 DN).
-const LUT_STEPS_PER_DN: f32 = 8.0;
-const LUT_LEN: usize = 4096;
+/// Output table rows: linear light 0..512 DN in 1/4 DN steps.
+const LUT_ROWS: usize = 2048;
+/// Light steps (1/16 DN) per output table row.
+const LUT_ROW_SHIFT: u32 = 2;
+
+/// Noise levels: a tile sample z in 0..32 stands for (z - 15.5) / 4 standard deviations
+/// (+-3.9 sigma in quarter-sigma steps, finer than the 8-bit output for every noise level).
+const NOISE_LEVELS: usize = 32;
+const NOISE_LEVEL_BITS: u32 = 5;
+
+/// Gain is applied in fixed point with this many fractional bits.
+const GAIN_BITS: u32 = 12;
 
 /// Noise tile length (Gaussian samples).
 const NOISE_TILE: usize = 1 << 21;
+
+/// Default `Renderer::skip_below`: 0.002 fringe changes a colour by well under 1 DN.
+const SKIP_BELOW_FRINGES: f32 = 0.002;
 
 /// Most fields kept in the cache (flat punches and spheres together).
 const FIELD_CACHE_LIMIT: usize = 96;
@@ -52,6 +68,9 @@ struct PackedField {
     last: f32,
     /// Row-major [N_unit, |grad N_unit|] at 1 N for this sensor's f_sigma.
     data: Vec<[f32; 2]>,
+    cell_mm: f32,
+    /// Largest N_unit and largest |grad N_unit| at or beyond k cells from the centre.
+    beyond: Vec<[f32; 2]>,
 }
 
 impl PackedField {
@@ -66,13 +85,45 @@ impl PackedField {
                 ]);
             }
         }
+        let half = n / 2;
+        let mut beyond = vec![[0.0f32; 2]; n + 1];
+        for j in 0..n {
+            for i in 0..n {
+                let d = (i as f64 - half as f64)
+                    .hypot(j as f64 - half as f64)
+                    .floor() as usize;
+                let [v, g] = data[j * n + i];
+                let slot = &mut beyond[d.min(n)];
+                slot[0] = slot[0].max(v);
+                slot[1] = slot[1].max(g);
+            }
+        }
+        for k in (0..n).rev() {
+            beyond[k][0] = beyond[k][0].max(beyond[k + 1][0]);
+            beyond[k][1] = beyond[k][1].max(beyond[k + 1][1]);
+        }
         PackedField {
             n,
             inv_cell: (1.0 / field.cell_mm()) as f32,
-            half: (n / 2) as f32,
+            half: half as f32,
             last: (n - 1) as f32,
             data,
+            cell_mm: field.cell_mm() as f32,
+            beyond,
         }
+    }
+
+    /// Distance from the indenter centre (mm) beyond which `force` changes the fringe order and
+    /// its spread (`spread` = force * blur sigma) by less than `threshold`; infinite when the
+    /// field never falls that low on the grid (it is clamped at the grid edge).
+    fn reach_mm(&self, force: f32, spread: f32, threshold: f32) -> f32 {
+        let below = |b: &[f32; 2]| force * b[0] < threshold && spread * b[1] < threshold;
+        // `beyond` falls with k: find the first k whose tail is below the threshold.
+        if !below(&self.beyond[self.n - 1]) {
+            return f32::INFINITY;
+        }
+        let k = self.beyond.partition_point(|b| !below(b));
+        (k as f32 + 1.5) * self.cell_mm
     }
 
     /// Bilinear [N_unit, |grad N_unit|] at (x, y) mm in the indenter frame; the grid edge beyond.
@@ -179,8 +230,10 @@ impl Drift {
         let t = frame as f64;
         let mut state = self.seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xF11C;
         let flicker = (self.flicker * standard_normal(&mut state)).clamp(-0.05, 0.05);
-        let gain =
-            (1.0 + self.gain_amplitude * Self::smooth(&self.gain_waves, t)) * (1.0 + flicker);
+        // Clamped so the fixed-point gain of the output stage cannot overflow.
+        let gain = ((1.0 + self.gain_amplitude * Self::smooth(&self.gain_waves, t))
+            * (1.0 + flicker))
+            .clamp(0.0, 3.9);
         let offset = self.offset_amplitude * Self::smooth(&self.offset_waves, t);
         (gain as f32, offset as f32)
     }
@@ -203,13 +256,16 @@ struct ContactMap<'a> {
     force: f32,
     /// force * sigma_blur (mm): sigma_N = this * |grad N_unit|.
     spread: f32,
+    /// Image position of the indenter centre, px, and the radius beyond which the contact
+    /// changes nothing visible (see `Renderer::skip_below`).
+    centre_px: [f32; 2],
+    reach_px: f32,
 }
 
 impl ContactMap<'_> {
-    /// [F N_unit, sigma_N] at pixel (i, j).
+    /// [F N_unit, sigma_N] at image position (u, v) px.
     #[inline]
-    fn at(&self, i: usize, j: usize) -> [f32; 2] {
-        let (u, v) = (i as f32 + 0.5, j as f32 + 0.5);
+    fn at_point(&self, u: f32, v: f32) -> [f32; 2] {
         let x = self.a[0][0] * u + self.a[0][1] * v + self.b[0];
         let y = self.a[1][0] * u + self.a[1][1] * v + self.b[1];
         let [n, g] = self.field.sample(x, y);
@@ -220,8 +276,8 @@ impl ContactMap<'_> {
 /// Per-frame settings shared by the worker threads.
 struct FrameParams<'a> {
     contact: Option<ContactMap<'a>>,
-    gain: f32,
-    offset: f32,
+    /// This frame's output table: (light row before gain and offset, noise level) to 8 bits.
+    lut: &'a [u8],
     noise_seed: u64,
 }
 
@@ -229,17 +285,22 @@ struct FrameParams<'a> {
 pub struct Renderer {
     config: SensorConfig,
     geometry: SensorGeometry,
-    table: Arc<BlurredColourTable>,
+    colours: PackedColours,
     background: Background,
     fields: HashMap<FieldKey, Arc<PackedField>>,
     /// 1 / f_sigma scale applied to fields computed at f_sigma = 1 N/m.
     f_sigma_n_per_m: f64,
     blur_sigma_mm: f64,
-    noise: Vec<f32>,
-    noise_a: f32,
-    noise_b: f32,
+    /// Noise levels 0..NOISE_LEVELS (the middle two are +-1/8 sigma).
+    noise: Vec<u8>,
+    /// 8-bit output for (light row, noise level): noise sigma^2 = a I + b, then gamma.
     lut: Vec<u8>,
+    /// `lut` with this frame's gain and offset folded in (rebuilt per frame).
+    frame_lut: Vec<u8>,
     drift: Drift,
+    /// Pixels where the contact changes the fringe order and its spread by less than this many
+    /// fringes keep the unloaded background (0 = compute every lit pixel).
+    skip_below: f32,
 }
 
 impl Renderer {
@@ -256,7 +317,8 @@ impl Renderer {
             Polariser::Ideal
         };
         let table = colour_table(polariser);
-        let background = Background::new(&config, &geometry, &table);
+        let colours = PackedColours::new(&table, 1024, 65);
+        let background = Background::new(&config, &geometry, &colours);
 
         let rectangle_unit = unit_field(&config, &config.rectangle());
         let f_sigma_n_per_m = if config.layer.target_fringes > 0.0 {
@@ -273,27 +335,36 @@ impl Renderer {
         );
         let noise_len = (3 * w * h).min(NOISE_TILE) + 3 * w + 1;
         let noise = (0..noise_len)
-            .map(|_| standard_normal(&mut state) as f32)
-            .collect();
-        let inv_gamma = 1.0 / config.optics.gamma;
-        let lut = (0..LUT_LEN)
-            .map(|k| {
-                let linear = (k as f64 / f64::from(LUT_STEPS_PER_DN) / 255.0).min(1.0);
-                (255.0 * linear.powf(inv_gamma)).round() as u8
+            .map(|_| {
+                let z = standard_normal(&mut state) * 4.0 + 16.0;
+                z.clamp(0.0, (NOISE_LEVELS - 1) as f64) as u8
             })
             .collect();
+        let (a, b) = (config.noise.poisson_a, config.noise.gaussian_b);
+        let inv_gamma = 1.0 / config.optics.gamma;
+        let row_dn = f64::from(1u32 << LUT_ROW_SHIFT) / f64::from(LIGHT_STEPS_PER_DN);
+        let mut lut = Vec::with_capacity(LUT_ROWS * NOISE_LEVELS);
+        for row in 0..LUT_ROWS {
+            let light = row as f64 * row_dn;
+            let sigma = (a * light + b).sqrt();
+            for level in 0..NOISE_LEVELS {
+                let z = (level as f64 - 15.5) / 4.0;
+                let linear = ((light + sigma * z) / 255.0).clamp(0.0, 1.0);
+                lut.push((255.0 * linear.powf(inv_gamma)).round() as u8);
+            }
+        }
         let mut renderer = Renderer {
             geometry,
-            table,
+            colours,
             background,
             fields: HashMap::new(),
             f_sigma_n_per_m,
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
             noise,
-            noise_a: config.noise.poisson_a as f32,
-            noise_b: config.noise.gaussian_b as f32,
             lut,
+            frame_lut: vec![0; LUT_ROWS * NOISE_LEVELS],
             drift: Drift::new(&config),
+            skip_below: SKIP_BELOW_FRINGES,
             config,
         };
         let (key, _) = field_key(&renderer.config.rectangle());
@@ -358,8 +429,27 @@ impl Renderer {
         )
     }
 
+    /// `contact` mapped onto the image with `field`, for one frame.
+    fn contact_map<'a>(&self, c: &Contact, field: &'a PackedField) -> ContactMap<'a> {
+        let (a, b) = self.contact_affine(c);
+        let force = c.force.0.max(0.0) as f32;
+        let spread = force * self.blur_sigma_mm as f32;
+        let reach = field.reach_mm(force, spread, self.skip_below);
+        let [pu, pv] = self.geometry.to_pixel(c.x.0, c.y.0);
+        ContactMap {
+            field,
+            a,
+            b,
+            force,
+            spread,
+            centre_px: [pu as f32, pv as f32],
+            reach_px: reach * self.geometry.px_per_mm as f32 + 2.0,
+        }
+    }
+
     /// Fringe order F N_unit caused by `contact` at every pixel (row-major, no residual
-    /// birefringence): the values the frame's colours are looked up at.
+    /// birefringence): the values the frame's colours are looked up at, i.e. at the centre of
+    /// each pixel's 2x2 block.
     pub fn fringe_order_map(&mut self, contact: &Contact) -> Vec<f32> {
         let field = self.field(&contact.shape);
         let (a, b) = self.contact_affine(contact);
@@ -369,12 +459,15 @@ impl Renderer {
             b,
             force: contact.force.0 as f32,
             spread: 0.0,
+            centre_px: [0.0, 0.0],
+            reach_px: f32::INFINITY,
         };
         let (w, h) = (self.background.width(), self.background.height());
         let mut out = Vec::with_capacity(w * h);
         for j in 0..h {
             for i in 0..w {
-                out.push(map.at(i, j)[0]);
+                let (u, v) = ((i & !1) as f32 + 1.0, (j & !1) as f32 + 1.0);
+                out.push(map.at_point(u, v)[0]);
             }
         }
         out
@@ -383,41 +476,97 @@ impl Renderer {
     /// Renders rows `rows` into `out` (exactly those rows' bytes).
     fn render_rows(&self, params: &FrameParams, rows: std::ops::Range<usize>, out: &mut [u8]) {
         let w = self.background.width();
-        let noisy = self.noise_a > 0.0 || self.noise_b > 0.0;
+        let unloaded = self.background.unloaded();
+        // Fringe colours of the 2x2 blocks of the current row pair.
+        let mut block_rgb = vec![[0.0f32; 3]; w.div_ceil(2)];
+        let h = self.background.height();
         for (r, j) in rows.enumerate() {
             let line = &mut out[r * w * 3..(r + 1) * w * 3];
-            let (start, end) = match params.contact {
-                Some(_) => self.background.span(j),
-                None => (0, 0),
-            };
+            let row_light = &unloaded[3 * j * w..3 * (j + 1) * w];
             let mut state = params.noise_seed ^ (j as u64).wrapping_mul(0xA24B_AED4_963E_E407);
             let tile_start = (splitmix64(&mut state) % (self.noise.len() - 3 * w) as u64) as usize;
             let noise = &self.noise[tile_start..tile_start + 3 * w];
-            for i in 0..w {
-                let k = j * w + i;
-                let light = match params.contact {
-                    Some(map) if i >= start && i < end => {
-                        let [n, sigma] = map.at(i, j);
-                        let order = n + self.background.residual(k);
-                        let rgb = self.table.lookup(f64::from(order), f64::from(sigma));
-                        pixel_light(
-                            self.background.illumination(k),
-                            rgb,
-                            self.background.glow(k),
-                        )
-                    }
-                    _ => self.background.unloaded(k),
-                };
-                for ch in 0..3 {
-                    let mut v = light[ch] * params.gain + params.offset;
-                    if noisy {
-                        let variance = (self.noise_a * v + self.noise_b).max(0.0);
-                        v += variance.sqrt() * noise[3 * i + ch];
-                    }
-                    let index = (v * LUT_STEPS_PER_DN + 0.5).clamp(0.0, (LUT_LEN - 1) as f32);
-                    line[3 * i + ch] = self.lut[index as usize];
+            // The lit columns of row `row` within the contact's reach.
+            let reach = |map: &ContactMap, row: usize| {
+                let (start, end) = self.background.span(row);
+                let dv = (row as f32 + 0.5 - map.centre_px[1]).abs();
+                if dv > map.reach_px {
+                    return (start, start);
                 }
+                let du = (map.reach_px * map.reach_px - dv * dv).sqrt();
+                let lo = (map.centre_px[0] - du).floor().max(0.0);
+                let hi = (map.centre_px[0] + du).ceil().max(0.0);
+                let lo = if lo.is_finite() { lo as usize } else { 0 };
+                let hi = if hi.is_finite() {
+                    hi as usize
+                } else {
+                    usize::MAX
+                };
+                let (s, e) = (start.max(lo), end.min(hi));
+                (s, e.max(s))
+            };
+            match params.contact {
+                Some(map) => {
+                    let (start, end) = reach(&map, j);
+                    if j % 2 == 0 || r == 0 {
+                        // Half resolution: one field sample and colour per 2x2 block, at its
+                        // centre, over the lit columns of both rows of the pair.
+                        let top = j & !1;
+                        let (s0, e0) = reach(&map, top);
+                        let (s1, e1) = reach(&map, (top + 1).min(h - 1));
+                        let (first, last) = (s0.min(s1) / 2, e0.max(e1).div_ceil(2));
+                        for (b, rgb) in block_rgb.iter_mut().enumerate().take(last).skip(first) {
+                            let i = 2 * b;
+                            let [n, sigma] = map.at_point(i as f32 + 1.0, top as f32 + 1.0);
+                            let residual = self.background.residual(top * w + i);
+                            *rgb = self.colours.lookup(n + residual, sigma);
+                        }
+                    }
+                    let (a, b) = (3 * start, 3 * end);
+                    self.emit(params, &row_light[..a], &noise[..a], &mut line[..a]);
+                    let (illumination, glow) = self.background.row_terms(j);
+                    let pixels = line[a..b]
+                        .chunks_exact_mut(3)
+                        .zip(noise[a..b].chunks_exact(3));
+                    for (i, (px, z)) in (start..end).zip(pixels) {
+                        let lit = pixel_light(illumination[i], block_rgb[i / 2], glow[i]);
+                        for ch in 0..3 {
+                            px[ch] = self.output(params, quantise_light(lit[ch]), z[ch]);
+                        }
+                    }
+                    self.emit(params, &row_light[b..], &noise[b..], &mut line[b..]);
+                }
+                None => self.emit(params, row_light, noise, line),
             }
+        }
+    }
+
+    /// Gain, offset, noise and gamma of one value: linear light `q` in 1/16 DN steps, noise
+    /// level `z`, to an 8-bit value.
+    #[inline(always)]
+    fn output(&self, params: &FrameParams, q: u16, z: u8) -> u8 {
+        let row = usize::from(q >> LUT_ROW_SHIFT).min(LUT_ROWS - 1);
+        params.lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)]
+    }
+
+    /// Folds gain and offset into the output table: row r (light r * 4 / 16 DN before them)
+    /// reads the gamma/noise row of the light after them.
+    fn fold_gain(&mut self, gain_q: i32, offset_q: i32) {
+        let last = (LUT_ROWS - 1) as i32;
+        for (r, out) in self.frame_lut.chunks_exact_mut(NOISE_LEVELS).enumerate() {
+            // r < 2^11, so q < 2^13 and the product with gain < 2^14 fits in i32.
+            let q = (r << LUT_ROW_SHIFT) as i32;
+            let v = ((q * gain_q) >> GAIN_BITS) + offset_q;
+            let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
+            out.copy_from_slice(&self.lut[row * NOISE_LEVELS..(row + 1) * NOISE_LEVELS]);
+        }
+    }
+
+    /// Gain, offset, noise and gamma: linear light in 1/16 DN steps to 8-bit values.
+    #[inline]
+    fn emit(&self, params: &FrameParams, light: &[u16], noise: &[u8], line: &mut [u8]) {
+        for ((&q, &z), byte) in light.iter().zip(noise).zip(line.iter_mut()) {
+            *byte = self.output(params, q, z);
         }
     }
 }
@@ -459,26 +608,19 @@ impl FrameRenderer for Renderer {
         let (w, h) = (self.background.width(), self.background.height());
         out.resize(w * h * 3, 0);
         let field = scene.contact.map(|c| (c, self.field(&c.shape)));
-        let contact = field.as_ref().map(|(c, field)| {
-            let (a, b) = self.contact_affine(c);
-            let force = c.force.0.max(0.0);
-            ContactMap {
-                field,
-                a,
-                b,
-                force: force as f32,
-                spread: (force * self.blur_sigma_mm) as f32,
-            }
-        });
         let (gain, offset) = self.drift.at(frame_index);
+        let gain_q = (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32;
+        let offset_q = (offset * LIGHT_STEPS_PER_DN).round() as i32;
+        self.fold_gain(gain_q, offset_q);
+        let contact = field.as_ref().map(|(c, field)| self.contact_map(c, field));
         let params = FrameParams {
             contact,
-            gain,
-            offset,
+            lut: &self.frame_lut,
             noise_seed: self.config.seed ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
         };
         let threads = self.config.threads.min(h).max(1);
-        let rows_per = h.div_ceil(threads);
+        // Even, so that no 2x2 block straddles two threads.
+        let rows_per = h.div_ceil(threads).next_multiple_of(2);
         let this = &*self;
         std::thread::scope(|scope| {
             let mut chunks = out.chunks_mut(rows_per * w * 3).enumerate();
@@ -579,6 +721,8 @@ mod tests {
     #[test]
     fn zero_force_gives_exactly_the_unloaded_background() {
         let mut r = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+        // Compute every lit pixel (not only those within the contact's reach).
+        r.skip_below = 0.0;
         let empty = render(&mut r, None, 17);
         let shape = r.config().rectangle();
         let zero = render(&mut r, Some(contact(shape, 0.0, 5.0, 3.0, 20.0)), 17);
@@ -612,7 +756,7 @@ mod tests {
         for (i, j) in disc_pixels(&r, 0.8) {
             let k = j * w + i;
             let order = three[k] + r.background.residual(k);
-            let rgb = r.table.lookup(f64::from(order), 0.0);
+            let rgb = r.colours.lookup(order, 0.0);
             let light = pixel_light(r.background.illumination(k), rgb, r.background.glow(k));
             let expected = (light[0] + light[1] + light[2]) / 3.0;
             diffs.push((grey(&img, w, i, j) - f64::from(expected)).abs());
@@ -655,7 +799,9 @@ mod tests {
                 "{}: rotated vs image rotated {diff} DN, unrotated {base} DN",
                 r.config().id
             );
-            assert!(diff < 0.12 * base && diff < 2.0, "{diff} vs {base}");
+            // Half-resolution sampling (2x2 blocks) is not rotation invariant: its error counts
+            // as interpolation error here.
+            assert!(diff < 0.2 * base && diff < 4.0, "{diff} vs {base}");
         }
     }
 

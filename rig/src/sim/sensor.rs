@@ -44,7 +44,7 @@ pub struct LayerConfig {
     pub bottom_mm: f64,
     /// Poisson's ratio of the gel (default 0.49).
     pub nu: f64,
-    /// Material fringe value f_sigma, N/m per fringe (default 28 layered, 40 integrated). Ignored
+    /// Material fringe value f_sigma, N/m per fringe (default 28 layered, 70 integrated). Ignored
     /// when `target_fringes` is above 0.
     pub f_sigma_n_per_m: f64,
     /// When above 0: choose f_sigma so that the rectangle at `target_force_n` reaches this largest
@@ -116,9 +116,9 @@ pub struct LedConfig {
     pub count: u32,
     /// Radius of the hot spots relative to the disc radius (default 1.02).
     pub radius_factor: f64,
-    /// Full width at half maximum of a hot spot, px (default 25).
+    /// Full width at half maximum of a hot spot, px (default 30).
     pub width_px: f64,
-    /// Peak added brightness, DN (default 120).
+    /// Peak added brightness, DN (default 150).
     pub strength_dn: f64,
     /// Angle of the first LED in the sensor frame, degrees (default 7.5).
     pub phase_deg: f64,
@@ -246,8 +246,8 @@ impl SensorConfig {
             leds: LedConfig {
                 count: 12,
                 radius_factor: 1.02,
-                width_px: 25.0,
-                strength_dn: 120.0,
+                width_px: 30.0,
+                strength_dn: 150.0,
                 phase_deg: 7.5,
             },
             noise: NoiseConfig {
@@ -276,7 +276,7 @@ impl SensorConfig {
         c.id = "integrated-1".into();
         c.variant = Variant::Integrated;
         c.layer.bottom_mm = 20.0;
-        c.layer.f_sigma_n_per_m = 40.0;
+        c.layer.f_sigma_n_per_m = 70.0;
         c.optics.blur_px = 3.0;
         c.optics.residual_birefringence = 0.15;
         c.geometry.disc_radius_px = 550.0;
