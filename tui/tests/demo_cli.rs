@@ -42,6 +42,11 @@ fn the_demo_writes_a_verified_run_with_truthful_labels() {
         "{}",
         String::from_utf8_lossy(&verify.stdout)
     );
+    let truth = std::fs::read_to_string(run.join("truth.jsonl")).expect("ground truth");
+    assert!(
+        truth.lines().any(|l| l.contains("\"kind\":\"frame\"")),
+        "no frame truth"
+    );
     let frames = std::fs::read_to_string(run.join("frames.jsonl")).expect("frames");
     assert!(frames.lines().count() >= 5, "{frames}");
     assert!(frames.contains("\"shape\":\"pentagon\""), "{frames}");

@@ -340,6 +340,14 @@ pub fn run_demo(
         lost_force_samples: stats.lost,
         points_done: plan.points.len() as u64,
     };
+    // The simulator's ground truth goes into the run (a simulated run can be scored later).
+    let truth_path = writer.dir().join("truth.jsonl");
+    let mut lines = String::new();
+    for r in truth.records() {
+        lines.push_str(&r.to_json());
+        lines.push('\n');
+    }
+    crate::store::run_writer::write_atomic(&truth_path, lines.as_bytes())?;
     let run_dir_done = writer.finish(&stop)?;
     debug_assert_eq!(run_dir_done, run_dir);
 
