@@ -1,5 +1,8 @@
 //! `fringe runs` and `fringe verify` on run directories written by the run store.
 
+mod common;
+
+use common::{fringe, text};
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::store::documents::{
@@ -8,22 +11,6 @@ use fringe_rig::store::documents::{
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn fringe(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe"))
-        .args(args)
-        .output()
-        .expect("run fringe")
-}
-
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
 
 fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
     let start = StartDocument {

@@ -1,24 +1,12 @@
 //! `fringe sim serve` in one process, driven by fringe's own bring-up commands in others, through
 //! the endpoints it prints.
 
+mod common;
+
+use common::{fringe, text};
 use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Output, Stdio};
-
-fn fringe(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe"))
-        .args(args)
-        .output()
-        .expect("run fringe")
-}
-
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
+use std::process::{Child, Command, Stdio};
 
 struct Serve(Child);
 

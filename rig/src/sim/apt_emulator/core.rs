@@ -718,6 +718,16 @@ mod tests {
         Actuator::by_name("ZFS25B").expect("ZFS25 is known")
     }
 
+    /// Ticks the controller every 10 ms from `t0` for up to `steps` ticks; the time at which it
+    /// sent MOVE_HOMED.
+    fn first_homed(c: &mut EmulatorCore, t0: HostTime, steps: u32) -> Option<HostTime> {
+        (1..steps).map(|i| at(t0, f64::from(i) * 0.01)).find(|&t| {
+            c.tick(t)
+                .iter()
+                .any(|p| p.message == Message::MoveHomed { channel: 1 })
+        })
+    }
+
     fn setup() -> (EmulatorCore, Arc<SimMotor>, HostTime) {
         let motor = Arc::new(SimMotor::new(MotorSpec {
             name: "x".into(),
@@ -875,18 +885,7 @@ mod tests {
         c.handle(&host(Message::MoveHome { channel: 1 }), t0);
         let st = motor.status_at(at(t0, 0.2));
         assert_ne!(c.status_word(&st) & bits::HOMING, 0);
-        let mut homed_at = None;
-        for i in 1..400 {
-            let t = at(t0, i as f64 * 0.01);
-            if c.tick(t)
-                .iter()
-                .any(|p| p.message == Message::MoveHomed { channel: 1 })
-            {
-                homed_at = Some(t);
-                break;
-            }
-        }
-        let t = homed_at.expect("MOVE_HOMED within 4 s");
+        let t = first_homed(&mut c, t0, 400).expect("MOVE_HOMED within 4 s");
         let st = motor.status_at(t);
         assert!(st.position.0.abs() < 1e-9);
         let true_pos = motor.true_position_at(t).0;
@@ -912,18 +911,7 @@ mod tests {
         assert_ne!(w & bits::HOMING, 0);
         assert_ne!(w & bits::MOVING_FORWARD, 0);
         // 24 mm to the forward switch at 8 mm/s with 4 mm/s^2: 5 s.
-        let mut homed_at = None;
-        for i in 1..700 {
-            let t = at(t0, i as f64 * 0.01);
-            if c.tick(t)
-                .iter()
-                .any(|p| p.message == Message::MoveHomed { channel: 1 })
-            {
-                homed_at = Some(t);
-                break;
-            }
-        }
-        let t = homed_at.expect("MOVE_HOMED within 7 s");
+        let t = first_homed(&mut c, t0, 700).expect("MOVE_HOMED within 7 s");
         let st = motor.status_at(t);
         assert!(st.position.0.abs() < 1e-9 && st.forward_limit, "{st:?}");
         assert!((motor.true_position_at(t).0 - 25.0).abs() < 1e-9);
