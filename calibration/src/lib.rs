@@ -1,5 +1,13 @@
-//! Per-sensor calibration: optical centre and crop radius from no-contact frames, image-to-stage
-//! registration from a calibration scan, force offsets, and the per-sensor profile on disk.
+//! Per-sensor calibration: optical centre and crop radius from no-contact frames, force offsets,
+//! and the per-sensor profile on disk (image-to-stage registration fills its own profile section
+//! later).
 //!
-//! Built on the device layer (`fringe-rig`); knows nothing of the UI. The algorithms arrive with
-//! the calibration issue; the crate exists now so the workspace layout is fixed.
+//! Built on the device layer (`fringe-rig`); knows nothing of the UI.
+//!
+//! - [`optical`]: the sensor disc (centre, radius, crop radius) from no-contact frames.
+//! - [`offsets`]: F/T bias, its drift through a run and the zero-load check.
+//! - [`profile`]: `profiles/<sensor-id>.toml`, read, written and checked.
+
+pub mod offsets;
+pub mod optical;
+pub mod profile;

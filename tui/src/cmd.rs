@@ -2,6 +2,7 @@
 //! engine crates; none holds device or protocol logic of its own.
 
 pub mod axis;
+pub mod calibrate;
 pub mod camera;
 pub mod demo;
 pub mod devices;
