@@ -3,9 +3,13 @@
 //! - [`force_stream`]: a force/torque sensor read continuously; every sample goes to the recorder
 //!   channel and the latest ones to a monitor that control loops and safety watchers read.
 //! - [`camera_stream`]: a camera read continuously, frames to a channel.
+//! - [`labeler`]: the interface every synchronisation method offers the recorder.
+//! - [`recorder`]: the thread that labels frames and writes the run store.
 //! - [`strobe_labeler`]: frames matched with their exposure windows found in the strobe channel,
 //!   labelled with the force averaged over the window.
 
 pub mod camera_stream;
 pub mod force_stream;
+pub mod labeler;
+pub mod recorder;
 pub mod strobe_labeler;

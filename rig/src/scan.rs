@@ -1,9 +1,18 @@
 //! Scans: moving the indenter and pressing under force control.
 //!
 //! - [`plan`]: scan plans (plan.toml), validation against the bench, point order, estimates.
+//! - [`engine`]: running a scan program on a bench into a run (threads, checkpoints, pause,
+//!   resume, abort, crash recovery).
+//! - [`control`]: pause/resume/abort requests, operator prompts, progress.
+//! - [`watchers`]: force ceiling, F/T silence and camera drops, acted on at once.
+//! - [`origin`]: the stage position of the sensor centre, origin of contact labels.
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
 
+pub mod control;
 pub mod demo;
+pub mod engine;
+pub mod origin;
 pub mod plan;
 pub mod press;
+pub mod watchers;

@@ -16,6 +16,7 @@
 //! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
 //! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
 //! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
+//! - [`label_score`]: a simulated run's labels scored against the ground truth.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //! - [`sensor`]: one sensor build (layer, optics, artefacts, image geometry) from a TOML file, and
 //!   the exact sensor-frame mm <-> image px map.
@@ -37,6 +38,7 @@ pub mod fringe_field;
 pub mod ft_sensor;
 pub mod ground_truth;
 pub mod indenter;
+pub mod label_score;
 pub mod modbus_emulator;
 pub mod motion;
 pub mod netft_emulator;

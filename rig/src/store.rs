@@ -7,6 +7,7 @@
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
 //!   frames/NNNNNNNN.png  lossless frames
+//!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
 //! ```
@@ -36,6 +37,7 @@ pub const EVENTS: &str = "events.jsonl";
 pub const FORCE: &str = "force.bin";
 pub const FRAME_DIR: &str = "frames";
 pub const STOP: &str = "stop.json";
+pub const CHECKPOINT: &str = "checkpoint.json";
 pub const MANIFEST: &str = "MANIFEST.sha256";
 
 /// Errors of the run store, naming the file.

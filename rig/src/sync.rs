@@ -6,12 +6,14 @@
 //!   TICSync).
 //! - [`latch`]: fitting it from timestamp-latch exchanges (host before, device value, host after).
 //! - [`strobe`]: exposure windows found in a sampled exposure-active channel, in sample index.
+//! - [`method`]: the synchronisation methods (strobe, clock-fit, host).
 //! - [`window`]: the force averaged over an exposure window (interpolated at the edges).
 //!
 //! Methods and facts: docs of the shared project, hardware.md section E.
 
 pub mod clock_map;
 pub mod latch;
+pub mod method;
 pub mod one_way;
 pub mod strobe;
 pub mod window;

@@ -95,8 +95,8 @@ fn samples(from: u64, n: u64) -> Vec<ForceSample> {
 /// Writes `frames` frames (with force) to an open writer.
 fn write_frames(w: &mut RunWriter, frames: std::ops::Range<u64>) {
     for id in frames {
-        let file = w.save_frame_image(&frame(id)).expect("frame image");
         let index = w.next_index();
+        let file = w.save_frame_image(&frame(id), index).expect("frame image");
         w.append_frame(&record(index, file, -(id as f64)))
             .expect("record");
         let from = w.force_samples();
@@ -193,6 +193,52 @@ fn a_crash_mid_write_is_reopened_without_loss_or_duplicates() {
         .err()
         .expect("an ended run cannot resume");
     assert!(err.to_string().contains("has ended"), "{err}");
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn records_after_the_last_checkpoint_are_cut_on_rollback_and_on_resume() {
+    let root = scratch("checkpoint");
+    let mut w = RunWriter::create(&root, &start("run-c")).expect("create");
+    let dir = w.dir().to_path_buf();
+    // Point 0 done, checkpoint before point 1; point 1 interrupted and rolled back.
+    write_frames(&mut w, 0..3);
+    let c = w.checkpoint_at(1).expect("checkpoint");
+    assert_eq!((c.next_point, c.next_index), (1, 3));
+    write_frames(&mut w, 3..5);
+    assert!(dir.join("frames/00000004.png").is_file());
+    assert_eq!(w.rollback().expect("rollback"), 2);
+    assert_eq!(w.next_index(), 3);
+    assert!(!dir.join("frames/00000003.png").exists());
+    // Point 1 again, done; checkpoint before point 2; then a crash in the middle of point 2.
+    write_frames(&mut w, 5..8);
+    w.checkpoint_at(2).expect("checkpoint");
+    write_frames(&mut w, 8..10);
+    w.checkpoint().expect("sync");
+    drop(w);
+
+    let (mut w, existing) = RunWriter::reopen(&dir).expect("reopen");
+    assert_eq!(existing.checkpoint.as_ref().map(|c| c.next_point), Some(2));
+    assert_eq!(existing.discarded_frames, 2);
+    assert_eq!(existing.frames.len(), 6);
+    assert!(
+        !dir.join("frames/00000006.png").exists(),
+        "images of cut records removed"
+    );
+    write_frames(&mut w, 10..12);
+    w.finish(&stop(8, 1200)).expect("finish");
+    let (frames, _) =
+        fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES)).expect("read");
+    // Each record carries Fz = -(frame written); the cut ones are gone, nothing twice.
+    let written: Vec<f64> = frames
+        .iter()
+        .filter_map(|f| f.wrench.map(|w| -w.fz.0))
+        .collect();
+    assert_eq!(written, vec![0.0, 1.0, 2.0, 5.0, 6.0, 7.0, 10.0, 11.0]);
+    let indices: Vec<u64> = frames.iter().map(|f| f.index).collect();
+    assert_eq!(indices, (0..8).collect::<Vec<_>>());
+    let report = verify(&dir).expect("verify");
+    assert!(report.ok(), "{:?}", report.problems);
     let _ = std::fs::remove_dir_all(root);
 }
 

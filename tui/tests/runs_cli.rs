@@ -36,7 +36,7 @@ fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
             format: PixelFormat::Mono8,
             data: vec![id as u8; 8],
         };
-        let file = w.save_frame_image(&frame).expect("save");
+        let file = w.save_frame_image(&frame, id).expect("save");
         let p = Position {
             x: Millimetres(0.0),
             y: Millimetres(0.0),

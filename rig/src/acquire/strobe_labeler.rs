@@ -7,34 +7,15 @@
 //! match. Each match is checked against host arrival times (a frame arrives a few milliseconds
 //! after its window ends); a failed check re-matches by nearest arrival.
 
+use super::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
+use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
+use crate::sync::method::SyncMethod;
 use crate::sync::strobe::{StrobeDetector, StrobeWindow};
-use crate::sync::window::{mean_over, WindowMean};
+use crate::sync::window::mean_over;
 use std::collections::VecDeque;
 use std::time::Duration;
-
-/// A frame's label.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StrobeLabel {
-    /// Exposure window in the force stream's sample index.
-    pub window: StrobeWindow,
-    /// Host time at which the sample at the window's end arrived (coarse, for display).
-    pub window_end_arrival: HostTime,
-    /// Six-axis force averaged over the window (raw, not tared).
-    pub mean: WindowMean,
-}
-
-/// What [`StrobeLabeler::label`] found for a frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum LabelOutcome {
-    Ready(StrobeLabel),
-    /// The frame's window (or the samples after it) has not arrived yet: ask again later.
-    NotYet,
-    /// No window belongs to this frame (it is older than the kept history, or the strobe is
-    /// missing).
-    Unmatched,
-}
 
 #[derive(Debug, Clone, Copy)]
 struct Seen {
@@ -96,6 +77,19 @@ impl StrobeLabeler {
         }
     }
 
+    /// Sample period on the host time base, ns, from the kept samples.
+    fn sample_period_ns(&self) -> Option<f64> {
+        let (first, last) = (self.samples.front()?, self.samples.back()?);
+        let ticks = last.0 - first.0;
+        (ticks >= 100.0).then(|| (last.2 .0 as f64 - first.2 .0 as f64) / ticks)
+    }
+
+    /// Error of an edge placed by interpolation between two samples: uniform over at most one
+    /// sample period.
+    fn edge_error_ns(&self) -> f64 {
+        self.sample_period_ns().unwrap_or(f64::NAN) / 12f64.sqrt()
+    }
+
     fn lag_error(&self, seen: &Seen, arrival: HostTime) -> f64 {
         arrival.0 as f64 - seen.end_arrival.0 as f64 - self.expected_lag_ns
     }
@@ -112,12 +106,13 @@ impl StrobeLabeler {
             .map(|s| (s.0, s.1))
             .collect();
         match mean_over(&span, seen.window.start, seen.window.end) {
-            Ok(mean) => LabelOutcome::Ready(StrobeLabel {
-                window: seen.window,
-                window_end_arrival: seen.end_arrival,
+            Ok(mean) => LabelOutcome::Ready(ExposureLabel {
+                window_ticks: [seen.window.start, seen.window.end],
+                window_host_ns: None,
+                error_ns: self.edge_error_ns(),
                 mean,
             }),
-            Err(_) => LabelOutcome::Unmatched,
+            Err(e) => LabelOutcome::Unmatched(format!("strobe window: {e}")),
         }
     }
 
@@ -154,8 +149,28 @@ impl StrobeLabeler {
                 LabelOutcome::NotYet
             }
             None => LabelOutcome::NotYet,
-            _ => LabelOutcome::Unmatched,
+            _ => LabelOutcome::Unmatched(
+                "no exposure window in the strobe channel matches the frame's arrival".into(),
+            ),
         }
+    }
+}
+
+impl FrameLabeler for StrobeLabeler {
+    fn method(&self) -> SyncMethod {
+        SyncMethod::Strobe
+    }
+
+    fn push_sample(&mut self, sample: &ForceSample) {
+        StrobeLabeler::push_sample(self, sample);
+    }
+
+    fn label(&mut self, frame: &Frame) -> LabelOutcome {
+        StrobeLabeler::label(self, frame.id, frame.host_arrival)
+    }
+
+    fn estimated_error_ns(&self) -> Option<f64> {
+        self.sample_period_ns().map(|p| p / 12f64.sqrt())
     }
 }
 
@@ -212,10 +227,13 @@ mod tests {
             let start = (37 + 100 * n) as f64;
             // The strobe is high on samples start..start+9: edges half a sample outside.
             assert!(
-                (label.window.start - (start - 0.5)).abs() < 1e-9,
+                (label.window_ticks[0] - (start - 0.5)).abs() < 1e-9,
                 "{label:?}"
             );
-            assert!((label.window.end - (start + 9.5)).abs() < 1e-9, "{label:?}");
+            assert!(
+                (label.window_ticks[1] - (start + 9.5)).abs() < 1e-9,
+                "{label:?}"
+            );
             // Fz is a ramp: the mean is its value at the window's middle.
             assert!((label.mean.mean[2] - (start + 4.5) / 1000.0).abs() < 1e-12);
         }
@@ -228,7 +246,10 @@ mod tests {
             l.push_sample(&s);
         }
         // Arrived before the first exposure the strobe shows: no window is its own.
-        assert_eq!(l.label(7, HostTime(1_000_000)), LabelOutcome::Unmatched);
+        assert!(matches!(
+            l.label(7, HostTime(1_000_000)),
+            LabelOutcome::Unmatched(_)
+        ));
         // Arrived after every window seen so far: its window is still to come.
         assert_eq!(l.label(8, HostTime(arrival(9).0)), LabelOutcome::NotYet);
     }

@@ -345,6 +345,9 @@ impl Pending {
     }
 }
 
+/// What a stop sent to a stage at rest is waiting for.
+const IDLE_STOP: &str = "stopping at rest";
+
 /// A Thorlabs stepper axis.
 pub struct ThorlabsAxis {
     config: AptConfig,
@@ -754,6 +757,26 @@ impl ThorlabsAxis {
         }
     }
 
+    /// A stop still waiting for its MOT_MOVE_STOPPED is finished before a new motion starts, so
+    /// the late stop message is not taken for the end of the new move.
+    fn finish_stop(&mut self) -> Result<(), AxisError> {
+        let Some(Pending::Stop(what)) = &self.pending else {
+            return Ok(());
+        };
+        if what == IDLE_STOP {
+            // Controllers need not acknowledge a stop of a stage at rest.
+            match self.wait_idle(Duration::from_millis(250)) {
+                Err(AxisError::Timeout { .. }) => {
+                    self.pending = None;
+                    Ok(())
+                }
+                other => other.map(|_| ()),
+            }
+        } else {
+            self.wait_idle(Duration::from_secs(10)).map(|_| ())
+        }
+    }
+
     /// Forgets stale end-of-move messages before a new motion starts.
     fn clear_events(&mut self) {
         self.updates_at_start = lock(&self.shared).updates;
@@ -801,6 +824,7 @@ impl Axis for ThorlabsAxis {
     }
 
     fn begin_home(&mut self) -> Result<(), AxisError> {
+        self.finish_stop()?;
         self.clear_events();
         self.send(Message::MoveHome {
             channel: self.config.channel,
@@ -818,6 +842,7 @@ impl Axis for ThorlabsAxis {
             .actuator
             .to_steps(target)
             .map_err(|e| self.device(e.to_string()))?;
+        self.finish_stop()?;
         self.clear_events();
         self.send(Message::MoveAbsolute {
             channel: self.config.channel as u16,
@@ -833,6 +858,7 @@ impl Axis for ThorlabsAxis {
             .actuator
             .to_steps(delta)
             .map_err(|e| self.device(e.to_string()))?;
+        self.finish_stop()?;
         let here_steps = self.observe()?.position;
         let here = self.config.actuator.to_mm(here_steps);
         let target = here + delta;
@@ -962,9 +988,13 @@ impl Axis for ThorlabsAxis {
             channel: self.config.channel,
             mode: apt,
         })?;
-        if let Some(p) = self.pending.take() {
-            self.pending = Some(Pending::Stop(p.what()));
-        }
+        // A stop sent while idle may still be acknowledged with MOT_MOVE_STOPPED: wait for it
+        // (briefly) before the next motion too.
+        self.pending = Some(Pending::Stop(
+            self.pending
+                .take()
+                .map_or_else(|| IDLE_STOP.to_string(), |p| p.what()),
+        ));
         Ok(())
     }
 

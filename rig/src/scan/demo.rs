@@ -6,11 +6,11 @@
 use super::press::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
 use crate::acquire::camera_stream::CameraStream;
 use crate::acquire::force_stream::ForceStream;
-use crate::acquire::strobe_labeler::{LabelOutcome, StrobeLabeler};
+use crate::acquire::recorder::{Filming, FrameContext, Recorder};
+use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::Axis;
-use crate::camera::{CameraSettings, Frame};
+use crate::camera::CameraSettings;
 use crate::devices::Devices;
-use crate::force::ForceSample;
 use crate::sim::ground_truth::TruthLog;
 use crate::sim::rig::SimRig;
 use crate::store::documents::{
@@ -18,12 +18,10 @@ use crate::store::documents::{
 };
 use crate::store::run_writer::RunWriter;
 use crate::store::StoreError;
-use crate::units::{Millimetres, Newtons, Wrench};
-use crossbeam_channel::{select, Receiver};
-use std::collections::VecDeque;
+use crate::units::{Millimetres, Newtons};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// What the demonstration presses.
@@ -77,126 +75,6 @@ pub enum DemoError {
     Store(#[from] StoreError),
     #[error("{0}")]
     Other(String),
-}
-
-/// The point being filmed, shared with the recorder.
-#[derive(Debug, Clone)]
-struct Filming {
-    point: u64,
-    commanded: Position,
-    measured: Position,
-    contact: [f64; 2],
-    shape: String,
-}
-
-#[derive(Default)]
-struct Counts {
-    seen: u64,
-    recorded: u64,
-    unlabelled: u64,
-    dropped: u64,
-    last_id: Option<u64>,
-}
-
-/// Drains force samples and frames until both channels close; records filmed frames.
-fn record(
-    mut writer: RunWriter,
-    samples: Receiver<ForceSample>,
-    frames: Receiver<Frame>,
-    filming: Arc<Mutex<Option<Filming>>>,
-    tare: [f64; 6],
-) -> Result<(RunWriter, Counts), StoreError> {
-    let mut labeler = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
-    let mut pending: VecDeque<(Frame, Filming)> = VecDeque::new();
-    let mut out = Counts::default();
-    let (mut samples_open, mut frames_open) = (true, true);
-    let mut batch = Vec::with_capacity(64);
-    while samples_open || frames_open || !pending.is_empty() {
-        select! {
-            recv(samples) -> s => match s {
-                Ok(s) => {
-                    labeler.push_sample(&s);
-                    batch.push(s);
-                    if batch.len() >= 50 {
-                        writer.append_force(&batch)?;
-                        batch.clear();
-                    }
-                }
-                Err(_) => samples_open = false,
-            },
-            recv(frames) -> f => match f {
-                Ok(frame) => {
-                    out.seen += 1;
-                    if let Some(last) = out.last_id {
-                        out.dropped += frame.id.saturating_sub(last + 1);
-                    }
-                    out.last_id = Some(frame.id);
-                    let state = filming.lock().unwrap_or_else(|p| p.into_inner()).clone();
-                    if let Some(state) = state {
-                        pending.push_back((frame, state));
-                    }
-                }
-                Err(_) => frames_open = false,
-            },
-            default(Duration::from_millis(20)) => {}
-        }
-        if !samples_open && !frames_open && pending.is_empty() {
-            break;
-        }
-        while let Some((frame, state)) = pending.front() {
-            let outcome = labeler.label(frame.id, frame.host_arrival);
-            let closed = !samples_open;
-            let (wrench, exposure_ticks, notes) = match outcome {
-                LabelOutcome::NotYet if !closed => break,
-                LabelOutcome::Ready(label) => {
-                    let m = label.mean.mean;
-                    let tared: [f64; 6] = std::array::from_fn(|k| m[k] - tare[k]);
-                    (
-                        Some(Wrench::from_array(tared)),
-                        Some([label.window.start, label.window.end]),
-                        vec![],
-                    )
-                }
-                _ => (
-                    None,
-                    None,
-                    vec!["no exposure window found in the strobe channel".to_string()],
-                ),
-            };
-            let file = writer.save_frame_image(frame)?;
-            let in_contact = wrench.is_some_and(|w| w.fz.0.abs() >= 0.2);
-            let record = FrameRecord {
-                index: writer.next_index(),
-                frame_id: frame.id,
-                file,
-                device_timestamp: frame.device_timestamp,
-                host_arrival_ns: frame.host_arrival.0,
-                exposure: None,
-                exposure_ticks,
-                point: state.point,
-                commanded: state.commanded,
-                measured: state.measured,
-                wrench,
-                shape: if in_contact {
-                    state.shape.clone()
-                } else {
-                    "None".into()
-                },
-                contact: in_contact.then_some(state.contact),
-                valid: wrench.is_some(),
-                notes,
-            };
-            writer.append_frame(&record)?;
-            if wrench.is_some() {
-                out.recorded += 1;
-            } else {
-                out.unlabelled += 1;
-            }
-            pending.pop_front();
-        }
-    }
-    writer.append_force(&batch)?;
-    Ok((writer, out))
 }
 
 fn position(x: &mut dyn Axis, y: &mut dyn Axis, z: &mut dyn Axis) -> Result<Position, DemoError> {
@@ -263,16 +141,15 @@ pub fn run_demo(
     let writer = RunWriter::create(root, &start)?;
     let run_dir = writer.dir().to_path_buf();
     let cameras = CameraStream::spawn(camera, &CameraSettings::default())?;
-    let filming: Arc<Mutex<Option<Filming>>> = Arc::new(Mutex::new(None));
-    let recorder = {
-        let samples = stream.samples().clone();
-        let frames = cameras.frames().clone();
-        let filming = filming.clone();
-        std::thread::Builder::new()
-            .name("recorder".into())
-            .spawn(move || record(writer, samples, frames, filming, tare))
-            .map_err(|e| DemoError::Other(format!("cannot start the recorder: {e}")))?
-    };
+    let filming = FrameContext::default();
+    let labeler = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+    let recorder = Recorder::spawn(
+        writer,
+        stream.samples().clone(),
+        cameras.frames().clone(),
+        Box::new(labeler),
+        filming.clone(),
+    )?;
 
     let settings = PressSettings {
         approach_limit: Millimetres(geometry.z_touch_mm + 3.0),
@@ -299,7 +176,7 @@ pub fn run_demo(
         for target in &plan.targets {
             let p = press_to(z.as_mut(), &guard, *target)?;
             let measured = position(x.as_mut(), y.as_mut(), z.as_mut())?;
-            *filming.lock().unwrap_or_else(|e| e.into_inner()) = Some(Filming {
+            filming.set(Some(Filming {
                 point: k as u64,
                 commanded: Position {
                     x: target_x,
@@ -309,9 +186,10 @@ pub fn run_demo(
                 measured,
                 contact: [px, py],
                 shape: shape.clone(),
-            });
+                tare,
+            }));
             std::thread::sleep(plan.dwell);
-            *filming.lock().unwrap_or_else(|e| e.into_inner()) = None;
+            filming.set(None);
             presses += 1;
             progress(&format!(
                 "  {:.1} N reached ({:.2} N measured after {} steps), filmed {:.1} s",
@@ -326,16 +204,14 @@ pub fn run_demo(
     cameras.stop()?;
     let stats = monitor.stats();
     let _sensor = stream.stop()?;
-    let (writer, counts) = recorder
-        .join()
-        .map_err(|_| DemoError::Other("the recorder thread panicked".into()))??;
+    let (writer, counts) = recorder.finish()?;
     let force_samples = writer.force_samples();
     let stop = StopDocument {
         exit_status: ExitStatus::Completed,
         reason: "demonstration finished".into(),
         stopped_utc: now_utc(),
-        frames: counts.recorded + counts.unlabelled,
-        dropped_frames: counts.dropped,
+        frames: counts.frames_recorded + counts.frames_unlabelled,
+        dropped_frames: counts.dropped_frames,
         force_samples,
         lost_force_samples: stats.lost,
         points_done: plan.points.len() as u64,
@@ -368,10 +244,10 @@ pub fn run_demo(
     Ok(DemoSummary {
         run_dir,
         presses,
-        frames_seen: counts.seen,
-        frames_recorded: counts.recorded,
-        frames_unlabelled: counts.unlabelled,
-        dropped_frames: counts.dropped,
+        frames_seen: counts.frames_seen,
+        frames_recorded: counts.frames_recorded,
+        frames_unlabelled: counts.frames_unlabelled,
+        dropped_frames: counts.dropped_frames,
         force_samples,
         label_rms_error,
         label_frames_scored: errors.len(),

@@ -8,7 +8,9 @@
 //! [`RunWriter::reopen`] cuts off.
 
 use super::documents::{now_utc, Event, FrameRecord, StartDocument, StopDocument};
-use super::{force_log, manifest, StoreError, EVENTS, FORCE, FRAMES, FRAME_DIR, START, STOP};
+use super::{
+    force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, START, STOP,
+};
 use crate::camera::writer::save_png;
 use crate::camera::Frame;
 use crate::clock::HostTime;
@@ -87,6 +89,20 @@ fn open_append(path: &Path) -> Result<File, StoreError> {
         .map_err(|e| StoreError::io(path, e))
 }
 
+/// Written at every checkpoint (before each grid point): where the scan goes on after a crash,
+/// and how far the frame records went then. Everything recorded after it belongs to a point
+/// that did not finish and is cut when the run is resumed.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    /// Index (in the scan program) of the next point to do.
+    pub next_point: u64,
+    /// Frame records before the checkpoint.
+    pub next_index: u64,
+    /// Length of frames.jsonl at the checkpoint, bytes.
+    pub frames_bytes: u64,
+    pub utc: String,
+}
+
 /// What a reopened run already holds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Existing {
@@ -96,6 +112,10 @@ pub struct Existing {
     pub force_samples: u64,
     /// Bytes cut from torn ends (frames, events, force).
     pub cut_bytes: u64,
+    /// The last checkpoint, if the run reached one.
+    pub checkpoint: Option<Checkpoint>,
+    /// Frame records cut because they came after the last checkpoint (an unfinished point).
+    pub discarded_frames: u64,
 }
 
 /// An open run directory.
@@ -106,6 +126,7 @@ pub struct RunWriter {
     force: BufWriter<File>,
     next_index: u64,
     force_samples: u64,
+    last_checkpoint: Option<Checkpoint>,
 }
 
 impl RunWriter {
@@ -144,6 +165,7 @@ impl RunWriter {
             dir,
             next_index: 0,
             force_samples: 0,
+            last_checkpoint: None,
         };
         sync_dir(&writer.dir)?;
         Ok(writer)
@@ -161,10 +183,27 @@ impl RunWriter {
         let start: StartDocument = read_document(&dir.join(START))?;
         let mut cut = 0u64;
         let frames_path = dir.join(FRAMES);
-        let (frames, torn) = read_lines::<FrameRecord>(&frames_path)?;
+        let (mut frames, torn) = read_lines::<FrameRecord>(&frames_path)?;
         if let Some(t) = torn {
             cut += t.len() as u64;
             truncate_by(&frames_path, t.len() as u64)?;
+        }
+        let checkpoint_path = dir.join(CHECKPOINT);
+        let checkpoint: Option<Checkpoint> = if checkpoint_path.is_file() {
+            Some(read_document(&checkpoint_path)?)
+        } else {
+            None
+        };
+        // Without a checkpoint (a run written by something other than the scan engine) every
+        // complete record is kept.
+        let keep = checkpoint
+            .as_ref()
+            .map_or(frames.len(), |c| c.next_index as usize);
+        let discarded_frames = frames.len().saturating_sub(keep) as u64;
+        if frames.len() > keep {
+            frames.truncate(keep);
+            let bytes = checkpoint.as_ref().map_or(0, |c| c.frames_bytes);
+            set_length(&frames_path, bytes)?;
         }
         let events_path = dir.join(EVENTS);
         let (events, torn) = read_lines::<Event>(&events_path)?;
@@ -203,7 +242,9 @@ impl RunWriter {
             dir: dir.to_path_buf(),
             next_index: frames.len() as u64,
             force_samples: samples.len() as u64,
+            last_checkpoint: checkpoint.clone(),
         };
+        writer.remove_images_from(writer.next_index)?;
         Ok((
             writer,
             Existing {
@@ -212,6 +253,8 @@ impl RunWriter {
                 events,
                 force_samples: samples.len() as u64,
                 cut_bytes: cut,
+                checkpoint,
+                discarded_frames,
             },
         ))
     }
@@ -231,14 +274,13 @@ impl RunWriter {
         self.force_samples
     }
 
-    /// Saves a frame image under frames/ (renamed into place when complete); returns its path
-    /// relative to the run directory.
-    pub fn save_frame_image(&self, frame: &Frame) -> Result<String, StoreError> {
-        let rel = format!("{FRAME_DIR}/{:08}.png", frame.id);
+    /// Saves the image of frame record `index` under frames/ (renamed into place when complete);
+    /// returns its path relative to the run directory. Named by record index, not camera frame
+    /// id: ids start again when a run is resumed.
+    pub fn save_frame_image(&self, frame: &Frame, index: u64) -> Result<String, StoreError> {
+        let rel = format!("{FRAME_DIR}/{index:08}.png");
         let path = self.dir.join(&rel);
-        let tmp = self
-            .dir
-            .join(format!("{FRAME_DIR}/{:08}.png.tmp", frame.id));
+        let tmp = self.dir.join(format!("{FRAME_DIR}/{index:08}.png.tmp"));
         save_png(frame, &tmp).map_err(|e| StoreError::Content {
             path: tmp.clone(),
             message: e.to_string(),
@@ -318,6 +360,70 @@ impl RunWriter {
         sync_dir(&self.dir.join(FRAME_DIR))
     }
 
+    /// Makes everything durable and records a checkpoint before point `next_point`.
+    pub fn checkpoint_at(&mut self, next_point: u64) -> Result<Checkpoint, StoreError> {
+        self.checkpoint()?;
+        let frames_path = self.dir.join(FRAMES);
+        let frames_bytes = std::fs::metadata(&frames_path)
+            .map_err(|e| StoreError::io(&frames_path, e))?
+            .len();
+        let checkpoint = Checkpoint {
+            next_point,
+            next_index: self.next_index,
+            frames_bytes,
+            utc: now_utc(),
+        };
+        let path = self.dir.join(CHECKPOINT);
+        write_atomic(&path, json(&path, &checkpoint)?.as_bytes())?;
+        self.last_checkpoint = Some(checkpoint.clone());
+        Ok(checkpoint)
+    }
+
+    /// The last checkpoint written or found.
+    pub fn last_checkpoint(&self) -> Option<&Checkpoint> {
+        self.last_checkpoint.as_ref()
+    }
+
+    /// Cuts every frame record (and image) made after the last checkpoint: the records of a point
+    /// that is going to be done again. Returns how many were cut.
+    pub fn rollback(&mut self) -> Result<u64, StoreError> {
+        let (index, bytes) = self
+            .last_checkpoint
+            .as_ref()
+            .map_or((0, 0), |c| (c.next_index, c.frames_bytes));
+        let cut = self.next_index.saturating_sub(index);
+        if cut > 0 {
+            let path = self.dir.join(FRAMES);
+            self.frames
+                .sync_data()
+                .map_err(|e| StoreError::io(&path, e))?;
+            set_length(&path, bytes)?;
+            self.remove_images_from(index)?;
+            self.next_index = index;
+        }
+        Ok(cut)
+    }
+
+    /// Removes frame images of record index `first` and later (and unfinished temporaries).
+    fn remove_images_from(&self, first: u64) -> Result<(), StoreError> {
+        let dir = self.dir.join(FRAME_DIR);
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(e) => e,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+            Err(e) => return Err(StoreError::io(&dir, e)),
+        };
+        for entry in entries {
+            let entry = entry.map_err(|e| StoreError::io(&dir, e))?;
+            let name = entry.file_name().to_string_lossy().to_string();
+            let index = name.split('.').next().and_then(|n| n.parse::<u64>().ok());
+            if name.ends_with(".tmp") || index.is_some_and(|i| i >= first) {
+                let path = entry.path();
+                std::fs::remove_file(&path).map_err(|e| StoreError::io(&path, e))?;
+            }
+        }
+        sync_dir(&dir)
+    }
+
     /// Ends the run: checkpoint, stop document, manifest. Returns the run directory.
     pub fn finish(mut self, stop: &StopDocument) -> Result<PathBuf, StoreError> {
         self.checkpoint()?;
@@ -330,6 +436,16 @@ impl RunWriter {
         manifest::write(&self.dir)?;
         Ok(self.dir)
     }
+}
+
+fn set_length(path: &Path, bytes: u64) -> Result<(), StoreError> {
+    let f = OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(|e| StoreError::io(path, e))?;
+    f.set_len(bytes)
+        .and_then(|_| f.sync_all())
+        .map_err(|e| StoreError::io(path, e))
 }
 
 fn truncate_by(path: &Path, bytes: u64) -> Result<(), StoreError> {

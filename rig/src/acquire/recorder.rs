@@ -1,0 +1,395 @@
+//! The recorder: one thread that takes every force sample and every frame, labels frames through
+//! the run's synchronisation method and writes the run store, so the scan never waits on a disk.
+//!
+//! - Every force sample goes to `force.bin` (the raw stream at full rate).
+//! - Every frame is counted (id gaps are dropped frames); frames arriving while the scan says it is
+//!   filming ([`FrameContext`]) are labelled, saved losslessly and get a frame record.
+//! - The scan sends events and asks for checkpoints through the recorder; a checkpoint first
+//!   finishes the frames still waiting for their labels, then makes everything durable.
+
+use super::labeler::{FrameLabeler, LabelOutcome};
+use crate::camera::Frame;
+use crate::clock::HostTime;
+use crate::force::ForceSample;
+use crate::store::documents::{Exposure, FrameRecord, Position};
+use crate::store::run_writer::RunWriter;
+use crate::store::StoreError;
+use crate::units::Wrench;
+use crossbeam_channel::{bounded, select, unbounded, Receiver, Sender};
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Below this normal force (N) a frame has no contact: shape "None", no contact point (the
+/// paper's rule).
+pub const CONTACT_FZ: f64 = 0.2;
+
+/// What the scan is doing while a frame is exposed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Filming {
+    /// Grid point (and repetition) index in the program.
+    pub point: u64,
+    pub commanded: Position,
+    /// Latest measured axis positions.
+    pub measured: Position,
+    /// Contact point in mm relative to the sensor centre (sensor frame) if the indenter touches.
+    pub contact: [f64; 2],
+    /// Indenter mounted.
+    pub shape: String,
+    /// Raw no-contact reading subtracted from every label.
+    pub tare: [f64; 6],
+}
+
+/// Shared between the scan (writer) and the recorder (reader): `None` when not filming.
+#[derive(Debug, Clone, Default)]
+pub struct FrameContext(Arc<Mutex<Option<Filming>>>);
+
+impl FrameContext {
+    pub fn set(&self, filming: Option<Filming>) {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner()) = filming;
+    }
+
+    /// Updates the measured positions of the current filming state, if any.
+    pub fn set_measured(&self, measured: Position) {
+        if let Some(f) = self.0.lock().unwrap_or_else(|p| p.into_inner()).as_mut() {
+            f.measured = measured;
+        }
+    }
+
+    pub fn get(&self) -> Option<Filming> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+}
+
+/// Counts and rates, readable while the recorder runs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RecorderStats {
+    pub frames_seen: u64,
+    /// Frames written with a label.
+    pub frames_recorded: u64,
+    /// Frames written without a label (no window found).
+    pub frames_unlabelled: u64,
+    /// Frame ids skipped by the camera.
+    pub dropped_frames: u64,
+    pub force_samples: u64,
+    /// Frames per second over the last second.
+    pub frame_rate_hz: f64,
+    /// The newest label written (tared).
+    pub last_label: Option<Wrench>,
+}
+
+enum Command {
+    Event {
+        kind: String,
+        point: Option<u64>,
+        message: String,
+    },
+    /// Checkpoint before point `.0`.
+    Checkpoint(u64, Sender<Result<RecorderStats, String>>),
+    /// Cut the records made since the last checkpoint.
+    Rollback(Sender<Result<u64, String>>),
+}
+
+/// The recorder thread.
+pub struct Recorder {
+    commands: Sender<Command>,
+    stats: Arc<Mutex<RecorderStats>>,
+    handle: Option<JoinHandle<Result<(RunWriter, RecorderStats), StoreError>>>,
+}
+
+impl Recorder {
+    /// Starts recording into `writer` from the two streams until both close.
+    pub fn spawn(
+        writer: RunWriter,
+        samples: Receiver<ForceSample>,
+        frames: Receiver<Frame>,
+        labeler: Box<dyn FrameLabeler>,
+        context: FrameContext,
+    ) -> Result<Recorder, StoreError> {
+        let (commands, command_rx) = unbounded();
+        let stats = Arc::new(Mutex::new(RecorderStats::default()));
+        let dir = writer.dir().to_path_buf();
+        let mut state = State {
+            writer,
+            labeler,
+            context,
+            pending: VecDeque::new(),
+            stats: stats.clone(),
+            local: RecorderStats::default(),
+            last_id: None,
+            arrivals: VecDeque::new(),
+            batch: Vec::with_capacity(256),
+        };
+        let handle = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || {
+                state.run(samples, frames, command_rx)?;
+                Ok((state.writer, state.local))
+            })
+            .map_err(|e| StoreError::io(dir, e))?;
+        Ok(Recorder {
+            commands,
+            stats,
+            handle: Some(handle),
+        })
+    }
+
+    /// Appends an event to the run (asynchronously).
+    pub fn event(&self, kind: &str, point: Option<u64>, message: &str) {
+        let _ = self.commands.send(Command::Event {
+            kind: kind.into(),
+            point,
+            message: message.into(),
+        });
+    }
+
+    /// Finishes the frames waiting for labels, makes the run durable and records a checkpoint
+    /// before point `next_point`; waits up to `timeout`.
+    pub fn checkpoint(&self, next_point: u64, timeout: Duration) -> Result<RecorderStats, String> {
+        let (tx, rx) = bounded(1);
+        self.commands
+            .send(Command::Checkpoint(next_point, tx))
+            .map_err(|_| "the recorder has stopped".to_string())?;
+        rx.recv_timeout(timeout)
+            .map_err(|_| format!("the recorder did not checkpoint within {timeout:?}"))?
+    }
+
+    /// Cuts the frame records made since the last checkpoint (a point that is done again);
+    /// returns how many. Stop filming first.
+    pub fn rollback(&self, timeout: Duration) -> Result<u64, String> {
+        let (tx, rx) = bounded(1);
+        self.commands
+            .send(Command::Rollback(tx))
+            .map_err(|_| "the recorder has stopped".to_string())?;
+        rx.recv_timeout(timeout)
+            .map_err(|_| format!("the recorder did not roll back within {timeout:?}"))?
+    }
+
+    /// A reader of the recorder's counters for other threads (watchers, progress).
+    pub fn stats_source(&self) -> impl Fn() -> RecorderStats + Send + 'static {
+        let stats = self.stats.clone();
+        move || stats.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    pub fn stats(&self) -> RecorderStats {
+        self.stats.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// Waits for the recorder to drain both streams (stop them first) and returns the writer.
+    pub fn finish(mut self) -> Result<(RunWriter, RecorderStats), StoreError> {
+        let handle = self.handle.take();
+        drop(self.commands);
+        match handle.map(|h| h.join()) {
+            Some(Ok(result)) => result,
+            _ => Err(StoreError::Content {
+                path: "recorder".into(),
+                message: "the recorder thread panicked".into(),
+            }),
+        }
+    }
+}
+
+struct State {
+    writer: RunWriter,
+    labeler: Box<dyn FrameLabeler>,
+    context: FrameContext,
+    pending: VecDeque<(Frame, Filming)>,
+    stats: Arc<Mutex<RecorderStats>>,
+    local: RecorderStats,
+    last_id: Option<u64>,
+    arrivals: VecDeque<HostTime>,
+    batch: Vec<ForceSample>,
+}
+
+impl State {
+    fn run(
+        &mut self,
+        samples: Receiver<ForceSample>,
+        frames: Receiver<Frame>,
+        commands: Receiver<Command>,
+    ) -> Result<(), StoreError> {
+        let (mut samples_open, mut frames_open, mut commands_open) = (true, true, true);
+        type Reply = Sender<Result<RecorderStats, String>>;
+        let mut checkpoints: Vec<(u64, Reply, Instant)> = Vec::new();
+        while samples_open || frames_open || !self.pending.is_empty() {
+            select! {
+                recv(samples) -> s => match s {
+                    Ok(s) => self.sample(s)?,
+                    Err(_) => samples_open = false,
+                },
+                recv(frames) -> f => match f {
+                    Ok(frame) => self.frame(frame),
+                    Err(_) => frames_open = false,
+                },
+                recv(commands) -> c => match c {
+                    Ok(Command::Event { kind, point, message }) => {
+                        self.writer.append_event(&kind, point, &message)?
+                    }
+                    Ok(Command::Checkpoint(point, reply)) => {
+                        checkpoints.push((point, reply, Instant::now()))
+                    }
+                    Ok(Command::Rollback(reply)) => {
+                        // Frames of the abandoned attempt still waiting for labels go too.
+                        self.pending.clear();
+                        let cut = self.writer.rollback().map_err(|e| e.to_string());
+                        if let Ok(n) = cut {
+                            self.local.frames_recorded = self.local.frames_recorded.saturating_sub(n);
+                        }
+                        let _ = reply.send(cut);
+                    }
+                    Err(_) => commands_open = false,
+                },
+                default(Duration::from_millis(20)) => {}
+            }
+            if !commands_open && !samples_open && !frames_open && self.pending.is_empty() {
+                break;
+            }
+            self.label_pending(!samples_open)?;
+            // A checkpoint waits for the pending frames (at most half a second), then syncs.
+            if !checkpoints.is_empty() {
+                let waited = checkpoints[0].2.elapsed();
+                if self.pending.is_empty() || waited > Duration::from_millis(500) {
+                    self.flush_force()?;
+                    for (point, reply, _) in checkpoints.drain(..) {
+                        let result = self.writer.checkpoint_at(point).map_err(|e| e.to_string());
+                        let _ = reply.send(result.map(|_| self.local.clone()));
+                    }
+                }
+            }
+            self.publish();
+        }
+        self.flush_force()?;
+        self.publish();
+        for (point, reply, _) in checkpoints.drain(..) {
+            let result = self.writer.checkpoint_at(point).map_err(|e| e.to_string());
+            let _ = reply.send(result.map(|_| self.local.clone()));
+        }
+        Ok(())
+    }
+
+    fn sample(&mut self, s: ForceSample) -> Result<(), StoreError> {
+        self.labeler.push_sample(&s);
+        self.batch.push(s);
+        if self.batch.len() >= 250 {
+            self.flush_force()?;
+        }
+        Ok(())
+    }
+
+    fn flush_force(&mut self) -> Result<(), StoreError> {
+        if !self.batch.is_empty() {
+            self.writer.append_force(&self.batch)?;
+            self.local.force_samples = self.writer.force_samples();
+            self.batch.clear();
+        }
+        Ok(())
+    }
+
+    fn frame(&mut self, frame: Frame) {
+        self.local.frames_seen += 1;
+        if let Some(last) = self.last_id {
+            self.local.dropped_frames += frame.id.saturating_sub(last + 1);
+        }
+        self.last_id = Some(frame.id);
+        self.arrivals.push_back(frame.host_arrival);
+        while self
+            .arrivals
+            .front()
+            .is_some_and(|t| frame.host_arrival.0.saturating_sub(t.0) > 1_000_000_000)
+        {
+            self.arrivals.pop_front();
+        }
+        self.local.frame_rate_hz = self.arrivals.len() as f64;
+        if let Some(filming) = self.context.get() {
+            self.pending.push_back((frame, filming));
+        }
+    }
+
+    fn label_pending(&mut self, stream_closed: bool) -> Result<(), StoreError> {
+        while let Some((frame, _)) = self.pending.front() {
+            let outcome = self.labeler.label(frame);
+            if outcome == LabelOutcome::NotYet && !stream_closed {
+                break;
+            }
+            let Some((frame, filming)) = self.pending.pop_front() else {
+                break;
+            };
+            self.write(&frame, &filming, outcome)?;
+        }
+        Ok(())
+    }
+
+    fn write(
+        &mut self,
+        frame: &Frame,
+        filming: &Filming,
+        outcome: LabelOutcome,
+    ) -> Result<(), StoreError> {
+        let index = self.writer.next_index();
+        let mut notes = Vec::new();
+        let (wrench, exposure_ticks, exposure) = match outcome {
+            LabelOutcome::Ready(label) => {
+                let m = label.mean.mean;
+                let tared: [f64; 6] = std::array::from_fn(|k| m[k] - filming.tare[k]);
+                if label.mean.max_spacing
+                    > 2.5 * (label.window_ticks[1] - label.window_ticks[0]).max(1.0)
+                {
+                    notes.push("force samples missing inside the exposure window".to_string());
+                }
+                (
+                    Some(Wrench::from_array(tared)),
+                    Some(label.window_ticks),
+                    label.window_host_ns.map(|[start_ns, end_ns]| Exposure {
+                        start_ns,
+                        end_ns,
+                        error_ns: label.error_ns,
+                    }),
+                )
+            }
+            LabelOutcome::NotYet => {
+                notes.push("the force stream ended before the exposure window".to_string());
+                (None, None, None)
+            }
+            LabelOutcome::Unmatched(why) => {
+                notes.push(why);
+                (None, None, None)
+            }
+        };
+        let file = self.writer.save_frame_image(frame, index)?;
+        let in_contact = wrench.is_some_and(|w| w.fz.0.abs() >= CONTACT_FZ);
+        let record = FrameRecord {
+            index,
+            frame_id: frame.id,
+            file,
+            device_timestamp: frame.device_timestamp,
+            host_arrival_ns: frame.host_arrival.0,
+            exposure,
+            exposure_ticks,
+            point: filming.point,
+            commanded: filming.commanded,
+            measured: filming.measured,
+            wrench,
+            shape: if in_contact {
+                filming.shape.clone()
+            } else {
+                "None".into()
+            },
+            contact: in_contact.then_some(filming.contact),
+            valid: wrench.is_some() && notes.is_empty(),
+            notes,
+        };
+        self.writer.append_frame(&record)?;
+        if wrench.is_some() {
+            self.local.frames_recorded += 1;
+            self.local.last_label = wrench;
+        } else {
+            self.local.frames_unlabelled += 1;
+        }
+        Ok(())
+    }
+
+    fn publish(&self) {
+        *self.stats.lock().unwrap_or_else(|p| p.into_inner()) = self.local.clone();
+    }
+}

@@ -1,0 +1,933 @@
+//! The scan engine: runs a scan program on a bench and writes the run.
+//!
+//! Threads: the force stream and the camera stream read their devices; the recorder labels and
+//! writes; the watchers check force, stream and camera every 2 ms; this thread moves the axes.
+//! Per point: checkpoint (everything before is durable; a crash resumes here), operator prompts
+//! (indenter change, manual y row), force offset re-measured at the safe height, lateral move,
+//! approach to first contact, the indentation profile (force targets on the F/T reading or depth
+//! targets) with a dwell at each target, retract. The camera is filmed from the approach to the
+//! end of the retract. A point interrupted (pause now, watcher) is cut back to its checkpoint and
+//! done again, so no point is lost or recorded twice; the same holds after a crash.
+
+use super::control::{Operator, Phase, Prompt, Reply, Request, ScanControl, ScanProgress, Status};
+use super::origin::ContactOrigin;
+use super::plan::{BenchLimits, ScanPoint, ScanProgram, Targets};
+use super::press::{approach, press_to, ForceGuard, PressError, PressSettings};
+use super::watchers::{Alarm, SharedTare, WatchSettings, Watchers};
+use crate::acquire::camera_stream::CameraStream;
+use crate::acquire::force_stream::{ForceMonitor, ForceStream};
+use crate::acquire::labeler::FrameLabeler;
+use crate::acquire::recorder::{Filming, FrameContext, Recorder, RecorderStats};
+use crate::acquire::strobe_labeler::StrobeLabeler;
+use crate::axis::{Axis, AxisError, StopMode};
+use crate::camera::CameraSettings;
+use crate::devices::Devices;
+use crate::sim::ground_truth::TruthLog;
+use crate::store::documents::{
+    now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
+};
+use crate::store::run_writer::RunWriter;
+use crate::store::StoreError;
+use crate::sync::method::SyncMethod;
+use crate::units::{Millimetres, Newtons};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Everything a scan needs besides the devices.
+#[derive(Debug, Clone)]
+pub struct ScanSetup {
+    pub program: ScanProgram,
+    /// The plan file's text, stored in the run (and compared on resume).
+    pub plan_text: String,
+    pub limits: BenchLimits,
+    pub origin: ContactOrigin,
+    pub sync: SyncMethod,
+    pub sensor_id: String,
+    /// The rig configuration as used, for the start document.
+    pub rig_text: String,
+    pub seed: Option<u64>,
+    pub profile: Option<ProfileRef>,
+    pub camera: CameraSettings,
+    /// Press tuning; the contact threshold, ceiling and approach limit are set from the plan and
+    /// the bench.
+    pub press: PressSettings,
+    pub watch: WatchSettings,
+    /// The simulator's ground truth, written into the run as truth.jsonl (simulated runs).
+    pub truth: Option<Arc<TruthLog>>,
+}
+
+/// Where the run goes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunTarget {
+    /// A new run directory `root/<run_id>`.
+    New { root: PathBuf, run_id: String },
+    /// Continue an unfinished run after a crash or power loss.
+    Resume { dir: PathBuf },
+}
+
+/// How a scan ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanOutcome {
+    pub run_dir: PathBuf,
+    pub status: ExitStatus,
+    pub reason: String,
+    pub points_done: u64,
+    pub points_total: u64,
+    pub frames: u64,
+    pub dropped_frames: u64,
+    pub force_samples: u64,
+    pub lost_force_samples: u64,
+    /// Frame records cut because their point was interrupted and done again.
+    pub frames_discarded: u64,
+    /// Software overhead per finished point (everything but motion, settling, dwell and operator
+    /// prompts): mean and max, ms.
+    pub overhead_mean_ms: f64,
+    pub overhead_max_ms: f64,
+}
+
+/// Why a scan could not run or stopped on a fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanError {
+    #[error(transparent)]
+    Axis(#[from] AxisError),
+    #[error(transparent)]
+    Force(#[from] crate::force::ForceError),
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error(transparent)]
+    Press(#[from] PressError),
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// How a point ended.
+enum PointEnd {
+    Done,
+    /// Stopped by a request or a watcher (the point is done again after a pause).
+    Interrupted(Alarm),
+    /// The indenter found no contact before the approach limit: recorded and skipped.
+    NoContact(String),
+}
+
+const MOVE_TIMEOUT: Duration = Duration::from_secs(120);
+const POLL: Duration = Duration::from_millis(5);
+
+/// Runs `setup.program` on `devices`.
+pub fn run_scan(
+    setup: &ScanSetup,
+    devices: Devices,
+    target: RunTarget,
+    control: &ScanControl,
+    operator: &mut dyn Operator,
+    progress: &dyn Fn(ScanProgress),
+) -> Result<ScanOutcome, ScanError> {
+    let Devices {
+        x,
+        y,
+        z,
+        force,
+        camera,
+        description,
+    } = devices;
+    let safe_z = Millimetres(setup.program.plan.approach.safe_z);
+    let mut axes = Axes { x, y, z };
+
+    // Open the run first: a bad resume target must fail before anything moves.
+    let (writer, first_point, discarded) = open_run(setup, &description, &target)?;
+    let run_dir = writer.dir().to_path_buf();
+    progress(ScanProgress::Message(format!(
+        "run directory {}",
+        run_dir.display()
+    )));
+
+    progress(ScanProgress::Message("homing x, y and z".into()));
+    axes.z.begin_home()?;
+    axes.z.wait_idle(MOVE_TIMEOUT)?;
+    axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
+    axes.x.begin_home()?;
+    if !setup.limits.manual_y {
+        axes.y.begin_home()?;
+        axes.y.wait_idle(MOVE_TIMEOUT)?;
+    }
+    axes.x.wait_idle(MOVE_TIMEOUT)?;
+
+    let stream = ForceStream::spawn(force)?;
+    let monitor = stream.monitor();
+    let cameras = CameraStream::spawn(camera, &setup.camera)?;
+    let context = FrameContext::default();
+    let labeler: Box<dyn FrameLabeler> = match setup.sync {
+        SyncMethod::Strobe => Box::new(StrobeLabeler::new(
+            1.65,
+            Duration::from_millis(2),
+            Duration::from_millis(9),
+        )),
+        other => {
+            return Err(ScanError::Setup(format!(
+                "sync method {other} is not available in this build; use strobe"
+            )))
+        }
+    };
+    let recorder = Recorder::spawn(
+        writer,
+        stream.samples().clone(),
+        cameras.frames().clone(),
+        labeler,
+        context.clone(),
+    )?;
+    if discarded > 0 || first_point > 0 {
+        recorder.event(
+            "resume-run",
+            Some(first_point),
+            &format!("resumed at point {first_point}; {discarded} frame records of the unfinished point cut"),
+        );
+    }
+    let cancel = Arc::new(AtomicBool::new(false));
+    let tare = SharedTare::default();
+    let mut press = setup.press.clone();
+    press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
+    press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
+    press.approach_limit = approach_limit(&setup.limits, safe_z);
+    let watch = WatchSettings {
+        ceiling: press.ceiling,
+        ..setup.watch.clone()
+    };
+    let watchers = Watchers::spawn(
+        monitor.clone(),
+        Box::new(recorder.stats_source()),
+        control.clone(),
+        tare.clone(),
+        watch,
+        cancel.clone(),
+    );
+    if !watchers.running() {
+        return Err(ScanError::Setup("cannot start the watcher thread".into()));
+    }
+    // Wait for the force stream before the first reading.
+    let started = Instant::now();
+    while monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+
+    let mut run = Runner {
+        setup,
+        axes,
+        monitor,
+        recorder,
+        context,
+        watchers,
+        cancel,
+        tare,
+        press,
+        control,
+        progress,
+        safe_z,
+        points_done: first_point,
+        started: Instant::now(),
+        done_this_session: 0,
+        last_status: Instant::now(),
+        mounted: None,
+        frames_discarded: discarded,
+        excluded: Duration::ZERO,
+        overheads: Vec::new(),
+    };
+    let result = run.points(first_point, operator);
+    // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
+    let _ = run.retract();
+    for axis in [&mut run.axes.x, &mut run.axes.y] {
+        if axis.status().is_ok_and(|s| s.moving) {
+            let _ = axis.stop(StopMode::Profiled);
+            let _ = axis.wait_idle(MOVE_TIMEOUT);
+        }
+    }
+    run.context.set(None);
+    let (status, reason) = match &result {
+        Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
+        Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
+        Err(e) => (ExitStatus::Failed, e.to_string()),
+    };
+    run.recorder.event(
+        "stop",
+        Some(run.points_done),
+        &format!("{status:?}: {reason}"),
+    );
+    let Runner {
+        recorder,
+        watchers,
+        points_done,
+        frames_discarded,
+        overheads,
+        ..
+    } = run;
+    let ms = |d: &Duration| d.as_secs_f64() * 1e3;
+    let overhead_mean_ms = overheads.iter().map(ms).sum::<f64>() / overheads.len().max(1) as f64;
+    let overhead_max_ms = overheads.iter().map(ms).fold(0.0, f64::max);
+    drop(watchers);
+    let camera_result = cameras.stop();
+    let stats = stream.monitor().stats();
+    let force_result = stream.stop();
+    let (writer, counts) = recorder.finish()?;
+    let frames = writer.next_index();
+    let force_samples = writer.force_samples();
+    let stop = StopDocument {
+        exit_status: status,
+        reason: reason.clone(),
+        stopped_utc: now_utc(),
+        frames,
+        dropped_frames: counts.dropped_frames,
+        force_samples,
+        lost_force_samples: stats.lost,
+        points_done,
+    };
+    if let Some(truth) = &setup.truth {
+        append_truth(writer.dir(), truth)?;
+    }
+    let run_dir = writer.finish(&stop)?;
+    result?;
+    camera_result?;
+    force_result?;
+    Ok(ScanOutcome {
+        run_dir,
+        status,
+        reason,
+        points_done,
+        points_total: setup.program.points.len() as u64,
+        frames,
+        dropped_frames: counts.dropped_frames,
+        force_samples,
+        lost_force_samples: stats.lost,
+        frames_discarded,
+        overhead_mean_ms,
+        overhead_max_ms,
+    })
+}
+
+/// Appends the simulator's ground truth to the run's truth.jsonl (a resumed run appends the
+/// truth of each session; frames are matched by their device timestamps).
+fn append_truth(dir: &Path, truth: &TruthLog) -> Result<(), StoreError> {
+    use std::io::Write;
+    let path = dir.join(TRUTH);
+    let mut lines = String::new();
+    for r in truth.records() {
+        lines.push_str(&r.to_json());
+        lines.push('\n');
+    }
+    let mut file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .map_err(|e| StoreError::Io {
+            path: path.clone(),
+            source: e,
+        })?;
+    file.write_all(lines.as_bytes())
+        .and_then(|_| file.sync_all())
+        .map_err(|e| StoreError::Io { path, source: e })
+}
+
+/// The simulator's ground truth inside a simulated run.
+pub const TRUTH: &str = "truth.jsonl";
+
+/// The z position the approach may reach: 3 mm past the expected contact, inside the limits.
+fn approach_limit(limits: &BenchLimits, safe_z: Millimetres) -> Millimetres {
+    let down = if limits.contact_z.0 >= safe_z.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    let z = limits.contact_z.0 + 3.0 * down;
+    Millimetres(z.clamp(limits.z.min.0, limits.z.max.0))
+}
+
+fn open_run(
+    setup: &ScanSetup,
+    description: &[String],
+    target: &RunTarget,
+) -> Result<(RunWriter, u64, u64), ScanError> {
+    match target {
+        RunTarget::New { root, run_id } => {
+            let start = StartDocument {
+                layout_version: LAYOUT_VERSION,
+                run_id: run_id.clone(),
+                started_utc: now_utc(),
+                software: format!("fringe {}", env!("CARGO_PKG_VERSION")),
+                sensor_id: setup.sensor_id.clone(),
+                plan: setup.plan_text.clone(),
+                rig: format!(
+                    "{}\n# devices:\n# {}",
+                    setup.rig_text,
+                    description.join("\n# ")
+                ),
+                calibration_profile: setup.profile.clone(),
+                seed: setup.seed,
+                sync_method: setup.sync.name().into(),
+            };
+            Ok((RunWriter::create(root, &start)?, 0, 0))
+        }
+        RunTarget::Resume { dir } => {
+            let (writer, existing) = RunWriter::reopen(dir)?;
+            if existing.start.plan != setup.plan_text {
+                return Err(ScanError::Setup(format!(
+                    "{}: the run was made with a different plan; resume it with the plan stored in its {} (the `plan` field)",
+                    dir.display(),
+                    crate::store::START
+                )));
+            }
+            if existing.start.sync_method != setup.sync.name() {
+                return Err(ScanError::Setup(format!(
+                    "{}: the run used sync method {}, the rig now says {}",
+                    dir.display(),
+                    existing.start.sync_method,
+                    setup.sync
+                )));
+            }
+            let first = existing.checkpoint.as_ref().map_or(0, |c| c.next_point);
+            Ok((writer, first, existing.discarded_frames))
+        }
+    }
+}
+
+/// Waits up to one poll period for `axis` to finish its move: true when it has.
+fn settled(axis: &mut dyn Axis) -> Result<bool, AxisError> {
+    match axis.wait_idle(POLL) {
+        Ok(_) => Ok(true),
+        Err(AxisError::Timeout { .. }) => Ok(false),
+        Err(e) => Err(e),
+    }
+}
+
+struct Axes {
+    x: Box<dyn Axis>,
+    y: Box<dyn Axis>,
+    z: Box<dyn Axis>,
+}
+
+enum Ending {
+    Completed,
+    Aborted(String),
+}
+
+struct Runner<'a> {
+    setup: &'a ScanSetup,
+    axes: Axes,
+    monitor: ForceMonitor,
+    recorder: Recorder,
+    context: FrameContext,
+    watchers: Watchers,
+    cancel: Arc<AtomicBool>,
+    tare: SharedTare,
+    press: PressSettings,
+    control: &'a ScanControl,
+    progress: &'a dyn Fn(ScanProgress),
+    safe_z: Millimetres,
+    points_done: u64,
+    started: Instant,
+    done_this_session: u64,
+    last_status: Instant,
+    /// The indenter the operator last confirmed.
+    mounted: Option<String>,
+    frames_discarded: u64,
+    /// Time of the current point spent moving, settling, dwelling or waiting for the operator
+    /// (everything that is not software overhead).
+    excluded: Duration,
+    /// Software overhead of each finished point.
+    overheads: Vec<Duration>,
+}
+
+impl Runner<'_> {
+    fn points(&mut self, first: u64, operator: &mut dyn Operator) -> Result<Ending, ScanError> {
+        let points = self.setup.program.points.clone();
+        let mut k = first as usize;
+        let mut row_confirmed: Option<f64> = None;
+        while k < points.len() {
+            let p = &points[k];
+            let point_started = Instant::now();
+            self.excluded = Duration::ZERO;
+            self.recorder
+                .checkpoint(p.index, Duration::from_secs(10))
+                .map_err(ScanError::Setup)?;
+            match self.control.request() {
+                Request::Abort => return Ok(Ending::Aborted("aborted by the operator".into())),
+                Request::PauseAfterIndentation | Request::PauseNow => {
+                    if !self.pause("paused by the operator".into(), operator)? {
+                        return Ok(Ending::Aborted("aborted by the operator".into()));
+                    }
+                }
+                Request::Run => {}
+            }
+            if self.mounted.as_deref() != Some(p.shape.as_str()) {
+                let prompt = Prompt::ChangeIndenter {
+                    shape: p.shape.clone(),
+                };
+                if !self.ask(operator, &prompt, Some(p.index)) {
+                    return Ok(Ending::Aborted("aborted at the indenter prompt".into()));
+                }
+                self.mounted = Some(p.shape.clone());
+            }
+            if self.setup.limits.manual_y && row_confirmed != Some(p.y.0) {
+                let prompt = Prompt::MoveY { y_mm: p.y.0 };
+                if !self.ask(operator, &prompt, Some(p.index)) {
+                    return Ok(Ending::Aborted("aborted at the y stage prompt".into()));
+                }
+                row_confirmed = Some(p.y.0);
+            }
+            match self.point(p)? {
+                PointEnd::Done => {
+                    let total = point_started.elapsed();
+                    let overhead = total.saturating_sub(self.excluded);
+                    self.overheads.push(overhead);
+                    self.recorder.event(
+                        "point-done",
+                        Some(p.index),
+                        &format!(
+                            "x {:.3} mm, y {:.3} mm, {} (repetition {}) in {:.1} s, software overhead {:.1} ms",
+                            p.x.0,
+                            p.y.0,
+                            p.shape,
+                            p.repetition + 1,
+                            total.as_secs_f64(),
+                            overhead.as_secs_f64() * 1e3
+                        ),
+                    );
+                    self.points_done = p.index + 1;
+                    self.done_this_session += 1;
+                    k += 1;
+                }
+                PointEnd::NoContact(why) => {
+                    self.recorder.event("point-skipped", Some(p.index), &why);
+                    (self.progress)(ScanProgress::Message(format!(
+                        "point {}: {why}; skipped",
+                        p.index + 1
+                    )));
+                    self.points_done = p.index + 1;
+                    k += 1;
+                }
+                PointEnd::Interrupted(alarm) => {
+                    self.context.set(None);
+                    self.watchers.set_filming(false);
+                    self.retract()?;
+                    let cut = self
+                        .recorder
+                        .rollback(Duration::from_secs(10))
+                        .map_err(ScanError::Setup)?;
+                    self.frames_discarded += cut;
+                    self.recorder.event(
+                        "point-interrupted",
+                        Some(p.index),
+                        &format!("{alarm}; {cut} frame records cut, the point will be done again"),
+                    );
+                    if self.control.request() == Request::Abort {
+                        return Ok(Ending::Aborted("aborted by the operator".into()));
+                    }
+                    let reason = match alarm {
+                        Alarm::Requested => "paused by the operator".to_string(),
+                        other => other.to_string(),
+                    };
+                    if !self.pause(reason, operator)? {
+                        return Ok(Ending::Aborted("aborted while paused".into()));
+                    }
+                }
+            }
+        }
+        self.status(true);
+        Ok(Ending::Completed)
+    }
+
+    /// Asks the operator; false means abort.
+    fn ask(&mut self, operator: &mut dyn Operator, prompt: &Prompt, point: Option<u64>) -> bool {
+        self.recorder.event("prompt", point, &prompt.message());
+        let asked = Instant::now();
+        let reply = operator.ask(prompt);
+        self.excluded += asked.elapsed();
+        self.recorder.event("reply", point, &format!("{reply:?}"));
+        reply == Reply::Continue
+    }
+
+    /// Paused: waits until the watchers' condition clears, then asks the operator. False: abort.
+    fn pause(&mut self, reason: String, operator: &mut dyn Operator) -> Result<bool, ScanError> {
+        self.recorder
+            .event("pause", Some(self.points_done), &reason);
+        (self.progress)(ScanProgress::Paused {
+            reason: reason.clone(),
+        });
+        let mut said = false;
+        loop {
+            if self.control.request() == Request::Abort {
+                return Ok(false);
+            }
+            match self.watchers.condition() {
+                Some(condition) => {
+                    if !said {
+                        (self.progress)(ScanProgress::Message(format!(
+                            "waiting for the condition to clear: {condition}"
+                        )));
+                        said = true;
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                None => break,
+            }
+        }
+        let prompt = Prompt::Resume { reason };
+        if !self.ask(operator, &prompt, Some(self.points_done)) {
+            return Ok(false);
+        }
+        self.control.resume();
+        self.watchers.reset();
+        self.recorder.event("resume", Some(self.points_done), "");
+        (self.progress)(ScanProgress::Resumed);
+        Ok(true)
+    }
+
+    fn phase(&mut self, point: u64, phase: Phase) {
+        (self.progress)(ScanProgress::Phase { point, phase });
+    }
+
+    fn interrupted(&self) -> Option<Alarm> {
+        if !self.cancel.load(Ordering::SeqCst) {
+            return None;
+        }
+        Some(self.watchers.alarm().unwrap_or(Alarm::Requested))
+    }
+
+    fn position(&mut self) -> Result<Position, ScanError> {
+        Ok(Position {
+            x: self.axes.x.status()?.position,
+            y: self.axes.y.status()?.position,
+            z: self.axes.z.status()?.position,
+        })
+    }
+
+    /// Measures the no-contact offset at the safe height (every point: drift is tracked).
+    fn tare(&mut self, point: u64) -> Result<[f64; 6], ScanError> {
+        let (_, mean) = self.monitor.mean_of_last(500).ok_or_else(|| {
+            ScanError::Setup(format!("{}: no force samples", self.monitor.device()))
+        })?;
+        self.tare.set(mean[2]);
+        self.recorder.event(
+            "force-offset",
+            Some(point),
+            &format!(
+                "no-contact offset Fx {:.4} Fy {:.4} Fz {:.4} N, Mx {:.5} My {:.5} Mz {:.5} N m",
+                mean[0], mean[1], mean[2], mean[3], mean[4], mean[5]
+            ),
+        );
+        Ok(mean)
+    }
+
+    /// Waits for the x and y moves; stops them on an interruption.
+    fn wait_lateral(&mut self) -> Result<Option<Alarm>, ScanError> {
+        let started = Instant::now();
+        let mut x_done = false;
+        let mut y_done = self.setup.limits.manual_y;
+        while !(x_done && y_done) {
+            if let Some(alarm) = self.interrupted() {
+                for axis in [&mut self.axes.x, &mut self.axes.y] {
+                    let _ = axis.stop(StopMode::Immediate);
+                    let _ = axis.wait_idle(MOVE_TIMEOUT);
+                }
+                return Ok(Some(alarm));
+            }
+            if started.elapsed() > MOVE_TIMEOUT {
+                return Err(ScanError::Setup(format!(
+                    "the lateral move did not finish within {MOVE_TIMEOUT:?} ({}, {})",
+                    self.axes.x.endpoint(),
+                    self.axes.y.endpoint()
+                )));
+            }
+            if !x_done {
+                x_done = settled(self.axes.x.as_mut())?;
+            }
+            if !y_done {
+                y_done = settled(self.axes.y.as_mut())?;
+            }
+            self.status(false);
+        }
+        Ok(None)
+    }
+
+    /// Holds for `dwell`, filming; ends early on an interruption.
+    fn dwell(&mut self, dwell: Duration) -> Option<Alarm> {
+        let until = Instant::now() + dwell;
+        while Instant::now() < until {
+            if let Some(alarm) = self.interrupted() {
+                return Some(alarm);
+            }
+            self.status(false);
+            std::thread::sleep(POLL);
+        }
+        None
+    }
+
+    fn retract(&mut self) -> Result<(), ScanError> {
+        if self.axes.z.status()?.moving {
+            self.axes.z.stop(StopMode::Immediate)?;
+            self.axes.z.wait_idle(MOVE_TIMEOUT)?;
+        }
+        self.axes.z.move_to(self.safe_z, MOVE_TIMEOUT)?;
+        Ok(())
+    }
+
+    fn point(&mut self, p: &ScanPoint) -> Result<PointEnd, ScanError> {
+        let i = p.index;
+        let tare = self.tare(i)?;
+        self.phase(i, Phase::Moving);
+        self.axes.x.begin_move_to(p.x)?;
+        if !self.setup.limits.manual_y {
+            self.axes.y.begin_move_to(p.y)?;
+        }
+        let moving = Instant::now();
+        let lateral = self.wait_lateral()?;
+        self.excluded += moving.elapsed();
+        if let Some(alarm) = lateral {
+            return Ok(PointEnd::Interrupted(alarm));
+        }
+        let measured = self.position()?;
+        let contact = self.setup.origin.contact_mm(measured.x, measured.y);
+        let mut filming = Filming {
+            point: i,
+            commanded: Position {
+                x: p.x,
+                y: p.y,
+                z: self.press.approach_limit,
+            },
+            measured,
+            contact,
+            shape: p.shape.clone(),
+            tare,
+        };
+        self.context.set(Some(filming.clone()));
+        self.watchers.set_filming(true);
+        let end = self.indent(p, &mut filming);
+        self.context.set(None);
+        self.watchers.set_filming(false);
+        end
+    }
+
+    fn indent(&mut self, p: &ScanPoint, filming: &mut Filming) -> Result<PointEnd, ScanError> {
+        let i = p.index;
+        self.phase(i, Phase::Approach);
+        let tare_fz = Newtons(self.tare.get());
+        let press = self.press.clone();
+        let monitor = self.monitor.clone();
+        let guard = ForceGuard::new(&monitor, &press, self.cancel.clone()).with_tare(tare_fz);
+        let approaching = Instant::now();
+        let approached = approach(self.axes.z.as_mut(), &guard);
+        self.excluded += approaching.elapsed();
+        let contact = match approached {
+            Ok(c) => c,
+            Err(e) => return self.press_failed(e),
+        };
+        self.recorder.event(
+            "contact",
+            Some(i),
+            &format!(
+                "first contact at z {:.4} mm ({:.3} N)",
+                contact.z.0, contact.force.0
+            ),
+        );
+        let down = if press.approach_limit.0 >= self.safe_z.0 {
+            1.0
+        } else {
+            -1.0
+        };
+        let ind = &self.setup.program.plan.indentation;
+        let dwell = Duration::from_secs_f64(ind.dwell);
+        let n = match &self.setup.program.targets {
+            Targets::Force(t) => t.len(),
+            Targets::Depth(t) => t.len(),
+        };
+        let mut force_now = contact.force;
+        for k in 0..n {
+            self.phase(i, Phase::Pressing(k));
+            let pressing = Instant::now();
+            let reached = match &self.setup.program.targets {
+                Targets::Force(t) => {
+                    // Ramp: intermediate targets no more than half a second of ramp apart.
+                    let step = (ind.ramp_rate * 0.5).max(0.2);
+                    let mut result = Ok(contact);
+                    let mut f = force_now.0;
+                    while (t[k].0 - f).abs() > 1e-9 {
+                        f = if t[k].0 > f {
+                            (f + step).min(t[k].0)
+                        } else {
+                            (f - step).max(t[k].0)
+                        };
+                        result = press_to(self.axes.z.as_mut(), &guard, Newtons(f));
+                        if result.is_err() {
+                            break;
+                        }
+                    }
+                    result
+                }
+                Targets::Depth(t) => {
+                    let target = Millimetres(contact.z.0 + down * t[k].0);
+                    self.press_depth(&guard, target, ind.ramp_rate)
+                }
+            };
+            self.excluded += pressing.elapsed();
+            let reached = match reached {
+                Ok(r) => r,
+                Err(e) => return self.press_failed(e),
+            };
+            force_now = reached.force;
+            filming.commanded.z = reached.z;
+            filming.measured = self.position()?;
+            self.context.set(Some(filming.clone()));
+            self.phase(i, Phase::Dwell(k));
+            let dwelling = Instant::now();
+            let dwelt = self.dwell(dwell);
+            self.excluded += dwelling.elapsed();
+            if let Some(alarm) = dwelt {
+                return Ok(PointEnd::Interrupted(alarm));
+            }
+        }
+        self.phase(i, Phase::Retract);
+        let retracting = Instant::now();
+        self.axes.z.begin_move_to(self.safe_z)?;
+        loop {
+            if let Some(alarm) = self.interrupted() {
+                return Ok(PointEnd::Interrupted(alarm));
+            }
+            if settled(self.axes.z.as_mut())? {
+                break;
+            }
+            self.status(false);
+        }
+        self.excluded += retracting.elapsed();
+        Ok(PointEnd::Done)
+    }
+
+    /// Moves z to `target` in steps paced by `rate` (mm/s), watching the force.
+    fn press_depth(
+        &mut self,
+        guard: &ForceGuard<'_>,
+        target: Millimetres,
+        rate: f64,
+    ) -> Result<super::press::PressPoint, PressError> {
+        let step = (rate * 0.1).max(0.005);
+        let mut z = self.axes.z.status()?.position.0;
+        let mut steps = 0;
+        while (target.0 - z).abs() > 1e-6 {
+            if self.cancel.load(Ordering::SeqCst) {
+                let _ = self.axes.z.stop(StopMode::Immediate);
+                return Err(PressError::Cancelled);
+            }
+            let next = if target.0 > z {
+                (z + step).min(target.0)
+            } else {
+                (z - step).max(target.0)
+            };
+            let t0 = Instant::now();
+            self.axes
+                .z
+                .move_to(Millimetres(next), self.press.move_timeout)?;
+            let f = guard.pressing_force()?;
+            if f > self.press.ceiling {
+                let _ = self.axes.z.stop(StopMode::Immediate);
+                return Err(PressError::Ceiling {
+                    force: f,
+                    ceiling: self.press.ceiling,
+                    retracted_to: self.axes.z.status()?.position,
+                });
+            }
+            if let Some(rest) = Duration::from_millis(100).checked_sub(t0.elapsed()) {
+                std::thread::sleep(rest);
+            }
+            z = next;
+            steps += 1;
+        }
+        std::thread::sleep(self.press.settle);
+        Ok(super::press::PressPoint {
+            z: self.axes.z.status()?.position,
+            force: guard.pressing_force()?,
+            steps,
+        })
+    }
+
+    fn press_failed(&mut self, e: PressError) -> Result<PointEnd, ScanError> {
+        match e {
+            PressError::Cancelled => Ok(PointEnd::Interrupted(
+                self.watchers.alarm().unwrap_or(Alarm::Requested),
+            )),
+            PressError::Ceiling { force, ceiling, .. } => {
+                self.cancel.store(true, Ordering::SeqCst);
+                Ok(PointEnd::Interrupted(Alarm::Ceiling { force, ceiling }))
+            }
+            PressError::Force { .. } if self.watcher_tripped() => Ok(PointEnd::Interrupted(
+                self.watchers.alarm().unwrap_or(Alarm::Requested),
+            )),
+            PressError::NoContact { limit, threshold } => Ok(PointEnd::NoContact(format!(
+                "no contact above {:.2} N down to z {:.3} mm",
+                threshold.0, limit.0
+            ))),
+            other => Err(other.into()),
+        }
+    }
+
+    /// True when the watchers have tripped, allowing them one poll to see what the press saw.
+    fn watcher_tripped(&self) -> bool {
+        for _ in 0..5 {
+            if self.cancel.load(Ordering::SeqCst) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        false
+    }
+
+    /// Sends a status line at most every 250 ms (or now when `force`).
+    fn status(&mut self, force: bool) {
+        if !force && self.last_status.elapsed() < Duration::from_millis(250) {
+            return;
+        }
+        self.last_status = Instant::now();
+        let total = self.setup.program.points.len() as u64;
+        let left = total.saturating_sub(self.points_done);
+        let eta = if self.done_this_session > 0 {
+            self.started
+                .elapsed()
+                .mul_f64(left as f64 / self.done_this_session as f64)
+        } else {
+            let estimate = self.setup.program.estimate(&self.setup.limits).total;
+            estimate.mul_f64(left as f64 / total.max(1) as f64)
+        };
+        let stats: RecorderStats = self.recorder.stats();
+        let force_n = self
+            .monitor
+            .mean_of_last(50)
+            .map_or(f64::NAN, |(_, m)| self.tare.get() - m[2]);
+        (self.progress)(ScanProgress::Status(Status {
+            points_done: self.points_done,
+            points_total: total,
+            eta,
+            force_n,
+            frame_rate_hz: stats.frame_rate_hz,
+            frames_recorded: stats.frames_recorded,
+            dropped_frames: stats.dropped_frames,
+        }));
+    }
+}
+
+/// A run id from the plan name and the UTC time ("grid-2026-11-23T02-10-00-123Z").
+pub fn new_run_id(plan_name: &str) -> String {
+    let name: String = plan_name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    format!("{name}-{}", now_utc().replace([':', '.'], "-"))
+}
+
+/// The runs root used when none is given.
+pub fn default_root() -> &'static Path {
+    Path::new("runs")
+}

@@ -1,0 +1,249 @@
+//! Watchers: a thread that checks the bench every 2 ms and stops the scan on its own.
+//!
+//! - force above the ceiling: trips at once (the press loop stops z and backs off; the scan
+//!   retracts);
+//! - no F/T data for longer than the silence limit (50 ms): trips, motion stops;
+//! - camera drops above a threshold while filming: trips, the scan pauses;
+//! - a pause-now or abort request: trips (so every wait in the scan ends within a poll).
+//!
+//! A trip sets the shared cancel flag every motion loop checks. The scan resumes only when the
+//! alarm's condition has cleared ([`Watchers::condition`]) and the operator agrees.
+
+use super::control::ScanControl;
+use crate::acquire::force_stream::ForceMonitor;
+use crate::acquire::recorder::RecorderStats;
+use crate::units::Newtons;
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Limits the watchers enforce.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WatchSettings {
+    pub ceiling: Newtons,
+    /// Longest gap in the F/T stream tolerated.
+    pub force_silence: Duration,
+    /// Dropped frames tolerated within `drop_window` while filming.
+    pub max_drops: u64,
+    pub drop_window: Duration,
+}
+
+impl Default for WatchSettings {
+    fn default() -> Self {
+        WatchSettings {
+            ceiling: Newtons(12.0),
+            force_silence: Duration::from_millis(50),
+            max_drops: 10,
+            drop_window: Duration::from_secs(2),
+        }
+    }
+}
+
+/// Why the watchers stopped the scan.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Alarm {
+    Ceiling {
+        force: Newtons,
+        ceiling: Newtons,
+    },
+    ForceSilent {
+        silence: Duration,
+    },
+    CameraDrops {
+        dropped: u64,
+        window: Duration,
+    },
+    /// The operator asked to stop now (pause now or abort).
+    Requested,
+}
+
+impl std::fmt::Display for Alarm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Alarm::Ceiling { force, ceiling } => write!(
+                f,
+                "force {:.2} N above the ceiling {:.2} N: z stopped and retracted",
+                force.0, ceiling.0
+            ),
+            Alarm::ForceSilent { silence } => write!(
+                f,
+                "no force/torque data for {} ms: motion stopped (check the F/T cable and stream)",
+                silence.as_millis()
+            ),
+            Alarm::CameraDrops { dropped, window } => write!(
+                f,
+                "camera dropped {dropped} frames within {:.1} s",
+                window.as_secs_f64()
+            ),
+            Alarm::Requested => write!(f, "stop requested"),
+        }
+    }
+}
+
+/// The pressing force's zero (the tared no-contact Fz, N), shared with the watchers.
+#[derive(Debug, Clone, Default)]
+pub struct SharedTare(Arc<AtomicU64>);
+
+impl SharedTare {
+    pub fn set(&self, fz: f64) {
+        self.0.store(fz.to_bits(), Ordering::SeqCst);
+    }
+
+    pub fn get(&self) -> f64 {
+        f64::from_bits(self.0.load(Ordering::SeqCst))
+    }
+}
+
+struct Shared {
+    alarm: Mutex<Option<Alarm>>,
+    /// Filming: camera drops count only then.
+    filming: AtomicBool,
+    stop: AtomicBool,
+}
+
+/// The watcher thread.
+pub struct Watchers {
+    shared: Arc<Shared>,
+    cancel: Arc<AtomicBool>,
+    monitor: ForceMonitor,
+    tare: SharedTare,
+    settings: WatchSettings,
+    handle: Option<JoinHandle<()>>,
+}
+
+/// Source of the recorder's counters (dropped frames).
+pub type StatsSource = Box<dyn Fn() -> RecorderStats + Send>;
+
+impl Watchers {
+    /// Starts watching; `cancel` is the flag every motion loop of the scan checks.
+    pub fn spawn(
+        monitor: ForceMonitor,
+        recorder: StatsSource,
+        control: ScanControl,
+        tare: SharedTare,
+        settings: WatchSettings,
+        cancel: Arc<AtomicBool>,
+    ) -> Watchers {
+        let shared = Arc::new(Shared {
+            alarm: Mutex::new(None),
+            filming: AtomicBool::new(false),
+            stop: AtomicBool::new(false),
+        });
+        let handle = {
+            let (shared, cancel, monitor, tare, settings) = (
+                shared.clone(),
+                cancel.clone(),
+                monitor.clone(),
+                tare.clone(),
+                settings.clone(),
+            );
+            std::thread::Builder::new()
+                .name("watchers".into())
+                .spawn(move || {
+                    let mut drops: VecDeque<(Instant, u64)> = VecDeque::new();
+                    while !shared.stop.load(Ordering::SeqCst) {
+                        let filming = shared.filming.load(Ordering::SeqCst);
+                        let dropped = recorder().dropped_frames;
+                        let now = Instant::now();
+                        drops.push_back((now, dropped));
+                        while drops
+                            .front()
+                            .is_some_and(|(t, _)| now.duration_since(*t) > settings.drop_window)
+                        {
+                            drops.pop_front();
+                        }
+                        if !filming {
+                            drops.clear();
+                            drops.push_back((now, dropped));
+                        }
+                        let recent = dropped - drops.front().map_or(dropped, |d| d.1);
+                        let alarm = condition_of(&monitor, tare.get(), &settings)
+                            .or_else(|| {
+                                (filming && recent > settings.max_drops).then_some(
+                                    Alarm::CameraDrops {
+                                        dropped: recent,
+                                        window: settings.drop_window,
+                                    },
+                                )
+                            })
+                            .or_else(|| control.stop_now().then_some(Alarm::Requested));
+                        if let Some(alarm) = alarm {
+                            let mut slot = shared.alarm.lock().unwrap_or_else(|p| p.into_inner());
+                            if slot.is_none() {
+                                *slot = Some(alarm);
+                            }
+                            cancel.store(true, Ordering::SeqCst);
+                        }
+                        std::thread::sleep(Duration::from_millis(2));
+                    }
+                })
+                .ok()
+        };
+        Watchers {
+            shared,
+            cancel,
+            monitor,
+            tare,
+            settings,
+            handle,
+        }
+    }
+
+    /// The alarm that tripped, if any.
+    pub fn alarm(&self) -> Option<Alarm> {
+        self.shared
+            .alarm
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    /// The force and stream conditions as they are now (None: all clear).
+    pub fn condition(&self) -> Option<Alarm> {
+        condition_of(&self.monitor, self.tare.get(), &self.settings)
+    }
+
+    /// Tells the watchers whether frames are being filmed (camera drops count only then).
+    pub fn set_filming(&self, filming: bool) {
+        self.shared.filming.store(filming, Ordering::SeqCst);
+    }
+
+    /// Clears the alarm and the cancel flag (after the operator agreed to resume).
+    pub fn reset(&self) {
+        *self.shared.alarm.lock().unwrap_or_else(|p| p.into_inner()) = None;
+        self.cancel.store(false, Ordering::SeqCst);
+    }
+
+    /// True when the watcher thread could be started.
+    pub fn running(&self) -> bool {
+        self.handle.is_some()
+    }
+}
+
+impl Drop for Watchers {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::SeqCst);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// Force ceiling and F/T silence, as they are now.
+fn condition_of(monitor: &ForceMonitor, tare_fz: f64, settings: &WatchSettings) -> Option<Alarm> {
+    match monitor.silence() {
+        Some(s) if s > settings.force_silence => {
+            return Some(Alarm::ForceSilent { silence: s });
+        }
+        // No sample yet: the scan waits for the stream before it moves.
+        _ => {}
+    }
+    let (_, mean) = monitor.mean_of_last(5)?;
+    let force = Newtons(tare_fz - mean[2]);
+    (force > settings.ceiling).then_some(Alarm::Ceiling {
+        force,
+        ceiling: settings.ceiling,
+    })
+}

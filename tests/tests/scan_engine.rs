@@ -1,0 +1,659 @@
+//! The scan engine on the simulated bench: a small grid end to end with labels scored against
+//! the simulator's ground truth, pause/resume and abort at every phase of an indentation, the
+//! force ceiling watcher.
+
+use fringe_rig::axis::SoftLimits;
+use fringe_rig::camera::CameraSettings;
+use fringe_rig::devices::Devices;
+use fringe_rig::scan::control::{Operator, Phase, Prompt, Reply, ScanControl, ScanProgress};
+use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
+use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::plan::{BenchLimits, Plan};
+use fringe_rig::scan::press::PressSettings;
+use fringe_rig::scan::watchers::WatchSettings;
+use fringe_rig::sim::bench::AxisConfig;
+use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
+use fringe_rig::sim::rig::{SimRig, SimRigConfig};
+use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord};
+use fringe_rig::store::run_writer::read_lines;
+use fringe_rig::store::verify::verify;
+use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::units::{Millimetres, Newtons};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+/// The simulated bench with quick axes and a small image (the engine, not the renderer, is
+/// under test).
+fn bench(seed: u64) -> (SimRig, Devices, Arc<TruthLog>) {
+    let mut config = SimRigConfig {
+        seed,
+        ..SimRigConfig::default()
+    };
+    let quick = |a: AxisConfig| AxisConfig {
+        velocity_mm_s: 8.0,
+        acceleration_mm_s2: 40.0,
+        ..a
+    };
+    config.bench.x = quick(config.bench.x);
+    config.bench.y = quick(config.bench.y);
+    config.bench.z = quick(config.bench.z);
+    let g = &mut config.sensor.geometry;
+    g.width = 480;
+    g.height = 300;
+    g.disc_radius_px /= 4.0;
+    g.px_per_mm /= 4.0;
+    g.centre_offset_px = [g.centre_offset_px[0] / 4.0, g.centre_offset_px[1] / 4.0];
+    let truth = TruthLog::new();
+    let sink: Arc<dyn TruthSink> = truth.clone();
+    let (rig, devices) = SimRig::start(&config, Some(sink)).expect("simulated bench");
+    (rig, devices, truth)
+}
+
+fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
+    let b = rig.bench.config();
+    let k = |a: &AxisConfig| a.spec("axis").kinematics;
+    let limits = BenchLimits {
+        x: SoftLimits::new(Millimetres(0.0), Millimetres(b.x.travel_mm)).expect("x limits"),
+        y: SoftLimits::new(Millimetres(0.0), Millimetres(b.y.travel_mm)).expect("y limits"),
+        z: SoftLimits::new(Millimetres(0.0), Millimetres(b.z.travel_mm)).expect("z limits"),
+        x_motion: k(&b.x),
+        y_motion: k(&b.y),
+        z_motion: k(&b.z),
+        manual_y: false,
+        max_force: Newtons(20.0),
+        contact_z: Millimetres(b.geometry.z_touch_mm),
+    };
+    let plan = Plan::parse(plan_text, "plan.toml").expect("plan");
+    let program = plan.program(&limits, "plan.toml").expect("program");
+    ScanSetup {
+        program,
+        plan_text: plan_text.to_string(),
+        limits,
+        origin: ContactOrigin {
+            x: Millimetres(b.geometry.x_centre_mm),
+            y: Millimetres(b.geometry.y_centre_mm),
+            source: "simulated bench".into(),
+        },
+        sync: SyncMethod::Strobe,
+        sensor_id: rig.config.sensor.id.clone(),
+        rig_text: "simulated bench".into(),
+        seed: Some(rig.config.seed),
+        profile: None,
+        camera: CameraSettings::default(),
+        press: PressSettings::default(),
+        watch: WatchSettings::default(),
+        truth: None,
+    }
+}
+
+fn plan(xs: &str, ys: &str, targets: &str, dwell: f64) -> String {
+    format!(
+        r#"
+name = "test"
+[grid]
+x = {xs}
+y = {ys}
+order = "snake"
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 14.0
+contact_threshold = 0.3
+[indentation]
+{targets}
+ramp_rate = 6.0
+dwell = {dwell}
+[safety]
+force_ceiling = 12.0
+"#
+    )
+}
+
+/// Answers every prompt with `reply`, recording the prompts.
+struct Scripted {
+    reply: Reply,
+    prompts: Arc<Mutex<Vec<Prompt>>>,
+}
+
+impl Operator for Scripted {
+    fn ask(&mut self, prompt: &Prompt) -> Reply {
+        self.prompts
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(prompt.clone());
+        match prompt {
+            Prompt::Resume { .. } => self.reply,
+            _ => Reply::Continue,
+        }
+    }
+}
+
+fn scripted(reply: Reply) -> (Scripted, Arc<Mutex<Vec<Prompt>>>) {
+    let prompts = Arc::new(Mutex::new(Vec::new()));
+    (
+        Scripted {
+            reply,
+            prompts: prompts.clone(),
+        },
+        prompts,
+    )
+}
+
+fn records(dir: &Path) -> Vec<FrameRecord> {
+    read_lines::<FrameRecord>(&dir.join("frames.jsonl"))
+        .expect("frames.jsonl")
+        .0
+}
+
+fn events(dir: &Path) -> Vec<Event> {
+    read_lines::<Event>(&dir.join("events.jsonl"))
+        .expect("events.jsonl")
+        .0
+}
+
+/// Every point's records are contiguous (one attempt each) and points come in program order.
+fn assert_each_point_once(records: &[FrameRecord], points: u64) {
+    let mut seen: Vec<u64> = Vec::new();
+    for r in records {
+        if seen.last() != Some(&r.point) {
+            assert!(
+                !seen.contains(&r.point),
+                "point {} recorded twice (records not contiguous)",
+                r.point
+            );
+            seen.push(r.point);
+        }
+    }
+    assert_eq!(seen, (0..points).collect::<Vec<_>>(), "points recorded");
+}
+
+#[test]
+fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
+    let dir = tempfile_dir("grid");
+    let (rig, devices, truth) = bench(11);
+    let text = plan(
+        "[11.0, 14.0]",
+        "[24.0, 26.0]",
+        "force_targets = [1.0, 4.0]",
+        0.3,
+    );
+    let setup = setup(&rig, &text);
+    let (mut operator, prompts) = scripted(Reply::Continue);
+    let control = ScanControl::new();
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "grid".into(),
+        },
+        &control,
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert_eq!(out.points_done, 4);
+    assert_eq!(out.lost_force_samples, 0);
+    let report = verify(&out.run_dir).expect("verify");
+    assert!(report.ok(), "{report:?}");
+    let prompts = prompts.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    assert_eq!(
+        prompts,
+        vec![Prompt::ChangeIndenter {
+            shape: "pentagon".into()
+        }]
+    );
+    let records = records(&out.run_dir);
+    assert_each_point_once(&records, 4);
+    // Snake order: row y=24 goes x 11 -> 14, row y=26 comes back.
+    let first_x: BTreeMap<u64, f64> = records.iter().map(|r| (r.point, r.commanded.x.0)).collect();
+    assert_eq!(
+        first_x.values().copied().collect::<Vec<_>>(),
+        vec![11.0, 14.0, 14.0, 11.0]
+    );
+
+    // Labels against the truth at mid-exposure: normal force and contact point.
+    let truths: BTreeMap<u64, _> = truth.frames().into_iter().map(|t| (t.id, t)).collect();
+    let mut force_errors = Vec::new();
+    let mut in_contact = 0;
+    for r in &records {
+        let w = r.wrench.expect("every frame labelled");
+        let t = truths.get(&r.frame_id).expect("truth of the frame");
+        let true_force = t.contact.map_or(0.0, |c| c.0);
+        force_errors.push(-w.fz.0 - true_force);
+        if w.fz.0.abs() < 0.2 {
+            assert_eq!(r.shape, "None");
+            assert_eq!(r.contact, None);
+        } else {
+            in_contact += 1;
+            assert_eq!(r.shape, "pentagon");
+            let c = r.contact.expect("contact point");
+            let (_, tx, ty) = t.contact.expect("truth in contact");
+            assert!(
+                (c[0] - tx).abs() < 0.05 && (c[1] - ty).abs() < 0.05,
+                "contact {c:?} vs truth ({tx}, {ty}) in {r:?} truth {t:?}"
+            );
+        }
+    }
+    let rms = (force_errors.iter().map(|e| e * e).sum::<f64>() / force_errors.len() as f64).sqrt();
+    let score = fringe_rig::sim::label_score::score(&records, &truth.frames()).expect("score");
+    assert_eq!(score.frames, records.len());
+    assert!((score.force_rms_n - rms).abs() < 1e-9);
+    assert!(score.contact_rms_mm < 0.05, "{score:?}");
+    assert!(in_contact > 40, "{in_contact} frames in contact");
+    assert!(
+        rms < 0.15,
+        "label RMS error {rms:.3} N over {} frames",
+        force_errors.len()
+    );
+    // Each target was held: some frames near 4 N.
+    assert!(records
+        .iter()
+        .any(|r| r.wrench.is_some_and(|w| (-w.fz.0 - 4.0).abs() < 0.3)));
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn tempfile_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "fringe-scan-{name}-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn phase_of(k: usize) -> Phase {
+    [
+        Phase::Moving,
+        Phase::Approach,
+        Phase::Pressing(0),
+        Phase::Dwell(0),
+        Phase::Retract,
+    ][k]
+}
+
+/// Runs a scan that asks `act` at the first time point `at_point` enters `phase`.
+fn scan_acting_at(
+    name: &str,
+    xs: &str,
+    phases: Vec<(u64, Phase)>,
+    act: fn(&ScanControl),
+    reply: Reply,
+) -> (ScanOutcome, SimRig) {
+    let dir = tempfile_dir(name);
+    let (rig, devices, _truth) = bench(21);
+    let text = plan(xs, "[25.0]", "force_targets = [2.0]", 0.3);
+    let setup = setup(&rig, &text);
+    let (mut operator, _) = scripted(reply);
+    let control = ScanControl::new();
+    let pending = Mutex::new(phases);
+    let c = control.clone();
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir,
+            run_id: name.into(),
+        },
+        &control,
+        &mut operator,
+        &move |p| {
+            if let ScanProgress::Phase { point, phase } = p {
+                let mut pending = pending.lock().unwrap_or_else(|p| p.into_inner());
+                if let Some(i) = pending
+                    .iter()
+                    .position(|&(pt, ph)| pt == point && ph == phase)
+                {
+                    pending.remove(i);
+                    act(&c);
+                }
+            }
+        },
+    )
+    .expect("scan");
+    (out, rig)
+}
+
+#[test]
+fn pause_now_at_every_phase_then_resume_records_every_point_once() {
+    let phases: Vec<(u64, Phase)> = (0..5).map(|k| (k as u64, phase_of(k))).collect();
+    let (out, rig) = scan_acting_at(
+        "pause",
+        "[9.5, 11.0, 12.5, 14.0, 15.5]",
+        phases,
+        |c| c.pause_now(),
+        Reply::Continue,
+    );
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert_eq!(out.points_done, 5);
+    let events = events(&out.run_dir);
+    let interrupted: Vec<u64> = events
+        .iter()
+        .filter(|e| e.kind == "point-interrupted")
+        .filter_map(|e| e.point)
+        .collect();
+    assert_eq!(
+        interrupted,
+        vec![0, 1, 2, 3, 4],
+        "every phase was interrupted once"
+    );
+    let records = records(&out.run_dir);
+    assert_each_point_once(&records, 5);
+    // The records kept are from the attempt after each interruption.
+    for p in 0..5u64 {
+        let cut = events
+            .iter()
+            .find(|e| e.kind == "point-interrupted" && e.point == Some(p))
+            .map(|e| e.host_ns)
+            .unwrap_or(0);
+        assert!(records
+            .iter()
+            .filter(|r| r.point == p)
+            .all(|r| r.host_arrival_ns > cut));
+    }
+    assert!(verify(&out.run_dir).expect("verify").ok());
+    drop(rig);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+#[test]
+fn pause_after_the_indentation_finishes_the_point_first() {
+    let (out, rig) = scan_acting_at(
+        "pause-after",
+        "[11.0, 14.0]",
+        vec![(0, Phase::Dwell(0))],
+        |c| {
+            c.pause();
+        },
+        Reply::Continue,
+    );
+    assert_eq!(out.status, ExitStatus::Completed);
+    let events = events(&out.run_dir);
+    assert!(events.iter().all(|e| e.kind != "point-interrupted"));
+    let pause = events
+        .iter()
+        .position(|e| e.kind == "pause")
+        .expect("paused");
+    let done0 = events
+        .iter()
+        .position(|e| e.kind == "point-done" && e.point == Some(0))
+        .expect("point 0 done");
+    assert!(done0 < pause, "point 0 finished before the pause");
+    assert_each_point_once(&records(&out.run_dir), 2);
+    drop(rig);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+fn abort_at(k: usize) {
+    let name = format!("abort-{k}");
+    let (out, rig) = scan_acting_at(
+        &name,
+        "[11.0, 14.0]",
+        vec![(0, phase_of(k))],
+        |c| c.abort(),
+        Reply::Continue,
+    );
+    assert_eq!(out.status, ExitStatus::Aborted, "{out:?}");
+    assert_eq!(out.points_done, 0);
+    // Cleanup: z back at the safe height, nothing moving, the run closed and consistent.
+    let z = rig.bench.motor_z();
+    let now = fringe_rig::clock::HostTime::now();
+    assert!(
+        (z.true_position_at(now).0 - 14.0).abs() < 0.01,
+        "z at {:?}",
+        z.true_position_at(now)
+    );
+    assert!(
+        records(&out.run_dir).is_empty(),
+        "the interrupted point's frames are cut"
+    );
+    let report = verify(&out.run_dir).expect("verify");
+    assert!(report.ok(), "{report:?}");
+    drop(rig);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+#[test]
+fn abort_while_moving() {
+    abort_at(0);
+}
+
+#[test]
+fn abort_during_the_approach() {
+    abort_at(1);
+}
+
+#[test]
+fn abort_while_pressing() {
+    abort_at(2);
+}
+
+#[test]
+fn abort_during_the_dwell() {
+    abort_at(3);
+}
+
+#[test]
+fn abort_during_the_retract() {
+    abort_at(4);
+}
+
+#[test]
+fn the_force_ceiling_watcher_stops_and_retracts_at_once() {
+    let dir = tempfile_dir("ceiling");
+    let (rig, devices, truth) = bench(31);
+    // A depth far past what the ceiling allows (about 13 N/mm).
+    let text = plan("[12.5]", "[25.0]", "depth_targets = [2.0]", 0.3)
+        .replace("force_ceiling = 12.0", "force_ceiling = 5.0");
+    let setup = setup(&rig, &text);
+    let (mut operator, prompts) = scripted(Reply::Abort);
+    let control = ScanControl::new();
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "ceiling".into(),
+        },
+        &control,
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Aborted);
+    let events = events(&out.run_dir);
+    let e = events
+        .iter()
+        .find(|e| e.kind == "point-interrupted")
+        .expect("interrupted");
+    assert!(e.message.contains("above the ceiling"), "{}", e.message);
+    // The operator was asked to resume only after the force had gone.
+    let prompts = prompts.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    assert!(
+        matches!(prompts.last(), Some(Prompt::Resume { reason }) if reason.contains("ceiling"))
+    );
+    let peak = truth
+        .frames()
+        .iter()
+        .filter_map(|t| t.contact.map(|c| c.0))
+        .fold(0.0f64, f64::max);
+    assert!(peak < 5.0 + 1.5, "true force peaked at {peak:.2} N");
+    let now = fringe_rig::clock::HostTime::now();
+    assert!((rig.bench.motor_z().true_position_at(now).0 - 14.0).abs() < 0.01);
+    drop(rig);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A force sensor that goes silent for 150 ms once when asked.
+struct Stalling {
+    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    stall: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl fringe_rig::force::ForceSensor for Stalling {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.start()
+    }
+    fn next_sample(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+        if self.stall.swap(false, std::sync::atomic::Ordering::SeqCst) {
+            std::thread::sleep(std::time::Duration::from_millis(150));
+        }
+        self.inner.next_sample(timeout)
+    }
+    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.stop()
+    }
+    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.bias()
+    }
+    fn stats(&self) -> fringe_rig::force::StreamStats {
+        self.inner.stats()
+    }
+}
+
+/// A camera that loses the next frames when asked.
+struct Dropping {
+    inner: Box<dyn fringe_rig::camera::Camera>,
+    drop_next: Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl fringe_rig::camera::Camera for Dropping {
+    fn info(&self) -> fringe_rig::camera::CameraInfo {
+        self.inner.info()
+    }
+    fn configure(&mut self, s: &CameraSettings) -> Result<(), fringe_rig::camera::CameraError> {
+        self.inner.configure(s)
+    }
+    fn start(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.inner.start()
+    }
+    fn trigger(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.inner.trigger()
+    }
+    fn next_frame(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<fringe_rig::camera::Frame>, fringe_rig::camera::CameraError> {
+        use std::sync::atomic::Ordering;
+        loop {
+            let frame = self.inner.next_frame(timeout)?;
+            let lose = frame.is_some()
+                && self
+                    .drop_next
+                    .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
+                    .is_ok();
+            if !lose {
+                return Ok(frame);
+            }
+        }
+    }
+    fn stop(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+        self.inner.stop()
+    }
+    fn latch_timestamp(
+        &mut self,
+    ) -> Result<fringe_rig::camera::TimestampLatch, fringe_rig::camera::CameraError> {
+        self.inner.latch_timestamp()
+    }
+}
+
+/// Runs a 2-point scan where `fault` is set when point 0 starts its dwell; the operator agrees
+/// to resume. Returns the run's events.
+fn scan_with_fault(
+    name: &str,
+    fault: impl Fn() + Send + Sync + 'static,
+    wrap: impl FnOnce(Devices) -> Devices,
+) -> (ScanOutcome, Vec<Event>) {
+    let dir = tempfile_dir(name);
+    let (rig, devices, _truth) = bench(41);
+    let devices = wrap(devices);
+    let text = plan("[11.0, 14.0]", "[25.0]", "force_targets = [2.0]", 0.6);
+    let setup = setup(&rig, &text);
+    let (mut operator, _) = scripted(Reply::Continue);
+    let control = ScanControl::new();
+    let fired = std::sync::atomic::AtomicBool::new(false);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir,
+            run_id: name.into(),
+        },
+        &control,
+        &mut operator,
+        &move |p| {
+            if p == (ScanProgress::Phase {
+                point: 0,
+                phase: Phase::Dwell(0),
+            }) && !fired.swap(true, std::sync::atomic::Ordering::SeqCst)
+            {
+                fault();
+            }
+        },
+    )
+    .expect("scan");
+    let events = events(&out.run_dir);
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert_each_point_once(&records(&out.run_dir), 2);
+    drop(rig);
+    (out, events)
+}
+
+#[test]
+fn no_force_data_for_50_ms_stops_motion_and_the_point_is_done_again() {
+    let stall = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let s = stall.clone();
+    let (out, events) = scan_with_fault(
+        "silence",
+        move || s.store(true, std::sync::atomic::Ordering::SeqCst),
+        |mut d| {
+            d.force = Box::new(Stalling {
+                inner: d.force,
+                stall,
+            });
+            d
+        },
+    );
+    let e = events
+        .iter()
+        .find(|e| e.kind == "point-interrupted")
+        .expect("interrupted");
+    assert_eq!(e.point, Some(0));
+    assert!(e.message.contains("no force/torque data"), "{}", e.message);
+    assert!(events.iter().any(|e| e.kind == "resume"));
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+#[test]
+fn camera_drops_above_the_threshold_pause_the_scan() {
+    let drop_next = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let d2 = drop_next.clone();
+    let (out, events) = scan_with_fault(
+        "drops",
+        move || d2.store(15, std::sync::atomic::Ordering::SeqCst),
+        |mut d| {
+            d.camera = Box::new(Dropping {
+                inner: d.camera,
+                drop_next,
+            });
+            d
+        },
+    );
+    let e = events
+        .iter()
+        .find(|e| e.kind == "point-interrupted")
+        .expect("interrupted");
+    assert!(e.message.contains("camera dropped"), "{}", e.message);
+    assert!(out.dropped_frames >= 15);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}

@@ -1,0 +1,418 @@
+//! `fringe scan PLAN` (and `fringe` with no command: the built-in short grid on the simulated
+//! bench): validate a plan against the rig, print a dry run, or run it into a run directory with
+//! a progress bar; Ctrl-C asks for a pause, twice stops now, three times aborts; `--resume RUN`
+//! continues a run that a crash or power loss interrupted.
+
+use crate::Global;
+use anyhow::{bail, Context};
+use fringe_rig::rig_config::RigConfig;
+use fringe_rig::scan::control::{
+    Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
+};
+use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanSetup};
+use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
+use fringe_rig::scan::press::PressSettings;
+use fringe_rig::scan::watchers::WatchSettings;
+use fringe_rig::sim::bench::{Bench, IndenterTip, MountedIndenter};
+use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
+use fringe_rig::store::documents::{ExitStatus, FrameRecord, StartDocument};
+use fringe_rig::store::run_writer::{read_document, read_lines};
+use std::io::{BufRead, IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The plan the main job runs when no plan is given.
+const SHORT_GRID: &str = include_str!("../../../rig/plans/short-grid.toml");
+const SHORT_GRID_NAME: &str = "built-in plan short-grid (rig/plans/short-grid.toml)";
+
+#[derive(clap::Args, Default)]
+pub struct ScanArgs {
+    /// The scan plan (plan.toml). Without it: the built-in short grid, or with --resume the plan
+    /// stored in the run.
+    #[arg(value_name = "PLAN")]
+    plan: Option<PathBuf>,
+    /// The rig file (default: ./rig.toml if present, else the simulated bench).
+    #[arg(long, value_name = "FILE")]
+    rig: Option<PathBuf>,
+    /// Directory that receives the run.
+    #[arg(long, value_name = "DIR", default_value = "runs")]
+    out: PathBuf,
+    /// Print the points, the path and the estimated duration; move nothing.
+    #[arg(long)]
+    dry_run: bool,
+    /// Continue an unfinished run (after a crash or power loss) from its last checkpoint.
+    #[arg(long, value_name = "RUN")]
+    resume: Option<PathBuf>,
+    /// Answer every operator prompt with "continue" (unattended benches, scripts).
+    #[arg(long)]
+    yes: bool,
+}
+
+impl ScanArgs {
+    /// What `fringe` with no command runs.
+    pub fn main_job() -> ScanArgs {
+        ScanArgs {
+            out: PathBuf::from("runs"),
+            ..ScanArgs::default()
+        }
+    }
+}
+
+/// The plan text and a name for messages.
+fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
+    if let Some(path) = &args.plan {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("{}: cannot read the plan", path.display()))?;
+        return Ok((text, path.display().to_string()));
+    }
+    if let Some(run) = &args.resume {
+        let start: StartDocument = read_document(&run.join(fringe_rig::store::START))?;
+        return Ok((start.plan, format!("the plan stored in {}", run.display())));
+    }
+    Ok((SHORT_GRID.to_string(), SHORT_GRID_NAME.to_string()))
+}
+
+pub fn run(args: ScanArgs, _global: &Global) -> anyhow::Result<()> {
+    let (text, origin) = plan_text(&args)?;
+    let plan = Plan::parse(&text, &origin)?;
+    let (config, source) = RigConfig::resolve(args.rig.as_deref())?;
+    println!("fringe {}: rig: {}", env!("CARGO_PKG_VERSION"), source.describe());
+    let limits = config.limits()?;
+    let program = plan.program(&limits, &origin)?;
+    println!("plan: {origin}");
+    if args.dry_run {
+        print_dry_run(&program, &limits);
+        return Ok(());
+    }
+    let truth = config.is_simulated().then(TruthLog::new);
+    let sink = truth.clone().map(|t| t as Arc<dyn TruthSink>);
+    let rig = config.open(sink).context("cannot open the rig")?;
+    for line in &rig.devices.description {
+        println!("  {line}");
+    }
+    let setup = ScanSetup {
+        program,
+        plan_text: text,
+        limits: rig.limits.clone(),
+        origin: rig.origin.clone(),
+        sync: rig.sync,
+        sensor_id: rig.sensor_id.clone(),
+        rig_text: rig.text.clone(),
+        seed: rig.sim.as_ref().map(|s| s.config.seed),
+        profile: None,
+        camera: rig.camera_settings.clone(),
+        press: PressSettings::default(),
+        watch: WatchSettings::default(),
+        truth: truth.clone(),
+    };
+    let target = match &args.resume {
+        Some(dir) => RunTarget::Resume { dir: dir.clone() },
+        None => RunTarget::New {
+            root: args.out.clone(),
+            run_id: new_run_id(&plan.name),
+        },
+    };
+    let control = ScanControl::new();
+    interrupt::install(control.clone());
+    let mut operator = TerminalOperator {
+        bench: rig.sim.as_ref().map(|s| s.bench.clone()),
+        yes: args.yes,
+    };
+    let bar = Mutex::new(Bar::new(setup.program.points.len() as u64));
+    let started = Instant::now();
+    let devices = rig.devices;
+    let outcome = run_scan(&setup, devices, target, &control, &mut operator, &|p| {
+        bar.lock().unwrap_or_else(|e| e.into_inner()).show(p)
+    });
+    bar.lock().unwrap_or_else(|e| e.into_inner()).finish();
+    let outcome = outcome.context("the scan stopped")?;
+    println!(
+        "{}: {} of {} points, {} frames ({} dropped by the camera, {} cut from interrupted points), {} force samples ({} lost) in {:.1} s",
+        match outcome.status {
+            ExitStatus::Completed => "completed",
+            ExitStatus::Aborted => "aborted",
+            ExitStatus::Failed => "failed",
+        },
+        outcome.points_done,
+        outcome.points_total,
+        outcome.frames,
+        outcome.dropped_frames,
+        outcome.frames_discarded,
+        outcome.force_samples,
+        outcome.lost_force_samples,
+        started.elapsed().as_secs_f64()
+    );
+    if outcome.points_done > 0 {
+        println!(
+            "software overhead per point (all but motion, settling, dwell and prompts): mean {:.1} ms, max {:.1} ms",
+            outcome.overhead_mean_ms, outcome.overhead_max_ms
+        );
+    }
+    if let Some(truth) = &truth {
+        let (records, _) =
+            read_lines::<FrameRecord>(&outcome.run_dir.join(fringe_rig::store::FRAMES))?;
+        if let Some(s) = fringe_rig::sim::label_score::score(&records, &truth.frames()) {
+            println!(
+                "labels against the simulator's ground truth: normal force RMS {:.3} N (max {:.3} N) over {} frames; contact point RMS {:.3} mm over {} frames in contact",
+                s.force_rms_n, s.force_max_n, s.frames, s.contact_rms_mm, s.contact_frames
+            );
+        }
+    }
+    let dir = outcome.run_dir.display();
+    println!("run written to {dir}");
+    println!("  check it:   fringe verify {dir}");
+    println!("  export it:  fringe export {dir} --format reference --out dataset/");
+    match outcome.status {
+        ExitStatus::Completed => Ok(()),
+        ExitStatus::Aborted => bail!("{}; the run is closed (aborted) at {dir}", outcome.reason),
+        ExitStatus::Failed => bail!("{}", outcome.reason),
+    }
+}
+
+fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
+    let plan = &program.plan;
+    let targets = match &program.targets {
+        Targets::Force(t) => format!(
+            "force targets {} N (closed loop on the F/T, ramp {} N/s)",
+            join(t.iter().map(|t| t.0)),
+            plan.indentation.ramp_rate
+        ),
+        Targets::Depth(t) => format!(
+            "depth targets {} mm past contact (ramp {} mm/s)",
+            join(t.iter().map(|t| t.0)),
+            plan.indentation.ramp_rate
+        ),
+    };
+    println!(
+        "dry run: nothing moves. {} points; {targets}; dwell {} s; force ceiling {} N; safe z {} mm",
+        program.points.len(),
+        plan.indentation.dwell,
+        plan.safety.force_ceiling,
+        plan.approach.safe_z
+    );
+    println!("{:>5}  {:>9}  {:>9}  {:<10} {:>4}  notes", "point", "x mm", "y mm", "indenter", "rep");
+    for p in &program.points {
+        let mut notes = Vec::new();
+        if p.change_indenter {
+            notes.push(format!("prompt: mount the {} indenter", p.shape));
+        }
+        if p.new_row && limits.manual_y {
+            notes.push(format!("prompt: move y to {:.3} mm", p.y.0));
+        }
+        println!(
+            "{:>5}  {:>9.3}  {:>9.3}  {:<10} {:>4}  {}",
+            p.index + 1,
+            p.x.0,
+            p.y.0,
+            p.shape,
+            p.repetition + 1,
+            notes.join("; ")
+        );
+    }
+    let e = program.estimate(limits);
+    println!(
+        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {} (operator prompts not counted)",
+        e.lateral_path_mm,
+        e.indenter_changes,
+        e.manual_rows,
+        clock(e.total)
+    );
+}
+
+fn join(v: impl Iterator<Item = f64>) -> String {
+    v.map(|x| format!("{x}")).collect::<Vec<_>>().join(", ")
+}
+
+fn clock(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}h{:02}m{:02}s", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}m{:02}s", s / 60, s % 60)
+    }
+}
+
+/// The operator at the terminal; on the simulated bench indenters are swapped automatically.
+struct TerminalOperator {
+    bench: Option<Arc<Bench>>,
+    yes: bool,
+}
+
+impl Operator for TerminalOperator {
+    fn ask(&mut self, prompt: &Prompt) -> Reply {
+        if let (Some(bench), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
+            match IndenterTip::standard(shape) {
+                Some(tip) => {
+                    bench.set_indenter(MountedIndenter {
+                        tip,
+                        angle_deg: 0.0,
+                    });
+                    println!("simulated bench: {shape} indenter mounted");
+                    return Reply::Continue;
+                }
+                None => {
+                    eprintln!(
+                        "simulated bench: no {shape:?} indenter (it has pentagon, rectangle, circle, sphere)"
+                    );
+                    return Reply::Abort;
+                }
+            }
+        }
+        if self.yes {
+            println!("{} (--yes: continuing)", prompt.message());
+            return Reply::Continue;
+        }
+        let choices = match prompt {
+            Prompt::Resume { .. } => "[r]esume or [a]bort",
+            _ => "Enter to continue, [a]bort",
+        };
+        eprint!("\n>>> {} — {choices}: ", prompt.message());
+        let _ = std::io::stderr().flush();
+        let mut line = String::new();
+        match std::io::stdin().lock().read_line(&mut line) {
+            Ok(0) | Err(_) => {
+                eprintln!("(no answer on standard input: aborting)");
+                Reply::Abort
+            }
+            Ok(_) => {
+                if line.trim().eq_ignore_ascii_case("a") {
+                    Reply::Abort
+                } else {
+                    Reply::Continue
+                }
+            }
+        }
+    }
+}
+
+/// The progress display: a bar redrawn in place on a terminal, a line every few seconds
+/// otherwise.
+struct Bar {
+    total: u64,
+    tty: bool,
+    phase: String,
+    last_line: Instant,
+    drawn: bool,
+}
+
+impl Bar {
+    fn new(total: u64) -> Bar {
+        Bar {
+            total,
+            tty: std::io::stderr().is_terminal(),
+            phase: String::new(),
+            last_line: Instant::now(),
+            drawn: false,
+        }
+    }
+
+    fn clear(&mut self) {
+        if self.drawn {
+            eprint!("\r\x1b[2K");
+            self.drawn = false;
+        }
+    }
+
+    fn show(&mut self, p: ScanProgress) {
+        match p {
+            ScanProgress::Message(m) => {
+                self.clear();
+                println!("{m}");
+            }
+            ScanProgress::Phase { point, phase } => {
+                self.phase = format!("point {}/{}: {}", point + 1, self.total, phase.name());
+            }
+            ScanProgress::Paused { reason } => {
+                self.clear();
+                println!("paused: {reason}");
+            }
+            ScanProgress::Resumed => {
+                self.clear();
+                println!("resumed");
+            }
+            ScanProgress::Status(s) => self.status(&s),
+        }
+    }
+
+    fn status(&mut self, s: &Status) {
+        let width = 24usize;
+        let filled = (s.points_done as usize * width) / s.points_total.max(1) as usize;
+        let line = format!(
+            "[{}{}] {}/{} points  ETA {}  F {:5.2} N  {:4.1} fps  {} frames  {} dropped  {}",
+            "#".repeat(filled),
+            "-".repeat(width - filled),
+            s.points_done,
+            s.points_total,
+            clock(s.eta),
+            s.force_n,
+            s.frame_rate_hz,
+            s.frames_recorded,
+            s.dropped_frames,
+            self.phase
+        );
+        if self.tty {
+            eprint!("\r\x1b[2K{line}");
+            let _ = std::io::stderr().flush();
+            self.drawn = true;
+        } else if self.last_line.elapsed() >= Duration::from_secs(5) {
+            eprintln!("{line}");
+            self.last_line = Instant::now();
+        }
+    }
+
+    fn finish(&mut self) {
+        if self.drawn {
+            eprintln!();
+            self.drawn = false;
+        }
+    }
+}
+
+/// Ctrl-C: once asks for a pause after the current indentation, twice stops now, three times
+/// aborts.
+mod interrupt {
+    use super::*;
+
+    static PRESSES: AtomicUsize = AtomicUsize::new(0);
+
+    extern "C" fn on_sigint(_: libc::c_int) {
+        PRESSES.fetch_add(1, Ordering::SeqCst);
+    }
+
+    pub fn install(control: ScanControl) {
+        let handler: extern "C" fn(libc::c_int) = on_sigint;
+        // SAFETY: the handler only touches an atomic counter (async-signal-safe).
+        unsafe {
+            libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+        }
+        let _ = std::thread::Builder::new()
+            .name("ctrl-c".into())
+            .spawn(move || {
+                let mut seen = 0;
+                loop {
+                    let n = PRESSES.load(Ordering::SeqCst);
+                    while seen < n {
+                        seen += 1;
+                        match control.request() {
+                            Request::Run => {
+                                control.pause();
+                                eprintln!("\nCtrl-C: pausing after the current indentation (again: stop now)");
+                            }
+                            Request::PauseAfterIndentation => {
+                                control.pause_now();
+                                eprintln!("\nCtrl-C: stopping now (again: abort)");
+                            }
+                            _ => {
+                                control.abort();
+                                eprintln!("\nCtrl-C: aborting (z retracts, the run is closed)");
+                            }
+                        }
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+            });
+    }
+}
+

@@ -1,0 +1,259 @@
+//! `fringe scan` on the simulated bench: dry runs, plan errors, a run killed mid-point and
+//! resumed, Ctrl-C pausing a run that the operator resumes.
+
+mod common;
+
+use common::{fringe, text};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fringe-scan-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+/// A simulated rig with quick axes, so the tests spend their time scanning, not homing.
+const QUICK_RIG: &str = r#"
+name = "quick simulated bench"
+sync = "strobe"
+[x]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[y]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[z]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[camera]
+driver = "sim"
+[force]
+driver = "sim"
+[sim]
+seed = 5
+"#;
+
+fn plan(xs: &str) -> String {
+    format!(
+        r#"
+name = "cli"
+[grid]
+x = {xs}
+y = [25.0]
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 14.0
+[indentation]
+force_targets = [1.0, 3.0]
+ramp_rate = 6.0
+dwell = 0.4
+[safety]
+force_ceiling = 10.0
+"#
+    )
+}
+
+fn files(dir: &Path) -> (PathBuf, PathBuf) {
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, QUICK_RIG).expect("rig file");
+    let plan_path = dir.join("plan.toml");
+    std::fs::write(&plan_path, plan("[11.0, 12.5, 14.0]")).expect("plan file");
+    (rig, plan_path)
+}
+
+fn events(run: &Path) -> Vec<String> {
+    std::fs::read_to_string(run.join("events.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+fn the_run(root: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(root)
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .find(|p| p.join("start.json").is_file())
+}
+
+/// Waits until an event line of the run under `root` satisfies `pred`.
+fn wait_for_event(root: &Path, child: &mut Child, pred: impl Fn(&str) -> bool) -> PathBuf {
+    let until = Instant::now() + Duration::from_secs(90);
+    loop {
+        if let Some(run) = the_run(root) {
+            if events(&run).iter().any(|e| pred(e)) {
+                return run;
+            }
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!("fringe scan ended early: {status}");
+        }
+        assert!(Instant::now() < until, "event not seen in time");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn points_in(run: &Path) -> Vec<u64> {
+    let text = std::fs::read_to_string(run.join("frames.jsonl")).expect("frames.jsonl");
+    let mut points: Vec<u64> = Vec::new();
+    for line in text.lines() {
+        let point = line
+            .split("\"point\":")
+            .nth(1)
+            .and_then(|s| s.split([',', '}']).next())
+            .and_then(|s| s.trim().parse().ok())
+            .expect("point field");
+        if points.last() != Some(&point) {
+            assert!(!points.contains(&point), "point {point} recorded twice");
+            points.push(point);
+        }
+    }
+    points
+}
+
+#[test]
+fn a_dry_run_prints_points_path_and_duration_and_moves_nothing() {
+    let dir = scratch("dry");
+    let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .current_dir(&dir)
+        .args(["scan", "--dry-run"])
+        .output()
+        .expect("run");
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(t.contains("no rig.toml: using the simulated bench"), "{t}");
+    assert!(t.contains("6 points"), "{t}");
+    assert!(t.contains("prompt: mount the pentagon indenter"), "{t}");
+    assert!(t.contains("estimated duration"), "{t}");
+    assert!(!dir.join("runs").exists(), "a dry run writes no run");
+}
+
+#[test]
+fn a_plan_outside_the_soft_limits_is_refused_naming_file_and_key() {
+    let dir = scratch("limits");
+    let (rig, _) = files(&dir);
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, plan("[11.0, 99.0]")).expect("plan");
+    let out = fringe(&[
+        "scan",
+        bad.to_str().expect("path"),
+        "--rig",
+        rig.to_str().expect("path"),
+        "--dry-run",
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains("bad.toml") && t.contains("grid.x") && t.contains("99"),
+        "{t}"
+    );
+}
+
+#[test]
+fn a_run_killed_mid_point_is_resumed_without_losing_or_repeating_a_point() {
+    let dir = scratch("crash");
+    let (rig, plan_path) = files(&dir);
+    let root = dir.join("runs");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args(["scan", "--yes", "--out"])
+        .arg(&root)
+        .arg("--rig")
+        .arg(&rig)
+        .arg(&plan_path)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn");
+    // Kill it (SIGKILL: no cleanup at all) while it presses point 2.
+    let run = wait_for_event(&root, &mut child, |e| {
+        e.contains("\"kind\":\"contact\"") && e.contains("\"point\":1")
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    child.kill().expect("kill");
+    let _ = child.wait();
+    assert!(!run.join("stop.json").exists());
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(
+        !verify.status.success(),
+        "an interrupted run is not complete"
+    );
+    assert!(text(&verify).contains("--resume"), "{}", text(&verify));
+
+    let out = fringe(&[
+        "scan",
+        "--yes",
+        "--rig",
+        rig.to_str().expect("path"),
+        "--resume",
+        run.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(t.contains("completed: 3 of 3 points"), "{t}");
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let events = events(&run);
+    let resumed = events
+        .iter()
+        .find(|e| e.contains("\"kind\":\"resume-run\""))
+        .expect("resume event");
+    assert!(resumed.contains("resumed at point 1"), "{resumed}");
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+#[test]
+fn ctrl_c_pauses_after_the_indentation_and_the_operator_resumes() {
+    let dir = scratch("ctrlc");
+    let (rig, plan_path) = files(&dir);
+    let root = dir.join("runs");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args(["scan", "--out"])
+        .arg(&root)
+        .arg("--rig")
+        .arg(&rig)
+        .arg(&plan_path)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let run = wait_for_event(&root, &mut child, |e| {
+        e.contains("\"kind\":\"contact\"") && e.contains("\"point\":0")
+    });
+    // SAFETY: signalling our own child process.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    wait_for_event(&root, &mut child, |e| {
+        e.contains("\"kind\":\"prompt\"") && e.contains("resume?")
+    });
+    let evs = events(&run);
+    assert!(evs
+        .iter()
+        .any(|e| e.contains("point-done") && e.contains("\"point\":0")));
+    assert!(!evs.iter().any(|e| e.contains("point-interrupted")));
+    child
+        .stdin
+        .as_mut()
+        .expect("stdin")
+        .write_all(b"r\n")
+        .expect("answer");
+    let out = child.wait_with_output().expect("wait");
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(
+        t.contains("Ctrl-C: pausing after the current indentation"),
+        "{t}"
+    );
+    assert!(t.contains("completed: 3 of 3 points"), "{t}");
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+}
