@@ -21,6 +21,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod rig_config;
 pub mod scan;
 pub mod sim;
 pub mod store;

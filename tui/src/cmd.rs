@@ -9,6 +9,7 @@ pub mod devices;
 pub mod ft;
 pub mod limits;
 pub mod runs;
+pub mod scan;
 pub mod selfcheck;
 pub mod sim_render;
 pub mod sim_serve;

@@ -35,6 +35,8 @@ enum Command {
     Axis(cmd::axis::AxisArgs),
     /// Grab frames from a camera (Aravis) or a recorded camera trace.
     Camera(cmd::camera::CameraArgs),
+    /// Run a scan plan (grid of points and force levels) into a run directory; --dry-run shows it.
+    Scan(cmd::scan::ScanArgs),
     /// The main job on the simulated bench: press, film, label and store a short run.
     Demo(cmd::demo::DemoArgs),
     /// Hardware-free self-check: the Net F/T driver against a loopback box, serial ports.
@@ -62,12 +64,18 @@ enum SimCommand {
 }
 
 fn main() -> ExitCode {
+    // Output piped into `head` and the like ends quietly, as for other command-line tools.
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let global = Global {
         record_trace: cli.record_trace,
     };
     let result = match cli.command {
-        None => cmd::demo::run(cmd::demo::DemoArgs::default(), &global),
+        None => cmd::scan::run(cmd::scan::ScanArgs::main_job(), &global),
+        Some(Command::Scan(args)) => cmd::scan::run(args, &global),
         Some(Command::Demo(args)) => cmd::demo::run(args, &global),
         Some(Command::Selfcheck) => cmd::selfcheck::run(&global),
         Some(Command::Devices(args)) => cmd::devices::run(args, &global),

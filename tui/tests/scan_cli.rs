@@ -38,6 +38,7 @@ driver = "sim"
 driver = "sim"
 [sim]
 seed = 5
+image_scale = 0.25
 "#;
 
 fn plan(xs: &str) -> String {

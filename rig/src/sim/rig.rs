@@ -256,7 +256,9 @@ impl SimRig {
             camera = camera.with_truth(t.clone());
         }
         description.push(format!(
-            "camera: simulated 1920x1200 at 50 Hz, sensor {} ({})",
+            "camera: simulated {}x{} at 50 Hz, sensor {} ({})",
+            config.sensor.geometry.width,
+            config.sensor.geometry.height,
             config.sensor.id,
             config.sensor.variant.name()
         ));

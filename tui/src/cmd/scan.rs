@@ -74,11 +74,15 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
     Ok((SHORT_GRID.to_string(), SHORT_GRID_NAME.to_string()))
 }
 
-pub fn run(args: ScanArgs, _global: &Global) -> anyhow::Result<()> {
+pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     let (text, origin) = plan_text(&args)?;
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(args.rig.as_deref())?;
-    println!("fringe {}: rig: {}", env!("CARGO_PKG_VERSION"), source.describe());
+    println!(
+        "fringe {}: rig: {}",
+        env!("CARGO_PKG_VERSION"),
+        source.describe()
+    );
     let limits = config.limits()?;
     let program = plan.program(&limits, &origin)?;
     println!("plan: {origin}");
@@ -88,7 +92,9 @@ pub fn run(args: ScanArgs, _global: &Global) -> anyhow::Result<()> {
     }
     let truth = config.is_simulated().then(TruthLog::new);
     let sink = truth.clone().map(|t| t as Arc<dyn TruthSink>);
-    let rig = config.open(sink).context("cannot open the rig")?;
+    let rig = config
+        .open(sink, global.record_trace.as_deref())
+        .context("cannot open the rig")?;
     for line in &rig.devices.description {
         println!("  {line}");
     }
@@ -192,7 +198,10 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
         plan.safety.force_ceiling,
         plan.approach.safe_z
     );
-    println!("{:>5}  {:>9}  {:>9}  {:<10} {:>4}  notes", "point", "x mm", "y mm", "indenter", "rep");
+    println!(
+        "{:>5}  {:>9}  {:>9}  {:<10} {:>4}  notes",
+        "point", "x mm", "y mm", "indenter", "rep"
+    );
     for p in &program.points {
         let mut notes = Vec::new();
         if p.change_indenter {
@@ -415,4 +424,3 @@ mod interrupt {
             });
     }
 }
-
