@@ -657,3 +657,65 @@ fn camera_drops_above_the_threshold_pause_the_scan() {
     assert!(out.dropped_frames >= 15);
     let _ = std::fs::remove_dir_all(out.run_dir);
 }
+
+/// With a y stage moved by hand, the grid is grouped by y, the operator is asked once per row
+/// (through the scan's operator, not the stage's own prompt), and the records carry the row's y.
+#[test]
+fn a_manual_y_stage_is_asked_once_per_row_and_never_prompts_by_itself() {
+    use fringe_rig::manual::{ManualStage, TerminalPrompt};
+    let dir = tempfile_dir("manual-y");
+    let (rig, mut devices, _truth) = bench(17);
+    // The stage's own prompt has no input: if the engine asked it anything, the scan would fail
+    // with "cancelled".
+    let no_answers = TerminalPrompt::new(std::io::Cursor::new(Vec::new()), std::io::sink());
+    devices.y = Box::new(ManualStage::new("y", Box::new(no_answers), None));
+    let text = plan("[11.0, 14.0]", "[25.0, 24.0]", "force_targets = [1.0]", 0.1);
+    let mut setup = setup(&rig, &text);
+    setup.limits.manual_y = true;
+    let plan = Plan::parse(&text, "plan.toml").expect("plan");
+    setup.program = plan.program(&setup.limits, "plan.toml").expect("program");
+    let (mut operator, prompts) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "manual-y".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert_eq!(out.points_done, 4);
+    let asked: Vec<f64> = prompts
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .iter()
+        .filter_map(|p| match p {
+            Prompt::MoveY { y_mm } => Some(*y_mm),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(asked.len(), 2, "one prompt per row: {asked:?}");
+    let records = records(&out.run_dir);
+    for r in &records {
+        assert_eq!(r.measured.y, r.commanded.y, "{r:?}");
+    }
+    assert_eq!(
+        asked,
+        {
+            let mut rows: Vec<f64> = Vec::new();
+            for r in &records {
+                if rows.last() != Some(&r.commanded.y.0) {
+                    rows.push(r.commanded.y.0);
+                }
+            }
+            rows
+        },
+        "rows in the order they were asked for"
+    );
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}

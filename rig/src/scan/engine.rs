@@ -230,6 +230,7 @@ pub fn run_scan(
         done_this_session: 0,
         last_status: Instant::now(),
         mounted: None,
+        manual_y_at: None,
         frames_discarded: discarded,
         excluded: Duration::ZERO,
         overheads: Vec::new(),
@@ -237,7 +238,12 @@ pub fn run_scan(
     let result = run.points(first_point, operator);
     // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
     let _ = run.retract();
-    for axis in [&mut run.axes.x, &mut run.axes.y] {
+    // A y stage moved by hand has nothing to stop (and asking it its position would prompt).
+    let manual_y = setup.limits.manual_y;
+    for (i, axis) in [&mut run.axes.x, &mut run.axes.y].into_iter().enumerate() {
+        if i == 1 && manual_y {
+            continue;
+        }
         if axis.status().is_ok_and(|s| s.moving) {
             let _ = axis.stop(StopMode::Profiled);
             let _ = axis.wait_idle(MOVE_TIMEOUT);
@@ -429,6 +435,8 @@ struct Runner<'a> {
     last_status: Instant,
     /// The indenter the operator last confirmed.
     mounted: Option<String>,
+    /// Where the operator last set a y stage moved by hand.
+    manual_y_at: Option<Millimetres>,
     frames_discarded: u64,
     /// Time of the current point spent moving, settling, dwelling or waiting for the operator
     /// (everything that is not software overhead).
@@ -473,6 +481,7 @@ impl Runner<'_> {
                     return Ok(Ending::Aborted("aborted at the y stage prompt".into()));
                 }
                 row_confirmed = Some(p.y.0);
+                self.manual_y_at = Some(p.y);
             }
             match self.point(p)? {
                 PointEnd::Done => {
@@ -596,7 +605,11 @@ impl Runner<'_> {
     fn position(&mut self) -> Result<Position, ScanError> {
         Ok(Position {
             x: self.axes.x.status()?.position,
-            y: self.axes.y.status()?.position,
+            // By hand: where the operator confirmed the row.
+            y: match (self.setup.limits.manual_y, self.manual_y_at) {
+                (true, Some(y)) => y,
+                _ => self.axes.y.status()?.position,
+            },
             z: self.axes.z.status()?.position,
         })
     }
@@ -625,9 +638,12 @@ impl Runner<'_> {
         let mut y_done = self.setup.limits.manual_y;
         while !(x_done && y_done) {
             if let Some(alarm) = self.interrupted() {
-                for axis in [&mut self.axes.x, &mut self.axes.y] {
-                    let _ = axis.stop(StopMode::Immediate);
-                    let _ = axis.wait_idle(MOVE_TIMEOUT);
+                let _ = self.axes.x.stop(StopMode::Immediate);
+                let _ = self.axes.x.wait_idle(MOVE_TIMEOUT);
+                // A y stage moved by hand has nothing to stop.
+                if !self.setup.limits.manual_y {
+                    let _ = self.axes.y.stop(StopMode::Immediate);
+                    let _ = self.axes.y.wait_idle(MOVE_TIMEOUT);
                 }
                 return Ok(Some(alarm));
             }

@@ -5,22 +5,26 @@
 
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_calibration::profile::{load_checked, profile_path, Expectation};
 use fringe_rig::rig_config::RigConfig;
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
 };
 use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanSetup};
+use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::sim::bench::{Bench, IndenterTip, MountedIndenter};
 use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
-use fringe_rig::store::documents::{ExitStatus, FrameRecord, StartDocument};
+use fringe_rig::store::documents::{ExitStatus, FrameRecord, ProfileRef, StartDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
+use fringe_rig::units::Millimetres;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::SystemTime;
 use std::time::{Duration, Instant};
 
 /// The plan the main job runs when no plan is given.
@@ -98,16 +102,21 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     for line in &rig.devices.description {
         println!("  {line}");
     }
+    let (origin, profile) = calibration_profile(&config, &rig.sensor_id, rig.origin.clone());
+    println!(
+        "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
+        origin.x.0, origin.y.0, origin.source
+    );
     let setup = ScanSetup {
         program,
         plan_text: text,
         limits: rig.limits.clone(),
-        origin: rig.origin.clone(),
+        origin,
         sync: rig.sync,
         sensor_id: rig.sensor_id.clone(),
         rig_text: rig.text.clone(),
         seed: rig.sim.as_ref().map(|s| s.config.seed),
-        profile: None,
+        profile,
         camera: rig.camera_settings.clone(),
         press: PressSettings::default(),
         watch: WatchSettings::default(),
@@ -176,6 +185,56 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         ExitStatus::Failed => bail!("{}", outcome.reason),
     }
 }
+
+/// The sensor's calibration profile, if there is one: its contact origin replaces the rig
+/// file's, and the run records which profile it used. Missing, stale or mismatched profiles are
+/// warned about, and the scan goes on with the rig file's origin.
+fn calibration_profile(
+    config: &RigConfig,
+    sensor_id: &str,
+    fallback: ContactOrigin,
+) -> (ContactOrigin, Option<ProfileRef>) {
+    let dir = config.profile_dir();
+    let want = Expectation {
+        sensor_id,
+        image: None,
+        max_age_days: PROFILE_MAX_AGE_DAYS,
+    };
+    let (profile, warnings) = load_checked(&dir, &want, SystemTime::now());
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let Some(p) = profile else {
+        return (fallback, None);
+    };
+    let path = profile_path(&dir, sensor_id).unwrap_or_else(|_| dir.join(sensor_id));
+    let content = std::fs::read_to_string(&path).unwrap_or_default();
+    let origin = match &p.registration {
+        Some(r) => ContactOrigin {
+            x: Millimetres(r.contact_origin_stage_mm[0]),
+            y: Millimetres(r.contact_origin_stage_mm[1]),
+            source: format!("profile {}", path.display()),
+        },
+        None => {
+            eprintln!(
+                "warning: profile {} has no image-to-stage registration: contact origin from {}",
+                path.display(),
+                fallback.source
+            );
+            fallback
+        }
+    };
+    (
+        origin,
+        Some(ProfileRef {
+            path: path.display().to_string(),
+            content,
+        }),
+    )
+}
+
+/// A profile older than this is reported as stale.
+const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
 
 fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
     let plan = &program.plan;
