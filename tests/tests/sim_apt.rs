@@ -460,3 +460,30 @@ fn pylablib_kinesis_motor_drives_the_emulator_on_a_pty() {
     let c = emu.stop().expect("no link error");
     assert_eq!(c.motions, 2, "{c:?}");
 }
+
+/// Two stops in a row (a watcher's, then the cleanup's) are acknowledged twice; the second,
+/// late MOT_MOVE_STOPPED must not end the next move as a fault (seen in the scan's retract).
+#[test]
+fn a_late_stop_acknowledgement_does_not_fail_the_next_move() {
+    let m = motor(1.0);
+    let (host, device) = byte_pair("apt-x", "apt-x-emulator");
+    let _emu = AptEmulator::spawn(
+        emulator_config(Duration::from_secs(3)),
+        m.clone(),
+        Box::new(device),
+    )
+    .expect("spawn");
+    let mut axis = ThorlabsAxis::connect(Box::new(host), driver_config()).expect("connect");
+    for round in 0..3 {
+        axis.begin_move_to(Millimetres(8.0)).expect("begin move");
+        std::thread::sleep(Duration::from_millis(300));
+        axis.stop(StopMode::Immediate).expect("first stop");
+        // The first acknowledgement is on its way when the second stop goes out.
+        std::thread::sleep(Duration::from_millis(150));
+        axis.stop(StopMode::Immediate).expect("second stop");
+        let st = axis
+            .move_to(Millimetres(2.0), Duration::from_secs(10))
+            .unwrap_or_else(|e| panic!("round {round}: the move after two stops failed: {e}"));
+        assert!((st.position.0 - 2.0).abs() < 2.0 * one_step(), "{st:?}");
+    }
+}

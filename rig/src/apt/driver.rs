@@ -360,6 +360,9 @@ pub struct ThorlabsAxis {
     shared: Arc<Mutex<Shared>>,
     thread: Option<JoinHandle<()>>,
     pending: Option<Pending>,
+    /// Stops sent whose MOT_MOVE_STOPPED has not arrived yet: a late acknowledgement of an
+    /// earlier stop must not be taken for the end of a new move.
+    unacked_stops: u32,
     /// Status messages seen when the current motion was sent.
     updates_at_start: u64,
 }
@@ -410,6 +413,7 @@ impl ThorlabsAxis {
             shared,
             thread: Some(thread),
             pending: None,
+            unacked_stops: 0,
             updates_at_start: 0,
         };
         axis.initialise()?;
@@ -768,6 +772,7 @@ impl ThorlabsAxis {
             match self.wait_idle(Duration::from_millis(250)) {
                 Err(AxisError::Timeout { .. }) => {
                     self.pending = None;
+                    self.unacked_stops = 0;
                     Ok(())
                 }
                 other => other.map(|_| ()),
@@ -780,12 +785,19 @@ impl ThorlabsAxis {
     /// Forgets stale end-of-move messages before a new motion starts.
     fn clear_events(&mut self) {
         self.updates_at_start = lock(&self.shared).updates;
-        self.backlog.retain(|p| !is_end_of_move(p));
+        let mut stop_acks = 0u32;
+        self.backlog.retain(|p| {
+            stop_acks += u32::from(matches!(p.message, Message::MoveStopped { .. }));
+            !is_end_of_move(p)
+        });
         while let Ok(p) = self.events.try_recv() {
             if !is_end_of_move(&p) {
                 self.backlog.push_back(p);
+            } else if matches!(p.message, Message::MoveStopped { .. }) {
+                stop_acks += 1;
             }
         }
+        self.unacked_stops = self.unacked_stops.saturating_sub(stop_acks);
     }
 
     fn fault(&self, what: String, flags: Vec<&'static str>) -> AxisError {
@@ -908,6 +920,14 @@ impl Axis for ThorlabsAxis {
                 (now + Duration::from_millis(20)).min(deadline)
             };
             if let Some(p) = self.next_event(slice_end, is_end_of_move)? {
+                let stop_ack = matches!(p.message, Message::MoveStopped { .. });
+                if stop_ack && self.unacked_stops > 0 {
+                    self.unacked_stops -= 1;
+                    if !matches!(pending, Pending::Stop(_)) {
+                        // The late acknowledgement of a stop sent before this motion began.
+                        continue;
+                    }
+                }
                 break p;
             }
             let o = if polled {
@@ -988,6 +1008,7 @@ impl Axis for ThorlabsAxis {
             channel: self.config.channel,
             mode: apt,
         })?;
+        self.unacked_stops += 1;
         // A stop sent while idle may still be acknowledged with MOT_MOVE_STOPPED: wait for it
         // (briefly) before the next motion too.
         self.pending = Some(Pending::Stop(

@@ -5,6 +5,8 @@
 //! the format so a reader knows to demosaic.
 
 use super::{Frame, PixelFormat};
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use image::ImageEncoder;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -70,18 +72,27 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), FrameFileError> {
             ),
         });
     }
-    image::save_buffer_with_format(
-        path,
-        &frame.data,
-        frame.width,
-        frame.height,
-        colour_type(frame.format),
-        image::ImageFormat::Png,
-    )
-    .map_err(|source| FrameFileError::Image {
+    // Fast deflate with the Sub filter: about 10 ms for a 1920x1200 RGB frame on this machine's
+    // cores, against 0.9 s for the default level, at 3.3 instead of 3.2 MB (BENCHMARKS.md).
+    // Still lossless; a 50 Hz camera leaves 20 ms per frame.
+    let io = |source: io::Error| FrameFileError::Io {
         path: path.to_path_buf(),
         source,
-    })
+    };
+    let file = File::create(path).map_err(io)?;
+    let mut out = BufWriter::with_capacity(1 << 20, file);
+    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+        .write_image(
+            &frame.data,
+            frame.width,
+            frame.height,
+            colour_type(frame.format),
+        )
+        .map_err(|source| FrameFileError::Image {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    out.flush().map_err(io)
 }
 
 /// Reads the pixels of a PNG written by [`save_png`], checking its size and colour type.
