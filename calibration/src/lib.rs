@@ -7,7 +7,10 @@
 //! - [`optical`]: the sensor disc (centre, radius, crop radius) from no-contact frames.
 //! - [`offsets`]: F/T bias, its drift through a run and the zero-load check.
 //! - [`profile`]: `profiles/<sensor-id>.toml`, read, written and checked.
+//! - [`scan_run`]: a calibration scan's run directory read for calibration (background frames,
+//!   press frames, no-contact force windows).
 
 pub mod offsets;
 pub mod optical;
 pub mod profile;
+pub mod scan_run;

@@ -1,8 +1,9 @@
 //! Acquisition throughput: full 1920x1200 frames at 50 Hz plus the 5 kHz force stream recorded
 //! into a run, with the simulated camera rendering in the same process.
 //!
-//! `cargo run --release -p fringe-rig --example record_bench -- [SECONDS] [--keep-frames] [--keep-run]`
-//! (default 600 s). The simulated bench presses the layered sensor with the pentagon at about
+//! `cargo run --release -p fringe-rig --example record_bench -- [SECONDS] [--bayer] [--keep-frames] [--keep-run]`
+//! (default 600 s; `--bayer`: the camera delivers its native BayerRG8 mosaic, one byte per pixel,
+//! instead of on-camera interpolated RGB8). The simulated bench presses the layered sensor with the pentagon at about
 //! 4 N (so every frame has fringes to render and to compress); the force stream, the camera
 //! stream and the recorder (strobe labels, lossless PNG frames, the raw force log, frame records)
 //! run on their own threads as in a scan, filming all the time. Every 10 s it prints the counts;
@@ -19,12 +20,14 @@ use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::acquire::strobe_labeler::StrobeLabeler;
-use fringe_rig::camera::CameraSettings;
+use fringe_rig::camera::{CameraSettings, PixelFormat};
+use fringe_rig::sim::ground_truth::{FrameFate, TruthLog, TruthSink};
 use fringe_rig::sim::rig::{SimRig, SimRigConfig};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::units::Millimetres;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// User plus system CPU time of this process so far, s.
@@ -73,12 +76,14 @@ fn reap_frames(dir: &Path, bytes: &mut u64) {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let keep = args.iter().any(|a| a == "--keep-frames");
+    let bayer = args.iter().any(|a| a == "--bayer");
     let seconds: f64 = match args.iter().find(|a| !a.starts_with("--")) {
         Some(a) => a.parse()?,
         None => 600.0,
     };
     let config = SimRigConfig::default();
-    let (rig, devices) = SimRig::start(&config, None)?;
+    let truth = TruthLog::new();
+    let (rig, devices) = SimRig::start(&config, Some(truth.clone() as Arc<dyn TruthSink>))?;
     let geometry = rig.bench.config().geometry;
     let mut z = devices.z;
     let mut x = devices.x;
@@ -118,7 +123,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let run_dir = writer.dir().to_path_buf();
     let stream = ForceStream::spawn(devices.force)?;
     let monitor = stream.monitor();
-    let cameras = CameraStream::spawn(devices.camera, &CameraSettings::default())?;
+    let mut settings = CameraSettings::default();
+    if bayer {
+        settings.pixel_format = PixelFormat::BayerRg8;
+    }
+    let cameras = CameraStream::spawn(devices.camera, &settings)?;
     let context = FrameContext::default();
     let here = Position {
         x: Millimetres(geometry.x_centre_mm + 2.0),
@@ -184,10 +193,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         reap_frames(&frame_dir, &mut reaped);
     }
     let stored = bytes_in(&run_dir) + reaped;
-    println!("--- {wall:.1} s of recording, 1920x1200 RGB frames, layered sensor pressed");
+    println!(
+        "--- {wall:.1} s of recording, 1920x1200 {} frames, layered sensor pressed",
+        if bayer { "BayerRG8" } else { "RGB8" }
+    );
     println!(
         "frames: {} seen, {} recorded with a label, {} without, {} dropped by the camera",
         stats.frames_seen, stats.frames_recorded, stats.frames_unlabelled, stats.dropped_frames
+    );
+    let fates = truth.frames();
+    let count = |f: FrameFate| fates.iter().filter(|t| t.fate == f).count();
+    println!(
+        "camera (simulator's truth): {} exposures, {} delivered, {} dropped while the renderer was busy, {} for want of host buffers",
+        fates.len(),
+        count(FrameFate::Delivered),
+        count(FrameFate::RenderBusy),
+        count(FrameFate::NoBuffer)
     );
     println!(
         "force: {} samples received ({:.1} Hz), {} lost, {} in force.bin",

@@ -17,6 +17,10 @@ use crate::sync::window::mean_over;
 use std::collections::VecDeque;
 use std::time::Duration;
 
+/// Longest delivery delay (beyond the expected lag) a frame may have and keep its window once
+/// the labeler is locked on the sequence, ns.
+const MAX_LATE_NS: f64 = 500e6;
+
 #[derive(Debug, Clone, Copy)]
 struct Seen {
     seq: u64,
@@ -84,24 +88,6 @@ impl StrobeLabeler {
         (ticks >= 100.0).then(|| (last.2 .0 as f64 - first.2 .0 as f64) / ticks)
     }
 
-    /// Time between consecutive exposures on the host time base, ns (median of the windows
-    /// kept).
-    fn frame_period_ns(&self) -> Option<f64> {
-        let per_tick = self.sample_period_ns()?;
-        let mut gaps: Vec<f64> = self
-            .windows
-            .iter()
-            .zip(self.windows.iter().skip(1))
-            .filter(|(a, b)| b.seq == a.seq + 1)
-            .map(|(a, b)| (b.window.start - a.window.start) * per_tick)
-            .collect();
-        if gaps.is_empty() {
-            return None;
-        }
-        gaps.sort_by(f64::total_cmp);
-        Some(gaps[gaps.len() / 2])
-    }
-
     /// Error of an edge placed by interpolation between two samples: uniform over at most one
     /// sample period.
     fn edge_error_ns(&self) -> f64 {
@@ -142,15 +128,14 @@ impl StrobeLabeler {
                 return LabelOutcome::NotYet;
             }
             if let Some(seen) = self.windows.iter().find(|w| w.seq as i64 == seq).copied() {
-                // Locked on the sequence: a frame delivered late (a busy host) still belongs to
-                // its window as long as it cannot be the next one's, i.e. it arrived less than
-                // a frame period (minus the tolerance) after the expected time. Arriving
-                // earlier than the tolerance allows is impossible and means the lock is lost.
+                // Locked on the sequence: frame ids and strobe windows count the same
+                // exposures, so a frame delivered late (a busy host, a camera working off its
+                // frame memory) still belongs to its window, however late, up to
+                // MAX_LATE_NS. Re-matching a late frame by arrival would give it a later
+                // exposure's force. Arriving earlier than the tolerance allows is impossible
+                // (a strobe window was missed) and means the lock is lost.
                 let lag = self.lag_error(&seen, arrival);
-                let late_limit = self.frame_period_ns().map_or(self.tolerance_ns, |p| {
-                    (p - self.tolerance_ns).max(self.tolerance_ns)
-                });
-                if lag >= -self.tolerance_ns && lag <= late_limit {
+                if lag >= -self.tolerance_ns && lag <= MAX_LATE_NS {
                     return self.label_of(&seen);
                 }
             }
@@ -281,7 +266,9 @@ mod tests {
     }
 
     /// A busy host delivers some frames 5-6.6 ms later than usual (beyond the 9 ms tolerance
-    /// with the 6 ms lag and the 10 ms force blocks): once locked on the sequence, they keep their own window.
+    /// with the 6 ms lag and the 10 ms force blocks), and one 75 ms late (more than three frame
+    /// periods, so its arrival is nearest to a later window): once locked on the sequence, they
+    /// keep their own window, and so do the frames after them.
     #[test]
     fn late_frames_keep_their_window_once_locked() {
         let mut l = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
@@ -290,7 +277,9 @@ mod tests {
         }
         let start = |n: u64| (37 + 100 * n) as f64 - 0.5;
         for n in 0..15u64 {
-            let extra = if n % 3 == 2 {
+            let extra = if n == 7 {
+                75_000_000
+            } else if n % 3 == 2 {
                 5_000_000 + (n % 5) * 400_000
             } else {
                 0

@@ -10,13 +10,14 @@ use fringe_rig::rig_config::RigConfig;
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
 };
-use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanSetup};
+use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::sim::bench::{Bench, IndenterTip, MountedIndenter};
 use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
+use fringe_rig::sim::rig::SimRigConfig;
 use fringe_rig::store::documents::{ExitStatus, FrameRecord, ProfileRef, StartDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::units::Millimetres;
@@ -94,6 +95,63 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         print_dry_run(&program, &limits);
         return Ok(());
     }
+    let target = match &args.resume {
+        Some(dir) => RunTarget::Resume { dir: dir.clone() },
+        None => RunTarget::New {
+            root: args.out.clone(),
+            run_id: new_run_id(&plan.name),
+        },
+    };
+    let executed = execute(
+        &config,
+        program,
+        text,
+        target,
+        args.yes,
+        ProfileUse::Consume,
+        global,
+    )?;
+    let outcome = executed.outcome;
+    let dir = outcome.run_dir.display();
+    println!("run written to {dir}");
+    println!("  check it:   fringe verify {dir}");
+    println!("  export it:  fringe export {dir} --format reference --out dataset/");
+    match outcome.status {
+        ExitStatus::Completed => Ok(()),
+        ExitStatus::Aborted => bail!("{}; the run is closed (aborted) at {dir}", outcome.reason),
+        ExitStatus::Failed => bail!("{}", outcome.reason),
+    }
+}
+
+/// How a scan treats the sensor's calibration profile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProfileUse {
+    /// Contact origin from the profile (warn when missing, stale or mismatched).
+    Consume,
+    /// The calibration scan that makes the profile: the rig file's origin.
+    Ignore,
+}
+
+/// A finished scan with what it ran on.
+pub struct Executed {
+    pub outcome: ScanOutcome,
+    /// The simulator's ground truth (simulated rigs).
+    pub truth: Option<Arc<TruthLog>>,
+    /// The simulated rig's configuration (simulated rigs).
+    pub sim: Option<SimRigConfig>,
+}
+
+/// Opens the rig, runs `program` into `target` with the progress bar, Ctrl-C handling and the
+/// terminal operator, and prints the summary.
+pub fn execute(
+    config: &RigConfig,
+    program: ScanProgram,
+    plan_text: String,
+    target: RunTarget,
+    yes: bool,
+    profile_use: ProfileUse,
+    global: &Global,
+) -> anyhow::Result<Executed> {
     let truth = config.is_simulated().then(TruthLog::new);
     let sink = truth.clone().map(|t| t as Arc<dyn TruthSink>);
     let rig = config
@@ -102,14 +160,17 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     for line in &rig.devices.description {
         println!("  {line}");
     }
-    let (origin, profile) = calibration_profile(&config, &rig.sensor_id, rig.origin.clone());
+    let (origin, profile) = match profile_use {
+        ProfileUse::Consume => calibration_profile(config, &rig.sensor_id, rig.origin.clone()),
+        ProfileUse::Ignore => (rig.origin.clone(), None),
+    };
     println!(
         "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
         origin.x.0, origin.y.0, origin.source
     );
     let setup = ScanSetup {
         program,
-        plan_text: text,
+        plan_text,
         limits: rig.limits.clone(),
         origin,
         sync: rig.sync,
@@ -122,21 +183,15 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         watch: WatchSettings::default(),
         truth: truth.clone(),
     };
-    let target = match &args.resume {
-        Some(dir) => RunTarget::Resume { dir: dir.clone() },
-        None => RunTarget::New {
-            root: args.out.clone(),
-            run_id: new_run_id(&plan.name),
-        },
-    };
     let control = ScanControl::new();
     interrupt::install(control.clone());
     let mut operator = TerminalOperator {
         bench: rig.sim.as_ref().map(|s| s.bench.clone()),
-        yes: args.yes,
+        yes,
     };
     let bar = Mutex::new(Bar::new(setup.program.points.len() as u64));
     let started = Instant::now();
+    let sim_config = rig.sim.as_ref().map(|s| s.config.clone());
     let devices = rig.devices;
     let outcome = run_scan(&setup, devices, target, &control, &mut operator, &|p| {
         bar.lock().unwrap_or_else(|e| e.into_inner()).show(p)
@@ -175,15 +230,11 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
             );
         }
     }
-    let dir = outcome.run_dir.display();
-    println!("run written to {dir}");
-    println!("  check it:   fringe verify {dir}");
-    println!("  export it:  fringe export {dir} --format reference --out dataset/");
-    match outcome.status {
-        ExitStatus::Completed => Ok(()),
-        ExitStatus::Aborted => bail!("{}; the run is closed (aborted) at {dir}", outcome.reason),
-        ExitStatus::Failed => bail!("{}", outcome.reason),
-    }
+    Ok(Executed {
+        outcome,
+        truth,
+        sim: sim_config,
+    })
 }
 
 /// The sensor's calibration profile, if there is one: its contact origin replaces the rig

@@ -1,0 +1,195 @@
+//! A calibration scan's run directory, read for calibration: the no-contact frames (the unloaded
+//! background), the frames of each press's dwell with the stage position that pressed them, and
+//! the no-contact force windows the scan measured before every point.
+//!
+//! The scan engine writes the run (`fringe_rig::store`); this module only reads it. Frame
+//! selection rules:
+//! - background: valid frames labelled shape "None" (|Fz| under the 0.2 N noise floor);
+//! - a press: the valid in-contact frames of one grid point whose (tared) Fz is within 15 % of
+//!   the point's highest, that is the dwell at the top force target, at most
+//!   [`PRESS_FRAMES`] of them, spread over the dwell;
+//! - force offsets: the raw force samples of the 100 ms before each `force-offset` event (the
+//!   engine measures the offset there, at the safe height, before every point).
+
+use crate::offsets::{self, Bias};
+use fringe_rig::store::documents::{Event, FrameRecord, StartDocument};
+use fringe_rig::store::run_writer::{read_document, read_lines};
+use fringe_rig::store::{self, force_log, StoreError};
+use fringe_rig::units::Wrench;
+use std::path::{Path, PathBuf};
+
+/// Frames averaged per press at most.
+pub const PRESS_FRAMES: usize = 8;
+/// Length of the no-contact window before each offset event, s.
+const OFFSET_WINDOW_S: f64 = 0.1;
+/// A press frame's Fz must be at least this share of the point's highest.
+const DWELL_SHARE: f64 = 0.85;
+
+/// The frames of one press.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Press {
+    /// Grid point (scan program index).
+    pub point: u64,
+    /// Measured stage position of the press, mm.
+    pub stage_mm: [f64; 2],
+    /// Mean tared Fz of the chosen frames, N.
+    pub force_n: f64,
+    /// Frame files (absolute).
+    pub files: Vec<PathBuf>,
+}
+
+/// What a calibration scan gives calibration.
+#[derive(Debug, Clone)]
+pub struct ScanRun {
+    pub dir: PathBuf,
+    pub start: StartDocument,
+    /// No-contact frames (absolute paths), in recording order.
+    pub background: Vec<PathBuf>,
+    pub presses: Vec<Press>,
+    /// One no-contact bias per offset measurement, times in s from the first force sample.
+    pub offsets: Vec<Bias>,
+}
+
+/// Errors reading a calibration run.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanRunError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error("{path}: {message}")]
+    Content { path: PathBuf, message: String },
+}
+
+impl ScanRun {
+    /// Reads the run at `dir`.
+    pub fn read(dir: &Path) -> Result<ScanRun, ScanRunError> {
+        let start: StartDocument = read_document(&dir.join(store::START))?;
+        let frames_path = dir.join(store::FRAMES);
+        let (records, _torn) = read_lines::<FrameRecord>(&frames_path)?;
+        if records.is_empty() {
+            return Err(ScanRunError::Content {
+                path: frames_path,
+                message: "no frames recorded".into(),
+            });
+        }
+        let background = records
+            .iter()
+            .filter(|r| r.valid && r.shape == "None")
+            .map(|r| dir.join(&r.file))
+            .collect();
+        let presses = presses(dir, &records);
+        let (events, _) = read_lines::<Event>(&dir.join(store::EVENTS))?;
+        let force_path = dir.join(store::FORCE);
+        let bytes = std::fs::read(&force_path).map_err(|e| StoreError::Io {
+            path: force_path.clone(),
+            source: e,
+        })?;
+        let (samples, _partial) =
+            force_log::decode_all(&bytes).map_err(|message| ScanRunError::Content {
+                path: force_path.clone(),
+                message,
+            })?;
+        let series: Vec<(u64, Wrench)> = samples
+            .iter()
+            .map(|s| (s.host_time.nanos(), s.wrench))
+            .collect();
+        let offsets = offset_windows(&series, &events);
+        Ok(ScanRun {
+            dir: dir.to_path_buf(),
+            start,
+            background,
+            presses,
+            offsets,
+        })
+    }
+}
+
+/// The dwell frames of every point that pressed.
+fn presses(dir: &Path, records: &[FrameRecord]) -> Vec<Press> {
+    let mut points: Vec<u64> = records.iter().map(|r| r.point).collect();
+    points.sort_unstable();
+    points.dedup();
+    let mut out = Vec::new();
+    for point in points {
+        let touching: Vec<(&FrameRecord, f64)> = records
+            .iter()
+            .filter(|r| r.point == point && r.valid && r.shape != "None")
+            .filter_map(|r| r.wrench.map(|w| (r, w.fz.0.abs())))
+            .collect();
+        let Some(top) = touching.iter().map(|(_, f)| *f).reduce(f64::max) else {
+            continue;
+        };
+        let dwell: Vec<(&FrameRecord, f64)> = touching
+            .into_iter()
+            .filter(|(_, f)| *f >= DWELL_SHARE * top)
+            .collect();
+        let step = dwell.len().div_ceil(PRESS_FRAMES).max(1);
+        let chosen: Vec<&(&FrameRecord, f64)> = dwell.iter().step_by(step).collect();
+        let n = chosen.len() as f64;
+        let mean =
+            |f: &dyn Fn(&FrameRecord) -> f64| chosen.iter().map(|(r, _)| f(r)).sum::<f64>() / n;
+        out.push(Press {
+            point,
+            stage_mm: [mean(&|r| r.measured.x.0), mean(&|r| r.measured.y.0)],
+            force_n: chosen.iter().map(|(_, f)| f).sum::<f64>() / n,
+            files: chosen.iter().map(|(r, _)| dir.join(&r.file)).collect(),
+        });
+    }
+    out
+}
+
+/// The bias of the [`OFFSET_WINDOW_S`] before each `force-offset` event; times in s from the
+/// first sample.
+fn offset_windows(samples: &[(u64, Wrench)], events: &[Event]) -> Vec<Bias> {
+    let Some(&(t0, _)) = samples.first() else {
+        return Vec::new();
+    };
+    let window_ns = (OFFSET_WINDOW_S * 1e9) as u64;
+    events
+        .iter()
+        .filter(|e| e.kind == "force-offset")
+        .filter_map(|e| {
+            let from = e.host_ns.saturating_sub(window_ns);
+            let lo = samples.partition_point(|(t, _)| *t < from);
+            let hi = samples.partition_point(|(t, _)| *t <= e.host_ns);
+            let window: Vec<(f64, Wrench)> = samples[lo..hi]
+                .iter()
+                .map(|(t, w)| ((t - t0) as f64 * 1e-9, *w))
+                .collect();
+            offsets::bias(&window)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_rig::units::Newtons;
+
+    fn event(host_ns: u64) -> Event {
+        Event {
+            host_ns,
+            utc: String::new(),
+            kind: "force-offset".into(),
+            point: Some(0),
+            message: String::new(),
+        }
+    }
+
+    #[test]
+    fn offset_windows_take_the_samples_just_before_each_event() {
+        // 1 kHz samples; Fz is 1 N before 0.5 s and 3 N after.
+        let samples: Vec<(u64, Wrench)> = (0..1000u64)
+            .map(|k| {
+                let mut w = Wrench::default();
+                w.fz = Newtons(if k < 500 { 1.0 } else { 3.0 });
+                (k * 1_000_000, w)
+            })
+            .collect();
+        let b = offset_windows(&samples, &[event(400_000_000), event(900_000_000)]);
+        assert_eq!(b.len(), 2);
+        assert_eq!(b[0].mean[2], 1.0);
+        assert_eq!(b[1].mean[2], 3.0);
+        assert_eq!(b[0].samples, 101);
+        assert!((b[1].t_s - 0.85).abs() < 1e-9, "{}", b[1].t_s);
+    }
+}
