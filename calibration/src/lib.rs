@@ -4,12 +4,16 @@
 //!
 //! Built on the device layer (`fringe-rig`); knows nothing of the UI.
 //!
+//! - [`frames`]: frame files (PNG, TIFF) read and averaged.
+//! - [`from_scan`]: the whole calibration from a calibration scan's run.
 //! - [`optical`]: the sensor disc (centre, radius, crop radius) from no-contact frames.
 //! - [`offsets`]: F/T bias, its drift through a run and the zero-load check.
 //! - [`profile`]: `profiles/<sensor-id>.toml`, read, written and checked.
 //! - [`scan_run`]: a calibration scan's run directory read for calibration (background frames,
 //!   press frames, no-contact force windows).
 
+pub mod frames;
+pub mod from_scan;
 pub mod offsets;
 pub mod optical;
 pub mod profile;

@@ -658,6 +658,61 @@ fn camera_drops_above_the_threshold_pause_the_scan() {
     let _ = std::fs::remove_dir_all(out.run_dir);
 }
 
+/// A camera that keeps losing frames interrupts the same point again and again: with an
+/// operator who always agrees to resume (`--yes`), the scan ends after three tries instead of
+/// repeating the point for ever, and says why.
+#[test]
+fn a_point_interrupted_three_times_in_a_row_ends_the_scan() {
+    let dir = tempfile_dir("drops-forever");
+    let (rig, mut devices, _truth) = bench(43);
+    let drop_next = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    devices.camera = Box::new(Dropping {
+        inner: devices.camera,
+        drop_next: drop_next.clone(),
+    });
+    let text = plan("[11.0, 14.0]", "[25.0]", "force_targets = [2.0]", 0.6);
+    let setup = setup(&rig, &text);
+    let (mut operator, _) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir,
+            run_id: "drops-forever".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &move |p| {
+            if let ScanProgress::Phase {
+                point: 0,
+                phase: Phase::Dwell(0),
+            } = p
+            {
+                drop_next.store(15, std::sync::atomic::Ordering::SeqCst);
+            }
+        },
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Aborted, "{out:?}");
+    assert!(
+        out.reason.contains("interrupted 3 times in a row")
+            && out.reason.contains("camera dropped"),
+        "{}",
+        out.reason
+    );
+    assert_eq!(out.points_done, 0);
+    let events = events(&out.run_dir);
+    assert_eq!(
+        events
+            .iter()
+            .filter(|e| e.kind == "point-interrupted")
+            .count(),
+        3
+    );
+    drop(rig);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
 /// With a y stage moved by hand, the grid is grouped by y, the operator is asked once per row
 /// (through the scan's operator, not the stage's own prompt), and the records carry the row's y.
 #[test]

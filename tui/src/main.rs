@@ -47,7 +47,8 @@ enum Command {
     Verify(cmd::runs::VerifyArgs),
     /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv).
     Export(cmd::runs::ExportArgs),
-    /// Calibrate a sensor build's optics from no-contact images: centre, radius, crop radius.
+    /// Calibrate a sensor build: the calibration scan on the rig (or --images DIR for the optics
+    /// only) and its profile: centre, crop radius, image-to-stage geometry, force offsets.
     Calibrate(cmd::calibrate::CalibrateArgs),
     /// The simulated bench: render sensor frames, serve its devices.
     #[command(subcommand)]
@@ -86,7 +87,7 @@ fn main() -> ExitCode {
         Some(Command::Runs(args)) => cmd::runs::run_list(args, &global),
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
         Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
-        Some(Command::Calibrate(args)) => cmd::calibrate::run(args),
+        Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
         Some(Command::Sim(SimCommand::Serve(args))) => cmd::sim_serve::run(args),
     };

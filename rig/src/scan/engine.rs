@@ -228,6 +228,7 @@ pub fn run_scan(
         points_done: first_point,
         started: Instant::now(),
         done_this_session: 0,
+        watcher_retries: (0, 0),
         last_status: Instant::now(),
         mounted: None,
         manual_y_at: None,
@@ -411,6 +412,11 @@ struct Axes {
     z: Box<dyn Axis>,
 }
 
+/// A point the watchers interrupt this many times in a row ends the scan (a condition that
+/// resuming does not clear, such as a camera that cannot keep up, would otherwise repeat it for
+/// ever under `--yes`).
+const MAX_WATCHER_RETRIES: u32 = 3;
+
 enum Ending {
     Completed,
     Aborted(String),
@@ -432,6 +438,8 @@ struct Runner<'a> {
     points_done: u64,
     started: Instant,
     done_this_session: u64,
+    /// The point the watchers interrupted last and how many times in a row.
+    watcher_retries: (u64, u32),
     last_status: Instant,
     /// The indenter the operator last confirmed.
     mounted: Option<String>,
@@ -530,6 +538,17 @@ impl Runner<'_> {
                     );
                     if self.control.request() == Request::Abort {
                         return Ok(Ending::Aborted("aborted by the operator".into()));
+                    }
+                    if alarm != Alarm::Requested {
+                        let (point, times) = self.watcher_retries;
+                        let times = if point == p.index { times + 1 } else { 1 };
+                        self.watcher_retries = (p.index, times);
+                        if times >= MAX_WATCHER_RETRIES {
+                            return Ok(Ending::Aborted(format!(
+                                "point {} was interrupted {times} times in a row by the watchers (last: {alarm}); the scan stops so that the cause can be fixed (the points done are kept)",
+                                p.index + 1
+                            )));
+                        }
                     }
                     let reason = match alarm {
                         Alarm::Requested => "paused by the operator".to_string(),

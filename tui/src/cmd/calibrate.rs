@@ -1,37 +1,90 @@
-//! `fringe calibrate --images DIR --sensor ID [--out profiles/]`: the optical part of the sensor
-//! calibration from existing image files (PNG or TIFF): centre, shift from the image centre,
-//! radius and crop radius, written to `OUT/<sensor-id>.toml` with a report PNG beside it.
+//! `fringe calibrate --sensor ID [--rig rig.toml]`: the calibration scan on the rig (the simulated
+//! bench by default) and the sensor's profile from it: optical centre, radius and crop radius,
+//! image-to-stage registration, force offsets, with report images beside the profile.
+//!
+//! `fringe calibrate --images DIR --sensor ID`: the optical part from existing image files (PNG or
+//! TIFF): centre, shift from the image centre, radius and crop radius.
 
+use crate::cmd::scan::{execute, ProfileUse};
+use crate::Global;
 use anyhow::{bail, Context};
+use fringe_calibration::frames;
+use fringe_calibration::from_scan::{self, ScanCalibration};
+use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
 use fringe_calibration::profile::{profile_path, Profile};
+use fringe_calibration::scan_run::ScanRun;
+use fringe_rig::rig_config::RigConfig;
+use fringe_rig::scan::engine::{new_run_id, RunTarget};
+use fringe_rig::scan::plan::Plan;
+use fringe_rig::store::documents::ExitStatus;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct CalibrateArgs {
-    /// Folder of no-contact frames (PNG or TIFF), for example a reference-pipeline `0.images/`.
-    #[arg(long, value_name = "DIR")]
-    images: PathBuf,
-    /// Sensor build id: names the profile file (`OUT/<ID>.toml`).
+    /// Sensor build id: names the profile file (`<profiles>/<ID>.toml`).
     #[arg(long, value_name = "ID")]
     sensor: String,
-    /// Folder for the profile and its report PNG.
-    #[arg(long, value_name = "DIR", default_value = "profiles")]
-    out: PathBuf,
-    /// Average at most this many frames (spread evenly over the chosen ones).
+    /// Calibrate the optics from this folder of no-contact frames (PNG or TIFF, for example a
+    /// reference-pipeline `0.images/`) instead of running the calibration scan.
+    #[arg(long, value_name = "DIR")]
+    images: Option<PathBuf>,
+    /// The rig file (default: ./rig.toml if present, else the simulated bench).
+    #[arg(long, value_name = "FILE", conflicts_with = "images")]
+    rig: Option<PathBuf>,
+    /// Folder for the profile and its report images (default: the rig file's `profiles`, or
+    /// `profiles`).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Average at most this many no-contact frames (spread evenly over them).
     #[arg(long, value_name = "N", default_value_t = 50)]
     max_frames: usize,
+    /// Your own calibration plan (stage mm) instead of the built-in grid.
+    #[arg(long, value_name = "FILE", conflicts_with = "images")]
+    plan: Option<PathBuf>,
+    /// Half-width of the built-in press grid around the nominal centre, mm.
+    #[arg(long, value_name = "MM", default_value_t = 5.0)]
+    span: f64,
+    /// Presses per axis of the built-in grid (points x points).
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    points: usize,
+    /// Force of each light press, N.
+    #[arg(long, value_name = "N", default_value_t = 1.5)]
+    force: f64,
+    /// Indenter of the presses.
+    #[arg(long, value_name = "SHAPE", default_value = "pentagon")]
+    indenter: String,
+    /// Directory that receives the calibration scan's run.
+    #[arg(long, value_name = "DIR", default_value = "runs")]
+    runs: PathBuf,
+    /// Answer every operator prompt with "continue".
+    #[arg(long)]
+    yes: bool,
 }
 
 /// |Fz| below this is no contact (the F/T noise floor of the reference pipeline).
 const NO_CONTACT_FZ_N: f64 = 0.2;
 
-pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
+/// The built-in calibration plan (its grid, force and indenter are replaced).
+const CALIBRATION_PLAN: &str = include_str!("../../../rig/plans/calibration.toml");
+
+pub fn run(args: CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     if args.max_frames == 0 {
         bail!("--max-frames 0: use at least 1");
     }
-    let profile_file = profile_path(&args.out, &args.sensor)?;
-    let dir = &args.images;
+    match &args.images {
+        Some(dir) => from_images(&args, dir),
+        None => from_rig(&args, global),
+    }
+}
+
+/// The optical part from a folder of images.
+fn from_images(args: &CalibrateArgs, dir: &Path) -> anyhow::Result<()> {
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("profiles"));
+    let profile_file = profile_path(&out, &args.sensor)?;
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read image folder {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -49,42 +102,13 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         bail!("{how}: no frame to use in {}", dir.display());
     }
     println!("{how}");
-    let step = chosen.len().div_ceil(args.max_frames);
-    let used: Vec<&PathBuf> = chosen.iter().step_by(step.max(1)).collect();
-    let mut frames = Vec::with_capacity(used.len());
-    for path in &used {
-        let img = image::open(path).with_context(|| {
-            format!(
-                "cannot read image {} (not a readable PNG or TIFF)",
-                path.display()
-            )
-        })?;
-        let g = GreyImage::from_image(&img);
-        if let Some(first) = frames.first() {
-            let first: &GreyImage = first;
-            if (g.width, g.height) != (first.width, first.height) {
-                bail!(
-                    "mixed image sizes in {}: {} is {}x{} px but {} is {}x{} px; calibrate one camera setting at a time",
-                    dir.display(),
-                    path.display(),
-                    g.width,
-                    g.height,
-                    used[0].display(),
-                    first.width,
-                    first.height
-                );
-            }
-        }
-        frames.push(g);
-    }
-    let average = optical::grey::average(&frames)?
-        .with_context(|| format!("no frames read from {}", dir.display()))?;
+    let used = frames::spread(&chosen, args.max_frames);
+    let average = frames::grey_average(&used).with_context(|| dir.display().to_string())?;
     let fit = optical::find_disc_in(&average)
-        .with_context(|| format!("{} ({} frames averaged)", dir.display(), frames.len()))?;
+        .with_context(|| format!("{} ({} frames averaged)", dir.display(), used.len()))?;
     print_fit(&fit);
-
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create profile folder {}", args.out.display()))?;
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create profile folder {}", out.display()))?;
     let profile = Profile::from_fit(&args.sensor, &dir.display().to_string(), &fit);
     profile.save(&profile_file)?;
     let report = profile_file.with_extension("png");
@@ -95,6 +119,210 @@ pub fn run(args: CalibrateArgs) -> anyhow::Result<()> {
         report.display()
     );
     Ok(())
+}
+
+/// The calibration scan on the rig, then the whole profile from its run.
+fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
+    let (config, source) = RigConfig::resolve(args.rig.as_deref())?;
+    println!(
+        "fringe {}: calibration of sensor {} on rig: {}",
+        env!("CARGO_PKG_VERSION"),
+        args.sensor,
+        source.describe()
+    );
+    let out = args.out.clone().unwrap_or_else(|| config.profile_dir());
+    let profile_file = profile_path(&out, &args.sensor)?;
+    if let Ok(rig_sensor) = config.sensor_id() {
+        if rig_sensor != args.sensor {
+            eprintln!(
+                "warning: the rig file names sensor {rig_sensor}; scans on it read {}, not this profile",
+                profile_path(&out, &rig_sensor)
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default()
+            );
+        }
+    }
+    let limits = config.limits()?;
+    let (text, plan_name) = match &args.plan {
+        Some(path) => (
+            std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read the plan", path.display()))?,
+            path.display().to_string(),
+        ),
+        None => (
+            built_in_plan(args, &config)?,
+            "built-in calibration grid".into(),
+        ),
+    };
+    let plan = Plan::parse(&text, &plan_name)?;
+    let program = plan.program(&limits, &plan_name)?;
+    println!(
+        "plan: {plan_name}: {} presses, then the profile from the run",
+        program.points.len()
+    );
+    let target = RunTarget::New {
+        root: args.runs.clone(),
+        run_id: new_run_id(&format!("calibration-{}", args.sensor)),
+    };
+    let executed = execute(
+        &config,
+        program,
+        text,
+        target,
+        args.yes,
+        ProfileUse::Ignore,
+        global,
+    )?;
+    let outcome = &executed.outcome;
+    let run_dir = outcome.run_dir.clone();
+    println!("calibration scan written to {}", run_dir.display());
+    if outcome.status != ExitStatus::Completed {
+        bail!(
+            "the calibration scan did not complete ({}); no profile written. Resume it with `fringe scan --resume {}` or run `fringe calibrate` again",
+            outcome.reason,
+            run_dir.display()
+        );
+    }
+    let run = ScanRun::read(&run_dir)?;
+    let cal = from_scan::calibrate(&run, args.max_frames)?;
+    println!(
+        "optical: {} no-contact frames of {} recorded",
+        cal.fit.frames,
+        run.background.len()
+    );
+    print_fit(&cal.fit);
+    print_offsets(&cal);
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create profile folder {}", out.display()))?;
+    let mut profile = Profile::from_fit(&args.sensor, &run_dir.display().to_string(), &cal.fit);
+    profile.force_offsets = cal.offsets;
+    profile.save(&profile_file)?;
+    let report = profile_file.with_extension("png");
+    write_report(&cal.background, &cal.fit, &report)?;
+    println!("wrote {}", profile_file.display());
+    println!(
+        "wrote {} (fitted disc green, crop circle yellow, centre red)",
+        report.display()
+    );
+    if let Some(sim) = &executed.sim {
+        print_truth(&cal, sim);
+    }
+    Ok(())
+}
+
+/// The built-in plan with the grid around the rig's nominal centre, the force and the indenter
+/// of the arguments.
+fn built_in_plan(args: &CalibrateArgs, config: &RigConfig) -> anyhow::Result<String> {
+    if args.points < 2 {
+        bail!(
+            "--points {}: use at least 2 (the fit needs presses in two directions)",
+            args.points
+        );
+    }
+    if !(args.span > 0.0 && args.span.is_finite()) {
+        bail!("--span {}: use a positive number of mm", args.span);
+    }
+    if !(args.force > 0.0 && args.force.is_finite()) {
+        bail!("--force {}: use a positive number of newtons", args.force);
+    }
+    let centre = config.origin()?;
+    let axis = |c: f64| -> Vec<f64> {
+        (0..args.points)
+            .map(|k| {
+                let t = k as f64 / (args.points - 1) as f64;
+                ((c - args.span + 2.0 * args.span * t) * 1000.0).round() / 1000.0
+            })
+            .collect()
+    };
+    let mut plan: toml::Table = CALIBRATION_PLAN
+        .parse()
+        .context("built-in calibration plan")?;
+    let set = |plan: &mut toml::Table, section: &str, key: &str, value: toml::Value| {
+        if let Some(toml::Value::Table(t)) = plan.get_mut(section) {
+            t.insert(key.into(), value);
+        }
+    };
+    let floats = |v: Vec<f64>| toml::Value::Array(v.into_iter().map(toml::Value::Float).collect());
+    set(&mut plan, "grid", "x", floats(axis(centre.x.0)));
+    set(&mut plan, "grid", "y", floats(axis(centre.y.0)));
+    set(
+        &mut plan,
+        "indentation",
+        "force_targets",
+        floats(vec![args.force]),
+    );
+    set(
+        &mut plan,
+        "indenters",
+        "shapes",
+        toml::Value::Array(vec![toml::Value::String(args.indenter.clone())]),
+    );
+    set(
+        &mut plan,
+        "safety",
+        "force_ceiling",
+        toml::Value::Float((4.0 * args.force).max(args.force + 2.0)),
+    );
+    plan.insert(
+        "name".into(),
+        toml::Value::String(format!("calibration-{}", args.sensor)),
+    );
+    Ok(format!(
+        "# fringe calibrate --sensor {}: {}x{} presses over +-{} mm around the nominal centre ({:.3}, {:.3}) mm from {}\n{}",
+        args.sensor,
+        args.points,
+        args.points,
+        args.span,
+        centre.x.0,
+        centre.y.0,
+        centre.source,
+        toml::to_string(&plan).context("built-in calibration plan")?
+    ))
+}
+
+fn print_offsets(cal: &ScanCalibration) {
+    let Some(o) = &cal.offsets else {
+        println!("force offsets: no no-contact window in the force stream");
+        return;
+    };
+    println!(
+        "force offsets (last of {} no-contact windows): Fx {:+.4} Fy {:+.4} Fz {:+.4} N (+- {:.4} N), Tx {:+.5} Ty {:+.5} Tz {:+.5} N m",
+        cal.biases.len(),
+        o.force_n[0],
+        o.force_n[1],
+        o.force_n[2],
+        o.force_sigma_n[2],
+        o.torque_nm[0],
+        o.torque_nm[1],
+        o.torque_nm[2]
+    );
+    if let Some(d) = &cal.drift {
+        let per_min: Vec<String> = (0..3)
+            .map(|k| {
+                format!(
+                    "{} {:+.4} +- {:.4}",
+                    CHANNELS[k],
+                    d.slope_per_s[k] * 60.0,
+                    d.slope_sigma[k] * 60.0
+                )
+            })
+            .collect();
+        println!(
+            "force offset drift through the run, N/min: {}",
+            per_min.join(", ")
+        );
+    }
+}
+
+/// On the simulated bench: the calibration against the simulator's truth.
+fn print_truth(cal: &ScanCalibration, sim: &fringe_rig::sim::rig::SimRigConfig) {
+    let g = sim.sensor.geometry();
+    let f = &cal.fit;
+    let dc = (f.centre_x - g.centre_px[0]).hypot(f.centre_y - g.centre_px[1]);
+    println!(
+        "against the simulator's truth: centre off by {dc:.3} px, radius by {:+.3} px",
+        f.radius - sim.sensor.geometry.disc_radius_px
+    );
 }
 
 fn is_image(p: &Path) -> bool {

@@ -1,0 +1,144 @@
+//! Frame files (PNG or TIFF) read for calibration: one loader for the image folders of
+//! `fringe calibrate --images` and the frames of a calibration scan's run.
+
+use crate::optical::grey::{self, GreyImage};
+use std::path::{Path, PathBuf};
+
+/// A frame file that could not be used, naming it.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameError {
+    #[error("cannot read image {path} (not a readable PNG or TIFF): {source}")]
+    Read {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+    #[error(
+        "mixed image sizes: {path} is {got_w}x{got_h} px but {first} is {want_w}x{want_h} px; calibrate one camera setting at a time"
+    )]
+    Size {
+        path: PathBuf,
+        first: PathBuf,
+        got_w: usize,
+        got_h: usize,
+        want_w: usize,
+        want_h: usize,
+    },
+    #[error("no frames to read")]
+    Empty,
+}
+
+/// Reads one frame file.
+pub fn read(path: &Path) -> Result<image::DynamicImage, FrameError> {
+    image::open(path).map_err(|source| FrameError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// At most `max` of `paths`, spread evenly over them (first one included).
+pub fn spread<T: Clone>(paths: &[T], max: usize) -> Vec<T> {
+    let step = paths.len().div_ceil(max.max(1)).max(1);
+    paths.iter().step_by(step).cloned().collect()
+}
+
+/// The grey mean of the frame files `paths` (all the same size).
+pub fn grey_average(paths: &[PathBuf]) -> Result<GreyImage, FrameError> {
+    let first = paths.first().ok_or(FrameError::Empty)?;
+    let mut frames = Vec::with_capacity(paths.len());
+    for path in paths {
+        let g = GreyImage::from_image(&read(path)?);
+        check_size(path, first, &frames, g.width, g.height)?;
+        frames.push(g);
+    }
+    match grey::average(&frames) {
+        Ok(Some(avg)) => Ok(avg),
+        Ok(None) => Err(FrameError::Empty),
+        Err(e) => Err(FrameError::Size {
+            path: paths[e.index].clone(),
+            first: first.clone(),
+            got_w: e.got_w,
+            got_h: e.got_h,
+            want_w: e.want_w,
+            want_h: e.want_h,
+        }),
+    }
+}
+
+/// The RGB mean of the frame files `paths` (all the same size), as f32 DN row-major RGB.
+pub fn rgb_average(paths: &[PathBuf]) -> Result<(usize, usize, Vec<f32>), FrameError> {
+    let first = paths.first().ok_or(FrameError::Empty)?;
+    let mut sum: Vec<f32> = Vec::new();
+    let (mut w, mut h) = (0, 0);
+    for (k, path) in paths.iter().enumerate() {
+        let img = read(path)?.to_rgb8();
+        let (iw, ih) = (img.width() as usize, img.height() as usize);
+        if k == 0 {
+            (w, h) = (iw, ih);
+            sum = vec![0.0; w * h * 3];
+        } else if (iw, ih) != (w, h) {
+            return Err(FrameError::Size {
+                path: path.clone(),
+                first: first.clone(),
+                got_w: iw,
+                got_h: ih,
+                want_w: w,
+                want_h: h,
+            });
+        }
+        for (s, &v) in sum.iter_mut().zip(img.as_raw()) {
+            *s += v as f32;
+        }
+    }
+    let n = paths.len() as f32;
+    sum.iter_mut().for_each(|s| *s /= n);
+    Ok((w, h, sum))
+}
+
+fn check_size(
+    path: &Path,
+    first: &Path,
+    frames: &[GreyImage],
+    w: usize,
+    h: usize,
+) -> Result<(), FrameError> {
+    match frames.first() {
+        Some(f) if (f.width, f.height) != (w, h) => Err(FrameError::Size {
+            path: path.to_path_buf(),
+            first: first.to_path_buf(),
+            got_w: w,
+            got_h: h,
+            want_w: f.width,
+            want_h: f.height,
+        }),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_keeps_at_most_max_evenly() {
+        let v: Vec<u32> = (0..10).collect();
+        assert_eq!(spread(&v, 3), vec![0, 4, 8]);
+        assert_eq!(spread(&v, 20), v);
+        assert_eq!(spread(&v, 1), vec![0]);
+    }
+
+    #[test]
+    fn mixed_sizes_name_both_files() {
+        let dir = std::env::temp_dir().join(format!("fringe-frames-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let a = dir.join("a.png");
+        let b = dir.join("b.png");
+        image::RgbImage::new(8, 6).save(&a).expect("a");
+        image::RgbImage::new(6, 6).save(&b).expect("b");
+        let e = grey_average(&[a.clone(), b.clone()]).expect_err("sizes differ");
+        let text = e.to_string();
+        assert!(text.contains("b.png") && text.contains("a.png"), "{text}");
+        let e = rgb_average(&[a, b]).expect_err("sizes differ");
+        assert!(e.to_string().contains("6x6 px"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
