@@ -68,7 +68,18 @@ struct Prepared {
     first_frame: RgbImage,
 }
 
-fn prepare(config: SensorConfig) -> Prepared {
+fn prepare(mut config: SensorConfig) -> Prepared {
+    if std::env::var("FRINGE_REG_NORES").is_ok() {
+        config.optics.residual_birefringence = 0.0;
+    }
+    if std::env::var("FRINGE_REG_NOVIG").is_ok() {
+        config.optics.vignetting_factor = 1000.0;
+    }
+    if std::env::var("FRINGE_REG_NONOISE").is_ok() {
+        config.noise.gain_drift = 0.0;
+        config.noise.offset_drift_dn = 0.0;
+        config.noise.flicker = 0.0;
+    }
     let mut renderer = Renderer::new(config).expect("valid sensor");
     let frames: Vec<RgbImage> = (0..BACKGROUND_FRAMES)
         .map(|k| render(&mut renderer, None, k))
@@ -79,8 +90,25 @@ fn prepare(config: SensorConfig) -> Prepared {
         .collect();
     let disc = find_disc(&grey).expect("optical fit");
     let centre = [disc.centre_x, disc.centre_y];
+    let mut settings = contact_spot::SpotSettings::default();
+    if let Ok(v) = std::env::var("FRINGE_REG_CUT") {
+        settings.relative_cut = v.parse().expect("cut");
+    }
+    if let Ok(v) = std::env::var("FRINGE_REG_LEVEL") {
+        settings.boundary_level = v.parse().expect("level");
+    }
+    if std::env::var("FRINGE_REG_GRAD").is_ok() {
+        settings.gradient = true;
+    }
+    if std::env::var("FRINGE_REG_LOCAL").is_ok() {
+        settings.local_normalise = true;
+    }
+    if let Ok(v) = std::env::var("FRINGE_REG_POWER") {
+        settings.power = v.parse().expect("power");
+    }
     let background = ContactBackground::new(&frames, centre, disc.crop_radius, disc.outside_dn)
-        .expect("background");
+        .expect("background")
+        .with_settings(settings);
     Prepared {
         renderer,
         background,
@@ -127,6 +155,30 @@ fn run(case: Case) -> Vec<bool> {
             .unwrap_or_else(|e| panic!("{}: press {n} at {sensor:?}: {e}", case.name));
         let want = truth.to_pixel(sensor[0], sensor[1]);
         let err = (spot.u_px - want[0]).hypot(spot.v_px - want[1]);
+        if std::env::var("FRINGE_REG_VERBOSE").is_ok() {
+            println!(
+                "  {} press {n} at {sensor:?}: seen ({:.2}, {:.2}) truth ({:.2}, {:.2}) err {err:.2} px sigma {:.3} window {:.0} r90 {:.0} bins {} snr {:.0}",
+                case.name, spot.u_px, spot.v_px, want[0], want[1], spot.sigma_px(), spot.window_px, spot.r90_px, spot.bins, spot.snr
+            );
+        }
+        if let (Ok(dir), 0 | 8) = (std::env::var("FRINGE_REG_PLOTS"), n) {
+            let slug: String = case
+                .name
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+                .collect();
+            let dir = std::path::PathBuf::from(dir);
+            let pat = prep.background.pattern_image(&frames).expect("pattern");
+            let (bu, bv) = ((want[0] / 4.0) as u32 - 50, (want[1] / 4.0) as u32 - 50);
+            let crop = image::imageops::crop_imm(&pat, bu, bv, 100, 100).to_image();
+            image::imageops::resize(&crop, 400, 400, image::imageops::FilterType::Nearest)
+                .save(dir.join(format!("{slug}-pattern-{n}.png")))
+                .expect("write pattern");
+            image::imageops::crop_imm(&frames[0], bu * 4, bv * 4, 400, 400)
+                .to_image()
+                .save(dir.join(format!("{slug}-frame-{n}.png")))
+                .expect("write frame");
+        }
         if stage_error == &[0.0, 0.0] {
             worst_spot = worst_spot.max(err);
             sum_spot2 += err * err;

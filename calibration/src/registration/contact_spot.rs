@@ -203,9 +203,48 @@ pub struct ContactBackground {
     frames: usize,
     centre_px: [f64; 2],
     crop_radius_px: f64,
+    settings: SpotSettings,
+    /// Local background brightness (3x3 bins, dark level off) relative to the surface's centre.
+    local: Vec<f32>,
+}
+
+/// How the pattern is weighted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotSettings {
+    /// Bins weaker than this fraction of the pattern's peak (99th percentile) are left out; the
+    /// rest weigh by their excess over it.
+    pub relative_cut: f64,
+    /// Weights are raised to this power.
+    pub power: f64,
+    /// Divide the difference by the local background brightness (3x3 bins) instead of the
+    /// smooth illumination surface.
+    pub local_normalise: bool,
+    /// Weigh by the gradient of the colour difference instead of its magnitude.
+    pub gradient: bool,
+    /// Refine the centroid by the pattern's outline where each ray falls to this fraction of
+    /// its peak (0: centroid only).
+    pub boundary_level: f64,
+}
+
+impl Default for SpotSettings {
+    fn default() -> Self {
+        SpotSettings {
+            relative_cut: 0.3,
+            power: 1.0,
+            local_normalise: false,
+            gradient: false,
+            boundary_level: 0.5,
+        }
+    }
 }
 
 impl ContactBackground {
+    /// The same background with other weighting settings.
+    pub fn with_settings(mut self, settings: SpotSettings) -> ContactBackground {
+        self.settings = settings;
+        self
+    }
+
     /// From no-contact RGB frames (all the same size), the optical centre and crop radius (px)
     /// of the optical fit and the dark level (DN of the unlit housing, e.g. the optical fit's
     /// outside level; 0 if unknown) under the background.
@@ -277,7 +316,23 @@ impl ContactBackground {
             }
         }
 
-        let illumination = illumination_surface(&bg, &inside, centre_px, crop_radius_px, dark_dn)?;
+        let (illumination, centre_level) =
+            illumination_surface(&bg, &inside, centre_px, crop_radius_px, dark_dn)?;
+        let mut local = vec![0f32; bw * bh];
+        for &k in &inside {
+            let (bi, bj) = (k % bw, k / bw);
+            let (mut s, mut n) = (0.0, 0.0);
+            for j in bj.saturating_sub(1)..(bj + 2).min(bh) {
+                for i in bi.saturating_sub(1)..(bi + 2).min(bw) {
+                    let q = j * bw + i;
+                    s += (f64::from(bg.ch[0][q]) + f64::from(bg.ch[1][q]) + f64::from(bg.ch[2][q]))
+                        / 3.0
+                        - dark_dn;
+                    n += 1.0;
+                }
+            }
+            local[k] = ((s / n) / centre_level).max(0.05) as f32;
+        }
         Ok(ContactBackground {
             width: size.0,
             height: size.1,
@@ -288,6 +343,8 @@ impl ContactBackground {
             frames: frames.len(),
             centre_px,
             crop_radius_px,
+            settings: SpotSettings::default(),
+            local,
         })
     }
 
@@ -301,8 +358,23 @@ impl ContactBackground {
         self.frames
     }
 
-    /// Locates the contact in the mean of `pressed` (frames of one dwell).
-    pub fn locate(&self, pressed: &[RgbImage]) -> Result<ContactSpot, ContactError> {
+    /// The pattern's weight per bin of the mean of `pressed`: colour difference above the
+    /// threshold over the relative illumination, as an 8-bit image of the binned frame
+    /// (`BIN_PX` px per pixel) scaled so that the largest weight is 255. For looking at what
+    /// [`ContactBackground::locate`] sees.
+    pub fn pattern_image(&self, pressed: &[RgbImage]) -> Result<image::GrayImage, ContactError> {
+        let pat = self.pattern(pressed)?;
+        let max = pat.weights.iter().map(|w| w.2).fold(0.0f64, f64::max);
+        let mut img = image::GrayImage::new(self.bg.bw as u32, self.bg.bh as u32);
+        for &(u, v, w, _) in &pat.weights {
+            let (i, j) = ((u / BIN_PX as f64) as u32, (v / BIN_PX as f64) as u32);
+            let level = if max > 0.0 { 255.0 * w / max } else { 0.0 };
+            img.put_pixel(i, j, image::Luma([level.round() as u8]));
+        }
+        Ok(img)
+    }
+
+    fn pattern(&self, pressed: &[RgbImage]) -> Result<Pattern, ContactError> {
         let p = bin_frames(pressed, "pressed frames", (self.width, self.height))?;
         let bw = self.bg.bw;
         let noise_scale = (1.0 / pressed.len() as f64 + 1.0 / self.frames as f64).sqrt();
@@ -345,19 +417,104 @@ impl ContactBackground {
             }
         }
 
-        // Weights: colour difference above the threshold over the relative illumination.
+        // Weights: colour difference (or its gradient) above the threshold over the relative
+        // illumination.
+        let mut grid: [Vec<f32>; 3] = std::array::from_fn(|_| vec![f32::NAN; bw * self.bg.bh]);
+        for (n, &k) in self.inside.iter().enumerate() {
+            for c in 0..3 {
+                grid[c][k] = diff[c][n];
+            }
+        }
         let mut weights = Vec::new(); // (u, v, weight, weight noise)
         let mut above_total = 0usize;
         for (n, &k) in self.inside.iter().enumerate() {
             let e = magnitude(&diff, n);
-            if e <= threshold {
-                continue;
+            if e > threshold {
+                above_total += 1;
             }
-            above_total += 1;
-            let ill = f64::from(self.illumination[k]);
+            let ill = if self.settings.local_normalise {
+                f64::from(self.local[k])
+            } else {
+                f64::from(self.illumination[k])
+            };
             let [u, v] = bin_centre(k % bw, k / bw);
-            weights.push((u, v, (e - threshold) / ill, sigma_rms / ill));
+            if self.settings.gradient {
+                let (bi, bj) = (k % bw, k / bw);
+                if bi == 0 || bj == 0 || bi + 1 >= bw || bj + 1 >= self.bg.bh {
+                    continue;
+                }
+                let mut g2 = 0.0;
+                for ch in &grid {
+                    let dx = 0.5 * f64::from(ch[k + 1] - ch[k - 1]);
+                    let dy = 0.5 * f64::from(ch[k + bw] - ch[k - bw]);
+                    g2 += dx * dx + dy * dy;
+                }
+                let g = g2.sqrt();
+                // NaN (a neighbour outside the crop) fails the comparison.
+                if !(g > threshold) {
+                    continue;
+                }
+                weights.push((u, v, (g - threshold) / ill, sigma_rms / ill));
+            } else if e > threshold {
+                weights.push((u, v, (e - threshold) / ill, sigma_rms / ill));
+            }
         }
+        // Relative cut: only the strong part of the pattern, near the contact, counts.
+        let mut ws: Vec<f64> = weights.iter().map(|w| w.2).collect();
+        let peak = if ws.is_empty() {
+            0.0
+        } else {
+            let k = ((ws.len() as f64 * 0.99) as usize).min(ws.len() - 1);
+            *ws.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
+        };
+        let cut = self.settings.relative_cut * peak;
+        let power = self.settings.power;
+        let weights = weights
+            .into_iter()
+            .filter(|w| w.2 > cut)
+            .map(|(u, v, w, s)| {
+                let x = (w - cut) / peak.max(f64::MIN_POSITIVE);
+                // d(x^p)/dw = p x^(p-1) / peak
+                let ds = power * x.powf(power - 1.0) / peak.max(f64::MIN_POSITIVE);
+                (u, v, x.powf(power), s * ds)
+            })
+            .collect();
+        let mut map = vec![f32::NAN; bw * self.bg.bh];
+        for (n, &k) in self.inside.iter().enumerate() {
+            let ill = f64::from(self.illumination[k]);
+            let value = if self.settings.gradient {
+                let (bi, bj) = (k % bw, k / bw);
+                if bi == 0 || bj == 0 || bi + 1 >= bw || bj + 1 >= self.bg.bh {
+                    continue;
+                }
+                let mut g2 = 0.0;
+                for ch in &grid {
+                    let dx = 0.5 * f64::from(ch[k + 1] - ch[k - 1]);
+                    let dy = 0.5 * f64::from(ch[k + bw] - ch[k - bw]);
+                    g2 += dx * dx + dy * dy;
+                }
+                g2.sqrt()
+            } else {
+                magnitude(&diff, n)
+            };
+            map[k] = (value / ill) as f32;
+        }
+        Ok(Pattern {
+            weights,
+            above_total,
+            sigma_rms,
+            map,
+        })
+    }
+
+    /// Locates the contact in the mean of `pressed` (frames of one dwell).
+    pub fn locate(&self, pressed: &[RgbImage]) -> Result<ContactSpot, ContactError> {
+        let Pattern {
+            weights,
+            above_total,
+            sigma_rms,
+            map,
+        } = self.pattern(pressed)?;
         let no_contact = |bins: usize| ContactError::NoContact {
             bins,
             need: MIN_SPOT_BINS,
@@ -420,25 +577,39 @@ impl ContactBackground {
             sv += t * w * v;
             noise2 += t * t * s * s;
         }
-        if bins < MIN_SPOT_BINS || sw <= 0.0 {
+        if sw <= 0.0 {
             return Err(no_contact(bins));
         }
-        let (cu, cv) = (su / sw, sv / sw);
+        let (mut cu, mut cv) = (su / sw, sv / sw);
         for &(u, v, _, s) in &weights {
             let t = taper((u - cu).hypot(v - cv), window);
             vu += (t * s * (u - cu)).powi(2);
             vv += (t * s * (v - cv)).powi(2);
         }
-        // A compact pattern: most of the above-threshold bins near the centre lie in the
-        // window's core (scattered noise bins spread evenly over the crop circle).
-        let core = weights
-            .iter()
-            .filter(|&&(u, v, _, _)| (u - cu).hypot(v - cv) <= r50.max(2.0 * BIN_PX as f64))
-            .count();
-        let core_area_bins =
-            std::f64::consts::PI * (r50.max(2.0 * BIN_PX as f64) / BIN_PX as f64).powi(2);
-        if (core as f64) < 0.3 * core_area_bins {
-            return Err(no_contact(bins));
+        if self.settings.boundary_level > 0.0 {
+            let mut c = [cu, cv];
+            let mut spread = [0.0, 0.0];
+            for _ in 0..4 {
+                match boundary_centre(
+                    &map,
+                    self.bg.bw,
+                    self.bg.bh,
+                    c,
+                    window,
+                    self.settings.boundary_level,
+                ) {
+                    Some((next, half_diff)) => {
+                        c = next;
+                        spread = half_diff;
+                    }
+                    None => break,
+                }
+            }
+            cu = c[0];
+            cv = c[1];
+            // Sigma from the two halves of the rays (even and odd) as well as the noise.
+            vu = vu.max((0.5 * spread[0] * sw).powi(2));
+            vv = vv.max((0.5 * spread[1] * sw).powi(2));
         }
         Ok(ContactSpot {
             u_px: cu,
@@ -452,6 +623,134 @@ impl ContactBackground {
             frames: pressed.len(),
         })
     }
+}
+
+/// Bins above the threshold: (u px, v px, weight, weight noise).
+struct Pattern {
+    weights: Vec<(f64, f64, f64, f64)>,
+    above_total: usize,
+    sigma_rms: f64,
+    /// Colour difference magnitude over the relative illumination per bin (NaN outside the
+    /// crop circle), for the boundary refinement.
+    map: Vec<f32>,
+}
+
+/// Rays for the boundary refinement.
+const BOUNDARY_RAYS: usize = 144;
+
+/// Bilinear sample of the bin map at image position (u, v) px; NaN outside.
+fn sample(map: &[f32], bw: usize, bh: usize, u: f64, v: f64) -> f64 {
+    let x = u / BIN_PX as f64 - 0.5;
+    let y = v / BIN_PX as f64 - 0.5;
+    if !(x >= 0.0 && y >= 0.0) {
+        return f64::NAN;
+    }
+    let (i, j) = (x.floor() as usize, y.floor() as usize);
+    if i + 1 >= bw || j + 1 >= bh {
+        return f64::NAN;
+    }
+    let (fx, fy) = (x - i as f64, y - j as f64);
+    let at = |a: usize, b: usize| f64::from(map[b * bw + a]);
+    let top = at(i, j) + (at(i + 1, j) - at(i, j)) * fx;
+    let bottom = at(i, j + 1) + (at(i + 1, j + 1) - at(i, j + 1)) * fx;
+    top + (bottom - top) * fy
+}
+
+/// The centre of the pattern's outline: along rays from `c`, the outermost radius (within
+/// `window`) where the profile falls to `level` times the ray's own peak; the area centroid
+/// of the polygon through those points. A smooth change of the pattern's strength across it
+/// (sensitivity varying with the residual birefringence, uneven light) scales each ray's
+/// profile and leaves that radius in place. Also returns |centroid(even rays) - centroid(odd
+/// rays)| per axis. `None` when fewer than 80 % of the rays find the outline.
+fn boundary_centre(
+    map: &[f32],
+    bw: usize,
+    bh: usize,
+    c: [f64; 2],
+    window: f64,
+    level: f64,
+) -> Option<([f64; 2], [f64; 2])> {
+    let step = 0.5 * BIN_PX as f64;
+    let n_steps = (window / step).floor() as usize;
+    if n_steps < 4 {
+        return None;
+    }
+    let mut pts: Vec<Option<[f64; 2]>> = Vec::with_capacity(BOUNDARY_RAYS);
+    for r in 0..BOUNDARY_RAYS {
+        let t = std::f64::consts::TAU * r as f64 / BOUNDARY_RAYS as f64;
+        let (dy, dx) = t.sin_cos();
+        let prof: Vec<f64> = (0..=n_steps)
+            .map(|k| {
+                sample(
+                    map,
+                    bw,
+                    bh,
+                    c[0] + dx * step * k as f64,
+                    c[1] + dy * step * k as f64,
+                )
+            })
+            .collect();
+        let (mut peak, mut at_peak) = (f64::MIN, 0);
+        for (k, &p) in prof.iter().enumerate() {
+            if p.is_finite() && p > peak {
+                peak = p;
+                at_peak = k;
+            }
+        }
+        let target = level * peak;
+        let mut found = None;
+        for k in at_peak..n_steps {
+            let (a, b) = (prof[k], prof[k + 1]);
+            if !(a.is_finite() && b.is_finite()) {
+                break;
+            }
+            if a >= target && b < target {
+                let f = (a - target) / (a - b);
+                let rad = step * (k as f64 + f);
+                found = Some([c[0] + dx * rad, c[1] + dy * rad]);
+                break;
+            }
+        }
+        pts.push(found);
+    }
+    let ok = pts.iter().filter(|p| p.is_some()).count();
+    if (ok as f64) < 0.8 * BOUNDARY_RAYS as f64 {
+        return None;
+    }
+    // Missing rays: skipped (the polygon joins their neighbours).
+    let poly = |sel: &dyn Fn(usize) -> bool| -> Option<[f64; 2]> {
+        let p: Vec<[f64; 2]> = pts
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| sel(*i))
+            .filter_map(|(_, p)| *p)
+            .collect();
+        polygon_centroid(&p)
+    };
+    let all = poly(&|_| true)?;
+    let even = poly(&|i| i % 2 == 0)?;
+    let odd = poly(&|i| i % 2 == 1)?;
+    Some((all, [(even[0] - odd[0]).abs(), (even[1] - odd[1]).abs()]))
+}
+
+/// Area centroid of a simple polygon (shoelace).
+fn polygon_centroid(p: &[[f64; 2]]) -> Option<[f64; 2]> {
+    if p.len() < 3 {
+        return None;
+    }
+    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..p.len() {
+        let (x0, y0) = (p[i][0], p[i][1]);
+        let (x1, y1) = (p[(i + 1) % p.len()][0], p[(i + 1) % p.len()][1]);
+        let cross = x0 * y1 - x1 * y0;
+        a += cross;
+        cx += (x0 + x1) * cross;
+        cy += (y0 + y1) * cross;
+    }
+    if a.abs() < 1e-9 {
+        return None;
+    }
+    Some([cx / (3.0 * a), cy / (3.0 * a)])
 }
 
 /// Centre of bin (bi, bj), px.
@@ -518,7 +817,7 @@ fn illumination_surface(
     centre: [f64; 2],
     crop: f64,
     dark_dn: f64,
-) -> Result<Vec<f32>, ContactError> {
+) -> Result<(Vec<f32>, f64), ContactError> {
     let bw = bg.bw;
     let terms = |x: f64, y: f64| -> Vec<f64> {
         let mut t = Vec::new();
@@ -600,7 +899,7 @@ fn illumination_surface(
         let (x, y) = xy(k);
         out[k] = (at(x, y) / centre_level).max(0.05) as f32;
     }
-    Ok(out)
+    Ok((out, centre_level))
 }
 
 /// Window weight at distance `r` from the centre: 1 inside 0.8 R, a cosine taper to 0 at R.
