@@ -12,16 +12,29 @@
 //!    fringe's difference scales with the light behind it, and a vignetting slope across the
 //!    pattern would pull a plain centroid towards the brighter side, i.e. shrink the scale);
 //! 4. the weighted centroid inside a circular window (cosine-tapered over its outer 20 %) about
-//!    the estimate, iterated until it settles. For a pattern symmetric about the contact (every
-//!    indenter with 2-fold or higher rotational symmetry: pentagon, rectangle, disc, sphere) the
-//!    windowed centroid is the centre however much of the pattern the window cuts, as long as the
-//!    window stays inside the crop circle. The window radius is 1.5 times the radius holding 90 %
-//!    of the pattern's weight, shrunk to fit inside the crop circle; when that leaves less than
-//!    the radius holding half the pattern, the press is too close to the edge (an error).
+//!    the estimate, iterated until it settles. The window radius is 1.5 times the radius holding
+//!    90 % of the pattern's weight, shrunk to fit inside the crop circle; when that leaves less
+//!    than the radius holding half the pattern, the press is too close to the edge (an error);
+//! 5. the outline refinement ([`SpotSettings::boundary_level`]): along 144 rays from the
+//!    centroid, the outermost radius inside the window where the profile (colour difference, or
+//!    its gradient for the thick gel) falls to a fixed fraction of that ray's own peak; the
+//!    centre is the area centroid of the polygon through those points, iterated 4 times.
 //!
-//! Uncertainty: the bin noise propagated through the centroid, per axis. A press with fewer than
-//! [`MIN_SPOT_BINS`] bins above the threshold, or whose pattern is not compact, is
-//! [`ContactError::NoContact`].
+//! Why step 5: the casting's residual birefringence (about 0.1 fringe, varying by +-40 % over
+//! 25-80 mm) adds to the contact's fringe order, so at light force the colour change per unit of
+//! contact stress varies by tens of per cent across one pattern. A centroid weighted by the
+//! difference, however normalised by brightness, moved 4-10 px (layered) and 50-90 px
+//! (integrated, whose faint far field covers the whole disc) off the contact on the simulator;
+//! without residual birefringence it was within 0.25 px. A per-ray fractional level is
+//! unchanged by a smooth scaling of the pattern, and the outline of a pattern with 2-fold or
+//! higher rotational symmetry (pentagon, rectangle, disc, sphere) has its area centroid at the
+//! contact. Which profile and level suit a sensor: [`SpotSettings::layered`],
+//! [`SpotSettings::integrated`].
+//!
+//! Uncertainty, per axis: the bin noise propagated through the centroid, or (larger as a rule)
+//! half the difference between the outline centres from the even and the odd rays. A press with
+//! fewer than [`MIN_SPOT_BINS`] bins above the threshold (in the crop circle, and in the final
+//! window) is [`ContactError::NoContact`].
 
 use image::RgbImage;
 
@@ -62,7 +75,7 @@ pub enum ContactError {
     },
     #[error("the background is too dark for an illumination estimate (mean {mean_dn:.1} DN above the dark level)")]
     Dark { mean_dn: f64 },
-    #[error("no contact visible: {bins} bins of {bin} px above {sigmas} noise sigmas ({noise_dn:.2} DN), need {need} in one compact pattern")]
+    #[error("no contact visible: {bins} bins of {bin} px above {sigmas} noise sigmas ({noise_dn:.2} DN), need {need}")]
     NoContact {
         bins: usize,
         need: usize,
@@ -204,8 +217,6 @@ pub struct ContactBackground {
     centre_px: [f64; 2],
     crop_radius_px: f64,
     settings: SpotSettings,
-    /// Local background brightness (3x3 bins, dark level off) relative to the surface's centre.
-    local: Vec<f32>,
 }
 
 /// How the pattern is weighted.
@@ -216,9 +227,6 @@ pub struct SpotSettings {
     pub relative_cut: f64,
     /// Weights are raised to this power.
     pub power: f64,
-    /// Divide the difference by the local background brightness (3x3 bins) instead of the
-    /// smooth illumination surface.
-    pub local_normalise: bool,
     /// Weigh by the gradient of the colour difference instead of its magnitude.
     pub gradient: bool,
     /// Refine the centroid by the pattern's outline where each ray falls to this fraction of
@@ -227,12 +235,32 @@ pub struct SpotSettings {
 }
 
 impl Default for SpotSettings {
+    /// [`SpotSettings::layered`].
     fn default() -> Self {
+        SpotSettings::layered()
+    }
+}
+
+impl SpotSettings {
+    /// For a thin photoelastic film (fringes hugging the indenter): the outline where the colour
+    /// difference falls to 0.3 of each ray's peak.
+    pub fn layered() -> SpotSettings {
         SpotSettings {
-            relative_cut: 0.3,
+            relative_cut: 0.0,
             power: 1.0,
-            local_normalise: false,
             gradient: false,
+            boundary_level: 0.3,
+        }
+    }
+
+    /// For a thick photoelastic gel (rings spreading over the whole disc, a far field that falls
+    /// off slowly): the outline where the gradient of the colour difference falls to half of
+    /// each ray's peak (the gradient is concentrated at the contact).
+    pub fn integrated() -> SpotSettings {
+        SpotSettings {
+            relative_cut: 0.0,
+            power: 1.0,
+            gradient: true,
             boundary_level: 0.5,
         }
     }
@@ -316,23 +344,7 @@ impl ContactBackground {
             }
         }
 
-        let (illumination, centre_level) =
-            illumination_surface(&bg, &inside, centre_px, crop_radius_px, dark_dn)?;
-        let mut local = vec![0f32; bw * bh];
-        for &k in &inside {
-            let (bi, bj) = (k % bw, k / bw);
-            let (mut s, mut n) = (0.0, 0.0);
-            for j in bj.saturating_sub(1)..(bj + 2).min(bh) {
-                for i in bi.saturating_sub(1)..(bi + 2).min(bw) {
-                    let q = j * bw + i;
-                    s += (f64::from(bg.ch[0][q]) + f64::from(bg.ch[1][q]) + f64::from(bg.ch[2][q]))
-                        / 3.0
-                        - dark_dn;
-                    n += 1.0;
-                }
-            }
-            local[k] = ((s / n) / centre_level).max(0.05) as f32;
-        }
+        let illumination = illumination_surface(&bg, &inside, centre_px, crop_radius_px, dark_dn)?;
         Ok(ContactBackground {
             width: size.0,
             height: size.1,
@@ -344,7 +356,6 @@ impl ContactBackground {
             centre_px,
             crop_radius_px,
             settings: SpotSettings::default(),
-            local,
         })
     }
 
@@ -432,11 +443,7 @@ impl ContactBackground {
             if e > threshold {
                 above_total += 1;
             }
-            let ill = if self.settings.local_normalise {
-                f64::from(self.local[k])
-            } else {
-                f64::from(self.illumination[k])
-            };
+            let ill = f64::from(self.illumination[k]);
             let [u, v] = bin_centre(k % bw, k / bw);
             if self.settings.gradient {
                 let (bi, bj) = (k % bw, k / bw);
@@ -577,7 +584,7 @@ impl ContactBackground {
             sv += t * w * v;
             noise2 += t * t * s * s;
         }
-        if sw <= 0.0 {
+        if bins < MIN_SPOT_BINS || sw <= 0.0 {
             return Err(no_contact(bins));
         }
         let (mut cu, mut cv) = (su / sw, sv / sw);
@@ -817,7 +824,7 @@ fn illumination_surface(
     centre: [f64; 2],
     crop: f64,
     dark_dn: f64,
-) -> Result<(Vec<f32>, f64), ContactError> {
+) -> Result<Vec<f32>, ContactError> {
     let bw = bg.bw;
     let terms = |x: f64, y: f64| -> Vec<f64> {
         let mut t = Vec::new();
@@ -899,7 +906,7 @@ fn illumination_surface(
         let (x, y) = xy(k);
         out[k] = (at(x, y) / centre_level).max(0.05) as f32;
     }
-    Ok((out, centre_level))
+    Ok(out)
 }
 
 /// Window weight at distance `r` from the centre: 1 inside 0.8 R, a cosine taper to 0 at R.
