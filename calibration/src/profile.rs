@@ -431,7 +431,7 @@ contact_origin_stage_mm = [12.5, 7.0]
 residual_rms_px = 0.4
 presses = 9
 "#;
-        std::fs::write(&path, &old).expect("write");
+        std::fs::write(&path, old).expect("write");
         let back = Profile::load(&path).expect("old registration section");
         let reg = back.registration.expect("registration");
         assert_eq!(reg.outliers, 0);

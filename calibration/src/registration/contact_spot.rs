@@ -295,9 +295,10 @@ impl ContactBackground {
             w: size.0,
             h: size.1,
         };
-        if !(crop_radius_px.is_finite() && crop_radius_px > 0.0)
-            || !centre_px.iter().all(|c| c.is_finite())
-        {
+        let crop_ok = crop_radius_px.is_finite()
+            && crop_radius_px > 0.0
+            && centre_px.iter().all(|c| c.is_finite());
+        if !crop_ok {
             return Err(bad_crop());
         }
         let mut inside = Vec::new();
@@ -320,8 +321,8 @@ impl ContactBackground {
             let mut dev: [Vec<f64>; 3] = Default::default();
             for f in frames {
                 let one = bin_frames(std::slice::from_ref(f), "no-contact background", size)?;
-                for c in 0..3 {
-                    dev[c].extend(
+                for (c, d) in dev.iter_mut().enumerate() {
+                    d.extend(
                         inside
                             .iter()
                             .step_by(3)
@@ -418,9 +419,9 @@ impl ContactBackground {
             if use_bin.iter().filter(|&&u| u).count() < self.inside.len() / 4 {
                 use_bin = above.iter().map(|&a| !a).collect();
             }
-            for c in 0..3 {
+            for (c, d) in diff.iter_mut().enumerate() {
                 let (g, o) = gain_offset(&self.bg.ch[c], &p.ch[c], &self.inside, &use_bin);
-                diff[c] = self
+                *d = self
                     .inside
                     .iter()
                     .map(|&k| p.ch[c][k] - (g * self.bg.ch[c][k] + o))
@@ -458,7 +459,7 @@ impl ContactBackground {
                 }
                 let g = g2.sqrt();
                 // NaN (a neighbour outside the crop) fails the comparison.
-                if !(g > threshold) {
+                if g.is_nan() || g <= threshold {
                     continue;
                 }
                 weights.push((u, v, (g - threshold) / ill, sigma_rms / ill));
@@ -840,7 +841,7 @@ fn illumination_surface(
         (f64::from(bg.ch[0][k]) + f64::from(bg.ch[1][k]) + f64::from(bg.ch[2][k])) / 3.0 - dark_dn
     };
     let mean = inside.iter().map(|&k| grey(k)).sum::<f64>() / inside.len() as f64;
-    if !(mean > 1.0) {
+    if mean.is_nan() || mean <= 1.0 {
         return Err(ContactError::Dark { mean_dn: mean });
     }
     let xy = |k: usize| {
@@ -896,7 +897,7 @@ fn illumination_surface(
             .sum::<f64>()
     };
     let centre_level = at(0.0, 0.0);
-    if !(centre_level > 1.0) {
+    if centre_level.is_nan() || centre_level <= 1.0 {
         return Err(ContactError::Dark {
             mean_dn: centre_level,
         });

@@ -263,7 +263,11 @@ pub fn fit_similarity(
             let err = (presses[i].pixel[0] - u).hypot(presses[i].pixel[1] - v);
             let s2 = noise_var(s.rss, n_used - 1, mean_sigma2, settings.noise_floor_px);
             let ratio = err / (2.0 * s2).sqrt();
-            if worst.map_or(true, |w| ratio > w.1) {
+            let better = match worst {
+                None => true,
+                Some(w) => ratio > w.1,
+            };
+            if better {
                 worst = Some((i, ratio, err));
             }
         }
@@ -289,7 +293,7 @@ pub fn fit_similarity(
     let p = chosen.params;
     let a = if mirror { [-p[0], -p[1]] } else { [p[0], p[1]] };
     let k = a[0].hypot(a[1]);
-    if !(k > 0.0) {
+    if k.is_nan() || k <= 0.0 {
         return Err(FitError::Degenerate);
     }
     let theta = a[1].atan2(a[0]);
