@@ -4,8 +4,9 @@
 //! [`residual_plot`]: the press positions in stage mm (x right, y up), inliers as blue dots,
 //! outliers as red ones, each with its residual vector (seen minus predicted, turned back into
 //! the stage frame) scaled up by a round factor so that the longest one spans about a third of
-//! the press spacing; the factor, the RMS residual and a bar of a round number of residual px are
-//! written on the plot.
+//! the press spacing (outliers do not set the scale: their vectors are capped at 0.45 of the
+//! spacing and labelled with their length); the factor, the RMS residual and a bar of a round
+//! number of residual px are written on the plot.
 
 use super::similarity_fit::SimilarityFit;
 use image::{Rgb, RgbImage};
@@ -279,9 +280,13 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
         .iter()
         .map(|r| fit.px_to_stage_vector(r.residual_px))
         .collect();
+    // The scale follows the inliers; an outlier's vector is capped and labelled with its length.
+    let any_inlier = fit.residuals[..n].iter().any(|r| !r.outlier);
     let longest = res_mm
         .iter()
-        .map(|r| r[0].hypot(r[1]))
+        .zip(&fit.residuals[..n])
+        .filter(|(_, r)| !any_inlier || !r.outlier)
+        .map(|(v, _)| v[0].hypot(v[1]))
         .fold(0.0f64, f64::max);
     // Spacing: the smallest distance between two presses (or the span for one press).
     let mut spacing = span;
@@ -306,7 +311,22 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
             [30, 70, 200]
         };
         let a = to_plot(p[0], p[1]);
-        let b = to_plot(p[0] + scale * res_mm[k][0], p[1] + scale * res_mm[k][1]);
+        let mut d = [scale * res_mm[k][0], scale * res_mm[k][1]];
+        let len = d[0].hypot(d[1]);
+        let cap = 0.45 * spacing;
+        if len > cap {
+            d = [d[0] * cap / len, d[1] * cap / len];
+            let label = format!("{:.1} px", fit.residuals[k].length_px());
+            text(
+                &mut img,
+                a[0] as i64 + 12,
+                a[1] as i64 + 12,
+                2,
+                &label,
+                colour,
+            );
+        }
+        let b = to_plot(p[0] + d[0], p[1] + d[1]);
         thick_line(&mut img, a, b, 2, colour);
         dot(&mut img, b, 2.0, colour);
         dot(&mut img, a, 4.0, black);
