@@ -345,3 +345,62 @@ fn a_press_that_missed_the_sensor_is_an_error() {
         .expect_err("no contact");
     assert!(e.to_string().starts_with("no contact visible"), "{e}");
 }
+
+#[test]
+fn presses_towards_the_crop_edge() {
+    for (base, settings_name) in [
+        (SensorConfig::layered(), "layered"),
+        (SensorConfig::integrated(), "integrated"),
+    ] {
+        let mut prep = prepare(config(base, 0.0, 5.0, true, 18.3));
+        let truth = prep.renderer.geometry();
+        let crop_mm = prep.crop / truth.px_per_mm;
+        let mut located_to_14 = 0;
+        for r_mm in [8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 24.0] {
+            let (x, y) = (r_mm * 0.6, -r_mm * 0.8);
+            let c = Contact {
+                shape: prep.renderer.config().pentagon(),
+                force: Newtons(1.5),
+                x: Millimetres(x),
+                y: Millimetres(y),
+                angle_deg: 0.0,
+            };
+            let frames: Vec<RgbImage> = (0..2)
+                .map(|k| render(&mut prep.renderer, Some(c), 300 + k))
+                .collect();
+            let want = truth.to_pixel(x, y);
+            match prep.background.locate(&frames) {
+                Ok(s) => {
+                    let err = (s.u_px - want[0]).hypot(s.v_px - want[1]);
+                    println!(
+                        "{settings_name} (crop {crop_mm:.1} mm): press {r_mm} mm from the centre: error {err:.2} px, sigma {:.2} px, window {:.0} px",
+                        s.sigma_px(),
+                        s.window_px
+                    );
+                    // Located means located: never silently off.
+                    assert!(
+                        err < 0.1 * truth.px_per_mm,
+                        "{settings_name}: press at {r_mm} mm off by {err:.2} px"
+                    );
+                    if r_mm <= 14.0 {
+                        located_to_14 += 1;
+                    }
+                }
+                Err(e) => {
+                    println!("{settings_name} (crop {crop_mm:.1} mm): press {r_mm} mm from the centre: {e}");
+                    assert!(
+                        matches!(
+                            e,
+                            ContactError::OutlineCut { .. } | ContactError::NearCropEdge { .. }
+                        ),
+                        "{e}"
+                    );
+                }
+            }
+        }
+        assert_eq!(
+            located_to_14, 4,
+            "{settings_name}: presses within 14 mm must be located"
+        );
+    }
+}

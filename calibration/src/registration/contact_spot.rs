@@ -83,6 +83,14 @@ pub enum ContactError {
         sigmas: f64,
         noise_dn: f64,
     },
+    #[error("the pattern's outline about ({u:.1}, {v:.1}) px is cut on {percent:.0} % of the rays (window {window:.0} px, {room:.0} px of room to the crop edge): press closer to the optical centre")]
+    OutlineCut {
+        u: f64,
+        v: f64,
+        percent: f64,
+        window: f64,
+        room: f64,
+    },
     #[error("contact at ({u:.1}, {v:.1}) px is too close to the crop edge: {room:.0} px of room inside the crop circle, the pattern needs {need:.0} px; press within about {limit:.0} px of the optical centre")]
     NearCropEdge {
         u: f64,
@@ -597,21 +605,33 @@ impl ContactBackground {
         if self.settings.boundary_level > 0.0 {
             let mut c = [cu, cv];
             let mut spread = [0.0, 0.0];
+            let mut cut = 1.0;
             for _ in 0..4 {
-                match boundary_centre(
+                let Some(o) = boundary_centre(
                     &map,
                     self.bg.bw,
                     self.bg.bh,
                     c,
                     window,
                     self.settings.boundary_level,
-                ) {
-                    Some((next, half_diff)) => {
-                        c = next;
-                        spread = half_diff;
-                    }
-                    None => break,
-                }
+                ) else {
+                    cut = 1.0;
+                    break;
+                };
+                c = o.centre;
+                spread = o.half_diff;
+                cut = o.cut_fraction;
+            }
+            if cut > MAX_CUT_RAYS {
+                let room = self.crop_radius_px
+                    - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1]);
+                return Err(ContactError::OutlineCut {
+                    u: c[0],
+                    v: c[1],
+                    percent: 100.0 * cut,
+                    window,
+                    room: room.max(0.0),
+                });
             }
             cu = c[0];
             cv = c[1];
@@ -645,6 +665,18 @@ struct Pattern {
 
 /// Rays for the boundary refinement.
 const BOUNDARY_RAYS: usize = 144;
+/// Largest fraction of the rays whose outline point is missing or in the outer 10 % of the
+/// window (the pattern cut by the window, i.e. by the crop edge).
+pub const MAX_CUT_RAYS: f64 = 0.1;
+
+/// The outline refinement's result.
+struct Outline {
+    centre: [f64; 2],
+    /// |centroid(even rays) - centroid(odd rays)| per axis, px.
+    half_diff: [f64; 2],
+    /// Fraction of the rays without an outline point or with one beyond 0.9 of the window.
+    cut_fraction: f64,
+}
 
 /// Bilinear sample of the bin map at image position (u, v) px; NaN outside.
 fn sample(map: &[f32], bw: usize, bh: usize, u: f64, v: f64) -> f64 {
@@ -668,8 +700,8 @@ fn sample(map: &[f32], bw: usize, bh: usize, u: f64, v: f64) -> f64 {
 /// `window`) where the profile falls to `level` times the ray's own peak; the area centroid
 /// of the polygon through those points. A smooth change of the pattern's strength across it
 /// (sensitivity varying with the residual birefringence, uneven light) scales each ray's
-/// profile and leaves that radius in place. Also returns |centroid(even rays) - centroid(odd
-/// rays)| per axis. `None` when fewer than 80 % of the rays find the outline.
+/// profile and leaves that radius in place. `None` when fewer than half of the rays find the
+/// outline.
 fn boundary_centre(
     map: &[f32],
     bw: usize,
@@ -677,13 +709,14 @@ fn boundary_centre(
     c: [f64; 2],
     window: f64,
     level: f64,
-) -> Option<([f64; 2], [f64; 2])> {
+) -> Option<Outline> {
     let step = 0.5 * BIN_PX as f64;
     let n_steps = (window / step).floor() as usize;
     if n_steps < 4 {
         return None;
     }
     let mut pts: Vec<Option<[f64; 2]>> = Vec::with_capacity(BOUNDARY_RAYS);
+    let mut outer = 0usize;
     for r in 0..BOUNDARY_RAYS {
         let t = std::f64::consts::TAU * r as f64 / BOUNDARY_RAYS as f64;
         let (dy, dx) = t.sin_cos();
@@ -715,6 +748,9 @@ fn boundary_centre(
             if a >= target && b < target {
                 let f = (a - target) / (a - b);
                 let rad = step * (k as f64 + f);
+                if rad > 0.9 * window {
+                    outer += 1;
+                }
                 found = Some([c[0] + dx * rad, c[1] + dy * rad]);
                 break;
             }
@@ -722,7 +758,7 @@ fn boundary_centre(
         pts.push(found);
     }
     let ok = pts.iter().filter(|p| p.is_some()).count();
-    if (ok as f64) < 0.8 * BOUNDARY_RAYS as f64 {
+    if (ok as f64) < 0.5 * BOUNDARY_RAYS as f64 {
         return None;
     }
     // Missing rays: skipped (the polygon joins their neighbours).
@@ -738,7 +774,11 @@ fn boundary_centre(
     let all = poly(&|_| true)?;
     let even = poly(&|i| i % 2 == 0)?;
     let odd = poly(&|i| i % 2 == 1)?;
-    Some((all, [(even[0] - odd[0]).abs(), (even[1] - odd[1]).abs()]))
+    Some(Outline {
+        centre: all,
+        half_diff: [(even[0] - odd[0]).abs(), (even[1] - odd[1]).abs()],
+        cut_fraction: (BOUNDARY_RAYS - ok + outer) as f64 / BOUNDARY_RAYS as f64,
+    })
 }
 
 /// Area centroid of a simple polygon (shoelace).
