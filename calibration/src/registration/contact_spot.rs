@@ -240,6 +240,9 @@ pub struct SpotSettings {
     /// Refine the centroid by the pattern's outline where each ray falls to this fraction of
     /// its peak (0: centroid only).
     pub boundary_level: f64,
+    /// Take the outermost fall to that level along each ray (else the first fall beyond the
+    /// ray's peak).
+    pub outermost: bool,
 }
 
 impl Default for SpotSettings {
@@ -251,25 +254,29 @@ impl Default for SpotSettings {
 
 impl SpotSettings {
     /// For a thin photoelastic film (fringes hugging the indenter): the outline where the colour
-    /// difference falls to 0.3 of each ray's peak.
+    /// difference falls for the last time to 0.3 of each ray's peak (the pattern is compact, and
+    /// its dark fringes inside would end a first-fall search early).
     pub fn layered() -> SpotSettings {
         SpotSettings {
             relative_cut: 0.0,
             power: 1.0,
             gradient: false,
             boundary_level: 0.3,
+            outermost: true,
         }
     }
 
     /// For a thick photoelastic gel (rings spreading over the whole disc, a far field that falls
-    /// off slowly): the outline where the gradient of the colour difference falls to half of
-    /// each ray's peak (the gradient is concentrated at the contact).
+    /// off slowly): the outline where the gradient of the colour difference first falls to half
+    /// of each ray's peak beyond it (the gradient is concentrated at the contact; rings further
+    /// out would carry an outermost search away).
     pub fn integrated() -> SpotSettings {
         SpotSettings {
             relative_cut: 0.0,
             power: 1.0,
             gradient: true,
             boundary_level: 0.5,
+            outermost: false,
         }
     }
 }
@@ -614,6 +621,7 @@ impl ContactBackground {
                     c,
                     window,
                     self.settings.boundary_level,
+                    self.settings.outermost,
                 ) else {
                     cut = 1.0;
                     break;
@@ -709,6 +717,7 @@ fn boundary_centre(
     c: [f64; 2],
     window: f64,
     level: f64,
+    outermost: bool,
 ) -> Option<Outline> {
     let step = 0.5 * BIN_PX as f64;
     let n_steps = (window / step).floor() as usize;
@@ -739,20 +748,35 @@ fn boundary_centre(
             }
         }
         let target = level * peak;
+        // Outermost: walk inwards from the window's edge to the first sample at or above the
+        // level (dark fringes inside the pattern do not end it); otherwise walk outwards from the
+        // peak to the first fall below it (rings further out do not extend it). Samples outside
+        // the crop circle (NaN) on the way mean the pattern may go on beyond: no point.
         let mut found = None;
-        for k in at_peak..n_steps {
+        let mut crossing = |k: usize| -> bool {
             let (a, b) = (prof[k], prof[k + 1]);
-            if !(a.is_finite() && b.is_finite()) {
-                break;
-            }
-            if a >= target && b < target {
+            if a.is_finite() && b.is_finite() && a >= target && b < target {
                 let f = (a - target) / (a - b);
                 let rad = step * (k as f64 + f);
                 if rad > 0.9 * window {
                     outer += 1;
                 }
                 found = Some([c[0] + dx * rad, c[1] + dy * rad]);
-                break;
+                return true;
+            }
+            false
+        };
+        if outermost {
+            for k in (at_peak..n_steps).rev() {
+                if !prof[k + 1].is_finite() || crossing(k) {
+                    break;
+                }
+            }
+        } else {
+            for k in at_peak..n_steps {
+                if !prof[k + 1].is_finite() || crossing(k) {
+                    break;
+                }
             }
         }
         pts.push(found);
