@@ -6,7 +6,9 @@
 //! a stage origin, so the true contact origin is that origin.
 //!
 //! The background is 4 no-contact frames; each press is located in the mean of 2 frames of its
-//! dwell; the optical centre and crop radius come from the optical fit of the background.
+//! dwell; the optical centre and crop radius come from the optical fit of the background. Also:
+//! a misrecorded press is flagged as an outlier, a press that missed the sensor is an error, and
+//! presses ever closer to the crop edge are either located within 0.1 mm or refused.
 //!
 //! `cargo test -p fringe-calibration --test registration_accuracy -- --nocapture` prints the
 //! table; `FRINGE_REG_PLOTS=DIR` also writes each case's residual plot and a located press.

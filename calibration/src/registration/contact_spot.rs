@@ -16,14 +16,17 @@
 //!    90 % of the pattern's weight, shrunk to fit inside the crop circle; when that leaves less
 //!    than the radius holding half the pattern, the press is too close to the edge (an error);
 //! 5. the outline refinement ([`SpotSettings::boundary_level`]): along 144 rays from the
-//!    centroid, the outermost radius inside the window where the profile (colour difference, or
-//!    its gradient for the thick gel) falls to a fixed fraction of that ray's own peak; the
-//!    centre is the area centroid of the polygon through those points, iterated 4 times.
+//!    centroid, the radius inside the window where the profile (colour difference, or its
+//!    gradient for the thick gel) falls to a fixed fraction of that ray's own peak (the last
+//!    such fall, or the first beyond the peak: [`SpotSettings::outermost`]); the centre is the
+//!    area centroid of the polygon through those points, iterated 4 times. More than
+//!    [`MAX_CUT_RAYS`] of the rays without an outline point in the window is
+//!    [`ContactError::OutlineCut`].
 //!
 //! Why step 5: the casting's residual birefringence (about 0.1 fringe, varying by +-40 % over
 //! 25-80 mm) adds to the contact's fringe order, so at light force the colour change per unit of
 //! contact stress varies by tens of per cent across one pattern. A centroid weighted by the
-//! difference, however normalised by brightness, moved 4-10 px (layered) and 50-90 px
+//! difference, however normalised or weighted, moved 4-10 px (layered) and 10-90 px
 //! (integrated, whose faint far field covers the whole disc) off the contact on the simulator;
 //! without residual birefringence it was within 0.25 px. A per-ray fractional level is
 //! unchanged by a smooth scaling of the pattern, and the outline of a pattern with 2-fold or
@@ -230,11 +233,6 @@ pub struct ContactBackground {
 /// How the pattern is weighted.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpotSettings {
-    /// Bins weaker than this fraction of the pattern's peak (99th percentile) are left out; the
-    /// rest weigh by their excess over it.
-    pub relative_cut: f64,
-    /// Weights are raised to this power.
-    pub power: f64,
     /// Weigh by the gradient of the colour difference instead of its magnitude.
     pub gradient: bool,
     /// Refine the centroid by the pattern's outline where each ray falls to this fraction of
@@ -258,8 +256,6 @@ impl SpotSettings {
     /// its dark fringes inside would end a first-fall search early).
     pub fn layered() -> SpotSettings {
         SpotSettings {
-            relative_cut: 0.0,
-            power: 1.0,
             gradient: false,
             boundary_level: 0.3,
             outermost: true,
@@ -272,8 +268,6 @@ impl SpotSettings {
     /// out would carry an outermost search away).
     pub fn integrated() -> SpotSettings {
         SpotSettings {
-            relative_cut: 0.0,
-            power: 1.0,
             gradient: true,
             boundary_level: 0.5,
             outermost: false,
@@ -482,26 +476,6 @@ impl ContactBackground {
                 weights.push((u, v, (e - threshold) / ill, sigma_rms / ill));
             }
         }
-        // Relative cut: only the strong part of the pattern, near the contact, counts.
-        let mut ws: Vec<f64> = weights.iter().map(|w| w.2).collect();
-        let peak = if ws.is_empty() {
-            0.0
-        } else {
-            let k = ((ws.len() as f64 * 0.99) as usize).min(ws.len() - 1);
-            *ws.select_nth_unstable_by(k, |a, b| a.total_cmp(b)).1
-        };
-        let cut = self.settings.relative_cut * peak;
-        let power = self.settings.power;
-        let weights = weights
-            .into_iter()
-            .filter(|w| w.2 > cut)
-            .map(|(u, v, w, s)| {
-                let x = (w - cut) / peak.max(f64::MIN_POSITIVE);
-                // d(x^p)/dw = p x^(p-1) / peak
-                let ds = power * x.powf(power - 1.0) / peak.max(f64::MIN_POSITIVE);
-                (u, v, x.powf(power), s * ds)
-            })
-            .collect();
         let mut map = vec![f32::NAN; bw * self.bg.bh];
         for (n, &k) in self.inside.iter().enumerate() {
             let ill = f64::from(self.illumination[k]);
