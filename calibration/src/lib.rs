@@ -1,6 +1,6 @@
 //! Per-sensor calibration: optical centre and crop radius from no-contact frames, force offsets,
-//! and the per-sensor profile on disk (image-to-stage registration fills its own profile section
-//! later).
+//! the image-to-stage registration from a scan of light presses, and the per-sensor profile on
+//! disk.
 //!
 //! Built on the device layer (`fringe-rig`); knows nothing of the UI.
 //!
@@ -8,6 +8,8 @@
 //! - [`from_scan`]: the whole calibration from a calibration scan's run.
 //! - [`optical`]: the sensor disc (centre, radius, crop radius) from no-contact frames.
 //! - [`offsets`]: F/T bias, its drift through a run and the zero-load check.
+//! - [`registration`]: contact positions in pressed frames, the stage-to-image similarity
+//!   (px/mm, rotation, mirror, contact origin) and its residual plot.
 //! - [`profile`]: `profiles/<sensor-id>.toml`, read, written and checked.
 //! - [`scan_run`]: a calibration scan's run directory read for calibration (background frames,
 //!   press frames, no-contact force windows).
@@ -17,4 +19,5 @@ pub mod from_scan;
 pub mod offsets;
 pub mod optical;
 pub mod profile;
+pub mod registration;
 pub mod scan_run;

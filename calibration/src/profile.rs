@@ -80,10 +80,16 @@ pub struct Registration {
     pub offset_px: [f64; 2],
     /// Stage position (x, y) that presses the optical centre: the contact origin, mm.
     pub contact_origin_stage_mm: [f64; 2],
+    /// 1-sigma of the contact origin per axis, mm (0 in profiles written before it was kept).
+    #[serde(default)]
+    pub sigma_contact_origin_stage_mm: [f64; 2],
     /// RMS of the press residuals, px.
     pub residual_rms_px: f64,
     /// Presses used.
     pub presses: usize,
+    /// Presses left out as outliers (0 in profiles written before it was kept).
+    #[serde(default)]
+    pub outliers: usize,
 }
 
 /// One sensor build's profile.
@@ -331,8 +337,10 @@ mod tests {
             mirror: true,
             offset_px: [990.0, 600.0],
             contact_origin_stage_mm: [12.5, 7.0],
+            sigma_contact_origin_stage_mm: [0.004, 0.005],
             residual_rms_px: 0.4,
             presses: 9,
+            outliers: 1,
         });
         let path = profile_path(&dir, "layered-1").expect("id");
         p.save(&path).expect("write");
@@ -387,6 +395,47 @@ mod tests {
             "{e}"
         );
         assert!(profile_path(&dir, "../x").is_err());
+
+        // A registration section written before the origin sigma and outlier count were kept
+        // still reads (both default to 0).
+        let old = r#"
+sensor_id = "layered-1"
+created_utc = "2026-11-20T10:00:00.000Z"
+source = "runs/x/0.images"
+
+[image]
+width = 1920
+height = 1200
+
+[optical]
+centre_x_px = 990.02
+centre_y_px = 600.0
+shift_x_px = 30.02
+shift_y_px = 0.0
+radius_px = 490.0
+crop_radius_px = 461.0
+sigma_x_px = 0.003
+sigma_y_px = 0.003
+sigma_radius_px = 0.01
+residual_rms_px = 0.05
+frames = 4
+
+[registration]
+px_per_mm = 18.3
+sigma_px_per_mm = 0.01
+rotation_deg = 0.0
+sigma_rotation_deg = 0.05
+mirror = true
+offset_px = [990.0, 600.0]
+contact_origin_stage_mm = [12.5, 7.0]
+residual_rms_px = 0.4
+presses = 9
+"#;
+        std::fs::write(&path, old).expect("write");
+        let back = Profile::load(&path).expect("old registration section");
+        let reg = back.registration.expect("registration");
+        assert_eq!(reg.outliers, 0);
+        assert_eq!(reg.sigma_contact_origin_stage_mm, [0.0, 0.0]);
         std::fs::remove_dir_all(&dir).ok();
         assert_eq!(
             parse_utc_seconds("1970-01-02T00:00:01.500Z"),
