@@ -235,6 +235,30 @@ pub fn zero_load_check(profile: &ForceOffsets, now: &Bias, tol: ZeroTolerance) -
     warnings
 }
 
+/// The zero-load check of a profile, as a scan calls it at its first offset measurement.
+#[derive(Debug, Clone)]
+pub struct ProfileOffsetCheck {
+    pub offsets: ForceOffsets,
+    pub tolerance: ZeroTolerance,
+    /// The profile file, for the messages.
+    pub profile: String,
+}
+
+impl fringe_rig::scan::offset_check::OffsetCheck for ProfileOffsetCheck {
+    fn check(&self, mean: [f64; 6], standard_error: [f64; 6]) -> Vec<String> {
+        let now = Bias {
+            mean,
+            standard_error,
+            samples: 0,
+            t_s: 0.0,
+        };
+        zero_load_check(&self.offsets, &now, self.tolerance)
+            .into_iter()
+            .map(|w| format!("{} (profile {})", w, self.profile))
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,6 +5,8 @@
 //!   resume, abort, crash recovery).
 //! - [`control`]: pause/resume/abort requests, operator prompts, progress.
 //! - [`watchers`]: force ceiling, F/T silence and camera drops, acted on at once.
+//! - [`offset_check`]: the zero-load check against the sensor's profile, called at every offset
+//!   measurement.
 //! - [`origin`]: the stage position of the sensor centre, origin of contact labels.
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
@@ -12,6 +14,7 @@
 pub mod control;
 pub mod demo;
 pub mod engine;
+pub mod offset_check;
 pub mod origin;
 pub mod plan;
 pub mod press;

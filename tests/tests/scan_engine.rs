@@ -84,6 +84,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         press: PressSettings::default(),
         watch: WatchSettings::default(),
         truth: None,
+        offset_check: None,
     }
 }
 
@@ -655,6 +656,86 @@ fn camera_drops_above_the_threshold_pause_the_scan() {
         .expect("interrupted");
     assert!(e.message.contains("camera dropped"), "{}", e.message);
     assert!(out.dropped_frames >= 15);
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+/// An offset check that remembers what it was asked and always finds the offset moved.
+#[derive(Debug, Default)]
+struct Moved {
+    asked: Mutex<Vec<[f64; 6]>>,
+}
+
+impl fringe_rig::scan::offset_check::OffsetCheck for Moved {
+    fn check(&self, mean: [f64; 6], standard_error: [f64; 6]) -> Vec<String> {
+        assert!(
+            standard_error.iter().all(|s| *s > 0.0 && *s < 0.01),
+            "{standard_error:?}"
+        );
+        self.asked
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(mean);
+        vec![format!("Fz offset moved to {:.3} N", mean[2])]
+    }
+}
+
+/// The profile's zero-load check is made once, on the first no-contact offset of the session,
+/// with that offset; its warning is shown and kept in the run.
+#[test]
+fn the_zero_load_check_sees_the_first_offset_and_its_warning_is_recorded() {
+    let dir = tempfile_dir("zero-load");
+    let (rig, devices, _truth) = bench(47);
+    let text = plan("[11.0, 14.0]", "[25.0]", "force_targets = [1.0]", 0.1);
+    let mut setup = setup(&rig, &text);
+    let check = Arc::new(Moved::default());
+    setup.offset_check = Some(check.clone());
+    let (mut operator, _) = scripted(Reply::Continue);
+    let shown = Mutex::new(Vec::new());
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir,
+            run_id: "zero-load".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|p| {
+            if let ScanProgress::Message(m) = p {
+                shown.lock().unwrap_or_else(|p| p.into_inner()).push(m);
+            }
+        },
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    let asked = check
+        .asked
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone();
+    assert_eq!(asked.len(), 1, "checked once per session");
+    let events = events(&out.run_dir);
+    let first_offset = events
+        .iter()
+        .find(|e| e.kind == "force-offset")
+        .expect("offset measured");
+    assert!(
+        first_offset
+            .message
+            .contains(&format!("Fz {:.4} N", asked[0][2])),
+        "{} vs {:?}",
+        first_offset.message,
+        asked[0]
+    );
+    let warnings: Vec<&Event> = events.iter().filter(|e| e.kind == "warning").collect();
+    assert_eq!(warnings.len(), 1);
+    assert!(warnings[0].message.contains("Fz offset moved"));
+    assert!(shown
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .iter()
+        .any(|m| m.starts_with("warning: Fz offset moved")));
+    drop(rig);
     let _ = std::fs::remove_dir_all(out.run_dir);
 }
 

@@ -61,6 +61,29 @@ impl ForceMonitor {
         Some((newest, sum.map(|v| v / take as f64)))
     }
 
+    /// How many of the newest `n` samples there are and their per-channel standard deviation
+    /// (0 for fewer than two).
+    pub fn spread_of_last(&self, n: usize) -> (usize, [f64; 6]) {
+        let shared = self.lock();
+        let take = n.min(shared.ring.len());
+        if take < 2 {
+            return (take, [0.0; 6]);
+        }
+        let (mut sum, mut sq) = ([0.0; 6], [0.0; 6]);
+        for s in shared.ring.iter().rev().take(take) {
+            for (k, v) in s.wrench.to_array().into_iter().enumerate() {
+                sum[k] += v;
+                sq[k] += v * v;
+            }
+        }
+        let t = take as f64;
+        let sd = std::array::from_fn(|k| {
+            let mean = sum[k] / t;
+            ((sq[k] - t * mean * mean).max(0.0) / (t - 1.0)).sqrt()
+        });
+        (take, sd)
+    }
+
     /// Samples received after host time `after`, oldest first (at most the ring's length).
     pub fn since(&self, after: HostTime) -> Vec<ForceSample> {
         self.lock()

@@ -10,6 +10,7 @@
 //! done again, so no point is lost or recorded twice; the same holds after a crash.
 
 use super::control::{Operator, Phase, Prompt, Reply, Request, ScanControl, ScanProgress, Status};
+use super::offset_check::OffsetCheck;
 use super::origin::ContactOrigin;
 use super::plan::{BenchLimits, ScanPoint, ScanProgram, Targets};
 use super::press::{approach, press_to, ForceGuard, PressError, PressSettings};
@@ -56,6 +57,9 @@ pub struct ScanSetup {
     pub watch: WatchSettings,
     /// The simulator's ground truth, written into the run as truth.jsonl (simulated runs).
     pub truth: Option<Arc<TruthLog>>,
+    /// The zero-load check of the sensor's profile, made on the first offset measurement of
+    /// each session (new run or resume).
+    pub offset_check: Option<Arc<dyn OffsetCheck>>,
 }
 
 /// Where the run goes.
@@ -229,6 +233,7 @@ pub fn run_scan(
         started: Instant::now(),
         done_this_session: 0,
         watcher_retries: (0, 0),
+        offset_checked: false,
         last_status: Instant::now(),
         mounted: None,
         manual_y_at: None,
@@ -417,6 +422,9 @@ struct Axes {
 /// ever under `--yes`).
 const MAX_WATCHER_RETRIES: u32 = 3;
 
+/// Force samples averaged for the no-contact offset before every point (0.1 s at 5 kHz).
+const TARE_SAMPLES: usize = 500;
+
 enum Ending {
     Completed,
     Aborted(String),
@@ -440,6 +448,8 @@ struct Runner<'a> {
     done_this_session: u64,
     /// The point the watchers interrupted last and how many times in a row.
     watcher_retries: (u64, u32),
+    /// The zero-load check has been made this session.
+    offset_checked: bool,
     last_status: Instant,
     /// The indenter the operator last confirmed.
     mounted: Option<String>,
@@ -635,10 +645,21 @@ impl Runner<'_> {
 
     /// Measures the no-contact offset at the safe height (every point: drift is tracked).
     fn tare(&mut self, point: u64) -> Result<[f64; 6], ScanError> {
-        let (_, mean) = self.monitor.mean_of_last(500).ok_or_else(|| {
+        let (_, mean) = self.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
             ScanError::Setup(format!("{}: no force samples", self.monitor.device()))
         })?;
         self.tare.set(mean[2]);
+        if !self.offset_checked {
+            self.offset_checked = true;
+            if let Some(check) = &self.setup.offset_check {
+                let (n, sd) = self.monitor.spread_of_last(TARE_SAMPLES);
+                let se = sd.map(|s| s / (n.max(1) as f64).sqrt());
+                for warning in check.check(mean, se) {
+                    self.recorder.event("warning", Some(point), &warning);
+                    (self.progress)(ScanProgress::Message(format!("warning: {warning}")));
+                }
+            }
+        }
         self.recorder.event(
             "force-offset",
             Some(point),

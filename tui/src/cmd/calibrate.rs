@@ -13,10 +13,14 @@ use fringe_calibration::from_scan::{self, ScanCalibration};
 use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
 use fringe_calibration::profile::{profile_path, Profile};
+use fringe_calibration::registration::contact_spot::{draw_spot, SpotSettings};
+use fringe_calibration::registration::plot::residual_plot;
 use fringe_calibration::scan_run::ScanRun;
 use fringe_rig::rig_config::RigConfig;
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
+use fringe_rig::sim::ground_truth::{TruthLog, TruthRecord};
+use fringe_rig::sim::sensor::Variant;
 use fringe_rig::store::documents::ExitStatus;
 use std::path::{Path, PathBuf};
 
@@ -57,6 +61,11 @@ pub struct CalibrateArgs {
     /// Directory that receives the calibration scan's run.
     #[arg(long, value_name = "DIR", default_value = "runs")]
     runs: PathBuf,
+    /// The sensor's construction, which tunes contact finding: `layered` (thin photoelastic
+    /// film, fringes hugging the indenter) or `integrated` (thick gel, rings over the disc).
+    /// Default: the simulated sensor's, else layered.
+    #[arg(long, value_name = "KIND")]
+    variant: Option<String>,
     /// Answer every operator prompt with "continue".
     #[arg(long)]
     yes: bool,
@@ -142,6 +151,19 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             );
         }
     }
+    let spot = match (args.variant.as_deref(), config.is_simulated()) {
+        (Some("layered"), _) => SpotSettings::layered(),
+        (Some("integrated"), _) => SpotSettings::integrated(),
+        (Some(other), _) => bail!("--variant {other}: use layered or integrated"),
+        (None, true) => match config.sim_config()?.sensor.variant {
+            Variant::Integrated => SpotSettings::integrated(),
+            _ => SpotSettings::layered(),
+        },
+        (None, false) => {
+            println!("contact finding tuned for a layered sensor (thin film); give --variant integrated for a gel");
+            SpotSettings::layered()
+        }
+    };
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
@@ -178,36 +200,127 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     println!("calibration scan written to {}", run_dir.display());
     if outcome.status != ExitStatus::Completed {
         bail!(
-            "the calibration scan did not complete ({}); no profile written. Resume it with `fringe scan --resume {}` or run `fringe calibrate` again",
+            "the calibration scan did not complete ({}); no profile written (the run is kept in {})",
             outcome.reason,
             run_dir.display()
         );
     }
     let run = ScanRun::read(&run_dir)?;
-    let cal = from_scan::calibrate(&run, args.max_frames)?;
+    println!("locating the contact in {} presses...", run.presses.len());
+    let cal = from_scan::calibrate(&run, args.max_frames, spot)?;
     println!(
         "optical: {} no-contact frames of {} recorded",
         cal.fit.frames,
         run.background.len()
     );
     print_fit(&cal.fit);
+    print_presses(&cal);
     print_offsets(&cal);
     std::fs::create_dir_all(&out)
         .with_context(|| format!("cannot create profile folder {}", out.display()))?;
     let mut profile = Profile::from_fit(&args.sensor, &run_dir.display().to_string(), &cal.fit);
     profile.force_offsets = cal.offsets;
-    profile.save(&profile_file)?;
+    profile.registration = cal.registration.as_ref().ok().map(|r| r.to_profile());
     let report = profile_file.with_extension("png");
     write_report(&cal.background, &cal.fit, &report)?;
+    let residuals = out.join(format!("{}-registration.png", args.sensor));
+    let contact = out.join(format!("{}-contact.png", args.sensor));
+    if let Ok(r) = &cal.registration {
+        let stage: Vec<[f64; 2]> = cal
+            .presses
+            .iter()
+            .filter(|p| p.spot.is_ok())
+            .map(|p| p.stage_mm)
+            .collect();
+        residual_plot(&r.fit, &stage)
+            .save(&residuals)
+            .with_context(|| format!("cannot write {}", residuals.display()))?;
+    }
+    if let Some((frame, spot)) = &cal.example_press {
+        draw_spot(frame, spot, [255, 255, 0])
+            .save(&contact)
+            .with_context(|| format!("cannot write {}", contact.display()))?;
+    }
+    if let Some(sim) = &executed.sim {
+        print_truth(&cal, sim, executed.truth.as_deref());
+    }
+    let registration_error = match &cal.registration {
+        Ok(_) => None,
+        Err(e) => Some(e.to_string()),
+    };
+    if let Some(why) = &registration_error {
+        eprintln!(
+            "warning: no image-to-stage registration ({why}); the profile keeps the optical part and the force offsets, and scans use the rig file's contact origin"
+        );
+    }
+    profile.save(&profile_file)?;
     println!("wrote {}", profile_file.display());
     println!(
         "wrote {} (fitted disc green, crop circle yellow, centre red)",
         report.display()
     );
-    if let Some(sim) = &executed.sim {
-        print_truth(&cal, sim);
+    if registration_error.is_none() {
+        println!(
+            "wrote {} (registration residuals per press, scaled up)",
+            residuals.display()
+        );
+    }
+    if cal.example_press.is_some() {
+        println!(
+            "wrote {} (the press nearest the centre, its located contact marked)",
+            contact.display()
+        );
     }
     Ok(())
+}
+
+fn print_presses(cal: &ScanCalibration) {
+    for p in &cal.presses {
+        match &p.spot {
+            Ok(s) => println!(
+                "press {} at stage ({:.3}, {:.3}) mm, {:.2} N, {} frames: contact at ({:.2}, {:.2}) px +- {:.2} px",
+                p.point + 1,
+                p.stage_mm[0],
+                p.stage_mm[1],
+                p.force_n,
+                p.frames,
+                s.u_px,
+                s.v_px,
+                s.sigma_px()
+            ),
+            Err(e) => println!(
+                "press {} at stage ({:.3}, {:.3}) mm: not located: {e}",
+                p.point + 1,
+                p.stage_mm[0],
+                p.stage_mm[1]
+            ),
+        }
+    }
+    let Ok(r) = &cal.registration else {
+        return;
+    };
+    let f = &r.fit;
+    println!(
+        "registration: {:.4} +- {:.4} px/mm, rotation {:+.3} +- {:.3} deg, {} (the other hand fits {:.2} px RMS), offset ({:.2}, {:.2}) px",
+        f.px_per_mm,
+        f.sigma_px_per_mm,
+        f.rotation_deg,
+        f.sigma_rotation_deg,
+        if f.mirror { "mirrored" } else { "not mirrored" },
+        f.other_mirror_rms_px,
+        f.offset_px[0],
+        f.offset_px[1]
+    );
+    println!(
+        "residual {:.3} px RMS over {} presses ({} outliers left out); the optical centre is pressed at stage ({:.4} +- {:.4}, {:.4} +- {:.4}) mm",
+        f.residual_rms_px,
+        f.inliers,
+        f.residuals.len() - f.inliers,
+        r.contact_origin_stage_mm[0],
+        r.sigma_contact_origin_stage_mm[0],
+        r.contact_origin_stage_mm[1],
+        r.sigma_contact_origin_stage_mm[1]
+    );
 }
 
 /// The built-in plan with the grid around the rig's nominal centre, the force and the indenter
@@ -315,7 +428,11 @@ fn print_offsets(cal: &ScanCalibration) {
 }
 
 /// On the simulated bench: the calibration against the simulator's truth.
-fn print_truth(cal: &ScanCalibration, sim: &fringe_rig::sim::rig::SimRigConfig) {
+fn print_truth(
+    cal: &ScanCalibration,
+    sim: &fringe_rig::sim::rig::SimRigConfig,
+    truth: Option<&TruthLog>,
+) {
     let g = sim.sensor.geometry();
     let f = &cal.fit;
     let dc = (f.centre_x - g.centre_px[0]).hypot(f.centre_y - g.centre_px[1]);
@@ -323,6 +440,34 @@ fn print_truth(cal: &ScanCalibration, sim: &fringe_rig::sim::rig::SimRigConfig) 
         "against the simulator's truth: centre off by {dc:.3} px, radius by {:+.3} px",
         f.radius - sim.sensor.geometry.disc_radius_px
     );
+    if let Ok(r) = &cal.registration {
+        let b = &sim.bench.geometry;
+        println!(
+            "  px/mm {:+.3} %, rotation {:+.3} deg, mirror {}, contact origin off by ({:+.4}, {:+.4}) mm",
+            (r.fit.px_per_mm / g.px_per_mm - 1.0) * 100.0,
+            r.fit.rotation_deg - g.rotation_deg,
+            if r.fit.mirror == g.mirror { "right" } else { "WRONG" },
+            r.contact_origin_stage_mm[0] - b.x_centre_mm,
+            r.contact_origin_stage_mm[1] - b.y_centre_mm
+        );
+    }
+    let bias = truth.and_then(|t| {
+        t.records().into_iter().rev().find_map(|r| match r {
+            TruthRecord::FtBias { bias, .. } => Some(bias),
+            _ => None,
+        })
+    });
+    if let (Some(o), Some(bias)) = (&cal.offsets, bias) {
+        let d = [
+            o.force_n[0] - bias.fx.0,
+            o.force_n[1] - bias.fy.0,
+            o.force_n[2] - bias.fz.0,
+        ];
+        println!(
+            "  force offset minus the sensor's power-up bias: Fx {:+.4} Fy {:+.4} Fz {:+.4} N (includes the simulated sensor's random-walk drift since power-up)",
+            d[0], d[1], d[2]
+        );
+    }
 }
 
 fn is_image(p: &Path) -> bool {

@@ -5,12 +5,14 @@
 
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation};
 use fringe_rig::rig_config::RigConfig;
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
 };
 use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanOutcome, ScanSetup};
+use fringe_rig::scan::offset_check::OffsetCheck;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::scan::press::PressSettings;
@@ -160,9 +162,9 @@ pub fn execute(
     for line in &rig.devices.description {
         println!("  {line}");
     }
-    let (origin, profile) = match profile_use {
+    let (origin, profile, offset_check) = match profile_use {
         ProfileUse::Consume => calibration_profile(config, &rig.sensor_id, rig.origin.clone()),
-        ProfileUse::Ignore => (rig.origin.clone(), None),
+        ProfileUse::Ignore => (rig.origin.clone(), None, None),
     };
     println!(
         "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
@@ -182,6 +184,7 @@ pub fn execute(
         press: PressSettings::default(),
         watch: WatchSettings::default(),
         truth: truth.clone(),
+        offset_check,
     };
     let control = ScanControl::new();
     interrupt::install(control.clone());
@@ -238,13 +241,18 @@ pub fn execute(
 }
 
 /// The sensor's calibration profile, if there is one: its contact origin replaces the rig
-/// file's, and the run records which profile it used. Missing, stale or mismatched profiles are
-/// warned about, and the scan goes on with the rig file's origin.
+/// file's, its force offsets are checked against the scan's first no-contact offset, and the run
+/// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
+/// scan goes on with the rig file's origin.
 fn calibration_profile(
     config: &RigConfig,
     sensor_id: &str,
     fallback: ContactOrigin,
-) -> (ContactOrigin, Option<ProfileRef>) {
+) -> (
+    ContactOrigin,
+    Option<ProfileRef>,
+    Option<Arc<dyn OffsetCheck>>,
+) {
     let dir = config.profile_dir();
     let want = Expectation {
         sensor_id,
@@ -256,7 +264,7 @@ fn calibration_profile(
         eprintln!("warning: {w}");
     }
     let Some(p) = profile else {
-        return (fallback, None);
+        return (fallback, None, None);
     };
     let path = profile_path(&dir, sensor_id).unwrap_or_else(|_| dir.join(sensor_id));
     let content = std::fs::read_to_string(&path).unwrap_or_default();
@@ -275,12 +283,20 @@ fn calibration_profile(
             fallback
         }
     };
+    let check = p.force_offsets.map(|offsets| {
+        Arc::new(ProfileOffsetCheck {
+            offsets,
+            tolerance: ZeroTolerance::default(),
+            profile: path.display().to_string(),
+        }) as Arc<dyn OffsetCheck>
+    });
     (
         origin,
         Some(ProfileRef {
             path: path.display().to_string(),
             content,
         }),
+        check,
     )
 }
 
