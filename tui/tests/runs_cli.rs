@@ -166,6 +166,26 @@ fn export_writes_the_reference_layout() {
         "{}",
         text(&result)
     );
+    // Provenance beside the labels: each run, its rows, and that it had no calibration profile
+    // (which the export warns about).
+    let prov: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("0.export.json")).expect("provenance"),
+    )
+    .expect("json");
+    let runs = prov["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 2);
+    assert_eq!(runs[0]["run_id"], "run-a");
+    assert_eq!(
+        (runs[0]["first_image"].as_u64(), runs[0]["images"].as_u64()),
+        (Some(0), Some(2))
+    );
+    assert_eq!(runs[1]["first_image"].as_u64(), Some(2));
+    assert!(runs[1]["calibration_profile"].is_null());
+    assert!(
+        text(&result).contains("used no calibration profile"),
+        "{}",
+        text(&result)
+    );
     let again = fringe(&args);
     assert!(!again.status.success());
     assert!(text(&again).contains("already there"), "{}", text(&again));

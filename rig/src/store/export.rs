@@ -6,10 +6,12 @@
 //! everywhere), Ft = |F| = sqrt(Fx^2 + Fy^2 + Fz^2), positions = contact point in mm relative to
 //! the sensor centre, "NaN" and shape "None" without contact. Frames whose label is not valid are
 //! left out and counted. Values are written in full precision unless rounding is asked for.
+//! Beside them, `0.export.json` records where the rows came from: each run, its sensor and the
+//! calibration profile its contact labels are relative to.
 
-use super::documents::FrameRecord;
-use super::run_writer::read_lines;
-use super::{StoreError, FRAMES};
+use super::documents::{now_utc, FrameRecord, StartDocument};
+use super::run_writer::{read_document, read_lines};
+use super::{StoreError, FRAMES, START};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -31,7 +33,38 @@ pub struct ExportSummary {
     pub without_contact: u64,
     pub skipped_invalid: u64,
     pub labels: PathBuf,
+    /// `0.export.json`: where every row came from.
+    pub provenance: PathBuf,
+    /// The runs exported, with the calibration profile each used for its contact labels.
+    pub runs: Vec<ExportedRun>,
 }
+
+/// One run of an export, as recorded in `0.export.json`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ExportedRun {
+    pub dir: String,
+    pub run_id: String,
+    pub sensor_id: String,
+    /// The profile the run's contact labels are relative to (`None`: the rig file's origin).
+    pub calibration_profile: Option<String>,
+    pub sync_method: String,
+    /// Rows of `0.labels.csv` from this run: `image_<first>` to `image_<first + images - 1>`.
+    pub first_image: u64,
+    pub images: u64,
+}
+
+/// `0.export.json`: the provenance of an export (beside `0.labels.csv`, outside `0.images/`, so
+/// the reference code never sees it).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ExportProvenance {
+    pub software: String,
+    pub exported_utc: String,
+    pub round: Option<f64>,
+    pub runs: Vec<ExportedRun>,
+}
+
+/// File name of the provenance document.
+pub const PROVENANCE: &str = "0.export.json";
 
 fn fmt_value(v: f64, round: Option<f64>) -> String {
     if v.is_nan() {
@@ -91,7 +124,10 @@ pub fn export_reference(
     let mut csv = String::from(HEADER);
     csv.push('\n');
     let (mut k, mut none, mut skipped) = (0u64, 0u64, 0u64);
+    let mut exported = Vec::with_capacity(runs.len());
     for run in runs {
+        let start: StartDocument = read_document(&run.join(START))?;
+        let first_image = k;
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
         for record in records {
             if !record.valid || record.wrench.is_none() {
@@ -119,13 +155,36 @@ pub fn export_reference(
             k += 1;
             progress(k);
         }
+        exported.push(ExportedRun {
+            dir: run.display().to_string(),
+            run_id: start.run_id,
+            sensor_id: start.sensor_id,
+            calibration_profile: start.calibration_profile.map(|p| p.path),
+            sync_method: start.sync_method,
+            first_image,
+            images: k - first_image,
+        });
     }
+    let provenance = out.join(PROVENANCE);
+    let doc = ExportProvenance {
+        software: format!("fringe {}", env!("CARGO_PKG_VERSION")),
+        exported_utc: now_utc(),
+        round: options.round,
+        runs: exported.clone(),
+    };
+    let json = serde_json::to_string_pretty(&doc).map_err(|e| StoreError::Content {
+        path: provenance.clone(),
+        message: format!("cannot encode: {e}"),
+    })?;
+    super::run_writer::write_atomic(&provenance, json.as_bytes())?;
     super::run_writer::write_atomic(&labels, csv.as_bytes())?;
     Ok(ExportSummary {
         images: k,
         without_contact: none,
         skipped_invalid: skipped,
         labels,
+        provenance,
+        runs: exported,
     })
 }
 

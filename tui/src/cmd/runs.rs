@@ -131,5 +131,33 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
         summary.labels.display(),
         summary.skipped_invalid
     );
+    println!(
+        "provenance (runs, sensors, calibration profiles): {}",
+        summary.provenance.display()
+    );
+    let mut profiles: Vec<&Option<String>> = summary
+        .runs
+        .iter()
+        .map(|r| &r.calibration_profile)
+        .collect();
+    profiles.sort();
+    profiles.dedup();
+    for r in summary
+        .runs
+        .iter()
+        .filter(|r| r.calibration_profile.is_none())
+    {
+        eprintln!(
+            "warning: run {} used no calibration profile: its contact positions are relative to the rig file's origin (run `fringe calibrate --sensor {}`)",
+            r.dir, r.sensor_id
+        );
+    }
+    if profiles.len() > 1 {
+        eprintln!(
+            "warning: the exported runs used {} different calibration profiles (or none); their contact positions may not share one origin (see {})",
+            profiles.len(),
+            summary.provenance.display()
+        );
+    }
     Ok(())
 }
