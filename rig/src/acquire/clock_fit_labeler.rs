@@ -7,7 +7,8 @@
 //!   [`HULL_BIN`] samples are kept (a vertex of the hull of all points is a vertex of the hull of
 //!   its run, so nothing the fit would use is lost). The fitted line gives the host arrival of
 //!   the least-delayed sample; that minimum delay (a driver callback's latency) is a constant this
-//!   method cannot see.
+//!   method cannot see ([`ClockFitOptions::force_latency`] takes it from a strobe calibration;
+//!   the error estimate leaves it out).
 //! - **Camera clock**: frame device timestamps (exposure start, Basler chunk timestamp) against
 //!   frame arrivals, fitted the same way, from every frame the camera delivers. That line is late
 //!   by the constant exposure + readout + transfer time; timestamp-latch exchanges, taken by the
@@ -55,6 +56,10 @@ pub struct ClockFitOptions {
     pub latch_wait: Duration,
     /// 1-sigma error put on the unseen readout + transfer time when no latch calibrates it.
     pub uncalibrated_latency_error: Duration,
+    /// The force path's minimum delivery delay (sample taken -> least-delayed arrival), if known
+    /// from a calibration against the strobe; zero otherwise. The one-way fit cannot see it: an
+    /// uncorrected delay places windows this much too early in the force stream.
+    pub force_latency: Duration,
 }
 
 impl ClockFitOptions {
@@ -68,6 +73,7 @@ impl ClockFitOptions {
             refit_every: Duration::from_millis(500),
             latch_wait: Duration::from_secs(3),
             uncalibrated_latency_error: Duration::from_millis(5),
+            force_latency: Duration::ZERO,
         }
     }
 }
@@ -358,8 +364,9 @@ impl ClockFitLabeler {
         let exposure_ticks = self.options.exposure.0 * 1e-6 * self.options.camera_tick_hz;
         let start_host = camera.map.host_ns(start_ticks);
         let end_host = camera.map.host_ns_f(start_ticks as f64 + exposure_ticks);
-        let start = force.map.ticks_at(start_host);
-        let end = force.map.ticks_at(end_host);
+        let latency = self.options.force_latency.as_nanos() as f64;
+        let start = force.map.ticks_at(start_host + latency);
+        let end = force.map.ticks_at(end_host + latency);
         let newest = self
             .samples
             .back()
@@ -367,10 +374,19 @@ impl ClockFitLabeler {
         if newest < end + 1.0 {
             return LabelOutcome::NotYet;
         }
+        // From the last sample at or before the start to the first at or after the end (a gap
+        // of lost samples is bridged; the recorder notes it from the spacing).
+        let first = self
+            .samples
+            .partition_point(|s| s.0 as f64 <= start)
+            .saturating_sub(1);
+        let last = self
+            .samples
+            .partition_point(|s| (s.0 as f64) < end)
+            .min(self.samples.len().saturating_sub(1));
         let span: Vec<(f64, [f64; 6])> = self
             .samples
-            .iter()
-            .filter(|s| s.0 as f64 >= start - 2.0 && s.0 as f64 <= end + 2.0)
+            .range(first..=last)
             .map(|s| (s.0 as f64, s.1))
             .collect();
         let force_error = force.hull_gap_ns;

@@ -110,10 +110,16 @@ impl HostLabeler {
         if newest <= end {
             return LabelOutcome::NotYet;
         }
+        // From the last sample at or before the start to the first at or after the end (blocks
+        // delivered late leave gaps on the host time base).
+        let first = self
+            .samples
+            .partition_point(|s| s.0 <= start)
+            .saturating_sub(1);
+        let last = self.samples.partition_point(|s| s.0 < end);
         let span: Vec<(f64, [f64; 6])> = self
             .samples
-            .iter()
-            .filter(|s| s.0 >= start - 2e6 && s.0 <= end + 2e6)
+            .range(first..=last.min(self.samples.len() - 1))
             .map(|s| (s.0, s.1))
             .collect();
         let tick_at = |t: f64| -> f64 {
