@@ -34,7 +34,7 @@ pub struct HostLabeler {
     /// Samples that arrived at `block_arrival` and are not yet placed.
     block: Vec<(u64, [f64; 6])>,
     block_arrival: Option<HostTime>,
-    /// First arrival and samples received since, for the sample period.
+    /// First arrival and samples received after it, for the sample period.
     first_arrival: Option<HostTime>,
     received: u64,
     keep_samples: usize,
@@ -62,7 +62,7 @@ impl HostLabeler {
         let first = self.first_arrival?;
         let last = self.block_arrival?;
         let span = last.0.saturating_sub(first.0) as f64;
-        (span >= 1e8 && self.received > 1).then(|| span / (self.received - 1) as f64)
+        (span >= 1e8 && self.received > 0).then(|| span / self.received as f64)
     }
 
     fn place_block(&mut self) {
@@ -90,7 +90,10 @@ impl HostLabeler {
             self.block.clear();
             self.block_arrival = Some(s.host_time);
         }
-        self.received += 1;
+        // Samples after the first arrival: those taken between it and the newest arrival.
+        if Some(s.host_time) != self.first_arrival {
+            self.received += 1;
+        }
         self.block.push((s.device_tick, s.wrench.to_array()));
     }
 
@@ -190,5 +193,43 @@ impl FrameLabeler for HostLabeler {
 
     fn estimated_error_ns(&self) -> Option<f64> {
         self.jitter_ns()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::Wrench;
+
+    /// 5 kHz samples in blocks of 50 arriving exactly when the block's last sample is taken;
+    /// Fz is the sample's true time in ms.
+    fn sample(k: u64) -> ForceSample {
+        let block_end = (k / 50) * 50 + 49;
+        ForceSample {
+            device_tick: k,
+            transport_seq: None,
+            host_time: HostTime(block_end * 200_000),
+            wrench: Wrench::from_array([0.0, 0.0, k as f64 * 0.2, 0.0, 0.0, 0.0]),
+            status: 0,
+            strobe: None,
+        }
+    }
+
+    #[test]
+    fn the_window_ends_at_the_arrival_and_blocks_are_spread_back_from_theirs() {
+        let mut l = HostLabeler::new(Microseconds(2000.0));
+        for k in 0..5000 {
+            l.push_sample(&sample(k));
+        }
+        // A frame arriving at 600 ms: window 598..600 ms, whose mean time is 599 ms.
+        let LabelOutcome::Ready(label) = l.label(HostTime(600_000_000)) else {
+            panic!("not ready");
+        };
+        assert_eq!(label.window_host_ns, Some([598e6, 600e6]));
+        assert!((label.mean.mean[2] - 599.0).abs() < 0.01, "{label:?}");
+        assert!((label.window_ticks[0] - 2990.0).abs() < 0.1, "{label:?}");
+        assert!((label.window_ticks[1] - 3000.0).abs() < 0.1, "{label:?}");
+        // Not before the samples after the arrival are in.
+        assert_eq!(l.label(HostTime(999_000_000)), LabelOutcome::NotYet);
     }
 }
