@@ -17,6 +17,10 @@ use crate::sync::window::mean_over;
 use std::collections::VecDeque;
 use std::time::Duration;
 
+/// Frames in a row off their locked window before the lock is dropped and frames are matched
+/// by arrival again.
+const MISSES_TO_UNLOCK: u32 = 3;
+
 #[derive(Debug, Clone, Copy)]
 struct Seen {
     seq: u64,
@@ -31,6 +35,8 @@ pub struct StrobeLabeler {
     windows: VecDeque<Seen>,
     next_seq: u64,
     offset: Option<i64>,
+    /// Frames in a row whose arrival disagreed with the locked sequence.
+    misses: u32,
     expected_lag_ns: f64,
     tolerance_ns: f64,
     keep_samples: usize,
@@ -47,6 +53,7 @@ impl StrobeLabeler {
             windows: VecDeque::new(),
             next_seq: 0,
             offset: None,
+            misses: 0,
             expected_lag_ns: expected_lag.as_nanos() as f64,
             tolerance_ns: tolerance.as_nanos() as f64,
             keep_samples: 20_000,
@@ -144,17 +151,29 @@ impl StrobeLabeler {
             if let Some(seen) = self.windows.iter().find(|w| w.seq as i64 == seq).copied() {
                 // Locked on the sequence: a frame delivered late (a busy host) still belongs to
                 // its window as long as it cannot be the next one's, i.e. it arrived less than
-                // a frame period (minus the tolerance) after the expected time. Arriving
-                // earlier than the tolerance allows is impossible and means the lock is lost.
+                // a frame period (minus the tolerance) after the expected time. A force block
+                // delivered late makes a frame look early by as much: the same bound applies.
                 let lag = self.lag_error(&seen, arrival);
-                let late_limit = self.frame_period_ns().map_or(self.tolerance_ns, |p| {
+                let limit = self.frame_period_ns().map_or(self.tolerance_ns, |p| {
                     (p - self.tolerance_ns).max(self.tolerance_ns)
                 });
-                if lag >= -self.tolerance_ns && lag <= late_limit {
+                if lag.abs() <= limit {
+                    self.misses = 0;
                     return self.label_of(&seen);
+                }
+                // One frame held up on the host (or a stalled force block) is not a lost
+                // lock: the frame goes unlabelled and the lock is kept until
+                // MISSES_TO_UNLOCK frames in a row disagree with it (lost strobe windows).
+                self.misses += 1;
+                if self.misses < MISSES_TO_UNLOCK {
+                    return LabelOutcome::Unmatched(format!(
+                        "frame arrived {:.1} ms off its strobe window's expected time (host delay); lock on the frame sequence kept",
+                        lag * 1e-6
+                    ));
                 }
             }
             self.offset = None;
+            self.misses = 0;
         }
         let best = self
             .windows
@@ -303,6 +322,35 @@ mod tests {
                 (label.window_ticks[0] - start(n)).abs() < 1e-9,
                 "frame {n}: {label:?}"
             );
+        }
+    }
+
+    /// A force block delivered late makes a frame look 13 ms early, and a 40 ms host stall
+    /// delays one frame: the first keeps its window, the second goes unlabelled, and the frames
+    /// after it keep the lock (no re-match onto a neighbour's window).
+    #[test]
+    fn a_stalled_or_early_looking_frame_does_not_break_the_lock() {
+        let mut l = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+        for s in samples(2000) {
+            l.push_sample(&s);
+        }
+        let start = |n: u64| (37 + 100 * n) as f64 - 0.5;
+        for n in 0..15u64 {
+            let arrival = match n {
+                4 => HostTime(arrival(n).0 - 13_000_000),
+                7 => HostTime(arrival(n).0 + 40_000_000),
+                _ => arrival(n),
+            };
+            match l.label(300 + n, arrival) {
+                LabelOutcome::Ready(label) => {
+                    assert_ne!(n, 7, "the stalled frame was labelled {label:?}");
+                    assert!(
+                        (label.window_ticks[0] - start(n)).abs() < 1e-9,
+                        "frame {n}: {label:?}"
+                    );
+                }
+                other => assert_eq!((n, matches!(other, LabelOutcome::Unmatched(_))), (7, true)),
+            }
         }
     }
 }
