@@ -73,5 +73,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map_or("-".to_string(), |e| format!("{:.1}", e / 1e3))
         );
     }
+    for s in &report.scores {
+        if let Some(why) = &s.first_unlabelled {
+            println!("{}: first unlabelled {why}", s.method.name());
+        }
+    }
     Ok(())
 }

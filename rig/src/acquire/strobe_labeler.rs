@@ -4,8 +4,12 @@
 //! The strobe channel gives each exposure's window in the force stream's own sample index (no
 //! clock model needed for the label itself). Frames are matched to windows by sequence: once one
 //! frame is matched, frame id n belongs to window n - offset, so dropped frames (id gaps) keep the
-//! match. Each match is checked against host arrival times (a frame arrives a few milliseconds
-//! after its window ends); a failed check re-matches by nearest arrival.
+//! match. The first match is found by host arrival (a frame arrives a few milliseconds after its
+//! window ends). Once two frames are matched, each further match is checked with the frames'
+//! device timestamps (camera ticks against window starts in samples is a straight line), so a
+//! host stall cannot break the lock; before that, by arrival, where one frame far off goes
+//! unlabelled and three in a row re-match by nearest arrival. A timestamp that disagrees (lost
+//! strobe windows) re-matches at once.
 
 use super::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 use crate::camera::Frame;
@@ -37,6 +41,8 @@ pub struct StrobeLabeler {
     offset: Option<i64>,
     /// Frames in a row whose arrival disagreed with the locked sequence.
     misses: u32,
+    /// First and latest (frame device timestamp, window start) matched under the lock.
+    anchors: Option<((u64, f64), (u64, f64))>,
     expected_lag_ns: f64,
     tolerance_ns: f64,
     keep_samples: usize,
@@ -54,6 +60,7 @@ impl StrobeLabeler {
             next_seq: 0,
             offset: None,
             misses: 0,
+            anchors: None,
             expected_lag_ns: expected_lag.as_nanos() as f64,
             tolerance_ns: tolerance.as_nanos() as f64,
             keep_samples: 20_000,
@@ -143,11 +150,69 @@ impl StrobeLabeler {
 
     /// The label of frame `frame_id` that arrived at `arrival`.
     pub fn label(&mut self, frame_id: u64, arrival: HostTime) -> LabelOutcome {
+        self.label_stamped(frame_id, None, arrival)
+    }
+
+    /// Whether window `seen` is where frame device timestamp `stamp` belongs, judged from the
+    /// frames already matched under the current lock (camera ticks -> strobe samples is a
+    /// straight line: two clocks with a steady rate ratio). `None` until two frames a few
+    /// periods apart are matched.
+    fn stamp_agrees(&self, stamp: u64, seen: &Seen) -> Option<bool> {
+        let ((d0, w0), (d1, w1)) = (self.anchors?.0, self.anchors?.1);
+        if d1 <= d0 {
+            return None;
+        }
+        let per_tick = (w1 - w0) / (d1 - d0) as f64;
+        let predicted = w1 + (stamp as f64 - d1 as f64) * per_tick;
+        let spacing = self.frame_period_ns()? / self.sample_period_ns()?;
+        Some((seen.window.start - predicted).abs() < 0.25 * spacing)
+    }
+
+    fn note_anchor(&mut self, stamp: Option<u64>, seen: &Seen) {
+        if let Some(d) = stamp {
+            let here = (d, seen.window.start);
+            self.anchors = Some(match self.anchors {
+                Some((first, _)) if d > first.0 => (first, here),
+                _ => (here, here),
+            });
+        }
+    }
+
+    /// The label of frame `frame_id` with device timestamp `stamp` (if known) that arrived at
+    /// `arrival`. Once locked and two frames are matched, the device timestamp, not the host
+    /// arrival, checks each match: host stalls do not matter then.
+    pub fn label_stamped(
+        &mut self,
+        frame_id: u64,
+        stamp: Option<u64>,
+        arrival: HostTime,
+    ) -> LabelOutcome {
         if let Some(offset) = self.offset {
             let seq = frame_id as i64 - offset;
             if seq >= self.next_seq as i64 {
                 return LabelOutcome::NotYet;
             }
+            let found = self.windows.iter().find(|w| w.seq as i64 == seq).copied();
+            let agrees = match (stamp, &found) {
+                (Some(d), Some(seen)) => self.stamp_agrees(d, seen),
+                _ => None,
+            };
+            match (agrees, found) {
+                (Some(true), Some(seen)) => {
+                    self.misses = 0;
+                    self.note_anchor(stamp, &seen);
+                    return self.label_of(&seen);
+                }
+                // Timestamps say the sequence slipped (strobe windows lost): match again.
+                (Some(false), _) => {
+                    self.offset = None;
+                    self.anchors = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(offset) = self.offset {
+            let seq = frame_id as i64 - offset;
             if let Some(seen) = self.windows.iter().find(|w| w.seq as i64 == seq).copied() {
                 // Locked on the sequence: a frame delivered late (a busy host) still belongs to
                 // its window as long as it cannot be the next one's, i.e. it arrived less than
@@ -159,6 +224,7 @@ impl StrobeLabeler {
                 });
                 if lag.abs() <= limit {
                     self.misses = 0;
+                    self.note_anchor(stamp, &seen);
                     return self.label_of(&seen);
                 }
                 // One frame held up on the host (or a stalled force block) is not a lost
@@ -173,6 +239,7 @@ impl StrobeLabeler {
                 }
             }
             self.offset = None;
+            self.anchors = None;
             self.misses = 0;
         }
         let best = self
@@ -187,6 +254,7 @@ impl StrobeLabeler {
         match best {
             Some(seen) if self.lag_error(&seen, arrival).abs() <= self.tolerance_ns => {
                 self.offset = Some(frame_id as i64 - seen.seq as i64);
+                self.note_anchor(stamp, &seen);
                 self.label_of(&seen)
             }
             // The frame arrived after every window seen so far: its window is still to come.
@@ -211,7 +279,12 @@ impl FrameLabeler for StrobeLabeler {
     }
 
     fn label(&mut self, frame: &Frame) -> LabelOutcome {
-        StrobeLabeler::label(self, frame.id, frame.host_arrival)
+        StrobeLabeler::label_stamped(
+            self,
+            frame.id,
+            Some(frame.device_timestamp),
+            frame.host_arrival,
+        )
     }
 
     fn estimated_error_ns(&self) -> Option<f64> {
@@ -351,6 +424,31 @@ mod tests {
                 }
                 other => assert_eq!((n, matches!(other, LabelOutcome::Unmatched(_))), (7, true)),
             }
+        }
+    }
+
+    /// With device timestamps, a lock confirmed by two frames survives a 60 ms host stall over
+    /// four frames in a row: every frame keeps its own window.
+    #[test]
+    fn device_timestamps_keep_the_lock_through_a_host_stall() {
+        let mut l = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+        for s in samples(2000) {
+            l.push_sample(&s);
+        }
+        let start = |n: u64| (37 + 100 * n) as f64 - 0.5;
+        // Camera ticks: ns on its own clock, 50 ppm off and far from the host's.
+        let stamp =
+            |n: u64| 5_000_000_000_000 + ((37 + 100 * n) as f64 * 200_000.0 * 1.00005) as u64;
+        for n in 0..15u64 {
+            let stall = if (5..9).contains(&n) { 60_000_000 } else { 0 };
+            let outcome = l.label_stamped(40 + n, Some(stamp(n)), HostTime(arrival(n).0 + stall));
+            let LabelOutcome::Ready(label) = outcome else {
+                panic!("frame {n}: {outcome:?}");
+            };
+            assert!(
+                (label.window_ticks[0] - start(n)).abs() < 1e-9,
+                "frame {n}: {label:?}"
+            );
         }
     }
 }
