@@ -5,11 +5,16 @@
 //! - [`camera_stream`]: a camera read continuously, frames to a channel.
 //! - [`labeler`]: the interface every synchronisation method offers the recorder.
 //! - [`recorder`]: the thread that labels frames and writes the run store.
+//! - [`clock_fit_labeler`]: both device clocks mapped onto host time (one-way fits, latches),
+//!   windows placed in the force stream through them.
+//! - [`host_labeler`]: host arrival times only, the reference pipeline's baseline.
 //! - [`strobe_labeler`]: frames matched with their exposure windows found in the strobe channel,
 //!   labelled with the force averaged over the window.
 
 pub mod camera_stream;
+pub mod clock_fit_labeler;
 pub mod force_stream;
+pub mod host_labeler;
 pub mod labeler;
 pub mod recorder;
 pub mod strobe_labeler;

@@ -17,6 +17,8 @@
 //! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
 //! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
 //! - [`label_score`]: a simulated run's labels scored against the ground truth.
+//! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
+//!   and scored against the ground truth.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
 //! - [`sensor`]: one sensor build (layer, optics, artefacts, image geometry) from a TOML file, and
 //!   the exact sensor-frame mm <-> image px map.
@@ -47,3 +49,4 @@ pub mod rig;
 pub mod scene;
 pub mod sensor;
 pub mod stress;
+pub mod sync_score;

@@ -114,6 +114,8 @@ fn stop(frames: u64, force: u64) -> StopDocument {
         force_samples: force,
         lost_force_samples: 0,
         points_done: frames / 2,
+        sync_method: Some("strobe".into()),
+        sync_error_ns: Some(57_735.0),
     }
 }
 

@@ -14,9 +14,10 @@ use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::sim::bench::AxisConfig;
 use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
 use fringe_rig::sim::rig::{SimRig, SimRigConfig};
-use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord};
-use fringe_rig::store::run_writer::read_lines;
+use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
+use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::verify::verify;
+use fringe_rig::store::{START, STOP};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{Millimetres, Newtons};
 use std::collections::BTreeMap;
@@ -854,4 +855,63 @@ fn a_manual_y_stage_is_asked_once_per_row_and_never_prompts_by_itself() {
     );
     drop(rig);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A `clock-fit` or `host` run through the engine (one point): every frame labelled with a
+/// host-time window; returns the records and the run's documents.
+fn scan_with_sync(sync: SyncMethod) -> (Vec<FrameRecord>, StopDocument, StartDocument) {
+    let dir = tempfile_dir(sync.name());
+    let (rig, devices, truth) = bench(23);
+    let text = plan("[12.5]", "[25.0]", "force_targets = [3.0]", 0.4);
+    let mut setup = setup(&rig, &text);
+    setup.sync = sync;
+    let (mut operator, _) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: sync.name().into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert!(verify(&out.run_dir).expect("verify").ok());
+    let records = records(&out.run_dir);
+    let stop: StopDocument = read_document(&out.run_dir.join(STOP)).expect("stop document");
+    let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start document");
+    let truths: BTreeMap<u64, _> = truth.frames().into_iter().map(|t| (t.id, t)).collect();
+    for r in &records {
+        assert!(r.wrench.is_some(), "{r:?}");
+        let e = r.exposure.expect("host-time window");
+        let t = truths.get(&r.frame_id).expect("truth");
+        let err = 0.5 * (e.start_ns + e.end_ns)
+            - 0.5 * (t.exposure_start.0 as f64 + t.exposure_end.0 as f64);
+        if sync == SyncMethod::ClockFit {
+            assert!(err.abs() < 500_000.0, "frame {}: {err} ns", r.frame_id);
+        } else {
+            // The host baseline sees the arrival, milliseconds after the exposure.
+            assert!(err > 2e6, "frame {}: {err} ns", r.frame_id);
+        }
+    }
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+    (records, stop, start)
+}
+
+/// `clock-fit` and `host` chosen by the engine: frames labelled, the method and its error
+/// estimate in the run's start and stop documents; clock-fit windows close to the truth.
+#[test]
+fn clock_fit_and_host_scans_label_every_frame_and_record_method_and_error() {
+    for sync in [SyncMethod::ClockFit, SyncMethod::Host] {
+        let (records, stop, start) = scan_with_sync(sync);
+        assert!(records.len() > 10, "{sync}: {} records", records.len());
+        assert_eq!(start.sync_method, sync.name());
+        assert_eq!(stop.sync_method.as_deref(), Some(sync.name()));
+        let e = stop.sync_error_ns.expect("error estimate");
+        assert!(e > 0.0 && e < 5e6, "{sync}: estimate {e} ns");
+    }
 }

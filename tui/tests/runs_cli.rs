@@ -76,6 +76,8 @@ fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
             force_samples: 0,
             lost_force_samples: 0,
             points_done: 1,
+            sync_method: Some("strobe".into()),
+            sync_error_ns: None,
         })
         .expect("finish");
     } else {

@@ -1,9 +1,10 @@
 //! What every synchronisation method gives the recorder: a frame's exposure window located in the
 //! force stream and the six-axis force averaged over it.
 //!
-//! One implementation per method: [`super::strobe_labeler::StrobeLabeler`] (`strobe`); the
-//! clock-fit and host labelers beside it. The recorder feeds every force sample in stream order
-//! and asks for each frame's label until it is ready.
+//! One implementation per method: [`super::strobe_labeler::StrobeLabeler`] (`strobe`),
+//! [`super::clock_fit_labeler::ClockFitLabeler`] (`clock-fit`) and
+//! [`super::host_labeler::HostLabeler`] (`host`). The recorder feeds every force sample in stream
+//! order, shows it every frame, and asks for each filmed frame's label until it is ready.
 
 use crate::camera::Frame;
 use crate::force::ForceSample;
@@ -38,6 +39,9 @@ pub trait FrameLabeler: Send {
     fn method(&self) -> SyncMethod;
     /// Feeds one force sample, in stream order.
     fn push_sample(&mut self, sample: &ForceSample);
+    /// Shows the labeler every frame the camera delivers, labelled or not, in arrival order
+    /// (clock fits learn from all of them).
+    fn observe_frame(&mut self, _frame: &Frame) {}
     /// The label of `frame` (the frame's pixels are not needed; ids, timestamps and arrival are).
     fn label(&mut self, frame: &Frame) -> LabelOutcome;
     /// The method's current estimate of its label-time error (1 sigma, ns), for run documents.

@@ -77,6 +77,8 @@ pub struct RecorderStats {
     pub frame_rate_hz: f64,
     /// The newest label written (tared).
     pub last_label: Option<Wrench>,
+    /// The synchronisation method's current estimate of its label-time error (1 sigma), ns.
+    pub sync_error_ns: Option<f64>,
 }
 
 enum Command {
@@ -287,6 +289,7 @@ impl State {
     }
 
     fn frame(&mut self, frame: Frame) {
+        self.labeler.observe_frame(&frame);
         self.local.frames_seen += 1;
         if let Some(last) = self.last_id {
             self.local.dropped_frames += frame.id.saturating_sub(last + 1);
@@ -389,7 +392,8 @@ impl State {
         Ok(())
     }
 
-    fn publish(&self) {
+    fn publish(&mut self) {
+        self.local.sync_error_ns = self.labeler.estimated_error_ns();
         *self.stats.lock().unwrap_or_else(|p| p.into_inner()) = self.local.clone();
     }
 }

@@ -215,6 +215,8 @@ pub fn run_demo(
         force_samples,
         lost_force_samples: stats.lost,
         points_done: plan.points.len() as u64,
+        sync_method: Some("strobe".into()),
+        sync_error_ns: counts.sync_error_ns,
     };
     // The simulator's ground truth goes into the run (a simulated run can be scored later).
     let truth_path = writer.dir().join("truth.jsonl");

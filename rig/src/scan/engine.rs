@@ -16,7 +16,9 @@ use super::plan::{BenchLimits, ScanPoint, ScanProgram, Targets};
 use super::press::{approach, press_to, ForceGuard, PressError, PressSettings};
 use super::watchers::{Alarm, SharedTare, WatchSettings, Watchers};
 use crate::acquire::camera_stream::CameraStream;
+use crate::acquire::clock_fit_labeler::{ClockFitLabeler, ClockFitOptions};
 use crate::acquire::force_stream::{ForceMonitor, ForceStream};
+use crate::acquire::host_labeler::HostLabeler;
 use crate::acquire::labeler::FrameLabeler;
 use crate::acquire::recorder::{Filming, FrameContext, Recorder, RecorderStats};
 use crate::acquire::strobe_labeler::StrobeLabeler;
@@ -120,6 +122,31 @@ enum PointEnd {
 const MOVE_TIMEOUT: Duration = Duration::from_secs(120);
 const POLL: Duration = Duration::from_millis(5);
 
+/// How often the camera clock is latched for `clock-fit` (on the camera stream thread).
+pub const LATCH_PERIOD: Duration = Duration::from_millis(250);
+
+/// The labeler of synchronisation method `sync` for a camera with `settings` whose timestamps
+/// tick at `tick_hz`, reading latches from `cameras` for `clock-fit`.
+pub fn labeler_for(
+    sync: SyncMethod,
+    settings: &CameraSettings,
+    tick_hz: f64,
+    cameras: &CameraStream,
+) -> Box<dyn FrameLabeler> {
+    match sync {
+        SyncMethod::Strobe => Box::new(StrobeLabeler::new(
+            1.65,
+            Duration::from_millis(2),
+            Duration::from_millis(9),
+        )),
+        SyncMethod::ClockFit => Box::new(ClockFitLabeler::new(
+            ClockFitOptions::new(settings.exposure, tick_hz),
+            Some(cameras.latches().clone()),
+        )),
+        SyncMethod::Host => Box::new(HostLabeler::new(settings.exposure)),
+    }
+}
+
 /// Runs `setup.program` on `devices`.
 pub fn run_scan(
     setup: &ScanSetup,
@@ -161,20 +188,15 @@ pub fn run_scan(
 
     let stream = ForceStream::spawn(force)?;
     let monitor = stream.monitor();
-    let cameras = CameraStream::spawn(camera, &setup.camera)?;
-    let context = FrameContext::default();
-    let labeler: Box<dyn FrameLabeler> = match setup.sync {
-        SyncMethod::Strobe => Box::new(StrobeLabeler::new(
-            1.65,
-            Duration::from_millis(2),
-            Duration::from_millis(9),
-        )),
-        other => {
-            return Err(ScanError::Setup(format!(
-                "sync method {other} is not available in this build; use strobe"
-            )))
+    let tick_hz = camera.info().tick_frequency as f64;
+    let cameras = match setup.sync {
+        SyncMethod::ClockFit => {
+            CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
         }
+        SyncMethod::Strobe | SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
     };
+    let context = FrameContext::default();
+    let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
     let recorder = Recorder::spawn(
         writer,
         stream.samples().clone(),
@@ -256,6 +278,13 @@ pub fn run_scan(
         }
     }
     run.context.set(None);
+    if let Some(why) = cameras.latch_error() {
+        run.recorder.event(
+            "sync",
+            None,
+            &format!("the camera clock could not be latched, clock-fit labels used the frame arrivals only: {why}"),
+        );
+    }
     let (status, reason) = match &result {
         Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
         Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
@@ -293,6 +322,8 @@ pub fn run_scan(
         force_samples,
         lost_force_samples: stats.lost,
         points_done,
+        sync_method: Some(setup.sync.name().into()),
+        sync_error_ns: counts.sync_error_ns,
     };
     if let Some(truth) = &setup.truth {
         append_truth(writer.dir(), truth)?;

@@ -8,7 +8,8 @@
 //!   range.
 //! - Sample n is taken at host time start + n / (rate (1 + drift_ppm 1e-6)): the DAQ's sample clock
 //!   has its own rate error. Scans arrive in blocks of `block_size` (10 ms at 5 kHz by default),
-//!   all stamped with the block's host arrival time, like a driver callback.
+//!   all stamped with the block's host arrival time, like a driver callback. A block is handed
+//!   over `U(0, arrival_jitter_ms)` after its last scan was taken (a busy host; default 0).
 //! - The strobe channel reads `strobe_high_v` while the shared [`ExposureSchedule`] says the camera
 //!   is exposing, `strobe_low_v` otherwise.
 //! - A consumer that stops reading for longer than `buffer_s` overflows the buffer: the next read
@@ -23,6 +24,8 @@ use crate::force::ForceError;
 use crate::units::{Volts, Wrench};
 use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, TrySendError};
 use nalgebra::{Matrix6, Vector6};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -50,6 +53,10 @@ pub struct SimDaqConfig {
     pub strobe_low_v: f64,
     /// Seconds of scans buffered for a slow reader before overflow.
     pub buffer_s: f64,
+    /// Extra delay of each block's delivery, uniform in [0, this], ms (host scheduling).
+    pub arrival_jitter_ms: f64,
+    /// Seed of the arrival jitter.
+    pub seed: u64,
 }
 
 impl Default for SimDaqConfig {
@@ -64,6 +71,8 @@ impl Default for SimDaqConfig {
             strobe_high_v: 3.3,
             strobe_low_v: 0.0,
             buffer_s: 10.0,
+            arrival_jitter_ms: 0.0,
+            seed: 1,
         }
     }
 }
@@ -205,8 +214,16 @@ impl Acquisition {
         let block = self.config.block_size as u64;
         let mut n = 0u64;
         let mut scans = Vec::with_capacity(block as usize);
+        let mut jitter = StdRng::seed_from_u64(self.config.seed ^ 0xda0_1177);
+        let jitter_ns = self.config.arrival_jitter_ms.max(0.0) * 1e6;
         loop {
-            let due = self.clock.sample_time(n + block - 1);
+            let taken = self.clock.sample_time(n + block - 1);
+            let extra = if jitter_ns > 0.0 {
+                (jitter.gen::<f64>() * jitter_ns) as u64
+            } else {
+                0
+            };
+            let due = HostTime(taken.0 + extra);
             loop {
                 if self.stop.load(Ordering::Relaxed) {
                     return reading;

@@ -108,6 +108,7 @@ impl SimRigConfig {
         c.bench.seed = s;
         c.bench.ft_noise.seed = s.wrapping_add(1);
         c.camera.seed = s.wrapping_add(2);
+        c.daq.seed = s.wrapping_add(4);
         c.sensor.seed = s.wrapping_add(3);
         c
     }

@@ -115,6 +115,12 @@ pub struct StopDocument {
     pub force_samples: u64,
     pub lost_force_samples: u64,
     pub points_done: u64,
+    /// Synchronisation method used (as in the start document).
+    #[serde(default)]
+    pub sync_method: Option<String>,
+    /// The method's own estimate of its label-time error at the end of the run (1 sigma), ns.
+    #[serde(default)]
+    pub sync_error_ns: Option<f64>,
 }
 
 /// `t` as an RFC 3339 UTC timestamp with milliseconds ("2026-11-22T03:45:12.345Z").

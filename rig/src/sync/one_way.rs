@@ -60,7 +60,7 @@ fn cross(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> f64 {
 }
 
 /// Indices (into `pts`, sorted by x) of the lower convex hull, left to right.
-fn lower_hull(pts: &[(f64, f64)]) -> Vec<usize> {
+pub fn lower_hull(pts: &[(f64, f64)]) -> Vec<usize> {
     let mut hull: Vec<usize> = Vec::new();
     for (i, &p) in pts.iter().enumerate() {
         while hull.len() >= 2 {

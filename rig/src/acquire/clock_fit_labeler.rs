@@ -1,0 +1,603 @@
+//! Labels frames with the force measured during their exposure by mapping both device clocks
+//! onto host time (synchronisation method `clock-fit`, hardware.md E.3 and E.4).
+//!
+//! - **Force clock**: the force stream's sample counter (`device_tick`) against each sample's
+//!   host arrival, fitted by the one-way lower-hull fit ([`crate::sync::one_way`]). Samples come
+//!   in blocks stamped with one arrival time, so only the lower-hull vertices of every run of
+//!   [`HULL_BIN`] samples are kept (a vertex of the hull of all points is a vertex of the hull of
+//!   its run, so nothing the fit would use is lost). The fitted line gives the host arrival of
+//!   the least-delayed sample; that minimum delay (a driver callback's latency) is a constant this
+//!   method cannot see ([`ClockFitOptions::force_latency`] takes it from a strobe calibration;
+//!   the error estimate leaves it out).
+//! - **Camera clock**: frame device timestamps (exposure start, Basler chunk timestamp) against
+//!   frame arrivals, fitted the same way, from every frame the camera delivers. That line is late
+//!   by the constant exposure + readout + transfer time; timestamp-latch exchanges, taken by the
+//!   camera stream thread between frames ([`super::camera_stream::CameraStream::spawn_with_latches`])
+//!   and fitted by [`crate::sync::latch`], calibrate that constant: the one-way line is shifted
+//!   onto the latch line at the latches' centre. Without latches the exposure end is placed at
+//!   the least-delayed arrival (readout taken as zero) and the error says so.
+//! - **Window**: [device timestamp, + exposure time] in camera ticks -> host time (camera map)
+//!   -> fractional force sample index (force map), and the six-axis force averaged over it with
+//!   [`crate::sync::window::mean_over`] (interpolated at the edges).
+//!
+//! Fits use the last [`ClockFitOptions::fit_window`] of data and are redone when
+//! [`ClockFitOptions::refit_every`] of new data has come in.
+
+use super::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
+use crate::camera::{Frame, TimestampLatch};
+use crate::clock::HostTime;
+use crate::force::ForceSample;
+use crate::sync::clock_map::ClockMap;
+use crate::sync::latch::{self, LatchFit};
+use crate::sync::method::SyncMethod;
+use crate::sync::one_way::{self, lower_hull, OneWayFit, OneWayOptions};
+use crate::sync::window::mean_over;
+use crate::units::Microseconds;
+use crossbeam_channel::Receiver;
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// Force samples per run whose lower-hull vertices are kept for the force clock fit.
+pub const HULL_BIN: usize = 250;
+
+/// Settings of a [`ClockFitLabeler`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClockFitOptions {
+    /// Exposure time set on the camera.
+    pub exposure: Microseconds,
+    /// Camera device timestamp ticks per second ([`crate::camera::CameraInfo::tick_frequency`]).
+    pub camera_tick_hz: f64,
+    /// History each fit uses.
+    pub fit_window: Duration,
+    /// Refit when this much new data has arrived.
+    pub refit_every: Duration,
+    /// How long after the first frame to wait for three latches before labelling without them
+    /// (when a latch channel was given).
+    pub latch_wait: Duration,
+    /// 1-sigma error put on the unseen readout + transfer time when no latch calibrates it.
+    pub uncalibrated_latency_error: Duration,
+    /// The force path's minimum delivery delay (sample taken -> least-delayed arrival), if known
+    /// from a calibration against the strobe; zero otherwise. The one-way fit cannot see it: an
+    /// uncorrected delay places windows this much too early in the force stream.
+    pub force_latency: Duration,
+}
+
+impl ClockFitOptions {
+    /// Defaults for a camera with `exposure` and `camera_tick_hz`: 60 s fits redone every 0.5 s,
+    /// 3 s wait for latches, 5 ms uncertainty without them.
+    pub fn new(exposure: Microseconds, camera_tick_hz: f64) -> ClockFitOptions {
+        ClockFitOptions {
+            exposure,
+            camera_tick_hz,
+            fit_window: Duration::from_secs(60),
+            refit_every: Duration::from_millis(500),
+            latch_wait: Duration::from_secs(3),
+            uncalibrated_latency_error: Duration::from_millis(5),
+            force_latency: Duration::ZERO,
+        }
+    }
+}
+
+/// The camera clock as currently known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CameraClock {
+    /// Camera ticks -> host time of the event they stamp.
+    map: ClockMap,
+    /// 1-sigma error of a mapped time, ns.
+    error_ns: f64,
+    calibrated: bool,
+}
+
+/// Maps both clocks to host time and averages the force over each frame's exposure window.
+pub struct ClockFitLabeler {
+    options: ClockFitOptions,
+    /// (sample index, six channels), newest last, for the window means.
+    samples: VecDeque<(u64, [f64; 6])>,
+    keep_samples: usize,
+    /// Lower-hull vertices of past runs of samples (tick, arrival), oldest first.
+    force_points: VecDeque<(u64, HostTime)>,
+    /// The current run of samples, not yet reduced to its hull.
+    force_run: Vec<(u64, HostTime)>,
+    force_fit: Option<OneWayFit>,
+    force_fit_at: Option<HostTime>,
+    newest_arrival: Option<HostTime>,
+    /// (device timestamp, arrival) of every frame seen, oldest first.
+    frames: VecDeque<(u64, HostTime)>,
+    first_frame: Option<HostTime>,
+    frames_at_fit: usize,
+    camera_fit: Option<OneWayFit>,
+    latch_source: Option<Receiver<TimestampLatch>>,
+    latches: VecDeque<TimestampLatch>,
+    latch_fit: Option<LatchFit>,
+    camera: Option<CameraClock>,
+    last_error_ns: Option<f64>,
+}
+
+impl ClockFitLabeler {
+    /// A labeler; `latches` brings timestamp-latch exchanges when the camera offers them.
+    pub fn new(
+        options: ClockFitOptions,
+        latches: Option<Receiver<TimestampLatch>>,
+    ) -> ClockFitLabeler {
+        ClockFitLabeler {
+            options,
+            samples: VecDeque::new(),
+            keep_samples: 40_000,
+            force_points: VecDeque::new(),
+            force_run: Vec::with_capacity(HULL_BIN),
+            force_fit: None,
+            force_fit_at: None,
+            newest_arrival: None,
+            frames: VecDeque::new(),
+            first_frame: None,
+            frames_at_fit: 0,
+            camera_fit: None,
+            latch_source: latches,
+            latches: VecDeque::new(),
+            latch_fit: None,
+            camera: None,
+            last_error_ns: None,
+        }
+    }
+
+    fn window_ns(&self) -> u64 {
+        self.options.fit_window.as_nanos() as u64
+    }
+
+    /// Feeds one force sample, in stream order.
+    pub fn push_sample(&mut self, s: &ForceSample) {
+        self.samples.push_back((s.device_tick, s.wrench.to_array()));
+        if self.samples.len() > self.keep_samples {
+            self.samples.pop_front();
+        }
+        self.newest_arrival = Some(
+            self.newest_arrival
+                .map_or(s.host_time, |t| t.max(s.host_time)),
+        );
+        // A counter that went backwards (a restarted device) starts the fit afresh.
+        if self
+            .force_run
+            .last()
+            .or(self.force_points.back())
+            .is_some_and(|&(t, _)| s.device_tick <= t)
+        {
+            self.force_points.clear();
+            self.force_run.clear();
+            self.force_fit = None;
+            self.samples.clear();
+            self.samples.push_back((s.device_tick, s.wrench.to_array()));
+        }
+        self.force_run.push((s.device_tick, s.host_time));
+        if self.force_run.len() >= HULL_BIN {
+            let run = std::mem::take(&mut self.force_run);
+            self.force_points.extend(hull_vertices(&run));
+            let horizon = s.host_time.0.saturating_sub(self.window_ns());
+            while self.force_points.front().is_some_and(|p| p.1 .0 < horizon) {
+                self.force_points.pop_front();
+            }
+        }
+    }
+
+    /// Notes a frame's device timestamp and arrival for the camera clock fit.
+    pub fn observe_frame(&mut self, frame: &Frame) {
+        self.first_frame.get_or_insert(frame.host_arrival);
+        if self
+            .frames
+            .back()
+            .is_some_and(|&(d, _)| frame.device_timestamp <= d)
+        {
+            // The camera clock restarted: the old pairs belong to another clock.
+            self.frames.clear();
+            self.camera_fit = None;
+            self.camera = None;
+        }
+        self.frames
+            .push_back((frame.device_timestamp, frame.host_arrival));
+        let horizon = frame.host_arrival.0.saturating_sub(self.window_ns());
+        while self.frames.front().is_some_and(|p| p.1 .0 < horizon) {
+            self.frames.pop_front();
+        }
+    }
+
+    fn drain_latches(&mut self) -> bool {
+        let Some(source) = &self.latch_source else {
+            return false;
+        };
+        let mut got = false;
+        while let Ok(l) = source.try_recv() {
+            self.latches.push_back(l);
+            got = true;
+        }
+        let newest = self.latches.back().map_or(0, |l| l.host_after.0);
+        let horizon = newest.saturating_sub(self.window_ns());
+        while self
+            .latches
+            .front()
+            .is_some_and(|l| l.host_before.0 < horizon)
+        {
+            self.latches.pop_front();
+        }
+        got
+    }
+
+    fn refit_force(&mut self) {
+        let Some(newest) = self.newest_arrival else {
+            return;
+        };
+        let fresh = self.force_fit_at.is_some_and(|at| {
+            newest.0.saturating_sub(at.0) < self.options.refit_every.as_nanos() as u64
+        });
+        if fresh && self.force_fit.is_some() {
+            return;
+        }
+        let mut pairs: Vec<(u64, HostTime)> = self.force_points.iter().copied().collect();
+        pairs.extend(hull_vertices(&self.force_run));
+        let (Some(first), Some(last)) = (pairs.first(), pairs.last()) else {
+            return;
+        };
+        let ticks = last.0.saturating_sub(first.0);
+        let span_ns = last.1 .0 as f64 - first.1 .0 as f64;
+        // A second of data before the first fit.
+        if ticks == 0 || span_ns < 1e9 {
+            return;
+        }
+        let options = OneWayOptions {
+            clock: "force sample counter".into(),
+            nominal_ns_per_tick: span_ns / ticks as f64,
+            max_early_ns: 5e6,
+        };
+        if let Ok(fit) = one_way::fit(&pairs, &options) {
+            self.force_fit = Some(fit);
+            self.force_fit_at = Some(newest);
+        }
+    }
+
+    fn refit_camera(&mut self) {
+        let new_latches = self.drain_latches();
+        let stale = self.frames.len() != self.frames_at_fit;
+        if !(stale || new_latches) && self.camera.is_some() {
+            return;
+        }
+        let refit_frames = self.camera_fit.is_none()
+            || self.frames.len() < self.frames_at_fit
+            || self.frames.len() >= self.frames_at_fit + self.frames_per_refit();
+        if refit_frames && self.frames.len() >= 10 {
+            let pairs: Vec<(u64, HostTime)> = self.frames.iter().copied().collect();
+            let options = OneWayOptions {
+                clock: "camera".into(),
+                nominal_ns_per_tick: 1e9 / self.options.camera_tick_hz,
+                max_early_ns: 5e6,
+            };
+            if let Ok(fit) = one_way::fit(&pairs, &options) {
+                self.camera_fit = Some(fit);
+                self.frames_at_fit = self.frames.len();
+            }
+        }
+        if new_latches || self.latch_fit.is_none() {
+            let all: Vec<TimestampLatch> = self.latches.iter().copied().collect();
+            self.latch_fit = latch::fit(&all, "camera").ok();
+        }
+        let Some(ow) = &self.camera_fit else {
+            return;
+        };
+        self.camera = Some(match &self.latch_fit {
+            Some(lf) => {
+                // Shift the one-way line onto the latch line at the latches' centre; what is
+                // left between the two lines at the latches is part of the error.
+                let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
+                let diffs: Vec<f64> = ticks
+                    .iter()
+                    .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
+                    .collect();
+                let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
+                let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
+                    / diffs.len().max(1) as f64)
+                    .sqrt();
+                // The latch line's own error at its centre: each kept midpoint is uniform within
+                // its half round trip, or scattered as the residuals say, whichever is larger.
+                let per_latch = lf.rms_residual_ns.max(lf.half_round_trip_ns / 3f64.sqrt());
+                let line = per_latch / (lf.used as f64).sqrt();
+                let mut map = ow.map;
+                map.host_at_origin_ns -= offset;
+                CameraClock {
+                    map,
+                    error_ns: (line * line + disagreement * disagreement).sqrt(),
+                    calibrated: true,
+                }
+            }
+            None => {
+                // The least-delayed frame arrived when its exposure ended (readout unseen).
+                let exposure_ns = self.options.exposure.0 * 1e3;
+                let mut map = ow.map;
+                map.host_at_origin_ns -= exposure_ns;
+                let unseen = self.options.uncalibrated_latency_error.as_nanos() as f64;
+                CameraClock {
+                    map,
+                    error_ns: (ow.hull_gap_ns.powi(2) + unseen * unseen).sqrt(),
+                    calibrated: false,
+                }
+            }
+        });
+    }
+
+    /// Frames between camera refits (about `refit_every` at the observed frame rate).
+    fn frames_per_refit(&self) -> usize {
+        let (Some(a), Some(b)) = (self.frames.front(), self.frames.back()) else {
+            return 1;
+        };
+        let span = b.1 .0.saturating_sub(a.1 .0) as f64;
+        if span <= 0.0 {
+            return 1;
+        }
+        let rate = (self.frames.len() - 1) as f64 / span;
+        ((rate * self.options.refit_every.as_nanos() as f64) as usize).max(1)
+    }
+
+    fn waiting_for_latches(&self, now: HostTime) -> bool {
+        self.latch_source.is_some()
+            && self.latch_fit.is_none()
+            && self.first_frame.is_some_and(|t| {
+                now.0.saturating_sub(t.0) < self.options.latch_wait.as_nanos() as u64
+            })
+    }
+
+    /// The label of `frame`.
+    pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
+        if self.frames.is_empty() {
+            self.observe_frame(frame);
+        }
+        self.refit_force();
+        self.refit_camera();
+        let now = self.newest_arrival.unwrap_or(frame.host_arrival);
+        let (Some(force), Some(camera)) = (&self.force_fit, self.camera) else {
+            // Fits need a second of force data and ten frames.
+            return if now.0.saturating_sub(frame.host_arrival.0) < 10_000_000_000 {
+                LabelOutcome::NotYet
+            } else {
+                LabelOutcome::Unmatched("clock-fit: not enough data for the clock fits".into())
+            };
+        };
+        if !camera.calibrated && self.waiting_for_latches(now) {
+            return LabelOutcome::NotYet;
+        }
+        let start_ticks = frame.device_timestamp;
+        let exposure_ticks = self.options.exposure.0 * 1e-6 * self.options.camera_tick_hz;
+        let start_host = camera.map.host_ns(start_ticks);
+        let end_host = camera.map.host_ns_f(start_ticks as f64 + exposure_ticks);
+        let latency = self.options.force_latency.as_nanos() as f64;
+        let start = force.map.ticks_at(start_host + latency);
+        let end = force.map.ticks_at(end_host + latency);
+        let newest = self
+            .samples
+            .back()
+            .map_or(f64::NEG_INFINITY, |s| s.0 as f64);
+        if newest < end + 1.0 {
+            return LabelOutcome::NotYet;
+        }
+        // From the last sample at or before the start to the first at or after the end (a gap
+        // of lost samples is bridged; the recorder notes it from the spacing).
+        let first = self
+            .samples
+            .partition_point(|s| s.0 as f64 <= start)
+            .saturating_sub(1);
+        let last = self
+            .samples
+            .partition_point(|s| (s.0 as f64) < end)
+            .min(self.samples.len().saturating_sub(1));
+        let span: Vec<(f64, [f64; 6])> = self
+            .samples
+            .range(first..=last)
+            .map(|s| (s.0 as f64, s.1))
+            .collect();
+        let force_error = force.hull_gap_ns;
+        let error_ns = (force_error * force_error + camera.error_ns * camera.error_ns).sqrt();
+        self.last_error_ns = Some(error_ns);
+        match mean_over(&span, start, end) {
+            Ok(mean) => LabelOutcome::Ready(ExposureLabel {
+                window_ticks: [start, end],
+                window_host_ns: Some([start_host, end_host]),
+                error_ns,
+                mean,
+            }),
+            Err(e) => LabelOutcome::Unmatched(format!("clock-fit window: {e}")),
+        }
+    }
+
+    /// The current force clock map (sample index -> host ns), if fitted.
+    pub fn force_map(&self) -> Option<ClockMap> {
+        self.force_fit.as_ref().map(|f| f.map)
+    }
+
+    /// The current camera clock map (ticks -> host ns of the event stamped), if fitted, and
+    /// whether latches calibrated it.
+    pub fn camera_map(&self) -> Option<(ClockMap, bool)> {
+        self.camera.map(|c| (c.map, c.calibrated))
+    }
+
+    /// Latches received so far (within the fit window).
+    pub fn latches_used(&self) -> usize {
+        self.latches.len()
+    }
+}
+
+/// The lower-hull vertices of `run` (sorted by tick), as (tick, arrival).
+fn hull_vertices(run: &[(u64, HostTime)]) -> Vec<(u64, HostTime)> {
+    let Some(&(t0, h0)) = run.first() else {
+        return Vec::new();
+    };
+    // The hull is unchanged by adding a linear function of x, so raw coordinates will do.
+    let pts: Vec<(f64, f64)> = run
+        .iter()
+        .map(|&(t, h)| ((t - t0) as f64, h.0 as f64 - h0.0 as f64))
+        .collect();
+    lower_hull(&pts).into_iter().map(|i| run[i]).collect()
+}
+
+impl FrameLabeler for ClockFitLabeler {
+    fn method(&self) -> SyncMethod {
+        SyncMethod::ClockFit
+    }
+
+    fn push_sample(&mut self, sample: &ForceSample) {
+        ClockFitLabeler::push_sample(self, sample);
+    }
+
+    fn observe_frame(&mut self, frame: &Frame) {
+        ClockFitLabeler::observe_frame(self, frame);
+    }
+
+    fn label(&mut self, frame: &Frame) -> LabelOutcome {
+        ClockFitLabeler::label(self, frame)
+    }
+
+    fn estimated_error_ns(&self) -> Option<f64> {
+        self.last_error_ns
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::units::Wrench;
+    use rand::{Rng, SeedableRng};
+
+    const SAMPLE_NS: f64 = 200_000.0 * (1.0 - 100e-6); // a 5 kHz counter running 100 ppm fast
+    const CAMERA_RATE: f64 = 1.0 - 100e-6; // camera ticks per host ns (100 ppm slow)
+    const CAMERA_T0: u64 = 9_000_000_000_000;
+
+    fn sample_host(k: u64) -> f64 {
+        1e9 + k as f64 * SAMPLE_NS
+    }
+
+    fn camera_ticks(host_ns: f64) -> u64 {
+        CAMERA_T0 + ((host_ns - 1e9) * CAMERA_RATE).round() as u64
+    }
+
+    /// 20 s of synthetic data: force samples in blocks of 50 delivered 0-3 ms late, Fz a ramp
+    /// in host time; 50 Hz frames of 2 ms exposure arriving 5 ms + U(0, 3 ms) after exposure
+    /// end; a latch every 250 ms with a 75-225 us round trip. Returns the labels of the frames
+    /// in the last 10 s with their true exposure start (host ns).
+    fn run(with_latches: bool) -> Vec<(ExposureLabel, f64)> {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let mut l = ClockFitLabeler::new(
+            ClockFitOptions::new(Microseconds(2000.0), 1e9),
+            with_latches.then_some(rx),
+        );
+        let mut events: Vec<(f64, u8, u64, f64)> = Vec::new(); // (host, kind, id, extra)
+        let mut k = 0u64;
+        while sample_host(k + 49) < 21e9 {
+            let arrival = sample_host(k + 49) + rng.gen_range(0.0..3e6);
+            events.push((arrival, 0, k, 0.0));
+            k += 50;
+        }
+        for n in 0..1000u64 {
+            let start = 1.1e9 + n as f64 * 20e6;
+            let arrival = start + 2e6 + 5e6 + rng.gen_range(0.0..3e6);
+            events.push((arrival, 1, n, start));
+        }
+        for m in 0..80u64 {
+            let before = 1.05e9 + m as f64 * 250e6;
+            events.push((before, 2, m, 0.0));
+        }
+        events.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut pending: VecDeque<(Frame, f64)> = VecDeque::new();
+        let mut out = Vec::new();
+        for (t, kind, id, extra) in events {
+            match kind {
+                0 => {
+                    for j in id..id + 50 {
+                        let fz = sample_host(j) * 1e-9; // N per second of host time
+                        l.push_sample(&ForceSample {
+                            device_tick: j,
+                            transport_seq: None,
+                            host_time: HostTime(t as u64),
+                            wrench: Wrench::from_array([0.0, 0.0, fz, 0.0, 0.0, 0.0]),
+                            status: 0,
+                            strobe: None,
+                        });
+                    }
+                }
+                1 => {
+                    let frame = Frame {
+                        id,
+                        device_timestamp: camera_ticks(extra),
+                        host_arrival: HostTime(t as u64),
+                        width: 1,
+                        height: 1,
+                        format: crate::camera::PixelFormat::Mono8,
+                        data: Vec::new(),
+                    };
+                    l.observe_frame(&frame);
+                    pending.push_back((frame, extra));
+                }
+                _ => {
+                    let rtt = rng.gen_range(75e3..225e3);
+                    let at = t + rng.gen_range(0.0..rtt);
+                    let _ = tx.send(TimestampLatch {
+                        host_before: HostTime(t as u64),
+                        device_ticks: camera_ticks(at),
+                        host_after: HostTime((t + rtt) as u64),
+                    });
+                }
+            }
+            while let Some((frame, start)) = pending.front() {
+                match l.label(frame) {
+                    LabelOutcome::NotYet => break,
+                    LabelOutcome::Ready(label) => {
+                        if *start > 11e9 {
+                            out.push((label, *start));
+                        }
+                    }
+                    LabelOutcome::Unmatched(why) => panic!("frame {}: {why}", frame.id),
+                }
+                pending.pop_front();
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn windows_land_on_the_true_exposure_in_both_clocks() {
+        let labels = run(true);
+        assert!(labels.len() > 450, "{} labels", labels.len());
+        for (label, start) in &labels {
+            let mid_true = start + 1e6;
+            let host = label.window_host_ns.expect("host window");
+            let err_host = 0.5 * (host[0] + host[1]) - mid_true;
+            // The window in the force stream, back to true host time through the true clock.
+            let mid_ticks = 0.5 * (label.window_ticks[0] + label.window_ticks[1]);
+            let err_force = sample_host(0) + mid_ticks * SAMPLE_NS - mid_true;
+            assert!(
+                err_host.abs() < 100_000.0,
+                "camera map off by {err_host} ns"
+            );
+            assert!(
+                err_force.abs() < 100_000.0,
+                "force map off by {err_force} ns"
+            );
+            // Fz is host seconds: its window mean is the window's middle in true time.
+            let fz_err_ns = (label.mean.mean[2] - mid_true * 1e-9) * 1e9;
+            assert!(
+                (fz_err_ns - err_force).abs() < 1_000.0,
+                "{fz_err_ns} vs {err_force}"
+            );
+            assert!(
+                label.error_ns > 0.0 && label.error_ns < 200_000.0,
+                "{label:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn without_latches_the_unseen_readout_shows_in_the_window_and_the_error() {
+        let labels = run(false);
+        assert!(labels.len() > 450);
+        let (label, start) = &labels[labels.len() / 2];
+        let host = label.window_host_ns.expect("host window");
+        let err = 0.5 * (host[0] + host[1]) - (start + 1e6);
+        // Placed as if the frame arrived when its exposure ended: 5 ms of readout late.
+        assert!((err - 5e6).abs() < 200_000.0, "{err}");
+        assert!(label.error_ns >= 5e6, "{label:?}");
+    }
+}
