@@ -180,8 +180,10 @@ mod tests {
         // 1 kHz samples; Fz is 1 N before 0.5 s and 3 N after.
         let samples: Vec<(u64, Wrench)> = (0..1000u64)
             .map(|k| {
-                let mut w = Wrench::default();
-                w.fz = Newtons(if k < 500 { 1.0 } else { 3.0 });
+                let w = Wrench {
+                    fz: Newtons(if k < 500 { 1.0 } else { 3.0 }),
+                    ..Wrench::default()
+                };
                 (k * 1_000_000, w)
             })
             .collect();

@@ -12,8 +12,8 @@
 //!   samples as the ExposureActive strobe.
 //! - After the exposure ends, the frame is dropped with `drop_probability` (its id is skipped) or
 //!   handed to the render thread, which renders [`SceneSource::scene_at`] the middle of the
-//!   exposure. The renderer holds up to `render_queue` pending frames: an exposure ending while
-//!   the renderer is still busy and that many are waiting is dropped (counted as
+//!   exposure. The renderer holds one pending frame: an exposure ending while the renderer is
+//!   still busy with an earlier one and another one is waiting is dropped (counted as
 //!   `render_busy`), so a slow renderer drops frames instead of delaying the schedule.
 //! - A delivery thread hands the frame to the host at exposure end + `readout_ms` + a uniform
 //!   jitter in [0, `arrival_jitter_ms`] (or when rendering finishes, if later). Frames the host
@@ -148,10 +148,6 @@ pub struct SimCameraConfig {
     pub latch_round_trip_us: f64,
     /// Frames the host side buffers before dropping.
     pub host_buffers: usize,
-    /// Exposed frames waiting for the renderer (the camera's frame memory): an exposure that
-    /// ends with this many already waiting is dropped (`render_busy`). Absorbs the renderer's
-    /// frame-to-frame spread; a renderer slower than the frame rate on average still drops.
-    pub render_queue: usize,
 }
 
 impl Default for SimCameraConfig {
@@ -168,7 +164,6 @@ impl Default for SimCameraConfig {
             trigger_latency_us: 20.0,
             latch_round_trip_us: 150.0,
             host_buffers: 16,
-            render_queue: 3,
         }
     }
 }
@@ -642,7 +637,7 @@ impl Camera for SimCamera {
                 drift_ppm: self.clock.drift_ppm,
             });
         }
-        let (job_tx, job_rx) = bounded::<Job>(self.config.render_queue.max(1));
+        let (job_tx, job_rx) = bounded::<Job>(1);
         let (rendered_tx, rendered_rx) = unbounded::<Rendered>();
         let (frame_tx, frame_rx) = bounded::<Frame>(self.config.host_buffers.max(1));
         let roi = self.roi();
