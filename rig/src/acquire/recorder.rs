@@ -100,6 +100,18 @@ pub struct Recorder {
     handle: Option<JoinHandle<Result<(RunWriter, RecorderStats), StoreError>>>,
 }
 
+/// A checkpoint asked for and not yet confirmed.
+pub struct PendingCheckpoint(Receiver<Result<RecorderStats, String>>);
+
+impl PendingCheckpoint {
+    /// Waits up to `timeout` for the checkpoint to be made.
+    pub fn wait(self, timeout: Duration) -> Result<RecorderStats, String> {
+        self.0
+            .recv_timeout(timeout)
+            .map_err(|_| format!("the recorder did not checkpoint within {timeout:?}"))?
+    }
+}
+
 impl Recorder {
     /// Starts recording into `writer` from the two streams until both close.
     pub fn spawn(
@@ -149,12 +161,19 @@ impl Recorder {
     /// Finishes the frames waiting for labels, makes the run durable and records a checkpoint
     /// before point `next_point`; waits up to `timeout`.
     pub fn checkpoint(&self, next_point: u64, timeout: Duration) -> Result<RecorderStats, String> {
+        self.checkpoint_begin(next_point)?.wait(timeout)
+    }
+
+    /// Asks for the checkpoint before point `next_point` without waiting for it: the recorder
+    /// makes it once the frames before it are labelled and durable, while the caller goes on
+    /// (moving to the next point). Commands are handled in order, so a later rollback cuts
+    /// back to this checkpoint.
+    pub fn checkpoint_begin(&self, next_point: u64) -> Result<PendingCheckpoint, String> {
         let (tx, rx) = bounded(1);
         self.commands
             .send(Command::Checkpoint(next_point, tx))
             .map_err(|_| "the recorder has stopped".to_string())?;
-        rx.recv_timeout(timeout)
-            .map_err(|_| format!("the recorder did not checkpoint within {timeout:?}"))?
+        Ok(PendingCheckpoint(rx))
     }
 
     /// Cuts the frame records made since the last checkpoint (a point that is done again);

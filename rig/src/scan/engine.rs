@@ -20,7 +20,7 @@ use crate::acquire::clock_fit_labeler::{ClockFitLabeler, ClockFitOptions};
 use crate::acquire::force_stream::{ForceMonitor, ForceStream};
 use crate::acquire::host_labeler::HostLabeler;
 use crate::acquire::labeler::FrameLabeler;
-use crate::acquire::recorder::{Filming, FrameContext, Recorder, RecorderStats};
+use crate::acquire::recorder::{Filming, FrameContext, PendingCheckpoint, Recorder, RecorderStats};
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
 use crate::camera::CameraSettings;
@@ -256,6 +256,7 @@ pub fn run_scan(
         done_this_session: 0,
         watcher_retries: (0, 0),
         offset_checked: false,
+        pending_checkpoint: None,
         last_status: Instant::now(),
         mounted: None,
         manual_y_at: None,
@@ -453,6 +454,9 @@ struct Axes {
 /// ever under `--yes`).
 const MAX_WATCHER_RETRIES: u32 = 3;
 
+/// Longest wait for the recorder to make a checkpoint.
+const CHECKPOINT_TIMEOUT: Duration = Duration::from_secs(10);
+
 /// Force samples averaged for the no-contact offset before every point (0.1 s at 5 kHz).
 const TARE_SAMPLES: usize = 500;
 
@@ -492,6 +496,8 @@ struct Runner<'a> {
     excluded: Duration,
     /// Software overhead of each finished point.
     overheads: Vec<Duration>,
+    /// The checkpoint of the current point, made while the axes move to it.
+    pending_checkpoint: Option<PendingCheckpoint>,
 }
 
 impl Runner<'_> {
@@ -503,9 +509,21 @@ impl Runner<'_> {
             let p = &points[k];
             let point_started = Instant::now();
             self.excluded = Duration::ZERO;
-            self.recorder
-                .checkpoint(p.index, Duration::from_secs(10))
+            // The checkpoint before the point: waited for here when the scan stops for the
+            // operator (pause, indenter change, manual y row), otherwise made while the axes
+            // move to the point and waited for before the point films anything.
+            let stops = self.control.request() != Request::Run
+                || self.mounted.as_deref() != Some(p.shape.as_str())
+                || (self.setup.limits.manual_y && row_confirmed != Some(p.y.0));
+            let pending = self
+                .recorder
+                .checkpoint_begin(p.index)
                 .map_err(ScanError::Setup)?;
+            if stops {
+                pending.wait(CHECKPOINT_TIMEOUT).map_err(ScanError::Setup)?;
+            } else {
+                self.pending_checkpoint = Some(pending);
+            }
             match self.control.request() {
                 Request::Abort => return Ok(Ending::Aborted("aborted by the operator".into())),
                 Request::PauseAfterIndentation | Request::PauseNow => {
@@ -769,6 +787,10 @@ impl Runner<'_> {
         let moving = Instant::now();
         let lateral = self.wait_lateral()?;
         self.excluded += moving.elapsed();
+        // Nothing of this point is filmed, cut or checkpointed before its checkpoint is made.
+        if let Some(pending) = self.pending_checkpoint.take() {
+            pending.wait(CHECKPOINT_TIMEOUT).map_err(ScanError::Setup)?;
+        }
         if let Some(alarm) = lateral {
             return Ok(PointEnd::Interrupted(alarm));
         }
