@@ -168,6 +168,13 @@ pub struct CameraSection {
     pub exposure_active_line: Option<String>,
 }
 
+/// Frame rate of the simulated camera unless the rig file sets one, Hz. Rendering pressed
+/// 1920x1200 fringes costs about 26 ms of CPU per frame, so at the real camera's 50 fps the
+/// renderer and the recorder together need about 1.75 cores and the simulated camera drops frames
+/// on a 2-core machine (BENCHMARKS.md, "Recording"); at 25 fps they fit. Real cameras default to
+/// 50 fps.
+pub const SIM_FRAME_RATE_HZ: f64 = 25.0;
+
 /// Where the sensor sits on the stage (used until a calibration profile gives the origin).
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -571,7 +578,14 @@ impl RigConfig {
         Ok(CameraSettings {
             exposure: c.exposure_us.map_or(d.exposure, Microseconds),
             gain: c.gain_db.map_or(d.gain, Decibels),
-            frame_rate: c.frame_rate.map_or(d.frame_rate, Hertz),
+            frame_rate: c.frame_rate.map_or(
+                if self.simulated {
+                    Hertz(SIM_FRAME_RATE_HZ)
+                } else {
+                    d.frame_rate
+                },
+                Hertz,
+            ),
             roi: None,
             pixel_format,
             trigger,

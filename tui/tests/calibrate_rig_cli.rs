@@ -13,8 +13,7 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// `fringe calibrate --sensor ID` on the simulated bench (the shipped rig file at 25 fps): the
-/// calibration scan,
+/// `fringe calibrate --sensor ID` on the simulated bench (no rig file): the calibration scan,
 /// then a profile whose optics, registration and force offsets match the simulator's truth
 /// (layered sensor: optical centre (990, 600) px, radius 490 px, 18.3 px/mm, rotation 0,
 /// mirrored; the stage over the sensor centre at the bench geometry's x/y centre), the report
@@ -24,27 +23,10 @@ fn calibrates_the_simulated_bench_from_a_calibration_scan() {
     let root = temp_dir("rig");
     let out = root.join("profiles");
     let runs = root.join("runs");
-    // The shipped simulated rig file with the camera at 25 fps: the test binary shares the two
-    // cores with other tests, and rendering plus recording full frames at 50 fps needs most of
-    // them (BENCHMARKS.md).
-    let shipped = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../rig/rigs/simulated.toml"
-    ))
-    .expect("shipped simulated rig file");
-    assert!(shipped.contains("frame_rate = 50.0"));
-    let rig = root.join("rig.toml");
-    std::fs::write(
-        &rig,
-        shipped.replace("frame_rate = 50.0", "frame_rate = 25.0"),
-    )
-    .expect("rig file");
     let o = fringe(&[
         "calibrate",
         "--sensor",
         "layered-1",
-        "--rig",
-        rig.to_str().expect("utf-8"),
         "--out",
         out.to_str().expect("utf-8"),
         "--runs",
@@ -54,8 +36,7 @@ fn calibrates_the_simulated_bench_from_a_calibration_scan() {
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("9 presses"), "{t}");
-    let config = fringe_rig::rig_config::RigConfig::load(&rig)
-        .expect("rig file")
+    let config = fringe_rig::rig_config::RigConfig::simulated()
         .sim_config()
         .expect("sim config");
     let g = config.sensor.geometry();
