@@ -6,8 +6,8 @@
 //! selection rules:
 //! - background: valid frames labelled shape "None" (|Fz| under the 0.2 N noise floor);
 //! - a press: the valid in-contact frames of one grid point whose (tared) Fz is within 15 % of
-//!   the point's highest, that is the dwell at the top force target, at most
-//!   [`PRESS_FRAMES`] of them, spread over the dwell;
+//!   the point's highest, that is the dwell at the top force target, less two frames at each
+//!   end, at most [`PRESS_FRAMES`] of them, spread over the dwell;
 //! - force offsets: the raw force samples of the 100 ms before each `force-offset` event (the
 //!   engine measures the offset there, at the safe height, before every point).
 
@@ -24,6 +24,8 @@ pub const PRESS_FRAMES: usize = 8;
 const OFFSET_WINDOW_S: f64 = 0.1;
 /// A press frame's Fz must be at least this share of the point's highest.
 const DWELL_SHARE: f64 = 0.85;
+/// Frames left out at each end of a press's dwell.
+const DWELL_EDGE_FRAMES: usize = 2;
 
 /// The frames of one press.
 #[derive(Debug, Clone, PartialEq)]
@@ -118,10 +120,17 @@ fn presses(dir: &Path, records: &[FrameRecord]) -> Vec<Press> {
         let Some(top) = touching.iter().map(|(_, f)| *f).reduce(f64::max) else {
             continue;
         };
-        let dwell: Vec<(&FrameRecord, f64)> = touching
+        let mut dwell: Vec<(&FrameRecord, f64)> = touching
             .into_iter()
             .filter(|(_, f)| *f >= DWELL_SHARE * top)
             .collect();
+        // The frames at either end of the dwell may still show the end of the ramp or the
+        // start of the retract (a frame's label and its picture agree only as well as the
+        // synchronisation does): keep the middle of the dwell when there is enough of it.
+        if dwell.len() > 2 * DWELL_EDGE_FRAMES + 2 {
+            dwell.truncate(dwell.len() - DWELL_EDGE_FRAMES);
+            dwell.drain(..DWELL_EDGE_FRAMES);
+        }
         let step = dwell.len().div_ceil(PRESS_FRAMES).max(1);
         let chosen: Vec<&(&FrameRecord, f64)> = dwell.iter().step_by(step).collect();
         let n = chosen.len() as f64;
