@@ -456,17 +456,9 @@ impl ContactBackground {
             let ill = f64::from(self.illumination[k]);
             let [u, v] = bin_centre(k % bw, k / bw);
             if self.settings.gradient {
-                let (bi, bj) = (k % bw, k / bw);
-                if bi == 0 || bj == 0 || bi + 1 >= bw || bj + 1 >= self.bg.bh {
+                let Some(g) = gradient(&grid, k, bw, self.bg.bh) else {
                     continue;
-                }
-                let mut g2 = 0.0;
-                for ch in &grid {
-                    let dx = 0.5 * f64::from(ch[k + 1] - ch[k - 1]);
-                    let dy = 0.5 * f64::from(ch[k + bw] - ch[k - bw]);
-                    g2 += dx * dx + dy * dy;
-                }
-                let g = g2.sqrt();
+                };
                 // NaN (a neighbour outside the crop) fails the comparison.
                 if g.is_nan() || g <= threshold {
                     continue;
@@ -480,17 +472,10 @@ impl ContactBackground {
         for (n, &k) in self.inside.iter().enumerate() {
             let ill = f64::from(self.illumination[k]);
             let value = if self.settings.gradient {
-                let (bi, bj) = (k % bw, k / bw);
-                if bi == 0 || bj == 0 || bi + 1 >= bw || bj + 1 >= self.bg.bh {
+                let Some(g) = gradient(&grid, k, bw, self.bg.bh) else {
                     continue;
-                }
-                let mut g2 = 0.0;
-                for ch in &grid {
-                    let dx = 0.5 * f64::from(ch[k + 1] - ch[k - 1]);
-                    let dy = 0.5 * f64::from(ch[k + bw] - ch[k - bw]);
-                    g2 += dx * dx + dy * dy;
-                }
-                g2.sqrt()
+                };
+                g
             } else {
                 magnitude(&diff, n)
             };
@@ -803,6 +788,23 @@ fn polygon_centroid(p: &[[f64; 2]]) -> Option<[f64; 2]> {
 fn bin_centre(bi: usize, bj: usize) -> [f64; 2] {
     let h = 0.5 * BIN_PX as f64;
     [(bi * BIN_PX) as f64 + h, (bj * BIN_PX) as f64 + h]
+}
+
+/// Magnitude of the colour difference's gradient at bin `k` of a `bw` x `bh` grid (central
+/// differences over the three channels); `None` on the grid's border. NaN when a neighbour lies
+/// outside the crop.
+fn gradient(grid: &[Vec<f32>; 3], k: usize, bw: usize, bh: usize) -> Option<f64> {
+    let (bi, bj) = (k % bw, k / bw);
+    if bi == 0 || bj == 0 || bi + 1 >= bw || bj + 1 >= bh {
+        return None;
+    }
+    let mut g2 = 0.0;
+    for ch in grid {
+        let dx = 0.5 * f64::from(ch[k + 1] - ch[k - 1]);
+        let dy = 0.5 * f64::from(ch[k + bw] - ch[k - bw]);
+        g2 += dx * dx + dy * dy;
+    }
+    Some(g2.sqrt())
 }
 
 fn magnitude(diff: &[Vec<f32>; 3], n: usize) -> f64 {
