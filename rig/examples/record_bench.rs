@@ -19,12 +19,13 @@
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
-use fringe_rig::acquire::strobe_labeler::StrobeLabeler;
 use fringe_rig::camera::{CameraSettings, PixelFormat};
+use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::sim::ground_truth::{FrameFate, TruthLog, TruthSink};
 use fringe_rig::sim::rig::{SimRig, SimRigConfig};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
 use fringe_rig::store::run_writer::RunWriter;
+use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;
 use std::path::Path;
 use std::sync::Arc;
@@ -127,7 +128,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if bayer {
         settings.pixel_format = PixelFormat::BayerRg8;
     }
-    let cameras = CameraStream::spawn(devices.camera, &settings)?;
+    let tick_hz = devices.camera.info().tick_frequency as f64;
+    let cameras = CameraStream::spawn_with_latches(devices.camera, &settings, LATCH_PERIOD)?;
     let context = FrameContext::default();
     let here = Position {
         x: Millimetres(geometry.x_centre_mm + 2.0),
@@ -146,11 +148,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         writer,
         stream.samples().clone(),
         cameras.frames().clone(),
-        Box::new(StrobeLabeler::new(
-            1.65,
-            Duration::from_millis(2),
-            Duration::from_millis(9),
-        )),
+        labeler_for(SyncMethod::Strobe, &settings, tick_hz, &cameras),
         context.clone(),
     )?;
 

@@ -18,3 +18,5 @@ pub mod host_labeler;
 pub mod labeler;
 pub mod recorder;
 pub mod strobe_labeler;
+#[cfg(test)]
+pub(crate) mod synthetic;

@@ -3,12 +3,12 @@
 //! Optionally the same thread latches the camera's clock every `latch_period` between two frame
 //! reads ([`CameraStream::spawn_with_latches`]): the camera is only ever touched from this one
 //! thread (Aravis objects are not thread-safe), a latch delays the next frame read by its round
-//! trip only (frames wait in the camera's buffers meanwhile), and the exchanges go to a second
-//! channel for the `clock-fit` labeler. A camera that cannot latch (the first error) stops
+//! trip only (frames wait in the camera's buffers meanwhile), and every exchange goes to each
+//! subscriber ([`CameraStream::subscribe_latches`]: the labelers that place frames by clock). A camera that cannot latch (the first error) stops
 //! being asked; the error is kept for the run's notes, the frame stream goes on.
 
 use crate::camera::{Camera, CameraError, CameraSettings, Frame, TimestampLatch};
-use crossbeam_channel::{unbounded, Receiver};
+use crossbeam_channel::{unbounded, Receiver, Sender};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 /// A running camera stream.
 pub struct CameraStream {
     frames: Receiver<Frame>,
-    latches: Receiver<TimestampLatch>,
+    latch_subscribers: Arc<Mutex<Vec<Sender<TimestampLatch>>>>,
     stop: Arc<AtomicBool>,
     error: Arc<Mutex<Option<String>>>,
     latch_error: Arc<Mutex<Option<String>>>,
@@ -51,13 +51,14 @@ impl CameraStream {
         camera.configure(settings)?;
         camera.start()?;
         let (tx, rx) = unbounded();
-        let (latch_tx, latch_rx) = unbounded();
+        let latch_subscribers: Arc<Mutex<Vec<Sender<TimestampLatch>>>> = Arc::default();
         let stop = Arc::new(AtomicBool::new(false));
         let error = Arc::new(Mutex::new(None));
         let latch_error = Arc::new(Mutex::new(None));
         let name = camera.info().id;
         let thread = {
             let (stop, error, latch_error) = (stop.clone(), error.clone(), latch_error.clone());
+            let subscribers = latch_subscribers.clone();
             std::thread::Builder::new()
                 .name("camera-stream".into())
                 .spawn(move || {
@@ -68,10 +69,11 @@ impl CameraStream {
                             if Instant::now() >= next_latch {
                                 next_latch += period;
                                 match camera.latch_timestamp() {
-                                    // A closed receiver only means nobody wants latches.
-                                    Ok(l) => {
-                                        let _ = latch_tx.send(l);
-                                    }
+                                    // A closed receiver only means that subscriber left.
+                                    Ok(l) => subscribers
+                                        .lock()
+                                        .unwrap_or_else(|p| p.into_inner())
+                                        .retain(|s| s.send(l).is_ok()),
                                     Err(e) => {
                                         *latch_error.lock().unwrap_or_else(|p| p.into_inner()) =
                                             Some(e.to_string());
@@ -103,7 +105,7 @@ impl CameraStream {
         };
         Ok(CameraStream {
             frames: rx,
-            latches: latch_rx,
+            latch_subscribers,
             stop,
             error,
             latch_error,
@@ -116,9 +118,15 @@ impl CameraStream {
         &self.frames
     }
 
-    /// Timestamp-latch exchanges, in the order taken (none unless started with latches).
-    pub fn latches(&self) -> &Receiver<TimestampLatch> {
-        &self.latches
+    /// A new receiver of every timestamp-latch exchange taken from now on, in the order taken
+    /// (none unless started with latches).
+    pub fn subscribe_latches(&self) -> Receiver<TimestampLatch> {
+        let (tx, rx) = unbounded();
+        self.latch_subscribers
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(tx);
+        rx
     }
 
     /// Why the camera stopped being latched, if it failed to latch.

@@ -14,7 +14,9 @@
 //!   by the constant exposure + readout + transfer time; timestamp-latch exchanges, taken by the
 //!   camera stream thread between frames ([`super::camera_stream::CameraStream::spawn_with_latches`])
 //!   and fitted by [`crate::sync::latch`], calibrate that constant: the one-way line is shifted
-//!   onto the latch line at the latches' centre. Without latches the exposure end is placed at
+//!   onto the latch line at the latches' centre, or, when the latches know the clock rate better
+//!   than the arrivals do (a short history, or delivery delays that vary by many ms), the latch
+//!   line is used as it is. Without latches the exposure end is placed at
 //!   the least-delayed arrival (readout taken as zero) and the error says so.
 //! - **Window**: [device timestamp, + exposure time] in camera ticks -> host time (camera map)
 //!   -> fractional force sample index (force map), and the six-axis force averaged over it with
@@ -54,6 +56,9 @@ pub struct ClockFitOptions {
     /// How long after the first frame to wait for three latches before labelling without them
     /// (when a latch channel was given).
     pub latch_wait: Duration,
+    /// Exposure end to the least-delayed frame arrival (readout + transfer) assumed when no
+    /// latch calibrates it; zero by default (frames placed as if read out at once).
+    pub assumed_readout: Duration,
     /// 1-sigma error put on the unseen readout + transfer time when no latch calibrates it.
     pub uncalibrated_latency_error: Duration,
     /// The force path's minimum delivery delay (sample taken -> least-delayed arrival), if known
@@ -72,10 +77,34 @@ impl ClockFitOptions {
             fit_window: Duration::from_secs(60),
             refit_every: Duration::from_millis(500),
             latch_wait: Duration::from_secs(3),
+            assumed_readout: Duration::ZERO,
             uncalibrated_latency_error: Duration::from_millis(5),
             force_latency: Duration::ZERO,
         }
     }
+}
+
+/// A frame's exposure as the clock fits place it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedWindow {
+    /// Exposure start and end in the force stream's fractional sample index.
+    pub ticks: [f64; 2],
+    /// The same on the host time base, ns.
+    pub host_ns: [f64; 2],
+    /// 1-sigma error of the placement, ns.
+    pub error_ns: f64,
+    /// Whether timestamp latches calibrated the camera clock (else the readout is assumed).
+    pub calibrated: bool,
+}
+
+/// What [`ClockFitLabeler::place`] found.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Placement {
+    Window(PlacedWindow),
+    /// The fits need more data (or are waiting for latches): ask again later.
+    NotYet,
+    /// The fits cannot be made; the reason.
+    Unavailable(String),
 }
 
 /// The camera clock as currently known.
@@ -282,32 +311,56 @@ impl ClockFitLabeler {
         };
         self.camera = Some(match &self.latch_fit {
             Some(lf) => {
-                // Shift the one-way line onto the latch line at the latches' centre; what is
-                // left between the two lines at the latches is part of the error.
-                let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
-                let diffs: Vec<f64> = ticks
-                    .iter()
-                    .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
-                    .collect();
-                let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
-                let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
-                    / diffs.len().max(1) as f64)
-                    .sqrt();
                 // The latch line's own error at its centre: each kept midpoint is uniform within
                 // its half round trip, or scattered as the residuals say, whichever is larger.
                 let per_latch = lf.rms_residual_ns.max(lf.half_round_trip_ns / 3f64.sqrt());
                 let line = per_latch / (lf.used as f64).sqrt();
-                let mut map = ow.map;
-                map.host_at_origin_ns -= offset;
-                CameraClock {
-                    map,
-                    error_ns: (line * line + disagreement * disagreement).sqrt(),
-                    calibrated: true,
+                let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
+                // Which line knows the rate better: the one-way line (frames over a long span
+                // with steady delays) or the latch line (latches over a short one, or frames
+                // delivered with widely varying delays)?
+                let mean_tick = ticks.iter().map(|&t| t as f64).sum::<f64>() / ticks.len() as f64;
+                let spread_ns = ticks
+                    .iter()
+                    .map(|&t| ((t as f64 - mean_tick) * lf.map.ns_per_tick).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                let latch_rate_error = per_latch / spread_ns.max(1.0);
+                let frames_span_ns = match (self.frames.front(), self.frames.back()) {
+                    (Some(a), Some(b)) => (b.0 - a.0) as f64 * ow.map.ns_per_tick,
+                    _ => 0.0,
+                };
+                let one_way_rate_error = 2.0 * ow.hull_gap_ns / frames_span_ns.max(1.0);
+                if latch_rate_error < one_way_rate_error {
+                    CameraClock {
+                        map: lf.map,
+                        error_ns: line,
+                        calibrated: true,
+                    }
+                } else {
+                    // Shift the one-way line onto the latch line at the latches' centre; what
+                    // is left between the two lines at the latches is part of the error.
+                    let diffs: Vec<f64> = ticks
+                        .iter()
+                        .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
+                        .collect();
+                    let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
+                    let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
+                        / diffs.len().max(1) as f64)
+                        .sqrt();
+                    let mut map = ow.map;
+                    map.host_at_origin_ns -= offset;
+                    CameraClock {
+                        map,
+                        error_ns: (line * line + disagreement * disagreement).sqrt(),
+                        calibrated: true,
+                    }
                 }
             }
             None => {
-                // The least-delayed frame arrived when its exposure ended (readout unseen).
-                let exposure_ns = self.options.exposure.0 * 1e3;
+                // The least-delayed frame arrived the assumed readout after its exposure ended.
+                let exposure_ns =
+                    self.options.exposure.0 * 1e3 + self.options.assumed_readout.as_nanos() as f64;
                 let mut map = ow.map;
                 map.host_at_origin_ns -= exposure_ns;
                 let unseen = self.options.uncalibrated_latency_error.as_nanos() as f64;
@@ -341,8 +394,9 @@ impl ClockFitLabeler {
             })
     }
 
-    /// The label of `frame`.
-    pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
+    /// Where `frame`'s exposure lies in the force stream and on the host time base, as the
+    /// clock fits place it now.
+    pub fn place(&mut self, frame: &Frame) -> Placement {
         if self.frames.is_empty() {
             self.observe_frame(frame);
         }
@@ -352,21 +406,39 @@ impl ClockFitLabeler {
         let (Some(force), Some(camera)) = (&self.force_fit, self.camera) else {
             // Fits need a second of force data and ten frames.
             return if now.0.saturating_sub(frame.host_arrival.0) < 10_000_000_000 {
-                LabelOutcome::NotYet
+                Placement::NotYet
             } else {
-                LabelOutcome::Unmatched("clock-fit: not enough data for the clock fits".into())
+                Placement::Unavailable("clock-fit: not enough data for the clock fits".into())
             };
         };
         if !camera.calibrated && self.waiting_for_latches(now) {
-            return LabelOutcome::NotYet;
+            return Placement::NotYet;
         }
         let start_ticks = frame.device_timestamp;
         let exposure_ticks = self.options.exposure.0 * 1e-6 * self.options.camera_tick_hz;
         let start_host = camera.map.host_ns(start_ticks);
         let end_host = camera.map.host_ns_f(start_ticks as f64 + exposure_ticks);
         let latency = self.options.force_latency.as_nanos() as f64;
-        let start = force.map.ticks_at(start_host + latency);
-        let end = force.map.ticks_at(end_host + latency);
+        let force_error = force.hull_gap_ns;
+        Placement::Window(PlacedWindow {
+            ticks: [
+                force.map.ticks_at(start_host + latency),
+                force.map.ticks_at(end_host + latency),
+            ],
+            host_ns: [start_host, end_host],
+            error_ns: (force_error * force_error + camera.error_ns * camera.error_ns).sqrt(),
+            calibrated: camera.calibrated,
+        })
+    }
+
+    /// The label of `frame`.
+    pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
+        let placed = match self.place(frame) {
+            Placement::Window(w) => w,
+            Placement::NotYet => return LabelOutcome::NotYet,
+            Placement::Unavailable(why) => return LabelOutcome::Unmatched(why),
+        };
+        let [start, end] = placed.ticks;
         let newest = self
             .samples
             .back()
@@ -389,14 +461,12 @@ impl ClockFitLabeler {
             .range(first..=last)
             .map(|s| (s.0 as f64, s.1))
             .collect();
-        let force_error = force.hull_gap_ns;
-        let error_ns = (force_error * force_error + camera.error_ns * camera.error_ns).sqrt();
-        self.last_error_ns = Some(error_ns);
+        self.last_error_ns = Some(placed.error_ns);
         match mean_over(&span, start, end) {
             Ok(mean) => LabelOutcome::Ready(ExposureLabel {
                 window_ticks: [start, end],
-                window_host_ns: Some([start_host, end_host]),
-                error_ns,
+                window_host_ns: Some(placed.host_ns),
+                error_ns: placed.error_ns,
                 mean,
             }),
             Err(e) => LabelOutcome::Unmatched(format!("clock-fit window: {e}")),
@@ -458,108 +528,37 @@ impl FrameLabeler for ClockFitLabeler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::units::Wrench;
-    use rand::{Rng, SeedableRng};
+    use crate::acquire::synthetic::{self, sample_at, sample_host, Bench};
+    use rand::Rng;
 
-    const SAMPLE_NS: f64 = 200_000.0 * (1.0 - 100e-6); // a 5 kHz counter running 100 ppm fast
-    const CAMERA_RATE: f64 = 1.0 - 100e-6; // camera ticks per host ns (100 ppm slow)
-    const CAMERA_T0: u64 = 9_000_000_000_000;
-
-    fn sample_host(k: u64) -> f64 {
-        1e9 + k as f64 * SAMPLE_NS
-    }
-
-    fn camera_ticks(host_ns: f64) -> u64 {
-        CAMERA_T0 + ((host_ns - 1e9) * CAMERA_RATE).round() as u64
-    }
-
-    /// 20 s of synthetic data: force samples in blocks of 50 delivered 0-3 ms late, Fz a ramp
-    /// in host time; 50 Hz frames of 2 ms exposure arriving 5 ms + U(0, 3 ms) after exposure
-    /// end; a latch every 250 ms with a 75-225 us round trip. Returns the labels of the frames
-    /// in the last 10 s with their true exposure start (host ns).
-    fn run(with_latches: bool) -> Vec<(ExposureLabel, f64)> {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+    /// Labels of the synthetic bench's frames (strobe not used) whose true exposure starts
+    /// after 11 s, with that start (host ns).
+    fn run(bench: &Bench, with_latches: bool) -> Vec<(ExposureLabel, f64)> {
         let (tx, rx) = crossbeam_channel::unbounded();
         let mut l = ClockFitLabeler::new(
             ClockFitOptions::new(Microseconds(2000.0), 1e9),
             with_latches.then_some(rx),
         );
-        let mut events: Vec<(f64, u8, u64, f64)> = Vec::new(); // (host, kind, id, extra)
-        let mut k = 0u64;
-        while sample_host(k + 49) < 21e9 {
-            let arrival = sample_host(k + 49) + rng.gen_range(0.0..3e6);
-            events.push((arrival, 0, k, 0.0));
-            k += 50;
-        }
-        for n in 0..1000u64 {
-            let start = 1.1e9 + n as f64 * 20e6;
-            let arrival = start + 2e6 + 5e6 + rng.gen_range(0.0..3e6);
-            events.push((arrival, 1, n, start));
-        }
-        for m in 0..80u64 {
-            let before = 1.05e9 + m as f64 * 250e6;
-            events.push((before, 2, m, 0.0));
-        }
-        events.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut pending: VecDeque<(Frame, f64)> = VecDeque::new();
-        let mut out = Vec::new();
-        for (t, kind, id, extra) in events {
-            match kind {
-                0 => {
-                    for j in id..id + 50 {
-                        let fz = sample_host(j) * 1e-9; // N per second of host time
-                        l.push_sample(&ForceSample {
-                            device_tick: j,
-                            transport_seq: None,
-                            host_time: HostTime(t as u64),
-                            wrench: Wrench::from_array([0.0, 0.0, fz, 0.0, 0.0, 0.0]),
-                            status: 0,
-                            strobe: None,
-                        });
-                    }
-                }
-                1 => {
-                    let frame = Frame {
-                        id,
-                        device_timestamp: camera_ticks(extra),
-                        host_arrival: HostTime(t as u64),
-                        width: 1,
-                        height: 1,
-                        format: crate::camera::PixelFormat::Mono8,
-                        data: Vec::new(),
-                    };
-                    l.observe_frame(&frame);
-                    pending.push_back((frame, extra));
-                }
-                _ => {
-                    let rtt = rng.gen_range(75e3..225e3);
-                    let at = t + rng.gen_range(0.0..rtt);
-                    let _ = tx.send(TimestampLatch {
-                        host_before: HostTime(t as u64),
-                        device_ticks: camera_ticks(at),
-                        host_after: HostTime((t + rtt) as u64),
-                    });
-                }
-            }
-            while let Some((frame, start)) = pending.front() {
-                match l.label(frame) {
-                    LabelOutcome::NotYet => break,
-                    LabelOutcome::Ready(label) => {
-                        if *start > 11e9 {
-                            out.push((label, *start));
-                        }
-                    }
-                    LabelOutcome::Unmatched(why) => panic!("frame {}: {why}", frame.id),
-                }
-                pending.pop_front();
-            }
-        }
-        out
+        synthetic::run(&mut l, synthetic::events(bench, 11), &tx)
+            .into_iter()
+            .filter(|f| f.true_start > 11e9)
+            .map(|f| match f.outcome {
+                LabelOutcome::Ready(label) => (label, f.true_start),
+                other => panic!("frame {}: {other:?}", f.id),
+            })
+            .collect()
+    }
+
+    fn quiet() -> Bench {
+        let mut bench = Bench::new();
+        bench.seconds = 21.0;
+        bench.strobe = false;
+        bench
     }
 
     #[test]
     fn windows_land_on_the_true_exposure_in_both_clocks() {
-        let labels = run(true);
+        let labels = run(&quiet(), true);
         assert!(labels.len() > 450, "{} labels", labels.len());
         for (label, start) in &labels {
             let mid_true = start + 1e6;
@@ -567,7 +566,7 @@ mod tests {
             let err_host = 0.5 * (host[0] + host[1]) - mid_true;
             // The window in the force stream, back to true host time through the true clock.
             let mid_ticks = 0.5 * (label.window_ticks[0] + label.window_ticks[1]);
-            let err_force = sample_host(0) + mid_ticks * SAMPLE_NS - mid_true;
+            let err_force = sample_host(0) + mid_ticks * synthetic::SAMPLE_NS - mid_true;
             assert!(
                 err_host.abs() < 100_000.0,
                 "camera map off by {err_host} ns"
@@ -589,9 +588,37 @@ mod tests {
         }
     }
 
+    /// Frames delivered 30-70 ms after their exposure (a busy host, a slow transfer): the
+    /// arrivals give a poor rate, the latches a good one, and every window still lands within
+    /// 0.5 ms of the exposure, from the first frames on.
+    #[test]
+    fn widely_varying_delivery_delays_leave_the_latched_clock_right() {
+        let mut bench = quiet();
+        bench.delivery_ns = Box::new(|_, rng| rng.gen_range(30e6..70e6));
+        let (tx, rx) = crossbeam_channel::unbounded();
+        let mut l = ClockFitLabeler::new(ClockFitOptions::new(Microseconds(2000.0), 1e9), Some(rx));
+        let labelled = synthetic::run(&mut l, synthetic::events(&bench, 12), &tx);
+        let ready: Vec<_> = labelled
+            .iter()
+            .filter_map(|f| match &f.outcome {
+                LabelOutcome::Ready(label) => Some((label, f.true_start)),
+                _ => None,
+            })
+            .collect();
+        assert!(ready.len() > 900, "{} labelled", ready.len());
+        for (label, start) in ready {
+            let err_samples = label.window_ticks[0] - sample_at(start);
+            assert!(
+                err_samples.abs() < 2.5,
+                "window off by {err_samples:.1} samples at {:.2} s",
+                start * 1e-9
+            );
+        }
+    }
+
     #[test]
     fn without_latches_the_unseen_readout_shows_in_the_window_and_the_error() {
-        let labels = run(false);
+        let labels = run(&quiet(), false);
         assert!(labels.len() > 450);
         let (label, start) = &labels[labels.len() / 2];
         let host = label.window_host_ns.expect("host window");

@@ -3,11 +3,11 @@
 //! each dwell with its force label from the exposure strobe, store a run and score the labels
 //! against the simulator's ground truth.
 
+use super::engine::{labeler_for, LATCH_PERIOD};
 use super::press::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
 use crate::acquire::camera_stream::CameraStream;
 use crate::acquire::force_stream::ForceStream;
 use crate::acquire::recorder::{Filming, FrameContext, Recorder};
-use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::Axis;
 use crate::camera::CameraSettings;
 use crate::devices::Devices;
@@ -18,6 +18,7 @@ use crate::store::documents::{
 };
 use crate::store::run_writer::RunWriter;
 use crate::store::StoreError;
+use crate::sync::method::SyncMethod;
 use crate::units::{Millimetres, Newtons};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -140,14 +141,16 @@ pub fn run_demo(
     };
     let writer = RunWriter::create(root, &start)?;
     let run_dir = writer.dir().to_path_buf();
-    let cameras = CameraStream::spawn(camera, &CameraSettings::default())?;
+    let settings = CameraSettings::default();
+    let tick_hz = camera.info().tick_frequency as f64;
+    let cameras = CameraStream::spawn_with_latches(camera, &settings, LATCH_PERIOD)?;
     let filming = FrameContext::default();
-    let labeler = StrobeLabeler::new(1.65, Duration::from_millis(2), Duration::from_millis(9));
+    let labeler = labeler_for(SyncMethod::Strobe, &settings, tick_hz, &cameras);
     let recorder = Recorder::spawn(
         writer,
         stream.samples().clone(),
         cameras.frames().clone(),
-        Box::new(labeler),
+        labeler,
         filming.clone(),
     )?;
 

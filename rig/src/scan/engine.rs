@@ -122,11 +122,20 @@ enum PointEnd {
 const MOVE_TIMEOUT: Duration = Duration::from_secs(120);
 const POLL: Duration = Duration::from_millis(5);
 
-/// How often the camera clock is latched for `clock-fit` (on the camera stream thread).
+/// How often the camera clock is latched (on the camera stream thread), for the methods that
+/// place frames by clock (`strobe` to pick each frame's window, `clock-fit` for the window).
 pub const LATCH_PERIOD: Duration = Duration::from_millis(250);
 
+/// Exposure end to frame arrival assumed by `strobe` for a camera that gives no timestamp
+/// latches (sensor readout and transfer of a USB3 camera: a few ms).
+pub const ASSUMED_READOUT: Duration = Duration::from_millis(5);
+
+/// Strobe level of the ExposureActive channel, V (half the 3.3 V logic level).
+pub const STROBE_THRESHOLD_V: f64 = 1.65;
+
 /// The labeler of synchronisation method `sync` for a camera with `settings` whose timestamps
-/// tick at `tick_hz`, reading latches from `cameras` for `clock-fit`.
+/// tick at `tick_hz`, taking latches from `cameras` (started with
+/// [`CameraStream::spawn_with_latches`]) for `strobe` and `clock-fit`.
 pub fn labeler_for(
     sync: SyncMethod,
     settings: &CameraSettings,
@@ -134,14 +143,18 @@ pub fn labeler_for(
     cameras: &CameraStream,
 ) -> Box<dyn FrameLabeler> {
     match sync {
-        SyncMethod::Strobe => Box::new(StrobeLabeler::new(
-            1.65,
-            Duration::from_millis(2),
-            Duration::from_millis(9),
-        )),
+        SyncMethod::Strobe => {
+            let mut options = ClockFitOptions::new(settings.exposure, tick_hz);
+            options.assumed_readout = ASSUMED_READOUT;
+            Box::new(StrobeLabeler::new(
+                STROBE_THRESHOLD_V,
+                options,
+                Some(cameras.subscribe_latches()),
+            ))
+        }
         SyncMethod::ClockFit => Box::new(ClockFitLabeler::new(
             ClockFitOptions::new(settings.exposure, tick_hz),
-            Some(cameras.latches().clone()),
+            Some(cameras.subscribe_latches()),
         )),
         SyncMethod::Host => Box::new(HostLabeler::new(settings.exposure)),
     }
@@ -190,10 +203,10 @@ pub fn run_scan(
     let monitor = stream.monitor();
     let tick_hz = camera.info().tick_frequency as f64;
     let cameras = match setup.sync {
-        SyncMethod::ClockFit => {
+        SyncMethod::ClockFit | SyncMethod::Strobe => {
             CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
         }
-        SyncMethod::Strobe | SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
+        SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
     };
     let context = FrameContext::default();
     let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
