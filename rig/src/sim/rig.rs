@@ -257,7 +257,7 @@ impl SimRig {
             camera = camera.with_truth(t.clone());
         }
         description.push(format!(
-            "camera: simulated {}x{} at 50 Hz, sensor {} ({})",
+            "camera: simulated {}x{} (frame rate as the camera is configured), sensor {} ({})",
             config.sensor.geometry.width,
             config.sensor.geometry.height,
             config.sensor.id,
