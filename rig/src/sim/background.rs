@@ -96,11 +96,13 @@ pub const DARK_DN: f32 = 0.01;
 /// Linear light of a pixel that sees `illumination` times the fringe colour `rgb` plus `glow`.
 #[inline]
 pub fn pixel_light(illumination: f32, rgb: [f32; 3], glow: f32) -> [f32; 3] {
-    [
-        illumination * rgb[0] + glow * LED_COLOUR[0],
-        illumination * rgb[1] + glow * LED_COLOUR[1],
-        illumination * rgb[2] + glow * LED_COLOUR[2],
-    ]
+    [0, 1, 2].map(|c| channel_light(illumination, rgb[c], glow, c))
+}
+
+/// Channel `c` (0 red, 1 green, 2 blue) of [`pixel_light`], with that channel's colour `colour`.
+#[inline(always)]
+pub fn channel_light(illumination: f32, colour: f32, glow: f32, c: usize) -> f32 {
+    illumination * colour + glow * LED_COLOUR[c]
 }
 
 /// SplitMix64 step: a small, well-mixed deterministic generator for seeded fields and noise.
