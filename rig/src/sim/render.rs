@@ -165,6 +165,9 @@ fn write_span<L: Layout>(
     }
 }
 
+/// Rows per unit of work of the render threads (even: no 2x2 block straddles two bands).
+const BAND_ROWS: usize = 16;
+
 /// Gain is applied in fixed point with this many fractional bits.
 const GAIN_BITS: u32 = 12;
 
@@ -591,18 +594,20 @@ impl Renderer {
         out
     }
 
-    /// Renders rows `rows` into `out` (exactly those rows' bytes, in layout `L`).
+    /// Renders rows `rows` (starting at an even row) into `out` (exactly those rows' bytes, in
+    /// layout `L`); `block_rgb` is scratch space.
     fn render_rows<L: Layout>(
         &self,
         params: &FrameParams,
         rows: std::ops::Range<usize>,
         out: &mut [u8],
+        block_rgb: &mut Vec<[f32; 3]>,
     ) {
         let w = self.background.width();
         let unloaded = self.background.unloaded();
         let lut = params.lut;
         // Fringe colours of the 2x2 blocks of the current row pair.
-        let mut block_rgb = vec![[0.0f32; 3]; w.div_ceil(2)];
+        block_rgb.resize(w.div_ceil(2), [0.0; 3]);
         let h = self.background.height();
         for (r, (j, line)) in rows.zip(out.chunks_exact_mut(w * L::BYTES)).enumerate() {
             let row_light = &unloaded[3 * j * w..3 * (j + 1) * w];
@@ -742,21 +747,25 @@ impl Renderer {
             lut: &self.frame_lut,
             noise_seed: self.config.seed ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
         };
-        let threads = self.config.threads.min(h).max(1);
-        // Even, so that no 2x2 block straddles two threads.
-        let rows_per = h.div_ceil(threads).next_multiple_of(2);
+        let threads = self.config.threads.min(h.div_ceil(BAND_ROWS)).max(1);
+        // Bands of rows go to whichever thread is free: the contact's rows cost more than the
+        // others, and a thread that loses its core to another process does fewer of them.
+        let bands = Mutex::new(out.chunks_mut(BAND_ROWS * w * L::BYTES).enumerate());
         let this = &*self;
+        let work = || {
+            let mut block_rgb = Vec::new();
+            loop {
+                let next = bands.lock().unwrap_or_else(|e| e.into_inner()).next();
+                let Some((b, band)) = next else { break };
+                let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h);
+                this.render_rows::<L>(&params, rows, band, &mut block_rgb);
+            }
+        };
         std::thread::scope(|scope| {
-            let mut chunks = out.chunks_mut(rows_per * w * L::BYTES).enumerate();
-            let first = chunks.next();
-            for (t, chunk) in chunks {
-                let params = &params;
-                let rows = t * rows_per..((t + 1) * rows_per).min(h);
-                scope.spawn(move || this.render_rows::<L>(params, rows, chunk));
+            for _ in 1..threads {
+                scope.spawn(work);
             }
-            if let Some((_, chunk)) = first {
-                this.render_rows::<L>(&params, 0..rows_per.min(h), chunk);
-            }
+            work();
         });
     }
 }
