@@ -59,20 +59,26 @@ const NOISE_LEVEL_BITS: u32 = 5;
 /// with a clamped row and a masked level needs no bounds check.
 type OutputTable = [u8; LUT_ROWS * NOISE_LEVELS];
 
-/// Gain, offset, noise and gamma of one value: linear light `q` in 1/16 DN steps, noise level
-/// `z`, to an 8-bit value.
+/// Where the output table row of linear light `q` (1/16 DN steps) starts; the last row holds
+/// all brighter light.
 #[inline(always)]
-fn output(lut: &OutputTable, q: u16, z: u8) -> u8 {
-    let row = usize::from(q >> LUT_ROW_SHIFT).min(LUT_ROWS - 1);
-    lut[(row << NOISE_LEVEL_BITS) | usize::from(z & (NOISE_LEVELS as u8 - 1))]
+fn table_row(q: u16) -> u16 {
+    (q >> LUT_ROW_SHIFT).min(LUT_ROWS as u16 - 1) << NOISE_LEVEL_BITS
+}
+
+/// Gain, offset, noise and gamma of one value: the light's [`table_row`] and noise level `z` to
+/// an 8-bit value.
+#[inline(always)]
+fn output(lut: &OutputTable, row: u16, z: u8) -> u8 {
+    lut[usize::from(row | u16::from(z & (NOISE_LEVELS as u8 - 1)))]
 }
 
 /// What the output stage writes per pixel: the camera's pixel format.
 trait Layout {
     const FORMAT: PixelFormat;
     const BYTES: usize;
-    /// Writes the pixel at (`row`, `col`) into `out` (`BYTES` long): `light(c)` is channel c's
-    /// linear light in 1/16 DN steps, `z` the pixel's three noise levels.
+    /// Writes the pixel at (`row`, `col`) into `out` (`BYTES` long): `light(c)` is the
+    /// [`table_row`] of channel c's light, `z` the pixel's three noise levels.
     fn pixel(
         lut: &OutputTable,
         row: usize,
@@ -147,21 +153,22 @@ impl Layout for Grey {
     }
 }
 
-/// Writes pixels `cols` of row `row` through the output stage: `light(col, c)` is the linear
-/// light, `noise` the row's noise levels (three per pixel), `line` the row's output bytes.
+/// Writes pixels `cols` of row `row` through the output stage: `light` gives each pixel's
+/// channel -> [`table_row`] function, `noise` holds the row's noise levels (three per pixel),
+/// `line` the row's output bytes.
 #[inline(always)]
-fn write_span<L: Layout>(
+fn write_span<L: Layout, P: Fn(usize) -> u16>(
     lut: &OutputTable,
     row: usize,
     cols: std::ops::Range<usize>,
     noise: &[u8],
     line: &mut [u8],
-    light: impl Fn(usize, usize) -> u16,
+    light: impl Iterator<Item = P>,
 ) {
     let out = line[cols.start * L::BYTES..cols.end * L::BYTES].chunks_exact_mut(L::BYTES);
     let z = noise[3 * cols.start..3 * cols.end].chunks_exact(3);
-    for ((px, z), col) in out.zip(z).zip(cols) {
-        L::pixel(lut, row, col, |c| light(col, c), z, px);
+    for (((px, z), col), light) in out.zip(z).zip(cols).zip(light) {
+        L::pixel(lut, row, col, light, z, px);
     }
 }
 
@@ -416,6 +423,8 @@ pub struct Renderer {
     noise: Vec<u8>,
     /// 8-bit output for (light row, noise level): noise sigma^2 = a I + b, then gamma.
     lut: Vec<u8>,
+    /// The unloaded sensor's light as [`table_row`]s, interleaved RGB.
+    unloaded: Vec<u16>,
     /// `lut` with this frame's gain and offset folded in (rebuilt per frame).
     frame_lut: Box<OutputTable>,
     drift: Drift,
@@ -439,7 +448,8 @@ impl Renderer {
         };
         let table = colour_table(polariser);
         let colours = PackedColours::new(&table, 1024, 65);
-        let background = Background::new(&config, &geometry, &colours);
+        let background = Background::new(&config, &geometry);
+        let unloaded = background.unloaded_light(&colours).map(table_row).collect();
 
         let rectangle_unit = unit_field(&config, &config.rectangle());
         let f_sigma_n_per_m = if config.layer.target_fringes > 0.0 {
@@ -478,6 +488,7 @@ impl Renderer {
             geometry,
             colours,
             background,
+            unloaded,
             fields: HashMap::new(),
             f_sigma_n_per_m,
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
@@ -604,17 +615,21 @@ impl Renderer {
         block_rgb: &mut Vec<[f32; 3]>,
     ) {
         let w = self.background.width();
-        let unloaded = self.background.unloaded();
         let lut = params.lut;
         // Fringe colours of the 2x2 blocks of the current row pair.
         block_rgb.resize(w.div_ceil(2), [0.0; 3]);
         let h = self.background.height();
         for (r, (j, line)) in rows.zip(out.chunks_exact_mut(w * L::BYTES)).enumerate() {
-            let row_light = &unloaded[3 * j * w..3 * (j + 1) * w];
+            let row_light = &self.unloaded[3 * j * w..3 * (j + 1) * w];
             let mut state = params.noise_seed ^ (j as u64).wrapping_mul(0xA24B_AED4_963E_E407);
             let tile_start = (splitmix64(&mut state) % (self.noise.len() - 3 * w) as u64) as usize;
             let noise = &self.noise[tile_start..tile_start + 3 * w];
-            let background = |col: usize, c: usize| row_light[3 * col + c];
+            // The unloaded pixels of columns `cols`.
+            let background = |cols: std::ops::Range<usize>| {
+                row_light[3 * cols.start..3 * cols.end]
+                    .chunks_exact(3)
+                    .map(|rows| move |c: usize| rows[c])
+            };
             // The lit columns of row `row` within the contact's reach.
             let reach = |map: &ContactMap, row: usize| {
                 let (start, end) = self.background.span(row);
@@ -651,15 +666,23 @@ impl Renderer {
                             *rgb = self.colours.lookup(n + residual, sigma);
                         }
                     }
-                    write_span::<L>(lut, j, 0..start, noise, line, background);
+                    write_span::<L, _>(lut, j, 0..start, noise, line, background(0..start));
                     let (illumination, glow) = self.background.row_terms(j);
-                    write_span::<L>(lut, j, start..end, noise, line, |col, c| {
-                        let colour = block_rgb[col / 2][c];
-                        quantise_light(channel_light(illumination[col], colour, glow[col], c))
-                    });
-                    write_span::<L>(lut, j, end..w, noise, line, background);
+                    let loaded = illumination[start..end]
+                        .iter()
+                        .zip(&glow[start..end])
+                        .zip(start..end)
+                        .map(|((&illumination, &glow), col)| {
+                            let colour = block_rgb[col / 2];
+                            move |c: usize| {
+                                let light = channel_light(illumination, colour[c], glow, c);
+                                table_row(quantise_light(light))
+                            }
+                        });
+                    write_span::<L, _>(lut, j, start..end, noise, line, loaded);
+                    write_span::<L, _>(lut, j, end..w, noise, line, background(end..w));
                 }
-                None => write_span::<L>(lut, j, 0..w, noise, line, background),
+                None => write_span::<L, _>(lut, j, 0..w, noise, line, background(0..w)),
             }
         }
     }
