@@ -12,7 +12,8 @@
 //!   samples as the ExposureActive strobe.
 //! - After the exposure ends, the frame is dropped with `drop_probability` (its id is skipped) or
 //!   handed to the render thread, which renders [`SceneSource::scene_at`] the middle of the
-//!   exposure. The renderer holds one pending frame: an exposure ending while the renderer is
+//!   exposure in the configured pixel format ([`FrameRenderer::render_as`]; a full frame at 0 dB
+//!   is delivered as rendered, without a copy). The renderer holds one pending frame: an exposure ending while the renderer is
 //!   still busy with an earlier one and another one is waiting is dropped (counted as
 //!   `render_busy`), so a slow renderer drops frames instead of delaying the schedule.
 //! - A delivery thread hands the frame to the host at exposure end + `readout_ms` + a uniform
