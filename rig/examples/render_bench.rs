@@ -1,12 +1,14 @@
 //! Frame rendering time of both sensor builds at full size (1920x1200).
 //!
-//! `cargo run --release -p fringe-rig --example render_bench [-- FRAMES]` (default 200 frames per
-//! case). For each sensor and shape it renders a contact moving across the disc with a changing
+//! `cargo run --release -p fringe-rig --example render_bench [-- FRAMES] [--bayer | --mono]`
+//! (default 200 frames per case, RGB8; `--bayer` / `--mono`: the BayerRG8 / Mono8 frames the
+//! simulated camera renders in those formats). For each sensor and shape it renders a contact moving across the disc with a changing
 //! force and angle, and prints mean, p95 and max wall-clock milliseconds per frame, and the CPU
 //! time per frame summed over all threads (from getrusage: independent of other processes
 //! competing for the cores, unlike the wall clock). Exits non-zero if a mean exceeds 20 ms (a
 //! 50 Hz camera in real time).
 
+use fringe_rig::camera::PixelFormat;
 use fringe_rig::sim::render::Renderer;
 use fringe_rig::sim::scene::{Contact, FrameRenderer, Scene};
 use fringe_rig::sim::sensor::SensorConfig;
@@ -25,9 +27,17 @@ fn cpu_ms() -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let frames: usize = match std::env::args().nth(1) {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let frames: usize = match args.iter().find(|a| !a.starts_with("--")) {
         Some(a) => a.parse()?,
         None => 200,
+    };
+    let format = if args.iter().any(|a| a == "--bayer") {
+        PixelFormat::BayerRg8
+    } else if args.iter().any(|a| a == "--mono") {
+        PixelFormat::Mono8
+    } else {
+        PixelFormat::Rgb8
     };
     let mut worst_mean: f64 = 0.0;
     for config in [SensorConfig::layered(), SensorConfig::integrated()] {
@@ -35,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let start = Instant::now();
         let mut renderer = Renderer::new(config)?;
         println!(
-            "{id}: start-up {:.0} ms, {}x{}, {} threads",
+            "{id}: start-up {:.0} ms, {}x{} {format:?}, {} threads",
             start.elapsed().as_secs_f64() * 1e3,
             renderer.width(),
             renderer.height(),
@@ -61,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     angle_deg: 90.0 * s,
                 });
                 let t = Instant::now();
-                renderer.render(&Scene { contact }, k as u64, &mut out);
+                renderer.render_as(&Scene { contact }, k as u64, format, &mut out);
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }
             let cpu = (cpu_ms() - cpu_start) / frames as f64;

@@ -25,6 +25,8 @@
 //! - [`background`]: the unloaded sensor image (illumination, rim, LED hot spots, residual
 //!   birefringence).
 //! - [`render`]: the frame renderer (fringes, blur, noise, drift, gamma) behind `FrameRenderer`.
+//! - [`pixel_format`]: the camera's pixel formats (RGB8, BayerRG8, Mono8) as samples of the
+//!   rendered RGB image.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
 
@@ -44,6 +46,7 @@ pub mod label_score;
 pub mod modbus_emulator;
 pub mod motion;
 pub mod netft_emulator;
+pub mod pixel_format;
 pub mod render;
 pub mod rig;
 pub mod scene;

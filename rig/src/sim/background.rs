@@ -96,11 +96,13 @@ pub const DARK_DN: f32 = 0.01;
 /// Linear light of a pixel that sees `illumination` times the fringe colour `rgb` plus `glow`.
 #[inline]
 pub fn pixel_light(illumination: f32, rgb: [f32; 3], glow: f32) -> [f32; 3] {
-    [
-        illumination * rgb[0] + glow * LED_COLOUR[0],
-        illumination * rgb[1] + glow * LED_COLOUR[1],
-        illumination * rgb[2] + glow * LED_COLOUR[2],
-    ]
+    [0, 1, 2].map(|c| channel_light(illumination, rgb[c], glow, c))
+}
+
+/// Channel `c` (0 red, 1 green, 2 blue) of [`pixel_light`], with that channel's colour `colour`.
+#[inline(always)]
+pub fn channel_light(illumination: f32, colour: f32, glow: f32, c: usize) -> f32 {
+    illumination * colour + glow * LED_COLOUR[c]
 }
 
 /// SplitMix64 step: a small, well-mixed deterministic generator for seeded fields and noise.
@@ -128,19 +130,13 @@ pub struct Background {
     glow: Vec<f32>,
     /// Residual fringe order.
     residual: Vec<f32>,
-    /// Linear light of the unloaded sensor, interleaved RGB in 1/16 DN steps.
-    unloaded: Vec<u16>,
     /// Per row, the columns [start, end) with illumination above [`DARK_DN`].
     spans: Vec<(usize, usize)>,
 }
 
 impl Background {
-    /// Builds the unloaded image of `config` seen through `geometry`, colours from `colours`.
-    pub fn new(
-        config: &SensorConfig,
-        geometry: &SensorGeometry,
-        colours: &PackedColours,
-    ) -> Background {
+    /// Builds the per-pixel terms of `config` seen through `geometry`.
+    pub fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Background {
         let (width, height) = (
             config.geometry.width as usize,
             config.geometry.height as usize,
@@ -181,18 +177,12 @@ impl Background {
         add_hot_spots(config, geometry, blur_sigma, width, height, &mut glow);
 
         let residual = residual_field(config, geometry, width, height, &spans);
-        let mut unloaded = Vec::with_capacity(3 * width * height);
-        for k in 0..width * height {
-            let rgb = colours.lookup(residual[k], 0.0);
-            unloaded.extend(pixel_light(illumination[k], rgb, glow[k]).map(quantise_light));
-        }
         Background {
             width,
             height,
             illumination,
             glow,
             residual,
-            unloaded,
             spans,
         }
     }
@@ -230,10 +220,16 @@ impl Background {
         self.residual[k]
     }
 
-    /// Linear light of the unloaded sensor, interleaved RGB in 1/16 DN steps.
-    #[inline]
-    pub fn unloaded(&self) -> &[u16] {
-        &self.unloaded
+    /// Linear light of the unloaded sensor with fringe colours from `colours`, interleaved RGB
+    /// in 1/16 DN steps, row by row.
+    pub fn unloaded_light<'a>(
+        &'a self,
+        colours: &'a PackedColours,
+    ) -> impl Iterator<Item = u16> + 'a {
+        (0..self.width * self.height).flat_map(move |k| {
+            let rgb = colours.lookup(self.residual[k], 0.0);
+            pixel_light(self.illumination[k], rgb, self.glow[k]).map(quantise_light)
+        })
     }
 
     /// Row `j`'s lit columns [start, end).

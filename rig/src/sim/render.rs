@@ -1,4 +1,5 @@
-//! The photoelastic frame renderer: a [`Scene`] in, an interleaved RGB8 frame out.
+//! The photoelastic frame renderer: a [`Scene`] in, an interleaved RGB8 frame (or the camera's
+//! BayerRG8 or Mono8 samples of it, see [`super::pixel_format`]) out.
 //!
 //! Follows the recipe of docs/photoelastic-sim.md ("Rendering recipe"). At start-up: the fringe
 //! field N_unit and |grad N_unit| of each flat punch ([`FringeField`], packed into `f32` pairs),
@@ -16,19 +17,26 @@
 //! flicker, offset drift, Poisson-Gaussian noise (variance a I + b, from a random place in the
 //! noise tile) and the gamma table. Rows are split across `threads` scoped threads. The same seed,
 //! scene and frame index give the same bytes.
+//!
+//! BayerRG8 and Mono8 frames go through the same stages but only for the channels they keep
+//! (Bayer: one per pixel, so a third of the light and output work), with the same noise samples,
+//! so they are exactly the mosaic and the grey of the RGB frame.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::background::{
-    pixel_light, quantise_light, splitmix64, uniform, Background, PackedColours, LIGHT_STEPS_PER_DN,
+    channel_light, quantise_light, splitmix64, uniform, Background, PackedColours,
+    LIGHT_STEPS_PER_DN,
 };
 use super::blurred_colour::BlurredColourTable;
 use super::colour::Polariser;
 use super::fringe_field::FringeField;
 use super::indenter::{PressureMap, Shape};
+use super::pixel_format::{bayer_channel, grey};
 use super::scene::{Contact, FrameRenderer, Scene};
 use super::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
+use crate::camera::PixelFormat;
 
 /// Sphere fields are cached by contact radius rounded to this step, mm.
 pub const SPHERE_RADIUS_STEP_MM: f64 = 0.05;
@@ -46,6 +54,126 @@ const LUT_ROW_SHIFT: u32 = 2;
 /// (+-3.9 sigma in quarter-sigma steps, finer than the 8-bit output for every noise level).
 const NOISE_LEVELS: usize = 32;
 const NOISE_LEVEL_BITS: u32 = 5;
+
+/// The output table: 8-bit value at (light row, noise level). A fixed size, so that indexing it
+/// with a clamped row and a masked level needs no bounds check.
+type OutputTable = [u8; LUT_ROWS * NOISE_LEVELS];
+
+/// Where the output table row of linear light `q` (1/16 DN steps) starts; the last row holds
+/// all brighter light.
+#[inline(always)]
+fn table_row(q: u16) -> u16 {
+    (q >> LUT_ROW_SHIFT).min(LUT_ROWS as u16 - 1) << NOISE_LEVEL_BITS
+}
+
+/// Gain, offset, noise and gamma of one value: the light's [`table_row`] and noise level `z` to
+/// an 8-bit value.
+#[inline(always)]
+fn output(lut: &OutputTable, row: u16, z: u8) -> u8 {
+    lut[usize::from(row | u16::from(z & (NOISE_LEVELS as u8 - 1)))]
+}
+
+/// What the output stage writes per pixel: the camera's pixel format.
+trait Layout {
+    const FORMAT: PixelFormat;
+    const BYTES: usize;
+    /// Writes the pixel at (`row`, `col`) into `out` (`BYTES` long): `light(c)` is the
+    /// [`table_row`] of channel c's light, `z` the pixel's three noise levels.
+    fn pixel(
+        lut: &OutputTable,
+        row: usize,
+        col: usize,
+        light: impl Fn(usize) -> u16,
+        z: &[u8],
+        out: &mut [u8],
+    );
+}
+
+/// Interleaved RGB8.
+struct Rgb;
+/// The BayerRG8 mosaic: only the pixel's own channel is computed.
+struct Bayer;
+/// Mono8: the grey of the three output bytes.
+struct Grey;
+
+impl Layout for Rgb {
+    const FORMAT: PixelFormat = PixelFormat::Rgb8;
+    const BYTES: usize = 3;
+    #[inline(always)]
+    fn pixel(
+        lut: &OutputTable,
+        _row: usize,
+        _col: usize,
+        light: impl Fn(usize) -> u16,
+        z: &[u8],
+        out: &mut [u8],
+    ) {
+        for (c, (o, &z)) in out.iter_mut().zip(z).enumerate() {
+            *o = output(lut, light(c), z);
+        }
+    }
+}
+
+impl Layout for Bayer {
+    const FORMAT: PixelFormat = PixelFormat::BayerRg8;
+    const BYTES: usize = 1;
+    #[inline(always)]
+    fn pixel(
+        lut: &OutputTable,
+        row: usize,
+        col: usize,
+        light: impl Fn(usize) -> u16,
+        z: &[u8],
+        out: &mut [u8],
+    ) {
+        let c = bayer_channel(row, col);
+        if let (Some(o), Some(&z)) = (out.first_mut(), z.get(c)) {
+            *o = output(lut, light(c), z);
+        }
+    }
+}
+
+impl Layout for Grey {
+    const FORMAT: PixelFormat = PixelFormat::Mono8;
+    const BYTES: usize = 1;
+    #[inline(always)]
+    fn pixel(
+        lut: &OutputTable,
+        row: usize,
+        col: usize,
+        light: impl Fn(usize) -> u16,
+        z: &[u8],
+        out: &mut [u8],
+    ) {
+        let mut rgb = [0u8; 3];
+        Rgb::pixel(lut, row, col, light, z, &mut rgb);
+        if let Some(o) = out.first_mut() {
+            *o = grey(rgb);
+        }
+    }
+}
+
+/// Writes pixels `cols` of row `row` through the output stage: `light` gives each pixel's
+/// channel -> [`table_row`] function, `noise` holds the row's noise levels (three per pixel),
+/// `line` the row's output bytes.
+#[inline(always)]
+fn write_span<L: Layout, P: Fn(usize) -> u16>(
+    lut: &OutputTable,
+    row: usize,
+    cols: std::ops::Range<usize>,
+    noise: &[u8],
+    line: &mut [u8],
+    light: impl Iterator<Item = P>,
+) {
+    let out = line[cols.start * L::BYTES..cols.end * L::BYTES].chunks_exact_mut(L::BYTES);
+    let z = noise[3 * cols.start..3 * cols.end].chunks_exact(3);
+    for (((px, z), col), light) in out.zip(z).zip(cols).zip(light) {
+        L::pixel(lut, row, col, light, z, px);
+    }
+}
+
+/// Rows per unit of work of the render threads (even: no 2x2 block straddles two bands).
+const BAND_ROWS: usize = 16;
 
 /// Gain is applied in fixed point with this many fractional bits.
 const GAIN_BITS: u32 = 12;
@@ -277,7 +405,7 @@ impl ContactMap<'_> {
 struct FrameParams<'a> {
     contact: Option<ContactMap<'a>>,
     /// This frame's output table: (light row before gain and offset, noise level) to 8 bits.
-    lut: &'a [u8],
+    lut: &'a OutputTable,
     noise_seed: u64,
 }
 
@@ -295,8 +423,10 @@ pub struct Renderer {
     noise: Vec<u8>,
     /// 8-bit output for (light row, noise level): noise sigma^2 = a I + b, then gamma.
     lut: Vec<u8>,
+    /// The unloaded sensor's light as [`table_row`]s, interleaved RGB.
+    unloaded: Vec<u16>,
     /// `lut` with this frame's gain and offset folded in (rebuilt per frame).
-    frame_lut: Vec<u8>,
+    frame_lut: Box<OutputTable>,
     drift: Drift,
     /// Pixels where the contact changes the fringe order and its spread by less than this many
     /// fringes keep the unloaded background (0 = compute every lit pixel).
@@ -318,7 +448,8 @@ impl Renderer {
         };
         let table = colour_table(polariser);
         let colours = PackedColours::new(&table, 1024, 65);
-        let background = Background::new(&config, &geometry, &colours);
+        let background = Background::new(&config, &geometry);
+        let unloaded = background.unloaded_light(&colours).map(table_row).collect();
 
         let rectangle_unit = unit_field(&config, &config.rectangle());
         let f_sigma_n_per_m = if config.layer.target_fringes > 0.0 {
@@ -357,12 +488,13 @@ impl Renderer {
             geometry,
             colours,
             background,
+            unloaded,
             fields: HashMap::new(),
             f_sigma_n_per_m,
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
             noise,
             lut,
-            frame_lut: vec![0; LUT_ROWS * NOISE_LEVELS],
+            frame_lut: Box::new([0; LUT_ROWS * NOISE_LEVELS]),
             drift: Drift::new(&config),
             skip_below: SKIP_BELOW_FRINGES,
             config,
@@ -473,19 +605,31 @@ impl Renderer {
         out
     }
 
-    /// Renders rows `rows` into `out` (exactly those rows' bytes).
-    fn render_rows(&self, params: &FrameParams, rows: std::ops::Range<usize>, out: &mut [u8]) {
+    /// Renders rows `rows` (starting at an even row) into `out` (exactly those rows' bytes, in
+    /// layout `L`); `block_rgb` is scratch space.
+    fn render_rows<L: Layout>(
+        &self,
+        params: &FrameParams,
+        rows: std::ops::Range<usize>,
+        out: &mut [u8],
+        block_rgb: &mut Vec<[f32; 3]>,
+    ) {
         let w = self.background.width();
-        let unloaded = self.background.unloaded();
+        let lut = params.lut;
         // Fringe colours of the 2x2 blocks of the current row pair.
-        let mut block_rgb = vec![[0.0f32; 3]; w.div_ceil(2)];
+        block_rgb.resize(w.div_ceil(2), [0.0; 3]);
         let h = self.background.height();
-        for (r, j) in rows.enumerate() {
-            let line = &mut out[r * w * 3..(r + 1) * w * 3];
-            let row_light = &unloaded[3 * j * w..3 * (j + 1) * w];
+        for (r, (j, line)) in rows.zip(out.chunks_exact_mut(w * L::BYTES)).enumerate() {
+            let row_light = &self.unloaded[3 * j * w..3 * (j + 1) * w];
             let mut state = params.noise_seed ^ (j as u64).wrapping_mul(0xA24B_AED4_963E_E407);
             let tile_start = (splitmix64(&mut state) % (self.noise.len() - 3 * w) as u64) as usize;
             let noise = &self.noise[tile_start..tile_start + 3 * w];
+            // The unloaded pixels of columns `cols`.
+            let background = |cols: std::ops::Range<usize>| {
+                row_light[3 * cols.start..3 * cols.end]
+                    .chunks_exact(3)
+                    .map(|rows| move |c: usize| rows[c])
+            };
             // The lit columns of row `row` within the contact's reach.
             let reach = |map: &ContactMap, row: usize| {
                 let (start, end) = self.background.span(row);
@@ -522,31 +666,25 @@ impl Renderer {
                             *rgb = self.colours.lookup(n + residual, sigma);
                         }
                     }
-                    let (a, b) = (3 * start, 3 * end);
-                    self.emit(params, &row_light[..a], &noise[..a], &mut line[..a]);
+                    write_span::<L, _>(lut, j, 0..start, noise, line, background(0..start));
                     let (illumination, glow) = self.background.row_terms(j);
-                    let pixels = line[a..b]
-                        .chunks_exact_mut(3)
-                        .zip(noise[a..b].chunks_exact(3));
-                    for (i, (px, z)) in (start..end).zip(pixels) {
-                        let lit = pixel_light(illumination[i], block_rgb[i / 2], glow[i]);
-                        for ch in 0..3 {
-                            px[ch] = self.output(params, quantise_light(lit[ch]), z[ch]);
-                        }
-                    }
-                    self.emit(params, &row_light[b..], &noise[b..], &mut line[b..]);
+                    let loaded = illumination[start..end]
+                        .iter()
+                        .zip(&glow[start..end])
+                        .zip(start..end)
+                        .map(|((&illumination, &glow), col)| {
+                            let colour = block_rgb[col / 2];
+                            move |c: usize| {
+                                let light = channel_light(illumination, colour[c], glow, c);
+                                table_row(quantise_light(light))
+                            }
+                        });
+                    write_span::<L, _>(lut, j, start..end, noise, line, loaded);
+                    write_span::<L, _>(lut, j, end..w, noise, line, background(end..w));
                 }
-                None => self.emit(params, row_light, noise, line),
+                None => write_span::<L, _>(lut, j, 0..w, noise, line, background(0..w)),
             }
         }
-    }
-
-    /// Gain, offset, noise and gamma of one value: linear light `q` in 1/16 DN steps, noise
-    /// level `z`, to an 8-bit value.
-    #[inline(always)]
-    fn output(&self, params: &FrameParams, q: u16, z: u8) -> u8 {
-        let row = usize::from(q >> LUT_ROW_SHIFT).min(LUT_ROWS - 1);
-        params.lut[(row << NOISE_LEVEL_BITS) | usize::from(z & 31)]
     }
 
     /// Folds gain and offset into the output table: row r (light r * 4 / 16 DN before them)
@@ -559,14 +697,6 @@ impl Renderer {
             let v = ((q * gain_q) >> GAIN_BITS) + offset_q;
             let row = (v >> LUT_ROW_SHIFT).clamp(0, last) as usize;
             out.copy_from_slice(&self.lut[row * NOISE_LEVELS..(row + 1) * NOISE_LEVELS]);
-        }
-    }
-
-    /// Gain, offset, noise and gamma: linear light in 1/16 DN steps to 8-bit values.
-    #[inline]
-    fn emit(&self, params: &FrameParams, light: &[u16], noise: &[u8], line: &mut [u8]) {
-        for ((&q, &z), byte) in light.iter().zip(noise).zip(line.iter_mut()) {
-            *byte = self.output(params, q, z);
         }
     }
 }
@@ -605,8 +735,30 @@ impl FrameRenderer for Renderer {
     }
 
     fn render(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>) {
+        self.render_frame::<Rgb>(scene, frame_index, out);
+    }
+
+    fn render_as(
+        &mut self,
+        scene: &Scene,
+        frame_index: u64,
+        format: PixelFormat,
+        out: &mut Vec<u8>,
+    ) {
+        match format {
+            PixelFormat::Rgb8 => self.render_frame::<Rgb>(scene, frame_index, out),
+            PixelFormat::BayerRg8 => self.render_frame::<Bayer>(scene, frame_index, out),
+            PixelFormat::Mono8 => self.render_frame::<Grey>(scene, frame_index, out),
+        }
+    }
+}
+
+impl Renderer {
+    /// Renders `scene` as frame `frame_index` in layout `L` into `out`.
+    fn render_frame<L: Layout>(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>) {
         let (w, h) = (self.background.width(), self.background.height());
-        out.resize(w * h * 3, 0);
+        debug_assert_eq!(L::BYTES, L::FORMAT.bytes_per_pixel());
+        out.resize(w * h * L::BYTES, 0);
         let field = scene.contact.map(|c| (c, self.field(&c.shape)));
         let (gain, offset) = self.drift.at(frame_index);
         let gain_q = (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32;
@@ -618,21 +770,25 @@ impl FrameRenderer for Renderer {
             lut: &self.frame_lut,
             noise_seed: self.config.seed ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
         };
-        let threads = self.config.threads.min(h).max(1);
-        // Even, so that no 2x2 block straddles two threads.
-        let rows_per = h.div_ceil(threads).next_multiple_of(2);
+        let threads = self.config.threads.min(h.div_ceil(BAND_ROWS)).max(1);
+        // Bands of rows go to whichever thread is free: the contact's rows cost more than the
+        // others, and a thread that loses its core to another process does fewer of them.
+        let bands = Mutex::new(out.chunks_mut(BAND_ROWS * w * L::BYTES).enumerate());
         let this = &*self;
+        let work = || {
+            let mut block_rgb = Vec::new();
+            loop {
+                let next = bands.lock().unwrap_or_else(|e| e.into_inner()).next();
+                let Some((b, band)) = next else { break };
+                let rows = b * BAND_ROWS..((b + 1) * BAND_ROWS).min(h);
+                this.render_rows::<L>(&params, rows, band, &mut block_rgb);
+            }
+        };
         std::thread::scope(|scope| {
-            let mut chunks = out.chunks_mut(rows_per * w * 3).enumerate();
-            let first = chunks.next();
-            for (t, chunk) in chunks {
-                let params = &params;
-                let rows = t * rows_per..((t + 1) * rows_per).min(h);
-                scope.spawn(move || this.render_rows(params, rows, chunk));
+            for _ in 1..threads {
+                scope.spawn(work);
             }
-            if let Some((_, chunk)) = first {
-                this.render_rows(&params, 0..rows_per.min(h), chunk);
-            }
+            work();
         });
     }
 }
@@ -640,6 +796,7 @@ impl FrameRenderer for Renderer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::background::pixel_light;
     use crate::units::{Millimetres, Newtons};
 
     /// A 320x200 sensor at 3 px/mm (disc radius 90 px = 30 mm), coarse field grid.
@@ -733,6 +890,26 @@ mod tests {
         // Same frame index, same bytes (noise included); another frame has other noise.
         assert!(render(&mut r, None, 17) == empty);
         assert!(render(&mut r, None, 18) != empty);
+    }
+
+    #[test]
+    fn bayer_and_mono_frames_are_the_samples_of_the_rgb_frame() {
+        let mut r = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+        let pressed = Some(contact(r.config().pentagon(), 6.0, 4.0, -3.0, 15.0));
+        for (scene, frame) in [(pressed, 5), (None, 6)] {
+            let rgb = render(&mut r, scene, frame);
+            for format in [PixelFormat::BayerRg8, PixelFormat::Mono8] {
+                let mut native = Vec::new();
+                r.render_as(&Scene { contact: scene }, frame, format, &mut native);
+                let mut sampled = Vec::new();
+                crate::sim::pixel_format::from_rgb(&rgb, r.width() as usize, format, &mut sampled);
+                assert_eq!(native.len(), (r.width() * r.height()) as usize);
+                assert!(
+                    native == sampled,
+                    "{format:?} is not the {format:?} of the RGB frame"
+                );
+            }
+        }
     }
 
     #[test]

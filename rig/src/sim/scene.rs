@@ -7,6 +7,8 @@
 //! These traits keep the emulators, the bench and the renderer independent of each other.
 
 use super::indenter::Shape;
+use super::pixel_format;
+use crate::camera::PixelFormat;
 use crate::clock::HostTime;
 use crate::units::{Millimetres, Newtons, Wrench};
 
@@ -64,4 +66,23 @@ pub trait FrameRenderer: Send {
     /// Renders `scene` as frame number `frame_index` (drives noise, flicker and drift) into `out`,
     /// resized to width * height * 3 bytes.
     fn render(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>);
+
+    /// Renders `scene` in the camera's pixel `format` (see [`pixel_format`]) into `out`, resized to
+    /// width * height * bytes per pixel. The default renders RGB and converts it; renderers that
+    /// can write a format directly override this (the bytes must be the same).
+    fn render_as(
+        &mut self,
+        scene: &Scene,
+        frame_index: u64,
+        format: PixelFormat,
+        out: &mut Vec<u8>,
+    ) {
+        if format == PixelFormat::Rgb8 {
+            self.render(scene, frame_index, out);
+        } else {
+            let mut rgb = Vec::new();
+            self.render(scene, frame_index, &mut rgb);
+            pixel_format::from_rgb(&rgb, self.width() as usize, format, out);
+        }
+    }
 }
