@@ -168,11 +168,12 @@ pub struct CameraSection {
     pub exposure_active_line: Option<String>,
 }
 
-/// Frame rate of the simulated camera unless the rig file sets one, Hz. Rendering pressed
-/// 1920x1200 fringes costs about 26 ms of CPU per frame, so at the real camera's 50 fps the
-/// renderer and the recorder together need about 1.75 cores and the simulated camera drops frames
-/// on a 2-core machine (BENCHMARKS.md, "Recording"); at 25 fps they fit. Real cameras default to
-/// 50 fps.
+/// Frame rate of the simulated camera unless the rig file sets one, Hz. The simulated camera
+/// renders and a run records every frame at the real camera's 50 fps on 2 cores when nothing else
+/// runs (BENCHMARKS.md, "Recording": 0 of 30 008 exposures dropped in 10 minutes), but a whole
+/// scan adds the motion emulators and the control loops, and at 50 fps the renderer then falls
+/// behind for moments (a full-grid main job dropped 4-7 of about 2150 exposures); at 25 fps it
+/// drops none. Real cameras default to 50 fps.
 pub const SIM_FRAME_RATE_HZ: f64 = 25.0;
 
 /// Where the sensor sits on the stage (used until a calibration profile gives the origin).

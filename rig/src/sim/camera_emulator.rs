@@ -13,9 +13,11 @@
 //! - After the exposure ends, the frame is dropped with `drop_probability` (its id is skipped) or
 //!   handed to the render thread, which renders [`SceneSource::scene_at`] the middle of the
 //!   exposure in the configured pixel format ([`FrameRenderer::render_as`]; a full frame at 0 dB
-//!   is delivered as rendered, without a copy). The renderer holds one pending frame: an exposure ending while the renderer is
-//!   still busy with an earlier one and another one is waiting is dropped (counted as
-//!   `render_busy`), so a slow renderer drops frames instead of delaying the schedule.
+//!   is delivered as rendered, without a copy). Up to [`FRAME_MEMORY`] exposures wait for the
+//!   renderer (the camera's frame memory: a moment when the host takes the cores delays those
+//!   frames a little instead of losing them); an exposure ending while the memory is full is
+//!   dropped (counted as `render_busy`), so a renderer that is too slow drops frames instead of
+//!   delaying the schedule without bound.
 //! - A delivery thread hands the frame to the host at exposure end + `readout_ms` + a uniform
 //!   jitter in [0, `arrival_jitter_ms`] (or when rendering finishes, if later). Frames the host
 //!   does not fetch fill `host_buffers`; further frames are dropped (`no_buffer`).
@@ -40,6 +42,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
+
+/// Exposures that can wait for the renderer (besides the one being rendered). Frames are matched
+/// to their force by clock, not by arrival, so the extra delay a waiting frame takes costs
+/// nothing but that delay.
+pub const FRAME_MEMORY: usize = 3;
 
 /// A device clock: ticks (ns) with an offset and a rate error against host time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -670,7 +677,7 @@ impl Camera for SimCamera {
                 drift_ppm: self.clock.drift_ppm,
             });
         }
-        let (job_tx, job_rx) = bounded::<Job>(1);
+        let (job_tx, job_rx) = bounded::<Job>(FRAME_MEMORY);
         let (rendered_tx, rendered_rx) = unbounded::<Rendered>();
         let (frame_tx, frame_rx) = bounded::<Frame>(self.config.host_buffers.max(1));
         let roi = self.roi();
