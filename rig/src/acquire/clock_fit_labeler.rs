@@ -33,7 +33,7 @@ use crate::sync::clock_map::ClockMap;
 use crate::sync::latch::{self, LatchFit};
 use crate::sync::method::SyncMethod;
 use crate::sync::one_way::{self, lower_hull, OneWayFit, OneWayOptions};
-use crate::sync::window::mean_over;
+use crate::sync::window::{mean_over, WindowError, WindowMean};
 use crate::units::Microseconds;
 use crossbeam_channel::Receiver;
 use std::collections::VecDeque;
@@ -439,12 +439,33 @@ impl ClockFitLabeler {
             Placement::Unavailable(why) => return LabelOutcome::Unmatched(why),
         };
         let [start, end] = placed.ticks;
-        let newest = self
-            .samples
-            .back()
-            .map_or(f64::NEG_INFINITY, |s| s.0 as f64);
-        if newest < end + 1.0 {
+        let Some(mean) = self.mean_of_window(start, end) else {
             return LabelOutcome::NotYet;
+        };
+        self.last_error_ns = Some(placed.error_ns);
+        match mean {
+            Ok(mean) => LabelOutcome::Ready(ExposureLabel {
+                window_ticks: [start, end],
+                window_host_ns: Some(placed.host_ns),
+                error_ns: placed.error_ns,
+                mean,
+            }),
+            Err(e) => LabelOutcome::Unmatched(format!("clock-fit window: {e}")),
+        }
+    }
+
+    /// Index of the newest force sample kept (-inf before the first).
+    pub fn newest_tick(&self) -> f64 {
+        self.samples
+            .back()
+            .map_or(f64::NEG_INFINITY, |s| s.0 as f64)
+    }
+
+    /// The six-axis force averaged over the fractional sample indices [`start`, `end`] of the
+    /// force stream (interpolated at the edges); `None` while the stream has not passed `end`.
+    pub fn mean_of_window(&self, start: f64, end: f64) -> Option<Result<WindowMean, WindowError>> {
+        if self.newest_tick() < end + 1.0 {
+            return None;
         }
         // From the last sample at or before the start to the first at or after the end (a gap
         // of lost samples is bridged; the recorder notes it from the spacing).
@@ -461,16 +482,7 @@ impl ClockFitLabeler {
             .range(first..=last)
             .map(|s| (s.0 as f64, s.1))
             .collect();
-        self.last_error_ns = Some(placed.error_ns);
-        match mean_over(&span, start, end) {
-            Ok(mean) => LabelOutcome::Ready(ExposureLabel {
-                window_ticks: [start, end],
-                window_host_ns: Some(placed.host_ns),
-                error_ns: placed.error_ns,
-                mean,
-            }),
-            Err(e) => LabelOutcome::Unmatched(format!("clock-fit window: {e}")),
-        }
+        Some(mean_over(&span, start, end))
     }
 
     /// The current force clock map (sample index -> host ns), if fitted.

@@ -21,7 +21,6 @@ use crate::camera::{Frame, TimestampLatch};
 use crate::force::ForceSample;
 use crate::sync::method::SyncMethod;
 use crate::sync::strobe::{StrobeDetector, StrobeWindow};
-use crate::sync::window::mean_over;
 use crossbeam_channel::Receiver;
 use std::collections::VecDeque;
 
@@ -38,15 +37,13 @@ struct Seen {
 /// Matches frames to strobe windows and averages the force over them.
 pub struct StrobeLabeler {
     detector: StrobeDetector,
-    /// (sample index, six channels), newest last.
-    samples: VecDeque<(f64, [f64; 6])>,
     windows: VecDeque<Seen>,
     next_seq: u64,
     /// Frame id minus window sequence number, once a frame is matched.
     offset: Option<i64>,
-    /// Places frames in the force stream by clock, to pick their window.
+    /// Places frames in the force stream by clock, to pick their window; keeps the samples the
+    /// windows are averaged over.
     clock: ClockFitLabeler,
-    keep_samples: usize,
 }
 
 impl StrobeLabeler {
@@ -60,16 +57,14 @@ impl StrobeLabeler {
     ) -> StrobeLabeler {
         StrobeLabeler {
             detector: StrobeDetector::new(threshold),
-            samples: VecDeque::new(),
             windows: VecDeque::new(),
             next_seq: 0,
             offset: None,
             clock: ClockFitLabeler::new(clock, latches),
-            keep_samples: 20_000,
         }
     }
 
-    /// Feeds one force sample (in stream order). Samples without a strobe value are kept for
+    /// Feeds one force sample (in stream order). Samples without a strobe value count for
     /// averaging but find no windows.
     pub fn push_sample(&mut self, s: &ForceSample) {
         self.clock.push_sample(s);
@@ -85,10 +80,6 @@ impl StrobeLabeler {
                     self.windows.pop_front();
                 }
             }
-        }
-        self.samples.push_back((tick as f64, s.wrench.to_array()));
-        if self.samples.len() > self.keep_samples {
-            self.samples.pop_front();
         }
     }
 
@@ -119,21 +110,16 @@ impl StrobeLabeler {
     }
 
     fn newest_tick(&self) -> f64 {
-        self.samples.back().map_or(f64::NEG_INFINITY, |s| s.0)
+        self.clock.newest_tick()
     }
 
     fn label_of(&self, seen: &Seen) -> LabelOutcome {
-        if self.newest_tick() < seen.window.end + 1.0 {
-            return LabelOutcome::NotYet;
-        }
-        let span: Vec<(f64, [f64; 6])> = self
-            .samples
-            .iter()
-            .filter(|s| s.0 >= seen.window.start - 2.0 && s.0 <= seen.window.end + 2.0)
-            .copied()
-            .collect();
-        match mean_over(&span, seen.window.start, seen.window.end) {
-            Ok(mean) => LabelOutcome::Ready(ExposureLabel {
+        match self
+            .clock
+            .mean_of_window(seen.window.start, seen.window.end)
+        {
+            None => LabelOutcome::NotYet,
+            Some(Ok(mean)) => LabelOutcome::Ready(ExposureLabel {
                 window_ticks: [seen.window.start, seen.window.end],
                 window_host_ns: None,
                 // An edge placed by interpolation between two samples: uniform over at most
@@ -141,7 +127,7 @@ impl StrobeLabeler {
                 error_ns: self.sample_period_ns().unwrap_or(f64::NAN) / 12f64.sqrt(),
                 mean,
             }),
-            Err(e) => LabelOutcome::Unmatched(format!("strobe window: {e}")),
+            Some(Err(e)) => LabelOutcome::Unmatched(format!("strobe window: {e}")),
         }
     }
 
