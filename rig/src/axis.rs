@@ -55,6 +55,8 @@ pub enum AxisError {
         timeout: Duration,
         flags: Vec<&'static str>,
     },
+    #[error("axis {axis}: target {target} is not a number of millimetres; nothing was sent")]
+    NotANumber { axis: String, target: Millimetres },
     #[error("axis {axis}: target {target:.4} is outside the soft limits {min:.4} .. {max:.4}; nothing was sent (change the target or the limits in the configuration)")]
     SoftLimit {
         axis: String,
@@ -101,6 +103,14 @@ pub struct SoftLimits {
     pub max: Millimetres,
 }
 
+impl SoftLimits {
+    /// No limits but finiteness: for axes configured without soft limits.
+    pub const UNBOUNDED: SoftLimits = SoftLimits {
+        min: Millimetres(f64::MIN),
+        max: Millimetres(f64::MAX),
+    };
+}
+
 /// Soft limits that are not a finite range with min <= max.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 #[error("soft limits min {min} and max {max}: both must be finite numbers with min not above max")]
@@ -121,7 +131,13 @@ impl SoftLimits {
 
     /// Checks `target` against the limits, naming `axis` in the error.
     pub fn check(&self, axis: &str, target: Millimetres) -> Result<(), AxisError> {
-        if target.0.is_finite() && target >= self.min && target <= self.max {
+        if !target.0.is_finite() {
+            return Err(AxisError::NotANumber {
+                axis: axis.to_string(),
+                target,
+            });
+        }
+        if target >= self.min && target <= self.max {
             Ok(())
         } else {
             Err(AxisError::SoftLimit {

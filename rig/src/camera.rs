@@ -67,6 +67,67 @@ pub struct CameraSettings {
     pub exposure_active_line: Option<String>,
 }
 
+/// Settings that no camera accepts, found before anything is opened or moved.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("key `camera.{key}` = {value}: {allowed}")]
+pub struct InvalidCameraSetting {
+    pub key: &'static str,
+    pub value: f64,
+    pub allowed: String,
+}
+
+/// The highest frame rate any camera of the bench is asked for, Hz.
+pub const MAX_FRAME_RATE: Hertz = Hertz(1000.0);
+/// The gain range accepted before the camera is asked, dB.
+pub const GAIN_RANGE: std::ops::RangeInclusive<f64> = 0.0..=48.0;
+
+impl CameraSettings {
+    /// Checks the numbers before any device is touched: a positive frame rate up to
+    /// [`MAX_FRAME_RATE`], a positive exposure that fits in one frame period (free run), a gain in
+    /// [`GAIN_RANGE`]. The camera itself may still refuse values outside its own range.
+    pub fn check(&self) -> Result<(), InvalidCameraSetting> {
+        let rate = self.frame_rate.0;
+        if !(rate.is_finite() && rate > 0.0 && rate <= MAX_FRAME_RATE.0) {
+            return Err(InvalidCameraSetting {
+                key: "frame_rate",
+                value: rate,
+                allowed: format!("must be above 0 and at most {} Hz", MAX_FRAME_RATE.0),
+            });
+        }
+        let exposure = self.exposure.0;
+        let period_us = 1e6 / rate;
+        if !(exposure.is_finite() && exposure > 0.0) {
+            return Err(InvalidCameraSetting {
+                key: "exposure_us",
+                value: exposure,
+                allowed: "must be a positive number of microseconds".into(),
+            });
+        }
+        if self.trigger == TriggerMode::FreeRun && exposure >= period_us {
+            return Err(InvalidCameraSetting {
+                key: "exposure_us",
+                value: exposure,
+                allowed: format!(
+                    "must be shorter than the frame period at {rate} Hz ({period_us:.0} us): lower the exposure or the frame rate"
+                ),
+            });
+        }
+        let gain = self.gain.0;
+        if !(gain.is_finite() && GAIN_RANGE.contains(&gain)) {
+            return Err(InvalidCameraSetting {
+                key: "gain_db",
+                value: gain,
+                allowed: format!(
+                    "must be from {} to {} dB",
+                    GAIN_RANGE.start(),
+                    GAIN_RANGE.end()
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
 impl Default for CameraSettings {
     /// The reference rig: free run at 50 fps, 2000 us exposure, gain 0, full frame RGB.
     fn default() -> Self {

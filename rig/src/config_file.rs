@@ -32,11 +32,24 @@ pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<(T, String), Config
 /// A one-line message for a TOML error: line, section and key, then what was wrong.
 pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let Some(span) = e.span() else {
-        return e.message().to_string();
+        return match e.message().trim() {
+            "" => "not valid TOML".to_string(),
+            m => m.to_string(),
+        };
     };
     let before = text.get(..span.start).unwrap_or(text);
     let line_no = before.matches('\n').count() + 1;
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let message = match e.message().trim_end().replace('\n', " ") {
+        m if m.is_empty() => "not valid TOML here".to_string(),
+        m => m,
+    };
+    // An error on a table header is about that section, not the one before it.
+    let line = text[line_start..].lines().next().unwrap_or("").trim();
+    if line.starts_with('[') {
+        let name = line.trim_matches(|c| c == '[' || c == ']').trim();
+        return format!("line {line_no}, section [{name}]: {message}");
+    }
     // The key is the last `name =` before the error on its line.
     let key = before[line_start..]
         .rsplit_once('=')
@@ -59,7 +72,7 @@ pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
         (Some(s), None) => at.push_str(&format!(", section [{s}]")),
         (None, None) => {}
     }
-    format!("{at}: {}", e.message().trim_end().replace('\n', " "))
+    format!("{at}: {message}")
 }
 
 #[cfg(test)]
@@ -87,6 +100,14 @@ mod tests {
         let err = parse_toml::<File>("[x]\nvelocity = 1.0\nspeed = 2\n").expect_err("unknown");
         assert!(err.contains("line 3") && err.contains("speed"), "{err}");
         let dir = std::env::temp_dir().join(format!("fringe-config-{}", std::process::id()));
+        let err =
+            parse_toml::<File>("[x]\nvelocity = 1.0\n[xx]\nvelocity = 2.0\n").expect_err("section");
+        assert!(err.starts_with("line 3, section [xx]:"), "{err}");
+        let err = parse_toml::<File>("[x]\nvelocity = 1.0\u{0}\n").expect_err("nul");
+        assert!(
+            err.starts_with("line 2") && err.len() > "line 2, key x.velocity: ".len(),
+            "{err}"
+        );
         let err = load_toml::<File>(&dir.join("missing.toml")).expect_err("missing");
         assert!(
             err.to_string().contains("missing.toml: cannot read"),

@@ -110,7 +110,15 @@ impl ManualStage {
             match (text.is_empty(), default) {
                 (true, Some(d)) => return Ok(d),
                 _ => match text.parse::<f64>() {
-                    Ok(v) if v.is_finite() => return Ok(Millimetres(v)),
+                    Ok(v) if v.is_finite() => match self.limits {
+                        Some(l) if l.check(&self.axis, Millimetres(v)).is_err() => {
+                            q = format!(
+                                "{v} mm is outside the soft limits {:.3} .. {:.3} mm of {}: check the reading. {question}",
+                                l.min.0, l.max.0, self.axis
+                            )
+                        }
+                        _ => return Ok(Millimetres(v)),
+                    },
                     _ => q = format!("\"{answer}\" is not a number of millimetres. {question}"),
                 },
             }
@@ -173,9 +181,8 @@ impl Axis for ManualStage {
     }
 
     fn begin_move_to(&mut self, target: Millimetres) -> Result<(), AxisError> {
-        if let Some(limits) = self.limits {
-            limits.check(&self.axis, target)?;
-        }
+        let limits = self.limits.unwrap_or(SoftLimits::UNBOUNDED);
+        limits.check(&self.axis, target)?;
         let q = format!(
             "move {} to {target:.3} and press Enter (or type the reading in mm if it differs; q to cancel):",
             self.axis

@@ -364,12 +364,15 @@ impl RigConfig {
             message,
         })?;
         let simulated = check(&file, origin)?;
-        Ok(RigConfig {
+        let config = RigConfig {
             file,
             text: text.to_string(),
             origin: origin.to_string(),
             simulated,
-        })
+        };
+        // Camera keys are checked here, before a dry run or any homing, not when the camera opens.
+        config.camera_settings()?;
+        Ok(config)
     }
 
     pub fn is_simulated(&self) -> bool {
@@ -576,7 +579,7 @@ impl RigConfig {
                 )))
             }
         };
-        Ok(CameraSettings {
+        let settings = CameraSettings {
             exposure: c.exposure_us.map_or(d.exposure, Microseconds),
             gain: c.gain_db.map_or(d.gain, Decibels),
             frame_rate: c.frame_rate.map_or(
@@ -591,7 +594,9 @@ impl RigConfig {
             pixel_format,
             trigger,
             exposure_active_line: c.exposure_active_line.clone(),
-        })
+        };
+        settings.check().map_err(|e| self.err(e.to_string()))?;
+        Ok(settings)
     }
 
     /// Opens every device. `truth` receives the simulator's ground truth (simulated rigs);
@@ -916,6 +921,38 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
             )));
         }
     }
+    let finite = |key: &str, v: Option<f64>, unit: &str| match v {
+        Some(v) if !v.is_finite() => {
+            Err(err(format!("key `{key}` = {v}: must be a number ({unit})")))
+        }
+        _ => Ok(()),
+    };
+    finite("geometry.x_centre", f.geometry.x_centre, "mm")?;
+    finite("geometry.y_centre", f.geometry.y_centre, "mm")?;
+    finite("geometry.z_contact", f.geometry.z_contact, "mm")?;
+    for (name, a) in [("x", &f.x), ("y", &f.y), ("z", &f.z)] {
+        finite(&format!("{name}.min"), a.min, "mm")?;
+        finite(&format!("{name}.max"), a.max, "mm")?;
+        if let Some(h) = &a.home {
+            finite(&format!("{name}.home.offset"), Some(h.offset), "mm")?;
+            if let Some(v) = h.velocity {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(err(format!(
+                        "key `{name}.home.velocity` = {v}: must be a number > 0 (mm/s)"
+                    )));
+                }
+            }
+        }
+    }
+    for (key, v) in [("force.cpf", f.force.cpf), ("force.cpt", f.force.cpt)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(err(format!(
+                    "key `{key}` = {v}: must be a number > 0 (counts per unit, from the sensor's calibration sheet)"
+                )));
+            }
+        }
+    }
     let k = f.sim.image_scale;
     if !(k.is_finite() && (0.05..=1.0).contains(&k)) {
         return Err(err(format!(
@@ -1045,6 +1082,42 @@ mod tests {
             .expect_err("no z_contact")
             .to_string()
             .contains("geometry.z_contact"));
+    }
+
+    #[test]
+    fn bad_numbers_are_refused_when_the_file_is_read() {
+        for (from, to, key) in [
+            ("z_contact = 15.0", "z_contact = nan", "geometry.z_contact"),
+            ("x_centre = 12.5", "x_centre = inf", "geometry.x_centre"),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = -5.0",
+                "camera.exposure_us",
+            ),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = nan",
+                "camera.exposure_us",
+            ),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = 30000.0",
+                "camera.exposure_us",
+            ),
+            ("frame_rate = 50.0", "frame_rate = 0.0", "camera.frame_rate"),
+            ("gain_db = 0.0", "gain_db = -3.0", "camera.gain_db"),
+        ] {
+            assert!(REFERENCE.contains(from), "{from}");
+            let e = RigConfig::parse(&REFERENCE.replace(from, to), "r.toml")
+                .expect_err(to)
+                .to_string();
+            assert!(
+                e.starts_with("r.toml: key `") && e.contains(key),
+                "{to}: {e}"
+            );
+        }
+        let e = RigConfig::parse("[camera]\nframe_rate = 0.0\n", "sim.toml").expect_err("sim 0 Hz");
+        assert!(e.to_string().contains("camera.frame_rate"), "{e}");
     }
 
     #[test]

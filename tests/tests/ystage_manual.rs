@@ -99,3 +99,29 @@ fn limits_and_cancel() {
         Err(AxisError::Cancelled { .. })
     ));
 }
+
+#[test]
+fn readings_outside_the_limits_are_asked_again_and_nan_targets_refused() {
+    let (mut y, asked) = stage(&["1e308", "-3", "7.25"]);
+    assert_eq!(y.status().expect("status").position, Millimetres(7.25));
+    let asked = asked.lock().expect("lock").clone();
+    assert_eq!(asked.len(), 3, "{asked:?}");
+    assert!(
+        asked[1].starts_with("100000000") && asked[1].contains("outside the soft limits"),
+        "{}",
+        asked[1]
+    );
+    assert!(asked[2].contains("-3 mm is outside"), "{}", asked[2]);
+    // Without soft limits a nan target is still refused before anyone is asked.
+    let quiet = Scripted {
+        answers: VecDeque::new(),
+        asked: Arc::new(Mutex::new(Vec::new())),
+    };
+    let seen = quiet.asked.clone();
+    let mut free = ManualStage::new("y", Box::new(quiet), None);
+    assert!(matches!(
+        free.begin_move_to(Millimetres(f64::NAN)),
+        Err(AxisError::NotANumber { .. })
+    ));
+    assert!(seen.lock().expect("lock").is_empty());
+}

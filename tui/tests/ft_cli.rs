@@ -254,11 +254,13 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     // Nothing answers RDT: the start retries run out.
     let silent = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
     let addr = silent.local_addr().expect("addr").to_string();
+    let csv = temp_dir("silent").join("ft.csv");
     let out = fringe()
         .args([
             "ft", "--netft", &addr, "--cpf", "1000000", "--cpt", "1000000",
         ])
-        .args(["stream", "--seconds", "1", "--csv", "/dev/null"])
+        .args(["stream", "--seconds", "1", "--csv"])
+        .arg(&csv)
         .output()
         .expect("run fringe");
     assert!(!out.status.success());
@@ -266,6 +268,22 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(
         stderr.contains(&addr) && stderr.contains("start requests") && stderr.contains("powered"),
+        "{stderr}"
+    );
+    assert!(!csv.exists(), "a CSV with only its header was left behind");
+}
+
+#[test]
+fn durations_no_clock_can_hold_are_refused_naming_the_option() {
+    let out = fringe()
+        .args(["ft", "--netft", "127.0.0.1:9", "--cpf", "1", "--cpt", "1"])
+        .args(["stream", "--seconds", "1e300", "--csv", "/dev/null"])
+        .output()
+        .expect("run fringe");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--seconds") && stderr.contains("1e300") && !stderr.contains("panicked"),
         "{stderr}"
     );
 }

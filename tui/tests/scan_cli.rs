@@ -212,6 +212,129 @@ fn a_run_killed_mid_point_is_resumed_without_losing_or_repeating_a_point() {
 }
 
 #[test]
+fn bad_plan_and_camera_numbers_are_refused_before_anything_moves() {
+    let dir = scratch("bad-numbers");
+    let (rig, _) = files(&dir);
+    let root = dir.join("runs");
+    let good = plan("[11.0, 12.5]");
+    let cases = [
+        // The safety defect: a nan threshold pressed the sensor to the ceiling.
+        (
+            good.replace("safe_z = 14.0", "safe_z = 14.0\ncontact_threshold = nan"),
+            QUICK_RIG.to_string(),
+            "approach.contact_threshold",
+        ),
+        (
+            good.replace("safe_z = 14.0", "safe_z = 14.0\ncontact_threshold = 5.0"),
+            QUICK_RIG.to_string(),
+            "force_targets",
+        ),
+        (
+            good.replace("dwell = 0.4", "dwell = 1e300"),
+            QUICK_RIG.to_string(),
+            "indentation.dwell",
+        ),
+        (
+            good.replace("ramp_rate = 6.0", "ramp_rate = 1e-300"),
+            QUICK_RIG.to_string(),
+            "indentation.ramp_rate",
+        ),
+        (
+            good.replace("dwell = 0.4", "dwell = 0.4\nrepetitions = 4294967295"),
+            QUICK_RIG.to_string(),
+            "indentation.repetitions",
+        ),
+        (
+            good.clone(),
+            QUICK_RIG.replace(
+                "driver = \"sim\"\n[force]",
+                "driver = \"sim\"\nframe_rate = 0.0\n[force]",
+            ),
+            "camera.frame_rate",
+        ),
+        (
+            good.clone(),
+            QUICK_RIG.replace(
+                "driver = \"sim\"\n[force]",
+                "driver = \"sim\"\nexposure_us = -5.0\n[force]",
+            ),
+            "camera.exposure_us",
+        ),
+    ];
+    for (plan_text, rig_text, key) in cases {
+        let plan_path = dir.join("bad-plan.toml");
+        std::fs::write(&plan_path, &plan_text).expect("plan");
+        std::fs::write(&rig, &rig_text).expect("rig");
+        for dry in [true, false] {
+            let mut args = vec!["scan", "--out", root.to_str().expect("path"), "--rig"];
+            args.push(rig.to_str().expect("path"));
+            args.push(plan_path.to_str().expect("path"));
+            if dry {
+                args.push("--dry-run");
+            }
+            let out = fringe(&args);
+            let t = text(&out);
+            assert!(!out.status.success(), "{key} accepted: {t}");
+            assert!(t.contains(key) && !t.contains("panicked"), "{key}: {t}");
+            assert!(!t.contains("homing"), "{key}: homed before refusing: {t}");
+            assert!(the_run(&root).is_none(), "{key}: a run was created");
+        }
+    }
+}
+
+#[test]
+fn ctrl_c_at_the_pause_prompt_acts_without_a_key() {
+    let dir = scratch("ctrlc-prompt");
+    let (rig, plan_path) = files(&dir);
+    let root = dir.join("runs");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .args(["scan", "--out"])
+        .arg(&root)
+        .arg("--rig")
+        .arg(&rig)
+        .arg(&plan_path)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let interrupt = |child: &Child| {
+        // SAFETY: signalling our own child process.
+        unsafe {
+            libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+        }
+    };
+    let run = wait_for_event(&root, &mut child, |e| {
+        e.contains("\"kind\":\"contact\"") && e.contains("\"point\":0")
+    });
+    interrupt(&child);
+    wait_for_event(&root, &mut child, |e| {
+        e.contains("\"kind\":\"prompt\"") && e.contains("resume?")
+    });
+    // Nothing is typed (stdin stays open): the second Ctrl-C alone must end the scan.
+    interrupt(&child);
+    let until = Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            break status;
+        }
+        assert!(
+            Instant::now() < until,
+            "fringe still waits for a key after Ctrl-C at the prompt"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let out = child.wait_with_output().expect("output");
+    let t = text(&out);
+    assert!(!status.success(), "{t}");
+    assert!(t.contains("Ctrl-C at the prompt: aborting"), "{t}");
+    assert!(t.contains("aborted"), "{t}");
+    let stop = std::fs::read_to_string(run.join("stop.json")).expect("stop.json");
+    assert!(stop.contains("aborted"), "{stop}");
+    assert_eq!(points_in(&run), vec![0]);
+}
+
+#[test]
 fn ctrl_c_pauses_after_the_indentation_and_the_operator_resumes() {
     let dir = scratch("ctrlc");
     let (rig, plan_path) = files(&dir);

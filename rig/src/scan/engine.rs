@@ -857,7 +857,7 @@ impl Runner<'_> {
             -1.0
         };
         let ind = &self.setup.program.plan.indentation;
-        let dwell = Duration::from_secs_f64(ind.dwell);
+        let dwell = self.setup.program.dwell;
         let n = match &self.setup.program.targets {
             Targets::Force(t) => t.len(),
             Targets::Depth(t) => t.len(),

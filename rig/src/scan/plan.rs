@@ -30,6 +30,22 @@ use crate::units::{Millimetres, Newtons};
 use std::path::Path;
 use std::time::Duration;
 
+/// The most indentations one plan may hold (about 5 s each: roughly a week of bench time).
+pub const MAX_POINTS: usize = 100_000;
+/// The longest dwell at one target.
+pub const MAX_DWELL: Duration = Duration::from_secs(600);
+/// The most targets pressed at one point.
+pub const MAX_TARGETS: usize = 100;
+/// The most repetitions of each point.
+pub const MAX_REPETITIONS: u32 = 1000;
+/// The smallest first-contact force: below it the F/T noise alone reads as contact.
+pub const MIN_CONTACT_THRESHOLD: Newtons = Newtons(0.02);
+/// Ramp rates allowed for force targets (N/s) and depth targets (mm/s).
+pub const FORCE_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.01..=50.0;
+pub const DEPTH_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.001..=5.0;
+/// The deepest depth target, mm past first contact.
+pub const MAX_DEPTH: Millimetres = Millimetres(5.0);
+
 /// A list of coordinates, as a range or explicitly.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(untagged)]
@@ -43,6 +59,10 @@ impl Axis1d {
     pub fn values(&self, key: &str) -> Result<Vec<f64>, String> {
         match self {
             Axis1d::Points(p) if p.is_empty() => Err(format!("key {key}: give at least one point")),
+            Axis1d::Points(p) if p.len() > MAX_POINTS => Err(format!(
+                "key {key}: {} points is too many (at most {MAX_POINTS})",
+                p.len()
+            )),
             Axis1d::Points(p) => match p.iter().find(|v| !v.is_finite()) {
                 Some(v) => Err(format!("key {key}: {v} is not a number")),
                 None => Ok(p.clone()),
@@ -54,10 +74,13 @@ impl Axis1d {
                     ));
                 }
                 let span = stop - start;
-                let n = (span.abs() / step + 1e-9).floor() as usize;
-                if n > 100_000 {
-                    return Err(format!("key {key}: {} points is too many", n + 1));
+                let n = (span.abs() / step + 1e-9).floor();
+                if n >= MAX_POINTS as f64 {
+                    return Err(format!(
+                        "key {key}: {n:.0} points is too many (at most {MAX_POINTS}): make the step larger"
+                    ));
                 }
+                let n = n as usize;
                 let dir = if span < 0.0 { -1.0 } else { 1.0 };
                 Ok((0..=n).map(|k| start + dir * step * k as f64).collect())
             }
@@ -188,6 +211,8 @@ pub struct BenchLimits {
 pub struct ScanProgram {
     pub plan: Plan,
     pub targets: Targets,
+    /// The dwell at each target (checked: 0 ..= [`MAX_DWELL`]).
+    pub dwell: Duration,
     pub points: Vec<ScanPoint>,
 }
 
@@ -211,6 +236,9 @@ impl Plan {
             origin: origin.to_string(),
             message,
         };
+        if self.name.contains('\0') {
+            return Err(err("key name: contains a NUL byte".into()));
+        }
         let xs = self.grid.x.values("grid.x").map_err(err)?;
         let ys = self.grid.y.values("grid.y").map_err(err)?;
         for (key, values, limits) in [("grid.x", &xs, &bench.x), ("grid.y", &ys, &bench.y)] {
@@ -239,6 +267,11 @@ impl Plan {
                 "key indenters.shapes: name at least one indenter".into()
             ));
         }
+        if let Some(s) = self.indenters.shapes.iter().find(|s| s.trim().is_empty()) {
+            return Err(err(format!(
+                "key indenters.shapes: {s:?} is not a name (give each indenter a name, e.g. \"pentagon\")"
+            )));
+        }
         let ceiling = self.safety.force_ceiling;
         if !(ceiling.is_finite() && ceiling > 0.0) || ceiling > bench.max_force.0 {
             return Err(err(format!(
@@ -247,6 +280,19 @@ impl Plan {
             )));
         }
         let ind = &self.indentation;
+        let threshold = self.approach.contact_threshold;
+        if !(threshold.is_finite() && threshold >= MIN_CONTACT_THRESHOLD.0 && threshold < ceiling) {
+            return Err(err(format!(
+                "key approach.contact_threshold: {threshold} N must be a number from {} N (above the F/T noise) and below the force ceiling {ceiling} N",
+                MIN_CONTACT_THRESHOLD.0
+            )));
+        }
+        let count_targets = ind.force_targets.len() + ind.depth_targets.len();
+        if count_targets > MAX_TARGETS {
+            return Err(err(format!(
+                "section [indentation]: {count_targets} targets per point; at most {MAX_TARGETS}"
+            )));
+        }
         let targets = match (ind.force_targets.is_empty(), ind.depth_targets.is_empty()) {
             (false, true) => {
                 if let Some(t) = ind
@@ -258,16 +304,22 @@ impl Plan {
                         "key indentation.force_targets: {t} N must be above 0 and below the force ceiling {ceiling} N"
                     )));
                 }
+                if let Some(t) = ind.force_targets.iter().find(|t| **t <= threshold) {
+                    return Err(err(format!(
+                        "key indentation.force_targets: {t} N is not above approach.contact_threshold = {threshold} N (first contact must come before every target)"
+                    )));
+                }
                 Targets::Force(ind.force_targets.iter().map(|t| Newtons(*t)).collect())
             }
             (true, false) => {
                 if let Some(t) = ind
                     .depth_targets
                     .iter()
-                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < 5.0))
+                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < MAX_DEPTH.0))
                 {
                     return Err(err(format!(
-                        "key indentation.depth_targets: {t} mm must be above 0 and below 5 mm"
+                        "key indentation.depth_targets: {t} mm must be above 0 and below {} mm",
+                        MAX_DEPTH.0
                     )));
                 }
                 Targets::Depth(ind.depth_targets.iter().map(|t| Millimetres(*t)).collect())
@@ -278,20 +330,48 @@ impl Plan {
                 ))
             }
         };
-        if !(ind.ramp_rate.is_finite() && ind.ramp_rate > 0.0) {
+        let (rate_range, rate_unit) = match targets {
+            Targets::Force(_) => (FORCE_RAMP_RATE, "N/s"),
+            Targets::Depth(_) => (DEPTH_RAMP_RATE, "mm/s"),
+        };
+        if !(ind.ramp_rate.is_finite() && rate_range.contains(&ind.ramp_rate)) {
             return Err(err(format!(
-                "key indentation.ramp_rate: {} must be a positive number",
-                ind.ramp_rate
+                "key indentation.ramp_rate: {} must be a number from {} to {} {rate_unit}",
+                ind.ramp_rate,
+                rate_range.start(),
+                rate_range.end()
             )));
         }
-        if !(ind.dwell.is_finite() && ind.dwell >= 0.0) {
+        if !(ind.dwell.is_finite() && ind.dwell >= 0.0 && ind.dwell <= MAX_DWELL.as_secs_f64()) {
             return Err(err(format!(
-                "key indentation.dwell: {} s must be zero or more",
-                ind.dwell
+                "key indentation.dwell: {} s must be a number from 0 to {} s",
+                ind.dwell,
+                MAX_DWELL.as_secs()
             )));
         }
-        if ind.repetitions == 0 {
-            return Err(err("key indentation.repetitions: at least 1".into()));
+        if ind.repetitions == 0 || ind.repetitions > MAX_REPETITIONS {
+            return Err(err(format!(
+                "key indentation.repetitions: {} must be from 1 to {MAX_REPETITIONS}",
+                ind.repetitions
+            )));
+        }
+        // The size check comes before anything is allocated for the points.
+        let count = [
+            self.indenters.shapes.len() as u128,
+            xs.len() as u128,
+            ys.len() as u128,
+            u128::from(ind.repetitions),
+        ]
+        .iter()
+        .product::<u128>();
+        if count > MAX_POINTS as u128 {
+            return Err(err(format!(
+                "the plan has {count} indentations ({} shapes x {} x {} y x {} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid",
+                self.indenters.shapes.len(),
+                xs.len(),
+                ys.len(),
+                ind.repetitions
+            )));
         }
         let mut points = Vec::new();
         let mut last: Option<(String, f64)> = None;
@@ -324,6 +404,7 @@ impl Plan {
         Ok(ScanProgram {
             plan: self.clone(),
             targets,
+            dwell: Duration::from_secs_f64(ind.dwell),
             points,
         })
     }
@@ -341,7 +422,12 @@ pub fn move_time(distance: f64, k: &Kinematics) -> Duration {
     } else {
         d / v + v / a
     };
-    Duration::from_secs_f64(secs)
+    seconds(secs)
+}
+
+/// Seconds as a duration, saturating (an estimate never panics on a huge or odd number).
+fn seconds(secs: f64) -> Duration {
+    Duration::try_from_secs_f64(secs.max(0.0)).unwrap_or(Duration::MAX)
 }
 
 /// The estimate of a dry run.
@@ -397,7 +483,7 @@ impl ScanProgram {
             secs += per_press;
         }
         Estimate {
-            total: Duration::from_secs_f64(secs),
+            total: seconds(secs),
             lateral_path_mm: path,
             indenter_changes: changes,
             manual_rows: rows,
@@ -517,6 +603,118 @@ force_ceiling = 10.0
         let typo = PLAN.replace("dwell", "dwel");
         let err = Plan::parse(&typo, "plan.toml").expect_err("unknown key");
         assert!(err.to_string().contains("dwel"), "{err}");
+    }
+
+    fn refusal(plan_text: &str) -> String {
+        match Plan::parse(plan_text, "plan.toml") {
+            Err(e) => e.to_string(),
+            Ok(plan) => plan
+                .program(&bench(), "plan.toml")
+                .map(|p| format!("accepted with {} points", p.points.len()))
+                .unwrap_or_else(|e| e.to_string()),
+        }
+    }
+
+    #[test]
+    fn contact_threshold_must_lie_below_every_target_and_the_ceiling() {
+        // A nan threshold once pressed the sensor to the force ceiling three times.
+        for bad in ["nan", "-1.0", "0.0", "1.0", "2.5", "10.0", "11.0", "inf"] {
+            let text = PLAN.replace(
+                "safe_z = 1.0",
+                &format!("safe_z = 1.0\ncontact_threshold = {bad}"),
+            );
+            let msg = refusal(&text);
+            assert!(
+                msg.starts_with("plan.toml: key approach.contact_threshold")
+                    || msg.contains("is not above approach.contact_threshold"),
+                "threshold {bad}: {msg}"
+            );
+        }
+        let ok = PLAN.replace("safe_z = 1.0", "safe_z = 1.0\ncontact_threshold = 0.5");
+        assert!(refusal(&ok).starts_with("accepted"), "{}", refusal(&ok));
+        // With depth targets the threshold is still bounded by the ceiling.
+        let depth = PLAN
+            .replace("force_targets = [1.0, 4.0]", "depth_targets = [0.3]")
+            .replace("safe_z = 1.0", "safe_z = 1.0\ncontact_threshold = 12.0");
+        assert!(
+            refusal(&depth).contains("approach.contact_threshold"),
+            "{}",
+            refusal(&depth)
+        );
+    }
+
+    #[test]
+    fn every_plan_number_is_checked_before_anything_runs() {
+        for (from, to, key) in [
+            ("dwell = 0.5", "dwell = 1e20", "indentation.dwell"),
+            ("dwell = 0.5", "dwell = 1e300", "indentation.dwell"),
+            ("dwell = 0.5", "dwell = nan", "indentation.dwell"),
+            (
+                "ramp_rate = 2.0",
+                "ramp_rate = 1e-300",
+                "indentation.ramp_rate",
+            ),
+            (
+                "ramp_rate = 2.0",
+                "ramp_rate = 1e300",
+                "indentation.ramp_rate",
+            ),
+            ("safe_z = 1.0", "safe_z = nan", "approach.safe_z"),
+            (
+                "force_ceiling = 10.0",
+                "force_ceiling = nan",
+                "safety.force_ceiling",
+            ),
+            ("[1.0, 4.0]", "[1.0, nan]", "indentation.force_targets"),
+            ("y = [0.0, 2.0]", "y = [0.0, inf]", "grid.y"),
+        ] {
+            let msg = refusal(&PLAN.replace(from, to));
+            assert!(msg.contains(key), "{to}: {msg}");
+        }
+    }
+
+    #[test]
+    fn oversized_plans_are_refused_before_allocation() {
+        let huge_reps = PLAN.replace("dwell = 0.5", "dwell = 0.5\nrepetitions = 4294967295");
+        assert!(refusal(&huge_reps).contains("indentation.repetitions"));
+        // 10^4 x 10^3 = 10^7 points: each axis alone is allowed, the product is not.
+        let wide = PLAN
+            .replace(
+                "x = { start = -5.0, stop = 5.0, step = 5.0 }",
+                "x = { start = -5.0, stop = 5.0, step = 0.001 }",
+            )
+            .replace(
+                "y = [0.0, 2.0]",
+                "y = { start = 0.0, stop = 10.0, step = 0.01 }",
+            );
+        let msg = refusal(&wide);
+        assert!(
+            msg.contains("indentations") && msg.contains("at most 100000"),
+            "{msg}"
+        );
+        let tiny_step = PLAN.replace("step = 5.0", "step = 1e-9");
+        assert!(
+            refusal(&tiny_step).contains("too many"),
+            "{}",
+            refusal(&tiny_step)
+        );
+    }
+
+    #[test]
+    fn estimates_of_the_largest_plans_do_not_panic() {
+        let slow = PLAN
+            .replace("dwell = 0.5", "dwell = 600.0\nrepetitions = 1000")
+            .replace("ramp_rate = 2.0", "ramp_rate = 0.01");
+        let plan = Plan::parse(&slow, "p").expect("parse");
+        let program = plan.program(&bench(), "p").expect("valid");
+        assert_eq!(program.dwell, MAX_DWELL);
+        let est = program.estimate(&bench());
+        assert!(est.total > Duration::from_secs(12_000 * 600), "{est:?}");
+        let k = Kinematics {
+            velocity: MillimetresPerSecond(f64::MIN_POSITIVE),
+            acceleration: MillimetresPerSecondSquared(f64::MIN_POSITIVE),
+        };
+        assert_eq!(move_time(1e300, &k), Duration::MAX);
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! `fringe axis`: bring up one Thorlabs stepper axis from the command line.
 
+use super::arg_values;
 use super::limits::SoftLimitArgs;
 use crate::Global;
 use anyhow::{bail, Context};
@@ -38,8 +39,8 @@ pub struct AxisArgs {
     #[command(flatten)]
     limits: SoftLimitArgs,
     /// Seconds to wait for a home or move to finish.
-    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
-    timeout: f64,
+    #[arg(long, value_name = "SECONDS", default_value = "120", value_parser = arg_values::seconds)]
+    timeout: Duration,
     #[command(subcommand)]
     action: Action,
 }
@@ -52,12 +53,12 @@ enum Action {
     Status,
     /// Move to an absolute position in mm and wait.
     Move {
-        #[arg(value_name = "MM", allow_negative_numbers = true)]
+        #[arg(value_name = "MM", allow_negative_numbers = true, value_parser = arg_values::millimetres)]
         mm: f64,
     },
     /// Move by a distance in mm and wait.
     MoveRel {
-        #[arg(value_name = "MM", allow_negative_numbers = true)]
+        #[arg(value_name = "MM", allow_negative_numbers = true, value_parser = arg_values::millimetres)]
         mm: f64,
     },
     /// Stop (profiled unless --immediate).
@@ -96,12 +97,6 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
             bail!("{name} must be a positive number, got {v}");
         }
     }
-    if !(args.timeout.is_finite() && args.timeout > 0.0) {
-        bail!(
-            "--timeout must be a positive number of seconds, got {}",
-            args.timeout
-        );
-    }
     let mut config = AptConfig::new("axis", args.controller, actuator);
     config.bay = args.bay;
     config.channel = args.channel;
@@ -124,7 +119,7 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
             axis.endpoint()
         );
     }
-    let timeout = Duration::from_secs_f64(args.timeout);
+    let timeout = args.timeout;
     let status = match args.action {
         Action::Status => axis.status()?,
         Action::Home => axis.home(timeout)?,

@@ -5,6 +5,7 @@
 //! fringe ft --netft HOST[:PORT] bias
 //! ```
 
+use super::arg_values;
 use crate::Global;
 use anyhow::{bail, Context};
 use fringe_rig::force::{ForceSample, ForceSensor};
@@ -52,8 +53,8 @@ enum FtAction {
     /// Stream samples to a CSV file and report the rate and lost packets.
     Stream {
         /// How long to stream.
-        #[arg(long, value_name = "S")]
-        seconds: f64,
+        #[arg(long, value_name = "S", value_parser = arg_values::seconds)]
+        seconds: Duration,
         /// Output CSV: host time s, rdt sequence, ft sequence, Fx Fy Fz (N), Tx Ty Tz (N m).
         #[arg(long, value_name = "FILE")]
         csv: PathBuf,
@@ -157,16 +158,13 @@ pub fn run(args: FtArgs, global: &Global) -> anyhow::Result<()> {
             csv,
             buffered,
         } => {
-            if !(seconds.is_finite() && *seconds > 0.0) {
-                bail!("--seconds {seconds}: give a positive duration");
-            }
             let mode = if *buffered {
                 Command::Buffered
             } else {
                 Command::RealTime
             };
             let sensor = connect(&args, global, mode)?;
-            stream(sensor, Duration::from_secs_f64(*seconds), csv)
+            stream(sensor, *seconds, csv)
         }
         FtAction::Bias => bias(connect(&args, global, Command::RealTime)?),
     }
@@ -194,6 +192,14 @@ fn stream(
     duration: Duration,
     csv: &PathBuf,
 ) -> anyhow::Result<()> {
+    // A file this command created and filled with nothing is removed again (never a device
+    // such as /dev/null, nor a file that was there before).
+    let created = !csv.exists();
+    let discard_empty = || {
+        if created && csv.metadata().is_ok_and(|m| m.is_file()) {
+            let _ = std::fs::remove_file(csv);
+        }
+    };
     let file = File::create(csv).with_context(|| {
         format!(
             "cannot create {} (check the directory exists and is writable)",
@@ -207,7 +213,11 @@ fn stream(
         "host_time_s,rdt_sequence,ft_sequence,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm"
     )
     .map_err(write_err)?;
-    sensor.start()?;
+    if let Err(e) = sensor.start() {
+        drop(out);
+        discard_empty();
+        return Err(e.into());
+    }
     let started = Instant::now();
     let mut count = 0u64;
     let mut first = None;
@@ -253,6 +263,18 @@ fn stream(
     println!("rate: {rate:.1} Hz");
     println!("lost packets: {}", stats.lost);
     println!("out of order: {}", stats.out_of_order);
+    if count == 0 {
+        // A CSV of only the header would pass for a recording; leave nothing instead.
+        drop(out);
+        discard_empty();
+        result?;
+        bail!(
+            "{}: no sample arrived in {:.1} s; nothing written to {} (check the address and that the sensor streams)",
+            sensor.describe(),
+            duration.as_secs_f64(),
+            csv.display()
+        );
+    }
     println!("csv: {}", csv.display());
     result?;
     stopped?;

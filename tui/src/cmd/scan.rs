@@ -25,7 +25,7 @@ use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::units::Millimetres;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::SystemTime;
 use std::time::{Duration, Instant};
@@ -191,6 +191,8 @@ pub fn execute(
     let mut operator = TerminalOperator {
         bench: rig.sim.as_ref().map(|s| s.bench.clone()),
         yes,
+        control: control.clone(),
+        answers: None,
     };
     let bar = Mutex::new(Bar::new(setup.program.points.len() as u64));
     let started = Instant::now();
@@ -373,6 +375,52 @@ fn clock(d: Duration) -> String {
 struct TerminalOperator {
     bench: Option<Arc<Bench>>,
     yes: bool,
+    /// Watched while a prompt waits: Ctrl-C (an abort) answers the prompt.
+    control: ScanControl,
+    /// Lines typed on standard input (`None` at its end), read by a thread of their own so
+    /// that a waiting prompt still sees Ctrl-C.
+    answers: Option<crossbeam_channel::Receiver<Option<String>>>,
+}
+
+impl TerminalOperator {
+    fn answers(&mut self) -> &crossbeam_channel::Receiver<Option<String>> {
+        self.answers.get_or_insert_with(|| {
+            let (tx, rx) = crossbeam_channel::unbounded();
+            let _ = std::thread::Builder::new()
+                .name("stdin".into())
+                .spawn(move || {
+                    let stdin = std::io::stdin();
+                    loop {
+                        let mut line = String::new();
+                        let read = stdin.lock().read_line(&mut line);
+                        let end = matches!(read, Ok(0) | Err(_));
+                        if tx.send((!end).then_some(line)).is_err() || end {
+                            break;
+                        }
+                    }
+                });
+            rx
+        })
+    }
+
+    /// Waits for a line on standard input; `None` at its end or when Ctrl-C aborts the scan.
+    fn read_answer(&mut self) -> Option<String> {
+        let control = self.control.clone();
+        let answers = self.answers().clone();
+        interrupt::prompt_open(true);
+        let answer = loop {
+            if control.request() == Request::Abort {
+                break None;
+            }
+            match answers.recv_timeout(Duration::from_millis(50)) {
+                Ok(line) => break line,
+                Err(crossbeam_channel::RecvTimeoutError::Timeout) => {}
+                Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break None,
+            }
+        };
+        interrupt::prompt_open(false);
+        answer
+    }
 }
 
 impl Operator for TerminalOperator {
@@ -405,19 +453,14 @@ impl Operator for TerminalOperator {
         };
         eprint!("\n>>> {} — {choices}: ", prompt.message());
         let _ = std::io::stderr().flush();
-        let mut line = String::new();
-        match std::io::stdin().lock().read_line(&mut line) {
-            Ok(0) | Err(_) => {
+        match self.read_answer() {
+            None if self.control.request() == Request::Abort => Reply::Abort,
+            None => {
                 eprintln!("(no answer on standard input: aborting)");
                 Reply::Abort
             }
-            Ok(_) => {
-                if line.trim().eq_ignore_ascii_case("a") {
-                    Reply::Abort
-                } else {
-                    Reply::Continue
-                }
-            }
+            Some(line) if line.trim().eq_ignore_ascii_case("a") => Reply::Abort,
+            Some(_) => Reply::Continue,
         }
     }
 }
@@ -511,6 +554,12 @@ mod interrupt {
     use super::*;
 
     static PRESSES: AtomicUsize = AtomicUsize::new(0);
+    /// An operator prompt is waiting for an answer.
+    static AT_PROMPT: AtomicBool = AtomicBool::new(false);
+
+    pub fn prompt_open(open: bool) {
+        AT_PROMPT.store(open, Ordering::SeqCst);
+    }
 
     extern "C" fn on_sigint(_: libc::c_int) {
         PRESSES.fetch_add(1, Ordering::SeqCst);
@@ -530,6 +579,12 @@ mod interrupt {
                     let n = PRESSES.load(Ordering::SeqCst);
                     while seen < n {
                         seen += 1;
+                        if AT_PROMPT.load(Ordering::SeqCst) {
+                            // Motion has already stopped at a prompt: Ctrl-C answers it.
+                            control.abort();
+                            eprintln!("\nCtrl-C at the prompt: aborting (motion is stopped; the run is closed as aborted with the points done kept)");
+                            continue;
+                        }
                         match control.request() {
                             Request::Run => {
                                 control.pause();

@@ -1,5 +1,6 @@
 //! `fringe ystage`: home, query or move the y stage (Modbus TCP, Modbus RTU, manual or a Thorlabs axis).
 
+use super::arg_values;
 use super::limits::SoftLimitArgs;
 use crate::Global;
 use anyhow::{bail, Context};
@@ -60,8 +61,8 @@ pub struct YstageArgs {
     limits: SoftLimitArgs,
 
     /// Seconds to wait for homing or a move to finish.
-    #[arg(long, default_value_t = 60.0, value_name = "S")]
-    timeout: f64,
+    #[arg(long, default_value = "60", value_name = "S", value_parser = arg_values::seconds)]
+    timeout: Duration,
 
     #[command(subcommand)]
     action: Action,
@@ -75,7 +76,7 @@ enum Action {
     Status,
     /// Move to MM (absolute) and wait.
     Move {
-        #[arg(allow_negative_numbers = true, value_name = "MM")]
+        #[arg(allow_negative_numbers = true, value_name = "MM", value_parser = arg_values::millimetres)]
         mm: f64,
     },
 }
@@ -169,10 +170,7 @@ fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
 }
 
 pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
-    if !(args.timeout.is_finite() && args.timeout > 0.0) {
-        bail!("--timeout must be a positive number of seconds");
-    }
-    let timeout = Duration::from_secs_f64(args.timeout);
+    let timeout = args.timeout;
     let mut y = open(&args, global)?;
     let status = match args.action {
         Action::Home => y.home(timeout)?,
