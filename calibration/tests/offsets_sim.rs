@@ -1,4 +1,4 @@
-//! Force offsets against the simulated F/T sensor (`fringe_rig::sim::ft_sensor`: 0.05 N white
+//! Force offsets against the simulated F/T sensor (`fringe_sim::ft_sensor`: 0.05 N white
 //! noise, random-walk drift, a power-up bias) with a known added linear drift: the bias within
 //! 0.01 N of the truth, the drift slope recovered, the zero-load check warning after a power
 //! cycle.
@@ -7,9 +7,9 @@ use fringe_calibration::offsets::{
     bias, drift, zero_load_check, Bias, ForceOffsets, ZeroTolerance,
 };
 use fringe_rig::clock::HostTime;
-use fringe_rig::sim::ft_sensor::{FtNoiseConfig, SimFtSensor};
-use fringe_rig::sim::scene::{ForceReading, LoadSource};
 use fringe_rig::units::Wrench;
+use fringe_sim::ft_sensor::{FtNoiseConfig, SimFtSensor};
+use fringe_sim::scene::{ForceReading, LoadSource};
 use std::sync::Arc;
 
 struct NoContact;

@@ -1,7 +1,7 @@
 //! The axis abstraction shared by every stage: Thorlabs steppers (x, z, y), Modbus y stages and
 //! the manual y stage.
 
-use crate::units::Millimetres;
+use crate::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::fmt;
 use std::time::Duration;
 
@@ -94,6 +94,13 @@ fn status_suffix(flags: &[&'static str]) -> String {
     } else {
         format!(" (status: {})", flags.join(", "))
     }
+}
+
+/// Speed and acceleration of trapezoidal moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kinematics {
+    pub velocity: MillimetresPerSecond,
+    pub acceleration: MillimetresPerSecondSquared,
 }
 
 /// Soft limits in millimetres, checked before any move is sent.

@@ -5,13 +5,10 @@
 //!   `netftapi2.xml`.
 //! - [`stream`]: sequence accounting (lost, out-of-order) and status words.
 //! - [`driver`]: [`NetFt`], a [`crate::force::ForceSensor`] on any datagram link.
-//! - [`sim`]: a simulated sensor on loopback UDP (and its HTTP configuration page) for tests and
-//!   benchmarks.
 
 pub mod config;
 pub mod driver;
 pub mod rdt;
-pub mod sim;
 pub mod stream;
 
 pub use config::{fetch_config, netftapi2_url, NetFtConfig};

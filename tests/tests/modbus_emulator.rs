@@ -1,15 +1,15 @@
-//! The emulated Modbus y stage (fringe_rig::sim::modbus_emulator) against the real ModbusStage
+//! The emulated Modbus y stage (fringe_sim::modbus_emulator) against the real ModbusStage
 //! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
 //! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
 
 use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::sim::modbus_emulator::ModbusEmulator;
-use fringe_rig::sim::motion::{Kinematics, MotorSpec, SimMotor};
 use fringe_rig::transport::serial::SerialLink;
 use fringe_rig::transport::tcp::TcpLink;
 use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_sim::modbus_emulator::ModbusEmulator;
+use fringe_sim::motion::{Kinematics, MotorSpec, SimMotor};
 use std::net::SocketAddr;
 use std::process::Command;
 use std::sync::Arc;

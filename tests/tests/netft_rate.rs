@@ -2,9 +2,9 @@
 //! version of `cargo run -p fringe-rig --example netft_bench`, see BENCHMARKS.md).
 
 use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::sim::{SimNetFt, SimOptions};
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::transport::udp::UdpLink;
+use fringe_sim::netft_box::{SimNetFt, SimOptions};
 use std::time::{Duration, Instant};
 
 #[test]

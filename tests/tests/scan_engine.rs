@@ -11,15 +11,15 @@ use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan};
 use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::watchers::WatchSettings;
-use fringe_rig::sim::bench::AxisConfig;
-use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
-use fringe_rig::sim::rig::{SimRig, SimRigConfig};
 use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::verify::verify;
 use fringe_rig::store::{START, STOP};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{Millimetres, Newtons};
+use fringe_sim::bench::AxisConfig;
+use fringe_sim::ground_truth::{TruthLog, TruthSink};
+use fringe_sim::rig::{SimRig, SimRigConfig};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -84,7 +84,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         camera: CameraSettings::default(),
         press: PressSettings::default(),
         watch: WatchSettings::default(),
-        truth: None,
+        sidecars: Vec::new(),
         offset_check: None,
     }
 }
@@ -240,7 +240,7 @@ fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
         }
     }
     let rms = (force_errors.iter().map(|e| e * e).sum::<f64>() / force_errors.len() as f64).sqrt();
-    let score = fringe_rig::sim::label_score::score(&records, &truth.frames()).expect("score");
+    let score = fringe_sim::label_score::score(&records, &truth.frames()).expect("score");
     assert_eq!(score.frames, records.len());
     assert!((score.force_rms_n - rms).abs() < 1e-9);
     assert!(score.contact_rms_mm < 0.05, "{score:?}");

@@ -1,8 +1,8 @@
 //! The default simulated rig end to end: real drivers over in-process links to the emulators.
 
 use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::sim::rig::{SimRig, SimRigConfig};
 use fringe_rig::units::Millimetres;
+use fringe_sim::rig::{SimRig, SimRigConfig};
 use std::time::Duration;
 
 #[test]

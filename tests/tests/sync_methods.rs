@@ -3,8 +3,8 @@
 //! ground truth: where in the force stream each label looked (label time, in true host time) and
 //! the labelled Fz during presses.
 
-use fringe_rig::sim::sync_score::{self, SyncBenchConfig};
 use fringe_rig::sync::method::SyncMethod;
+use fringe_sim::sync_score::{self, SyncBenchConfig};
 
 #[test]
 fn strobe_and_clock_fit_place_windows_within_their_bounds_and_host_lags() {

@@ -5,13 +5,17 @@ pub mod arg_values;
 pub mod axis;
 pub mod calibrate;
 pub mod camera;
+#[cfg(feature = "sim")]
 pub mod demo;
 pub mod devices;
 pub mod ft;
 pub mod limits;
 pub mod runs;
 pub mod scan;
+#[cfg(feature = "sim")]
 pub mod selfcheck;
+#[cfg(feature = "sim")]
 pub mod sim_render;
+#[cfg(feature = "sim")]
 pub mod sim_serve;
 pub mod ystage;

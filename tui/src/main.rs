@@ -37,9 +37,12 @@ enum Command {
     Camera(cmd::camera::CameraArgs),
     /// Run a scan plan (grid of points and force levels) into a run directory; --dry-run shows it.
     Scan(cmd::scan::ScanArgs),
-    /// The main job on the simulated bench: press, film, label and store a short run.
+    /// The demonstration on the simulated bench: three presses to 1, 4 and 9 N, filmed,
+    /// labelled, stored and scored against the simulator's truth.
+    #[cfg(feature = "sim")]
     Demo(cmd::demo::DemoArgs),
     /// Hardware-free self-check: the Net F/T driver against a loopback box, serial ports.
+    #[cfg(feature = "sim")]
     Selfcheck,
     /// List the runs in a directory (default runs/), newest first.
     Runs(cmd::runs::RunsArgs),
@@ -51,11 +54,13 @@ enum Command {
     /// only) and its profile: centre, crop radius, image-to-stage geometry, force offsets.
     Calibrate(cmd::calibrate::CalibrateArgs),
     /// The simulated bench: render sensor frames, serve its devices.
+    #[cfg(feature = "sim")]
     #[command(subcommand)]
     Sim(SimCommand),
 }
 
 /// `fringe sim ...` subcommands.
+#[cfg(feature = "sim")]
 #[derive(Subcommand)]
 enum SimCommand {
     /// Render one simulated sensor frame to a PNG.
@@ -77,7 +82,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         None => cmd::scan::run(cmd::scan::ScanArgs::main_job(), &global),
         Some(Command::Scan(args)) => cmd::scan::run(args, &global),
+        #[cfg(feature = "sim")]
         Some(Command::Demo(args)) => cmd::demo::run(args, &global),
+        #[cfg(feature = "sim")]
         Some(Command::Selfcheck) => cmd::selfcheck::run(&global),
         Some(Command::Devices(args)) => cmd::devices::run(args, &global),
         Some(Command::Ft(args)) => cmd::ft::run(args, &global),
@@ -88,7 +95,9 @@ fn main() -> ExitCode {
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
         Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
         Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
+        #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
+        #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Serve(args))) => cmd::sim_serve::run(args),
     };
     match result {

@@ -2,9 +2,9 @@
 //! netftapi2.xml), checking the CSV rows and the printed sample count, rate and lost packets.
 
 use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::sim::{SimHttp, SimNetFt, SimOptions};
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::trace::{ReplayDatagramLink, ReplayOptions, Trace};
+use fringe_sim::netft_box::{SimHttp, SimNetFt, SimOptions};
 use std::path::PathBuf;
 use std::process::Command as Process;
 use std::sync::Arc;

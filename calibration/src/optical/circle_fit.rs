@@ -2,6 +2,7 @@
 //! geometric least-squares fit (Gauss-Newton on the point-to-circle distances) with its
 //! covariance.
 
+use fringe_rig::seeded::SplitMix64;
 use nalgebra::{Matrix3, Vector3};
 
 /// A circle in image coordinates, px.
@@ -91,9 +92,8 @@ pub fn ransac(
     if n < 3 {
         return None;
     }
-    let mut state: u64 = 0x5EED_C1AC_1E00_0001;
-    let mut next =
-        |m: usize| (fringe_rig::sim::background::splitmix64(&mut state) % m as u64) as usize;
+    let mut rng = SplitMix64::new(0x5EED_C1AC_1E00_0001);
+    let mut next = |m: usize| rng.below(m);
     let mut best: Option<(Circle, usize)> = None;
     for _ in 0..iterations {
         let (i, j, k) = (next(n), next(n), next(n));
@@ -257,11 +257,11 @@ mod tests {
     use super::*;
 
     fn ring(c: Circle, n: usize, noise: f64) -> Vec<[f64; 2]> {
-        let mut s = 7u64;
+        let mut rng = SplitMix64::new(7);
         (0..n)
             .map(|k| {
                 let a = std::f64::consts::TAU * k as f64 / n as f64;
-                let e = noise * (fringe_rig::sim::background::uniform(&mut s) - 0.5) * 3.46;
+                let e = noise * (rng.uniform() - 0.5) * 3.46;
                 [c.cx + (c.r + e) * a.cos(), c.cy + (c.r + e) * a.sin()]
             })
             .collect()

@@ -541,7 +541,6 @@ impl FrameLabeler for ClockFitLabeler {
 mod tests {
     use super::*;
     use crate::acquire::synthetic::{self, sample_at, sample_host, Bench};
-    use rand::Rng;
 
     /// Labels of the synthetic bench's frames (strobe not used) whose true exposure starts
     /// after 11 s, with that start (host ns).
@@ -606,7 +605,7 @@ mod tests {
     #[test]
     fn widely_varying_delivery_delays_leave_the_latched_clock_right() {
         let mut bench = quiet();
-        bench.delivery_ns = Box::new(|_, rng| rng.gen_range(30e6..70e6));
+        bench.delivery_ns = Box::new(|_, rng| rng.range(30e6..70e6));
         let (tx, rx) = crossbeam_channel::unbounded();
         let mut l = ClockFitLabeler::new(ClockFitOptions::new(Microseconds(2000.0), 1e9), Some(rx));
         let labelled = synthetic::run(&mut l, synthetic::events(&bench, 12), &tx);

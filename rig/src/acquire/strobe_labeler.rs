@@ -233,7 +233,6 @@ mod tests {
     use super::*;
     use crate::acquire::synthetic::{self, sample_at, Bench, Labelled, SAMPLE_NS};
     use crate::units::Microseconds;
-    use rand::Rng;
     use std::time::Duration;
 
     fn labeler(latches: Option<Receiver<TimestampLatch>>) -> StrobeLabeler {
@@ -276,7 +275,7 @@ mod tests {
     #[test]
     fn frames_delivered_periods_late_get_their_own_window() {
         let mut bench = Bench::new();
-        bench.delivery_ns = Box::new(|_, rng| rng.gen_range(30e6..70e6));
+        bench.delivery_ns = Box::new(|_, rng| rng.range(30e6..70e6));
         let labelled = label(&bench, true, 3);
         assert!(labelled.len() > 900, "{} frames", labelled.len());
         // The fits need a second of data; frames from then on are all labelled.
@@ -302,7 +301,7 @@ mod tests {
         let mut bench = Bench::new();
         bench.delivery_ns = Box::new(|n, rng| {
             let stall = if (400..404).contains(&n) { 60e6 } else { 0.0 };
-            4e6 + rng.gen_range(0.0..3e6) + stall
+            4e6 + rng.range(0.0..3e6) + stall
         });
         let labelled = label(&bench, false, 4);
         let scored: Vec<&Labelled> = labelled.iter().filter(|f| f.true_start > 5e9).collect();

@@ -8,10 +8,9 @@ use super::labeler::{FrameLabeler, LabelOutcome};
 use crate::camera::{Frame, PixelFormat, TimestampLatch};
 use crate::clock::HostTime;
 use crate::force::ForceSample;
+use crate::seeded::SplitMix64;
 use crate::units::{Volts, Wrench};
 use crossbeam_channel::Sender;
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
 use std::collections::VecDeque;
 
 /// Host ns of one force sample (a 5 kHz counter running 100 ppm fast).
@@ -41,7 +40,7 @@ fn camera_ticks(host_ns: f64) -> u64 {
 }
 
 /// A delay in ns for frame n, drawn with the bench's generator.
-pub type DelayOfFrame = Box<dyn Fn(u64, &mut StdRng) -> f64>;
+pub type DelayOfFrame = Box<dyn Fn(u64, &mut SplitMix64) -> f64>;
 
 /// What the synthetic bench does.
 pub struct Bench {
@@ -52,7 +51,7 @@ pub struct Bench {
     /// order).
     pub delivery_ns: DelayOfFrame,
     /// Force block delivery delay after the block's last sample, ns.
-    pub block_delay_ns: Box<dyn Fn(&mut StdRng) -> f64>,
+    pub block_delay_ns: Box<dyn Fn(&mut SplitMix64) -> f64>,
     pub latches: bool,
     /// Whether the strobe is recorded.
     pub strobe: bool,
@@ -70,8 +69,8 @@ impl Bench {
             seconds: 20.0,
             frame_period_ns: 20e6,
             exposure_ns: 2e6,
-            delivery_ns: Box::new(|_, rng| 5e6 + rng.gen_range(0.0..3e6)),
-            block_delay_ns: Box::new(|rng| rng.gen_range(0.0..3e6)),
+            delivery_ns: Box::new(|_, rng| 5e6 + rng.range(0.0..3e6)),
+            block_delay_ns: Box::new(|rng| rng.range(0.0..3e6)),
             latches: true,
             strobe: true,
             strobe_lost: 0..0,
@@ -106,7 +105,7 @@ pub enum Event {
 
 /// The bench's events in host arrival order.
 pub fn events(bench: &Bench, seed: u64) -> Vec<Event> {
-    let mut rng = StdRng::seed_from_u64(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut timed: Vec<(f64, Event)> = Vec::new();
     let end = SAMPLE0_NS + bench.seconds * 1e9;
     let mut k = 0u64;
@@ -156,8 +155,8 @@ pub fn events(bench: &Bench, seed: u64) -> Vec<Event> {
     if bench.latches {
         let mut before = SAMPLE0_NS + 0.05e9;
         while before < end {
-            let rtt = rng.gen_range(75e3..225e3);
-            let at = before + rng.gen_range(0.0..rtt);
+            let rtt = rng.range(75e3..225e3);
+            let at = before + rng.range(0.0..rtt);
             timed.push((
                 before + rtt,
                 Event::Latch(TimestampLatch {

@@ -25,7 +25,7 @@ use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
 use crate::camera::CameraSettings;
 use crate::devices::Devices;
-use crate::sim::ground_truth::TruthLog;
+use crate::scan::sidecar::RunSidecar;
 use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
@@ -57,8 +57,8 @@ pub struct ScanSetup {
     /// the bench.
     pub press: PressSettings,
     pub watch: WatchSettings,
-    /// The simulator's ground truth, written into the run as truth.jsonl (simulated runs).
-    pub truth: Option<Arc<TruthLog>>,
+    /// Files the caller adds to the run when it closes (the simulated bench's ground truth).
+    pub sidecars: Vec<Arc<dyn RunSidecar>>,
     /// The zero-load check of the sensor's profile, made on the first offset measurement of
     /// each session (new run or resume).
     pub offset_check: Option<Arc<dyn OffsetCheck>>,
@@ -339,8 +339,8 @@ pub fn run_scan(
         sync_method: Some(setup.sync.name().into()),
         sync_error_ns: counts.sync_error_ns,
     };
-    if let Some(truth) = &setup.truth {
-        append_truth(writer.dir(), truth)?;
+    for sidecar in &setup.sidecars {
+        append_sidecar(writer.dir(), sidecar.as_ref())?;
     }
     let run_dir = writer.finish(&stop)?;
     result?;
@@ -362,14 +362,13 @@ pub fn run_scan(
     })
 }
 
-/// Appends the simulator's ground truth to the run's truth.jsonl (a resumed run appends the
-/// truth of each session; frames are matched by their device timestamps).
-fn append_truth(dir: &Path, truth: &TruthLog) -> Result<(), StoreError> {
+/// Appends a sidecar's lines to its file in the run (a resumed run appends each session's).
+fn append_sidecar(dir: &Path, sidecar: &dyn RunSidecar) -> Result<(), StoreError> {
     use std::io::Write;
-    let path = dir.join(TRUTH);
+    let path = dir.join(sidecar.file_name());
     let mut lines = String::new();
-    for r in truth.records() {
-        lines.push_str(&r.to_json());
+    for line in sidecar.lines() {
+        lines.push_str(&line);
         lines.push('\n');
     }
     let mut file = std::fs::OpenOptions::new()
@@ -384,9 +383,6 @@ fn append_truth(dir: &Path, truth: &TruthLog) -> Result<(), StoreError> {
         .and_then(|_| file.sync_all())
         .map_err(|e| StoreError::Io { path, source: e })
 }
-
-/// The simulator's ground truth inside a simulated run.
-pub const TRUTH: &str = "truth.jsonl";
 
 /// The z position the approach may reach: 3 mm past the expected contact, inside the limits.
 fn approach_limit(limits: &BenchLimits, safe_z: Millimetres) -> Millimetres {

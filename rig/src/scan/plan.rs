@@ -23,9 +23,8 @@
 //! The order is: indenter (outermost: a prompt to change it), then y rows (a manual y stage is
 //! asked once per row), then x along the row (snake reverses every other row), then repetitions.
 
-use crate::axis::SoftLimits;
+use crate::axis::{Kinematics, SoftLimits};
 use crate::config_file::{load_toml, parse_toml, ConfigError};
-use crate::sim::motion::Kinematics;
 use crate::units::{Millimetres, Newtons};
 use std::path::Path;
 use std::time::Duration;

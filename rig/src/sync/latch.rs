@@ -99,17 +99,17 @@ pub fn fit(latches: &[TimestampLatch], clock: &str) -> Result<LatchFit, FitError
 mod tests {
     use super::*;
     use crate::clock::HostTime;
-    use rand::{Rng, SeedableRng};
+    use crate::seeded::SplitMix64;
 
     #[test]
     fn shortest_round_trips_give_offset_and_drift() {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let mut rng = SplitMix64::new(7);
         let rate = 1.0 - 80e-6; // host ns per device tick
         let latches: Vec<TimestampLatch> = (0..200)
             .map(|i| {
                 let before = 1e9 + i as f64 * 0.5e9;
-                let rtt = 50_000.0 + rng.gen_range(0.0..2e6);
-                let at = before + rng.gen_range(0.0..rtt);
+                let rtt = 50_000.0 + rng.range(0.0..2e6);
+                let at = before + rng.range(0.0..rtt);
                 let ticks = 3_000_000_000 + ((at - 1e9) / rate) as u64;
                 TimestampLatch {
                     host_before: HostTime(before as u64),

@@ -184,7 +184,7 @@ pub fn fit(pairs: &[(u64, HostTime)], options: &OneWayOptions) -> Result<OneWayF
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{Rng, SeedableRng};
+    use crate::seeded::SplitMix64;
 
     /// A 1 GHz device clock running `ppm` fast or slow, messages every 20 ms with delay
     /// `latency + U(0, jitter)`.
@@ -195,14 +195,14 @@ mod tests {
         jitter_ns: f64,
         seed: u64,
     ) -> Vec<(u64, HostTime)> {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let mut rng = SplitMix64::new(seed);
         let ns_per_tick = 1.0 + ppm * 1e-6;
         let tick0 = 7_000_000_000_000u64;
         (0..n)
             .map(|i| {
                 let ticks = tick0 + i as u64 * 20_000_000;
                 let true_host = 2e9 + (ticks - tick0) as f64 * ns_per_tick;
-                let arrival = true_host + latency_ns + rng.gen_range(0.0..jitter_ns);
+                let arrival = true_host + latency_ns + rng.range(0.0..jitter_ns);
                 (ticks, HostTime(arrival as u64))
             })
             .collect()

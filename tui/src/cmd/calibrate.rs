@@ -5,22 +5,21 @@
 //! `fringe calibrate --images DIR --sensor ID`: the optical part from existing image files (PNG or
 //! TIFF): centre, shift from the image centre, radius and crop radius.
 
-use crate::cmd::scan::{execute, ProfileUse};
+use crate::cmd::scan::execute;
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::calibration_scan::{spot_settings, CalibrationGrid};
+use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::frames;
 use fringe_calibration::from_scan::{self, ScanCalibration};
 use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
 use fringe_calibration::profile::{profile_path, Profile};
-use fringe_calibration::registration::contact_spot::{draw_spot, SpotSettings};
+use fringe_calibration::registration::contact_spot::draw_spot;
 use fringe_calibration::registration::plot::residual_plot;
 use fringe_calibration::scan_run::ScanRun;
-use fringe_rig::rig_config::RigConfig;
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
-use fringe_rig::sim::ground_truth::{TruthLog, TruthRecord};
-use fringe_rig::sim::sensor::Variant;
 use fringe_rig::store::documents::ExitStatus;
 use std::path::{Path, PathBuf};
 
@@ -73,9 +72,6 @@ pub struct CalibrateArgs {
 
 /// |Fz| below this is no contact (the F/T noise floor of the reference pipeline).
 const NO_CONTACT_FZ_N: f64 = 0.2;
-
-/// The built-in calibration plan (its grid, force and indenter are replaced).
-const CALIBRATION_PLAN: &str = include_str!("../../../rig/plans/calibration.toml");
 
 pub fn run(args: CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     if args.max_frames == 0 {
@@ -151,19 +147,10 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             );
         }
     }
-    let spot = match (args.variant.as_deref(), config.is_simulated()) {
-        (Some("layered"), _) => SpotSettings::layered(),
-        (Some("integrated"), _) => SpotSettings::integrated(),
-        (Some(other), _) => bail!("--variant {other}: use layered or integrated"),
-        (None, true) => match config.sim_config()?.sensor.variant {
-            Variant::Integrated => SpotSettings::integrated(),
-            _ => SpotSettings::layered(),
-        },
-        (None, false) => {
-            println!("contact finding tuned for a layered sensor (thin film); give --variant integrated for a gel");
-            SpotSettings::layered()
-        }
-    };
+    let (spot, default_note) = spot_settings(args.variant.as_deref(), &config)?;
+    if let Some(note) = default_note {
+        println!("{note}");
+    }
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
@@ -172,7 +159,14 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             path.display().to_string(),
         ),
         None => (
-            built_in_plan(args, &config)?,
+            CalibrationGrid {
+                sensor: args.sensor.clone(),
+                points: args.points,
+                span_mm: args.span,
+                force_n: args.force,
+                indenter: args.indenter.clone(),
+            }
+            .plan_text(&config)?,
             "built-in calibration grid".into(),
         ),
     };
@@ -186,7 +180,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         root: args.runs.clone(),
         run_id: new_run_id(&format!("calibration-{}", args.sensor)),
     };
-    let executed = execute(
+    let end = execute(
         &config,
         program,
         text,
@@ -195,7 +189,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         ProfileUse::Ignore,
         global,
     )?;
-    let outcome = &executed.outcome;
+    let outcome = &end.outcome;
     let run_dir = outcome.run_dir.clone();
     println!("calibration scan written to {}", run_dir.display());
     if outcome.status != ExitStatus::Completed {
@@ -241,8 +235,9 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             .save(&contact)
             .with_context(|| format!("cannot write {}", contact.display()))?;
     }
-    if let Some(sim) = &executed.sim {
-        print_truth(&cal, sim, executed.truth.as_deref());
+    #[cfg(feature = "sim")]
+    if let Some(sim) = &end.sim {
+        print_truth(&sim.calibration_truth(&cal));
     }
     let registration_error = match &cal.registration {
         Ok(_) => None,
@@ -325,74 +320,6 @@ fn print_presses(cal: &ScanCalibration) {
 
 /// The built-in plan with the grid around the rig's nominal centre, the force and the indenter
 /// of the arguments.
-fn built_in_plan(args: &CalibrateArgs, config: &RigConfig) -> anyhow::Result<String> {
-    if args.points < 2 {
-        bail!(
-            "--points {}: use at least 2 (the fit needs presses in two directions)",
-            args.points
-        );
-    }
-    if !(args.span > 0.0 && args.span.is_finite()) {
-        bail!("--span {}: use a positive number of mm", args.span);
-    }
-    if !(args.force > 0.0 && args.force.is_finite()) {
-        bail!("--force {}: use a positive number of newtons", args.force);
-    }
-    let centre = config.origin()?;
-    let axis = |c: f64| -> Vec<f64> {
-        (0..args.points)
-            .map(|k| {
-                let t = k as f64 / (args.points - 1) as f64;
-                ((c - args.span + 2.0 * args.span * t) * 1000.0).round() / 1000.0
-            })
-            .collect()
-    };
-    let mut plan: toml::Table = CALIBRATION_PLAN
-        .parse()
-        .context("built-in calibration plan")?;
-    let set = |plan: &mut toml::Table, section: &str, key: &str, value: toml::Value| {
-        if let Some(toml::Value::Table(t)) = plan.get_mut(section) {
-            t.insert(key.into(), value);
-        }
-    };
-    let floats = |v: Vec<f64>| toml::Value::Array(v.into_iter().map(toml::Value::Float).collect());
-    set(&mut plan, "grid", "x", floats(axis(centre.x.0)));
-    set(&mut plan, "grid", "y", floats(axis(centre.y.0)));
-    set(
-        &mut plan,
-        "indentation",
-        "force_targets",
-        floats(vec![args.force]),
-    );
-    set(
-        &mut plan,
-        "indenters",
-        "shapes",
-        toml::Value::Array(vec![toml::Value::String(args.indenter.clone())]),
-    );
-    set(
-        &mut plan,
-        "safety",
-        "force_ceiling",
-        toml::Value::Float((4.0 * args.force).max(args.force + 2.0)),
-    );
-    plan.insert(
-        "name".into(),
-        toml::Value::String(format!("calibration-{}", args.sensor)),
-    );
-    Ok(format!(
-        "# fringe calibrate --sensor {}: {}x{} presses over +-{} mm around the nominal centre ({:.3}, {:.3}) mm from {}\n{}",
-        args.sensor,
-        args.points,
-        args.points,
-        args.span,
-        centre.x.0,
-        centre.y.0,
-        centre.source,
-        toml::to_string(&plan).context("built-in calibration plan")?
-    ))
-}
-
 fn print_offsets(cal: &ScanCalibration) {
     let Some(o) = &cal.offsets else {
         println!("force offsets: no no-contact window in the force stream");
@@ -428,41 +355,23 @@ fn print_offsets(cal: &ScanCalibration) {
 }
 
 /// On the simulated bench: the calibration against the simulator's truth.
-fn print_truth(
-    cal: &ScanCalibration,
-    sim: &fringe_rig::sim::rig::SimRigConfig,
-    truth: Option<&TruthLog>,
-) {
-    let g = sim.sensor.geometry();
-    let f = &cal.fit;
-    let dc = (f.centre_x - g.centre_px[0]).hypot(f.centre_y - g.centre_px[1]);
+#[cfg(feature = "sim")]
+fn print_truth(t: &fringe_app::sim_bench::CalibrationTruth) {
     println!(
-        "against the simulator's truth: centre off by {dc:.3} px, radius by {:+.3} px",
-        f.radius - sim.sensor.geometry.disc_radius_px
+        "against the simulator's truth: centre off by {:.3} px, radius by {:+.3} px",
+        t.centre_off_px, t.radius_off_px
     );
-    if let Ok(r) = &cal.registration {
-        let b = &sim.bench.geometry;
+    if let Some(r) = &t.registration {
         println!(
             "  px/mm {:+.3} %, rotation {:+.3} deg, mirror {}, contact origin off by ({:+.4}, {:+.4}) mm",
-            (r.fit.px_per_mm / g.px_per_mm - 1.0) * 100.0,
-            r.fit.rotation_deg - g.rotation_deg,
-            if r.fit.mirror == g.mirror { "right" } else { "WRONG" },
-            r.contact_origin_stage_mm[0] - b.x_centre_mm,
-            r.contact_origin_stage_mm[1] - b.y_centre_mm
+            r.px_per_mm_error_pct,
+            r.rotation_error_deg,
+            if r.mirror_right { "right" } else { "WRONG" },
+            r.origin_off_mm[0],
+            r.origin_off_mm[1]
         );
     }
-    let bias = truth.and_then(|t| {
-        t.records().into_iter().rev().find_map(|r| match r {
-            TruthRecord::FtBias { bias, .. } => Some(bias),
-            _ => None,
-        })
-    });
-    if let (Some(o), Some(bias)) = (&cal.offsets, bias) {
-        let d = [
-            o.force_n[0] - bias.fx.0,
-            o.force_n[1] - bias.fy.0,
-            o.force_n[2] - bias.fz.0,
-        ];
+    if let Some(d) = t.offset_minus_bias_n {
         println!(
             "  force offset minus the sensor's power-up bias: Fx {:+.4} Fy {:+.4} Fz {:+.4} N (includes the simulated sensor's random-walk drift since power-up)",
             d[0], d[1], d[2]

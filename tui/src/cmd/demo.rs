@@ -1,18 +1,17 @@
-//! `fringe demo` (and `fringe` with no command): the main job on the simulated bench.
-//!
-//! Builds the simulated rig (real drivers over in-process links to the emulated controllers,
-//! simulated DAQ with the exposure strobe, camera rendering photoelastic frames), presses the
-//! indenter at a few points to 1, 4 and 9 N, records every frame of each dwell with its force
-//! label into a run directory and scores the labels against the simulator's ground truth.
+//! `fringe demo`: the demonstration on the simulated bench, on the one scan engine: the built-in
+//! plan `demo` (three presses to 1, 4 and 9 N; `--quick`: one press to 1 and 4 N) on a simulated
+//! rig with the sensor and seed given, every frame labelled from the exposure strobe, stored in a
+//! run and scored against the simulator's ground truth.
 
-use super::sim_render::load_sensor;
+use crate::cmd::scan::execute;
 use crate::Global;
-use anyhow::Context;
-use fringe_rig::scan::demo::{run_demo, DemoPlan};
-use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
-use fringe_rig::sim::rig::{SimRig, SimRigConfig};
+use anyhow::{bail, Context};
+use fringe_app::plans::DEMO;
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_rig::scan::engine::{new_run_id, RunTarget};
+use fringe_rig::scan::plan::{Axis1d, Plan};
+use fringe_rig::store::documents::ExitStatus;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -35,67 +34,50 @@ pub struct DemoArgs {
     quick: bool,
 }
 
-impl Default for DemoArgs {
-    /// The same as the command-line defaults (what `fringe` with no command runs).
-    fn default() -> Self {
-        DemoArgs {
-            out: PathBuf::from("runs"),
-            sensor: "layered".into(),
-            seed: 1,
-            quick: false,
-        }
-    }
-}
-
-pub fn run(args: DemoArgs, _global: &Global) -> anyhow::Result<()> {
+pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
     let started = Instant::now();
-    let sensor = load_sensor(&args.sensor)?;
-    let config = SimRigConfig {
-        seed: args.seed,
-        sensor,
-        ..SimRigConfig::default()
-    };
-    println!(
-        "fringe {}: simulated bench (no rig file given; see README for real hardware)",
-        env!("CARGO_PKG_VERSION")
+    let rig_text = format!(
+        "# fringe demo: the simulated bench\n[sim]\nseed = {}\nsensor = {}\n",
+        args.seed,
+        toml::Value::String(args.sensor.clone())
     );
-    let truth = TruthLog::new();
-    let sink: Arc<dyn TruthSink> = truth.clone();
-    let (rig, devices) =
-        SimRig::start(&config, Some(sink)).context("cannot start the simulated bench")?;
-    for line in &devices.description {
-        println!("  {line}");
-    }
-    let mut plan = DemoPlan::default();
+    let config = RigConfig::parse(&rig_text, "fringe demo --sensor/--seed")?;
+    let mut plan = Plan::parse(DEMO.text, &DEMO.origin())?;
     if args.quick {
-        plan.points.truncate(1);
-        plan.targets.truncate(2);
-        plan.dwell = std::time::Duration::from_millis(300);
+        plan.grid.x = Axis1d::Points(vec![12.5]);
+        plan.indentation.force_targets.truncate(2);
+        plan.indentation.dwell = 0.3;
     }
-    let summary = run_demo(&rig, devices, truth, &args.out, &plan, &mut |line| {
-        println!("{line}")
-    })
-    .context("the demonstration stopped")?;
+    let plan_text = toml::to_string(&plan).context("the demo plan")?;
     println!(
-        "recorded {} labelled frames ({} presses, {} frames seen, {} dropped, {} without a label), {} force samples",
-        summary.frames_recorded,
-        summary.presses,
-        summary.frames_seen,
-        summary.dropped_frames,
-        summary.frames_unlabelled,
-        summary.force_samples
+        "fringe {}: demonstration on the simulated bench (sensor {}, seed {}); plan {}{}",
+        env!("CARGO_PKG_VERSION"),
+        args.sensor,
+        args.seed,
+        DEMO.origin(),
+        if args.quick { ", quick" } else { "" }
     );
-    if let Some(rms) = summary.label_rms_error {
-        println!(
-            "force labels (mean over each exposure, from the strobe) against the simulator's truth: RMS error {:.3} N over {} frames",
-            rms, summary.label_frames_scored
-        );
+    let program = plan.program(&config.limits()?, &DEMO.origin())?;
+    let target = RunTarget::New {
+        root: args.out.clone(),
+        run_id: new_run_id(&plan.name),
+    };
+    let end = execute(
+        &config,
+        program,
+        plan_text,
+        target,
+        true,
+        ProfileUse::Ignore,
+        global,
+    )?;
+    let dir = end.outcome.run_dir.display();
+    println!(
+        "run written to {dir} in {:.1} s; check it with `fringe verify {dir}`, list runs with `fringe runs`",
+        started.elapsed().as_secs_f64()
+    );
+    if end.outcome.status != ExitStatus::Completed {
+        bail!("the demonstration stopped: {}", end.outcome.reason);
     }
-    println!(
-        "run written to {} in {:.1} s; check it with `fringe verify {}`, list runs with `fringe runs`",
-        summary.run_dir.display(),
-        started.elapsed().as_secs_f64(),
-        summary.run_dir.display()
-    );
     Ok(())
 }

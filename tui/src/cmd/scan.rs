@@ -5,34 +5,20 @@
 
 use crate::Global;
 use anyhow::{bail, Context};
-use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
-use fringe_calibration::profile::{load_checked, profile_path, Expectation};
-use fringe_rig::rig_config::RigConfig;
+use fringe_app::plans::SHORT_GRID;
+use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
 };
-use fringe_rig::scan::engine::{new_run_id, run_scan, RunTarget, ScanOutcome, ScanSetup};
-use fringe_rig::scan::offset_check::OffsetCheck;
-use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
-use fringe_rig::scan::press::PressSettings;
-use fringe_rig::scan::watchers::WatchSettings;
-use fringe_rig::sim::bench::{Bench, IndenterTip, MountedIndenter};
-use fringe_rig::sim::ground_truth::{TruthLog, TruthSink};
-use fringe_rig::sim::rig::SimRigConfig;
-use fringe_rig::store::documents::{ExitStatus, FrameRecord, ProfileRef, StartDocument};
-use fringe_rig::store::run_writer::{read_document, read_lines};
-use fringe_rig::units::Millimetres;
+use fringe_rig::store::documents::{ExitStatus, StartDocument};
+use fringe_rig::store::run_writer::read_document;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
-use std::time::SystemTime;
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
-
-/// The plan the main job runs when no plan is given.
-const SHORT_GRID: &str = include_str!("../../../rig/plans/short-grid.toml");
-const SHORT_GRID_NAME: &str = "built-in plan short-grid (rig/plans/short-grid.toml)";
 
 #[derive(clap::Args, Default)]
 pub struct ScanArgs {
@@ -78,7 +64,7 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
         let start: StartDocument = read_document(&run.join(fringe_rig::store::START))?;
         return Ok((start.plan, format!("the plan stored in {}", run.display())));
     }
-    Ok((SHORT_GRID.to_string(), SHORT_GRID_NAME.to_string()))
+    Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
 }
 
 pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
@@ -125,24 +111,6 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     }
 }
 
-/// How a scan treats the sensor's calibration profile.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ProfileUse {
-    /// Contact origin from the profile (warn when missing, stale or mismatched).
-    Consume,
-    /// The calibration scan that makes the profile: the rig file's origin.
-    Ignore,
-}
-
-/// A finished scan with what it ran on.
-pub struct Executed {
-    pub outcome: ScanOutcome,
-    /// The simulator's ground truth (simulated rigs).
-    pub truth: Option<Arc<TruthLog>>,
-    /// The simulated rig's configuration (simulated rigs).
-    pub sim: Option<SimRigConfig>,
-}
-
 /// Opens the rig, runs `program` into `target` with the progress bar, Ctrl-C handling and the
 /// terminal operator, and prints the summary.
 pub fn execute(
@@ -153,56 +121,35 @@ pub fn execute(
     yes: bool,
     profile_use: ProfileUse,
     global: &Global,
-) -> anyhow::Result<Executed> {
-    let truth = config.is_simulated().then(TruthLog::new);
-    let sink = truth.clone().map(|t| t as Arc<dyn TruthSink>);
-    let rig = config
-        .open(sink, global.record_trace.as_deref())
-        .context("cannot open the rig")?;
-    for line in &rig.devices.description {
-        println!("  {line}");
-    }
-    let (origin, profile, offset_check) = match profile_use {
-        ProfileUse::Consume => calibration_profile(config, &rig.sensor_id, rig.origin.clone()),
-        ProfileUse::Ignore => (rig.origin.clone(), None, None),
-    };
-    println!(
-        "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
-        origin.x.0, origin.y.0, origin.source
-    );
-    let setup = ScanSetup {
+) -> anyhow::Result<SessionEnd> {
+    let session = ScanSession::open(
+        config,
         program,
         plan_text,
-        limits: rig.limits.clone(),
-        origin,
-        sync: rig.sync,
-        sensor_id: rig.sensor_id.clone(),
-        rig_text: rig.text.clone(),
-        seed: rig.sim.as_ref().map(|s| s.config.seed),
-        profile,
-        camera: rig.camera_settings.clone(),
-        press: PressSettings::default(),
-        watch: WatchSettings::default(),
-        truth: truth.clone(),
-        offset_check,
-    };
+        profile_use,
+        global.record_trace.as_deref(),
+    )?;
+    for note in &session.notes {
+        match note {
+            Note::Info(text) => println!("{text}"),
+            Note::Warning(text) => eprintln!("warning: {text}"),
+        }
+    }
     let control = ScanControl::new();
     interrupt::install(control.clone());
     let mut operator = TerminalOperator {
-        bench: rig.sim.as_ref().map(|s| s.bench.clone()),
         yes,
         control: control.clone(),
         answers: None,
     };
-    let bar = Mutex::new(Bar::new(setup.program.points.len() as u64));
+    let bar = Mutex::new(Bar::new(session.setup.program.points.len() as u64));
     let started = Instant::now();
-    let sim_config = rig.sim.as_ref().map(|s| s.config.clone());
-    let devices = rig.devices;
-    let outcome = run_scan(&setup, devices, target, &control, &mut operator, &|p| {
+    let end = session.run(target, &control, &mut operator, &|p| {
         bar.lock().unwrap_or_else(|e| e.into_inner()).show(p)
     });
     bar.lock().unwrap_or_else(|e| e.into_inner()).finish();
-    let outcome = outcome.context("the scan stopped")?;
+    let end = end?;
+    let outcome = &end.outcome;
     println!(
         "{}: {} of {} points, {} frames ({} dropped by the camera, {} cut from interrupted points), {} force samples ({} lost) in {:.1} s",
         match outcome.status {
@@ -225,85 +172,14 @@ pub fn execute(
             outcome.overhead_mean_ms, outcome.overhead_max_ms
         );
     }
-    if let Some(truth) = &truth {
-        let (records, _) =
-            read_lines::<FrameRecord>(&outcome.run_dir.join(fringe_rig::store::FRAMES))?;
-        if let Some(s) = fringe_rig::sim::label_score::score(&records, &truth.frames()) {
-            println!(
-                "labels against the simulator's ground truth: normal force RMS {:.3} N (max {:.3} N) over {} frames; contact point RMS {:.3} mm over {} frames in contact",
-                s.force_rms_n, s.force_max_n, s.frames, s.contact_rms_mm, s.contact_frames
-            );
-        }
+    if let Some(s) = &end.truth_score {
+        println!(
+            "labels against the simulator's ground truth: normal force RMS {:.3} N (max {:.3} N) over {} frames; contact point RMS {:.3} mm over {} frames in contact",
+            s.force_rms_n, s.force_max_n, s.frames, s.contact_rms_mm, s.contact_frames
+        );
     }
-    Ok(Executed {
-        outcome,
-        truth,
-        sim: sim_config,
-    })
+    Ok(end)
 }
-
-/// The sensor's calibration profile, if there is one: its contact origin replaces the rig
-/// file's, its force offsets are checked against the scan's first no-contact offset, and the run
-/// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
-/// scan goes on with the rig file's origin.
-fn calibration_profile(
-    config: &RigConfig,
-    sensor_id: &str,
-    fallback: ContactOrigin,
-) -> (
-    ContactOrigin,
-    Option<ProfileRef>,
-    Option<Arc<dyn OffsetCheck>>,
-) {
-    let dir = config.profile_dir();
-    let want = Expectation {
-        sensor_id,
-        image: None,
-        max_age_days: PROFILE_MAX_AGE_DAYS,
-    };
-    let (profile, warnings) = load_checked(&dir, &want, SystemTime::now());
-    for w in &warnings {
-        eprintln!("warning: {w}");
-    }
-    let Some(p) = profile else {
-        return (fallback, None, None);
-    };
-    let path = profile_path(&dir, sensor_id).unwrap_or_else(|_| dir.join(sensor_id));
-    let content = std::fs::read_to_string(&path).unwrap_or_default();
-    let origin = match &p.registration {
-        Some(r) => ContactOrigin {
-            x: Millimetres(r.contact_origin_stage_mm[0]),
-            y: Millimetres(r.contact_origin_stage_mm[1]),
-            source: format!("profile {}", path.display()),
-        },
-        None => {
-            eprintln!(
-                "warning: profile {} has no image-to-stage registration: contact origin from {}",
-                path.display(),
-                fallback.source
-            );
-            fallback
-        }
-    };
-    let check = p.force_offsets.map(|offsets| {
-        Arc::new(ProfileOffsetCheck {
-            offsets,
-            tolerance: ZeroTolerance::default(),
-            profile: path.display().to_string(),
-        }) as Arc<dyn OffsetCheck>
-    });
-    (
-        origin,
-        Some(ProfileRef {
-            path: path.display().to_string(),
-            content,
-        }),
-        check,
-    )
-}
-
-/// A profile older than this is reported as stale.
-const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
 
 fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
     let plan = &program.plan;
@@ -371,9 +247,8 @@ fn clock(d: Duration) -> String {
     }
 }
 
-/// The operator at the terminal; on the simulated bench indenters are swapped automatically.
+/// The operator at the terminal (on the simulated bench the session mounts indenters itself).
 struct TerminalOperator {
-    bench: Option<Arc<Bench>>,
     yes: bool,
     /// Watched while a prompt waits: Ctrl-C (an abort) answers the prompt.
     control: ScanControl,
@@ -425,24 +300,6 @@ impl TerminalOperator {
 
 impl Operator for TerminalOperator {
     fn ask(&mut self, prompt: &Prompt) -> Reply {
-        if let (Some(bench), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
-            match IndenterTip::standard(shape) {
-                Some(tip) => {
-                    bench.set_indenter(MountedIndenter {
-                        tip,
-                        angle_deg: 0.0,
-                    });
-                    println!("simulated bench: {shape} indenter mounted");
-                    return Reply::Continue;
-                }
-                None => {
-                    eprintln!(
-                        "simulated bench: no {shape:?} indenter (it has pentagon, rectangle, circle, sphere)"
-                    );
-                    return Reply::Abort;
-                }
-            }
-        }
         if self.yes {
             println!("{} (--yes: continuing)", prompt.message());
             return Reply::Continue;

@@ -8,9 +8,9 @@
 use crate::Global;
 use anyhow::Context;
 use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::sim::{SimNetFt, SimOptions};
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::transport::udp::UdpLink;
+use fringe_sim::netft_box::{SimNetFt, SimOptions};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 

@@ -1,11 +1,11 @@
 //! `fringe sim render`: one simulated sensor frame as a PNG.
 
 use anyhow::{bail, Context};
-use fringe_rig::sim::indenter::Shape;
-use fringe_rig::sim::render::Renderer;
-use fringe_rig::sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_rig::sim::sensor::SensorConfig;
 use fringe_rig::units::{Millimetres, Newtons};
+use fringe_sim::indenter::Shape;
+use fringe_sim::render::Renderer;
+use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_sim::sensor::SensorConfig;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]

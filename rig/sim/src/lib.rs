@@ -1,0 +1,60 @@
+//! `fringe-sim`: the simulated bench over `fringe-rig`: physics, rendering, device emulators that
+//! speak the real protocols, ground truth and its scores. It depends on the rig crate, never the
+//! reverse: the rig's drivers talk to these emulators exactly as to the real devices.
+//!
+//! - [`stress`]: Boussinesq point-load stress integrated through the photoelastic layer.
+//! - [`indenter`]: indenter outlines and their contact pressure maps.
+//! - [`fringe_field`]: fringe order per newton around an indenter (FFT convolution).
+//! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
+//! - [`blurred_colour`]: that colour averaged over a spread of fringe orders (defocus).
+//! - [`motion`]: simulated axes with trapezoidal motion profiles in host time.
+//! - [`modbus_emulator`]: an emulated Modbus y stage (TCP, RTU on a pty, in process) from a register map.
+//! - [`netft_emulator`]: an emulated ATI Net F/T box (RDT over UDP or in process, netftapi2.xml).
+//! - [`netft_box`]: that box on loopback UDP with its HTTP configuration page, for tests and
+//!   benchmarks.
+//! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
+//!   byte link, driving a [`motion::SimMotor`].
+//! - [`contact`]: force against indentation depth in the soft layer, relaxation, surface height.
+//! - [`ft_sensor`]: the F/T sensor's moments, noise, drift and power-up bias.
+//! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
+//! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
+//! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
+//! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
+//! - [`label_score`]: a simulated run's labels scored against the ground truth.
+//! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
+//!   and scored against the ground truth.
+//! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
+//! - [`sensor`]: one sensor build (layer, optics, artefacts, image geometry) from a TOML file, and
+//!   the exact sensor-frame mm <-> image px map.
+//! - [`background`]: the unloaded sensor image (illumination, rim, LED hot spots, residual
+//!   birefringence).
+//! - [`render`]: the frame renderer (fringes, blur, noise, drift, gamma) behind `FrameRenderer`.
+//! - [`pixel_format`]: the camera's pixel formats (RGB8, BayerRG8, Mono8) as samples of the
+//!   rendered RGB image.
+//!
+//! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
+
+pub mod apt_emulator;
+pub mod background;
+pub mod bench;
+pub mod blurred_colour;
+pub mod camera_emulator;
+pub mod colour;
+pub mod contact;
+pub mod daq_emulator;
+pub mod fringe_field;
+pub mod ft_sensor;
+pub mod ground_truth;
+pub mod indenter;
+pub mod label_score;
+pub mod modbus_emulator;
+pub mod motion;
+pub mod netft_box;
+pub mod netft_emulator;
+pub mod pixel_format;
+pub mod render;
+pub mod rig;
+pub mod scene;
+pub mod sensor;
+pub mod stress;
+pub mod sync_score;

@@ -1,0 +1,363 @@
+//! The whole simulated bench, wired to the real drivers: what `fringe` uses when no hardware is
+//! configured.
+//!
+//! One [`Bench`] (stage motors, contact, F/T physics) is shared by the emulated devices; each
+//! emulator speaks its real protocol to the real driver over an in-process link (no sockets), so a
+//! simulated run exercises the same driver code as the bench:
+//!
+//! - x and z: emulated KST101 controllers with ZFS25 actuators <-> `ThorlabsAxis`;
+//! - y: an emulated Modbus drive (built-in register map) <-> `ModbusStage`;
+//! - force: the simulated Mini40 through a simulated DAQ (gauge voltages via the inverse of a
+//!   `.cal` matrix, 5 kHz, with the camera's exposure strobe on a spare channel) <->
+//!   `CalibratedSensor` (the `.cal` math), or an emulated Net F/T box <-> the `NetFt` driver;
+//! - camera: the simulated camera rendering photoelastic frames with the sensor's renderer.
+//!
+//! [`SimServe`] exposes the same emulators on pseudo-terminals and loopback sockets for
+//! third-party software (`fringe sim serve`).
+
+use crate::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
+use crate::bench::{AxisConfig, Bench, BenchConfig};
+use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
+use crate::daq_emulator::{SimDaq, SimDaqConfig};
+use crate::ft_sensor::SimFtSensor;
+use crate::ground_truth::TruthSink;
+use crate::modbus_emulator::ModbusEmulator;
+use crate::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+use crate::render::Renderer;
+use crate::scene::{LoadSource, SceneSource};
+use crate::sensor::SensorConfig;
+use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::{Actuator, ThorlabsAxis};
+use fringe_rig::atical::{CalibratedSensor, Calibration};
+use fringe_rig::config_file::ConfigError;
+use fringe_rig::devices::Devices;
+use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::netft::{NetFt, NetFtOptions};
+use fringe_rig::transport::memory::byte_pair;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+/// The `.cal` file of the simulated Mini40 (a constructed calibration, not a real sensor's).
+pub const SIM_CAL: &str = include_str!("../sim-data/sim-mini40.cal");
+
+/// Which path the force takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForcePath {
+    /// DAQ + `.cal` at 5 kHz with the exposure strobe recorded beside the gauges (the reference
+    /// bench's wiring, and the one that allows `strobe` synchronisation).
+    #[default]
+    Daq,
+    /// An ATI Net F/T box over RDT (no strobe channel).
+    Netft,
+}
+
+/// Everything that makes a simulated rig.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimRigConfig {
+    /// Seeds every random part of the bench (surface, F/T noise and bias, camera drops and
+    /// jitter, image noise) so a run is reproducible.
+    pub seed: u64,
+    /// The sensor build under the camera.
+    pub sensor: SensorConfig,
+    pub bench: BenchConfig,
+    pub camera: SimCameraConfig,
+    pub force_path: ForcePath,
+    pub daq: SimDaqConfig,
+    /// Register map of the emulated y drive (built-in name or file).
+    pub y_map: String,
+}
+
+impl Default for SimRigConfig {
+    /// The reference bench: ZFS25 axes (25 mm) on x and z, a 50 mm Modbus RTU y stage (Leadshine
+    /// PR map), a layered
+    /// sensor, DAQ + strobe, camera at 50 Hz.
+    fn default() -> Self {
+        let mut bench = BenchConfig::default();
+        let zfs25 = AxisConfig {
+            travel_mm: 25.0,
+            power_up_mm: 8.0,
+            velocity_mm_s: 2.0,
+            acceleration_mm_s2: 4.0,
+        };
+        bench.x = zfs25;
+        bench.z = AxisConfig {
+            power_up_mm: 3.0,
+            ..zfs25
+        };
+        bench.geometry.x_centre_mm = 12.5;
+        SimRigConfig {
+            seed: 1,
+            sensor: SensorConfig::layered(),
+            bench,
+            camera: SimCameraConfig::default(),
+            force_path: ForcePath::Daq,
+            daq: SimDaqConfig::default(),
+            y_map: "leadshine-pr".into(),
+        }
+    }
+}
+
+impl SimRigConfig {
+    /// The configuration with the master seed spread over every seeded part.
+    pub fn seeded(&self) -> SimRigConfig {
+        let mut c = self.clone();
+        let s = self.seed;
+        c.bench.seed = s;
+        c.bench.ft_noise.seed = s.wrapping_add(1);
+        c.camera.seed = s.wrapping_add(2);
+        c.daq.seed = s.wrapping_add(4);
+        c.sensor.seed = s.wrapping_add(3);
+        c
+    }
+
+    /// The driver configuration of the x or z axis (the emulated controller matches it).
+    pub fn apt_config(&self, axis: &str) -> AptConfig {
+        let k = if axis == "z" {
+            &self.bench.z
+        } else {
+            &self.bench.x
+        };
+        let actuator =
+            Actuator::by_name("ZFS25").unwrap_or(fringe_rig::apt::actuator::ACTUATORS[0]);
+        let mut c = AptConfig::new(axis, Controller::Kst101, actuator);
+        c.velocity = MillimetresPerSecond(k.velocity_mm_s);
+        c.acceleration = MillimetresPerSecondSquared(k.acceleration_mm_s2);
+        c.home.velocity = MillimetresPerSecond(k.velocity_mm_s);
+        c.soft_limits =
+            fringe_rig::axis::SoftLimits::new(Millimetres(0.0), Millimetres(k.travel_mm)).ok();
+        c
+    }
+}
+
+/// Errors while building the simulated rig.
+#[derive(Debug, thiserror::Error)]
+pub enum SimRigError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("simulated {device}: {message}")]
+    Device { device: String, message: String },
+}
+
+fn device_error(device: &str, e: impl std::fmt::Display) -> SimRigError {
+    SimRigError::Device {
+        device: device.to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// A running simulated rig: the bench and its emulators (stopped when dropped).
+pub struct SimRig {
+    pub config: SimRigConfig,
+    pub bench: Arc<Bench>,
+    _apt: Vec<AptEmulatorHandle>,
+    _modbus: ModbusEmulator,
+    _netft: Option<NetFtEmulator>,
+}
+
+impl SimRig {
+    /// Builds the bench and its emulators and connects the real drivers to them.
+    /// `truth` receives the ground truth (exposures, clocks, F/T bias) if given.
+    pub fn start(
+        config: &SimRigConfig,
+        truth: Option<Arc<dyn TruthSink>>,
+    ) -> Result<(SimRig, Devices), SimRigError> {
+        let config = config.seeded();
+        let bench = Bench::new(config.bench.clone());
+        let mut description = Vec::new();
+
+        let mut apt = Vec::new();
+        let mut axes = Vec::new();
+        for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
+            let driver_config = config.apt_config(name);
+            let emulator_config = AptEmulatorConfig::matching(&driver_config).ok_or_else(|| {
+                device_error(name, "no emulated controller for this configuration")
+            })?;
+            let (host, device) =
+                byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
+            apt.push(
+                AptEmulator::spawn(emulator_config, motor, Box::new(device))
+                    .map_err(|e| device_error(name, e))?,
+            );
+            let axis = ThorlabsAxis::connect(Box::new(host), driver_config)
+                .map_err(|e| device_error(name, e))?;
+            description.push(format!(
+                "{name}: Thorlabs KST101 + ZFS25 (emulated, in process)"
+            ));
+            axes.push(axis);
+        }
+        let z = axes.pop().ok_or_else(|| device_error("z", "missing"))?;
+        let x = axes.pop().ok_or_else(|| device_error("x", "missing"))?;
+
+        let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
+        let (modbus, link) =
+            ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Rtu)
+                .map_err(|e| device_error("y", e))?;
+        let y_limits = fringe_rig::axis::SoftLimits::new(
+            Millimetres(0.0),
+            Millimetres(config.bench.y.travel_mm),
+        )
+        .ok();
+        let y = ModbusStage::new(
+            "y",
+            Box::new(link),
+            Framing::Rtu,
+            map,
+            StageOptions {
+                limits: y_limits,
+                ..StageOptions::default()
+            },
+        );
+        description.push(format!(
+            "y: Modbus RTU drive, map {} (emulated, in process)",
+            config.y_map
+        ));
+
+        let load: Arc<dyn LoadSource> = bench.clone();
+        let mut ft = SimFtSensor::new(load, config.bench.ft_noise);
+        if let Some(t) = &truth {
+            ft = ft.with_truth(t.clone());
+        }
+        let schedule = ExposureSchedule::new();
+        let mut netft = None;
+        let force: Box<dyn fringe_rig::force::ForceSensor> = match config.force_path {
+            ForcePath::Daq => {
+                let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
+                    .map_err(|e| device_error("force", e))?;
+                let mut daq = SimDaq::new(config.daq.clone(), &cal, Box::new(ft))
+                    .map_err(|e| device_error("force", e))?
+                    .with_strobe(schedule.clone());
+                if let Some(t) = &truth {
+                    daq = daq.with_truth(t.clone());
+                }
+                description.push(
+                    "force: Mini40 through a 5 kHz DAQ with the exposure strobe (simulated)".into(),
+                );
+                Box::new(CalibratedSensor::new(daq, cal))
+            }
+            ForcePath::Netft => {
+                let emulator_config = NetFtEmulatorConfig::default();
+                let driver_config = emulator_config
+                    .driver_config()
+                    .map_err(|e| device_error("force", e))?;
+                let (emulator, link) =
+                    NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
+                        .map_err(|e| device_error("force", e))?;
+                netft = Some(emulator);
+                description.push("force: Net F/T (emulated, in process)".into());
+                Box::new(NetFt::new(link, driver_config, NetFtOptions::default()))
+            }
+        };
+
+        let renderer =
+            Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
+        let scene: Arc<dyn SceneSource> = bench.clone();
+        let mut camera = SimCamera::new(config.camera.clone(), scene, Box::new(renderer))
+            .with_schedule(schedule);
+        if let Some(t) = &truth {
+            camera = camera.with_truth(t.clone());
+        }
+        description.push(format!(
+            "camera: simulated {}x{} (frame rate as the camera is configured), sensor {} ({})",
+            config.sensor.geometry.width,
+            config.sensor.geometry.height,
+            config.sensor.id,
+            config.sensor.variant.name()
+        ));
+        let devices = Devices {
+            x: Box::new(x),
+            y: Box::new(y),
+            z: Box::new(z),
+            force,
+            camera: Box::new(camera),
+            description,
+        };
+        Ok((
+            SimRig {
+                config,
+                bench,
+                _apt: apt,
+                _modbus: modbus,
+                _netft: netft,
+            },
+            devices,
+        ))
+    }
+}
+
+/// Where `fringe sim serve` put each emulated device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServeEndpoints {
+    pub apt_x: String,
+    pub apt_z: String,
+    pub netft: SocketAddr,
+    pub netft_http: Option<String>,
+    pub modbus_tcp: SocketAddr,
+    pub modbus_rtu: Option<String>,
+}
+
+/// The simulated bench exposed on pseudo-terminals and loopback sockets.
+pub struct SimServe {
+    pub bench: Arc<Bench>,
+    pub endpoints: ServeEndpoints,
+    _apt: Vec<AptEmulatorHandle>,
+    _netft: NetFtEmulator,
+    _modbus: Vec<ModbusEmulator>,
+}
+
+impl SimServe {
+    /// Starts the emulators: APT x and z on new pseudo-terminals, the Net F/T on `netft`
+    /// (UDP, HTTP on an ephemeral port of the same address), Modbus TCP on `modbus` and Modbus RTU
+    /// on a new pseudo-terminal.
+    pub fn start(
+        config: &SimRigConfig,
+        netft: SocketAddr,
+        modbus: SocketAddr,
+    ) -> Result<SimServe, SimRigError> {
+        let config = config.seeded();
+        let bench = Bench::new(config.bench.clone());
+        let mut apt = Vec::new();
+        let mut paths = Vec::new();
+        for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
+            let emulator_config = AptEmulatorConfig::matching(&config.apt_config(name))
+                .ok_or_else(|| {
+                    device_error(name, "no emulated controller for this configuration")
+                })?;
+            let handle = AptEmulator::spawn_pty(emulator_config, motor)
+                .map_err(|e| device_error(name, e))?;
+            paths.push(handle.slave_path().unwrap_or_default().to_string());
+            apt.push(handle);
+        }
+        let load: Arc<dyn LoadSource> = bench.clone();
+        let ft = SimFtSensor::new(load, config.bench.ft_noise);
+        let netft =
+            NetFtEmulator::spawn_udp(netft, None, NetFtEmulatorConfig::default(), Box::new(ft))
+                .map_err(|e| device_error("netft", e))?;
+        let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
+        let tcp = ModbusEmulator::spawn_tcp(modbus, map.clone(), bench.motor_y())
+            .map_err(|e| device_error("y", e))?;
+        let rtu = ModbusEmulator::spawn_rtu_pty(map, bench.motor_y())
+            .map_err(|e| device_error("y", e))?;
+        let endpoints = ServeEndpoints {
+            apt_x: paths[0].clone(),
+            apt_z: paths[1].clone(),
+            netft: netft
+                .addr()
+                .ok_or_else(|| device_error("netft", "no UDP address"))?,
+            netft_http: netft.http_url(),
+            modbus_tcp: tcp
+                .addr()
+                .ok_or_else(|| device_error("y", "no TCP address"))?,
+            modbus_rtu: rtu.pty_path().map(str::to_string),
+        };
+        Ok(SimServe {
+            bench,
+            endpoints,
+            _apt: apt,
+            _netft: netft,
+            _modbus: vec![tcp, rtu],
+        })
+    }
+}

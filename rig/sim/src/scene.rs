@@ -1,0 +1,88 @@
+//! What the simulated bench tells its simulated devices, and nothing more.
+//!
+//! The bench (stage motors, contact mechanics) answers two questions about any host instant: what
+//! load acts on the force/torque sensor ([`LoadSource`]) and what the camera would see
+//! ([`SceneSource`]). The F/T emulators read a [`ForceReading`] (the sensor's own reading of that
+//! load: noise, drift, bias), the camera emulator renders a [`Scene`] with a [`FrameRenderer`].
+//! These traits keep the emulators, the bench and the renderer independent of each other.
+
+use crate::indenter::Shape;
+use crate::pixel_format;
+use fringe_rig::camera::PixelFormat;
+use fringe_rig::clock::HostTime;
+use fringe_rig::units::{Millimetres, Newtons, Wrench};
+
+/// An indenter pressing on the sensor, in the sensor frame: millimetres from the sensor disc's
+/// centre, +x and +y along the stage's x and y axes, angle counter-clockwise about the load axis
+/// seen from the indenter side. The renderer maps this frame to image pixels (rotation, mirror,
+/// scale and optical centre of the sensor build).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contact {
+    /// The indenter tip.
+    pub shape: Shape,
+    /// Normal force the indenter presses with (positive = pressing).
+    pub force: Newtons,
+    pub x: Millimetres,
+    pub y: Millimetres,
+    /// Indenter rotation about the load axis, degrees.
+    pub angle_deg: f64,
+}
+
+/// Everything the camera sees that changes with time.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Scene {
+    /// The indenter in contact, or `None` when nothing touches the sensor.
+    pub contact: Option<Contact>,
+}
+
+/// The true load on the force/torque sensor (no noise, no bias), in the sensor's own frame.
+pub trait LoadSource: Send + Sync {
+    fn true_wrench_at(&self, t: HostTime) -> Wrench;
+}
+
+/// What the camera sees at an instant.
+pub trait SceneSource: Send + Sync {
+    fn scene_at(&self, t: HostTime) -> Scene;
+}
+
+/// The F/T sensor's own reading at `t`: the true load plus the sensor's noise, drift and power-up
+/// bias. Calls come in non-decreasing `t` from one acquisition thread.
+pub trait ForceReading: Send {
+    fn reading_at(&mut self, t: HostTime) -> Wrench;
+}
+
+impl<F: FnMut(HostTime) -> Wrench + Send> ForceReading for F {
+    fn reading_at(&mut self, t: HostTime) -> Wrench {
+        self(t)
+    }
+}
+
+/// Turns a scene into an interleaved 8-bit RGB image.
+pub trait FrameRenderer: Send {
+    /// Image width in pixels.
+    fn width(&self) -> u32;
+    /// Image height in pixels.
+    fn height(&self) -> u32;
+    /// Renders `scene` as frame number `frame_index` (drives noise, flicker and drift) into `out`,
+    /// resized to width * height * 3 bytes.
+    fn render(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>);
+
+    /// Renders `scene` in the camera's pixel `format` (see [`pixel_format`]) into `out`, resized to
+    /// width * height * bytes per pixel. The default renders RGB and converts it; renderers that
+    /// can write a format directly override this (the bytes must be the same).
+    fn render_as(
+        &mut self,
+        scene: &Scene,
+        frame_index: u64,
+        format: PixelFormat,
+        out: &mut Vec<u8>,
+    ) {
+        if format == PixelFormat::Rgb8 {
+            self.render(scene, frame_index, out);
+        } else {
+            let mut rgb = Vec::new();
+            self.render(scene, frame_index, &mut rgb);
+            pixel_format::from_rgb(&rgb, self.width() as usize, format, out);
+        }
+    }
+}

@@ -1,0 +1,136 @@
+//! The calibration scan from the rig: the built-in press grid around the rig's nominal centre,
+//! and the contact-finding tuning for the sensor's construction. `fringe calibrate` runs it as a
+//! scan session and builds the profile from the run (`fringe-calibration`).
+
+use crate::plans::CALIBRATION;
+use crate::rig_file::RigConfig;
+use fringe_calibration::registration::contact_spot::SpotSettings;
+use fringe_rig::config_file::ConfigError;
+
+/// The built-in grid: `points` x `points` light presses over +- `span_mm` around the nominal
+/// centre, each to `force_n` with `indenter`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationGrid {
+    pub sensor: String,
+    pub points: usize,
+    pub span_mm: f64,
+    pub force_n: f64,
+    pub indenter: String,
+}
+
+/// A calibration grid that cannot be pressed.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationPlanError {
+    #[error("--points {0}: use at least 2 (the fit needs presses in two directions)")]
+    Points(usize),
+    #[error("--span {0}: use a positive number of mm")]
+    Span(f64),
+    #[error("--force {0}: use a positive number of newtons")]
+    Force(f64),
+    #[error("--variant {0}: use layered or integrated")]
+    Variant(String),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error("the built-in calibration plan ({path}): {message}")]
+    Builtin { path: &'static str, message: String },
+}
+
+/// Contact finding for the sensor's construction: as given, else the simulated sensor's, else a
+/// layered sensor's (the second value says which default was taken, for the operator).
+pub fn spot_settings(
+    variant: Option<&str>,
+    config: &RigConfig,
+) -> Result<(SpotSettings, Option<&'static str>), CalibrationPlanError> {
+    match variant {
+        Some("layered") => Ok((SpotSettings::layered(), None)),
+        Some("integrated") => Ok((SpotSettings::integrated(), None)),
+        Some(other) => Err(CalibrationPlanError::Variant(other.into())),
+        None => {
+            #[cfg(feature = "sim")]
+            if config.is_simulated() {
+                return Ok((crate::sim_bench::spot_settings(config)?, None));
+            }
+            #[cfg(not(feature = "sim"))]
+            let _ = config;
+            Ok((
+                SpotSettings::layered(),
+                Some("contact finding tuned for a layered sensor (thin film); give --variant integrated for a gel"),
+            ))
+        }
+    }
+}
+
+impl CalibrationGrid {
+    /// The plan text: the built-in calibration plan with its grid, force, ceiling and indenter
+    /// replaced, headed by a comment that says how it was made.
+    pub fn plan_text(&self, config: &RigConfig) -> Result<String, CalibrationPlanError> {
+        if self.points < 2 {
+            return Err(CalibrationPlanError::Points(self.points));
+        }
+        if !(self.span_mm > 0.0 && self.span_mm.is_finite()) {
+            return Err(CalibrationPlanError::Span(self.span_mm));
+        }
+        if !(self.force_n > 0.0 && self.force_n.is_finite()) {
+            return Err(CalibrationPlanError::Force(self.force_n));
+        }
+        let builtin = |message: String| CalibrationPlanError::Builtin {
+            path: CALIBRATION.path,
+            message,
+        };
+        let centre = config.origin()?;
+        let axis = |c: f64| -> Vec<f64> {
+            (0..self.points)
+                .map(|k| {
+                    let t = k as f64 / (self.points - 1) as f64;
+                    ((c - self.span_mm + 2.0 * self.span_mm * t) * 1000.0).round() / 1000.0
+                })
+                .collect()
+        };
+        let mut plan: toml::Table = CALIBRATION
+            .text
+            .parse()
+            .map_err(|e: toml::de::Error| builtin(e.to_string()))?;
+        let set = |plan: &mut toml::Table, section: &str, key: &str, value: toml::Value| {
+            if let Some(toml::Value::Table(t)) = plan.get_mut(section) {
+                t.insert(key.into(), value);
+            }
+        };
+        let floats =
+            |v: Vec<f64>| toml::Value::Array(v.into_iter().map(toml::Value::Float).collect());
+        set(&mut plan, "grid", "x", floats(axis(centre.x.0)));
+        set(&mut plan, "grid", "y", floats(axis(centre.y.0)));
+        set(
+            &mut plan,
+            "indentation",
+            "force_targets",
+            floats(vec![self.force_n]),
+        );
+        set(
+            &mut plan,
+            "indenters",
+            "shapes",
+            toml::Value::Array(vec![toml::Value::String(self.indenter.clone())]),
+        );
+        set(
+            &mut plan,
+            "safety",
+            "force_ceiling",
+            toml::Value::Float((4.0 * self.force_n).max(self.force_n + 2.0)),
+        );
+        plan.insert(
+            "name".into(),
+            toml::Value::String(format!("calibration-{}", self.sensor)),
+        );
+        let body = toml::to_string(&plan).map_err(|e| builtin(e.to_string()))?;
+        Ok(format!(
+            "# fringe calibrate --sensor {}: {}x{} presses over +-{} mm around the nominal centre ({:.3}, {:.3}) mm from {}\n{body}",
+            self.sensor,
+            self.points,
+            self.points,
+            self.span_mm,
+            centre.x.0,
+            centre.y.0,
+            centre.source,
+        ))
+    }
+}

@@ -1,0 +1,66 @@
+//! The built-in scan plans, from the files in `tui/app/plans/` (each file is also a commented
+//! example to copy): `fringe` runs `short-grid`, `fringe calibrate` runs `calibration`, `fringe
+//! demo` runs `demo`.
+
+/// A plan shipped with fringe.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BuiltinPlan {
+    pub name: &'static str,
+    /// Where the file lives in the source tree, for messages.
+    pub path: &'static str,
+    pub text: &'static str,
+}
+
+impl BuiltinPlan {
+    /// How messages name the plan.
+    pub fn origin(&self) -> String {
+        format!("built-in plan {} ({})", self.name, self.path)
+    }
+}
+
+/// The main job: a short indentation grid.
+pub const SHORT_GRID: BuiltinPlan = BuiltinPlan {
+    name: "short-grid",
+    path: "tui/app/plans/short-grid.toml",
+    text: include_str!("../plans/short-grid.toml"),
+};
+
+/// The calibration scan of `fringe calibrate`.
+pub const CALIBRATION: BuiltinPlan = BuiltinPlan {
+    name: "calibration",
+    path: "tui/app/plans/calibration.toml",
+    text: include_str!("../plans/calibration.toml"),
+};
+
+/// The demonstration of `fringe demo` on the simulated bench.
+pub const DEMO: BuiltinPlan = BuiltinPlan {
+    name: "demo",
+    path: "tui/app/plans/demo.toml",
+    text: include_str!("../plans/demo.toml"),
+};
+
+/// Every built-in plan.
+pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
+
+/// A built-in plan by name.
+pub fn by_name(name: &str) -> Option<BuiltinPlan> {
+    ALL.into_iter().find(|p| p.name == name)
+}
+
+#[cfg(all(test, feature = "sim"))]
+mod tests {
+    use super::*;
+    use fringe_rig::scan::plan::Plan;
+
+    #[test]
+    fn every_built_in_plan_is_valid_on_the_simulated_bench() {
+        let limits = crate::RigConfig::simulated().limits().expect("limits");
+        for plan in ALL {
+            let parsed = Plan::parse(plan.text, &plan.origin()).expect("parses");
+            assert_eq!(parsed.name, plan.name);
+            let program = parsed.program(&limits, &plan.origin()).expect("valid");
+            assert!(!program.points.is_empty());
+            assert_eq!(by_name(plan.name), Some(plan));
+        }
+    }
+}

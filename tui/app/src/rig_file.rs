@@ -1,0 +1,741 @@
+//! The rig file (`rig.toml`): which device is which, how each is reached and set up, the soft
+//! limits, the sync method and the bench geometry, read and checked. Opening the devices it
+//! describes is [`crate::open_rig`]; the simulated bench's part is [`crate::sim_bench`].
+//!
+//! A missing file means the simulated bench ([`RigConfig::resolve`]): every device `driver =
+//! "sim"`. A rig is either wholly simulated (one shared virtual bench) or wholly real; mixing the
+//! two is refused, because a simulated camera cannot see a real indenter.
+//!
+//! Errors name the file, the key and what is allowed, e.g.
+//! ``rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)``. Commented examples:
+//! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
+
+use fringe_rig::axis::{Kinematics, SoftLimits};
+use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
+use fringe_rig::config_file::{parse_toml, ConfigError};
+use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::units::{
+    Decibels, Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared,
+    Newtons,
+};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Why a build without the `sim` feature refuses a simulated rig.
+pub const NO_SIM: &str = "every device is simulated (driver \"sim\", the default), but this fringe was built without the simulated bench: give each device a real driver, or build with the default features (cargo feature `sim`)";
+
+/// The file looked for in the working directory when no rig file is named.
+pub const DEFAULT_RIG_FILE: &str = "rig.toml";
+
+/// What drives an axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum AxisDriver {
+    /// The simulated bench's axis.
+    #[default]
+    Sim,
+    /// A Thorlabs stepper controller (KST101/KST201/BSC20x) over its USB serial port.
+    Thorlabs,
+    /// A Modbus RTU drive on a serial port (RS-485).
+    ModbusRtu,
+    /// A Modbus TCP drive.
+    ModbusTcp,
+    /// A stage moved by hand: the operator is asked to set it and confirm.
+    Manual,
+}
+
+/// Home parameters of a Thorlabs axis.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomeSection {
+    /// "reverse" (default) or "forward".
+    #[serde(default = "reverse")]
+    pub direction: String,
+    /// The limit switch homing runs onto: "reverse" (default) or "forward".
+    #[serde(default = "reverse")]
+    pub limit_switch: String,
+    /// mm/s.
+    pub velocity: Option<f64>,
+    /// mm away from the switch after homing.
+    #[serde(default)]
+    pub offset: f64,
+}
+
+fn reverse() -> String {
+    "reverse".into()
+}
+
+/// One axis of the rig file.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct AxisSection {
+    pub driver: AxisDriver,
+    /// Serial port (Thorlabs, Modbus RTU), e.g. /dev/ttyUSB0 or /dev/serial/by-id/...
+    pub port: Option<String>,
+    /// host:port (Modbus TCP).
+    pub address: Option<String>,
+    /// Thorlabs controller: kst101 (default), kst201, bsc201, bsc202, bsc203.
+    pub controller: Option<String>,
+    /// Thorlabs actuator (ZFS25, ZST225, DRV250, ...).
+    pub actuator: Option<String>,
+    /// BSC202/203 bay (0-9).
+    pub bay: Option<u8>,
+    pub channel: Option<u8>,
+    /// Soft limits, mm.
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// mm/s and mm/s^2.
+    pub velocity: Option<f64>,
+    pub acceleration: Option<f64>,
+    pub home: Option<HomeSection>,
+    /// Which status bit is the forward limit: "bit0-forward" (default) or "bit0-reverse".
+    pub limit_polarity: Option<String>,
+    /// Modbus register map: a built-in name (oriental-az, leadshine-pr) or a TOML file.
+    pub map: Option<String>,
+    pub slave: Option<u8>,
+    pub baud: Option<u32>,
+}
+
+/// What reads force and torque.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ForceDriver {
+    #[default]
+    Sim,
+    /// ATI Net F/T or Ethernet Axia over RDT/UDP.
+    Netft,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ForceSection {
+    pub driver: ForceDriver,
+    /// Net F/T host or host:port (port 49152 by default).
+    pub address: Option<String>,
+    /// Counts per force / torque unit; read from http://HOST/netftapi2.xml when not given.
+    pub cpf: Option<f64>,
+    pub cpt: Option<f64>,
+    pub force_unit: Option<String>,
+    pub torque_unit: Option<String>,
+    /// Largest force the F/T sensor and the sensor under test may see, N (default 20).
+    pub max_force: Option<f64>,
+}
+
+/// What films the sensor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraDriver {
+    #[default]
+    Sim,
+    /// A GenICam camera through Aravis (cargo feature `aravis`).
+    Aravis,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraSection {
+    pub driver: CameraDriver,
+    /// Aravis camera id or GigE address (`fringe devices` lists them); the first camera if absent.
+    pub id: Option<String>,
+    pub exposure_us: Option<f64>,
+    pub frame_rate: Option<f64>,
+    pub gain_db: Option<f64>,
+    /// mono8, rgb8 or bayerrg8.
+    pub pixel_format: Option<String>,
+    /// free-run (default), software, or a hardware line name such as Line1.
+    pub trigger: Option<String>,
+    /// Output line carrying ExposureActive to the DAQ (strobe sync), e.g. Line2.
+    pub exposure_active_line: Option<String>,
+}
+
+/// Frame rate of the simulated camera unless the rig file sets one, Hz. The simulated camera
+/// renders and a run records every frame at the real camera's 50 fps on 2 cores when nothing else
+/// runs (BENCHMARKS.md, "Recording": 0 of 30 008 exposures dropped in 10 minutes), but a whole
+/// scan adds the motion emulators and the control loops, and at 50 fps the renderer then falls
+/// behind for moments (a full-grid main job dropped 4-7 of about 2150 exposures); at 25 fps it
+/// drops none. Real cameras default to 50 fps.
+pub const SIM_FRAME_RATE_HZ: f64 = 25.0;
+
+/// Where the sensor sits on the stage (used until a calibration profile gives the origin).
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct GeometrySection {
+    /// Stage x and y (mm) that put the indenter over the sensor centre.
+    pub x_centre: Option<f64>,
+    pub y_centre: Option<f64>,
+    /// z (mm) at which the indenter roughly touches the sensor (approach limit and estimates).
+    pub z_contact: Option<f64>,
+}
+
+/// Which path the simulated force takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum SimForcePath {
+    /// DAQ + `.cal` at 5 kHz with the exposure strobe recorded beside the gauges.
+    #[default]
+    Daq,
+    /// An ATI Net F/T box over RDT (no strobe channel).
+    Netft,
+}
+
+/// The simulated bench's own settings.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimSection {
+    pub seed: u64,
+    /// layered, integrated or a sensor .toml file.
+    pub sensor: String,
+    /// daq (DAQ + .cal with the exposure strobe) or netft (no strobe: use clock-fit).
+    pub force_path: SimForcePath,
+    /// Scale of the simulated camera image (1 = 1920x1200; 0.25 = 480x300 for quick tests).
+    pub image_scale: f64,
+}
+
+impl Default for SimSection {
+    fn default() -> Self {
+        SimSection {
+            seed: 1,
+            sensor: "layered".into(),
+            force_path: SimForcePath::Daq,
+            image_scale: 1.0,
+        }
+    }
+}
+
+/// The rig file as written.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigFile {
+    pub name: Option<String>,
+    /// Sensor build id (profiles/<sensor>.toml); the simulated sensor's id when simulated.
+    pub sensor: Option<String>,
+    /// strobe, clock-fit or host (default: strobe where the force path records the strobe,
+    /// clock-fit otherwise).
+    pub sync: Option<String>,
+    /// Directory of calibration profiles (default profiles/).
+    pub profiles: Option<PathBuf>,
+    pub x: AxisSection,
+    pub y: AxisSection,
+    pub z: AxisSection,
+    pub force: ForceSection,
+    pub camera: CameraSection,
+    pub geometry: GeometrySection,
+    pub sim: SimSection,
+}
+
+/// Where the rig configuration came from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RigSource {
+    /// Named on the command line.
+    File(PathBuf),
+    /// ./rig.toml, found in the working directory.
+    Default(PathBuf),
+    /// No rig file: the simulated bench.
+    Simulated,
+}
+
+impl RigSource {
+    pub fn describe(&self) -> String {
+        match self {
+            RigSource::File(p) => p.display().to_string(),
+            RigSource::Default(p) => format!("{} (found in the working directory)", p.display()),
+            RigSource::Simulated => {
+                "no rig.toml: using the simulated bench (for real hardware give --rig FILE or put a rig.toml here; examples in rig/rigs/)"
+                    .into()
+            }
+        }
+    }
+}
+
+/// A checked rig configuration.
+#[derive(Debug, Clone)]
+pub struct RigConfig {
+    pub file: RigFile,
+    /// The file's text (stored in each run's start document).
+    pub text: String,
+    /// Name of the file in messages.
+    pub origin: String,
+    pub(crate) simulated: bool,
+}
+
+impl RigConfig {
+    /// The rig a command runs on: `path` if given (it must exist), else ./rig.toml if present,
+    /// else the simulated bench.
+    pub fn resolve(path: Option<&Path>) -> Result<(RigConfig, RigSource), ConfigError> {
+        if let Some(p) = path {
+            return Ok((RigConfig::load(p)?, RigSource::File(p.to_path_buf())));
+        }
+        let default = Path::new(DEFAULT_RIG_FILE);
+        if default.is_file() {
+            return Ok((
+                RigConfig::load(default)?,
+                RigSource::Default(default.to_path_buf()),
+            ));
+        }
+        if !cfg!(feature = "sim") {
+            return Err(ConfigError {
+                origin: DEFAULT_RIG_FILE.into(),
+                message: format!("not found in the working directory and {NO_SIM}"),
+            });
+        }
+        Ok((RigConfig::simulated(), RigSource::Simulated))
+    }
+
+    /// The default simulated bench.
+    pub fn simulated() -> RigConfig {
+        RigConfig {
+            file: RigFile::default(),
+            text: "# no rig file: the default simulated bench\n".into(),
+            origin: "built-in simulated bench".into(),
+            simulated: true,
+        }
+    }
+
+    /// Reads and checks a rig file.
+    pub fn load(path: &Path) -> Result<RigConfig, ConfigError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+            origin: origin.clone(),
+            message: format!(
+                "cannot read the rig file: {e} (see rig/rigs/ for commented examples; without a rig file fringe uses the simulated bench)"
+            ),
+        })?;
+        RigConfig::parse(&text, &origin)
+    }
+
+    /// Parses and checks rig file text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<RigConfig, ConfigError> {
+        let file: RigFile = parse_toml(text).map_err(|message| ConfigError {
+            origin: origin.into(),
+            message,
+        })?;
+        let simulated = check(&file, origin)?;
+        if simulated && !cfg!(feature = "sim") {
+            return Err(ConfigError {
+                origin: origin.into(),
+                message: NO_SIM.into(),
+            });
+        }
+        let config = RigConfig {
+            file,
+            text: text.to_string(),
+            origin: origin.to_string(),
+            simulated,
+        };
+        // Camera keys are checked here, before a dry run or any homing, not when the camera opens.
+        config.camera_settings()?;
+        Ok(config)
+    }
+
+    pub fn is_simulated(&self) -> bool {
+        self.simulated
+    }
+
+    pub(crate) fn err(&self, message: String) -> ConfigError {
+        ConfigError {
+            origin: self.origin.clone(),
+            message,
+        }
+    }
+
+    /// The sync method: as written, or strobe where the force path records the strobe and
+    /// clock-fit otherwise.
+    pub fn sync(&self) -> Result<SyncMethod, ConfigError> {
+        let strobe_wired = if self.simulated {
+            self.file.sim.force_path == SimForcePath::Daq
+        } else {
+            false
+        };
+        let method = match &self.file.sync {
+            Some(s) => s
+                .parse::<SyncMethod>()
+                .map_err(|e| self.err(format!("key `sync`: {e}")))?,
+            None if strobe_wired => SyncMethod::Strobe,
+            None => SyncMethod::ClockFit,
+        };
+        if method == SyncMethod::Strobe && !strobe_wired {
+            return Err(self.err(
+                "key `sync` = \"strobe\": this force path records no exposure strobe (a Net F/T has no spare channel); use sync = \"clock-fit\""
+                    .into(),
+            ));
+        }
+        Ok(method)
+    }
+
+    /// Soft limits, kinematics, force ceiling and contact height of the bench.
+    pub fn limits(&self) -> Result<BenchLimits, ConfigError> {
+        let max_force = Newtons(self.file.force.max_force.unwrap_or(20.0));
+        if self.simulated {
+            return crate::sim_bench::limits(self, max_force);
+        }
+        let f = &self.file;
+        let axis = |name: &str, a: &AxisSection| -> Result<(SoftLimits, Kinematics), ConfigError> {
+            let (Some(min), Some(max)) = (a.min, a.max) else {
+                return Err(self.err(format!(
+                    "[{name}]: keys `{name}.min` and `{name}.max` (soft limits, mm) are required on real hardware"
+                )));
+            };
+            let limits = SoftLimits::new(Millimetres(min), Millimetres(max))
+                .map_err(|e| self.err(format!("[{name}] min/max: {e}")))?;
+            Ok((
+                limits,
+                Kinematics {
+                    velocity: MillimetresPerSecond(a.velocity.unwrap_or(1.0)),
+                    acceleration: MillimetresPerSecondSquared(a.acceleration.unwrap_or(1.0)),
+                },
+            ))
+        };
+        let (x, x_motion) = axis("x", &f.x)?;
+        let (y, y_motion) = axis("y", &f.y)?;
+        let (z, z_motion) = axis("z", &f.z)?;
+        let contact_z = f.geometry.z_contact.ok_or_else(|| {
+            self.err(
+                "key `geometry.z_contact` is required on real hardware: the z (mm) at which the indenter roughly touches the sensor (the approach stops 3 mm past it)"
+                    .into(),
+            )
+        })?;
+        Ok(BenchLimits {
+            x,
+            y,
+            z,
+            x_motion,
+            y_motion,
+            z_motion,
+            manual_y: f.y.driver == AxisDriver::Manual,
+            max_force,
+            contact_z: Millimetres(contact_z),
+        })
+    }
+
+    /// The contact origin given by the rig file (or the simulated bench's geometry).
+    pub fn origin(&self) -> Result<ContactOrigin, ConfigError> {
+        let g = &self.file.geometry;
+        if self.simulated {
+            return crate::sim_bench::origin(self);
+        }
+        match (g.x_centre, g.y_centre) {
+            (Some(x), Some(y)) => Ok(ContactOrigin {
+                x: Millimetres(x),
+                y: Millimetres(y),
+                source: format!("{} [geometry]", self.origin),
+            }),
+            _ => Err(self.err(
+                "keys `geometry.x_centre` and `geometry.y_centre` (stage mm over the sensor centre) are required on real hardware until `fringe calibrate` has written a profile for this sensor"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The sensor id: the rig file's, or the simulated sensor's.
+    pub fn sensor_id(&self) -> Result<String, ConfigError> {
+        if let Some(id) = &self.file.sensor {
+            return Ok(id.clone());
+        }
+        if self.simulated {
+            return crate::sim_bench::sensor_id(self);
+        }
+        Err(self.err(
+            "key `sensor` (the sensor build id, e.g. \"layered-01\") is required on real hardware"
+                .into(),
+        ))
+    }
+
+    /// Directory of calibration profiles.
+    pub fn profile_dir(&self) -> PathBuf {
+        self.file
+            .profiles
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("profiles"))
+    }
+
+    /// Camera settings from [camera].
+    pub fn camera_settings(&self) -> Result<CameraSettings, ConfigError> {
+        let c = &self.file.camera;
+        let d = CameraSettings::default();
+        let pixel_format = match c.pixel_format.as_deref() {
+            None => d.pixel_format,
+            Some("mono8") => PixelFormat::Mono8,
+            Some("rgb8") => PixelFormat::Rgb8,
+            Some("bayerrg8") => PixelFormat::BayerRg8,
+            Some(other) => {
+                return Err(self.err(format!(
+                    "key `camera.pixel_format` = {other:?}: use mono8, rgb8 or bayerrg8"
+                )))
+            }
+        };
+        let trigger = match c.trigger.as_deref() {
+            None | Some("free-run") => TriggerMode::FreeRun,
+            Some("software") => TriggerMode::Software,
+            Some(line) if line.starts_with("Line") => TriggerMode::Hardware(line.to_string()),
+            Some(other) => {
+                return Err(self.err(format!(
+                    "key `camera.trigger` = {other:?}: use free-run, software or a line name such as Line1"
+                )))
+            }
+        };
+        let settings = CameraSettings {
+            exposure: c.exposure_us.map_or(d.exposure, Microseconds),
+            gain: c.gain_db.map_or(d.gain, Decibels),
+            frame_rate: c.frame_rate.map_or(
+                if self.simulated {
+                    Hertz(SIM_FRAME_RATE_HZ)
+                } else {
+                    d.frame_rate
+                },
+                Hertz,
+            ),
+            roi: None,
+            pixel_format,
+            trigger,
+            exposure_active_line: c.exposure_active_line.clone(),
+        };
+        settings.check().map_err(|e| self.err(e.to_string()))?;
+        Ok(settings)
+    }
+}
+
+/// Checks what the types cannot; returns whether the rig is simulated.
+fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
+    let err = |message: String| ConfigError {
+        origin: origin.into(),
+        message,
+    };
+    for (name, a) in [("x", &f.x), ("y", &f.y), ("z", &f.z)] {
+        for (key, v, unit) in [
+            ("velocity", a.velocity, "mm/s"),
+            ("acceleration", a.acceleration, "mm/s^2"),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(err(format!(
+                        "key `{name}.{key}` = {v}: must be a number > 0 ({unit})"
+                    )));
+                }
+            }
+        }
+        if let (Some(lo), Some(hi)) = (a.min, a.max) {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(err(format!(
+                    "keys `{name}.min` = {lo} and `{name}.max` = {hi}: need min < max (mm)"
+                )));
+            }
+        }
+        if (name == "x" || name == "z") && a.driver == AxisDriver::Manual {
+            return Err(err(format!(
+                "key `{name}.driver` = \"manual\": only y may be moved by hand (x and z need sim or thorlabs)"
+            )));
+        }
+    }
+    let finite = |key: &str, v: Option<f64>, unit: &str| match v {
+        Some(v) if !v.is_finite() => {
+            Err(err(format!("key `{key}` = {v}: must be a number ({unit})")))
+        }
+        _ => Ok(()),
+    };
+    finite("geometry.x_centre", f.geometry.x_centre, "mm")?;
+    finite("geometry.y_centre", f.geometry.y_centre, "mm")?;
+    finite("geometry.z_contact", f.geometry.z_contact, "mm")?;
+    for (name, a) in [("x", &f.x), ("y", &f.y), ("z", &f.z)] {
+        finite(&format!("{name}.min"), a.min, "mm")?;
+        finite(&format!("{name}.max"), a.max, "mm")?;
+        if let Some(h) = &a.home {
+            finite(&format!("{name}.home.offset"), Some(h.offset), "mm")?;
+            if let Some(v) = h.velocity {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(err(format!(
+                        "key `{name}.home.velocity` = {v}: must be a number > 0 (mm/s)"
+                    )));
+                }
+            }
+        }
+    }
+    for (key, v) in [("force.cpf", f.force.cpf), ("force.cpt", f.force.cpt)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(err(format!(
+                    "key `{key}` = {v}: must be a number > 0 (counts per unit, from the sensor's calibration sheet)"
+                )));
+            }
+        }
+    }
+    let k = f.sim.image_scale;
+    if !(k.is_finite() && (0.05..=1.0).contains(&k)) {
+        return Err(err(format!(
+            "key `sim.image_scale` = {k}: must be between 0.05 and 1 (1 = the full 1920x1200 image)"
+        )));
+    }
+    if let Some(m) = f.force.max_force {
+        if !(m.is_finite() && m > 0.0) {
+            return Err(err(format!(
+                "key `force.max_force` = {m}: must be a number > 0 (N)"
+            )));
+        }
+    }
+    let sims = [
+        f.x.driver == AxisDriver::Sim,
+        f.y.driver == AxisDriver::Sim,
+        f.z.driver == AxisDriver::Sim,
+        f.force.driver == ForceDriver::Sim,
+        f.camera.driver == CameraDriver::Sim,
+    ];
+    let simulated = sims.iter().all(|s| *s);
+    if !simulated && sims.iter().any(|s| *s) {
+        let names = ["x", "y", "z", "force", "camera"];
+        let sim: Vec<&str> = names
+            .iter()
+            .zip(sims)
+            .filter(|(_, s)| *s)
+            .map(|(n, _)| *n)
+            .collect();
+        return Err(err(format!(
+            "devices {} are simulated (driver \"sim\", the default) but others are real: a rig is wholly simulated or wholly real; set a real driver for {}",
+            sim.join(", "),
+            sim.join(", ")
+        )));
+    }
+    if let Some(s) = &f.sync {
+        s.parse::<SyncMethod>()
+            .map_err(|e| err(format!("key `sync`: {e}")))?;
+    }
+    Ok(simulated)
+}
+
+// The examples include a simulated bench: these tests need the `sim` feature (a default).
+#[cfg(all(test, feature = "sim"))]
+mod tests {
+    use super::*;
+    use fringe_rig::apt::driver::Controller;
+
+    const REFERENCE: &str = include_str!("../rigs/reference-bench.toml");
+    const SIMULATED: &str = include_str!("../rigs/simulated.toml");
+
+    #[test]
+    fn the_shipped_examples_parse_and_give_the_expected_bench() {
+        let sim = RigConfig::parse(SIMULATED, "simulated.toml").expect("simulated example");
+        assert!(sim.is_simulated());
+        assert_eq!(sim.sync().expect("sync"), SyncMethod::Strobe);
+        let l = sim.limits().expect("limits");
+        assert_eq!(l.x.max, Millimetres(25.0));
+        assert!(!l.manual_y);
+
+        let real = RigConfig::parse(REFERENCE, "reference-bench.toml").expect("reference example");
+        assert!(!real.is_simulated());
+        assert_eq!(real.sync().expect("sync"), SyncMethod::ClockFit);
+        let l = real.limits().expect("limits");
+        assert!(l.manual_y, "the reference bench's y is moved by hand");
+        assert_eq!(l.z.max, Millimetres(25.0));
+        let apt = real
+            .apt_config("z", &real.file.z, &l.z)
+            .expect("z thorlabs config");
+        assert_eq!(apt.actuator.name, "ZFS25");
+        assert_eq!(apt.controller, Controller::Kst101);
+        assert_eq!(
+            real.camera_settings().expect("camera").exposure,
+            Microseconds(2000.0)
+        );
+        assert_eq!(real.origin().expect("origin").x, Millimetres(12.5));
+    }
+
+    #[test]
+    fn errors_name_the_file_the_key_and_what_is_allowed() {
+        let e = RigConfig::parse("[x]\nvelocity = -1\n", "rig.toml").expect_err("negative");
+        assert_eq!(
+            e.to_string(),
+            "rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)"
+        );
+        let e = RigConfig::parse("[x]\ndriver = \"stepper\"\n", "rig.toml").expect_err("driver");
+        let m = e.to_string();
+        assert!(m.starts_with("rig.toml: line 2, key x.driver:"), "{m}");
+        assert!(m.contains("thorlabs") && m.contains("manual"), "{m}");
+        let e = RigConfig::parse("[x]\nspeed = 3\n", "rig.toml").expect_err("unknown key");
+        assert!(e.to_string().contains("speed"), "{e}");
+        let e = RigConfig::parse("sync = \"nearest\"\n", "rig.toml").expect_err("sync");
+        assert!(e.to_string().contains("strobe, clock-fit or host"), "{e}");
+        let e = RigConfig::parse("[camera]\ndriver = \"aravis\"\n", "rig.toml").expect_err("mixed");
+        assert!(
+            e.to_string().contains("x, y, z, force are simulated"),
+            "{e}"
+        );
+        let netft =
+            RigConfig::parse("[sim]\nforce_path = \"netft\"\n", "rig.toml").expect("netft sim");
+        assert!(crate::sim_bench::config(&netft).is_ok());
+        let strobe = RigConfig::parse(
+            "sync = \"strobe\"\n[sim]\nforce_path = \"netft\"\n",
+            "rig.toml",
+        )
+        .expect("parses")
+        .sync()
+        .expect_err("no strobe channel");
+        assert!(strobe.to_string().contains("clock-fit"), "{strobe}");
+        let e = RigConfig::load(Path::new("/nonexistent/rig.toml")).expect_err("missing");
+        assert!(
+            e.to_string()
+                .starts_with("/nonexistent/rig.toml: cannot read"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn real_rigs_must_give_limits_geometry_and_ports() {
+        let text = REFERENCE.replacen("min = 0.0", "# min = 0.0", 1);
+        let c = RigConfig::parse(&text, "r.toml").expect("parses");
+        let e = c.limits().expect_err("no limits");
+        assert!(e.to_string().contains("`x.min` and `x.max`"), "{e}");
+        let c = RigConfig::parse(&REFERENCE.replace("z_contact", "# z_contact"), "r.toml")
+            .expect("parses");
+        assert!(c
+            .limits()
+            .expect_err("no z_contact")
+            .to_string()
+            .contains("geometry.z_contact"));
+    }
+
+    #[test]
+    fn bad_numbers_are_refused_when_the_file_is_read() {
+        for (from, to, key) in [
+            ("z_contact = 15.0", "z_contact = nan", "geometry.z_contact"),
+            ("x_centre = 12.5", "x_centre = inf", "geometry.x_centre"),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = -5.0",
+                "camera.exposure_us",
+            ),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = nan",
+                "camera.exposure_us",
+            ),
+            (
+                "exposure_us = 2000.0",
+                "exposure_us = 30000.0",
+                "camera.exposure_us",
+            ),
+            ("frame_rate = 50.0", "frame_rate = 0.0", "camera.frame_rate"),
+            ("gain_db = 0.0", "gain_db = -3.0", "camera.gain_db"),
+        ] {
+            assert!(REFERENCE.contains(from), "{from}");
+            let e = RigConfig::parse(&REFERENCE.replace(from, to), "r.toml")
+                .expect_err(to)
+                .to_string();
+            assert!(
+                e.starts_with("r.toml: key `") && e.contains(key),
+                "{to}: {e}"
+            );
+        }
+        let e = RigConfig::parse("[camera]\nframe_rate = 0.0\n", "sim.toml").expect_err("sim 0 Hz");
+        assert!(e.to_string().contains("camera.frame_rate"), "{e}");
+    }
+
+    #[test]
+    fn no_rig_file_means_the_simulated_bench() {
+        let c = RigConfig::simulated();
+        assert!(c.is_simulated());
+        assert_eq!(c.sync().expect("sync"), SyncMethod::Strobe);
+        assert_eq!(
+            c.sensor_id().expect("id"),
+            fringe_sim::sensor::SensorConfig::layered().id
+        );
+    }
+}

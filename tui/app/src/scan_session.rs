@@ -1,0 +1,309 @@
+//! A scan session: the rig opened, the sensor's calibration profile turned into the contact
+//! origin and the zero-load check, the scan run with a caller's operator and progress, and (on
+//! the simulated bench) the labels scored against the ground truth. The command line's progress
+//! bar and the terminal UI drive the same session.
+
+use crate::rig_file::RigConfig;
+use crate::RigError;
+use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
+use fringe_calibration::profile::{load_checked, profile_path, Expectation};
+use fringe_rig::camera::CameraSettings;
+use fringe_rig::devices::Devices;
+use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
+use fringe_rig::scan::engine::{run_scan, RunTarget, ScanError, ScanOutcome, ScanSetup};
+use fringe_rig::scan::offset_check::OffsetCheck;
+use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
+use fringe_rig::scan::press::PressSettings;
+use fringe_rig::scan::sidecar::RunSidecar;
+use fringe_rig::scan::watchers::WatchSettings;
+use fringe_rig::store::documents::ProfileRef;
+use fringe_rig::store::StoreError;
+use fringe_rig::units::Millimetres;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::SystemTime;
+
+/// A profile older than this is reported as stale.
+pub const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
+
+/// How a scan treats the sensor's calibration profile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProfileUse {
+    /// Contact origin from the profile (warn when missing, stale or mismatched).
+    Consume,
+    /// The calibration scan that makes the profile: the rig file's origin.
+    Ignore,
+}
+
+/// Something the session tells the person running it before the scan starts.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Note {
+    Info(String),
+    Warning(String),
+}
+
+/// Why a session could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error("cannot open the rig: {0}")]
+    Rig(#[from] RigError),
+    #[error("the scan stopped: {0}")]
+    Scan(#[from] ScanError),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
+/// The labels of a simulated run against the bench's ground truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthScore {
+    pub frames: usize,
+    pub force_rms_n: f64,
+    pub force_max_n: f64,
+    pub contact_frames: usize,
+    pub contact_rms_mm: f64,
+}
+
+/// A rig opened and a scan set up, ready to run.
+pub struct ScanSession {
+    pub setup: ScanSetup,
+    devices: Devices,
+    #[cfg(feature = "sim")]
+    sim: Option<crate::sim_bench::SimBench>,
+    /// What the front end should show before the scan starts (devices, origin, profile warnings).
+    pub notes: Vec<Note>,
+}
+
+/// A finished session.
+pub struct SessionEnd {
+    pub outcome: ScanOutcome,
+    /// The labels against the ground truth (simulated rigs).
+    pub truth_score: Option<TruthScore>,
+    /// The simulated bench that ran it, with its ground truth (simulated rigs).
+    #[cfg(feature = "sim")]
+    pub sim: Option<crate::sim_bench::SimBench>,
+}
+
+impl ScanSession {
+    /// Opens the rig `config` describes and sets up `program`.
+    pub fn open(
+        config: &RigConfig,
+        program: ScanProgram,
+        plan_text: String,
+        profile_use: ProfileUse,
+        record_trace: Option<&Path>,
+    ) -> Result<ScanSession, SessionError> {
+        let rig = config.open(record_trace)?;
+        let mut notes: Vec<Note> = rig
+            .devices
+            .description
+            .iter()
+            .map(|d| Note::Info(format!("  {d}")))
+            .collect();
+        let (origin, profile, offset_check) = match profile_use {
+            ProfileUse::Consume => {
+                calibration_profile(config, &rig.sensor_id, rig.origin.clone(), &mut notes)
+            }
+            ProfileUse::Ignore => (rig.origin.clone(), None, None),
+        };
+        notes.push(Note::Info(format!(
+            "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
+            origin.x.0, origin.y.0, origin.source
+        )));
+        #[cfg(feature = "sim")]
+        let (seed, sidecars) = match &rig.sim {
+            Some(s) => (
+                Some(s.config().seed),
+                vec![s.truth.clone() as Arc<dyn RunSidecar>],
+            ),
+            None => (None, Vec::new()),
+        };
+        #[cfg(not(feature = "sim"))]
+        let (seed, sidecars): (Option<u64>, Vec<Arc<dyn RunSidecar>>) = (None, Vec::new());
+        let setup = ScanSetup {
+            program,
+            plan_text,
+            limits: rig.limits.clone(),
+            origin,
+            sync: rig.sync,
+            sensor_id: rig.sensor_id.clone(),
+            rig_text: rig.text.clone(),
+            seed,
+            profile,
+            camera: rig.camera_settings.clone(),
+            press: PressSettings::default(),
+            watch: WatchSettings::default(),
+            sidecars,
+            offset_check,
+        };
+        Ok(ScanSession {
+            setup,
+            devices: rig.devices,
+            #[cfg(feature = "sim")]
+            sim: rig.sim,
+            notes,
+        })
+    }
+
+    pub fn limits(&self) -> &BenchLimits {
+        &self.setup.limits
+    }
+
+    pub fn camera(&self) -> &CameraSettings {
+        &self.setup.camera
+    }
+
+    /// True when the rig is the simulated bench.
+    pub fn simulated(&self) -> bool {
+        #[cfg(feature = "sim")]
+        return self.sim.is_some();
+        #[cfg(not(feature = "sim"))]
+        false
+    }
+
+    /// Runs the scan into `target`. `operator` answers the prompts (on the simulated bench
+    /// indenters are mounted without asking); `progress` receives what the scan reports.
+    pub fn run(
+        self,
+        target: RunTarget,
+        control: &ScanControl,
+        operator: &mut dyn Operator,
+        progress: &(dyn Fn(ScanProgress) + Sync),
+    ) -> Result<SessionEnd, SessionError> {
+        #[cfg(feature = "sim")]
+        let bench = self.sim.as_ref().map(|s| s.bench().clone());
+        #[cfg(feature = "sim")]
+        let mut operator = BenchOperator {
+            bench,
+            inner: operator,
+            progress,
+        };
+        #[cfg(feature = "sim")]
+        let operator: &mut dyn Operator = &mut operator;
+        let outcome = run_scan(
+            &self.setup,
+            self.devices,
+            target,
+            control,
+            operator,
+            progress,
+        )?;
+        #[cfg(feature = "sim")]
+        {
+            let truth_score = match &self.sim {
+                Some(sim) => crate::sim_bench::score_run(&outcome.run_dir, &sim.truth)?,
+                None => None,
+            };
+            Ok(SessionEnd {
+                outcome,
+                truth_score,
+                sim: self.sim,
+            })
+        }
+        #[cfg(not(feature = "sim"))]
+        Ok(SessionEnd {
+            outcome,
+            truth_score: None,
+        })
+    }
+}
+
+/// On the simulated bench the indenter a plan asks for is mounted at once; every other prompt
+/// goes to the caller's operator.
+#[cfg(feature = "sim")]
+struct BenchOperator<'a> {
+    bench: Option<Arc<fringe_sim::bench::Bench>>,
+    inner: &'a mut dyn Operator,
+    progress: &'a (dyn Fn(ScanProgress) + Sync),
+}
+
+#[cfg(feature = "sim")]
+impl Operator for BenchOperator<'_> {
+    fn ask(
+        &mut self,
+        prompt: &fringe_rig::scan::control::Prompt,
+    ) -> fringe_rig::scan::control::Reply {
+        use fringe_rig::scan::control::{Prompt, Reply};
+        use fringe_sim::bench::{IndenterTip, MountedIndenter};
+        if let (Some(bench), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
+            return match IndenterTip::standard(shape) {
+                Some(tip) => {
+                    bench.set_indenter(MountedIndenter {
+                        tip,
+                        angle_deg: 0.0,
+                    });
+                    (self.progress)(ScanProgress::Message(format!(
+                        "simulated bench: {shape} indenter mounted"
+                    )));
+                    Reply::Continue
+                }
+                None => {
+                    (self.progress)(ScanProgress::Message(format!(
+                        "simulated bench: no {shape:?} indenter (it has pentagon, rectangle, circle, sphere)"
+                    )));
+                    Reply::Abort
+                }
+            };
+        }
+        self.inner.ask(prompt)
+    }
+}
+
+/// The sensor's calibration profile, if there is one: its contact origin replaces the rig
+/// file's, its force offsets are checked against the scan's first no-contact offset, and the run
+/// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
+/// scan goes on with the rig file's origin.
+fn calibration_profile(
+    config: &RigConfig,
+    sensor_id: &str,
+    fallback: ContactOrigin,
+    notes: &mut Vec<Note>,
+) -> (
+    ContactOrigin,
+    Option<ProfileRef>,
+    Option<Arc<dyn OffsetCheck>>,
+) {
+    let dir = config.profile_dir();
+    let want = Expectation {
+        sensor_id,
+        image: None,
+        max_age_days: PROFILE_MAX_AGE_DAYS,
+    };
+    let (profile, warnings) = load_checked(&dir, &want, SystemTime::now());
+    notes.extend(warnings.iter().map(|w| Note::Warning(w.to_string())));
+    let Some(p) = profile else {
+        return (fallback, None, None);
+    };
+    let path = profile_path(&dir, sensor_id).unwrap_or_else(|_| dir.join(sensor_id));
+    let content = std::fs::read_to_string(&path).unwrap_or_default();
+    let origin = match &p.registration {
+        Some(r) => ContactOrigin {
+            x: Millimetres(r.contact_origin_stage_mm[0]),
+            y: Millimetres(r.contact_origin_stage_mm[1]),
+            source: format!("profile {}", path.display()),
+        },
+        None => {
+            notes.push(Note::Warning(format!(
+                "profile {} has no image-to-stage registration: contact origin from {}",
+                path.display(),
+                fallback.source
+            )));
+            fallback
+        }
+    };
+    let check = p.force_offsets.map(|offsets| {
+        Arc::new(ProfileOffsetCheck {
+            offsets,
+            tolerance: ZeroTolerance::default(),
+            profile: path.display().to_string(),
+        }) as Arc<dyn OffsetCheck>
+    });
+    (
+        origin,
+        Some(ProfileRef {
+            path: path.display().to_string(),
+            content,
+        }),
+        check,
+    )
+}

@@ -1,0 +1,273 @@
+//! The simulated bench behind a rig file (cargo feature `sim`, on by default): its configuration
+//! from the `[sim]` section and the axis settings, its soft limits, geometry and sensor, and
+//! starting it with every device's real driver talking to its emulators.
+
+use crate::open_rig::{device, OpenRig, RigError};
+use crate::rig_file::{AxisSection, RigConfig, SimForcePath};
+use fringe_rig::axis::{Kinematics, SoftLimits};
+use fringe_rig::camera::CameraSettings;
+use fringe_rig::config_file::ConfigError;
+use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
+use fringe_sim::bench::{AxisConfig, Bench};
+use fringe_sim::ground_truth::{TruthLog, TruthSink};
+use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig};
+use fringe_sim::sensor::SensorConfig;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The running simulated bench of an opened rig.
+pub struct SimBench {
+    pub rig: SimRig,
+    /// Everything that really happened on the bench since it started.
+    pub truth: Arc<TruthLog>,
+}
+
+impl SimBench {
+    pub fn bench(&self) -> &Arc<Bench> {
+        &self.rig.bench
+    }
+
+    pub fn config(&self) -> &SimRigConfig {
+        &self.rig.config
+    }
+}
+
+/// A sensor build of the simulator by name (layered, integrated) or file.
+pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+    match name {
+        "layered" => Ok(SensorConfig::layered()),
+        "integrated" => Ok(SensorConfig::integrated()),
+        path if path.ends_with(".toml") || Path::new(path).is_file() => {
+            SensorConfig::load(Path::new(path)).map_err(|e| ConfigError {
+                origin: origin.into(),
+                message: format!("key `sim.sensor`: {e}"),
+            })
+        }
+        other => Err(ConfigError {
+            origin: origin.into(),
+            message: format!(
+                "key `sim.sensor` = {other:?}: use layered, integrated or the path of a sensor .toml file"
+            ),
+        }),
+    }
+}
+
+/// The simulated rig's configuration.
+pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
+    let s = &rig.file.sim;
+    let mut sensor = sim_sensor(&s.sensor, &rig.origin)?;
+    if let Some(id) = &rig.file.sensor {
+        sensor.id = id.clone();
+    }
+    if s.image_scale != 1.0 {
+        let g = &mut sensor.geometry;
+        let k = s.image_scale;
+        g.width = (f64::from(g.width) * k).round() as u32;
+        g.height = (f64::from(g.height) * k).round() as u32;
+        g.disc_radius_px *= k;
+        g.px_per_mm *= k;
+        g.centre_offset_px = [g.centre_offset_px[0] * k, g.centre_offset_px[1] * k];
+        sensor.optics.blur_px *= k;
+    }
+    let mut c = SimRigConfig {
+        seed: s.seed,
+        sensor,
+        force_path: match s.force_path {
+            SimForcePath::Daq => ForcePath::Daq,
+            SimForcePath::Netft => ForcePath::Netft,
+        },
+        ..SimRigConfig::default()
+    };
+    for (section, axis) in [
+        (&rig.file.x, &mut c.bench.x),
+        (&rig.file.y, &mut c.bench.y),
+        (&rig.file.z, &mut c.bench.z),
+    ] {
+        apply_sim_axis(section, axis);
+    }
+    Ok(c)
+}
+
+/// Soft limits (the axes' travel), kinematics and contact height of the simulated bench.
+pub fn limits(rig: &RigConfig, max_force: Newtons) -> Result<BenchLimits, ConfigError> {
+    let c = config(rig)?;
+    let b = &c.bench;
+    let limits = |name: &str, a: &AxisConfig| {
+        SoftLimits::new(Millimetres(0.0), Millimetres(a.travel_mm))
+            .map_err(|e| rig.err(format!("[{name}]: {e}")))
+    };
+    let k = |a: &AxisConfig| Kinematics {
+        velocity: MillimetresPerSecond(a.velocity_mm_s),
+        acceleration: MillimetresPerSecondSquared(a.acceleration_mm_s2),
+    };
+    Ok(BenchLimits {
+        x: limits("x", &b.x)?,
+        y: limits("y", &b.y)?,
+        z: limits("z", &b.z)?,
+        x_motion: k(&b.x),
+        y_motion: k(&b.y),
+        z_motion: k(&b.z),
+        manual_y: false,
+        max_force,
+        contact_z: Millimetres(b.geometry.z_touch_mm),
+    })
+}
+
+/// The contact origin: the rig file's geometry keys, else the simulated bench's own.
+pub fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
+    let g = &rig.file.geometry;
+    let c = config(rig)?;
+    Ok(ContactOrigin {
+        x: Millimetres(g.x_centre.unwrap_or(c.bench.geometry.x_centre_mm)),
+        y: Millimetres(g.y_centre.unwrap_or(c.bench.geometry.y_centre_mm)),
+        source: "simulated bench geometry".into(),
+    })
+}
+
+/// The simulated sensor's id.
+pub fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
+    Ok(config(rig)?.sensor.id)
+}
+
+/// Starts the simulated bench, its ground truth recorded.
+pub fn open(
+    rig: &RigConfig,
+    limits: BenchLimits,
+    origin: ContactOrigin,
+    sync: SyncMethod,
+    sensor_id: String,
+    camera_settings: CameraSettings,
+) -> Result<OpenRig, RigError> {
+    let config = config(rig)?;
+    let truth = TruthLog::new();
+    let sink: Arc<dyn TruthSink> = truth.clone();
+    let (sim, devices) = SimRig::start(&config, Some(sink)).map_err(|e| device("rig", e))?;
+    Ok(OpenRig {
+        devices,
+        limits,
+        origin,
+        sync,
+        sensor_id,
+        camera_settings,
+        text: rig.text.clone(),
+        sim: Some(SimBench { rig: sim, truth }),
+    })
+}
+
+/// Copies the axis settings a simulated axis understands.
+fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
+    if let Some(v) = s.velocity {
+        a.velocity_mm_s = v;
+    }
+    if let Some(v) = s.acceleration {
+        a.acceleration_mm_s2 = v;
+    }
+}
+
+/// Scores the labels of the run in `run_dir` against the bench's ground truth; `None` when no
+/// labelled frame has a truth record.
+pub fn score_run(
+    run_dir: &Path,
+    truth: &TruthLog,
+) -> Result<Option<crate::scan_session::TruthScore>, fringe_rig::store::StoreError> {
+    let (records, _) = fringe_rig::store::run_writer::read_lines::<
+        fringe_rig::store::documents::FrameRecord,
+    >(&run_dir.join(fringe_rig::store::FRAMES))?;
+    Ok(
+        fringe_sim::label_score::score(&records, &truth.frames()).map(|s| {
+            crate::scan_session::TruthScore {
+                frames: s.frames,
+                force_rms_n: s.force_rms_n,
+                force_max_n: s.force_max_n,
+                contact_frames: s.contact_frames,
+                contact_rms_mm: s.contact_rms_mm,
+            }
+        }),
+    )
+}
+
+/// Contact finding tuned for the simulated sensor's construction.
+pub fn spot_settings(
+    rig: &RigConfig,
+) -> Result<fringe_calibration::registration::contact_spot::SpotSettings, ConfigError> {
+    use fringe_calibration::registration::contact_spot::SpotSettings;
+    Ok(match config(rig)?.sensor.variant {
+        fringe_sim::sensor::Variant::Integrated => SpotSettings::integrated(),
+        _ => SpotSettings::layered(),
+    })
+}
+
+/// A calibration from the simulated bench against what the bench really is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationTruth {
+    /// Distance of the fitted disc centre from the true optical centre, px.
+    pub centre_off_px: f64,
+    /// Fitted minus true disc radius, px.
+    pub radius_off_px: f64,
+    /// The registration against the true image geometry, when there is one.
+    pub registration: Option<RegistrationTruth>,
+    /// Measured force offsets minus the F/T sensor's power-up bias (N; includes the simulated
+    /// sensor's drift since power-up).
+    pub offset_minus_bias_n: Option<[f64; 3]>,
+}
+
+/// The image-to-stage registration against the true geometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegistrationTruth {
+    pub px_per_mm_error_pct: f64,
+    pub rotation_error_deg: f64,
+    pub mirror_right: bool,
+    /// Contact origin minus the true sensor centre, stage mm.
+    pub origin_off_mm: [f64; 2],
+}
+
+impl SimBench {
+    /// Compares a calibration from this bench's runs with the bench itself.
+    pub fn calibration_truth(
+        &self,
+        cal: &fringe_calibration::from_scan::ScanCalibration,
+    ) -> CalibrationTruth {
+        use fringe_sim::ground_truth::TruthRecord;
+        let sim = self.config();
+        let g = sim.sensor.geometry();
+        let f = &cal.fit;
+        let registration = cal.registration.as_ref().ok().map(|r| {
+            let b = &sim.bench.geometry;
+            RegistrationTruth {
+                px_per_mm_error_pct: (r.fit.px_per_mm / g.px_per_mm - 1.0) * 100.0,
+                rotation_error_deg: r.fit.rotation_deg - g.rotation_deg,
+                mirror_right: r.fit.mirror == g.mirror,
+                origin_off_mm: [
+                    r.contact_origin_stage_mm[0] - b.x_centre_mm,
+                    r.contact_origin_stage_mm[1] - b.y_centre_mm,
+                ],
+            }
+        });
+        let bias = self
+            .truth
+            .records()
+            .into_iter()
+            .rev()
+            .find_map(|r| match r {
+                TruthRecord::FtBias { bias, .. } => Some(bias),
+                _ => None,
+            });
+        let offset_minus_bias_n = match (&cal.offsets, bias) {
+            (Some(o), Some(bias)) => Some([
+                o.force_n[0] - bias.fx.0,
+                o.force_n[1] - bias.fy.0,
+                o.force_n[2] - bias.fz.0,
+            ]),
+            _ => None,
+        };
+        CalibrationTruth {
+            centre_off_px: (f.centre_x - g.centre_px[0]).hypot(f.centre_y - g.centre_px[1]),
+            radius_off_px: f.radius - sim.sensor.geometry.disc_radius_px,
+            registration,
+            offset_minus_bias_n,
+        }
+    }
+}
