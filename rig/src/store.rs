@@ -14,6 +14,7 @@
 //!
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
+//! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
@@ -21,6 +22,7 @@
 //! - [`export`]: the reference pipeline's `0.images/` + `0.labels.csv` layout.
 
 pub mod documents;
+pub mod durable;
 pub mod export;
 pub mod force_log;
 pub mod manifest;

@@ -19,7 +19,7 @@
 use crate::contact::{
     contact_radius, ContactGeometry, ContactMaterial, ContactModel, SurfaceConfig, SurfaceHeight,
 };
-use crate::ft_sensor::{FtMount, FtNoiseConfig};
+use crate::ft_config::{FtMount, FtNoiseConfig};
 use crate::indenter::Shape;
 use crate::motion::{Kinematics, MotorSpec, SimMotor};
 use crate::scene::{Contact, LoadSource, Scene, SceneSource};

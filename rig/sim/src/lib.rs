@@ -15,6 +15,7 @@
 //! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
 //!   byte link, driving a [`motion::SimMotor`].
 //! - [`contact`]: force against indentation depth in the soft layer, relaxation, surface height.
+//! - [`ft_config`]: the F/T sensor's mount and imperfections (configuration).
 //! - [`ft_sensor`]: the F/T sensor's moments, noise, drift and power-up bias.
 //! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
 //! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
@@ -43,6 +44,7 @@ pub mod colour;
 pub mod contact;
 pub mod daq_emulator;
 pub mod fringe_field;
+pub mod ft_config;
 pub mod ft_sensor;
 pub mod ground_truth;
 pub mod indenter;

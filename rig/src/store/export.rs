@@ -176,8 +176,8 @@ pub fn export_reference(
         path: provenance.clone(),
         message: format!("cannot encode: {e}"),
     })?;
-    super::run_writer::write_atomic(&provenance, json.as_bytes())?;
-    super::run_writer::write_atomic(&labels, csv.as_bytes())?;
+    super::durable::write_atomic(&provenance, json.as_bytes())?;
+    super::durable::write_atomic(&labels, csv.as_bytes())?;
     Ok(ExportSummary {
         images: k,
         without_contact: none,

@@ -59,7 +59,7 @@ pub fn write(dir: &Path) -> Result<(), StoreError> {
         let hash = sha256_file(&dir.join(&rel))?;
         text.push_str(&format!("{hash}  {rel}\n"));
     }
-    super::run_writer::write_atomic(&dir.join(MANIFEST), text.as_bytes())
+    super::durable::write_atomic(&dir.join(MANIFEST), text.as_bytes())
 }
 
 /// Compares the files with the manifest; returns one message per difference.

@@ -8,6 +8,7 @@
 //! [`RunWriter::reopen`] cuts off.
 
 use super::documents::{now_utc, Event, FrameRecord, StartDocument, StopDocument};
+use super::durable::{sync_dir, write_atomic};
 use super::{
     force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, START, STOP,
 };
@@ -18,25 +19,6 @@ use crate::force::ForceSample;
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-
-/// Writes `bytes` to `path` atomically.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
-    let tmp = path.with_extension("tmp");
-    let mut f = File::create(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| StoreError::io(&tmp, e))?;
-    f.sync_all().map_err(|e| StoreError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| StoreError::io(path, e))?;
-    if let Some(dir) = path.parent() {
-        sync_dir(dir)?;
-    }
-    Ok(())
-}
-
-fn sync_dir(dir: &Path) -> Result<(), StoreError> {
-    File::open(dir)
-        .and_then(|d| d.sync_all())
-        .map_err(|e| StoreError::io(dir, e))
-}
 
 fn json<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, StoreError> {
     serde_json::to_string(value).map_err(|e| StoreError::Content {
