@@ -6,14 +6,15 @@ use fringe_rig::apt::codec::{
     decode, encode, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock,
     VelParams, USB_UNIT,
 };
+use fringe_tests::{python, python_script};
 use std::collections::HashMap;
 use std::io::Write;
 use std::process::{Command, Stdio};
 
 /// Runs the Python peer on `commands`, one answer line per command.
 fn peer(commands: &[String]) -> Vec<String> {
-    let python = std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string());
-    let script = format!("{}/python/apt_peer.py", env!("CARGO_MANIFEST_DIR"));
+    let python = python();
+    let script = python_script("apt_peer.py");
     let mut child = Command::new(&python)
         .arg(&script)
         .stdin(Stdio::piped())

@@ -2,6 +2,8 @@
 //! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
 //! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
 
+use fringe_tests::{loopback, python, python_script, require_python_module};
+
 use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::transport::serial::SerialLink;
@@ -10,7 +12,6 @@ use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use fringe_sim::modbus_emulator::ModbusEmulator;
 use fringe_sim::motion::{Kinematics, MotorSpec, SimMotor};
-use std::net::SocketAddr;
 use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -41,10 +42,6 @@ fn options() -> StageOptions {
         }),
         ..StageOptions::default()
     }
-}
-
-fn loopback() -> SocketAddr {
-    SocketAddr::from(([127, 0, 0, 1], 0))
 }
 
 fn stage(link: Box<dyn ByteLink>, framing: Framing, map_name: &str) -> ModbusStage {
@@ -203,26 +200,14 @@ fn driver_in_process_both_framings_and_overtravel_alarm() {
     );
 }
 
-fn python() -> String {
-    std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string())
-}
-
 #[test]
 fn pymodbus_from_pypi_moves_the_tcp_emulator() {
-    let check = Command::new(python())
-        .args(["-c", "import pymodbus"])
-        .output()
-        .expect("run the Python interpreter (FRINGE_PYTHON or python3)");
-    assert!(
-        check.status.success(),
-        "pymodbus is not importable by {}: run scripts/test (it installs tests/python/requirements.txt into .venv and sets FRINGE_PYTHON)",
-        python()
-    );
+    require_python_module("pymodbus");
     let motor = motor(10.0);
     let emulator =
         ModbusEmulator::spawn_tcp(loopback(), map("oriental-az"), motor.clone()).expect("emulator");
     let port = emulator.addr().expect("tcp").port();
-    let script = format!("{}/python/modbus_client.py", env!("CARGO_MANIFEST_DIR"));
+    let script = python_script("modbus_client.py");
     let out = Command::new(python())
         .arg(&script)
         .arg(port.to_string())

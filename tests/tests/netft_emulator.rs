@@ -2,6 +2,8 @@
 //! process and over loopback UDP with the configuration read over HTTP, and against an independent
 //! client from PyPI (pynetft, driven by tests/python/netft_client.py).
 
+use fringe_tests::{loopback, python, python_script, require_python_module};
+
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::{ForceError, ForceSample, ForceSensor};
 use fringe_rig::netft::{fetch_config, Command, NetFt, NetFtOptions};
@@ -10,7 +12,6 @@ use fringe_rig::transport::DatagramLink;
 use fringe_rig::units::Wrench;
 use fringe_sim::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 use fringe_sim::scene::ForceReading;
-use std::net::SocketAddr;
 use std::process::Command as Process;
 use std::time::{Duration, Instant};
 
@@ -18,10 +19,6 @@ const LOAD: [f64; 6] = [1.5, -2.25, 10.0, 0.05, -0.02, 0.001];
 
 fn constant(w: [f64; 6]) -> Box<dyn ForceReading> {
     Box::new(move |_| Wrench::from_array(w))
-}
-
-fn loopback() -> SocketAddr {
-    SocketAddr::from(([127, 0, 0, 1], 0))
 }
 
 /// Streams for `seconds`, then stops and drains; returns every sample.
@@ -217,21 +214,9 @@ fn saturation_and_injected_faults_surface_as_driver_errors() {
     );
 }
 
-fn python() -> String {
-    std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string())
-}
-
 #[test]
 fn pynetft_from_pypi_reads_forces_and_biases_the_udp_emulator() {
-    let check = Process::new(python())
-        .args(["-c", "import pynetft"])
-        .output()
-        .expect("run the Python interpreter (FRINGE_PYTHON or python3)");
-    assert!(
-        check.status.success(),
-        "pynetft is not importable by {}: run scripts/test (it installs tests/python/requirements.txt into .venv and sets FRINGE_PYTHON)",
-        python()
-    );
+    require_python_module("pynetft");
     // The common ATI combination: counts per N and per N mm.
     let config = NetFtEmulatorConfig {
         counts_per_force: 1_000_000.0,
@@ -245,9 +230,8 @@ fn pynetft_from_pypi_reads_forces_and_biases_the_udp_emulator() {
         NetFtEmulator::spawn_udp(loopback(), None, config, constant(LOAD)).expect("emulator");
     let rdt = emulator.addr().expect("udp");
     let http = emulator.http_addr().expect("http");
-    let script = format!("{}/python/netft_client.py", env!("CARGO_MANIFEST_DIR"));
     let out = Process::new(python())
-        .arg(&script)
+        .arg(python_script("netft_client.py"))
         .args([
             "127.0.0.1",
             &rdt.port().to_string(),

@@ -12,6 +12,7 @@ use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use fringe_sim::apt_emulator::{AptEmulator, AptEmulatorConfig, KeepAlive};
 use fringe_sim::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_tests::{python, python_script};
 use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -358,12 +359,10 @@ fn thorlabs_apt_device_from_pypi_drives_the_emulator_on_a_pty() {
     let emu = AptEmulator::spawn_pty(emulator_config(Duration::from_millis(1500)), m.clone())
         .expect("spawn on a pty");
     let path = emu.slave_path().expect("slave path").to_string();
-    let python = std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string());
-    let script = format!("{}/python/apt_device_client.py", env!("CARGO_MANIFEST_DIR"));
     let a = zfs25();
     let target = a.to_steps(Millimetres(1.0)).expect("steps");
-    let out = Command::new(&python)
-        .arg(&script)
+    let out = Command::new(python())
+        .arg(python_script("apt_device_client.py"))
         .arg(&path)
         .arg(target.to_string())
         // 2 mm/s and 4 mm/s^2 in device units.
@@ -379,7 +378,10 @@ fn thorlabs_apt_device_from_pypi_drives_the_emulator_on_a_pty() {
         )
         .output()
         .unwrap_or_else(|e| {
-            panic!("cannot start {python} ({e}); run scripts/test, which sets FRINGE_PYTHON")
+            panic!(
+                "cannot start {} ({e}); run scripts/test, which sets FRINGE_PYTHON",
+                python()
+            )
         });
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -418,19 +420,17 @@ fn pylablib_kinesis_motor_drives_the_emulator_on_a_pty() {
     let emu = AptEmulator::spawn_pty(emulator_config(Duration::from_secs(3)), m.clone())
         .expect("spawn on a pty");
     let path = emu.slave_path().expect("slave path").to_string();
-    let python = std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string());
-    let script = format!(
-        "{}/python/apt_pylablib_client.py",
-        env!("CARGO_MANIFEST_DIR")
-    );
     let target = zfs25().to_steps(Millimetres(0.25)).expect("steps");
-    let out = Command::new(&python)
-        .arg(&script)
+    let out = Command::new(python())
+        .arg(python_script("apt_pylablib_client.py"))
         .arg(&path)
         .arg(target.to_string())
         .output()
         .unwrap_or_else(|e| {
-            panic!("cannot start {python} ({e}); run scripts/test, which sets FRINGE_PYTHON")
+            panic!(
+                "cannot start {} ({e}); run scripts/test, which sets FRINGE_PYTHON",
+                python()
+            )
         });
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(

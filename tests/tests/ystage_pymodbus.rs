@@ -3,6 +3,8 @@
 //! pseudo-terminal pair made by socat. The simulated stage ramps its feedback position with the
 //! moving bit set, so the driver's wait logic really runs.
 
+use fringe_tests::{python, require_python_module};
+
 use fringe_rig::axis::{Axis, AxisError, SoftLimits};
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::transport::serial::SerialLink;
@@ -14,22 +16,6 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-
-fn python() -> String {
-    std::env::var("FRINGE_PYTHON").unwrap_or_else(|_| "python3".to_string())
-}
-
-fn require_pymodbus() {
-    let out = Command::new(python())
-        .args(["-c", "import pymodbus"])
-        .output()
-        .expect("run the Python interpreter (FRINGE_PYTHON or python3)");
-    assert!(
-        out.status.success(),
-        "pymodbus is not importable by {}: run scripts/test (it installs tests/python/requirements.txt into .venv and sets FRINGE_PYTHON)",
-        python()
-    );
-}
 
 /// A running child process, killed on drop.
 struct Proc(Child);
@@ -49,7 +35,7 @@ struct Server {
 
 impl Server {
     fn start(args: &[&str]) -> Server {
-        require_pymodbus();
+        require_python_module("pymodbus");
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/modbus_stage_server.py");
         let mut child = Command::new(python())
             .arg(script)

@@ -3,16 +3,9 @@
 //! `0.labels.csv`, writes the profile and the report PNG; bad folders give one clear line.
 
 mod common;
-use common::{fringe, text};
+use common::{fringe, scratch, text};
 use fringe_calibration::profile::Profile;
 use std::path::PathBuf;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fringe-calibrate-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 fn render(sensor: &str, shape: &str, force: &str, frame: &str, out: &std::path::Path) {
     let o = fringe(&[
@@ -34,7 +27,7 @@ fn render(sensor: &str, shape: &str, force: &str, frame: &str, out: &std::path::
 
 #[test]
 fn calibrates_a_reference_pipeline_folder_and_writes_profile_and_report() {
-    let root = temp_dir("folder");
+    let root = scratch("folder");
     // A coarse fringe-field grid keeps the renders quick; the image stays full size.
     let sensor = root.join("coarse.toml");
     std::fs::write(
@@ -118,7 +111,7 @@ fn calibrates_a_reference_pipeline_folder_and_writes_profile_and_report() {
 
 #[test]
 fn bad_folders_give_one_clear_line() {
-    let root = temp_dir("bad");
+    let root = scratch("bad");
     let run = |dir: &PathBuf| {
         let o = fringe(&[
             "calibrate",

@@ -2,16 +2,8 @@
 //! from it. In a file of its own so that no other test shares the cores with its scan.
 
 mod common;
-use common::{fringe, text};
+use common::{fringe, scratch, text};
 use fringe_calibration::profile::Profile;
-use std::path::PathBuf;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fringe-calibrate-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 /// `fringe calibrate --sensor ID` on the simulated bench (no rig file): the calibration scan,
 /// then a profile whose optics, registration and force offsets match the simulator's truth
@@ -20,7 +12,7 @@ fn temp_dir(name: &str) -> PathBuf {
 /// images, the run of the scan kept, every frame of it labelled.
 #[test]
 fn calibrates_the_simulated_bench_from_a_calibration_scan() {
-    let root = temp_dir("rig");
+    let root = scratch("rig");
     let out = root.join("profiles");
     let runs = root.join("runs");
     let o = fringe(&[

@@ -1,21 +1,10 @@
 //! `fringe camera ... grab`: against the committed camera trace, and (feature `aravis`) against
 //! the Aravis fake GigE Vision camera.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::{fringe, scratch};
 
-fn fringe(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe"))
-        .args(args)
-        .output()
-        .expect("run fringe")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fringe-camera-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+use std::path::Path;
 
 /// The CSV rows (header dropped), split into fields.
 fn csv_rows(dir: &Path) -> Vec<Vec<String>> {
@@ -44,8 +33,8 @@ fn pngs(dir: &Path) -> usize {
 #[test]
 fn camera_replay_grab_writes_frames_csv_and_reports_dropped_ids() {
     let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/traces/camera");
-    let out = temp_dir("replay");
-    let rec = temp_dir("replay-rec");
+    let out = scratch("replay");
+    let rec = scratch("replay-rec");
     let o = fringe(&[
         "--record-trace",
         rec.to_str().expect("utf8"),
@@ -87,7 +76,7 @@ fn camera_replay_grab_writes_frames_csv_and_reports_dropped_ids() {
 #[test]
 fn camera_grab_fails_with_a_clear_message_when_frames_run_out() {
     let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/traces/camera");
-    let out = temp_dir("short");
+    let out = scratch("short");
     let o = fringe(&[
         "camera",
         "--replay",
@@ -112,7 +101,7 @@ fn camera_grab_fails_with_a_clear_message_when_frames_run_out() {
 #[cfg(not(feature = "aravis"))]
 #[test]
 fn camera_aravis_without_the_feature_says_how_to_rebuild() {
-    let out = temp_dir("nofeature");
+    let out = scratch("nofeature");
     let o = fringe(&[
         "camera",
         "--aravis",
@@ -133,7 +122,7 @@ fn camera_aravis_without_the_feature_says_how_to_rebuild() {
 #[cfg(feature = "aravis")]
 mod aravis_fake {
     use super::*;
-    use std::process::{Child, Stdio};
+    use std::process::{Child, Command, Stdio};
 
     struct FakeGvCamera(Child);
 
@@ -156,7 +145,7 @@ mod aravis_fake {
         );
         // Let the fake bind its port.
         std::thread::sleep(std::time::Duration::from_millis(1000));
-        let out = temp_dir("aravis");
+        let out = scratch("aravis");
         // Opened by address so Aravis streams over loopback (see tests/tests/aravis_fake.rs).
         let o = fringe(&[
             "camera",

@@ -18,10 +18,9 @@ fn the_demo_writes_a_verified_run_with_truthful_labels() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(stdout.contains("first contact at z = "), "{stdout}");
     let rms: f64 = stdout
         .lines()
-        .find_map(|l| l.split("RMS error ").nth(1))
+        .find_map(|l| l.split("normal force RMS ").nth(1))
         .and_then(|s| s.split(' ').next())
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no label score in\n{stdout}"));
@@ -41,6 +40,11 @@ fn the_demo_writes_a_verified_run_with_truthful_labels() {
         verify.status.success(),
         "{}",
         String::from_utf8_lossy(&verify.stdout)
+    );
+    let events = std::fs::read_to_string(run.join("events.jsonl")).expect("events");
+    assert!(
+        events.contains("first contact at z "),
+        "the press found no contact:\n{events}"
     );
     let truth = std::fs::read_to_string(run.join("truth.jsonl")).expect("ground truth");
     assert!(

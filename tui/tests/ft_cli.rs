@@ -1,27 +1,17 @@
 //! `fringe ft ... stream` against a simulated Net F/T on loopback (UDP RDT + HTTP
 //! netftapi2.xml), checking the CSV rows and the printed sample count, rate and lost packets.
 
+mod common;
+use common::{fringe_command, scratch};
+
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::trace::{ReplayDatagramLink, ReplayOptions, Trace};
 use fringe_sim::netft_box::{SimHttp, SimNetFt, SimOptions};
-use std::path::PathBuf;
-use std::process::Command as Process;
 use std::sync::Arc;
 use std::time::Duration;
 
 const XML: &str = "<?xml version=\"1.0\"?><netft><cfgcpf>1000000</cfgcpf><cfgcpt>1000</cfgcpt><scfgfu>N</scfgfu><scfgtu>N-mm</scfgtu><comrdtrate>1000</comrdtrate></netft>";
-
-fn fringe() -> Process {
-    Process::new(env!("CARGO_BIN_EXE_fringe"))
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fringe-ft-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
 
 fn printed(stdout: &str, key: &str) -> f64 {
     stdout
@@ -51,10 +41,10 @@ fn stream_reads_the_configuration_page_and_writes_csv() {
     };
     let sim = SimNetFt::spawn(options).expect("sim");
     let http = SimHttp::spawn("/netftapi2.xml", XML.to_string()).expect("http");
-    let dir = temp_dir("stream");
+    let dir = scratch("stream");
     let csv = dir.join("ft.csv");
     let traces = dir.join("traces");
-    let out = fringe()
+    let out = fringe_command()
         .args([
             "--record-trace",
             traces.to_str().expect("utf8"),
@@ -173,9 +163,9 @@ fn counts_given_on_the_command_line_skip_the_configuration_page() {
         ..SimOptions::default()
     })
     .expect("sim");
-    let dir = temp_dir("cpf");
+    let dir = scratch("cpf");
     let csv = dir.join("ft.csv");
-    let out = fringe()
+    let out = fringe_command()
         .args([
             "ft",
             "--netft",
@@ -232,7 +222,7 @@ fn counts_given_on_the_command_line_skip_the_configuration_page() {
 #[test]
 fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     // A closed loopback port: the configuration page cannot be fetched.
-    let out = fringe()
+    let out = fringe_command()
         .args([
             "ft",
             "--netft",
@@ -254,8 +244,8 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     // Nothing answers RDT: the start retries run out.
     let silent = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
     let addr = silent.local_addr().expect("addr").to_string();
-    let csv = temp_dir("silent").join("ft.csv");
-    let out = fringe()
+    let csv = scratch("silent").join("ft.csv");
+    let out = fringe_command()
         .args([
             "ft", "--netft", &addr, "--cpf", "1000000", "--cpt", "1000000",
         ])
@@ -275,7 +265,7 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
 
 #[test]
 fn durations_no_clock_can_hold_are_refused_naming_the_option() {
-    let out = fringe()
+    let out = fringe_command()
         .args(["ft", "--netft", "127.0.0.1:9", "--cpf", "1", "--cpt", "1"])
         .args(["stream", "--seconds", "1e300", "--csv", "/dev/null"])
         .output()
@@ -296,7 +286,7 @@ fn bias_sends_the_software_bias_command_and_reads_zero_after_it() {
         ..SimOptions::default()
     })
     .expect("sim");
-    let out = fringe()
+    let out = fringe_command()
         .args([
             "ft",
             "--netft",

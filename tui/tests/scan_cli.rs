@@ -3,18 +3,11 @@
 
 mod common;
 
-use common::{fringe, text};
+use common::{fringe, scratch, text};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fringe-scan-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
-}
 
 /// A simulated rig with quick axes, so the tests spend their time scanning, not homing.
 const QUICK_RIG: &str = r#"

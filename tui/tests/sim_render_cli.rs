@@ -1,28 +1,14 @@
 //! `fringe sim render`: writes a full-size PNG; refuses bad values with one clear line.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn fringe(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fringe"))
-        .args(args)
-        .output()
-        .expect("run fringe")
-}
-
-fn temp_file(name: &str) -> PathBuf {
-    let path =
-        std::env::temp_dir().join(format!("fringe-sim-render-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_file(&path);
-    path
-}
+mod common;
+use common::{fringe, scratch};
 
 #[test]
 fn renders_a_full_size_frame_with_fringes_at_the_contact() {
-    let out = temp_file("frame.png");
+    let out = scratch("frame").join("frame.png");
     // A coarser fringe-field grid than the default keeps this debug-build test quick; the image
     // stays full size.
-    let sensor = temp_file("coarse.toml");
+    let sensor = scratch("coarse").join("coarse.toml");
     std::fs::write(
         &sensor,
         "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
@@ -76,7 +62,7 @@ fn renders_a_full_size_frame_with_fringes_at_the_contact() {
 
 #[test]
 fn refuses_an_unknown_shape_and_sensor_naming_the_value() {
-    let out = temp_file("bad.png");
+    let out = scratch("bad").join("bad.png");
     let path = out.to_str().expect("utf-8");
     let o = fringe(&["sim", "render", "--shape", "hexagon", "--out", path]);
     assert!(!o.status.success());

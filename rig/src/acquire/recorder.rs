@@ -88,9 +88,23 @@ enum Command {
         message: String,
     },
     /// Checkpoint before point `.0`.
-    Checkpoint(u64, Sender<Result<RecorderStats, String>>),
+    Checkpoint(u64, Sender<Result<RecorderStats, StoreError>>),
     /// Cut the records made since the last checkpoint.
-    Rollback(Sender<Result<u64, String>>),
+    Rollback(Sender<Result<u64, StoreError>>),
+}
+
+/// A checkpoint or rollback the recorder could not make.
+#[derive(Debug, thiserror::Error)]
+pub enum RecorderError {
+    #[error("the recorder has stopped")]
+    Stopped,
+    #[error("the recorder did not {what} within {timeout:?}")]
+    Timeout {
+        what: &'static str,
+        timeout: Duration,
+    },
+    #[error(transparent)]
+    Store(#[from] StoreError),
 }
 
 /// The recorder thread.
@@ -101,14 +115,18 @@ pub struct Recorder {
 }
 
 /// A checkpoint asked for and not yet confirmed.
-pub struct PendingCheckpoint(Receiver<Result<RecorderStats, String>>);
+pub struct PendingCheckpoint(Receiver<Result<RecorderStats, StoreError>>);
 
 impl PendingCheckpoint {
     /// Waits up to `timeout` for the checkpoint to be made.
-    pub fn wait(self, timeout: Duration) -> Result<RecorderStats, String> {
-        self.0
+    pub fn wait(self, timeout: Duration) -> Result<RecorderStats, RecorderError> {
+        Ok(self
+            .0
             .recv_timeout(timeout)
-            .map_err(|_| format!("the recorder did not checkpoint within {timeout:?}"))?
+            .map_err(|_| RecorderError::Timeout {
+                what: "checkpoint",
+                timeout,
+            })??)
     }
 }
 
@@ -160,7 +178,11 @@ impl Recorder {
 
     /// Finishes the frames waiting for labels, makes the run durable and records a checkpoint
     /// before point `next_point`; waits up to `timeout`.
-    pub fn checkpoint(&self, next_point: u64, timeout: Duration) -> Result<RecorderStats, String> {
+    pub fn checkpoint(
+        &self,
+        next_point: u64,
+        timeout: Duration,
+    ) -> Result<RecorderStats, RecorderError> {
         self.checkpoint_begin(next_point)?.wait(timeout)
     }
 
@@ -168,23 +190,27 @@ impl Recorder {
     /// makes it once the frames before it are labelled and durable, while the caller goes on
     /// (moving to the next point). Commands are handled in order, so a later rollback cuts
     /// back to this checkpoint.
-    pub fn checkpoint_begin(&self, next_point: u64) -> Result<PendingCheckpoint, String> {
+    pub fn checkpoint_begin(&self, next_point: u64) -> Result<PendingCheckpoint, RecorderError> {
         let (tx, rx) = bounded(1);
         self.commands
             .send(Command::Checkpoint(next_point, tx))
-            .map_err(|_| "the recorder has stopped".to_string())?;
+            .map_err(|_| RecorderError::Stopped)?;
         Ok(PendingCheckpoint(rx))
     }
 
     /// Cuts the frame records made since the last checkpoint (a point that is done again);
     /// returns how many. Stop filming first.
-    pub fn rollback(&self, timeout: Duration) -> Result<u64, String> {
+    pub fn rollback(&self, timeout: Duration) -> Result<u64, RecorderError> {
         let (tx, rx) = bounded(1);
         self.commands
             .send(Command::Rollback(tx))
-            .map_err(|_| "the recorder has stopped".to_string())?;
-        rx.recv_timeout(timeout)
-            .map_err(|_| format!("the recorder did not roll back within {timeout:?}"))?
+            .map_err(|_| RecorderError::Stopped)?;
+        Ok(rx
+            .recv_timeout(timeout)
+            .map_err(|_| RecorderError::Timeout {
+                what: "roll back",
+                timeout,
+            })??)
     }
 
     /// A reader of the recorder's counters for other threads (watchers, progress).
@@ -231,7 +257,7 @@ impl State {
         commands: Receiver<Command>,
     ) -> Result<(), StoreError> {
         let (mut samples_open, mut frames_open, mut commands_open) = (true, true, true);
-        type Reply = Sender<Result<RecorderStats, String>>;
+        type Reply = Sender<Result<RecorderStats, StoreError>>;
         let mut checkpoints: Vec<(u64, Reply, Instant)> = Vec::new();
         while samples_open || frames_open || !self.pending.is_empty() {
             select! {
@@ -253,7 +279,7 @@ impl State {
                     Ok(Command::Rollback(reply)) => {
                         // Frames of the abandoned attempt still waiting for labels go too.
                         self.pending.clear();
-                        let cut = self.writer.rollback().map_err(|e| e.to_string());
+                        let cut = self.writer.rollback();
                         if let Ok(n) = cut {
                             self.local.frames_recorded = self.local.frames_recorded.saturating_sub(n);
                         }
@@ -273,7 +299,7 @@ impl State {
                 if self.pending.is_empty() || waited > Duration::from_millis(500) {
                     self.flush_force()?;
                     for (point, reply, _) in checkpoints.drain(..) {
-                        let result = self.writer.checkpoint_at(point).map_err(|e| e.to_string());
+                        let result = self.writer.checkpoint_at(point);
                         let _ = reply.send(result.map(|_| self.local.clone()));
                     }
                 }
@@ -283,7 +309,7 @@ impl State {
         self.flush_force()?;
         self.publish();
         for (point, reply, _) in checkpoints.drain(..) {
-            let result = self.writer.checkpoint_at(point).map_err(|e| e.to_string());
+            let result = self.writer.checkpoint_at(point);
             let _ = reply.send(result.map(|_| self.local.clone()));
         }
         Ok(())

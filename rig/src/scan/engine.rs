@@ -106,6 +106,8 @@ pub enum ScanError {
     Store(#[from] StoreError),
     #[error(transparent)]
     Press(#[from] PressError),
+    #[error(transparent)]
+    Recorder(#[from] crate::acquire::recorder::RecorderError),
     #[error("{0}")]
     Setup(String),
 }
@@ -524,12 +526,9 @@ impl Runner<'_> {
             let stops = self.control.request() != Request::Run
                 || self.mounted.as_deref() != Some(p.shape.as_str())
                 || (self.setup.limits.manual_y && row_confirmed != Some(p.y.0));
-            let pending = self
-                .recorder
-                .checkpoint_begin(p.index)
-                .map_err(ScanError::Setup)?;
+            let pending = self.recorder.checkpoint_begin(p.index)?;
             if stops {
-                pending.wait(CHECKPOINT_TIMEOUT).map_err(ScanError::Setup)?;
+                pending.wait(CHECKPOINT_TIMEOUT)?;
             } else {
                 self.pending_checkpoint = Some(pending);
             }
@@ -594,10 +593,7 @@ impl Runner<'_> {
                     self.context.set(None);
                     self.watchers.set_filming(false);
                     self.retract()?;
-                    let cut = self
-                        .recorder
-                        .rollback(Duration::from_secs(10))
-                        .map_err(ScanError::Setup)?;
+                    let cut = self.recorder.rollback(Duration::from_secs(10))?;
                     self.frames_discarded += cut;
                     self.recorder.event(
                         "point-interrupted",
@@ -798,7 +794,7 @@ impl Runner<'_> {
         self.excluded += moving.elapsed();
         // Nothing of this point is filmed, cut or checkpointed before its checkpoint is made.
         if let Some(pending) = self.pending_checkpoint.take() {
-            pending.wait(CHECKPOINT_TIMEOUT).map_err(ScanError::Setup)?;
+            pending.wait(CHECKPOINT_TIMEOUT)?;
         }
         if let Some(alarm) = lateral {
             return Ok(PointEnd::Interrupted(alarm));
