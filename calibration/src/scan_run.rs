@@ -86,9 +86,9 @@ impl ScanRun {
             source: e,
         })?;
         let (samples, _partial) =
-            force_log::decode_all(&bytes).map_err(|message| ScanRunError::Content {
+            force_log::decode_all(&bytes).map_err(|e| ScanRunError::Content {
                 path: force_path.clone(),
-                message,
+                message: e.to_string(),
             })?;
         let series: Vec<(u64, Wrench)> = samples
             .iter()

@@ -13,9 +13,13 @@ pub struct ConfigError {
     pub message: String,
 }
 
-/// Parses TOML text into `T`; the error is one line: "line N, key section.key: message".
-pub fn parse_toml<T: DeserializeOwned>(text: &str) -> Result<T, String> {
-    toml::from_str(text).map_err(|e| describe_toml_error(text, &e))
+/// Parses TOML text into `T`; `origin` names the text in the error, whose message is one line:
+/// "line N, key section.key: message".
+pub fn parse_toml<T: DeserializeOwned>(text: &str, origin: &str) -> Result<T, ConfigError> {
+    toml::from_str(text).map_err(|e| ConfigError {
+        origin: origin.to_string(),
+        message: describe_toml_error(text, &e),
+    })
 }
 
 /// Reads and parses a TOML file; errors name the file.
@@ -25,7 +29,7 @@ pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<(T, String), Config
         origin: origin.clone(),
         message: format!("cannot read: {e}"),
     })?;
-    let value = parse_toml(&text).map_err(|message| ConfigError { origin, message })?;
+    let value = parse_toml(&text, &origin)?;
     Ok((value, text))
 }
 
@@ -95,15 +99,22 @@ mod tests {
 
     #[test]
     fn errors_name_line_section_and_key() {
-        let err = parse_toml::<File>("[x]\nvelocity = \"fast\"\n").expect_err("string");
+        let err = parse_toml::<File>("[x]\nvelocity = \"fast\"\n", "t.toml")
+            .expect_err("string")
+            .message;
         assert!(err.starts_with("line 2, key x.velocity:"), "{err}");
-        let err = parse_toml::<File>("[x]\nvelocity = 1.0\nspeed = 2\n").expect_err("unknown");
+        let err = parse_toml::<File>("[x]\nvelocity = 1.0\nspeed = 2\n", "t.toml")
+            .expect_err("unknown")
+            .message;
         assert!(err.contains("line 3") && err.contains("speed"), "{err}");
         let dir = std::env::temp_dir().join(format!("fringe-config-{}", std::process::id()));
-        let err =
-            parse_toml::<File>("[x]\nvelocity = 1.0\n[xx]\nvelocity = 2.0\n").expect_err("section");
+        let err = parse_toml::<File>("[x]\nvelocity = 1.0\n[xx]\nvelocity = 2.0\n", "t.toml")
+            .expect_err("section")
+            .message;
         assert!(err.starts_with("line 3, section [xx]:"), "{err}");
-        let err = parse_toml::<File>("[x]\nvelocity = 1.0\u{0}\n").expect_err("nul");
+        let err = parse_toml::<File>("[x]\nvelocity = 1.0\u{0}\n", "t.toml")
+            .expect_err("nul")
+            .message;
         assert!(
             err.starts_with("line 2") && err.len() > "line 2, key x.velocity: ".len(),
             "{err}"

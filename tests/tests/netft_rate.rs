@@ -1,5 +1,5 @@
 //! The Net F/T driver keeps up with 7 kHz on loopback UDP without losing a record (a one-second
-//! version of `cargo run -p fringe-rig --example netft_bench`, see BENCHMARKS.md).
+//! version of `cargo run -p fringe-sim --example netft_bench`, see BENCHMARKS.md).
 
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};

@@ -449,8 +449,10 @@ fn the_force_ceiling_watcher_stops_and_retracts_at_once() {
     let dir = tempfile_dir("ceiling");
     let (rig, devices, truth) = bench(31);
     // A depth far past what the ceiling allows (about 13 N/mm).
+    // A depth plan's ramp_rate is in mm/s.
     let text = plan("[12.5]", "[25.0]", "depth_targets = [2.0]", 0.3)
-        .replace("force_ceiling = 12.0", "force_ceiling = 5.0");
+        .replace("force_ceiling = 12.0", "force_ceiling = 5.0")
+        .replace("ramp_rate = 6.0", "ramp_rate = 2.0");
     let setup = setup(&rig, &text);
     let (mut operator, prompts) = scripted(Reply::Abort);
     let control = ScanControl::new();

@@ -71,7 +71,7 @@ fn calibrates_a_reference_pipeline_folder_and_writes_profile_and_report() {
         "{t}"
     );
     let p = Profile::load(&out.join("layered-7.toml")).expect("profile");
-    // Truth: centre (990, 600) px, radius 490 px (rig/sensors/layered.toml).
+    // Truth: centre (990, 600) px, radius 490 px (rig/sim/sensors/layered.toml).
     assert!((p.optical.centre_x_px - 990.0).abs() < 0.5, "{p:?}");
     assert!((p.optical.centre_y_px - 600.0).abs() < 0.5, "{p:?}");
     assert!((p.optical.shift_x_px - 30.0).abs() < 0.5, "{p:?}");

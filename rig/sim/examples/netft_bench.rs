@@ -2,7 +2,7 @@
 //! and the real driver ([`NetFt`] over [`UdpLink`]) receives it.
 //!
 //! ```text
-//! cargo run -p fringe-rig --example netft_bench -- [SECONDS] [RATE_HZ] [buffered]
+//! cargo run -p fringe-sim --example netft_bench -- [SECONDS] [RATE_HZ] [buffered]
 //! ```
 //!
 //! Prints the records sent and received, lost and out-of-order counts and the achieved rate.

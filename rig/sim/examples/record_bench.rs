@@ -1,7 +1,7 @@
 //! Acquisition throughput: full 1920x1200 frames at 50 Hz plus the 5 kHz force stream recorded
 //! into a run, with the simulated camera rendering in the same process.
 //!
-//! `cargo run --release -p fringe-rig --example record_bench -- [SECONDS] [--bayer] [--keep-frames] [--keep-run]`
+//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--bayer] [--keep-frames] [--keep-run]`
 //! (default 600 s; `--bayer`: the camera delivers its native BayerRG8 mosaic, one byte per pixel,
 //! instead of on-camera interpolated RGB8). The simulated bench presses the layered sensor with the pentagon at about
 //! 4 N (so every frame has fringes to render and to compress); the force stream, the camera

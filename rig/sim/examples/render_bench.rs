@@ -1,6 +1,6 @@
 //! Frame rendering time of both sensor builds at full size (1920x1200).
 //!
-//! `cargo run --release -p fringe-rig --example render_bench [-- FRAMES] [--bayer | --mono]`
+//! `cargo run --release -p fringe-sim --example render_bench [-- FRAMES] [--bayer | --mono]`
 //! (default 200 frames per case, RGB8; `--bayer` / `--mono`: the BayerRG8 / Mono8 frames the
 //! simulated camera renders in those formats). For each sensor and shape it renders a contact moving across the disc with a changing
 //! force and angle, and prints mean, p95 and max wall-clock milliseconds per frame, and the CPU

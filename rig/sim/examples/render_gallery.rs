@@ -1,6 +1,6 @@
 //! The contact sheet of simulated frames in the README (docs/img/sim-frames.png).
 //!
-//! `cargo run --release -p fringe-rig --example render_gallery [-- OUT.png]`
+//! `cargo run --release -p fringe-sim --example render_gallery [-- OUT.png]`
 //!
 //! Rows: layered pentagon, layered rectangle, integrated pentagon, integrated rectangle. Columns:
 //! 1, 4 and 9 N. Every frame is a full 1920x1200 render with the shipped sensor defaults (noise,

@@ -1,7 +1,7 @@
 //! The three synchronisation methods scored against the simulator's ground truth over a longer
 //! run: label-time RMS and max error, frames scored, and the labelled Fz error during presses.
 //!
-//! `cargo run --release -p fringe-rig --example sync_bench -- [SECONDS] [JITTER_MS] [DRIFT_PPM]`
+//! `cargo run --release -p fringe-sim --example sync_bench -- [SECONDS] [JITTER_MS] [DRIFT_PPM]`
 //! (defaults 120 s, 3 ms, 100 ppm: camera clock slow and DAQ clock fast by DRIFT_PPM, frames and
 //! force blocks arriving 0-JITTER_MS late, 5 ms camera readout, 1 mm presses every 2 s).
 

@@ -3,7 +3,7 @@
 //!
 //! A configuration file is TOML. Every key is optional: `variant` picks the defaults
 //! ([`SensorConfig::layered`] or [`SensorConfig::integrated`]) and the file overrides single keys;
-//! unknown keys are refused with the list of allowed ones. Example files: `rig/sensors/*.toml`.
+//! unknown keys are refused with the list of allowed ones. Example files: `rig/sim/sensors/*.toml`.
 //!
 //! Defaults follow docs/photoelastic-sim.md ("Camera artefacts", "Geometry of the reference rig").
 

@@ -166,8 +166,26 @@ impl Lane {
     }
 }
 
+/// A part of the synchronisation bench that could not start or stop.
+#[derive(Debug, thiserror::Error)]
+#[error("{part}: {message}")]
+pub struct SyncBenchError {
+    /// The device or thread that failed.
+    pub part: &'static str,
+    pub message: String,
+}
+
+impl SyncBenchError {
+    fn new(part: &'static str, e: impl std::fmt::Display) -> SyncBenchError {
+        SyncBenchError {
+            part,
+            message: e.to_string(),
+        }
+    }
+}
+
 /// Runs the bench for `config.warm_up_s + config.seconds` and scores the three methods.
-pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
+pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> {
     let truth = TruthLog::new();
     let sink: Arc<dyn TruthSink> = truth.clone();
     let mut bench_config = BenchConfig {
@@ -207,7 +225,7 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
     let load: Arc<dyn LoadSource> = bench.clone();
     let ft = SimFtSensor::new(load, bench_config.ft_noise).with_truth(sink.clone());
     let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| SyncBenchError::new("F/T calibration", e))?;
     let daq_config = SimDaqConfig {
         clock_drift_ppm: config.force_drift_ppm,
         arrival_jitter_ms: config.arrival_jitter_ms,
@@ -215,7 +233,7 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
         ..SimDaqConfig::default()
     };
     let daq = SimDaq::new(daq_config, &cal, Box::new(ft))
-        .map_err(|e| e.to_string())?
+        .map_err(|e| SyncBenchError::new("simulated DAQ", e))?
         .with_strobe(schedule.clone())
         .with_truth(sink.clone());
     let sensor = CalibratedSensor::new(daq, cal);
@@ -234,11 +252,12 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
     let tick_hz = camera.info().tick_frequency as f64;
     let settings = CameraSettings::default();
     let recorder = BenchRecorder::spawn(bench.clone(), sink.clone(), Duration::from_millis(1))
-        .map_err(|e| format!("bench truth recorder: {e}"))?;
+        .map_err(|e| SyncBenchError::new("bench truth recorder", e))?;
 
-    let stream = ForceStream::spawn(Box::new(sensor)).map_err(|e| e.to_string())?;
+    let stream =
+        ForceStream::spawn(Box::new(sensor)).map_err(|e| SyncBenchError::new("force stream", e))?;
     let cameras = CameraStream::spawn_with_latches(Box::new(camera), &settings, LATCH_PERIOD)
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| SyncBenchError::new("camera stream", e))?;
     let mut lanes: Vec<Lane> = SyncMethod::ALL
         .iter()
         .map(|&m| Lane {
@@ -292,7 +311,9 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
         }
     }
     let latch_error = cameras.latch_error();
-    cameras.stop().map_err(|e| e.to_string())?;
+    cameras
+        .stop()
+        .map_err(|e| SyncBenchError::new("camera stream", e))?;
     // Let the force stream cover the last windows, then drain it.
     let tail = Instant::now() + Duration::from_millis(100);
     while Instant::now() < tail {
@@ -301,7 +322,9 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, String> {
         }
     }
     let force_samples = stream.monitor().stats().received;
-    stream.stop().map_err(|e| e.to_string())?;
+    stream
+        .stop()
+        .map_err(|e| SyncBenchError::new("force stream", e))?;
     while let Ok(s) = samples.try_recv() {
         feed_sample(&mut lanes, s);
     }
@@ -332,7 +355,7 @@ fn score(
     records: &[TruthRecord],
     lanes: &[Lane],
     labelled: &[Labelled],
-) -> Result<Vec<MethodScore>, String> {
+) -> Result<Vec<MethodScore>, SyncBenchError> {
     let daq = records
         .iter()
         .rev()
@@ -344,7 +367,7 @@ fn score(
             } => Some((*start, *rate_hz, *drift_ppm)),
             _ => None,
         })
-        .ok_or("no DAQ clock in the ground truth")?;
+        .ok_or_else(|| SyncBenchError::new("ground truth", "no DAQ clock recorded"))?;
     let sample_ns = 1e9 / (daq.1 * (1.0 + daq.2 * 1e-6));
     let true_host = |ticks: f64| daq.0 .0 as f64 + ticks * sample_ns;
     let frames: HashMap<u64, FrameTruth> = records

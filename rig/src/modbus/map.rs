@@ -276,7 +276,8 @@ impl RegisterMap {
             source_name: source_name.to_string(),
             message,
         };
-        let mut map: RegisterMap = crate::config_file::parse_toml(text).map_err(err)?;
+        let mut map: RegisterMap =
+            crate::config_file::parse_toml(text, source_name).map_err(|e| err(e.message))?;
         map.source = source_name.to_string();
         map.check().map_err(err)?;
         Ok(map)

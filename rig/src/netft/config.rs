@@ -134,6 +134,31 @@ pub fn fetch_config(url: &str, timeout: Duration) -> Result<NetFtConfig, ForceEr
     NetFtConfig::from_netftapi2(&body, url)
 }
 
+/// A URL or HTTP reply this minimal client cannot use.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum HttpError {
+    #[error("`{0}` is not an http:// URL")]
+    NotHttp(String),
+    #[error("`{0}` has no host")]
+    NoHost(String),
+    #[error("`{0}`: unclosed `[`")]
+    UnclosedBracket(String),
+    #[error("`{url}`: `{port}` is not a port number")]
+    BadPort { url: String, port: String },
+    #[error("the reply ({0} bytes) is not an HTTP response")]
+    NotAResponse(usize),
+    #[error("the reply starts with `{0}`, not an HTTP status line")]
+    NoStatusLine(String),
+    #[error("the server answered `{0}`")]
+    Status(String),
+    #[error("truncated chunked body")]
+    TruncatedChunk,
+    #[error("bad chunk size `{0}`")]
+    BadChunkSize(String),
+    #[error("the body is not UTF-8 text")]
+    NotUtf8,
+}
+
 /// A plain `http://` URL split into its parts.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HttpUrl {
@@ -144,22 +169,22 @@ pub struct HttpUrl {
 
 impl HttpUrl {
     /// Parses `http://HOST[:PORT][/PATH]`.
-    pub fn parse(url: &str) -> Result<HttpUrl, String> {
+    pub fn parse(url: &str) -> Result<HttpUrl, HttpError> {
         let rest = url
             .strip_prefix("http://")
-            .ok_or_else(|| format!("`{url}` is not an http:// URL"))?;
+            .ok_or_else(|| HttpError::NotHttp(url.to_string()))?;
         let (authority, path) = match rest.find('/') {
             Some(i) => (&rest[..i], &rest[i..]),
             None => (rest, "/"),
         };
         if authority.is_empty() {
-            return Err(format!("`{url}` has no host"));
+            return Err(HttpError::NoHost(url.to_string()));
         }
         // `[v6]:port`, `host:port` or a bare host.
         let (host, port) = if let Some(v6) = authority.strip_prefix('[') {
             let (h, after) = v6
                 .split_once(']')
-                .ok_or_else(|| format!("`{url}`: unclosed `[`"))?;
+                .ok_or_else(|| HttpError::UnclosedBracket(url.to_string()))?;
             match after.strip_prefix(':') {
                 Some(p) => (h.to_string(), parse_port(p, url)?),
                 None => (h.to_string(), 80),
@@ -178,9 +203,11 @@ impl HttpUrl {
     }
 }
 
-fn parse_port(p: &str, url: &str) -> Result<u16, String> {
-    p.parse()
-        .map_err(|_| format!("`{url}`: `{p}` is not a port number"))
+fn parse_port(p: &str, url: &str) -> Result<u16, HttpError> {
+    p.parse().map_err(|_| HttpError::BadPort {
+        url: url.to_string(),
+        port: p.to_string(),
+    })
 }
 
 /// GETs `url` over HTTP/1.0 with `std::net::TcpStream` and returns the body of a 200 reply.
@@ -189,7 +216,7 @@ pub fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
         origin: url.to_string(),
         message,
     };
-    let parsed = HttpUrl::parse(url).map_err(err)?;
+    let parsed = HttpUrl::parse(url).map_err(|e| err(e.to_string()))?;
     let addr = (parsed.host.as_str(), parsed.port)
         .to_socket_addrs()
         .map_err(|e| err(format!("cannot resolve {}: {e}", parsed.host)))?
@@ -208,27 +235,25 @@ pub fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
     stream.write_all(request.as_bytes()).map_err(io)?;
     let mut reply = Vec::new();
     stream.read_to_end(&mut reply).map_err(io)?;
-    parse_http_response(&reply).map_err(err)
+    parse_http_response(&reply).map_err(|e| err(e.to_string()))
 }
 
 /// Extracts the body of an HTTP response (status 200 required; chunked transfer handled).
-pub fn parse_http_response(reply: &[u8]) -> Result<String, String> {
+pub fn parse_http_response(reply: &[u8]) -> Result<String, HttpError> {
     let split = reply
         .windows(4)
         .position(|w| w == b"\r\n\r\n")
-        .ok_or_else(|| format!("the reply ({} bytes) is not an HTTP response", reply.len()))?;
+        .ok_or(HttpError::NotAResponse(reply.len()))?;
     let head = String::from_utf8_lossy(&reply[..split]);
     let body = &reply[split + 4..];
     let mut lines = head.lines();
     let status_line = lines.next().unwrap_or("");
     let code = status_line.split_whitespace().nth(1).unwrap_or("");
     if !status_line.starts_with("HTTP/") {
-        return Err(format!(
-            "the reply starts with `{status_line}`, not an HTTP status line"
-        ));
+        return Err(HttpError::NoStatusLine(status_line.to_string()));
     }
     if code != "200" {
-        return Err(format!("the server answered `{status_line}`"));
+        return Err(HttpError::Status(status_line.to_string()));
     }
     let chunked = lines.any(|l| {
         let l = l.to_ascii_lowercase();
@@ -239,26 +264,26 @@ pub fn parse_http_response(reply: &[u8]) -> Result<String, String> {
     } else {
         body.to_vec()
     };
-    String::from_utf8(body).map_err(|_| "the body is not UTF-8 text".to_string())
+    String::from_utf8(body).map_err(|_| HttpError::NotUtf8)
 }
 
-fn dechunk(mut data: &[u8]) -> Result<Vec<u8>, String> {
+fn dechunk(mut data: &[u8]) -> Result<Vec<u8>, HttpError> {
     let mut out = Vec::new();
     loop {
         let eol = data
             .windows(2)
             .position(|w| w == b"\r\n")
-            .ok_or("truncated chunked body")?;
+            .ok_or(HttpError::TruncatedChunk)?;
         let size_text = String::from_utf8_lossy(&data[..eol]);
         let size_text = size_text.split(';').next().unwrap_or("").trim();
         let size = usize::from_str_radix(size_text, 16)
-            .map_err(|_| format!("bad chunk size `{size_text}`"))?;
+            .map_err(|_| HttpError::BadChunkSize(size_text.to_string()))?;
         data = &data[eol + 2..];
         if size == 0 {
             return Ok(out);
         }
         if data.len() < size {
-            return Err("truncated chunked body".into());
+            return Err(HttpError::TruncatedChunk);
         }
         out.extend_from_slice(&data[..size]);
         data = data.get(size + 2..).unwrap_or(&[]);
@@ -344,10 +369,14 @@ mod tests {
         let chunked = b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n3\r\n<a>\r\n4\r\n</a>\r\n0\r\n\r\n";
         assert_eq!(parse_http_response(chunked), Ok("<a></a>".into()));
         let missing = b"HTTP/1.1 404 Not Found\r\n\r\n";
-        assert!(parse_http_response(missing)
-            .expect_err("404")
-            .contains("404"));
-        assert!(parse_http_response(b"garbage").is_err());
+        assert_eq!(
+            parse_http_response(missing),
+            Err(HttpError::Status("HTTP/1.1 404 Not Found".into()))
+        );
+        assert_eq!(
+            parse_http_response(b"garbage"),
+            Err(HttpError::NotAResponse(7))
+        );
     }
 
     #[test]

@@ -218,10 +218,7 @@ pub struct ScanProgram {
 impl Plan {
     /// Parses plan text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Plan, ConfigError> {
-        parse_toml(text).map_err(|message| ConfigError {
-            origin: origin.to_string(),
-            message,
-        })
+        parse_toml(text, origin)
     }
 
     /// Loads a plan file.

@@ -22,20 +22,28 @@ pub fn header() -> [u8; HEADER_LEN] {
     h
 }
 
-/// Checks a header; the error says what is wrong.
-pub fn check_header(bytes: &[u8]) -> Result<(), String> {
+/// A force log this build cannot read.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ForceLogError {
+    #[error("header is {0} bytes, expected {HEADER_LEN}")]
+    ShortHeader(usize),
+    #[error("not a fringe force log (bad magic)")]
+    BadMagic,
+    #[error("record size {0}, this build reads {RECORD_LEN}")]
+    RecordSize(usize),
+}
+
+/// Checks a header.
+pub fn check_header(bytes: &[u8]) -> Result<(), ForceLogError> {
     if bytes.len() < HEADER_LEN {
-        return Err(format!(
-            "header is {} bytes, expected {HEADER_LEN}",
-            bytes.len()
-        ));
+        return Err(ForceLogError::ShortHeader(bytes.len()));
     }
     if &bytes[..8] != MAGIC {
-        return Err("not a fringe force log (bad magic)".into());
+        return Err(ForceLogError::BadMagic);
     }
     let size = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
     if size != RECORD_LEN {
-        return Err(format!("record size {size}, this build reads {RECORD_LEN}"));
+        return Err(ForceLogError::RecordSize(size));
     }
     Ok(())
 }
@@ -84,7 +92,7 @@ pub fn decode(r: &[u8; RECORD_LEN]) -> ForceSample {
 
 /// Decodes every complete record of a whole file's bytes; returns them and the number of torn
 /// trailing bytes.
-pub fn decode_all(bytes: &[u8]) -> Result<(Vec<ForceSample>, usize), String> {
+pub fn decode_all(bytes: &[u8]) -> Result<(Vec<ForceSample>, usize), ForceLogError> {
     check_header(bytes)?;
     let body = &bytes[HEADER_LEN..];
     let whole = body.len() / RECORD_LEN;
@@ -130,6 +138,9 @@ mod tests {
         let (samples, torn) = decode_all(&file).expect("decode");
         assert_eq!(samples, vec![a, b]);
         assert_eq!(torn, 30);
-        assert!(decode_all(b"FRNGFT02________").is_err());
+        assert_eq!(
+            decode_all(b"FRNGFT02________"),
+            Err(ForceLogError::BadMagic)
+        );
     }
 }

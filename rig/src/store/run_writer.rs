@@ -195,11 +195,10 @@ impl RunWriter {
         }
         let force_path = dir.join(FORCE);
         let bytes = std::fs::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
-        let (samples, torn) =
-            force_log::decode_all(&bytes).map_err(|message| StoreError::Content {
-                path: force_path.clone(),
-                message,
-            })?;
+        let (samples, torn) = force_log::decode_all(&bytes).map_err(|e| StoreError::Content {
+            path: force_path.clone(),
+            message: e.to_string(),
+        })?;
         if torn > 0 {
             cut += torn as u64;
             truncate_by(&force_path, torn as u64)?;

@@ -242,7 +242,7 @@ impl RigSource {
             RigSource::File(p) => p.display().to_string(),
             RigSource::Default(p) => format!("{} (found in the working directory)", p.display()),
             RigSource::Simulated => {
-                "no rig.toml: using the simulated bench (for real hardware give --rig FILE or put a rig.toml here; examples in rig/rigs/)"
+                "no rig.toml: using the simulated bench (for real hardware give --rig FILE or put a rig.toml here; examples in tui/app/rigs/)"
                     .into()
             }
         }
@@ -299,7 +299,7 @@ impl RigConfig {
         let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
             origin: origin.clone(),
             message: format!(
-                "cannot read the rig file: {e} (see rig/rigs/ for commented examples; without a rig file fringe uses the simulated bench)"
+                "cannot read the rig file: {e} (see tui/app/rigs/ for commented examples; without a rig file fringe uses the simulated bench)"
             ),
         })?;
         RigConfig::parse(&text, &origin)
@@ -307,10 +307,7 @@ impl RigConfig {
 
     /// Parses and checks rig file text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<RigConfig, ConfigError> {
-        let file: RigFile = parse_toml(text).map_err(|message| ConfigError {
-            origin: origin.into(),
-            message,
-        })?;
+        let file: RigFile = parse_toml(text, origin)?;
         let simulated = check(&file, origin)?;
         if simulated && !cfg!(feature = "sim") {
             return Err(ConfigError {

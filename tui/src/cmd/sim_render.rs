@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct SimRenderArgs {
-    /// Sensor build: `layered`, `integrated` or a sensor TOML file (see rig/sensors/).
+    /// Sensor build: `layered`, `integrated` or a sensor TOML file (see rig/sim/sensors/).
     #[arg(
         long,
         value_name = "layered|integrated|PATH.toml",
