@@ -1,3 +1,13 @@
-//! Models for the photoelastic sensor: the single preprocessing shared by export, training and
-//! live inference, the network architectures, inference backends and metrics. The code arrives
-//! with the model issues; the crate exists now so the workspace layout is fixed.
+//! `fringe-sensor-models`: the models of the photoelastic sensor.
+//!
+//! - [`tensor`], [`state_dict`]: weights by name as PyTorch's `state_dict()` holds them.
+//! - [`torch_file`]: `.pth` / `.pt` files written by `torch.save` (zip and legacy formats),
+//!   read without Python.
+#![warn(unreachable_pub)]
+
+pub mod state_dict;
+pub mod tensor;
+pub mod torch_file;
+
+pub use state_dict::StateDict;
+pub use tensor::{StoredType, Tensor};

@@ -1,0 +1,1 @@
+//! `.pth` / `.pt` files written by `torch.save` (to be written).
