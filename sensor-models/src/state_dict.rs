@@ -64,10 +64,7 @@ impl StateDict {
                 seen.push(t.stored);
             }
         }
-        seen.iter()
-            .map(|s| s.name())
-            .collect::<Vec<_>>()
-            .join(", ")
+        seen.iter().map(|s| s.name()).collect::<Vec<_>>().join(", ")
     }
 
     /// Number of values in the tensors that are parameters (all but BatchNorm's counters and
@@ -101,8 +98,14 @@ mod tests {
 
     #[test]
     fn wrapper_prefixes_are_removed_in_any_nesting() {
-        assert_eq!(strip_wrappers("module.cnn.0.block.0.weight"), "cnn.0.block.0.weight");
-        assert_eq!(strip_wrappers("_orig_mod.module.force_head.bias"), "force_head.bias");
+        assert_eq!(
+            strip_wrappers("module.cnn.0.block.0.weight"),
+            "cnn.0.block.0.weight"
+        );
+        assert_eq!(
+            strip_wrappers("_orig_mod.module.force_head.bias"),
+            "force_head.bias"
+        );
         assert_eq!(strip_wrappers("backbone.module.x"), "backbone.module.x");
         let t = Tensor::new(vec![2], vec![1.0, 2.0]).expect("tensor");
         let sd = StateDict::from_pairs([("module.a.weight".to_string(), t)]);
