@@ -3,7 +3,10 @@
 //! two independent clients from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py,
 //! and pyLabLib's KinesisMotor, tests/python/apt_pylablib_client.py), run with FRINGE_PYTHON.
 
-use fringe_rig::apt::codec::{encode, Flow, Message, Packet, StreamDecoder, USB_UNIT};
+use fringe_rig::apt::codec::encode;
+use fringe_rig::apt::ids::USB_UNIT;
+use fringe_rig::apt::message::{Message, Packet};
+use fringe_rig::apt::stream::{Flow, StreamDecoder};
 use fringe_rig::apt::{open_serial, Actuator, AptConfig, Controller, ThorlabsAxis};
 use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
 use fringe_rig::clock::HostTime;

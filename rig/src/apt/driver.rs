@@ -6,11 +6,11 @@
 //! BSC20x controllers get no update messages; the axis polls MOT_REQ_STATUSUPDATE instead.
 
 use super::actuator::Actuator;
-use super::codec::{
-    bay_address, encode, id, Flow, HomeParams, HwInfo, Message, Packet, StatusBlock,
-    StopMode as AptStop, StreamDecoder, USB_UNIT,
-};
+use super::codec::encode;
+use super::ids::{bay_address, id, USB_UNIT};
+use super::message::{HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode as AptStop};
 use super::status::{LimitPolarity, StatusBits, FAULT_MASK};
+use super::stream::{Flow, StreamDecoder};
 use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
 use crate::transport::serial::{Parity, SerialLink, SerialSettings};
 use crate::transport::ByteLink;
@@ -52,18 +52,21 @@ impl Controller {
     }
 }
 
+/// A controller name that is not one of the supported models.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown Thorlabs controller `{0}` (use kst101, kst201, bsc201, bsc202 or bsc203)")]
+pub struct UnknownController(pub String);
+
 impl FromStr for Controller {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownController;
+    fn from_str(s: &str) -> Result<Self, UnknownController> {
         match s.to_ascii_lowercase().as_str() {
             "kst101" => Ok(Controller::Kst101),
             "kst201" => Ok(Controller::Kst201),
             "bsc201" => Ok(Controller::Bsc201),
             "bsc202" => Ok(Controller::Bsc202),
             "bsc203" => Ok(Controller::Bsc203),
-            other => Err(format!(
-                "unknown Thorlabs controller `{other}` (use kst101, kst201, bsc201, bsc202 or bsc203)"
-            )),
+            other => Err(UnknownController(other.to_string())),
         }
     }
 }
@@ -477,7 +480,7 @@ impl ThorlabsAxis {
 
     fn set_velocity_params(&mut self) -> Result<(), AxisError> {
         let a = self.config.actuator;
-        let wanted = super::codec::VelParams {
+        let wanted = super::message::VelParams {
             channel: self.config.channel as u16,
             min_velocity: 0,
             acceleration: a

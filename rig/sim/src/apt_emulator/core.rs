@@ -3,11 +3,11 @@
 
 use crate::motion::{Kinematics, MotorStatus, SimMotor};
 use fringe_rig::apt::actuator::{Actuator, ACTUATORS};
-use fringe_rig::apt::codec::{
-    bay_address, HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock,
-    VelParams, RACK, USB_UNIT,
-};
 use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::ids::{bay_address, RACK, USB_UNIT};
+use fringe_rig::apt::message::{
+    HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
+};
 use fringe_rig::apt::status::{self as bits, LimitPolarity};
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::Millimetres;
@@ -711,7 +711,7 @@ const ACC: f64 = fringe_rig::apt::actuator::ACCELERATION_SCALE;
 mod tests {
     use super::*;
     use crate::motion::MotorSpec;
-    use fringe_rig::apt::codec::{HOST, USB_UNIT};
+    use fringe_rig::apt::ids::{HOST, USB_UNIT};
     use fringe_rig::units::{MillimetresPerSecond, MillimetresPerSecondSquared};
 
     fn zfs25() -> Actuator {

@@ -4,7 +4,9 @@
 
 use super::core::{AptEmulatorConfig, EmulatorCore, EmulatorCounters};
 use crate::motion::SimMotor;
-use fringe_rig::apt::codec::{encode, Decoded, Flow, Packet, StreamDecoder};
+use fringe_rig::apt::codec::encode;
+use fringe_rig::apt::message::Packet;
+use fringe_rig::apt::stream::{Decoded, Flow, StreamDecoder};
 use fringe_rig::clock::HostTime;
 use fringe_rig::transport::pty::PtyDevice;
 use fringe_rig::transport::ByteLink;
