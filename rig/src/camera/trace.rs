@@ -51,8 +51,27 @@ pub enum CameraTraceError {
         line: usize,
         message: String,
     },
+    #[error("{path}:{line}: {source}")]
+    Field {
+        path: PathBuf,
+        line: usize,
+        #[source]
+        source: TraceFieldError,
+    },
     #[error(transparent)]
     Frame(#[from] FrameFileError),
+}
+
+/// A field of a trace line that does not parse; [`CameraTraceError::Field`] adds the file and
+/// line.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum TraceFieldError {
+    #[error("bad seconds {0:?} (expected e.g. 0.020000000)")]
+    Seconds(String),
+    #[error("bad {what} {field:?}")]
+    Number { what: &'static str, field: String },
+    #[error("unknown pixel format {0:?} (mono8, rgb8 or bayerrg8)")]
+    PixelFormat(String),
 }
 
 /// One recorded frame (pixels stay in their file until replayed).
@@ -93,26 +112,26 @@ fn seconds(d: Duration) -> String {
     format!("{}.{:09}", d.as_secs(), d.subsec_nanos())
 }
 
-fn parse_seconds(text: &str) -> Result<Duration, String> {
+fn parse_seconds(text: &str) -> Result<Duration, TraceFieldError> {
+    let bad = || TraceFieldError::Seconds(text.to_string());
     let (whole, frac) = text.split_once('.').unwrap_or((text, ""));
     if frac.len() > 9 || !frac.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(format!("bad seconds {text:?} (expected e.g. 0.020000000)"));
+        return Err(bad());
     }
-    let secs: u64 = whole
-        .parse()
-        .map_err(|_| format!("bad seconds {text:?} (expected e.g. 0.020000000)"))?;
+    let secs: u64 = whole.parse().map_err(|_| bad())?;
     let nanos: u32 = if frac.is_empty() {
         0
     } else {
-        format!("{frac:0<9}")
-            .parse()
-            .map_err(|_| format!("bad seconds {text:?}"))?
+        format!("{frac:0<9}").parse().map_err(|_| bad())?
     };
     Ok(Duration::new(secs, nanos))
 }
 
-fn num<T: std::str::FromStr>(field: &str, what: &str) -> Result<T, String> {
-    field.parse().map_err(|_| format!("bad {what} {field:?}"))
+fn num<T: std::str::FromStr>(field: &str, what: &'static str) -> Result<T, TraceFieldError> {
+    field.parse().map_err(|_| TraceFieldError::Number {
+        what,
+        field: field.to_string(),
+    })
 }
 
 /// A one-line description of settings, for `# configured:` lines.
@@ -148,6 +167,11 @@ impl CameraTrace {
             path: path.clone(),
             line,
             message,
+        };
+        let field_err = |line: usize, source: TraceFieldError| CameraTraceError::Field {
+            path: path.clone(),
+            line,
+            source,
         };
         let mut lines = text.lines().enumerate();
         match lines.next() {
@@ -190,7 +214,7 @@ impl CameraTrace {
                         "serial" => trace.info.serial = value,
                         "tick-frequency" => {
                             trace.info.tick_frequency =
-                                num(&value, "tick-frequency").map_err(|m| err(n, m))?
+                                num(&value, "tick-frequency").map_err(|e| field_err(n, e))?
                         }
                         "configured" => trace.configured.push(value),
                         _ => {}
@@ -207,9 +231,9 @@ impl CameraTrace {
                     ));
                 }
                 trace.latches.push(TraceLatch {
-                    host_before: parse_seconds(fields[1]).map_err(|m| err(n, m))?,
-                    device_ticks: num(fields[2], "device ticks").map_err(|m| err(n, m))?,
-                    host_after: parse_seconds(fields[3]).map_err(|m| err(n, m))?,
+                    host_before: parse_seconds(fields[1]).map_err(|e| field_err(n, e))?,
+                    device_ticks: num(fields[2], "device ticks").map_err(|e| field_err(n, e))?,
+                    host_after: parse_seconds(fields[3]).map_err(|e| field_err(n, e))?,
                 });
                 continue;
             }
@@ -222,23 +246,19 @@ impl CameraTrace {
                     ),
                 ));
             }
-            let parse = || -> Result<TraceFrame, String> {
+            let parse = || -> Result<TraceFrame, TraceFieldError> {
                 Ok(TraceFrame {
                     id: num(fields[0], "frame id")?,
                     device_timestamp: num(fields[1], "device timestamp")?,
                     host_offset: parse_seconds(fields[2])?,
                     width: num(fields[3], "width")?,
                     height: num(fields[4], "height")?,
-                    format: parse_format_name(fields[5]).ok_or_else(|| {
-                        format!(
-                            "unknown pixel format {:?} (mono8, rgb8 or bayerrg8)",
-                            fields[5]
-                        )
-                    })?,
+                    format: parse_format_name(fields[5])
+                        .ok_or_else(|| TraceFieldError::PixelFormat(fields[5].to_string()))?,
                     file: fields[6].to_string(),
                 })
             };
-            trace.frames.push(parse().map_err(|m| err(n, m))?);
+            trace.frames.push(parse().map_err(|e| field_err(n, e))?);
         }
         Ok(trace)
     }

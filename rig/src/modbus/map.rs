@@ -22,6 +22,34 @@ pub struct MapError {
     pub message: String,
 }
 
+/// A register map value that cannot work; names the key and what is allowed. [`MapError`] adds
+/// the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapCheckError {
+    #[error("key steps_per_mm = {0} must be a positive number")]
+    StepsPerMm(f64),
+    #[error("key {key}.words = {words}: allowed values are 1 (16-bit) and 2 (32-bit)")]
+    Words { key: String, words: u8 },
+    #[error("key {key}.scale = {scale} must be a positive number")]
+    Scale { key: &'static str, scale: f64 },
+    #[error("key {key} is set but there is no [profile] section with speed_mm_s, accel_mm_s2, decel_mm_s2")]
+    NoProfile { key: &'static str },
+    #[error("key {key} = {value} does not fit in {words} register(s) (allowed {min}..={max})")]
+    DoesNotFit {
+        key: String,
+        value: i64,
+        words: u8,
+        min: i64,
+        max: i64,
+    },
+    #[error("key homing.writes is empty: list at least one write, or remove [homing]")]
+    NoHomingWrites,
+    #[error("key status.bits has no bit with role = \"moving\" (allowed roles: moving, alarm, ready, homed, info)")]
+    NoMovingBit,
+    #[error("key status.bits[{index}].mask = 0x{mask:X} must be non-zero and fit in {bits} bits")]
+    StatusMask { index: usize, mask: u32, bits: u32 },
+}
+
 /// Order of the two registers of a 32-bit value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -279,24 +307,22 @@ impl RegisterMap {
         let mut map: RegisterMap =
             crate::config_file::parse_toml(text, source_name).map_err(|e| err(e.message))?;
         map.source = source_name.to_string();
-        map.check().map_err(err)?;
+        map.check().map_err(|e| err(e.to_string()))?;
         Ok(map)
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), MapCheckError> {
         if !(self.steps_per_mm.is_finite() && self.steps_per_mm > 0.0) {
-            return Err(format!(
-                "key steps_per_mm = {} must be a positive number",
-                self.steps_per_mm
-            ));
+            return Err(MapCheckError::StepsPerMm(self.steps_per_mm));
         }
         let words = |key: &str, w: u8| {
             if w == 1 || w == 2 {
                 Ok(())
             } else {
-                Err(format!(
-                    "key {key}.words = {w}: allowed values are 1 (16-bit) and 2 (32-bit)"
-                ))
+                Err(MapCheckError::Words {
+                    key: key.to_string(),
+                    words: w,
+                })
             }
         };
         for (key, f) in [
@@ -307,13 +333,13 @@ impl RegisterMap {
             if let Some(f) = f {
                 words(key, f.words)?;
                 if !(f.scale.is_finite() && f.scale > 0.0) {
-                    return Err(format!(
-                        "key {key}.scale = {} must be a positive number",
-                        f.scale
-                    ));
+                    return Err(MapCheckError::Scale {
+                        key,
+                        scale: f.scale,
+                    });
                 }
                 if self.profile.is_none() {
-                    return Err(format!("key {key} is set but there is no [profile] section with speed_mm_s, accel_mm_s2, decel_mm_s2"));
+                    return Err(MapCheckError::NoProfile { key });
                 }
             }
         }
@@ -342,10 +368,7 @@ impl RegisterMap {
             .collect();
         if let Some(h) = &self.homing {
             if h.writes.is_empty() {
-                return Err(
-                    "key homing.writes is empty: list at least one write, or remove [homing]"
-                        .into(),
-                );
+                return Err(MapCheckError::NoHomingWrites);
             }
             writes.extend(
                 h.writes
@@ -363,15 +386,15 @@ impl RegisterMap {
         }
         words("status", self.status.words)?;
         if !self.status.bits.iter().any(|b| b.role == Role::Moving) {
-            return Err("key status.bits has no bit with role = \"moving\" (allowed roles: moving, alarm, ready, homed, info)".into());
+            return Err(MapCheckError::NoMovingBit);
         }
         for (i, b) in self.status.bits.iter().enumerate() {
             if b.mask == 0 || (self.status.words == 1 && b.mask > 0xFFFF) {
-                return Err(format!(
-                    "key status.bits[{i}].mask = 0x{:X} must be non-zero and fit in {} bits",
-                    b.mask,
-                    16 * self.status.words
-                ));
+                return Err(MapCheckError::StatusMask {
+                    index: i,
+                    mask: b.mask,
+                    bits: 16 * u32::from(self.status.words),
+                });
             }
         }
         Ok(())
@@ -410,7 +433,7 @@ impl RegisterMap {
 }
 
 /// Checks that `value` fits a register field of `words` registers (signed or unsigned).
-fn fits(key: &str, value: i64, words: u8) -> Result<(), String> {
+fn fits(key: &str, value: i64, words: u8) -> Result<(), MapCheckError> {
     let (min, max) = if words == 1 {
         (i64::from(i16::MIN), i64::from(u16::MAX))
     } else {
@@ -419,9 +442,13 @@ fn fits(key: &str, value: i64, words: u8) -> Result<(), String> {
     if (min..=max).contains(&value) {
         Ok(())
     } else {
-        Err(format!(
-            "key {key} = {value} does not fit in {words} register(s) (allowed {min}..={max})"
-        ))
+        Err(MapCheckError::DoesNotFit {
+            key: key.to_string(),
+            value,
+            words,
+            min,
+            max,
+        })
     }
 }
 
