@@ -3,8 +3,8 @@
 //! the simulated bench) the labels scored against the ground truth. The command line's progress
 //! bar and the terminal UI drive the same session.
 
+use crate::open_rig::RigError;
 use crate::rig_file::RigConfig;
-use crate::RigError;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation};
 use fringe_rig::camera::CameraSettings;
