@@ -13,6 +13,13 @@
 //! - [`profile`]: `profiles/<sensor-id>.toml`, read, written and checked.
 //! - [`scan_run`]: a calibration scan's run directory read for calibration (background frames,
 //!   press frames, no-contact force windows).
+//!
+//! Re-exported here, for callers across the workspace: the whole calibration from a scan
+//! ([`ScanCalibration`]), the profile on disk ([`Profile`], [`profile_path`], [`load_checked`]),
+//! the optical fit ([`find_disc`], [`DiscFit`]), the offset check the scan engine runs
+//! ([`ProfileOffsetCheck`], [`ZeroTolerance`]) and a calibration scan's run ([`ScanRun`]). Inside
+//! this crate, files import from the defining module, never through these re-exports.
+#![warn(unreachable_pub)]
 
 pub mod frames;
 pub mod from_scan;
@@ -21,3 +28,9 @@ pub mod optical;
 pub mod profile;
 pub mod registration;
 pub mod scan_run;
+
+pub use from_scan::{FromScanError, ScanCalibration};
+pub use offsets::{ProfileOffsetCheck, ZeroTolerance};
+pub use optical::{find_disc, DiscFit, OpticalError};
+pub use profile::{load_checked, profile_path, Expectation, Profile, ProfileError};
+pub use scan_run::{ScanRun, ScanRunError};

@@ -4,9 +4,24 @@
 //! - [`transport`]: serial, pseudo-terminal, TCP and UDP links behind two small traits.
 //! - [`trace`]: recording what crosses a link and replaying it against a driver.
 //! - [`axis`], [`force`], [`camera`]: the device traits every real, simulated or replayed device
-//!   implements.
+//!   implements; [`devices`] holds one bench's set of them.
+//! - [`apt`], [`modbus`], [`netft`], [`atical`], [`manual`]: the drivers (Thorlabs APT axes, Modbus
+//!   y stages, the ATI Net F/T box, DAQ strain gauges through an ATI `.cal` matrix, a y stage moved
+//!   by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
+//! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
+//!   the recording threads.
+//! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes.
+//! - [`config_file`], [`seeded`]: the one TOML loader and the one seeded generator.
 //!
 //! Protocol codecs are pure (bytes <-> messages, no I/O); drivers combine a codec with a link.
+//!
+//! The types most callers need are re-exported here: the units and host time, the device traits
+//! with their errors and settings, the links, the driver configurations a rig file names, and the
+//! scan engine's entry point ([`run_scan`] with [`ScanSetup`], [`ScanProgram`] and
+//! [`ScanControl`]). Everything else is reached through its module. Inside this crate, files
+//! import from the defining module, never through these re-exports (no import circle between
+//! files).
+#![warn(unreachable_pub)]
 
 pub mod acquire;
 pub mod apt;
@@ -28,3 +43,27 @@ pub mod sync;
 pub mod trace;
 pub mod transport;
 pub mod units;
+
+pub use apt::{AptConfig, Controller, ThorlabsAxis};
+pub use axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
+pub use camera::{
+    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
+    TriggerMode,
+};
+pub use clock::HostTime;
+pub use config_file::ConfigError;
+pub use devices::Devices;
+pub use force::{ForceError, ForceSample, ForceSensor};
+pub use modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
+pub use netft::{NetFt, NetFtConfig, NetFtOptions};
+pub use scan::control::{Operator, ScanControl};
+pub use scan::engine::{run_scan, RunTarget, ScanError, ScanOutcome, ScanSetup};
+pub use scan::origin::ContactOrigin;
+pub use scan::plan::{BenchLimits, Plan, ScanProgram};
+pub use sync::method::SyncMethod;
+pub use trace::{ReplayOptions, Trace};
+pub use transport::{ByteLink, DatagramLink};
+pub use units::{
+    Decibels, Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared,
+    NewtonMetres, Newtons, Volts, Wrench,
+};

@@ -2,11 +2,11 @@
 //! speak the real protocols, ground truth and its scores. It depends on the rig crate, never the
 //! reverse: the rig's drivers talk to these emulators exactly as to the real devices.
 //!
-//! - [`stress`]: Boussinesq point-load stress integrated through the photoelastic layer.
+//! - `stress`: Boussinesq point-load stress integrated through the photoelastic layer.
 //! - [`indenter`]: indenter outlines and their contact pressure maps.
 //! - [`fringe_field`]: fringe order per newton around an indenter (FFT convolution).
 //! - [`colour`]: the colour a white LED and an RGB camera give for each fringe order.
-//! - [`blurred_colour`]: that colour averaged over a spread of fringe orders (defocus).
+//! - `blurred_colour`: that colour averaged over a spread of fringe orders (defocus).
 //! - [`motion`]: simulated axes with trapezoidal motion profiles in host time.
 //! - [`modbus_emulator`]: an emulated Modbus y stage (TCP, RTU on a pty, in process) from a register map.
 //! - [`netft_emulator`]: an emulated ATI Net F/T box (RDT over UDP or in process, netftapi2.xml).
@@ -15,7 +15,7 @@
 //! - [`apt_emulator`]: an emulated Thorlabs APT stepper controller (KST101 / BSC20x channel) on a
 //!   byte link, driving a [`motion::SimMotor`].
 //! - [`contact`]: force against indentation depth in the soft layer, relaxation, surface height.
-//! - [`ft_config`]: the F/T sensor's mount and imperfections (configuration).
+//! - `ft_config`: the F/T sensor's mount and imperfections (configuration).
 //! - [`ft_sensor`]: the F/T sensor's moments, noise, drift and power-up bias.
 //! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
 //! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
@@ -30,21 +30,31 @@
 //! - [`background`]: the unloaded sensor image (illumination, rim, LED hot spots, residual
 //!   birefringence).
 //! - [`render`]: the frame renderer (fringes, blur, noise, drift, gamma) behind `FrameRenderer`.
-//! - [`pixel_format`]: the camera's pixel formats (RGB8, BayerRG8, Mono8) as samples of the
+//! - `pixel_format`: the camera's pixel formats (RGB8, BayerRG8, Mono8) as samples of the
 //!   rendered RGB image.
 //!
 //! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
+//!
+//! The modules no other crate uses (`stress`, `blurred_colour`, `ft_config`, `pixel_format`) are
+//! private: callers reach them through the bench, the renderer and the sensor file. `colour`,
+//! `contact` and `fringe_field` stay public although no other crate names them today: part of
+//! their API (the colour table, contact model accessors, field sampling) has no caller inside
+//! this crate and would be dead code if private. What callers across the workspace use is
+//! re-exported here: the simulated rig and bench, the emulators and their configurations, the
+//! renderer and the scene traits, ground truth. Inside this crate, files import from the
+//! defining module, never through these re-exports.
+#![warn(unreachable_pub)]
 
 pub mod apt_emulator;
 pub mod background;
 pub mod bench;
-pub mod blurred_colour;
+mod blurred_colour;
 pub mod camera_emulator;
 pub mod colour;
 pub mod contact;
 pub mod daq_emulator;
 pub mod fringe_field;
-pub mod ft_config;
+mod ft_config;
 pub mod ft_sensor;
 pub mod ground_truth;
 pub mod indenter;
@@ -53,10 +63,25 @@ pub mod modbus_emulator;
 pub mod motion;
 pub mod netft_box;
 pub mod netft_emulator;
-pub mod pixel_format;
+mod pixel_format;
 pub mod render;
 pub mod rig;
 pub mod scene;
 pub mod sensor;
-pub mod stress;
+mod stress;
 pub mod sync_score;
+
+pub use apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
+pub use bench::{Bench, BenchConfig};
+pub use camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
+pub use daq_emulator::{SimDaq, SimDaqConfig};
+pub use ft_sensor::SimFtSensor;
+pub use ground_truth::{TruthLog, TruthSink};
+pub use modbus_emulator::ModbusEmulator;
+pub use motion::{MotorSpec, SimMotor};
+pub use netft_box::{SimNetFt, SimOptions};
+pub use netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+pub use render::Renderer;
+pub use rig::{SimRig, SimRigConfig};
+pub use scene::{Contact, FrameRenderer, Scene, SceneSource};
+pub use sensor::SensorConfig;

@@ -13,19 +13,19 @@ use fringe_rig::camera::PixelFormat;
 
 /// The colour channel (0 red, 1 green, 2 blue) a BayerRG8 sensor records at (`row`, `col`).
 #[inline(always)]
-pub fn bayer_channel(row: usize, col: usize) -> usize {
+pub(crate) fn bayer_channel(row: usize, col: usize) -> usize {
     (row & 1) + (col & 1)
 }
 
 /// The Mono8 value of an RGB pixel.
 #[inline(always)]
-pub fn grey(rgb: [u8; 3]) -> u8 {
+pub(crate) fn grey(rgb: [u8; 3]) -> u8 {
     ((77 * u32::from(rgb[0]) + 150 * u32::from(rgb[1]) + 29 * u32::from(rgb[2])) >> 8) as u8
 }
 
 /// Converts an interleaved RGB image `width` pixels wide (full sensor rows from the top) to
 /// `format`, into `out` (resized to width * rows * bytes per pixel).
-pub fn from_rgb(rgb: &[u8], width: usize, format: PixelFormat, out: &mut Vec<u8>) {
+pub(crate) fn from_rgb(rgb: &[u8], width: usize, format: PixelFormat, out: &mut Vec<u8>) {
     out.clear();
     match format {
         PixelFormat::Rgb8 => out.extend_from_slice(rgb),

@@ -33,7 +33,7 @@ fn phi(r: f64, z: f64, nu: f64) -> f64 {
 /// Units: with the load in newtons and lengths in millimetres the result is in N/mm per N, i.e. 1/mm.
 /// Negative near the load (hoop stress exceeds radial stress in the surface layer). Requires
 /// `r_mm > 0` (regularise r before calling) and `0 <= z0_mm <= z1_mm`.
-pub fn layer_kernel(r_mm: f64, z0_mm: f64, z1_mm: f64, nu: f64) -> f64 {
+pub(crate) fn layer_kernel(r_mm: f64, z0_mm: f64, z1_mm: f64, nu: f64) -> f64 {
     (phi(r_mm, z1_mm, nu) - phi(r_mm, z0_mm, nu)) / (2.0 * PI)
 }
 

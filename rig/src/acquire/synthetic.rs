@@ -14,24 +14,24 @@ use crossbeam_channel::Sender;
 use std::collections::VecDeque;
 
 /// Host ns of one force sample (a 5 kHz counter running 100 ppm fast).
-pub const SAMPLE_NS: f64 = 200_000.0 * (1.0 - 100e-6);
+pub(crate) const SAMPLE_NS: f64 = 200_000.0 * (1.0 - 100e-6);
 /// Camera ticks per host ns (100 ppm slow).
 const CAMERA_RATE: f64 = 1.0 - 100e-6;
 const CAMERA_T0: u64 = 9_000_000_000_000;
 /// Host time of force sample 0.
 const SAMPLE0_NS: f64 = 1e9;
 /// Id of the first frame.
-pub const FIRST_ID: u64 = 1000;
+pub(crate) const FIRST_ID: u64 = 1000;
 /// Host time of the first exposure start.
 const FIRST_EXPOSURE_NS: f64 = 1.1e9;
 
 /// Host ns of force sample `k`.
-pub fn sample_host(k: u64) -> f64 {
+pub(crate) fn sample_host(k: u64) -> f64 {
     SAMPLE0_NS + k as f64 * SAMPLE_NS
 }
 
 /// Fractional force sample index at host ns `t`.
-pub fn sample_at(t: f64) -> f64 {
+pub(crate) fn sample_at(t: f64) -> f64 {
     (t - SAMPLE0_NS) / SAMPLE_NS
 }
 
@@ -40,10 +40,10 @@ fn camera_ticks(host_ns: f64) -> u64 {
 }
 
 /// A delay in ns for frame n, drawn with the bench's generator.
-pub type DelayOfFrame = Box<dyn Fn(u64, &mut SplitMix64) -> f64>;
+pub(crate) type DelayOfFrame = Box<dyn Fn(u64, &mut SplitMix64) -> f64>;
 
 /// What the synthetic bench does.
-pub struct Bench {
+pub(crate) struct Bench {
     pub seconds: f64,
     pub frame_period_ns: f64,
     pub exposure_ns: f64,
@@ -64,7 +64,7 @@ pub struct Bench {
 impl Bench {
     /// 20 s at 50 Hz, 2 ms exposures, frames 5-8 ms after exposure end, force blocks of 50
     /// samples 0-3 ms late, latches and strobe on.
-    pub fn new() -> Bench {
+    pub(crate) fn new() -> Bench {
         Bench {
             seconds: 20.0,
             frame_period_ns: 20e6,
@@ -96,7 +96,7 @@ impl Bench {
 }
 
 /// One thing arriving at the host.
-pub enum Event {
+pub(crate) enum Event {
     Samples(Vec<ForceSample>),
     /// A frame and its true exposure start (host ns).
     Frame(Frame, f64),
@@ -104,7 +104,7 @@ pub enum Event {
 }
 
 /// The bench's events in host arrival order.
-pub fn events(bench: &Bench, seed: u64) -> Vec<Event> {
+pub(crate) fn events(bench: &Bench, seed: u64) -> Vec<Event> {
     let mut rng = SplitMix64::new(seed);
     let mut timed: Vec<(f64, Event)> = Vec::new();
     let end = SAMPLE0_NS + bench.seconds * 1e9;
@@ -173,7 +173,7 @@ pub fn events(bench: &Bench, seed: u64) -> Vec<Event> {
 }
 
 /// A frame and what its labeler said.
-pub struct Labelled {
+pub(crate) struct Labelled {
     pub id: u64,
     /// True exposure start, host ns.
     pub true_start: f64,
@@ -182,7 +182,7 @@ pub struct Labelled {
 
 /// Feeds `events` to `labeler` as the recorder would (latches into `latches`, frames shown as
 /// they arrive and asked for their label until it is ready) and returns every frame's outcome.
-pub fn run(
+pub(crate) fn run(
     labeler: &mut dyn FrameLabeler,
     events: Vec<Event>,
     latches: &Sender<TimestampLatch>,

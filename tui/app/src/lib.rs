@@ -1,20 +1,30 @@
 //! `fringe-app`: what every front end of fringe needs, above the engine crates. The command line
 //! and the terminal UI are thin layers over it.
 //!
+//! The surface, re-exported here:
+//! - [`RigConfig`], [`RigSource`]: the rig file, read and checked (or the simulated bench when
+//!   there is none); module `rig_file` (private), with the file's sections reached through
+//!   [`RigConfig`].
+//! - [`OpenRig`], [`RigError`]: opening the devices it describes, real or simulated; module
+//!   `open_rig` (private).
+//! - [`ScanSession`] and its [`ProfileUse`], [`Note`], [`SessionEnd`], [`SessionError`],
+//!   [`TruthScore`]: a scan on the opened rig (profile -> origin, operator, progress, truth
+//!   scoring); module `scan_session` (private).
+//!
+//! And three public modules:
 //! - [`plans`]: the built-in scan plans.
-//! - [`rig_file`]: the rig file, read and checked (or the simulated bench when there is none).
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
-//! - [`open_rig`]: opening the devices it describes, real or simulated.
-//! - [`scan_session`]: a scan on the opened rig: profile -> origin, operator, progress, truth
-//!   scoring.
-//! - [`sim_bench`]: the simulated bench behind a rig file (cargo feature `sim`, a default).
+//! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
+//!   default).
+//!
+//! Inside this crate, files import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
 
 pub mod calibration_scan;
-pub mod open_rig;
+mod open_rig;
 pub mod plans;
-pub mod rig_file;
-pub mod scan_session;
+mod rig_file;
+mod scan_session;
 #[cfg(feature = "sim")]
 pub mod sim_bench;
 #[cfg(not(feature = "sim"))]

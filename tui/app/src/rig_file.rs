@@ -24,10 +24,10 @@ use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 /// Why a build without the `sim` feature refuses a simulated rig.
-pub const NO_SIM: &str = "every device is simulated (driver \"sim\", the default), but this fringe was built without the simulated bench: give each device a real driver, or build with the default features (cargo feature `sim`)";
+pub(crate) const NO_SIM: &str = "every device is simulated (driver \"sim\", the default), but this fringe was built without the simulated bench: give each device a real driver, or build with the default features (cargo feature `sim`)";
 
 /// The file looked for in the working directory when no rig file is named.
-pub const DEFAULT_RIG_FILE: &str = "rig.toml";
+pub(crate) const DEFAULT_RIG_FILE: &str = "rig.toml";
 
 /// What drives an axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
@@ -156,7 +156,7 @@ pub struct CameraSection {
 /// scan adds the motion emulators and the control loops, and at 50 fps the renderer then falls
 /// behind for moments (a full-grid main job dropped 4-7 of about 2150 exposures); at 25 fps it
 /// drops none. Real cameras default to 50 fps.
-pub const SIM_FRAME_RATE_HZ: f64 = 25.0;
+pub(crate) const SIM_FRAME_RATE_HZ: f64 = 25.0;
 
 /// Where the sensor sits on the stage (used until a calibration profile gives the origin).
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]

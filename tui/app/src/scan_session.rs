@@ -25,7 +25,7 @@ use std::sync::Arc;
 use std::time::SystemTime;
 
 /// A profile older than this is reported as stale.
-pub const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
+pub(crate) const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
 
 /// How a scan treats the sensor's calibration profile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
