@@ -76,9 +76,9 @@ impl ScanRun {
         let background = records
             .iter()
             .filter(|r| r.valid && r.shape == "None")
-            .map(|r| dir.join(&r.file))
-            .collect();
-        let presses = presses(dir, &records);
+            .map(|r| r.file_in(dir))
+            .collect::<Result<_, _>>()?;
+        let presses = presses(dir, &records)?;
         let (events, _) = read_lines::<Event>(&dir.join(store::EVENTS))?;
         let force_path = dir.join(store::FORCE);
         let bytes = std::fs::read(&force_path).map_err(|e| StoreError::Io {
@@ -106,7 +106,7 @@ impl ScanRun {
 }
 
 /// The dwell frames of every point that pressed.
-fn presses(dir: &Path, records: &[FrameRecord]) -> Vec<Press> {
+fn presses(dir: &Path, records: &[FrameRecord]) -> Result<Vec<Press>, StoreError> {
     let mut points: Vec<u64> = records.iter().map(|r| r.point).collect();
     points.sort_unstable();
     points.dedup();
@@ -140,10 +140,13 @@ fn presses(dir: &Path, records: &[FrameRecord]) -> Vec<Press> {
             point,
             stage_mm: [mean(&|r| r.measured.x.0), mean(&|r| r.measured.y.0)],
             force_n: chosen.iter().map(|(_, f)| f).sum::<f64>() / n,
-            files: chosen.iter().map(|(r, _)| dir.join(&r.file)).collect(),
+            files: chosen
+                .iter()
+                .map(|(r, _)| r.file_in(dir))
+                .collect::<Result<_, _>>()?,
         });
     }
-    out
+    Ok(out)
 }
 
 /// The bias of the [`OFFSET_WINDOW_S`] before each `force-offset` event; times in s from the

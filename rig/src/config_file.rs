@@ -52,6 +52,11 @@ pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let line = text[line_start..].lines().next().unwrap_or("").trim();
     if line.starts_with('[') {
         let name = line.trim_matches(|c| c == '[' || c == ']').trim();
+        // A misspelt section is an unknown field of the level above: say it is a section.
+        let last = name.rsplit('.').next().unwrap_or(name).trim();
+        if let Some(rest) = message.strip_prefix(&format!("unknown field `{last}`")) {
+            return format!("line {line_no}: unknown section [{name}]{rest}");
+        }
         return format!("line {line_no}, section [{name}]: {message}");
     }
     // The key is the last `name =` before the error on its line.
@@ -111,7 +116,7 @@ mod tests {
         let err = parse_toml::<File>("[x]\nvelocity = 1.0\n[xx]\nvelocity = 2.0\n", "t.toml")
             .expect_err("section")
             .message;
-        assert!(err.starts_with("line 3, section [xx]:"), "{err}");
+        assert_eq!(err, "line 3: unknown section [xx], expected `x`");
         let err = parse_toml::<File>("[x]\nvelocity = 1.0\u{0}\n", "t.toml")
             .expect_err("nul")
             .message;

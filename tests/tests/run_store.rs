@@ -10,8 +10,9 @@ use fringe_rig::store::documents::{
 use fringe_rig::store::run_list::list;
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::store::verify::verify;
-use fringe_rig::store::{FORCE, FRAMES};
+use fringe_rig::store::{StoreError, FORCE, FRAMES};
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use fringe_tests::snapshot;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -282,5 +283,66 @@ fn damage_of_every_kind_is_reported() {
     // Not a run at all: a clear error naming the file.
     let err = verify(&root).expect_err("not a run");
     assert!(err.to_string().contains("start.json"), "{err}");
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn a_refused_or_damaged_resume_leaves_the_run_as_it_was() {
+    let root = scratch("refused");
+    let mut w = RunWriter::create(&root, &start("run-d")).expect("create");
+    let dir = w.dir().to_path_buf();
+    // Point 0 done (3 records), checkpoint before point 1, a crash during point 1.
+    write_frames(&mut w, 0..3);
+    w.checkpoint_at(1).expect("checkpoint");
+    write_frames(&mut w, 3..5);
+    w.checkpoint().expect("sync");
+    drop(w);
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(dir.join(FRAMES))
+        .expect("frames");
+    f.write_all(b"{\"index\":5,").expect("torn");
+
+    // Refused by the caller (a different plan, say): nothing cut, no frame removed.
+    let before = snapshot(&dir);
+    let refused = RunWriter::reopen_if(&dir, |existing| {
+        assert_eq!(existing.discarded_frames, 2);
+        Err(StoreError::Content {
+            path: dir.clone(),
+            message: "refused".into(),
+        })
+    });
+    assert!(refused.is_err());
+    assert!(snapshot(&dir) == before, "a refused reopen changed the run");
+
+    // frames.jsonl cut inside the records the checkpoint counts: refused, nothing changed,
+    // and verify says so.
+    let frames = dir.join(FRAMES);
+    let text = std::fs::read_to_string(&frames).expect("frames");
+    let first = text.find('\n').expect("a line") + 1;
+    std::fs::write(&frames, &text[..first + 30]).expect("cut");
+    let before = snapshot(&dir);
+    let err = RunWriter::reopen(&dir).err().expect("refused");
+    assert!(
+        err.to_string()
+            .contains("holds 1 records but checkpoint.json counts 3 before point 1"),
+        "{err}"
+    );
+    assert!(snapshot(&dir) == before, "a refused reopen changed the run");
+    let report = verify(&dir).expect("verify");
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.contains("records of finished points are missing")),
+        "{:?}",
+        report.problems
+    );
+
+    // The same number of records, one of them changed before the checkpoint: refused too.
+    let edited = text.replacen("\"frame_id\":1,", "\"frame_id\":11,", 1);
+    std::fs::write(&frames, &edited).expect("edit");
+    let err = RunWriter::reopen(&dir).err().expect("refused");
+    assert!(err.to_string().contains("were changed"), "{err}");
     let _ = std::fs::remove_dir_all(root);
 }

@@ -2,88 +2,19 @@
 
 mod common;
 
-use common::{fringe, text};
-use fringe_rig::camera::{Frame, PixelFormat};
-use fringe_rig::clock::HostTime;
-use fringe_rig::store::documents::{
-    now_utc, ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
-};
-use fringe_rig::store::run_writer::RunWriter;
-use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use common::{edit_line, fringe, scratch, snapshot, text, TestRun};
 use std::path::{Path, PathBuf};
 
 fn write_run(root: &Path, id: &str, finish: bool) -> PathBuf {
-    let start = StartDocument {
-        layout_version: 1,
-        run_id: id.into(),
-        started_utc: now_utc(),
-        software: "test".into(),
-        sensor_id: "integrated-02".into(),
-        plan: String::new(),
-        rig: String::new(),
-        calibration_profile: None,
-        seed: None,
-        sync_method: "host".into(),
-    };
-    let mut w = RunWriter::create(root, &start).expect("create");
-    for id in 0..3u64 {
-        let frame = Frame {
-            id,
-            device_timestamp: id,
-            host_arrival: HostTime(id),
-            width: 4,
-            height: 2,
-            format: PixelFormat::Mono8,
-            data: vec![id as u8; 8],
-        };
-        let file = w.save_frame_image(&frame, id).expect("save");
-        let p = Position {
-            x: Millimetres(0.0),
-            y: Millimetres(0.0),
-            z: Millimetres(0.0),
-        };
-        w.append_frame(&FrameRecord {
-            index: id,
-            frame_id: id,
-            file,
-            device_timestamp: id,
-            host_arrival_ns: id,
-            exposure: None,
-            exposure_ticks: None,
-            point: 0,
-            commanded: p,
-            measured: p,
-            // Frames 0 and 1 are labelled (1 in contact), frame 2 has no force label.
-            wrench: (id < 2).then(|| Wrench {
-                fz: Newtons(-(id as f64) * 2.5),
-                ..Wrench::default()
-            }),
-            shape: if id == 1 { "rectangle" } else { "None" }.into(),
-            contact: (id == 1).then_some([1.5, -2.0]),
-            valid: true,
-            notes: vec![],
-        })
-        .expect("record");
+    TestRun {
+        finish,
+        ..TestRun::finished(id)
     }
-    let dir = w.dir().to_path_buf();
-    if finish {
-        w.finish(&StopDocument {
-            exit_status: ExitStatus::Completed,
-            reason: "done".into(),
-            stopped_utc: now_utc(),
-            frames: 3,
-            dropped_frames: 0,
-            force_samples: 0,
-            lost_force_samples: 0,
-            points_done: 1,
-            sync_method: Some("strobe".into()),
-            sync_error_ns: None,
-        })
-        .expect("finish");
-    } else {
-        w.checkpoint().expect("checkpoint");
-    }
-    dir
+    .write(root)
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().expect("utf-8")
 }
 
 #[test]
@@ -192,4 +123,237 @@ fn export_writes_the_reference_layout() {
     assert!(!again.status.success());
     assert!(text(&again).contains("already there"), "{}", text(&again));
     let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn runs_names_each_directory_and_refuses_a_missing_root() {
+    let root = scratch("names");
+    let run = write_run(&root, "run-a", true);
+    let copy = root.join("run-a-copy");
+    let cp = std::process::Command::new("cp")
+        .arg("-a")
+        .arg(&run)
+        .arg(&copy)
+        .status()
+        .expect("cp");
+    assert!(cp.success());
+    let out = fringe(&["runs", "--root", path(&root)]);
+    let listing = text(&out);
+    assert!(out.status.success(), "{listing}");
+    let copy_line = listing
+        .lines()
+        .find(|l| l.starts_with("run-a-copy "))
+        .unwrap_or_else(|| panic!("the copy is listed by its directory: {listing}"));
+    assert!(copy_line.contains("(run id run-a)"), "{listing}");
+    assert!(
+        listing.lines().any(|l| l.starts_with("run-a ")),
+        "{listing}"
+    );
+
+    let missing = root.join("no-such-dir");
+    let out = fringe(&["runs", "--root", path(&missing)]);
+    assert!(!out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains("no-such-dir: no such directory"),
+        "{}",
+        text(&out)
+    );
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn export_refuses_runs_that_fail_verify_unless_asked_and_never_exports_a_record_twice() {
+    let root = scratch("unverified");
+    let out = root.join("dataset");
+    let export = |runs: &[&Path], more: &[&str]| {
+        let mut args = vec!["export"];
+        args.extend(runs.iter().map(|r| path(r)));
+        args.extend(["--out", path(&out)]);
+        args.extend(more);
+        fringe(&args)
+    };
+    // An edited label (the manifest no longer matches).
+    let edited = write_run(&root, "run-edited", true);
+    edit_line(&edited.join("frames.jsonl"), 1, |l| {
+        Some(l.replace("rectangle", "pentagon"))
+    });
+    // Records cut from the end of a finished run.
+    let truncated = write_run(&root, "run-truncated", true);
+    edit_line(&truncated.join("frames.jsonl"), 2, |_| None);
+    let unfinished = write_run(&root, "run-unfinished", false);
+    for (run, why) in [
+        (&edited, "frames.jsonl: checksum differs"),
+        (&truncated, "says 3 frames"),
+        (&unfinished, "did not finish"),
+    ] {
+        let result = export(&[run], &[]);
+        let t = text(&result);
+        assert!(!result.status.success(), "{t}");
+        assert!(
+            t.contains("fails verify") && t.contains(why) && t.contains("--allow-unverified"),
+            "{t}"
+        );
+        assert!(!out.exists(), "a refused export writes nothing");
+    }
+    // Asked for: exported, with a warning and the problems in the provenance.
+    let result = export(&[&edited], &["--allow-unverified"]);
+    let t = text(&result);
+    assert!(result.status.success(), "{t}");
+    assert!(t.contains("warning") && t.contains("fails verify"), "{t}");
+    let prov = std::fs::read_to_string(out.join("0.export.json")).expect("provenance");
+    assert!(prov.contains("checksum differs"), "{prov}");
+    std::fs::remove_dir_all(&out).expect("clean");
+
+    // A duplicated record line: refused, and exported once when asked for.
+    let doubled = write_run(&root, "run-doubled", true);
+    edit_line(&doubled.join("frames.jsonl"), 1, |l| {
+        Some(format!("{l}\n{l}"))
+    });
+    let result = export(&[&doubled], &[]);
+    assert!(!result.status.success(), "{}", text(&result));
+    assert!(
+        text(&result).contains("has index 1, expected 2"),
+        "{}",
+        text(&result)
+    );
+    let result = export(&[&doubled], &["--allow-unverified"]);
+    let t = text(&result);
+    assert!(result.status.success(), "{t}");
+    let csv = std::fs::read_to_string(out.join("0.labels.csv")).expect("labels");
+    assert_eq!(csv.lines().count(), 1 + 2, "{csv}");
+    assert!(t.contains("1 duplicated records left out"), "{t}");
+    std::fs::remove_dir_all(&out).expect("clean");
+
+    // The same run twice.
+    let good = write_run(&root, "run-good", true);
+    let result = export(&[&good, &good], &[]);
+    assert!(!result.status.success(), "{}", text(&result));
+    assert!(text(&result).contains("given twice"), "{}", text(&result));
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
+    let root = scratch("atomic-export");
+    let run = TestRun {
+        points: 4,
+        ..TestRun::finished("run-a")
+    }
+    .write(&root.join("runs"));
+    let before = snapshot(&run);
+    let out = root.join("dataset");
+    // A corrupt frame late in the run (record 10, the eighth image exported).
+    std::fs::write(run.join("frames/00000010.png"), b"not a png").expect("damage");
+    let result = fringe(&[
+        "export",
+        path(&run),
+        "--out",
+        path(&out),
+        "--allow-unverified",
+    ]);
+    let t = text(&result);
+    assert!(!result.status.success(), "{t}");
+    assert!(t.contains("00000010.png"), "{t}");
+    let left: Vec<String> = std::fs::read_dir(&root)
+        .expect("root")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        left,
+        vec!["runs".to_string()],
+        "nothing left beside the runs"
+    );
+    std::fs::write(
+        run.join("frames/00000010.png"),
+        &before["frames/00000010.png"],
+    )
+    .expect("repair");
+
+    // Stale images of an earlier export: refused, nothing added, nothing removed.
+    std::fs::create_dir_all(out.join("0.images")).expect("stale dir");
+    std::fs::write(out.join("0.images/image_99.tiff"), b"stale").expect("stale");
+    let result = fringe(&["export", path(&run), "--out", path(&out)]);
+    let t = text(&result);
+    assert!(!result.status.success(), "{t}");
+    assert!(t.contains("not empty"), "{t}");
+    assert_eq!(snapshot(&out).len(), 1, "{:?}", snapshot(&out).keys());
+
+    // Into the run, or a directory inside it: refused, the run unchanged and still intact.
+    for inside in [run.clone(), run.join("export"), run.join("frames")] {
+        let result = fringe(&["export", path(&run), "--out", path(&inside)]);
+        let t = text(&result);
+        assert!(!result.status.success(), "{t}");
+        assert!(t.contains("inside the run"), "{t}");
+    }
+    assert!(snapshot(&run) == before, "the run was changed");
+    let verify = fringe(&["verify", path(&run)]);
+    assert!(verify.status.success(), "{}", text(&verify));
+
+    // An empty directory is fine, and holds exactly the export afterwards.
+    std::fs::remove_dir_all(&out).expect("clean");
+    std::fs::create_dir(&out).expect("empty");
+    let result = fringe(&["export", path(&run), "--out", path(&out)]);
+    assert!(result.status.success(), "{}", text(&result));
+    let files: Vec<String> = snapshot(&out).into_keys().collect();
+    assert_eq!(files.len(), 8 + 2, "{files:?}");
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn records_naming_files_outside_the_run_fail_verify_and_are_never_exported() {
+    let root = scratch("outside");
+    let run = write_run(&root, "run-a", true);
+    let frames = run.join("frames.jsonl");
+    edit_line(&frames, 0, |l| {
+        Some(l.replace("frames/00000000.png", "../../../../etc/hostname"))
+    });
+    edit_line(&frames, 1, |l| {
+        Some(l.replace("frames/00000001.png", "/etc/hostname"))
+    });
+    // The manifest rewritten to match, as a careless or hostile edit would.
+    fringe_rig::store::manifest::write(&run).expect("manifest");
+    let verify = fringe(&["verify", path(&run)]);
+    let t = text(&verify);
+    assert!(!verify.status.success(), "{t}");
+    assert!(
+        t.contains("record 0: file `../../../../etc/hostname` is not a path inside the run"),
+        "{t}"
+    );
+    assert!(
+        t.contains("record 1: file `/etc/hostname` is not a path inside the run"),
+        "{t}"
+    );
+    let out = root.join("dataset");
+    let result = fringe(&[
+        "export",
+        path(&run),
+        "--out",
+        path(&out),
+        "--allow-unverified",
+    ]);
+    let t = text(&result);
+    assert!(!result.status.success(), "{t}");
+    assert!(t.contains("is not a path inside the run"), "{t}");
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn export_progress_off_a_terminal_is_one_line_per_report() {
+    let root = scratch("progress");
+    // 250 points of 3 frames: 500 exported images, two progress reports.
+    let run = TestRun {
+        points: 250,
+        ..TestRun::finished("run-long")
+    }
+    .write(&root);
+    let out = root.join("dataset");
+    let result = fringe(&["export", path(&run), "--out", path(&out)]);
+    let err = String::from_utf8_lossy(&result.stderr).into_owned();
+    assert!(result.status.success(), "{}", text(&result));
+    assert!(!err.contains('\r'), "{err:?}");
+    let reports: Vec<&str> = err.lines().filter(|l| l.contains(" images")).collect();
+    assert_eq!(reports, vec!["250 images", "500 images"], "{err:?}");
+    let _ = std::fs::remove_dir_all(root);
 }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{fringe, scratch, text};
+use common::{fringe, scratch, snapshot, text, TestRun};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -202,6 +202,84 @@ fn a_run_killed_mid_point_is_resumed_without_losing_or_repeating_a_point() {
     assert!(resumed.contains("resumed at point 1"), "{resumed}");
     let verify = fringe(&["verify", run.to_str().expect("path")]);
     assert!(verify.status.success(), "{}", text(&verify));
+}
+
+/// An unfinished run of the plan `files` writes, as the engine leaves it after a crash during
+/// its third point: checkpoint before point 2, the 3 records of point 2 after it.
+fn crashed_run(dir: &Path) -> PathBuf {
+    TestRun {
+        id: "crashed",
+        points: 3,
+        finish: false,
+        plan: &plan("[11.0, 12.5, 14.0]"),
+        sync: "strobe",
+    }
+    .write(&dir.join("runs"))
+}
+
+#[test]
+fn a_resume_refuses_a_run_whose_checkpointed_records_are_missing() {
+    let dir = scratch("cut-records");
+    let (rig, _) = files(&dir);
+    let run = crashed_run(&dir);
+    // frames.jsonl cut in the middle (in the records of point 1), after the checkpoint.
+    let frames = run.join("frames.jsonl");
+    let text_before = std::fs::read_to_string(&frames).expect("frames");
+    let cut = text_before
+        .lines()
+        .take(4)
+        .map(|l| l.len() + 1)
+        .sum::<usize>()
+        + 40;
+    std::fs::write(&frames, &text_before[..cut]).expect("cut");
+    let before = snapshot(&run);
+    let out = fringe(&[
+        "scan",
+        "--yes",
+        "--rig",
+        rig.to_str().expect("path"),
+        "--resume",
+        run.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains("holds 4 records but checkpoint.json counts 6 before point 2")
+            && t.contains("records of finished points are missing"),
+        "{t}"
+    );
+    assert!(snapshot(&run) == before, "a refused resume changed the run");
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    let t = text(&verify);
+    assert!(!verify.status.success(), "{t}");
+    assert!(t.contains("checkpoint.json counts 6"), "{t}");
+}
+
+#[test]
+fn a_resume_with_a_different_plan_changes_nothing() {
+    let dir = scratch("other-plan");
+    let (rig, _) = files(&dir);
+    let run = crashed_run(&dir);
+    let other = dir.join("other.toml");
+    std::fs::write(&other, plan("[11.0, 12.5]")).expect("plan");
+    let before = snapshot(&run);
+    assert!(before.contains_key("frames/00000008.png"));
+    let out = fringe(&[
+        "scan",
+        other.to_str().expect("path"),
+        "--yes",
+        "--rig",
+        rig.to_str().expect("path"),
+        "--resume",
+        run.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(t.contains("different plan"), "{t}");
+    assert!(
+        snapshot(&run) == before,
+        "the refused resume cut records or removed frames"
+    );
 }
 
 #[test]

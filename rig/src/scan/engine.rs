@@ -423,22 +423,25 @@ fn open_run(
             Ok((RunWriter::create(root, &start)?, 0, 0))
         }
         RunTarget::Resume { dir } => {
-            let (writer, existing) = RunWriter::reopen(dir)?;
-            if existing.start.plan != setup.plan_text {
-                return Err(ScanError::Setup(format!(
-                    "{}: the run was made with a different plan; resume it with the plan stored in its {} (the `plan` field)",
-                    dir.display(),
-                    crate::store::START
-                )));
-            }
-            if existing.start.sync_method != setup.sync.name() {
-                return Err(ScanError::Setup(format!(
-                    "{}: the run used sync method {}, the rig now says {}",
-                    dir.display(),
-                    existing.start.sync_method,
-                    setup.sync
-                )));
-            }
+            // Everything is checked before the run is touched: a refused resume changes nothing.
+            let (writer, existing) = RunWriter::reopen_if(dir, |existing| {
+                if existing.start.plan != setup.plan_text {
+                    return Err(ScanError::Setup(format!(
+                        "{}: the run was made with a different plan; resume it with the plan stored in its {} (the `plan` field)",
+                        dir.display(),
+                        crate::store::START
+                    )));
+                }
+                if existing.start.sync_method != setup.sync.name() {
+                    return Err(ScanError::Setup(format!(
+                        "{}: the run used sync method {}, the rig now says {}",
+                        dir.display(),
+                        existing.start.sync_method,
+                        setup.sync
+                    )));
+                }
+                Ok(())
+            })?;
             let first = existing.checkpoint.as_ref().map_or(0, |c| c.next_point);
             Ok((writer, first, existing.discarded_frames))
         }

@@ -1,6 +1,8 @@
 //! What a run directory holds: the start and stop documents, frame records and events.
 
+use super::{StoreError, FRAMES};
 use crate::units::{Millimetres, Wrench};
+use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Version of the run layout written by this build.
@@ -80,6 +82,29 @@ pub struct FrameRecord {
     pub valid: bool,
     /// Why not valid, or other notes.
     pub notes: Vec<String>,
+}
+
+impl FrameRecord {
+    /// The record's frame file inside the run `dir`. Only a relative path of plain names is a
+    /// frame file (no root, no `..`, no `.`): a record never names a file outside its run.
+    /// Verify and export both ask here.
+    pub fn file_in(&self, dir: &Path) -> Result<PathBuf, StoreError> {
+        let rel = Path::new(&self.file);
+        let plain =
+            !self.file.is_empty() && rel.components().all(|c| matches!(c, Component::Normal(_)));
+        if plain {
+            Ok(dir.join(rel))
+        } else {
+            Err(StoreError::Content {
+                path: dir.join(FRAMES),
+                message: format!(
+                    "record {}: file `{}` is not a path inside the run (it must be relative, \
+                     without `..`); the record was edited or damaged",
+                    self.index, self.file
+                ),
+            })
+        }
+    }
 }
 
 /// Something that happened during a run.
@@ -162,6 +187,55 @@ fn civil_from_days(z: i64) -> (i64, u32, u32) {
 mod tests {
     use super::*;
     use std::time::Duration;
+
+    #[test]
+    fn only_relative_plain_paths_are_frame_files() {
+        let mut r = FrameRecord {
+            index: 7,
+            frame_id: 7,
+            file: String::new(),
+            device_timestamp: 0,
+            host_arrival_ns: 0,
+            exposure: None,
+            exposure_ticks: None,
+            point: 0,
+            commanded: Position {
+                x: Millimetres(0.0),
+                y: Millimetres(0.0),
+                z: Millimetres(0.0),
+            },
+            measured: Position {
+                x: Millimetres(0.0),
+                y: Millimetres(0.0),
+                z: Millimetres(0.0),
+            },
+            wrench: None,
+            shape: "None".into(),
+            contact: None,
+            valid: true,
+            notes: vec![],
+        };
+        let run = Path::new("/runs/a");
+        r.file = "frames/00000007.png".into();
+        assert_eq!(
+            r.file_in(run).expect("inside"),
+            Path::new("/runs/a/frames/00000007.png")
+        );
+        for bad in [
+            "",
+            "/etc/hostname",
+            "../../../../etc/hostname",
+            "frames/../../b/frames/00000007.png",
+            "./frames/00000007.png",
+        ] {
+            r.file = bad.into();
+            let err = r.file_in(run).expect_err(bad).to_string();
+            assert!(
+                err.contains("record 7") && err.contains("not a path inside the run"),
+                "{err}"
+            );
+        }
+    }
 
     #[test]
     fn timestamps_are_rfc3339_utc() {

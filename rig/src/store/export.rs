@@ -10,10 +10,14 @@
 //! calibration profile its contact labels are relative to.
 
 use super::documents::{now_utc, FrameRecord, StartDocument};
+use super::durable::{sync_dir, write_atomic, write_synced};
 use super::run_writer::{read_document, read_lines};
+use super::verify::verify;
 use super::{StoreError, FRAMES, START};
+use std::collections::HashSet;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::io::Cursor;
+use std::path::{Component, Path, PathBuf};
 
 /// The reference header line.
 pub const HEADER: &str =
@@ -24,6 +28,9 @@ pub const HEADER: &str =
 pub struct ExportOptions {
     /// Round forces, torques and positions to this step (the reference trained on 0.1).
     pub round: Option<f64>,
+    /// Export runs that fail verify too (their problems are recorded in `0.export.json`).
+    /// Records that name a file outside their run are refused even so.
+    pub allow_unverified: bool,
 }
 
 /// What an export wrote.
@@ -32,6 +39,9 @@ pub struct ExportSummary {
     pub images: u64,
     pub without_contact: u64,
     pub skipped_invalid: u64,
+    /// Records left out because a record of the same index or frame file was exported already
+    /// (a duplicated line; only in runs exported with `allow_unverified`).
+    pub skipped_duplicates: u64,
     pub labels: PathBuf,
     /// `0.export.json`: where every row came from.
     pub provenance: PathBuf,
@@ -51,6 +61,9 @@ pub struct ExportedRun {
     /// Rows of `0.labels.csv` from this run: `image_<first>` to `image_<first + images - 1>`.
     pub first_image: u64,
     pub images: u64,
+    /// What verify found wrong with the run (exported only with `allow_unverified`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub problems: Vec<String>,
 }
 
 /// `0.export.json`: the provenance of an export (beside `0.labels.csv`, outside `0.images/`, so
@@ -65,6 +78,10 @@ pub struct ExportProvenance {
 
 /// File name of the provenance document.
 pub const PROVENANCE: &str = "0.export.json";
+/// File name of the labels.
+pub const LABELS: &str = "0.labels.csv";
+/// Directory of the images.
+pub const IMAGES: &str = "0.images";
 
 fn fmt_value(v: f64, round: Option<f64>) -> String {
     if v.is_nan() {
@@ -105,46 +122,198 @@ pub fn label_row(image: &str, record: &FrameRecord, options: &ExportOptions) -> 
     Some(row)
 }
 
-/// Exports `runs` (in order) into `out` (created; must not hold a previous export).
+/// Exports `runs` (in order) into `out`, which must not exist yet or be an empty directory
+/// outside every run. Runs that fail verify are refused unless `options.allow_unverified`.
+/// Everything is written into a temporary directory beside `out` and renamed to `out` when
+/// complete: an export that fails leaves nothing behind, one that succeeds holds nothing else.
 pub fn export_reference(
     runs: &[PathBuf],
     out: &Path,
     options: &ExportOptions,
+    progress: impl FnMut(u64),
+) -> Result<ExportSummary, StoreError> {
+    let (parent, staging) = check_destination(runs, out)?;
+    let mut checked = Vec::with_capacity(runs.len());
+    for run in runs {
+        let report = verify(run)?;
+        if !report.ok() && !options.allow_unverified {
+            return Err(StoreError::Content {
+                path: run.clone(),
+                message: format!(
+                    "fails verify with {} problem(s), the first: {}; see `fringe verify {}`, or export it anyway with --allow-unverified",
+                    report.problems.len(),
+                    report.problems[0],
+                    run.display()
+                ),
+            });
+        }
+        checked.push(report.problems);
+    }
+    std::fs::create_dir_all(&parent).map_err(|e| StoreError::io(&parent, e))?;
+    std::fs::create_dir(&staging).map_err(|e| StoreError::io(&staging, e))?;
+    let written = write_export(runs, checked, &staging, options, progress).and_then(|summary| {
+        // `out` is absent or an empty directory (checked above): either is replaced whole.
+        std::fs::rename(&staging, out).map_err(|e| StoreError::io(out, e))?;
+        sync_dir(&parent)?;
+        Ok(summary)
+    });
+    match written {
+        Ok(summary) => Ok(ExportSummary {
+            labels: out.join(LABELS),
+            provenance: out.join(PROVENANCE),
+            ..summary
+        }),
+        Err(e) => {
+            // Best effort: the error that stopped the export is the one to report.
+            let _ = std::fs::remove_dir_all(&staging);
+            Err(e)
+        }
+    }
+}
+
+/// Refuses a destination that is a run, lies inside one, or holds anything; returns the
+/// directory `out` is made in and the temporary directory beside it.
+fn check_destination(runs: &[PathBuf], out: &Path) -> Result<(PathBuf, PathBuf), StoreError> {
+    let refuse = |message: String| StoreError::Content {
+        path: out.to_path_buf(),
+        message,
+    };
+    let name = match out.components().next_back() {
+        Some(Component::Normal(name)) => name.to_string_lossy().into_owned(),
+        _ => {
+            return Err(refuse(
+                "not a directory name to create (give --out a new or empty directory)".into(),
+            ))
+        }
+    };
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let out_real = real_path(out)?;
+    let mut seen: Vec<PathBuf> = Vec::with_capacity(runs.len());
+    for run in runs {
+        let run_real = std::fs::canonicalize(run).map_err(|e| StoreError::io(run, e))?;
+        if out_real.starts_with(&run_real) {
+            return Err(refuse(format!(
+                "is inside the run {} (an export never writes into a run: choose --out outside it)",
+                run.display()
+            )));
+        }
+        if seen.contains(&run_real) {
+            return Err(StoreError::Content {
+                path: run.clone(),
+                message: "given twice (each run is exported once)".into(),
+            });
+        }
+        seen.push(run_real);
+    }
+    if out.join(LABELS).exists() {
+        return Err(refuse(
+            "an export is already there (choose a new or empty --out directory)".into(),
+        ));
+    }
+    match std::fs::read_dir(out) {
+        Ok(mut entries) => {
+            if let Some(entry) = entries.next() {
+                let what = entry
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                return Err(refuse(format!(
+                    "is not empty (it holds {what}); choose a new or empty --out directory"
+                )));
+            }
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(StoreError::io(out, e)),
+    }
+    let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
+    Ok((parent, staging))
+}
+
+/// `path` with every symbolic link and `..` resolved, also when its last components do not
+/// exist yet (the deepest existing ancestor is canonicalised, the rest appended).
+fn real_path(path: &Path) -> Result<PathBuf, StoreError> {
+    let absolute = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map_err(|e| StoreError::io(path, e))?
+            .join(path)
+    };
+    let mut existing = absolute.as_path();
+    let mut rest = Vec::new();
+    loop {
+        match std::fs::canonicalize(existing) {
+            Ok(real) => {
+                let mut out = real;
+                for part in rest.iter().rev() {
+                    match part {
+                        Component::ParentDir => {
+                            out.pop();
+                        }
+                        Component::Normal(n) => out.push(n),
+                        _ => {}
+                    }
+                }
+                return Ok(out);
+            }
+            Err(e) => {
+                let (Some(up), Some(last)) = (existing.parent(), existing.components().next_back())
+                else {
+                    return Err(StoreError::io(path, e));
+                };
+                rest.push(last);
+                existing = up;
+            }
+        }
+    }
+}
+
+/// Writes the images, labels and provenance of `runs` into `dir`.
+fn write_export(
+    runs: &[PathBuf],
+    problems: Vec<Vec<String>>,
+    dir: &Path,
+    options: &ExportOptions,
     mut progress: impl FnMut(u64),
 ) -> Result<ExportSummary, StoreError> {
-    let images = out.join("0.images");
-    let labels = out.join("0.labels.csv");
-    if labels.exists() {
-        return Err(StoreError::Content {
-            path: labels,
-            message: "an export is already there (choose an empty --out directory)".into(),
-        });
-    }
-    std::fs::create_dir_all(&images).map_err(|e| StoreError::io(&images, e))?;
+    let images = dir.join(IMAGES);
+    std::fs::create_dir(&images).map_err(|e| StoreError::io(&images, e))?;
     let mut csv = String::from(HEADER);
     csv.push('\n');
-    let (mut k, mut none, mut skipped) = (0u64, 0u64, 0u64);
+    let (mut k, mut none, mut skipped, mut duplicates) = (0u64, 0u64, 0u64, 0u64);
     let mut exported = Vec::with_capacity(runs.len());
-    for run in runs {
+    for (run, problems) in runs.iter().zip(problems) {
         let start: StartDocument = read_document(&run.join(START))?;
         let first_image = k;
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
+        let mut indices = HashSet::new();
+        let mut files = HashSet::new();
         for record in records {
+            let source = record.file_in(run)?;
+            if !indices.insert(record.index) || !files.insert(record.file.clone()) {
+                duplicates += 1;
+                continue;
+            }
             if !record.valid || record.wrench.is_none() {
                 skipped += 1;
                 continue;
             }
             let name = format!("image_{k}.tiff");
-            let source = run.join(&record.file);
             let image = image::open(&source).map_err(|e| StoreError::Content {
                 path: source.clone(),
-                message: e.to_string(),
+                message: format!("{e} (frame of record {})", record.index),
             })?;
             let target = images.join(&name);
-            image.save(&target).map_err(|e| StoreError::Content {
-                path: target.clone(),
-                message: e.to_string(),
-            })?;
+            let mut tiff = Vec::new();
+            image
+                .write_to(&mut Cursor::new(&mut tiff), image::ImageFormat::Tiff)
+                .map_err(|e| StoreError::Content {
+                    path: target.clone(),
+                    message: e.to_string(),
+                })?;
+            write_synced(&target, &tiff)?;
             if let Some(row) = label_row(&name, &record, options) {
                 csv.push_str(&row);
                 csv.push('\n');
@@ -163,9 +332,11 @@ pub fn export_reference(
             sync_method: start.sync_method,
             first_image,
             images: k - first_image,
+            problems,
         });
     }
-    let provenance = out.join(PROVENANCE);
+    sync_dir(&images)?;
+    let provenance = dir.join(PROVENANCE);
     let doc = ExportProvenance {
         software: format!("fringe {}", env!("CARGO_PKG_VERSION")),
         exported_utc: now_utc(),
@@ -176,12 +347,14 @@ pub fn export_reference(
         path: provenance.clone(),
         message: format!("cannot encode: {e}"),
     })?;
-    super::durable::write_atomic(&provenance, json.as_bytes())?;
-    super::durable::write_atomic(&labels, csv.as_bytes())?;
+    write_atomic(&provenance, json.as_bytes())?;
+    let labels = dir.join(LABELS);
+    write_atomic(&labels, csv.as_bytes())?;
     Ok(ExportSummary {
         images: k,
         without_contact: none,
         skipped_invalid: skipped,
+        skipped_duplicates: duplicates,
         labels,
         provenance,
         runs: exported,
@@ -242,7 +415,10 @@ mod tests {
         let rounded = label_row(
             "image_1.tiff",
             &record(Some([1.26, -3.54]), -4.04),
-            &ExportOptions { round: Some(0.1) },
+            &ExportOptions {
+                round: Some(0.1),
+                ..ExportOptions::default()
+            },
         )
         .expect("row");
         assert_eq!(

@@ -153,93 +153,23 @@ impl RunWriter {
         Ok(writer)
     }
 
-    /// Reopens an unfinished run after a crash: cuts torn ends, returns what is there.
+    /// Reopens an unfinished run after a crash: cuts torn ends and the records of the point that
+    /// did not finish, returns what is there.
     pub fn reopen(dir: &Path) -> Result<(RunWriter, Existing), StoreError> {
-        let stop = dir.join(STOP);
-        if stop.exists() {
-            return Err(StoreError::Content {
-                path: stop,
-                message: "the run has ended; start a new run instead of resuming".into(),
-            });
-        }
-        let start: StartDocument = read_document(&dir.join(START))?;
-        let mut cut = 0u64;
-        let frames_path = dir.join(FRAMES);
-        let (mut frames, torn) = read_lines::<FrameRecord>(&frames_path)?;
-        if let Some(t) = torn {
-            cut += t.len() as u64;
-            truncate_by(&frames_path, t.len() as u64)?;
-        }
-        let checkpoint_path = dir.join(CHECKPOINT);
-        let checkpoint: Option<Checkpoint> = if checkpoint_path.is_file() {
-            Some(read_document(&checkpoint_path)?)
-        } else {
-            None
-        };
-        // Without a checkpoint (a run written by something other than the scan engine) every
-        // complete record is kept.
-        let keep = checkpoint
-            .as_ref()
-            .map_or(frames.len(), |c| c.next_index as usize);
-        let discarded_frames = frames.len().saturating_sub(keep) as u64;
-        if frames.len() > keep {
-            frames.truncate(keep);
-            let bytes = checkpoint.as_ref().map_or(0, |c| c.frames_bytes);
-            set_length(&frames_path, bytes)?;
-        }
-        let events_path = dir.join(EVENTS);
-        let (events, torn) = read_lines::<Event>(&events_path)?;
-        if let Some(t) = torn {
-            cut += t.len() as u64;
-            truncate_by(&events_path, t.len() as u64)?;
-        }
-        let force_path = dir.join(FORCE);
-        let bytes = std::fs::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
-        let (samples, torn) = force_log::decode_all(&bytes).map_err(|e| StoreError::Content {
-            path: force_path.clone(),
-            message: e.to_string(),
-        })?;
-        if torn > 0 {
-            cut += torn as u64;
-            truncate_by(&force_path, torn as u64)?;
-        }
-        for (k, f) in frames.iter().enumerate() {
-            if f.index != k as u64 {
-                return Err(StoreError::Content {
-                    path: frames_path,
-                    message: format!(
-                        "record {} has index {} (records must count up from 0); run `fringe verify`",
-                        k + 1,
-                        f.index
-                    ),
-                });
-            }
-        }
-        let force_file = open_append(&force_path)?;
-        let writer = RunWriter {
-            frames: open_append(&frames_path)?,
-            events: open_append(&events_path)?,
-            force: BufWriter::with_capacity(1 << 20, force_file),
-            dir: dir.to_path_buf(),
-            next_index: frames.len() as u64,
-            force_samples: samples.len() as u64,
-            last_checkpoint: checkpoint.clone(),
-        };
-        writer.remove_images_from(writer.next_index)?;
-        Ok((
-            writer,
-            Existing {
-                start,
-                frames,
-                events,
-                force_samples: samples.len() as u64,
-                cut_bytes: cut,
-                checkpoint,
-                discarded_frames,
-            },
-        ))
+        RunWriter::reopen_if(dir, |_| Ok(()))
     }
 
+    /// As [`RunWriter::reopen`], but `accept` sees what the run holds first and may refuse it
+    /// (a different plan, say). Everything is read and checked before anything is changed: a
+    /// run that is refused, by `accept` or because it is damaged, is left exactly as it was.
+    pub fn reopen_if<E: From<StoreError>>(
+        dir: &Path,
+        accept: impl FnOnce(&Existing) -> Result<(), E>,
+    ) -> Result<(RunWriter, Existing), E> {
+        let survey = survey(dir)?;
+        accept(&survey.existing)?;
+        Ok(survey.apply(dir)?)
+    }
     /// The run directory.
     pub fn dir(&self) -> &Path {
         &self.dir
@@ -416,6 +346,183 @@ impl RunWriter {
         write_atomic(&path, text.as_bytes())?;
         manifest::write(&self.dir)?;
         Ok(self.dir)
+    }
+}
+
+/// The frame records of a run, with the byte offset at which each complete line ends.
+pub(crate) struct FrameLines {
+    pub records: Vec<FrameRecord>,
+    /// `ends[k]`: length of the file up to and including the newline of record `k`.
+    pub ends: Vec<u64>,
+    /// A torn last line (no newline), not parsed.
+    pub torn: Option<String>,
+}
+
+/// Reads `frames.jsonl` (a missing file holds no records).
+pub(crate) fn read_frame_lines(path: &Path) -> Result<FrameLines, StoreError> {
+    let (records, torn) = read_lines::<FrameRecord>(path)?;
+    let text = match std::fs::read(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => return Err(StoreError::io(path, e)),
+    };
+    let ends: Vec<u64> = text
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == b'\n')
+        .map(|(i, _)| i as u64 + 1)
+        .collect();
+    if ends.len() != records.len() {
+        return Err(StoreError::Content {
+            path: path.to_path_buf(),
+            message: format!(
+                "{} lines but {} records (the file changed while it was read)",
+                ends.len(),
+                records.len()
+            ),
+        });
+    }
+    Ok(FrameLines {
+        records,
+        ends,
+        torn,
+    })
+}
+
+/// Checks the frame records against the last checkpoint: every record the checkpoint counts must
+/// be there, byte for byte as far as the checkpoint went. Returns the length of `frames.jsonl`
+/// at the checkpoint (where the records of the unfinished point begin); the message says what is
+/// wrong otherwise.
+pub(crate) fn check_checkpoint(lines: &FrameLines, c: &Checkpoint) -> Result<u64, String> {
+    let held = lines.records.len() as u64;
+    if held < c.next_index {
+        return Err(format!(
+            "{FRAMES} holds {held} records but {CHECKPOINT} counts {} before point {}: \
+             the records of finished points are missing (the file was cut or damaged); \
+             restore {FRAMES} from a backup, the run cannot be resumed without losing them",
+            c.next_index, c.next_point
+        ));
+    }
+    let bytes = match c.next_index {
+        0 => 0,
+        n => lines.ends[n as usize - 1],
+    };
+    if bytes != c.frames_bytes {
+        return Err(format!(
+            "the first {} records of {FRAMES} end at byte {bytes}, {CHECKPOINT} says {}: \
+             records before the checkpoint were changed; restore {FRAMES} from a backup",
+            c.next_index, c.frames_bytes
+        ));
+    }
+    Ok(bytes)
+}
+
+/// What reopening a run finds and will change, worked out without changing anything.
+struct Survey {
+    existing: Existing,
+    /// Length `frames.jsonl` is cut to, when it is cut.
+    frames_length: Option<u64>,
+    events_torn: u64,
+    force_torn: u64,
+}
+
+fn survey(dir: &Path) -> Result<Survey, StoreError> {
+    let stop = dir.join(STOP);
+    if stop.exists() {
+        return Err(StoreError::Content {
+            path: stop,
+            message: "the run has ended; start a new run instead of resuming".into(),
+        });
+    }
+    let start: StartDocument = read_document(&dir.join(START))?;
+    let frames_path = dir.join(FRAMES);
+    let lines = read_frame_lines(&frames_path)?;
+    let checkpoint_path = dir.join(CHECKPOINT);
+    let checkpoint: Option<Checkpoint> = if checkpoint_path.is_file() {
+        Some(read_document(&checkpoint_path)?)
+    } else {
+        None
+    };
+    // Without a checkpoint (a run written by something other than the scan engine) every
+    // complete record is kept.
+    let (keep, keep_bytes) = match &checkpoint {
+        Some(c) => {
+            let bytes = check_checkpoint(&lines, c).map_err(|message| StoreError::Content {
+                path: frames_path.clone(),
+                message,
+            })?;
+            (c.next_index as usize, bytes)
+        }
+        None => (lines.records.len(), lines.ends.last().copied().unwrap_or(0)),
+    };
+    let frames_torn = lines.torn.as_ref().map_or(0, |t| t.len() as u64);
+    let discarded_frames = (lines.records.len() - keep) as u64;
+    let mut frames = lines.records;
+    frames.truncate(keep);
+    for (k, f) in frames.iter().enumerate() {
+        if f.index != k as u64 {
+            return Err(StoreError::Content {
+                path: frames_path,
+                message: format!(
+                    "record {} has index {} (records must count up from 0); run `fringe verify`",
+                    k + 1,
+                    f.index
+                ),
+            });
+        }
+    }
+    let (events, torn) = read_lines::<Event>(&dir.join(EVENTS))?;
+    let events_torn = torn.map_or(0, |t| t.len() as u64);
+    let force_path = dir.join(FORCE);
+    let bytes = std::fs::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
+    let (samples, force_torn) = force_log::decode_all(&bytes).map_err(|e| StoreError::Content {
+        path: force_path.clone(),
+        message: e.to_string(),
+    })?;
+    let frames_length = (frames_torn > 0 || discarded_frames > 0).then_some(keep_bytes);
+    Ok(Survey {
+        existing: Existing {
+            start,
+            frames,
+            events,
+            force_samples: samples.len() as u64,
+            cut_bytes: frames_torn + events_torn + force_torn as u64,
+            checkpoint,
+            discarded_frames,
+        },
+        frames_length,
+        events_torn,
+        force_torn: force_torn as u64,
+    })
+}
+
+impl Survey {
+    /// Cuts what the survey found to cut and opens the run for appending.
+    fn apply(self, dir: &Path) -> Result<(RunWriter, Existing), StoreError> {
+        let frames_path = dir.join(FRAMES);
+        if let Some(length) = self.frames_length {
+            set_length(&frames_path, length)?;
+        }
+        let events_path = dir.join(EVENTS);
+        if self.events_torn > 0 {
+            truncate_by(&events_path, self.events_torn)?;
+        }
+        let force_path = dir.join(FORCE);
+        if self.force_torn > 0 {
+            truncate_by(&force_path, self.force_torn)?;
+        }
+        let existing = self.existing;
+        let writer = RunWriter {
+            frames: open_append(&frames_path)?,
+            events: open_append(&events_path)?,
+            force: BufWriter::with_capacity(1 << 20, open_append(&force_path)?),
+            dir: dir.to_path_buf(),
+            next_index: existing.frames.len() as u64,
+            force_samples: existing.force_samples,
+            last_checkpoint: existing.checkpoint.clone(),
+        };
+        writer.remove_images_from(writer.next_index)?;
+        Ok((writer, existing))
     }
 }
 

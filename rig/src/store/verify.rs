@@ -1,10 +1,12 @@
-//! Checking a run directory: documents parse, records are consecutive and point at existing
-//! frames, the force log is whole, counts agree with the stop document and every file matches the
+//! Checking a run directory: documents parse, records are consecutive, hold everything the last
+//! checkpoint counts and point at existing frames inside the run, the force log is whole, counts agree with the stop document and every file matches the
 //! manifest.
 
 use super::documents::{FrameRecord, StartDocument, StopDocument};
-use super::run_writer::{read_document, read_lines};
-use super::{force_log, manifest, StoreError, FORCE, FRAMES, MANIFEST, START, STOP};
+use super::run_writer::{
+    check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
+};
+use super::{force_log, manifest, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, START, STOP};
 use std::path::Path;
 
 /// What `fringe verify` found.
@@ -30,15 +32,16 @@ impl VerifyReport {
 pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     let start: StartDocument = read_document(&dir.join(START))?;
     let mut problems = Vec::new();
-    let frames: Vec<FrameRecord> = match read_lines(&dir.join(FRAMES)) {
-        Ok((frames, torn)) => {
-            if let Some(t) = torn {
+    let frames: Vec<FrameRecord> = match read_frame_lines(&dir.join(FRAMES)) {
+        Ok(lines) => {
+            if let Some(t) = &lines.torn {
                 problems.push(format!(
                     "{FRAMES}: torn last line ({} bytes, a crash mid-write)",
                     t.len()
                 ));
             }
-            frames
+            check_against_checkpoint(dir, &lines, &mut problems);
+            lines.records
         }
         Err(e) => {
             problems.push(e.to_string());
@@ -53,11 +56,13 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
                 f.index
             ));
         }
-        if !dir.join(&f.file).is_file() {
-            problems.push(format!(
+        match f.file_in(dir) {
+            Ok(path) if path.is_file() => {}
+            Ok(_) => problems.push(format!(
                 "{}: frame of record {} is missing",
                 f.file, f.index
-            ));
+            )),
+            Err(e) => problems.push(e.to_string()),
         }
     }
     let force_path = dir.join(FORCE);
@@ -120,4 +125,21 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
         ended,
         problems,
     })
+}
+
+/// Every record the last checkpoint counts must still be there (a file cut or damaged in the
+/// middle loses records of finished points, which a resume would never redo).
+fn check_against_checkpoint(dir: &Path, lines: &FrameLines, problems: &mut Vec<String>) {
+    let path = dir.join(CHECKPOINT);
+    if !path.is_file() {
+        return;
+    }
+    match read_document::<Checkpoint>(&path) {
+        Ok(c) => {
+            if let Err(message) = check_checkpoint(lines, &c) {
+                problems.push(format!("{FRAMES}: {message}"));
+            }
+        }
+        Err(e) => problems.push(e.to_string()),
+    }
 }

@@ -5,6 +5,7 @@ use anyhow::Context;
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
 use fringe_rig::store::verify::verify;
+use std::io::IsTerminal;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -21,6 +22,12 @@ pub struct VerifyArgs {
 }
 
 pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
+    if !args.root.is_dir() {
+        anyhow::bail!(
+            "{}: no such directory (give the directory that holds the runs with --root DIR; scans write to ./runs unless told otherwise)",
+            args.root.display()
+        );
+    }
     let (runs, unreadable) =
         list(&args.root).with_context(|| format!("cannot list runs in {}", args.root.display()))?;
     if runs.is_empty() && unreadable.is_empty() {
@@ -29,10 +36,10 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
     }
     println!(
         "{:<32} {:<24} {:<16} {:>7}  status",
-        "run", "started (UTC)", "sensor", "frames"
+        "run (directory)", "started (UTC)", "sensor", "frames"
     );
     for r in &runs {
-        let status = match &r.stop {
+        let mut status = match &r.stop {
             None => "unfinished (resumable)".to_string(),
             Some(s) => match s.exit_status {
                 ExitStatus::Completed => "completed".to_string(),
@@ -40,9 +47,17 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
                 ExitStatus::Failed => format!("failed: {}", s.reason),
             },
         };
+        // The directory is what the other commands take; a copied run keeps its run id.
+        let name = r.dir.file_name().map_or_else(
+            || r.dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        if name != r.start.run_id {
+            status.push_str(&format!(" (run id {})", r.start.run_id));
+        }
         println!(
             "{:<32} {:<24} {:<16} {:>7}  {status}",
-            r.start.run_id, r.start.started_utc, r.start.sensor_id, r.frames
+            name, r.start.started_utc, r.start.sensor_id, r.frames
         );
     }
     for u in &unreadable {
@@ -95,6 +110,9 @@ pub struct ExportArgs {
     /// Round forces, torques and positions to this step (the reference trained on 0.1).
     #[arg(long, value_name = "STEP")]
     round: Option<f64>,
+    /// Export runs that fail `fringe verify` too (their problems go into 0.export.json).
+    #[arg(long)]
+    allow_unverified: bool,
 }
 
 pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
@@ -103,27 +121,43 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
             anyhow::bail!("--round {step}: give a positive step such as 0.1");
         }
     }
-    for run in &args.runs {
-        let report =
-            verify(run).with_context(|| format!("{} is not a readable run", run.display()))?;
-        if !report.ok() {
-            eprintln!(
-                "warning: {} has {} problem(s) (see `fringe verify {}`); exporting what is there",
-                run.display(),
-                report.problems.len(),
-                run.display()
-            );
-        }
-    }
     let ExportFormat::Reference = args.format;
-    let options = fringe_rig::store::export::ExportOptions { round: args.round };
+    let options = fringe_rig::store::export::ExportOptions {
+        round: args.round,
+        allow_unverified: args.allow_unverified,
+    };
+    // On a terminal the count is rewritten in place; otherwise one line per report.
+    let terminal = std::io::stderr().is_terminal();
+    let mut in_place = false;
     let summary =
         fringe_rig::store::export::export_reference(&args.runs, &args.out, &options, |k| {
             if k % 250 == 0 {
-                eprint!("\r{k} images");
+                if terminal {
+                    eprint!("\r{k} images");
+                    in_place = true;
+                } else {
+                    eprintln!("{k} images");
+                }
             }
-        })?;
-    eprintln!();
+        });
+    if in_place {
+        eprintln!();
+    }
+    let summary = summary?;
+    for r in summary.runs.iter().filter(|r| !r.problems.is_empty()) {
+        eprintln!(
+            "warning: {} fails verify ({} problem(s), exported as --allow-unverified asked; see `fringe verify {}`)",
+            r.dir,
+            r.problems.len(),
+            r.dir
+        );
+    }
+    if summary.skipped_duplicates > 0 {
+        eprintln!(
+            "warning: {} duplicated records left out (each record is exported once)",
+            summary.skipped_duplicates
+        );
+    }
     println!(
         "exported {} images ({} without contact) to {}; {} invalid frames left out",
         summary.images,

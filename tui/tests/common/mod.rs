@@ -1,7 +1,8 @@
 //! Helpers shared by the command-line tests (one set for every test file of this crate).
 #![allow(dead_code)] // each test binary uses its own subset
 
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The `fringe` binary as a command to add arguments to.
@@ -34,4 +35,154 @@ pub fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch dir");
     dir
+}
+
+/// A run written through the run store, as the scan engine writes one: a checkpoint before each
+/// point, then 3 frame records per point. Frame `3p`: a force label without contact; `3p + 1`:
+/// contact at (1.5, -2.0) mm with the rectangle, Fz = -2.5 N; `3p + 2`: no force label (left out
+/// of an export). Unfinished runs stop after the records of the last point, which the last
+/// checkpoint does not count (the point a crash interrupted).
+pub struct TestRun<'a> {
+    pub id: &'a str,
+    pub points: u64,
+    pub finish: bool,
+    /// The plan stored in start.json (what `fringe scan --resume` compares).
+    pub plan: &'a str,
+    pub sync: &'a str,
+}
+
+impl<'a> TestRun<'a> {
+    /// A finished run of one point.
+    pub fn finished(id: &'a str) -> TestRun<'a> {
+        TestRun {
+            id,
+            points: 1,
+            finish: true,
+            plan: "",
+            sync: "host",
+        }
+    }
+
+    /// Writes the run under `root`; returns its directory.
+    pub fn write(&self, root: &Path) -> PathBuf {
+        use fringe_rig::camera::{Frame, PixelFormat};
+        use fringe_rig::clock::HostTime;
+        use fringe_rig::store::documents::{
+            now_utc, ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
+        };
+        use fringe_rig::store::run_writer::RunWriter;
+        use fringe_rig::units::{Millimetres, Newtons, Wrench};
+        let start = StartDocument {
+            layout_version: 1,
+            run_id: self.id.into(),
+            started_utc: now_utc(),
+            software: "test".into(),
+            sensor_id: "integrated-02".into(),
+            plan: self.plan.into(),
+            rig: String::new(),
+            calibration_profile: None,
+            seed: None,
+            sync_method: self.sync.into(),
+        };
+        let mut w = RunWriter::create(root, &start).expect("create");
+        for point in 0..self.points {
+            w.checkpoint_at(point).expect("checkpoint");
+            for _ in 0..3 {
+                let id = w.next_index();
+                let frame = Frame {
+                    id,
+                    device_timestamp: id,
+                    host_arrival: HostTime(id),
+                    width: 4,
+                    height: 2,
+                    format: PixelFormat::Mono8,
+                    data: vec![id as u8; 8],
+                };
+                let file = w.save_frame_image(&frame, id).expect("save");
+                let p = Position {
+                    x: Millimetres(0.0),
+                    y: Millimetres(0.0),
+                    z: Millimetres(0.0),
+                };
+                let kind = id % 3;
+                w.append_frame(&FrameRecord {
+                    index: id,
+                    frame_id: id,
+                    file,
+                    device_timestamp: id,
+                    host_arrival_ns: id,
+                    exposure: None,
+                    exposure_ticks: None,
+                    point,
+                    commanded: p,
+                    measured: p,
+                    wrench: (kind < 2).then(|| Wrench {
+                        fz: Newtons(-(kind as f64) * 2.5),
+                        ..Wrench::default()
+                    }),
+                    shape: if kind == 1 { "rectangle" } else { "None" }.into(),
+                    contact: (kind == 1).then_some([1.5, -2.0]),
+                    valid: true,
+                    notes: vec![],
+                })
+                .expect("record");
+            }
+        }
+        let dir = w.dir().to_path_buf();
+        if self.finish {
+            w.finish(&StopDocument {
+                exit_status: ExitStatus::Completed,
+                reason: "done".into(),
+                stopped_utc: now_utc(),
+                frames: 3 * self.points,
+                dropped_frames: 0,
+                force_samples: 0,
+                lost_force_samples: 0,
+                points_done: self.points,
+                sync_method: Some(self.sync.into()),
+                sync_error_ns: None,
+            })
+            .expect("finish");
+        } else {
+            w.checkpoint().expect("checkpoint");
+        }
+        dir
+    }
+}
+
+/// Every file under `dir` (relative path, content), to show that a command changed nothing.
+pub fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(here) = stack.pop() {
+        for entry in std::fs::read_dir(&here).expect("read dir") {
+            let path = entry.expect("entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(dir)
+                    .expect("inside")
+                    .display()
+                    .to_string();
+                out.insert(rel, std::fs::read(&path).expect("read"));
+            }
+        }
+    }
+    out
+}
+
+/// Replaces line `k` (from 0) of `path` with what `edit` makes of it; `None` removes the line.
+pub fn edit_line(path: &Path, k: usize, edit: impl FnOnce(&str) -> Option<String>) {
+    let text = std::fs::read_to_string(path).expect("read");
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    match edit(&lines[k]) {
+        Some(line) => lines[k] = line,
+        None => {
+            lines.remove(k);
+        }
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    std::fs::write(path, out).expect("write");
 }
