@@ -26,8 +26,13 @@ pub(crate) const ZIP_MAGIC: [&[u8]; 2] = [b"PK\x03\x04", b"PK\x05\x06"];
 const LEGACY_MAGIC: [u8; 10] = [0x6c, 0xfc, 0x9c, 0x46, 0xf9, 0x20, 0x6a, 0xa8, 0x50, 0x19];
 const LEGACY_PROTOCOL: i64 = 1001;
 
-/// Views may repeat elements (stride 0) beyond their storage's size up to this many elements.
-const MAX_BROADCAST_ELEMENTS: u64 = 1 << 26;
+/// Values all views together may hold beyond twice the elements of the storages they read
+/// (views repeat elements when tensors share a storage or have a stride of 0): a small file
+/// cannot make the reader allocate without bound.
+const MAX_REPEATED_ELEMENTS: u64 = 1 << 26;
+
+/// Largest `data.pkl` read (a ResNet-18 state dict's is about 30 kB).
+const MAX_PICKLE_BYTES: u64 = 256 << 20;
 
 /// Largest ratio of uncompressed to compressed size deflate can reach.
 const MAX_DEFLATE_RATIO: u64 = 1032;
@@ -89,11 +94,42 @@ fn build_state_dict(
 ) -> Result<StateDict, ModelFileErrorKind> {
     let specs = torch_pickle::state_dict_tensors(root)?;
     let mut state = StateDict::new();
+    let mut budget = ElementBudget::default();
     for (key, spec) in specs {
-        let tensor = materialize(&key, &spec, storages)?;
+        let tensor = materialize(&key, &spec, storages, &mut budget)?;
         state.insert(&key, tensor);
     }
     Ok(state)
+}
+
+/// Elements materialized so far against those the file's storages really hold.
+#[derive(Default)]
+struct ElementBudget {
+    storages_seen: std::collections::HashSet<String>,
+    stored: u64,
+    materialized: u64,
+}
+
+impl ElementBudget {
+    /// Accounts for a view of `numel` elements of storage `key` of `storage_numel` elements
+    /// (whose bytes were checked to be in the file).
+    fn spend(&mut self, key: &str, storage_numel: u64, numel: u64) -> Result<(), String> {
+        if self.storages_seen.insert(key.to_string()) {
+            self.stored = self.stored.saturating_add(storage_numel);
+        }
+        self.materialized = self.materialized.saturating_add(numel);
+        let allowed = self
+            .stored
+            .saturating_mul(2)
+            .saturating_add(MAX_REPEATED_ELEMENTS);
+        if self.materialized > allowed {
+            return Err(format!(
+                "views repeat more values ({}) than the file's storages hold ({})",
+                self.materialized, self.stored
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The values of the view `spec` of its storage, row-major.
@@ -101,6 +137,7 @@ fn materialize(
     key: &str,
     spec: &TensorSpec,
     storages: &mut dyn Storages,
+    budget: &mut ElementBudget,
 ) -> Result<Tensor, ModelFileErrorKind> {
     let storage = &spec.storage;
     let stored = match &storage.storage_type {
@@ -143,18 +180,15 @@ fn materialize(
             spec.offset, spec.size, spec.stride, storage.key, storage.numel
         )));
     }
-    if numel > storage.numel && numel > MAX_BROADCAST_ELEMENTS {
-        return Err(malformed(format!(
-            "view of {numel} elements over a storage of {}",
-            storage.numel
-        )));
-    }
     let needed = storage
         .numel
         .checked_mul(elem)
         .ok_or_else(|| malformed(format!("storage '{}' size overflows", storage.key)))?;
     let big_endian = storages.big_endian();
     let bytes = storages.bytes(&storage.key, needed)?;
+    budget
+        .spend(&storage.key, storage.numel, numel)
+        .map_err(malformed)?;
     // Bytes of the storage are now known to cover elements 0..=last.
     let offset = spec.offset as usize;
     let contiguous = is_contiguous(&spec.size, &spec.stride);
@@ -245,7 +279,12 @@ fn read_zip(path: &Path) -> Result<StateDict, ModelFileErrorKind> {
         )));
     };
     let prefix = pkl.strip_suffix("data.pkl").unwrap_or("").to_string();
-    let pickle_bytes = read_entry(&mut archive, pkl, None)?;
+    let pickle_bytes = read_entry(&mut archive, pkl, Some(MAX_PICKLE_BYTES + 1))?;
+    if pickle_bytes.len() as u64 > MAX_PICKLE_BYTES {
+        return Err(ModelFileErrorKind::Unsupported(format!(
+            "{pkl} is larger than {MAX_PICKLE_BYTES} bytes"
+        )));
+    }
     let root =
         pickle::parse(&pickle_bytes).map_err(|e| ModelFileErrorKind::pickle("data.pkl", e))?;
     let byteorder_name = format!("{prefix}byteorder");
@@ -507,6 +546,68 @@ impl Storages for LegacyStorages<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::torch_pickle::StorageRef;
+
+    struct OneStorage(Vec<u8>);
+
+    impl Storages for OneStorage {
+        fn bytes(&mut self, _key: &str, needed: u64) -> Result<&[u8], ModelFileErrorKind> {
+            self.0
+                .get(..needed as usize)
+                .ok_or_else(|| ModelFileErrorKind::Truncated("short".into()))
+        }
+        fn big_endian(&self) -> bool {
+            false
+        }
+    }
+
+    fn view(size: Vec<u64>, stride: Vec<u64>, offset: u64) -> TensorSpec {
+        TensorSpec {
+            storage: StorageRef {
+                key: "0".into(),
+                storage_type: StorageType::Supported(StoredType::F32),
+                numel: 4,
+            },
+            offset,
+            size,
+            stride,
+        }
+    }
+
+    #[test]
+    fn views_are_checked_against_their_storage_and_the_element_budget() {
+        let bytes: Vec<u8> = [1.0f32, 2.0, 3.0, 4.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let mut storage = OneStorage(bytes);
+        let mut budget = ElementBudget::default();
+        let t = materialize(
+            "t",
+            &view(vec![2, 2], vec![1, 2], 0),
+            &mut storage,
+            &mut budget,
+        )
+        .expect("transpose");
+        assert_eq!(t.data, vec![1.0, 3.0, 2.0, 4.0]);
+        let e = materialize(
+            "t",
+            &view(vec![2, 2], vec![2, 1], 1),
+            &mut storage,
+            &mut budget,
+        )
+        .expect_err("past the end");
+        assert!(e.to_string().contains("reaches element 4"), "{e}");
+        // A broadcast of one element to 2^27 values from a 16-byte storage.
+        let e = materialize(
+            "b",
+            &view(vec![1 << 27], vec![0], 0),
+            &mut storage,
+            &mut budget,
+        )
+        .expect_err("budget");
+        assert!(e.to_string().contains("views repeat more values"), "{e}");
+    }
 
     #[test]
     fn strided_views_read_in_row_major_order() {
