@@ -1,0 +1,166 @@
+//! Test helpers for model files: where the fixtures are, their inputs and the outputs PyTorch
+//! computed on them (`tests/python/model_fixtures.py` writes both).
+#![allow(dead_code)]
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The environment variable naming a Python with torch (tests/python/requirements-models.txt).
+pub const TORCH_PYTHON_VAR: &str = "FRINGE_TORCH_PYTHON";
+
+/// The committed fixtures of the custom CNN (IsoNet).
+pub fn fixture_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/custom")
+}
+
+/// The fixture script.
+pub fn fixture_script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/model_fixtures.py")
+}
+
+/// Inputs written by the fixture script: their shape (from `expected.json` beside them) and
+/// values (raw little-endian f32).
+pub fn read_inputs(path: &Path) -> (Vec<usize>, Vec<f32>) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(
+        bytes.len() % 4,
+        0,
+        "{}: not whole f32 values",
+        path.display()
+    );
+    let data: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let shape = Expected::read(dir).inputs.shape;
+    assert_eq!(
+        shape.iter().product::<usize>(),
+        data.len(),
+        "{}: {} values for shape {shape:?}",
+        path.display(),
+        data.len()
+    );
+    (shape, data)
+}
+
+/// The outputs of the network for each image, as PyTorch computed them in eval mode.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Outputs {
+    /// Per image: [Fx Fy Fz Mx My Mz Ft].
+    pub force: Vec<Vec<f32>>,
+    /// Per image: logits of [None, pentagon, rectangle].
+    pub shape_logits: Vec<Vec<f32>>,
+    /// Per image: contact [x, y].
+    pub contact: Vec<Vec<f32>>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+pub struct InputsInfo {
+    pub file: String,
+    pub shape: Vec<usize>,
+    pub seed: u64,
+}
+
+/// Values of a tensor in row-major order.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Values {
+    pub shape: Vec<usize>,
+    pub data: Vec<f32>,
+}
+
+/// `expected.json` of a fixture directory.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Expected {
+    /// "custom" or "resnet18".
+    pub arch: String,
+    pub seed: u64,
+    /// The torch version that wrote the fixtures.
+    pub torch: String,
+    pub inputs: InputsInfo,
+    /// By weights file name (state_dict.pth, model.onnx, ...).
+    pub outputs: BTreeMap<String, Outputs>,
+    /// The tensors of views.pth.
+    pub views: BTreeMap<String, Values>,
+}
+
+impl Expected {
+    pub fn read(dir: &Path) -> Expected {
+        let path = dir.join("expected.json");
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    }
+
+    /// The outputs of the weights in `file` (e.g. "state_dict_f16.pth").
+    pub fn outputs_for(&self, file: &str) -> &Outputs {
+        self.outputs
+            .get(file)
+            .unwrap_or_else(|| panic!("expected.json has no outputs for {file}"))
+    }
+
+    /// The path of the inputs in `dir`.
+    pub fn inputs_path(&self, dir: &Path) -> PathBuf {
+        dir.join(&self.inputs.file)
+    }
+}
+
+/// The ResNet-18 fixtures, written once per test process by the fixture script (with the
+/// Python named by `FRINGE_TORCH_PYTHON`) into a directory under the target's tmp dir.
+pub fn resnet_fixtures() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let python = std::env::var_os(TORCH_PYTHON_VAR).unwrap_or_else(|| {
+            panic!(
+                "{TORCH_PYTHON_VAR} is not set: set it to a Python with the packages of \
+                 sensor-models/tests/python/requirements-models.txt (torch, torchvision, onnx, \
+                 onnxruntime, safetensors, numpy) to write the ResNet-18 fixtures"
+            )
+        });
+        let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+        remove_stale_fixture_dirs(&base);
+        let dir = base.join(format!("resnet18-fixtures-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Command::new(&python)
+            .arg(fixture_script())
+            .args(["--arch", "resnet18", "--out"])
+            .arg(&dir)
+            .output()
+            .unwrap_or_else(|e| {
+                panic!(
+                    "{TORCH_PYTHON_VAR}={}: cannot run: {e}",
+                    Path::new(&python).display()
+                )
+            });
+        assert!(
+            out.status.success(),
+            "model_fixtures.py --arch resnet18 failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        dir
+    })
+    .clone()
+}
+
+/// Removes fixture directories left by test processes that are gone (Linux: by /proc).
+fn remove_stale_fixture_dirs(base: &Path) {
+    let proc = Path::new("/proc");
+    if !proc.is_dir() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(base) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if let Some(pid) = name.strip_prefix("resnet18-fixtures-") {
+            if !proc.join(pid).exists() {
+                let _ = std::fs::remove_dir_all(entry.path());
+            }
+        }
+    }
+}
