@@ -1,24 +1,50 @@
 //! `fringe-sensor-models`: the models of the photoelastic sensor.
 //!
+//! - [`preprocess`]: the one preprocessing, from a camera frame or image file to a network
+//!   input, driven by the sensor's calibration profile (or the reference pipeline's geometry).
+//! - [`arch`]: the paper's two networks (custom CNN, ResNet-18 multitask), recognised from the
+//!   weight keys.
+//! - [`model`]: a model file with its card, ready to run; [`model_card`]: the JSON sidecar.
+//! - [`onnx_graph`]: a network's ONNX graph built from its weights.
+//! - [`backend`]: inference backends behind one trait (tract by default); [`prediction`]: their
+//!   outputs in units.
+//! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
+//! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
+//!   markdown and plots.
 //! - [`tensor`], [`state_dict`]: weights by name as PyTorch's `state_dict()` holds them.
 //! - [`model_file`]: [`read_weights`] for any weights file users have, by content.
 //! - [`torch_file`]: `.pth` / `.pt` files written by `torch.save` (zip and legacy formats),
-//!   read without Python ([`pickle`] reads the pickle, [`torch_pickle`] says what it means).
+//!   read without Python ([`pickle`] reads the pickle, `torch_pickle` says what it means).
 //! - [`safetensors_file`]: `.safetensors` files, read and written.
 #![warn(unreachable_pub)]
 
+pub mod arch;
+pub mod backend;
+pub mod dataset;
 mod element;
+pub mod eval;
+pub mod metrics;
+pub mod model;
+pub mod model_card;
 pub mod model_file;
 pub mod model_file_error;
+pub mod onnx_graph;
 pub mod pickle;
+pub mod prediction;
+pub mod preprocess;
+pub mod report;
 pub mod safetensors_file;
 pub mod state_dict;
 pub mod tensor;
 pub mod torch_file;
 mod torch_pickle;
 
+pub use arch::{recognise, Architecture};
+pub use backend::{Backend, InferenceError, RawOutputs};
+pub use model::{Model, ModelError};
 pub use model_file::{detect_format, read_weights, WeightsFormat};
 pub use model_file_error::{ModelFileError, ModelFileErrorKind};
+pub use preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
 pub use safetensors_file::{read_safetensors, write_safetensors};
 pub use state_dict::StateDict;
 pub use tensor::{StoredType, Tensor};

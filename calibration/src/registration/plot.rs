@@ -43,7 +43,7 @@ pub fn line(img: &mut RgbImage, a: [f64; 2], b: [f64; 2], colour: [u8; 3]) {
 }
 
 /// A line `width` px thick (square pen).
-fn thick_line(img: &mut RgbImage, a: [f64; 2], b: [f64; 2], width: i64, colour: [u8; 3]) {
+pub fn thick_line(img: &mut RgbImage, a: [f64; 2], b: [f64; 2], width: i64, colour: [u8; 3]) {
     let h = (width - 1) / 2;
     for dx in -h..=width - 1 - h {
         for dy in -h..=width - 1 - h {
@@ -76,7 +76,7 @@ pub fn circle(img: &mut RgbImage, c: [f64; 2], r: f64, colour: [u8; 3]) {
 }
 
 /// A filled disc of radius `r` about `c`.
-fn dot(img: &mut RgbImage, c: [f64; 2], r: f64, colour: [u8; 3]) {
+pub fn dot(img: &mut RgbImage, c: [f64; 2], r: f64, colour: [u8; 3]) {
     let ri = r.ceil() as i64 + 1;
     let (cx, cy) = (c[0].floor() as i64, c[1].floor() as i64);
     for dy in -ri..=ri {
@@ -133,6 +133,11 @@ fn glyph(ch: char) -> [u8; 5] {
         ',' => [0, 0, 0, 2, 4],
         ':' => [0, 2, 0, 2, 0],
         '/' => [1, 1, 2, 4, 4],
+        'j' => [1, 0, 1, 5, 7],
+        'q' => [7, 5, 7, 1, 1],
+        'z' => [7, 1, 2, 4, 7],
+        '%' => [5, 1, 2, 4, 5],
+        '|' => [2, 2, 2, 2, 2],
         _ => [0; 5],
     }
 }
@@ -163,7 +168,7 @@ pub fn text(img: &mut RgbImage, x: i64, y: i64, scale: i64, s: &str, colour: [u8
 }
 
 /// Width of `s` in px at `scale`.
-fn text_width(s: &str, scale: i64) -> i64 {
+pub fn text_width(s: &str, scale: i64) -> i64 {
     (s.chars().count() as i64 * 4 - 1).max(0) * scale
 }
 

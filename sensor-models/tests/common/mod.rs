@@ -108,18 +108,34 @@ impl Expected {
     }
 }
 
+/// The Python with torch, torchvision, onnx and onnxruntime, named by `FRINGE_TORCH_PYTHON`
+/// (`scripts/test` installs it and sets the variable); the test fails without it.
+pub fn torch_python() -> PathBuf {
+    match std::env::var_os(TORCH_PYTHON_VAR) {
+        Some(p) => PathBuf::from(p),
+        None => panic!(
+            "{TORCH_PYTHON_VAR} is not set: set it to a Python with the packages of \
+             sensor-models/tests/python/requirements-models.txt (torch, torchvision, onnx, \
+             onnxruntime, safetensors, numpy); scripts/test does"
+        ),
+    }
+}
+
+/// A fresh scratch directory for one test.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("fringe-models-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch directory");
+    dir
+}
+
 /// The ResNet-18 fixtures, written once per test process by the fixture script (with the
 /// Python named by `FRINGE_TORCH_PYTHON`) into a directory under the target's tmp dir.
 pub fn resnet_fixtures() -> PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let python = std::env::var_os(TORCH_PYTHON_VAR).unwrap_or_else(|| {
-            panic!(
-                "{TORCH_PYTHON_VAR} is not set: set it to a Python with the packages of \
-                 sensor-models/tests/python/requirements-models.txt (torch, torchvision, onnx, \
-                 onnxruntime, safetensors, numpy) to write the ResNet-18 fixtures"
-            )
-        });
+        let python = torch_python();
         let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
         remove_stale_fixture_dirs(&base);
         let dir = base.join(format!("resnet18-fixtures-{}", std::process::id()));

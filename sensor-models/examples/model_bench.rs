@@ -1,0 +1,115 @@
+//! Inference and preprocessing timings on this machine, with PyTorch eager measured in the same
+//! run when `FRINGE_TORCH_PYTHON` names a Python with torch (sensor-models/tests/python/torch_bench.py).
+//!
+//!     cargo run --release -p fringe-sensor-models --example model_bench [-- ITERATIONS]
+//!
+//! Batch 1 at 224 x 224; the default backend (tract) on 2 threads; a 1920x1200 frame through the
+//! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
+//! depend on them.
+
+use fringe_rig::camera::PixelFormat;
+use fringe_sensor_models::arch::Architecture;
+use fringe_sensor_models::backend::tract::TractBackend;
+use fringe_sensor_models::backend::Backend;
+use fringe_sensor_models::onnx_graph;
+use fringe_sensor_models::preprocess::{Centre, Colour, FrameRef, Preprocessing, Preprocessor};
+use fringe_sensor_models::{StateDict, Tensor};
+use std::time::Instant;
+
+fn seeded(arch: Architecture) -> StateDict {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    StateDict::from_pairs(arch.layout(3).into_iter().map(|(k, shape)| {
+        let n: usize = shape.iter().product();
+        let fan_in = shape.iter().skip(1).product::<usize>().max(1) as f32;
+        let data = (0..n)
+            .map(|_| {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                let u = (s >> 11) as f32 / (1u64 << 53) as f32 - 0.5;
+                if k.ends_with("running_var") {
+                    1.0 + u.abs()
+                } else {
+                    u / fan_in.sqrt()
+                }
+            })
+            .collect();
+        (k, Tensor::new(shape, data).expect("tensor"))
+    }))
+}
+
+/// (median, mean) ms of `f` over `n` runs after 3 warm-ups.
+fn time(n: usize, mut f: impl FnMut()) -> (f64, f64) {
+    for _ in 0..3 {
+        f();
+    }
+    let mut t: Vec<f64> = (0..n)
+        .map(|_| {
+            let s = Instant::now();
+            f();
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    let mean = t.iter().sum::<f64>() / n as f64;
+    t.sort_by(f64::total_cmp);
+    (t[n / 2], mean)
+}
+
+fn main() {
+    let n: usize = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(50);
+    println!("{n} iterations per figure; median / mean in ms");
+    let (w, h) = (1920u32, 1200u32);
+    let rgb: Vec<u8> = (0..w * h * 3).map(|i| (i.wrapping_mul(2654435761) >> 24) as u8).collect();
+    let bayer: Vec<u8> = rgb.iter().step_by(3).copied().collect();
+    for (colour, label) in [(Colour::Grey, "grey"), (Colour::Rgb, "rgb")] {
+        let cfg = Preprocessing {
+            centre: Centre::At([990.0, 600.0]),
+            crop_radius_px: 461.0,
+            frame_size: Some((w, h)),
+            sensor: "bench".into(),
+            input_size: 224,
+            colour,
+            reference: false,
+        };
+        let mut pre = Preprocessor::new(cfg.clone());
+        let mut out = vec![0f32; cfg.tensor_len()];
+        for (format, data, fname) in [
+            (PixelFormat::Rgb8, &rgb, "RGB8"),
+            (PixelFormat::BayerRg8, &bayer, "BayerRG8"),
+        ] {
+            let frame = FrameRef { width: w, height: h, format, data };
+            let (med, mean) = time(n, || {
+                pre.run_into(frame, 0.0, &mut out).expect("preprocess");
+            });
+            println!("preprocess 1920x1200 {fname} -> 224 {label}: {med:.2} / {mean:.2}");
+        }
+    }
+    for arch in [Architecture::Custom, Architecture::Resnet18] {
+        let sd = seeded(arch);
+        let proto = onnx_graph::build(arch, 3, &sd);
+        for threads in [1, 2] {
+            let mut b = TractBackend::new(proto.clone(), 3, threads).expect("backend");
+            let input = vec![0.1f32; 3 * 224 * 224];
+            let iters = if arch == Architecture::Resnet18 { n.min(30) } else { n };
+            let (med, mean) = time(iters, || {
+                b.run(&input, 1, 224).expect("run");
+            });
+            println!("tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}", arch.name());
+        }
+    }
+    if let Some(py) = std::env::var_os("FRINGE_TORCH_PYTHON") {
+        let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/torch_bench.py");
+        let status = std::process::Command::new(py)
+            .arg(script)
+            .arg(n.to_string())
+            .status();
+        if !status.is_ok_and(|s| s.success()) {
+            eprintln!("torch_bench.py failed");
+        }
+    } else {
+        println!("(set FRINGE_TORCH_PYTHON to time PyTorch eager in the same run)");
+    }
+}

@@ -1,0 +1,273 @@
+//! The paper's two networks, as the reference code's state dicts lay them out, recognised from
+//! the weight keys.
+//!
+//! - Custom CNN ("IsoNet"): `cnn.{0..3}.block.0.{weight,bias}` (conv 3x3 pad 1, ReLU, max-pool
+//!   2; channels 3 -> 16 -> 32 -> 64 -> 128), adaptive average pool, heads `force_head`
+//!   (128 -> 7), `class_head` (128 -> classes), `point_head` (128 -> 2).
+//! - ResNet-18 multitask: torchvision's ResNet-18 without `fc`, wrapped as
+//!   `backbone = Sequential(conv1, bn1, relu, maxpool, layer1..layer4, avgpool)` (so
+//!   `backbone.0` is conv1, `backbone.4` layer1 ... `backbone.7` layer4), the same heads on 512
+//!   features.
+
+use crate::state_dict::StateDict;
+use std::fmt;
+
+/// A network architecture of the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Architecture {
+    /// The paper's custom CNN ("IsoNet").
+    Custom,
+    /// ResNet-18 with three heads.
+    Resnet18,
+}
+
+impl Architecture {
+    pub fn name(self) -> &'static str {
+        match self {
+            Architecture::Custom => "custom",
+            Architecture::Resnet18 => "resnet18",
+        }
+    }
+
+    /// Features the heads read.
+    pub fn features(self) -> usize {
+        match self {
+            Architecture::Custom => 128,
+            Architecture::Resnet18 => 512,
+        }
+    }
+
+    /// Every weight key with its shape, for `classes` shape classes.
+    pub fn layout(self, classes: usize) -> Vec<(String, Vec<usize>)> {
+        let mut keys = Vec::new();
+        match self {
+            Architecture::Custom => {
+                let ch = [3, 16, 32, 64, 128];
+                for i in 0..4 {
+                    keys.push((
+                        format!("cnn.{i}.block.0.weight"),
+                        vec![ch[i + 1], ch[i], 3, 3],
+                    ));
+                    keys.push((format!("cnn.{i}.block.0.bias"), vec![ch[i + 1]]));
+                }
+            }
+            Architecture::Resnet18 => {
+                keys.push(("backbone.0.weight".into(), vec![64, 3, 7, 7]));
+                batch_norm(&mut keys, "backbone.1", 64);
+                let widths = [64, 128, 256, 512];
+                for (layer, &width) in widths.iter().enumerate() {
+                    let input = if layer == 0 { 64 } else { widths[layer - 1] };
+                    for block in 0..2 {
+                        let p = format!("backbone.{}.{block}", layer + 4);
+                        let cin = if block == 0 { input } else { width };
+                        keys.push((format!("{p}.conv1.weight"), vec![width, cin, 3, 3]));
+                        batch_norm(&mut keys, &format!("{p}.bn1"), width);
+                        keys.push((format!("{p}.conv2.weight"), vec![width, width, 3, 3]));
+                        batch_norm(&mut keys, &format!("{p}.bn2"), width);
+                        if block == 0 && layer > 0 {
+                            keys.push((
+                                format!("{p}.downsample.0.weight"),
+                                vec![width, input, 1, 1],
+                            ));
+                            batch_norm(&mut keys, &format!("{p}.downsample.1"), width);
+                        }
+                    }
+                }
+            }
+        }
+        let f = self.features();
+        for (head, out) in [("force_head", 7), ("class_head", classes), ("point_head", 2)] {
+            keys.push((format!("{head}.weight"), vec![out, f]));
+            keys.push((format!("{head}.bias"), vec![out]));
+        }
+        keys
+    }
+}
+
+impl fmt::Display for Architecture {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Architecture::Custom => "custom CNN",
+            Architecture::Resnet18 => "ResNet-18 multitask",
+        })
+    }
+}
+
+fn batch_norm(keys: &mut Vec<(String, Vec<usize>)>, prefix: &str, n: usize) {
+    for name in ["weight", "bias", "running_mean", "running_var"] {
+        keys.push((format!("{prefix}.{name}"), vec![n]));
+    }
+    keys.push((format!("{prefix}.num_batches_tracked"), vec![]));
+}
+
+/// Why weights are not one of the paper's networks.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ArchError {
+    #[error(
+        "the weights are neither the custom CNN (cnn.N.block.0.*) nor the ResNet-18 multitask \
+         (backbone.*) with force_head, class_head and point_head; found {found}"
+    )]
+    Unknown { found: String },
+    #[error("{arch} weights: missing {missing}{extra}")]
+    Missing {
+        arch: Architecture,
+        missing: String,
+        extra: String,
+    },
+    #[error("{arch} weights: unexpected keys {extra}")]
+    Extra { arch: Architecture, extra: String },
+    #[error("{arch} weights: {key} has shape {got:?}, expected {want:?}")]
+    Shape {
+        arch: Architecture,
+        key: String,
+        got: Vec<usize>,
+        want: Vec<usize>,
+    },
+    #[error("class_head has {0} outputs: a model needs at least 2 shape classes (None and one shape)")]
+    Classes(usize),
+}
+
+/// Lists at most 6 names, then how many more.
+fn list<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let all: Vec<&str> = names.collect();
+    let shown = all.iter().take(6).copied().collect::<Vec<_>>().join(", ");
+    match all.len() {
+        0..=6 => shown,
+        n => format!("{shown} and {} more", n - 6),
+    }
+}
+
+/// Recognises the architecture and the number of shape classes from the keys, and checks every
+/// key and shape (missing and unexpected keys are named).
+pub fn recognise(sd: &StateDict) -> Result<(Architecture, usize), ArchError> {
+    let arch = if sd.contains("cnn.0.block.0.weight") {
+        Architecture::Custom
+    } else if sd.contains("backbone.0.weight") {
+        Architecture::Resnet18
+    } else {
+        let mut prefixes: Vec<&str> = sd.keys().map(|k| k.split('.').next().unwrap_or(k)).collect();
+        prefixes.dedup();
+        let found = if sd.is_empty() {
+            "no tensors".to_string()
+        } else {
+            format!("{} tensors under {}", sd.len(), list(prefixes.into_iter()))
+        };
+        return Err(ArchError::Unknown { found });
+    };
+    let classes = sd
+        .get("class_head.weight")
+        .and_then(|t| t.shape.first().copied())
+        .unwrap_or(0);
+    let layout = arch.layout(classes.max(2));
+    let missing: Vec<&str> = layout
+        .iter()
+        .map(|(k, _)| k.as_str())
+        .filter(|k| !sd.contains(k))
+        .collect();
+    let extra: Vec<&str> = sd
+        .keys()
+        .filter(|k| !layout.iter().any(|(l, _)| l == k))
+        .collect();
+    if !missing.is_empty() {
+        return Err(ArchError::Missing {
+            arch,
+            missing: list(missing.into_iter()),
+            extra: if extra.is_empty() {
+                String::new()
+            } else {
+                format!("; unexpected {}", list(extra.into_iter()))
+            },
+        });
+    }
+    if !extra.is_empty() {
+        return Err(ArchError::Extra {
+            arch,
+            extra: list(extra.into_iter()),
+        });
+    }
+    if classes < 2 {
+        return Err(ArchError::Classes(classes));
+    }
+    for (key, want) in &layout {
+        if let Some(t) = sd.get(key) {
+            // Scalars may be stored as [] or [1].
+            let ok = &t.shape == want || (want.is_empty() && t.len() == 1);
+            if !ok {
+                return Err(ArchError::Shape {
+                    arch,
+                    key: key.clone(),
+                    got: t.shape.clone(),
+                    want: want.clone(),
+                });
+            }
+        }
+    }
+    Ok((arch, classes))
+}
+
+/// Shape class names for `n` classes: "None" first, then the shapes in sorted order. Without a
+/// model card, three classes are the paper's (None, pentagon, rectangle).
+pub fn default_class_names(n: usize) -> Vec<String> {
+    if n == 3 {
+        return ["None", "pentagon", "rectangle"].map(String::from).to_vec();
+    }
+    std::iter::once("None".to_string())
+        .chain((1..n).map(|i| format!("shape {i}")))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tensor::Tensor;
+
+    pub(crate) fn zeros(arch: Architecture, classes: usize) -> StateDict {
+        StateDict::from_pairs(arch.layout(classes).into_iter().map(|(k, s)| {
+            let n = s.iter().product();
+            (k, Tensor::new(s, vec![0.0; n]).expect("tensor"))
+        }))
+    }
+
+    #[test]
+    fn parameter_counts_are_the_networks() {
+        // About 99k for the custom CNN (paper); torchvision's ResNet-18 has 11 176 512
+        // parameters without fc.
+        let c = zeros(Architecture::Custom, 3).parameter_count();
+        assert_eq!(c, 97_440 + 1_548);
+        let r = zeros(Architecture::Resnet18, 3).parameter_count();
+        assert_eq!(r, 11_176_512 + 512 * 12 + 12);
+    }
+
+    #[test]
+    fn architecture_and_classes_come_from_the_keys() {
+        assert_eq!(
+            recognise(&zeros(Architecture::Custom, 3)),
+            Ok((Architecture::Custom, 3))
+        );
+        assert_eq!(
+            recognise(&zeros(Architecture::Resnet18, 5)),
+            Ok((Architecture::Resnet18, 5))
+        );
+    }
+
+    #[test]
+    fn missing_extra_and_misshapen_keys_are_named() {
+        let mut sd = zeros(Architecture::Custom, 3);
+        let mut pairs: Vec<(String, Tensor)> = sd
+            .iter()
+            .filter(|(k, _)| *k != "point_head.bias")
+            .map(|(k, t)| (k.to_string(), t.clone()))
+            .collect();
+        pairs.push(("extra.weight".into(), Tensor::new(vec![1], vec![0.0]).expect("t")));
+        let e = recognise(&StateDict::from_pairs(pairs)).expect_err("missing");
+        let msg = e.to_string();
+        assert!(msg.contains("missing point_head.bias"), "{msg}");
+        assert!(msg.contains("unexpected extra.weight"), "{msg}");
+        sd.insert("force_head.weight", Tensor::new(vec![6, 128], vec![0.0; 768]).expect("t"));
+        let msg = recognise(&sd).expect_err("shape").to_string();
+        assert!(msg.contains("force_head.weight has shape [6, 128]"), "{msg}");
+        let msg = recognise(&StateDict::new()).expect_err("empty").to_string();
+        assert!(msg.contains("no tensors"), "{msg}");
+    }
+}

@@ -1,0 +1,79 @@
+//! Inference backends: one trait, the same outputs whatever runs the network.
+//!
+//! The default backend is [`tract`] (pure Rust ONNX: nothing to install).
+
+pub mod tract;
+
+/// What a network gives for a batch, as it gives it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RawOutputs {
+    /// [Fx Fy Fz Mx My Mz Ft] per image (magnitudes, as the reference trains them).
+    pub force: Vec<[f32; 7]>,
+    /// Shape class logits per image.
+    pub shape_logits: Vec<Vec<f32>>,
+    /// Contact x, y in mm per image.
+    pub contact: Vec<[f32; 2]>,
+}
+
+/// Why inference failed.
+#[derive(Debug, thiserror::Error)]
+pub enum InferenceError {
+    #[error("the {backend} backend could not load the model: {detail}")]
+    Load { backend: &'static str, detail: String },
+    #[error("the {backend} backend failed to run the model: {detail}")]
+    Run { backend: &'static str, detail: String },
+    #[error(
+        "the input holds {got} values but {batch} images of 3x{size}x{size} need {want}"
+    )]
+    InputSize {
+        got: usize,
+        want: usize,
+        batch: usize,
+        size: u32,
+    },
+    #[error(
+        "the model's outputs are not force [N,7], shape logits [N,C] and contact [N,2]: {0}"
+    )]
+    Outputs(String),
+}
+
+/// Runs a network on batches of preprocessed images.
+pub trait Backend: Send {
+    /// The backend's name (`tract`, `onnxruntime`, `torch`).
+    fn name(&self) -> &'static str;
+    /// Runs `batch` images of 3 x `size` x `size` (CHW, concatenated).
+    fn run(&mut self, input: &[f32], batch: usize, size: u32)
+        -> Result<RawOutputs, InferenceError>;
+}
+
+/// Splits a row-major `[batch, width]` output into rows.
+pub(crate) fn rows(values: &[f32], batch: usize, width: usize, what: &str) -> Result<Vec<Vec<f32>>, InferenceError> {
+    if width == 0 || values.len() != batch * width {
+        return Err(InferenceError::Outputs(format!(
+            "{what} holds {} values for {batch} images of width {width}",
+            values.len()
+        )));
+    }
+    Ok(values.chunks_exact(width).map(<[f32]>::to_vec).collect())
+}
+
+impl RawOutputs {
+    /// From the three outputs' values, row-major, checking their widths.
+    pub(crate) fn from_flat(
+        force: &[f32],
+        logits: &[f32],
+        classes: usize,
+        contact: &[f32],
+        batch: usize,
+    ) -> Result<RawOutputs, InferenceError> {
+        let fix = |v: Vec<f32>| -> [f32; 7] { std::array::from_fn(|i| v[i]) };
+        Ok(RawOutputs {
+            force: rows(force, batch, 7, "force")?.into_iter().map(fix).collect(),
+            shape_logits: rows(logits, batch, classes, "shape_logits")?,
+            contact: rows(contact, batch, 2, "contact")?
+                .into_iter()
+                .map(|v| [v[0], v[1]])
+                .collect(),
+        })
+    }
+}

@@ -1,0 +1,141 @@
+//! The default backend: the ONNX graph run by tract, a pure-Rust ONNX runtime, on a pool of
+//! threads (2 by default, the bench machine's cores). A plan is optimised once per batch size
+//! and input size and kept.
+
+use super::{Backend, InferenceError, RawOutputs};
+use crate::onnx_graph::OUTPUTS;
+use std::collections::HashMap;
+use std::sync::Arc;
+use tract_onnx::pb;
+use tract_onnx::prelude::*;
+use tract_onnx::tract_core::tract_linalg::multithread::{multithread_tract_scope, Executor};
+
+type Plan = Arc<TypedRunnableModel>;
+
+/// tract running one ONNX model.
+pub struct TractBackend {
+    proto: pb::ModelProto,
+    /// Which graph output is force, shape logits, contact.
+    order: [usize; 3],
+    classes: usize,
+    plans: HashMap<(usize, u32), Plan>,
+    executor: Executor,
+}
+
+fn load_err(e: impl std::fmt::Display) -> InferenceError {
+    InferenceError::Load {
+        backend: "tract",
+        detail: format!("{e:#}"),
+    }
+}
+
+fn run_err(e: impl std::fmt::Display) -> InferenceError {
+    InferenceError::Run {
+        backend: "tract",
+        detail: format!("{e:#}"),
+    }
+}
+
+/// The positions of force, shape logits and contact among a graph's outputs: by name when the
+/// graph uses ours, else the first three in that order.
+pub(crate) fn output_order(proto: &pb::ModelProto) -> Result<[usize; 3], InferenceError> {
+    let names: Vec<&str> = proto
+        .graph
+        .as_ref()
+        .map(|g| g.output.iter().map(|o| o.name.as_str()).collect())
+        .unwrap_or_default();
+    if let [Some(a), Some(b), Some(c)] =
+        OUTPUTS.map(|want| names.iter().position(|n| *n == want))
+    {
+        return Ok([a, b, c]);
+    }
+    if names.len() == 3 {
+        return Ok([0, 1, 2]);
+    }
+    Err(InferenceError::Outputs(format!(
+        "the graph has {} outputs ({}); expected force, shape_logits and contact",
+        names.len(),
+        names.join(", ")
+    )))
+}
+
+impl TractBackend {
+    /// A backend for `proto` with `classes` shape classes, on `threads` threads.
+    pub fn new(
+        proto: pb::ModelProto,
+        classes: usize,
+        threads: usize,
+    ) -> Result<TractBackend, InferenceError> {
+        let order = output_order(&proto)?;
+        let executor = if threads > 1 {
+            Executor::multithread(threads)
+        } else {
+            Executor::SingleThread
+        };
+        let mut b = TractBackend {
+            proto,
+            order,
+            classes,
+            plans: HashMap::new(),
+            executor,
+        };
+        // Load once now so a bad graph is refused at once, not at the first frame.
+        b.plan(1, crate::preprocess::DEFAULT_INPUT_SIZE)?;
+        Ok(b)
+    }
+
+    fn plan(&mut self, batch: usize, size: u32) -> Result<Plan, InferenceError> {
+        if let Some(p) = self.plans.get(&(batch, size)) {
+            return Ok(p.clone());
+        }
+        let s = size as usize;
+        let plan = tract_onnx::onnx()
+            .model_for_proto_model(&self.proto)
+            .and_then(|m| m.with_input_fact(0, f32::fact([batch, 3, s, s]).into()))
+            .and_then(|m| m.into_optimized())
+            .and_then(|m| m.into_runnable())
+            .map_err(load_err)?;
+        self.plans.insert((batch, size), plan.clone());
+        Ok(plan)
+    }
+}
+
+impl Backend for TractBackend {
+    fn name(&self) -> &'static str {
+        "tract"
+    }
+
+    fn run(
+        &mut self,
+        input: &[f32],
+        batch: usize,
+        size: u32,
+    ) -> Result<RawOutputs, InferenceError> {
+        let s = size as usize;
+        let want = batch * 3 * s * s;
+        if input.len() != want || batch == 0 {
+            return Err(InferenceError::InputSize {
+                got: input.len(),
+                want,
+                batch,
+                size,
+            });
+        }
+        let plan = self.plan(batch, size)?;
+        let tensor = Tensor::from_shape(&[batch, 3, s, s], input).map_err(run_err)?;
+        let outputs = multithread_tract_scope(self.executor.clone(), || {
+            plan.run(tvec!(tensor.into_tvalue()))
+        })
+        .map_err(run_err)?;
+        let values = |i: usize| -> Result<Vec<f32>, InferenceError> {
+            let out = outputs
+                .get(self.order[i])
+                .ok_or_else(|| InferenceError::Outputs(format!("output {i} is missing")))?;
+            let view = out
+                .to_plain_array_view::<f32>()
+                .map_err(|e| InferenceError::Outputs(format!("{e}")))?;
+            Ok(view.iter().copied().collect())
+        };
+        RawOutputs::from_flat(&values(0)?, &values(1)?, self.classes, &values(2)?, batch)
+    }
+}

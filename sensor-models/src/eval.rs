@@ -1,0 +1,187 @@
+//! A model evaluated on labelled frames: the Table-2 metrics, their breakdown by grid position
+//! and force level, and every row kept for plots.
+
+use crate::backend::Backend;
+use crate::dataset::{Sample, Source};
+use crate::metrics::{Metrics, Scored};
+use crate::model::{Model, ModelError};
+use crate::prediction::predictions;
+use crate::preprocess::{image_bytes, FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
+use fringe_calibration::profile::Profile;
+use std::path::Path;
+
+/// Frames run through the network at once.
+const BATCH: usize = 8;
+
+/// One evaluated frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    pub scored: Scored,
+    pub stage_mm: Option<[f64; 2]>,
+}
+
+/// The outcome of an evaluation.
+#[derive(Debug, Clone)]
+pub struct Evaluation {
+    pub metrics: Metrics,
+    pub rows: Vec<Row>,
+    /// Records left out by the sources (no trustworthy label).
+    pub skipped: usize,
+}
+
+/// Why an evaluation stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error("{path}: {source}")]
+    Frame {
+        path: String,
+        source: PreprocessError,
+    },
+    #[error("{path}: {message}")]
+    Image { path: String, message: String },
+    #[error(
+        "{source_path}: shape {shape:?} is not one of the model's classes ({classes}): \
+         evaluate with a model trained on that indenter"
+    )]
+    Shape {
+        source_path: String,
+        shape: String,
+        classes: String,
+    },
+    #[error("{path}: {source}")]
+    Inference {
+        path: String,
+        source: crate::backend::InferenceError,
+    },
+}
+
+/// Grid position and force level keys of a row, for the breakdowns.
+pub fn keys(s: &Sample) -> Vec<String> {
+    let mut k = Vec::with_capacity(2);
+    if let Some([x, y]) = s.stage_mm {
+        k.push(format!("grid x {x:.1} y {y:.1} mm"));
+    }
+    k.push(force_level(s.fz()));
+    k
+}
+
+/// The force level a label falls in: no contact, or |Fz| rounded to the nearest newton.
+pub fn force_level(fz: f64) -> String {
+    if fz < crate::dataset::CONTACT_THRESHOLD_N {
+        "force none".to_string()
+    } else {
+        format!("force {:.0} N", fz.round().max(1.0))
+    }
+}
+
+/// Reads an image file as the frame the camera gave (`format` says how a run stored it).
+fn frame_bytes(
+    path: &Path,
+    format: Option<fringe_rig::camera::PixelFormat>,
+) -> Result<(u32, u32, Vec<u8>, fringe_rig::camera::PixelFormat), EvalError> {
+    let img = image::open(path).map_err(|e| EvalError::Image {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let (data, read_as) = image_bytes(&img);
+    let format = match (format, read_as) {
+        // A run's Bayer mosaic is stored in a grey PNG.
+        (Some(fringe_rig::camera::PixelFormat::BayerRg8), fringe_rig::camera::PixelFormat::Mono8) => {
+            fringe_rig::camera::PixelFormat::BayerRg8
+        }
+        _ => read_as,
+    };
+    Ok((img.width(), img.height(), data, format))
+}
+
+/// Evaluates `model` on `backend` over `sources`; each source's frames are preprocessed with
+/// its run's profile, else `profile`, else the reference geometry `reference`. `progress`
+/// hears (frames done, frames in all).
+pub fn evaluate(
+    model: &Model,
+    backend: &mut dyn Backend,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    reference: Option<ReferenceSensor>,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Evaluation, EvalError> {
+    let total: usize = sources.iter().map(|s| s.samples.len()).sum();
+    let mut metrics = Metrics::new(model.classes.clone());
+    let mut rows = Vec::with_capacity(total);
+    let size = model.input_size;
+    let mut done = 0;
+    for source in sources {
+        let chosen = if reference.is_some() {
+            None
+        } else {
+            source.profile.as_ref().or(profile)
+        };
+        let mut pre = Preprocessor::new(model.preprocessing(chosen, reference)?);
+        let per = pre.config.tensor_len();
+        for chunk in source.samples.chunks(BATCH) {
+            let mut batch = vec![0f32; per * chunk.len()];
+            let mut truth = Vec::with_capacity(chunk.len());
+            for (s, out) in chunk.iter().zip(batch.chunks_exact_mut(per)) {
+                let shape = model
+                    .classes
+                    .iter()
+                    .position(|c| *c == s.shape)
+                    .ok_or_else(|| EvalError::Shape {
+                        source_path: source.path.display().to_string(),
+                        shape: s.shape.clone(),
+                        classes: model.classes.join(", "),
+                    })?;
+                let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
+                pre.run_into(
+                    FrameRef {
+                        width: w,
+                        height: h,
+                        format,
+                        data: &data,
+                    },
+                    0.0,
+                    out,
+                )
+                .map_err(|source| EvalError::Frame {
+                    path: s.image.display().to_string(),
+                    source,
+                })?;
+                truth.push(shape);
+            }
+            let raw = backend
+                .run(&batch, chunk.len(), size)
+                .map_err(|source| EvalError::Inference {
+                    path: chunk[0].image.display().to_string(),
+                    source,
+                })?;
+            for ((s, p), shape_true) in chunk
+                .iter()
+                .zip(predictions(&raw, &model.classes))
+                .zip(truth)
+            {
+                let scored = Scored {
+                    fz_true: s.fz(),
+                    fz_pred: p.force.fz.value(),
+                    shape_true,
+                    shape_pred: model.classes.iter().position(|c| *c == p.shape).unwrap_or(0),
+                    contact_true: s.contact,
+                    contact_pred: p.contact_raw.map(|v| v.value()),
+                };
+                metrics.add(&scored, &keys(s));
+                rows.push(Row {
+                    scored,
+                    stage_mm: s.stage_mm,
+                });
+            }
+            done += chunk.len();
+            progress(done, total);
+        }
+    }
+    Ok(Evaluation {
+        metrics,
+        rows,
+        skipped: sources.iter().map(|s| s.skipped).sum(),
+    })
+}

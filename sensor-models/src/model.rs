@@ -1,0 +1,242 @@
+//! A model as users have it: a weights file (`.pth`, `.pt`, `.safetensors`) or an ONNX graph,
+//! with its optional model card (`<file>.json`), ready to run on a backend.
+
+use crate::arch::{default_class_names, recognise, ArchError, Architecture};
+use crate::backend::tract::{output_order, TractBackend};
+use crate::backend::{Backend, InferenceError};
+use crate::model_card::{CardError, ModelCard};
+use crate::model_file::read_weights;
+use crate::model_file_error::ModelFileError;
+use crate::onnx_graph;
+use crate::preprocess::{
+    Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
+};
+use fringe_calibration::profile::Profile;
+use crate::state_dict::StateDict;
+use crate::tensor::Tensor;
+use std::path::{Path, PathBuf};
+use tract_onnx::pb;
+use tract_onnx::prelude::Framework;
+
+/// Why a model could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error(transparent)]
+    File(#[from] ModelFileError),
+    #[error("{path}: {source}")]
+    Arch { path: String, source: ArchError },
+    #[error("{path}: not an ONNX model ({detail})")]
+    Onnx { path: String, detail: String },
+    #[error(transparent)]
+    Card(#[from] CardError),
+    #[error("{path}: {detail}")]
+    Classes { path: String, detail: String },
+    #[error(
+        "no calibration profile for {path}: pass --profile profiles/ID.toml (the sensor's \
+         calibration), or --reference-preprocessing for a model the reference code trained"
+    )]
+    NoGeometry { path: String },
+    #[error("{path}: the model card's preprocessing \"{name}\" is unknown (profile, reference-layered, reference-integrated)")]
+    CardPreprocessing { path: String, name: String },
+    #[error(transparent)]
+    Preprocess(#[from] PreprocessError),
+    #[error("{path}: {source}")]
+    Backend {
+        path: String,
+        source: InferenceError,
+    },
+}
+
+/// Where the model came from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Source {
+    /// Weights of one of the paper's networks (any file format).
+    Weights,
+    /// An ONNX graph from elsewhere.
+    Onnx,
+}
+
+/// A model ready to run.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub path: PathBuf,
+    pub source: Source,
+    /// The paper's network the weights are, when recognised.
+    pub arch: Option<Architecture>,
+    /// Shape class names, "None" first.
+    pub classes: Vec<String>,
+    /// Trainable parameters.
+    pub parameters: usize,
+    /// Element types in the file ("f32", "f16", ...).
+    pub stored: String,
+    pub input_size: u32,
+    pub colour: Colour,
+    pub card: Option<ModelCard>,
+    proto: pb::ModelProto,
+}
+
+impl Model {
+    /// Opens a model file; its card, if any, is `<file>.json` or `<stem>.json` beside it.
+    pub fn open(path: &Path) -> Result<Model, ModelError> {
+        let card = ModelCard::find(path)?;
+        let shown = path.display().to_string();
+        let is_onnx = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
+        let (source, arch, n_classes, sd, proto) = if is_onnx {
+            let proto = tract_onnx::onnx()
+                .proto_model_for_path(path)
+                .map_err(|e| ModelError::Onnx {
+                    path: shown.clone(),
+                    detail: format!("{e:#}"),
+                })?;
+            output_order(&proto).map_err(|source| ModelError::Backend {
+                path: shown.clone(),
+                source,
+            })?;
+            let sd = initializers(&proto);
+            let recognised = recognise(&sd).ok();
+            let classes = match recognised {
+                Some((_, c)) => Some(c),
+                None => logits_width(&proto),
+            };
+            let n = classes.ok_or_else(|| ModelError::Classes {
+                path: shown.clone(),
+                detail: "the shape_logits output has no fixed width: say how many classes in \
+                         the model card (\"classes\": [...])"
+                    .into(),
+            })?;
+            (Source::Onnx, recognised.map(|r| r.0), n, sd, proto)
+        } else {
+            let sd = read_weights(path)?;
+            let (arch, n) = recognise(&sd).map_err(|source| ModelError::Arch {
+                path: shown.clone(),
+                source,
+            })?;
+            let proto = onnx_graph::build(arch, n, &sd);
+            (Source::Weights, Some(arch), n, sd, proto)
+        };
+        let classes = match card.as_ref().and_then(|c| c.classes.clone()) {
+            Some(names) if names.len() != n_classes => {
+                return Err(ModelError::Classes {
+                    path: shown,
+                    detail: format!(
+                        "the model card names {} shape classes but the network has {n_classes}",
+                        names.len()
+                    ),
+                })
+            }
+            Some(names) => names,
+            None => default_class_names(n_classes),
+        };
+        Ok(Model {
+            path: path.to_path_buf(),
+            source,
+            arch,
+            classes,
+            parameters: sd.parameter_count(),
+            stored: sd.stored_types(),
+            input_size: card
+                .as_ref()
+                .and_then(|c| c.input_size)
+                .unwrap_or(DEFAULT_INPUT_SIZE),
+            colour: card.as_ref().and_then(|c| c.colour).unwrap_or(Colour::Grey),
+            card,
+            proto,
+        })
+    }
+
+    /// The ONNX graph (for a weights file, the one built from them).
+    pub fn onnx(&self) -> &pb::ModelProto {
+        &self.proto
+    }
+
+    /// The default backend (tract) on `threads` threads.
+    pub fn tract(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
+        let b = TractBackend::new(self.proto.clone(), self.classes.len(), threads).map_err(
+            |source| ModelError::Backend {
+                path: self.path.display().to_string(),
+                source,
+            },
+        )?;
+        Ok(Box::new(b))
+    }
+
+    /// The preprocessing this model's inputs get: the sensor's profile when given, else the
+    /// reference geometry when asked for (or when the model card says the reference code's
+    /// preprocessing trained it).
+    pub fn preprocessing(
+        &self,
+        profile: Option<&Profile>,
+        reference: Option<ReferenceSensor>,
+    ) -> Result<Preprocessing, ModelError> {
+        if let Some(r) = reference {
+            return Ok(Preprocessing::reference(r, self.colour, self.input_size)?);
+        }
+        if let Some(p) = profile {
+            return Ok(Preprocessing::from_profile(p, self.colour, self.input_size)?);
+        }
+        let path = self.path.display().to_string();
+        match self.card.as_ref().and_then(|c| c.preprocessing.as_deref()) {
+            Some("reference-layered") => Ok(Preprocessing::reference(
+                ReferenceSensor::Layered,
+                self.colour,
+                self.input_size,
+            )?),
+            Some("reference-integrated") => Ok(Preprocessing::reference(
+                ReferenceSensor::Integrated,
+                self.colour,
+                self.input_size,
+            )?),
+            None | Some("profile") => Err(ModelError::NoGeometry { path }),
+            Some(other) => Err(ModelError::CardPreprocessing {
+                path,
+                name: other.to_string(),
+            }),
+        }
+    }
+
+    /// What the model is, in a few words ("custom CNN", "ONNX graph").
+    pub fn describe(&self) -> String {
+        match (&self.arch, &self.source) {
+            (Some(a), Source::Weights) => a.to_string(),
+            (Some(a), Source::Onnx) => format!("{a} (ONNX graph)"),
+            (None, _) => "ONNX graph".to_string(),
+        }
+    }
+}
+
+/// An ONNX graph's f32 initialisers by name.
+fn initializers(proto: &pb::ModelProto) -> StateDict {
+    let mut sd = StateDict::new();
+    for t in proto.graph.iter().flat_map(|g| &g.initializer) {
+        if t.data_type != pb::tensor_proto::DataType::Float as i32 {
+            continue;
+        }
+        let data: Vec<f32> = if t.raw_data.is_empty() {
+            t.float_data.clone()
+        } else {
+            t.raw_data
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .collect()
+        };
+        let shape = t.dims.iter().map(|&d| d.max(0) as usize).collect();
+        if let Some(tensor) = Tensor::new(shape, data) {
+            sd.insert(&t.name, tensor);
+        }
+    }
+    sd
+}
+
+/// The fixed width of the shape-logits output, when the graph states it.
+fn logits_width(proto: &pb::ModelProto) -> Option<usize> {
+    use pb::tensor_shape_proto::dimension::Value;
+    let order = output_order(proto).ok()?;
+    let out = proto.graph.as_ref()?.output.get(order[1])?;
+    let pb::type_proto::Value::TensorType(t) = out.r#type.as_ref()?.value.as_ref()?;
+    match t.shape.as_ref()?.dim.get(1)?.value.as_ref()? {
+        Value::DimValue(v) if *v > 0 => Some(*v as usize),
+        _ => None,
+    }
+}

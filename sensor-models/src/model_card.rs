@@ -1,0 +1,73 @@
+//! A model's card: the JSON sidecar beside a model file (`model.safetensors.json` or
+//! `model.json`) saying what the weights alone cannot: the shape class names, the input size and
+//! colour, the preprocessing and sensor it was trained for. Training writes it; every field is
+//! optional, and fields this version does not know are kept.
+
+use crate::preprocess::Colour;
+use std::path::{Path, PathBuf};
+
+/// Why a model card could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum CardError {
+    #[error("{path}: {source}")]
+    Read {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a model card: {source} (delete or fix it; it describes the model beside it)")]
+    Parse {
+        path: String,
+        source: serde_json::Error,
+    },
+}
+
+/// The card's fields.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct ModelCard {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub architecture: Option<String>,
+    /// Shape class names, "None" first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classes: Option<Vec<String>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input_size: Option<u32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<Colour>,
+    /// "profile" (fringe's, from the sensor's calibration profile), "reference-layered" or
+    /// "reference-integrated" (the reference pipeline's geometry).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preprocessing: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_id: Option<String>,
+    /// Everything else (training runs, split, losses, figures).
+    #[serde(flatten)]
+    pub other: serde_json::Map<String, serde_json::Value>,
+}
+
+impl ModelCard {
+    /// The card paths tried for `model`: `<file>.json`, then `<stem>.json`.
+    pub fn candidates(model: &Path) -> [PathBuf; 2] {
+        let mut full = model.as_os_str().to_owned();
+        full.push(".json");
+        [PathBuf::from(full), model.with_extension("json")]
+    }
+
+    /// The card beside `model`, if there is one.
+    pub fn find(model: &Path) -> Result<Option<ModelCard>, CardError> {
+        for p in Self::candidates(model) {
+            if p.is_file() && p != model {
+                return Self::read(&p).map(Some);
+            }
+        }
+        Ok(None)
+    }
+
+    pub fn read(path: &Path) -> Result<ModelCard, CardError> {
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CardError::Read {
+            path: shown.clone(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|source| CardError::Parse { path: shown, source })
+    }
+}

@@ -1,0 +1,262 @@
+//! The ONNX graph of a network, built from its weights: what the default backend runs and what
+//! `fringe model export --onnx` writes.
+//!
+//! Input `image` [N, 3, S, S] (N and S free); outputs `force` [N, 7], `shape_logits` [N, C] and
+//! `contact` [N, 2]. Operators of opset 17: Conv, Relu, MaxPool, BatchNormalization (inference),
+//! Add, GlobalAveragePool, Flatten, Gemm. Weights are stored as f32 initialisers under their
+//! state-dict names, so the graph's weights can be read back by name.
+
+use crate::arch::Architecture;
+use crate::state_dict::StateDict;
+use tract_onnx::pb;
+
+/// ONNX opset the graph is written for.
+pub const OPSET: i64 = 17;
+/// Input and output names.
+pub const INPUT: &str = "image";
+pub const OUTPUTS: [&str; 3] = ["force", "shape_logits", "contact"];
+
+/// Builds nodes one after another, naming their outputs.
+struct Builder<'a> {
+    sd: &'a StateDict,
+    nodes: Vec<pb::NodeProto>,
+    initializers: Vec<pb::TensorProto>,
+    counter: usize,
+}
+
+fn ints(name: &str, values: &[i64]) -> pb::AttributeProto {
+    pb::AttributeProto {
+        name: name.into(),
+        r#type: pb::attribute_proto::AttributeType::Ints as i32,
+        ints: values.to_vec(),
+        ..Default::default()
+    }
+}
+
+fn int(name: &str, value: i64) -> pb::AttributeProto {
+    pb::AttributeProto {
+        name: name.into(),
+        r#type: pb::attribute_proto::AttributeType::Int as i32,
+        i: value,
+        ..Default::default()
+    }
+}
+
+fn float(name: &str, value: f32) -> pb::AttributeProto {
+    pb::AttributeProto {
+        name: name.into(),
+        r#type: pb::attribute_proto::AttributeType::Float as i32,
+        f: value,
+        ..Default::default()
+    }
+}
+
+impl Builder<'_> {
+    /// Adds the state-dict tensor `key` as an initialiser and returns its name.
+    fn weight(&mut self, key: &str) -> String {
+        if !self.initializers.iter().any(|t| t.name == key) {
+            let (dims, data) = match self.sd.get(key) {
+                Some(t) => (
+                    t.shape.iter().map(|&d| d as i64).collect(),
+                    t.data.iter().flat_map(|v| v.to_le_bytes()).collect(),
+                ),
+                // `recognise` checked every key before a graph is built.
+                None => (vec![0], Vec::new()),
+            };
+            self.initializers.push(pb::TensorProto {
+                name: key.into(),
+                dims,
+                data_type: pb::tensor_proto::DataType::Float as i32,
+                raw_data: data,
+                ..Default::default()
+            });
+        }
+        key.to_string()
+    }
+
+    fn node(&mut self, op: &str, inputs: Vec<String>, attrs: Vec<pb::AttributeProto>) -> String {
+        self.counter += 1;
+        let out = format!("{}_{}", op.to_lowercase(), self.counter);
+        self.node_named(op, inputs, attrs, &out);
+        out
+    }
+
+    fn node_named(
+        &mut self,
+        op: &str,
+        inputs: Vec<String>,
+        attrs: Vec<pb::AttributeProto>,
+        out: &str,
+    ) {
+        self.nodes.push(pb::NodeProto {
+            input: inputs,
+            output: vec![out.into()],
+            name: format!("{op}_{}", self.nodes.len()),
+            op_type: op.into(),
+            attribute: attrs,
+            ..Default::default()
+        });
+    }
+
+    fn conv(&mut self, x: String, prefix: &str, k: i64, stride: i64, pad: i64, bias: bool) -> String {
+        let mut inputs = vec![x, self.weight(&format!("{prefix}.weight"))];
+        if bias {
+            inputs.push(self.weight(&format!("{prefix}.bias")));
+        }
+        self.node(
+            "Conv",
+            inputs,
+            vec![
+                ints("kernel_shape", &[k, k]),
+                ints("strides", &[stride, stride]),
+                ints("pads", &[pad, pad, pad, pad]),
+            ],
+        )
+    }
+
+    fn batch_norm(&mut self, x: String, prefix: &str) -> String {
+        let inputs = ["weight", "bias", "running_mean", "running_var"]
+            .iter()
+            .map(|n| self.weight(&format!("{prefix}.{n}")))
+            .collect::<Vec<_>>();
+        self.node(
+            "BatchNormalization",
+            std::iter::once(x).chain(inputs).collect(),
+            vec![float("epsilon", 1e-5)],
+        )
+    }
+
+    fn relu(&mut self, x: String) -> String {
+        self.node("Relu", vec![x], vec![])
+    }
+
+    fn max_pool(&mut self, x: String, k: i64, stride: i64, pad: i64) -> String {
+        self.node(
+            "MaxPool",
+            vec![x],
+            vec![
+                ints("kernel_shape", &[k, k]),
+                ints("strides", &[stride, stride]),
+                ints("pads", &[pad, pad, pad, pad]),
+            ],
+        )
+    }
+
+    /// A torchvision BasicBlock.
+    fn basic_block(&mut self, x: String, prefix: &str, stride: i64, downsample: bool) -> String {
+        let y = self.conv(x.clone(), &format!("{prefix}.conv1"), 3, stride, 1, false);
+        let y = self.batch_norm(y, &format!("{prefix}.bn1"));
+        let y = self.relu(y);
+        let y = self.conv(y, &format!("{prefix}.conv2"), 3, 1, 1, false);
+        let y = self.batch_norm(y, &format!("{prefix}.bn2"));
+        let skip = if downsample {
+            let s = self.conv(x, &format!("{prefix}.downsample.0"), 1, stride, 0, false);
+            self.batch_norm(s, &format!("{prefix}.downsample.1"))
+        } else {
+            x
+        };
+        let sum = self.node("Add", vec![y, skip], vec![]);
+        self.relu(sum)
+    }
+}
+
+fn value_info(name: &str, dims: &[Result<i64, &str>]) -> pb::ValueInfoProto {
+    use pb::tensor_shape_proto::{dimension::Value, Dimension};
+    pb::ValueInfoProto {
+        name: name.into(),
+        r#type: Some(pb::TypeProto {
+            value: Some(pb::type_proto::Value::TensorType(pb::type_proto::Tensor {
+                elem_type: pb::tensor_proto::DataType::Float as i32,
+                shape: Some(pb::TensorShapeProto {
+                    dim: dims
+                        .iter()
+                        .map(|d| Dimension {
+                            value: Some(match d {
+                                Ok(v) => Value::DimValue(*v),
+                                Err(p) => Value::DimParam(p.to_string()),
+                            }),
+                            ..Default::default()
+                        })
+                        .collect(),
+                }),
+            })),
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// The ONNX model of `arch` with the weights of `sd` (already checked by
+/// [`crate::arch::recognise`]) and `classes` shape classes.
+pub fn build(arch: Architecture, classes: usize, sd: &StateDict) -> pb::ModelProto {
+    let mut b = Builder {
+        sd,
+        nodes: Vec::new(),
+        initializers: Vec::new(),
+        counter: 0,
+    };
+    let mut x = INPUT.to_string();
+    match arch {
+        Architecture::Custom => {
+            for i in 0..4 {
+                x = b.conv(x, &format!("cnn.{i}.block.0"), 3, 1, 1, true);
+                x = b.relu(x);
+                x = b.max_pool(x, 2, 2, 0);
+            }
+        }
+        Architecture::Resnet18 => {
+            x = b.conv(x, "backbone.0", 7, 2, 3, false);
+            x = b.batch_norm(x, "backbone.1");
+            x = b.relu(x);
+            x = b.max_pool(x, 3, 2, 1);
+            for layer in 0..4 {
+                for block in 0..2 {
+                    let stride = if layer > 0 && block == 0 { 2 } else { 1 };
+                    let prefix = format!("backbone.{}.{block}", layer + 4);
+                    x = b.basic_block(x, &prefix, stride, layer > 0 && block == 0);
+                }
+            }
+        }
+    }
+    let pooled = b.node("GlobalAveragePool", vec![x], vec![]);
+    let features = b.node("Flatten", vec![pooled], vec![int("axis", 1)]);
+    for (head, out) in ["force_head", "class_head", "point_head"].iter().zip(OUTPUTS) {
+        let inputs = vec![
+            features.clone(),
+            b.weight(&format!("{head}.weight")),
+            b.weight(&format!("{head}.bias")),
+        ];
+        b.node_named("Gemm", inputs, vec![int("transB", 1)], out);
+    }
+    let graph = pb::GraphProto {
+        name: format!("fringe-{}", arch.name()),
+        node: b.nodes,
+        initializer: b.initializers,
+        input: vec![value_info(
+            INPUT,
+            &[Err("batch"), Ok(3), Err("height"), Err("width")],
+        )],
+        output: vec![
+            value_info(OUTPUTS[0], &[Err("batch"), Ok(7)]),
+            value_info(OUTPUTS[1], &[Err("batch"), Ok(classes as i64)]),
+            value_info(OUTPUTS[2], &[Err("batch"), Ok(2)]),
+        ],
+        ..Default::default()
+    };
+    pb::ModelProto {
+        ir_version: 8,
+        opset_import: vec![pb::OperatorSetIdProto {
+            domain: String::new(),
+            version: OPSET,
+        }],
+        producer_name: "fringe".into(),
+        producer_version: env!("CARGO_PKG_VERSION").into(),
+        graph: Some(graph),
+        ..Default::default()
+    }
+}
+
+/// The model's bytes, as an `.onnx` file holds them.
+pub fn encode(model: &pb::ModelProto) -> Vec<u8> {
+    prost::Message::encode_to_vec(model)
+}

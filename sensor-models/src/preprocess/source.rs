@@ -1,0 +1,286 @@
+//! Where preprocessing reads pixels from: a camera frame in its own pixel format (RGB8, Mono8 or
+//! the BayerRG8 mosaic), seen as rows of 1 or 3 float channels (0-255), optionally rotated about
+//! a centre.
+//!
+//! A Bayer mosaic is read as 2x2 superpixels (R, mean of the two G, B) at half resolution when
+//! the output is at least 2x smaller than the crop: no full-size demosaic is made. Otherwise it
+//! is demosaiced bilinearly, pixel by pixel, as rows are asked for.
+
+use fringe_rig::camera::PixelFormat;
+
+/// A frame's bytes as the camera delivered them.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameRef<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub format: PixelFormat,
+    pub data: &'a [u8],
+}
+
+/// What each pixel is turned into.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Channels {
+    /// One value: the ITU-R 601 luma of a colour pixel, or a grey pixel as it is.
+    Luma,
+    /// R, G, B (a grey pixel repeated).
+    Rgb,
+}
+
+impl Channels {
+    pub(crate) fn count(self) -> usize {
+        match self {
+            Channels::Luma => 1,
+            Channels::Rgb => 3,
+        }
+    }
+}
+
+/// ITU-R 601 luma weights (those of PIL's "L" conversion).
+pub(crate) const LUMA: [f32; 3] = [0.299, 0.587, 0.114];
+
+/// Pixels by row, in a resolution of their own (`scale` source pixels per full-frame pixel).
+pub(crate) trait Pixels {
+    /// Width and height in this source's pixels.
+    fn size(&self) -> (i64, i64);
+    /// Source pixels per full-frame pixel (0.5 for Bayer superpixels).
+    fn scale(&self) -> f64;
+    fn channels(&self) -> Channels;
+    /// Writes pixels `x0..x0 + out.len() / channels` of row `y` into `out`; the range lies
+    /// inside the source.
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]);
+    /// One pixel (inside the source).
+    fn pixel(&self, x: i64, y: i64, out: &mut [f32]) {
+        self.row(y, x, out);
+    }
+}
+
+/// The frame read in `channels`, at full resolution, or as Bayer superpixels when `half` is
+/// allowed.
+pub(crate) fn pixels<'a>(
+    frame: FrameRef<'a>,
+    channels: Channels,
+    half: bool,
+) -> Box<dyn Pixels + 'a> {
+    match frame.format {
+        PixelFormat::Rgb8 => Box::new(Rgb8 { frame, channels }),
+        PixelFormat::Mono8 => Box::new(Mono8 { frame, channels }),
+        PixelFormat::BayerRg8 if half && frame.width >= 2 && frame.height >= 2 => {
+            Box::new(BayerHalf { frame, channels })
+        }
+        PixelFormat::BayerRg8 => Box::new(BayerFull { frame, channels }),
+    }
+}
+
+fn put(channels: Channels, rgb: [f32; 3], out: &mut [f32]) {
+    match channels {
+        Channels::Luma => out[0] = LUMA[0] * rgb[0] + LUMA[1] * rgb[1] + LUMA[2] * rgb[2],
+        Channels::Rgb => out[..3].copy_from_slice(&rgb),
+    }
+}
+
+struct Rgb8<'a> {
+    frame: FrameRef<'a>,
+    channels: Channels,
+}
+
+impl Pixels for Rgb8<'_> {
+    fn size(&self) -> (i64, i64) {
+        (self.frame.width as i64, self.frame.height as i64)
+    }
+    fn scale(&self) -> f64 {
+        1.0
+    }
+    fn channels(&self) -> Channels {
+        self.channels
+    }
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
+        let c = self.channels.count();
+        let start = (y as usize * self.frame.width as usize + x0 as usize) * 3;
+        let n = out.len() / c;
+        let bytes = &self.frame.data[start..start + 3 * n];
+        match self.channels {
+            Channels::Rgb => {
+                for (o, &b) in out.iter_mut().zip(bytes) {
+                    *o = b as f32;
+                }
+            }
+            Channels::Luma => {
+                for (o, p) in out.iter_mut().zip(bytes.chunks_exact(3)) {
+                    *o = LUMA[0] * p[0] as f32 + LUMA[1] * p[1] as f32 + LUMA[2] * p[2] as f32;
+                }
+            }
+        }
+    }
+}
+
+struct Mono8<'a> {
+    frame: FrameRef<'a>,
+    channels: Channels,
+}
+
+impl Pixels for Mono8<'_> {
+    fn size(&self) -> (i64, i64) {
+        (self.frame.width as i64, self.frame.height as i64)
+    }
+    fn scale(&self) -> f64 {
+        1.0
+    }
+    fn channels(&self) -> Channels {
+        self.channels
+    }
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
+        let c = self.channels.count();
+        let start = y as usize * self.frame.width as usize + x0 as usize;
+        let n = out.len() / c;
+        for (o, &b) in out
+            .chunks_exact_mut(c)
+            .zip(&self.frame.data[start..start + n])
+        {
+            o.fill(b as f32);
+        }
+    }
+}
+
+/// BayerRG8 as 2x2 superpixels: R at (0, 0), G at (1, 0) and (0, 1), B at (1, 1).
+struct BayerHalf<'a> {
+    frame: FrameRef<'a>,
+    channels: Channels,
+}
+
+impl Pixels for BayerHalf<'_> {
+    fn size(&self) -> (i64, i64) {
+        (self.frame.width as i64 / 2, self.frame.height as i64 / 2)
+    }
+    fn scale(&self) -> f64 {
+        0.5
+    }
+    fn channels(&self) -> Channels {
+        self.channels
+    }
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
+        let c = self.channels.count();
+        let w = self.frame.width as usize;
+        let top = 2 * y as usize * w;
+        let (even, odd) = (
+            &self.frame.data[top..top + w],
+            &self.frame.data[top + w..top + 2 * w],
+        );
+        for (k, o) in out.chunks_exact_mut(c).enumerate() {
+            let x = 2 * (x0 as usize + k);
+            let rgb = [
+                even[x] as f32,
+                0.5 * (even[x + 1] as f32 + odd[x] as f32),
+                odd[x + 1] as f32,
+            ];
+            put(self.channels, rgb, o);
+        }
+    }
+}
+
+/// BayerRG8 demosaiced bilinearly at full resolution.
+struct BayerFull<'a> {
+    frame: FrameRef<'a>,
+    channels: Channels,
+}
+
+impl BayerFull<'_> {
+    fn at(&self, x: i64, y: i64) -> f32 {
+        let (w, h) = (self.frame.width as i64, self.frame.height as i64);
+        // Mirror at the edges keeps the colour phase (reflect by 2).
+        let x = if x < 0 { x + 2 } else if x >= w { x - 2 } else { x };
+        let y = if y < 0 { y + 2 } else if y >= h { y - 2 } else { y };
+        let (x, y) = (x.clamp(0, w - 1), y.clamp(0, h - 1));
+        self.frame.data[(y * w + x) as usize] as f32
+    }
+
+    fn rgb(&self, x: i64, y: i64) -> [f32; 3] {
+        let here = self.at(x, y);
+        let cross = 0.25
+            * (self.at(x - 1, y) + self.at(x + 1, y) + self.at(x, y - 1) + self.at(x, y + 1));
+        let diag = 0.25
+            * (self.at(x - 1, y - 1)
+                + self.at(x + 1, y - 1)
+                + self.at(x - 1, y + 1)
+                + self.at(x + 1, y + 1));
+        let horiz = 0.5 * (self.at(x - 1, y) + self.at(x + 1, y));
+        let vert = 0.5 * (self.at(x, y - 1) + self.at(x, y + 1));
+        match (x & 1, y & 1) {
+            (0, 0) => [here, cross, diag],
+            (1, 1) => [diag, cross, here],
+            // G on a red row: red left and right, blue above and below.
+            (1, 0) => [horiz, here, vert],
+            _ => [vert, here, horiz],
+        }
+    }
+}
+
+impl Pixels for BayerFull<'_> {
+    fn size(&self) -> (i64, i64) {
+        (self.frame.width as i64, self.frame.height as i64)
+    }
+    fn scale(&self) -> f64 {
+        1.0
+    }
+    fn channels(&self) -> Channels {
+        self.channels
+    }
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
+        let c = self.channels.count();
+        for (k, o) in out.chunks_exact_mut(c).enumerate() {
+            put(self.channels, self.rgb(x0 + k as i64, y), o);
+        }
+    }
+}
+
+/// `base` rotated by `angle` (radians, counter-clockwise as seen on screen) about `centre`
+/// (in the base's pixel coordinates, pixel centres at i + 0.5), sampled bilinearly; outside the
+/// base reads black.
+pub(crate) struct Rotated<'a> {
+    pub(crate) base: Box<dyn Pixels + 'a>,
+    pub(crate) centre: [f64; 2],
+    pub(crate) angle: f64,
+}
+
+impl Pixels for Rotated<'_> {
+    fn size(&self) -> (i64, i64) {
+        self.base.size()
+    }
+    fn scale(&self) -> f64 {
+        self.base.scale()
+    }
+    fn channels(&self) -> Channels {
+        self.base.channels()
+    }
+    fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
+        let c = self.channels().count();
+        let (w, h) = self.base.size();
+        let (sin, cos) = self.angle.sin_cos();
+        let mut corner = [0f32; 3];
+        let dy = y as f64 + 0.5 - self.centre[1];
+        for (k, o) in out.chunks_exact_mut(c).enumerate() {
+            let dx = (x0 + k as i64) as f64 + 0.5 - self.centre[0];
+            // A screen-counter-clockwise turn by `angle` in image axes (y down) maps the source
+            // offset (sx, sy) to (sx cos + sy sin, -sx sin + sy cos); invert it.
+            let sx = dx * cos - dy * sin;
+            let sy = dx * sin + dy * cos;
+            let (fx, fy) = (self.centre[0] + sx - 0.5, self.centre[1] + sy - 0.5);
+            let (ix, iy) = (fx.floor() as i64, fy.floor() as i64);
+            let (tx, ty) = ((fx - ix as f64) as f32, (fy - iy as f64) as f32);
+            o.fill(0.0);
+            for (cx, cy, wgt) in [
+                (ix, iy, (1.0 - tx) * (1.0 - ty)),
+                (ix + 1, iy, tx * (1.0 - ty)),
+                (ix, iy + 1, (1.0 - tx) * ty),
+                (ix + 1, iy + 1, tx * ty),
+            ] {
+                if wgt == 0.0 || cx < 0 || cy < 0 || cx >= w || cy >= h {
+                    continue;
+                }
+                self.base.pixel(cx, cy, &mut corner[..c]);
+                for (v, s) in o.iter_mut().zip(&corner[..c]) {
+                    *v += wgt * s;
+                }
+            }
+        }
+    }
+}
