@@ -62,7 +62,9 @@ fn main() {
         .unwrap_or(50);
     println!("{n} iterations per figure; median / mean in ms");
     let (w, h) = (1920u32, 1200u32);
-    let rgb: Vec<u8> = (0..w * h * 3).map(|i| (i.wrapping_mul(2654435761) >> 24) as u8).collect();
+    let rgb: Vec<u8> = (0..w * h * 3)
+        .map(|i| (i.wrapping_mul(2654435761) >> 24) as u8)
+        .collect();
     let bayer: Vec<u8> = rgb.iter().step_by(3).copied().collect();
     for (colour, label) in [(Colour::Grey, "grey"), (Colour::Rgb, "rgb")] {
         let cfg = Preprocessing {
@@ -80,7 +82,12 @@ fn main() {
             (PixelFormat::Rgb8, &rgb, "RGB8"),
             (PixelFormat::BayerRg8, &bayer, "BayerRG8"),
         ] {
-            let frame = FrameRef { width: w, height: h, format, data };
+            let frame = FrameRef {
+                width: w,
+                height: h,
+                format,
+                data,
+            };
             let (med, mean) = time(n, || {
                 pre.run_into(frame, 0.0, &mut out).expect("preprocess");
             });
@@ -93,11 +100,18 @@ fn main() {
         for threads in [1, 2] {
             let mut b = TractBackend::new(proto.clone(), 3, threads).expect("backend");
             let input = vec![0.1f32; 3 * 224 * 224];
-            let iters = if arch == Architecture::Resnet18 { n.min(30) } else { n };
+            let iters = if arch == Architecture::Resnet18 {
+                n.min(30)
+            } else {
+                n
+            };
             let (med, mean) = time(iters, || {
                 b.run(&input, 1, 224).expect("run");
             });
-            println!("tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}", arch.name());
+            println!(
+                "tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
+                arch.name()
+            );
         }
     }
     if let Some(py) = std::env::var_os("FRINGE_TORCH_PYTHON") {
