@@ -8,8 +8,10 @@ pub mod camera;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod devices;
+pub mod eval;
 pub mod ft;
 pub mod limits;
+pub mod model;
 pub mod runs;
 pub mod scan;
 #[cfg(feature = "sim")]

@@ -53,6 +53,11 @@ enum Command {
     /// Calibrate a sensor build: the calibration scan on the rig (or --images DIR for the optics
     /// only) and its profile: centre, crop radius, image-to-stage geometry, force offsets.
     Calibrate(cmd::calibrate::CalibrateArgs),
+    /// Evaluate a model on runs or reference-layout datasets: the paper's Table-2 figures,
+    /// errors by grid position and force level, a report with plots (--report DIR).
+    Eval(cmd::eval::EvalArgs),
+    /// Model files: what one is (info), its predictions on images (run), its ONNX graph (export).
+    Model(cmd::model::ModelArgs),
     /// The simulated bench: render sensor frames, serve its devices.
     #[cfg(feature = "sim")]
     #[command(subcommand)]
@@ -95,6 +100,8 @@ fn main() -> ExitCode {
         Some(Command::Verify(args)) => cmd::runs::run_verify(args, &global),
         Some(Command::Export(args)) => cmd::runs::run_export(args, &global),
         Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
+        Some(Command::Model(args)) => cmd::model::run(args),
+        Some(Command::Eval(args)) => cmd::eval::run(args),
         #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
         #[cfg(feature = "sim")]

@@ -1,0 +1,97 @@
+//! `fringe eval --model MODEL DATA... [--report DIR]`: a model's Table-2 figures on runs or
+//! reference-layout datasets.
+
+use super::model::{open_model, ReferenceChoice};
+use anyhow::{bail, Result};
+use clap::Args;
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::eval::evaluate;
+use fringe_sensor_models::report;
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct EvalArgs {
+    /// The model: .pth / .pt, .safetensors or .onnx.
+    #[arg(long)]
+    model: PathBuf,
+    /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+    /// Write report.md and its plots here.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Calibration profile for data that carries none (reference-layout datasets).
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
+    /// Preprocess as the reference code does, for models it trained.
+    #[arg(long, value_name = "SENSOR", num_args = 0..=1, default_missing_value = "layered")]
+    reference_preprocessing: Option<ReferenceChoice>,
+    /// Inference threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+}
+
+pub fn run(a: EvalArgs) -> Result<()> {
+    let model = open_model(&a.model)?;
+    let profile = match &a.profile {
+        Some(p) => Some(Profile::load(p)?),
+        None => None,
+    };
+    let mut sources = Vec::with_capacity(a.data.len());
+    for d in &a.data {
+        if !d.exists() {
+            bail!("{}: no such run or dataset", d.display());
+        }
+        sources.push(dataset::read(d)?);
+    }
+    let mut backend = model.tract(a.threads.max(1))?;
+    let tty = std::io::stderr().is_terminal();
+    let mut last = 0;
+    let eval = evaluate(
+        &model,
+        backend.as_mut(),
+        &sources,
+        profile.as_ref(),
+        a.reference_preprocessing.map(ReferenceChoice::sensor),
+        |done, total| {
+            let pct = 100 * done / total.max(1);
+            if tty {
+                eprint!("\revaluating: {done} of {total} frames ({pct} %)");
+                let _ = std::io::stderr().flush();
+            } else if pct >= last + 25 || done == total {
+                eprintln!("evaluating: {done} of {total} frames ({pct} %)");
+                last = pct;
+            }
+        },
+    )?;
+    if tty {
+        eprintln!();
+    }
+    let m = &eval.metrics;
+    let s = m.macro_scores();
+    println!(
+        "model:          {} ({})",
+        model.path.display(),
+        model.describe()
+    );
+    println!(
+        "frames:         {} ({} in contact, {} left out without a trustworthy label)",
+        m.all.n, m.all.n_contact, eval.skipped
+    );
+    println!("Fz MSE:         {:.4} N^2", m.all.fz_mse());
+    println!("Fz RMSE:        {:.4} N", m.all.fz_rmse());
+    println!("contact RMSE:   {:.4} mm", m.all.contact_rmse());
+    println!("shape accuracy: {:.4}", m.all.accuracy());
+    println!(
+        "macro:          precision {:.4}, recall {:.4}, F1 {:.4}",
+        s.precision, s.recall, s.f1
+    );
+    if let Some(dir) = &a.report {
+        let title = format!("Evaluation of {}", model.path.display());
+        let path = report::write(dir, &title, &eval)?;
+        println!("report:         {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,211 @@
+//! `fringe model info|run|export`: what a model file is, its predictions on images, its ONNX
+//! graph.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand, ValueEnum};
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::model::Model;
+use fringe_sensor_models::onnx_graph;
+use fringe_sensor_models::prediction::{predictions, Prediction};
+use fringe_sensor_models::preprocess::ReferenceSensor;
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct ModelArgs {
+    #[command(subcommand)]
+    command: ModelCommand,
+}
+
+#[derive(Subcommand)]
+enum ModelCommand {
+    /// Architecture, shape classes, parameters, input size and preprocessing of a model file.
+    Info(InfoArgs),
+    /// Run a model on image files: one line (or JSON object) per image with the force vector,
+    /// the shape with its probabilities and the contact point.
+    Run(RunArgs),
+    /// Write a model's ONNX graph (runs in onnxruntime and any ONNX runtime).
+    Export(ExportArgs),
+}
+
+#[derive(Args)]
+struct InfoArgs {
+    /// A .pth / .pt (torch.save), .safetensors or .onnx file.
+    model: PathBuf,
+}
+
+/// The reference pipeline's sensors (crop diameter 980 or 1100 px about the image centre).
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ReferenceChoice {
+    Layered,
+    Integrated,
+}
+
+impl ReferenceChoice {
+    pub fn sensor(self) -> ReferenceSensor {
+        match self {
+            ReferenceChoice::Layered => ReferenceSensor::Layered,
+            ReferenceChoice::Integrated => ReferenceSensor::Integrated,
+        }
+    }
+}
+
+#[derive(Args)]
+struct RunArgs {
+    model: PathBuf,
+    /// Image files (PNG, TIFF, ...): full sensor frames.
+    #[arg(required = true)]
+    images: Vec<PathBuf>,
+    /// The sensor's calibration profile (optical centre, crop radius): profiles/ID.toml.
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
+    /// Preprocess as the reference code does (image centre, its crop diameter), for models it
+    /// trained.
+    #[arg(long, value_name = "SENSOR", num_args = 0..=1, default_missing_value = "layered")]
+    reference_preprocessing: Option<ReferenceChoice>,
+    /// One JSON object per line instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Inference threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    model: PathBuf,
+    /// Where to write the ONNX file.
+    #[arg(long, value_name = "OUT.onnx")]
+    onnx: PathBuf,
+}
+
+pub fn run(args: ModelArgs) -> Result<()> {
+    match args.command {
+        ModelCommand::Info(a) => info(&a.model),
+        ModelCommand::Run(a) => run_images(a),
+        ModelCommand::Export(a) => export(&a.model, &a.onnx),
+    }
+}
+
+/// Opens a model file, naming it when it is missing.
+pub fn open_model(path: &Path) -> Result<Model> {
+    if !path.exists() {
+        bail!("{}: no such model file", path.display());
+    }
+    Ok(Model::open(path)?)
+}
+
+fn info(path: &Path) -> Result<()> {
+    let m = open_model(path)?;
+    println!("model:         {}", m.path.display());
+    println!("architecture:  {}", m.describe());
+    println!(
+        "shape classes: {} ({})",
+        m.classes.len(),
+        m.classes.join(", ")
+    );
+    println!("parameters:    {}", m.parameters);
+    println!("stored as:     {}", m.stored);
+    println!(
+        "input:         3 x {0} x {0}, {1}",
+        m.input_size,
+        m.colour.name()
+    );
+    println!(
+        "outputs:       force [Fx Fy Fz Mx My Mz Ft] (magnitudes), shape probabilities, contact x y (mm)"
+    );
+    let pre = m
+        .card
+        .as_ref()
+        .and_then(|c| c.preprocessing.clone())
+        .unwrap_or_else(|| "profile (pass --profile profiles/ID.toml to run it)".into());
+    println!("preprocessing: {pre}");
+    if let Some(sensor) = m.card.as_ref().and_then(|c| c.sensor_id.as_ref()) {
+        println!("sensor:        {sensor}");
+    }
+    Ok(())
+}
+
+fn run_images(a: RunArgs) -> Result<()> {
+    let m = open_model(&a.model)?;
+    let profile = match &a.profile {
+        Some(p) => Some(Profile::load(p)?),
+        None => None,
+    };
+    let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
+    let config = m.preprocessing(profile.as_ref(), reference)?;
+    let mut backend = m.tract(a.threads.max(1))?;
+    let size = m.input_size;
+    for image in &a.images {
+        let tensor = config
+            .run_file(image)
+            .with_context(|| format!("{}", image.display()))?;
+        let raw = backend.run(&tensor, 1, size)?;
+        let Some(p) = predictions(&raw, &m.classes).into_iter().next() else {
+            bail!("{}: the model gave no output", image.display());
+        };
+        if a.json {
+            println!("{}", json_line(image, &p));
+        } else {
+            println!("{}: {}", image.display(), text_line(&p));
+        }
+    }
+    Ok(())
+}
+
+fn text_line(p: &Prediction) -> String {
+    let f = &p.force;
+    let others: Vec<String> = p
+        .probabilities
+        .iter()
+        .filter(|(n, _)| *n != p.shape)
+        .map(|(n, v)| format!("{n} {:.1} %", 100.0 * v))
+        .collect();
+    let contact = match p.contact {
+        Some([x, y]) => format!("contact x {:.1} y {:.1} mm", x.value(), y.value()),
+        None => "contact -".to_string(),
+    };
+    format!(
+        "Fz {:.2} N (Fx {:.2} Fy {:.2} |F| {:.2} N)  shape {} {:.1} % ({})  {contact}",
+        f.fz.value(),
+        f.fx.value(),
+        f.fy.value(),
+        f.ft.value(),
+        p.shape,
+        100.0 * p.confidence(),
+        others.join(", ")
+    )
+}
+
+fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
+    let f = &p.force;
+    serde_json::json!({
+        "image": image.display().to_string(),
+        "force": {
+            "fx": f.fx.value(), "fy": f.fy.value(), "fz": f.fz.value(),
+            "mx": f.mx.value(), "my": f.my.value(), "mz": f.mz.value(), "ft": f.ft.value(),
+        },
+        "shape": p.shape,
+        "probabilities": p.probabilities.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+        "contact_mm": p.contact.map(|[x, y]| [x.value(), y.value()]),
+    })
+}
+
+fn export(path: &Path, out: &Path) -> Result<()> {
+    let m = open_model(path)?;
+    let bytes = onnx_graph::encode(m.onnx());
+    let tmp = out.with_extension("onnx.partial");
+    std::fs::write(&tmp, &bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
+    std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
+    println!(
+        "{}: {} ONNX graph (opset {}), {} bytes, inputs `{}` [N,3,{},{}], outputs {}",
+        out.display(),
+        m.describe(),
+        onnx_graph::OPSET,
+        bytes.len(),
+        onnx_graph::INPUT,
+        m.input_size,
+        m.input_size,
+        onnx_graph::OUTPUTS.join(", ")
+    );
+    Ok(())
+}

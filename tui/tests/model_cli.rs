@@ -1,0 +1,296 @@
+//! `fringe model info|run|export` and `fringe eval` on the committed PyTorch fixtures.
+
+mod common;
+
+use common::{fringe, scratch, text};
+use fringe_calibration::profile::{ImageSize, Optical, Profile};
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../sensor-models/tests/fixtures/custom")
+        .join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// A 1920x1200 RGB frame with fringes about the image centre, pressed to `strength`.
+fn frame(path: &Path, strength: f64) {
+    let img = image::RgbImage::from_fn(1920, 1200, |x, y| {
+        let (dx, dy) = (x as f64 - 960.0, y as f64 - 600.0);
+        let r = (dx * dx + dy * dy).sqrt();
+        let v = 120.0 + 100.0 * (strength * r / 30.0).sin() * (-r / 300.0).exp();
+        image::Rgb([v as u8, (v * 0.8) as u8, (255.0 - v) as u8])
+    });
+    img.save(path).expect("save frame");
+}
+
+/// A profile of a 1920x1200 sensor with its optical centre 30 px right of the image centre.
+fn sample_profile(id: &str) -> Profile {
+    Profile {
+        sensor_id: id.into(),
+        created_utc: "2026-11-20T10:00:00.000Z".into(),
+        source: "test".into(),
+        image: ImageSize {
+            width: 1920,
+            height: 1200,
+        },
+        optical: Optical {
+            centre_x_px: 990.0,
+            centre_y_px: 600.0,
+            shift_x_px: 30.0,
+            shift_y_px: 0.0,
+            radius_px: 490.0,
+            crop_radius_px: 461.0,
+            sigma_x_px: 0.003,
+            sigma_y_px: 0.003,
+            sigma_radius_px: 0.01,
+            residual_rms_px: 0.05,
+            frames: 4,
+        },
+        registration: None,
+        force_offsets: None,
+    }
+}
+
+#[test]
+fn info_names_architecture_classes_and_parameters() {
+    for file in [
+        "state_dict.pth",
+        "legacy.pth",
+        "checkpoint.pth",
+        "model.safetensors",
+    ] {
+        let out = fringe(&["model", "info", s(&fixture(file))]);
+        let t = text(&out);
+        assert!(out.status.success(), "{file}: {t}");
+        assert!(t.contains("custom CNN"), "{file}: {t}");
+        assert!(t.contains("3 (None, pentagon, rectangle)"), "{file}: {t}");
+        assert!(t.contains("parameters:    98988"), "{file}: {t}");
+        assert!(t.contains("3 x 224 x 224"), "{file}: {t}");
+    }
+    let out = fringe(&["model", "info", s(&fixture("state_dict_f16.pth"))]);
+    assert!(text(&out).contains("stored as:     f16"), "{}", text(&out));
+}
+
+#[test]
+fn foreign_truncated_and_missing_files_are_refused_naming_them() {
+    let dir = scratch("foreign");
+    let foreign = dir.join("notes.pth");
+    std::fs::write(&foreign, "just some text, not a model").expect("write");
+    let out = fringe(&["model", "info", s(&foreign)]);
+    assert!(!out.status.success());
+    let t = text(&out);
+    assert!(t.contains("notes.pth") && t.lines().count() == 1, "{t}");
+    let bytes = std::fs::read(fixture("state_dict.pth")).expect("read");
+    let cut = dir.join("cut.pth");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
+    let out = fringe(&["model", "info", s(&cut)]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("cut.pth"), "{}", text(&out));
+    let out = fringe(&["model", "info", s(&dir.join("absent.pth"))]);
+    assert!(!out.status.success());
+    assert!(
+        text(&out).contains("absent.pth: no such model file"),
+        "{}",
+        text(&out)
+    );
+}
+
+#[test]
+fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
+    let dir = scratch("run");
+    let (a, b) = (dir.join("a.png"), dir.join("b.png"));
+    frame(&a, 1.0);
+    frame(&b, 3.0);
+    let model = fixture("state_dict.pth");
+    // Without a profile or the reference geometry there is no crop to make.
+    let out = fringe(&["model", "run", s(&model), s(&a)]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("--profile"), "{}", text(&out));
+    let out = fringe(&[
+        "model",
+        "run",
+        s(&model),
+        s(&a),
+        s(&b),
+        "--reference-preprocessing",
+        "--json",
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("json line"))
+        .collect();
+    assert_eq!(lines.len(), 2, "{t}");
+    for (l, img) in lines.iter().zip([&a, &b]) {
+        assert_eq!(l["image"], s(img));
+        assert!(l["force"]["fz"].is_f64());
+        let total: f64 = l["probabilities"]
+            .as_object()
+            .expect("probabilities")
+            .values()
+            .map(|v| v.as_f64().expect("p"))
+            .sum();
+        assert!((total - 1.0).abs() < 1e-6);
+    }
+    // Different frames, different outputs; the same frame, the same output in text form.
+    assert_ne!(lines[0]["force"], lines[1]["force"]);
+    let out = fringe(&[
+        "model",
+        "run",
+        s(&model),
+        s(&a),
+        "--reference-preprocessing",
+    ]);
+    let t = text(&out);
+    assert!(t.contains("Fz ") && t.contains(" shape "), "{t}");
+    // A frame of another size than the reference crop fits is still cropped (image centre);
+    // a profile made on other frames is refused.
+    let small = dir.join("small.png");
+    image::RgbImage::new(640, 480).save(&small).expect("save");
+    let profile = dir.join("p.toml");
+    sample_profile("s1").save(&profile).expect("profile");
+    let out = fringe(&[
+        "model",
+        "run",
+        s(&model),
+        s(&small),
+        "--profile",
+        s(&profile),
+    ]);
+    assert!(!out.status.success());
+    let t = text(&out);
+    assert!(
+        t.contains("640x480") && t.contains("1920x1200") && t.contains("s1"),
+        "{t}"
+    );
+}
+
+#[test]
+fn export_writes_an_onnx_graph_that_onnxruntime_runs_with_pytorchs_outputs() {
+    let dir = scratch("export");
+    let onnx = dir.join("m.onnx");
+    let out = fringe(&[
+        "model",
+        "export",
+        s(&fixture("legacy.pth")),
+        "--onnx",
+        s(&onnx),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    // The exported graph reads back as the same network.
+    let info = fringe(&["model", "info", s(&onnx)]);
+    assert!(
+        text(&info).contains("custom CNN (ONNX graph)"),
+        "{}",
+        text(&info)
+    );
+    let python = std::env::var("FRINGE_TORCH_PYTHON").expect(
+        "FRINGE_TORCH_PYTHON is not set: install sensor-models/tests/python/requirements-models.txt \
+         into a venv and point it at its python (scripts/test does)",
+    );
+    let check = std::process::Command::new(python)
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../sensor-models/tests/python/check_onnx.py"),
+        )
+        .arg(&onnx)
+        .arg(fixture("expected.json"))
+        .arg("legacy.pth")
+        .output()
+        .expect("python");
+    assert!(check.status.success(), "{}", text(&check));
+}
+
+#[test]
+fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
+    let dir = scratch("eval");
+    let data = dir.join("data");
+    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
+    // Labels: two presses (one below the 0.2 N noise floor, so no contact) and two shapes.
+    let labels = [
+        ("image_0.tiff", -0.1_f64, f64::NAN, f64::NAN, "None", 0.5),
+        ("image_1.tiff", -2.0, 1.0, -2.0, "pentagon", 1.5),
+        ("image_2.tiff", -4.0, -3.0, 0.5, "rectangle", 2.5),
+        ("image_3.tiff", -0.15, 2.0, 2.0, "pentagon", 3.5),
+    ];
+    let mut csv = String::from(
+        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n",
+    );
+    let mut paths = Vec::new();
+    for (name, fz, x, y, shape, strength) in labels {
+        let p = data.join("0.images").join(name);
+        frame(&p, strength);
+        paths.push(p);
+        csv.push_str(&format!(
+            "{name},0.1,0.1,{fz},0,0,0,{},{x},{y},{shape}\n",
+            fz.abs()
+        ));
+    }
+    std::fs::write(data.join("0.labels.csv"), csv).expect("labels");
+    let model = fixture("state_dict.pth");
+    let report = dir.join("report");
+    let out = fringe(&[
+        "eval",
+        "--model",
+        s(&model),
+        s(&data),
+        "--reference-preprocessing",
+        "--report",
+        s(&report),
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    // The same predictions, one by one.
+    let mut args = vec!["model", "run", s(&model)];
+    args.extend(paths.iter().map(|p| s(p)));
+    args.extend(["--reference-preprocessing", "--json"]);
+    let run = fringe(&args);
+    assert!(run.status.success(), "{}", text(&run));
+    let preds: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("json"))
+        .collect();
+    let mut sq = 0.0;
+    let mut correct = 0;
+    for (p, (_, fz, _, _, shape, _)) in preds.iter().zip(labels) {
+        sq += (p["force"]["fz"].as_f64().expect("fz") - fz.abs()).powi(2);
+        // Under 0.2 N the label is "None" whatever the file says.
+        let label = if fz.abs() < 0.2 { "None" } else { shape };
+        correct += usize::from(p["shape"] == label);
+    }
+    let rmse = (sq / 4.0).sqrt();
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("Fz RMSE:"))
+        .expect("rmse line");
+    let printed: f64 = line
+        .trim_start_matches("Fz RMSE:")
+        .trim()
+        .trim_end_matches(" N")
+        .parse()
+        .expect("number");
+    assert!((printed - rmse).abs() < 1e-4, "{printed} vs {rmse}");
+    let acc = t
+        .lines()
+        .find(|l| l.starts_with("shape accuracy:"))
+        .expect("acc");
+    assert!(
+        acc.contains(&format!("{:.4}", correct as f64 / 4.0)),
+        "{acc}"
+    );
+    assert!(t.contains("frames:         4 (2 in contact"), "{t}");
+    let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
+    assert!(
+        md.contains("| this model | 4 |") && md.contains("paper: Sensor 1, custom CNN"),
+        "{md}"
+    );
+    for png in ["fz.png", "contact.png", "confusion.png"] {
+        let img = image::open(report.join(png)).expect(png);
+        assert_eq!((img.width(), img.height()), (720, 720));
+    }
+}
