@@ -77,7 +77,11 @@ impl Architecture {
             }
         }
         let f = self.features();
-        for (head, out) in [("force_head", 7), ("class_head", classes), ("point_head", 2)] {
+        for (head, out) in [
+            ("force_head", 7),
+            ("class_head", classes),
+            ("point_head", 2),
+        ] {
             keys.push((format!("{head}.weight"), vec![out, f]));
             keys.push((format!("{head}.bias"), vec![out]));
         }
@@ -124,7 +128,9 @@ pub enum ArchError {
         got: Vec<usize>,
         want: Vec<usize>,
     },
-    #[error("class_head has {0} outputs: a model needs at least 2 shape classes (None and one shape)")]
+    #[error(
+        "class_head has {0} outputs: a model needs at least 2 shape classes (None and one shape)"
+    )]
     Classes(usize),
 }
 
@@ -146,7 +152,10 @@ pub fn recognise(sd: &StateDict) -> Result<(Architecture, usize), ArchError> {
     } else if sd.contains("backbone.0.weight") {
         Architecture::Resnet18
     } else {
-        let mut prefixes: Vec<&str> = sd.keys().map(|k| k.split('.').next().unwrap_or(k)).collect();
+        let mut prefixes: Vec<&str> = sd
+            .keys()
+            .map(|k| k.split('.').next().unwrap_or(k))
+            .collect();
         prefixes.dedup();
         let found = if sd.is_empty() {
             "no tensors".to_string()
@@ -259,14 +268,23 @@ mod tests {
             .filter(|(k, _)| *k != "point_head.bias")
             .map(|(k, t)| (k.to_string(), t.clone()))
             .collect();
-        pairs.push(("extra.weight".into(), Tensor::new(vec![1], vec![0.0]).expect("t")));
+        pairs.push((
+            "extra.weight".into(),
+            Tensor::new(vec![1], vec![0.0]).expect("t"),
+        ));
         let e = recognise(&StateDict::from_pairs(pairs)).expect_err("missing");
         let msg = e.to_string();
         assert!(msg.contains("missing point_head.bias"), "{msg}");
         assert!(msg.contains("unexpected extra.weight"), "{msg}");
-        sd.insert("force_head.weight", Tensor::new(vec![6, 128], vec![0.0; 768]).expect("t"));
+        sd.insert(
+            "force_head.weight",
+            Tensor::new(vec![6, 128], vec![0.0; 768]).expect("t"),
+        );
         let msg = recognise(&sd).expect_err("shape").to_string();
-        assert!(msg.contains("force_head.weight has shape [6, 128]"), "{msg}");
+        assert!(
+            msg.contains("force_head.weight has shape [6, 128]"),
+            "{msg}"
+        );
         let msg = recognise(&StateDict::new()).expect_err("empty").to_string();
         assert!(msg.contains("no tensors"), "{msg}");
     }

@@ -70,12 +70,18 @@ pub enum DatasetError {
 }
 
 /// Applies the label rules to a force vector, shape and contact.
-pub fn label(force: [f64; 6], shape: &str, contact: Option<[f64; 2]>) -> ([f64; 7], String, Option<[f64; 2]>) {
+pub fn label(
+    force: [f64; 6],
+    shape: &str,
+    contact: Option<[f64; 2]>,
+) -> ([f64; 7], String, Option<[f64; 2]>) {
     let [fx, fy, fz, mx, my, mz] = force.map(f64::abs);
     let ft = (fx * fx + fy * fy + fz * fz).sqrt();
     let forces = [fx, fy, fz, mx, my, mz, ft];
     match contact {
-        Some(c) if fz >= CONTACT_THRESHOLD_N && shape != "None" => (forces, shape.to_string(), Some(c)),
+        Some(c) if fz >= CONTACT_THRESHOLD_N && shape != "None" => {
+            (forces, shape.to_string(), Some(c))
+        }
         _ => (forces, "None".to_string(), None),
     }
 }
@@ -106,10 +112,14 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
     let start: StartDocument = read_document(&dir.join(START))?;
     let (records, _) = read_lines::<FrameRecord>(&dir.join(FRAMES))?;
     let profile = match &start.calibration_profile {
-        Some(p) => Some(toml::from_str::<Profile>(&p.content).map_err(|e| DatasetError::Profile {
-            path: dir.join(START).display().to_string(),
-            message: e.to_string(),
-        })?),
+        Some(p) => {
+            Some(
+                toml::from_str::<Profile>(&p.content).map_err(|e| DatasetError::Profile {
+                    path: dir.join(START).display().to_string(),
+                    message: e.to_string(),
+                })?,
+            )
+        }
         None => None,
     };
     let format = run_format(&start);
@@ -242,12 +252,20 @@ mod tests {
 
     #[test]
     fn label_rules_take_magnitudes_and_the_noise_floor() {
-        let (f, s, c) = label([0.1, -0.2, -3.0, 0.01, -0.02, 0.0], "pentagon", Some([1.0, 2.0]));
+        let (f, s, c) = label(
+            [0.1, -0.2, -3.0, 0.01, -0.02, 0.0],
+            "pentagon",
+            Some([1.0, 2.0]),
+        );
         assert_eq!(f[2], 3.0);
         assert_eq!(f[1], 0.2);
         assert!((f[6] - (0.01f64 + 0.04 + 9.0).sqrt()).abs() < 1e-12);
         assert_eq!((s.as_str(), c), ("pentagon", Some([1.0, 2.0])));
-        let (_, s, c) = label([0.0, 0.0, -0.15, 0.0, 0.0, 0.0], "pentagon", Some([1.0, 2.0]));
+        let (_, s, c) = label(
+            [0.0, 0.0, -0.15, 0.0, 0.0, 0.0],
+            "pentagon",
+            Some([1.0, 2.0]),
+        );
         assert_eq!((s.as_str(), c), ("None", None));
     }
 }

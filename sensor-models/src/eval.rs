@@ -88,9 +88,10 @@ fn frame_bytes(
     let (data, read_as) = image_bytes(&img);
     let format = match (format, read_as) {
         // A run's Bayer mosaic is stored in a grey PNG.
-        (Some(fringe_rig::camera::PixelFormat::BayerRg8), fringe_rig::camera::PixelFormat::Mono8) => {
-            fringe_rig::camera::PixelFormat::BayerRg8
-        }
+        (
+            Some(fringe_rig::camera::PixelFormat::BayerRg8),
+            fringe_rig::camera::PixelFormat::Mono8,
+        ) => fringe_rig::camera::PixelFormat::BayerRg8,
         _ => read_as,
     };
     Ok((img.width(), img.height(), data, format))
@@ -150,12 +151,13 @@ pub fn evaluate(
                 })?;
                 truth.push(shape);
             }
-            let raw = backend
-                .run(&batch, chunk.len(), size)
-                .map_err(|source| EvalError::Inference {
-                    path: chunk[0].image.display().to_string(),
-                    source,
-                })?;
+            let raw =
+                backend
+                    .run(&batch, chunk.len(), size)
+                    .map_err(|source| EvalError::Inference {
+                        path: chunk[0].image.display().to_string(),
+                        source,
+                    })?;
             for ((s, p), shape_true) in chunk
                 .iter()
                 .zip(predictions(&raw, &model.classes))
@@ -165,7 +167,11 @@ pub fn evaluate(
                     fz_true: s.fz(),
                     fz_pred: p.force.fz.value(),
                     shape_true,
-                    shape_pred: model.classes.iter().position(|c| *c == p.shape).unwrap_or(0),
+                    shape_pred: model
+                        .classes
+                        .iter()
+                        .position(|c| *c == p.shape)
+                        .unwrap_or(0),
                     contact_true: s.contact,
                     contact_pred: p.contact_raw.map(|v| v.value()),
                 };

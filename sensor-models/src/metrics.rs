@@ -38,7 +38,8 @@ impl Errors {
         self.sum_sq_fz += (s.fz_pred - s.fz_true).powi(2);
         if let Some([x, y]) = s.contact_true {
             self.n_contact += 1;
-            self.sum_sq_contact += (s.contact_pred[0] - x).powi(2) + (s.contact_pred[1] - y).powi(2);
+            self.sum_sq_contact +=
+                (s.contact_pred[0] - x).powi(2) + (s.contact_pred[1] - y).powi(2);
         }
         self.correct += u64::from(s.shape_pred == s.shape_true);
     }

@@ -14,7 +14,9 @@ pub enum CardError {
         path: String,
         source: std::io::Error,
     },
-    #[error("{path}: not a model card: {source} (delete or fix it; it describes the model beside it)")]
+    #[error(
+        "{path}: not a model card: {source} (delete or fix it; it describes the model beside it)"
+    )]
     Parse {
         path: String,
         source: serde_json::Error,
@@ -68,6 +70,9 @@ impl ModelCard {
             path: shown.clone(),
             source,
         })?;
-        serde_json::from_str(&text).map_err(|source| CardError::Parse { path: shown, source })
+        serde_json::from_str(&text).map_err(|source| CardError::Parse {
+            path: shown,
+            source,
+        })
     }
 }

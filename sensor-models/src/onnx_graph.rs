@@ -98,7 +98,15 @@ impl Builder<'_> {
         });
     }
 
-    fn conv(&mut self, x: String, prefix: &str, k: i64, stride: i64, pad: i64, bias: bool) -> String {
+    fn conv(
+        &mut self,
+        x: String,
+        prefix: &str,
+        k: i64,
+        stride: i64,
+        pad: i64,
+        bias: bool,
+    ) -> String {
         let mut inputs = vec![x, self.weight(&format!("{prefix}.weight"))];
         if bias {
             inputs.push(self.weight(&format!("{prefix}.bias")));
@@ -220,7 +228,10 @@ pub fn build(arch: Architecture, classes: usize, sd: &StateDict) -> pb::ModelPro
     }
     let pooled = b.node("GlobalAveragePool", vec![x], vec![]);
     let features = b.node("Flatten", vec![pooled], vec![int("axis", 1)]);
-    for (head, out) in ["force_head", "class_head", "point_head"].iter().zip(OUTPUTS) {
+    for (head, out) in ["force_head", "class_head", "point_head"]
+        .iter()
+        .zip(OUTPUTS)
+    {
         let inputs = vec![
             features.clone(),
             b.weight(&format!("{head}.weight")),

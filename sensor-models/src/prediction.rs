@@ -80,8 +80,16 @@ pub fn predictions(raw: &RawOutputs, classes: &[String]) -> Vec<Prediction> {
                 .enumerate()
                 .max_by(|a, b| a.1.total_cmp(b.1))
                 .map_or(0, |(i, _)| i);
-            let name = |i: usize| classes.get(i).cloned().unwrap_or_else(|| format!("class {i}"));
-            let contact_raw = [Millimetres(contact[0] as f64), Millimetres(contact[1] as f64)];
+            let name = |i: usize| {
+                classes
+                    .get(i)
+                    .cloned()
+                    .unwrap_or_else(|| format!("class {i}"))
+            };
+            let contact_raw = [
+                Millimetres(contact[0] as f64),
+                Millimetres(contact[1] as f64),
+            ];
             Prediction {
                 force: ForceVector::from_array(*force),
                 shape: name(best),

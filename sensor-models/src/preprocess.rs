@@ -321,9 +321,9 @@ impl Preprocessor {
             (_, Colour::Grey) => {
                 // PIL's "L": (R 19595 + G 38470 + B 7471 + 2^15) >> 16 on the 8-bit values.
                 for (i, p) in self.resized.chunks_exact(3).enumerate() {
-                    let l = (p[0] as u32 * 19595 + p[1] as u32 * 38470 + p[2] as u32 * 7471
-                        + 0x8000)
-                        >> 16;
+                    let l =
+                        (p[0] as u32 * 19595 + p[1] as u32 * 38470 + p[2] as u32 * 7471 + 0x8000)
+                            >> 16;
                     let x = norm(l as f32);
                     (r[i], g[i], b[i]) = (x, x, x);
                 }

@@ -29,7 +29,13 @@ pub struct ReportError {
 /// The paper's Table 2 rows for comparison: (row, Fz MSE, Fz RMSE, contact RMSE, accuracy).
 pub const PAPER: [(&str, f64, f64, f64, f64); 2] = [
     ("paper: Sensor 1, ResNet-18", 0.0213, 0.1459, 0.4462, 0.9624),
-    ("paper: Sensor 1, custom CNN", 0.2428, 0.4927, 1.4683, 0.9532),
+    (
+        "paper: Sensor 1, custom CNN",
+        0.2428,
+        0.4927,
+        1.4683,
+        0.9532,
+    ),
 ];
 
 fn fmt(v: f64, d: usize) -> String {
@@ -63,7 +69,10 @@ pub fn markdown(title: &str, eval: &Evaluation) -> String {
         "{} frames evaluated ({} left out: no trustworthy label), {} in contact.\n",
         m.all.n, eval.skipped, m.all.n_contact
     );
-    let _ = writeln!(out, "| | frames | Fz MSE (N^2) | Fz RMSE (N) | contact RMSE (mm) | shape accuracy |");
+    let _ = writeln!(
+        out,
+        "| | frames | Fz MSE (N^2) | Fz RMSE (N) | contact RMSE (mm) | shape accuracy |"
+    );
     let _ = writeln!(out, "|---|---|---|---|---|---|");
     let _ = writeln!(out, "{}", errors_row("this model", &m.all));
     for (name, mse, rmse, c, a) in PAPER {
@@ -76,7 +85,10 @@ pub fn markdown(title: &str, eval: &Evaluation) -> String {
         fmt(s.recall, 4),
         fmt(s.f1, 4)
     );
-    let _ = writeln!(out, "## Confusion matrix (rows: labelled, columns: predicted)\n");
+    let _ = writeln!(
+        out,
+        "## Confusion matrix (rows: labelled, columns: predicted)\n"
+    );
     let _ = writeln!(out, "| | {} |", m.classes.join(" | "));
     let _ = writeln!(out, "|---|{}", "---|".repeat(m.classes.len()));
     for (name, row) in m.classes.iter().zip(&m.confusion) {
@@ -84,13 +96,19 @@ pub fn markdown(title: &str, eval: &Evaluation) -> String {
         let _ = writeln!(out, "| {name} | {} |", cells.join(" | "));
     }
     for (heading, prefix) in [("By force level", "force "), ("By grid position", "grid ")] {
-        let rows: Vec<(&String, &Errors)> =
-            m.by_key.iter().filter(|(k, _)| k.starts_with(prefix)).collect();
+        let rows: Vec<(&String, &Errors)> = m
+            .by_key
+            .iter()
+            .filter(|(k, _)| k.starts_with(prefix))
+            .collect();
         if rows.is_empty() {
             continue;
         }
         let _ = writeln!(out, "\n## {heading}\n");
-        let _ = writeln!(out, "| | frames | Fz MSE (N^2) | Fz RMSE (N) | contact RMSE (mm) | shape accuracy |");
+        let _ = writeln!(
+            out,
+            "| | frames | Fz MSE (N^2) | Fz RMSE (N) | contact RMSE (mm) | shape accuracy |"
+        );
         let _ = writeln!(out, "|---|---|---|---|---|---|");
         for (k, e) in rows {
             let _ = writeln!(out, "{}", errors_row(k.trim_start_matches(prefix), e));
@@ -120,7 +138,12 @@ impl Axes {
 
     fn frame(&self, img: &mut RgbImage, ticks: f64, xlabel: &str, ylabel: &str) {
         let (a, b) = (MARGIN, PX as f64 - MARGIN);
-        for (p, q) in [([a, a], [b, a]), ([b, a], [b, b]), ([b, b], [a, b]), ([a, b], [a, a])] {
+        for (p, q) in [
+            ([a, a], [b, a]),
+            ([b, a], [b, b]),
+            ([b, b], [a, b]),
+            ([a, b], [a, a]),
+        ] {
             line(img, p, q, BLACK);
         }
         let mut t = (self.lo[0] / ticks).ceil() * ticks;
@@ -128,15 +151,36 @@ impl Axes {
             let label = fmt(t, if ticks < 1.0 { 1 } else { 0 });
             let x = self.px([t, self.lo[1]])[0];
             line(img, [x, b], [x, b + 6.0], BLACK);
-            text(img, x as i64 - text_width(&label, 2) / 2, b as i64 + 12, 2, &label, BLACK);
+            text(
+                img,
+                x as i64 - text_width(&label, 2) / 2,
+                b as i64 + 12,
+                2,
+                &label,
+                BLACK,
+            );
             let y = self.px([self.lo[0], t.min(self.hi[1])])[1];
             if t <= self.hi[1] + 1e-9 && t >= self.lo[1] - 1e-9 {
                 line(img, [a - 6.0, y], [a, y], BLACK);
-                text(img, a as i64 - 10 - text_width(&label, 2), y as i64 - 5, 2, &label, BLACK);
+                text(
+                    img,
+                    a as i64 - 10 - text_width(&label, 2),
+                    y as i64 - 5,
+                    2,
+                    &label,
+                    BLACK,
+                );
             }
             t += ticks;
         }
-        text(img, PX as i64 / 2 - text_width(xlabel, 2) / 2, PX as i64 - 30, 2, xlabel, BLACK);
+        text(
+            img,
+            PX as i64 / 2 - text_width(xlabel, 2) / 2,
+            PX as i64 - 30,
+            2,
+            xlabel,
+            BLACK,
+        );
         text(img, 8, 20, 2, ylabel, BLACK);
     }
 }
@@ -173,7 +217,14 @@ pub fn fz_plot(eval: &Evaluation) -> RgbImage {
     }
     ax.frame(&mut img, tick(top), "measured fz (n)", "predicted fz (n)");
     let rmse = format!("rmse {} n", fmt(eval.metrics.all.fz_rmse(), 3));
-    text(&mut img, MARGIN as i64 + 12, MARGIN as i64 + 12, 2, &rmse, BLACK);
+    text(
+        &mut img,
+        MARGIN as i64 + 12,
+        MARGIN as i64 + 12,
+        2,
+        &rmse,
+        BLACK,
+    );
     img
 }
 
@@ -204,8 +255,18 @@ pub fn contact_plot(eval: &Evaluation) -> RgbImage {
         }
     }
     ax.frame(&mut img, tick(2.0 * reach), "x (mm)", "y (mm)");
-    let rmse = format!("contact rmse {} mm", fmt(eval.metrics.all.contact_rmse(), 3));
-    text(&mut img, MARGIN as i64 + 12, MARGIN as i64 + 12, 2, &rmse, BLACK);
+    let rmse = format!(
+        "contact rmse {} mm",
+        fmt(eval.metrics.all.contact_rmse(), 3)
+    );
+    text(
+        &mut img,
+        MARGIN as i64 + 12,
+        MARGIN as i64 + 12,
+        2,
+        &rmse,
+        BLACK,
+    );
     img
 }
 
@@ -220,7 +281,11 @@ pub fn confusion_plot(m: &Metrics) -> RgbImage {
         for (j, &v) in row.iter().enumerate() {
             let share = v as f64 / total;
             let shade = (255.0 - 200.0 * share) as u8;
-            let colour = if i == j { [shade, shade, 255] } else { [255, shade, shade] };
+            let colour = if i == j {
+                [shade, shade, 255]
+            } else {
+                [255, shade, shade]
+            };
             let (cx, cy) = (x0 + j as f64 * cell, MARGIN + i as f64 * cell);
             for y in cy as u32..(cy + cell) as u32 {
                 for x in cx as u32..(cx + cell) as u32 {
@@ -240,7 +305,14 @@ pub fn confusion_plot(m: &Metrics) -> RgbImage {
             );
         }
         let name: String = m.classes[i].chars().take(9).collect();
-        text(&mut img, 4, (MARGIN + (i as f64 + 0.5) * cell) as i64 - 5, 2, &name, BLACK);
+        text(
+            &mut img,
+            4,
+            (MARGIN + (i as f64 + 0.5) * cell) as i64 - 5,
+            2,
+            &name,
+            BLACK,
+        );
         text(
             &mut img,
             (x0 + (i as f64 + 0.5) * cell) as i64 - text_width(&name, 2) / 2,
@@ -250,7 +322,14 @@ pub fn confusion_plot(m: &Metrics) -> RgbImage {
             BLACK,
         );
     }
-    text(&mut img, x0 as i64, 30, 2, "rows: labelled, columns: predicted", BLACK);
+    text(
+        &mut img,
+        x0 as i64,
+        30,
+        2,
+        "rows: labelled, columns: predicted",
+        BLACK,
+    );
     img
 }
 

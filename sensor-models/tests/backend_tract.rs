@@ -42,7 +42,10 @@ fn check_dir(dir: &Path, arch: Architecture) {
             max_diff(&got.shape_logits, &want.shape_logits),
             max_diff(&contact, &want.contact),
         ];
-        eprintln!("{arch:?} {file}: max |tract - torch| force {:.2e}, logits {:.2e}, contact {:.2e}", d[0], d[1], d[2]);
+        eprintln!(
+            "{arch:?} {file}: max |tract - torch| force {:.2e}, logits {:.2e}, contact {:.2e}",
+            d[0], d[1], d[2]
+        );
         assert!(d.iter().all(|v| *v <= TOLERANCE), "{file}: {d:?}");
         // Batch 1 gives the same as the batch.
         let one = backend

@@ -66,7 +66,10 @@ fn the_crop_follows_the_optical_centre_not_the_image_centre() {
     let p = config(centre, 150.0, Colour::Grey, 64);
     let t = p.run(rgb(&data)).expect("preprocess");
     let c = centroid(&t[..64 * 64], 64);
-    assert!((c[0] - 32.0).abs() < 0.05 && (c[1] - 32.0).abs() < 0.05, "{c:?}");
+    assert!(
+        (c[0] - 32.0).abs() < 0.05 && (c[1] - 32.0).abs() < 0.05,
+        "{c:?}"
+    );
     // Outside the mask everything is black (-1 after normalisation), in every channel.
     for ch in 0..3 {
         assert_eq!(t[ch * 64 * 64], -1.0);
@@ -178,7 +181,11 @@ fn bayer_mono_and_rgb_frames_give_the_same_tensor_within_the_mosaic_error() {
         })
         .expect("mono");
     let r = p.run(rgb(&green_rgb)).expect("rgb");
-    let max = m.iter().zip(&r).map(|(x, y)| (x - y).abs()).fold(0.0, f32::max);
+    let max = m
+        .iter()
+        .zip(&r)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max);
     assert!(max < 1e-4, "mono vs grey rgb: {max}");
 }
 
@@ -198,7 +205,10 @@ fn bad_frames_are_refused_with_what_is_wrong() {
         })
         .expect_err("size")
         .to_string();
-    assert!(e.contains("800x600") && e.contains("640x400") && e.contains("test"), "{e}");
+    assert!(
+        e.contains("800x600") && e.contains("640x400") && e.contains("test"),
+        "{e}"
+    );
     let mut bad = p.clone();
     bad.crop_radius_px = f64::NAN;
     let e = Preprocessing::reference(ReferenceSensor::Layered, Colour::Grey, 4)

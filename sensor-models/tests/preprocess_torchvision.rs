@@ -42,7 +42,10 @@ fn reference_mode_matches_torchvision() {
         .expect("image")
         .save(&png)
         .expect("save");
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/reference_preprocess.py");
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/python/reference_preprocess.py"
+    );
     for (sensor, colour) in [
         (ReferenceSensor::Layered, Colour::Grey),
         (ReferenceSensor::Integrated, Colour::Grey),

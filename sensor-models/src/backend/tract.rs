@@ -44,9 +44,7 @@ pub(crate) fn output_order(proto: &pb::ModelProto) -> Result<[usize; 3], Inferen
         .as_ref()
         .map(|g| g.output.iter().map(|o| o.name.as_str()).collect())
         .unwrap_or_default();
-    if let [Some(a), Some(b), Some(c)] =
-        OUTPUTS.map(|want| names.iter().position(|n| *n == want))
-    {
+    if let [Some(a), Some(b), Some(c)] = OUTPUTS.map(|want| names.iter().position(|n| *n == want)) {
         return Ok([a, b, c]);
     }
     if names.len() == 3 {

@@ -162,6 +162,8 @@ mod tests {
         }
         // An upscale uses two neighbours.
         let up = taps(10, 0.0, 5.0, 0, 5);
-        assert!(up.iter().all(|t| t.weights.iter().filter(|w| **w > 0.0).count() <= 2));
+        assert!(up
+            .iter()
+            .all(|t| t.weights.iter().filter(|w| **w > 0.0).count() <= 2));
     }
 }

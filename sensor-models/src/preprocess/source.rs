@@ -187,16 +187,28 @@ impl BayerFull<'_> {
     fn at(&self, x: i64, y: i64) -> f32 {
         let (w, h) = (self.frame.width as i64, self.frame.height as i64);
         // Mirror at the edges keeps the colour phase (reflect by 2).
-        let x = if x < 0 { x + 2 } else if x >= w { x - 2 } else { x };
-        let y = if y < 0 { y + 2 } else if y >= h { y - 2 } else { y };
+        let x = if x < 0 {
+            x + 2
+        } else if x >= w {
+            x - 2
+        } else {
+            x
+        };
+        let y = if y < 0 {
+            y + 2
+        } else if y >= h {
+            y - 2
+        } else {
+            y
+        };
         let (x, y) = (x.clamp(0, w - 1), y.clamp(0, h - 1));
         self.frame.data[(y * w + x) as usize] as f32
     }
 
     fn rgb(&self, x: i64, y: i64) -> [f32; 3] {
         let here = self.at(x, y);
-        let cross = 0.25
-            * (self.at(x - 1, y) + self.at(x + 1, y) + self.at(x, y - 1) + self.at(x, y + 1));
+        let cross =
+            0.25 * (self.at(x - 1, y) + self.at(x + 1, y) + self.at(x, y - 1) + self.at(x, y + 1));
         let diag = 0.25
             * (self.at(x - 1, y - 1)
                 + self.at(x + 1, y - 1)
