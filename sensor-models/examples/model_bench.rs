@@ -2,8 +2,11 @@
 //! run when `FRINGE_TORCH_PYTHON` names a Python with torch (sensor-models/tests/python/torch_bench.py).
 //!
 //!     cargo run --release -p fringe-sensor-models --example model_bench [-- ITERATIONS]
+//!     cargo run --release -p fringe-sensor-models --example model_bench --features onnxruntime [-- ITERATIONS]
 //!
-//! Batch 1 at 224 x 224; the default backend (tract) on 2 threads; a 1920x1200 frame through the
+//! Batch 1 at 224 x 224; the default backend (tract) on 1 and 2 threads, and with
+//! `--features onnxruntime` ONNX Runtime on 1 and 2 intra-op threads (`ORT_DYLIB_PATH` names the
+//! library; README.md); a 1920x1200 frame through the
 //! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
 //! depend on them.
 
@@ -62,7 +65,9 @@ fn main() {
         .unwrap_or(50);
     println!("{n} iterations per figure; median / mean in ms");
     let (w, h) = (1920u32, 1200u32);
-    let rgb: Vec<u8> = (0..w * h * 3).map(|i| (i.wrapping_mul(2654435761) >> 24) as u8).collect();
+    let rgb: Vec<u8> = (0..w * h * 3)
+        .map(|i| (i.wrapping_mul(2654435761) >> 24) as u8)
+        .collect();
     let bayer: Vec<u8> = rgb.iter().step_by(3).copied().collect();
     for (colour, label) in [(Colour::Grey, "grey"), (Colour::Rgb, "rgb")] {
         let cfg = Preprocessing {
@@ -80,7 +85,12 @@ fn main() {
             (PixelFormat::Rgb8, &rgb, "RGB8"),
             (PixelFormat::BayerRg8, &bayer, "BayerRG8"),
         ] {
-            let frame = FrameRef { width: w, height: h, format, data };
+            let frame = FrameRef {
+                width: w,
+                height: h,
+                format,
+                data,
+            };
             let (med, mean) = time(n, || {
                 pre.run_into(frame, 0.0, &mut out).expect("preprocess");
             });
@@ -93,11 +103,40 @@ fn main() {
         for threads in [1, 2] {
             let mut b = TractBackend::new(proto.clone(), 3, threads).expect("backend");
             let input = vec![0.1f32; 3 * 224 * 224];
-            let iters = if arch == Architecture::Resnet18 { n.min(30) } else { n };
+            let iters = if arch == Architecture::Resnet18 {
+                n.min(30)
+            } else {
+                n
+            };
             let (med, mean) = time(iters, || {
                 b.run(&input, 1, 224).expect("run");
             });
-            println!("tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}", arch.name());
+            println!(
+                "tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
+                arch.name()
+            );
+        }
+        #[cfg(feature = "onnxruntime")]
+        {
+            use fringe_sensor_models::backend::onnxruntime::OrtBackend;
+            let bytes = onnx_graph::encode(&proto);
+            for threads in [1, 2] {
+                let mut b = match OrtBackend::new(&bytes, 3, threads) {
+                    Ok(b) => b,
+                    Err(e) => {
+                        println!("onnxruntime: {e}");
+                        break;
+                    }
+                };
+                let input = vec![0.1f32; 3 * 224 * 224];
+                let (med, mean) = time(n, || {
+                    b.run(&input, 1, 224).expect("run");
+                });
+                println!(
+                    "onnxruntime {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
+                    arch.name()
+                );
+            }
         }
     }
     if let Some(py) = std::env::var_os("FRINGE_TORCH_PYTHON") {

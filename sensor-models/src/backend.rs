@@ -1,7 +1,10 @@
 //! Inference backends: one trait, the same outputs whatever runs the network.
 //!
-//! The default backend is [`tract`] (pure Rust ONNX: nothing to install).
+//! The default backend is [`tract`] (pure Rust ONNX: nothing to install); cargo feature
+//! `onnxruntime` adds [`onnxruntime`] (ONNX Runtime loaded from the PyPI wheel's library).
 
+#[cfg(feature = "onnxruntime")]
+pub mod onnxruntime;
 pub mod tract;
 
 /// What a network gives for a batch, as it gives it.
@@ -19,21 +22,23 @@ pub struct RawOutputs {
 #[derive(Debug, thiserror::Error)]
 pub enum InferenceError {
     #[error("the {backend} backend could not load the model: {detail}")]
-    Load { backend: &'static str, detail: String },
+    Load {
+        backend: &'static str,
+        detail: String,
+    },
     #[error("the {backend} backend failed to run the model: {detail}")]
-    Run { backend: &'static str, detail: String },
-    #[error(
-        "the input holds {got} values but {batch} images of 3x{size}x{size} need {want}"
-    )]
+    Run {
+        backend: &'static str,
+        detail: String,
+    },
+    #[error("the input holds {got} values but {batch} images of 3x{size}x{size} need {want}")]
     InputSize {
         got: usize,
         want: usize,
         batch: usize,
         size: u32,
     },
-    #[error(
-        "the model's outputs are not force [N,7], shape logits [N,C] and contact [N,2]: {0}"
-    )]
+    #[error("the model's outputs are not force [N,7], shape logits [N,C] and contact [N,2]: {0}")]
     Outputs(String),
 }
 
@@ -47,7 +52,12 @@ pub trait Backend: Send {
 }
 
 /// Splits a row-major `[batch, width]` output into rows.
-pub(crate) fn rows(values: &[f32], batch: usize, width: usize, what: &str) -> Result<Vec<Vec<f32>>, InferenceError> {
+pub(crate) fn rows(
+    values: &[f32],
+    batch: usize,
+    width: usize,
+    what: &str,
+) -> Result<Vec<Vec<f32>>, InferenceError> {
     if width == 0 || values.len() != batch * width {
         return Err(InferenceError::Outputs(format!(
             "{what} holds {} values for {batch} images of width {width}",
@@ -68,7 +78,10 @@ impl RawOutputs {
     ) -> Result<RawOutputs, InferenceError> {
         let fix = |v: Vec<f32>| -> [f32; 7] { std::array::from_fn(|i| v[i]) };
         Ok(RawOutputs {
-            force: rows(force, batch, 7, "force")?.into_iter().map(fix).collect(),
+            force: rows(force, batch, 7, "force")?
+                .into_iter()
+                .map(fix)
+                .collect(),
             shape_logits: rows(logits, batch, classes, "shape_logits")?,
             contact: rows(contact, batch, 2, "contact")?
                 .into_iter()

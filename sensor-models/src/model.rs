@@ -11,9 +11,9 @@ use crate::onnx_graph;
 use crate::preprocess::{
     Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
 };
-use fringe_calibration::profile::Profile;
 use crate::state_dict::StateDict;
 use crate::tensor::Tensor;
+use fringe_calibration::profile::Profile;
 use std::path::{Path, PathBuf};
 use tract_onnx::pb;
 use tract_onnx::prelude::Framework;
@@ -84,12 +84,13 @@ impl Model {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
         let (source, arch, n_classes, sd, proto) = if is_onnx {
-            let proto = tract_onnx::onnx()
-                .proto_model_for_path(path)
-                .map_err(|e| ModelError::Onnx {
-                    path: shown.clone(),
-                    detail: format!("{e:#}"),
-                })?;
+            let proto =
+                tract_onnx::onnx()
+                    .proto_model_for_path(path)
+                    .map_err(|e| ModelError::Onnx {
+                        path: shown.clone(),
+                        detail: format!("{e:#}"),
+                    })?;
             output_order(&proto).map_err(|source| ModelError::Backend {
                 path: shown.clone(),
                 source,
@@ -162,6 +163,19 @@ impl Model {
         Ok(Box::new(b))
     }
 
+    /// The ONNX Runtime backend on `threads` intra-op threads (cargo feature `onnxruntime`;
+    /// `ORT_DYLIB_PATH` names the library, see [`crate::backend::onnxruntime`]).
+    #[cfg(feature = "onnxruntime")]
+    pub fn onnxruntime(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
+        let bytes = onnx_graph::encode(&self.proto);
+        let b = crate::backend::onnxruntime::OrtBackend::new(&bytes, self.classes.len(), threads)
+            .map_err(|source| ModelError::Backend {
+            path: self.path.display().to_string(),
+            source,
+        })?;
+        Ok(Box::new(b))
+    }
+
     /// The preprocessing this model's inputs get: the sensor's profile when given, else the
     /// reference geometry when asked for (or when the model card says the reference code's
     /// preprocessing trained it).
@@ -174,7 +188,11 @@ impl Model {
             return Ok(Preprocessing::reference(r, self.colour, self.input_size)?);
         }
         if let Some(p) = profile {
-            return Ok(Preprocessing::from_profile(p, self.colour, self.input_size)?);
+            return Ok(Preprocessing::from_profile(
+                p,
+                self.colour,
+                self.input_size,
+            )?);
         }
         let path = self.path.display().to_string();
         match self.card.as_ref().and_then(|c| c.preprocessing.as_deref()) {
