@@ -2,8 +2,11 @@
 //! run when `FRINGE_TORCH_PYTHON` names a Python with torch (sensor-models/tests/python/torch_bench.py).
 //!
 //!     cargo run --release -p fringe-sensor-models --example model_bench [-- ITERATIONS]
+//!     cargo run --release -p fringe-sensor-models --example model_bench --features onnxruntime [-- ITERATIONS]
 //!
-//! Batch 1 at 224 x 224; the default backend (tract) on 2 threads; a 1920x1200 frame through the
+//! Batch 1 at 224 x 224; the default backend (tract) on 1 and 2 threads, and with
+//! `--features onnxruntime` ONNX Runtime on 1 and 2 intra-op threads (`ORT_DYLIB_PATH` names the
+//! library; README.md); a 1920x1200 frame through the
 //! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
 //! depend on them.
 
@@ -112,6 +115,28 @@ fn main() {
                 "tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
                 arch.name()
             );
+        }
+        #[cfg(feature = "onnxruntime")]
+        {
+            use fringe_sensor_models::backend::onnxruntime::OrtBackend;
+            let bytes = onnx_graph::encode(&proto);
+            for threads in [1, 2] {
+                let mut b = match OrtBackend::new(&bytes, 3, threads) {
+                    Ok(b) => b,
+                    Err(e) => {
+                        println!("onnxruntime: {e}");
+                        break;
+                    }
+                };
+                let input = vec![0.1f32; 3 * 224 * 224];
+                let (med, mean) = time(n, || {
+                    b.run(&input, 1, 224).expect("run");
+                });
+                println!(
+                    "onnxruntime {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
+                    arch.name()
+                );
+            }
         }
     }
     if let Some(py) = std::env::var_os("FRINGE_TORCH_PYTHON") {

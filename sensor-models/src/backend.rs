@@ -1,7 +1,10 @@
 //! Inference backends: one trait, the same outputs whatever runs the network.
 //!
-//! The default backend is [`tract`] (pure Rust ONNX: nothing to install).
+//! The default backend is [`tract`] (pure Rust ONNX: nothing to install); cargo feature
+//! `onnxruntime` adds [`onnxruntime`] (ONNX Runtime loaded from the PyPI wheel's library).
 
+#[cfg(feature = "onnxruntime")]
+pub mod onnxruntime;
 pub mod tract;
 
 /// What a network gives for a batch, as it gives it.

@@ -163,6 +163,19 @@ impl Model {
         Ok(Box::new(b))
     }
 
+    /// The ONNX Runtime backend on `threads` intra-op threads (cargo feature `onnxruntime`;
+    /// `ORT_DYLIB_PATH` names the library, see [`crate::backend::onnxruntime`]).
+    #[cfg(feature = "onnxruntime")]
+    pub fn onnxruntime(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
+        let bytes = onnx_graph::encode(&self.proto);
+        let b = crate::backend::onnxruntime::OrtBackend::new(&bytes, self.classes.len(), threads)
+            .map_err(|source| ModelError::Backend {
+            path: self.path.display().to_string(),
+            source,
+        })?;
+        Ok(Box::new(b))
+    }
+
     /// The preprocessing this model's inputs get: the sensor's profile when given, else the
     /// reference geometry when asked for (or when the model card says the reference code's
     /// preprocessing trained it).

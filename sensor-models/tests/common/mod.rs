@@ -180,3 +180,35 @@ fn remove_stale_fixture_dirs(base: &Path) {
         }
     }
 }
+
+/// The ONNX Runtime library for the `onnxruntime` backend: `ORT_DYLIB_PATH` when set, else the
+/// `libonnxruntime.so*` of the onnxruntime wheel in the Python named by `FRINGE_TORCH_PYTHON`
+/// (which then becomes `ORT_DYLIB_PATH` for this test process, the variable the backend reads).
+pub fn ort_dylib() -> PathBuf {
+    static PATH: OnceLock<PathBuf> = OnceLock::new();
+    PATH.get_or_init(|| {
+        if let Some(p) = std::env::var_os("ORT_DYLIB_PATH").filter(|p| !p.is_empty()) {
+            return PathBuf::from(p);
+        }
+        let python = torch_python();
+        let out = Command::new(&python)
+            .args([
+                "-c",
+                "import onnxruntime, pathlib; print(next(pathlib.Path(onnxruntime.__file__)\
+                 .parent.glob('capi/libonnxruntime.so*')))",
+            ])
+            .output()
+            .unwrap_or_else(|e| panic!("{TORCH_PYTHON_VAR}={}: cannot run: {e}", python.display()));
+        assert!(
+            out.status.success(),
+            "{TORCH_PYTHON_VAR}={} has no onnxruntime library (pip install onnxruntime==1.32.0):\n{}",
+            python.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let path = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+        // Set once, under the OnceLock, which every test of the backend passes first.
+        std::env::set_var("ORT_DYLIB_PATH", &path);
+        path
+    })
+    .clone()
+}
