@@ -7,6 +7,58 @@
 pub mod onnxruntime;
 pub mod tract;
 
+/// Which backend runs a model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BackendKind {
+    /// tract: pure Rust, always built in.
+    #[default]
+    Tract,
+    /// ONNX Runtime (cargo feature `onnxruntime`).
+    OnnxRuntime,
+}
+
+impl BackendKind {
+    /// Every backend, whether this build has it or not.
+    pub const ALL: [BackendKind; 2] = [BackendKind::Tract, BackendKind::OnnxRuntime];
+
+    /// Its name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BackendKind::Tract => "tract",
+            BackendKind::OnnxRuntime => "onnxruntime",
+        }
+    }
+
+    /// Whether this build can run it.
+    pub fn built_in(self) -> bool {
+        match self {
+            BackendKind::Tract => true,
+            BackendKind::OnnxRuntime => cfg!(feature = "onnxruntime"),
+        }
+    }
+}
+
+impl std::fmt::Display for BackendKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A backend name that is not one of [`BackendKind::ALL`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown backend \"{0}\" (tract, onnxruntime)")]
+pub struct UnknownBackend(pub String);
+
+impl std::str::FromStr for BackendKind {
+    type Err = UnknownBackend;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        BackendKind::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| UnknownBackend(s.to_string()))
+    }
+}
+
 /// What a network gives for a batch, as it gives it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RawOutputs {
@@ -21,6 +73,11 @@ pub struct RawOutputs {
 /// Why inference failed.
 #[derive(Debug, thiserror::Error)]
 pub enum InferenceError {
+    #[error(
+        "this fringe was built without the {0} backend: rebuild with \
+         `cargo build --release --features {0}` (README.md, Models)"
+    )]
+    NotBuilt(BackendKind),
     #[error("the {backend} backend could not load the model: {detail}")]
     Load {
         backend: &'static str,

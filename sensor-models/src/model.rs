@@ -3,7 +3,7 @@
 
 use crate::arch::{default_class_names, recognise, ArchError, Architecture};
 use crate::backend::tract::{output_order, TractBackend};
-use crate::backend::{Backend, InferenceError};
+use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::model_card::{CardError, ModelCard};
 use crate::model_file::read_weights;
 use crate::model_file_error::ModelFileError;
@@ -150,6 +150,25 @@ impl Model {
     /// The ONNX graph (for a weights file, the one built from them).
     pub fn onnx(&self) -> &pb::ModelProto {
         &self.proto
+    }
+
+    /// The backend `kind` on `threads` threads; a backend this build lacks is an error saying
+    /// how to build it in.
+    pub fn backend(
+        &self,
+        kind: BackendKind,
+        threads: usize,
+    ) -> Result<Box<dyn Backend>, ModelError> {
+        match kind {
+            BackendKind::Tract => self.tract(threads),
+            #[cfg(feature = "onnxruntime")]
+            BackendKind::OnnxRuntime => self.onnxruntime(threads),
+            #[cfg(not(feature = "onnxruntime"))]
+            BackendKind::OnnxRuntime => Err(ModelError::Backend {
+                path: self.path.display().to_string(),
+                source: InferenceError::NotBuilt(kind),
+            }),
+        }
     }
 
     /// The default backend (tract) on `threads` threads.

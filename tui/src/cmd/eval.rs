@@ -5,6 +5,7 @@ use super::model::{open_model, ReferenceChoice};
 use anyhow::{bail, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
+use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::evaluate;
 use fringe_sensor_models::report;
@@ -31,6 +32,9 @@ pub struct EvalArgs {
     /// Inference threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    #[arg(long, default_value = "tract")]
+    backend: BackendKind,
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
@@ -46,7 +50,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         }
         sources.push(dataset::read(d)?);
     }
-    let mut backend = model.tract(a.threads.max(1))?;
+    let mut backend = model.backend(a.backend, a.threads.max(1))?;
     let tty = std::io::stderr().is_terminal();
     let mut last = 0;
     let eval = evaluate(

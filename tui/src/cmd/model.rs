@@ -4,6 +4,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_calibration::profile::Profile;
+use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::{predictions, Prediction};
@@ -68,6 +69,9 @@ struct RunArgs {
     /// Inference threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    #[arg(long, default_value = "tract")]
+    backend: BackendKind,
 }
 
 #[derive(Args)]
@@ -133,7 +137,7 @@ fn run_images(a: RunArgs) -> Result<()> {
     };
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     let config = m.preprocessing(profile.as_ref(), reference)?;
-    let mut backend = m.tract(a.threads.max(1))?;
+    let mut backend = m.backend(a.backend, a.threads.max(1))?;
     let size = m.input_size;
     for image in &a.images {
         let tensor = config
