@@ -5,6 +5,7 @@
 //! - [`camera_stream`]: a camera read continuously, frames to a channel.
 //! - [`labeler`]: the interface every synchronisation method offers the recorder.
 //! - [`recorder`]: the thread that labels frames and writes the run store.
+//! - [`record_tap`]: what a caller sees of the recording as it happens (live displays).
 //! - [`clock_fit_labeler`]: both device clocks mapped onto host time (one-way fits, latches),
 //!   windows placed in the force stream through them.
 //! - [`host_labeler`]: host arrival times only, the reference pipeline's baseline.
@@ -16,6 +17,7 @@ pub mod clock_fit_labeler;
 pub mod force_stream;
 pub mod host_labeler;
 pub mod labeler;
+pub mod record_tap;
 pub mod recorder;
 pub mod strobe_labeler;
 #[cfg(test)]

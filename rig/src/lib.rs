@@ -44,6 +44,7 @@ pub mod trace;
 pub mod transport;
 pub mod units;
 
+pub use acquire::record_tap::RecordTap;
 pub use apt::{AptConfig, Controller, ThorlabsAxis};
 pub use axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
 pub use camera::{

@@ -86,6 +86,27 @@ pub fn label(
     }
 }
 
+/// The sample a run's frame record makes (the label rules applied), or None when the record has
+/// no trustworthy label. Runs read from disk and live validation both label frames here.
+pub fn from_record(
+    r: &FrameRecord,
+    run_id: &str,
+    image: PathBuf,
+    format: Option<PixelFormat>,
+) -> Option<Sample> {
+    let w = r.wrench.filter(|_| r.valid)?;
+    let (force, shape, contact) = label(w.to_array(), &r.shape, r.contact);
+    Some(Sample {
+        image,
+        format,
+        force,
+        shape,
+        contact,
+        press: format!("{run_id}#{}", r.point),
+        stage_mm: Some([r.commanded.x.value(), r.commanded.y.value()]),
+    })
+}
+
 /// Reads a run directory or a reference-layout dataset.
 pub fn read(path: &Path) -> Result<Source, DatasetError> {
     if path.join(START).is_file() && path.join(FRAMES).is_file() {
@@ -126,20 +147,10 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
     let mut samples = Vec::with_capacity(records.len());
     let mut skipped = 0;
     for r in &records {
-        let Some(w) = r.wrench.filter(|_| r.valid) else {
-            skipped += 1;
-            continue;
-        };
-        let (force, shape, contact) = label(w.to_array(), &r.shape, r.contact);
-        samples.push(Sample {
-            image: dir.join(&r.file),
-            format,
-            force,
-            shape,
-            contact,
-            press: format!("{}#{}", start.run_id, r.point),
-            stage_mm: Some([r.commanded.x.value(), r.commanded.y.value()]),
-        });
+        match from_record(r, &start.run_id, dir.join(&r.file), format) {
+            Some(s) => samples.push(s),
+            None => skipped += 1,
+        }
     }
     Ok(Source {
         path: dir.to_path_buf(),

@@ -5,7 +5,7 @@ use crate::backend::Backend;
 use crate::dataset::{Sample, Source};
 use crate::metrics::{Metrics, Scored};
 use crate::model::{Model, ModelError};
-use crate::prediction::predictions;
+use crate::prediction::{predictions, Prediction};
 use crate::preprocess::{image_bytes, FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
 use fringe_calibration::profile::Profile;
 use std::path::Path;
@@ -55,6 +55,19 @@ pub enum EvalError {
         path: String,
         source: crate::backend::InferenceError,
     },
+}
+
+/// A prediction against its sample's label; `shape_true` is the label's index in `classes`
+/// (one scoring for evaluation and live validation).
+pub fn score(classes: &[String], shape_true: usize, s: &Sample, p: &Prediction) -> Scored {
+    Scored {
+        fz_true: s.fz(),
+        fz_pred: p.force.fz.value(),
+        shape_true,
+        shape_pred: classes.iter().position(|c| *c == p.shape).unwrap_or(0),
+        contact_true: s.contact,
+        contact_pred: p.contact_raw.map(|v| v.value()),
+    }
 }
 
 /// Grid position and force level keys of a row, for the breakdowns.
@@ -163,18 +176,7 @@ pub fn evaluate(
                 .zip(predictions(&raw, &model.classes))
                 .zip(truth)
             {
-                let scored = Scored {
-                    fz_true: s.fz(),
-                    fz_pred: p.force.fz.value(),
-                    shape_true,
-                    shape_pred: model
-                        .classes
-                        .iter()
-                        .position(|c| *c == p.shape)
-                        .unwrap_or(0),
-                    contact_true: s.contact,
-                    contact_pred: p.contact_raw.map(|v| v.value()),
-                };
+                let scored = score(&model.classes, shape_true, s, &p);
                 metrics.add(&scored, &keys(s));
                 rows.push(Row {
                     scored,

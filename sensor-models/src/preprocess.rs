@@ -298,6 +298,7 @@ impl Preprocessor {
             radius: cfg.crop_radius_px * s,
             out: n,
             quantise: cfg.reference,
+            mask: true,
         };
         let c = channels.count();
         self.resized.resize(n * n * c, 0.0);
@@ -331,6 +332,63 @@ impl Preprocessor {
         }
         Ok(())
     }
+}
+
+/// A whole frame as a small RGB picture for displays: the square about the frame's centre that
+/// holds all of it (letterboxed in black), resampled as the network input is, without the mask.
+pub fn thumbnail(frame: FrameRef, side: u32) -> Result<image::RgbImage, PreprocessError> {
+    let want = frame.width as usize * frame.height as usize * frame.format.bytes_per_pixel();
+    if frame.data.len() != want {
+        return Err(PreprocessError::Bytes {
+            got: frame.data.len(),
+            want,
+            w: frame.width,
+            h: frame.height,
+            format: frame.format,
+        });
+    }
+    if !(8..=1024).contains(&side) {
+        return Err(PreprocessError::InputSize(side));
+    }
+    let n = side as usize;
+    let radius = f64::from(frame.width.max(frame.height)) / 2.0;
+    let base = pixels(frame, Channels::Rgb, radius >= n as f64);
+    let s = base.scale();
+    let window = Window {
+        centre: [
+            f64::from(frame.width) / 2.0 * s,
+            f64::from(frame.height) / 2.0 * s,
+        ],
+        radius: radius * s,
+        out: n,
+        quantise: false,
+        mask: false,
+    };
+    let mut rgb = vec![0f32; n * n * 3];
+    resample(base.as_ref(), window, &mut Scratch::default(), &mut rgb);
+    let bytes = rgb
+        .iter()
+        .map(|v| v.round().clamp(0.0, 255.0) as u8)
+        .collect();
+    Ok(image::RgbImage::from_raw(side, side, bytes).expect("side x side x 3 bytes"))
+}
+
+/// A network input tensor (CHW, normalised) as the picture it holds.
+pub fn tensor_image(tensor: &[f32], size: u32) -> Option<image::RgbImage> {
+    let plane = (size as usize).pow(2);
+    if tensor.len() != 3 * plane {
+        return None;
+    }
+    let byte = |v: f32| ((v * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
+    let mut bytes = Vec::with_capacity(3 * plane);
+    for i in 0..plane {
+        bytes.extend([
+            byte(tensor[i]),
+            byte(tensor[plane + i]),
+            byte(tensor[2 * plane + i]),
+        ]);
+    }
+    image::RgbImage::from_raw(size, size, bytes)
 }
 
 /// A contact label (mm from the sensor centre, +x right, +y up in the camera view) turned with

@@ -86,6 +86,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         watch: WatchSettings::default(),
         sidecars: Vec::new(),
         offset_check: None,
+        taps: Vec::new(),
     }
 }
 

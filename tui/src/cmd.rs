@@ -20,4 +20,5 @@ pub mod selfcheck;
 pub mod sim_render;
 #[cfg(feature = "sim")]
 pub mod sim_serve;
+pub mod validate;
 pub mod ystage;

@@ -56,6 +56,9 @@ enum Command {
     /// Evaluate a model on runs or reference-layout datasets: the paper's Table-2 figures,
     /// errors by grid position and force level, a report with plots (--report DIR).
     Eval(cmd::eval::EvalArgs),
+    /// Live validation: a model run on every frame a scan plan records, against the frame's
+    /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
+    Validate(cmd::validate::ValidateArgs),
     /// Model files: what one is (info), its predictions on images (run), its ONNX graph (export).
     Model(cmd::model::ModelArgs),
     /// The simulated bench: render sensor frames, serve its devices.
@@ -102,6 +105,7 @@ fn main() -> ExitCode {
         Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
         Some(Command::Model(args)) => cmd::model::run(args),
         Some(Command::Eval(args)) => cmd::eval::run(args),
+        Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
         #[cfg(feature = "sim")]

@@ -150,6 +150,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cameras.frames().clone(),
         labeler_for(SyncMethod::Strobe, &settings, tick_hz, &cameras),
         context.clone(),
+        Vec::new(),
     )?;
 
     let cpu0 = cpu_s();

@@ -8,6 +8,7 @@
 //!   finishes the frames still waiting for their labels, then makes everything durable.
 
 use super::labeler::{FrameLabeler, LabelOutcome};
+use super::record_tap::RecordTap;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
@@ -138,6 +139,7 @@ impl Recorder {
         frames: Receiver<Frame>,
         labeler: Box<dyn FrameLabeler>,
         context: FrameContext,
+        taps: Vec<Arc<dyn RecordTap>>,
     ) -> Result<Recorder, StoreError> {
         let (commands, command_rx) = unbounded();
         let stats = Arc::new(Mutex::new(RecorderStats::default()));
@@ -146,6 +148,7 @@ impl Recorder {
             writer,
             labeler,
             context,
+            taps,
             pending: VecDeque::new(),
             stats: stats.clone(),
             local: RecorderStats::default(),
@@ -241,6 +244,7 @@ struct State {
     writer: RunWriter,
     labeler: Box<dyn FrameLabeler>,
     context: FrameContext,
+    taps: Vec<Arc<dyn RecordTap>>,
     pending: VecDeque<(Frame, Filming)>,
     stats: Arc<Mutex<RecorderStats>>,
     local: RecorderStats,
@@ -349,6 +353,9 @@ impl State {
             self.arrivals.pop_front();
         }
         self.local.frame_rate_hz = self.arrivals.len() as f64;
+        for tap in &self.taps {
+            tap.seen(&frame);
+        }
         if let Some(filming) = self.context.get() {
             self.pending.push_back((frame, filming));
         }
@@ -428,6 +435,9 @@ impl State {
             notes,
         };
         self.writer.append_frame(&record)?;
+        for tap in &self.taps {
+            tap.recorded(frame, &record);
+        }
         if wrench.is_some() {
             self.local.frames_recorded += 1;
             self.local.last_label = wrench;

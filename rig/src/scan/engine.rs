@@ -20,6 +20,7 @@ use crate::acquire::clock_fit_labeler::{ClockFitLabeler, ClockFitOptions};
 use crate::acquire::force_stream::{ForceMonitor, ForceStream};
 use crate::acquire::host_labeler::HostLabeler;
 use crate::acquire::labeler::FrameLabeler;
+use crate::acquire::record_tap::RecordTap;
 use crate::acquire::recorder::{Filming, FrameContext, PendingCheckpoint, Recorder, RecorderStats};
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
@@ -62,6 +63,8 @@ pub struct ScanSetup {
     /// The zero-load check of the sensor's profile, made on the first offset measurement of
     /// each session (new run or resume).
     pub offset_check: Option<Arc<dyn OffsetCheck>>,
+    /// What the caller sees of the recording as it happens (live display, live validation).
+    pub taps: Vec<Arc<dyn RecordTap>>,
 }
 
 /// Where the run goes.
@@ -218,6 +221,7 @@ pub fn run_scan(
         cameras.frames().clone(),
         labeler,
         context.clone(),
+        setup.taps.clone(),
     )?;
     if discarded > 0 || first_point > 0 {
         recorder.event(

@@ -55,6 +55,8 @@ pub(crate) struct Window {
     pub(crate) out: usize,
     /// Round to 8 bits after each pass, as PIL does on 8-bit images (reference mode).
     pub(crate) quantise: bool,
+    /// Black outside the circle (the network input); false keeps the whole square (displays).
+    pub(crate) mask: bool,
 }
 
 /// Reusable buffers.
@@ -96,9 +98,14 @@ pub(crate) fn resample(src: &dyn Pixels, w: Window, scratch: &mut Scratch, out: 
         let row = &mut scratch.row;
         row.fill(0.0);
         let dy = y as f64 + 0.5 - w.centre[1];
-        if y >= 0 && y < height && dy * dy <= r2 {
-            // Pixels whose centres lie inside the circle, within the image and the columns used.
-            let half = (r2 - dy * dy).sqrt();
+        if y >= 0 && y < height && (!w.mask || dy * dy <= r2) {
+            // Pixels whose centres lie inside the circle (or the square), within the image and
+            // the columns used.
+            let half = if w.mask {
+                (r2 - dy * dy).sqrt()
+            } else {
+                w.radius
+            };
             let a = ((w.centre[0] - half - 0.5).ceil() as i64)
                 .max(0)
                 .max(cols_lo);

@@ -11,7 +11,9 @@
 //!   [`TruthScore`]: a scan on the opened rig (profile -> origin, operator, progress, truth
 //!   scoring); module `scan_session` (private).
 //!
-//! And three public modules:
+//! And five public modules:
+//! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
+//! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
 //! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
@@ -21,6 +23,8 @@
 #![warn(unreachable_pub)]
 
 pub mod calibration_scan;
+pub mod live_validation;
+pub mod live_view;
 mod open_rig;
 pub mod plans;
 mod rig_file;

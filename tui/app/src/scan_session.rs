@@ -6,7 +6,7 @@
 use crate::open_rig::RigError;
 use crate::rig_file::RigConfig;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
-use fringe_calibration::profile::{load_checked, profile_path, Expectation};
+use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile};
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
@@ -135,6 +135,7 @@ impl ScanSession {
             watch: WatchSettings::default(),
             sidecars,
             offset_check,
+            taps: Vec::new(),
         };
         Ok(ScanSession {
             setup,
@@ -151,6 +152,27 @@ impl ScanSession {
 
     pub fn camera(&self) -> &CameraSettings {
         &self.setup.camera
+    }
+
+    /// The calibration profile whose geometry a model's preprocessing uses for this scan: the
+    /// sensor's profile the session consumes, else on the simulated bench its design geometry;
+    /// with a line saying which. None on a real rig without a profile.
+    pub fn geometry_profile(&self) -> Option<(Profile, String)> {
+        if let Some(p) = &self.setup.profile {
+            if let Ok(profile) = toml::from_str::<Profile>(&p.content) {
+                return Some((profile, format!("calibration profile {}", p.path)));
+            }
+        }
+        #[cfg(feature = "sim")]
+        if let Some(sim) = &self.sim {
+            let profile = sim.design_profile(&self.setup.sensor_id);
+            let why = format!(
+                "no calibration profile for {}: {}",
+                self.setup.sensor_id, profile.source
+            );
+            return Some((profile, why));
+        }
+        None
     }
 
     /// True when the rig is the simulated bench.

@@ -271,3 +271,39 @@ impl SimBench {
         }
     }
 }
+
+impl SimBench {
+    /// The simulated sensor's optics as a calibration profile would give them (its design: the
+    /// optical centre, the disc radius as the crop radius, the frame size), for using a model on
+    /// the simulated bench before a calibration has been made. Labelled as such in `source`.
+    pub fn design_profile(&self, sensor_id: &str) -> fringe_calibration::profile::Profile {
+        use fringe_calibration::profile::{ImageSize, Optical, Profile};
+        let sensor = &self.config().sensor;
+        let g = &sensor.geometry;
+        let centre = sensor.geometry().centre_px;
+        Profile {
+            sensor_id: sensor_id.to_string(),
+            created_utc: String::new(),
+            source: format!("the simulated {} sensor's design geometry", sensor.id),
+            image: ImageSize {
+                width: g.width,
+                height: g.height,
+            },
+            optical: Optical {
+                centre_x_px: centre[0],
+                centre_y_px: centre[1],
+                shift_x_px: g.centre_offset_px[0],
+                shift_y_px: g.centre_offset_px[1],
+                radius_px: g.disc_radius_px,
+                crop_radius_px: g.disc_radius_px,
+                sigma_x_px: 0.0,
+                sigma_y_px: 0.0,
+                sigma_radius_px: 0.0,
+                residual_rms_px: 0.0,
+                frames: 0,
+            },
+            registration: None,
+            force_offsets: None,
+        }
+    }
+}

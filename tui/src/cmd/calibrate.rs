@@ -188,6 +188,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         args.yes,
         ProfileUse::Ignore,
         global,
+        &mut |_| Ok(()),
     )?;
     let outcome = &end.outcome;
     let run_dir = outcome.run_dir.clone();

@@ -70,6 +70,7 @@ pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
         true,
         ProfileUse::Ignore,
         global,
+        &mut |_| Ok(()),
     )?;
     let dir = end.outcome.run_dir.display();
     println!(

@@ -98,6 +98,7 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         args.yes,
         ProfileUse::Consume,
         global,
+        &mut |_| Ok(()),
     )?;
     let outcome = executed.outcome;
     let dir = outcome.run_dir.display();
@@ -112,7 +113,9 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
 }
 
 /// Opens the rig, runs `program` into `target` with the progress bar, Ctrl-C handling and the
-/// terminal operator, and prints the summary.
+/// terminal operator, and prints the summary. `attach` sees the opened session before it runs
+/// (live validation adds its tap there).
+#[allow(clippy::too_many_arguments)]
 pub fn execute(
     config: &RigConfig,
     program: ScanProgram,
@@ -121,8 +124,9 @@ pub fn execute(
     yes: bool,
     profile_use: ProfileUse,
     global: &Global,
+    attach: &mut dyn FnMut(&mut ScanSession) -> anyhow::Result<()>,
 ) -> anyhow::Result<SessionEnd> {
-    let session = ScanSession::open(
+    let mut session = ScanSession::open(
         config,
         program,
         plan_text,
@@ -135,6 +139,7 @@ pub fn execute(
             Note::Warning(text) => eprintln!("warning: {text}"),
         }
     }
+    attach(&mut session)?;
     let control = ScanControl::new();
     interrupt::install(control.clone());
     let mut operator = TerminalOperator {

@@ -1,0 +1,199 @@
+//! `fringe validate --no-tui [--model M] [--plan P] [--rig R] [--report DIR]`: live validation
+//! without the terminal UI. A scan plan drives the rig (the built-in short grid by default);
+//! every labelled frame it records is offered to the model, and each prediction is set against
+//! that frame's synchronised F/T label. At the end: the paper's metrics, the loop rate and the
+//! frames skipped; with `--report DIR` the evaluation report (report.md, plots) and every frame
+//! validated (validation.jsonl).
+
+use crate::cmd::model::open_model;
+use crate::cmd::scan::execute;
+use crate::Global;
+use anyhow::{bail, Context, Result};
+use fringe_app::live_validation::{FrameSource, LiveValidation, Validation};
+use fringe_app::plans::SHORT_GRID;
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_rig::scan::engine::{new_run_id, RunTarget};
+use fringe_rig::scan::plan::Plan;
+use fringe_sensor_models::backend::BackendKind;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+#[derive(clap::Args)]
+pub struct ValidateArgs {
+    /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
+    /// The scan plan that presses the sensor (default: the built-in short grid).
+    #[arg(long, value_name = "FILE")]
+    plan: Option<PathBuf>,
+    /// The rig file (default: ./rig.toml if present, else the simulated bench).
+    #[arg(long, value_name = "FILE")]
+    rig: Option<PathBuf>,
+    /// Directory that receives the run the plan records.
+    #[arg(long, value_name = "DIR", default_value = "runs")]
+    out: PathBuf,
+    /// Write the evaluation report (report.md, plots) and validation.jsonl into DIR.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    #[arg(long, default_value = "tract")]
+    backend: BackendKind,
+    /// Inference threads.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+    /// Run headless (the default when stdout is not a terminal).
+    #[arg(long)]
+    no_tui: bool,
+    /// Answer every operator prompt with "continue".
+    #[arg(long)]
+    yes: bool,
+}
+
+pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
+    let Some(model_path) = &a.model else {
+        bail!(
+            "no model given: pass --model FILE (a .pth, .pt, .safetensors or .onnx file; \
+             `fringe model info FILE` tells whether fringe reads it)"
+        );
+    };
+    let model = open_model(model_path)?;
+    let backend = model.backend(a.backend, a.threads.max(1))?;
+    let (text, origin) = match &a.plan {
+        Some(p) => (
+            std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read the plan", p.display()))?,
+            p.display().to_string(),
+        ),
+        None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
+    };
+    let plan = Plan::parse(&text, &origin)?;
+    let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    println!(
+        "fringe {}: rig: {}",
+        env!("CARGO_PKG_VERSION"),
+        source.describe()
+    );
+    println!("plan: {origin}");
+    println!("model: {} ({})", model.path.display(), model.describe());
+    let program = plan.program(&config.limits()?, &origin)?;
+    let run_id = new_run_id(&plan.name);
+    let target = RunTarget::New {
+        root: a.out.clone(),
+        run_id: run_id.clone(),
+    };
+    let mut backend = Some(backend);
+    let mut model = Some(model);
+    let mut live: Option<LiveValidation> = None;
+    let end = execute(
+        &config,
+        program,
+        text,
+        target,
+        a.yes,
+        ProfileUse::Consume,
+        global,
+        &mut |session| {
+            let Some((profile, why)) = session.geometry_profile() else {
+                bail!(
+                    "no calibration profile for sensor {} in {}: the model's preprocessing needs \
+                     the sensor's optical centre and crop radius; run `fringe calibrate` first",
+                    session.setup.sensor_id,
+                    config.profile_dir().display()
+                );
+            };
+            println!("preprocessing geometry: {why}");
+            let (Some(m), Some(b)) = (model.take(), backend.take()) else {
+                bail!("the session was opened twice");
+            };
+            let (v, tap) = LiveValidation::start(
+                m,
+                b,
+                FrameSource {
+                    run_id: run_id.clone(),
+                    profile,
+                },
+            )?;
+            session.setup.taps.push(tap);
+            live = Some(v);
+            Ok(())
+        },
+    )?;
+    let Some(live) = live else {
+        bail!("the scan ended before live validation started");
+    };
+    let v = live.finish(Duration::from_secs(10));
+    print_summary(&v);
+    if let Some(dir) = &a.report {
+        let title = format!(
+            "Live validation of {} on run {}",
+            v.state.model,
+            end.outcome.run_dir.display()
+        );
+        let report = fringe_sensor_models::report::write(dir, &title, &v.evaluation)?;
+        let lines = write_frames(dir, &v)?;
+        println!(
+            "report written to {} ({} frames in {})",
+            report.display(),
+            v.frames.len(),
+            lines.display()
+        );
+    }
+    if let Some(why) = &v.state.failure {
+        bail!("live validation stopped: {why}");
+    }
+    Ok(())
+}
+
+fn print_summary(v: &Validation) {
+    let s = &v.state;
+    let e = &s.errors;
+    println!(
+        "live validation ({} backend): {} labelled frames offered, {} run, {} skipped; {:.1} predictions/s, {:.1} ms per frame",
+        s.backend, s.offered, s.ran, s.skipped, s.loop_hz, s.latency_ms
+    );
+    if e.n > 0 {
+        println!(
+            "Fz RMSE {:.3} N over {} frames; contact RMSE {:.3} mm over {} frames in contact; shape accuracy {:.1} %",
+            e.fz_rmse(),
+            e.n,
+            e.contact_rmse(),
+            e.n_contact,
+            100.0 * e.accuracy()
+        );
+    }
+}
+
+/// Every validated frame as one JSON line: ids, label, prediction, latency.
+fn write_frames(dir: &Path, v: &Validation) -> Result<PathBuf> {
+    let path = dir.join("validation.jsonl");
+    let mut out = std::io::BufWriter::new(
+        std::fs::File::create(&path)
+            .with_context(|| format!("{}: cannot create", path.display()))?,
+    );
+    for f in &v.frames {
+        let p = &f.prediction;
+        let line = serde_json::json!({
+            "frame_id": f.frame_id,
+            "record_index": f.record_index,
+            "t_s": f.t_s,
+            "measured": {
+                "fz_n": f.label.fz(),
+                "shape": f.label.shape,
+                "contact_mm": f.label.contact,
+                "stage_mm": f.label.stage_mm,
+            },
+            "predicted": {
+                "fz_n": p.force.fz.value(),
+                "shape": p.shape,
+                "probability": p.confidence(),
+                "contact_mm": p.contact_raw.map(|v| v.value()),
+            },
+            "latency_ms": f.latency_ms,
+        });
+        writeln!(out, "{line}").with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    out.flush()
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(path)
+}

@@ -1,0 +1,204 @@
+//! `fringe validate --no-tui --report DIR` on the simulated bench: a model of known output runs
+//! on every labelled frame of a short scan; the measured side must be the frame's synchronised
+//! label (checked against the simulator's truth for the same frame) and the metrics must be those
+//! of the model's output against that truth.
+
+mod common;
+
+use common::{fringe, scratch, text};
+use fringe_sensor_models::model_file::read_weights;
+use fringe_sensor_models::safetensors_file::write_safetensors;
+use fringe_sensor_models::state_dict::StateDict;
+use fringe_sensor_models::tensor::Tensor;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+const FZ_OUT: f64 = 2.0;
+const CONTACT_OUT: [f64; 2] = [0.5, -0.5];
+
+/// The custom CNN with every head weight zero: it answers Fz = 2 N, shape "pentagon" and contact
+/// (0.5, -0.5) mm whatever it sees.
+fn constant_model(dir: &Path) -> PathBuf {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../sensor-models/tests/fixtures/custom/model.safetensors");
+    let sd = read_weights(&fixture).expect("fixture weights");
+    let mut out = StateDict::new();
+    for (k, t) in sd.iter() {
+        let mut t = t.clone();
+        if k.ends_with("_head.weight") {
+            t.data.iter_mut().for_each(|v| *v = 0.0);
+        }
+        match k {
+            "force_head.bias" => {
+                t.data.iter_mut().for_each(|v| *v = 0.0);
+                t.data[2] = FZ_OUT as f32;
+            }
+            "class_head.bias" => {
+                t.data.iter_mut().for_each(|v| *v = 0.0);
+                t.data[1] = 10.0;
+            }
+            "point_head.bias" => t.data = CONTACT_OUT.map(|v| v as f32).to_vec(),
+            _ => {}
+        }
+        out.insert(k, Tensor::new(t.shape.clone(), t.data).expect("same shape"));
+    }
+    let path = dir.join("constant.safetensors");
+    write_safetensors(&path, &out).expect("write model");
+    path
+}
+
+const PLAN: &str = r#"
+name = "validate-test"
+[grid]
+x = [12.5]
+y = [25.0]
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 14.0
+contact_threshold = 0.3
+[indentation]
+force_targets = [3.0]
+ramp_rate = 6.0
+dwell = 0.6
+[safety]
+force_ceiling = 12.0
+"#;
+
+fn number_after(s: &str, key: &str) -> f64 {
+    let rest = &s[s.find(key).unwrap_or_else(|| panic!("{key} in {s}")) + key.len()..];
+    let n: String = rest
+        .trim_start()
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    n.parse()
+        .unwrap_or_else(|_| panic!("number after {key} in {s}"))
+}
+
+#[test]
+fn headless_validation_scores_the_model_against_the_synchronised_labels() {
+    let dir = scratch("headless");
+    let model = constant_model(&dir);
+    let plan = dir.join("plan.toml");
+    std::fs::write(&plan, PLAN).expect("plan");
+    let report = dir.join("report");
+    let runs = dir.join("runs");
+    let out = common::fringe_command()
+        .current_dir(&dir)
+        .args(["validate", "--no-tui", "--yes", "--model"])
+        .arg(&model)
+        .arg("--plan")
+        .arg(&plan)
+        .arg("--out")
+        .arg(&runs)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("run fringe");
+    let all = text(&out);
+    assert!(out.status.success(), "{all}");
+    assert!(all.contains("design geometry"), "{all}");
+
+    // The run the plan recorded, its labels and the simulator's truth per frame.
+    let run = std::fs::read_dir(&runs)
+        .expect("runs")
+        .next()
+        .expect("one run")
+        .expect("entry")
+        .path();
+    let truth: HashMap<u64, f64> = std::fs::read_to_string(run.join("truth.jsonl"))
+        .expect("truth")
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["kind"] == "frame")
+        .map(|v| {
+            let id = v["id"].as_u64().expect("id");
+            (id, v["contact_force_n"].as_f64().unwrap_or(0.0))
+        })
+        .collect();
+    let labelled = std::fs::read_to_string(run.join("frames.jsonl"))
+        .expect("frames")
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["valid"] == true && !v["wrench"].is_null())
+        .count();
+
+    let rows: Vec<serde_json::Value> = std::fs::read_to_string(report.join("validation.jsonl"))
+        .expect("validation.jsonl")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("json line"))
+        .collect();
+    let offered = number_after(&all, "validation (tract backend):") as usize;
+    let ran = number_after(&all, "offered,") as usize;
+    let skipped = number_after(&all, "run,") as usize;
+    assert_eq!(offered, labelled, "every labelled frame is offered: {all}");
+    assert_eq!(ran + skipped, offered, "{all}");
+    assert_eq!(rows.len(), ran);
+    assert!(ran >= 20, "the network ran on {ran} frames: {all}");
+
+    // The measured side is the frame's synchronised label: it follows the truth of that frame.
+    let mut sq_label = 0.0;
+    let mut sq_model = 0.0;
+    let mut in_contact = 0;
+    for r in &rows {
+        let id = r["frame_id"].as_u64().expect("frame id");
+        let t = truth
+            .get(&id)
+            .copied()
+            .unwrap_or_else(|| panic!("frame {id} in the truth"));
+        let measured = r["measured"]["fz_n"].as_f64().expect("measured fz");
+        sq_label += (measured - t).powi(2);
+        sq_model += (FZ_OUT - t).powi(2);
+        in_contact += usize::from(r["measured"]["shape"] == "pentagon");
+        assert_eq!(
+            r["predicted"]["fz_n"]
+                .as_f64()
+                .map(|v| (v - FZ_OUT).abs() < 1e-4),
+            Some(true)
+        );
+    }
+    let n = rows.len() as f64;
+    let label_rms = (sq_label / n).sqrt();
+    assert!(label_rms < 0.1, "labels vs truth RMS {label_rms:.3} N");
+    // The model's Fz error is its constant against the true force, to the labels' accuracy.
+    let reported = number_after(&all, "Fz RMSE");
+    let expected = (sq_model / n).sqrt();
+    assert!(
+        (reported - expected).abs() < 0.1,
+        "reported Fz RMSE {reported} N, against the truth {expected:.3} N"
+    );
+    // The shape head always says pentagon: accuracy is the share of frames in contact.
+    let accuracy = number_after(&all, "shape accuracy");
+    let share = 100.0 * in_contact as f64 / n;
+    assert!(
+        (accuracy - share).abs() < 0.2,
+        "accuracy {accuracy} % vs {share:.1} %"
+    );
+    assert!(
+        in_contact > 0 && in_contact < rows.len(),
+        "{in_contact} of {n}"
+    );
+    let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
+    assert!(md.contains("Live validation"), "{md}");
+    for png in ["fz.png", "contact.png", "confusion.png"] {
+        assert!(report.join(png).is_file(), "{png}");
+    }
+}
+
+#[test]
+fn validation_without_a_model_or_with_a_bad_one_says_what_to_pass() {
+    let out = fringe(&["validate", "--no-tui"]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("--model FILE"), "{}", text(&out));
+    let dir = scratch("bad-model");
+    let bad = dir.join("notes.pth");
+    std::fs::write(&bad, "not a model").expect("write");
+    let out = common::fringe_command()
+        .args(["validate", "--no-tui", "--model"])
+        .arg(&bad)
+        .output()
+        .expect("run");
+    assert!(!out.status.success());
+    assert!(text(&out).contains("notes.pth"), "{}", text(&out));
+}
