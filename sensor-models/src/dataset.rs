@@ -199,7 +199,7 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
         "Y_Position_mm",
         "Indentor_Shape",
     ];
-    let idx = names.map(|n| col(n));
+    let idx = names.map(col);
     let mut cols = [0usize; 10];
     for (c, i) in cols.iter_mut().zip(idx) {
         *c = i?;

@@ -1,8 +1,10 @@
 //! `fringe`: rig controller and calibration suite for photoelastic tactile sensors.
 
 mod cmd;
+mod ui;
 
 use clap::{Parser, Subcommand};
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -13,6 +15,10 @@ struct Cli {
     /// Record everything that crosses each device link to DIR/<device>.trace.
     #[arg(long, global = true, value_name = "DIR")]
     record_trace: Option<PathBuf>,
+
+    /// Plain output instead of the terminal UI (the default when stdout is not a terminal).
+    #[arg(long)]
+    no_tui: bool,
 
     #[command(subcommand)]
     command: Option<Command>,
@@ -88,6 +94,7 @@ fn main() -> ExitCode {
         record_trace: cli.record_trace,
     };
     let result = match cli.command {
+        None if !cli.no_tui && std::io::stdout().is_terminal() => cmd::scan::run_ui(),
         None => cmd::scan::run(cmd::scan::ScanArgs::main_job(), &global),
         Some(Command::Scan(args)) => cmd::scan::run(args, &global),
         #[cfg(feature = "sim")]
@@ -114,7 +121,8 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("fringe: {}", one_line(&e));
+            // Not eprintln!: with the terminal gone (hung up) it would panic.
+            let _ = writeln!(std::io::stderr(), "fringe: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }

@@ -5,65 +5,8 @@
 
 mod common;
 
-use common::{fringe, scratch, text};
-use fringe_sensor_models::model_file::read_weights;
-use fringe_sensor_models::safetensors_file::write_safetensors;
-use fringe_sensor_models::state_dict::StateDict;
-use fringe_sensor_models::tensor::Tensor;
+use common::{constant_model, fringe, scratch, text, CONSTANT_FZ_N as FZ_OUT, VALIDATE_PLAN};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
-
-const FZ_OUT: f64 = 2.0;
-const CONTACT_OUT: [f64; 2] = [0.5, -0.5];
-
-/// The custom CNN with every head weight zero: it answers Fz = 2 N, shape "pentagon" and contact
-/// (0.5, -0.5) mm whatever it sees.
-fn constant_model(dir: &Path) -> PathBuf {
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../sensor-models/tests/fixtures/custom/model.safetensors");
-    let sd = read_weights(&fixture).expect("fixture weights");
-    let mut out = StateDict::new();
-    for (k, t) in sd.iter() {
-        let mut t = t.clone();
-        if k.ends_with("_head.weight") {
-            t.data.iter_mut().for_each(|v| *v = 0.0);
-        }
-        match k {
-            "force_head.bias" => {
-                t.data.iter_mut().for_each(|v| *v = 0.0);
-                t.data[2] = FZ_OUT as f32;
-            }
-            "class_head.bias" => {
-                t.data.iter_mut().for_each(|v| *v = 0.0);
-                t.data[1] = 10.0;
-            }
-            "point_head.bias" => t.data = CONTACT_OUT.map(|v| v as f32).to_vec(),
-            _ => {}
-        }
-        out.insert(k, Tensor::new(t.shape.clone(), t.data).expect("same shape"));
-    }
-    let path = dir.join("constant.safetensors");
-    write_safetensors(&path, &out).expect("write model");
-    path
-}
-
-const PLAN: &str = r#"
-name = "validate-test"
-[grid]
-x = [12.5]
-y = [25.0]
-[indenters]
-shapes = ["pentagon"]
-[approach]
-safe_z = 14.0
-contact_threshold = 0.3
-[indentation]
-force_targets = [3.0]
-ramp_rate = 6.0
-dwell = 0.6
-[safety]
-force_ceiling = 12.0
-"#;
 
 fn number_after(s: &str, key: &str) -> f64 {
     let rest = &s[s.find(key).unwrap_or_else(|| panic!("{key} in {s}")) + key.len()..];
@@ -81,7 +24,7 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     let dir = scratch("headless");
     let model = constant_model(&dir);
     let plan = dir.join("plan.toml");
-    std::fs::write(&plan, PLAN).expect("plan");
+    std::fs::write(&plan, VALIDATE_PLAN).expect("plan");
     let report = dir.join("report");
     let runs = dir.join("runs");
     let out = common::fringe_command()

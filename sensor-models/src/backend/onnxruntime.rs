@@ -206,7 +206,7 @@ mod tests {
             Some(OsString::new()),
             Some("/nonexistent/libonnxruntime.so".into()),
         ] {
-            let err = dylib_path(var).err().expect("refused").to_string();
+            let err = dylib_path(var).expect_err("refused").to_string();
             assert!(err.contains("ORT_DYLIB_PATH"), "{err}");
             assert!(err.contains("pip install onnxruntime==1.32.0"), "{err}");
             assert!(err.contains("capi/libonnxruntime.so*"), "{err}");

@@ -67,6 +67,21 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
     Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
 }
 
+/// `fringe` on a terminal: the UI on the Scan screen with the built-in plan, ready to run (r).
+pub fn run_ui() -> anyhow::Result<()> {
+    let (config, source) = RigConfig::resolve(None)?;
+    crate::ui::run(crate::ui::UiOptions {
+        config,
+        rig: source.describe(),
+        plan_text: SHORT_GRID.text.to_string(),
+        plan_origin: SHORT_GRID.origin(),
+        runs: PathBuf::from("runs"),
+        model: None,
+        tab: crate::ui::Tab::Scan,
+        start: false,
+    })
+}
+
 pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     let (text, origin) = plan_text(&args)?;
     let plan = Plan::parse(&text, &origin)?;

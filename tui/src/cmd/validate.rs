@@ -15,7 +15,7 @@ use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_sensor_models::backend::BackendKind;
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -58,7 +58,6 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
         );
     };
     let model = open_model(model_path)?;
-    let backend = model.backend(a.backend, a.threads.max(1))?;
     let (text, origin) = match &a.plan {
         Some(p) => (
             std::fs::read_to_string(p)
@@ -69,6 +68,26 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     };
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    if !a.no_tui && std::io::stdout().is_terminal() {
+        if a.report.is_some() {
+            bail!("--report DIR writes the headless run's report: add --no-tui");
+        }
+        return crate::ui::run(crate::ui::UiOptions {
+            config,
+            rig: source.describe(),
+            plan_text: text,
+            plan_origin: origin,
+            runs: a.out.clone(),
+            model: Some(crate::ui::ModelChoice {
+                path: model_path.clone(),
+                backend: a.backend,
+                threads: a.threads.max(1),
+            }),
+            tab: crate::ui::Tab::Validate,
+            start: false,
+        });
+    }
+    let backend = model.backend(a.backend, a.threads.max(1))?;
     println!(
         "fringe {}: rig: {}",
         env!("CARGO_PKG_VERSION"),

@@ -1,6 +1,10 @@
 //! Helpers shared by the command-line tests (one set for every test file of this crate).
 #![allow(dead_code)] // each test binary uses its own subset
 
+use fringe_sensor_models::model_file::read_weights;
+use fringe_sensor_models::safetensors_file::write_safetensors;
+use fringe_sensor_models::state_dict::StateDict;
+use fringe_sensor_models::tensor::Tensor;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -186,3 +190,56 @@ pub fn edit_line(path: &Path, k: usize, edit: impl FnOnce(&str) -> Option<String
     out.push('\n');
     std::fs::write(path, out).expect("write");
 }
+
+pub const CONSTANT_FZ_N: f64 = 2.0;
+pub const CONSTANT_CONTACT_MM: [f64; 2] = [0.5, -0.5];
+
+/// The custom CNN with every head weight zero: it answers Fz = 2 N, shape "pentagon" and contact
+/// (0.5, -0.5) mm whatever it sees.
+pub fn constant_model(dir: &Path) -> PathBuf {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../sensor-models/tests/fixtures/custom/model.safetensors");
+    let sd = read_weights(&fixture).expect("fixture weights");
+    let mut out = StateDict::new();
+    for (k, t) in sd.iter() {
+        let mut t = t.clone();
+        if k.ends_with("_head.weight") {
+            t.data.iter_mut().for_each(|v| *v = 0.0);
+        }
+        match k {
+            "force_head.bias" => {
+                t.data.iter_mut().for_each(|v| *v = 0.0);
+                t.data[2] = CONSTANT_FZ_N as f32;
+            }
+            "class_head.bias" => {
+                t.data.iter_mut().for_each(|v| *v = 0.0);
+                t.data[1] = 10.0;
+            }
+            "point_head.bias" => t.data = CONSTANT_CONTACT_MM.map(|v| v as f32).to_vec(),
+            _ => {}
+        }
+        out.insert(k, Tensor::new(t.shape.clone(), t.data).expect("same shape"));
+    }
+    let path = dir.join("constant.safetensors");
+    write_safetensors(&path, &out).expect("write model");
+    path
+}
+
+/// A one-point plan (one press to 3 N) for validation tests.
+pub const VALIDATE_PLAN: &str = r#"
+name = "validate-test"
+[grid]
+x = [12.5]
+y = [25.0]
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 14.0
+contact_threshold = 0.3
+[indentation]
+force_targets = [3.0]
+ramp_rate = 6.0
+dwell = 0.6
+[safety]
+force_ceiling = 12.0
+"#;

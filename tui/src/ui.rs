@@ -1,0 +1,19 @@
+//! The terminal UI (ratatui on crossterm): Scan, Validate and Runs screens over the application
+//! layer. The event loop reads what the scan and validation threads publish and redraws at most
+//! every 33 ms; it never waits on a device, the disk or the network.
+//!
+//! - [`state`]: what is on screen, as plain data.
+//! - [`view`]: drawing the state (pure; snapshot-tested).
+//! - [`picture`]: frames as 24-bit half blocks.
+//! - [`session`]: the scan thread, its operator dialogs and events.
+//! - [`event_loop`]: keys, events, redraws; the terminal restored on every exit path.
+
+mod event_loop;
+mod picture;
+mod session;
+mod state;
+mod view;
+
+pub use event_loop::{run, UiOptions};
+pub use session::ModelChoice;
+pub use state::Tab;

@@ -1,0 +1,535 @@
+//! The event loop: keys from the terminal, events from the scan thread, snapshots of the live
+//! view and validation, a redraw at most every [`FRAME`]. The terminal is restored on quit, on
+//! error, on panic (ratatui's hook) and on SIGTERM / SIGHUP.
+
+use super::session::{self, Event, ModelChoice, Running, ScanRequest};
+use super::state::{Dialog, Phase, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState};
+use super::view;
+use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
+use fringe_app::{Note, RigConfig};
+use fringe_rig::scan::control::{Prompt, Reply, ScanProgress};
+use fringe_rig::scan::plan::{Plan, Targets};
+use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::run_list::list;
+use ratatui::crossterm::event::{self, Event as TermEvent, KeyCode, KeyEventKind, KeyModifiers};
+use ratatui::DefaultTerminal;
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// The longest time between redraws while something moves (30 fps).
+const FRAME: Duration = Duration::from_millis(33);
+
+/// How the UI starts.
+pub struct UiOptions {
+    pub config: RigConfig,
+    pub rig: String,
+    pub plan_text: String,
+    pub plan_origin: String,
+    pub runs: PathBuf,
+    pub model: Option<ModelChoice>,
+    pub tab: Tab,
+    /// Start the scan at once.
+    pub start: bool,
+}
+
+static TERMINATE: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_terminate(_: libc::c_int) {
+    TERMINATE.store(true, Ordering::SeqCst);
+}
+
+/// Runs the UI until the user quits. Errors that stop the UI are returned after the terminal
+/// is restored, so they are printed on the normal screen.
+pub fn run(opts: UiOptions) -> anyhow::Result<()> {
+    let plan = Plan::parse(&opts.plan_text, &opts.plan_origin)?;
+    let limits = opts.config.limits()?;
+    let program = plan.program(&limits, &opts.plan_origin)?;
+    // SAFETY: the handlers only store to an atomic.
+    unsafe {
+        libc::signal(
+            libc::SIGTERM,
+            on_terminate as *const () as libc::sighandler_t,
+        );
+        libc::signal(
+            libc::SIGHUP,
+            on_terminate as *const () as libc::sighandler_t,
+        );
+    }
+    let mut app = App::new(opts, &program, &limits);
+    let mut terminal = ratatui::init();
+    let result = app.run(&mut terminal);
+    // A terminal that hung up cannot be restored; nothing is printed about it (stderr is that
+    // terminal too).
+    let _ = ratatui::try_restore();
+    // A scan still running is aborted and waited for, so z retracts and the run is closed.
+    app.stop_scan();
+    result
+}
+
+/// Terminal events read on their own thread: the loop below never blocks in a read, so it sees
+/// SIGTERM / SIGHUP within one frame even when the terminal has hung up under a read.
+fn input_thread() -> anyhow::Result<Receiver<std::io::Result<TermEvent>>> {
+    let (tx, rx) = crossbeam_channel::bounded(64);
+    std::thread::Builder::new()
+        .name("terminal-input".into())
+        .spawn(move || loop {
+            let e = event::read();
+            let failed = e.is_err();
+            if tx.send(e).is_err() || failed {
+                return;
+            }
+        })?;
+    Ok(rx)
+}
+
+struct App {
+    state: UiState,
+    opts: UiOptions,
+    program: fringe_rig::scan::plan::ScanProgram,
+    running: Option<Running>,
+    verify: (Sender<(String, String)>, Receiver<(String, String)>),
+    quit: bool,
+}
+
+impl App {
+    fn new(
+        opts: UiOptions,
+        program: &fringe_rig::scan::plan::ScanProgram,
+        limits: &fringe_rig::scan::plan::BenchLimits,
+    ) -> App {
+        let targets = match &program.targets {
+            Targets::Force(t) => format!(
+                "{} N",
+                t.iter()
+                    .map(|v| format!("{}", v.0))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Targets::Depth(t) => format!(
+                "{} mm deep",
+                t.iter()
+                    .map(|v| format!("{}", v.0))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        };
+        let origin = opts.config.origin().ok();
+        let scan = ScanView {
+            plan: program.plan.name.clone(),
+            points: program
+                .points
+                .iter()
+                .map(|p| PlanPoint {
+                    x_mm: p.x.0,
+                    y_mm: p.y.0,
+                })
+                .collect(),
+            origin_mm: origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
+            disc_radius_mm: None,
+            targets,
+            estimate: program.estimate(limits).total,
+            phase: Phase::Ready,
+            done: 0,
+            total: program.points.len() as u64,
+            eta: program.estimate(limits).total,
+            force_n: 0.0,
+            frame_rate_hz: 0.0,
+            frames: 0,
+            dropped: 0,
+            current: None,
+            log: VecDeque::new(),
+            live: Default::default(),
+            run_dir: None,
+        };
+        let state = UiState {
+            tab: opts.tab,
+            help: false,
+            rig: opts.rig.clone(),
+            scan,
+            model: opts.model.as_ref().map(|m| m.path.display().to_string()),
+            validation: None,
+            runs: RunsView {
+                root: opts.runs.display().to_string(),
+                ..RunsView::default()
+            },
+            dialog: None,
+            error: None,
+        };
+        App {
+            state,
+            program: program.clone(),
+            opts,
+            running: None,
+            verify: unbounded(),
+            quit: false,
+        }
+    }
+
+    fn run(&mut self, terminal: &mut DefaultTerminal) -> anyhow::Result<()> {
+        let input = input_thread()?;
+        self.refresh_runs();
+        if self.opts.start {
+            self.start_scan();
+        }
+        let mut last_draw = Instant::now() - FRAME;
+        let mut dirty = true;
+        while !self.quit {
+            if TERMINATE.load(Ordering::SeqCst) {
+                break;
+            }
+            let wait = FRAME.saturating_sub(last_draw.elapsed());
+            match input.recv_timeout(wait) {
+                Ok(Ok(TermEvent::Key(k))) if k.kind != KeyEventKind::Release => {
+                    self.key(k.code, k.modifiers);
+                    dirty = true;
+                }
+                Ok(Ok(TermEvent::Resize(..))) => dirty = true,
+                Ok(Ok(_)) | Err(RecvTimeoutError::Timeout) => {}
+                // The terminal is gone (hung up) or unreadable: stop, aborting any scan.
+                Ok(Err(e)) => return Err(anyhow::anyhow!("reading the terminal: {e}")),
+                Err(RecvTimeoutError::Disconnected) => break,
+            }
+            dirty |= self.pump();
+            if dirty && last_draw.elapsed() >= FRAME || last_draw.elapsed() >= 4 * FRAME {
+                terminal.draw(|f| view::draw(f, &self.state))?;
+                last_draw = Instant::now();
+                dirty = false;
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes what the threads published; true when anything changed.
+    fn pump(&mut self) -> bool {
+        let mut changed = false;
+        while let Ok((name, verdict)) = self.verify.1.try_recv() {
+            if let Some(r) = self.state.runs.rows.iter_mut().find(|r| r.name == name) {
+                r.verified = Some(verdict);
+            }
+            changed = true;
+        }
+        let Some(running) = &self.running else {
+            return changed;
+        };
+        let events: Vec<Event> = running.events.try_iter().collect();
+        if let Some(v) = running
+            .view
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+        {
+            self.state.scan.live = v.state();
+        }
+        if let Some(v) = running
+            .validation
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+        {
+            self.state.validation = Some(v.state());
+        }
+        let moving = matches!(self.state.scan.phase, Phase::Running | Phase::Stopping(_));
+        for e in events {
+            changed = true;
+            self.event(e);
+        }
+        changed || moving
+    }
+
+    fn event(&mut self, e: Event) {
+        let scan = &mut self.state.scan;
+        match e {
+            Event::Note(Note::Info(t)) => scan.log(t.trim().to_string()),
+            Event::Note(Note::Warning(t)) => scan.log(format!("warning: {t}")),
+            Event::Geometry {
+                origin_mm,
+                disc_radius_mm,
+            } => {
+                scan.origin_mm = origin_mm;
+                scan.disc_radius_mm = disc_radius_mm;
+            }
+            Event::Progress(p) => match p {
+                ScanProgress::Message(m) => {
+                    if let Some(dir) = m.strip_prefix("run directory ") {
+                        scan.run_dir = Some(dir.to_string());
+                    }
+                    scan.log(m);
+                }
+                ScanProgress::Phase { point, phase } => {
+                    scan.current = Some((point, phase.name()));
+                }
+                ScanProgress::Status(s) => {
+                    scan.done = s.points_done;
+                    scan.total = s.points_total;
+                    scan.eta = s.eta;
+                    scan.force_n = s.force_n;
+                    scan.frame_rate_hz = s.frame_rate_hz;
+                    scan.frames = s.frames_recorded;
+                    scan.dropped = s.dropped_frames;
+                }
+                ScanProgress::Paused { reason } => {
+                    scan.log(format!("paused: {reason}"));
+                    scan.phase = Phase::Paused(reason);
+                }
+                ScanProgress::Resumed => {
+                    scan.log("resumed");
+                    scan.phase = Phase::Running;
+                }
+            },
+            Event::Prompt(p) => {
+                let title = match &p {
+                    Prompt::ChangeIndenter { .. } => "change the indenter",
+                    Prompt::MoveY { .. } => "move the y stage",
+                    Prompt::Resume { .. } => "scan paused",
+                };
+                if let Prompt::Resume { reason } = &p {
+                    scan.phase = Phase::Paused(reason.clone());
+                }
+                self.state.dialog = Some(Dialog {
+                    title: title.to_string(),
+                    message: p.message(),
+                });
+            }
+            Event::Ended { completed, summary } => {
+                scan.log(summary.clone());
+                if completed {
+                    scan.done = scan.total;
+                }
+                scan.current = None;
+                scan.phase = Phase::Finished { completed, summary };
+                self.state.dialog = None;
+                self.refresh_runs();
+            }
+            Event::Failed(why) => {
+                scan.log(format!("failed: {why}"));
+                scan.phase = Phase::Failed(why.clone());
+                scan.current = None;
+                self.state.dialog = None;
+                self.state.error = Some(why);
+                self.refresh_runs();
+            }
+        }
+    }
+
+    fn key(&mut self, code: KeyCode, mods: KeyModifiers) {
+        self.state.error = None;
+        if code == KeyCode::Char('c') && mods.contains(KeyModifiers::CONTROL) {
+            self.stop_scan();
+            self.quit = true;
+            return;
+        }
+        if self.state.help {
+            self.state.help = false;
+            return;
+        }
+        if self.state.dialog.is_some() {
+            let reply = match code {
+                KeyCode::Enter | KeyCode::Char('y' | 'c' | ' ') => Some(Reply::Continue),
+                KeyCode::Char('a') | KeyCode::Esc => Some(Reply::Abort),
+                _ => None,
+            };
+            if let (Some(r), Some(running)) = (reply, &self.running) {
+                if r == Reply::Abort {
+                    running.control.abort();
+                    self.state.scan.phase = Phase::Stopping("aborting: z retracts".into());
+                } else if matches!(self.state.scan.phase, Phase::Paused(_)) {
+                    self.state.scan.phase = Phase::Running;
+                }
+                let _ = running.replies.send(r);
+                self.state.dialog = None;
+            }
+            return;
+        }
+        match code {
+            KeyCode::Char('?') => self.state.help = true,
+            KeyCode::Char('q') | KeyCode::Esc => {
+                if self.scan_active() {
+                    self.state.error = Some(
+                        "a scan is running: press a to abort it first (or Ctrl-C to abort and quit)"
+                            .into(),
+                    );
+                } else {
+                    self.quit = true;
+                }
+            }
+            KeyCode::Tab => {
+                let i = Tab::ALL
+                    .iter()
+                    .position(|t| *t == self.state.tab)
+                    .unwrap_or(0);
+                self.state.tab = Tab::ALL[(i + 1) % Tab::ALL.len()];
+            }
+            KeyCode::BackTab => {
+                let i = Tab::ALL
+                    .iter()
+                    .position(|t| *t == self.state.tab)
+                    .unwrap_or(0);
+                self.state.tab = Tab::ALL[(i + Tab::ALL.len() - 1) % Tab::ALL.len()];
+            }
+            KeyCode::Char('1') => self.state.tab = Tab::Scan,
+            KeyCode::Char('2') => self.state.tab = Tab::Validate,
+            KeyCode::Char('3') => self.state.tab = Tab::Runs,
+            KeyCode::Char('r') => {
+                if self.scan_active() {
+                    self.state.error = Some("a scan is already running".into());
+                } else {
+                    self.start_scan();
+                }
+            }
+            KeyCode::Char('p') => self.pause(false),
+            KeyCode::Char('P') => self.pause(true),
+            KeyCode::Char('c') => {
+                if let Some(r) = &self.running {
+                    r.control.resume();
+                }
+            }
+            KeyCode::Char('a') => {
+                if let Some(r) = &self.running {
+                    if self.scan_active() {
+                        r.control.abort();
+                        self.state.scan.phase = Phase::Stopping("aborting: z retracts".into());
+                    }
+                }
+            }
+            KeyCode::Up if self.state.tab == Tab::Runs => {
+                self.state.runs.selected = self.state.runs.selected.saturating_sub(1);
+            }
+            KeyCode::Down if self.state.tab == Tab::Runs => {
+                let n = self.state.runs.rows.len();
+                self.state.runs.selected = (self.state.runs.selected + 1).min(n.saturating_sub(1));
+            }
+            KeyCode::Char('g') => self.refresh_runs(),
+            KeyCode::Enter if self.state.tab == Tab::Runs => self.verify_selected(),
+            _ => {}
+        }
+    }
+
+    fn scan_active(&self) -> bool {
+        matches!(
+            self.state.scan.phase,
+            Phase::Running | Phase::Paused(_) | Phase::Stopping(_)
+        )
+    }
+
+    fn pause(&mut self, now: bool) {
+        let Some(r) = &self.running else { return };
+        if !matches!(self.state.scan.phase, Phase::Running) {
+            return;
+        }
+        if now {
+            r.control.pause_now();
+            self.state.scan.phase = Phase::Stopping("pausing now: z retracts".into());
+        } else {
+            r.control.pause();
+            self.state.scan.phase = Phase::Stopping("pausing after this press".into());
+        }
+    }
+
+    fn start_scan(&mut self) {
+        self.stop_scan();
+        let model = if self.state.tab == Tab::Validate || self.opts.tab == Tab::Validate {
+            self.opts.model.clone()
+        } else {
+            None
+        };
+        self.state.validation = None;
+        let scan = &mut self.state.scan;
+        scan.phase = Phase::Running;
+        scan.done = 0;
+        scan.current = None;
+        scan.run_dir = None;
+        scan.log(format!("starting {}", scan.plan));
+        self.running = Some(session::start(ScanRequest {
+            config: self.opts.config.clone(),
+            program: self.program.clone(),
+            plan_text: self.opts.plan_text.clone(),
+            runs: self.opts.runs.clone(),
+            model,
+        }));
+    }
+
+    /// Aborts a running scan and waits for its thread (z retracts, the run is closed).
+    fn stop_scan(&mut self) {
+        if let Some(mut r) = self.running.take() {
+            r.control.abort();
+            let _ = r.replies.send(Reply::Abort);
+            if let Some(t) = r.thread.take() {
+                let _ = t.join();
+            }
+            // The last validation state stays on screen.
+            if let Some(v) = r
+                .validation
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .as_ref()
+            {
+                self.state.validation = Some(v.state());
+            }
+        }
+    }
+
+    fn refresh_runs(&mut self) {
+        let root = &self.opts.runs;
+        let rows = match list(root) {
+            Ok((runs, _)) => runs
+                .into_iter()
+                .map(|r| RunRow {
+                    name: r.dir.file_name().map_or_else(
+                        || r.dir.display().to_string(),
+                        |n| n.to_string_lossy().into_owned(),
+                    ),
+                    status: match &r.stop {
+                        None => "unfinished".into(),
+                        Some(s) => match s.exit_status {
+                            ExitStatus::Completed => "completed".into(),
+                            ExitStatus::Aborted => "aborted".into(),
+                            ExitStatus::Failed => "failed".into(),
+                        },
+                    },
+                    frames: r.frames as usize,
+                    verified: None,
+                })
+                .collect(),
+            Err(e) => {
+                self.state.error = Some(format!("{}: {e}", root.display()));
+                Vec::new()
+            }
+        };
+        let old: Vec<RunRow> = std::mem::take(&mut self.state.runs.rows);
+        self.state.runs.rows = rows
+            .into_iter()
+            .map(|mut r| {
+                r.verified = old
+                    .iter()
+                    .find(|o| o.name == r.name)
+                    .and_then(|o| o.verified.clone());
+                r
+            })
+            .collect();
+        let n = self.state.runs.rows.len();
+        self.state.runs.selected = self.state.runs.selected.min(n.saturating_sub(1));
+    }
+
+    /// Verifies the chosen run on a thread; the verdict arrives through `verify`.
+    fn verify_selected(&mut self) {
+        let Some(row) = self.state.runs.rows.get_mut(self.state.runs.selected) else {
+            return;
+        };
+        row.verified = Some("verifying...".into());
+        let name = row.name.clone();
+        let dir = self.opts.runs.join(&name);
+        let tx = self.verify.0.clone();
+        std::thread::spawn(move || {
+            let verdict = match fringe_rig::store::verify::verify(&dir) {
+                Ok(r) if r.ok() => {
+                    format!("ok: {} frames, {} force samples", r.frames, r.force_samples)
+                }
+                Ok(r) => format!("{} problem(s): {}", r.problems.len(), r.problems.join("; ")),
+                Err(e) => format!("cannot verify: {e}"),
+            };
+            let _ = tx.send((name, verdict));
+        });
+    }
+}

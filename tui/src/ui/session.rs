@@ -1,0 +1,218 @@
+//! A scan run for the UI on its own thread: the session opened on the rig, live view and (with
+//! a model) live validation attached, the operator's prompts sent to the UI as dialogs and
+//! answered from it, progress sent as events. The UI thread never waits on it.
+
+use crossbeam_channel::{unbounded, Receiver, Sender};
+use fringe_app::live_validation::{FrameSource, LiveValidation};
+use fringe_app::live_view::LiveView;
+use fringe_app::{Note, ProfileUse, RigConfig, ScanSession};
+use fringe_rig::scan::control::{Operator, Prompt, Reply, ScanControl, ScanProgress};
+use fringe_rig::scan::engine::{new_run_id, RunTarget};
+use fringe_rig::scan::plan::ScanProgram;
+use fringe_rig::store::documents::ExitStatus;
+use fringe_sensor_models::backend::BackendKind;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// Side of the frame pictures, px.
+const PICTURE_PX: u32 = 96;
+
+/// What the scan thread tells the UI.
+pub enum Event {
+    Note(Note),
+    /// The disc as the session knows it: contact origin (stage mm) and radius (mm).
+    Geometry {
+        origin_mm: (f64, f64),
+        disc_radius_mm: Option<f64>,
+    },
+    Progress(ScanProgress),
+    Prompt(Prompt),
+    /// The scan ended: completed or not, and a one-line summary.
+    Ended {
+        completed: bool,
+        summary: String,
+    },
+    Failed(String),
+}
+
+/// A model to validate with.
+#[derive(Clone)]
+pub struct ModelChoice {
+    pub path: PathBuf,
+    pub backend: BackendKind,
+    pub threads: usize,
+}
+
+/// What the UI holds of a running scan.
+pub struct Running {
+    pub events: Receiver<Event>,
+    pub replies: Sender<Reply>,
+    pub control: ScanControl,
+    pub view: Arc<Mutex<Option<LiveView>>>,
+    pub validation: Arc<Mutex<Option<LiveValidation>>>,
+    pub thread: Option<std::thread::JoinHandle<()>>,
+}
+
+struct UiOperator {
+    events: Sender<Event>,
+    replies: Receiver<Reply>,
+}
+
+impl Operator for UiOperator {
+    fn ask(&mut self, prompt: &Prompt) -> Reply {
+        if self.events.send(Event::Prompt(prompt.clone())).is_err() {
+            return Reply::Abort;
+        }
+        self.replies.recv().unwrap_or(Reply::Abort)
+    }
+}
+
+/// Everything a scan needs from the UI.
+pub struct ScanRequest {
+    pub config: RigConfig,
+    pub program: ScanProgram,
+    pub plan_text: String,
+    pub runs: PathBuf,
+    pub model: Option<ModelChoice>,
+}
+
+/// Starts the scan thread.
+pub fn start(req: ScanRequest) -> Running {
+    let (events, events_rx) = unbounded();
+    let (replies, replies_rx) = unbounded();
+    let control = ScanControl::new();
+    let view = Arc::new(Mutex::new(None));
+    let validation = Arc::new(Mutex::new(None));
+    let thread = {
+        let control = control.clone();
+        let view = view.clone();
+        let validation = validation.clone();
+        std::thread::Builder::new()
+            .name("scan".into())
+            .spawn(move || {
+                let tx = events.clone();
+                if let Err(why) = run(req, events, replies_rx, &control, &view, &validation) {
+                    let _ = tx.send(Event::Failed(why));
+                }
+            })
+            .ok()
+    };
+    Running {
+        events: events_rx,
+        replies,
+        control,
+        view,
+        validation,
+        thread,
+    }
+}
+
+fn run(
+    req: ScanRequest,
+    events: Sender<Event>,
+    replies: Receiver<Reply>,
+    control: &ScanControl,
+    view: &Mutex<Option<LiveView>>,
+    validation: &Mutex<Option<LiveValidation>>,
+) -> Result<(), String> {
+    let run_id = new_run_id(&req.program.plan.name);
+    let mut session = ScanSession::open(
+        &req.config,
+        req.program,
+        req.plan_text,
+        ProfileUse::Consume,
+        None,
+    )
+    .map_err(|e| e.to_string())?;
+    for note in &session.notes {
+        let _ = events.send(Event::Note(note.clone()));
+    }
+    let geometry = session.geometry_profile();
+    let disc_radius_mm = geometry.as_ref().and_then(|(p, _)| {
+        p.registration
+            .as_ref()
+            .map(|r| p.optical.crop_radius_px / r.px_per_mm)
+    });
+    let origin = &session.setup.origin;
+    let _ = events.send(Event::Geometry {
+        origin_mm: (origin.x.0, origin.y.0),
+        disc_radius_mm,
+    });
+    let (live, tap) = LiveView::start(PICTURE_PX).map_err(|e| format!("live view: {e}"))?;
+    session.setup.taps.push(tap);
+    *view.lock().unwrap_or_else(|p| p.into_inner()) = Some(live);
+    if let Some(m) = &req.model {
+        let Some((profile, why)) = geometry else {
+            return Err(format!(
+                "no calibration profile for sensor {}: the model's preprocessing needs the \
+                 sensor's optical centre and crop radius; run `fringe calibrate` first",
+                session.setup.sensor_id
+            ));
+        };
+        let _ = events.send(Event::Note(Note::Info(format!(
+            "preprocessing geometry: {why}"
+        ))));
+        let model = fringe_sensor_models::model::Model::open(&m.path).map_err(|e| e.to_string())?;
+        let backend = model
+            .backend(m.backend, m.threads)
+            .map_err(|e| e.to_string())?;
+        let (v, tap) = LiveValidation::start(
+            model,
+            backend,
+            FrameSource {
+                run_id: run_id.clone(),
+                profile,
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        session.setup.taps.push(tap);
+        *validation.lock().unwrap_or_else(|p| p.into_inner()) = Some(v);
+    }
+    let mut operator = UiOperator {
+        events: events.clone(),
+        replies,
+    };
+    let progress_events = Mutex::new(events.clone());
+    let end = session
+        .run(
+            RunTarget::New {
+                root: req.runs,
+                run_id,
+            },
+            control,
+            &mut operator,
+            &|p| {
+                let _ = progress_events
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .send(Event::Progress(p));
+            },
+        )
+        .map_err(|e| e.to_string())?;
+    let o = &end.outcome;
+    let mut summary = format!(
+        "{} of {} points, {} frames ({} dropped) in {}",
+        o.points_done,
+        o.points_total,
+        o.frames,
+        o.dropped_frames,
+        o.run_dir.display()
+    );
+    if o.status != ExitStatus::Completed {
+        summary = format!("{}; {summary}", o.reason);
+    }
+    if let Some(s) = &end.truth_score {
+        summary.push_str(&format!(
+            "; labels vs the simulator's truth: Fz RMS {:.3} N, contact RMS {:.3} mm",
+            s.force_rms_n, s.contact_rms_mm
+        ));
+    }
+    let _ = events.send(Event::Ended {
+        completed: o.status == ExitStatus::Completed,
+        summary,
+    });
+    // Keep the validation's last frames: let the worker finish the one in hand.
+    std::thread::sleep(Duration::from_millis(50));
+    Ok(())
+}

@@ -1,0 +1,32 @@
+//! The keys, over everything (`?`).
+
+use super::{centred, panel};
+use ratatui::text::Line;
+use ratatui::widgets::{Clear, Paragraph};
+use ratatui::Frame;
+
+pub(crate) const KEYS: [(&str, &str); 13] = [
+    ("1 2 3 / Tab", "Scan, Validate, Runs screens"),
+    ("r", "run the scan plan (with live validation on Validate)"),
+    ("p", "pause after the current press"),
+    ("P", "pause now (z retracts)"),
+    ("c", "continue a paused scan"),
+    ("a", "abort the scan (z retracts, the run is closed)"),
+    ("Enter", "answer a dialog: continue"),
+    ("Up / Down", "choose a run"),
+    ("Enter (Runs)", "verify the chosen run"),
+    ("g", "refresh the runs"),
+    ("?", "show or hide these keys"),
+    ("q / Esc", "quit (asks to abort a running scan first)"),
+    ("Ctrl-C", "abort a running scan and quit"),
+];
+
+pub(crate) fn draw(f: &mut Frame) {
+    let area = centred(f.area(), 72, KEYS.len() as u16 + 2);
+    let lines: Vec<Line> = KEYS
+        .iter()
+        .map(|(k, what)| Line::from(format!(" {k:<14} {what}")))
+        .collect();
+    f.render_widget(Clear, area);
+    f.render_widget(Paragraph::new(lines).block(panel("keys")), area);
+}

@@ -1,0 +1,58 @@
+//! The Runs screen: the runs in the runs directory, newest first, with their status and frames,
+//! and the verdict of a verification the user asked for.
+
+use super::{panel, BAD, GOOD, WARN};
+use crate::ui::state::RunsView;
+use ratatui::layout::{Constraint, Rect};
+use ratatui::style::{Modifier, Style};
+use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
+use ratatui::Frame;
+
+pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
+    let title = format!("runs in {} · Enter verify · g refresh", v.root);
+    if v.rows.is_empty() {
+        f.render_widget(
+            Paragraph::new("no runs yet: run a scan (Scan screen, r)").block(panel(&title)),
+            area,
+        );
+        return;
+    }
+    let rows = v.rows.iter().map(|r| {
+        let status = match r.status.as_str() {
+            "completed" => Style::new().fg(GOOD),
+            "unfinished" => Style::new().fg(WARN),
+            _ => Style::new().fg(BAD),
+        };
+        let verified = match r.verified.as_deref() {
+            Some(v) if v.starts_with("ok") => {
+                Cell::from(v.to_string()).style(Style::new().fg(GOOD))
+            }
+            Some(v) if v.starts_with("verifying") => Cell::from(v.to_string()),
+            Some(v) => Cell::from(v.to_string()).style(Style::new().fg(BAD)),
+            None => Cell::from("-"),
+        };
+        Row::new(vec![
+            Cell::from(r.name.clone()),
+            Cell::from(r.status.clone()).style(status),
+            Cell::from(r.frames.to_string()),
+            verified,
+        ])
+    });
+    let table = Table::new(
+        rows,
+        [
+            Constraint::Min(30),
+            Constraint::Length(11),
+            Constraint::Length(8),
+            Constraint::Min(20),
+        ],
+    )
+    .header(
+        Row::new(["run", "status", "frames", "verified"])
+            .style(Style::new().add_modifier(Modifier::BOLD)),
+    )
+    .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+    .block(panel(&title));
+    let mut state = TableState::default().with_selected(Some(v.selected));
+    f.render_stateful_widget(table, area, &mut state);
+}

@@ -1,0 +1,211 @@
+//! The Scan screen: the plan's points on the disc with the path, progress, force, the newest
+//! frame, the force chart and the scan's messages.
+
+use super::disc::{aspect, canvas, Glyph, Layer};
+use super::{clock, legend_panel, panel, ACCENT, BAD, GOOD, PENDING, WARN};
+use crate::ui::picture::Picture;
+use crate::ui::state::{Phase, UiState};
+use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::style::{Color, Style};
+use ratatui::symbols::Marker;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Axis, Chart, Dataset, Gauge, GraphType, List, ListItem, Paragraph};
+use ratatui::Frame;
+
+/// The keys that act on the scan now.
+pub(crate) fn key_hint(s: &UiState) -> &'static str {
+    match s.scan.phase {
+        Phase::Ready => "r run the scan",
+        Phase::Running => "p pause after this press · P pause now · a abort",
+        Phase::Paused(_) => "c continue · a abort",
+        Phase::Stopping(_) => "a abort",
+        Phase::Finished { .. } | Phase::Failed(_) => "r run again",
+    }
+}
+
+pub(crate) fn draw(f: &mut Frame, area: Rect, s: &UiState) {
+    let v = &s.scan;
+    let [left, right] =
+        Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(area);
+    let [disc_area, log_area] =
+        Layout::vertical([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(left);
+
+    // Plan on the disc: all points and the path; done points green; the current one yellow.
+    let all: Vec<(f64, f64)> = v.points.iter().map(|p| (p.x_mm, p.y_mm)).collect();
+    let done: Vec<(f64, f64)> = all.iter().copied().take(v.done as usize).collect();
+    let current: Vec<(f64, f64)> = v
+        .current
+        .as_ref()
+        .and_then(|(i, _)| all.get(*i as usize).copied())
+        .into_iter()
+        .collect();
+    let current_index = v.current.as_ref().map_or(0, |(i, _)| *i as usize);
+    // Up to this many points are numbered in scan order; more are dots.
+    let glyph = |first: usize| {
+        if all.len() <= 60 {
+            Glyph::Numbers(first)
+        } else {
+            Glyph::Dots
+        }
+    };
+    let extent = all
+        .iter()
+        .map(|(x, y)| ((x - v.origin_mm.0).powi(2) + (y - v.origin_mm.1).powi(2)).sqrt())
+        .fold(1.0f64, f64::max);
+    let radius = v.disc_radius_mm.unwrap_or(extent * 1.2).max(extent);
+    let title = format!("{}: {} points", v.plan, v.points.len());
+    f.render_widget(
+        canvas(
+            panel(&title),
+            v.origin_mm,
+            radius,
+            v.disc_radius_mm.is_some(),
+            vec![
+                Layer {
+                    coords: &all,
+                    color: PENDING,
+                    path: true,
+                    glyph: glyph(0),
+                },
+                Layer {
+                    coords: &done,
+                    color: GOOD,
+                    path: false,
+                    glyph: glyph(0),
+                },
+                Layer {
+                    coords: &current,
+                    color: WARN,
+                    path: false,
+                    glyph: glyph(current_index),
+                },
+            ],
+            aspect(disc_area),
+        ),
+        disc_area,
+    );
+    let lines: Vec<ListItem> = v
+        .log
+        .iter()
+        .rev()
+        .take(log_area.height.saturating_sub(2) as usize)
+        .map(|l| {
+            let style = if l.starts_with("warning") {
+                Style::new().fg(WARN)
+            } else {
+                Style::new()
+            };
+            ListItem::new(Line::styled(l.clone(), style))
+        })
+        .collect();
+    f.render_widget(
+        List::new(lines).block(panel("messages (newest first)")),
+        log_area,
+    );
+
+    let [status_area, gauge_area, bottom] = Layout::vertical([
+        Constraint::Length(7),
+        Constraint::Length(1),
+        Constraint::Min(0),
+    ])
+    .areas(right);
+    let (phase, colour) = match &v.phase {
+        Phase::Ready => ("ready: press r to run".to_string(), ACCENT),
+        Phase::Running => ("running".to_string(), GOOD),
+        Phase::Paused(why) => (format!("paused: {why}"), WARN),
+        Phase::Stopping(what) => (what.clone(), WARN),
+        Phase::Finished {
+            completed: true,
+            summary,
+        } => (format!("completed: {summary}"), GOOD),
+        Phase::Finished { summary, .. } => (format!("stopped: {summary}"), WARN),
+        Phase::Failed(why) => (format!("failed: {why}"), BAD),
+    };
+    let point = match &v.current {
+        Some((i, what)) => format!("point {} of {}: {what}", i + 1, v.total),
+        None => format!("{} of {} points", v.done, v.total),
+    };
+    let status = vec![
+        Line::from(Span::styled(phase, Style::new().fg(colour))),
+        Line::from(format!(
+            "{} points to {}, about {}",
+            v.points.len(),
+            v.targets,
+            clock(v.estimate)
+        )),
+        Line::from(point),
+        Line::from(format!("force {:>6.2} N   ETA {}", v.force_n, clock(v.eta))),
+        Line::from(format!(
+            "camera {:>4.1} fps   {} frames   {} dropped",
+            v.frame_rate_hz, v.frames, v.dropped
+        )),
+    ];
+    f.render_widget(
+        Paragraph::new(status).block(panel(v.run_dir.as_deref().unwrap_or("scan"))),
+        status_area,
+    );
+    let ratio = if v.total == 0 {
+        0.0
+    } else {
+        (v.done as f64 / v.total as f64).clamp(0.0, 1.0)
+    };
+    f.render_widget(
+        Gauge::default()
+            .gauge_style(Style::new().fg(GOOD))
+            .ratio(ratio)
+            .label(format!("{:.0} %", 100.0 * ratio)),
+        gauge_area,
+    );
+    let [chart_area, picture_area] =
+        Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(bottom);
+    draw_force_chart(f, chart_area, s);
+    let block = panel("frame");
+    let inner = block.inner(picture_area);
+    f.render_widget(block, picture_area);
+    match &v.live.picture {
+        Some(p) => f.render_widget(Picture(p), inner),
+        None => f.render_widget(Paragraph::new("no frame yet"), inner),
+    }
+}
+
+fn draw_force_chart(f: &mut Frame, area: Rect, s: &UiState) {
+    let labels = &s.scan.live.labels;
+    let fz: Vec<(f64, f64)> = labels.iter().map(|p| (p.t_s, p.fz_n.abs())).collect();
+    let ft: Vec<(f64, f64)> = labels.iter().map(|p| (p.t_s, p.f_n)).collect();
+    let (t0, t1) = match (labels.front(), labels.back()) {
+        (Some(a), Some(b)) if b.t_s > a.t_s => (a.t_s, b.t_s),
+        (Some(a), _) => (a.t_s, a.t_s + 1.0),
+        _ => (0.0, 1.0),
+    };
+    let top = ft.iter().map(|p| p.1).fold(1.0f64, f64::max).ceil();
+    let chart = Chart::new(vec![
+        Dataset::default()
+            .name("|Fz|")
+            .marker(Marker::Braille)
+            .graph_type(GraphType::Line)
+            .style(Style::new().fg(super::MEASURED))
+            .data(&fz),
+        Dataset::default()
+            .name("|F|")
+            .marker(Marker::Braille)
+            .graph_type(GraphType::Line)
+            .style(Style::new().fg(WARN))
+            .data(&ft),
+    ])
+    .legend_position(None)
+    .block(legend_panel(
+        "force labels, N",
+        &[("|Fz|", super::MEASURED), ("|F|", WARN)],
+    ))
+    .x_axis(
+        Axis::default()
+            .bounds([t0, t1])
+            .labels([format!("{t0:.0} s"), format!("{t1:.0} s")]),
+    )
+    .y_axis(
+        Axis::default()
+            .bounds([0.0, top])
+            .labels(["0".to_string(), format!("{top:.0}")]),
+    );
+    f.render_widget(chart, area);
+}

@@ -1,0 +1,393 @@
+//! The screens drawn from hand-built states on a test terminal: the text as the user would see
+//! it (insta snapshots under `snapshots/`) and the colours that carry meaning.
+
+use super::draw;
+use crate::ui::state::{Dialog, Phase, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState};
+use fringe_app::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
+use fringe_app::live_view::{LabelPoint, ViewState};
+use fringe_rig::units::Millimetres;
+use fringe_sensor_models::dataset::Sample;
+use fringe_sensor_models::metrics::Errors;
+use fringe_sensor_models::prediction::{ForceVector, Prediction};
+use ratatui::backend::TestBackend;
+use ratatui::buffer::Buffer;
+use ratatui::style::{Color, Modifier};
+use ratatui::Terminal;
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::time::Duration;
+
+fn render(s: &UiState, w: u16, h: u16) -> Terminal<TestBackend> {
+    let mut t = Terminal::new(TestBackend::new(w, h)).expect("test backend");
+    t.draw(|f| draw(f, s)).expect("draw");
+    t
+}
+
+/// The screen's rows as text.
+fn rows(b: &Buffer) -> Vec<String> {
+    (0..b.area.height)
+        .map(|y| {
+            (0..b.area.width)
+                .map(|x| b[(x, y)].symbol())
+                .collect::<String>()
+        })
+        .collect()
+}
+
+/// Where `text` starts on screen (first match).
+fn find(b: &Buffer, text: &str) -> Option<(u16, u16)> {
+    rows(b).iter().enumerate().find_map(|(y, row)| {
+        row.find(text).map(|byte| {
+            // Column: characters before the match (cells hold one char each here).
+            let x = row[..byte].chars().count();
+            (x as u16, y as u16)
+        })
+    })
+}
+
+fn grid() -> Vec<PlanPoint> {
+    let mut v = Vec::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            v.push(PlanPoint {
+                x_mm: 100.0 + 4.0 * (i as f64 - 1.0),
+                y_mm: 50.0 + 4.0 * (j as f64 - 1.0),
+            });
+        }
+    }
+    v
+}
+
+fn ready() -> UiState {
+    UiState {
+        tab: Tab::Scan,
+        help: false,
+        rig: "simulated bench (no rig configured)".into(),
+        scan: ScanView {
+            plan: "short-grid".into(),
+            points: grid(),
+            origin_mm: (100.0, 50.0),
+            disc_radius_mm: Some(12.5),
+            targets: "2, 5 N".into(),
+            estimate: Duration::from_secs(95),
+            phase: Phase::Ready,
+            done: 0,
+            total: 9,
+            eta: Duration::from_secs(95),
+            force_n: 0.0,
+            frame_rate_hz: 0.0,
+            frames: 0,
+            dropped: 0,
+            current: None,
+            log: VecDeque::new(),
+            live: ViewState::default(),
+            run_dir: None,
+        },
+        model: None,
+        validation: None,
+        runs: RunsView {
+            root: "runs".into(),
+            ..RunsView::default()
+        },
+        dialog: None,
+        error: None,
+    }
+}
+
+/// A 4x4 picture: left half red, right half blue.
+fn picture() -> image::RgbImage {
+    image::RgbImage::from_fn(4, 4, |x, _| {
+        if x < 2 {
+            image::Rgb([200, 0, 0])
+        } else {
+            image::Rgb([0, 0, 200])
+        }
+    })
+}
+
+fn running() -> UiState {
+    let mut s = ready();
+    let v = &mut s.scan;
+    v.phase = Phase::Running;
+    v.done = 4;
+    v.current = Some((4, "press 5.0 N".into()));
+    v.eta = Duration::from_secs(61);
+    v.force_n = 4.87;
+    v.frame_rate_hz = 50.0;
+    v.frames = 812;
+    v.dropped = 1;
+    v.run_dir = Some("runs/20261125-short-grid".into());
+    v.log("starting short-grid");
+    v.log("warning: no calibration profile: design geometry used");
+    v.live.picture = Some(picture());
+    v.live.labels = (0..50)
+        .map(|i| LabelPoint {
+            t_s: i as f64 * 0.1,
+            fz_n: (i as f64 * 0.1).min(5.0),
+            f_n: (i as f64 * 0.1).min(5.0) + 0.1,
+        })
+        .collect();
+    s
+}
+
+fn prediction(fz: f64, shape: &str, p: f64, at: [f64; 2]) -> Prediction {
+    Prediction {
+        force: ForceVector::from_array([0.1, 0.1, fz as f32, 0.0, 0.0, 0.0, fz as f32]),
+        shape: shape.into(),
+        probabilities: vec![("None".into(), 1.0 - p), (shape.into(), p)],
+        contact: Some([Millimetres(at[0]), Millimetres(at[1])]),
+        contact_raw: [Millimetres(at[0]), Millimetres(at[1])],
+    }
+}
+
+fn errors(n: u64, rmse: f64) -> Errors {
+    Errors {
+        n,
+        sum_sq_fz: rmse * rmse * n as f64,
+        n_contact: n,
+        sum_sq_contact: 0.25 * n as f64,
+        correct: n - 1,
+    }
+}
+
+fn validating() -> UiState {
+    let mut s = running();
+    s.tab = Tab::Validate;
+    s.model = Some("models/disc7.pth".into());
+    let label = Sample {
+        image: PathBuf::from("frames/000812.png"),
+        format: None,
+        force: [0.1, 0.1, 4.9, 0.0, 0.0, 0.0, 4.9],
+        shape: "sphere".into(),
+        contact: Some([2.0, -1.0]),
+        press: "run/4".into(),
+        stage_mm: Some([104.0, 50.0]),
+    };
+    s.validation = Some(ValidationState {
+        model: "ResNet-18 (4 classes)".into(),
+        backend: "tract",
+        offered: 300,
+        ran: 280,
+        skipped: 20,
+        loop_hz: 46.5,
+        latency_ms: 18.2,
+        history: (0..40)
+            .map(|i| FzPoint {
+                t_s: i as f64 * 0.1,
+                measured_n: (i as f64 * 0.15).min(5.0),
+                predicted_n: (i as f64 * 0.15).min(5.0) * 0.9,
+            })
+            .collect(),
+        latest: Some(Latest {
+            prediction: prediction(4.4, "cylinder", 0.62, [2.5, -1.2]),
+            label,
+            frame: picture(),
+            input: picture(),
+        }),
+        errors: errors(280, 0.42),
+        cells: vec![
+            CellErrors {
+                stage_mm: [96.0, 50.0],
+                errors: errors(90, 0.3),
+            },
+            CellErrors {
+                stage_mm: [100.0, 50.0],
+                errors: errors(90, 1.0),
+            },
+            CellErrors {
+                stage_mm: [104.0, 50.0],
+                errors: errors(100, 2.2),
+            },
+        ],
+        failure: None,
+    });
+    s
+}
+
+#[test]
+fn scan_screen_before_the_run_shows_the_plan_and_how_to_start() {
+    let t = render(&ready(), 120, 36);
+    insta::assert_snapshot!("scan_ready", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "ready: press r to run").expect("phase line");
+    assert_eq!(b[(x, y)].fg, super::ACCENT);
+    assert!(find(b, "short-grid: 9 points").is_some());
+    assert!(find(b, "9 points to 2, 5 N, about 0:01:35").is_some());
+    assert!(
+        find(b, "r run the scan").is_some(),
+        "the footer says how to run"
+    );
+}
+
+#[test]
+fn scan_screen_while_running_shows_progress_force_and_the_frame() {
+    let t = render(&running(), 120, 36);
+    insta::assert_snapshot!("scan_running", t.backend());
+    let b = t.backend().buffer();
+    assert!(find(b, "point 5 of 9: press 5.0 N").is_some());
+    assert!(find(b, "force   4.87 N   ETA 0:01:01").is_some());
+    assert!(find(b, "44 %").is_some(), "4 of 9 points done");
+    let (x, y) = find(b, "warning: no calibration profile").expect("warning in the log");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    // The frame: half blocks, red on the left, blue on the right.
+    let cells: Vec<_> = b.content().iter().filter(|c| c.symbol() == "▀").collect();
+    assert!(
+        cells.len() >= 8,
+        "the frame is drawn ({} cells)",
+        cells.len()
+    );
+    assert!(cells.iter().any(|c| c.fg == Color::Rgb(200, 0, 0)));
+    assert!(cells.iter().any(|c| c.fg == Color::Rgb(0, 0, 200)));
+}
+
+#[test]
+fn validate_screen_compares_prediction_and_measurement() {
+    let t = render(&validating(), 140, 44);
+    insta::assert_snapshot!("validate_running", t.backend());
+    let b = t.backend().buffer();
+    assert!(find(b, "Fz RMSE  0.420 N").is_some());
+    assert!(find(b, "46.5 predictions/s · 18.2 ms/frame · 280 of 300 run").is_some());
+    // Measured (x) and predicted (+) contact on the disc, in their colours.
+    let (x, y) = find(b, "×").expect("measured contact");
+    assert_eq!(b[(x, y)].fg, super::MEASURED);
+    let (x, y) = find(b, "+").expect("predicted contact");
+    assert_eq!(b[(x, y)].fg, super::PREDICTED);
+    // Wrong shape: predicted cylinder for a sphere, in red with the probability.
+    let (x, y) = find(b, "cylinder 62 %").expect("shape line");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert!(find(b, "(measured: sphere)").is_some());
+    let (x, y) = find(b, "20 skipped").expect("skipped frames");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    // Grid cells coloured by their Fz RMSE.
+    for (text, colour) in [
+        (" 0.30", super::GOOD),
+        (" 1.00", super::WARN),
+        (" 2.20", super::BAD),
+    ] {
+        let (x, y) = find(b, text).unwrap_or_else(|| panic!("cell {text}"));
+        assert_eq!(b[(x, y)].bg, colour, "cell {text}");
+    }
+}
+
+#[test]
+fn validate_screen_without_a_model_says_how_to_choose_one() {
+    let mut s = ready();
+    s.tab = Tab::Validate;
+    let t = render(&s, 100, 20);
+    let b = t.backend().buffer();
+    assert!(find(b, "fringe validate --model FILE").is_some());
+    s.model = Some("m.pth".into());
+    let t = render(&s, 100, 20);
+    assert!(find(
+        t.backend().buffer(),
+        "press r to run the scan plan with live"
+    )
+    .is_some());
+}
+
+#[test]
+fn a_dialog_is_drawn_over_the_screen_with_its_answers() {
+    let mut s = running();
+    s.dialog = Some(Dialog {
+        title: "change the indenter".into(),
+        message: "mount the cylinder indenter, then continue".into(),
+    });
+    let t = render(&s, 120, 36);
+    insta::assert_snapshot!("dialog", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "change the indenter").expect("dialog title");
+    // The border around the title is in the warning colour.
+    assert_eq!(b[(x - 2, y)].fg, super::WARN);
+    assert!(find(b, "continue").is_some() && find(b, "abort the scan").is_some());
+}
+
+#[test]
+fn an_error_replaces_the_key_hints_in_red() {
+    let mut s = running();
+    s.error = Some("a scan is running: press a to abort it first".into());
+    let t = render(&s, 120, 36);
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "a scan is running").expect("error line");
+    assert_eq!(y, 35, "on the last row");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert!(find(b, "next screen").is_none());
+}
+
+#[test]
+fn runs_screen_lists_runs_with_status_and_verdict() {
+    let mut s = ready();
+    s.tab = Tab::Runs;
+    s.runs.rows = vec![
+        RunRow {
+            name: "20261125-083000-short-grid".into(),
+            status: "completed".into(),
+            frames: 2310,
+            verified: Some("ok: 2310 frames, 115500 force samples".into()),
+        },
+        RunRow {
+            name: "20261124-170000-short-grid".into(),
+            status: "aborted".into(),
+            frames: 120,
+            verified: Some("1 problem(s): frames.jsonl: line 121 truncated".into()),
+        },
+        RunRow {
+            name: "20261124-160000-wide".into(),
+            status: "unfinished".into(),
+            frames: 5,
+            verified: None,
+        },
+    ];
+    s.runs.selected = 1;
+    let t = render(&s, 120, 12);
+    insta::assert_snapshot!("runs", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "ok: 2310 frames").expect("verdict");
+    assert_eq!(b[(x, y)].fg, super::GOOD);
+    let (x, y) = find(b, "1 problem(s)").expect("verdict");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    let (x, y) = find(b, "20261124-170000").expect("selected row");
+    assert!(b[(x, y)].modifier.contains(Modifier::REVERSED));
+    let (x, y) = find(b, "unfinished").expect("status");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+}
+
+#[test]
+fn help_lists_every_key() {
+    let mut s = ready();
+    s.help = true;
+    let t = render(&s, 100, 30);
+    let b = t.backend().buffer();
+    for (key, what) in super::help::KEYS {
+        assert!(find(b, what).is_some(), "help names {key}: {what}");
+    }
+}
+
+#[test]
+fn every_screen_draws_at_any_terminal_size() {
+    let mut states = vec![ready(), running(), validating()];
+    let mut runs = ready();
+    runs.tab = Tab::Runs;
+    runs.runs.rows.push(RunRow {
+        name: "r".into(),
+        status: "failed".into(),
+        frames: 0,
+        verified: None,
+    });
+    states.push(runs);
+    let mut dialog = running();
+    dialog.dialog = Some(Dialog {
+        title: "scan paused".into(),
+        message: "force ceiling reached".into(),
+    });
+    states.push(dialog);
+    let mut help = validating();
+    help.help = true;
+    states.push(help);
+    for s in &states {
+        for w in [1u16, 2, 7, 20, 33, 80, 161] {
+            for h in [1u16, 2, 3, 5, 9, 24, 50] {
+                render(s, w, h);
+            }
+        }
+    }
+}

@@ -1,0 +1,283 @@
+//! The terminal UI end to end: the real `fringe` binary in a tmux pane (its own tmux server),
+//! driven with `send-keys` and read with `capture-pane`, on the simulated bench. Needs tmux
+//! (`apt install tmux`; `.ci/run` installs it).
+
+mod common;
+
+use common::{constant_model, scratch};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::{Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+/// One tmux server (own socket) with one 160x48 pane running a command; killed on drop.
+struct Pane {
+    socket: String,
+    _serial: MutexGuard<'static, ()>,
+}
+
+/// One UI at a time: each runs the simulated bench in real time, and two would share 2 cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+impl Pane {
+    fn start(name: &str, dir: &Path, command: &str) -> Pane {
+        let serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+        let socket = format!("fringe-{name}-{}", std::process::id());
+        let pane = Pane {
+            socket,
+            _serial: serial,
+        };
+        // The shell prints the exit status and stays, so the screen after quitting can be read.
+        let script = format!("{command}; echo \"fringe exited $?\"; sleep 600");
+        let out = pane.tmux(&[
+            "new-session",
+            "-d",
+            "-x",
+            "160",
+            "-y",
+            "48",
+            "-c",
+            &dir.display().to_string(),
+            "sh",
+            "-c",
+            &script,
+        ]);
+        assert!(
+            out.status.success(),
+            "tmux new-session: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        pane
+    }
+
+    fn tmux(&self, args: &[&str]) -> Output {
+        Command::new("tmux")
+            .args(["-L", &self.socket, "-f", "/dev/null"])
+            .args(args)
+            .env_remove("TMUX")
+            .output()
+            .unwrap_or_else(|e| panic!("tmux (apt install tmux): {e}"))
+    }
+
+    fn keys(&self, keys: &str) {
+        let out = self.tmux(&["send-keys", "-t", "0", keys]);
+        assert!(out.status.success(), "send-keys {keys}");
+    }
+
+    fn screen(&self) -> String {
+        String::from_utf8_lossy(&self.tmux(&["capture-pane", "-p", "-t", "0"]).stdout).into_owned()
+    }
+
+    fn flag(&self, name: &str) -> String {
+        let out = self.tmux(&["display-message", "-p", "-t", "0", &format!("#{{{name}}}")]);
+        String::from_utf8_lossy(&out.stdout).trim().to_string()
+    }
+
+    /// Waits until the screen shows `text`; the screen on success, a failure with the last
+    /// screen otherwise.
+    fn wait_for(&self, text: &str, timeout: Duration) -> String {
+        self.wait_until(text, timeout, |s| s.contains(text))
+    }
+
+    fn wait_until(&self, what: &str, timeout: Duration, ok: impl Fn(&str) -> bool) -> String {
+        let start = Instant::now();
+        loop {
+            let screen = self.screen();
+            if ok(&screen) {
+                return screen;
+            }
+            if start.elapsed() > timeout {
+                panic!("waited {timeout:?} for {what}; the screen:\n{screen}");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// Waits for `text` while the scan runs, continuing it when the engine's watchers pause it
+    /// (a loaded test machine can drop frames: the real rig's safety, not the UI's).
+    fn wait_answering(&self, text: &str, timeout: Duration) -> String {
+        let start = Instant::now();
+        loop {
+            let screen = self.screen();
+            if screen.contains(text) {
+                return screen;
+            }
+            if screen.contains("resume?") {
+                self.keys("Enter");
+            }
+            if start.elapsed() > timeout {
+                panic!("waited {timeout:?} for {text}; the screen:\n{screen}");
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    /// Quits with `q` and checks the terminal is back: primary screen, cursor shown, exit 0.
+    fn quit_cleanly(&self) {
+        self.keys("q");
+        let screen = self.wait_for("fringe exited", Duration::from_secs(30));
+        assert!(screen.contains("fringe exited 0"), "{screen}");
+        assert!(
+            !screen.contains("1 Scan"),
+            "the UI is left on screen:\n{screen}"
+        );
+        assert_eq!(self.flag("alternate_on"), "0", "alternate screen left on");
+        assert_eq!(self.flag("cursor_flag"), "1", "cursor left hidden");
+    }
+}
+
+impl Drop for Pane {
+    fn drop(&mut self) {
+        let _ = self.tmux(&["kill-server"]);
+    }
+}
+
+fn fringe() -> String {
+    env!("CARGO_BIN_EXE_fringe").to_string()
+}
+
+/// The runs written under `dir/runs`, with their stop.json.
+fn runs(dir: &Path) -> Vec<(PathBuf, serde_json::Value)> {
+    let Ok(entries) = std::fs::read_dir(dir.join("runs")) else {
+        return Vec::new();
+    };
+    entries
+        .filter_map(|e| e.ok())
+        .map(|e| {
+            let stop = std::fs::read_to_string(e.path().join("stop.json"))
+                .ok()
+                .and_then(|s| serde_json::from_str(&s).ok())
+                .unwrap_or(serde_json::Value::Null);
+            (e.path(), stop)
+        })
+        .collect()
+}
+
+#[test]
+fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored() {
+    let dir = scratch("scan");
+    let pane = Pane::start("scan", &dir, &fringe());
+    let screen = pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    assert!(screen.contains("short-grid: 6 points"), "{screen}");
+    pane.keys("r");
+    pane.wait_for("point 1 of 6", Duration::from_secs(30));
+    // Pause after the current press: the scan stops with z up and asks to resume.
+    pane.keys("p");
+    let screen = pane.wait_for("scan paused", Duration::from_secs(60));
+    assert!(screen.contains("resume?"), "{screen}");
+    pane.keys("c");
+    pane.wait_for("resumed", Duration::from_secs(10));
+    let screen = pane.wait_answering("completed:", Duration::from_secs(240));
+    assert!(screen.contains("100 %"), "{screen}");
+    // While nothing runs, the Runs screen lists the run the UI recorded.
+    pane.keys("3");
+    let runs_screen = pane.wait_for("completed", Duration::from_secs(5));
+    let recorded = runs(&dir);
+    assert_eq!(recorded.len(), 1, "{runs_screen}");
+    let (run, stop) = &recorded[0];
+    assert_eq!(stop["exit_status"], "completed", "{}", run.display());
+    let name = run.file_name().map(|n| n.to_string_lossy().into_owned());
+    assert!(
+        runs_screen.contains(name.as_deref().unwrap_or("?")),
+        "{runs_screen}"
+    );
+    // Verify it from the UI.
+    pane.keys("Enter");
+    pane.wait_for("ok:", Duration::from_secs(60));
+    pane.quit_cleanly();
+}
+
+#[test]
+fn live_validation_in_the_ui_shows_metrics_that_move() {
+    let dir = scratch("validate");
+    let model = constant_model(&dir);
+    let plan = dir.join("plan.toml");
+    std::fs::write(&plan, common::VALIDATE_PLAN).expect("plan");
+    let command = format!(
+        "{} validate --model {} --plan {}",
+        fringe(),
+        model.display(),
+        plan.display()
+    );
+    let pane = Pane::start("validate", &dir, &command);
+    pane.wait_for(
+        "press r to run the scan plan with live",
+        Duration::from_secs(30),
+    );
+    pane.keys("r");
+    // The metrics appear and the frame count grows.
+    let frames = |s: &str| -> Option<u64> {
+        let rest = &s[s.find("over ")? + 5..];
+        rest.split_whitespace().next()?.parse().ok()
+    };
+    let first = pane.wait_until("validated frames", Duration::from_secs(60), |s| {
+        frames(s).is_some_and(|n| n > 0)
+    });
+    let n0 = frames(&first).unwrap_or(0);
+    let later = pane.wait_until("more validated frames", Duration::from_secs(60), |s| {
+        frames(s).is_some_and(|n| n > n0)
+    });
+    assert!(later.contains("Fz RMSE"), "{later}");
+    assert!(later.contains("predictions/s"), "{later}");
+    assert!(
+        later.contains("pentagon"),
+        "the constant model's shape:\n{later}"
+    );
+    // The scan ends; the validation stays on screen.
+    pane.keys("1");
+    pane.wait_answering("completed:", Duration::from_secs(120));
+    pane.keys("2");
+    let end = pane.wait_for("Fz RMSE", Duration::from_secs(5));
+    assert!(frames(&end).is_some_and(|n| n > n0), "{end}");
+    pane.quit_cleanly();
+}
+
+#[test]
+fn quitting_is_refused_while_a_scan_runs_and_ctrl_c_aborts_it_with_z_retracted() {
+    let dir = scratch("abort");
+    let pane = Pane::start("abort", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("r");
+    pane.wait_for("point 1 of 6", Duration::from_secs(30));
+    pane.keys("q");
+    pane.wait_for("a scan is running", Duration::from_secs(5));
+    pane.keys("C-c");
+    let screen = pane.wait_for("fringe exited", Duration::from_secs(60));
+    assert!(screen.contains("fringe exited 0"), "{screen}");
+    assert_eq!(pane.flag("alternate_on"), "0");
+    let recorded = runs(&dir);
+    assert_eq!(recorded.len(), 1);
+    assert_eq!(recorded[0].1["exit_status"], "aborted", "{:?}", recorded[0]);
+}
+
+#[test]
+fn a_hung_up_terminal_aborts_the_scan_and_the_process_exits() {
+    let dir = scratch("hangup");
+    let pane = Pane::start("hangup", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    let shell = pane.flag("pane_pid");
+    let child = Command::new("pgrep")
+        .args(["-P", &shell])
+        .output()
+        .expect("pgrep");
+    let pid = String::from_utf8_lossy(&child.stdout).trim().to_string();
+    assert!(
+        !pid.is_empty(),
+        "fringe's pid under the pane's shell {shell}"
+    );
+    pane.keys("r");
+    pane.wait_for("point 1 of 6", Duration::from_secs(30));
+    // The terminal goes away (ssh dropped, window closed): SIGHUP and a dead tty.
+    let _ = pane.tmux(&["kill-server"]);
+    let start = Instant::now();
+    while Path::new(&format!("/proc/{pid}")).exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "fringe (pid {pid}) still runs 30 s after its terminal hung up"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let recorded = runs(&dir);
+    assert_eq!(recorded.len(), 1);
+    assert_eq!(recorded[0].1["exit_status"], "aborted", "{:?}", recorded[0]);
+}
