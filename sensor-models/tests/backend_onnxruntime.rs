@@ -85,6 +85,6 @@ fn a_wrong_input_size_is_refused() {
     let file = expected.outputs.keys().next().expect("a fixture");
     let model = Model::open(&dir.join(file)).expect("model");
     let mut backend = model.onnxruntime(1).expect("backend");
-    let err = backend.run(&[0.0; 10], 1, 224).err().expect("refused");
+    let err = backend.run(&[0.0; 10], 1, 224).expect_err("refused");
     assert!(err.to_string().contains("3x224x224"), "{err}");
 }

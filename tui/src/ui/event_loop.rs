@@ -84,12 +84,15 @@ fn input_thread() -> anyhow::Result<Receiver<std::io::Result<TermEvent>>> {
     Ok(rx)
 }
 
+/// A run's name and the verdict of its verification.
+type Verdict = (String, String);
+
 struct App {
     state: UiState,
     opts: UiOptions,
     program: fringe_rig::scan::plan::ScanProgram,
     running: Option<Running>,
-    verify: (Sender<(String, String)>, Receiver<(String, String)>),
+    verify: (Sender<Verdict>, Receiver<Verdict>),
     quit: bool,
 }
 

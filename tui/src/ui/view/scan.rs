@@ -6,7 +6,7 @@ use super::{clock, legend_panel, panel, ACCENT, BAD, GOOD, PENDING, WARN};
 use crate::ui::picture::Picture;
 use crate::ui::state::{Phase, UiState};
 use ratatui::layout::{Constraint, Layout, Rect};
-use ratatui::style::{Color, Style};
+use ratatui::style::Style;
 use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Axis, Chart, Dataset, Gauge, GraphType, List, ListItem, Paragraph};
