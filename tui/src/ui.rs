@@ -5,11 +5,13 @@
 //! - [`state`]: what is on screen, as plain data.
 //! - [`view`]: drawing the state (pure; snapshot-tested).
 //! - [`picture`]: frames as 24-bit half blocks.
+//! - [`plan_choice`]: the plans to choose from, loaded for the Scan screen.
 //! - [`session`]: the scan thread, its operator dialogs and events.
 //! - [`event_loop`]: keys, events, redraws; the terminal restored on every exit path.
 
 mod event_loop;
 mod picture;
+mod plan_choice;
 mod session;
 mod state;
 mod view;

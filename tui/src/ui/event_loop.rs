@@ -2,19 +2,19 @@
 //! view and validation, a redraw at most every [`FRAME`]. The terminal is restored on quit, on
 //! error, on panic (ratatui's hook) and on SIGTERM / SIGHUP.
 
+use super::plan_choice::{self, PlanSource};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
-use super::state::{Dialog, Phase, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState};
+use super::state::{Dialog, Phase, Picker, RunRow, RunsView, Tab, UiState};
 use super::view;
 use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
 use fringe_app::{Note, RigConfig};
 use fringe_rig::scan::control::{Prompt, Reply, ScanProgress};
-use fringe_rig::scan::plan::{Plan, Targets};
+use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
 use ratatui::crossterm::event::{self, Event as TermEvent, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::DefaultTerminal;
-use std::collections::VecDeque;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -90,62 +90,31 @@ type Verdict = (String, String);
 struct App {
     state: UiState,
     opts: UiOptions,
-    program: fringe_rig::scan::plan::ScanProgram,
+    program: ScanProgram,
+    limits: BenchLimits,
+    /// The plans `l` offers.
+    plans: Vec<PlanSource>,
     running: Option<Running>,
     verify: (Sender<Verdict>, Receiver<Verdict>),
     quit: bool,
 }
 
 impl App {
-    fn new(
-        opts: UiOptions,
-        program: &fringe_rig::scan::plan::ScanProgram,
-        limits: &fringe_rig::scan::plan::BenchLimits,
-    ) -> App {
-        let targets = match &program.targets {
-            Targets::Force(t) => format!(
-                "{} N",
-                t.iter()
-                    .map(|v| format!("{}", v.0))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Targets::Depth(t) => format!(
-                "{} mm deep",
-                t.iter()
-                    .map(|v| format!("{}", v.0))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
+    fn new(opts: UiOptions, program: &ScanProgram, limits: &BenchLimits) -> App {
         let origin = opts.config.origin().ok();
-        let scan = ScanView {
-            plan: program.plan.name.clone(),
-            points: program
-                .points
-                .iter()
-                .map(|p| PlanPoint {
-                    x_mm: p.x.0,
-                    y_mm: p.y.0,
-                })
-                .collect(),
-            origin_mm: origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
-            disc_radius_mm: None,
-            targets,
-            estimate: program.estimate(limits).total,
-            phase: Phase::Ready,
-            done: 0,
-            total: program.points.len() as u64,
-            eta: program.estimate(limits).total,
-            force_n: 0.0,
-            frame_rate_hz: 0.0,
-            frames: 0,
-            dropped: 0,
-            current: None,
-            log: VecDeque::new(),
-            live: Default::default(),
-            run_dir: None,
-        };
+        let scan = plan_choice::scan_view(
+            program,
+            limits,
+            origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
+        );
+        let plans = plan_choice::available(
+            PlanSource {
+                label: opts.plan_origin.clone(),
+                text: opts.plan_text.clone(),
+                origin: opts.plan_origin.clone(),
+            },
+            Path::new("plans"),
+        );
         let state = UiState {
             tab: opts.tab,
             help: false,
@@ -158,11 +127,14 @@ impl App {
                 ..RunsView::default()
             },
             dialog: None,
+            picker: None,
             error: None,
         };
         App {
             state,
             program: program.clone(),
+            limits: limits.clone(),
+            plans,
             opts,
             running: None,
             verify: unbounded(),
@@ -327,6 +299,10 @@ impl App {
             self.state.help = false;
             return;
         }
+        if self.state.picker.is_some() {
+            self.picker_key(code);
+            return;
+        }
         if self.state.dialog.is_some() {
             let reply = match code {
                 KeyCode::Enter | KeyCode::Char('y' | 'c' | ' ') => Some(Reply::Continue),
@@ -347,6 +323,22 @@ impl App {
         }
         match code {
             KeyCode::Char('?') => self.state.help = true,
+            KeyCode::Char('l') => {
+                if self.scan_active() {
+                    self.state.error = Some("a scan is running: choose a plan when it ends".into());
+                } else {
+                    let current = self
+                        .plans
+                        .iter()
+                        .position(|p| p.text == self.opts.plan_text)
+                        .unwrap_or(0);
+                    self.state.tab = Tab::Scan;
+                    self.state.picker = Some(Picker {
+                        items: self.plans.iter().map(|p| p.label.clone()).collect(),
+                        selected: current,
+                    });
+                }
+            }
             KeyCode::Char('q') | KeyCode::Esc => {
                 if self.scan_active() {
                     self.state.error = Some(
@@ -406,6 +398,49 @@ impl App {
             KeyCode::Char('g') => self.refresh_runs(),
             KeyCode::Enter if self.state.tab == Tab::Runs => self.verify_selected(),
             _ => {}
+        }
+    }
+
+    /// Keys while the plan chooser is open.
+    fn picker_key(&mut self, code: KeyCode) {
+        let Some(picker) = &mut self.state.picker else {
+            return;
+        };
+        match code {
+            KeyCode::Up => picker.selected = picker.selected.saturating_sub(1),
+            KeyCode::Down => {
+                picker.selected = (picker.selected + 1).min(picker.items.len().saturating_sub(1))
+            }
+            KeyCode::Esc | KeyCode::Char('q' | 'l') => self.state.picker = None,
+            KeyCode::Enter => {
+                let i = picker.selected;
+                self.state.picker = None;
+                if let Some(src) = self.plans.get(i).cloned() {
+                    self.choose(src);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Makes `src` the plan `r` runs, or says why it cannot be.
+    fn choose(&mut self, src: PlanSource) {
+        match plan_choice::load(&src, &self.limits) {
+            Ok(program) => {
+                let old = &self.state.scan;
+                let mut view = plan_choice::scan_view(&program, &self.limits, old.origin_mm);
+                view.disc_radius_mm = old.disc_radius_mm;
+                view.log = old.log.clone();
+                view.log(format!(
+                    "plan {} chosen ({})",
+                    program.plan.name, src.origin
+                ));
+                self.state.scan = view;
+                self.program = program;
+                self.opts.plan_text = src.text;
+                self.opts.plan_origin = src.origin;
+            }
+            Err(e) => self.state.error = Some(format!("{e:#}")),
         }
     }
 

@@ -114,6 +114,13 @@ pub struct Dialog {
     pub message: String,
 }
 
+/// The plan chooser (`l`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Picker {
+    pub items: Vec<String>,
+    pub selected: usize,
+}
+
 /// Everything on screen.
 #[derive(Debug, Clone)]
 pub struct UiState {
@@ -127,6 +134,7 @@ pub struct UiState {
     pub validation: Option<ValidationState>,
     pub runs: RunsView,
     pub dialog: Option<Dialog>,
+    pub picker: Option<Picker>,
     /// The newest error, shown until the next key.
     pub error: Option<String>,
 }

@@ -7,11 +7,11 @@ mod runs;
 mod scan;
 mod validate;
 
-use super::state::{Tab, UiState};
+use super::state::{Picker, Tab, UiState};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Borders, Clear, Paragraph, Tabs, Wrap};
+use ratatui::widgets::{Block, Borders, Clear, List, ListItem, ListState, Paragraph, Tabs, Wrap};
 use ratatui::Frame;
 
 /// Accent colours: ANSI names, which every terminal theme maps to colours that read on its own
@@ -98,9 +98,27 @@ pub fn draw(f: &mut Frame, s: &UiState) {
             area,
         );
     }
+    if let Some(p) = &s.picker {
+        draw_picker(f, p);
+    }
     if s.help {
         help::draw(f);
     }
+}
+
+/// The plan chooser over the screen.
+fn draw_picker(f: &mut Frame, p: &Picker) {
+    let area = centred(f.area(), 76, p.items.len() as u16 + 2);
+    let items: Vec<ListItem> = p.items.iter().map(|i| ListItem::new(i.as_str())).collect();
+    let list = List::new(items)
+        .highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+        .block(panel("scan plans · Enter choose · Esc close"));
+    f.render_widget(Clear, area);
+    f.render_stateful_widget(
+        list,
+        area,
+        &mut ListState::default().with_selected(Some(p.selected)),
+    );
 }
 
 /// A box of `w` x `h` cells in the middle of `area` (smaller when the area is).

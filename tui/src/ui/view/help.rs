@@ -5,8 +5,9 @@ use ratatui::text::Line;
 use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 
-pub(crate) const KEYS: [(&str, &str); 13] = [
+pub(crate) const KEYS: [(&str, &str); 14] = [
     ("1 2 3 / Tab", "Scan, Validate, Runs screens"),
+    ("l", "choose the scan plan (built in, ./plans/*.toml)"),
     ("r", "run the scan plan (with live validation on Validate)"),
     ("p", "pause after the current press"),
     ("P", "pause now (z retracts)"),

@@ -15,11 +15,11 @@ use ratatui::Frame;
 /// The keys that act on the scan now.
 pub(crate) fn key_hint(s: &UiState) -> &'static str {
     match s.scan.phase {
-        Phase::Ready => "r run the scan",
+        Phase::Ready => "r run the scan · l choose the plan",
         Phase::Running => "p pause after this press · P pause now · a abort",
         Phase::Paused(_) => "c continue · a abort",
         Phase::Stopping(_) => "a abort",
-        Phase::Finished { .. } | Phase::Failed(_) => "r run again",
+        Phase::Finished { .. } | Phase::Failed(_) => "r run again · l choose the plan",
     }
 }
 

@@ -2,7 +2,9 @@
 //! it (insta snapshots under `snapshots/`) and the colours that carry meaning.
 
 use super::draw;
-use crate::ui::state::{Dialog, Phase, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState};
+use crate::ui::state::{
+    Dialog, Phase, Picker, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState,
+};
 use fringe_app::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
 use fringe_app::live_view::{LabelPoint, ViewState};
 use fringe_rig::units::Millimetres;
@@ -90,6 +92,7 @@ fn ready() -> UiState {
             ..RunsView::default()
         },
         dialog: None,
+        picker: None,
         error: None,
     }
 }
@@ -390,4 +393,24 @@ fn every_screen_draws_at_any_terminal_size() {
             }
         }
     }
+}
+
+#[test]
+fn the_plan_chooser_lists_the_plans_with_the_chosen_one_highlighted() {
+    let mut s = ready();
+    s.picker = Some(Picker {
+        items: vec![
+            "built-in plan short-grid (tui/app/plans/short-grid.toml)".into(),
+            "calibration (built in)".into(),
+            "plans/wide.toml".into(),
+        ],
+        selected: 2,
+    });
+    let t = render(&s, 120, 36);
+    let b = t.backend().buffer();
+    assert!(find(b, "scan plans · Enter choose · Esc close").is_some());
+    let (x, y) = find(b, "plans/wide.toml").expect("listed");
+    assert!(b[(x, y)].modifier.contains(Modifier::REVERSED));
+    let (x, y) = find(b, "calibration (built in)").expect("listed");
+    assert!(!b[(x, y)].modifier.contains(Modifier::REVERSED));
 }
