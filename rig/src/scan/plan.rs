@@ -271,7 +271,8 @@ impl Plan {
         let ceiling = self.safety.force_ceiling;
         if !(ceiling.is_finite() && ceiling > 0.0) || ceiling > bench.max_force.0 {
             return Err(err(format!(
-                "key safety.force_ceiling: {ceiling} N must be positive and at most the rig's {:.1} N",
+                "key safety.force_ceiling: {} N must be positive and at most the rig's {:.1} N",
+                shown(ceiling),
                 bench.max_force.0
             )));
         }
@@ -279,7 +280,8 @@ impl Plan {
         let threshold = self.approach.contact_threshold;
         if !(threshold.is_finite() && threshold >= MIN_CONTACT_THRESHOLD.0 && threshold < ceiling) {
             return Err(err(format!(
-                "key approach.contact_threshold: {threshold} N must be a number from {} N (above the F/T noise) and below the force ceiling {ceiling} N",
+                "key approach.contact_threshold: {} N must be a number from {} N (above the F/T noise) and below the force ceiling {ceiling} N",
+                shown(threshold),
                 MIN_CONTACT_THRESHOLD.0
             )));
         }
@@ -297,7 +299,8 @@ impl Plan {
                     .find(|t| !(t.is_finite() && **t > 0.0 && **t < ceiling))
                 {
                     return Err(err(format!(
-                        "key indentation.force_targets: {t} N must be above 0 and below the force ceiling {ceiling} N"
+                        "key indentation.force_targets: {} N must be above 0 and below the force ceiling {ceiling} N",
+                        shown(*t)
                     )));
                 }
                 if let Some(t) = ind.force_targets.iter().find(|t| **t <= threshold) {
@@ -314,7 +317,8 @@ impl Plan {
                     .find(|t| !(t.is_finite() && **t > 0.0 && **t < MAX_DEPTH.0))
                 {
                     return Err(err(format!(
-                        "key indentation.depth_targets: {t} mm must be above 0 and below {} mm",
+                        "key indentation.depth_targets: {} mm must be above 0 and below {} mm",
+                        shown(*t),
                         MAX_DEPTH.0
                     )));
                 }
@@ -333,7 +337,7 @@ impl Plan {
         if !(ind.ramp_rate.is_finite() && rate_range.contains(&ind.ramp_rate)) {
             return Err(err(format!(
                 "key indentation.ramp_rate: {} must be a number from {} to {} {rate_unit}",
-                ind.ramp_rate,
+                shown(ind.ramp_rate),
                 rate_range.start(),
                 rate_range.end()
             )));
@@ -341,7 +345,7 @@ impl Plan {
         if !(ind.dwell.is_finite() && ind.dwell >= 0.0 && ind.dwell <= MAX_DWELL.as_secs_f64()) {
             return Err(err(format!(
                 "key indentation.dwell: {} s must be a number from 0 to {} s",
-                ind.dwell,
+                shown(ind.dwell),
                 MAX_DWELL.as_secs()
             )));
         }
@@ -484,6 +488,16 @@ impl ScanProgram {
             indenter_changes: changes,
             manual_rows: rows,
         }
+    }
+}
+
+/// A value from the user's file as messages show it: very large or very small magnitudes in
+/// exponent form (`1e300`, not 301 digits).
+fn shown(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 
@@ -667,6 +681,12 @@ force_ceiling = 10.0
             let msg = refusal(&PLAN.replace(from, to));
             assert!(msg.contains(key), "{to}: {msg}");
         }
+        // A huge or tiny value is quoted as the user wrote it, not as hundreds of digits.
+        let msg = refusal(&PLAN.replace("dwell = 0.5", "dwell = 1e300"));
+        assert!(msg.contains("1e300 s must be"), "{msg}");
+        let msg = refusal(&PLAN.replace("ramp_rate = 2.0", "ramp_rate = 1e-300"));
+        assert!(msg.contains("1e-300 must be"), "{msg}");
+        assert!(msg.len() < 200, "{msg}");
     }
 
     #[test]

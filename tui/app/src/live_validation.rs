@@ -210,6 +210,7 @@ impl LiveValidation {
             source,
             started: Instant::now(),
             recent: VecDeque::new(),
+            pictured: None,
         };
         let handle = std::thread::Builder::new()
             .name("live-validation".into())
@@ -293,7 +294,13 @@ struct Worker {
     source: FrameSource,
     started: Instant,
     recent: VecDeque<Instant>,
+    /// When the pictures of the newest prediction were last made (at most [`PICTURE_RATE_HZ`]).
+    pictured: Option<Instant>,
 }
+
+/// Pictures (frame and network input) made per second at most: the screen needs no more, and
+/// every frame's pictures would take time from inference.
+pub const PICTURE_RATE_HZ: f64 = 10.0;
 
 impl Worker {
     fn run(mut self) {
@@ -370,9 +377,18 @@ impl Worker {
         {
             self.recent.pop_front();
         }
-        let picture =
-            thumbnail(fref, THUMBNAIL_PX).map_err(|e| format!("frame {}: {e}", frame.id))?;
-        let seen = tensor_image(input, size).unwrap_or_default();
+        let due = self
+            .pictured
+            .is_none_or(|t| now.duration_since(t).as_secs_f64() >= 1.0 / PICTURE_RATE_HZ);
+        let pictures = if due {
+            self.pictured = Some(now);
+            Some((
+                thumbnail(fref, THUMBNAIL_PX).map_err(|e| format!("frame {}: {e}", frame.id))?,
+                tensor_image(input, size).unwrap_or_default(),
+            ))
+        } else {
+            None
+        };
         let mut state = lock(&self.shared.state);
         state.ran += 1;
         state.loop_hz = self.recent.len() as f64;
@@ -417,11 +433,17 @@ impl Worker {
             prediction: prediction.clone(),
             latency_ms,
         });
+        // Between pictures the newest prediction is shown with the last pictures.
+        let (frame_picture, input_picture) = match (pictures, state.latest.take()) {
+            (Some(p), _) => p,
+            (None, Some(old)) => (old.frame, old.input),
+            (None, None) => Default::default(),
+        };
         state.latest = Some(Latest {
             prediction,
             label,
-            frame: picture,
-            input: seen,
+            frame: frame_picture,
+            input: input_picture,
         });
         Ok(())
     }
