@@ -13,7 +13,6 @@ use fringe_rig::store::documents::ExitStatus;
 use fringe_sensor_models::backend::BackendKind;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 /// Side of the frame pictures, px.
 const PICTURE_PX: u32 = 96;
@@ -212,7 +211,5 @@ fn run(
         completed: o.status == ExitStatus::Completed,
         summary,
     });
-    // Keep the validation's last frames: let the worker finish the one in hand.
-    std::thread::sleep(Duration::from_millis(50));
     Ok(())
 }

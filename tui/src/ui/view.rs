@@ -5,6 +5,7 @@ mod disc;
 mod help;
 mod runs;
 mod scan;
+mod time_chart;
 mod validate;
 
 use super::state::{Picker, Tab, UiState};

@@ -2,14 +2,14 @@
 //! frame, the force chart and the scan's messages.
 
 use super::disc::{aspect, canvas, Glyph, Layer};
-use super::{clock, legend_panel, panel, ACCENT, BAD, GOOD, PENDING, WARN};
+use super::time_chart::{self, Series};
+use super::{clock, panel, ACCENT, BAD, GOOD, PENDING, WARN};
 use crate::ui::picture::Picture;
 use crate::ui::state::{Phase, UiState};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
-use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Axis, Chart, Dataset, Gauge, GraphType, List, ListItem, Paragraph};
+use ratatui::widgets::{Gauge, List, ListItem, Paragraph};
 use ratatui::Frame;
 
 /// The keys that act on the scan now.
@@ -172,40 +172,21 @@ fn draw_force_chart(f: &mut Frame, area: Rect, s: &UiState) {
     let labels = &s.scan.live.labels;
     let fz: Vec<(f64, f64)> = labels.iter().map(|p| (p.t_s, p.fz_n.abs())).collect();
     let ft: Vec<(f64, f64)> = labels.iter().map(|p| (p.t_s, p.f_n)).collect();
-    let (t0, t1) = match (labels.front(), labels.back()) {
-        (Some(a), Some(b)) if b.t_s > a.t_s => (a.t_s, b.t_s),
-        (Some(a), _) => (a.t_s, a.t_s + 1.0),
-        _ => (0.0, 1.0),
-    };
-    let top = ft.iter().map(|p| p.1).fold(1.0f64, f64::max).ceil();
-    let chart = Chart::new(vec![
-        Dataset::default()
-            .name("|Fz|")
-            .marker(Marker::Braille)
-            .graph_type(GraphType::Line)
-            .style(Style::new().fg(super::MEASURED))
-            .data(&fz),
-        Dataset::default()
-            .name("|F|")
-            .marker(Marker::Braille)
-            .graph_type(GraphType::Line)
-            .style(Style::new().fg(WARN))
-            .data(&ft),
-    ])
-    .legend_position(None)
-    .block(legend_panel(
+    time_chart::draw(
+        f,
+        area,
         "force labels, N",
-        &[("|Fz|", super::MEASURED), ("|F|", WARN)],
-    ))
-    .x_axis(
-        Axis::default()
-            .bounds([t0, t1])
-            .labels([format!("{t0:.0} s"), format!("{t1:.0} s")]),
-    )
-    .y_axis(
-        Axis::default()
-            .bounds([0.0, top])
-            .labels(["0".to_string(), format!("{top:.0}")]),
+        &[
+            Series {
+                name: "|Fz|",
+                color: super::MEASURED,
+                points: &fz,
+            },
+            Series {
+                name: "|F|",
+                color: WARN,
+                points: &ft,
+            },
+        ],
     );
-    f.render_widget(chart, area);
 }

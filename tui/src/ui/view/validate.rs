@@ -3,15 +3,15 @@
 //! running metrics, the error by grid cell, the loop rate and the frames skipped.
 
 use super::disc::{aspect, canvas, Glyph, Layer};
+use super::time_chart::{self, Series};
 use super::{legend_panel, panel, BAD, GOOD, MEASURED, PREDICTED, WARN};
 use crate::ui::picture::Picture;
 use crate::ui::state::UiState;
 use fringe_app::live_validation::ValidationState;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
-use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Axis, Chart, Dataset, GraphType, Paragraph, Wrap};
+use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
 pub(crate) fn draw(f: &mut Frame, area: Rect, s: &UiState) {
@@ -135,48 +135,23 @@ fn nan_dash(v: f64) -> f64 {
 fn draw_fz(f: &mut Frame, area: Rect, v: &ValidationState) {
     let measured: Vec<(f64, f64)> = v.history.iter().map(|p| (p.t_s, p.measured_n)).collect();
     let predicted: Vec<(f64, f64)> = v.history.iter().map(|p| (p.t_s, p.predicted_n)).collect();
-    let (t0, t1) = match (v.history.front(), v.history.back()) {
-        (Some(a), Some(b)) if b.t_s > a.t_s => (a.t_s, b.t_s),
-        (Some(a), _) => (a.t_s, a.t_s + 1.0),
-        _ => (0.0, 1.0),
-    };
-    let top = measured
-        .iter()
-        .chain(&predicted)
-        .map(|p| p.1)
-        .fold(1.0f64, f64::max)
-        .ceil();
-    let bottom = predicted.iter().map(|p| p.1).fold(0.0f64, f64::min).floor();
-    let chart = Chart::new(vec![
-        Dataset::default()
-            .name("measured")
-            .marker(Marker::Braille)
-            .graph_type(GraphType::Line)
-            .style(Style::new().fg(MEASURED))
-            .data(&measured),
-        Dataset::default()
-            .name("predicted")
-            .marker(Marker::Braille)
-            .graph_type(GraphType::Line)
-            .style(Style::new().fg(PREDICTED))
-            .data(&predicted),
-    ])
-    .legend_position(None)
-    .block(legend_panel(
+    time_chart::draw(
+        f,
+        area,
         "|Fz|, N",
-        &[("measured", MEASURED), ("predicted", PREDICTED)],
-    ))
-    .x_axis(
-        Axis::default()
-            .bounds([t0, t1])
-            .labels([format!("{t0:.0} s"), format!("{t1:.0} s")]),
-    )
-    .y_axis(
-        Axis::default()
-            .bounds([bottom, top])
-            .labels([format!("{bottom:.0}"), format!("{top:.0}")]),
+        &[
+            Series {
+                name: "measured",
+                color: MEASURED,
+                points: &measured,
+            },
+            Series {
+                name: "predicted",
+                color: PREDICTED,
+                points: &predicted,
+            },
+        ],
     );
-    f.render_widget(chart, area);
 }
 
 fn draw_contact(f: &mut Frame, area: Rect, v: &ValidationState, disc_radius_mm: Option<f64>) {
