@@ -3,6 +3,7 @@
 //! the simulated bench) the labels scored against the ground truth. The command line's progress
 //! bar and the terminal UI drive the same session.
 
+use crate::live_validation::{FrameSource, LiveValidation};
 use crate::open_rig::RigError;
 use crate::rig_file::RigConfig;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
@@ -20,7 +21,9 @@ use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
-use std::path::Path;
+use fringe_sensor_models::backend::Backend;
+use fringe_sensor_models::model::{Model, ModelError};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::SystemTime;
 
@@ -52,6 +55,14 @@ pub enum SessionError {
     Scan(#[from] ScanError),
     #[error(transparent)]
     Store(#[from] StoreError),
+    #[error(
+        "no calibration profile for sensor {sensor_id} in {}: the model's preprocessing needs \
+         the sensor's optical centre and crop radius; run `fringe calibrate` first",
+        dir.display()
+    )]
+    NoGeometry { sensor_id: String, dir: PathBuf },
+    #[error(transparent)]
+    Model(#[from] ModelError),
 }
 
 /// The labels of a simulated run against the bench's ground truth.
@@ -72,6 +83,8 @@ pub struct ScanSession {
     sim: Option<crate::sim_bench::SimBench>,
     /// What the front end should show before the scan starts (devices, origin, profile warnings).
     pub notes: Vec<Note>,
+    /// Where the sensor's calibration profile was looked for.
+    profile_dir: PathBuf,
 }
 
 /// A finished session.
@@ -143,6 +156,7 @@ impl ScanSession {
             #[cfg(feature = "sim")]
             sim: rig.sim,
             notes,
+            profile_dir: config.profile_dir(),
         })
     }
 
@@ -173,6 +187,30 @@ impl ScanSession {
             return Some((profile, why));
         }
         None
+    }
+
+    /// Live validation of `model` on every frame this scan records (the newest one whenever the
+    /// network is free), through the preprocessing geometry of [`Self::geometry_profile`]: the
+    /// validation to read, and a line saying which geometry it uses.
+    pub fn attach_validation(
+        &mut self,
+        model: Model,
+        backend: Box<dyn Backend>,
+        run_id: &str,
+    ) -> Result<(LiveValidation, String), SessionError> {
+        let Some((profile, why)) = self.geometry_profile() else {
+            return Err(SessionError::NoGeometry {
+                sensor_id: self.setup.sensor_id.clone(),
+                dir: self.profile_dir.clone(),
+            });
+        };
+        let source = FrameSource {
+            run_id: run_id.to_string(),
+            profile,
+        };
+        let (validation, tap) = LiveValidation::start(model, backend, source)?;
+        self.setup.taps.push(tap);
+        Ok((validation, format!("preprocessing geometry: {why}")))
     }
 
     /// True when the rig is the simulated bench.

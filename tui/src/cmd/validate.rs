@@ -9,7 +9,7 @@ use crate::cmd::model::open_model;
 use crate::cmd::scan::execute;
 use crate::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::live_validation::{FrameSource, LiveValidation, Validation};
+use fringe_app::live_validation::{LiveValidation, Validation};
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -113,27 +113,11 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
         ProfileUse::Consume,
         global,
         &mut |session| {
-            let Some((profile, why)) = session.geometry_profile() else {
-                bail!(
-                    "no calibration profile for sensor {} in {}: the model's preprocessing needs \
-                     the sensor's optical centre and crop radius; run `fringe calibrate` first",
-                    session.setup.sensor_id,
-                    config.profile_dir().display()
-                );
-            };
-            println!("preprocessing geometry: {why}");
             let (Some(m), Some(b)) = (model.take(), backend.take()) else {
                 bail!("the session was opened twice");
             };
-            let (v, tap) = LiveValidation::start(
-                m,
-                b,
-                FrameSource {
-                    run_id: run_id.clone(),
-                    profile,
-                },
-            )?;
-            session.setup.taps.push(tap);
+            let (v, geometry) = session.attach_validation(m, b, &run_id)?;
+            println!("{geometry}");
             live = Some(v);
             Ok(())
         },

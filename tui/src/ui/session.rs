@@ -3,7 +3,7 @@
 //! answered from it, progress sent as events. The UI thread never waits on it.
 
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_app::live_validation::{FrameSource, LiveValidation};
+use fringe_app::live_validation::LiveValidation;
 use fringe_app::live_view::LiveView;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession};
 use fringe_rig::scan::control::{Operator, Prompt, Reply, ScanControl, ScanProgress};
@@ -142,30 +142,14 @@ fn run(
     session.setup.taps.push(tap);
     *view.lock().unwrap_or_else(|p| p.into_inner()) = Some(live);
     if let Some(m) = &req.model {
-        let Some((profile, why)) = geometry else {
-            return Err(format!(
-                "no calibration profile for sensor {}: the model's preprocessing needs the \
-                 sensor's optical centre and crop radius; run `fringe calibrate` first",
-                session.setup.sensor_id
-            ));
-        };
-        let _ = events.send(Event::Note(Note::Info(format!(
-            "preprocessing geometry: {why}"
-        ))));
         let model = fringe_sensor_models::model::Model::open(&m.path).map_err(|e| e.to_string())?;
         let backend = model
             .backend(m.backend, m.threads)
             .map_err(|e| e.to_string())?;
-        let (v, tap) = LiveValidation::start(
-            model,
-            backend,
-            FrameSource {
-                run_id: run_id.clone(),
-                profile,
-            },
-        )
-        .map_err(|e| e.to_string())?;
-        session.setup.taps.push(tap);
+        let (v, geometry) = session
+            .attach_validation(model, backend, &run_id)
+            .map_err(|e| e.to_string())?;
+        let _ = events.send(Event::Note(Note::Info(geometry)));
         *validation.lock().unwrap_or_else(|p| p.into_inner()) = Some(v);
     }
     let mut operator = UiOperator {
