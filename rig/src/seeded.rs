@@ -59,6 +59,21 @@ impl SplitMix64 {
         }
         (self.next_u64() % n as u64) as usize
     }
+
+    /// A standard normal deviate (Box-Muller on two uniforms).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+
+    /// Fisher-Yates shuffle of `items`.
+    pub fn shuffle<T>(&mut self, items: &mut [T]) {
+        for i in (1..items.len()).rev() {
+            let j = self.below(i + 1);
+            items.swap(i, j);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -76,6 +91,16 @@ mod tests {
             let k = a.below(7);
             assert!(k < 7 && k == b.below(7));
         }
+        let normals: Vec<f64> = (0..100_000).map(|_| a.normal()).collect();
+        let m = normals.iter().sum::<f64>() / 1e5;
+        let var = normals.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / 1e5;
+        assert!(m.abs() < 0.02 && (var - 1.0).abs() < 0.02, "{m} {var}");
+        let mut items: Vec<usize> = (0..50).collect();
+        a.shuffle(&mut items);
+        let mut sorted = items.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..50).collect::<Vec<_>>());
+        assert_ne!(items, sorted, "a shuffle of 50 items left them in order");
         let mean = (0..100_000).map(|_| a.uniform()).sum::<f64>() / 1e5;
         assert!((mean - 0.5).abs() < 0.01, "{mean}");
         assert_ne!(SplitMix64::new(1).next_u64(), SplitMix64::new(2).next_u64());

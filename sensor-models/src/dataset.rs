@@ -45,7 +45,7 @@ impl Sample {
 pub struct Source {
     pub path: PathBuf,
     pub samples: Vec<Sample>,
-    /// The run's calibration profile (runs only).
+    /// The calibration profile: a run's, or a reference-layout dataset's `profile.toml`.
     pub profile: Option<Profile>,
     pub sensor_id: Option<String>,
     /// Records left out: no force label, or marked untrustworthy.
@@ -65,7 +65,7 @@ pub enum DatasetError {
         line: u64,
         message: String,
     },
-    #[error("{path}: the run's calibration profile cannot be read: {message}")]
+    #[error("{path}: the calibration profile cannot be read: {message}")]
     Profile { path: String, message: String },
 }
 
@@ -248,11 +248,24 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
             stage_mm: None,
         });
     }
+    // A dataset that names its sensor's geometry (`fringe sim dataset` writes one) is
+    // preprocessed with it, as a run is with its calibration profile.
+    let profile_path = dir.join("profile.toml");
+    let profile = if profile_path.is_file() {
+        Some(
+            Profile::load(&profile_path).map_err(|e| DatasetError::Profile {
+                path: profile_path.display().to_string(),
+                message: e.to_string(),
+            })?,
+        )
+    } else {
+        None
+    };
     Ok(Source {
         path: dir.to_path_buf(),
         samples,
-        profile: None,
-        sensor_id: None,
+        sensor_id: profile.as_ref().map(|p| p.sensor_id.clone()),
+        profile,
         skipped: 0,
     })
 }

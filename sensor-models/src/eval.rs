@@ -90,7 +90,7 @@ pub fn force_level(fz: f64) -> String {
 }
 
 /// Reads an image file as the frame the camera gave (`format` says how a run stored it).
-fn frame_bytes(
+pub(crate) fn frame_bytes(
     path: &Path,
     format: Option<fringe_rig::camera::PixelFormat>,
 ) -> Result<(u32, u32, Vec<u8>, fringe_rig::camera::PixelFormat), EvalError> {

@@ -9,6 +9,9 @@
 //! - [`backend`]: inference backends behind one trait (tract by default); [`prediction`]: their
 //!   outputs in units.
 //! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
+//! - [`split`]: train / validation / test by physical indentation; [`augment`]: the paper's
+//!   augmentation pipelines; [`training_set`]: a split side's network inputs and targets.
+//! - `train` (cargo feature `torch`): the training loop on libtorch, checkpoints, resume.
 //! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
 //!   markdown and plots.
 //! - [`tensor`], [`state_dict`]: weights by name as PyTorch's `state_dict()` holds them.
@@ -19,6 +22,7 @@
 #![warn(unreachable_pub)]
 
 pub mod arch;
+pub mod augment;
 pub mod backend;
 pub mod dataset;
 mod element;
@@ -34,10 +38,14 @@ pub mod prediction;
 pub mod preprocess;
 pub mod report;
 pub mod safetensors_file;
+pub mod split;
 pub mod state_dict;
 pub mod tensor;
 pub mod torch_file;
 mod torch_pickle;
+#[cfg(feature = "torch")]
+pub mod train;
+pub mod training_set;
 
 pub use arch::{recognise, Architecture};
 pub use backend::{Backend, InferenceError, RawOutputs};

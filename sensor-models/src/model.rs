@@ -83,40 +83,67 @@ impl Model {
         let is_onnx = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
-        let (source, arch, n_classes, sd, proto) = if is_onnx {
-            let proto =
-                tract_onnx::onnx()
-                    .proto_model_for_path(path)
-                    .map_err(|e| ModelError::Onnx {
-                        path: shown.clone(),
-                        detail: format!("{e:#}"),
-                    })?;
-            output_order(&proto).map_err(|source| ModelError::Backend {
-                path: shown.clone(),
-                source,
-            })?;
-            let sd = initializers(&proto);
-            let recognised = recognise(&sd).ok();
-            let classes = match recognised {
-                Some((_, c)) => Some(c),
-                None => logits_width(&proto),
-            };
-            let n = classes.ok_or_else(|| ModelError::Classes {
-                path: shown.clone(),
-                detail: "the shape_logits output has no fixed width: say how many classes in \
-                         the model card (\"classes\": [...])"
-                    .into(),
-            })?;
-            (Source::Onnx, recognised.map(|r| r.0), n, sd, proto)
-        } else {
-            let sd = read_weights(path)?;
-            let (arch, n) = recognise(&sd).map_err(|source| ModelError::Arch {
-                path: shown.clone(),
-                source,
-            })?;
-            let proto = onnx_graph::build(arch, n, &sd);
-            (Source::Weights, Some(arch), n, sd, proto)
+        if !is_onnx {
+            return Model::from_weights(path, read_weights(path)?, card);
+        }
+        let proto =
+            tract_onnx::onnx()
+                .proto_model_for_path(path)
+                .map_err(|e| ModelError::Onnx {
+                    path: shown.clone(),
+                    detail: format!("{e:#}"),
+                })?;
+        output_order(&proto).map_err(|source| ModelError::Backend {
+            path: shown.clone(),
+            source,
+        })?;
+        let sd = initializers(&proto);
+        let recognised = recognise(&sd).ok();
+        let classes = match recognised {
+            Some((_, c)) => Some(c),
+            None => logits_width(&proto),
         };
+        let n = classes.ok_or_else(|| ModelError::Classes {
+            path: shown.clone(),
+            detail: "the shape_logits output has no fixed width: say how many classes in \
+                         the model card (\"classes\": [...])"
+                .into(),
+        })?;
+        Model::assemble(
+            path,
+            Source::Onnx,
+            recognised.map(|r| r.0),
+            n,
+            &sd,
+            proto,
+            card,
+        )
+    }
+
+    /// A model from weights already read (`path` names them in messages), with its card.
+    pub fn from_weights(
+        path: &Path,
+        sd: StateDict,
+        card: Option<ModelCard>,
+    ) -> Result<Model, ModelError> {
+        let (arch, n) = recognise(&sd).map_err(|source| ModelError::Arch {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let proto = onnx_graph::build(arch, n, &sd);
+        Model::assemble(path, Source::Weights, Some(arch), n, &sd, proto, card)
+    }
+
+    fn assemble(
+        path: &Path,
+        source: Source,
+        arch: Option<Architecture>,
+        n_classes: usize,
+        sd: &StateDict,
+        proto: pb::ModelProto,
+        card: Option<ModelCard>,
+    ) -> Result<Model, ModelError> {
+        let shown = path.display().to_string();
         let classes = match card.as_ref().and_then(|c| c.classes.clone()) {
             Some(names) if names.len() != n_classes => {
                 return Err(ModelError::Classes {

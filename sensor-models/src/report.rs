@@ -136,7 +136,8 @@ impl Axes {
         ]
     }
 
-    fn frame(&self, img: &mut RgbImage, ticks: f64, xlabel: &str, ylabel: &str) {
+    /// The box, ticks every `ticks[0]` along x and `ticks[1]` along y, and the axis labels.
+    fn frame(&self, img: &mut RgbImage, ticks: [f64; 2], xlabel: &str, ylabel: &str) {
         let (a, b) = (MARGIN, PX as f64 - MARGIN);
         for (p, q) in [
             ([a, a], [b, a]),
@@ -146,9 +147,10 @@ impl Axes {
         ] {
             line(img, p, q, BLACK);
         }
-        let mut t = (self.lo[0] / ticks).ceil() * ticks;
+        let decimals = |t: f64| if t < 1.0 { 1 } else { 0 };
+        let mut t = (self.lo[0] / ticks[0]).ceil() * ticks[0];
         while t <= self.hi[0] + 1e-9 {
-            let label = fmt(t, if ticks < 1.0 { 1 } else { 0 });
+            let label = fmt(t, decimals(ticks[0]));
             let x = self.px([t, self.lo[1]])[0];
             line(img, [x, b], [x, b + 6.0], BLACK);
             text(
@@ -159,19 +161,22 @@ impl Axes {
                 &label,
                 BLACK,
             );
-            let y = self.px([self.lo[0], t.min(self.hi[1])])[1];
-            if t <= self.hi[1] + 1e-9 && t >= self.lo[1] - 1e-9 {
-                line(img, [a - 6.0, y], [a, y], BLACK);
-                text(
-                    img,
-                    a as i64 - 10 - text_width(&label, 2),
-                    y as i64 - 5,
-                    2,
-                    &label,
-                    BLACK,
-                );
-            }
-            t += ticks;
+            t += ticks[0];
+        }
+        let mut t = (self.lo[1] / ticks[1]).ceil() * ticks[1];
+        while t <= self.hi[1] + 1e-9 {
+            let label = fmt(t, decimals(ticks[1]));
+            let y = self.px([self.lo[0], t])[1];
+            line(img, [a - 6.0, y], [a, y], BLACK);
+            text(
+                img,
+                a as i64 - 10 - text_width(&label, 2),
+                y as i64 - 5,
+                2,
+                &label,
+                BLACK,
+            );
+            t += ticks[1];
         }
         text(
             img,
@@ -215,7 +220,12 @@ pub fn fz_plot(eval: &Evaluation) -> RgbImage {
         let p = [r.scored.fz_true, r.scored.fz_pred.clamp(0.0, top)];
         dot(&mut img, ax.px(p), 2.0, BLUE);
     }
-    ax.frame(&mut img, tick(top), "measured fz (n)", "predicted fz (n)");
+    ax.frame(
+        &mut img,
+        [tick(top), tick(top)],
+        "measured fz (n)",
+        "predicted fz (n)",
+    );
     let rmse = format!("rmse {} n", fmt(eval.metrics.all.fz_rmse(), 3));
     text(
         &mut img,
@@ -254,7 +264,12 @@ pub fn contact_plot(eval: &Evaluation) -> RgbImage {
             dot(&mut img, ax.px(t), 2.0, BLACK);
         }
     }
-    ax.frame(&mut img, tick(2.0 * reach), "x (mm)", "y (mm)");
+    ax.frame(
+        &mut img,
+        [tick(2.0 * reach), tick(2.0 * reach)],
+        "x (mm)",
+        "y (mm)",
+    );
     let rmse = format!(
         "contact rmse {} mm",
         fmt(eval.metrics.all.contact_rmse(), 3)
@@ -351,4 +366,47 @@ pub fn write(dir: &Path, title: &str, eval: &Evaluation) -> Result<PathBuf, Repo
     let p = dir.join("report.md");
     std::fs::write(&p, markdown(title, eval)).map_err(|e| err(&p, &e))?;
     Ok(p)
+}
+
+/// Series of (x, y) points as lines with a legend (training curves), y from 0.
+pub fn line_plot(ylabel: &str, xlabel: &str, series: &[(&str, &[[f64; 2]])]) -> RgbImage {
+    let mut img = RgbImage::from_pixel(PX, PX, Rgb([255, 255, 255]));
+    let finite = || {
+        series
+            .iter()
+            .flat_map(|(_, pts)| pts.iter())
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+    };
+    let x_hi = finite().map(|p| p[0]).fold(1.0f64, f64::max);
+    let x_lo = finite().map(|p| p[0]).fold(x_hi, f64::min).min(x_hi - 1.0);
+    let y_hi = finite().map(|p| p[1]).fold(0.0f64, f64::max).max(1e-3) * 1.05;
+    let ax = Axes {
+        lo: [x_lo, 0.0],
+        hi: [x_hi, y_hi],
+    };
+    let colours = [BLUE, RED, BLACK];
+    for (k, (name, pts)) in series.iter().enumerate() {
+        let colour = colours[k % colours.len()];
+        let pts: Vec<[f64; 2]> = pts
+            .iter()
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+            .map(|p| ax.px(*p))
+            .collect();
+        for w in pts.windows(2) {
+            line(&mut img, w[0], w[1], colour);
+        }
+        for p in &pts {
+            dot(&mut img, *p, 3.0, colour);
+        }
+        let y = MARGIN as i64 + 12 + 22 * k as i64;
+        line(
+            &mut img,
+            [PX as f64 - MARGIN - 150.0, y as f64 + 5.0],
+            [PX as f64 - MARGIN - 120.0, y as f64 + 5.0],
+            colour,
+        );
+        text(&mut img, PX as i64 - MARGIN as i64 - 112, y, 2, name, BLACK);
+    }
+    ax.frame(&mut img, [tick(x_hi - x_lo), tick(y_hi)], xlabel, ylabel);
+    img
 }

@@ -16,6 +16,11 @@ pub fn read_safetensors(path: impl AsRef<Path>) -> Result<StateDict, ModelFileEr
     state_dict_of(&bytes).map_err(|kind| kind.at(path))
 }
 
+/// Reads every tensor of safetensors bytes held in memory (`name` names them in messages).
+pub fn read_safetensors_bytes(bytes: &[u8], name: &str) -> Result<StateDict, ModelFileError> {
+    state_dict_of(bytes).map_err(|kind| kind.at(Path::new(name)))
+}
+
 fn state_dict_of(bytes: &[u8]) -> Result<StateDict, ModelFileErrorKind> {
     if bytes.is_empty() {
         return Err(ModelFileErrorKind::Empty);

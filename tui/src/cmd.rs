@@ -17,8 +17,11 @@ pub mod scan;
 #[cfg(feature = "sim")]
 pub mod selfcheck;
 #[cfg(feature = "sim")]
+pub mod sim_dataset;
+#[cfg(feature = "sim")]
 pub mod sim_render;
 #[cfg(feature = "sim")]
 pub mod sim_serve;
+pub mod train;
 pub mod validate;
 pub mod ystage;

@@ -65,6 +65,9 @@ enum Command {
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
+    /// Train the paper's networks on runs or datasets, split by press, with the paper's
+    /// augmentation (cargo feature `torch`).
+    Train(cmd::train::TrainArgs),
     /// Model files: what one is (info), its predictions on images (run), its ONNX graph (export).
     Model(cmd::model::ModelArgs),
     /// The simulated bench: render sensor frames, serve its devices.
@@ -79,6 +82,9 @@ enum Command {
 enum SimCommand {
     /// Render one simulated sensor frame to a PNG.
     Render(cmd::sim_render::SimRenderArgs),
+    /// Render a synthetic training dataset in the reference layout (0.images/ + 0.labels.csv):
+    /// random shape, force, contact point and angle per frame, no-contact frames, F/T-noise labels.
+    Dataset(cmd::sim_dataset::SimDatasetArgs),
     /// Expose the simulated devices on pseudo-terminals and loopback sockets and print where.
     Serve(cmd::sim_serve::SimServeArgs),
 }
@@ -112,9 +118,12 @@ fn main() -> ExitCode {
         Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
         Some(Command::Model(args)) => cmd::model::run(args),
         Some(Command::Eval(args)) => cmd::eval::run(args),
+        Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
+        #[cfg(feature = "sim")]
+        Some(Command::Sim(SimCommand::Dataset(args))) => cmd::sim_dataset::run(args),
         #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Serve(args))) => cmd::sim_serve::run(args),
     };

@@ -20,6 +20,8 @@
 //! - [`bench`]: the physical bench (motors, indenter, contact) behind the scene traits.
 //! - [`camera_emulator`]: the simulated camera (device clock, exposures, drops, latch).
 //! - [`daq_emulator`]: a simulated DAQ: gauge voltages through a `.cal` matrix plus the strobe.
+//! - [`dataset`]: synthetic training frames (scene and F/T-style label) drawn per frame from a
+//!   seed, rendered without motion by `fringe sim dataset`.
 //! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
 //! - [`label_score`]: a simulated run's labels scored against the ground truth.
 //! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
@@ -53,6 +55,7 @@ pub mod camera_emulator;
 pub mod colour;
 pub mod contact;
 pub mod daq_emulator;
+pub mod dataset;
 pub mod fringe_field;
 mod ft_config;
 pub mod ft_sensor;

@@ -274,36 +274,75 @@ impl SimBench {
 
 impl SimBench {
     /// The simulated sensor's optics as a calibration profile would give them (its design: the
-    /// optical centre, the disc radius as the crop radius, the frame size), for using a model on
-    /// the simulated bench before a calibration has been made. Labelled as such in `source`.
+    /// optical centre, the disc radius as the crop radius, the frame size, and the registration
+    /// against the bench's stages), for using a model on the simulated bench before a
+    /// calibration has been made. Labelled as such in `source`.
     pub fn design_profile(&self, sensor_id: &str) -> fringe_calibration::profile::Profile {
-        use fringe_calibration::profile::{ImageSize, Optical, Profile};
-        let sensor = &self.config().sensor;
-        let g = &sensor.geometry;
-        let centre = sensor.geometry().centre_px;
-        Profile {
-            sensor_id: sensor_id.to_string(),
-            created_utc: String::new(),
-            source: format!("the simulated {} sensor's design geometry", sensor.id),
-            image: ImageSize {
-                width: g.width,
-                height: g.height,
-            },
-            optical: Optical {
-                centre_x_px: centre[0],
-                centre_y_px: centre[1],
-                shift_x_px: g.centre_offset_px[0],
-                shift_y_px: g.centre_offset_px[1],
-                radius_px: g.disc_radius_px,
-                crop_radius_px: g.disc_radius_px,
-                sigma_x_px: 0.0,
-                sigma_y_px: 0.0,
-                sigma_radius_px: 0.0,
-                residual_rms_px: 0.0,
-                frames: 0,
-            },
-            registration: None,
-            force_offsets: None,
-        }
+        let config = self.config();
+        let b = &config.bench.geometry;
+        sensor_profile(
+            &config.sensor,
+            sensor_id,
+            format!(
+                "the simulated {} sensor's design geometry",
+                config.sensor.id
+            ),
+            [b.x_centre_mm, b.y_centre_mm],
+        )
+    }
+}
+
+/// A simulated sensor build's design geometry as a calibration profile, dated now: the optical
+/// centre and shift, the disc radius (also the crop radius) and frame size, and the exact
+/// image-to-stage registration of its `SensorGeometry` (px/mm, rotation, mirror; no uncertainty)
+/// for a stage whose position `contact_origin_stage_mm` presses the disc centre (`[0, 0]` when
+/// the stage coordinates are the sensor frame itself, as in `fringe sim dataset` labels).
+pub fn sensor_profile(
+    sensor: &SensorConfig,
+    sensor_id: &str,
+    source: String,
+    contact_origin_stage_mm: [f64; 2],
+) -> fringe_calibration::profile::Profile {
+    use fringe_calibration::profile::{ImageSize, Optical, Profile, Registration};
+    let g = &sensor.geometry;
+    let geometry = sensor.geometry();
+    let centre = geometry.centre_px;
+    let [ox, oy] = contact_origin_stage_mm;
+    Profile {
+        sensor_id: sensor_id.to_string(),
+        created_utc: fringe_rig::store::documents::now_utc(),
+        source,
+        image: ImageSize {
+            width: g.width,
+            height: g.height,
+        },
+        optical: Optical {
+            centre_x_px: centre[0],
+            centre_y_px: centre[1],
+            shift_x_px: g.centre_offset_px[0],
+            shift_y_px: g.centre_offset_px[1],
+            radius_px: g.disc_radius_px,
+            crop_radius_px: g.disc_radius_px,
+            sigma_x_px: 0.0,
+            sigma_y_px: 0.0,
+            sigma_radius_px: 0.0,
+            residual_rms_px: 0.0,
+            frames: 0,
+        },
+        registration: Some(Registration {
+            px_per_mm: geometry.px_per_mm,
+            sigma_px_per_mm: 0.0,
+            rotation_deg: geometry.rotation_deg,
+            sigma_rotation_deg: 0.0,
+            mirror: geometry.mirror,
+            // The stage origin lies at sensor-frame (-ox, -oy).
+            offset_px: geometry.to_pixel(-ox, -oy),
+            contact_origin_stage_mm,
+            sigma_contact_origin_stage_mm: [0.0, 0.0],
+            residual_rms_px: 0.0,
+            presses: 0,
+            outliers: 0,
+        }),
+        force_offsets: None,
     }
 }

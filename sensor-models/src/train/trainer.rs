@@ -1,0 +1,542 @@
+//! The training loop: the reference's loss (MSE on Fz + cross-entropy on the shape + MSE on the
+//! contact over the rows in contact, equal weights) and optimiser (Adam, lr 1e-3, batch 32),
+//! the split by press, checkpoints every 2 epochs and at the end, an interrupted epoch saved
+//! where it stopped, and resume that continues exactly: the same split, copies, batch order
+//! (shuffled from the seed and the epoch), weights and optimiser state.
+
+use super::adam::Adam;
+use super::checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
+use super::net::Net;
+use super::tensors::{load_state_dict, state_dict};
+use super::TrainError;
+use crate::arch::Architecture;
+use crate::augment::Pipeline;
+use crate::dataset::Source;
+use crate::metrics::{Errors, Scored};
+use crate::model_card::ModelCard;
+use crate::preprocess::Preprocessing;
+use crate::split::{Side, Split, SplitSpec};
+use crate::training_set::{Item, TrainingSet};
+use fringe_calibration::profile::Profile;
+use fringe_rig::seeded::{mix, SplitMix64};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+use tch::{Device, Reduction, Tensor};
+
+/// What to train and how.
+#[derive(Debug, Clone)]
+pub struct TrainConfig {
+    pub arch: Architecture,
+    pub pipeline: Pipeline,
+    pub epochs: usize,
+    pub batch: usize,
+    pub lr: f64,
+    pub seed: u64,
+    pub input_size: u32,
+    /// Threads for libtorch and for preparing the data.
+    pub threads: usize,
+    pub out: PathBuf,
+}
+
+/// What the loop tells its caller, for progress and messages.
+#[derive(Debug, Clone)]
+pub enum TrainEvent {
+    /// The split is made (or read back on resume).
+    Split {
+        train: usize,
+        val: usize,
+        test: usize,
+        path: PathBuf,
+    },
+    /// Frames of a side read and preprocessed.
+    Preparing {
+        side: &'static str,
+        done: usize,
+        total: usize,
+    },
+    Batch {
+        epoch: usize,
+        epochs: usize,
+        batch: usize,
+        batches: usize,
+        loss: f64,
+        images_per_second: f64,
+    },
+    Epoch(EpochRecord),
+    Checkpoint(PathBuf),
+    /// The final model evaluated on the test side.
+    Evaluating {
+        done: usize,
+        total: usize,
+    },
+}
+
+/// How a training ended.
+#[derive(Debug)]
+pub enum Outcome {
+    /// All epochs trained: the final model and its test figures (fringe eval's).
+    Finished {
+        model: PathBuf,
+        evaluation: crate::eval::Evaluation,
+    },
+    /// Stopped (Ctrl-C): the checkpoint to resume from.
+    Interrupted { checkpoint: PathBuf },
+}
+
+/// Every labelled frame with its preprocessing and mirror flag, and what the geometry came from.
+struct Frames<'a> {
+    items: Vec<(usize, usize)>,
+    preprocessing: Vec<Preprocessing>,
+    mirror: Vec<bool>,
+    profiles: Vec<String>,
+    sources: &'a [Source],
+}
+
+impl Frames<'_> {
+    fn sample(&self, i: usize) -> &crate::dataset::Sample {
+        let (s, k) = self.items[i];
+        &self.sources[s].samples[k]
+    }
+
+    fn item(&self, i: usize) -> Item<'_> {
+        let (s, _) = self.items[i];
+        Item {
+            sample: self.sample(i),
+            preprocessing: &self.preprocessing[s],
+            mirror: self.mirror[s],
+        }
+    }
+}
+
+fn frames<'a>(
+    sources: &'a [Source],
+    fallback: Option<&Profile>,
+    config: &TrainConfig,
+) -> Result<Frames<'a>, TrainError> {
+    let mut f = Frames {
+        items: Vec::new(),
+        preprocessing: Vec::new(),
+        mirror: Vec::new(),
+        profiles: Vec::new(),
+        sources,
+    };
+    for (si, source) in sources.iter().enumerate() {
+        let path = source.path.display().to_string();
+        let profile = source
+            .profile
+            .as_ref()
+            .or(fallback)
+            .ok_or_else(|| TrainError::NoProfile { path: path.clone() })?;
+        let pre = Preprocessing::from_profile(profile, config.pipeline.colour(), config.input_size)
+            .map_err(|source| TrainError::Profile {
+                path: path.clone(),
+                source,
+            })?;
+        f.preprocessing.push(pre);
+        f.mirror
+            .push(profile.registration.as_ref().is_some_and(|r| r.mirror));
+        f.profiles.push(format!(
+            "{path}: sensor {} ({})",
+            profile.sensor_id, profile.source
+        ));
+        f.items.extend((0..source.samples.len()).map(|k| (si, k)));
+    }
+    if f.items.is_empty() {
+        let names: Vec<String> = sources
+            .iter()
+            .map(|s| s.path.display().to_string())
+            .collect();
+        return Err(TrainError::NoFrames(names.join(", ")));
+    }
+    Ok(f)
+}
+
+/// "None", then the shape names of the data in sorted order (the reference's class order).
+fn classes(f: &Frames<'_>) -> Vec<String> {
+    let mut names: Vec<String> = (0..f.items.len())
+        .map(|i| f.sample(i).shape.clone())
+        .filter(|s| s != "None")
+        .collect();
+    names.sort();
+    names.dedup();
+    std::iter::once("None".to_string()).chain(names).collect()
+}
+
+/// The three losses of a batch, summed.
+fn loss(
+    net: &Net,
+    set: &TrainingSet,
+    idx: &[usize],
+    buf: &mut Vec<f32>,
+    train: bool,
+) -> (Tensor, Vec<Scored>) {
+    set.batch(idx, buf);
+    let s = set.input_size as i64;
+    let x = Tensor::from_slice(buf).view([idx.len() as i64, 3, s, s]);
+    let out = net.forward(&x, train);
+    let targets: Vec<_> = idx.iter().map(|&i| set.targets[i]).collect();
+    let fz: Vec<f32> = targets.iter().map(|t| t.fz).collect();
+    let class: Vec<i64> = targets.iter().map(|t| t.class).collect();
+    let fz_pred = out.force.select(1, 2);
+    let mut l = fz_pred.mse_loss(&Tensor::from_slice(&fz), Reduction::Mean)
+        + out
+            .logits
+            .cross_entropy_for_logits(&Tensor::from_slice(&class));
+    let rows: Vec<i64> = (0..targets.len() as i64)
+        .filter(|&r| targets[r as usize].contact.is_some())
+        .collect();
+    if !rows.is_empty() {
+        let xy: Vec<f32> = targets.iter().filter_map(|t| t.contact).flatten().collect();
+        let pred = out.point.index_select(0, &Tensor::from_slice(&rows));
+        l += pred.mse_loss(&Tensor::from_slice(&xy).view([-1, 2]), Reduction::Mean);
+    }
+    let scored = if train {
+        Vec::new()
+    } else {
+        let fz_p = Vec::<f32>::try_from(&fz_pred.detach()).unwrap_or_default();
+        let cls = Vec::<i64>::try_from(&out.logits.argmax(1, false)).unwrap_or_default();
+        let pt =
+            Vec::<f32>::try_from(&out.point.detach().contiguous().view([-1])).unwrap_or_default();
+        (0..targets.len())
+            .filter(|&r| r < fz_p.len() && r < cls.len() && 2 * r + 1 < pt.len())
+            .map(|r| Scored {
+                fz_true: f64::from(targets[r].fz),
+                fz_pred: f64::from(fz_p[r]),
+                shape_true: targets[r].class as usize,
+                shape_pred: cls[r] as usize,
+                contact_true: targets[r]
+                    .contact
+                    .map(|c| [f64::from(c[0]), f64::from(c[1])]),
+                contact_pred: [f64::from(pt[2 * r]), f64::from(pt[2 * r + 1])],
+            })
+            .collect()
+    };
+    (l, scored)
+}
+
+/// The validation side's loss and Table-2 errors, in evaluation mode.
+fn validate(net: &Net, set: &TrainingSet) -> (f64, Errors) {
+    let mut errors = Errors::default();
+    let mut sum = 0.0;
+    let mut n = 0;
+    let mut buf = Vec::new();
+    let all: Vec<usize> = (0..set.len()).collect();
+    tch::no_grad(|| {
+        for chunk in all.chunks(64) {
+            let (l, scored) = loss(net, set, chunk, &mut buf, false);
+            sum += l.double_value(&[]) * chunk.len() as f64;
+            n += chunk.len();
+            for s in &scored {
+                errors.add(s);
+            }
+        }
+    });
+    (if n > 0 { sum / n as f64 } else { f64::NAN }, errors)
+}
+
+/// The batch order of an epoch: the training inputs shuffled from the seed and the epoch.
+fn order(n: usize, seed: u64, epoch: usize) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..n).collect();
+    SplitMix64::new(mix(seed ^ 0x7472_6169_6e00, epoch as u64)).shuffle(&mut idx);
+    idx
+}
+
+#[allow(clippy::too_many_arguments)]
+fn card_for(
+    config: &TrainConfig,
+    classes: &[String],
+    f: &Frames<'_>,
+    record: &TrainingRecord,
+) -> ModelCard {
+    let sensors: Vec<&str> = f.preprocessing.iter().map(|p| p.sensor.as_str()).collect();
+    let mut card = ModelCard {
+        architecture: Some(config.arch.name().to_string()),
+        classes: Some(classes.to_vec()),
+        input_size: Some(config.input_size),
+        colour: Some(config.pipeline.colour()),
+        preprocessing: Some("profile".to_string()),
+        sensor_id: sensors.first().map(|s| s.to_string()),
+        other: serde_json::Map::new(),
+    };
+    if let Ok(v) = serde_json::to_value(record) {
+        card.other.insert("training".into(), v);
+    }
+    card
+}
+
+/// Trains on `sources` (each with its run's profile, else `fallback`), or resumes from the
+/// checkpoint `resume`. `stop` (Ctrl-C) ends the loop after the current batch with a
+/// checkpoint to resume from.
+pub fn train(
+    config: &TrainConfig,
+    sources: &[Source],
+    fallback: Option<&Profile>,
+    resume: Option<&Path>,
+    stop: &AtomicBool,
+    events: &mut dyn FnMut(TrainEvent),
+) -> Result<Outcome, TrainError> {
+    tch::set_num_threads(config.threads.max(1) as i32);
+    tch::manual_seed(config.seed as i64);
+    std::fs::create_dir_all(&config.out).map_err(|source| TrainError::Write {
+        path: config.out.display().to_string(),
+        source,
+    })?;
+    let f = frames(sources, fallback, config)?;
+    let classes = classes(&f);
+    let samples: Vec<crate::dataset::Sample> =
+        (0..f.items.len()).map(|i| f.sample(i).clone()).collect();
+    let split_path = config.out.join("split.json");
+    let resumed = match resume {
+        Some(p) => Some(Checkpoint::at(p).read()?),
+        None => None,
+    };
+    let split = match &resumed {
+        Some((_, _, record, _)) => {
+            let path = resume
+                .and_then(Path::parent)
+                .map_or_else(|| record.split.clone(), |d| d.join(&record.split));
+            Split::load(&path)?
+        }
+        None => {
+            let s = Split::new(
+                &samples,
+                SplitSpec {
+                    seed: config.seed,
+                    ..SplitSpec::default()
+                },
+            )?;
+            s.save(&split_path)?;
+            s
+        }
+    };
+    let side = |s: Side| split.indices(&samples, s);
+    let (train_idx, val_idx, test_idx) = (side(Side::Train), side(Side::Val), side(Side::Test));
+    for (name, v) in [
+        ("training", &train_idx),
+        ("validation", &val_idx),
+        ("test", &test_idx),
+    ] {
+        if v.is_empty() {
+            return Err(TrainError::EmptySide(name));
+        }
+    }
+    events(TrainEvent::Split {
+        train: train_idx.len(),
+        val: val_idx.len(),
+        test: test_idx.len(),
+        path: split_path.clone(),
+    });
+    let prepare = |idx: &[usize],
+                   pipeline: Option<Pipeline>,
+                   name: &'static str,
+                   events: &mut dyn FnMut(TrainEvent)| {
+        let items: Vec<Item<'_>> = idx.iter().map(|&i| f.item(i)).collect();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let result = std::thread::scope(|scope| {
+            let h = scope.spawn(|| {
+                TrainingSet::prepare(
+                    &items,
+                    &classes,
+                    pipeline,
+                    config.pipeline.colour(),
+                    config.input_size,
+                    config.seed,
+                    config.threads,
+                    stop,
+                    &move |done, total| {
+                        let _ = tx.send((done, total));
+                    },
+                )
+            });
+            for (done, total) in rx {
+                events(TrainEvent::Preparing {
+                    side: name,
+                    done,
+                    total,
+                });
+            }
+            h.join()
+        });
+        result.unwrap_or_else(|_| Err(crate::training_set::TrainingSetError::Stopped))
+    };
+    let train_set = prepare(&train_idx, Some(config.pipeline), "training", events)?;
+    let val_set = prepare(&val_idx, None, "validation", events)?;
+
+    let vs = tch::nn::VarStore::new(Device::cuda_if_available());
+    let net = Net::new(&vs.root(), config.arch, classes.len());
+    let mut adam = Adam::new(&vs, config.lr);
+    let mut record = TrainingRecord {
+        data: sources.iter().map(|s| s.path.clone()).collect(),
+        split: PathBuf::from("split.json"),
+        pipeline: config.pipeline,
+        epochs: config.epochs,
+        batch: config.batch,
+        lr: config.lr,
+        seed: config.seed,
+        epoch: 0,
+        batch_in_epoch: 0,
+        loss_sum_in_epoch: 0.0,
+        batches_trained: 0,
+        train_frames: train_idx.len(),
+        train_inputs: train_set.len(),
+        val_frames: val_idx.len(),
+        test_frames: test_idx.len(),
+        profiles: f.profiles.clone(),
+        history: Vec::new(),
+        evaluation: None,
+    };
+    if let Some((weights, _, r, opt)) = &resumed {
+        let what = resume.map(|p| p.display().to_string()).unwrap_or_default();
+        load_state_dict(&vs, weights, &what)?;
+        adam.restore(opt, &what)?;
+        record.epoch = r.epoch;
+        record.batch_in_epoch = r.batch_in_epoch;
+        record.loss_sum_in_epoch = r.loss_sum_in_epoch;
+        record.batches_trained = r.batches_trained;
+        record.history = r.history.clone();
+    }
+    let batches = train_set.len().div_ceil(config.batch.max(1));
+    let mut buf = Vec::new();
+    while record.epoch < config.epochs {
+        let epoch = record.epoch;
+        let started = Instant::now();
+        let idx = order(train_set.len(), config.seed, epoch);
+        let mut images = 0usize;
+        for b in record.batch_in_epoch..batches {
+            let chunk = &idx[b * config.batch..((b + 1) * config.batch).min(idx.len())];
+            adam.zero_grad();
+            let (l, _) = loss(&net, &train_set, chunk, &mut buf, true);
+            l.backward();
+            adam.step();
+            let lv = l.double_value(&[]);
+            record.loss_sum_in_epoch += lv;
+            record.batch_in_epoch = b + 1;
+            record.batches_trained += 1;
+            images += chunk.len();
+            events(TrainEvent::Batch {
+                epoch: epoch + 1,
+                epochs: config.epochs,
+                batch: b + 1,
+                batches,
+                loss: lv,
+                images_per_second: images as f64 / started.elapsed().as_secs_f64().max(1e-9),
+            });
+            if stop.load(Ordering::Relaxed) && b + 1 < batches {
+                let cp = Checkpoint::new(
+                    &config.out,
+                    &format!("checkpoint_epoch_{}_batch_{}", epoch + 1, b + 1),
+                );
+                let card = card_for(config, &classes, &f, &record);
+                cp.write(
+                    &state_dict(&vs, record.batches_trained)?,
+                    &card,
+                    Some(&adam.state()?),
+                )?;
+                return Ok(Outcome::Interrupted {
+                    checkpoint: cp.weights,
+                });
+            }
+        }
+        let (val_loss, errors) = validate(&net, &val_set);
+        let seconds = started.elapsed().as_secs_f64();
+        let er = EpochRecord {
+            epoch: epoch + 1,
+            train_loss: record.loss_sum_in_epoch / batches.max(1) as f64,
+            val_loss,
+            val_fz_rmse_n: errors.fz_rmse(),
+            val_contact_rmse_mm: errors.contact_rmse(),
+            val_shape_accuracy: errors.accuracy(),
+            seconds,
+            images_per_second: images as f64 / seconds.max(1e-9),
+        };
+        record.history.push(er.clone());
+        record.epoch += 1;
+        record.batch_in_epoch = 0;
+        record.loss_sum_in_epoch = 0.0;
+        events(TrainEvent::Epoch(er));
+        plot_losses(&config.out, &record.history)?;
+        let last = record.epoch == config.epochs;
+        if record.epoch.is_multiple_of(2) || last || stop.load(Ordering::Relaxed) {
+            let cp = Checkpoint::new(&config.out, &format!("checkpoint_epoch_{}", record.epoch));
+            let card = card_for(config, &classes, &f, &record);
+            cp.write(
+                &state_dict(&vs, record.batches_trained)?,
+                &card,
+                Some(&adam.state()?),
+            )?;
+            events(TrainEvent::Checkpoint(cp.weights.clone()));
+            if stop.load(Ordering::Relaxed) && !last {
+                return Ok(Outcome::Interrupted {
+                    checkpoint: cp.weights,
+                });
+            }
+        }
+    }
+    // The final model, evaluated on the test side by fringe eval's own evaluation (the default
+    // backend reading the file just written: the checkpoint is checked to load and run).
+    let final_cp = Checkpoint::new(&config.out, "model");
+    let card = card_for(config, &classes, &f, &record);
+    let weights = state_dict(&vs, record.batches_trained)?;
+    final_cp.write(&weights, &card, Some(&adam.state()?))?;
+    let model = crate::model::Model::open(&final_cp.weights)?;
+    let mut backend = model.tract(config.threads.max(1))?;
+    let test_sources: Vec<Source> = sources
+        .iter()
+        .map(|s| Source {
+            samples: s
+                .samples
+                .iter()
+                .filter(|x| split.side_of(&x.press) == Some(Side::Test))
+                .cloned()
+                .collect(),
+            ..s.clone()
+        })
+        .collect();
+    let evaluation = crate::eval::evaluate(
+        &model,
+        backend.as_mut(),
+        &test_sources,
+        fallback,
+        None,
+        |done, total| events(TrainEvent::Evaluating { done, total }),
+    )?;
+    let m = &evaluation.metrics;
+    record.evaluation = Some(serde_json::json!({
+        "side": "test",
+        "frames": m.all.n,
+        "fz_mse_n2": m.all.fz_mse(),
+        "fz_rmse_n": m.all.fz_rmse(),
+        "contact_rmse_mm": m.all.contact_rmse(),
+        "shape_accuracy": m.all.accuracy(),
+        "macro": m.macro_scores(),
+    }));
+    let card = card_for(config, &classes, &f, &record);
+    final_cp.write(&weights, &card, Some(&adam.state()?))?;
+    Ok(Outcome::Finished {
+        model: final_cp.weights,
+        evaluation,
+    })
+}
+
+/// `loss.png`: training and validation loss by epoch.
+fn plot_losses(dir: &Path, history: &[EpochRecord]) -> Result<(), TrainError> {
+    let train: Vec<[f64; 2]> = history
+        .iter()
+        .map(|h| [h.epoch as f64, h.train_loss])
+        .collect();
+    let val: Vec<[f64; 2]> = history
+        .iter()
+        .map(|h| [h.epoch as f64, h.val_loss])
+        .collect();
+    let img = crate::report::line_plot(
+        "loss",
+        "epoch",
+        &[("training", &train), ("validation", &val)],
+    );
+    let path = dir.join("loss.png");
+    img.save(&path).map_err(|e| TrainError::Write {
+        path: path.display().to_string(),
+        source: std::io::Error::other(e.to_string()),
+    })
+}

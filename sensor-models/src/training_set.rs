@@ -1,0 +1,337 @@
+//! The network inputs and targets of one side of a split, made once before training: every
+//! frame read and preprocessed (the one preprocessing, with its source's calibration profile),
+//! and on the training side augmented into the pipeline's copies. Inputs are kept as 8-bit
+//! grey levels (one plane for grey inputs, three for RGB), a quarter of the memory of floats;
+//! a batch turns them back into normalised floats.
+//!
+//! Targets follow the reference's training rules: Fz rounded to 0.1 N, contact x, y rounded to
+//! 0.1 mm, shape as its class index ("None" = 0).
+
+use crate::augment::{add_noise, augmentation, rotate_label, Pipeline};
+use crate::dataset::Sample;
+use crate::eval::{frame_bytes, EvalError};
+use crate::preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// One frame to prepare: its sample, the preprocessing of its source and whether the source's
+/// camera sees the stage frame mirror-reversed (its profile's registration).
+#[derive(Debug, Clone, Copy)]
+pub struct Item<'a> {
+    pub sample: &'a Sample,
+    pub preprocessing: &'a Preprocessing,
+    pub mirror: bool,
+}
+
+/// The targets of one network input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Target {
+    /// |Fz| rounded to 0.1 N.
+    pub fz: f32,
+    /// Shape class index ("None" = 0).
+    pub class: i64,
+    /// Contact x, y rounded to 0.1 mm, turned with the image; `None` without contact.
+    pub contact: Option<[f32; 2]>,
+    /// The item it was made from.
+    pub item: usize,
+}
+
+/// Why a training set could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainingSetError {
+    #[error(transparent)]
+    Frame(#[from] EvalError),
+    #[error("{path}: shape {shape:?} is not one of the classes {classes}")]
+    Shape {
+        path: String,
+        shape: String,
+        classes: String,
+    },
+    #[error("stopped")]
+    Stopped,
+}
+
+/// Network inputs (8-bit) with their targets.
+#[derive(Debug, Clone)]
+pub struct TrainingSet {
+    pub colour: Colour,
+    pub input_size: u32,
+    pixels: Vec<u8>,
+    pub targets: Vec<Target>,
+}
+
+fn round1(v: f64) -> f32 {
+    ((v * 10.0).round() / 10.0) as f32
+}
+
+impl TrainingSet {
+    /// Planes stored per input: one for grey, three for RGB.
+    fn planes(colour: Colour) -> usize {
+        match colour {
+            Colour::Grey => 1,
+            Colour::Rgb => 3,
+        }
+    }
+
+    fn stride(&self) -> usize {
+        Self::planes(self.colour) * (self.input_size as usize).pow(2)
+    }
+
+    pub fn len(&self) -> usize {
+        self.targets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.targets.is_empty()
+    }
+
+    /// Prepares `items`: with a pipeline, its copies of each (turned, noisy); without, each
+    /// once as it is (validation, test). `classes` names the shape classes ("None" first).
+    /// Frames are read and preprocessed on `threads` threads; `progress` hears (frames done,
+    /// frames in all); `stop` ends the work early with [`TrainingSetError::Stopped`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare(
+        items: &[Item<'_>],
+        classes: &[String],
+        pipeline: Option<Pipeline>,
+        colour: Colour,
+        input_size: u32,
+        seed: u64,
+        threads: usize,
+        stop: &AtomicBool,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<TrainingSet, TrainingSetError> {
+        let copies = pipeline.map_or(1, Pipeline::copies);
+        let noise = pipeline.map_or(0.0, Pipeline::noise_dn);
+        let plane = (input_size as usize).pow(2);
+        let stride = Self::planes(colour) * plane;
+        let mut class_of = Vec::with_capacity(items.len());
+        for it in items {
+            let c = classes
+                .iter()
+                .position(|c| *c == it.sample.shape)
+                .ok_or_else(|| TrainingSetError::Shape {
+                    path: it.sample.image.display().to_string(),
+                    shape: it.sample.shape.clone(),
+                    classes: classes.join(", "),
+                })?;
+            class_of.push(c as i64);
+        }
+        let mut pixels = vec![0u8; items.len() * copies * stride];
+        let mut targets = vec![
+            Target {
+                fz: 0.0,
+                class: 0,
+                contact: None,
+                item: 0,
+            };
+            items.len() * copies
+        ];
+        let done = AtomicUsize::new(0);
+        let threads = threads.clamp(1, 64);
+        let per_thread = items.len().div_ceil(threads).max(1);
+        let results: Vec<Result<(), TrainingSetError>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = pixels
+                .chunks_mut(per_thread * copies * stride)
+                .zip(targets.chunks_mut(per_thread * copies))
+                .enumerate()
+                .map(|(t, (px, tg))| {
+                    let first = t * per_thread;
+                    let done = &done;
+                    let class_of = &class_of;
+                    scope.spawn(move || -> Result<(), TrainingSetError> {
+                        let mut pre: Option<Preprocessor> = None;
+                        let mut tensor = Vec::new();
+                        for (k, (px, tg)) in px
+                            .chunks_mut(copies * stride)
+                            .zip(tg.chunks_mut(copies))
+                            .enumerate()
+                        {
+                            if stop.load(Ordering::Relaxed) {
+                                return Err(TrainingSetError::Stopped);
+                            }
+                            let index = first + k;
+                            let it = items[index];
+                            let config = Preprocessing {
+                                colour,
+                                input_size,
+                                ..it.preprocessing.clone()
+                            };
+                            let pre = match &mut pre {
+                                Some(p) if p.config == config => p,
+                                slot => slot.insert(Preprocessor::new(config)),
+                            };
+                            tensor.resize(pre.config.tensor_len(), 0.0);
+                            let s = it.sample;
+                            let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
+                            for copy in 0..copies {
+                                let aug = pipeline.map(|_| augmentation(seed, index, copy));
+                                let angle = aug.map_or(0.0, |a| a.rotation_deg);
+                                pre.run_into(
+                                    FrameRef {
+                                        width: w,
+                                        height: h,
+                                        format,
+                                        data: &data,
+                                    },
+                                    angle,
+                                    &mut tensor,
+                                )
+                                .map_err(|source| {
+                                    EvalError::Frame {
+                                        path: s.image.display().to_string(),
+                                        source,
+                                    }
+                                })?;
+                                if let Some(a) = aug {
+                                    add_noise(&mut tensor, colour, noise, a.noise_seed);
+                                }
+                                let out = &mut px[copy * stride..(copy + 1) * stride];
+                                for (o, v) in out.iter_mut().zip(&tensor) {
+                                    *o = ((v * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
+                                }
+                                tg[copy] = Target {
+                                    fz: round1(s.fz()),
+                                    class: class_of[index],
+                                    contact: s.contact.map(|c| {
+                                        let [x, y] = rotate_label(c, angle, it.mirror);
+                                        [round1(x), round1(y)]
+                                    }),
+                                    item: index,
+                                };
+                            }
+                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                            progress(n, items.len());
+                        }
+                        Ok(())
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or(Err(TrainingSetError::Stopped)))
+                .collect()
+        });
+        for r in results {
+            r?;
+        }
+        Ok(TrainingSet {
+            colour,
+            input_size,
+            pixels,
+            targets,
+        })
+    }
+
+    /// Inputs `indices` as one normalised NCHW batch (three channels; grey repeated).
+    pub fn batch(&self, indices: &[usize], out: &mut Vec<f32>) {
+        let plane = (self.input_size as usize).pow(2);
+        let stride = self.stride();
+        out.clear();
+        out.reserve(indices.len() * 3 * plane);
+        let norm = |v: u8| f32::from(v) / 127.5 - 1.0;
+        for &i in indices {
+            let px = &self.pixels[i * stride..(i + 1) * stride];
+            match self.colour {
+                Colour::Grey => {
+                    for _ in 0..3 {
+                        out.extend(px.iter().map(|&v| norm(v)));
+                    }
+                }
+                Colour::Rgb => out.extend(px.iter().map(|&v| norm(v))),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::preprocess::Centre;
+    use std::path::PathBuf;
+
+    /// A frame with a bright spot right of the centre, as a PNG.
+    fn frame(dir: &std::path::Path) -> PathBuf {
+        let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
+        for y in 70..90 {
+            for x in 130..150 {
+                img.put_pixel(x, y, image::Rgb([250, 250, 250]));
+            }
+        }
+        let path = dir.join("f.png");
+        img.save(&path).expect("png");
+        path
+    }
+
+    fn preprocessing() -> Preprocessing {
+        Preprocessing {
+            centre: Centre::At([100.0, 80.0]),
+            crop_radius_px: 70.0,
+            frame_size: None,
+            sensor: "test".into(),
+            input_size: 32,
+            colour: Colour::Grey,
+            reference: false,
+        }
+    }
+
+    fn prepare(s: &Sample, pre: &Preprocessing, pipeline: Option<Pipeline>) -> TrainingSet {
+        let classes = vec!["None".to_string(), "pentagon".to_string()];
+        TrainingSet::prepare(
+            &[Item {
+                sample: s,
+                preprocessing: pre,
+                mirror: false,
+            }],
+            &classes,
+            pipeline,
+            pipeline.map_or(Colour::Grey, Pipeline::colour),
+            32,
+            42,
+            2,
+            &AtomicBool::new(false),
+            &|_, _| {},
+        )
+        .expect("prepare")
+    }
+
+    #[test]
+    fn copies_turn_the_image_and_the_label_together() {
+        let dir = tempfile::tempdir().expect("dir");
+        let s = Sample {
+            image: frame(dir.path()),
+            format: None,
+            force: [0.0, 0.0, 3.04, 0.0, 0.0, 0.0, 3.04],
+            shape: "pentagon".into(),
+            contact: Some([4.0, 0.0]),
+            press: "p".into(),
+            stage_mm: None,
+        };
+        let pre = preprocessing();
+        let plain = prepare(&s, &pre, None);
+        assert_eq!(plain.len(), 1);
+        assert_eq!(plain.targets[0].fz, 3.0);
+        assert_eq!(plain.targets[0].class, 1);
+        let set = prepare(&s, &pre, Some(Pipeline::Gray10));
+        assert_eq!(set.len(), 10);
+        let mut batch = Vec::new();
+        for k in 0..set.len() {
+            set.batch(&[k], &mut batch);
+            assert_eq!(batch.len(), 3 * 32 * 32);
+            // The brightest input pixel lies where the turned label says (the spot sits 4 mm
+            // right of the centre in a camera-view label frame).
+            let (best, _) = batch[..32 * 32]
+                .iter()
+                .enumerate()
+                .fold((0, f32::MIN), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
+            let (px, py) = ((best % 32) as f64 - 15.5, 15.5 - (best / 32) as f64);
+            let [x, y] = set.targets[k].contact.expect("contact");
+            let angle_img = py.atan2(px).to_degrees();
+            let angle_label = f64::from(y).atan2(f64::from(x)).to_degrees();
+            let diff = (angle_img - angle_label + 540.0).rem_euclid(360.0) - 180.0;
+            assert!(
+                diff.abs() < 12.0,
+                "copy {k}: image at {angle_img:.0} deg, label at {angle_label:.0} deg"
+            );
+        }
+    }
+}

@@ -1,0 +1,296 @@
+//! `fringe train DATA... --arch custom|resnet18 [--pipeline gray10|rgb3|rgb3-clean]
+//! [--epochs N] [--batch 32] [--lr 1e-3] [--out DIR] [--resume CHECKPOINT]`: the paper's
+//! networks trained on runs or reference-layout datasets (cargo feature `torch`).
+
+use anyhow::Result;
+use clap::Args;
+use fringe_sensor_models::augment::Pipeline;
+use fringe_sensor_models::Architecture;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct TrainArgs {
+    /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv); taken from the
+    /// checkpoint's card with --resume.
+    data: Vec<PathBuf>,
+    /// Network: custom (the paper's custom CNN) or resnet18.
+    #[arg(long, value_parser = parse_arch, default_value = "custom")]
+    arch: Architecture,
+    /// Augmentation: gray10 (grey + noise, 10 copies), rgb3 (RGB + noise, 3), rgb3-clean.
+    #[arg(long, default_value = "gray10")]
+    pipeline: Pipeline,
+    /// Epochs (default 40, the reference's; with --resume, the checkpoint's, or more to extend).
+    #[arg(long)]
+    epochs: Option<usize>,
+    #[arg(long, default_value_t = 32)]
+    batch: usize,
+    #[arg(long, default_value_t = 1e-3)]
+    lr: f64,
+    /// Seed of the split, the augmentation, the initial weights and the batch order.
+    #[arg(long, default_value_t = 42)]
+    seed: u64,
+    /// Network input size, px.
+    #[arg(long, default_value_t = 224)]
+    input_size: u32,
+    /// Checkpoints, split.json, loss.png and the final model.safetensors go here.
+    #[arg(long, default_value = "training")]
+    out: PathBuf,
+    /// Continue a training from one of its checkpoints (same split, copies and optimiser state).
+    #[arg(long, value_name = "CHECKPOINT.safetensors")]
+    resume: Option<PathBuf>,
+    /// Calibration profile for datasets that carry none.
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
+    /// Threads for libtorch and the data preparation.
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
+}
+
+fn parse_arch(s: &str) -> Result<Architecture, String> {
+    match s {
+        "custom" => Ok(Architecture::Custom),
+        "resnet18" => Ok(Architecture::Resnet18),
+        other => Err(format!(
+            "unknown architecture `{other}`: use custom or resnet18"
+        )),
+    }
+}
+
+#[cfg(not(feature = "torch"))]
+pub fn run(_: TrainArgs) -> Result<()> {
+    anyhow::bail!(
+        "this fringe was built without training: build it with the cargo feature `torch` \
+         (pip install torch==2.13.0 --no-deps; LIBTORCH=<site-packages>/torch cargo build --release --features torch; see README.md)"
+    )
+}
+
+#[cfg(feature = "torch")]
+pub use with_torch::run;
+
+#[cfg(feature = "torch")]
+mod with_torch {
+    use super::*;
+    use anyhow::{bail, Context};
+    use fringe_calibration::profile::Profile;
+    use fringe_sensor_models::dataset;
+    use fringe_sensor_models::train::{
+        train, Checkpoint, Outcome, TrainConfig, TrainEvent, TrainingRecord,
+    };
+    use std::io::{IsTerminal, Write};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::time::Instant;
+
+    /// Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
+    static STOP: AtomicBool = AtomicBool::new(false);
+
+    extern "C" fn on_sigint(_: libc::c_int) {
+        STOP.store(true, Ordering::SeqCst);
+        // SAFETY: signal() is async-signal-safe; the next Ctrl-C ends the process.
+        unsafe {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+        }
+    }
+
+    fn check(a: &TrainArgs) -> Result<()> {
+        if let Some(e) = a.epochs {
+            if !(1..=100_000).contains(&e) {
+                bail!("--epochs {e}: use 1 to 100000");
+            }
+        }
+        if !(1..=4096).contains(&a.batch) {
+            bail!("--batch {}: use 1 to 4096", a.batch);
+        }
+        if !(a.lr.is_finite() && a.lr > 0.0 && a.lr <= 1.0) {
+            bail!(
+                "--lr {}: use a learning rate above 0 and at most 1 (the reference uses 1e-3)",
+                a.lr
+            );
+        }
+        if !(32..=1024).contains(&a.input_size) {
+            bail!(
+                "--input-size {}: use 32 to 1024 px (the paper uses 224)",
+                a.input_size
+            );
+        }
+        if !(1..=256).contains(&a.threads) {
+            bail!("--threads {}: use 1 to 256", a.threads);
+        }
+        Ok(())
+    }
+
+    pub fn run(a: TrainArgs) -> Result<()> {
+        check(&a)?;
+        let mut config = TrainConfig {
+            arch: a.arch,
+            pipeline: a.pipeline,
+            epochs: a.epochs.unwrap_or(40),
+            batch: a.batch,
+            lr: a.lr,
+            seed: a.seed,
+            input_size: a.input_size,
+            threads: a.threads,
+            out: a.out.clone(),
+        };
+        let mut data = a.data.clone();
+        if let Some(cp) = &a.resume {
+            if !cp.is_file() {
+                bail!("--resume {}: no such checkpoint", cp.display());
+            }
+            let card =
+                fringe_sensor_models::model_card::ModelCard::read(&Checkpoint::at(cp).card())?;
+            let record: TrainingRecord = card
+                .other
+                .get("training")
+                .cloned()
+                .map(serde_json::from_value)
+                .transpose()?
+                .with_context(|| format!("{}: not a checkpoint written by fringe train (its card has no training record)", cp.display()))?;
+            if data.is_empty() {
+                data = record.data.clone();
+            } else if data != record.data {
+                bail!("--resume {}: the checkpoint was trained on {:?}, not {:?}: resume with the same data (or none, to take it from the checkpoint)", cp.display(), record.data, data);
+            }
+            // Settings come from the checkpoint; --epochs may extend the training.
+            config.pipeline = record.pipeline;
+            config.batch = record.batch;
+            config.lr = record.lr;
+            config.seed = record.seed;
+            if let Some(arch) = card.architecture.as_deref() {
+                config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;
+            }
+            if let Some(size) = card.input_size {
+                config.input_size = size;
+            }
+            config.out = cp
+                .parent()
+                .map(PathBuf::from)
+                .unwrap_or_else(|| PathBuf::from("."));
+            config.epochs = a.epochs.unwrap_or(record.epochs);
+        }
+        if data.is_empty() {
+            bail!("no data: name one or more run directories or reference-layout datasets");
+        }
+        let profile = match &a.profile {
+            Some(p) => Some(Profile::load(p)?),
+            None => None,
+        };
+        let mut sources = Vec::with_capacity(data.len());
+        for d in &data {
+            if !d.exists() {
+                bail!("{}: no such run or dataset", d.display());
+            }
+            let s = dataset::read(d)?;
+            eprintln!(
+                "data: {} ({} labelled frames, {} left out without a trustworthy label)",
+                d.display(),
+                s.samples.len(),
+                s.skipped
+            );
+            sources.push(s);
+        }
+        let handler: extern "C" fn(libc::c_int) = on_sigint;
+        // SAFETY: the handler only stores to an atomic and resets the disposition.
+        unsafe {
+            libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+        }
+        let tty = std::io::stderr().is_terminal();
+        let started = Instant::now();
+        let mut last_pct = usize::MAX;
+        let mut progress = |e: TrainEvent| {
+            match e {
+            TrainEvent::Split { train, val, test, path } => eprintln!(
+                "split by press: {train} frames for training, {val} for validation, {test} for test ({})",
+                path.display()
+            ),
+            TrainEvent::Preparing { side, done, total } => {
+                let pct = 100 * done / total.max(1);
+                if tty {
+                    eprint!("\rpreparing the {side} inputs: {done} of {total} frames ({pct} %)");
+                    if done == total {
+                        eprintln!();
+                    }
+                } else if pct / 25 != last_pct / 25 || done == total {
+                    eprintln!("preparing the {side} inputs: {done} of {total} frames ({pct} %)");
+                }
+                last_pct = pct;
+            }
+            TrainEvent::Batch { epoch, epochs, batch, batches, loss, images_per_second } => {
+                if tty {
+                    let width = 24;
+                    let filled = width * batch / batches.max(1);
+                    let left = (batches - batch) as f64 * (images_per_second.recip() * config.batch as f64);
+                    eprint!(
+                        "\repoch {epoch}/{epochs} [{}{}] {batch}/{batches} loss {loss:.4} {images_per_second:.0} img/s, epoch ETA {}   ",
+                        "#".repeat(filled),
+                        ".".repeat(width - filled),
+                        duration(left)
+                    );
+                }
+            }
+            TrainEvent::Epoch(r) => {
+                if tty {
+                    eprintln!();
+                }
+                eprintln!(
+                    "epoch {}: loss {:.4} (validation {:.4}); validation Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.3}; {:.0} s, {:.0} img/s; {} so far",
+                    r.epoch, r.train_loss, r.val_loss, r.val_fz_rmse_n, r.val_contact_rmse_mm, r.val_shape_accuracy, r.seconds, r.images_per_second,
+                    duration(started.elapsed().as_secs_f64())
+                );
+            }
+            TrainEvent::Checkpoint(p) => eprintln!("checkpoint: {}", p.display()),
+            TrainEvent::Evaluating { done, total } => {
+                if tty {
+                    eprint!("\revaluating on the test side: {done} of {total} frames");
+                    if done == total {
+                        eprintln!();
+                    }
+                }
+            }
+        }
+        };
+        let outcome = train(
+            &config,
+            &sources,
+            profile.as_ref(),
+            a.resume.as_deref(),
+            &STOP,
+            &mut progress,
+        )?;
+        let _ = std::io::stderr().flush();
+        match outcome {
+            Outcome::Finished { model, evaluation } => {
+                let m = &evaluation.metrics;
+                println!("model:          {}", model.display());
+                println!(
+                    "test frames:    {} ({} in contact)",
+                    m.all.n, m.all.n_contact
+                );
+                println!("Fz RMSE:        {:.4} N", m.all.fz_rmse());
+                println!("contact RMSE:   {:.4} mm", m.all.contact_rmse());
+                println!("shape accuracy: {:.4}", m.all.accuracy());
+                println!("loss curves:    {}", config.out.join("loss.png").display());
+                Ok(())
+            }
+            Outcome::Interrupted { checkpoint } => {
+                eprintln!(
+                    "\ninterrupted: saved {}\nresume with: fringe train --resume {}",
+                    checkpoint.display(),
+                    checkpoint.display()
+                );
+                std::process::exit(130);
+            }
+        }
+    }
+
+    fn duration(s: f64) -> String {
+        if !s.is_finite() {
+            return "-".into();
+        }
+        let s = s.max(0.0) as u64;
+        if s >= 3600 {
+            format!("{}h{:02}m", s / 3600, s % 3600 / 60)
+        } else {
+            format!("{}m{:02}s", s / 60, s % 60)
+        }
+    }
+}

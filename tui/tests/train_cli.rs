@@ -1,0 +1,342 @@
+//! `fringe train` (cargo feature `torch`) on a small dataset made by `fringe sim dataset`: the
+//! loss falls, the split keeps presses on one side, a resumed training ends where an
+//! uninterrupted one does, Ctrl-C saves a checkpoint and says how to resume, and the
+//! checkpoints load in PyTorch (the reference classes, strict) and in the default backend with
+//! equal outputs, for both architectures.
+#![cfg(feature = "torch")]
+
+mod common;
+use common::{fringe, fringe_command, scratch, text};
+use fringe_sensor_models::model::Model;
+use fringe_sensor_models::read_safetensors;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::OnceLock;
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// One dataset for every test of this file: 60 frames of the layered sensor (a coarser
+/// fringe-field grid keeps the renderer's start short in a debug build), forces up to 4 N.
+fn data() -> &'static Path {
+    static DATA: OnceLock<PathBuf> = OnceLock::new();
+    DATA.get_or_init(|| {
+        let dir = scratch("data");
+        let sensor = dir.join("coarse.toml");
+        std::fs::write(
+            &sensor,
+            "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
+        )
+        .expect("sensor file");
+        let out = dir.join("sim");
+        let o = fringe(&[
+            "sim",
+            "dataset",
+            "--sensor",
+            s(&sensor),
+            "--count",
+            "60",
+            "--seed",
+            "3",
+            "--force-max",
+            "4",
+            "--out",
+            s(&out),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        out
+    })
+}
+
+fn train(out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "train",
+        s(data()),
+        "--batch",
+        "8",
+        "--input-size",
+        "64",
+        "--pipeline",
+        "rgb3-clean",
+        "--out",
+        s(out),
+    ];
+    args.extend_from_slice(extra);
+    fringe(&args)
+}
+
+/// The card's training record.
+fn record(model: &Path) -> serde_json::Value {
+    let card = std::fs::read_to_string(format!("{}.json", model.display())).expect("card");
+    let v: serde_json::Value = serde_json::from_str(&card).expect("card json");
+    v["training"].clone()
+}
+
+fn max_abs_diff(a: &Path, b: &Path) -> f32 {
+    let (a, b) = (
+        read_safetensors(a).expect("a"),
+        read_safetensors(b).expect("b"),
+    );
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    a.iter()
+        .map(|(k, t)| {
+            let u = b.get(k).expect("key");
+            t.data
+                .iter()
+                .zip(&u.data)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f32::max)
+        })
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_does() {
+    let dir = scratch("resume");
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let o = train(&a, &["--epochs", "4"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    assert!(
+        out.contains("split by press") && out.contains("Fz RMSE"),
+        "{out}"
+    );
+    for f in [
+        "split.json",
+        "loss.png",
+        "checkpoint_epoch_2.safetensors",
+        "checkpoint_epoch_2.safetensors.json",
+        "checkpoint_epoch_2.optimizer.safetensors",
+        "checkpoint_epoch_4.safetensors",
+        "model.safetensors",
+        "model.safetensors.json",
+    ] {
+        assert!(a.join(f).is_file(), "{f} missing: {out}");
+    }
+    let model = a.join("model.safetensors");
+    let r = record(&model);
+    let history = r["history"].as_array().expect("history");
+    assert_eq!(history.len(), 4);
+    let loss = |k: usize| history[k]["train_loss"].as_f64().expect("loss");
+    let fz = |k: usize| history[k]["val_fz_rmse_n"].as_f64().expect("fz rmse");
+    // The contact term (mm^2) dominates the loss and falls slowly; the force is learnt first.
+    assert!(loss(3) < loss(0), "the loss did not fall: {history:?}");
+    assert!(
+        fz(3) < 0.8 * fz(0),
+        "the validation Fz error did not fall: {history:?}"
+    );
+    assert!(r["evaluation"]["fz_rmse_n"].as_f64().is_some(), "{r}");
+
+    // The split: every frame on one side, sides disjoint, the frame counts add up.
+    let split: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("split.json")).expect("split"))
+            .expect("json");
+    let side = |k: &str| -> std::collections::BTreeSet<String> {
+        split[k]
+            .as_array()
+            .expect(k)
+            .iter()
+            .map(|v| v.as_str().expect("press").to_string())
+            .collect()
+    };
+    let (tr, va, te) = (side("train"), side("val"), side("test"));
+    assert!(tr.is_disjoint(&va) && tr.is_disjoint(&te) && va.is_disjoint(&te));
+    assert_eq!(tr.len() + va.len() + te.len(), 60);
+    assert!(!va.is_empty() && !te.is_empty());
+
+    // Two epochs, then resumed for two more: the same weights as four straight.
+    let o = train(&b, &["--epochs", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = fringe(&[
+        "train",
+        "--resume",
+        s(&b.join("checkpoint_epoch_2.safetensors")),
+        "--epochs",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let d = max_abs_diff(&model, &b.join("model.safetensors"));
+    assert!(
+        d < 1e-5,
+        "resumed weights differ from the straight run's by {d}"
+    );
+    // And the same losses, epoch by epoch.
+    let resumed = record(&b.join("model.safetensors"))["history"].clone();
+    for k in 0..4 {
+        for key in ["train_loss", "val_loss"] {
+            let (x, y) = (
+                history[k][key].as_f64().expect(key),
+                resumed[k][key].as_f64().expect(key),
+            );
+            assert!(
+                (x - y).abs() < 1e-5 * x.abs().max(1.0),
+                "epoch {} {key}: {x} straight, {y} resumed",
+                k + 1
+            );
+        }
+    }
+
+    // fringe eval reads the model with its card and the dataset with its profile.
+    let o = fringe(&["eval", "--model", s(&model), s(data())]);
+    assert!(
+        o.status.success() && text(&o).contains("shape accuracy"),
+        "{}",
+        text(&o)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ctrl_c_saves_a_checkpoint_and_the_training_resumes_from_it() {
+    let dir = scratch("interrupt");
+    let out = dir.join("t");
+    let mut child = fringe_command()
+        .args([
+            "train",
+            s(data()),
+            "--batch",
+            "4",
+            "--input-size",
+            "64",
+            "--epochs",
+            "50",
+            "--out",
+            s(&out),
+        ])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let stderr = child.stderr.take().expect("stderr");
+    let mut lines = BufReader::new(stderr).lines();
+    let mut seen = Vec::new();
+    for line in lines.by_ref() {
+        let line = line.expect("line");
+        seen.push(line.clone());
+        if line.starts_with("epoch 1:") {
+            break;
+        }
+    }
+    // SAFETY: a signal to our own child.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    seen.extend(lines.map_while(Result::ok));
+    let status = child.wait().expect("wait");
+    let all = seen.join("\n");
+    assert_eq!(status.code(), Some(130), "{all}");
+    let resume = all
+        .lines()
+        .find_map(|l| l.strip_prefix("resume with: fringe train --resume "))
+        .unwrap_or_else(|| panic!("no resume line: {all}"));
+    assert!(Path::new(resume).is_file(), "{resume}");
+    let epochs_done = record(Path::new(resume))["epoch"].as_u64().expect("epoch");
+    let o = fringe(&[
+        "train",
+        "--resume",
+        resume,
+        "--epochs",
+        &(epochs_done + 1).to_string(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(out.join("model.safetensors").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs the checkpoint in PyTorch (reference classes, strict load) and in the default backend.
+fn pytorch_agrees(model: &Path, arch: &str, dir: &Path) {
+    let python = std::env::var("FRINGE_TORCH_PYTHON").unwrap_or_else(|_| "python3".into());
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../sensor-models/tests/python/check_trained.py");
+    let o = std::process::Command::new(&python)
+        .arg(&script)
+        .args([s(model), arch, s(dir), "64"])
+        .output()
+        .expect("run python (FRINGE_TORCH_PYTHON)");
+    assert!(o.status.success(), "{}", text(&o));
+    let expected: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.join("expected.json")).expect("expected"),
+    )
+    .expect("json");
+    let bytes = std::fs::read(dir.join("inputs.f32")).expect("inputs");
+    let x: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let m = Model::open(model).expect("open model");
+    let mut backend = m.tract(1).expect("tract");
+    let raw = backend.run(&x, 2, 64).expect("run");
+    let flat = |k: &str| -> Vec<f32> {
+        expected[k]
+            .as_array()
+            .expect(k)
+            .iter()
+            .flat_map(|r| {
+                r.as_array()
+                    .expect("row")
+                    .iter()
+                    .map(|v| v.as_f64().expect("num") as f32)
+            })
+            .collect()
+    };
+    let got_force: Vec<f32> = raw.force.iter().flatten().copied().collect();
+    let got_logits: Vec<f32> = raw.shape_logits.iter().flatten().copied().collect();
+    let got_contact: Vec<f32> = raw.contact.iter().flatten().copied().collect();
+    for (name, got, want) in [
+        ("force", &got_force, flat("force")),
+        ("shape_logits", &got_logits, flat("shape_logits")),
+        ("contact", &got_contact, flat("contact")),
+    ] {
+        assert_eq!(got.len(), want.len(), "{name}");
+        let d = got
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(
+            d < 1e-4,
+            "{arch} {name}: the default backend differs from PyTorch by {d}"
+        );
+    }
+}
+
+#[test]
+fn checkpoints_load_in_pytorch_and_the_default_backend_with_equal_outputs() {
+    let dir = scratch("pytorch");
+    for arch in ["custom", "resnet18"] {
+        let out = dir.join(arch);
+        let o = train(&out, &["--epochs", "2", "--arch", arch]);
+        assert!(o.status.success(), "{}", text(&o));
+        let model = out.join("model.safetensors");
+        let h = record(&model)["history"].clone();
+        let loss = |k: usize| h[k]["train_loss"].as_f64().expect("loss");
+        assert!(loss(1) < loss(0), "{arch}: the loss did not fall: {h}");
+        pytorch_agrees(&model, arch, &out.join("pytorch"));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_settings_are_refused_naming_the_flag() {
+    for (args, flag) in [
+        (vec!["--epochs", "0"], "--epochs"),
+        (vec!["--lr", "nan"], "--lr"),
+        (vec!["--batch", "0"], "--batch"),
+        (vec!["--pipeline", "grey10"], "gray10"),
+        (vec!["--arch", "vgg"], "custom or resnet18"),
+    ] {
+        let mut all = vec!["train", "no-such-dir"];
+        all.extend(args);
+        let o = fringe(&all);
+        assert!(!o.status.success());
+        assert!(text(&o).contains(flag), "{flag}: {}", text(&o));
+    }
+    let o = fringe(&["train", "no-such-dir", "--epochs", "1"]);
+    assert!(
+        !o.status.success() && text(&o).contains("no-such-dir: no such run or dataset"),
+        "{}",
+        text(&o)
+    );
+}
