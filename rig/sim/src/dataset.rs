@@ -187,7 +187,7 @@ pub fn frame(spec: &DatasetSpec, sensor: &SensorConfig, index: u64) -> Synthetic
     let radius_u = rng.uniform();
     let bearing = rng.range(0.0..std::f64::consts::TAU);
     let angle_deg = rng.range(0.0..360.0);
-    let noise: [f64; 6] = std::array::from_fn(|_| standard_normal(&mut rng));
+    let noise: [f64; 6] = std::array::from_fn(|_| rng.normal());
 
     let named = spec
         .shapes
@@ -267,13 +267,6 @@ pub fn half_size_mm(shape: &Shape) -> f64 {
 /// How far from the centre the contact point of `shape` may lie, mm.
 pub fn reach_mm(sensor: &SensorConfig, shape: &Shape) -> f64 {
     disc_radius_mm(sensor) - half_size_mm(shape) - EDGE_MARGIN_MM
-}
-
-/// A standard normal deviate (Box-Muller) from the seeded generator.
-fn standard_normal(rng: &mut SplitMix64) -> f64 {
-    let u1 = 1.0 - rng.uniform(); // (0, 1]
-    let u2 = rng.uniform();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 #[cfg(test)]
