@@ -11,46 +11,11 @@
 
 mod adam;
 mod checkpoint;
+mod error;
 mod net;
 mod tensors;
 mod trainer;
 
 pub use checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
+pub use error::TrainError;
 pub use trainer::{train, Outcome, TrainConfig, TrainEvent};
-
-/// Why a training stopped.
-#[derive(Debug, thiserror::Error)]
-pub enum TrainError {
-    #[error("{path}: no calibration profile: train on runs recorded with a profile, or give --profile FILE for datasets that carry none")]
-    NoProfile { path: String },
-    #[error("{path}: the calibration profile cannot be used: {source}")]
-    Profile {
-        path: String,
-        source: crate::preprocess::PreprocessError,
-    },
-    #[error("no labelled frames in {0}")]
-    NoFrames(String),
-    #[error("the split left no {0} frames: give more data (each side needs at least one press)")]
-    EmptySide(&'static str),
-    #[error(transparent)]
-    Split(#[from] crate::split::SplitError),
-    #[error(transparent)]
-    Data(#[from] crate::training_set::TrainingSetError),
-    #[error("{path}: {message}")]
-    Checkpoint { path: String, message: String },
-    #[error(transparent)]
-    Weights(#[from] crate::model_file_error::ModelFileError),
-    #[error(transparent)]
-    Eval(#[from] crate::eval::EvalError),
-    #[error(transparent)]
-    Model(#[from] crate::model::ModelError),
-    #[error("{path}: {source}")]
-    Write {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("libtorch: {0}")]
-    Torch(#[from] tch::TchError),
-    #[error("{0}")]
-    Internal(String),
-}

@@ -2,8 +2,8 @@
 //! decay), with its state kept by parameter name so that a checkpoint holds it and a resumed
 //! training continues exactly.
 
+use super::error::TrainError;
 use super::tensors::{from_state, to_state};
-use super::TrainError;
 use crate::state_dict::StateDict;
 use tch::Tensor;
 

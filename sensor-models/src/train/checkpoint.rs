@@ -4,7 +4,7 @@
 //! runs, split, settings, epoch and losses) and `<name>.optimizer.safetensors` (Adam's state),
 //! each written through a temporary file renamed into place.
 
-use super::TrainError;
+use super::error::TrainError;
 use crate::model_card::ModelCard;
 use crate::safetensors_file::{read_safetensors, write_safetensors};
 use crate::state_dict::StateDict;

@@ -1,7 +1,7 @@
 //! Between libtorch tensors and this crate's named f32 tensors (the state dict that every
 //! model file and backend of the crate reads).
 
-use super::TrainError;
+use super::error::TrainError;
 use crate::state_dict::StateDict;
 use crate::tensor::Tensor as Stored;
 use tch::{Kind, Tensor};

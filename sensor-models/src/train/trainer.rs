@@ -6,9 +6,9 @@
 
 use super::adam::Adam;
 use super::checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
+use super::error::TrainError;
 use super::net::Net;
 use super::tensors::{load_state_dict, state_dict};
-use super::TrainError;
 use crate::arch::Architecture;
 use crate::augment::Pipeline;
 use crate::dataset::Source;
