@@ -60,7 +60,7 @@ fn parse_arch(s: &str) -> Result<Architecture, String> {
 pub fn run(_: TrainArgs) -> Result<()> {
     anyhow::bail!(
         "this fringe was built without training: build it with the cargo feature `torch` \
-         (pip install torch==2.13.0 --no-deps; LIBTORCH=<site-packages>/torch cargo build --release --features torch; see README.md)"
+         (pip install --no-deps torch==2.13.0 nvidia-cuda-runtime==13.0.96 nvidia-cuda-cupti==13.0.85; LIBTORCH=<site-packages>/torch cargo build --release --features torch; README.md, \"Optional features\", has the whole line)"
     )
 }
 
