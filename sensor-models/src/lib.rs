@@ -4,6 +4,8 @@
 //!   input, driven by the sensor's calibration profile (or the reference pipeline's geometry).
 //! - [`arch`]: the paper's two networks (custom CNN, ResNet-18 multitask), recognised from the
 //!   weight keys.
+//! - [`builtin`]: the models that ship inside fringe (`default`), and [`builtin::open`] for a
+//!   model argument that names one of them or a file.
 //! - [`model`]: a model file with its card, ready to run; [`model_card`]: the JSON sidecar.
 //! - [`onnx_graph`]: a network's ONNX graph built from its weights.
 //! - [`backend`]: inference backends behind one trait (tract by default); [`prediction`]: their
@@ -24,6 +26,7 @@
 pub mod arch;
 pub mod augment;
 pub mod backend;
+pub mod builtin;
 pub mod dataset;
 mod element;
 pub mod eval;

@@ -40,6 +40,10 @@ pub enum ModelError {
     CardPreprocessing { path: String, name: String },
     #[error(transparent)]
     Preprocess(#[from] PreprocessError),
+    #[error(
+        "builtin:{name}: no such built-in model (fringe has: {known}; `default` is the first)"
+    )]
+    UnknownBuiltin { name: String, known: String },
     #[error("{path}: {source}")]
     Backend {
         path: String,

@@ -294,3 +294,83 @@ fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
         assert_eq!((img.width(), img.height()), (720, 720));
     }
 }
+
+#[test]
+fn the_default_model_reads_simulated_presses() {
+    let dir = scratch("default");
+    let out = fringe(&["model", "info", "default"]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(
+        t.contains("builtin:layered") && t.contains("custom CNN"),
+        "{t}"
+    );
+    assert!(t.contains("3 (None, pentagon, rectangle)"), "{t}");
+    // The simulated layered sensor's design profile, as `fringe sim dataset` writes it.
+    let data = dir.join("data");
+    let out = fringe(&["sim", "dataset", "--count", "1", "--out", s(&data)]);
+    assert!(out.status.success(), "{}", text(&out));
+    let profile = data.join("profile.toml");
+    // Presses the model never saw: (shape, Fz N, x mm, y mm).
+    let presses = [
+        ("none", 0.0, 0.0, 0.0),
+        ("pentagon", 4.0, 3.0, -2.0),
+        ("rectangle", 7.0, -4.0, 5.0),
+        ("pentagon", 2.5, -6.0, -5.0),
+    ];
+    let mut images = Vec::new();
+    for (k, (shape, force, x, y)) in presses.iter().enumerate() {
+        let png = dir.join(format!("press{k}.png"));
+        let out = fringe(&[
+            "sim",
+            "render",
+            "--shape",
+            shape,
+            "--force",
+            &force.to_string(),
+            "--x",
+            &x.to_string(),
+            "--y",
+            &y.to_string(),
+            "--angle",
+            &(37.0 * k as f64).to_string(),
+            "--frame",
+            &(1000 + k).to_string(),
+            "--out",
+            s(&png),
+        ]);
+        assert!(out.status.success(), "{}", text(&out));
+        images.push(png);
+    }
+    let mut args = vec![
+        "model",
+        "run",
+        "default",
+        "--profile",
+        s(&profile),
+        "--json",
+    ];
+    args.extend(images.iter().map(|p| s(p)));
+    let out = fringe(&args);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect();
+    assert_eq!(lines.len(), presses.len(), "{t}");
+    for ((shape, force, x, y), p) in presses.iter().zip(&lines) {
+        let want = if *shape == "none" { "None" } else { shape };
+        assert_eq!(p["shape"], want, "{p}");
+        let fz = p["force"]["fz"].as_f64().expect("fz");
+        assert!((fz - force).abs() < 1.0, "Fz {fz} N for {force} N: {p}");
+        if *shape == "none" {
+            assert!(p["contact_mm"].is_null(), "{p}");
+        } else {
+            let c = &p["contact_mm"];
+            let (px, py) = (c[0].as_f64().expect("x"), c[1].as_f64().expect("y"));
+            let miss = ((px - x).powi(2) + (py - y).powi(2)).sqrt();
+            assert!(miss < 2.5, "contact ({px}, {py}) for ({x}, {y}): {p}");
+        }
+    }
+}

@@ -178,6 +178,27 @@ fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_doe
         }
     }
 
+    // --init starts from trained weights (fine-tuning): its first epoch starts where the
+    // four-epoch model ended, far below a random start, and the card names the weights.
+    let c = dir.join("c");
+    let o = train(&c, &["--epochs", "1", "--lr", "2e-4", "--init", s(&model)]);
+    assert!(o.status.success(), "{}", text(&o));
+    let tuned = record(&c.join("model.safetensors"));
+    let first = tuned["history"][0]["train_loss"].as_f64().expect("loss");
+    assert!(
+        first < loss(0) && first < 1.5 * loss(3),
+        "a fine-tuning's first epoch ({first}) should start near the model's last ({}), not at a random start's ({})",
+        loss(3),
+        loss(0)
+    );
+    assert_eq!(tuned["init"].as_str(), Some(s(&model)), "{tuned}");
+    let o = train(
+        &dir.join("d"),
+        &["--init", s(&dir.join("absent.safetensors"))],
+    );
+    assert!(!o.status.success());
+    assert!(text(&o).contains("absent.safetensors"), "{}", text(&o));
+
     // fringe eval reads the model with its card and the dataset with its profile.
     let o = fringe(&["eval", "--model", s(&model), s(data())]);
     assert!(

@@ -130,10 +130,17 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
 }
 
 #[test]
-fn validation_without_a_model_or_with_a_bad_one_says_what_to_pass() {
-    let out = fringe(&["validate", "--no-tui"]);
+fn validation_with_a_missing_or_bad_model_says_what_to_pass() {
+    let out = fringe(&["validate", "--no-tui", "--model", "nothere.pth"]);
     assert!(!out.status.success());
-    assert!(text(&out).contains("--model FILE"), "{}", text(&out));
+    let t = text(&out);
+    assert!(
+        t.contains("nothere.pth: no such model file") && t.contains("`default`"),
+        "{t}"
+    );
+    let out = fringe(&["validate", "--no-tui", "--model", "builtin:nothere"]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("fringe has: layered"), "{}", text(&out));
     let dir = scratch("bad-model");
     let bad = dir.join("notes.pth");
     std::fs::write(&bad, "not a model").expect("write");

@@ -55,6 +55,9 @@ pub struct TrainingRecord {
     /// Test-side figures of the final model (fringe eval's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evaluation: Option<serde_json::Value>,
+    /// The weights the training started from (`--init`), when not a random initialisation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub init: Option<PathBuf>,
 }
 
 /// The three files of a checkpoint.

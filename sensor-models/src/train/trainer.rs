@@ -37,6 +37,9 @@ pub struct TrainConfig {
     /// Threads for libtorch and for preparing the data.
     pub threads: usize,
     pub out: PathBuf,
+    /// Weights to start from instead of a random initialisation (fine-tuning a trained model:
+    /// any weights file `fringe model` reads, of the same architecture and classes).
+    pub init: Option<PathBuf>,
 }
 
 /// What the loop tells its caller, for progress and messages.
@@ -385,7 +388,14 @@ pub fn train(
         profiles: f.profiles.clone(),
         history: Vec::new(),
         evaluation: None,
+        init: None,
     };
+    if let (Some(init), None) = (&config.init, &resumed) {
+        let what = init.display().to_string();
+        let weights = crate::read_weights(init)?;
+        load_state_dict(&vs, &weights, &what)?;
+        record.init = Some(init.clone());
+    }
     if let Some((weights, _, r, opt)) = &resumed {
         let what = resume.map(|p| p.display().to_string()).unwrap_or_default();
         load_state_dict(&vs, weights, &what)?;
@@ -395,6 +405,7 @@ pub fn train(
         record.loss_sum_in_epoch = r.loss_sum_in_epoch;
         record.batches_trained = r.batches_trained;
         record.history = r.history.clone();
+        record.init = r.init.clone();
     }
     let batches = train_set.len().div_ceil(config.batch.max(1));
     let mut buf = Vec::new();

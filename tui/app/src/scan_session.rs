@@ -61,6 +61,8 @@ pub enum SessionError {
         dir.display()
     )]
     NoGeometry { sensor_id: String, dir: PathBuf },
+    #[error("the simulated sensor {sensor_id}'s design geometry cannot be written into the run: {message}")]
+    DesignProfile { sensor_id: String, message: String },
     #[error(transparent)]
     Model(#[from] ModelError),
 }
@@ -123,6 +125,29 @@ impl ScanSession {
             "contact labels in mm from the sensor centre; origin x {:.3} mm, y {:.3} mm from {}",
             origin.x.0, origin.y.0, origin.source
         )));
+        // A simulated bench without a calibration profile: the run records the simulated
+        // sensor's design geometry (exact, and the one its contact labels were made with), so
+        // that evaluation and training preprocess its frames without being told a profile.
+        #[cfg(feature = "sim")]
+        let profile = match (profile, &rig.sim) {
+            (None, Some(sim)) => {
+                let design = sim.design_profile(&rig.sensor_id);
+                let content =
+                    toml::to_string_pretty(&design).map_err(|e| SessionError::DesignProfile {
+                        sensor_id: rig.sensor_id.clone(),
+                        message: e.to_string(),
+                    })?;
+                notes.push(Note::Info(format!(
+                    "the run records {} in place of a calibration profile",
+                    design.source
+                )));
+                Some(ProfileRef {
+                    path: format!("(no file: {})", design.source),
+                    content,
+                })
+            }
+            (p, _) => p,
+        };
         #[cfg(feature = "sim")]
         let (seed, sidecars) = match &rig.sim {
             Some(s) => (
@@ -174,7 +199,7 @@ impl ScanSession {
     pub fn geometry_profile(&self) -> Option<(Profile, String)> {
         if let Some(p) = &self.setup.profile {
             if let Ok(profile) = toml::from_str::<Profile>(&p.content) {
-                return Some((profile, format!("calibration profile {}", p.path)));
+                return Some((profile, format!("profile {}", p.path)));
             }
         }
         #[cfg(feature = "sim")]

@@ -14,8 +14,9 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct EvalArgs {
-    /// The model: .pth / .pt, .safetensors or .onnx.
-    #[arg(long)]
+    /// The model: .pth / .pt, .safetensors or .onnx, or `default` (the model that ships with
+    /// fringe, trained for the simulated layered sensor).
+    #[arg(long, default_value = "default")]
     model: PathBuf,
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).
     #[arg(required = true)]

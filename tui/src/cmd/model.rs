@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
+use fringe_sensor_models::builtin;
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::{predictions, Prediction};
@@ -30,7 +31,8 @@ enum ModelCommand {
 
 #[derive(Args)]
 struct InfoArgs {
-    /// A .pth / .pt (torch.save), .safetensors or .onnx file.
+    /// A .pth / .pt (torch.save), .safetensors or .onnx file, or `default` (the model that
+    /// ships with fringe).
     model: PathBuf,
 }
 
@@ -52,6 +54,7 @@ impl ReferenceChoice {
 
 #[derive(Args)]
 struct RunArgs {
+    /// A model file or `default`.
     model: PathBuf,
     /// Image files (PNG, TIFF, ...): full sensor frames.
     #[arg(required = true)]
@@ -90,12 +93,16 @@ pub fn run(args: ModelArgs) -> Result<()> {
     }
 }
 
-/// Opens a model file, naming it when it is missing.
+/// Opens a model argument: a built-in model (`default`, `builtin:NAME`) or a model file,
+/// naming the file when it is missing.
 pub fn open_model(path: &Path) -> Result<Model> {
-    if !path.exists() {
-        bail!("{}: no such model file", path.display());
+    if builtin::named(path).is_none() && !path.exists() {
+        bail!(
+            "{}: no such model file (`default` is the model that ships with fringe)",
+            path.display()
+        );
     }
-    Ok(Model::open(path)?)
+    Ok(builtin::open(path)?)
 }
 
 fn info(path: &Path) -> Result<()> {
@@ -168,12 +175,11 @@ fn text_line(p: &Prediction) -> String {
         Some([x, y]) => format!("contact x {:.1} y {:.1} mm", x.value(), y.value()),
         None => "contact -".to_string(),
     };
+    // Only Fz is trained (the reference's loss): the other force outputs are in the JSON form
+    // for models trained on them, never shown as if they were measurements.
     format!(
-        "Fz {:.2} N (Fx {:.2} Fy {:.2} |F| {:.2} N)  shape {} {:.1} % ({})  {contact}",
+        "Fz {:.2} N  shape {} {:.1} % ({})  {contact}",
         f.fz.value(),
-        f.fx.value(),
-        f.fy.value(),
-        f.ft.value(),
         p.shape,
         100.0 * p.confidence(),
         others.join(", ")

@@ -67,7 +67,8 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
     Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
 }
 
-/// `fringe` on a terminal: the UI on the Scan screen with the built-in plan, ready to run (r).
+/// `fringe` on a terminal: the UI on the Scan screen with the built-in plan, ready to run (r);
+/// the Validate screen runs the model that ships with fringe.
 pub fn run_ui() -> anyhow::Result<()> {
     let (config, source) = RigConfig::resolve(None)?;
     crate::ui::run(crate::ui::UiOptions {
@@ -76,7 +77,11 @@ pub fn run_ui() -> anyhow::Result<()> {
         plan_text: SHORT_GRID.text.to_string(),
         plan_origin: SHORT_GRID.origin(),
         runs: PathBuf::from("runs"),
-        model: None,
+        model: Some(crate::ui::ModelChoice {
+            path: PathBuf::from(fringe_sensor_models::builtin::DEFAULT),
+            backend: fringe_sensor_models::backend::BackendKind::Tract,
+            threads: 2,
+        }),
         tab: crate::ui::Tab::Scan,
         start: false,
     })

@@ -44,6 +44,10 @@ pub struct TrainArgs {
     /// Threads for libtorch and the data preparation.
     #[arg(long, default_value_t = 2)]
     threads: usize,
+    /// Start from these weights instead of a random initialisation (fine-tuning, for example
+    /// a few epochs at a lower --lr on the same data and --seed, so the split is the same).
+    #[arg(long, value_name = "WEIGHTS", conflicts_with = "resume")]
+    init: Option<PathBuf>,
 }
 
 fn parse_arch(s: &str) -> Result<Architecture, String> {
@@ -120,6 +124,11 @@ mod with_torch {
 
     pub fn run(a: TrainArgs) -> Result<()> {
         check(&a)?;
+        if let Some(init) = &a.init {
+            // Read before the data is prepared: a wrong file is found in a second, not minutes.
+            fringe_sensor_models::read_weights(init)
+                .with_context(|| format!("--init {}", init.display()))?;
+        }
         let mut config = TrainConfig {
             arch: a.arch,
             pipeline: a.pipeline,
@@ -130,6 +139,7 @@ mod with_torch {
             input_size: a.input_size,
             threads: a.threads,
             out: a.out.clone(),
+            init: a.init.clone(),
         };
         let mut data = a.data.clone();
         if let Some(cp) = &a.resume {

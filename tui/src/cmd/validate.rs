@@ -21,9 +21,10 @@ use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct ValidateArgs {
-    /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads.
-    #[arg(long, value_name = "FILE")]
-    model: Option<PathBuf>,
+    /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads, or
+    /// `default` (the model that ships with fringe, trained for the simulated layered sensor).
+    #[arg(long, value_name = "FILE", default_value = "default")]
+    model: PathBuf,
     /// The scan plan that presses the sensor (default: the built-in short grid).
     #[arg(long, value_name = "FILE")]
     plan: Option<PathBuf>,
@@ -51,12 +52,7 @@ pub struct ValidateArgs {
 }
 
 pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
-    let Some(model_path) = &a.model else {
-        bail!(
-            "no model given: pass --model FILE (a .pth, .pt, .safetensors or .onnx file; \
-             `fringe model info FILE` tells whether fringe reads it)"
-        );
-    };
+    let model_path = &a.model;
     let model = open_model(model_path)?;
     let (text, origin) = match &a.plan {
         Some(p) => (

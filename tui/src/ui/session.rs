@@ -142,7 +142,7 @@ fn run(
     session.setup.taps.push(tap);
     *view.lock().unwrap_or_else(|p| p.into_inner()) = Some(live);
     if let Some(m) = &req.model {
-        let model = fringe_sensor_models::model::Model::open(&m.path).map_err(|e| e.to_string())?;
+        let model = fringe_sensor_models::builtin::open(&m.path).map_err(|e| e.to_string())?;
         let backend = model
             .backend(m.backend, m.threads)
             .map_err(|e| e.to_string())?;

@@ -1,0 +1,119 @@
+//! The models that ship inside fringe, so that `fringe model`, `fringe eval` and live validation
+//! work on a fresh clone with nothing to download: custom CNNs trained by `fringe train` on
+//! frames of `fringe sim dataset`, one per simulated sensor variant, with their cards
+//! (`sensor-models/models/`, README.md "The default model" gives the commands that made them).
+//!
+//! A model is named where a model file is expected: `default` (the layered sensor's) or
+//! `builtin:NAME`. [`open`] is the one place that resolves a name or a path.
+
+use crate::model::{Model, ModelError};
+use crate::model_card::{CardError, ModelCard};
+use crate::safetensors_file::read_safetensors_bytes;
+use std::path::{Path, PathBuf};
+
+/// A model compiled into the binary.
+pub struct Builtin {
+    /// Its name after `builtin:`.
+    pub name: &'static str,
+    /// What it is for, in a few words.
+    pub about: &'static str,
+    weights: &'static [u8],
+    card: &'static str,
+}
+
+/// The models that ship; the first is `default`.
+pub const BUILTIN: &[Builtin] = &[Builtin {
+    name: "layered",
+    about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
+    weights: include_bytes!("../models/layered-custom.safetensors"),
+    card: include_str!("../models/layered-custom.json"),
+}];
+
+/// The name that stands for the first built-in model.
+pub const DEFAULT: &str = "default";
+
+/// The built-in model a model argument names, if it names one: `default` or `builtin:NAME`.
+/// A path to an existing file named `default` is still that file when written as `./default`.
+pub fn named(spec: &Path) -> Option<Result<&'static Builtin, ModelError>> {
+    let s = spec.to_str()?;
+    if s == DEFAULT {
+        return BUILTIN.first().map(Ok);
+    }
+    let name = s.strip_prefix("builtin:")?;
+    Some(BUILTIN.iter().find(|b| b.name == name).ok_or_else(|| {
+        ModelError::UnknownBuiltin {
+            name: name.to_string(),
+            known: BUILTIN
+                .iter()
+                .map(|b| b.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+    }))
+}
+
+impl Builtin {
+    /// The path a built-in model shows in messages and reports.
+    pub fn path(&self) -> PathBuf {
+        PathBuf::from(format!("builtin:{}", self.name))
+    }
+
+    /// Its card, as shipped.
+    pub fn card(&self) -> Result<ModelCard, ModelError> {
+        serde_json::from_str(self.card).map_err(|source| {
+            ModelError::Card(CardError::Parse {
+                path: format!("{} (card)", self.path().display()),
+                source,
+            })
+        })
+    }
+
+    /// The model, ready to run.
+    pub fn model(&self) -> Result<Model, ModelError> {
+        let path = self.path();
+        let sd = read_safetensors_bytes(self.weights, &path.display().to_string())?;
+        Model::from_weights(&path, sd, Some(self.card()?))
+    }
+}
+
+/// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file.
+pub fn open(spec: &Path) -> Result<Model, ModelError> {
+    match named(spec) {
+        Some(b) => b?.model(),
+        None => Model::open(spec),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arch::Architecture;
+
+    #[test]
+    fn every_builtin_model_opens_with_its_card_and_is_small() {
+        for b in BUILTIN {
+            let m = b.model().expect("built-in model opens");
+            assert_eq!(m.arch, Some(Architecture::Custom), "{}", b.name);
+            assert_eq!(m.classes, ["None", "pentagon", "rectangle"], "{}", b.name);
+            assert!(b.weights.len() < 1 << 20, "{} weights over 1 MB", b.name);
+            assert!(b.card.len() < 1 << 20, "{} card over 1 MB", b.name);
+            assert_eq!(
+                m.card.as_ref().and_then(|c| c.preprocessing.as_deref()),
+                Some("profile")
+            );
+        }
+    }
+
+    #[test]
+    fn names_resolve_and_unknown_names_list_the_known_ones() {
+        let d = open(Path::new("default")).expect("default");
+        assert_eq!(d.path, Path::new("builtin:layered"));
+        assert!(open(Path::new("builtin:layered")).is_ok());
+        let e = open(Path::new("builtin:nope")).expect_err("unknown");
+        let msg = e.to_string();
+        assert!(msg.contains("nope") && msg.contains("layered"), "{msg}");
+        // Anything else is a path.
+        let e = open(Path::new("./default")).expect_err("no such file");
+        assert!(e.to_string().contains("./default"), "{e}");
+    }
+}
