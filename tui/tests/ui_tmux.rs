@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{constant_model, scratch};
+use common::scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::{Mutex, MutexGuard};
@@ -188,17 +188,12 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
 }
 
 #[test]
-fn live_validation_in_the_ui_shows_metrics_that_move() {
+fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     let dir = scratch("validate");
-    let model = constant_model(&dir);
     let plan = dir.join("plan.toml");
     std::fs::write(&plan, common::VALIDATE_PLAN).expect("plan");
-    let command = format!(
-        "{} validate --model {} --plan {}",
-        fringe(),
-        model.display(),
-        plan.display()
-    );
+    // No --model: the model that ships with fringe.
+    let command = format!("{} validate --plan {}", fringe(), plan.display());
     let pane = Pane::start("validate", &dir, &command);
     pane.wait_for(
         "press r to run the scan plan with live",
@@ -219,9 +214,12 @@ fn live_validation_in_the_ui_shows_metrics_that_move() {
     });
     assert!(later.contains("Fz RMSE"), "{later}");
     assert!(later.contains("predictions/s"), "{later}");
-    assert!(
-        later.contains("pentagon"),
-        "the constant model's shape:\n{later}"
+    assert!(later.contains("builtin:layered"), "{later}");
+    // Once the indenter presses, the model reads its shape.
+    pane.wait_until(
+        "the pressed shape, as the default model reads it",
+        Duration::from_secs(60),
+        |s| s.contains("shape: pentagon"),
     );
     // The scan ends; the validation stays on screen.
     pane.keys("1");

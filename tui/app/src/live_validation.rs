@@ -178,7 +178,7 @@ impl LiveValidation {
     ) -> Result<(LiveValidation, Arc<dyn RecordTap>), ModelError> {
         let preprocessing = model.preprocessing(Some(&source.profile), None)?;
         let state = ValidationState {
-            model: model.describe(),
+            model: format!("{} ({})", model.path.display(), model.describe()),
             backend: backend.name(),
             offered: 0,
             ran: 0,
