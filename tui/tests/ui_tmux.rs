@@ -185,6 +185,7 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
     pane.keys("Enter");
     pane.wait_for("ok:", Duration::from_secs(60));
     pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -228,6 +229,7 @@ fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     let end = pane.wait_for("Fz RMSE", Duration::from_secs(5));
     assert!(frames(&end).is_some_and(|n| n > n0), "{end}");
     pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

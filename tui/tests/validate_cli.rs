@@ -127,6 +127,7 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     for png in ["fz.png", "contact.png", "confusion.png"] {
         assert!(report.join(png).is_file(), "{png}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
