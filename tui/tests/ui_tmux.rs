@@ -181,9 +181,17 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
         runs_screen.contains(name.as_deref().unwrap_or("?")),
         "{runs_screen}"
     );
-    // Verify it from the UI.
+    // Verify it from the UI, then evaluate the model that ships on it.
     pane.keys("Enter");
     pane.wait_for("ok:", Duration::from_secs(60));
+    pane.keys("e");
+    let figures = pane.wait_until(
+        "the model's figures on the run",
+        Duration::from_secs(180),
+        |s| s.contains(" mm · shape "),
+    );
+    assert!(figures.contains("Fz "), "{figures}");
+    assert!(!figures.contains("cannot evaluate"), "{figures}");
     pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -77,11 +77,7 @@ pub fn run_ui() -> anyhow::Result<()> {
         plan_text: SHORT_GRID.text.to_string(),
         plan_origin: SHORT_GRID.origin(),
         runs: PathBuf::from("runs"),
-        model: Some(crate::ui::ModelChoice {
-            path: PathBuf::from(fringe_sensor_models::builtin::DEFAULT),
-            backend: fringe_sensor_models::backend::BackendKind::Tract,
-            threads: 2,
-        }),
+        model: Some(crate::ui::ModelChoice::builtin()),
         tab: crate::ui::Tab::Scan,
         start: false,
     })

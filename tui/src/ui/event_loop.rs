@@ -96,6 +96,8 @@ struct App {
     plans: Vec<PlanSource>,
     running: Option<Running>,
     verify: (Sender<Verdict>, Receiver<Verdict>),
+    /// Evaluations of a run with the session's model: progress, then the figures.
+    evaluate: (Sender<Verdict>, Receiver<Verdict>),
     quit: bool,
 }
 
@@ -138,6 +140,7 @@ impl App {
             opts,
             running: None,
             verify: unbounded(),
+            evaluate: unbounded(),
             quit: false,
         }
     }
@@ -182,6 +185,12 @@ impl App {
         while let Ok((name, verdict)) = self.verify.1.try_recv() {
             if let Some(r) = self.state.runs.rows.iter_mut().find(|r| r.name == name) {
                 r.verified = Some(verdict);
+            }
+            changed = true;
+        }
+        while let Ok((name, figures)) = self.evaluate.1.try_recv() {
+            if let Some(r) = self.state.runs.rows.iter_mut().find(|r| r.name == name) {
+                r.evaluated = Some(figures);
             }
             changed = true;
         }
@@ -397,6 +406,7 @@ impl App {
             }
             KeyCode::Char('g') => self.refresh_runs(),
             KeyCode::Enter if self.state.tab == Tab::Runs => self.verify_selected(),
+            KeyCode::Char('e') if self.state.tab == Tab::Runs => self.evaluate_selected(),
             _ => {}
         }
     }
@@ -528,6 +538,7 @@ impl App {
                     },
                     frames: r.frames as usize,
                     verified: None,
+                    evaluated: None,
                 })
                 .collect(),
             Err(e) => {
@@ -539,10 +550,10 @@ impl App {
         self.state.runs.rows = rows
             .into_iter()
             .map(|mut r| {
-                r.verified = old
-                    .iter()
-                    .find(|o| o.name == r.name)
-                    .and_then(|o| o.verified.clone());
+                if let Some(o) = old.iter().find(|o| o.name == r.name) {
+                    r.verified = o.verified.clone();
+                    r.evaluated = o.evaluated.clone();
+                }
                 r
             })
             .collect();
@@ -568,6 +579,33 @@ impl App {
                 Err(e) => format!("cannot verify: {e}"),
             };
             let _ = tx.send((name, verdict));
+        });
+    }
+
+    /// Evaluates the chosen run with the session's model (the one that ships when none was
+    /// named) on a thread: progress, then the Table-2 figures, arrive through `evaluate`.
+    fn evaluate_selected(&mut self) {
+        let Some(row) = self.state.runs.rows.get_mut(self.state.runs.selected) else {
+            return;
+        };
+        row.evaluated = Some("evaluating...".into());
+        let name = row.name.clone();
+        let dir = self.opts.runs.join(&name);
+        let choice = self.opts.model.clone().unwrap_or_else(ModelChoice::builtin);
+        let tx = self.evaluate.0.clone();
+        std::thread::spawn(move || {
+            let figures = match session::evaluate_run(&dir, &choice, &|done, total| {
+                if done % 100 == 0 {
+                    let _ = tx.send((
+                        name.clone(),
+                        format!("evaluating: {done} of {total} frames"),
+                    ));
+                }
+            }) {
+                Ok(f) => f,
+                Err(e) => format!("cannot evaluate: {e}"),
+            };
+            let _ = tx.send((name, figures));
         });
     }
 }

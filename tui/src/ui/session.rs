@@ -43,6 +43,47 @@ pub struct ModelChoice {
     pub threads: usize,
 }
 
+impl ModelChoice {
+    /// The model that ships with fringe, on the default backend.
+    pub fn builtin() -> ModelChoice {
+        ModelChoice {
+            path: PathBuf::from(fringe_sensor_models::builtin::DEFAULT),
+            backend: BackendKind::Tract,
+            threads: 2,
+        }
+    }
+}
+
+/// The Table-2 figures of `choice` on the run `dir` (through the run's own profile) as one
+/// short line (Fz RMSE, contact RMSE, shape accuracy); `progress` hears (frames done, in all).
+pub fn evaluate_run(
+    dir: &std::path::Path,
+    choice: &ModelChoice,
+    progress: &dyn Fn(usize, usize),
+) -> Result<String, String> {
+    let model = fringe_sensor_models::builtin::open(&choice.path).map_err(|e| e.to_string())?;
+    let source = fringe_sensor_models::dataset::read(dir).map_err(|e| e.to_string())?;
+    let mut backend = model
+        .backend(choice.backend, choice.threads)
+        .map_err(|e| e.to_string())?;
+    let eval = fringe_sensor_models::eval::evaluate(
+        &model,
+        backend.as_mut(),
+        std::slice::from_ref(&source),
+        None,
+        None,
+        progress,
+    )
+    .map_err(|e| e.to_string())?;
+    let m = &eval.metrics.all;
+    Ok(format!(
+        "Fz {:.3} N · contact {:.2} mm · shape {:.1} %",
+        m.fz_rmse(),
+        m.contact_rmse(),
+        100.0 * m.accuracy(),
+    ))
+}
+
 /// What the UI holds of a running scan.
 pub struct Running {
     pub events: Receiver<Event>,

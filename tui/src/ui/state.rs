@@ -97,6 +97,8 @@ pub struct RunRow {
     pub frames: usize,
     /// The verdict of the last verification, if the user asked for one.
     pub verified: Option<String>,
+    /// The model's figures on this run (or the evaluation's progress), if the user asked.
+    pub evaluated: Option<String>,
 }
 
 /// The runs screen.

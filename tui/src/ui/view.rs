@@ -57,7 +57,7 @@ pub fn draw(f: &mut Frame, s: &UiState) {
     match s.tab {
         Tab::Scan => scan::draw(f, body, s),
         Tab::Validate => validate::draw(f, body, s),
-        Tab::Runs => runs::draw(f, body, &s.runs),
+        Tab::Runs => runs::draw(f, body, &s.runs, s.model.as_deref()),
     }
     let footer = match &s.error {
         Some(e) => Line::from(Span::styled(

@@ -5,7 +5,7 @@ use ratatui::text::Line;
 use ratatui::widgets::{Clear, Paragraph};
 use ratatui::Frame;
 
-pub(crate) const KEYS: [(&str, &str); 14] = [
+pub(crate) const KEYS: [(&str, &str); 15] = [
     ("1 2 3 / Tab", "Scan, Validate, Runs screens"),
     ("l", "choose the scan plan (built in, ./plans/*.toml)"),
     ("r", "run the scan plan (with live validation on Validate)"),
@@ -16,6 +16,7 @@ pub(crate) const KEYS: [(&str, &str); 14] = [
     ("Enter", "answer a dialog: continue"),
     ("Up / Down", "choose a run"),
     ("Enter (Runs)", "verify the chosen run"),
+    ("e (Runs)", "evaluate the chosen run with the model"),
     ("g", "refresh the runs"),
     ("?", "show or hide these keys"),
     ("q / Esc", "quit (asks to abort a running scan first)"),

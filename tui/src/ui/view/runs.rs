@@ -1,5 +1,5 @@
 //! The Runs screen: the runs in the runs directory, newest first, with their status and frames,
-//! and the verdict of a verification the user asked for.
+//! the verdict of a verification and the model's figures of an evaluation the user asked for.
 
 use super::{panel, BAD, GOOD, WARN};
 use crate::ui::state::RunsView;
@@ -8,8 +8,13 @@ use ratatui::style::{Modifier, Style};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
-pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
-    let title = format!("runs in {} · Enter verify · g refresh", v.root);
+/// `model`: what `e` evaluates with (the model that ships when none was named).
+pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>) {
+    let title = format!(
+        "runs in {} · Enter verify · e evaluate with {} · g refresh",
+        v.root,
+        model.unwrap_or(fringe_sensor_models::builtin::DEFAULT)
+    );
     if v.rows.is_empty() {
         f.render_widget(
             Paragraph::new("no runs yet: run a scan (Scan screen, r)").block(panel(&title)),
@@ -31,24 +36,33 @@ pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
             Some(v) => Cell::from(v.to_string()).style(Style::new().fg(BAD)),
             None => Cell::from("-"),
         };
+        let evaluated = match r.evaluated.as_deref() {
+            Some(e) if e.starts_with("cannot") => {
+                Cell::from(e.to_string()).style(Style::new().fg(BAD))
+            }
+            Some(e) => Cell::from(e.to_string()),
+            None => Cell::from("-"),
+        };
         Row::new(vec![
             Cell::from(r.name.clone()),
             Cell::from(r.status.clone()).style(status),
             Cell::from(r.frames.to_string()),
             verified,
+            evaluated,
         ])
     });
     let table = Table::new(
         rows,
         [
-            Constraint::Min(30),
+            Constraint::Min(26),
             Constraint::Length(11),
             Constraint::Length(8),
             Constraint::Min(20),
+            Constraint::Length(44),
         ],
     )
     .header(
-        Row::new(["run", "status", "frames", "verified"])
+        Row::new(["run", "status", "frames", "verified", "evaluation"])
             .style(Style::new().add_modifier(Modifier::BOLD)),
     )
     .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))

@@ -326,18 +326,21 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             status: "completed".into(),
             frames: 2310,
             verified: Some("ok: 2310 frames, 115500 force samples".into()),
+            evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
         },
         RunRow {
             name: "20261124-170000-short-grid".into(),
             status: "aborted".into(),
             frames: 120,
             verified: Some("1 problem(s): frames.jsonl: line 121 truncated".into()),
+            evaluated: Some("cannot evaluate: frames.jsonl: line 121".into()),
         },
         RunRow {
             name: "20261124-160000-wide".into(),
             status: "unfinished".into(),
             frames: 5,
             verified: None,
+            evaluated: Some("evaluating: 300 of 1672 frames".into()),
         },
     ];
     s.runs.selected = 1;
@@ -352,6 +355,13 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
     assert!(b[(x, y)].modifier.contains(Modifier::REVERSED));
     let (x, y) = find(b, "unfinished").expect("status");
     assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "cannot evaluate").expect("evaluation error");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert!(find(b, "Fz 0.465 N").is_some(), "evaluation figures");
+    assert!(
+        find(b, "e evaluate with default").is_some(),
+        "which model e uses"
+    );
 }
 
 #[test]
@@ -375,6 +385,7 @@ fn every_screen_draws_at_any_terminal_size() {
         status: "failed".into(),
         frames: 0,
         verified: None,
+        evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
     });
     states.push(runs);
     let mut dialog = running();
