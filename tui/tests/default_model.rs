@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{fringe, fringe_command, scratch, text};
+use common::{fringe, fringe_command, only_run, scratch, text};
 use std::path::Path;
 
 const CARD: &str = include_str!("../../sensor-models/models/layered-custom.json");
@@ -52,12 +52,7 @@ fn the_default_model_meets_the_figures_it_claims_on_a_held_out_scan() {
         .output()
         .expect("run fringe scan");
     assert!(out.status.success(), "{}", text(&out));
-    let run = std::fs::read_dir(&runs)
-        .expect("runs")
-        .next()
-        .expect("one run")
-        .expect("entry")
-        .path();
+    let run = only_run(&runs);
 
     let out = fringe(&[
         "eval",

@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{constant_model, fringe, scratch, text, CONSTANT_FZ_N as FZ_OUT, VALIDATE_PLAN};
+use common::{
+    constant_model, fringe, only_run, scratch, text, CONSTANT_FZ_N as FZ_OUT, VALIDATE_PLAN,
+};
 use std::collections::HashMap;
 
 fn number_after(s: &str, key: &str) -> f64 {
@@ -44,12 +46,7 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     assert!(all.contains("design geometry"), "{all}");
 
     // The run the plan recorded, its labels and the simulator's truth per frame.
-    let run = std::fs::read_dir(&runs)
-        .expect("runs")
-        .next()
-        .expect("one run")
-        .expect("entry")
-        .path();
+    let run = only_run(&runs);
     let truth: HashMap<u64, f64> = std::fs::read_to_string(run.join("truth.jsonl"))
         .expect("truth")
         .lines()

@@ -28,6 +28,16 @@ pub fn text(out: &Output) -> String {
     )
 }
 
+/// The one run directory a scan wrote under `runs` (the tests give each scan its own `--out`).
+pub fn only_run(runs: &Path) -> PathBuf {
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(runs)
+        .unwrap_or_else(|e| panic!("{}: {e}", runs.display()))
+        .map(|e| e.expect("runs entry").path())
+        .collect();
+    assert_eq!(dirs.len(), 1, "one run in {}: {dirs:?}", runs.display());
+    dirs.remove(0)
+}
+
 /// A fresh, empty scratch directory for one test (named for the test binary, the test and the
 /// process, so parallel tests and runs never share one).
 pub fn scratch(name: &str) -> PathBuf {
