@@ -1,10 +1,14 @@
 //! Inference backends: one trait, the same outputs whatever runs the network.
 //!
 //! The default backend is [`tract`] (pure Rust ONNX: nothing to install); cargo feature
-//! `onnxruntime` adds [`onnxruntime`] (ONNX Runtime loaded from the PyPI wheel's library).
+//! `onnxruntime` adds [`onnxruntime`] (ONNX Runtime loaded from the PyPI wheel's library),
+//! cargo feature `torch` adds [`torch`] (libtorch through tch: the paper's networks from their
+//! weights, and TorchScript modules).
 
 #[cfg(feature = "onnxruntime")]
 pub mod onnxruntime;
+#[cfg(feature = "torch")]
+pub mod torch;
 pub mod tract;
 
 /// Which backend runs a model.
@@ -15,17 +19,24 @@ pub enum BackendKind {
     Tract,
     /// ONNX Runtime (cargo feature `onnxruntime`).
     OnnxRuntime,
+    /// libtorch through tch (cargo feature `torch`).
+    Torch,
 }
 
 impl BackendKind {
     /// Every backend, whether this build has it or not.
-    pub const ALL: [BackendKind; 2] = [BackendKind::Tract, BackendKind::OnnxRuntime];
+    pub const ALL: [BackendKind; 3] = [
+        BackendKind::Tract,
+        BackendKind::OnnxRuntime,
+        BackendKind::Torch,
+    ];
 
     /// Its name on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             BackendKind::Tract => "tract",
             BackendKind::OnnxRuntime => "onnxruntime",
+            BackendKind::Torch => "torch",
         }
     }
 
@@ -34,6 +45,7 @@ impl BackendKind {
         match self {
             BackendKind::Tract => true,
             BackendKind::OnnxRuntime => cfg!(feature = "onnxruntime"),
+            BackendKind::Torch => cfg!(feature = "torch"),
         }
     }
 }
@@ -46,7 +58,7 @@ impl std::fmt::Display for BackendKind {
 
 /// A backend name that is not one of [`BackendKind::ALL`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown backend \"{0}\" (tract, onnxruntime)")]
+#[error("unknown backend \"{0}\" (tract, onnxruntime, torch)")]
 pub struct UnknownBackend(pub String);
 
 impl std::str::FromStr for BackendKind {

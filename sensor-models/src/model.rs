@@ -6,7 +6,7 @@ use crate::backend::tract::{output_order, TractBackend};
 use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::model_card::{CardError, ModelCard};
 use crate::model_file::read_weights;
-use crate::model_file_error::ModelFileError;
+use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
 use crate::onnx_graph;
 use crate::preprocess::{
     Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
@@ -44,6 +44,16 @@ pub enum ModelError {
         "builtin:{name}: no such built-in model (fringe has: {known}; `default` is the first)"
     )]
     UnknownBuiltin { name: String, known: String },
+    #[error(
+        "{path}: a TorchScript module runs only on the torch backend (--backend torch); for \
+         {backend}, export it to ONNX with torch.onnx.export or save its state_dict()"
+    )]
+    TorchScriptOnly { path: String, backend: BackendKind },
+    #[error(
+        "{path}: an ONNX graph runs on tract or onnxruntime; the torch backend runs weights \
+         files (.pth, .pt, .safetensors) and TorchScript modules"
+    )]
+    NotForTorch { path: String },
     #[error("{path}: {source}")]
     Backend {
         path: String,
@@ -58,6 +68,17 @@ pub enum Source {
     Weights,
     /// An ONNX graph from elsewhere.
     Onnx,
+    /// A TorchScript module (`torch.jit.save`; the torch backend only).
+    TorchScript,
+}
+
+/// What runs: an ONNX graph (built from the weights, or the file's), or a TorchScript archive
+/// that only libtorch runs.
+#[derive(Debug, Clone)]
+enum Graph {
+    Onnx(pb::ModelProto),
+    #[cfg_attr(not(feature = "torch"), allow(dead_code))]
+    TorchScript,
 }
 
 /// A model ready to run.
@@ -76,7 +97,7 @@ pub struct Model {
     pub input_size: u32,
     pub colour: Colour,
     pub card: Option<ModelCard>,
-    proto: pb::ModelProto,
+    graph: Graph,
 }
 
 impl Model {
@@ -88,7 +109,15 @@ impl Model {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
         if !is_onnx {
-            return Model::from_weights(path, read_weights(path)?, card);
+            return match read_weights(path) {
+                Ok(sd) => Model::from_weights(path, sd, card),
+                #[cfg(feature = "torch")]
+                Err(ModelFileError {
+                    kind: ModelFileErrorKind::TorchScript,
+                    ..
+                }) => Model::open_torchscript(path, card),
+                Err(e) => Err(e.into()),
+            };
         }
         let proto =
             tract_onnx::onnx()
@@ -119,7 +148,7 @@ impl Model {
             recognised.map(|r| r.0),
             n,
             &sd,
-            proto,
+            Graph::Onnx(proto),
             card,
         )
     }
@@ -135,7 +164,42 @@ impl Model {
             source,
         })?;
         let proto = onnx_graph::build(arch, n, &sd);
-        Model::assemble(path, Source::Weights, Some(arch), n, &sd, proto, card)
+        Model::assemble(
+            path,
+            Source::Weights,
+            Some(arch),
+            n,
+            &sd,
+            Graph::Onnx(proto),
+            card,
+        )
+    }
+
+    /// A TorchScript archive, loaded by libtorch once to find its shape classes.
+    #[cfg(feature = "torch")]
+    fn open_torchscript(path: &Path, card: Option<ModelCard>) -> Result<Model, ModelError> {
+        let size = card
+            .as_ref()
+            .and_then(|c| c.input_size)
+            .unwrap_or(DEFAULT_INPUT_SIZE);
+        let named = card.as_ref().and_then(|c| c.classes.as_ref()).map(Vec::len);
+        let probe = crate::backend::torch::TorchBackend::from_script(path, named, size, 1)
+            .map_err(|source| ModelError::Backend {
+                path: path.display().to_string(),
+                source,
+            })?;
+        let mut m = Model::assemble(
+            path,
+            Source::TorchScript,
+            None,
+            probe.classes(),
+            &StateDict::new(),
+            Graph::TorchScript,
+            card,
+        )?;
+        m.parameters = probe.parameters();
+        m.stored = "TorchScript".into();
+        Ok(m)
     }
 
     fn assemble(
@@ -144,7 +208,7 @@ impl Model {
         arch: Option<Architecture>,
         n_classes: usize,
         sd: &StateDict,
-        proto: pb::ModelProto,
+        graph: Graph,
         card: Option<ModelCard>,
     ) -> Result<Model, ModelError> {
         let shown = path.display().to_string();
@@ -174,13 +238,27 @@ impl Model {
                 .unwrap_or(DEFAULT_INPUT_SIZE),
             colour: card.as_ref().and_then(|c| c.colour).unwrap_or(Colour::Grey),
             card,
-            proto,
+            graph,
         })
     }
 
-    /// The ONNX graph (for a weights file, the one built from them).
-    pub fn onnx(&self) -> &pb::ModelProto {
-        &self.proto
+    /// The ONNX graph (for a weights file, the one built from them); a TorchScript module has
+    /// none.
+    pub fn onnx(&self) -> Result<&pb::ModelProto, ModelError> {
+        match &self.graph {
+            Graph::Onnx(p) => Ok(p),
+            Graph::TorchScript => Err(ModelError::TorchScriptOnly {
+                path: self.path.display().to_string(),
+                backend: BackendKind::Tract,
+            }),
+        }
+    }
+
+    fn onnx_for(&self, backend: BackendKind) -> Result<&pb::ModelProto, ModelError> {
+        self.onnx().map_err(|_| ModelError::TorchScriptOnly {
+            path: self.path.display().to_string(),
+            backend,
+        })
     }
 
     /// The backend `kind` on `threads` threads; a backend this build lacks is an error saying
@@ -194,8 +272,11 @@ impl Model {
             BackendKind::Tract => self.tract(threads),
             #[cfg(feature = "onnxruntime")]
             BackendKind::OnnxRuntime => self.onnxruntime(threads),
-            #[cfg(not(feature = "onnxruntime"))]
-            BackendKind::OnnxRuntime => Err(ModelError::Backend {
+            #[cfg(feature = "torch")]
+            BackendKind::Torch => self.torch(threads),
+            #[cfg(not(all(feature = "onnxruntime", feature = "torch")))]
+            #[allow(unreachable_patterns)]
+            _ => Err(ModelError::Backend {
                 path: self.path.display().to_string(),
                 source: InferenceError::NotBuilt(kind),
             }),
@@ -204,12 +285,13 @@ impl Model {
 
     /// The default backend (tract) on `threads` threads.
     pub fn tract(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
-        let b = TractBackend::new(self.proto.clone(), self.classes.len(), threads).map_err(
-            |source| ModelError::Backend {
+        let proto = self.onnx_for(BackendKind::Tract)?.clone();
+        let b = TractBackend::new(proto, self.classes.len(), threads).map_err(|source| {
+            ModelError::Backend {
                 path: self.path.display().to_string(),
                 source,
-            },
-        )?;
+            }
+        })?;
         Ok(Box::new(b))
     }
 
@@ -217,10 +299,35 @@ impl Model {
     /// `ORT_DYLIB_PATH` names the library, see [`crate::backend::onnxruntime`]).
     #[cfg(feature = "onnxruntime")]
     pub fn onnxruntime(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
-        let bytes = onnx_graph::encode(&self.proto);
+        let bytes = onnx_graph::encode(self.onnx_for(BackendKind::OnnxRuntime)?);
         let b = crate::backend::onnxruntime::OrtBackend::new(&bytes, self.classes.len(), threads)
             .map_err(|source| ModelError::Backend {
             path: self.path.display().to_string(),
+            source,
+        })?;
+        Ok(Box::new(b))
+    }
+
+    /// The torch backend on `threads` threads (cargo feature `torch`): the paper's network from
+    /// the weights, or the TorchScript module.
+    #[cfg(feature = "torch")]
+    pub fn torch(&self, threads: usize) -> Result<Box<dyn Backend>, ModelError> {
+        use crate::backend::torch::TorchBackend;
+        let shown = self.path.display().to_string();
+        let b = match (&self.graph, self.arch) {
+            (Graph::TorchScript, _) => TorchBackend::from_script(
+                &self.path,
+                Some(self.classes.len()),
+                self.input_size,
+                threads,
+            ),
+            (Graph::Onnx(proto), Some(arch)) if self.source == Source::Weights => {
+                TorchBackend::from_weights(arch, self.classes.len(), &initializers(proto), threads)
+            }
+            (Graph::Onnx(_), _) => return Err(ModelError::NotForTorch { path: shown }),
+        }
+        .map_err(|source| ModelError::Backend {
+            path: shown,
             source,
         })?;
         Ok(Box::new(b))
@@ -269,6 +376,7 @@ impl Model {
         match (&self.arch, &self.source) {
             (Some(a), Source::Weights) => a.to_string(),
             (Some(a), Source::Onnx) => format!("{a} (ONNX graph)"),
+            (_, Source::TorchScript) => "TorchScript module".to_string(),
             (None, _) => "ONNX graph".to_string(),
         }
     }

@@ -26,6 +26,13 @@ pub enum ModelFileErrorKind {
     /// An ONNX model: a graph with weights, read by the ONNX backend, not as a state dict.
     #[error("an ONNX model, not a weights file: load it with the ONNX backend")]
     Onnx,
+    /// A TorchScript archive (`torch.jit.save`): a program, not a state dict.
+    #[error(
+        "a TorchScript module (torch.jit.save), not a state dict: run it on the torch backend \
+         (--backend torch, in a fringe built with --features torch), or save the model's \
+         state_dict() or export it to ONNX for the other backends"
+    )]
+    TorchScript,
     /// The file ends before the data it announces.
     #[error("truncated: {0}")]
     Truncated(String),

@@ -279,6 +279,9 @@ fn read_zip(path: &Path) -> Result<StateDict, ModelFileErrorKind> {
         )));
     };
     let prefix = pkl.strip_suffix("data.pkl").unwrap_or("").to_string();
+    if is_torchscript(&names, &prefix) {
+        return Err(ModelFileErrorKind::TorchScript);
+    }
     let pickle_bytes = read_entry(&mut archive, pkl, Some(MAX_PICKLE_BYTES + 1))?;
     if pickle_bytes.len() as u64 > MAX_PICKLE_BYTES {
         return Err(ModelFileErrorKind::Unsupported(format!(
@@ -313,6 +316,15 @@ fn read_zip(path: &Path) -> Result<StateDict, ModelFileErrorKind> {
 }
 
 /// A zip that would not open: cut short (no end record) or damaged.
+/// Whether a torch zip archive's entries are those of `torch.jit.save` (its program under
+/// `code/` and its `constants.pkl`) rather than of `torch.save`.
+fn is_torchscript(names: &[String], prefix: &str) -> bool {
+    names.iter().any(|n| {
+        n.strip_prefix(prefix)
+            .is_some_and(|rest| rest == "constants.pkl" || rest.starts_with("code/"))
+    })
+}
+
 fn zip_open_error(path: &Path, file_len: u64, e: zip::result::ZipError) -> ModelFileErrorKind {
     let has_end = std::fs::read(path)
         .map(|b| {

@@ -12,8 +12,8 @@
 mod adam;
 mod checkpoint;
 mod error;
-mod net;
-mod tensors;
+pub(crate) mod net;
+pub(crate) mod tensors;
 mod trainer;
 
 pub use checkpoint::{Checkpoint, EpochRecord, TrainingRecord};

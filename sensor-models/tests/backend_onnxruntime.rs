@@ -5,76 +5,30 @@
 
 mod common;
 
-use common::{ort_dylib, read_inputs, resnet_fixtures, Expected};
+use common::{check_backend, ort_dylib, resnet_fixtures, Expected};
 use fringe_sensor_models::arch::Architecture;
 use fringe_sensor_models::model::Model;
-use std::path::Path;
-
-const TOLERANCE: f32 = 1e-4;
-
-fn max_diff(got: &[Vec<f32>], want: &[Vec<f32>]) -> f32 {
-    assert_eq!(got.len(), want.len());
-    got.iter()
-        .zip(want)
-        .flat_map(|(g, w)| {
-            assert_eq!(g.len(), w.len());
-            g.iter().zip(w).map(|(a, b)| (a - b).abs())
-        })
-        .fold(0.0, f32::max)
-}
-
-fn check_dir(dir: &Path, arch: Architecture) {
-    let expected = Expected::read(dir);
-    let (shape, inputs) = read_inputs(&expected.inputs_path(dir));
-    let batch = shape[0];
-    let size = shape[2] as u32;
-    assert!(
-        !expected.outputs.is_empty(),
-        "{}: no fixtures",
-        dir.display()
-    );
-    for (file, want) in &expected.outputs {
-        let model = Model::open(&dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
-        if !file.ends_with(".onnx") {
-            assert_eq!(model.arch, Some(arch), "{file}");
-        }
-        assert_eq!(model.classes.len(), 3, "{file}");
-        let mut backend = model
-            .onnxruntime(2)
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
-        assert_eq!(backend.name(), "onnxruntime");
-        let got = backend.run(&inputs, batch, size).expect("run");
-        let force: Vec<Vec<f32>> = got.force.iter().map(|f| f.to_vec()).collect();
-        let contact: Vec<Vec<f32>> = got.contact.iter().map(|f| f.to_vec()).collect();
-        let d = [
-            max_diff(&force, &want.force),
-            max_diff(&got.shape_logits, &want.shape_logits),
-            max_diff(&contact, &want.contact),
-        ];
-        eprintln!(
-            "{arch:?} {file}: max |onnxruntime - torch| force {:.2e}, logits {:.2e}, contact {:.2e}",
-            d[0], d[1], d[2]
-        );
-        assert!(d.iter().all(|v| *v <= TOLERANCE), "{file}: {d:?}");
-        // Batch 1 gives the same as the batch.
-        let one = backend
-            .run(&inputs[..inputs.len() / batch], 1, size)
-            .expect("run one");
-        assert!(max_diff(&[one.force[0].to_vec()], &[want.force[0].clone()]) <= TOLERANCE);
-        assert!(max_diff(&[one.contact[0].to_vec()], &[want.contact[0].clone()]) <= TOLERANCE);
-    }
-}
 
 #[test]
 fn custom_cnn_matches_pytorch_in_every_format() {
     ort_dylib();
-    check_dir(&common::fixture_dir(), Architecture::Custom);
+    check_backend(
+        &common::fixture_dir(),
+        Architecture::Custom,
+        "onnxruntime",
+        |m| m.onnxruntime(2),
+    );
 }
 
 #[test]
 fn resnet18_matches_pytorch_in_every_format() {
     ort_dylib();
-    check_dir(&resnet_fixtures(), Architecture::Resnet18);
+    check_backend(
+        &resnet_fixtures(),
+        Architecture::Resnet18,
+        "onnxruntime",
+        |m| m.onnxruntime(2),
+    );
 }
 
 #[test]

@@ -184,6 +184,25 @@ fn fixture_inputs_and_outputs_load() {
 }
 
 #[test]
+fn a_torchscript_archive_is_named_as_such_not_read_as_a_state_dict() {
+    for name in ["scripted.pt", "traced.pt"] {
+        let path = fixture_dir().join(name);
+        let e = read_weights(&path).expect_err("a program, not a state dict");
+        assert!(
+            matches!(e.kind, ModelFileErrorKind::TorchScript),
+            "{name}: {e}"
+        );
+        let text = e.to_string();
+        assert!(
+            text.contains(name)
+                && text.contains("--backend torch")
+                && text.contains("state_dict()"),
+            "{text}"
+        );
+    }
+}
+
+#[test]
 fn safetensors_written_here_read_back_and_replace_atomically() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let reference = read(&fixture_dir().join("state_dict.pth"));

@@ -83,6 +83,9 @@ pub struct Expected {
     pub inputs: InputsInfo,
     /// By weights file name (state_dict.pth, model.onnx, ...).
     pub outputs: BTreeMap<String, Outputs>,
+    /// TorchScript saves of the same network (scripted.pt, traced.pt), by file name.
+    #[serde(default)]
+    pub torchscript: BTreeMap<String, Outputs>,
     /// The tensors of views.pth.
     pub views: BTreeMap<String, Values>,
 }
@@ -211,4 +214,93 @@ pub fn ort_dylib() -> PathBuf {
         path
     })
     .clone()
+}
+
+/// How far a backend may be from PyTorch.
+pub const TOLERANCE: f32 = 1e-4;
+
+/// The largest absolute difference between two row sets of the same shape.
+pub fn max_diff(got: &[Vec<f32>], want: &[Vec<f32>]) -> f32 {
+    assert_eq!(got.len(), want.len());
+    got.iter()
+        .zip(want)
+        .flat_map(|(g, w)| {
+            assert_eq!(g.len(), w.len());
+            g.iter().zip(w).map(|(a, b)| (a - b).abs())
+        })
+        .fold(0.0, f32::max)
+}
+
+/// Opens each file of `files` in the fixture directory `dir`, runs it with the backend that
+/// `open_backend` makes on the fixture inputs (the batch, then its first image alone) and
+/// asserts every output within [`TOLERANCE`] of PyTorch's. `arch`: what the file must be
+/// recognised as (None for graphs and programs that are not recognised from weights).
+pub fn check_backend_on(
+    dir: &Path,
+    files: &BTreeMap<String, Outputs>,
+    arch: impl Fn(&str) -> Option<fringe_sensor_models::arch::Architecture>,
+    backend_name: &str,
+    open_backend: impl Fn(
+        &fringe_sensor_models::model::Model,
+    ) -> Result<
+        Box<dyn fringe_sensor_models::backend::Backend>,
+        fringe_sensor_models::model::ModelError,
+    >,
+) {
+    let expected = Expected::read(dir);
+    let (shape, inputs) = read_inputs(&expected.inputs_path(dir));
+    let batch = shape[0];
+    let size = shape[2] as u32;
+    assert!(!files.is_empty(), "{}: no fixtures", dir.display());
+    for (file, want) in files {
+        let model = fringe_sensor_models::model::Model::open(&dir.join(file))
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        if let Some(a) = arch(file) {
+            assert_eq!(model.arch, Some(a), "{file}");
+        }
+        assert_eq!(model.classes.len(), 3, "{file}");
+        let mut backend = open_backend(&model).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(backend.name(), backend_name);
+        let got = backend.run(&inputs, batch, size).expect("run");
+        let force: Vec<Vec<f32>> = got.force.iter().map(|f| f.to_vec()).collect();
+        let contact: Vec<Vec<f32>> = got.contact.iter().map(|f| f.to_vec()).collect();
+        let d = [
+            max_diff(&force, &want.force),
+            max_diff(&got.shape_logits, &want.shape_logits),
+            max_diff(&contact, &want.contact),
+        ];
+        eprintln!(
+            "{} {file}: max |{backend_name} - torch| force {:.2e}, logits {:.2e}, contact {:.2e}",
+            expected.arch, d[0], d[1], d[2]
+        );
+        assert!(d.iter().all(|v| *v <= TOLERANCE), "{file}: {d:?}");
+        // Batch 1 gives the same as the batch.
+        let one = backend
+            .run(&inputs[..inputs.len() / batch], 1, size)
+            .expect("run one");
+        assert!(max_diff(&[one.force[0].to_vec()], &[want.force[0].clone()]) <= TOLERANCE);
+        assert!(max_diff(&[one.contact[0].to_vec()], &[want.contact[0].clone()]) <= TOLERANCE);
+    }
+}
+
+/// [`check_backend_on`] over the weights files and ONNX graph of `dir` (not its TorchScript).
+pub fn check_backend(
+    dir: &Path,
+    arch: fringe_sensor_models::arch::Architecture,
+    backend_name: &str,
+    open_backend: impl Fn(
+        &fringe_sensor_models::model::Model,
+    ) -> Result<
+        Box<dyn fringe_sensor_models::backend::Backend>,
+        fringe_sensor_models::model::ModelError,
+    >,
+) {
+    let expected = Expected::read(dir);
+    check_backend_on(
+        dir,
+        &expected.outputs,
+        |file| (!file.ends_with(".onnx")).then_some(arch),
+        backend_name,
+        open_backend,
+    );
 }

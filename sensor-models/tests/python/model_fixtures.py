@@ -14,9 +14,12 @@ saved in every form users have them:
   model.safetensors      safetensors.torch.save_file
   model.onnx             input "image" [N,3,224,224], outputs force, shape_logits, contact
   views.pth              non-contiguous views sharing one storage (transpose, offset slice)
+  scripted.pt            torch.jit.save(torch.jit.script(model))   (TorchScript: torch backend)
+  traced.pt              torch.jit.save(torch.jit.trace(model, x))
   inputs.f32             fixed seeded inputs, raw little-endian f32, shape [2,3,224,224]
   expected.json          eval-mode outputs on inputs.f32 for each file's weights (f16 / bf16
-                         weights cast back to f32 first), and the values of views.pth
+                         weights cast back to f32 first), the same for the TorchScript files
+                         (under "torchscript"), and the values of views.pth
 
 Usage: model_fixtures.py --arch custom|resnet18 --out DIR
 """
@@ -276,6 +279,12 @@ def main():
     check_onnx(at("model.onnx"), x, reference)
     expected["model.onnx"] = reference
 
+    torchscript = OrderedDict()
+    torch.jit.save(torch.jit.script(model), at("scripted.pt"))
+    torch.jit.save(torch.jit.trace(model, x), at("traced.pt"))
+    for name in ("scripted.pt", "traced.pt"):
+        torchscript[name] = outputs(torch.jit.load(at(name)), x)
+
     view_tensors = views()
     torch.save(view_tensors, at("views.pth"))
 
@@ -286,6 +295,7 @@ def main():
             ("torch", torch.__version__),
             ("inputs", {"file": "inputs.f32", "shape": list(INPUT_SHAPE), "seed": INPUT_SEED}),
             ("outputs", expected),
+            ("torchscript", torchscript),
             (
                 "views",
                 OrderedDict(

@@ -33,7 +33,8 @@ pub struct EvalArgs {
     /// Inference threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
-    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    /// Inference backend: tract (built in), onnxruntime (cargo feature `onnxruntime`) or torch
+    /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
 }

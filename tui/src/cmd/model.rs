@@ -72,7 +72,8 @@ struct RunArgs {
     /// Inference threads.
     #[arg(long, default_value_t = 2)]
     threads: usize,
-    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    /// Inference backend: tract (built in), onnxruntime (cargo feature `onnxruntime`) or torch
+    /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
 }
@@ -202,7 +203,7 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 
 fn export(path: &Path, out: &Path) -> Result<()> {
     let m = open_model(path)?;
-    let bytes = onnx_graph::encode(m.onnx());
+    let bytes = onnx_graph::encode(m.onnx()?);
     let tmp = out.with_extension("onnx.partial");
     std::fs::write(&tmp, &bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
     std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;

@@ -37,7 +37,8 @@ pub struct ValidateArgs {
     /// Write the evaluation report (report.md, plots) and validation.jsonl into DIR.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
-    /// Inference backend: tract (built in) or onnxruntime (cargo feature `onnxruntime`).
+    /// Inference backend: tract (built in), onnxruntime (cargo feature `onnxruntime`) or torch
+    /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
     /// Inference threads.
