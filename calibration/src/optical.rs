@@ -28,6 +28,7 @@ pub mod crop;
 pub mod edge_model;
 pub mod edges;
 pub mod grey;
+pub mod overlay;
 
 use edges::{edge_on_ray, initial_estimate, EdgePoint, Ray};
 use grey::{median_f64, GreyImage};

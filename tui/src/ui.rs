@@ -9,6 +9,7 @@
 //! - [`session`]: the scan thread, its operator dialogs and events.
 //! - [`event_loop`]: keys, events, redraws; the terminal restored on every exit path.
 
+mod calibration;
 mod event_loop;
 mod picture;
 mod plan_choice;

@@ -192,6 +192,71 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
     );
     assert!(figures.contains("Fz "), "{figures}");
     assert!(!figures.contains("cannot evaluate"), "{figures}");
+    // Export it in the reference layout from the UI.
+    pane.keys("x");
+    let exported = pane.wait_until("the export", Duration::from_secs(180), |s| {
+        s.contains("exported ") || s.contains("cannot export")
+    });
+    assert!(!exported.contains("cannot export"), "{exported}");
+    let out = dir.join("exports").join(name.as_deref().unwrap_or("?"));
+    let labels = std::fs::read_to_string(out.join("0.labels.csv"))
+        .unwrap_or_else(|e| panic!("{}: {e}\n{exported}", out.display()));
+    assert!(
+        labels.lines().count() > 100,
+        "{} label lines",
+        labels.lines().count()
+    );
+    pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The z row of the Bench screen's device table: its position, mm.
+fn z_position(screen: &str) -> Option<f64> {
+    let line = screen.lines().find(|l| l.contains("▶ z"))?;
+    let after = line.split("▶ z").nth(1)?;
+    after.split_whitespace().next()?.parse().ok()
+}
+
+#[test]
+fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
+    let dir = scratch("bench");
+    let pane = Pane::start("bench", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("4");
+    let screen = pane.wait_until("the bench open", Duration::from_secs(30), |s| {
+        s.contains("bench open") && z_position(s).is_some()
+    });
+    assert!(screen.contains("soft limits"), "{screen}");
+    assert!(screen.contains("fps"), "{screen}");
+    // Home z, then jog it by 1 mm (the step goes 0.1 -> 1 mm with s).
+    pane.keys("h");
+    pane.wait_for("z: homing", Duration::from_secs(10));
+    let homed = pane.wait_until("z homed and idle", Duration::from_secs(60), |s| {
+        s.lines()
+            .any(|l| l.contains("▶ z") && l.contains(" homed") && l.contains("idle"))
+    });
+    let start = z_position(&homed).expect("z position");
+    pane.keys("s");
+    pane.wait_for("jog step 1 mm", Duration::from_secs(5));
+    pane.keys("Right");
+    pane.wait_for("z: moving by +1.000 mm", Duration::from_secs(10));
+    let moved = pane.wait_until("z 1 mm further", Duration::from_secs(30), |s| {
+        z_position(s).is_some_and(|p| (p - start - 1.0).abs() < 0.01)
+    });
+    // The F/T streams at its rate and the camera films while nothing scans.
+    assert!(!moved.contains(" 0 Hz"), "{moved}");
+    // A jog past the soft limit (5 mm up from 1 mm above home) is refused, naming the axis and
+    // the limits, and z stays where it was.
+    pane.keys("s");
+    pane.wait_for("jog step 5 mm", Duration::from_secs(5));
+    pane.keys("Left");
+    let refused = pane.wait_for("outside the soft limits", Duration::from_secs(10));
+    assert!(refused.contains("axis z"), "{refused}");
+    let still = z_position(&refused).expect("z position");
+    assert!((still - start - 1.0).abs() < 0.01, "z moved to {still}");
+    // Leaving the screen releases the bench; quitting leaves the terminal clean.
+    pane.keys("1");
+    pane.wait_for("ready: press r to run", Duration::from_secs(10));
     pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }

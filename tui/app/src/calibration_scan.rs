@@ -1,11 +1,18 @@
 //! The calibration scan from the rig: the built-in press grid around the rig's nominal centre,
 //! and the contact-finding tuning for the sensor's construction. `fringe calibrate` runs it as a
-//! scan session and builds the profile from the run (`fringe-calibration`).
+//! scan session and builds the profile from the run ([`calibrate_run`], over
+//! `fringe-calibration`), which the command line and the terminal UI write alike.
 
 use crate::plans::CALIBRATION;
 use crate::rig_file::RigConfig;
-use fringe_calibration::registration::contact_spot::SpotSettings;
+use fringe_calibration::from_scan::{self, FromScanError, ScanCalibration};
+use fringe_calibration::optical::overlay::{overlay, overlay_scaled};
+use fringe_calibration::profile::{profile_path, Profile, ProfileError};
+use fringe_calibration::registration::contact_spot::{draw_spot, SpotSettings};
+use fringe_calibration::registration::plot::residual_plot;
+use fringe_calibration::scan_run::{ScanRun, ScanRunError};
 use fringe_rig::config_file::ConfigError;
+use std::path::{Path, PathBuf};
 
 /// The built-in grid: `points` x `points` light presses over +- `span_mm` around the nominal
 /// centre, each to `force_n` with `indenter`.
@@ -132,5 +139,124 @@ impl CalibrationGrid {
             centre.y.0,
             centre.source,
         ))
+    }
+}
+
+/// A calibration scan's run made into a profile, with what shows how good it is.
+pub struct CalibrationResult {
+    pub sensor: String,
+    pub run_dir: PathBuf,
+    /// The fits: optical, presses located, registration, force offsets.
+    pub cal: ScanCalibration,
+    /// The profile they make (not written until [`CalibrationResult::write`]).
+    pub profile: Profile,
+}
+
+/// Why a run gave no profile.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationRunError {
+    #[error(transparent)]
+    Read(#[from] ScanRunError),
+    #[error(transparent)]
+    Fit(#[from] FromScanError),
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    #[error("cannot write {path}: {message}")]
+    Write { path: String, message: String },
+}
+
+/// The files [`CalibrationResult::write`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrittenProfile {
+    pub profile: PathBuf,
+    /// The averaged frame with the fitted disc (green), crop circle (yellow), centre (red).
+    pub report: PathBuf,
+    /// Registration residuals per press, when there is a registration.
+    pub residuals: Option<PathBuf>,
+    /// The press nearest the centre with its located contact marked, when one was located.
+    pub contact: Option<PathBuf>,
+}
+
+/// Calibrates sensor `sensor` from the calibration scan in `run_dir`, averaging at most
+/// `max_frames` no-contact frames; `spot` tunes contact finding.
+pub fn calibrate_run(
+    run_dir: &Path,
+    sensor: &str,
+    max_frames: usize,
+    spot: SpotSettings,
+) -> Result<CalibrationResult, CalibrationRunError> {
+    let run = ScanRun::read(run_dir)?;
+    let cal = from_scan::calibrate(&run, max_frames, spot)?;
+    let mut profile = Profile::from_fit(sensor, &run_dir.display().to_string(), &cal.fit);
+    profile.force_offsets = cal.offsets;
+    profile.registration = cal.registration.as_ref().ok().map(|r| r.to_profile());
+    Ok(CalibrationResult {
+        sensor: sensor.to_string(),
+        run_dir: run_dir.to_path_buf(),
+        cal,
+        profile,
+    })
+}
+
+impl CalibrationResult {
+    /// The fit over the averaged frame (see [`overlay`]).
+    pub fn report_image(&self) -> image::RgbImage {
+        overlay(&self.cal.background, &self.cal.fit)
+    }
+
+    /// The same, at most `side` px on its longer side (for displays).
+    pub fn preview(&self, side: u32) -> image::RgbImage {
+        let g = &self.cal.background;
+        let longer = g.width.max(g.height).max(1) as f64;
+        overlay_scaled(g, &self.cal.fit, f64::from(side) / longer)
+    }
+
+    /// Writes the profile into `dir` (`<dir>/<sensor>.toml`, created) with its report images
+    /// beside it.
+    pub fn write(&self, dir: &Path) -> Result<WrittenProfile, CalibrationRunError> {
+        let profile_file = profile_path(dir, &self.sensor)?;
+        let failed = |path: &Path, e: &dyn std::fmt::Display| CalibrationRunError::Write {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
+        std::fs::create_dir_all(dir).map_err(|e| failed(dir, &e))?;
+        let report = profile_file.with_extension("png");
+        self.report_image()
+            .save(&report)
+            .map_err(|e| failed(&report, &e))?;
+        let residuals = match &self.cal.registration {
+            Ok(r) => {
+                let path = dir.join(format!("{}-registration.png", self.sensor));
+                let stage: Vec<[f64; 2]> = self
+                    .cal
+                    .presses
+                    .iter()
+                    .filter(|p| p.spot.is_ok())
+                    .map(|p| p.stage_mm)
+                    .collect();
+                residual_plot(&r.fit, &stage)
+                    .save(&path)
+                    .map_err(|e| failed(&path, &e))?;
+                Some(path)
+            }
+            Err(_) => None,
+        };
+        let contact = match &self.cal.example_press {
+            Some((frame, spot)) => {
+                let path = dir.join(format!("{}-contact.png", self.sensor));
+                draw_spot(frame, spot, [255, 255, 0])
+                    .save(&path)
+                    .map_err(|e| failed(&path, &e))?;
+                Some(path)
+            }
+            None => None,
+        };
+        self.profile.save(&profile_file)?;
+        Ok(WrittenProfile {
+            profile: profile_file,
+            report,
+            residuals,
+            contact,
+        })
     }
 }

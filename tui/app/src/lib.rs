@@ -11,7 +11,9 @@
 //!   [`TruthScore`]: a scan on the opened rig (profile -> origin, operator, progress, truth
 //!   scoring); module `scan_session` (private).
 //!
-//! And five public modules:
+//! And six public modules:
+//! - [`bench_session`]: the bench outside a scan: device states, jog, home, stop, tare, the
+//!   force and the newest frame.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
@@ -22,6 +24,7 @@
 //! Inside this crate, files import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
 
+pub mod bench_session;
 pub mod calibration_scan;
 pub mod live_validation;
 pub mod live_view;

@@ -8,16 +8,14 @@
 use crate::cmd::scan::execute;
 use crate::Global;
 use anyhow::{bail, Context};
-use fringe_app::calibration_scan::{spot_settings, CalibrationGrid};
+use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationGrid};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::frames;
-use fringe_calibration::from_scan::{self, ScanCalibration};
+use fringe_calibration::from_scan::ScanCalibration;
 use fringe_calibration::offsets::CHANNELS;
+use fringe_calibration::optical::overlay::overlay;
 use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
 use fringe_calibration::profile::{profile_path, Profile};
-use fringe_calibration::registration::contact_spot::draw_spot;
-use fringe_calibration::registration::plot::residual_plot;
-use fringe_calibration::scan_run::ScanRun;
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::documents::ExitStatus;
@@ -136,7 +134,8 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         source.describe()
     );
     let out = args.out.clone().unwrap_or_else(|| config.profile_dir());
-    let profile_file = profile_path(&out, &args.sensor)?;
+    // A sensor id that cannot name a profile file is refused before anything moves.
+    profile_path(&out, &args.sensor)?;
     if let Ok(rig_sensor) = config.sensor_id() {
         if rig_sensor != args.sensor {
             eprintln!(
@@ -200,45 +199,23 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             run_dir.display()
         );
     }
-    let run = ScanRun::read(&run_dir)?;
-    println!("locating the contact in {} presses...", run.presses.len());
-    let cal = from_scan::calibrate(&run, args.max_frames, spot)?;
     println!(
-        "optical: {} no-contact frames of {} recorded",
+        "locating the contact in the presses of {}...",
+        run_dir.display()
+    );
+    let result = calibrate_run(&run_dir, &args.sensor, args.max_frames, spot)?;
+    let cal = &result.cal;
+    println!(
+        "optical: {} no-contact frames averaged, {} presses",
         cal.fit.frames,
-        run.background.len()
+        cal.presses.len()
     );
     print_fit(&cal.fit);
-    print_presses(&cal);
-    print_offsets(&cal);
-    std::fs::create_dir_all(&out)
-        .with_context(|| format!("cannot create profile folder {}", out.display()))?;
-    let mut profile = Profile::from_fit(&args.sensor, &run_dir.display().to_string(), &cal.fit);
-    profile.force_offsets = cal.offsets;
-    profile.registration = cal.registration.as_ref().ok().map(|r| r.to_profile());
-    let report = profile_file.with_extension("png");
-    write_report(&cal.background, &cal.fit, &report)?;
-    let residuals = out.join(format!("{}-registration.png", args.sensor));
-    let contact = out.join(format!("{}-contact.png", args.sensor));
-    if let Ok(r) = &cal.registration {
-        let stage: Vec<[f64; 2]> = cal
-            .presses
-            .iter()
-            .filter(|p| p.spot.is_ok())
-            .map(|p| p.stage_mm)
-            .collect();
-        residual_plot(&r.fit, &stage)
-            .save(&residuals)
-            .with_context(|| format!("cannot write {}", residuals.display()))?;
-    }
-    if let Some((frame, spot)) = &cal.example_press {
-        draw_spot(frame, spot, [255, 255, 0])
-            .save(&contact)
-            .with_context(|| format!("cannot write {}", contact.display()))?;
-    }
+    print_presses(cal);
+    print_offsets(cal);
     #[cfg(feature = "sim")]
     if let Some(sim) = &end.sim {
-        print_truth(&sim.calibration_truth(&cal));
+        print_truth(&sim.calibration_truth(cal));
     }
     let registration_error = match &cal.registration {
         Ok(_) => None,
@@ -249,22 +226,22 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             "warning: no image-to-stage registration ({why}); the profile keeps the optical part and the force offsets, and scans use the rig file's contact origin"
         );
     }
-    profile.save(&profile_file)?;
-    println!("wrote {}", profile_file.display());
+    let written = result.write(&out)?;
+    println!("wrote {}", written.profile.display());
     println!(
         "wrote {} (fitted disc green, crop circle yellow, centre red)",
-        report.display()
+        written.report.display()
     );
-    if registration_error.is_none() {
+    if let Some(p) = &written.residuals {
         println!(
             "wrote {} (registration residuals per press, scaled up)",
-            residuals.display()
+            p.display()
         );
     }
-    if cal.example_press.is_some() {
+    if let Some(p) = &written.contact {
         println!(
             "wrote {} (the press nearest the centre, its located contact marked)",
-            contact.display()
+            p.display()
         );
     }
     Ok(())
@@ -481,36 +458,7 @@ fn print_fit(f: &DiscFit) {
 /// The averaged frame with the fitted disc (green), the crop circle (yellow) and the centre (red
 /// cross) drawn on it.
 fn write_report(g: &GreyImage, f: &DiscFit, path: &Path) -> anyhow::Result<()> {
-    let (w, h) = (g.width as u32, g.height as u32);
-    let mut img = image::RgbImage::from_fn(w, h, |i, j| {
-        let v = g.at(i as usize, j as usize).clamp(0.0, 255.0) as u8;
-        image::Rgb([v, v, v])
-    });
-    let mut put = |x: f64, y: f64, c: [u8; 3]| {
-        let (i, j) = (x.floor(), y.floor());
-        if i >= 0.0 && j >= 0.0 && (i as u32) < w && (j as u32) < h {
-            img.put_pixel(i as u32, j as u32, image::Rgb(c));
-        }
-    };
-    for (r, c) in [(f.radius, [0, 255, 0]), (f.crop_radius, [255, 220, 0])] {
-        let n = (8.0 * std::f64::consts::TAU * r).ceil() as usize;
-        for k in 0..n {
-            let a = std::f64::consts::TAU * k as f64 / n as f64;
-            for dr in [-0.5, 0.5] {
-                put(
-                    f.centre_x + (r + dr) * a.cos(),
-                    f.centre_y + (r + dr) * a.sin(),
-                    c,
-                );
-            }
-        }
-    }
-    for d in -20..=20 {
-        for t in [-0.5, 0.5] {
-            put(f.centre_x + d as f64, f.centre_y + t, [255, 0, 0]);
-            put(f.centre_x + t, f.centre_y + d as f64, [255, 0, 0]);
-        }
-    }
-    img.save(path)
+    overlay(g, f)
+        .save(path)
         .with_context(|| format!("cannot write report {}", path.display()))
 }

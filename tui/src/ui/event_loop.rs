@@ -2,16 +2,23 @@
 //! view and validation, a redraw at most every [`FRAME`]. The terminal is restored on quit, on
 //! error, on panic (ratatui's hook) and on SIGTERM / SIGHUP.
 
+use super::calibration;
 use super::plan_choice::{self, PlanSource};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
-use super::state::{Dialog, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use super::state::{
+    BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, RunRow, RunsView, Tab,
+    UiState, JOG_STEPS_MM,
+};
 use super::view;
 use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
-use fringe_app::{Note, RigConfig};
+use fringe_app::bench_session::{AxisId, BenchCommand, BenchSession};
+use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationResult};
+use fringe_app::{Note, ProfileUse, RigConfig};
 use fringe_rig::scan::control::{Prompt, Reply, ScanProgress};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
+use fringe_rig::units::Millimetres;
 use ratatui::crossterm::event::{self, Event as TermEvent, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::DefaultTerminal;
 use std::path::{Path, PathBuf};
@@ -20,6 +27,9 @@ use std::time::{Duration, Instant};
 
 /// The longest time between redraws while something moves (30 fps).
 const FRAME: Duration = Duration::from_millis(33);
+
+/// Side of the Bench screen's frame picture, px.
+const BENCH_PICTURE_PX: u32 = 96;
 
 /// How the UI starts.
 pub struct UiOptions {
@@ -65,6 +75,7 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
     let _ = ratatui::try_restore();
     // A scan still running is aborted and waited for, so z retracts and the run is closed.
     app.stop_scan();
+    app.close_bench();
     result
 }
 
@@ -84,6 +95,15 @@ fn input_thread() -> anyhow::Result<Receiver<std::io::Result<TermEvent>>> {
     Ok(rx)
 }
 
+/// What the calibration threads report.
+enum Calibrated {
+    /// The profile fitted from the calibration scan's run, and the screen that shows it.
+    Fitted(Box<CalibrationResult>, Box<CalibrateView>),
+    /// The profile written (the files, as text).
+    Written(String),
+    Failed(String),
+}
+
 /// A run's name and the verdict of its verification.
 type Verdict = (String, String);
 
@@ -95,9 +115,18 @@ struct App {
     /// The plans `l` offers.
     plans: Vec<PlanSource>,
     running: Option<Running>,
+    /// The bench, open while the Bench screen is shown and no scan holds the devices.
+    bench: Option<BenchSession>,
+    /// The running scan is the calibration scan (its end starts the fit).
+    calibrating: bool,
+    /// The fitted calibration awaiting `w`.
+    calibration: Option<Box<CalibrationResult>>,
+    calibrated: (Sender<Calibrated>, Receiver<Calibrated>),
     verify: (Sender<Verdict>, Receiver<Verdict>),
     /// Evaluations of a run with the session's model: progress, then the figures.
     evaluate: (Sender<Verdict>, Receiver<Verdict>),
+    /// Exports of a run in the reference layout: progress, then where it went.
+    export: (Sender<Verdict>, Receiver<Verdict>),
     quit: bool,
 }
 
@@ -128,6 +157,8 @@ impl App {
                 root: opts.runs.display().to_string(),
                 ..RunsView::default()
             },
+            bench: BenchView::default(),
+            calibrate: calibration::ready_view(&opts.config),
             dialog: None,
             picker: None,
             error: None,
@@ -139,8 +170,13 @@ impl App {
             plans,
             opts,
             running: None,
+            bench: None,
+            calibrating: false,
+            calibration: None,
+            calibrated: unbounded(),
             verify: unbounded(),
             evaluate: unbounded(),
+            export: unbounded(),
             quit: false,
         }
     }
@@ -157,6 +193,7 @@ impl App {
             if TERMINATE.load(Ordering::SeqCst) {
                 break;
             }
+            self.follow_tab();
             let wait = FRAME.saturating_sub(last_draw.elapsed());
             match input.recv_timeout(wait) {
                 Ok(Ok(TermEvent::Key(k))) if k.kind != KeyEventKind::Release => {
@@ -191,6 +228,32 @@ impl App {
         while let Ok((name, figures)) = self.evaluate.1.try_recv() {
             if let Some(r) = self.state.runs.rows.iter_mut().find(|r| r.name == name) {
                 r.evaluated = Some(figures);
+            }
+            changed = true;
+        }
+        while let Ok((name, outcome)) = self.export.1.try_recv() {
+            if let Some(r) = self.state.runs.rows.iter_mut().find(|r| r.name == name) {
+                r.exported = Some(outcome);
+            }
+            changed = true;
+        }
+        if let Some(b) = &self.bench {
+            self.state.bench.bench = b.state();
+            changed = true;
+        }
+        while let Ok(c) = self.calibrated.1.try_recv() {
+            match c {
+                Calibrated::Fitted(result, view) => {
+                    self.state.calibrate = *view;
+                    self.calibration = Some(result);
+                }
+                Calibrated::Written(files) => {
+                    self.state.calibrate.phase = CalibrationPhase::Written(files);
+                }
+                Calibrated::Failed(why) => {
+                    self.state.calibrate.phase = CalibrationPhase::Failed(why.clone());
+                    self.state.error = Some(why);
+                }
             }
             changed = true;
         }
@@ -276,7 +339,15 @@ impl App {
                     message: p.message(),
                 });
             }
-            Event::Ended { completed, summary } => {
+            Event::Ended {
+                completed,
+                summary,
+                run_dir,
+            } => {
+                if std::mem::take(&mut self.calibrating) {
+                    self.fit_calibration(completed, &summary, run_dir);
+                }
+                let scan = &mut self.state.scan;
                 scan.log(summary.clone());
                 if completed {
                     scan.done = scan.total;
@@ -287,6 +358,11 @@ impl App {
                 self.refresh_runs();
             }
             Event::Failed(why) => {
+                if std::mem::take(&mut self.calibrating) {
+                    self.state.calibrate.phase =
+                        CalibrationPhase::Failed(format!("the calibration scan failed: {why}"));
+                }
+                let scan = &mut self.state.scan;
                 scan.log(format!("failed: {why}"));
                 scan.phase = Phase::Failed(why.clone());
                 scan.current = None;
@@ -375,6 +451,35 @@ impl App {
             KeyCode::Char('1') => self.state.tab = Tab::Scan,
             KeyCode::Char('2') => self.state.tab = Tab::Validate,
             KeyCode::Char('3') => self.state.tab = Tab::Runs,
+            KeyCode::Char('4') => self.state.tab = Tab::Bench,
+            KeyCode::Char('5') => self.state.tab = Tab::Calibrate,
+            KeyCode::Char('r') if self.state.tab == Tab::Calibrate => {
+                if self.scan_active() {
+                    self.state.error = Some("a scan is already running".into());
+                } else {
+                    self.start_calibration();
+                }
+            }
+            KeyCode::Char('w') if self.state.tab == Tab::Calibrate => self.write_profile(),
+            KeyCode::Char('x') if self.state.tab == Tab::Bench => self.state.bench.axis = AxisId::X,
+            KeyCode::Char('y') if self.state.tab == Tab::Bench => self.state.bench.axis = AxisId::Y,
+            KeyCode::Char('z') if self.state.tab == Tab::Bench => self.state.bench.axis = AxisId::Z,
+            KeyCode::Char('s') if self.state.tab == Tab::Bench => {
+                self.state.bench.step = (self.state.bench.step + 1) % JOG_STEPS_MM.len();
+            }
+            KeyCode::Left | KeyCode::Char('-') if self.state.tab == Tab::Bench => self.jog(-1.0),
+            KeyCode::Right | KeyCode::Char('+' | '=') if self.state.tab == Tab::Bench => {
+                self.jog(1.0)
+            }
+            KeyCode::Char('h') if self.state.tab == Tab::Bench => {
+                self.bench_command(BenchCommand::Home(self.state.bench.axis))
+            }
+            KeyCode::Char(' ') if self.state.tab == Tab::Bench => {
+                self.bench_command(BenchCommand::Stop)
+            }
+            KeyCode::Char('t') if self.state.tab == Tab::Bench => {
+                self.bench_command(BenchCommand::Tare)
+            }
             KeyCode::Char('r') => {
                 if self.scan_active() {
                     self.state.error = Some("a scan is already running".into());
@@ -407,6 +512,7 @@ impl App {
             KeyCode::Char('g') => self.refresh_runs(),
             KeyCode::Enter if self.state.tab == Tab::Runs => self.verify_selected(),
             KeyCode::Char('e') if self.state.tab == Tab::Runs => self.evaluate_selected(),
+            KeyCode::Char('x') if self.state.tab == Tab::Runs => self.export_selected(),
             _ => {}
         }
     }
@@ -475,26 +581,180 @@ impl App {
         }
     }
 
+    /// Opens the bench when its screen is shown and no scan holds the devices; closes it when
+    /// another screen is (so a scan can open them).
+    fn follow_tab(&mut self) {
+        let want = self.state.tab == Tab::Bench;
+        if want && self.scan_active() {
+            self.close_bench();
+            self.state.bench.held = Some(
+                "a scan holds the devices: its state is on the Scan screen; the bench opens \
+                 here when it ends"
+                    .into(),
+            );
+            return;
+        }
+        self.state.bench.held = None;
+        if want && self.bench.is_none() {
+            self.state.bench.bench = Default::default();
+            match BenchSession::open(self.opts.config.clone(), BENCH_PICTURE_PX) {
+                Ok(b) => self.bench = Some(b),
+                Err(e) => self.state.error = Some(format!("cannot start the bench thread: {e}")),
+            }
+        } else if !want {
+            self.close_bench();
+        }
+    }
+
+    /// Stops any motion and releases the bench's devices (waits for its thread).
+    fn close_bench(&mut self) {
+        if let Some(b) = self.bench.take() {
+            b.close();
+            self.state.bench.bench.phase = fringe_app::bench_session::BenchPhase::Closed;
+        }
+    }
+
+    fn bench_command(&mut self, command: BenchCommand) {
+        match &self.bench {
+            Some(b) => b.send(command),
+            None => {
+                self.state.error = Some(
+                    self.state
+                        .bench
+                        .held
+                        .clone()
+                        .unwrap_or_else(|| "the bench is not open".into()),
+                )
+            }
+        }
+    }
+
+    fn jog(&mut self, sign: f64) {
+        let by = Millimetres(sign * self.state.bench.step_mm());
+        self.bench_command(BenchCommand::Jog {
+            axis: self.state.bench.axis,
+            by,
+        });
+    }
+
+    /// Runs the built-in calibration grid; its end fits the profile ([`Self::fit_calibration`]).
+    fn start_calibration(&mut self) {
+        match calibration::plan(&self.opts.config) {
+            Ok((program, text, _sensor)) => {
+                self.calibration = None;
+                let ready = calibration::ready_view(&self.opts.config);
+                self.state.calibrate = CalibrateView {
+                    phase: CalibrationPhase::Scanning,
+                    ..ready
+                };
+                self.calibrating = true;
+                self.start_program(program, text, None, ProfileUse::Ignore);
+            }
+            Err(e) => {
+                self.state.calibrate.phase = CalibrationPhase::Failed(format!("{e:#}"));
+            }
+        }
+    }
+
+    /// After the calibration scan: fits the profile from its run on a thread.
+    fn fit_calibration(&mut self, completed: bool, summary: &str, run_dir: PathBuf) {
+        if !completed {
+            self.state.calibrate.phase = CalibrationPhase::Failed(format!(
+                "the calibration scan did not complete ({summary}); no profile"
+            ));
+            return;
+        }
+        self.state.calibrate.phase = CalibrationPhase::Fitting;
+        let config = self.opts.config.clone();
+        let mut view = self.state.calibrate.clone();
+        let tx = self.calibrated.0.clone();
+        std::thread::spawn(move || {
+            let outcome = spot_settings(None, &config)
+                .map_err(|e| e.to_string())
+                .and_then(|(spot, _)| {
+                    calibrate_run(&run_dir, &view.sensor, 50, spot).map_err(|e| e.to_string())
+                });
+            let _ = tx.send(match outcome {
+                Ok(result) => {
+                    calibration::show(&mut view, &result);
+                    Calibrated::Fitted(Box::new(result), Box::new(view))
+                }
+                Err(why) => Calibrated::Failed(why),
+            });
+        });
+    }
+
+    /// Writes the fitted profile (and its report images) into the rig's profile folder.
+    fn write_profile(&mut self) {
+        let Some(result) = self.calibration.take() else {
+            self.state.error =
+                Some("no fitted calibration to write: run the calibration scan first (r)".into());
+            return;
+        };
+        let dir = self.opts.config.profile_dir();
+        let tx = self.calibrated.0.clone();
+        self.state.calibrate.phase = CalibrationPhase::Written("writing...".into());
+        std::thread::spawn(move || {
+            let _ = tx.send(match result.write(&dir) {
+                Ok(w) => {
+                    let mut files = vec![
+                        w.profile.display().to_string(),
+                        w.report.display().to_string(),
+                    ];
+                    files.extend(
+                        w.residuals
+                            .iter()
+                            .chain(&w.contact)
+                            .map(|p| p.display().to_string()),
+                    );
+                    Calibrated::Written(files.join(", "))
+                }
+                Err(e) => Calibrated::Failed(e.to_string()),
+            });
+        });
+    }
+
     fn start_scan(&mut self) {
-        self.stop_scan();
+        if self.state.tab == Tab::Bench {
+            self.state.tab = Tab::Scan;
+        }
         let model = if self.state.tab == Tab::Validate || self.opts.tab == Tab::Validate {
             self.opts.model.clone()
         } else {
             None
         };
+        self.start_program(
+            self.program.clone(),
+            self.opts.plan_text.clone(),
+            model,
+            ProfileUse::Consume,
+        );
+    }
+
+    fn start_program(
+        &mut self,
+        program: ScanProgram,
+        plan_text: String,
+        model: Option<ModelChoice>,
+        profile: ProfileUse,
+    ) {
+        self.stop_scan();
+        self.close_bench();
         self.state.validation = None;
         let scan = &mut self.state.scan;
         scan.phase = Phase::Running;
         scan.done = 0;
         scan.current = None;
         scan.run_dir = None;
-        scan.log(format!("starting {}", scan.plan));
+        scan.total = program.points.len() as u64;
+        scan.log(format!("starting {}", program.plan.name));
         self.running = Some(session::start(ScanRequest {
             config: self.opts.config.clone(),
-            program: self.program.clone(),
-            plan_text: self.opts.plan_text.clone(),
+            program,
+            plan_text,
             runs: self.opts.runs.clone(),
             model,
+            profile,
         }));
     }
 
@@ -539,6 +799,7 @@ impl App {
                     frames: r.frames as usize,
                     verified: None,
                     evaluated: None,
+                    exported: None,
                 })
                 .collect(),
             Err(e) => {
@@ -553,6 +814,7 @@ impl App {
                 if let Some(o) = old.iter().find(|o| o.name == r.name) {
                     r.verified = o.verified.clone();
                     r.evaluated = o.evaluated.clone();
+                    r.exported = o.exported.clone();
                 }
                 r
             })
@@ -582,6 +844,36 @@ impl App {
         });
     }
 
+    /// Exports the chosen run in the reference layout (`0.images/`, `0.labels.csv`, as
+    /// `fringe export` does) to `exports/<run>` beside the runs directory, on a thread.
+    fn export_selected(&mut self) {
+        let Some(row) = self.state.runs.rows.get_mut(self.state.runs.selected) else {
+            return;
+        };
+        let name = row.name.clone();
+        let dir = self.opts.runs.join(&name);
+        let out = export_dir(&self.opts.runs, &name);
+        row.exported = Some(format!("exporting to {}...", out.display()));
+        let tx = self.export.0.clone();
+        std::thread::spawn(move || {
+            let options = fringe_rig::store::export::ExportOptions {
+                round: None,
+                allow_unverified: false,
+            };
+            let outcome =
+                fringe_rig::store::export::export_reference(&[dir], &out, &options, |k| {
+                    if k % 250 == 0 {
+                        let _ = tx.send((name.clone(), format!("exporting: {k} images")));
+                    }
+                });
+            let text = match outcome {
+                Ok(s) => format!("exported {} images to {}", s.images, out.display()),
+                Err(e) => format!("cannot export: {e}"),
+            };
+            let _ = tx.send((name, text));
+        });
+    }
+
     /// Evaluates the chosen run with the session's model (the one that ships when none was
     /// named) on a thread: progress, then the Table-2 figures, arrive through `evaluate`.
     fn evaluate_selected(&mut self) {
@@ -608,4 +900,13 @@ impl App {
             let _ = tx.send((name, figures));
         });
     }
+}
+
+/// Where the Runs screen exports run `name`: `exports/<name>` beside the runs directory.
+fn export_dir(runs: &Path, name: &str) -> PathBuf {
+    let base = match runs.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.join("exports"),
+        _ => PathBuf::from("exports"),
+    };
+    base.join(name)
 }

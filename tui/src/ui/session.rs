@@ -31,6 +31,7 @@ pub enum Event {
     Ended {
         completed: bool,
         summary: String,
+        run_dir: PathBuf,
     },
     Failed(String),
 }
@@ -115,6 +116,8 @@ pub struct ScanRequest {
     pub plan_text: String,
     pub runs: PathBuf,
     pub model: Option<ModelChoice>,
+    /// Whether the scan reads the sensor's calibration profile (a calibration scan does not).
+    pub profile: ProfileUse,
 }
 
 /// Starts the scan thread.
@@ -157,14 +160,8 @@ fn run(
     validation: &Mutex<Option<LiveValidation>>,
 ) -> Result<(), String> {
     let run_id = new_run_id(&req.program.plan.name);
-    let mut session = ScanSession::open(
-        &req.config,
-        req.program,
-        req.plan_text,
-        ProfileUse::Consume,
-        None,
-    )
-    .map_err(|e| e.to_string())?;
+    let mut session = ScanSession::open(&req.config, req.program, req.plan_text, req.profile, None)
+        .map_err(|e| e.to_string())?;
     for note in &session.notes {
         let _ = events.send(Event::Note(note.clone()));
     }
@@ -235,6 +232,7 @@ fn run(
     let _ = events.send(Event::Ended {
         completed: o.status == ExitStatus::Completed,
         summary,
+        run_dir: o.run_dir.clone(),
     });
     Ok(())
 }

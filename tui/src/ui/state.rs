@@ -1,6 +1,7 @@
 //! What the terminal UI shows, as plain data: the event loop fills it from what the scan and
 //! validation threads publish, the views draw it, and the snapshot tests build it by hand.
 
+use fringe_app::bench_session::{AxisId, BenchState};
 use fringe_app::live_validation::ValidationState;
 use fringe_app::live_view::ViewState;
 use std::collections::VecDeque;
@@ -15,16 +16,26 @@ pub enum Tab {
     Scan,
     Validate,
     Runs,
+    Bench,
+    Calibrate,
 }
 
 impl Tab {
-    pub const ALL: [Tab; 3] = [Tab::Scan, Tab::Validate, Tab::Runs];
+    pub const ALL: [Tab; 5] = [
+        Tab::Scan,
+        Tab::Validate,
+        Tab::Runs,
+        Tab::Bench,
+        Tab::Calibrate,
+    ];
 
     pub fn title(self) -> &'static str {
         match self {
             Tab::Scan => "Scan",
             Tab::Validate => "Validate",
             Tab::Runs => "Runs",
+            Tab::Bench => "Bench",
+            Tab::Calibrate => "Calibrate",
         }
     }
 }
@@ -99,6 +110,8 @@ pub struct RunRow {
     pub verified: Option<String>,
     /// The model's figures on this run (or the evaluation's progress), if the user asked.
     pub evaluated: Option<String>,
+    /// Where the run was exported in the reference layout (or the export's progress).
+    pub exported: Option<String>,
 }
 
 /// The runs screen.
@@ -107,6 +120,85 @@ pub struct RunsView {
     pub root: String,
     pub rows: Vec<RunRow>,
     pub selected: usize,
+}
+
+/// Jog steps offered, mm (`s` cycles through them).
+pub const JOG_STEPS_MM: [f64; 4] = [0.01, 0.1, 1.0, 5.0];
+
+/// The bench screen.
+#[derive(Debug, Clone)]
+pub struct BenchView {
+    /// What the bench session published (phase Closed while a scan holds the devices).
+    pub bench: BenchState,
+    /// The axis the jog keys move.
+    pub axis: AxisId,
+    /// Index into [`JOG_STEPS_MM`].
+    pub step: usize,
+    /// Why the bench is not open (a scan holds the devices), when it is not.
+    pub held: Option<String>,
+}
+
+impl Default for BenchView {
+    fn default() -> BenchView {
+        BenchView {
+            bench: BenchState::default(),
+            axis: AxisId::Z,
+            step: 1,
+            held: None,
+        }
+    }
+}
+
+impl BenchView {
+    pub fn step_mm(&self) -> f64 {
+        JOG_STEPS_MM[self.step % JOG_STEPS_MM.len()]
+    }
+}
+
+/// Where the calibration is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CalibrationPhase {
+    /// Nothing run yet: `r` runs the calibration scan.
+    Ready,
+    /// The calibration scan runs (its progress is the Scan screen's).
+    Scanning,
+    /// The scan ended; the profile is being fitted from its run.
+    Fitting,
+    /// Fitted: `w` writes the profile.
+    Fitted,
+    /// Written to these files.
+    Written(String),
+    Failed(String),
+}
+
+/// A press of the calibration scan as located.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PressRow {
+    /// Stage position, mm.
+    pub stage_mm: (f64, f64),
+    /// Registration residual, px (and whether the fit left it out), or why the contact was
+    /// not located.
+    pub outcome: Result<(f64, bool), String>,
+}
+
+/// The calibration screen.
+#[derive(Debug, Clone)]
+pub struct CalibrateView {
+    pub sensor: String,
+    /// The calibration plan, described.
+    pub plan: String,
+    /// Where the profile goes.
+    pub profile: String,
+    pub phase: CalibrationPhase,
+    /// The optical fit, one line each (centre, shift, radius, crop radius, residual).
+    pub fit: Vec<String>,
+    /// The registration, one line (scale, rotation, RMS residual) or why there is none.
+    pub registration: String,
+    pub presses: Vec<PressRow>,
+    /// The force offsets, one line per channel group.
+    pub offsets: Vec<String>,
+    /// The averaged no-contact frame with the fitted disc, crop circle and centre drawn.
+    pub picture: Option<image::RgbImage>,
 }
 
 /// A question the scan asks, shown over every screen until answered.
@@ -135,6 +227,8 @@ pub struct UiState {
     pub model: Option<String>,
     pub validation: Option<ValidationState>,
     pub runs: RunsView,
+    pub bench: BenchView,
+    pub calibrate: CalibrateView,
     pub dialog: Option<Dialog>,
     pub picker: Option<Picker>,
     /// The newest error, shown until the next key.

@@ -1,6 +1,8 @@
 //! Drawing the UI from its state: tabs, the screen of the chosen tab, the footer with the keys
 //! or the newest error, and the dialog and help overlays. Pure: state in, cells out.
 
+mod bench;
+mod calibrate;
 mod disc;
 mod help;
 mod runs;
@@ -40,7 +42,7 @@ pub fn draw(f: &mut Frame, s: &UiState) {
         .collect();
     let selected = Tab::ALL.iter().position(|t| *t == s.tab).unwrap_or(0);
     let [tabs_area, rig_area] =
-        Layout::horizontal([Constraint::Length(32), Constraint::Min(0)]).areas(top);
+        Layout::horizontal([Constraint::Length(56), Constraint::Min(0)]).areas(top);
     f.render_widget(
         Tabs::new(titles).select(selected).highlight_style(
             Style::new()
@@ -58,6 +60,8 @@ pub fn draw(f: &mut Frame, s: &UiState) {
         Tab::Scan => scan::draw(f, body, s),
         Tab::Validate => validate::draw(f, body, s),
         Tab::Runs => runs::draw(f, body, &s.runs, s.model.as_deref()),
+        Tab::Bench => bench::draw(f, body, &s.bench),
+        Tab::Calibrate => calibrate::draw(f, body, &s.calibrate, &s.scan),
     }
     let footer = match &s.error {
         Some(e) => Line::from(Span::styled(
@@ -71,7 +75,11 @@ pub fn draw(f: &mut Frame, s: &UiState) {
             Span::raw(" quit  "),
             Span::styled(" Tab ", Style::new().add_modifier(Modifier::REVERSED)),
             Span::raw(" next screen  "),
-            Span::raw(scan::key_hint(s)),
+            Span::raw(match s.tab {
+                Tab::Bench => bench::KEY_HINT,
+                Tab::Calibrate => calibrate::key_hint(&s.calibrate),
+                _ => scan::key_hint(s),
+            }),
         ]),
     };
     f.render_widget(Paragraph::new(footer), foot);

@@ -1,5 +1,6 @@
 //! The Runs screen: the runs in the runs directory, newest first, with their status and frames,
-//! the verdict of a verification and the model's figures of an evaluation the user asked for.
+//! the verdict of a verification, the model's figures of an evaluation and where an export went,
+//! when the user asked for them.
 
 use super::{panel, BAD, GOOD, WARN};
 use crate::ui::state::RunsView;
@@ -11,7 +12,7 @@ use ratatui::Frame;
 /// `model`: what `e` evaluates with (the model that ships when none was named).
 pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>) {
     let title = format!(
-        "runs in {} · Enter verify · e evaluate with {} · g refresh",
+        "runs in {} · Enter verify · e evaluate with {} · x export · g refresh",
         v.root,
         model.unwrap_or(fringe_sensor_models::builtin::DEFAULT)
     );
@@ -43,12 +44,23 @@ pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>)
             Some(e) => Cell::from(e.to_string()),
             None => Cell::from("-"),
         };
+        let exported = match r.exported.as_deref() {
+            Some(e) if e.starts_with("cannot") => {
+                Cell::from(e.to_string()).style(Style::new().fg(BAD))
+            }
+            Some(e) if e.starts_with("exported") => {
+                Cell::from(e.to_string()).style(Style::new().fg(GOOD))
+            }
+            Some(e) => Cell::from(e.to_string()),
+            None => Cell::from("-"),
+        };
         Row::new(vec![
             Cell::from(r.name.clone()),
             Cell::from(r.status.clone()).style(status),
             Cell::from(r.frames.to_string()),
             verified,
             evaluated,
+            exported,
         ])
     });
     let table = Table::new(
@@ -59,11 +71,19 @@ pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>)
             Constraint::Length(8),
             Constraint::Min(20),
             Constraint::Length(44),
+            Constraint::Length(36),
         ],
     )
     .header(
-        Row::new(["run", "status", "frames", "verified", "evaluation"])
-            .style(Style::new().add_modifier(Modifier::BOLD)),
+        Row::new([
+            "run",
+            "status",
+            "frames",
+            "verified",
+            "evaluation",
+            "export",
+        ])
+        .style(Style::new().add_modifier(Modifier::BOLD)),
     )
     .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
     .block(panel(&title));

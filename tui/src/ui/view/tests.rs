@@ -3,7 +3,11 @@
 
 use super::draw;
 use crate::ui::state::{
-    Dialog, Phase, Picker, PlanPoint, RunRow, RunsView, ScanView, Tab, UiState,
+    BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, PlanPoint, PressRow, RunRow,
+    RunsView, ScanView, Tab, UiState,
+};
+use fringe_app::bench_session::{
+    AxisId, AxisState, BenchPhase, BenchState, CameraState, ForcePoint, ForceState,
 };
 use fringe_app::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
 use fringe_app::live_view::{LabelPoint, ViewState};
@@ -91,10 +95,85 @@ fn ready() -> UiState {
             root: "runs".into(),
             ..RunsView::default()
         },
+        bench: BenchView::default(),
+        calibrate: CalibrateView {
+            sensor: "layered-1".into(),
+            plan: "built-in calibration grid: 9 light presses".into(),
+            profile: "profiles/layered-1.toml".into(),
+            phase: CalibrationPhase::Ready,
+            fit: Vec::new(),
+            registration: String::new(),
+            presses: Vec::new(),
+            offsets: Vec::new(),
+            picture: None,
+        },
         dialog: None,
         picker: None,
         error: None,
     }
+}
+
+/// The Bench screen after a jog of z that hit the force ceiling, with x not homed.
+fn on_bench() -> UiState {
+    let mut s = ready();
+    s.tab = Tab::Bench;
+    let axis = |p: f64, homed: bool, moving: bool, limits: (f64, f64)| AxisState {
+        endpoint: "simulated".into(),
+        position_mm: Some(p),
+        homed,
+        moving,
+        limits_mm: limits,
+        faults: Vec::new(),
+        manual: false,
+    };
+    let mut x = axis(100.0, false, false, (0.0, 150.0));
+    x.faults = vec!["forward limit switch".into()];
+    s.bench = BenchView {
+        bench: BenchState {
+            phase: BenchPhase::Ready,
+            devices: vec!["simulated x".into()],
+            axes: [
+                x,
+                axis(50.0, true, false, (0.0, 100.0)),
+                axis(11.2345, true, true, (0.0, 13.0)),
+            ],
+            force: ForceState {
+                device: "simulated Net F/T".into(),
+                fz_n: -15.6,
+                f_n: 15.7,
+                rate_hz: 5000.0,
+                received: 50_000,
+                lost: 3,
+                max_n: 15.0,
+            },
+            camera: CameraState {
+                device: "simulated camera".into(),
+                fps: 25.0,
+                frames: 250,
+                dropped: 0,
+                frame_id: 251,
+            },
+            picture: Some(picture()),
+            chart: (0..40)
+                .map(|i| ForcePoint {
+                    t_s: i as f64 * 0.1,
+                    fz_n: -(i as f64) * 0.4,
+                    f_n: i as f64 * 0.4,
+                })
+                .collect(),
+            messages: [
+                "bench open: jog, home and tare from here; a scan takes the devices over",
+                "z: moving by +0.100 mm",
+                "force 15.70 N over the ceiling 15.00 N: every axis stopped; retract z before anything else",
+            ]
+            .map(String::from)
+            .into(),
+        },
+        axis: AxisId::Z,
+        step: 1,
+        held: None,
+    };
+    s
 }
 
 /// A 4x4 picture: left half red, right half blue.
@@ -327,6 +406,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             frames: 2310,
             verified: Some("ok: 2310 frames, 115500 force samples".into()),
             evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
+            exported: Some("exported 2310 images to exports/20261125-083000-short-grid".into()),
         },
         RunRow {
             name: "20261124-170000-short-grid".into(),
@@ -334,6 +414,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             frames: 120,
             verified: Some("1 problem(s): frames.jsonl: line 121 truncated".into()),
             evaluated: Some("cannot evaluate: frames.jsonl: line 121".into()),
+            exported: Some("cannot export: it fails verify".into()),
         },
         RunRow {
             name: "20261124-160000-wide".into(),
@@ -341,10 +422,11 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             frames: 5,
             verified: None,
             evaluated: Some("evaluating: 300 of 1672 frames".into()),
+            exported: None,
         },
     ];
     s.runs.selected = 1;
-    let t = render(&s, 120, 12);
+    let t = render(&s, 170, 12);
     insta::assert_snapshot!("runs", t.backend());
     let b = t.backend().buffer();
     let (x, y) = find(b, "ok: 2310 frames").expect("verdict");
@@ -362,6 +444,125 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
         find(b, "e evaluate with default").is_some(),
         "which model e uses"
     );
+    let (x, y) = find(b, "exported 2310 images").expect("export outcome");
+    assert_eq!(b[(x, y)].fg, super::GOOD);
+    let (x, y) = find(b, "cannot export").expect("export error");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+}
+
+#[test]
+fn bench_shows_devices_jog_state_force_and_frame() {
+    let s = on_bench();
+    let t = render(&s, 120, 30);
+    insta::assert_snapshot!("bench", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "▶ z").expect("the chosen axis is marked");
+    assert!(b[(x, y)].modifier.contains(Modifier::BOLD));
+    assert!(find(b, "11.2345 mm").is_some(), "z position");
+    let (x, y) = find(b, "not homed").expect("x not homed");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "forward limit").expect("fault shown");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    let (x, y) = find(b, "moving").expect("z moving");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "Fz ").expect("force");
+    assert_eq!(b[(x, y)].fg, super::BAD, "over the ceiling");
+    let (x, y) = find(b, "3 lost").expect("lost samples");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "force 15.70 N over the ceiling").expect("the stop is said");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert!(find(b, "jog step 0.1 mm").is_some());
+    assert!(find(b, "←/→ jog").is_some(), "the bench keys in the footer");
+    // The picture: red left half, blue right half, as 24-bit colours.
+    let reds = b
+        .content()
+        .iter()
+        .filter(|c| c.fg == Color::Rgb(200, 0, 0))
+        .count();
+    let blues = b
+        .content()
+        .iter()
+        .filter(|c| c.fg == Color::Rgb(0, 0, 200))
+        .count();
+    assert!(
+        reds > 0 && blues > 0,
+        "frame drawn ({reds} red, {blues} blue)"
+    );
+
+    let mut held = on_bench();
+    held.bench.held = Some("a scan holds the devices: its state is on the Scan screen".into());
+    let t = render(&held, 120, 30);
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "a scan holds the devices").expect("why the bench is closed");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+}
+
+/// The Calibrate screen with a fit awaiting `w`: one press an outlier, one not located.
+fn calibrated() -> UiState {
+    let mut s = ready();
+    s.tab = Tab::Calibrate;
+    let c = &mut s.calibrate;
+    c.phase = CalibrationPhase::Fitted;
+    c.fit = vec![
+        "centre x 978.41 ± 0.021 px, y 612.30 ± 0.020 px (50 frames averaged)".into(),
+        "shift from the image centre x +18.41 px, y +12.30 px".into(),
+        "radius 540.12 ± 0.015 px, crop radius 520 px".into(),
+    ];
+    c.registration =
+        "45.012 px/mm, rotation +0.52°, 0.410 px RMS; centre pressed at stage (100.402, 50.271) mm"
+            .into();
+    c.presses = vec![
+        PressRow {
+            stage_mm: (95.0, 45.0),
+            outcome: Ok((0.31, false)),
+        },
+        PressRow {
+            stage_mm: (100.0, 45.0),
+            outcome: Ok((7.9, true)),
+        },
+        PressRow {
+            stage_mm: (105.0, 45.0),
+            outcome: Err("no contact spot brighter than the background".into()),
+        },
+    ];
+    c.offsets = vec!["Fx +0.0120  Fy -0.0040  Fz +0.1500 N (± 0.0010 N)".into()];
+    c.picture = Some(picture());
+    s
+}
+
+#[test]
+fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
+    let s = calibrated();
+    let t = render(&s, 140, 30);
+    insta::assert_snapshot!("calibrate", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "fitted: press w").expect("how to accept");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "0.31 px").expect("a residual");
+    assert_eq!(b[(x, y)].fg, super::GOOD);
+    let (x, y) = find(b, "7.90 px, left out").expect("an outlier");
+    assert_eq!(b[(x, y)].fg, super::WARN);
+    let (x, y) = find(b, "not located").expect("a press not located");
+    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert!(find(b, "crop radius 520 px").is_some());
+    assert!(find(b, "Fz +0.1500 N").is_some());
+    assert!(
+        find(b, "w write the profile").is_some(),
+        "the footer says w"
+    );
+    let reds = b
+        .content()
+        .iter()
+        .filter(|c| c.fg == Color::Rgb(200, 0, 0))
+        .count();
+    assert!(reds > 0, "the fitted frame is drawn");
+
+    let mut written = calibrated();
+    written.calibrate.phase = CalibrationPhase::Written("profiles/layered-1.toml".into());
+    let t = render(&written, 140, 30);
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "written: profiles/layered-1.toml").expect("where it went");
+    assert_eq!(b[(x, y)].fg, super::GOOD);
 }
 
 #[test]
@@ -377,7 +578,7 @@ fn help_lists_every_key() {
 
 #[test]
 fn every_screen_draws_at_any_terminal_size() {
-    let mut states = vec![ready(), running(), validating()];
+    let mut states = vec![ready(), running(), validating(), on_bench(), calibrated()];
     let mut runs = ready();
     runs.tab = Tab::Runs;
     runs.runs.rows.push(RunRow {
@@ -386,6 +587,7 @@ fn every_screen_draws_at_any_terminal_size() {
         frames: 0,
         verified: None,
         evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
+        exported: Some("exporting: 250 images".into()),
     });
     states.push(runs);
     let mut dialog = running();

@@ -1,0 +1,487 @@
+//! The bench outside a scan, for a front end: the rig opened, the F/T sensor and the camera
+//! streaming, the axes polled, and jog / home / stop / tare carried out on a worker thread that
+//! publishes a [`BenchState`] snapshot. The front end only sends [`BenchCommand`]s and reads the
+//! snapshot, so it never waits on a device.
+//!
+//! Safety: every move goes through the axis drivers, which refuse targets outside the soft
+//! limits; while an axis moves, a total force over the bench's ceiling stops every axis at once.
+//! Closing the session stops any motion before the devices are released.
+
+use crate::rig_file::RigConfig;
+use fringe_rig::acquire::camera_stream::CameraStream;
+use fringe_rig::acquire::force_stream::ForceStream;
+use fringe_rig::axis::{Axis, StopMode};
+use fringe_rig::camera::Frame;
+use fringe_rig::units::Millimetres;
+use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, Receiver, Sender};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// How often the axes are polled and the snapshot refreshed.
+const TICK: Duration = Duration::from_millis(50);
+/// Pictures made per second at most.
+const PICTURE_HZ: f64 = 10.0;
+/// Seconds of force kept for the chart.
+pub const CHART_SECONDS: f64 = 20.0;
+/// Force points per second kept for the chart.
+const CHART_HZ: f64 = 50.0;
+/// Messages kept.
+const MESSAGES: usize = 50;
+
+/// An axis of the bench.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisId {
+    X,
+    Y,
+    Z,
+}
+
+impl AxisId {
+    pub const ALL: [AxisId; 3] = [AxisId::X, AxisId::Y, AxisId::Z];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            AxisId::X => "x",
+            AxisId::Y => "y",
+            AxisId::Z => "z",
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// What the front end asks of the bench.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BenchCommand {
+    /// Move an axis by a distance (within its soft limits).
+    Jog { axis: AxisId, by: Millimetres },
+    /// Home an axis.
+    Home(AxisId),
+    /// Stop every axis at once.
+    Stop,
+    /// Re-zero the F/T sensor (nothing may touch the indenter).
+    Tare,
+}
+
+/// One axis as last polled.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AxisState {
+    /// Driver and port ("Thorlabs KST101 on /dev/ttyUSB0", "simulated").
+    pub endpoint: String,
+    pub position_mm: Option<f64>,
+    pub homed: bool,
+    pub moving: bool,
+    /// Soft limits, mm.
+    pub limits_mm: (f64, f64),
+    /// Status flags that mean trouble (limit switch, motion error).
+    pub faults: Vec<String>,
+    /// Moved by hand (a manual y stage): not jogged from here.
+    pub manual: bool,
+}
+
+/// The F/T sensor as last read.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ForceState {
+    pub device: String,
+    pub fz_n: f64,
+    /// |F| of the force vector, N.
+    pub f_n: f64,
+    /// Samples received per second over the last second.
+    pub rate_hz: f64,
+    pub received: u64,
+    pub lost: u64,
+    /// The ceiling that stops a jog, N.
+    pub max_n: f64,
+}
+
+/// The camera as last read.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CameraState {
+    pub device: String,
+    /// Frames per second over the last second.
+    pub fps: f64,
+    pub frames: u64,
+    /// Frames the camera numbered but that never arrived.
+    pub dropped: u64,
+    pub frame_id: u64,
+}
+
+/// A force point of the chart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForcePoint {
+    /// Seconds since the session opened.
+    pub t_s: f64,
+    pub fz_n: f64,
+    pub f_n: f64,
+}
+
+/// Where the session is.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum BenchPhase {
+    #[default]
+    Opening,
+    Ready,
+    /// The rig could not be opened, or a stream failed: the message says which device.
+    Failed(String),
+    Closed,
+}
+
+/// Everything a front end shows of the bench.
+#[derive(Debug, Clone, Default)]
+pub struct BenchState {
+    pub phase: BenchPhase,
+    /// One line per device.
+    pub devices: Vec<String>,
+    pub axes: [AxisState; 3],
+    pub force: ForceState,
+    pub camera: CameraState,
+    pub picture: Option<image::RgbImage>,
+    pub chart: VecDeque<ForcePoint>,
+    /// What was done and what went wrong, newest last.
+    pub messages: VecDeque<String>,
+}
+
+impl BenchState {
+    fn say(&mut self, line: impl Into<String>) {
+        let line = line.into();
+        if self.messages.back() == Some(&line) {
+            return;
+        }
+        if self.messages.len() == MESSAGES {
+            self.messages.pop_front();
+        }
+        self.messages.push_back(line);
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The bench, opened on its own thread.
+pub struct BenchSession {
+    commands: Sender<BenchCommand>,
+    state: Arc<Mutex<BenchState>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl BenchSession {
+    /// Opens the rig `config` describes on a new thread (the snapshot says Opening until the
+    /// devices answer); pictures are `picture_px` on a side.
+    pub fn open(config: RigConfig, picture_px: u32) -> std::io::Result<BenchSession> {
+        let state = Arc::new(Mutex::new(BenchState::default()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = channel();
+        let thread = {
+            let (state, stop) = (state.clone(), stop.clone());
+            std::thread::Builder::new()
+                .name("bench".into())
+                .spawn(move || {
+                    if let Err(message) = run(&config, picture_px, &state, &stop, &rx) {
+                        lock(&state).phase = BenchPhase::Failed(message);
+                    }
+                })?
+        };
+        Ok(BenchSession {
+            commands: tx,
+            state,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// Asks the bench to do something; the outcome appears in the snapshot's messages.
+    pub fn send(&self, command: BenchCommand) {
+        // The worker only goes away when the session closes.
+        let _ = self.commands.send(command);
+    }
+
+    /// The newest snapshot.
+    pub fn state(&self) -> BenchState {
+        lock(&self.state).clone()
+    }
+
+    /// Stops any motion, releases the devices and waits for the worker.
+    pub fn close(mut self) {
+        self.shut();
+    }
+
+    fn shut(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for BenchSession {
+    fn drop(&mut self) {
+        self.shut();
+    }
+}
+
+/// The worker: opens the rig, then polls and obeys until told to stop.
+fn run(
+    config: &RigConfig,
+    picture_px: u32,
+    state: &Mutex<BenchState>,
+    stop: &AtomicBool,
+    commands: &Receiver<BenchCommand>,
+) -> Result<(), String> {
+    let rig = config.open(None).map_err(|e| e.to_string())?;
+    let limits = rig.limits.clone();
+    let devices = rig.devices;
+    let mut axes: [Box<dyn Axis>; 3] = [devices.x, devices.y, devices.z];
+    {
+        let mut s = lock(state);
+        s.devices = devices.description.clone();
+        for (i, l) in [&limits.x, &limits.y, &limits.z].into_iter().enumerate() {
+            s.axes[i].limits_mm = (l.min.0, l.max.0);
+            s.axes[i].endpoint = axes[i].endpoint();
+        }
+        s.axes[AxisId::Y.index()].manual = limits.manual_y;
+        s.force.max_n = limits.max_force.0;
+    }
+    let mut force = Some(ForceStream::spawn(devices.force).map_err(|e| e.to_string())?);
+    let camera_device = devices.camera.info().id;
+    let camera =
+        CameraStream::spawn(devices.camera, &rig.camera_settings).map_err(|e| e.to_string())?;
+    {
+        let mut s = lock(state);
+        s.force.device = force
+            .as_ref()
+            .map(|f| f.monitor().device().to_string())
+            .unwrap_or_default();
+        s.camera.device = camera_device;
+        s.phase = BenchPhase::Ready;
+        s.say("bench open: jog, home and tare from here; a scan takes the devices over");
+    }
+    let started = Instant::now();
+    let mut meter = Meters::new(started);
+    let mut last_picture: Option<Instant> = None;
+    let mut newest: Option<Frame> = None;
+    while !stop.load(Ordering::SeqCst) {
+        let tick = Instant::now();
+        for command in commands.try_iter() {
+            let outcome = obey(command, &mut axes, &mut force, state);
+            if let Err(message) = outcome {
+                lock(state).say(message);
+            }
+        }
+        // Axes.
+        let mut any_moving = false;
+        for (i, axis) in axes.iter_mut().enumerate() {
+            let polled = axis.status();
+            let mut s = lock(state);
+            match polled {
+                Ok(st) => {
+                    let a = &mut s.axes[i];
+                    a.position_mm = Some(st.position.0);
+                    a.homed = st.homed;
+                    a.moving = st.moving;
+                    a.faults = st.faults.iter().map(|f| f.to_string()).collect();
+                    any_moving |= st.moving;
+                }
+                Err(e) => {
+                    s.axes[i].position_mm = None;
+                    s.say(e.to_string());
+                }
+            }
+        }
+        // Force: every sample drained (the stream keeps them all for a recorder).
+        if let Some(f) = &force {
+            let mut over = None;
+            let mut points = Vec::new();
+            for sample in f.samples().try_iter() {
+                let w = sample.wrench;
+                let fz = w.fz.0;
+                let total = (w.fx.0 * w.fx.0 + w.fy.0 * w.fy.0 + fz * fz).sqrt();
+                if total > limits.max_force.0 {
+                    over = Some(total);
+                }
+                meter.force_samples += 1;
+                let t = started.elapsed().as_secs_f64();
+                if t - meter.last_point_s >= 1.0 / CHART_HZ {
+                    meter.last_point_s = t;
+                    points.push(ForcePoint {
+                        t_s: t,
+                        fz_n: fz,
+                        f_n: total,
+                    });
+                }
+            }
+            if let (Some(total), true) = (over, any_moving) {
+                for axis in axes.iter_mut() {
+                    let _ = axis.stop(StopMode::Immediate);
+                }
+                lock(state).say(format!(
+                    "force {total:.2} N over the ceiling {:.2} N: every axis stopped; retract z \
+                     before anything else",
+                    limits.max_force.0
+                ));
+            }
+            let stats = f.monitor().stats();
+            let mut s = lock(state);
+            if let Some(p) = points.last() {
+                s.force.fz_n = p.fz_n;
+                s.force.f_n = p.f_n;
+            }
+            s.chart.extend(points);
+            let now = started.elapsed().as_secs_f64();
+            while s.chart.front().is_some_and(|p| now - p.t_s > CHART_SECONDS) {
+                s.chart.pop_front();
+            }
+            s.force.received = stats.received;
+            s.force.lost = stats.lost;
+            if let Some(e) = f.monitor().error() {
+                s.phase = BenchPhase::Failed(e);
+            }
+        }
+        // Camera: the newest frame kept, ids counted for drops.
+        for frame in camera.frames().try_iter() {
+            if let Some(prev) = meter.last_frame_id {
+                meter.dropped += frame.id.saturating_sub(prev + 1);
+            }
+            meter.last_frame_id = Some(frame.id);
+            meter.frames += 1;
+            newest = Some(frame);
+        }
+        if let Some(e) = camera.error() {
+            lock(state).phase = BenchPhase::Failed(e);
+        }
+        let due = last_picture.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / PICTURE_HZ);
+        if due {
+            if let Some(frame) = newest.take() {
+                last_picture = Some(Instant::now());
+                let picture = thumbnail(
+                    FrameRef {
+                        width: frame.width,
+                        height: frame.height,
+                        format: frame.format,
+                        data: &frame.data,
+                    },
+                    picture_px,
+                )
+                .ok();
+                let mut s = lock(state);
+                s.picture = picture;
+                s.camera.frame_id = frame.id;
+            }
+        }
+        meter.publish(&mut lock(state));
+        let spent = tick.elapsed();
+        if spent < TICK {
+            std::thread::sleep(TICK - spent);
+        }
+    }
+    for axis in axes.iter_mut() {
+        let _ = axis.stop(StopMode::Profiled);
+    }
+    let _ = camera.stop();
+    if let Some(f) = force.take() {
+        let _ = f.stop();
+    }
+    lock(state).phase = BenchPhase::Closed;
+    Ok(())
+}
+
+/// Rates over the last second.
+struct Meters {
+    window_start: Instant,
+    force_samples: u64,
+    frames: u64,
+    frames_total: u64,
+    dropped: u64,
+    last_frame_id: Option<u64>,
+    last_point_s: f64,
+}
+
+impl Meters {
+    fn new(now: Instant) -> Meters {
+        Meters {
+            window_start: now,
+            force_samples: 0,
+            frames: 0,
+            frames_total: 0,
+            dropped: 0,
+            last_frame_id: None,
+            last_point_s: f64::NEG_INFINITY,
+        }
+    }
+
+    fn publish(&mut self, s: &mut BenchState) {
+        s.camera.dropped = self.dropped;
+        let elapsed = self.window_start.elapsed().as_secs_f64();
+        if elapsed >= 1.0 {
+            s.force.rate_hz = self.force_samples as f64 / elapsed;
+            s.camera.fps = self.frames as f64 / elapsed;
+            self.frames_total += self.frames;
+            s.camera.frames = self.frames_total;
+            self.force_samples = 0;
+            self.frames = 0;
+            self.window_start = Instant::now();
+        }
+    }
+}
+
+fn obey(
+    command: BenchCommand,
+    axes: &mut [Box<dyn Axis>; 3],
+    force: &mut Option<ForceStream>,
+    state: &Mutex<BenchState>,
+) -> Result<(), String> {
+    match command {
+        BenchCommand::Jog { axis, by } => {
+            if lock(state).axes[axis.index()].manual {
+                return Err(format!(
+                    "axis {}: moved by hand on this bench; it is not jogged from here",
+                    axis.name()
+                ));
+            }
+            axes[axis.index()]
+                .begin_move_by(by)
+                .map_err(|e| e.to_string())?;
+            lock(state).say(format!("{}: moving by {:+.3} mm", axis.name(), by.0));
+        }
+        BenchCommand::Home(axis) => {
+            if lock(state).axes[axis.index()].manual {
+                return Err(format!(
+                    "axis {}: moved by hand; nothing to home",
+                    axis.name()
+                ));
+            }
+            axes[axis.index()].begin_home().map_err(|e| e.to_string())?;
+            lock(state).say(format!("{}: homing", axis.name()));
+        }
+        BenchCommand::Stop => {
+            let mut failed = Vec::new();
+            for axis in axes.iter_mut() {
+                if let Err(e) = axis.stop(StopMode::Immediate) {
+                    failed.push(e.to_string());
+                }
+            }
+            if !failed.is_empty() {
+                return Err(failed.join("; "));
+            }
+            lock(state).say("every axis stopped");
+        }
+        BenchCommand::Tare => {
+            let Some(stream) = force.take() else {
+                return Err("the F/T sensor is not streaming".into());
+            };
+            let mut sensor = stream.stop().map_err(|e| e.to_string())?;
+            let biased = sensor.bias().map_err(|e| e.to_string());
+            *force = Some(ForceStream::spawn(sensor).map_err(|e| e.to_string())?);
+            biased?;
+            lock(state).say("F/T sensor tared (bias set to the present load)");
+        }
+    }
+    Ok(())
+}
