@@ -262,6 +262,48 @@ fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
 }
 
 #[test]
+fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
+    let dir = scratch("calibrate");
+    let pane = Pane::start("calibrate", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("5");
+    pane.wait_for(
+        "ready: press r to run the calibration scan",
+        Duration::from_secs(10),
+    );
+    pane.keys("r");
+    pane.wait_for("calibration scan: press", Duration::from_secs(30));
+    let fitted = pane.wait_answering("fitted: press w", Duration::from_secs(400));
+    assert!(fitted.contains("crop radius"), "{fitted}");
+    assert!(fitted.contains("px/mm"), "registration shown:\n{fitted}");
+    assert!(fitted.contains("force offsets"), "{fitted}");
+    let profiles = dir.join("profiles");
+    assert!(!profiles.exists(), "nothing written before w");
+    pane.keys("w");
+    let written = pane.wait_for("written: ", Duration::from_secs(60));
+    let files: Vec<PathBuf> = std::fs::read_dir(&profiles)
+        .unwrap_or_else(|e| panic!("{}: {e}\n{written}", profiles.display()))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .collect();
+    let profile = files
+        .iter()
+        .find(|p| p.extension().is_some_and(|x| x == "toml"))
+        .unwrap_or_else(|| panic!("no profile in {files:?}\n{written}"));
+    let text = std::fs::read_to_string(profile).expect("profile");
+    assert!(text.contains("crop_radius_px"), "{text}");
+    assert!(
+        text.contains("px_per_mm"),
+        "the registration is in the profile:\n{text}"
+    );
+    assert!(
+        profile.with_extension("png").exists(),
+        "report image in {files:?}"
+    );
+    pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     let dir = scratch("validate");
     let plan = dir.join("plan.toml");

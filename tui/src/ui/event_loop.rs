@@ -693,7 +693,7 @@ impl App {
         };
         let dir = self.opts.config.profile_dir();
         let tx = self.calibrated.0.clone();
-        self.state.calibrate.phase = CalibrationPhase::Written("writing...".into());
+        self.state.calibrate.phase = CalibrationPhase::Writing;
         std::thread::spawn(move || {
             let _ = tx.send(match result.write(&dir) {
                 Ok(w) => {

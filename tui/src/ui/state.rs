@@ -166,6 +166,8 @@ pub enum CalibrationPhase {
     Fitting,
     /// Fitted: `w` writes the profile.
     Fitted,
+    /// `w` pressed: the profile and its images are being written.
+    Writing,
     /// Written to these files.
     Written(String),
     Failed(String),

@@ -19,7 +19,8 @@ const RESIDUAL_WARN_PX: f64 = 3.0;
 pub(crate) fn key_hint(v: &CalibrateView) -> &'static str {
     match v.phase {
         CalibrationPhase::Fitted => "w write the profile · r run the calibration scan again",
-        CalibrationPhase::Scanning | CalibrationPhase::Fitting => "a abort the scan",
+        CalibrationPhase::Scanning => "a abort the scan",
+        CalibrationPhase::Fitting | CalibrationPhase::Writing => "",
         _ => "r run the calibration scan",
     }
 }
@@ -44,6 +45,7 @@ pub(crate) fn draw(f: &mut Frame, area: Rect, v: &CalibrateView, scan: &ScanView
             "fitted: press w to write the profile (r runs the scan again)".to_string(),
             WARN,
         ),
+        CalibrationPhase::Writing => ("writing the profile...".to_string(), ACCENT),
         CalibrationPhase::Written(files) => (format!("written: {files}"), GOOD),
         CalibrationPhase::Failed(why) => (format!("failed: {why}"), BAD),
     };
