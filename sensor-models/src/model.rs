@@ -6,7 +6,7 @@ use crate::backend::tract::{output_order, TractBackend};
 use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::model_card::{CardError, ModelCard};
 use crate::model_file::read_weights;
-use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
+use crate::model_file_error::ModelFileError;
 use crate::onnx_graph;
 use crate::preprocess::{
     Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
@@ -76,7 +76,7 @@ pub enum Source {
 /// that only libtorch runs.
 #[derive(Debug, Clone)]
 enum Graph {
-    Onnx(pb::ModelProto),
+    Onnx(Box<pb::ModelProto>),
     #[cfg_attr(not(feature = "torch"), allow(dead_code))]
     TorchScript,
 }
@@ -113,7 +113,7 @@ impl Model {
                 Ok(sd) => Model::from_weights(path, sd, card),
                 #[cfg(feature = "torch")]
                 Err(ModelFileError {
-                    kind: ModelFileErrorKind::TorchScript,
+                    kind: crate::model_file_error::ModelFileErrorKind::TorchScript,
                     ..
                 }) => Model::open_torchscript(path, card),
                 Err(e) => Err(e.into()),
@@ -148,7 +148,7 @@ impl Model {
             recognised.map(|r| r.0),
             n,
             &sd,
-            Graph::Onnx(proto),
+            Graph::Onnx(Box::new(proto)),
             card,
         )
     }
@@ -170,7 +170,7 @@ impl Model {
             Some(arch),
             n,
             &sd,
-            Graph::Onnx(proto),
+            Graph::Onnx(Box::new(proto)),
             card,
         )
     }

@@ -29,7 +29,7 @@ fn run_err(e: impl std::fmt::Display) -> InferenceError {
 
 enum Network {
     /// One of the paper's networks on its variable store.
-    Weights { vs: nn::VarStore, net: Net },
+    Weights { vs: nn::VarStore, net: Box<Net> },
     /// A TorchScript module.
     Script(tch::CModule),
 }
@@ -54,7 +54,10 @@ impl TorchBackend {
         let net = Net::new(&vs.root(), arch, classes);
         load_state_dict(&vs, sd, "the weights").map_err(load_err)?;
         Ok(TorchBackend {
-            network: Network::Weights { vs, net },
+            network: Network::Weights {
+                vs,
+                net: Box::new(net),
+            },
             classes,
             threads: threads.max(1),
         })
