@@ -113,7 +113,7 @@ mod tests {
                 Rgb([255, 220, 0]),
                 "crop edge at scale {scale}"
             );
-            assert_eq!(at(100.0, 70.0), Rgb([40, 40, 40]), "frame elsewhere");
+            assert_eq!(at(10.0, 90.0), Rgb([40, 40, 40]), "frame elsewhere");
         }
     }
 }
