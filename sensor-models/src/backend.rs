@@ -120,6 +120,22 @@ pub trait Backend: Send {
         -> Result<RawOutputs, InferenceError>;
 }
 
+/// Checks that `input` holds `batch` (at least one) images of 3 x `size` x `size`, as
+/// [`Backend::run`] takes them.
+pub(crate) fn check_input(input: &[f32], batch: usize, size: u32) -> Result<(), InferenceError> {
+    let s = size as usize;
+    let want = batch * 3 * s * s;
+    if input.len() != want || batch == 0 {
+        return Err(InferenceError::InputSize {
+            got: input.len(),
+            want,
+            batch,
+            size,
+        });
+    }
+    Ok(())
+}
+
 /// Splits a row-major `[batch, width]` output into rows.
 pub(crate) fn rows(
     values: &[f32],

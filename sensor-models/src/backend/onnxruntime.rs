@@ -169,16 +169,8 @@ impl Backend for OrtBackend {
         batch: usize,
         size: u32,
     ) -> Result<RawOutputs, InferenceError> {
+        super::check_input(input, batch, size)?;
         let s = size as usize;
-        let want = batch * 3 * s * s;
-        if input.len() != want || batch == 0 {
-            return Err(InferenceError::InputSize {
-                got: input.len(),
-                want,
-                batch,
-                size,
-            });
-        }
         let tensor = TensorRef::from_array_view(([batch, 3, s, s], input)).map_err(run_err)?;
         let outputs = self.session.run(ort::inputs![tensor]).map_err(run_err)?;
         let values = |i: usize| -> Result<&[f32], InferenceError> {

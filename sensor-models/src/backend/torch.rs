@@ -180,16 +180,8 @@ impl Backend for TorchBackend {
         batch: usize,
         size: u32,
     ) -> Result<RawOutputs, InferenceError> {
+        super::check_input(input, batch, size)?;
         let s = size as usize;
-        let want = batch * 3 * s * s;
-        if input.len() != want || batch == 0 {
-            return Err(InferenceError::InputSize {
-                got: input.len(),
-                want,
-                batch,
-                size,
-            });
-        }
         let x = Tensor::from_slice(input).view([batch as i64, 3, s as i64, s as i64]);
         let (force, logits, contact) = self.forward(&x)?;
         RawOutputs::from_flat(

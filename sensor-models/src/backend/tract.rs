@@ -109,16 +109,8 @@ impl Backend for TractBackend {
         batch: usize,
         size: u32,
     ) -> Result<RawOutputs, InferenceError> {
+        super::check_input(input, batch, size)?;
         let s = size as usize;
-        let want = batch * 3 * s * s;
-        if input.len() != want || batch == 0 {
-            return Err(InferenceError::InputSize {
-                got: input.len(),
-                want,
-                batch,
-                size,
-            });
-        }
         let plan = self.plan(batch, size)?;
         let tensor = Tensor::from_shape(&[batch, 3, s, s], input).map_err(run_err)?;
         let outputs = multithread_tract_scope(self.executor.clone(), || {

@@ -2,6 +2,9 @@
 //! computed on them (`tests/python/model_fixtures.py` writes both).
 #![allow(dead_code)]
 
+use fringe_sensor_models::arch::Architecture;
+use fringe_sensor_models::backend::Backend;
+use fringe_sensor_models::model::{Model, ModelError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -216,6 +219,9 @@ pub fn ort_dylib() -> PathBuf {
     .clone()
 }
 
+/// A backend opened on a model, or why not.
+pub type Opened = Result<Box<dyn Backend>, ModelError>;
+
 /// How far a backend may be from PyTorch.
 pub const TOLERANCE: f32 = 1e-4;
 
@@ -238,14 +244,9 @@ pub fn max_diff(got: &[Vec<f32>], want: &[Vec<f32>]) -> f32 {
 pub fn check_backend_on(
     dir: &Path,
     files: &BTreeMap<String, Outputs>,
-    arch: impl Fn(&str) -> Option<fringe_sensor_models::arch::Architecture>,
+    arch: impl Fn(&str) -> Option<Architecture>,
     backend_name: &str,
-    open_backend: impl Fn(
-        &fringe_sensor_models::model::Model,
-    ) -> Result<
-        Box<dyn fringe_sensor_models::backend::Backend>,
-        fringe_sensor_models::model::ModelError,
-    >,
+    open_backend: impl Fn(&Model) -> Opened,
 ) {
     let expected = Expected::read(dir);
     let (shape, inputs) = read_inputs(&expected.inputs_path(dir));
@@ -253,8 +254,7 @@ pub fn check_backend_on(
     let size = shape[2] as u32;
     assert!(!files.is_empty(), "{}: no fixtures", dir.display());
     for (file, want) in files {
-        let model = fringe_sensor_models::model::Model::open(&dir.join(file))
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        let model = Model::open(&dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
         if let Some(a) = arch(file) {
             assert_eq!(model.arch, Some(a), "{file}");
         }
@@ -286,14 +286,9 @@ pub fn check_backend_on(
 /// [`check_backend_on`] over the weights files and ONNX graph of `dir` (not its TorchScript).
 pub fn check_backend(
     dir: &Path,
-    arch: fringe_sensor_models::arch::Architecture,
+    arch: Architecture,
     backend_name: &str,
-    open_backend: impl Fn(
-        &fringe_sensor_models::model::Model,
-    ) -> Result<
-        Box<dyn fringe_sensor_models::backend::Backend>,
-        fringe_sensor_models::model::ModelError,
-    >,
+    open_backend: impl Fn(&Model) -> Opened,
 ) {
     let expected = Expected::read(dir);
     check_backend_on(

@@ -25,6 +25,36 @@ pub struct CalibrationGrid {
     pub indenter: String,
 }
 
+impl CalibrationGrid {
+    /// Presses per axis of the built-in grid (`fringe calibrate --points`).
+    pub const DEFAULT_POINTS: usize = 3;
+    /// Half-width of the grid around the nominal centre, mm (`--span`).
+    pub const DEFAULT_SPAN_MM: f64 = 5.0;
+    /// Force of each light press, N (`--force`).
+    pub const DEFAULT_FORCE_N: f64 = 1.5;
+    /// Indenter of the presses (`--indenter`).
+    pub const DEFAULT_INDENTER: &'static str = "pentagon";
+
+    /// The built-in grid for `sensor` with the defaults above.
+    pub fn defaults(sensor: &str) -> CalibrationGrid {
+        CalibrationGrid {
+            sensor: sensor.to_string(),
+            points: Self::DEFAULT_POINTS,
+            span_mm: Self::DEFAULT_SPAN_MM,
+            force_n: Self::DEFAULT_FORCE_N,
+            indenter: Self::DEFAULT_INDENTER.to_string(),
+        }
+    }
+
+    /// In a few words, for the operator.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} x {} light presses over +-{} mm, {} N, {}",
+            self.points, self.points, self.span_mm, self.force_n, self.indenter
+        )
+    }
+}
+
 /// A calibration grid that cannot be pressed.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibrationPlanError {
@@ -176,6 +206,9 @@ pub struct WrittenProfile {
     /// The press nearest the centre with its located contact marked, when one was located.
     pub contact: Option<PathBuf>,
 }
+
+/// No-contact frames averaged for the optical fit at most (`fringe calibrate --max-frames`).
+pub const DEFAULT_MAX_FRAMES: usize = 50;
 
 /// Calibrates sensor `sensor` from the calibration scan in `run_dir`, averaging at most
 /// `max_frames` no-contact frames; `spot` tunes contact finding.

@@ -8,7 +8,9 @@
 use crate::cmd::scan::execute;
 use crate::Global;
 use anyhow::{bail, Context};
-use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationGrid};
+use fringe_app::calibration_scan::{
+    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
+};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::frames;
 use fringe_calibration::from_scan::ScanCalibration;
@@ -38,22 +40,22 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Average at most this many no-contact frames (spread evenly over them).
-    #[arg(long, value_name = "N", default_value_t = 50)]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_FRAMES)]
     max_frames: usize,
     /// Your own calibration plan (stage mm) instead of the built-in grid.
     #[arg(long, value_name = "FILE", conflicts_with = "images")]
     plan: Option<PathBuf>,
     /// Half-width of the built-in press grid around the nominal centre, mm.
-    #[arg(long, value_name = "MM", default_value_t = 5.0)]
+    #[arg(long, value_name = "MM", default_value_t = CalibrationGrid::DEFAULT_SPAN_MM)]
     span: f64,
     /// Presses per axis of the built-in grid (points x points).
-    #[arg(long, value_name = "N", default_value_t = 3)]
+    #[arg(long, value_name = "N", default_value_t = CalibrationGrid::DEFAULT_POINTS)]
     points: usize,
     /// Force of each light press, N.
-    #[arg(long, value_name = "N", default_value_t = 1.5)]
+    #[arg(long, value_name = "N", default_value_t = CalibrationGrid::DEFAULT_FORCE_N)]
     force: f64,
     /// Indenter of the presses.
-    #[arg(long, value_name = "SHAPE", default_value = "pentagon")]
+    #[arg(long, value_name = "SHAPE", default_value = CalibrationGrid::DEFAULT_INDENTER)]
     indenter: String,
     /// Directory that receives the calibration scan's run.
     #[arg(long, value_name = "DIR", default_value = "runs")]

@@ -9,33 +9,23 @@ use fringe_rig::scan::plan::{Plan, ScanProgram};
 /// Side of the fitted-frame picture, px.
 pub const PICTURE_PX: u32 = 160;
 
-/// The built-in calibration grid of `fringe calibrate` (its defaults) for `config`'s sensor.
-pub fn plan(config: &RigConfig) -> anyhow::Result<(ScanProgram, String, String)> {
+/// The built-in calibration grid of `fringe calibrate` (its defaults) for `config`'s sensor:
+/// the program, the plan's text, the sensor id and the grid in words.
+pub fn plan(config: &RigConfig) -> anyhow::Result<(ScanProgram, String, String, String)> {
     let sensor = config.sensor_id()?;
-    let grid = CalibrationGrid {
-        sensor: sensor.clone(),
-        points: 3,
-        span_mm: 5.0,
-        force_n: 1.5,
-        indenter: "pentagon".into(),
-    };
+    let grid = CalibrationGrid::defaults(&sensor);
     let text = grid.plan_text(config)?;
     let origin = "built-in calibration grid";
     let program = Plan::parse(&text, origin)?.program(&config.limits()?, origin)?;
-    Ok((program, text, sensor))
+    Ok((program, text, sensor, grid.describe()))
 }
 
 /// The screen before anything ran.
 pub fn ready_view(config: &RigConfig) -> CalibrateView {
     let (sensor, plan) = match plan(config) {
-        Ok((p, _, sensor)) => (
-            sensor,
-            format!(
-                "built-in calibration grid: {} light presses ({} per side over +-5 mm, 1.5 N, pentagon)",
-                p.points.len(),
-                3
-            ),
-        ),
+        Ok((_, _, sensor, described)) => {
+            (sensor, format!("built-in calibration grid: {described}"))
+        }
         Err(e) => ("?".into(), format!("no calibration plan: {e:#}")),
     };
     let profile = fringe_calibration::profile::profile_path(&config.profile_dir(), &sensor)

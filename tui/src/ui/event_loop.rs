@@ -12,7 +12,9 @@ use super::state::{
 use super::view;
 use crossbeam_channel::{unbounded, Receiver, RecvTimeoutError, Sender};
 use fringe_app::bench_session::{AxisId, BenchCommand, BenchSession};
-use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationResult};
+use fringe_app::calibration_scan::{
+    calibrate_run, spot_settings, CalibrationResult, DEFAULT_MAX_FRAMES,
+};
 use fringe_app::{Note, ProfileUse, RigConfig};
 use fringe_rig::scan::control::{Prompt, Reply, ScanProgress};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
@@ -640,7 +642,7 @@ impl App {
     /// Runs the built-in calibration grid; its end fits the profile ([`Self::fit_calibration`]).
     fn start_calibration(&mut self) {
         match calibration::plan(&self.opts.config) {
-            Ok((program, text, _sensor)) => {
+            Ok((program, text, _sensor, _)) => {
                 self.calibration = None;
                 let ready = calibration::ready_view(&self.opts.config);
                 self.state.calibrate = CalibrateView {
@@ -672,7 +674,8 @@ impl App {
             let outcome = spot_settings(None, &config)
                 .map_err(|e| e.to_string())
                 .and_then(|(spot, _)| {
-                    calibrate_run(&run_dir, &view.sensor, 50, spot).map_err(|e| e.to_string())
+                    calibrate_run(&run_dir, &view.sensor, DEFAULT_MAX_FRAMES, spot)
+                        .map_err(|e| e.to_string())
                 });
             let _ = tx.send(match outcome {
                 Ok(result) => {
