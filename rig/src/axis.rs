@@ -55,6 +55,15 @@ pub enum AxisError {
         timeout: Duration,
         flags: Vec<&'static str>,
     },
+    /// The controller sent nothing it should have (no reply to a request, no status): it is off,
+    /// unplugged, or on another port or address.
+    #[error("axis {axis} ({endpoint}): no answer from the controller: {what}")]
+    NotAnswering {
+        axis: String,
+        endpoint: String,
+        what: String,
+        waited: Duration,
+    },
     #[error("axis {axis}: target {target} is not a number of millimetres; nothing was sent")]
     NotANumber { axis: String, target: Millimetres },
     #[error("axis {axis}: target {target:.4} is outside the soft limits {min:.4} .. {max:.4}; nothing was sent (change the target or the limits in the configuration)")]

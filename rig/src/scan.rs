@@ -14,6 +14,7 @@
 
 pub mod control;
 pub mod engine;
+pub mod failure;
 pub mod offset_check;
 pub mod origin;
 pub mod plan;

@@ -149,7 +149,10 @@ fn driver_over_modbus_rtu_on_a_pseudo_terminal() {
             ..options()
         },
     );
-    assert!(matches!(wrong.status(), Err(AxisError::Timeout { .. })));
+    assert!(matches!(
+        wrong.status(),
+        Err(AxisError::NotAnswering { .. })
+    ));
     drop(wrong);
     let link = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
     let mut y = stage(Box::new(link), Framing::Rtu, "leadshine-pr");

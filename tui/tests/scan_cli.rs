@@ -3,116 +3,14 @@
 
 mod common;
 
-use common::{fringe, scratch, snapshot, text, TestRun};
+use common::{
+    events, fringe, points_in, scan_files as files, scan_plan as plan, scratch, snapshot, text,
+    the_run, wait_for_event, TestRun, QUICK_RIG,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// A simulated rig with quick axes, so the tests spend their time scanning, not homing.
-const QUICK_RIG: &str = r#"
-name = "quick simulated bench"
-sync = "strobe"
-[x]
-driver = "sim"
-velocity = 8.0
-acceleration = 40.0
-[y]
-driver = "sim"
-velocity = 8.0
-acceleration = 40.0
-[z]
-driver = "sim"
-velocity = 8.0
-acceleration = 40.0
-[camera]
-driver = "sim"
-[force]
-driver = "sim"
-[sim]
-seed = 5
-image_scale = 0.25
-"#;
-
-fn plan(xs: &str) -> String {
-    format!(
-        r#"
-name = "cli"
-[grid]
-x = {xs}
-y = [25.0]
-[indenters]
-shapes = ["pentagon"]
-[approach]
-safe_z = 14.0
-[indentation]
-force_targets = [1.0, 3.0]
-ramp_rate = 6.0
-dwell = 0.4
-[safety]
-force_ceiling = 10.0
-"#
-    )
-}
-
-fn files(dir: &Path) -> (PathBuf, PathBuf) {
-    let rig = dir.join("rig.toml");
-    std::fs::write(&rig, QUICK_RIG).expect("rig file");
-    let plan_path = dir.join("plan.toml");
-    std::fs::write(&plan_path, plan("[11.0, 12.5, 14.0]")).expect("plan file");
-    (rig, plan_path)
-}
-
-fn events(run: &Path) -> Vec<String> {
-    std::fs::read_to_string(run.join("events.jsonl"))
-        .unwrap_or_default()
-        .lines()
-        .map(str::to_string)
-        .collect()
-}
-
-fn the_run(root: &Path) -> Option<PathBuf> {
-    std::fs::read_dir(root)
-        .ok()?
-        .filter_map(Result::ok)
-        .map(|e| e.path())
-        .find(|p| p.join("start.json").is_file())
-}
-
-/// Waits until an event line of the run under `root` satisfies `pred`.
-fn wait_for_event(root: &Path, child: &mut Child, pred: impl Fn(&str) -> bool) -> PathBuf {
-    let until = Instant::now() + Duration::from_secs(90);
-    loop {
-        if let Some(run) = the_run(root) {
-            if events(&run).iter().any(|e| pred(e)) {
-                return run;
-            }
-        }
-        if let Ok(Some(status)) = child.try_wait() {
-            panic!("fringe scan ended early: {status}");
-        }
-        assert!(Instant::now() < until, "event not seen in time");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
-fn points_in(run: &Path) -> Vec<u64> {
-    let text = std::fs::read_to_string(run.join("frames.jsonl")).expect("frames.jsonl");
-    let mut points: Vec<u64> = Vec::new();
-    for line in text.lines() {
-        let point = line
-            .split("\"point\":")
-            .nth(1)
-            .and_then(|s| s.split([',', '}']).next())
-            .and_then(|s| s.trim().parse().ok())
-            .expect("point field");
-        if points.last() != Some(&point) {
-            assert!(!points.contains(&point), "point {point} recorded twice");
-            points.push(point);
-        }
-    }
-    points
-}
 
 #[test]
 fn a_dry_run_prints_points_path_and_duration_and_moves_nothing() {

@@ -56,6 +56,7 @@ pub mod colour;
 pub mod contact;
 pub mod daq_emulator;
 pub mod dataset;
+pub mod faults;
 pub mod fringe_field;
 mod ft_config;
 pub mod ft_sensor;

@@ -19,6 +19,10 @@ use crate::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
 use crate::bench::{AxisConfig, Bench, BenchConfig};
 use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
 use crate::daq_emulator::{SimDaq, SimDaqConfig};
+use crate::faults::{
+    FaultDevice, FaultKind, FaultSpec, FaultTrigger, FaultyCamera, FaultyDatagrams, FaultyForce,
+    FaultyLink,
+};
 use crate::ft_sensor::SimFtSensor;
 use crate::ground_truth::TruthSink;
 use crate::modbus_emulator::ModbusEmulator;
@@ -69,6 +73,8 @@ pub struct SimRigConfig {
     pub daq: SimDaqConfig,
     /// Register map of the emulated y drive (built-in name or file).
     pub y_map: String,
+    /// Faults to inject (none on a normal bench): see [`crate::faults`].
+    pub faults: Vec<FaultSpec>,
 }
 
 impl Default for SimRigConfig {
@@ -97,6 +103,7 @@ impl Default for SimRigConfig {
             force_path: ForcePath::Daq,
             daq: SimDaqConfig::default(),
             y_map: "leadshine-pr".into(),
+            faults: Vec::new(),
         }
     }
 }
@@ -170,6 +177,23 @@ impl SimRig {
         let config = config.seeded();
         let bench = Bench::new(config.bench.clone());
         let mut description = Vec::new();
+        for f in &config.faults {
+            f.check().map_err(|e| device_error(f.device.name(), e))?;
+        }
+        let faults_on = |device: FaultDevice| -> Vec<Arc<FaultTrigger>> {
+            let motor = match device {
+                FaultDevice::X => Some(bench.motor_x()),
+                FaultDevice::Y => Some(bench.motor_y()),
+                FaultDevice::Z => Some(bench.motor_z()),
+                FaultDevice::Force | FaultDevice::Camera => None,
+            };
+            config
+                .faults
+                .iter()
+                .filter(|f| f.device == device)
+                .map(|f| FaultTrigger::new(f.clone(), motor.clone()))
+                .collect()
+        };
 
         let mut apt = Vec::new();
         let mut axes = Vec::new();
@@ -184,6 +208,12 @@ impl SimRig {
                 AptEmulator::spawn(emulator_config, motor, Box::new(device))
                     .map_err(|e| device_error(name, e))?,
             );
+            let device = if name == "x" {
+                FaultDevice::X
+            } else {
+                FaultDevice::Z
+            };
+            let host = FaultyLink::new(host, faults_on(device));
             let axis = ThorlabsAxis::connect(Box::new(host), driver_config)
                 .map_err(|e| device_error(name, e))?;
             description.push(format!(
@@ -205,7 +235,7 @@ impl SimRig {
         .ok();
         let y = ModbusStage::new(
             "y",
-            Box::new(link),
+            Box::new(FaultyLink::new(link, faults_on(FaultDevice::Y))),
             Framing::Rtu,
             map,
             StageOptions {
@@ -250,6 +280,7 @@ impl SimRig {
                         .map_err(|e| device_error("force", e))?;
                 netft = Some(emulator);
                 description.push("force: Net F/T (emulated, in process)".into());
+                let link = FaultyDatagrams::new(link, faults_on(FaultDevice::Force));
                 Box::new(NetFt::new(link, driver_config, NetFtOptions::default()))
             }
         };
@@ -269,12 +300,48 @@ impl SimRig {
             config.sensor.id,
             config.sensor.variant.name()
         ));
+        // Over a Net F/T the faults act on its UDP link (above); over the DAQ on the sensor.
+        let force_faults = match config.force_path {
+            ForcePath::Netft => Vec::new(),
+            ForcePath::Daq => faults_on(FaultDevice::Force),
+        };
+        if config.force_path == ForcePath::Daq
+            && config.faults.iter().any(|f| f.fault == FaultKind::Loss)
+        {
+            return Err(device_error(
+                "force",
+                "fault `loss` needs the Net F/T force path (sim.force_path = \"netft\")",
+            ));
+        }
+        let force: Box<dyn fringe_rig::force::ForceSensor> = if force_faults.is_empty() {
+            force
+        } else {
+            Box::new(FaultyForce::new(force, force_faults))
+        };
+        let camera_faults = faults_on(FaultDevice::Camera);
+        let camera: Box<dyn fringe_rig::camera::Camera> = if camera_faults.is_empty() {
+            Box::new(camera)
+        } else {
+            Box::new(FaultyCamera::new(Box::new(camera), camera_faults))
+        };
+        for f in &config.faults {
+            description.push(format!(
+                "injected fault: {} {:?} after {} s{}{}",
+                f.device.name(),
+                f.fault,
+                f.after,
+                if f.while_moving { ", while moving" } else { "" },
+                f.duration
+                    .map(|d| format!(", for {d} s"))
+                    .unwrap_or_default()
+            ));
+        }
         let devices = Devices {
             x: Box::new(x),
             y: Box::new(y),
             z: Box::new(z),
             force,
-            camera: Box::new(camera),
+            camera,
             description,
         };
         Ok((

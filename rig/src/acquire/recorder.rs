@@ -108,11 +108,31 @@ pub enum RecorderError {
     Store(#[from] StoreError),
 }
 
+/// Why the recorder stopped early, with the run's writer when it survived.
+#[derive(thiserror::Error)]
+#[error("{error}")]
+pub struct RecorderFailure {
+    pub error: StoreError,
+    pub writer: Option<RunWriter>,
+}
+
+impl std::fmt::Debug for RecorderFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecorderFailure")
+            .field("error", &self.error)
+            .field(
+                "writer",
+                &self.writer.as_ref().map(|w| w.dir().to_path_buf()),
+            )
+            .finish()
+    }
+}
+
 /// The recorder thread.
 pub struct Recorder {
     commands: Sender<Command>,
     stats: Arc<Mutex<RecorderStats>>,
-    handle: Option<JoinHandle<Result<(RunWriter, RecorderStats), StoreError>>>,
+    handle: Option<JoinHandle<Result<(RunWriter, RecorderStats), RecorderFailure>>>,
 }
 
 /// A checkpoint asked for and not yet confirmed.
@@ -158,9 +178,12 @@ impl Recorder {
         };
         let handle = std::thread::Builder::new()
             .name("recorder".into())
-            .spawn(move || {
-                state.run(samples, frames, command_rx)?;
-                Ok((state.writer, state.local))
+            .spawn(move || match state.run(samples, frames, command_rx) {
+                Ok(()) => Ok((state.writer, state.local)),
+                Err(error) => Err(RecorderFailure {
+                    error,
+                    writer: Some(state.writer),
+                }),
             })
             .map_err(|e| StoreError::io(dir, e))?;
         Ok(Recorder {
@@ -226,15 +249,20 @@ impl Recorder {
         self.stats.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
-    /// Waits for the recorder to drain both streams (stop them first) and returns the writer.
-    pub fn finish(mut self) -> Result<(RunWriter, RecorderStats), StoreError> {
+    /// Waits for the recorder to drain both streams (stop them first) and returns the writer;
+    /// a recorder stopped by an error (a full disk, say) hands its writer back with the error,
+    /// so the caller can still close the run.
+    pub fn finish(mut self) -> Result<(RunWriter, RecorderStats), RecorderFailure> {
         let handle = self.handle.take();
         drop(self.commands);
         match handle.map(|h| h.join()) {
             Some(Ok(result)) => result,
-            _ => Err(StoreError::Content {
-                path: "recorder".into(),
-                message: "the recorder thread panicked".into(),
+            _ => Err(RecorderFailure {
+                error: StoreError::Content {
+                    path: "recorder".into(),
+                    message: "the recorder thread panicked".into(),
+                },
+                writer: None,
             }),
         }
     }

@@ -207,6 +207,8 @@ struct Observed {
 #[derive(Default)]
 struct Shared {
     latest: Option<Observed>,
+    /// When `latest` arrived.
+    latest_at: Option<Instant>,
     /// Status messages seen so far (to tell a fresh status from one older than a motion).
     updates: u64,
     link_error: Option<String>,
@@ -313,6 +315,7 @@ impl IoThread {
             if channel == self.channel {
                 let mut shared = lock(&self.shared);
                 shared.latest = Some(o);
+                shared.latest_at = Some(Instant::now());
                 shared.updates += 1;
             }
         }
@@ -648,12 +651,14 @@ impl ThorlabsAxis {
         let deadline = Instant::now() + self.config.timeouts.reply;
         match self.next_event(deadline, |p| p.message.id() == reply_id)? {
             Some(p) => Ok(p),
-            None => Err(AxisError::Timeout {
+            None => Err(AxisError::NotAnswering {
                 axis: self.config.axis.clone(),
                 endpoint: self.endpoint.clone(),
-                what: format!("{what} (is the controller powered and the port right?)"),
-                timeout: self.config.timeouts.reply,
-                flags: self.latest_flags(),
+                what: format!(
+                    "no {what} within {:?} (is the controller powered and the port right?)",
+                    self.config.timeouts.reply
+                ),
+                waited: self.config.timeouts.reply,
             }),
         }
     }
@@ -706,6 +711,36 @@ impl ThorlabsAxis {
         lock(&self.shared).latest
     }
 
+    /// The latest status if it is younger than the reply timeout.
+    fn fresh_status(&self) -> Option<Observed> {
+        let shared = lock(&self.shared);
+        let fresh = shared
+            .latest_at
+            .is_some_and(|at| at.elapsed() <= self.config.timeouts.reply);
+        shared.latest.filter(|_| fresh)
+    }
+
+    /// The error for a controller that sent nothing of `what` it should have.
+    fn silent(&self, what: &str) -> AxisError {
+        let age = lock(&self.shared).latest_at.map(|at| at.elapsed());
+        let what = match age {
+            Some(age) => format!(
+                "no {what}: the last status came {:.1} s ago (is it on, is the cable in?)",
+                age.as_secs_f64()
+            ),
+            None => format!(
+                "no {what} within {:?} (check that the controller is on and the cable is in)",
+                self.config.timeouts.reply
+            ),
+        };
+        AxisError::NotAnswering {
+            axis: self.config.axis.clone(),
+            endpoint: self.endpoint.clone(),
+            what,
+            waited: self.config.timeouts.reply,
+        }
+    }
+
     fn latest_flags(&self) -> Vec<&'static str> {
         self.latest()
             .map(|o| StatusBits(o.status).names(self.config.limit_polarity))
@@ -732,18 +767,13 @@ impl ThorlabsAxis {
         }
         let deadline = Instant::now() + self.config.timeouts.reply;
         loop {
-            if let Some(o) = self.latest() {
+            // A K-Cube sends its status every 100 ms: one older than the reply timeout means
+            // the controller has gone quiet.
+            if let Some(o) = self.fresh_status() {
                 return Ok(o);
             }
             if Instant::now() >= deadline {
-                return Err(AxisError::Timeout {
-                    axis: self.config.axis.clone(),
-                    endpoint: self.endpoint.clone(),
-                    what: "a status update message (check that the controller is on and the cable is in)"
-                        .into(),
-                    timeout: self.config.timeouts.reply,
-                    flags: Vec::new(),
-                });
+                return Err(self.silent("a status update message"));
             }
             if lock(&self.shared).link_error.is_some() {
                 return Err(self.link_error("waiting for status"));
@@ -932,6 +962,9 @@ impl Axis for ThorlabsAxis {
                     }
                 }
                 break p;
+            }
+            if !polled && self.fresh_status().is_none() {
+                return Err(self.silent(&format!("status while {}", pending.what())));
             }
             let o = if polled {
                 Some(self.observe()?)

@@ -261,15 +261,14 @@ impl ModbusStage {
                 "check the unit id and that the device serves Modbus TCP on this port".to_string()
             }
         };
-        AxisError::Timeout {
+        AxisError::NotAnswering {
             axis: self.axis.clone(),
             endpoint: self.endpoint(),
             what: format!(
-                "a reply from slave {} to \"{request}\" ({check})",
-                self.slave
+                "no reply from slave {} to \"{request}\" within {:?} ({check})",
+                self.slave, self.options.response_timeout
             ),
-            timeout: self.options.response_timeout,
-            flags: Vec::new(),
+            waited: self.options.response_timeout,
         }
     }
 

@@ -21,7 +21,9 @@ use crate::acquire::force_stream::{ForceMonitor, ForceStream};
 use crate::acquire::host_labeler::HostLabeler;
 use crate::acquire::labeler::FrameLabeler;
 use crate::acquire::record_tap::RecordTap;
-use crate::acquire::recorder::{Filming, FrameContext, PendingCheckpoint, Recorder, RecorderStats};
+use crate::acquire::recorder::{
+    Filming, FrameContext, PendingCheckpoint, Recorder, RecorderFailure, RecorderStats,
+};
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
 use crate::camera::CameraSettings;
@@ -113,6 +115,34 @@ pub enum ScanError {
     Recorder(#[from] crate::acquire::recorder::RecorderError),
     #[error("{0}")]
     Setup(String),
+    /// A scan that stopped on an error once its run was open: the run keeps what was recorded.
+    #[error("{source}. The run {} keeps everything recorded before this; {}, then resume it: fringe scan --resume {}", run.display(), super::failure::advice(source), run.display())]
+    Stopped {
+        run: std::path::PathBuf,
+        source: Box<ScanError>,
+    },
+}
+
+impl ScanError {
+    /// This error as the end of the scan of the run in `run` (an error that already names its
+    /// run is kept as it is).
+    pub fn stopped(self, run: &Path) -> ScanError {
+        match self {
+            ScanError::Stopped { .. } => self,
+            other => ScanError::Stopped {
+                run: run.to_path_buf(),
+                source: Box::new(other),
+            },
+        }
+    }
+
+    /// The error that stopped the scan, without the run it stopped.
+    pub fn cause(&self) -> &ScanError {
+        match self {
+            ScanError::Stopped { source, .. } => source.cause(),
+            other => other,
+        }
+    }
 }
 
 /// How a point ended.
@@ -186,186 +216,233 @@ pub fn run_scan(
     let mut axes = Axes { x, y, z };
 
     // Open the run first: a bad resume target must fail before anything moves.
-    let (writer, first_point, discarded) = open_run(setup, &description, &target)?;
+    let (writer, first_point, discarded, failed) = open_run(setup, &description, &target)?;
     let run_dir = writer.dir().to_path_buf();
     progress(ScanProgress::Message(format!(
         "run directory {}",
         run_dir.display()
     )));
-
-    progress(ScanProgress::Message("homing x, y and z".into()));
-    axes.z.begin_home()?;
-    axes.z.wait_idle(MOVE_TIMEOUT)?;
-    axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
-    axes.x.begin_home()?;
-    if !setup.limits.manual_y {
-        axes.y.begin_home()?;
-        axes.y.wait_idle(MOVE_TIMEOUT)?;
-    }
-    axes.x.wait_idle(MOVE_TIMEOUT)?;
-
-    let stream = ForceStream::spawn(force)?;
-    let monitor = stream.monitor();
-    let tick_hz = camera.info().tick_frequency as f64;
-    let cameras = match setup.sync {
-        SyncMethod::ClockFit | SyncMethod::Strobe => {
-            CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
+    // Whatever fails from here on, the run keeps what was recorded: the error says where it is
+    // and how to go on.
+    let body = move || -> Result<ScanOutcome, ScanError> {
+        progress(ScanProgress::Message("homing x, y and z".into()));
+        axes.z.begin_home()?;
+        axes.z.wait_idle(MOVE_TIMEOUT)?;
+        axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
+        axes.x.begin_home()?;
+        if !setup.limits.manual_y {
+            axes.y.begin_home()?;
+            axes.y.wait_idle(MOVE_TIMEOUT)?;
         }
-        SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
-    };
-    let context = FrameContext::default();
-    let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
-    let recorder = Recorder::spawn(
-        writer,
-        stream.samples().clone(),
-        cameras.frames().clone(),
-        labeler,
-        context.clone(),
-        setup.taps.clone(),
-    )?;
-    if discarded > 0 || first_point > 0 {
-        recorder.event(
+        axes.x.wait_idle(MOVE_TIMEOUT)?;
+
+        let stream = ForceStream::spawn(force)?;
+        let monitor = stream.monitor();
+        let tick_hz = camera.info().tick_frequency as f64;
+        let cameras = match setup.sync {
+            SyncMethod::ClockFit | SyncMethod::Strobe => {
+                CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
+            }
+            SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
+        };
+        let context = FrameContext::default();
+        let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
+        let recorder = Recorder::spawn(
+            writer,
+            stream.samples().clone(),
+            cameras.frames().clone(),
+            labeler,
+            context.clone(),
+            setup.taps.clone(),
+        )?;
+        if discarded > 0 || first_point > 0 || failed.is_some() {
+            let after = failed
+                .map(|why| format!(" (the run had failed: {why})"))
+                .unwrap_or_default();
+            recorder.event(
             "resume-run",
             Some(first_point),
-            &format!("resumed at point {first_point}; {discarded} frame records of the unfinished point cut"),
+            &format!("resumed at point {first_point}; {discarded} frame records of the unfinished point cut{after}"),
         );
-    }
-    let cancel = Arc::new(AtomicBool::new(false));
-    let tare = SharedTare::default();
-    let mut press = setup.press.clone();
-    press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
-    press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
-    press.approach_limit = approach_limit(&setup.limits, safe_z);
-    let watch = WatchSettings {
-        ceiling: press.ceiling,
-        ..setup.watch.clone()
-    };
-    let watchers = Watchers::spawn(
-        monitor.clone(),
-        Box::new(recorder.stats_source()),
-        control.clone(),
-        tare.clone(),
-        watch,
-        cancel.clone(),
-    );
-    if !watchers.running() {
-        return Err(ScanError::Setup("cannot start the watcher thread".into()));
-    }
-    // Wait for the force stream before the first reading.
-    let started = Instant::now();
-    while monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
-        std::thread::sleep(Duration::from_millis(10));
-    }
+        }
+        let cancel = Arc::new(AtomicBool::new(false));
+        let tare = SharedTare::default();
+        let mut press = setup.press.clone();
+        press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
+        press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
+        press.approach_limit = approach_limit(&setup.limits, safe_z);
+        let watch = WatchSettings {
+            ceiling: press.ceiling,
+            ..setup.watch.clone()
+        };
+        let watchers = Watchers::spawn(
+            monitor.clone(),
+            Box::new(recorder.stats_source()),
+            control.clone(),
+            tare.clone(),
+            watch,
+            cancel.clone(),
+        );
+        if !watchers.running() {
+            return Err(ScanError::Setup("cannot start the watcher thread".into()));
+        }
+        // Wait for the force stream before the first reading.
+        let started = Instant::now();
+        while monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
 
-    let mut run = Runner {
-        setup,
-        axes,
-        monitor,
-        recorder,
-        context,
-        watchers,
-        cancel,
-        tare,
-        press,
-        control,
-        progress,
-        safe_z,
-        points_done: first_point,
-        started: Instant::now(),
-        done_this_session: 0,
-        watcher_retries: (0, 0),
-        offset_checked: false,
-        pending_checkpoint: None,
-        last_status: Instant::now(),
-        mounted: None,
-        manual_y_at: None,
-        frames_discarded: discarded,
-        excluded: Duration::ZERO,
-        overheads: Vec::new(),
-    };
-    let result = run.points(first_point, operator);
-    // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
-    let _ = run.retract();
-    // A y stage moved by hand has nothing to stop (and asking it its position would prompt).
-    let manual_y = setup.limits.manual_y;
-    for (i, axis) in [&mut run.axes.x, &mut run.axes.y].into_iter().enumerate() {
-        if i == 1 && manual_y {
-            continue;
+        let mut run = Runner {
+            setup,
+            axes,
+            monitor,
+            recorder,
+            context,
+            watchers,
+            cancel,
+            tare,
+            press,
+            control,
+            progress,
+            safe_z,
+            points_done: first_point,
+            started: Instant::now(),
+            done_this_session: 0,
+            watcher_retries: (0, 0),
+            offset_checked: false,
+            pending_checkpoint: None,
+            last_status: Instant::now(),
+            mounted: None,
+            manual_y_at: None,
+            frames_discarded: discarded,
+            excluded: Duration::ZERO,
+            overheads: Vec::new(),
+        };
+        let result = run.points(first_point, operator);
+        // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
+        // The state the bench is left in goes into the run's events (what a user reads after a
+        // failure: was z lifted off the sensor, did x and y stop).
+        let mut end_state = vec![match run.retract() {
+            Ok(()) => format!("z retracted to {:.3} mm", safe_z.0),
+            Err(e) => format!("z NOT retracted ({e})"),
+        }];
+        // A y stage moved by hand has nothing to stop (and asking it its position would prompt).
+        let manual_y = setup.limits.manual_y;
+        for (name, axis) in [("x", &mut run.axes.x), ("y", &mut run.axes.y)] {
+            if name == "y" && manual_y {
+                continue;
+            }
+            end_state.push(match axis.status() {
+                Ok(s) if s.moving => {
+                    let stopped = axis
+                        .stop(StopMode::Profiled)
+                        .and_then(|_| axis.wait_idle(MOVE_TIMEOUT));
+                    match stopped {
+                        Ok(_) => format!("{name} stopped"),
+                        Err(e) => format!("{name} NOT stopped ({e})"),
+                    }
+                }
+                Ok(s) => format!("{name} at rest at {:.3} mm", s.position.0),
+                Err(e) => format!("{name} unreachable ({e})"),
+            });
         }
-        if axis.status().is_ok_and(|s| s.moving) {
-            let _ = axis.stop(StopMode::Profiled);
-            let _ = axis.wait_idle(MOVE_TIMEOUT);
-        }
-    }
-    run.context.set(None);
-    if let Some(why) = cameras.latch_error() {
-        run.recorder.event(
+        run.recorder
+            .event("end-state", Some(run.points_done), &end_state.join("; "));
+        run.context.set(None);
+        if let Some(why) = cameras.latch_error() {
+            run.recorder.event(
             "sync",
             None,
             &format!("the camera clock could not be latched, clock-fit labels used the frame arrivals only: {why}"),
         );
-    }
-    let (status, reason) = match &result {
-        Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
-        Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
-        Err(e) => (ExitStatus::Failed, e.to_string()),
+        }
+        let (status, reason) = match &result {
+            Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
+            Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
+            Err(e) => (ExitStatus::Failed, e.to_string()),
+        };
+        run.recorder.event(
+            "stop",
+            Some(run.points_done),
+            &format!("{status:?}: {reason}"),
+        );
+        let Runner {
+            recorder,
+            watchers,
+            points_done,
+            frames_discarded,
+            overheads,
+            ..
+        } = run;
+        let ms = |d: &Duration| d.as_secs_f64() * 1e3;
+        let overhead_mean_ms =
+            overheads.iter().map(ms).sum::<f64>() / overheads.len().max(1) as f64;
+        let overhead_max_ms = overheads.iter().map(ms).fold(0.0, f64::max);
+        drop(watchers);
+        let camera_result = cameras.stop();
+        let stats = stream.monitor().stats();
+        let force_result = stream.stop();
+        let last_counts = recorder.stats();
+        let (writer, counts, recorder_error) = match recorder.finish() {
+            Ok((writer, counts)) => (writer, counts, None),
+            Err(RecorderFailure {
+                error,
+                writer: Some(mut writer),
+            }) => {
+                // Cut the unfinished point's records: a full disk gets back the space of its
+                // images, enough to close the run.
+                let _ = writer.rollback();
+                (writer, last_counts, Some(error))
+            }
+            Err(RecorderFailure {
+                error,
+                writer: None,
+            }) => return Err(error.into()),
+        };
+        let (status, reason) = match &recorder_error {
+            Some(e) => (ExitStatus::Failed, e.to_string()),
+            None => (status, reason),
+        };
+        let frames = writer.next_index();
+        let force_samples = writer.force_samples();
+        let stop = StopDocument {
+            exit_status: status,
+            reason: reason.clone(),
+            stopped_utc: now_utc(),
+            frames,
+            dropped_frames: counts.dropped_frames,
+            force_samples,
+            lost_force_samples: stats.lost,
+            points_done,
+            sync_method: Some(setup.sync.name().into()),
+            sync_error_ns: counts.sync_error_ns,
+        };
+        for sidecar in &setup.sidecars {
+            append_sidecar(writer.dir(), sidecar.as_ref())?;
+        }
+        let run_dir = writer.finish(&stop)?;
+        if let Some(e) = recorder_error {
+            return Err(e.into());
+        }
+        result?;
+        camera_result?;
+        force_result?;
+        Ok(ScanOutcome {
+            run_dir,
+            status,
+            reason,
+            points_done,
+            points_total: setup.program.points.len() as u64,
+            frames,
+            dropped_frames: counts.dropped_frames,
+            force_samples,
+            lost_force_samples: stats.lost,
+            frames_discarded,
+            overhead_mean_ms,
+            overhead_max_ms,
+        })
     };
-    run.recorder.event(
-        "stop",
-        Some(run.points_done),
-        &format!("{status:?}: {reason}"),
-    );
-    let Runner {
-        recorder,
-        watchers,
-        points_done,
-        frames_discarded,
-        overheads,
-        ..
-    } = run;
-    let ms = |d: &Duration| d.as_secs_f64() * 1e3;
-    let overhead_mean_ms = overheads.iter().map(ms).sum::<f64>() / overheads.len().max(1) as f64;
-    let overhead_max_ms = overheads.iter().map(ms).fold(0.0, f64::max);
-    drop(watchers);
-    let camera_result = cameras.stop();
-    let stats = stream.monitor().stats();
-    let force_result = stream.stop();
-    let (writer, counts) = recorder.finish()?;
-    let frames = writer.next_index();
-    let force_samples = writer.force_samples();
-    let stop = StopDocument {
-        exit_status: status,
-        reason: reason.clone(),
-        stopped_utc: now_utc(),
-        frames,
-        dropped_frames: counts.dropped_frames,
-        force_samples,
-        lost_force_samples: stats.lost,
-        points_done,
-        sync_method: Some(setup.sync.name().into()),
-        sync_error_ns: counts.sync_error_ns,
-    };
-    for sidecar in &setup.sidecars {
-        append_sidecar(writer.dir(), sidecar.as_ref())?;
-    }
-    let run_dir = writer.finish(&stop)?;
-    result?;
-    camera_result?;
-    force_result?;
-    Ok(ScanOutcome {
-        run_dir,
-        status,
-        reason,
-        points_done,
-        points_total: setup.program.points.len() as u64,
-        frames,
-        dropped_frames: counts.dropped_frames,
-        force_samples,
-        lost_force_samples: stats.lost,
-        frames_discarded,
-        overhead_mean_ms,
-        overhead_max_ms,
-    })
+    body().map_err(|e| e.stopped(&run_dir))
 }
 
 /// Appends a sidecar's lines to its file in the run (a resumed run appends each session's).
@@ -405,7 +482,7 @@ fn open_run(
     setup: &ScanSetup,
     description: &[String],
     target: &RunTarget,
-) -> Result<(RunWriter, u64, u64), ScanError> {
+) -> Result<(RunWriter, u64, u64, Option<String>), ScanError> {
     match target {
         RunTarget::New { root, run_id } => {
             let start = StartDocument {
@@ -424,7 +501,7 @@ fn open_run(
                 seed: setup.seed,
                 sync_method: setup.sync.name().into(),
             };
-            Ok((RunWriter::create(root, &start)?, 0, 0))
+            Ok((RunWriter::create(root, &start)?, 0, 0, None))
         }
         RunTarget::Resume { dir } => {
             // Everything is checked before the run is touched: a refused resume changes nothing.
@@ -447,7 +524,8 @@ fn open_run(
                 Ok(())
             })?;
             let first = existing.checkpoint.as_ref().map_or(0, |c| c.next_point);
-            Ok((writer, first, existing.discarded_frames))
+            let failed = existing.failed_stop.map(|s| s.reason);
+            Ok((writer, first, existing.discarded_frames, failed))
         }
     }
 }

@@ -7,12 +7,13 @@
 //! the disk is a valid prefix except possibly one torn line or force record at the end, which
 //! [`RunWriter::reopen`] cuts off.
 
-use super::documents::{now_utc, Event, FrameRecord, StartDocument, StopDocument};
+use super::documents::{now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use super::durable::{sync_dir, write_atomic};
 use super::{
-    force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, START, STOP,
+    force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START,
+    STOP,
 };
-use crate::camera::writer::save_png;
+use crate::camera::writer::{save_png, FrameFileError};
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
@@ -98,6 +99,9 @@ pub struct Existing {
     pub checkpoint: Option<Checkpoint>,
     /// Frame records cut because they came after the last checkpoint (an unfinished point).
     pub discarded_frames: u64,
+    /// The stop document of a run that ended failed (a device or the disk failed), which a
+    /// resume reopens: the document and the manifest are removed, the run goes on.
+    pub failed_stop: Option<StopDocument>,
 }
 
 /// An open run directory.
@@ -192,9 +196,17 @@ impl RunWriter {
         let rel = format!("{FRAME_DIR}/{index:08}.png");
         let path = self.dir.join(&rel);
         let tmp = self.dir.join(format!("{FRAME_DIR}/{index:08}.png.tmp"));
-        save_png(frame, &tmp).map_err(|e| StoreError::Content {
-            path: tmp.clone(),
-            message: e.to_string(),
+        save_png(frame, &tmp).map_err(|e| match e {
+            FrameFileError::Io { path, source }
+            | FrameFileError::Image {
+                path,
+                source: image::ImageError::IoError(source),
+            } => StoreError::Io { path, source },
+            FrameFileError::Image { path, source } => StoreError::Content {
+                path,
+                message: source.to_string(),
+            },
+            FrameFileError::Content { path, message } => StoreError::Content { path, message },
         })?;
         std::fs::rename(&tmp, &path).map_err(|e| StoreError::io(&path, e))?;
         Ok(rel)
@@ -428,12 +440,21 @@ struct Survey {
 
 fn survey(dir: &Path) -> Result<Survey, StoreError> {
     let stop = dir.join(STOP);
-    if stop.exists() {
-        return Err(StoreError::Content {
-            path: stop,
-            message: "the run has ended; start a new run instead of resuming".into(),
-        });
-    }
+    let failed_stop = if stop.exists() {
+        let document: StopDocument = read_document(&stop)?;
+        if document.exit_status != ExitStatus::Failed {
+            return Err(StoreError::Content {
+                path: stop,
+                message: format!(
+                    "the run has ended ({:?}: {}); start a new run instead of resuming",
+                    document.exit_status, document.reason
+                ),
+            });
+        }
+        Some(document)
+    } else {
+        None
+    };
     let start: StartDocument = read_document(&dir.join(START))?;
     let frames_path = dir.join(FRAMES);
     let lines = read_frame_lines(&frames_path)?;
@@ -489,6 +510,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
             cut_bytes: frames_torn + events_torn + force_torn as u64,
             checkpoint,
             discarded_frames,
+            failed_stop,
         },
         frames_length,
         events_torn,
@@ -499,6 +521,19 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
 impl Survey {
     /// Cuts what the survey found to cut and opens the run for appending.
     fn apply(self, dir: &Path) -> Result<(RunWriter, Existing), StoreError> {
+        if self.existing.failed_stop.is_some() {
+            // The manifest first: a crash between the two leaves a stop document without a
+            // manifest, which `fringe verify` reports and a resume reopens the same way.
+            for name in [MANIFEST, STOP] {
+                let path = dir.join(name);
+                match std::fs::remove_file(&path) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(StoreError::io(&path, e)),
+                }
+            }
+            sync_dir(dir)?;
+        }
         let frames_path = dir.join(FRAMES);
         if let Some(length) = self.frames_length {
             set_length(&frames_path, length)?;

@@ -191,6 +191,10 @@ pub struct SimSection {
     pub force_path: SimForcePath,
     /// Scale of the simulated camera image (1 = 1920x1200; 0.25 = 480x300 for quick tests).
     pub image_scale: f64,
+    /// Faults injected on purpose (`[[sim.faults]]`, see fringe_sim::faults): what a user sees
+    /// and what a run keeps when a device fails.
+    #[cfg(feature = "sim")]
+    pub faults: Vec<fringe_sim::faults::FaultSpec>,
 }
 
 impl Default for SimSection {
@@ -200,6 +204,8 @@ impl Default for SimSection {
             sensor: "layered".into(),
             force_path: SimForcePath::Daq,
             image_scale: 1.0,
+            #[cfg(feature = "sim")]
+            faults: Vec::new(),
         }
     }
 }
@@ -556,6 +562,12 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
                 )));
             }
         }
+    }
+    #[cfg(feature = "sim")]
+    for fault in &f.sim.faults {
+        fault
+            .check()
+            .map_err(|e| err(format!("[[sim.faults]]: {e}")))?;
     }
     let k = f.sim.image_scale;
     if !(k.is_finite() && (0.05..=1.0).contains(&k)) {

@@ -79,6 +79,7 @@ pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
             SimForcePath::Daq => ForcePath::Daq,
             SimForcePath::Netft => ForcePath::Netft,
         },
+        faults: s.faults.clone(),
         ..SimRigConfig::default()
     };
     for (section, axis) in [

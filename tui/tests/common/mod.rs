@@ -7,7 +7,8 @@ use fringe_sensor_models::state_dict::StateDict;
 use fringe_sensor_models::tensor::Tensor;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output};
+use std::time::{Duration, Instant};
 
 /// The `fringe` binary as a command to add arguments to.
 pub fn fringe_command() -> Command {
@@ -253,3 +254,113 @@ dwell = 0.6
 [safety]
 force_ceiling = 12.0
 "#;
+
+/// A simulated rig with quick axes, so the tests spend their time scanning, not homing.
+pub const QUICK_RIG: &str = r#"
+name = "quick simulated bench"
+sync = "strobe"
+[x]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[y]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[z]
+driver = "sim"
+velocity = 8.0
+acceleration = 40.0
+[camera]
+driver = "sim"
+[force]
+driver = "sim"
+[sim]
+seed = 5
+image_scale = 0.25
+"#;
+
+/// A plan over x positions `xs` (a TOML list) at y 25 mm, 1 and 3 N.
+pub fn scan_plan(xs: &str) -> String {
+    format!(
+        r#"
+name = "cli"
+[grid]
+x = {xs}
+y = [25.0]
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 14.0
+[indentation]
+force_targets = [1.0, 3.0]
+ramp_rate = 6.0
+dwell = 0.4
+[safety]
+force_ceiling = 10.0
+"#
+    )
+}
+
+/// The quick rig and a 3-point plan written into `dir`: (rig file, plan file).
+pub fn scan_files(dir: &Path) -> (PathBuf, PathBuf) {
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, QUICK_RIG).expect("rig file");
+    let plan_path = dir.join("plan.toml");
+    std::fs::write(&plan_path, scan_plan("[11.0, 12.5, 14.0]")).expect("plan file");
+    (rig, plan_path)
+}
+
+/// The lines of a run's events.jsonl.
+pub fn events(run: &Path) -> Vec<String> {
+    std::fs::read_to_string(run.join("events.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// The run under `root` (once its start.json is there).
+pub fn the_run(root: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(root)
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .find(|p| p.join("start.json").is_file())
+}
+
+/// Waits until an event line of the run under `root` satisfies `pred`.
+pub fn wait_for_event(root: &Path, child: &mut Child, pred: impl Fn(&str) -> bool) -> PathBuf {
+    let until = Instant::now() + Duration::from_secs(90);
+    loop {
+        if let Some(run) = the_run(root) {
+            if events(&run).iter().any(|e| pred(e)) {
+                return run;
+            }
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!("fringe scan ended early: {status}");
+        }
+        assert!(Instant::now() < until, "event not seen in time");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The points of a run's frame records in order; fails on a point recorded twice.
+pub fn points_in(run: &Path) -> Vec<u64> {
+    let text = std::fs::read_to_string(run.join("frames.jsonl")).expect("frames.jsonl");
+    let mut points: Vec<u64> = Vec::new();
+    for line in text.lines() {
+        let point = line
+            .split("\"point\":")
+            .nth(1)
+            .and_then(|s| s.split([',', '}']).next())
+            .and_then(|s| s.trim().parse().ok())
+            .expect("point field");
+        if points.last() != Some(&point) {
+            assert!(!points.contains(&point), "point {point} recorded twice");
+            points.push(point);
+        }
+    }
+    points
+}

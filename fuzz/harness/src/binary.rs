@@ -1,0 +1,129 @@
+//! Targets over the binary wire formats and files: APT frames, Net F/T RDT datagrams, Modbus
+//! RTU / TCP frames (the stage driver's responses, the emulated stage's requests), the run's force log, pickles.
+
+use fringe_rig::apt::codec as apt_codec;
+use fringe_rig::apt::stream::{Flow, StreamDecoder};
+use fringe_rig::modbus::codec as modbus_codec;
+use fringe_rig::netft::rdt;
+use fringe_rig::store::force_log;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{axis::Kinematics, clock::HostTime, modbus::RegisterMap};
+use fringe_sim::modbus_emulator::core::ModbusCore;
+use fringe_sim::{MotorSpec, SimMotor};
+use std::sync::{Arc, OnceLock};
+
+/// The APT stream decoder both ways, fed in chunks whose sizes come from the input itself (a
+/// serial read returns any number of bytes), and the frame decoder on the whole input.
+pub fn apt(data: &[u8]) {
+    for flow in [Flow::FromDevice, Flow::ToDevice] {
+        let mut decoder = StreamDecoder::new(flow);
+        let mut rest = data;
+        let mut chunk = 1usize;
+        while !rest.is_empty() {
+            let take = chunk.min(rest.len());
+            decoder.push(&rest[..take]);
+            while decoder.next_item().is_some() {}
+            chunk = usize::from(rest[0] % 23) + 1;
+            rest = &rest[take..];
+        }
+        assert!(
+            decoder.pending() <= data.len(),
+            "the decoder holds more than it was given"
+        );
+    }
+    let _ = apt_codec::frame_len(data);
+    let _ = apt_codec::decode(data);
+}
+
+/// RDT requests and response datagrams; every record of a decoded datagram is read.
+pub fn rdt(data: &[u8]) {
+    let _ = rdt::Request::decode(data);
+    if let Ok(records) = rdt::decode_datagram(data) {
+        for record in records {
+            std::hint::black_box(record);
+        }
+    }
+}
+
+/// Modbus responses as the stage driver parses them (RTU and TCP), matched against the requests
+/// it sends; requests as the emulator decodes them.
+pub fn modbus(data: &[u8]) {
+    let requests = [
+        modbus_codec::Request::ReadHolding {
+            start: 0x0100,
+            count: 4,
+        },
+        modbus_codec::Request::WriteSingle {
+            address: 0x0200,
+            value: 1,
+        },
+        modbus_codec::Request::WriteMultiple {
+            start: 0x0300,
+            values: vec![1, 2],
+        },
+    ];
+    let responses = [
+        modbus_codec::parse_rtu(data)
+            .ok()
+            .and_then(|p| frame_response(p)),
+        modbus_codec::parse_tcp(data)
+            .ok()
+            .and_then(|p| frame_response(p)),
+        modbus_codec::decode_response_pdu(data).ok(),
+    ];
+    for response in responses.iter().flatten() {
+        for request in &requests {
+            let _ = modbus_codec::match_reply(request, response);
+        }
+    }
+    let _ = fringe_sim::modbus_emulator::core::decode_request_pdu(data);
+    for map in builtin_maps() {
+        let mut core = ModbusCore::new(map.clone(), Arc::new(SimMotor::new(y_motor())));
+        let _ = core.handle_pdu(data, HostTime(1_000_000_000));
+    }
+}
+
+/// The built-in register maps, read once.
+fn builtin_maps() -> &'static [RegisterMap] {
+    static MAPS: OnceLock<Vec<RegisterMap>> = OnceLock::new();
+    MAPS.get_or_init(|| {
+        ["oriental-az", "leadshine-pr"]
+            .into_iter()
+            .map(|name| match RegisterMap::load(name) {
+                Ok(map) => map,
+                Err(e) => panic!("built-in register map {name} is refused: {e}"),
+            })
+            .collect()
+    })
+}
+
+fn y_motor() -> MotorSpec {
+    MotorSpec {
+        name: "y".into(),
+        travel: Millimetres(50.0),
+        power_up_position: Millimetres(10.0),
+        kinematics: Kinematics {
+            velocity: MillimetresPerSecond(5.0),
+            acceleration: MillimetresPerSecondSquared(50.0),
+        },
+    }
+}
+
+fn frame_response<H>(parsed: modbus_codec::Parsed<H>) -> Option<modbus_codec::Response> {
+    match parsed {
+        modbus_codec::Parsed::Frame { response, .. } => Some(response),
+        _ => None,
+    }
+}
+
+/// A run's force log (`force.bin`), header and records.
+pub fn force_log(data: &[u8]) {
+    let _ = force_log::check_header(data);
+    let _ = force_log::decode_all(data);
+}
+
+/// The pickle reader that `torch.save` files go through.
+pub fn pickle(data: &[u8]) {
+    let _ = fringe_sensor_models::pickle::parse(data);
+    let _ = fringe_sensor_models::pickle::parse_prefix(data);
+}

@@ -1,0 +1,447 @@
+//! Faults injected on purpose into the simulated bench, to see what a user sees and what a run
+//! keeps when a device fails: a cable pulled, a controller that stops answering, a force stream
+//! that stalls, a camera that stalls or delivers frames out of order.
+//!
+//! A rig file lists them under `[[sim.faults]]`; [`SimRig`](crate::SimRig) wraps the real
+//! drivers' links (or the device behind a driver) so the drivers meet the fault exactly as they
+//! would meet it on the bench: the engine and the drivers know nothing of this module.
+//!
+//! ```toml
+//! [[sim.faults]]
+//! device = "z"          # x, y, z, force, camera
+//! fault = "unplug"      # unplug, silent, stall (camera), reorder (camera)
+//! after = 20.0          # seconds after the rig opened ...
+//! while_moving = true   # ... at the first moment after that when the axis moves
+//! duration = 2.0        # silent / stall / reorder: for how long (s); none = for good
+//! ```
+
+use crate::motion::SimMotor;
+use fringe_rig::camera::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
+use fringe_rig::clock::HostTime;
+use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
+use fringe_rig::transport::{ByteLink, DatagramLink};
+use std::io;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The device a fault hits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultDevice {
+    X,
+    Y,
+    Z,
+    Force,
+    Camera,
+}
+
+impl FaultDevice {
+    pub fn name(self) -> &'static str {
+        match self {
+            FaultDevice::X => "x",
+            FaultDevice::Y => "y",
+            FaultDevice::Z => "z",
+            FaultDevice::Force => "force",
+            FaultDevice::Camera => "camera",
+        }
+    }
+}
+
+/// What happens to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultKind {
+    /// The cable is pulled: every read and write fails from then on (as a serial port or socket
+    /// whose other end went away). An axis keeps executing the move it was given.
+    Unplug,
+    /// The device stops answering: writes vanish, nothing arrives, for `duration`.
+    Silent,
+    /// Camera only: no frame is delivered for `duration` (exposures in that time are lost).
+    Stall,
+    /// Camera only: each pair of frames arrives swapped for `duration`.
+    Reorder,
+    /// Force over a Net F/T (`force_path = "netft"`) only: every datagram from the box is lost
+    /// for `duration` (a burst of UDP loss).
+    Loss,
+}
+
+/// One fault of a rig file's `[[sim.faults]]`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    pub device: FaultDevice,
+    pub fault: FaultKind,
+    /// Seconds after the rig opened.
+    #[serde(default)]
+    pub after: f64,
+    /// Wait, after `after`, for the axis to be moving (axes only).
+    #[serde(default)]
+    pub while_moving: bool,
+    /// How long a silent device, a stall or reordering lasts (s); none: for good.
+    #[serde(default)]
+    pub duration: Option<f64>,
+}
+
+impl FaultSpec {
+    /// Checks the fault makes sense for its device; the message names the fields.
+    pub fn check(&self) -> Result<(), String> {
+        let name = self.device.name();
+        if !(self.after.is_finite() && self.after >= 0.0) {
+            return Err(format!(
+                "fault on {name}: after = {} must be >= 0 (s)",
+                self.after
+            ));
+        }
+        if let Some(d) = self.duration {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(format!("fault on {name}: duration = {d} must be > 0 (s)"));
+            }
+        }
+        let axis = matches!(
+            self.device,
+            FaultDevice::X | FaultDevice::Y | FaultDevice::Z
+        );
+        if self.while_moving && !axis {
+            return Err(format!(
+                "fault on {name}: while_moving is for the axes x, y and z"
+            ));
+        }
+        let camera_only = matches!(self.fault, FaultKind::Stall | FaultKind::Reorder);
+        if camera_only && self.device != FaultDevice::Camera {
+            return Err(format!(
+                "fault on {name}: {:?} is a camera fault (use unplug or silent)",
+                self.fault
+            ));
+        }
+        if self.fault == FaultKind::Loss && self.device != FaultDevice::Force {
+            return Err(format!(
+                "fault on {name}: loss is a fault of the Net F/T's UDP stream (device = \"force\")"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// When one fault is on: fired once its time (and motion) condition first holds, then on for
+/// its duration.
+pub struct FaultTrigger {
+    spec: FaultSpec,
+    opened: Instant,
+    motor: Option<Arc<SimMotor>>,
+    fired: Mutex<Option<Instant>>,
+}
+
+impl FaultTrigger {
+    /// A trigger counting from now; `motor` is the axis `while_moving` watches.
+    pub fn new(spec: FaultSpec, motor: Option<Arc<SimMotor>>) -> Arc<FaultTrigger> {
+        Arc::new(FaultTrigger {
+            spec,
+            opened: Instant::now(),
+            motor,
+            fired: Mutex::new(None),
+        })
+    }
+
+    pub fn spec(&self) -> &FaultSpec {
+        &self.spec
+    }
+
+    /// Whether the fault is on now.
+    pub fn active(&self) -> bool {
+        let now = Instant::now();
+        let mut fired = self.fired.lock().unwrap_or_else(|e| e.into_inner());
+        let at = match *fired {
+            Some(at) => at,
+            None => {
+                if now.duration_since(self.opened).as_secs_f64() < self.spec.after {
+                    return false;
+                }
+                let moving = match (&self.motor, self.spec.while_moving) {
+                    (Some(m), true) => m.status_at(HostTime::now()).moving,
+                    _ => true,
+                };
+                if !moving {
+                    return false;
+                }
+                *fired = Some(now);
+                now
+            }
+        };
+        match (self.spec.fault, self.spec.duration) {
+            (FaultKind::Unplug, _) | (_, None) => true,
+            (_, Some(d)) => now.duration_since(at).as_secs_f64() < d,
+        }
+    }
+}
+
+fn unplugged(what: &str) -> io::Error {
+    io::Error::new(
+        io::ErrorKind::BrokenPipe,
+        format!("{what}: the device is gone (cable unplugged or power lost)"),
+    )
+}
+
+/// A byte link (serial port, in-process pipe) with a fault between driver and device.
+pub struct FaultyLink<L: ByteLink> {
+    inner: L,
+    faults: Vec<Arc<FaultTrigger>>,
+}
+
+impl<L: ByteLink> FaultyLink<L> {
+    pub fn new(inner: L, faults: Vec<Arc<FaultTrigger>>) -> FaultyLink<L> {
+        FaultyLink { inner, faults }
+    }
+
+    fn on(&self, kind: FaultKind) -> bool {
+        self.faults
+            .iter()
+            .any(|f| f.spec.fault == kind && f.active())
+    }
+}
+
+impl<L: ByteLink> ByteLink for FaultyLink<L> {
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        if self.on(FaultKind::Unplug) {
+            return Err(unplugged(&self.inner.describe()));
+        }
+        if self.on(FaultKind::Silent) {
+            return Ok(());
+        }
+        self.inner.write_all(bytes)
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        if self.on(FaultKind::Unplug) {
+            return Err(unplugged(&self.inner.describe()));
+        }
+        if self.on(FaultKind::Silent) {
+            // Whatever the device sent before it went quiet is lost with it.
+            let _ = self.inner.read(buf, Duration::ZERO);
+            std::thread::sleep(timeout);
+            return Ok(0);
+        }
+        self.inner.read(buf, timeout)
+    }
+
+    fn purge(&mut self) -> io::Result<()> {
+        self.inner.purge()
+    }
+
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+}
+
+/// A datagram link (the Net F/T's UDP socket) that can be cut, go quiet or lose bursts.
+pub struct FaultyDatagrams<L: DatagramLink> {
+    inner: L,
+    faults: Vec<Arc<FaultTrigger>>,
+}
+
+impl<L: DatagramLink> FaultyDatagrams<L> {
+    pub fn new(inner: L, faults: Vec<Arc<FaultTrigger>>) -> FaultyDatagrams<L> {
+        FaultyDatagrams { inner, faults }
+    }
+
+    fn on(&self, kind: FaultKind) -> bool {
+        self.faults
+            .iter()
+            .any(|f| f.spec.fault == kind && f.active())
+    }
+}
+
+impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
+    fn send(&mut self, datagram: &[u8]) -> io::Result<()> {
+        if self.on(FaultKind::Unplug) {
+            return Err(unplugged(&self.inner.describe()));
+        }
+        if self.on(FaultKind::Silent) {
+            return Ok(());
+        }
+        self.inner.send(datagram)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        if self.on(FaultKind::Unplug) {
+            return Err(unplugged(&self.inner.describe()));
+        }
+        let got = self.inner.recv(buf, timeout)?;
+        if got.is_some() && (self.on(FaultKind::Loss) || self.on(FaultKind::Silent)) {
+            // Lost on the way: the caller sees a timeout.
+            return Ok(None);
+        }
+        Ok(got)
+    }
+
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+}
+
+/// A force sensor whose stream can be cut (unplug) or go quiet (silent).
+pub struct FaultyForce {
+    inner: Box<dyn ForceSensor>,
+    faults: Vec<Arc<FaultTrigger>>,
+}
+
+impl FaultyForce {
+    pub fn new(inner: Box<dyn ForceSensor>, faults: Vec<Arc<FaultTrigger>>) -> FaultyForce {
+        FaultyForce { inner, faults }
+    }
+
+    fn on(&self, kind: FaultKind) -> bool {
+        self.faults
+            .iter()
+            .any(|f| f.spec.fault == kind && f.active())
+    }
+
+    fn gone(&self) -> ForceError {
+        ForceError::Io {
+            device: self.inner.describe(),
+            source: unplugged("force sensor link"),
+        }
+    }
+}
+
+impl ForceSensor for FaultyForce {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+
+    fn start(&mut self) -> Result<(), ForceError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        self.inner.start()
+    }
+
+    fn next_sample(&mut self, timeout: Duration) -> Result<Option<ForceSample>, ForceError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        if self.on(FaultKind::Silent) {
+            // Samples made while the stream is quiet never arrive.
+            while let Ok(Some(_)) = self.inner.next_sample(Duration::ZERO) {}
+            std::thread::sleep(timeout);
+            return Ok(None);
+        }
+        self.inner.next_sample(timeout)
+    }
+
+    fn stop(&mut self) -> Result<(), ForceError> {
+        self.inner.stop()
+    }
+
+    fn bias(&mut self) -> Result<(), ForceError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        self.inner.bias()
+    }
+
+    fn stats(&self) -> StreamStats {
+        self.inner.stats()
+    }
+}
+
+/// A camera that can be unplugged, stall, or deliver frames out of order.
+pub struct FaultyCamera {
+    inner: Box<dyn Camera>,
+    faults: Vec<Arc<FaultTrigger>>,
+    /// Reordering: the frame waiting for the next one to overtake it.
+    held: Option<Frame>,
+    /// Reordering: the overtaken frame, delivered at the next call.
+    release: Option<Frame>,
+}
+
+impl FaultyCamera {
+    pub fn new(inner: Box<dyn Camera>, faults: Vec<Arc<FaultTrigger>>) -> FaultyCamera {
+        FaultyCamera {
+            inner,
+            faults,
+            held: None,
+            release: None,
+        }
+    }
+
+    fn on(&self, kind: FaultKind) -> bool {
+        self.faults
+            .iter()
+            .any(|f| f.spec.fault == kind && f.active())
+    }
+
+    fn gone(&self) -> CameraError {
+        CameraError::Io {
+            camera: self.inner.info().model,
+            source: unplugged("camera link"),
+        }
+    }
+}
+
+impl Camera for FaultyCamera {
+    fn info(&self) -> CameraInfo {
+        self.inner.info()
+    }
+
+    fn configure(&mut self, settings: &CameraSettings) -> Result<(), CameraError> {
+        self.inner.configure(settings)
+    }
+
+    fn start(&mut self) -> Result<(), CameraError> {
+        self.inner.start()
+    }
+
+    fn trigger(&mut self) -> Result<(), CameraError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        self.inner.trigger()
+    }
+
+    fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        if self.on(FaultKind::Stall) || self.on(FaultKind::Silent) {
+            self.held = None;
+            self.release = None;
+            while let Ok(Some(_)) = self.inner.next_frame(Duration::ZERO) {}
+            std::thread::sleep(timeout);
+            return Ok(None);
+        }
+        if let Some(older) = self.release.take() {
+            return Ok(Some(older));
+        }
+        if self.on(FaultKind::Reorder) {
+            let Some(frame) = self.inner.next_frame(timeout)? else {
+                return Ok(None);
+            };
+            match self.held.take() {
+                // The newer frame now, the older one at the next call.
+                Some(older) => {
+                    self.release = Some(older);
+                    return Ok(Some(frame));
+                }
+                None => {
+                    self.held = Some(frame);
+                    return Ok(None);
+                }
+            }
+        }
+        if let Some(older) = self.held.take() {
+            return Ok(Some(older));
+        }
+        self.inner.next_frame(timeout)
+    }
+
+    fn stop(&mut self) -> Result<(), CameraError> {
+        self.inner.stop()
+    }
+
+    fn latch_timestamp(&mut self) -> Result<TimestampLatch, CameraError> {
+        if self.on(FaultKind::Unplug) {
+            return Err(self.gone());
+        }
+        self.inner.latch_timestamp()
+    }
+}

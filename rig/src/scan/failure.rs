@@ -1,0 +1,96 @@
+//! What to do when a scan stops on a device or disk error: the advice that ends the one-line
+//! message a user sees (`ScanError::Stopped`).
+
+use super::engine::ScanError;
+use super::press::PressError;
+use crate::acquire::recorder::RecorderError;
+use crate::axis::AxisError;
+use crate::force::ForceError;
+use crate::store::StoreError;
+
+/// What the user should do about `e` before resuming the run.
+pub fn advice(e: &ScanError) -> String {
+    match e.cause() {
+        ScanError::Axis(a) => axis_advice(a),
+        ScanError::Press(PressError::Axis(a)) => axis_advice(a),
+        ScanError::Press(PressError::Force { .. }) => {
+            "check the force sensor's power and cable".into()
+        }
+        ScanError::Press(_) => "check the plan's forces against the sensor and the rig".into(),
+        ScanError::Force(f) => force_advice(f),
+        ScanError::Camera(_) => {
+            "check the camera's cable and power (a camera that stalls: its trigger and frame rate)"
+                .into()
+        }
+        ScanError::Store(s) | ScanError::Recorder(RecorderError::Store(s)) => store_advice(s),
+        ScanError::Recorder(_) => {
+            "check the disk that holds the runs and the machine's load".into()
+        }
+        ScanError::Setup(_) | ScanError::Stopped { .. } => "fix the cause above".into(),
+    }
+}
+
+fn axis_advice(a: &AxisError) -> String {
+    let axis = axis_name(a);
+    match a {
+        AxisError::Io { .. } => format!(
+            "axis {axis}'s controller is gone: plug its cable back in and check its power"
+        ),
+        AxisError::NotAnswering { .. } => format!(
+            "axis {axis}'s controller stopped answering: check its power and cable (power-cycle it if it stays silent)"
+        ),
+        AxisError::Timeout { .. } => format!(
+            "axis {axis} did not finish in time: check that nothing blocks the stage and the rig file's velocity"
+        ),
+        AxisError::SoftLimit { .. } | AxisError::NotANumber { .. } => {
+            "check the plan against the rig file's soft limits".into()
+        }
+        _ => format!("check axis {axis}'s controller: its power, its cable and its fault lights"),
+    }
+}
+
+fn axis_name(a: &AxisError) -> &str {
+    match a {
+        AxisError::Device { axis, .. }
+        | AxisError::Timeout { axis, .. }
+        | AxisError::NotAnswering { axis, .. }
+        | AxisError::NotANumber { axis, .. }
+        | AxisError::SoftLimit { axis, .. }
+        | AxisError::Fault { axis, .. }
+        | AxisError::Mismatch { axis, .. }
+        | AxisError::Io { axis, .. }
+        | AxisError::Cancelled { axis } => axis,
+    }
+}
+
+fn force_advice(f: &ForceError) -> String {
+    match f {
+        ForceError::NoData { .. } | ForceError::Io { .. } => {
+            "check the force sensor's power and cable (a Net F/T: its network link; after a reboot it needs a new bias, which the resume takes)".into()
+        }
+        ForceError::Status { .. } => {
+            "check the force sensor for overload or a broken gauge (its status word is above)".into()
+        }
+        _ => "check the force sensor".into(),
+    }
+}
+
+fn store_advice(s: &StoreError) -> String {
+    if is_disk_full(s) {
+        "free space on the disk that holds the runs".into()
+    } else {
+        "check that the disk holding the runs is mounted and writable".into()
+    }
+}
+
+/// Whether a store error is a full disk (or quota).
+pub fn is_disk_full(s: &StoreError) -> bool {
+    let full = |e: &std::io::Error| matches!(e.raw_os_error(), Some(libc::ENOSPC | libc::EDQUOT));
+    match s {
+        StoreError::Io { source, .. } => full(source),
+        StoreError::Content { message, .. } => {
+            message.contains("No space left on device") || message.contains("Disk quota exceeded")
+        }
+        StoreError::Parse { .. } => false,
+    }
+}

@@ -1,0 +1,389 @@
+//! Faults injected on the simulated bench (rig file `[[sim.faults]]`) during `fringe scan`: what
+//! the user sees (one line naming the device and what to do), the state the bench is left in,
+//! what the run keeps (it verifies, nothing lost or recorded twice), and the resume after each.
+
+mod common;
+
+use common::{
+    events, fringe, fringe_command, points_in, scan_files, scratch, text, wait_for_event, QUICK_RIG,
+};
+use std::path::{Path, PathBuf};
+use std::process::{Output, Stdio};
+use std::time::Duration;
+
+/// The quick rig with `faults` (TOML `[[sim.faults]]` tables) appended, and the 3-point plan.
+fn files_with(dir: &Path, faults: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let (clean_rig, plan) = scan_files(dir);
+    let faulty = dir.join("faulty-rig.toml");
+    std::fs::write(&faulty, format!("{QUICK_RIG}\n{faults}")).expect("rig file");
+    (faulty, clean_rig, plan)
+}
+
+fn scan(rig: &Path, plan: &Path, root: &Path) -> Output {
+    fringe_command()
+        .args(["scan", "--yes", "--out"])
+        .arg(root)
+        .arg("--rig")
+        .arg(rig)
+        .arg(plan)
+        .output()
+        .expect("run fringe scan")
+}
+
+fn only_run(root: &Path) -> PathBuf {
+    common::only_run(root)
+}
+
+fn stop_status(run: &Path) -> String {
+    std::fs::read_to_string(run.join("stop.json")).expect("stop.json")
+}
+
+/// The last line fringe printed on stderr (its error).
+fn error_line(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("fringe: "))
+        .unwrap_or_default()
+        .to_string()
+}
+
+/// Resumes the run on the rig without faults and checks it ends complete and verified, with
+/// every point recorded once.
+fn resume_completes(clean_rig: &Path, run: &Path) {
+    let out = fringe(&[
+        "scan",
+        "--yes",
+        "--rig",
+        clean_rig.to_str().expect("path"),
+        "--resume",
+        run.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "resume failed: {t}");
+    assert!(t.contains("completed: 3 of 3 points"), "{t}");
+    assert_eq!(points_in(run), vec![0, 1, 2]);
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+/// Checks the run a fault ended: closed as failed, verified as it stands, the error one line
+/// that names the device, says what to do and how to resume.
+fn failed_run(out: &Output, root: &Path, device_words: &[&str], advice: &str) -> PathBuf {
+    let t = text(out);
+    assert!(!out.status.success(), "the scan should have failed: {t}");
+    let line = error_line(out);
+    for w in device_words {
+        assert!(line.contains(w), "`{w}` not in the error line: {line}\n{t}");
+    }
+    assert!(line.contains(advice), "`{advice}` not in: {line}");
+    let run = only_run(root);
+    assert!(
+        line.contains(&format!("fringe scan --resume {}", run.display())),
+        "{line}"
+    );
+    assert!(
+        stop_status(&run).contains("\"failed\""),
+        "{}",
+        stop_status(&run)
+    );
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+    // Whatever was recorded belongs to whole points or to the point the fault cut.
+    let _ = points_in(&run);
+    run
+}
+
+#[test]
+fn z_unplugged_mid_move_ends_the_scan_naming_z_and_the_run_resumes() {
+    let dir = scratch("z-unplug");
+    let (rig, clean, plan) = files_with(
+        &dir,
+        "[[sim.faults]]\ndevice = \"z\"\nfault = \"unplug\"\nafter = 6.0\nwhile_moving = true\n",
+    );
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let run = failed_run(&out, &root, &["axis z"], "plug its cable back in");
+    let end = events(&run)
+        .into_iter()
+        .find(|e| e.contains("\"kind\":\"end-state\""))
+        .expect("the end state is in the run's events");
+    assert!(end.contains("z NOT retracted"), "{end}");
+    resume_completes(&clean, &run);
+    assert!(
+        events(&run)
+            .iter()
+            .any(|e| e.contains("resume-run") && e.contains("the run had failed")),
+        "the resume says what it resumed from"
+    );
+}
+
+#[test]
+fn x_that_stops_answering_ends_the_scan_with_z_retracted_and_the_run_resumes() {
+    let dir = scratch("x-silent");
+    let (rig, clean, plan) = files_with(
+        &dir,
+        "[[sim.faults]]\ndevice = \"x\"\nfault = \"silent\"\nafter = 6.0\nwhile_moving = true\n",
+    );
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let run = failed_run(&out, &root, &["axis x"], "stopped answering");
+    assert!(
+        events(&run)
+            .iter()
+            .any(|e| e.contains("\"kind\":\"retract\"") || e.contains("retracted")),
+        "z is retracted when x fails: {:?}",
+        events(&run)
+    );
+    resume_completes(&clean, &run);
+}
+
+#[test]
+fn a_force_stream_that_stalls_stops_motion_and_the_scan_goes_on() {
+    let dir = scratch("force-stall");
+    let (rig, _clean, plan) = files_with(
+        &dir,
+        "[[sim.faults]]\ndevice = \"force\"\nfault = \"silent\"\nafter = 8.0\nduration = 0.5\n",
+    );
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(t.contains("completed: 3 of 3 points"), "{t}");
+    let run = only_run(&root);
+    assert!(
+        events(&run)
+            .iter()
+            .any(|e| e.contains("point-interrupted") && e.contains("no force/torque data")),
+        "the stall is in the run's events: {:?}",
+        events(&run)
+    );
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+#[test]
+fn a_camera_that_stalls_and_resumes_costs_frames_not_the_run() {
+    let dir = scratch("camera-stall");
+    let (rig, _clean, plan) = files_with(
+        &dir,
+        "[[sim.faults]]\ndevice = \"camera\"\nfault = \"stall\"\nafter = 8.0\nduration = 1.0\n",
+    );
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let run = only_run(&root);
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+#[test]
+fn frames_out_of_order_are_recorded_in_camera_order_with_their_own_labels() {
+    let dir = scratch("camera-reorder");
+    let (rig, _clean, plan) = files_with(
+        &dir,
+        "[[sim.faults]]\ndevice = \"camera\"\nfault = \"reorder\"\nafter = 6.0\nduration = 3.0\n",
+    );
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let run = only_run(&root);
+    let frames = std::fs::read_to_string(run.join("frames.jsonl")).expect("frames");
+    let ids: Vec<u64> = frames
+        .lines()
+        .filter_map(|l| {
+            l.split("\"frame_id\":")
+                .nth(1)?
+                .split([',', '}'])
+                .next()?
+                .trim()
+                .parse()
+                .ok()
+        })
+        .collect();
+    assert!(!ids.is_empty());
+    for w in ids.windows(2) {
+        assert!(w[0] != w[1], "frame {} recorded twice", w[0]);
+    }
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+/// Waits for a contact event among the events after the first `before` of the run under
+/// `root`; returns the run.
+fn wait_for_new_contact(root: &Path, child: &mut std::process::Child, before: usize) -> PathBuf {
+    wait_for_event(root, child, |_| true);
+    let until = std::time::Instant::now() + Duration::from_secs(90);
+    loop {
+        let run = only_run(root);
+        if events(&run)
+            .iter()
+            .skip(before)
+            .any(|e| e.contains("\"kind\":\"contact\""))
+        {
+            return run;
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            // The session ended by itself (the run is complete): nothing left to kill.
+            eprintln!("the session ended by itself: {status}");
+            return run;
+        }
+        assert!(std::time::Instant::now() < until, "no contact in time");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_run_killed_again_and_again_at_random_moments_ends_complete() {
+    let dir = scratch("kills");
+    let (rig, plan) = scan_files(&dir);
+    let root = dir.join("runs");
+    // Seeded moments (ms after the run's first contact event of a session).
+    let mut seed: u64 = 0x5eed_f00d;
+    let mut next = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let mut run: Option<PathBuf> = None;
+    for kill in 0..4 {
+        let mut cmd = fringe_command();
+        cmd.args(["scan", "--yes", "--rig"]).arg(&rig);
+        match &run {
+            None => {
+                cmd.arg("--out").arg(&root).arg(&plan);
+            }
+            Some(r) => {
+                cmd.arg("--resume").arg(r);
+            }
+        }
+        let mut child = cmd
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn");
+        let before = run.as_deref().map_or(0, |r| events(r).len());
+        let seen = wait_for_new_contact(&root, &mut child, before);
+        let delay = Duration::from_millis(next() % 2500);
+        std::thread::sleep(delay);
+        if child.try_wait().expect("wait").is_some() {
+            run = Some(seen);
+            break;
+        }
+        child.kill().expect("kill");
+        let _ = child.wait();
+        eprintln!("kill {kill}: {delay:?} after a contact");
+        run = Some(seen);
+    }
+    let run = run.expect("a run");
+    let out = fringe(&[
+        "scan",
+        "--yes",
+        "--rig",
+        rig.to_str().expect("path"),
+        "--resume",
+        run.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    // The last session may have ended the run already.
+    assert!(
+        out.status.success() || t.contains("has ended"),
+        "final resume: {t}"
+    );
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+/// The disk filling up during a run: the runs directory is a 3 MB tmpfs mounted in a private
+/// mount namespace (`unshare -rm`: no root needed where user namespaces are allowed), made larger
+/// again before the resume.
+#[test]
+fn a_full_disk_stops_the_scan_saying_so_and_the_run_resumes_once_there_is_space() {
+    let dir = scratch("disk-full");
+    let (rig, plan) = scan_files(&dir);
+    let root = dir.join("runs");
+    std::fs::create_dir_all(&root).expect("runs dir");
+    let script = r#"
+set -u
+mount -t tmpfs -o size=3m fringe-test "$ROOT" || exit 90
+"$FRINGE" scan --yes --rig "$RIG" --out "$ROOT" "$PLAN" >"$DIR/first.txt" 2>&1
+echo $? >"$DIR/first.rc"
+run=$(ls -d "$ROOT"/*/ | head -n 1)
+echo "$run" >"$DIR/run.txt"
+"$FRINGE" verify "$run" >"$DIR/verify-first.txt" 2>&1
+echo $? >"$DIR/verify-first.rc"
+mount -o remount,size=512m "$ROOT" || exit 91
+"$FRINGE" scan --yes --rig "$RIG" --resume "$run" >"$DIR/resume.txt" 2>&1
+echo $? >"$DIR/resume.rc"
+"$FRINGE" verify "$run" >"$DIR/verify.txt" 2>&1
+echo $? >"$DIR/verify.rc"
+cp "$run/frames.jsonl" "$run/events.jsonl" "$DIR/"
+"#;
+    let status = std::process::Command::new("unshare")
+        .args(["-rm", "sh", "-c", script])
+        .env("ROOT", &root)
+        .env("DIR", &dir)
+        .env("RIG", &rig)
+        .env("PLAN", &plan)
+        .env("FRINGE", env!("CARGO_BIN_EXE_fringe"))
+        .status()
+        .expect("unshare (util-linux) runs the test in its own mount namespace");
+    assert!(
+        status.success(),
+        "the namespace script failed ({status}): 90 = tmpfs mount refused, 91 = remount refused"
+    );
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+    let first = read("first.txt");
+    assert_ne!(read("first.rc").trim(), "0", "{first}");
+    let line = first
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("fringe: "))
+        .unwrap_or_default();
+    assert!(line.contains("free space on the disk"), "{first}");
+    assert!(line.contains("fringe scan --resume"), "{line}");
+    assert_eq!(
+        read("verify-first.rc").trim(),
+        "0",
+        "{}",
+        read("verify-first.txt")
+    );
+    assert_eq!(read("resume.rc").trim(), "0", "{}", read("resume.txt"));
+    assert!(read("resume.txt").contains("completed: 3 of 3 points"));
+    assert_eq!(read("verify.rc").trim(), "0", "{}", read("verify.txt"));
+    // Every point once, in order (frames.jsonl copied out of the namespace into `dir`).
+    assert_eq!(points_in(&dir), vec![0, 1, 2]);
+}
+
+#[test]
+fn a_burst_of_udp_loss_from_the_net_ft_is_counted_and_the_scan_goes_on() {
+    let dir = scratch("udp-loss");
+    let (_, plan) = scan_files(&dir);
+    let rig = dir.join("netft-rig.toml");
+    let text_rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
+        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"loss\"\nafter = 8.0\nduration = 0.3\n";
+    std::fs::write(&rig, text_rig).expect("rig file");
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let run = only_run(&root);
+    let stop = stop_status(&run);
+    let lost: u64 = stop
+        .split("\"lost_force_samples\":")
+        .nth(1)
+        .and_then(|s| s.split([',', '}']).next())
+        .and_then(|s| s.trim().parse().ok())
+        .expect("lost_force_samples in stop.json");
+    // 0.3 s of the simulated Net F/T's 7000 Hz stream (one record per datagram).
+    assert!((1750..=2450).contains(&lost), "lost {lost} samples\n{stop}");
+    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let verify = fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
