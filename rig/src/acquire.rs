@@ -15,6 +15,7 @@
 pub mod camera_stream;
 pub mod clock_fit_labeler;
 pub mod force_stream;
+pub mod frame_gaps;
 pub mod host_labeler;
 pub mod labeler;
 pub mod record_tap;

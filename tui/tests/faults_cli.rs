@@ -181,7 +181,7 @@ fn a_camera_that_stalls_and_resumes_costs_frames_not_the_run() {
 }
 
 #[test]
-fn frames_out_of_order_are_recorded_in_camera_order_with_their_own_labels() {
+fn frames_out_of_order_are_all_recorded_once_and_not_counted_as_drops() {
     let dir = scratch("camera-reorder");
     let (rig, _clean, plan) = files_with(
         &dir,
@@ -206,9 +206,24 @@ fn frames_out_of_order_are_recorded_in_camera_order_with_their_own_labels() {
         })
         .collect();
     assert!(!ids.is_empty());
-    for w in ids.windows(2) {
-        assert!(w[0] != w[1], "frame {} recorded twice", w[0]);
-    }
+    let mut sorted = ids.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    assert_eq!(sorted.len(), ids.len(), "a frame recorded twice");
+    assert!(
+        ids.windows(2).any(|w| w[1] < w[0]),
+        "the frames were recorded in the order they arrived, some out of order"
+    );
+    // A late frame fills the gap it was first counted in: reordering is not dropping (3 s of
+    // reordered frames at 25 fps once counted 75 drops).
+    let stop = stop_status(&run);
+    let dropped: u64 = stop
+        .split("\"dropped_frames\":")
+        .nth(1)
+        .and_then(|s| s.split([',', '}']).next())
+        .and_then(|s| s.trim().parse().ok())
+        .expect("dropped_frames in stop.json");
+    assert!(dropped <= 2, "{stop}");
     let verify = fringe(&["verify", run.to_str().expect("path")]);
     assert!(verify.status.success(), "{}", text(&verify));
 }

@@ -63,12 +63,8 @@ pub fn modbus(data: &[u8]) {
         },
     ];
     let responses = [
-        modbus_codec::parse_rtu(data)
-            .ok()
-            .and_then(|p| frame_response(p)),
-        modbus_codec::parse_tcp(data)
-            .ok()
-            .and_then(|p| frame_response(p)),
+        modbus_codec::parse_rtu(data).ok().and_then(frame_response),
+        modbus_codec::parse_tcp(data).ok().and_then(frame_response),
         modbus_codec::decode_response_pdu(data).ok(),
     ];
     for response in responses.iter().flatten() {

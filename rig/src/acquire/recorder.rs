@@ -7,6 +7,7 @@
 //! - The scan sends events and asks for checkpoints through the recorder; a checkpoint first
 //!   finishes the frames still waiting for their labels, then makes everything durable.
 
+use super::frame_gaps::FrameGaps;
 use super::labeler::{FrameLabeler, LabelOutcome};
 use super::record_tap::RecordTap;
 use crate::camera::Frame;
@@ -113,7 +114,7 @@ pub enum RecorderError {
 #[error("{error}")]
 pub struct RecorderFailure {
     pub error: StoreError,
-    pub writer: Option<RunWriter>,
+    pub writer: Option<Box<RunWriter>>,
 }
 
 impl std::fmt::Debug for RecorderFailure {
@@ -172,7 +173,7 @@ impl Recorder {
             pending: VecDeque::new(),
             stats: stats.clone(),
             local: RecorderStats::default(),
-            last_id: None,
+            gaps: FrameGaps::default(),
             arrivals: VecDeque::new(),
             batch: Vec::with_capacity(256),
         };
@@ -182,7 +183,7 @@ impl Recorder {
                 Ok(()) => Ok((state.writer, state.local)),
                 Err(error) => Err(RecorderFailure {
                     error,
-                    writer: Some(state.writer),
+                    writer: Some(Box::new(state.writer)),
                 }),
             })
             .map_err(|e| StoreError::io(dir, e))?;
@@ -276,7 +277,7 @@ struct State {
     pending: VecDeque<(Frame, Filming)>,
     stats: Arc<Mutex<RecorderStats>>,
     local: RecorderStats,
-    last_id: Option<u64>,
+    gaps: FrameGaps,
     arrivals: VecDeque<HostTime>,
     batch: Vec<ForceSample>,
 }
@@ -368,10 +369,8 @@ impl State {
     fn frame(&mut self, frame: Frame) {
         self.labeler.observe_frame(&frame);
         self.local.frames_seen += 1;
-        if let Some(last) = self.last_id {
-            self.local.dropped_frames += frame.id.saturating_sub(last + 1);
-        }
-        self.last_id = Some(frame.id);
+        self.gaps.observe(frame.id);
+        self.local.dropped_frames = self.gaps.dropped();
         self.arrivals.push_back(frame.host_arrival);
         while self
             .arrivals

@@ -387,8 +387,9 @@ pub fn run_scan(
             Ok((writer, counts)) => (writer, counts, None),
             Err(RecorderFailure {
                 error,
-                writer: Some(mut writer),
+                writer: Some(writer),
             }) => {
+                let mut writer = *writer;
                 // Cut the unfinished point's records: a full disk gets back the space of its
                 // images, enough to close the run.
                 let _ = writer.rollback();

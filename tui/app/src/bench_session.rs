@@ -10,6 +10,7 @@
 use crate::rig_file::RigConfig;
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
+use fringe_rig::acquire::frame_gaps::FrameGaps;
 use fringe_rig::axis::{Axis, StopMode};
 use fringe_rig::camera::Frame;
 use fringe_rig::units::Millimetres;
@@ -346,10 +347,7 @@ fn run(
         }
         // Camera: the newest frame kept, ids counted for drops.
         for frame in camera.frames().try_iter() {
-            if let Some(prev) = meter.last_frame_id {
-                meter.dropped += frame.id.saturating_sub(prev + 1);
-            }
-            meter.last_frame_id = Some(frame.id);
+            meter.gaps.observe(frame.id);
             meter.frames += 1;
             newest = Some(frame);
         }
@@ -398,8 +396,7 @@ struct Meters {
     force_samples: u64,
     frames: u64,
     frames_total: u64,
-    dropped: u64,
-    last_frame_id: Option<u64>,
+    gaps: FrameGaps,
     last_point_s: f64,
 }
 
@@ -410,14 +407,13 @@ impl Meters {
             force_samples: 0,
             frames: 0,
             frames_total: 0,
-            dropped: 0,
-            last_frame_id: None,
+            gaps: FrameGaps::default(),
             last_point_s: f64::NEG_INFINITY,
         }
     }
 
     fn publish(&mut self, s: &mut BenchState) {
-        s.camera.dropped = self.dropped;
+        s.camera.dropped = self.gaps.dropped();
         let elapsed = self.window_start.elapsed().as_secs_f64();
         if elapsed >= 1.0 {
             s.force.rate_hz = self.force_samples as f64 / elapsed;

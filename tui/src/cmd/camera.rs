@@ -2,6 +2,7 @@
 
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_rig::acquire::frame_gaps::FrameGaps;
 use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
 use fringe_rig::camera::writer::FrameWriter;
 use fringe_rig::camera::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
@@ -185,8 +186,7 @@ fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
     camera.start()?;
     let timeout = Duration::from_millis(args.timeout_ms);
     let result = (|| -> anyhow::Result<()> {
-        let mut last_id: Option<u64> = None;
-        let mut dropped = 0u64;
+        let mut gaps = FrameGaps::default();
         while writer.count() < args.count {
             if trigger == TriggerMode::Software {
                 camera.trigger()?;
@@ -200,10 +200,7 @@ fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
                     args.count
                 );
             };
-            if let Some(prev) = last_id {
-                dropped += frame.id.saturating_sub(prev + 1);
-            }
-            last_id = Some(frame.id);
+            gaps.observe(frame.id);
             writer.write(&frame)?;
         }
         println!(
@@ -211,8 +208,8 @@ fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
             info.id,
             writer.count(),
             args.out.display(),
-            if dropped > 0 {
-                format!("; {dropped} frame ids missing (dropped frames)")
+            if gaps.dropped() > 0 {
+                format!("; {} frame ids missing (dropped frames)", gaps.dropped())
             } else {
                 String::new()
             }
