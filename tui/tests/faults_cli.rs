@@ -185,7 +185,7 @@ fn frames_out_of_order_are_all_recorded_once_and_not_counted_as_drops() {
     let dir = scratch("camera-reorder");
     let (rig, _clean, plan) = files_with(
         &dir,
-        "[[sim.faults]]\ndevice = \"camera\"\nfault = \"reorder\"\nafter = 6.0\nduration = 3.0\n",
+        "[[sim.faults]]\ndevice = \"camera\"\nfault = \"reorder\"\nafter = 4.0\nduration = 12.0\n",
     );
     let root = dir.join("runs");
     let out = scan(&rig, &plan, &root);
@@ -214,8 +214,8 @@ fn frames_out_of_order_are_all_recorded_once_and_not_counted_as_drops() {
         ids.windows(2).any(|w| w[1] < w[0]),
         "the frames were recorded in the order they arrived, some out of order"
     );
-    // A late frame fills the gap it was first counted in: reordering is not dropping (3 s of
-    // reordered frames at 25 fps once counted 75 drops).
+    // A late frame fills the gap it was first counted in: reordering is not dropping (before,
+    // 3 s of reordered frames at 25 fps counted 75 drops).
     let stop = stop_status(&run);
     let dropped: u64 = stop
         .split("\"dropped_frames\":")
