@@ -220,7 +220,14 @@ impl Trace {
                     format!("time {secs} must be a non-negative number of seconds"),
                 ));
             }
-            let time = Duration::from_secs_f64(secs);
+            let time = Duration::try_from_secs_f64(secs).map_err(|_| {
+                err(
+                    lineno,
+                    format!(
+                        "time {secs} s is too large (a trace's times count seconds from its start)"
+                    ),
+                )
+            })?;
             if time < last_time {
                 return Err(err(
                     lineno,
@@ -294,6 +301,16 @@ mod tests {
     use super::*;
 
     const SAMPLE: &str = "# fringe-trace 1\n# device: apt-x\n# endpoint: serial /dev/ttyUSB0\n# kind: stream\n# unordered: > 92 04 00 00 50 01\n# a comment\n\n    0.000000 > 23 02 01 00 50 01   # MOD_IDENTIFY\n    0.010000 < 64 04 01 00 01 50\n";
+
+    #[test]
+    fn a_time_too_large_for_a_duration_is_an_error_naming_the_line() {
+        // Found by the `trace` fuzz target (fuzz/regressions/trace): it panicked.
+        let text = SAMPLE.replace("0.010000 <", "1e300 <");
+        let e = Trace::parse(&text, "sample")
+            .expect_err("refused")
+            .to_string();
+        assert!(e.contains("line 9") && e.contains("too large"), "{e}");
+    }
 
     #[test]
     fn parses_header_entries_and_comments() {

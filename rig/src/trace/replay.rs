@@ -111,7 +111,8 @@ impl Core {
         if self.speed.is_infinite() {
             Duration::ZERO
         } else {
-            Duration::from_secs_f64(d.as_secs_f64() / self.speed)
+            // A speed near zero would make the wait longer than a Duration holds.
+            Duration::try_from_secs_f64(d.as_secs_f64() / self.speed).unwrap_or(Duration::MAX)
         }
     }
 
