@@ -63,10 +63,18 @@ pub(crate) fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>)
             exported,
         ])
     });
+    // The whole run id, which the other commands take (up to a width that leaves the rest room).
+    let widest = v
+        .rows
+        .iter()
+        .map(|r| r.name.chars().count())
+        .max()
+        .unwrap_or(0);
+    let run_width = widest.clamp(26, 48) as u16;
     let table = Table::new(
         rows,
         [
-            Constraint::Min(26),
+            Constraint::Length(run_width),
             Constraint::Length(11),
             Constraint::Length(8),
             Constraint::Min(20),
