@@ -4,8 +4,8 @@
 mod common;
 
 use common::{
-    events, fringe, points_in, scan_files as files, scan_plan as plan, scratch, snapshot, text,
-    the_run, wait_for_event, TestRun, QUICK_RIG,
+    events, fringe, points_in, resume_to_the_end, scan_files as files, scan_plan as plan, scratch,
+    snapshot, text, the_run, wait_for_event, TestRun, QUICK_RIG,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -80,26 +80,13 @@ fn a_run_killed_mid_point_is_resumed_without_losing_or_repeating_a_point() {
     );
     assert!(text(&verify).contains("--resume"), "{}", text(&verify));
 
-    let out = fringe(&[
-        "scan",
-        "--yes",
-        "--rig",
-        rig.to_str().expect("path"),
-        "--resume",
-        run.to_str().expect("path"),
-    ]);
-    let t = text(&out);
-    assert!(out.status.success(), "{t}");
-    assert!(t.contains("completed: 3 of 3 points"), "{t}");
-    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    resume_to_the_end(&rig, &run);
     let events = events(&run);
     let resumed = events
         .iter()
         .find(|e| e.contains("\"kind\":\"resume-run\""))
         .expect("resume event");
     assert!(resumed.contains("resumed at point 1"), "{resumed}");
-    let verify = fringe(&["verify", run.to_str().expect("path")]);
-    assert!(verify.status.success(), "{}", text(&verify));
 }
 
 /// An unfinished run of the plan `files` writes, as the engine leaves it after a crash during

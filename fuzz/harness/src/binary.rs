@@ -1,15 +1,15 @@
 //! Targets over the binary wire formats and files: APT frames, Net F/T RDT datagrams, Modbus
-//! RTU / TCP frames (the stage driver's responses, the emulated stage's requests), the run's force log, pickles.
+//! RTU / TCP frames (the stage driver's responses, the emulated stage's requests), the run's
+//! force log, pickles.
 
 use fringe_rig::apt::codec as apt_codec;
 use fringe_rig::apt::stream::{Flow, StreamDecoder};
 use fringe_rig::modbus::codec as modbus_codec;
 use fringe_rig::netft::rdt;
 use fringe_rig::store::force_log;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
-use fringe_rig::{axis::Kinematics, clock::HostTime, modbus::RegisterMap};
+use fringe_rig::{clock::HostTime, modbus::RegisterMap};
 use fringe_sim::modbus_emulator::core::ModbusCore;
-use fringe_sim::{MotorSpec, SimMotor};
+use fringe_sim::{BenchConfig, SimMotor};
 use std::sync::{Arc, OnceLock};
 
 /// The APT stream decoder both ways, fed in chunks whose sizes come from the input itself (a
@@ -74,7 +74,10 @@ pub fn modbus(data: &[u8]) {
     }
     let _ = fringe_sim::modbus_emulator::core::decode_request_pdu(data);
     for map in builtin_maps() {
-        let mut core = ModbusCore::new(map.clone(), Arc::new(SimMotor::new(y_motor())));
+        let mut core = ModbusCore::new(
+            map.clone(),
+            Arc::new(SimMotor::new(BenchConfig::default().y.spec("y"))),
+        );
         let _ = core.handle_pdu(data, HostTime(1_000_000_000));
     }
 }
@@ -91,18 +94,6 @@ fn builtin_maps() -> &'static [RegisterMap] {
             })
             .collect()
     })
-}
-
-fn y_motor() -> MotorSpec {
-    MotorSpec {
-        name: "y".into(),
-        travel: Millimetres(50.0),
-        power_up_position: Millimetres(10.0),
-        kinematics: Kinematics {
-            velocity: MillimetresPerSecond(5.0),
-            acceleration: MillimetresPerSecondSquared(50.0),
-        },
-    }
 }
 
 fn frame_response<H>(parsed: modbus_codec::Parsed<H>) -> Option<modbus_codec::Response> {

@@ -174,6 +174,25 @@ impl FaultTrigger {
     }
 }
 
+/// The faults on one device.
+#[derive(Default)]
+pub struct Faults(Vec<Arc<FaultTrigger>>);
+
+impl Faults {
+    pub fn new(triggers: Vec<Arc<FaultTrigger>>) -> Faults {
+        Faults(triggers)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// Whether a fault of `kind` is on now.
+    pub fn on(&self, kind: FaultKind) -> bool {
+        self.0.iter().any(|f| f.spec.fault == kind && f.active())
+    }
+}
+
 fn unplugged(what: &str) -> io::Error {
     io::Error::new(
         io::ErrorKind::BrokenPipe,
@@ -184,37 +203,31 @@ fn unplugged(what: &str) -> io::Error {
 /// A byte link (serial port, in-process pipe) with a fault between driver and device.
 pub struct FaultyLink<L: ByteLink> {
     inner: L,
-    faults: Vec<Arc<FaultTrigger>>,
+    faults: Faults,
 }
 
 impl<L: ByteLink> FaultyLink<L> {
-    pub fn new(inner: L, faults: Vec<Arc<FaultTrigger>>) -> FaultyLink<L> {
+    pub fn new(inner: L, faults: Faults) -> FaultyLink<L> {
         FaultyLink { inner, faults }
-    }
-
-    fn on(&self, kind: FaultKind) -> bool {
-        self.faults
-            .iter()
-            .any(|f| f.spec.fault == kind && f.active())
     }
 }
 
 impl<L: ByteLink> ByteLink for FaultyLink<L> {
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
-        if self.on(FaultKind::Silent) {
+        if self.faults.on(FaultKind::Silent) {
             return Ok(());
         }
         self.inner.write_all(bytes)
     }
 
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
-        if self.on(FaultKind::Silent) {
+        if self.faults.on(FaultKind::Silent) {
             // Whatever the device sent before it went quiet is lost with it.
             let _ = self.inner.read(buf, Duration::ZERO);
             std::thread::sleep(timeout);
@@ -235,38 +248,32 @@ impl<L: ByteLink> ByteLink for FaultyLink<L> {
 /// A datagram link (the Net F/T's UDP socket) that can be cut, go quiet or lose bursts.
 pub struct FaultyDatagrams<L: DatagramLink> {
     inner: L,
-    faults: Vec<Arc<FaultTrigger>>,
+    faults: Faults,
 }
 
 impl<L: DatagramLink> FaultyDatagrams<L> {
-    pub fn new(inner: L, faults: Vec<Arc<FaultTrigger>>) -> FaultyDatagrams<L> {
+    pub fn new(inner: L, faults: Faults) -> FaultyDatagrams<L> {
         FaultyDatagrams { inner, faults }
-    }
-
-    fn on(&self, kind: FaultKind) -> bool {
-        self.faults
-            .iter()
-            .any(|f| f.spec.fault == kind && f.active())
     }
 }
 
 impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
     fn send(&mut self, datagram: &[u8]) -> io::Result<()> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
-        if self.on(FaultKind::Silent) {
+        if self.faults.on(FaultKind::Silent) {
             return Ok(());
         }
         self.inner.send(datagram)
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
         let got = self.inner.recv(buf, timeout)?;
-        if got.is_some() && (self.on(FaultKind::Loss) || self.on(FaultKind::Silent)) {
+        if got.is_some() && (self.faults.on(FaultKind::Loss) || self.faults.on(FaultKind::Silent)) {
             // Lost on the way: the caller sees a timeout.
             return Ok(None);
         }
@@ -281,18 +288,12 @@ impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
 /// A force sensor whose stream can be cut (unplug) or go quiet (silent).
 pub struct FaultyForce {
     inner: Box<dyn ForceSensor>,
-    faults: Vec<Arc<FaultTrigger>>,
+    faults: Faults,
 }
 
 impl FaultyForce {
-    pub fn new(inner: Box<dyn ForceSensor>, faults: Vec<Arc<FaultTrigger>>) -> FaultyForce {
+    pub fn new(inner: Box<dyn ForceSensor>, faults: Faults) -> FaultyForce {
         FaultyForce { inner, faults }
-    }
-
-    fn on(&self, kind: FaultKind) -> bool {
-        self.faults
-            .iter()
-            .any(|f| f.spec.fault == kind && f.active())
     }
 
     fn gone(&self) -> ForceError {
@@ -309,17 +310,17 @@ impl ForceSensor for FaultyForce {
     }
 
     fn start(&mut self) -> Result<(), ForceError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
         self.inner.start()
     }
 
     fn next_sample(&mut self, timeout: Duration) -> Result<Option<ForceSample>, ForceError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
-        if self.on(FaultKind::Silent) {
+        if self.faults.on(FaultKind::Silent) {
             // Samples made while the stream is quiet never arrive.
             while let Ok(Some(_)) = self.inner.next_sample(Duration::ZERO) {}
             std::thread::sleep(timeout);
@@ -333,7 +334,7 @@ impl ForceSensor for FaultyForce {
     }
 
     fn bias(&mut self) -> Result<(), ForceError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
         self.inner.bias()
@@ -347,7 +348,7 @@ impl ForceSensor for FaultyForce {
 /// A camera that can be unplugged, stall, or deliver frames out of order.
 pub struct FaultyCamera {
     inner: Box<dyn Camera>,
-    faults: Vec<Arc<FaultTrigger>>,
+    faults: Faults,
     /// Reordering: the frame waiting for the next one to overtake it.
     held: Option<Frame>,
     /// Reordering: the overtaken frame, delivered at the next call.
@@ -355,19 +356,13 @@ pub struct FaultyCamera {
 }
 
 impl FaultyCamera {
-    pub fn new(inner: Box<dyn Camera>, faults: Vec<Arc<FaultTrigger>>) -> FaultyCamera {
+    pub fn new(inner: Box<dyn Camera>, faults: Faults) -> FaultyCamera {
         FaultyCamera {
             inner,
             faults,
             held: None,
             release: None,
         }
-    }
-
-    fn on(&self, kind: FaultKind) -> bool {
-        self.faults
-            .iter()
-            .any(|f| f.spec.fault == kind && f.active())
     }
 
     fn gone(&self) -> CameraError {
@@ -392,17 +387,17 @@ impl Camera for FaultyCamera {
     }
 
     fn trigger(&mut self) -> Result<(), CameraError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
         self.inner.trigger()
     }
 
     fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
-        if self.on(FaultKind::Stall) || self.on(FaultKind::Silent) {
+        if self.faults.on(FaultKind::Stall) || self.faults.on(FaultKind::Silent) {
             self.held = None;
             self.release = None;
             while let Ok(Some(_)) = self.inner.next_frame(Duration::ZERO) {}
@@ -412,7 +407,7 @@ impl Camera for FaultyCamera {
         if let Some(older) = self.release.take() {
             return Ok(Some(older));
         }
-        if self.on(FaultKind::Reorder) {
+        if self.faults.on(FaultKind::Reorder) {
             let Some(frame) = self.inner.next_frame(timeout)? else {
                 return Ok(None);
             };
@@ -439,7 +434,7 @@ impl Camera for FaultyCamera {
     }
 
     fn latch_timestamp(&mut self) -> Result<TimestampLatch, CameraError> {
-        if self.on(FaultKind::Unplug) {
+        if self.faults.on(FaultKind::Unplug) {
             return Err(self.gone());
         }
         self.inner.latch_timestamp()

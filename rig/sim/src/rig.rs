@@ -20,8 +20,8 @@ use crate::bench::{AxisConfig, Bench, BenchConfig};
 use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
 use crate::daq_emulator::{SimDaq, SimDaqConfig};
 use crate::faults::{
-    FaultDevice, FaultKind, FaultSpec, FaultTrigger, FaultyCamera, FaultyDatagrams, FaultyForce,
-    FaultyLink,
+    FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyCamera, FaultyDatagrams,
+    FaultyForce, FaultyLink,
 };
 use crate::ft_sensor::SimFtSensor;
 use crate::ground_truth::TruthSink;
@@ -179,20 +179,28 @@ impl SimRig {
         let mut description = Vec::new();
         for f in &config.faults {
             f.check().map_err(|e| device_error(f.device.name(), e))?;
+            if f.fault == FaultKind::Loss && config.force_path == ForcePath::Daq {
+                return Err(device_error(
+                    "force",
+                    "fault `loss` needs the Net F/T force path (sim.force_path = \"netft\")",
+                ));
+            }
         }
-        let faults_on = |device: FaultDevice| -> Vec<Arc<FaultTrigger>> {
+        let faults_on = |device: FaultDevice| -> Faults {
             let motor = match device {
                 FaultDevice::X => Some(bench.motor_x()),
                 FaultDevice::Y => Some(bench.motor_y()),
                 FaultDevice::Z => Some(bench.motor_z()),
                 FaultDevice::Force | FaultDevice::Camera => None,
             };
-            config
-                .faults
-                .iter()
-                .filter(|f| f.device == device)
-                .map(|f| FaultTrigger::new(f.clone(), motor.clone()))
-                .collect()
+            Faults::new(
+                config
+                    .faults
+                    .iter()
+                    .filter(|f| f.device == device)
+                    .map(|f| FaultTrigger::new(f.clone(), motor.clone()))
+                    .collect(),
+            )
         };
 
         let mut apt = Vec::new();
@@ -302,17 +310,9 @@ impl SimRig {
         ));
         // Over a Net F/T the faults act on its UDP link (above); over the DAQ on the sensor.
         let force_faults = match config.force_path {
-            ForcePath::Netft => Vec::new(),
+            ForcePath::Netft => Faults::default(),
             ForcePath::Daq => faults_on(FaultDevice::Force),
         };
-        if config.force_path == ForcePath::Daq
-            && config.faults.iter().any(|f| f.fault == FaultKind::Loss)
-        {
-            return Err(device_error(
-                "force",
-                "fault `loss` needs the Net F/T force path (sim.force_path = \"netft\")",
-            ));
-        }
         let force: Box<dyn fringe_rig::force::ForceSensor> = if force_faults.is_empty() {
             force
         } else {
