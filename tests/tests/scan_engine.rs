@@ -10,6 +10,7 @@ use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan};
 use fringe_rig::scan::press::PressSettings;
+use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
@@ -255,6 +256,76 @@ fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
     assert!(records
         .iter()
         .any(|r| r.wrench.is_some_and(|w| (-w.fz.0 - 4.0).abs() < 0.3)));
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A sidecar whose every take hands over one numbered line and notes what its file held then.
+#[derive(Debug, Default)]
+struct Numbered {
+    dir: Mutex<Option<std::path::PathBuf>>,
+    seen: Mutex<Vec<usize>>,
+}
+
+impl RunSidecar for Numbered {
+    fn file_name(&self) -> &str {
+        "numbered.jsonl"
+    }
+
+    fn take_lines(&self) -> Vec<String> {
+        let mut seen = self.seen.lock().unwrap_or_else(|p| p.into_inner());
+        let dir = self.dir.lock().unwrap_or_else(|p| p.into_inner()).clone();
+        let lines_in_file = dir
+            .and_then(|d| std::fs::read_to_string(d.join("numbered.jsonl")).ok())
+            .map_or(0, |t| t.lines().count());
+        seen.push(lines_in_file);
+        vec![format!("{{\"take\":{}}}", seen.len() - 1)]
+    }
+}
+
+#[test]
+fn sidecar_lines_reach_the_run_after_every_point_each_once() {
+    let dir = tempfile_dir("sidecar");
+    let (rig, devices, _truth) = bench(12);
+    let text = plan("[11.0, 14.0, 17.0]", "[25.0]", "force_targets = [1.0]", 0.1);
+    let mut setup = setup(&rig, &text);
+    let numbered = Arc::new(Numbered::default());
+    *numbered.dir.lock().unwrap_or_else(|p| p.into_inner()) = Some(dir.join("sidecar"));
+    setup.sidecars = vec![numbered.clone() as Arc<dyn RunSidecar>];
+    let (mut operator, _) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "sidecar".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.points_done, 3);
+    // Taken after each of the 3 points and when the run closed; each take found every earlier
+    // one already in the run's file.
+    let seen = numbered
+        .seen
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .clone();
+    assert_eq!(seen, vec![0, 1, 2, 3]);
+    let text = std::fs::read_to_string(out.run_dir.join("numbered.jsonl")).expect("sidecar file");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines,
+        vec![
+            r#"{"take":0}"#,
+            r#"{"take":1}"#,
+            r#"{"take":2}"#,
+            r#"{"take":3}"#
+        ]
+    );
+    assert!(verify(&out.run_dir).expect("verify").ok());
     drop(rig);
     let _ = std::fs::remove_dir_all(&dir);
 }

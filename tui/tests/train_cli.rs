@@ -23,7 +23,8 @@ fn s(p: &Path) -> &str {
 fn data() -> &'static Path {
     static DATA: OnceLock<PathBuf> = OnceLock::new();
     DATA.get_or_init(|| {
-        let dir = scratch("data");
+        // Shared by every test of this binary, so kept (statics are never dropped).
+        let dir = scratch("data").keep();
         let sensor = dir.join("coarse.toml");
         std::fs::write(
             &sensor,

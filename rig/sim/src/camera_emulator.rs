@@ -23,7 +23,7 @@
 //!   does not fetch fill `host_buffers`; further frames are dropped (`no_buffer`).
 //! - `device_timestamp` is the device clock at exposure start (Basler's chunk timestamp).
 //! - [`Camera::latch_timestamp`] takes about `latch_round_trip_us` and latches the device clock at
-//!   a random instant inside the host bracket.//!
+//!   a random instant inside the host bracket.
 //! - [`timing`]: the device clock and the exposure schedule the DAQ emulator reads.
 //! - [`camera`]: [`SimCamera`], the camera on threads (timing, render, delivery) behind the
 //!   [`Camera`] trait.

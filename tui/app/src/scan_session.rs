@@ -276,7 +276,7 @@ impl ScanSession {
         #[cfg(feature = "sim")]
         {
             let truth_score = match &self.sim {
-                Some(sim) => crate::sim_bench::score_run(&outcome.run_dir, &sim.truth)?,
+                Some(_) => crate::sim_bench::score_run(&outcome.run_dir)?,
                 None => None,
             };
             Ok(SessionEnd {

@@ -12,17 +12,19 @@ use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::bench::{AxisConfig, Bench};
-use fringe_sim::ground_truth::{TruthLog, TruthSink};
+use fringe_sim::ground_truth::TruthSink;
 use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig};
 use fringe_sim::sensor::SensorConfig;
+use fringe_sim::truth_spool::TruthSpool;
 use std::path::Path;
 use std::sync::Arc;
 
 /// The running simulated bench of an opened rig.
 pub struct SimBench {
     pub rig: SimRig,
-    /// Everything that really happened on the bench since it started.
-    pub truth: Arc<TruthLog>,
+    /// What really happens on the bench, until the run filming it takes it (a scan appends it to
+    /// the run's `truth.jsonl` after every point).
+    pub truth: Arc<TruthSpool>,
 }
 
 impl SimBench {
@@ -143,7 +145,7 @@ pub fn open(
     camera_settings: CameraSettings,
 ) -> Result<OpenRig, RigError> {
     let config = config(rig)?;
-    let truth = TruthLog::new();
+    let truth = TruthSpool::new();
     let sink: Arc<dyn TruthSink> = truth.clone();
     let (sim, devices) = SimRig::start(&config, Some(sink)).map_err(|e| device("rig", e))?;
     Ok(OpenRig {
@@ -168,24 +170,27 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
     }
 }
 
-/// Scores the labels of the run in `run_dir` against the bench's ground truth; `None` when no
-/// labelled frame has a truth record.
+/// Scores the labels of the simulated run in `run_dir` against the ground truth it keeps
+/// (`truth.jsonl`); `None` when no labelled frame has a truth record.
 pub fn score_run(
     run_dir: &Path,
-    truth: &TruthLog,
 ) -> Result<Option<crate::scan_session::TruthScore>, fringe_rig::store::StoreError> {
     let (records, _) = fringe_rig::store::run_writer::read_lines::<
         fringe_rig::store::documents::FrameRecord,
     >(&run_dir.join(fringe_rig::store::FRAMES))?;
+    let path = run_dir.join(fringe_sim::ground_truth::TRUTH_FILE);
+    let truth = fringe_sim::ground_truth::read_frames(&path).map_err(|e| match e {
+        fringe_sim::ground_truth::TruthError::Io { path, source } => {
+            fringe_rig::store::StoreError::Io { path, source }
+        }
+    })?;
     Ok(
-        fringe_sim::label_score::score(&records, &truth.frames()).map(|s| {
-            crate::scan_session::TruthScore {
-                frames: s.frames,
-                force_rms_n: s.force_rms_n,
-                force_max_n: s.force_max_n,
-                contact_frames: s.contact_frames,
-                contact_rms_mm: s.contact_rms_mm,
-            }
+        fringe_sim::label_score::score(&records, &truth).map(|s| crate::scan_session::TruthScore {
+            frames: s.frames,
+            force_rms_n: s.force_rms_n,
+            force_max_n: s.force_max_n,
+            contact_frames: s.contact_frames,
+            contact_rms_mm: s.contact_rms_mm,
         }),
     )
 }
@@ -231,7 +236,6 @@ impl SimBench {
         &self,
         cal: &fringe_calibration::from_scan::ScanCalibration,
     ) -> CalibrationTruth {
-        use fringe_sim::ground_truth::TruthRecord;
         let sim = self.config();
         let g = sim.sensor.geometry();
         let f = &cal.fit;
@@ -247,15 +251,7 @@ impl SimBench {
                 ],
             }
         });
-        let bias = self
-            .truth
-            .records()
-            .into_iter()
-            .rev()
-            .find_map(|r| match r {
-                TruthRecord::FtBias { bias, .. } => Some(bias),
-                _ => None,
-            });
+        let bias = self.truth.bias();
         let offset_minus_bias_n = match (&cal.offsets, bias) {
             (Some(o), Some(bias)) => Some([
                 o.force_n[0] - bias.fx.0,

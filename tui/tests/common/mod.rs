@@ -40,8 +40,9 @@ pub fn only_run(runs: &Path) -> PathBuf {
 }
 
 /// A fresh, empty scratch directory for one test (named for the test binary, the test and the
-/// process, so parallel tests and runs never share one).
-pub fn scratch(name: &str) -> PathBuf {
+/// process, so parallel tests and runs never share one). Removed when the test passes (scans of
+/// the full-size simulated camera write gigabytes of frames); kept when it fails, for a look.
+pub fn scratch(name: &str) -> Scratch {
     let binary = std::env::current_exe()
         .ok()
         .and_then(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
@@ -49,7 +50,49 @@ pub fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("fringe-{binary}-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir
+    Scratch(dir)
+}
+
+/// A test's scratch directory: removed on drop unless the test is failing (panicking).
+#[derive(Debug)]
+pub struct Scratch(PathBuf);
+
+impl Scratch {
+    /// The directory, kept after the test (data shared by the tests of a binary).
+    pub fn keep(self) -> PathBuf {
+        let dir = self.0.clone();
+        std::mem::forget(self);
+        dir
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("kept for a look: {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// A run written through the run store, as the scan engine writes one: a checkpoint before each

@@ -20,10 +20,13 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// Exposures that can wait for the renderer (besides the one being rendered). Frames are matched
-/// to their force by clock, not by arrival, so the extra delay a waiting frame takes costs
-/// nothing but that delay.
-pub const FRAME_MEMORY: usize = 3;
+/// Exposures that can wait for the renderer (besides the one being rendered): 160 ms at 50 fps.
+/// Frames are matched to their force by clock, not by arrival, so the extra delay a waiting frame
+/// takes costs nothing but that delay. On an idle 2-core machine a whole scan at 50 fps delays no
+/// frame by more than 10 ms after its readout; with two other busy processes taking the cores the
+/// renderer fell up to 90 ms behind and 3 waiting exposures (60 ms) lost a frame (BENCHMARKS.md,
+/// "Recording"). A real camera has no renderer to wait for.
+pub const FRAME_MEMORY: usize = 8;
 /// How the simulated camera behaves beyond its [`CameraSettings`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
