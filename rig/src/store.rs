@@ -59,6 +59,20 @@ pub enum StoreError {
     },
     #[error("{path}: {message}")]
     Content { path: PathBuf, message: String },
+    #[error("{} is not a run (there is no {START} in it): give the directory of a run that fringe scan wrote (`fringe runs --root DIR` lists the runs in DIR)", dir.display())]
+    NotARun { dir: PathBuf },
+}
+
+/// The start document of the run in `dir`; [`StoreError::NotARun`] when `dir` has none (a
+/// missing directory, a typo, the runs root instead of one run).
+pub fn read_start(dir: &std::path::Path) -> Result<documents::StartDocument, StoreError> {
+    let path = dir.join(START);
+    if !path.exists() {
+        return Err(StoreError::NotARun {
+            dir: dir.to_path_buf(),
+        });
+    }
+    run_writer::read_document(&path)
 }
 
 impl StoreError {

@@ -57,6 +57,8 @@ pub struct Source {
 pub enum DatasetError {
     #[error("{0}: neither a run (start.json + frames.jsonl) nor a reference-layout dataset (0.labels.csv + 0.images/)")]
     Unknown(String),
+    #[error("{0}: no such run or dataset (give a run directory that fringe scan wrote, `fringe runs` lists them, or a dataset that fringe export or fringe sim dataset wrote)")]
+    Missing(String),
     #[error(transparent)]
     Store(#[from] fringe_rig::store::StoreError),
     #[error("{path}: line {line}: {message}")]
@@ -109,7 +111,9 @@ pub fn from_record(
 
 /// Reads a run directory or a reference-layout dataset.
 pub fn read(path: &Path) -> Result<Source, DatasetError> {
-    if path.join(START).is_file() && path.join(FRAMES).is_file() {
+    if !path.exists() {
+        Err(DatasetError::Missing(path.display().to_string()))
+    } else if path.join(START).is_file() && path.join(FRAMES).is_file() {
         read_run(path)
     } else if path.join("0.labels.csv").is_file() {
         read_reference(path)

@@ -219,7 +219,12 @@ pub fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
     let parsed = HttpUrl::parse(url).map_err(|e| err(e.to_string()))?;
     let addr = (parsed.host.as_str(), parsed.port)
         .to_socket_addrs()
-        .map_err(|e| err(format!("cannot resolve {}: {e}", parsed.host)))?
+        .map_err(|e| {
+            err(format!(
+                "cannot resolve {}: {e} (check the sensor's host name or give its IP address)",
+                parsed.host
+            ))
+        })?
         .next()
         .ok_or_else(|| err(format!("{} resolves to no address", parsed.host)))?;
     let hint = "check the sensor is powered and reachable (ping it, open the URL in a browser), or pass --cpf and --cpt";

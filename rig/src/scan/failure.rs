@@ -91,6 +91,6 @@ pub fn is_disk_full(s: &StoreError) -> bool {
         StoreError::Content { message, .. } => {
             message.contains("No space left on device") || message.contains("Disk quota exceeded")
         }
-        StoreError::Parse { .. } => false,
+        StoreError::Parse { .. } | StoreError::NotARun { .. } => false,
     }
 }

@@ -11,9 +11,9 @@
 
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
-use super::run_writer::{read_document, read_lines};
+use super::run_writer::read_lines;
 use super::verify::verify;
-use super::{StoreError, FRAMES, START};
+use super::{StoreError, FRAMES};
 use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::io::Cursor;
@@ -193,7 +193,10 @@ fn check_destination(runs: &[PathBuf], out: &Path) -> Result<(PathBuf, PathBuf),
     let out_real = real_path(out)?;
     let mut seen: Vec<PathBuf> = Vec::with_capacity(runs.len());
     for run in runs {
-        let run_real = std::fs::canonicalize(run).map_err(|e| StoreError::io(run, e))?;
+        let run_real = std::fs::canonicalize(run).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => StoreError::NotARun { dir: run.clone() },
+            _ => StoreError::io(run, e),
+        })?;
         if out_real.starts_with(&run_real) {
             return Err(refuse(format!(
                 "is inside the run {} (an export never writes into a run: choose --out outside it)",
@@ -285,7 +288,7 @@ fn write_export(
     let (mut k, mut none, mut skipped, mut duplicates) = (0u64, 0u64, 0u64, 0u64);
     let mut exported = Vec::with_capacity(runs.len());
     for (run, problems) in runs.iter().zip(problems) {
-        let start: StartDocument = read_document(&run.join(START))?;
+        let start: StartDocument = crate::store::read_start(run)?;
         let first_image = k;
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
         let mut indices = HashSet::new();

@@ -118,7 +118,12 @@ pub struct RunWriter {
 impl RunWriter {
     /// Creates `root/<run_id>` and writes the start document; refuses an existing directory.
     pub fn create(root: &Path, start: &StartDocument) -> Result<RunWriter, StoreError> {
-        std::fs::create_dir_all(root).map_err(|e| StoreError::io(root, e))?;
+        std::fs::create_dir_all(root).map_err(|e| StoreError::Content {
+            path: root.to_path_buf(),
+            message: format!(
+                "cannot make the directory for the runs: {e} (choose one you can write, with --out DIR)"
+            ),
+        })?;
         let dir = root.join(&start.run_id);
         std::fs::create_dir(&dir).map_err(|e| {
             if e.kind() == std::io::ErrorKind::AlreadyExists {
@@ -455,7 +460,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
     } else {
         None
     };
-    let start: StartDocument = read_document(&dir.join(START))?;
+    let start: StartDocument = crate::store::read_start(dir)?;
     let frames_path = dir.join(FRAMES);
     let lines = read_frame_lines(&frames_path)?;
     let checkpoint_path = dir.join(CHECKPOINT);

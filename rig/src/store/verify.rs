@@ -6,7 +6,7 @@ use super::documents::{FrameRecord, StartDocument, StopDocument};
 use super::run_writer::{
     check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
 };
-use super::{force_log, manifest, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, START, STOP};
+use super::{force_log, manifest, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use std::path::Path;
 
 /// What `fringe verify` found.
@@ -30,7 +30,7 @@ impl VerifyReport {
 /// Checks the run in `dir`. Fails only when `dir` is not a run at all (no readable start
 /// document); everything else is reported as a problem.
 pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
-    let start: StartDocument = read_document(&dir.join(START))?;
+    let start: StartDocument = crate::store::read_start(dir)?;
     let mut problems = Vec::new();
     let frames: Vec<FrameRecord> = match read_frame_lines(&dir.join(FRAMES)) {
         Ok(lines) => {

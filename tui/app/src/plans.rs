@@ -47,6 +47,33 @@ pub fn by_name(name: &str) -> Option<BuiltinPlan> {
     ALL.into_iter().find(|p| p.name == name)
 }
 
+/// A plan file that cannot be read, with what to do.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: cannot read the plan: {source}{}", path.display(), advice(source))]
+pub struct PlanFileError {
+    pub path: std::path::PathBuf,
+    #[source]
+    pub source: std::io::Error,
+}
+
+fn advice(e: &std::io::Error) -> &'static str {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => {
+            " (check the path; the built-in plans are short-grid, calibration and demo, with commented copies in tui/app/plans/)"
+        }
+        std::io::ErrorKind::PermissionDenied => " (make the file readable by your user)",
+        _ => " (a plan is a TOML text file; see tui/app/plans/ for examples)",
+    }
+}
+
+/// The text of the plan file at `path`.
+pub fn read_file(path: &std::path::Path) -> Result<String, PlanFileError> {
+    std::fs::read_to_string(path).map_err(|source| PlanFileError {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;

@@ -97,7 +97,8 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
             bail!("{name} must be a positive number, got {v}");
         }
     }
-    let mut config = AptConfig::new("axis", args.controller, actuator);
+    // Messages name the axis by its actuator ("axis ZFS25 (serial /dev/ttyUSB0): ...").
+    let mut config = AptConfig::new(&args.actuator, args.controller, actuator);
     config.bay = args.bay;
     config.channel = args.channel;
     config.velocity = MillimetresPerSecond(args.velocity);

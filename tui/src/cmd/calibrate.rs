@@ -155,8 +155,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
-            std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read the plan", path.display()))?,
+            fringe_app::plans::read_file(path)?,
             path.display().to_string(),
         ),
         None => (

@@ -144,8 +144,12 @@ pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
     let source: Box<dyn Camera> = match (&args.aravis, &args.replay) {
         (Some(id), _) => open_aravis(id)?,
         (None, Some(dir)) => Box::new(
-            ReplayCamera::open(dir, ReplayPace::AsFastAsPossible)
-                .with_context(|| format!("cannot open the camera trace {}", dir.display()))?,
+            ReplayCamera::open(dir, ReplayPace::AsFastAsPossible).with_context(|| {
+                format!(
+                    "cannot open the camera trace {} (give a directory that --record-trace wrote)",
+                    dir.display()
+                )
+            })?,
         ),
         (None, None) => bail!("give a camera source: --aravis ID or --replay TRACE_DIR"),
     };

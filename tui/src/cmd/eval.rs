@@ -2,7 +2,7 @@
 //! reference-layout datasets.
 
 use super::model::{open_model, ReferenceChoice};
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Args;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
@@ -47,9 +47,6 @@ pub fn run(a: EvalArgs) -> Result<()> {
     };
     let mut sources = Vec::with_capacity(a.data.len());
     for d in &a.data {
-        if !d.exists() {
-            bail!("{}: no such run or dataset", d.display());
-        }
         sources.push(dataset::read(d)?);
     }
     let mut backend = model.backend(a.backend, a.threads.max(1))?;

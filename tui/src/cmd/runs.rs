@@ -67,8 +67,7 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
 }
 
 pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
-    let report = verify(&args.run)
-        .with_context(|| format!("{} is not a readable run", args.run.display()))?;
+    let report = verify(&args.run)?;
     println!(
         "run {}: {} frames, {} force samples, {}",
         report.run_id,

@@ -4,7 +4,7 @@
 //! continues a run that a crash or power loss interrupted.
 
 use crate::Global;
-use anyhow::{bail, Context};
+use anyhow::bail;
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
@@ -13,7 +13,6 @@ use fringe_rig::scan::control::{
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::store::documents::{ExitStatus, StartDocument};
-use fringe_rig::store::run_writer::read_document;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -56,12 +55,11 @@ impl ScanArgs {
 /// The plan text and a name for messages.
 fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
     if let Some(path) = &args.plan {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("{}: cannot read the plan", path.display()))?;
+        let text = fringe_app::plans::read_file(path)?;
         return Ok((text, path.display().to_string()));
     }
     if let Some(run) = &args.resume {
-        let start: StartDocument = read_document(&run.join(fringe_rig::store::START))?;
+        let start: StartDocument = fringe_rig::store::read_start(run)?;
         return Ok((start.plan, format!("the plan stored in {}", run.display())));
     }
     Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))

@@ -186,9 +186,6 @@ mod with_torch {
         };
         let mut sources = Vec::with_capacity(data.len());
         for d in &data {
-            if !d.exists() {
-                bail!("{}: no such run or dataset", d.display());
-            }
             let s = dataset::read(d)?;
             eprintln!(
                 "data: {} ({} labelled frames, {} left out without a trustworthy label)",

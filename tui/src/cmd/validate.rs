@@ -56,11 +56,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let model_path = &a.model;
     let model = open_model(model_path)?;
     let (text, origin) = match &a.plan {
-        Some(p) => (
-            std::fs::read_to_string(p)
-                .with_context(|| format!("{}: cannot read the plan", p.display()))?,
-            p.display().to_string(),
-        ),
+        Some(p) => (fringe_app::plans::read_file(p)?, p.display().to_string()),
         None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
     };
     let plan = Plan::parse(&text, &origin)?;

@@ -145,6 +145,7 @@ impl App {
                 label: opts.plan_origin.clone(),
                 text: opts.plan_text.clone(),
                 origin: opts.plan_origin.clone(),
+                unreadable: None,
             },
             Path::new("plans"),
         );

@@ -15,6 +15,8 @@ pub struct PlanSource {
     pub text: String,
     /// How errors name it (a path, or the built-in plan's name and source file).
     pub origin: String,
+    /// Why the file could not be read (shown when it is chosen).
+    pub unreadable: Option<String>,
 }
 
 /// The plans to choose from: `first` (the one the UI starts with), then the built-in plans, then
@@ -27,6 +29,7 @@ pub fn available(first: PlanSource, dir: &Path) -> Vec<PlanSource> {
                 label: format!("{} (built in)", p.name),
                 text: p.text.to_string(),
                 origin: p.origin(),
+                unreadable: None,
             });
         }
     }
@@ -44,11 +47,15 @@ pub fn available(first: PlanSource, dir: &Path) -> Vec<PlanSource> {
         if out.iter().any(|s| s.origin == origin) {
             continue;
         }
-        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        let (text, unreadable) = match fringe_app::plans::read_file(&path) {
+            Ok(text) => (text, None),
+            Err(e) => (String::new(), Some(e.to_string())),
+        };
         out.push(PlanSource {
             label: origin.clone(),
             text,
             origin,
+            unreadable,
         });
     }
     out
@@ -56,6 +63,9 @@ pub fn available(first: PlanSource, dir: &Path) -> Vec<PlanSource> {
 
 /// The plan parsed and laid out on this rig (errors name the file and key).
 pub fn load(src: &PlanSource, limits: &BenchLimits) -> anyhow::Result<ScanProgram> {
+    if let Some(why) = &src.unreadable {
+        anyhow::bail!("{why}");
+    }
     let plan = Plan::parse(&src.text, &src.origin)?;
     Ok(plan.program(limits, &src.origin)?)
 }
@@ -118,7 +128,25 @@ mod tests {
             label: "short-grid".into(),
             text: p.text.into(),
             origin: p.origin(),
+            unreadable: None,
         }
+    }
+
+    #[test]
+    fn an_unreadable_plan_file_is_listed_and_choosing_it_says_why() {
+        let dir =
+            std::env::temp_dir().join(format!("fringe-plan-unreadable-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        // A directory named like a plan: unreadable as a file even for root.
+        std::fs::create_dir_all(dir.join("odd.toml")).expect("dir");
+        let plans = available(given(), &dir);
+        let odd = plans
+            .iter()
+            .find(|p| p.origin.ends_with("odd.toml"))
+            .expect("listed");
+        let e = load(odd, &limits()).expect_err("unreadable").to_string();
+        assert!(e.contains("odd.toml: cannot read the plan"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
