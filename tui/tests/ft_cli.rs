@@ -244,7 +244,8 @@ fn unreachable_sensor_ends_with_one_line_saying_what_to_check() {
     // Nothing answers RDT: the start retries run out.
     let silent = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
     let addr = silent.local_addr().expect("addr").to_string();
-    let csv = scratch("silent").join("ft.csv");
+    let csv_dir = scratch("silent");
+    let csv = csv_dir.join("ft.csv");
     let out = fringe_command()
         .args([
             "ft", "--netft", &addr, "--cpf", "1000000", "--cpt", "1000000",

@@ -5,10 +5,12 @@ use common::{fringe, scratch};
 
 #[test]
 fn renders_a_full_size_frame_with_fringes_at_the_contact() {
-    let out = scratch("frame").join("frame.png");
+    let out_dir = scratch("frame");
+    let out = out_dir.join("frame.png");
     // A coarser fringe-field grid than the default keeps this debug-build test quick; the image
     // stays full size.
-    let sensor = scratch("coarse").join("coarse.toml");
+    let sensor_dir = scratch("coarse");
+    let sensor = sensor_dir.join("coarse.toml");
     std::fs::write(
         &sensor,
         "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
@@ -62,7 +64,8 @@ fn renders_a_full_size_frame_with_fringes_at_the_contact() {
 
 #[test]
 fn refuses_an_unknown_shape_and_sensor_naming_the_value() {
-    let out = scratch("bad").join("bad.png");
+    let out_dir = scratch("bad");
+    let out = out_dir.join("bad.png");
     let path = out.to_str().expect("utf-8");
     let o = fringe(&["sim", "render", "--shape", "hexagon", "--out", path]);
     assert!(!o.status.success());

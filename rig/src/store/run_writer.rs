@@ -260,14 +260,17 @@ impl RunWriter {
             .map_err(|e| StoreError::io(&path, e))
     }
 
-    /// Appends raw force samples (buffered; made durable by [`RunWriter::checkpoint`]).
+    /// Appends raw force samples (buffered; made durable by [`RunWriter::checkpoint`]). Each
+    /// sample is counted once the buffer holds it: when the disk fills in the middle of a batch,
+    /// the samples taken before the error are still written by the next flush, and the count
+    /// (the stop document's) matches what the force log ends up holding.
     pub fn append_force(&mut self, samples: &[ForceSample]) -> Result<(), StoreError> {
         for s in samples {
             self.force
                 .write_all(&force_log::encode(s))
                 .map_err(|e| StoreError::io(self.dir.join(FORCE), e))?;
+            self.force_samples += 1;
         }
-        self.force_samples += samples.len() as u64;
         Ok(())
     }
 
