@@ -52,9 +52,21 @@ impl TruthSpool {
         self.lock().bias
     }
 
-    /// Frame and bench records passed over since the bench started (see [`MAX_PENDING`]).
+    /// Frame and bench records passed over since the bench started (see [`MAX_PENDING`] and
+    /// [`TruthSpool::pass_over_unfilmed`]).
     pub fn passed_over(&self) -> u64 {
         self.lock().passed_over
+    }
+
+    /// Passes over the frame and bench records waiting now (filmed while no run was open, e.g.
+    /// for the Bench screen), keeping the clock and bias records, which hold for later runs too.
+    /// Called as a scan starts.
+    pub fn pass_over_unfilmed(&self) {
+        let mut s = self.lock();
+        let before = s.pending.len();
+        s.pending
+            .retain(|r| !matches!(r, TruthRecord::Frame(_) | TruthRecord::Bench { .. }));
+        s.passed_over += (before - s.pending.len()) as u64;
     }
 }
 
@@ -65,11 +77,10 @@ impl TruthSink for TruthSpool {
             s.bias = Some(*bias);
         }
         s.pending.push(record);
-        if s.pending.len() > MAX_PENDING {
-            let before = s.pending.len();
-            s.pending
-                .retain(|r| !matches!(r, TruthRecord::Frame(_) | TruthRecord::Bench { .. }));
-            s.passed_over += (before - s.pending.len()) as u64;
+        let overflow = s.pending.len() > MAX_PENDING;
+        drop(s);
+        if overflow {
+            self.pass_over_unfilmed();
         }
     }
 }
@@ -145,6 +156,29 @@ mod tests {
             11,
             "the clock record and the 10 frames after the cut"
         );
+    }
+
+    #[test]
+    fn a_scan_starting_passes_over_what_was_filmed_before_it() {
+        let spool = TruthSpool::new();
+        spool.record(frame(0));
+        spool.record(TruthRecord::CameraClock {
+            t: HostTime(5),
+            ticks_at_ref: 100,
+            reference: HostTime(0),
+            drift_ppm: 25.0,
+        });
+        spool.record(frame(1));
+        spool.pass_over_unfilmed();
+        assert_eq!(spool.passed_over(), 2);
+        spool.record(frame(2));
+        let kept = spool.take();
+        assert_eq!(kept.len(), 2);
+        assert!(matches!(kept[0], TruthRecord::CameraClock { .. }));
+        assert!(matches!(
+            kept[1],
+            TruthRecord::Frame(FrameTruth { id: 2, .. })
+        ));
     }
 
     #[test]

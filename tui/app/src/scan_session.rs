@@ -257,6 +257,14 @@ impl ScanSession {
     ) -> Result<SessionEnd, SessionError> {
         #[cfg(feature = "sim")]
         let bench = self.sim.as_ref().map(|s| s.bench().clone());
+        // What the bench filmed before this scan (the Bench screen, an earlier run's end) is no
+        // part of this run's truth.
+        #[cfg(feature = "sim")]
+        {
+            if let Some(sim) = &self.sim {
+                sim.truth.pass_over_unfilmed();
+            }
+        }
         #[cfg(feature = "sim")]
         let mut operator = BenchOperator {
             bench,
