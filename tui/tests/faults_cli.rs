@@ -5,8 +5,8 @@
 mod common;
 
 use common::{
-    events, fringe, fringe_command, only_run, points_in, resume_to_the_end, scan_files, scratch,
-    text, wait_for_event, QUICK_RIG,
+    events, fringe, fringe_command, only_run, points_in, resume, resume_to_the_end, scan_files,
+    scratch, text, wait_for_event, QUICK_RIG,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -281,14 +281,7 @@ fn a_run_killed_again_and_again_at_random_moments_ends_complete() {
         run = Some(seen);
     }
     let run = run.expect("a run");
-    let out = fringe(&[
-        "scan",
-        "--yes",
-        "--rig",
-        rig.to_str().expect("path"),
-        "--resume",
-        run.to_str().expect("path"),
-    ]);
+    let out = resume(&rig, &run);
     let t = text(&out);
     // The last session may have ended the run already.
     assert!(

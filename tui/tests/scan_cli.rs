@@ -4,8 +4,8 @@
 mod common;
 
 use common::{
-    events, fringe, points_in, resume_to_the_end, scan_files as files, scan_plan as plan, scratch,
-    snapshot, text, the_run, wait_for_event, TestRun, QUICK_RIG,
+    events, fringe, points_in, resume, resume_to_the_end, scan_files as files, scan_plan as plan,
+    scratch, snapshot, text, the_run, wait_for_event, TestRun, QUICK_RIG,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -118,14 +118,7 @@ fn a_resume_refuses_a_run_whose_checkpointed_records_are_missing() {
         + 40;
     std::fs::write(&frames, &text_before[..cut]).expect("cut");
     let before = snapshot(&run);
-    let out = fringe(&[
-        "scan",
-        "--yes",
-        "--rig",
-        rig.to_str().expect("path"),
-        "--resume",
-        run.to_str().expect("path"),
-    ]);
+    let out = resume(&rig, &run);
     let t = text(&out);
     assert!(!out.status.success(), "{t}");
     assert!(

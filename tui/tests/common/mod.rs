@@ -408,17 +408,22 @@ pub fn points_in(run: &Path) -> Vec<u64> {
     points
 }
 
-/// Resumes `run` with `fringe scan --resume` on `rig` and checks it ends complete (the 3-point
-/// plan of [`scan_files`]) and verified, every point recorded once; returns what fringe printed.
-pub fn resume_to_the_end(rig: &Path, run: &Path) -> String {
-    let out = fringe(&[
+/// `fringe scan --yes --rig RIG --resume RUN`.
+pub fn resume(rig: &Path, run: &Path) -> Output {
+    fringe(&[
         "scan",
         "--yes",
         "--rig",
         rig.to_str().expect("path"),
         "--resume",
         run.to_str().expect("path"),
-    ]);
+    ])
+}
+
+/// Resumes `run` with `fringe scan --resume` on `rig` and checks it ends complete (the 3-point
+/// plan of [`scan_files`]) and verified, every point recorded once; returns what fringe printed.
+pub fn resume_to_the_end(rig: &Path, run: &Path) -> String {
+    let out = resume(rig, run);
     let t = text(&out);
     assert!(out.status.success(), "resume failed: {t}");
     assert!(t.contains("completed: 3 of 3 points"), "{t}");
