@@ -33,6 +33,9 @@ pub struct StreamStats {
     pub out_of_order: u64,
     /// Samples whose status word was non-zero.
     pub errored: u64,
+    /// Times the device's own sample counter started again (it rebooted: a bias set in the
+    /// device is gone, and the transducer's offset may have changed).
+    pub restarts: u64,
 }
 
 /// Errors from a force sensor, naming the device.

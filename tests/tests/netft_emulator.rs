@@ -168,6 +168,92 @@ fn software_bias_zeroes_the_reading() {
     ft.stop().expect("stop");
 }
 
+/// A transducer with a power-up offset of 5 N in Fx per power cycle on top of [`LOAD`].
+struct PowerCycled(u32);
+
+impl ForceReading for PowerCycled {
+    fn reading_at(&mut self, _t: HostTime) -> Wrench {
+        let mut w = LOAD;
+        w[0] += 5.0 * f64::from(self.0);
+        Wrench::from_array(w)
+    }
+
+    fn power_cycle(&mut self) {
+        self.0 += 1;
+    }
+}
+
+#[test]
+fn a_box_that_reboots_is_asked_to_stream_again_and_its_restart_is_counted() {
+    let config = NetFtEmulatorConfig {
+        rdt_rate_hz: 1000.0,
+        ..NetFtEmulatorConfig::default()
+    };
+    let emulator =
+        NetFtEmulator::spawn_udp(loopback(), None, config.clone(), Box::new(PowerCycled(0)))
+            .expect("emulator");
+    let addr = emulator.addr().expect("udp address");
+    let link = UdpLink::connect(&addr.to_string()).expect("udp link");
+    let mut ft = NetFt::new(
+        link,
+        config.driver_config().expect("page"),
+        NetFtOptions::default(),
+    );
+    ft.start().expect("start");
+    ft.bias().expect("bias");
+    std::thread::sleep(Duration::from_millis(100));
+    let down = Duration::from_millis(700);
+    let mut rebooted_at = None;
+    let mut samples = Vec::new();
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(3) {
+        if rebooted_at.is_none() && t0.elapsed() > Duration::from_millis(300) {
+            emulator.power_switch().reboot(down);
+            rebooted_at = Some(HostTime::now());
+        }
+        if let Some(s) = ft.next_sample(Duration::from_millis(20)).expect("no error") {
+            samples.push(s);
+        }
+    }
+    ft.stop().expect("stop");
+    let rebooted_at = rebooted_at.expect("rebooted");
+    let (before, after): (Vec<&ForceSample>, Vec<&ForceSample>) =
+        samples.iter().partition(|s| s.host_time < rebooted_at);
+    let (Some(last), Some(first)) = (before.last(), after.first()) else {
+        panic!(
+            "samples on both sides of the reboot: {} and {}",
+            before.len(),
+            after.len()
+        );
+    };
+    assert_wrench(&last.wrench, [0.0; 6], 2e-5);
+    let gap = first.host_time.since(last.host_time);
+    // Down 0.7 s, then asked again within the driver's 0.5 s restart interval.
+    assert!(
+        gap >= down && gap < down + Duration::from_millis(700),
+        "stream back {gap:?} after the last sample before the reboot"
+    );
+    assert_eq!(first.transport_seq, Some(1), "a new stream");
+    assert!(first.device_tick < last.device_tick, "counter began again");
+    let mut want = LOAD;
+    want[0] += 5.0;
+    assert_wrench(&first.wrench, want, 2e-5);
+    assert!(
+        after.len() > 1000,
+        "{} samples after the reboot",
+        after.len()
+    );
+    assert_eq!(ft.stats().restarts, 1, "{:?}", ft.stats());
+    let report = emulator.stop().expect("report");
+    assert_eq!(report.reboots, 1);
+    let starts = report
+        .requests
+        .iter()
+        .filter(|r| r.command == Command::RealTime)
+        .count();
+    assert!(starts >= 2, "{:?}", report.requests);
+}
+
 #[test]
 fn saturation_and_injected_faults_surface_as_driver_errors() {
     // In process: Fz beyond the Mini40's 120 N range saturates the transducer.

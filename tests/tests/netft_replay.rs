@@ -265,7 +265,8 @@ fn records_are_scaled_and_stamped() {
             received: 5,
             lost: 0,
             out_of_order: 0,
-            errored: 0
+            errored: 0,
+            restarts: 0
         }
     );
     handle.finish().expect("replay matched");
@@ -283,7 +284,8 @@ fn sequence_gaps_count_lost_packets() {
             received: 5,
             lost: 5,
             out_of_order: 0,
-            errored: 0
+            errored: 0,
+            restarts: 0
         }
     );
     handle.finish().expect("replay matched");
@@ -301,7 +303,8 @@ fn a_late_packet_is_dropped() {
             received: 4,
             lost: 0,
             out_of_order: 1,
-            errored: 0
+            errored: 0,
+            restarts: 0
         }
     );
     handle.finish().expect("replay matched");

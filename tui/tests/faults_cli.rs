@@ -368,3 +368,47 @@ fn a_burst_of_udp_loss_from_the_net_ft_is_counted_and_the_scan_goes_on() {
     let lost = stop_count(&run, "lost_force_samples");
     assert!((1750..=2450).contains(&lost), "{}", stop_status(&run));
 }
+
+#[test]
+fn a_net_ft_box_that_reboots_is_asked_to_stream_again_and_the_labels_stay_true() {
+    let dir = scratch("netft-reboot");
+    let (_, plan) = scan_files(&dir);
+    let rig = dir.join("netft-rig.toml");
+    let text_rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
+        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 8.0\nduration = 1.5\n";
+    std::fs::write(&rig, text_rig).expect("rig file");
+    let root = dir.join("runs");
+    let out = scan(&rig, &plan, &root);
+    let run = completed_run(&out, &root);
+    let t = text(&out);
+    // What the user sees: motion stopped while the box was down, then the restart named, with
+    // what it means and what to check.
+    let events = events(&run);
+    assert!(
+        events
+            .iter()
+            .any(|e| e.contains("point-interrupted") && e.contains("no force/torque data")),
+        "{events:?}"
+    );
+    let warning = t
+        .lines()
+        .find(|l| l.contains("warning: force sensor") && l.contains("restarted"))
+        .unwrap_or_else(|| panic!("no restart warning in\n{t}"));
+    for words in ["netft", "1 time(s)", "tare", "check the box's power supply"] {
+        assert!(warning.contains(words), "`{words}` not in: {warning}");
+    }
+    assert!(
+        events
+            .iter()
+            .any(|e| e.contains("\"warning\"") && e.contains("restarted")),
+        "{events:?}"
+    );
+    // The transducer came back with another zero; every point's own tare keeps the labels true.
+    let rms: f64 = t
+        .lines()
+        .find_map(|l| l.split("normal force RMS ").nth(1))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no label score in\n{t}"));
+    assert!(rms < 0.1, "labels off by {rms} N RMS after the reboot\n{t}");
+}

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::scratch;
+use common::{scratch, QUICK_RIG};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::{Mutex, MutexGuard};
@@ -259,6 +259,31 @@ fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
     pane.wait_for("ready: press r to run", Duration::from_secs(10));
     pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
+    let dir = scratch("bench-reboot");
+    // The UI opens the rig file of its working directory.
+    let rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
+        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 3.0\nduration = 1.0\n";
+    std::fs::write(dir.join("rig.toml"), rig).expect("rig file");
+    let pane = Pane::start("bench-reboot", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("4");
+    pane.wait_for("bench open", Duration::from_secs(30));
+    let said = pane.wait_for("the F/T sensor restarted", Duration::from_secs(30));
+    assert!(said.contains("press t to tare again"), "{said}");
+    // The stream is back: the force rate is not zero.
+    let back = pane.wait_until("the F/T streaming again", Duration::from_secs(10), |s| {
+        !s.contains(" 0 Hz") && s.contains("Hz")
+    });
+    assert!(back.contains("bias is gone"), "{back}");
+    pane.keys("t");
+    pane.wait_for("F/T sensor tared", Duration::from_secs(10));
+    pane.keys("1");
+    pane.wait_for("ready: press r to run", Duration::from_secs(10));
+    pane.quit_cleanly();
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Faults injected on purpose into the simulated bench, to see what a user sees and what a run
 //! keeps when a device fails: a cable pulled, a controller that stops answering, a force stream
-//! that stalls, a camera that stalls or delivers frames out of order.
+//! that stalls, loses a burst of datagrams or reboots, a camera that stalls or delivers frames
+//! out of order.
 //!
 //! A rig file lists them under `[[sim.faults]]`; [`SimRig`](crate::SimRig) wraps the real
 //! drivers' links (or the device behind a driver) so the drivers meet the fault exactly as they
@@ -9,18 +10,22 @@
 //! ```toml
 //! [[sim.faults]]
 //! device = "z"          # x, y, z, force, camera
-//! fault = "unplug"      # unplug, silent, stall (camera), reorder (camera)
+//! fault = "unplug"      # unplug, silent, stall (camera), reorder (camera), loss (force),
+//!                       # reboot (force)
 //! after = 20.0          # seconds after the rig opened ...
 //! while_moving = true   # ... at the first moment after that when the axis moves
-//! duration = 2.0        # silent / stall / reorder: for how long (s); none = for good
+//! duration = 2.0        # silent / stall / reorder / loss: for how long (s); none = for good;
+//!                       # reboot: how long the box is down (s), required
 //! ```
 
 use crate::motion::SimMotor;
+use crate::netft_emulator::PowerSwitch;
 use fringe_rig::camera::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
 use fringe_rig::transport::{ByteLink, DatagramLink};
 use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -63,6 +68,10 @@ pub enum FaultKind {
     /// Force over a Net F/T (`force_path = "netft"`) only: every datagram from the box is lost
     /// for `duration` (a burst of UDP loss).
     Loss,
+    /// Force over a Net F/T only: the box reboots (a reset or a power glitch) and is down for
+    /// `duration`; then its sample counter starts again, its software bias is gone, the
+    /// transducer has a new power-up offset, and it streams only when asked again.
+    Reboot,
 }
 
 /// One fault of a rig file's `[[sim.faults]]`.
@@ -118,6 +127,18 @@ impl FaultSpec {
                 "fault on {name}: loss is a fault of the Net F/T's UDP stream (device = \"force\")"
             ));
         }
+        if self.fault == FaultKind::Reboot {
+            if self.device != FaultDevice::Force {
+                return Err(format!(
+                    "fault on {name}: reboot is a fault of the Net F/T box (device = \"force\")"
+                ));
+            }
+            if self.duration.is_none() {
+                return Err(format!(
+                    "fault on {name}: reboot needs a duration: how long the box is down (s)"
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -129,6 +150,8 @@ pub struct FaultTrigger {
     opened: Instant,
     motor: Option<Arc<SimMotor>>,
     fired: Mutex<Option<Instant>>,
+    /// Whether [`FaultTrigger::newly_active`] has reported it.
+    reported: AtomicBool,
 }
 
 impl FaultTrigger {
@@ -139,11 +162,18 @@ impl FaultTrigger {
             opened: Instant::now(),
             motor,
             fired: Mutex::new(None),
+            reported: AtomicBool::new(false),
         })
     }
 
     pub fn spec(&self) -> &FaultSpec {
         &self.spec
+    }
+
+    /// True once: the first time the fault is found on (for faults that are an event, such as a
+    /// reboot, rather than a state).
+    pub fn newly_active(&self) -> bool {
+        self.active() && !self.reported.swap(true, Ordering::SeqCst)
     }
 
     /// Whether the fault is on now.
@@ -190,6 +220,14 @@ impl Faults {
     /// Whether a fault of `kind` is on now.
     pub fn on(&self, kind: FaultKind) -> bool {
         self.0.iter().any(|f| f.spec.fault == kind && f.active())
+    }
+
+    /// A fault of `kind` that has just come on (each reported once).
+    pub fn newly_on(&self, kind: FaultKind) -> Option<&FaultSpec> {
+        self.0
+            .iter()
+            .find(|f| f.spec.fault == kind && f.newly_active())
+            .map(|f| &f.spec)
     }
 }
 
@@ -245,20 +283,41 @@ impl<L: ByteLink> ByteLink for FaultyLink<L> {
     }
 }
 
-/// A datagram link (the Net F/T's UDP socket) that can be cut, go quiet or lose bursts.
+/// A datagram link (the Net F/T's UDP socket) that can be cut, go quiet or lose bursts, with
+/// the switch that reboots the box at its other end.
 pub struct FaultyDatagrams<L: DatagramLink> {
     inner: L,
     faults: Faults,
+    power: Option<PowerSwitch>,
 }
 
 impl<L: DatagramLink> FaultyDatagrams<L> {
     pub fn new(inner: L, faults: Faults) -> FaultyDatagrams<L> {
-        FaultyDatagrams { inner, faults }
+        FaultyDatagrams {
+            inner,
+            faults,
+            power: None,
+        }
+    }
+
+    /// Reboot faults act through `power`, the box's switch.
+    pub fn with_power_switch(mut self, power: PowerSwitch) -> FaultyDatagrams<L> {
+        self.power = Some(power);
+        self
+    }
+
+    /// Reboots the box when a reboot fault comes on (checked whenever the driver uses the link).
+    fn reboot_if_due(&self) {
+        if let (Some(power), Some(spec)) = (&self.power, self.faults.newly_on(FaultKind::Reboot)) {
+            let down = spec.duration.unwrap_or_default().max(0.0);
+            power.reboot(Duration::try_from_secs_f64(down).unwrap_or(Duration::MAX));
+        }
     }
 }
 
 impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
     fn send(&mut self, datagram: &[u8]) -> io::Result<()> {
+        self.reboot_if_due();
         if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
@@ -269,6 +328,7 @@ impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        self.reboot_if_due();
         if self.faults.on(FaultKind::Unplug) {
             return Err(unplugged(&self.inner.describe()));
         }
@@ -438,5 +498,69 @@ impl Camera for FaultyCamera {
             return Err(self.gone());
         }
         self.inner.latch_timestamp()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(device: FaultDevice, fault: FaultKind, duration: Option<f64>) -> FaultSpec {
+        FaultSpec {
+            device,
+            fault,
+            after: 1.0,
+            while_moving: false,
+            duration,
+        }
+    }
+
+    #[test]
+    fn a_fault_that_does_not_fit_its_device_is_refused_naming_the_field() {
+        let cases = [
+            (
+                spec(FaultDevice::Force, FaultKind::Reboot, None),
+                "reboot needs a duration",
+            ),
+            (
+                spec(FaultDevice::Z, FaultKind::Reboot, Some(1.0)),
+                "reboot is a fault of the Net F/T box",
+            ),
+            (
+                spec(FaultDevice::Camera, FaultKind::Loss, Some(1.0)),
+                "loss is a fault of the Net F/T's UDP stream",
+            ),
+            (
+                spec(FaultDevice::X, FaultKind::Stall, Some(1.0)),
+                "is a camera fault",
+            ),
+            (
+                spec(FaultDevice::Force, FaultKind::Silent, Some(-1.0)),
+                "duration = -1 must be > 0",
+            ),
+        ];
+        for (spec, words) in cases {
+            let e = spec.check().expect_err("refused");
+            assert!(e.contains(words), "{e}");
+        }
+        assert_eq!(
+            spec(FaultDevice::Force, FaultKind::Reboot, Some(2.0)).check(),
+            Ok(())
+        );
+    }
+
+    #[test]
+    fn a_reboot_is_reported_once_when_it_comes_on() {
+        let trigger = FaultTrigger::new(
+            FaultSpec {
+                after: 0.0,
+                ..spec(FaultDevice::Force, FaultKind::Reboot, Some(5.0))
+            },
+            None,
+        );
+        let faults = Faults::new(vec![trigger]);
+        assert!(faults.newly_on(FaultKind::Reboot).is_some());
+        assert!(faults.newly_on(FaultKind::Reboot).is_none());
+        assert!(faults.on(FaultKind::Reboot), "still on for its duration");
     }
 }

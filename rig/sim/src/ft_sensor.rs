@@ -150,6 +150,10 @@ impl ForceReading for SimFtSensor {
         }
         Wrench::from_array(out)
     }
+
+    fn power_cycle(&mut self) {
+        SimFtSensor::power_cycle(self);
+    }
 }
 
 #[cfg(test)]

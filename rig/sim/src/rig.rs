@@ -179,10 +179,18 @@ impl SimRig {
         let mut description = Vec::new();
         for f in &config.faults {
             f.check().map_err(|e| device_error(f.device.name(), e))?;
-            if f.fault == FaultKind::Loss && config.force_path == ForcePath::Daq {
+            let netft_only = matches!(f.fault, FaultKind::Loss | FaultKind::Reboot);
+            if netft_only && config.force_path == ForcePath::Daq {
+                let name = if f.fault == FaultKind::Loss {
+                    "loss"
+                } else {
+                    "reboot"
+                };
                 return Err(device_error(
                     "force",
-                    "fault `loss` needs the Net F/T force path (sim.force_path = \"netft\")",
+                    format!(
+                        "fault `{name}` needs the Net F/T force path (sim.force_path = \"netft\")"
+                    ),
                 ));
             }
         }
@@ -286,9 +294,10 @@ impl SimRig {
                 let (emulator, link) =
                     NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
                         .map_err(|e| device_error("force", e))?;
+                let link = FaultyDatagrams::new(link, faults_on(FaultDevice::Force))
+                    .with_power_switch(emulator.power_switch());
                 netft = Some(emulator);
                 description.push("force: Net F/T (emulated, in process)".into());
-                let link = FaultyDatagrams::new(link, faults_on(FaultDevice::Force));
                 Box::new(NetFt::new(link, driver_config, NetFtOptions::default()))
             }
         };

@@ -49,12 +49,20 @@ pub trait SceneSource: Send + Sync {
 /// bias. Calls come in non-decreasing `t` from one acquisition thread.
 pub trait ForceReading: Send {
     fn reading_at(&mut self, t: HostTime) -> Wrench;
+
+    /// The transducer lost its power and got it back (the box feeding it rebooted): a sensor
+    /// with a power-up bias draws a new one.
+    fn power_cycle(&mut self);
 }
 
+/// A scripted reading (a function of time) has no power-up state: a power cycle leaves it as it
+/// is.
 impl<F: FnMut(HostTime) -> Wrench + Send> ForceReading for F {
     fn reading_at(&mut self, t: HostTime) -> Wrench {
         self(t)
     }
+
+    fn power_cycle(&mut self) {}
 }
 
 /// Turns a scene into an interleaved 8-bit RGB image.

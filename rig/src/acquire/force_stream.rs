@@ -94,6 +94,16 @@ impl ForceMonitor {
             .collect()
     }
 
+    /// How many of the samples in the ring arrived after host time `after`.
+    pub fn count_since(&self, after: HostTime) -> usize {
+        self.lock()
+            .ring
+            .iter()
+            .rev()
+            .take_while(|s| s.host_time > after)
+            .count()
+    }
+
     /// How long ago the newest sample arrived (`None` before the first).
     pub fn silence(&self) -> Option<Duration> {
         self.latest().map(|s| HostTime::now().since(s.host_time))

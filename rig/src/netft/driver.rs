@@ -29,6 +29,11 @@ pub struct NetFtOptions {
     /// Start requests sent before giving up.
     pub start_tries: u32,
     pub bias: BiasMode,
+    /// A running stream silent this long gets its start request again, and again after each
+    /// such silence: a box that rebooted streams only when asked. Longer than a burst of loss
+    /// should be (a new request restarts `rdt_sequence`, so records lost before it are not
+    /// counted).
+    pub restart_after: Duration,
 }
 
 impl Default for NetFtOptions {
@@ -38,6 +43,7 @@ impl Default for NetFtOptions {
             start_wait: Duration::from_millis(100),
             start_tries: 5,
             bias: BiasMode::Device,
+            restart_after: Duration::from_millis(500),
         }
     }
 }
@@ -53,6 +59,11 @@ pub struct NetFt<L: DatagramLink> {
     buf: Vec<u8>,
     host_bias: Wrench,
     streaming: bool,
+    /// When the last datagram came (or the last start request went).
+    heard: Instant,
+    /// `ft_sequence` of the last record handed out.
+    last_tick: Option<u32>,
+    restarts: u64,
 }
 
 impl<L: DatagramLink> NetFt<L> {
@@ -68,6 +79,9 @@ impl<L: DatagramLink> NetFt<L> {
             buf: vec![0u8; 65536],
             host_bias: Wrench::default(),
             streaming: false,
+            heard: Instant::now(),
+            last_tick: None,
+            restarts: 0,
         }
     }
 
@@ -103,6 +117,7 @@ impl<L: DatagramLink> NetFt<L> {
             return Ok(false);
         };
         let at = HostTime::now();
+        self.heard = Instant::now();
         let records = decode_datagram(&self.buf[..n]).map_err(|e| ForceError::Device {
             device: self.describe(),
             message: format!("{e}; check that nothing else sends to this UDP port"),
@@ -118,14 +133,47 @@ impl<L: DatagramLink> NetFt<L> {
             while let Some((record, at)) = self.pending.pop_front() {
                 match self.tracker.accept(record.rdt_sequence, record.status) {
                     Verdict::Drop => continue,
-                    Verdict::Deliver { .. } => return Ok(Some(self.sample(&record, at))),
+                    Verdict::Deliver { .. } => {
+                        self.note_counter(record.ft_sequence);
+                        return Ok(Some(self.sample(&record, at)));
+                    }
                 }
             }
-            let left = deadline.saturating_duration_since(Instant::now());
+            self.restart_if_silent()?;
+            let restart_at = self
+                .heard
+                .checked_add(self.options.restart_after)
+                .unwrap_or(deadline);
+            let left = deadline
+                .min(restart_at)
+                .saturating_duration_since(Instant::now());
             if !self.receive(left)? && Instant::now() >= deadline {
                 return Ok(None);
             }
         }
+    }
+
+    /// Sends the start request again after [`NetFtOptions::restart_after`] of silence in a
+    /// running stream; the new stream numbers its records from 1 again.
+    fn restart_if_silent(&mut self) -> Result<(), ForceError> {
+        if !self.streaming || self.heard.elapsed() < self.options.restart_after {
+            return Ok(());
+        }
+        self.send(self.options.mode)?;
+        self.tracker.restart();
+        self.heard = Instant::now();
+        Ok(())
+    }
+
+    /// Counts a device restart when the box's sample counter went back (records arrive in
+    /// order here: the tracker dropped late ones).
+    fn note_counter(&mut self, ft_sequence: u32) {
+        if let Some(last) = self.last_tick {
+            if ft_sequence.wrapping_sub(last) > u32::MAX / 2 {
+                self.restarts += 1;
+            }
+        }
+        self.last_tick = Some(ft_sequence);
     }
 
     fn sample(&self, record: &Record, at: HostTime) -> ForceSample {
@@ -169,11 +217,13 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
     fn start(&mut self) -> Result<(), ForceError> {
         self.drain()?;
         self.tracker.reset();
+        self.restarts = 0;
         let tries = self.options.start_tries.max(1);
         for _ in 0..tries {
             self.send(self.options.mode)?;
             if self.receive(self.options.start_wait)? {
                 self.streaming = true;
+                self.heard = Instant::now();
                 return Ok(());
             }
         }
@@ -234,6 +284,9 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
     }
 
     fn stats(&self) -> StreamStats {
-        self.tracker.stats()
+        StreamStats {
+            restarts: self.restarts,
+            ..self.tracker.stats()
+        }
     }
 }

@@ -127,7 +127,8 @@ mod tests {
                 received: 3,
                 lost: 2,
                 out_of_order: 0,
-                errored: 0
+                errored: 0,
+                restarts: 0
             }
         );
     }
@@ -153,7 +154,8 @@ mod tests {
                 received: 2,
                 lost: 0,
                 out_of_order: 2,
-                errored: 0
+                errored: 0,
+                restarts: 0
             }
         );
         assert_eq!(

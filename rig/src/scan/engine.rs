@@ -27,6 +27,7 @@ use crate::acquire::recorder::{
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
 use crate::camera::CameraSettings;
+use crate::clock::HostTime;
 use crate::devices::Devices;
 use crate::scan::sidecar::RunSidecar;
 use crate::store::documents::{
@@ -312,6 +313,8 @@ pub fn run_scan(
             done_this_session: 0,
             watcher_retries: (0, 0),
             offset_checked: false,
+            force_restarts_seen: 0,
+            tare_not_before: None,
             pending_checkpoint: None,
             last_status: Instant::now(),
             mounted: None,
@@ -563,6 +566,8 @@ const CHECKPOINT_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// Force samples averaged for the no-contact offset before every point (0.1 s at 5 kHz).
 const TARE_SAMPLES: usize = 500;
+/// Longest wait for fresh samples to tare from after an interruption.
+const FRESH_TARE_TIMEOUT: Duration = Duration::from_secs(5);
 
 enum Ending {
     Completed,
@@ -591,6 +596,12 @@ struct Runner<'a> {
     watcher_retries: (u64, u32),
     /// The zero-load check has been made this session.
     offset_checked: bool,
+    /// Restarts of the F/T device already reported.
+    force_restarts_seen: u64,
+    /// After an interruption: the next tare takes only samples that arrived after this (the
+    /// samples before it may be from under load, or from before the stream stalled or the
+    /// device restarted with another zero).
+    tare_not_before: Option<HostTime>,
     last_status: Instant,
     /// The indenter the operator last confirmed.
     mounted: Option<String>,
@@ -691,6 +702,7 @@ impl Runner<'_> {
                     self.context.set(None);
                     self.watchers.set_filming(false);
                     self.retract()?;
+                    self.tare_not_before = Some(HostTime::now());
                     let cut = self.recorder.rollback(Duration::from_secs(10))?;
                     self.frames_discarded += cut;
                     self.recorder.event(
@@ -797,10 +809,24 @@ impl Runner<'_> {
 
     /// Measures the no-contact offset at the safe height (every point: drift is tracked).
     fn tare(&mut self, point: u64) -> Result<[f64; 6], ScanError> {
+        if let Some(after) = self.tare_not_before {
+            self.wait_for_fresh_samples(after)?;
+            self.tare_not_before = None;
+        }
         let (_, mean) = self.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
             ScanError::Setup(format!("{}: no force samples", self.monitor.device()))
         })?;
         self.tare.set(mean[2]);
+        let restarts = self.monitor.stats().restarts;
+        if restarts > self.force_restarts_seen {
+            self.force_restarts_seen = restarts;
+            let warning = format!(
+                "force sensor {}: the device restarted (its sample counter began again; {restarts} time(s) this session): a bias set in it is gone and its zero moved, which this point's tare takes out of the labels; if it happens again, check the box's power supply and cable",
+                self.monitor.device()
+            );
+            self.recorder.event("warning", Some(point), &warning);
+            (self.progress)(ScanProgress::Message(format!("warning: {warning}")));
+        }
         if !self.offset_checked {
             self.offset_checked = true;
             if let Some(check) = &self.setup.offset_check {
@@ -821,6 +847,26 @@ impl Runner<'_> {
             ),
         );
         Ok(mean)
+    }
+
+    /// Waits until [`TARE_SAMPLES`] samples have arrived after `after`.
+    fn wait_for_fresh_samples(&mut self, after: HostTime) -> Result<(), ScanError> {
+        let waiting = Instant::now();
+        loop {
+            let fresh = self.monitor.count_since(after);
+            if fresh >= TARE_SAMPLES {
+                self.excluded += waiting.elapsed();
+                return Ok(());
+            }
+            if waiting.elapsed() > FRESH_TARE_TIMEOUT {
+                return Err(ScanError::Setup(format!(
+                    "{}: {fresh} force samples in {} s at the safe height after the interruption, {TARE_SAMPLES} needed to take the no-contact offset: check the F/T stream",
+                    self.monitor.device(),
+                    FRESH_TARE_TIMEOUT.as_secs()
+                )));
+            }
+            std::thread::sleep(POLL);
+        }
     }
 
     /// Waits for the x and y moves; stops them on an interruption.

@@ -97,6 +97,8 @@ pub struct ForceState {
     pub rate_hz: f64,
     pub received: u64,
     pub lost: u64,
+    /// Times the sensor's own sample counter started again (it rebooted, losing its bias).
+    pub restarts: u64,
     /// The ceiling that stops a jog, N.
     pub max_n: f64,
 }
@@ -341,6 +343,13 @@ fn run(
             }
             s.force.received = stats.received;
             s.force.lost = stats.lost;
+            if stats.restarts > s.force.restarts {
+                let device = f.monitor().device().to_string();
+                s.say(format!(
+                    "{device}: the F/T sensor restarted (its sample counter began again): its bias is gone; press t to tare again"
+                ));
+            }
+            s.force.restarts = stats.restarts;
             if let Some(e) = f.monitor().error() {
                 s.phase = BenchPhase::Failed(e);
             }

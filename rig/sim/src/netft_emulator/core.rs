@@ -155,6 +155,10 @@ pub struct NetFtReport {
     pub records_sent: u64,
     /// Datagrams received that were not valid RDT requests (ignored, like the box does).
     pub invalid_requests: u64,
+    /// Times the box rebooted ([`NetFtCore::reboot`]).
+    pub reboots: u64,
+    /// Datagrams that came while the box was down (lost: nothing was there to take them).
+    pub lost_while_down: u64,
 }
 
 /// One datagram the box sends now.
@@ -187,6 +191,8 @@ pub struct NetFtCore<P> {
     counts_per_newton: f64,
     counts_per_newton_metre: f64,
     stream: Option<Stream<P>>,
+    /// Rebooting: off until this host time.
+    down_until: Option<HostTime>,
     bias: Wrench,
     latched: u32,
     injected: Arc<AtomicU32>,
@@ -212,6 +218,7 @@ impl<P: Clone> NetFtCore<P> {
             reading,
             power_up,
             stream: None,
+            down_until: None,
             bias: Wrench::default(),
             latched: 0,
             injected: Arc::new(AtomicU32::new(0)),
@@ -277,8 +284,35 @@ impl<P: Clone> NetFtCore<P> {
         Some(self.sample_time(self.record_index(s, last)))
     }
 
+    /// The box loses its power at `now` and is up again `down` later, as after a reset or a
+    /// power glitch: the stream stops, the software bias and a latched threshold are forgotten,
+    /// the transducer is powered up again (a new power-up bias) and `ft_sequence` starts again
+    /// from its power-up value. Requests while it is down are lost; once up, it streams only
+    /// when asked again.
+    pub fn reboot(&mut self, now: HostTime, down: std::time::Duration) {
+        let down_ns = u64::try_from(down.as_nanos()).unwrap_or(u64::MAX);
+        let up = HostTime(now.0.saturating_add(down_ns));
+        self.stream = None;
+        self.down_until = Some(up);
+        self.power_up = up;
+        self.bias = Wrench::default();
+        self.latched = 0;
+        self.last_measured = None;
+        self.reading.power_cycle();
+        self.report.reboots += 1;
+    }
+
+    /// Whether the box is down (rebooting) at `now`.
+    pub fn is_down(&self, now: HostTime) -> bool {
+        self.down_until.is_some_and(|up| now < up)
+    }
+
     /// Handles one received datagram at `now` (after sending what was due before it).
     pub fn handle(&mut self, now: HostTime, bytes: &[u8], from: P, out: &mut Vec<Outgoing<P>>) {
+        if self.is_down(now) {
+            self.report.lost_while_down += 1;
+            return;
+        }
         self.poll(now, out);
         let Ok(request) = Request::decode(bytes) else {
             self.report.invalid_requests += 1;
@@ -605,6 +639,66 @@ mod tests {
             STATUS_ERROR_SUMMARY | STATUS_SATURATION,
             "Fx = 41 N > 40 N"
         );
+    }
+
+    /// A transducer whose power-up offset is 10 N in Fy per power cycle, Fz = 3 N.
+    struct Cycling(u32);
+
+    impl ForceReading for Cycling {
+        fn reading_at(&mut self, _t: HostTime) -> Wrench {
+            Wrench::from_arrays([0.0, 10.0 * f64::from(self.0), 3.0], [0.0; 3])
+        }
+
+        fn power_cycle(&mut self) {
+            self.0 += 1;
+        }
+    }
+
+    #[test]
+    fn a_reboot_stops_the_stream_forgets_the_bias_and_starts_the_counter_again() {
+        let config = NetFtEmulatorConfig {
+            rdt_rate_hz: 1000.0,
+            ft_sequence_at_power_up: 100,
+            ..NetFtEmulatorConfig::default()
+        };
+        let mut c: NetFtCore<u8> =
+            NetFtCore::new(config, Box::new(Cycling(0)), at(0.0)).expect("config");
+        start(&mut c, at(5.0), Command::RealTime, 0);
+        let mut out = Vec::new();
+        c.handle(
+            at(5.0),
+            &Request::new(Command::SoftwareBias).encode(),
+            7,
+            &mut out,
+        );
+        out.clear();
+        c.poll(at(6.0), &mut out);
+        let before = records(&out);
+        let last = *before.last().expect("records before the reboot");
+        assert_eq!(last.counts[2], 0, "biased: Fz reads 0");
+        assert!(last.ft_sequence > 40_000);
+
+        c.reboot(at(6.0), std::time::Duration::from_secs(2));
+        out.clear();
+        c.poll(at(7.0), &mut out);
+        assert!(out.is_empty(), "nothing streams from a box that is down");
+        assert!(start(&mut c, at(7.5), Command::RealTime, 0).is_empty());
+        assert_eq!(c.report().lost_while_down, 1);
+        out.clear();
+        c.poll(at(8.5), &mut out);
+        assert!(out.is_empty(), "up again, it streams only when asked");
+
+        let out = start(&mut c, at(8.5), Command::RealTime, 0);
+        let first = records(&out)[0];
+        assert_eq!(first.rdt_sequence, 1);
+        // 0.5 s after power-up at 7 kHz, counted from the power-up value again.
+        assert_eq!(first.ft_sequence, 100 + 3500);
+        assert_eq!(
+            first.counts[..3],
+            [0, 10_000_000, 3_000_000],
+            "bias forgotten, new power-up offset"
+        );
+        assert_eq!(c.report().reboots, 1);
     }
 
     #[test]

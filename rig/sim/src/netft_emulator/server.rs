@@ -10,7 +10,7 @@ use fringe_rig::transport::DatagramLink;
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -107,18 +107,38 @@ impl Port for MemoryPort {
     }
 }
 
-/// Longest wait between checks of the stop flag.
+/// Longest wait between checks of the stop flag (and of the power switch).
 const IDLE_WAIT: Duration = Duration::from_millis(5);
+
+/// Reboots a running emulated box from another thread (a fault injection): see
+/// [`NetFtCore::reboot`].
+#[derive(Clone, Default)]
+pub struct PowerSwitch(Arc<Mutex<Option<Duration>>>);
+
+impl PowerSwitch {
+    /// The box goes down now (within the server's 5 ms poll) and is up again `down` later.
+    pub fn reboot(&self, down: Duration) {
+        *self.0.lock().unwrap_or_else(|e| e.into_inner()) = Some(down);
+    }
+
+    fn take(&self) -> Option<Duration> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner()).take()
+    }
+}
 
 fn serve<T: Port>(
     mut port: T,
     mut core: NetFtCore<T::Peer>,
     stop: Arc<AtomicBool>,
+    power: PowerSwitch,
 ) -> io::Result<NetFtReport> {
     let mut out = Vec::new();
     let mut buf = [0u8; 512];
     while !stop.load(Ordering::Relaxed) {
         let now = HostTime::now();
+        if let Some(down) = power.take() {
+            core.reboot(now, down);
+        }
         core.poll(now, &mut out);
         for d in out.drain(..) {
             port.send(&d.bytes, &d.to)?;
@@ -149,6 +169,7 @@ pub struct NetFtEmulator {
     http: Option<SimHttp>,
     config: NetFtEmulatorConfig,
     injected: Arc<AtomicU32>,
+    power: PowerSwitch,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<io::Result<NetFtReport>>>,
 }
@@ -196,11 +217,11 @@ impl NetFtEmulator {
                 )
             })?;
         let mut emulator = Self::new_handle(Some(addr), Some(http), config, &core);
-        let stop = emulator.stop.clone();
+        let (stop, power) = (emulator.stop.clone(), emulator.power.clone());
         emulator.thread = Some(
             std::thread::Builder::new()
                 .name("netft-emulator".into())
-                .spawn(move || serve(UdpPort(socket), core, stop))?,
+                .spawn(move || serve(UdpPort(socket), core, stop, power))?,
         );
         Ok(emulator)
     }
@@ -213,11 +234,11 @@ impl NetFtEmulator {
         let core = NetFtCore::new(config.clone(), reading, HostTime::now()).map_err(invalid)?;
         let (driver_end, box_end) = datagram_pair("netft", "emulated Net F/T");
         let mut emulator = Self::new_handle(None, None, config, &core);
-        let stop = emulator.stop.clone();
+        let (stop, power) = (emulator.stop.clone(), emulator.power.clone());
         emulator.thread = Some(
             std::thread::Builder::new()
                 .name("netft-emulator".into())
-                .spawn(move || serve(MemoryPort(box_end), core, stop))?,
+                .spawn(move || serve(MemoryPort(box_end), core, stop, power))?,
         );
         Ok((emulator, driver_end))
     }
@@ -233,6 +254,7 @@ impl NetFtEmulator {
             http,
             config,
             injected: core.injected_status(),
+            power: PowerSwitch::default(),
             stop: Arc::new(AtomicBool::new(false)),
             thread: None,
         }
@@ -261,6 +283,11 @@ impl NetFtEmulator {
     /// Sets a status word OR-ed into every following record (0 clears it): a fault injection.
     pub fn inject_status(&self, status: u32) {
         self.injected.store(status, Ordering::Relaxed);
+    }
+
+    /// The switch that reboots this box.
+    pub fn power_switch(&self) -> PowerSwitch {
+        self.power.clone()
     }
 
     /// Stops the box and reports what it did.
