@@ -412,3 +412,77 @@ fn a_net_ft_box_that_reboots_is_asked_to_stream_again_and_the_labels_stay_true()
         .unwrap_or_else(|| panic!("no label score in\n{t}"));
     assert!(rms < 0.1, "labels off by {rms} N RMS after the reboot\n{t}");
 }
+
+/// libfaketime's multi-threaded preload library (Debian: `apt install faketime`).
+fn libfaketime() -> PathBuf {
+    std::fs::read_dir("/usr/lib")
+        .into_iter()
+        .flatten()
+        .filter_map(Result::ok)
+        .map(|e| e.path().join("faketime/libfaketimeMT.so.1"))
+        .find(|p| p.is_file())
+        .unwrap_or_else(|| panic!("libfaketime is not installed: apt install faketime"))
+}
+
+/// The value of a `"key": "..."` string field of a run document.
+fn utc_field(doc: &str, key: &str) -> String {
+    doc.split(&format!("\"{key}\": \""))
+        .nth(1)
+        .and_then(|s| s.split('"').next())
+        .unwrap_or_else(|| panic!("{key} in {doc}"))
+        .to_string()
+}
+
+#[test]
+fn the_wall_clock_stepping_back_an_hour_mid_scan_changes_nothing_but_the_utc_strings() {
+    let dir = scratch("clock-step");
+    let (rig, plan) = scan_files(&dir);
+    // libfaketime moves the process's wall clock (CLOCK_REALTIME) by what the file says, read
+    // again every second; the monotonic clock stays true, as NTP or `date -s` leave it.
+    let offset = dir.join("faketime");
+    std::fs::write(&offset, "+0\n").expect("offset file");
+    let root = dir.join("runs");
+    let mut child = fringe_command()
+        .args(["scan", "--yes", "--out"])
+        .arg(&root)
+        .arg("--rig")
+        .arg(&rig)
+        .arg(&plan)
+        .env("LD_PRELOAD", libfaketime())
+        .env("FAKETIME_TIMESTAMP_FILE", &offset)
+        .env("FAKETIME_CACHE_DURATION", "1")
+        .env("DONT_FAKE_MONOTONIC", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run fringe scan");
+    // Mid-scan: after the first point's contact.
+    wait_for_event(&root, &mut child, |e| e.contains("\"kind\":\"contact\""));
+    std::fs::write(&offset, "-1h\n").expect("step the clock");
+    let out = child.wait_with_output().expect("fringe scan");
+    let run = completed_run(&out, &root);
+    // The step happened: the run's documents carry the wall clock as it was, an hour back at
+    // the end (RFC 3339 UTC strings of one format compare as times).
+    let started = utc_field(
+        &std::fs::read_to_string(run.join("start.json")).expect("start"),
+        "started_utc",
+    );
+    let stopped = utc_field(&stop_status(&run), "stopped_utc");
+    assert!(stopped < started, "stopped {stopped}, started {started}");
+    // Nothing else: every point once (checked above), no frame dropped, the labels as true as
+    // on a steady clock.
+    assert_eq!(
+        stop_count(&run, "dropped_frames"),
+        0,
+        "{}",
+        stop_status(&run)
+    );
+    let t = text(&out);
+    let rms: f64 = t
+        .lines()
+        .find_map(|l| l.split("normal force RMS ").nth(1))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no label score in\n{t}"));
+    assert!(rms < 0.1, "labels off by {rms} N RMS\n{t}");
+}
