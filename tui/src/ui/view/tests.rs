@@ -144,6 +144,7 @@ fn on_bench() -> UiState {
                 rate_hz: 5000.0,
                 received: 50_000,
                 lost: 3,
+                restarts: 0,
                 max_n: 15.0,
             },
             camera: CameraState {
