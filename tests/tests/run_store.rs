@@ -8,7 +8,7 @@ use fringe_rig::store::documents::{
     ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
 };
 use fringe_rig::store::run_list::list;
-use fringe_rig::store::run_writer::RunWriter;
+use fringe_rig::store::run_writer::{finish_cut_close, RunWriter};
 use fringe_rig::store::verify::verify;
 use fringe_rig::store::{StoreError, FORCE, FRAMES};
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
@@ -149,6 +149,42 @@ fn a_finished_run_verifies_and_is_listed() {
         .expect("an existing run id is refused");
     assert!(err.to_string().contains("exists already"), "{err}");
     let _ = std::fs::remove_dir_all(root);
+}
+
+#[test]
+fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
+    let root = scratch("cut-close");
+    let dir = finished_run(&root, "run-cut");
+    let manifest = dir.join("MANIFEST.sha256");
+    let whole = std::fs::read(&manifest).expect("manifest");
+    // Killed after the stop document, while the manifest was being hashed.
+    std::fs::remove_file(&manifest).expect("remove manifest");
+    let report = verify(&dir).expect("verify");
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.contains("MANIFEST.sha256: missing") && p.contains("fringe scan --resume")),
+        "{:?}",
+        report.problems
+    );
+    let stop = finish_cut_close(&dir)
+        .expect("finish")
+        .expect("the cut close");
+    assert_eq!(stop.exit_status, ExitStatus::Completed);
+    assert_eq!(std::fs::read(&manifest).expect("manifest again"), whole);
+    assert!(verify(&dir).expect("verify").ok());
+    // A whole run, or one still open (no stop document), is not touched.
+    let before = snapshot(&dir);
+    assert!(finish_cut_close(&dir).expect("whole").is_none());
+    assert_eq!(snapshot(&dir), before);
+    let mut open = RunWriter::create(&root, &start("run-open")).expect("create");
+    write_frames(&mut open, 0..2);
+    open.checkpoint().expect("checkpoint");
+    let open_dir = open.dir().to_path_buf();
+    let before = snapshot(&open_dir);
+    assert!(finish_cut_close(&open_dir).expect("open run").is_none());
+    assert_eq!(snapshot(&open_dir), before);
 }
 
 #[test]

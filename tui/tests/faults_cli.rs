@@ -6,7 +6,7 @@ mod common;
 
 use common::{
     events, fringe, fringe_command, only_run, points_in, resume, resume_to_the_end, scan_files,
-    scratch, text, wait_for_event, QUICK_RIG,
+    scratch, text, the_run, wait_for_event, QUICK_RIG,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -213,84 +213,94 @@ fn frames_out_of_order_are_all_recorded_once_and_not_counted_as_drops() {
     );
 }
 
-/// Waits for a contact event among the events after the first `before` of the run under
-/// `root`; returns the run.
-fn wait_for_new_contact(root: &Path, child: &mut std::process::Child, before: usize) -> PathBuf {
-    wait_for_event(root, child, |_| true);
-    let until = std::time::Instant::now() + Duration::from_secs(90);
-    loop {
-        let run = only_run(root);
-        if events(&run)
-            .iter()
-            .skip(before)
-            .any(|e| e.contains("\"kind\":\"contact\""))
-        {
-            return run;
-        }
-        if let Ok(Some(status)) = child.try_wait() {
-            // The session ended by itself (the run is complete): nothing left to kill.
-            eprintln!("the session ended by itself: {status}");
-            return run;
-        }
-        assert!(std::time::Instant::now() < until, "no contact in time");
-        std::thread::sleep(Duration::from_millis(20));
+/// The seeds of the SIGKILL test: `FRINGE_KILL_SEEDS` as `A-B` or `A,B,C` (`scripts/kills`
+/// runs long campaigns), 1-3 in the normal test run.
+fn kill_seeds() -> Vec<u64> {
+    let spec = std::env::var("FRINGE_KILL_SEEDS").unwrap_or_else(|_| "1-3".into());
+    let parse = |s: &str| -> u64 {
+        s.trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("FRINGE_KILL_SEEDS: `{s}` is not a seed in `{spec}`"))
+    };
+    match spec.split_once('-') {
+        Some((a, b)) => (parse(a)..=parse(b)).collect(),
+        None => spec.split(',').map(parse).collect(),
     }
 }
 
-#[test]
-fn a_run_killed_again_and_again_at_random_moments_ends_complete() {
-    let dir = scratch("kills");
+/// Kills `fringe scan` sessions of one run at moments drawn from `seed` (anywhere in a session:
+/// opening the rig, homing, taring, moving, pressing, checkpointing, closing), up to three times,
+/// each kill followed by `--resume`; then resumes to the end. Returns the kill moments.
+fn kill_and_resume(seed: u64) -> Vec<Duration> {
+    let dir = scratch(&format!("kills-{seed}"));
     let (rig, plan) = scan_files(&dir);
     let root = dir.join("runs");
-    // Seeded moments (ms after the run's first contact event of a session).
-    let mut seed: u64 = 0x5eed_f00d;
+    let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
     let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        seed
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
     };
-    let mut run: Option<PathBuf> = None;
-    for kill in 0..4 {
+    let mut kills = Vec::new();
+    for _ in 0..3 {
         let mut cmd = fringe_command();
         cmd.args(["scan", "--yes", "--rig"]).arg(&rig);
-        match &run {
-            None => {
-                cmd.arg("--out").arg(&root).arg(&plan);
-            }
-            Some(r) => {
-                cmd.arg("--resume").arg(r);
-            }
-        }
+        // Killed before its start document was written, a run is not there to resume: the
+        // next session starts it again.
+        match the_run(&root) {
+            Some(run) => cmd.arg("--resume").arg(run),
+            None => cmd.arg("--out").arg(&root).arg(&plan),
+        };
         let mut child = cmd
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
             .expect("spawn");
-        let before = run.as_deref().map_or(0, |r| events(r).len());
-        let seen = wait_for_new_contact(&root, &mut child, before);
-        let delay = Duration::from_millis(next() % 2500);
-        std::thread::sleep(delay);
+        // A whole session of the 3-point plan lasts 15-20 s.
+        let delay = Duration::from_millis(next() % 16_000);
+        let until = std::time::Instant::now() + delay;
+        while std::time::Instant::now() < until && child.try_wait().expect("wait").is_none() {
+            std::thread::sleep(Duration::from_millis(5));
+        }
         if child.try_wait().expect("wait").is_some() {
-            run = Some(seen);
             break;
         }
         child.kill().expect("kill");
         let _ = child.wait();
-        eprintln!("kill {kill}: {delay:?} after a contact");
-        run = Some(seen);
+        kills.push(delay);
     }
-    let run = run.expect("a run");
-    let out = resume(&rig, &run);
+    let out = match the_run(&root) {
+        Some(run) => resume(&rig, &run),
+        None => scan(&rig, &plan, &root),
+    };
     let t = text(&out);
     // The last session may have ended the run already.
     assert!(
         out.status.success() || t.contains("has ended"),
-        "final resume: {t}"
+        "seed {seed}, kills {kills:?}: final session: {t}"
     );
-    assert_eq!(points_in(&run), vec![0, 1, 2]);
+    let run = the_run(&root).expect("a run");
+    assert_eq!(
+        points_in(&run),
+        vec![0, 1, 2],
+        "seed {seed}, kills {kills:?}"
+    );
     let verify = fringe(&["verify", run.to_str().expect("path")]);
-    assert!(verify.status.success(), "{}", text(&verify));
+    assert!(
+        verify.status.success(),
+        "seed {seed}, kills {kills:?}: {}",
+        text(&verify)
+    );
+    kills
+}
+
+#[test]
+fn runs_killed_at_random_moments_end_complete_for_every_seed() {
+    for seed in kill_seeds() {
+        let kills = kill_and_resume(seed);
+        eprintln!("seed {seed}: killed after {kills:?}, then complete and verified");
+    }
 }
 
 /// The disk filling up during a run: the runs directory is a 3 MB tmpfs mounted in a private

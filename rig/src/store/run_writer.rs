@@ -369,6 +369,23 @@ impl RunWriter {
     }
 }
 
+/// Finishes the close of a run that was stopped (killed, power lost) after its stop document
+/// and before its manifest: hashing a large run takes seconds, so that window is real. A run
+/// that ended completed or aborted gets its manifest and the stop document is returned; any
+/// other run (unfinished, failed, or closed whole) is left alone and `None` returned.
+pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> {
+    let stop = dir.join(STOP);
+    if !stop.is_file() || dir.join(MANIFEST).is_file() {
+        return Ok(None);
+    }
+    let document: StopDocument = read_document(&stop)?;
+    if document.exit_status == ExitStatus::Failed {
+        return Ok(None);
+    }
+    manifest::write(dir)?;
+    Ok(Some(document))
+}
+
 /// The frame records of a run, with the byte offset at which each complete line ends.
 pub(crate) struct FrameLines {
     pub records: Vec<FrameRecord>,

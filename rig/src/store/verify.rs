@@ -109,7 +109,8 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
             problems.extend(manifest::check(dir)?);
         } else {
             problems.push(format!(
-                "{MANIFEST}: missing (the run ended without its manifest)"
+                "{MANIFEST}: missing (the run was stopped while closing; `fringe scan --resume {}` writes it)",
+                dir.display()
             ));
         }
     } else {

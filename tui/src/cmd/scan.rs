@@ -97,6 +97,18 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         print_dry_run(&program, &limits);
         return Ok(());
     }
+    if let Some(dir) = &args.resume {
+        if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(dir)? {
+            println!(
+                "{} had ended ({}: {}) but was stopped while writing its manifest; the manifest is now written and the run is whole: fringe verify {}",
+                dir.display(),
+                format!("{:?}", stop.exit_status).to_lowercase(),
+                stop.reason,
+                dir.display()
+            );
+            return Ok(());
+        }
+    }
     let target = match &args.resume {
         Some(dir) => RunTarget::Resume { dir: dir.clone() },
         None => RunTarget::New {
