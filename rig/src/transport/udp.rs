@@ -66,7 +66,21 @@ fn set_receive_buffer(socket: &UdpSocket, bytes: i32) {
 
 impl DatagramLink for UdpLink {
     fn send(&mut self, datagram: &[u8]) -> io::Result<()> {
-        self.socket.send(datagram).map(|_| ())
+        match self.socket.send(datagram) {
+            Ok(_) => Ok(()),
+            // An earlier datagram hit a closed port (a box still booting answers ICMP port
+            // unreachable): the error is that datagram's, and it is cleared; send this one.
+            Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {
+                match self.socket.send(datagram) {
+                    Ok(_) => Ok(()),
+                    // Still refused: this one is lost as well, as datagrams are; the caller
+                    // sees no answer and asks again or gives up with its own advice.
+                    Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => Ok(()),
+                    Err(e) => Err(e),
+                }
+            }
+            Err(e) => Err(e),
+        }
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
@@ -87,5 +101,31 @@ impl DatagramLink for UdpLink {
 
     fn describe(&self) -> String {
         format!("udp {}", self.peer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_closed_port_is_silence_not_an_error() {
+        // A port nothing listens on: each datagram draws an ICMP port unreachable.
+        let closed = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        let addr = closed.local_addr().expect("addr");
+        drop(closed);
+        let mut link = UdpLink::connect(&addr.to_string()).expect("connect");
+        let mut buf = [0u8; 64];
+        for _ in 0..3 {
+            link.send(b"start").expect("send to a closed port");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert_eq!(
+            link.recv(&mut buf, Duration::from_millis(20))
+                .expect("recv"),
+            None
+        );
+        link.send(b"start")
+            .expect("send after the refusal was read");
     }
 }
