@@ -1,5 +1,6 @@
 //! `fringe`: rig controller and calibration suite for photoelastic tactile sensors.
 
+mod clock_text;
 mod cmd;
 mod ui;
 

@@ -3,6 +3,7 @@
 //! a progress bar; Ctrl-C asks for a pause, twice stops now, three times aborts; `--resume RUN`
 //! continues a run that a crash or power loss interrupted.
 
+use crate::clock_text::clock;
 use crate::Global;
 use anyhow::bail;
 use fringe_app::plans::SHORT_GRID;
@@ -267,15 +268,6 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
 
 fn join(v: impl Iterator<Item = f64>) -> String {
     v.map(|x| format!("{x}")).collect::<Vec<_>>().join(", ")
-}
-
-fn clock(d: Duration) -> String {
-    let s = d.as_secs();
-    if s >= 3600 {
-        format!("{}h{:02}m{:02}s", s / 3600, s / 60 % 60, s % 60)
-    } else {
-        format!("{}m{:02}s", s / 60, s % 60)
-    }
 }
 
 /// The operator at the terminal (on the simulated bench the session mounts indenters itself).

@@ -142,12 +142,6 @@ pub(crate) fn centred(area: Rect, w: u16, h: u16) -> Rect {
     )
 }
 
-/// `d` as h:mm:ss.
-pub(crate) fn clock(d: std::time::Duration) -> String {
-    let s = d.as_secs();
-    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
-}
-
 /// A titled block.
 pub(crate) fn panel(title: &str) -> Block<'_> {
     Block::default()

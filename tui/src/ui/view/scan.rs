@@ -3,7 +3,8 @@
 
 use super::disc::{aspect, canvas, Glyph, Layer};
 use super::time_chart::{self, Series};
-use super::{clock, panel, ACCENT, BAD, GOOD, PENDING, WARN};
+use super::{panel, ACCENT, BAD, GOOD, PENDING, WARN};
+use crate::clock_text::clock;
 use crate::ui::picture::Picture;
 use crate::ui::state::{Phase, UiState};
 use ratatui::layout::{Constraint, Layout, Rect};
