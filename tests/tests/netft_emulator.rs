@@ -168,6 +168,45 @@ fn software_bias_zeroes_the_reading() {
     ft.stop().expect("stop");
 }
 
+#[test]
+fn start_waits_out_a_burst_of_loss_instead_of_giving_up_at_the_first_lost_datagram() {
+    use fringe_sim::faults::{
+        FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams,
+    };
+    let config = NetFtEmulatorConfig::default();
+    let (_emulator, link) =
+        NetFtEmulator::spawn_in_process(config.clone(), constant(LOAD)).expect("emulator");
+    let loss = FaultTrigger::new(
+        FaultSpec {
+            device: FaultDevice::Force,
+            fault: FaultKind::Loss,
+            after: 0.0,
+            while_moving: false,
+            duration: Some(0.25),
+        },
+        None,
+    );
+    let link = FaultyDatagrams::new(link, Faults::new(vec![loss]));
+    let mut ft = NetFt::new(
+        link,
+        config.driver_config().expect("page"),
+        NetFtOptions::default(),
+    );
+    let t0 = Instant::now();
+    // Every datagram of the first 0.25 s is lost; five requests 100 ms apart outlast that.
+    ft.start().expect("streaming once the burst is over");
+    assert!(
+        t0.elapsed() >= Duration::from_millis(200),
+        "{:?}",
+        t0.elapsed()
+    );
+    let s = ft
+        .next_sample(Duration::from_secs(1))
+        .expect("ok")
+        .expect("sample");
+    assert_wrench(&s.wrench, LOAD, 1e-6);
+}
+
 /// A transducer with a power-up offset of 5 N in Fx per power cycle on top of [`LOAD`].
 struct PowerCycled(u32);
 

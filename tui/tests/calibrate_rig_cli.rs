@@ -2,7 +2,7 @@
 //! from it. In a file of its own so that no other test shares the cores with its scan.
 
 mod common;
-use common::{fringe, scratch, text};
+use common::{fringe, label_rms, scratch, text};
 use fringe_calibration::profile::Profile;
 
 /// `fringe calibrate --sensor ID` on the simulated bench (no rig file): the calibration scan,
@@ -99,12 +99,7 @@ fn calibrates_the_simulated_bench_from_a_calibration_scan() {
         frames.lines().count(),
         unlabelled[0]
     );
-    let rms: f64 = t
-        .split("normal force RMS ")
-        .nth(1)
-        .and_then(|rest| rest.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no label score in: {t}"));
+    let rms = label_rms(&t);
     assert!(rms < 0.05, "label force RMS {rms} N against truth: {t}");
     std::fs::remove_dir_all(&root).ok();
 }

@@ -1,6 +1,9 @@
 //! `fringe demo --quick`: the main job on the simulated bench writes a verified run whose force
 //! labels agree with the simulator's ground truth.
 
+mod common;
+
+use common::label_rms;
 use std::process::Command;
 
 #[test]
@@ -18,12 +21,7 @@ fn the_demo_writes_a_verified_run_with_truthful_labels() {
         "{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let rms: f64 = stdout
-        .lines()
-        .find_map(|l| l.split("normal force RMS ").nth(1))
-        .and_then(|s| s.split(' ').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("no label score in\n{stdout}"));
+    let rms = label_rms(&stdout);
     assert!(rms < 0.2, "force labels off by {rms} N RMS\n{stdout}");
     let run = std::fs::read_dir(&root)
         .expect("runs dir")

@@ -5,8 +5,8 @@
 mod common;
 
 use common::{
-    events, fringe, fringe_command, only_run, points_in, resume, resume_to_the_end, scan_files,
-    scratch, text, the_run, wait_for_event, QUICK_RIG,
+    events, fringe, fringe_command, label_rms, only_run, points_in, quick_netft_rig, resume,
+    resume_to_the_end, scan_files, scratch, text, the_run, wait_for_event, QUICK_RIG,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -369,8 +369,8 @@ fn a_burst_of_udp_loss_from_the_net_ft_is_counted_and_the_scan_goes_on() {
     let dir = scratch("udp-loss");
     let (_, plan) = scan_files(&dir);
     let rig = dir.join("netft-rig.toml");
-    let text_rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
-        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"loss\"\nafter = 8.0\nduration = 0.3\n";
+    let text_rig = quick_netft_rig()
+        + "\n[[sim.faults]]\ndevice = \"force\"\nfault = \"loss\"\nafter = 8.0\nduration = 0.3\n";
     std::fs::write(&rig, text_rig).expect("rig file");
     let root = dir.join("runs");
     let run = completed_run(&scan(&rig, &plan, &root), &root);
@@ -384,8 +384,8 @@ fn a_net_ft_box_that_reboots_is_asked_to_stream_again_and_the_labels_stay_true()
     let dir = scratch("netft-reboot");
     let (_, plan) = scan_files(&dir);
     let rig = dir.join("netft-rig.toml");
-    let text_rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
-        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 8.0\nduration = 1.5\n";
+    let text_rig = quick_netft_rig()
+        + "\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 11.0\nduration = 1.5\n";
     std::fs::write(&rig, text_rig).expect("rig file");
     let root = dir.join("runs");
     let out = scan(&rig, &plan, &root);
@@ -414,12 +414,7 @@ fn a_net_ft_box_that_reboots_is_asked_to_stream_again_and_the_labels_stay_true()
         "{events:?}"
     );
     // The transducer came back with another zero; every point's own tare keeps the labels true.
-    let rms: f64 = t
-        .lines()
-        .find_map(|l| l.split("normal force RMS ").nth(1))
-        .and_then(|s| s.split(' ').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("no label score in\n{t}"));
+    let rms = label_rms(&t);
     assert!(rms < 0.1, "labels off by {rms} N RMS after the reboot\n{t}");
 }
 
@@ -488,11 +483,6 @@ fn the_wall_clock_stepping_back_an_hour_mid_scan_changes_nothing_but_the_utc_str
         stop_status(&run)
     );
     let t = text(&out);
-    let rms: f64 = t
-        .lines()
-        .find_map(|l| l.split("normal force RMS ").nth(1))
-        .and_then(|s| s.split(' ').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("no label score in\n{t}"));
+    let rms = label_rms(&t);
     assert!(rms < 0.1, "labels off by {rms} N RMS\n{t}");
 }

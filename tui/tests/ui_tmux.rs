@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{scratch, QUICK_RIG};
+use common::{quick_netft_rig, scratch};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::{Mutex, MutexGuard};
@@ -265,8 +265,8 @@ fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
 fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
     let dir = scratch("bench-reboot");
     // The UI opens the rig file of its working directory.
-    let rig = QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"")
-        + "force_path = \"netft\"\n\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 3.0\nduration = 1.0\n";
+    let rig = quick_netft_rig()
+        + "\n[[sim.faults]]\ndevice = \"force\"\nfault = \"reboot\"\nafter = 3.0\nduration = 1.0\n";
     std::fs::write(dir.join("rig.toml"), rig).expect("rig file");
     let pane = Pane::start("bench-reboot", &dir, &fringe());
     pane.wait_for("ready: press r to run", Duration::from_secs(30));

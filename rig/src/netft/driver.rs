@@ -221,10 +221,19 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
         let tries = self.options.start_tries.max(1);
         for _ in 0..tries {
             self.send(self.options.mode)?;
-            if self.receive(self.options.start_wait)? {
-                self.streaming = true;
-                self.heard = Instant::now();
-                return Ok(());
+            // The whole wait, even when the link reports nothing early (a datagram lost on the
+            // way, an ICMP refusal read back).
+            let deadline = Instant::now() + self.options.start_wait;
+            loop {
+                let left = deadline.saturating_duration_since(Instant::now());
+                if self.receive(left)? {
+                    self.streaming = true;
+                    self.heard = Instant::now();
+                    return Ok(());
+                }
+                if Instant::now() >= deadline {
+                    break;
+                }
             }
         }
         Err(ForceError::NoData {

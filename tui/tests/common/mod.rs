@@ -323,6 +323,23 @@ seed = 5
 image_scale = 0.25
 "#;
 
+/// [`QUICK_RIG`] with its force through the emulated Net F/T (RDT datagrams, in process), which
+/// records no exposure strobe: frames are placed by the clock fit.
+pub fn quick_netft_rig() -> String {
+    QUICK_RIG.replace("sync = \"strobe\"", "sync = \"clock-fit\"") + "force_path = \"netft\"\n"
+}
+
+/// The normal force RMS of the labels against the simulator's truth that a scan of the simulated
+/// bench printed, N.
+pub fn label_rms(printed: &str) -> f64 {
+    printed
+        .split("normal force RMS ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no label score in: {printed}"))
+}
+
 /// A plan over x positions `xs` (a TOML list) at y 25 mm, 1 and 3 N.
 pub fn scan_plan(xs: &str) -> String {
     format!(
