@@ -597,6 +597,53 @@ impl fringe_rig::force::ForceSensor for Stalling {
     }
 }
 
+/// A force sensor that, when asked, goes silent for 150 ms and comes back as a rebooted device:
+/// counted as a restart, its zero moved by `shift_n` in Fz.
+struct Rebooting {
+    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    reboot: Arc<std::sync::atomic::AtomicBool>,
+    shift_n: f64,
+    rebooted: bool,
+}
+
+impl fringe_rig::force::ForceSensor for Rebooting {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.start()
+    }
+    fn next_sample(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+        if self.reboot.swap(false, std::sync::atomic::Ordering::SeqCst) {
+            std::thread::sleep(std::time::Duration::from_millis(150));
+            // What the box measured while it was down never arrives.
+            while self.inner.next_sample(std::time::Duration::ZERO)?.is_some() {}
+            self.rebooted = true;
+        }
+        Ok(self.inner.next_sample(timeout)?.map(|mut s| {
+            if self.rebooted {
+                s.wrench.fz.0 += self.shift_n;
+            }
+            s
+        }))
+    }
+    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.stop()
+    }
+    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.bias()
+    }
+    fn stats(&self) -> fringe_rig::force::StreamStats {
+        fringe_rig::force::StreamStats {
+            restarts: u64::from(self.rebooted),
+            ..self.inner.stats()
+        }
+    }
+}
+
 /// A camera that loses the next frames when asked.
 struct Dropping {
     inner: Box<dyn fringe_rig::camera::Camera>,
@@ -657,6 +704,12 @@ fn scan_with_fault(
     let setup = setup(&rig, &text);
     let (mut operator, _) = scripted(Reply::Continue);
     let control = ScanControl::new();
+    // A scan that never ends (a pause whose condition never clears) is aborted, and fails below.
+    let watchdog = control.clone();
+    std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_secs(90));
+        watchdog.abort();
+    });
     let fired = std::sync::atomic::AtomicBool::new(false);
     let out = run_scan(
         &setup,
@@ -707,6 +760,46 @@ fn no_force_data_for_50_ms_stops_motion_and_the_point_is_done_again() {
     assert_eq!(e.point, Some(0));
     assert!(e.message.contains("no force/torque data"), "{}", e.message);
     assert!(events.iter().any(|e| e.kind == "resume"));
+    let _ = std::fs::remove_dir_all(out.run_dir);
+}
+
+#[test]
+fn a_device_restart_with_a_zero_moved_past_the_ceiling_is_retared_not_taken_for_a_load() {
+    // Fz 20 N lower reads as 20 N of pressing against the 12 N ceiling until the zero is taken
+    // again; mid-dwell, with the indenter pressing.
+    let reboot = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let r = reboot.clone();
+    let (out, events) = scan_with_fault(
+        "restart",
+        move || r.store(true, std::sync::atomic::Ordering::SeqCst),
+        |mut d| {
+            d.force = Box::new(Rebooting {
+                inner: d.force,
+                reboot,
+                shift_n: -20.0,
+                rebooted: false,
+            });
+            d
+        },
+    );
+    let kinds: Vec<&str> = events.iter().map(|e| e.kind.as_str()).collect();
+    let interrupted = events
+        .iter()
+        .filter(|e| e.kind == "point-interrupted")
+        .count();
+    assert_eq!(interrupted, 1, "{kinds:?}");
+    assert!(
+        events
+            .iter()
+            .any(|e| e.kind == "warning" && e.message.contains("the device restarted")),
+        "{kinds:?}"
+    );
+    // Every label is tared by its own point: the no-contact frames read about 0 N after the
+    // shift as before it.
+    for r in records(&out.run_dir) {
+        let fz = r.wrench.map(|w| w.fz.0).unwrap_or_default();
+        assert!(fz.abs() < 5.0, "frame {} labelled {fz} N", r.index);
+    }
     let _ = std::fs::remove_dir_all(out.run_dir);
 }
 

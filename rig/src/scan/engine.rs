@@ -755,12 +755,18 @@ impl Runner<'_> {
         (self.progress)(ScanProgress::Paused {
             reason: reason.clone(),
         });
+        // z is at the safe height from here on (retracted after an interruption, or between
+        // points): samples from now on are of no contact.
+        self.tare_not_before.get_or_insert(HostTime::now());
         let mut said = false;
         loop {
             if self.control.request() == Request::Abort {
                 return Ok(false);
             }
             match self.watchers.condition() {
+                Some(Alarm::Ceiling { .. }) if self.retare_after_restart() => {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
                 Some(condition) => {
                     if !said {
                         (self.progress)(ScanProgress::Message(format!(
@@ -847,6 +853,26 @@ impl Runner<'_> {
             ),
         );
         Ok(mean)
+    }
+
+    /// Paused, with z at the safe height, after the F/T device restarted: the force the
+    /// watchers see over the ceiling is the device's new zero, not a load. Their zero is taken
+    /// again from samples of no contact; false if there is no restart or not enough samples yet.
+    fn retare_after_restart(&mut self) -> bool {
+        if self.monitor.stats().restarts <= self.force_restarts_seen {
+            return false;
+        }
+        let Some(after) = self.tare_not_before else {
+            return false;
+        };
+        if self.monitor.count_since(after) < TARE_SAMPLES {
+            return false;
+        }
+        let Some((_, mean)) = self.monitor.mean_of_last(TARE_SAMPLES) else {
+            return false;
+        };
+        self.tare.set(mean[2]);
+        true
     }
 
     /// Waits until [`TARE_SAMPLES`] samples have arrived after `after`.
