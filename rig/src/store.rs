@@ -10,11 +10,13 @@
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
+//!   .lock             held by the process writing the run (not part of the run)
 //! ```
 //!
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
 //! - [`durable`]: atomic file replacement and durable directory entries.
+//! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
 //! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
@@ -27,6 +29,7 @@ pub mod export;
 pub mod force_log;
 pub mod manifest;
 pub mod run_list;
+pub mod run_lock;
 pub mod run_writer;
 pub mod verify;
 
@@ -59,6 +62,8 @@ pub enum StoreError {
     },
     #[error("{path}: {message}")]
     Content { path: PathBuf, message: String },
+    #[error("{}: the run is in use: {holder}; wait for it to end (or stop it), then try again", dir.display())]
+    Busy { dir: PathBuf, holder: String },
     #[error("{} is not a run (there is no {START} in it): give the directory of a run that fringe scan wrote (`fringe runs --root DIR` lists the runs in DIR)", dir.display())]
     NotARun { dir: PathBuf },
 }
@@ -73,6 +78,20 @@ pub fn read_start(dir: &std::path::Path) -> Result<documents::StartDocument, Sto
         });
     }
     run_writer::read_document(&path)
+}
+
+/// The run that `path` is in or is (a directory with a start document among its ancestors),
+/// once links are resolved; `path` need not exist yet. Outputs (reports, exports) are never
+/// written into a run: it would no longer verify.
+pub fn run_holding(path: &std::path::Path) -> Option<PathBuf> {
+    let absolute = std::path::absolute(path).ok()?;
+    // The deepest ancestor that exists, resolved; the rest of the path cannot hold a run yet.
+    let real = absolute
+        .ancestors()
+        .find_map(|a| std::fs::canonicalize(a).ok())?;
+    real.ancestors()
+        .find(|a| a.join(START).is_file())
+        .map(std::path::Path::to_path_buf)
 }
 
 impl StoreError {

@@ -182,6 +182,7 @@ fn start_waits_out_a_burst_of_loss_instead_of_giving_up_at_the_first_lost_datagr
             fault: FaultKind::Loss,
             after: 0.0,
             while_moving: false,
+            while_streaming: false,
             duration: Some(0.25),
         },
         None,
@@ -291,6 +292,48 @@ fn a_box_that_reboots_is_asked_to_stream_again_and_its_restart_is_counted() {
         .filter(|r| r.command == Command::RealTime)
         .count();
     assert!(starts >= 2, "{:?}", report.requests);
+}
+
+#[test]
+fn records_lost_in_a_burst_longer_than_the_restart_interval_are_all_counted() {
+    use fringe_sim::faults::{
+        FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams,
+    };
+    // 1000 records/s from a box sampling at 7 kHz: ft_sequence steps by 7 between records.
+    let config = NetFtEmulatorConfig {
+        rdt_rate_hz: 1000.0,
+        ..NetFtEmulatorConfig::default()
+    };
+    let driver_config = config.driver_config().expect("page");
+    let (_emulator, link) =
+        NetFtEmulator::spawn_in_process(config, constant(LOAD)).expect("emulator");
+    // Every datagram lost for 0.8 s, longer than the driver's 0.5 s restart interval: the
+    // driver asks again mid-burst and the new stream numbers its records from 1.
+    let burst = FaultSpec {
+        device: FaultDevice::Force,
+        fault: FaultKind::Loss,
+        after: 0.4,
+        while_moving: false,
+        while_streaming: false,
+        duration: Some(0.8),
+    };
+    let link = FaultyDatagrams::new(link, Faults::new(vec![FaultTrigger::new(burst, None)]));
+    let mut ft = NetFt::new(link, driver_config, NetFtOptions::default());
+    let samples = stream(&mut ft, 2.0);
+    let stats = ft.stats();
+    let restarted = samples
+        .windows(2)
+        .any(|w| w[1].transport_seq < w[0].transport_seq);
+    assert!(
+        restarted,
+        "the driver sent its start request again: {stats:?}"
+    );
+    assert_eq!(stats.restarts, 0, "no device restart: {stats:?}");
+    assert!(
+        (700..=900).contains(&stats.lost),
+        "0.8 s of a 1000 Hz stream lost, {} counted: {stats:?}",
+        stats.lost
+    );
 }
 
 #[test]

@@ -118,6 +118,39 @@ fn real_driver_connects_homes_and_moves_with_the_trapezoid_timing() {
     assert_eq!(counters.refused, 0);
 }
 
+/// Homing right after connecting, before the controller's first status update (which a K-Cube
+/// sends up to one period after HW_START_UPDATEMSGS), at the documented 100 ms cadence with and
+/// without jitter: the driver waits for the motion's end and reports the status after it.
+#[test]
+fn homing_before_the_first_status_update_ends_homed_and_idle_at_the_real_cadence() {
+    for (jitter_ms, seed) in [(0, 1), (30, 7), (30, 99)] {
+        let m = motor(0.4);
+        let (host, device) = byte_pair("apt-x", "apt-x-emulator");
+        let mut config = emulator_config(Duration::from_secs(3));
+        config.update_jitter = Duration::from_millis(jitter_ms);
+        config.jitter_seed = seed;
+        let _emu = AptEmulator::spawn(config, m.clone(), Box::new(device)).expect("spawn");
+        let mut axis = ThorlabsAxis::connect(Box::new(host), driver_config()).expect("connect");
+        let st = axis
+            .home(Duration::from_secs(5))
+            .unwrap_or_else(|e| panic!("jitter {jitter_ms} ms: home: {e}"));
+        assert!(
+            st.homed && !st.moving,
+            "jitter {jitter_ms} ms: the status after MOT_MOVE_HOMED: {st}"
+        );
+        let again = axis.status().expect("status");
+        assert!(again.homed && !again.moving, "{again}");
+        // A short move ends with the controller's own final status.
+        let st = axis
+            .move_to(Millimetres(0.2), Duration::from_secs(5))
+            .expect("move");
+        assert!(
+            !st.moving && (st.position.0 - 0.2).abs() <= one_step(),
+            "{st}"
+        );
+    }
+}
+
 #[test]
 fn profiled_stop_brakes_and_immediate_stop_holds() {
     let m = motor(1.0);

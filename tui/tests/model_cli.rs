@@ -171,6 +171,30 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
 }
 
 #[test]
+fn export_refuses_to_write_the_graph_over_the_models_own_files() {
+    let dir = scratch("export-over");
+    let weights = dir.join("m.safetensors");
+    std::fs::copy(fixture("model.safetensors"), &weights).expect("copy weights");
+    let card = dir.join("m.json");
+    std::fs::write(&card, "{\"notes\": \"the card of m\"}").expect("card");
+    let before = std::fs::read(&weights).expect("weights");
+    for target in [&weights, &card] {
+        let out = fringe(&["model", "export", s(&weights), "--onnx", s(target)]);
+        let t = text(&out);
+        assert!(!out.status.success(), "{t}");
+        assert!(t.contains("file of the model"), "{t}");
+    }
+    assert_eq!(
+        std::fs::read(&weights).expect("weights"),
+        before,
+        "weights untouched"
+    );
+    assert!(std::fs::read_to_string(&card)
+        .expect("card")
+        .contains("the card of m"));
+}
+
+#[test]
 fn export_writes_an_onnx_graph_that_onnxruntime_runs_with_pytorchs_outputs() {
     let dir = scratch("export");
     let onnx = dir.join("m.onnx");

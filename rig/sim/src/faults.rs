@@ -14,6 +14,7 @@
 //!                       # reboot (force)
 //! after = 20.0          # seconds after the rig opened ...
 //! while_moving = true   # ... at the first moment after that when the axis moves
+//! while_streaming = true # force over the Net F/T: ... when the box's stream has started
 //! duration = 2.0        # silent / stall / reorder / loss: for how long (s); none = for good;
 //!                       # reboot: how long the box is down (s), required
 //! ```
@@ -86,6 +87,11 @@ pub struct FaultSpec {
     /// Wait, after `after`, for the axis to be moving (axes only).
     #[serde(default)]
     pub while_moving: bool,
+    /// Wait, after `after`, for the Net F/T's stream to be running: the driver has had a
+    /// record since its last start request and has not asked it to stop (force only). A burst
+    /// of loss then falls inside a stream however long the rig took to get there.
+    #[serde(default)]
+    pub while_streaming: bool,
     /// How long a silent device, a stall or reordering lasts (s); none: for good.
     #[serde(default)]
     pub duration: Option<f64>,
@@ -113,6 +119,11 @@ impl FaultSpec {
         if self.while_moving && !axis {
             return Err(format!(
                 "fault on {name}: while_moving is for the axes x, y and z"
+            ));
+        }
+        if self.while_streaming && self.device != FaultDevice::Force {
+            return Err(format!(
+                "fault on {name}: while_streaming is for the force sensor's Net F/T stream (device = \"force\")"
             ));
         }
         let camera_only = matches!(self.fault, FaultKind::Stall | FaultKind::Reorder);
@@ -172,12 +183,18 @@ impl FaultTrigger {
 
     /// True once: the first time the fault is found on (for faults that are an event, such as a
     /// reboot, rather than a state).
-    pub fn newly_active(&self) -> bool {
-        self.active() && !self.reported.swap(true, Ordering::SeqCst)
+    pub fn newly_active(&self, streaming: bool) -> bool {
+        self.active_if_streaming(streaming) && !self.reported.swap(true, Ordering::SeqCst)
     }
 
     /// Whether the fault is on now.
     pub fn active(&self) -> bool {
+        self.active_if_streaming(true)
+    }
+
+    /// Whether the fault is on now, `streaming` telling whether the force stream runs (for
+    /// [`FaultSpec::while_streaming`]).
+    pub fn active_if_streaming(&self, streaming: bool) -> bool {
         let now = Instant::now();
         let mut fired = self.fired.lock().unwrap_or_else(|e| e.into_inner());
         let at = match *fired {
@@ -190,7 +207,7 @@ impl FaultTrigger {
                     (Some(m), true) => m.status_at(HostTime::now()).moving,
                     _ => true,
                 };
-                if !moving {
+                if !moving || (self.spec.while_streaming && !streaming) {
                     return false;
                 }
                 *fired = Some(now);
@@ -219,14 +236,21 @@ impl Faults {
 
     /// Whether a fault of `kind` is on now.
     pub fn on(&self, kind: FaultKind) -> bool {
-        self.0.iter().any(|f| f.spec.fault == kind && f.active())
+        self.on_if_streaming(kind, true)
+    }
+
+    /// Whether a fault of `kind` is on now, `streaming` telling whether the force stream runs.
+    pub fn on_if_streaming(&self, kind: FaultKind, streaming: bool) -> bool {
+        self.0
+            .iter()
+            .any(|f| f.spec.fault == kind && f.active_if_streaming(streaming))
     }
 
     /// A fault of `kind` that has just come on (each reported once).
-    pub fn newly_on(&self, kind: FaultKind) -> Option<&FaultSpec> {
+    pub fn newly_on(&self, kind: FaultKind, streaming: bool) -> Option<&FaultSpec> {
         self.0
             .iter()
-            .find(|f| f.spec.fault == kind && f.newly_active())
+            .find(|f| f.spec.fault == kind && f.newly_active(streaming))
             .map(|f| &f.spec)
     }
 }
@@ -289,6 +313,8 @@ pub struct FaultyDatagrams<L: DatagramLink> {
     inner: L,
     faults: Faults,
     power: Option<PowerSwitch>,
+    /// The driver has had a record since its last request, which was not a stop.
+    streaming: bool,
 }
 
 impl<L: DatagramLink> FaultyDatagrams<L> {
@@ -297,6 +323,7 @@ impl<L: DatagramLink> FaultyDatagrams<L> {
             inner,
             faults,
             power: None,
+            streaming: false,
         }
     }
 
@@ -308,7 +335,8 @@ impl<L: DatagramLink> FaultyDatagrams<L> {
 
     /// Reboots the box when a reboot fault comes on (checked whenever the driver uses the link).
     fn reboot_if_due(&self) {
-        if let (Some(power), Some(spec)) = (&self.power, self.faults.newly_on(FaultKind::Reboot)) {
+        let due = self.faults.newly_on(FaultKind::Reboot, self.streaming);
+        if let (Some(power), Some(spec)) = (&self.power, due) {
             let down = spec.duration.unwrap_or_default().max(0.0);
             power.reboot(Duration::try_from_secs_f64(down).unwrap_or(Duration::MAX));
         }
@@ -318,10 +346,18 @@ impl<L: DatagramLink> FaultyDatagrams<L> {
 impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
     fn send(&mut self, datagram: &[u8]) -> io::Result<()> {
         self.reboot_if_due();
-        if self.faults.on(FaultKind::Unplug) {
+        if self
+            .faults
+            .on_if_streaming(FaultKind::Unplug, self.streaming)
+        {
             return Err(unplugged(&self.inner.describe()));
         }
-        if self.faults.on(FaultKind::Silent) {
+        // A stop request ends the stream; a start request begins one once a record arrives.
+        self.streaming = false;
+        if self
+            .faults
+            .on_if_streaming(FaultKind::Silent, self.streaming)
+        {
             return Ok(());
         }
         self.inner.send(datagram)
@@ -329,13 +365,23 @@ impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         self.reboot_if_due();
-        if self.faults.on(FaultKind::Unplug) {
+        if self
+            .faults
+            .on_if_streaming(FaultKind::Unplug, self.streaming)
+        {
             return Err(unplugged(&self.inner.describe()));
         }
         let got = self.inner.recv(buf, timeout)?;
-        if got.is_some() && (self.faults.on(FaultKind::Loss) || self.faults.on(FaultKind::Silent)) {
+        let lost = self.faults.on_if_streaming(FaultKind::Loss, self.streaming)
+            || self
+                .faults
+                .on_if_streaming(FaultKind::Silent, self.streaming);
+        if got.is_some() && lost {
             // Lost on the way: the caller sees a timeout.
             return Ok(None);
+        }
+        if got.is_some() {
+            self.streaming = true;
         }
         Ok(got)
     }
@@ -511,6 +557,7 @@ mod tests {
             fault,
             after: 1.0,
             while_moving: false,
+            while_streaming: false,
             duration,
         }
     }
@@ -559,8 +606,8 @@ mod tests {
             None,
         );
         let faults = Faults::new(vec![trigger]);
-        assert!(faults.newly_on(FaultKind::Reboot).is_some());
-        assert!(faults.newly_on(FaultKind::Reboot).is_none());
+        assert!(faults.newly_on(FaultKind::Reboot, true).is_some());
+        assert!(faults.newly_on(FaultKind::Reboot, true).is_none());
         assert!(faults.on(FaultKind::Reboot), "still on for its duration");
     }
 }

@@ -179,6 +179,12 @@ impl SimRig {
         let mut description = Vec::new();
         for f in &config.faults {
             f.check().map_err(|e| device_error(f.device.name(), e))?;
+            if f.while_streaming && config.force_path == ForcePath::Daq {
+                return Err(device_error(
+                    "force",
+                    "while_streaming watches the Net F/T's stream: it needs sim.force_path = \"netft\"",
+                ));
+            }
             let netft_only = matches!(f.fault, FaultKind::Loss | FaultKind::Reboot);
             if netft_only && config.force_path == ForcePath::Daq {
                 let name = if f.fault == FaultKind::Loss {

@@ -13,4 +13,8 @@ pub trait RecordTap: Send + Sync + std::fmt::Debug {
     fn seen(&self, _frame: &Frame) {}
     /// `record` was appended to the run for `frame` (its label, or why it has none).
     fn recorded(&self, frame: &Frame, record: &FrameRecord);
+    /// The records from index `first` on were cut from the run (an interrupted point that is
+    /// done again): whatever was taken from them is no longer part of the run, and the indices
+    /// are used again by the records that follow.
+    fn cut(&self, _first: u64) {}
 }

@@ -315,6 +315,12 @@ impl State {
                         let cut = self.writer.rollback();
                         if let Ok(n) = cut {
                             self.local.frames_recorded = self.local.frames_recorded.saturating_sub(n);
+                            if n > 0 {
+                                let first = self.writer.next_index();
+                                for tap in &self.taps {
+                                    tap.cut(first);
+                                }
+                            }
                         }
                         let _ = reply.send(cut);
                     }

@@ -211,6 +211,9 @@ struct Shared {
     latest_at: Option<Instant>,
     /// Status messages seen so far (to tell a fresh status from one older than a motion).
     updates: u64,
+    /// `updates` when the last end-of-move message came: a status counted after it is from
+    /// after the motion's end.
+    updates_at_end: u64,
     link_error: Option<String>,
 }
 
@@ -319,6 +322,10 @@ impl IoThread {
                 shared.updates += 1;
             }
         }
+        if is_end_of_move(&p) {
+            let mut shared = lock(&self.shared);
+            shared.updates_at_end = shared.updates;
+        }
         let is_update = matches!(
             p.message,
             Message::GetStatusUpdate(_) | Message::GetUStatusUpdate(_)
@@ -371,6 +378,10 @@ pub struct ThorlabsAxis {
     unacked_stops: u32,
     /// Status messages seen when the current motion was sent.
     updates_at_start: u64,
+    /// When the current motion was sent: a K-Cube's silence is measured from here or from its
+    /// last status, whichever is later (its first status may come a whole period after
+    /// HW_START_UPDATEMSGS, and then one every 100 ms).
+    motion_sent: Instant,
 }
 
 impl ThorlabsAxis {
@@ -421,6 +432,7 @@ impl ThorlabsAxis {
             pending: None,
             unacked_stops: 0,
             updates_at_start: 0,
+            motion_sent: Instant::now(),
         };
         axis.initialise()?;
         Ok(axis)
@@ -720,6 +732,40 @@ impl ThorlabsAxis {
         shared.latest.filter(|_| fresh)
     }
 
+    /// Whether a K-Cube has sent no status for longer than the reply timeout, counted from its
+    /// last status or from the start of the current motion, whichever came later.
+    fn silent_since_motion(&self) -> bool {
+        let heard = lock(&self.shared).latest_at;
+        let since = heard.map_or(self.motion_sent, |at| at.max(self.motion_sent));
+        since.elapsed() > self.config.timeouts.reply
+    }
+
+    /// The first status a K-Cube sent after the last end-of-move message (MOT_MOVE_HOMED carries
+    /// none, and the update before it may be from during the motion), waiting at most the reply
+    /// timeout for it.
+    fn next_status(&self, what: &str) -> Result<Observed, AxisError> {
+        let seen = lock(&self.shared).updates_at_end;
+        let deadline = Instant::now() + self.config.timeouts.reply;
+        loop {
+            {
+                let shared = lock(&self.shared);
+                if shared.updates > seen {
+                    if let Some(o) = shared.latest {
+                        return Ok(o);
+                    }
+                }
+                if shared.link_error.is_some() {
+                    drop(shared);
+                    return Err(self.link_error("waiting for status"));
+                }
+            }
+            if Instant::now() >= deadline {
+                return Err(self.silent(what));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
     /// The error for a controller that sent nothing of `what` it should have.
     fn silent(&self, what: &str) -> AxisError {
         let age = lock(&self.shared).latest_at.map(|at| at.elapsed());
@@ -818,6 +864,7 @@ impl ThorlabsAxis {
     /// Forgets stale end-of-move messages before a new motion starts.
     fn clear_events(&mut self) {
         self.updates_at_start = lock(&self.shared).updates;
+        self.motion_sent = Instant::now();
         let mut stop_acks = 0u32;
         self.backlog.retain(|p| {
             stop_acks += u32::from(matches!(p.message, Message::MoveStopped { .. }));
@@ -963,7 +1010,7 @@ impl Axis for ThorlabsAxis {
                 }
                 break p;
             }
-            if !polled && self.fresh_status().is_none() {
+            if !polled && self.silent_since_motion() {
                 return Err(self.silent(&format!("status while {}", pending.what())));
             }
             let o = if polled {
@@ -994,7 +1041,9 @@ impl Axis for ThorlabsAxis {
                 position: b.position,
                 status: b.status,
             },
-            _ => self.observe()?,
+            // A polled controller is asked; one on update messages is heard at its next update.
+            _ if polled => self.observe()?,
+            _ => self.next_status("status update after the end of the motion")?,
         };
         let bits = StatusBits(final_status.status);
         let status = self.to_status(final_status);

@@ -30,9 +30,9 @@ pub struct NetFtOptions {
     pub start_tries: u32,
     pub bias: BiasMode,
     /// A running stream silent this long gets its start request again, and again after each
-    /// such silence: a box that rebooted streams only when asked. Longer than a burst of loss
-    /// should be (a new request restarts `rdt_sequence`, so records lost before it are not
-    /// counted).
+    /// such silence: a box that rebooted streams only when asked. The new request restarts
+    /// `rdt_sequence`; the records lost across it are counted from the box's sample counter
+    /// (`ft_sequence`), which runs on unless the box rebooted.
     pub restart_after: Duration,
 }
 
@@ -63,6 +63,14 @@ pub struct NetFt<L: DatagramLink> {
     heard: Instant,
     /// `ft_sequence` of the last record handed out.
     last_tick: Option<u32>,
+    /// `ft_sequence` steps between consecutive records (the box's internal rate over its RDT
+    /// output rate), learnt from the stream.
+    stride: Option<u32>,
+    /// The start request was sent again in a running stream: the next record's `ft_sequence`
+    /// tells how many records the silence took.
+    resumed: bool,
+    /// Records lost across such restarts that the new stream's `rdt_sequence` cannot show.
+    lost_across_restarts: u64,
     restarts: u64,
 }
 
@@ -81,6 +89,9 @@ impl<L: DatagramLink> NetFt<L> {
             streaming: false,
             heard: Instant::now(),
             last_tick: None,
+            stride: None,
+            resumed: false,
+            lost_across_restarts: 0,
             restarts: 0,
         }
     }
@@ -133,8 +144,8 @@ impl<L: DatagramLink> NetFt<L> {
             while let Some((record, at)) = self.pending.pop_front() {
                 match self.tracker.accept(record.rdt_sequence, record.status) {
                     Verdict::Drop => continue,
-                    Verdict::Deliver { .. } => {
-                        self.note_counter(record.ft_sequence);
+                    Verdict::Deliver { lost_before } => {
+                        self.note_counter(record.ft_sequence, lost_before);
                         return Ok(Some(self.sample(&record, at)));
                     }
                 }
@@ -161,16 +172,31 @@ impl<L: DatagramLink> NetFt<L> {
         }
         self.send(self.options.mode)?;
         self.tracker.restart();
+        self.resumed = true;
         self.heard = Instant::now();
         Ok(())
     }
 
-    /// Counts a device restart when the box's sample counter went back (records arrive in
-    /// order here: the tracker dropped late ones).
-    fn note_counter(&mut self, ft_sequence: u32) {
+    /// Follows the box's sample counter over delivered records (in order here: the tracker
+    /// dropped late ones); `lost_before` records were missing just before this one by
+    /// `rdt_sequence`. A counter that went back is a device restart. After a start request
+    /// sent again in a running stream, the records lost between the last record of the old
+    /// stream and the first of the new one are counted from the counter: the new stream's
+    /// `rdt_sequence` only shows those lost after the request.
+    fn note_counter(&mut self, ft_sequence: u32, lost_before: u32) {
+        let resumed = std::mem::take(&mut self.resumed);
         if let Some(last) = self.last_tick {
-            if ft_sequence.wrapping_sub(last) > u32::MAX / 2 {
+            let step = ft_sequence.wrapping_sub(last);
+            if step > u32::MAX / 2 {
                 self.restarts += 1;
+            } else if resumed {
+                if let Some(stride) = self.stride {
+                    let records = (u64::from(step) + u64::from(stride) / 2) / u64::from(stride);
+                    let missing = records.saturating_sub(1);
+                    self.lost_across_restarts += missing.saturating_sub(u64::from(lost_before));
+                }
+            } else if lost_before == 0 && step > 0 {
+                self.stride = Some(step);
             }
         }
         self.last_tick = Some(ft_sequence);
@@ -218,6 +244,8 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
         self.drain()?;
         self.tracker.reset();
         self.restarts = 0;
+        self.lost_across_restarts = 0;
+        self.resumed = false;
         let tries = self.options.start_tries.max(1);
         for _ in 0..tries {
             self.send(self.options.mode)?;
@@ -293,9 +321,11 @@ impl<L: DatagramLink> ForceSensor for NetFt<L> {
     }
 
     fn stats(&self) -> StreamStats {
+        let tracked = self.tracker.stats();
         StreamStats {
             restarts: self.restarts,
-            ..self.tracker.stats()
+            lost: tracked.lost + self.lost_across_restarts,
+            ..tracked
         }
     }
 }

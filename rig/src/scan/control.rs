@@ -6,7 +6,7 @@
 //!   agree to resume after a watcher stopped the scan.
 //! - [`ScanProgress`]: what the scan reports while it runs.
 
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -17,7 +17,7 @@ const ABORT: u8 = 3;
 
 /// Requests to a running scan.
 #[derive(Debug, Clone, Default)]
-pub struct ScanControl(Arc<AtomicU8>);
+pub struct ScanControl(Arc<AtomicU8>, Arc<AtomicBool>);
 
 /// What has been asked of the scan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,6 +59,19 @@ impl ScanControl {
 
     pub fn abort(&self) {
         self.0.store(ABORT, Ordering::SeqCst);
+    }
+
+    /// Stops the scan as an abort does (motion stopped, z retracted, the run closed), but for
+    /// a reason that is not the operator's decision (the terminal hung up, the process was
+    /// asked to end): the run is closed resumable.
+    pub fn interrupt(&self) {
+        self.1.store(true, Ordering::SeqCst);
+        self.abort();
+    }
+
+    /// Whether the stop was an interruption ([`ScanControl::interrupt`]), not an abort.
+    pub fn interrupted(&self) -> bool {
+        self.1.load(Ordering::SeqCst)
     }
 
     /// Clears a pause request (the scan resumes when it is paused).

@@ -363,6 +363,11 @@ pub fn run_scan(
         }
         let (status, reason) = match &result {
             Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
+            // Not the operator's decision: closed as a failed run is, which a resume reopens.
+            Ok(Ending::Aborted(_)) if control.interrupted() => (
+                ExitStatus::Failed,
+                "interrupted: the terminal hung up or the process was asked to end (SIGHUP or SIGTERM); resume the run to go on".to_string(),
+            ),
             Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
             Err(e) => (ExitStatus::Failed, e.to_string()),
         };

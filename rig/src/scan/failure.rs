@@ -76,7 +76,9 @@ fn force_advice(f: &ForceError) -> String {
 }
 
 fn store_advice(s: &StoreError) -> String {
-    if is_disk_full(s) {
+    if let StoreError::Busy { .. } = s {
+        "let the process that holds the run end (or stop it)".into()
+    } else if is_disk_full(s) {
         "free space on the disk that holds the runs".into()
     } else {
         "check that the disk holding the runs is mounted and writable".into()
@@ -91,6 +93,6 @@ pub fn is_disk_full(s: &StoreError) -> bool {
         StoreError::Content { message, .. } => {
             message.contains("No space left on device") || message.contains("Disk quota exceeded")
         }
-        StoreError::Parse { .. } | StoreError::NotARun { .. } => false,
+        StoreError::Parse { .. } | StoreError::NotARun { .. } | StoreError::Busy { .. } => false,
     }
 }

@@ -11,9 +11,10 @@
 
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
+use super::run_lock::RunLock;
 use super::run_writer::read_lines;
 use super::verify::verify;
-use super::{StoreError, FRAMES};
+use super::{StoreError, FRAMES, START};
 use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::io::Cursor;
@@ -134,7 +135,13 @@ pub fn export_reference(
 ) -> Result<ExportSummary, StoreError> {
     let (parent, staging) = check_destination(runs, out)?;
     let mut checked = Vec::with_capacity(runs.len());
+    // Each run stands still while it is read: a scan or a resume writing it is refused meanwhile,
+    // and an export of a run being written is refused.
+    let mut _locks = Vec::with_capacity(runs.len());
     for run in runs {
+        if run.join(START).is_file() {
+            _locks.push(RunLock::read(run)?);
+        }
         let report = verify(run)?;
         if !report.ok() && !options.allow_unverified {
             return Err(StoreError::Content {

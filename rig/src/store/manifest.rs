@@ -1,13 +1,14 @@
 //! The checksum manifest: SHA-256 of every file in a run, in `sha256sum` format, so that
 //! `sha256sum -c MANIFEST.sha256` works as well as `fringe verify`.
 
+use super::run_lock::LOCK;
 use super::{StoreError, MANIFEST};
 use sha2::{Digest, Sha256};
 use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// Every regular file under `dir` except the manifest, as paths relative to `dir` with `/`,
+/// Every regular file under `dir` except the manifest and the writer's lock, as paths relative to `dir` with `/`,
 /// sorted.
 pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
     let mut out = Vec::new();
@@ -24,7 +25,11 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
             let child = rel.join(&name);
             if kind.is_dir() {
                 stack.push(child);
-            } else if kind.is_file() && child != Path::new(MANIFEST) && !name.ends_with(".tmp") {
+            } else if kind.is_file()
+                && child != Path::new(MANIFEST)
+                && child != Path::new(LOCK)
+                && !name.ends_with(".tmp")
+            {
                 out.push(child.to_string_lossy().replace('\\', "/"));
             }
         }

@@ -9,6 +9,7 @@
 
 use super::documents::{now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use super::durable::{sync_dir, write_atomic};
+use super::run_lock::RunLock;
 use super::{
     force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START,
     STOP,
@@ -113,6 +114,8 @@ pub struct RunWriter {
     next_index: u64,
     force_samples: u64,
     last_checkpoint: Option<Checkpoint>,
+    /// This process's hold on the run: no other writes it meanwhile (released last).
+    _lock: RunLock,
 }
 
 impl RunWriter {
@@ -136,6 +139,7 @@ impl RunWriter {
                 StoreError::io(&dir, e)
             }
         })?;
+        let lock = RunLock::write(&dir)?;
         let frame_dir = dir.join(FRAME_DIR);
         std::fs::create_dir(&frame_dir).map_err(|e| StoreError::io(&frame_dir, e))?;
         let start_path = dir.join(START);
@@ -157,6 +161,7 @@ impl RunWriter {
             next_index: 0,
             force_samples: 0,
             last_checkpoint: None,
+            _lock: lock,
         };
         sync_dir(&writer.dir)?;
         Ok(writer)
@@ -171,13 +176,19 @@ impl RunWriter {
     /// As [`RunWriter::reopen`], but `accept` sees what the run holds first and may refuse it
     /// (a different plan, say). Everything is read and checked before anything is changed: a
     /// run that is refused, by `accept` or because it is damaged, is left exactly as it was.
+    /// A run another process writes is refused before anything is read ([`RunLock`]).
     pub fn reopen_if<E: From<StoreError>>(
         dir: &Path,
         accept: impl FnOnce(&Existing) -> Result<(), E>,
     ) -> Result<(RunWriter, Existing), E> {
+        if !dir.join(START).is_file() {
+            // Not a run: say so (read_start's error) rather than leave a lock file in it.
+            crate::store::read_start(dir)?;
+        }
+        let lock = RunLock::write(dir)?;
         let survey = survey(dir)?;
         accept(&survey.existing)?;
-        Ok(survey.apply(dir)?)
+        Ok(survey.apply(dir, lock)?)
     }
     /// The run directory.
     pub fn dir(&self) -> &Path {
@@ -378,6 +389,7 @@ pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> 
     if !stop.is_file() || dir.join(MANIFEST).is_file() {
         return Ok(None);
     }
+    let _lock = RunLock::write(dir)?;
     let document: StopDocument = read_document(&stop)?;
     if document.exit_status == ExitStatus::Failed {
         return Ok(None);
@@ -545,7 +557,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
 
 impl Survey {
     /// Cuts what the survey found to cut and opens the run for appending.
-    fn apply(self, dir: &Path) -> Result<(RunWriter, Existing), StoreError> {
+    fn apply(self, dir: &Path, lock: RunLock) -> Result<(RunWriter, Existing), StoreError> {
         if self.existing.failed_stop.is_some() {
             // The manifest first: a crash between the two leaves a stop document without a
             // manifest, which `fringe verify` reports and a resume reopens the same way.
@@ -580,6 +592,7 @@ impl Survey {
             next_index: existing.frames.len() as u64,
             force_samples: existing.force_samples,
             last_checkpoint: existing.checkpoint.clone(),
+            _lock: lock,
         };
         writer.remove_images_from(writer.next_index)?;
         Ok((writer, existing))

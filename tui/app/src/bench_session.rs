@@ -4,9 +4,14 @@
 //! snapshot, so it never waits on a device.
 //!
 //! Safety: every move goes through the axis drivers, which refuse targets outside the soft
-//! limits; while an axis moves, a total force over the bench's ceiling stops every axis at once.
-//! Closing the session stops any motion before the devices are released.
+//! limits. While a motion into or across the sensor runs, every force sample is checked (not
+//! every poll): the first one over the bench's ceiling stops it at once. Over the ceiling, moves
+//! into or across the sensor are refused and moves away from it (z up, homing z) are allowed
+//! and never stopped for force ([`crate::jog_guard`]). Closing the session stops any motion
+//! before the devices are released.
 
+pub use crate::jog_guard::AxisId;
+use crate::jog_guard::{Heading, JogGuard};
 use crate::rig_file::RigConfig;
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
@@ -24,6 +29,9 @@ use std::time::{Duration, Instant};
 
 /// How often the axes are polled and the snapshot refreshed.
 const TICK: Duration = Duration::from_millis(50);
+/// How often the force is checked while a motion into or across the sensor runs (the F/T
+/// sends a sample every 0.2 ms; the stream hands them over as they come).
+const GUARD_TICK: Duration = Duration::from_millis(1);
 /// Pictures made per second at most.
 const PICTURE_HZ: f64 = 10.0;
 /// Seconds of force kept for the chart.
@@ -32,30 +40,6 @@ pub const CHART_SECONDS: f64 = 20.0;
 const CHART_HZ: f64 = 50.0;
 /// Messages kept.
 const MESSAGES: usize = 50;
-
-/// An axis of the bench.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AxisId {
-    X,
-    Y,
-    Z,
-}
-
-impl AxisId {
-    pub const ALL: [AxisId; 3] = [AxisId::X, AxisId::Y, AxisId::Z];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            AxisId::X => "x",
-            AxisId::Y => "y",
-            AxisId::Z => "z",
-        }
-    }
-
-    fn index(self) -> usize {
-        self as usize
-    }
-}
 
 /// What the front end asks of the bench.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -101,6 +85,8 @@ pub struct ForceState {
     pub restarts: u64,
     /// The ceiling that stops a jog, N.
     pub max_n: f64,
+    /// The highest |F| of any sample since the bench opened or was last tared, N.
+    pub peak_n: f64,
 }
 
 /// The camera as last read.
@@ -267,46 +253,34 @@ fn run(
         s.say("bench open: jog, home and tare from here; a scan takes the devices over");
     }
     let started = Instant::now();
+    let mut guard = JogGuard::new(limits.max_force.0);
+    let mut polled_at: Option<Instant> = None;
     let mut meter = Meters::new(started);
     let mut last_picture: Option<Instant> = None;
     let mut newest: Option<Frame> = None;
     while !stop.load(Ordering::SeqCst) {
         let tick = Instant::now();
         for command in commands.try_iter() {
-            let outcome = obey(command, &mut axes, &mut force, state);
+            let outcome = obey(command, &mut axes, &mut force, &mut guard, state);
             if let Err(message) = outcome {
                 lock(state).say(message);
             }
         }
-        // Axes.
-        let mut any_moving = false;
-        for (i, axis) in axes.iter_mut().enumerate() {
-            let polled = axis.status();
-            let mut s = lock(state);
-            match polled {
-                Ok(st) => {
-                    let a = &mut s.axes[i];
-                    a.position_mm = Some(st.position.0);
-                    a.homed = st.homed;
-                    a.moving = st.moving;
-                    a.faults = st.faults.iter().map(|f| f.to_string()).collect();
-                    any_moving |= st.moving;
-                }
-                Err(e) => {
-                    s.axes[i].position_mm = None;
-                    s.say(e.to_string());
-                }
-            }
-        }
-        // Force: every sample drained (the stream keeps them all for a recorder).
+        // Force first: every sample drained (the stream keeps them all for a recorder) and
+        // checked against the ceiling.
         if let Some(f) = &force {
+            let mut peak = 0.0f64;
+            let mut stopped = Vec::new();
             let mut over = None;
             let mut points = Vec::new();
             for sample in f.samples().try_iter() {
                 let w = sample.wrench;
                 let fz = w.fz.0;
                 let total = (w.fx.0 * w.fx.0 + w.fy.0 * w.fy.0 + fz * fz).sqrt();
-                if total > limits.max_force.0 {
+                peak = peak.max(total);
+                for id in guard.sample(total) {
+                    let _ = axes[id.index()].stop(StopMode::Immediate);
+                    stopped.push(id.name());
                     over = Some(total);
                 }
                 meter.force_samples += 1;
@@ -320,18 +294,17 @@ fn run(
                     });
                 }
             }
-            if let (Some(total), true) = (over, any_moving) {
-                for axis in axes.iter_mut() {
-                    let _ = axis.stop(StopMode::Immediate);
-                }
+            if let Some(total) = over {
                 lock(state).say(format!(
-                    "force {total:.2} N over the ceiling {:.2} N: every axis stopped; retract z \
-                     before anything else",
-                    limits.max_force.0
+                    "force {total:.2} N over the ceiling {:.2} N: {} stopped; moves into or \
+                     across the sensor are refused until it is under; retract z (←, or h)",
+                    limits.max_force.0,
+                    stopped.join(", ")
                 ));
             }
             let stats = f.monitor().stats();
             let mut s = lock(state);
+            s.force.peak_n = s.force.peak_n.max(peak);
             if let Some(p) = points.last() {
                 s.force.fz_n = p.fz_n;
                 s.force.f_n = p.f_n;
@@ -352,6 +325,28 @@ fn run(
             s.force.restarts = stats.restarts;
             if let Some(e) = f.monitor().error() {
                 s.phase = BenchPhase::Failed(e);
+            }
+        }
+        // Axes, at the poll rate.
+        if polled_at.is_none_or(|t| t.elapsed() >= TICK) {
+            polled_at = Some(Instant::now());
+            for (i, axis) in axes.iter_mut().enumerate() {
+                let polled = axis.status();
+                let mut s = lock(state);
+                match polled {
+                    Ok(st) => {
+                        let a = &mut s.axes[i];
+                        a.position_mm = Some(st.position.0);
+                        a.homed = st.homed;
+                        a.moving = st.moving;
+                        a.faults = st.faults.iter().map(|f| f.to_string()).collect();
+                        guard.polled(AxisId::ALL[i], st.moving);
+                    }
+                    Err(e) => {
+                        s.axes[i].position_mm = None;
+                        s.say(e.to_string());
+                    }
+                }
             }
         }
         // Camera: the newest frame kept, ids counted for drops.
@@ -383,9 +378,10 @@ fn run(
             }
         }
         meter.publish(&mut lock(state));
+        let period = if guard.guarding() { GUARD_TICK } else { TICK };
         let spent = tick.elapsed();
-        if spent < TICK {
-            std::thread::sleep(TICK - spent);
+        if spent < period {
+            std::thread::sleep(period - spent);
         }
     }
     for axis in axes.iter_mut() {
@@ -440,6 +436,7 @@ fn obey(
     command: BenchCommand,
     axes: &mut [Box<dyn Axis>; 3],
     force: &mut Option<ForceStream>,
+    guard: &mut JogGuard,
     state: &Mutex<BenchState>,
 ) -> Result<(), String> {
     match command {
@@ -450,9 +447,18 @@ fn obey(
                     axis.name()
                 ));
             }
+            let heading = Heading::of_jog(axis, by.0);
+            guard.admit(axis, heading)?;
+            if heading != Heading::Away && force.is_none() {
+                return Err(format!(
+                    "{}: not moved: the F/T sensor is not streaming, so the force ceiling cannot be watched",
+                    axis.name()
+                ));
+            }
             axes[axis.index()]
                 .begin_move_by(by)
                 .map_err(|e| e.to_string())?;
+            guard.begun(axis, heading);
             lock(state).say(format!("{}: moving by {:+.3} mm", axis.name(), by.0));
         }
         BenchCommand::Home(axis) => {
@@ -462,7 +468,10 @@ fn obey(
                     axis.name()
                 ));
             }
+            let heading = Heading::of_home(axis);
+            guard.admit(axis, heading)?;
             axes[axis.index()].begin_home().map_err(|e| e.to_string())?;
+            guard.begun(axis, heading);
             lock(state).say(format!("{}: homing", axis.name()));
         }
         BenchCommand::Stop => {
@@ -472,6 +481,7 @@ fn obey(
                     failed.push(e.to_string());
                 }
             }
+            guard.stopped_all();
             if !failed.is_empty() {
                 return Err(failed.join("; "));
             }
@@ -482,9 +492,17 @@ fn obey(
                 return Err("the F/T sensor is not streaming".into());
             };
             let mut sensor = stream.stop().map_err(|e| e.to_string())?;
-            let biased = sensor.bias().map_err(|e| e.to_string());
+            // A sensor biased on the host (a DAQ, a Net F/T in host-bias mode) takes its bias
+            // from a running acquisition: started for it, stopped again before the stream
+            // starts it anew.
+            let biased = sensor
+                .start()
+                .and_then(|()| sensor.bias())
+                .and_then(|()| sensor.stop())
+                .map_err(|e| e.to_string());
             *force = Some(ForceStream::spawn(sensor).map_err(|e| e.to_string())?);
             biased?;
+            lock(state).force.peak_n = 0.0;
             lock(state).say("F/T sensor tared (bias set to the present load)");
         }
     }

@@ -26,6 +26,7 @@
 
 pub mod bench_session;
 pub mod calibration_scan;
+pub mod jog_guard;
 pub mod live_validation;
 pub mod live_view;
 mod open_rig;

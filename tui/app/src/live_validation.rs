@@ -8,6 +8,10 @@
 //! returns at once; one worker takes the newest frame, preprocesses it, runs the network and
 //! publishes a [`ValidationState`]. When the network is slower than the camera the frames it
 //! could not take are counted as skipped, never queued.
+//!
+//! The figures are over the frames the run keeps: when the scan cuts the records of an
+//! interrupted point (to press it again), the frames of those records are taken out of the
+//! counts and the metrics ([`RecordTap::cut`]), and their number is reported as `cut`.
 
 use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
@@ -92,6 +96,9 @@ pub struct ValidationState {
     pub ran: u64,
     /// Labelled frames the network was too busy to take.
     pub skipped: u64,
+    /// Labelled frames offered, then cut from the run with the records of an interrupted point
+    /// (not in `offered`, `ran`, `skipped` nor the metrics).
+    pub cut: u64,
     /// Predictions per second over the last second.
     pub loop_hz: f64,
     /// Preprocessing plus inference of the newest frame, ms.
@@ -106,21 +113,91 @@ pub struct ValidationState {
     pub failure: Option<String>,
 }
 
+/// A labelled frame handed to the worker, with the cut generation it belongs to.
+struct Offer {
+    frame: Frame,
+    record: FrameRecord,
+    generation: u64,
+}
+
 #[derive(Default)]
 struct Mailbox {
-    next: Option<(Frame, FrameRecord)>,
-    offered: u64,
-    skipped: u64,
+    next: Option<Offer>,
+    /// Record indices of the frames offered, and of those skipped, that the run still holds.
+    offered: Vec<u64>,
+    skipped: Vec<u64>,
+    cut: u64,
+    /// Goes up with every cut: a frame taken before a cut is not published after it.
+    generation: u64,
     closed: bool,
     busy: bool,
 }
 
+/// Lock order: `mailbox`, then `state`, `evaluation`, `frames`.
 struct Shared {
     mailbox: Mutex<Mailbox>,
     wake: Condvar,
     state: Mutex<ValidationState>,
     evaluation: Mutex<Evaluation>,
     frames: Mutex<Vec<ValidatedFrame>>,
+    classes: Vec<String>,
+}
+
+impl Shared {
+    /// Adds one prediction to the running errors, the grid cells and the evaluation. A label
+    /// whose indenter the model does not know is shown, not scored.
+    fn tally(
+        &self,
+        state: &mut ValidationState,
+        evaluation: &mut Evaluation,
+        label: &Sample,
+        prediction: &Prediction,
+    ) {
+        let Some(shape_true) = self.classes.iter().position(|c| *c == label.shape) else {
+            return;
+        };
+        let scored = score(&self.classes, shape_true, label, prediction);
+        state.errors.add(&scored);
+        if let Some(stage) = label.stage_mm {
+            match state.cells.iter_mut().find(|c| c.stage_mm == stage) {
+                Some(c) => c.errors.add(&scored),
+                None => {
+                    let mut errors = Errors::default();
+                    errors.add(&scored);
+                    state.cells.push(CellErrors {
+                        stage_mm: stage,
+                        errors,
+                    });
+                }
+            }
+        }
+        evaluation.metrics.add(&scored, &keys(label));
+        evaluation.rows.push(Row {
+            scored,
+            stage_mm: label.stage_mm,
+        });
+    }
+
+    /// Forgets the frames of records `first` and later (cut from the run): the counts, errors,
+    /// cells and evaluation are made again from the frames the run keeps. Called with the
+    /// mailbox locked.
+    fn forget_from(&self, first: u64) {
+        let mut state = lock(&self.state);
+        let mut evaluation = lock(&self.evaluation);
+        let mut frames = lock(&self.frames);
+        frames.retain(|f| f.record_index < first);
+        state.ran = frames.len() as u64;
+        state.errors = Errors::default();
+        state.cells.clear();
+        *evaluation = Evaluation {
+            metrics: Metrics::new(self.classes.clone()),
+            rows: Vec::new(),
+            skipped: 0,
+        };
+        for f in frames.iter() {
+            self.tally(&mut state, &mut evaluation, &f.label, &f.prediction);
+        }
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -145,12 +222,30 @@ impl RecordTap for ValidationTap {
         if m.closed {
             return;
         }
-        m.offered += 1;
-        if m.next.replace((frame.clone(), record.clone())).is_some() {
-            m.skipped += 1;
+        m.offered.push(record.index);
+        let offer = Offer {
+            frame: frame.clone(),
+            record: record.clone(),
+            generation: m.generation,
+        };
+        if let Some(old) = m.next.replace(offer) {
+            m.skipped.push(old.record.index);
         }
         drop(m);
         self.0.wake.notify_one();
+    }
+
+    fn cut(&self, first: u64) {
+        let mut m = lock(&self.0.mailbox);
+        let before = m.offered.len();
+        m.offered.retain(|&i| i < first);
+        m.skipped.retain(|&i| i < first);
+        m.cut += (before - m.offered.len()) as u64;
+        if m.next.as_ref().is_some_and(|o| o.record.index >= first) {
+            m.next = None;
+        }
+        m.generation += 1;
+        self.0.forget_from(first);
     }
 }
 
@@ -183,6 +278,7 @@ impl LiveValidation {
             offered: 0,
             ran: 0,
             skipped: 0,
+            cut: 0,
             loop_hz: 0.0,
             latency_ms: 0.0,
             history: VecDeque::with_capacity(HISTORY),
@@ -201,6 +297,7 @@ impl LiveValidation {
                 skipped: 0,
             }),
             frames: Mutex::new(Vec::new()),
+            classes: model.classes.clone(),
         });
         let worker = Worker {
             shared: shared.clone(),
@@ -236,8 +333,9 @@ impl LiveValidation {
     pub fn state(&self) -> ValidationState {
         let mut s = lock(&self.shared.state).clone();
         let m = lock(&self.shared.mailbox);
-        s.offered = m.offered;
-        s.skipped = m.skipped;
+        s.offered = m.offered.len() as u64;
+        s.skipped = m.skipped.len() as u64;
+        s.cut = m.cut;
         s
     }
 
@@ -269,8 +367,8 @@ impl LiveValidation {
         {
             let mut m = lock(&self.shared.mailbox);
             m.closed = true;
-            if m.next.take().is_some() {
-                m.skipped += 1;
+            if let Some(old) = m.next.take() {
+                m.skipped.push(old.record.index);
             }
         }
         self.shared.wake.notify_all();
@@ -306,7 +404,7 @@ impl Worker {
     fn run(mut self) {
         let mut input = vec![0f32; self.pre.config.tensor_len()];
         loop {
-            let (frame, record) = {
+            let offer = {
                 let mut m = lock(&self.shared.mailbox);
                 m.busy = false;
                 loop {
@@ -320,7 +418,7 @@ impl Worker {
                     m = self.shared.wake.wait(m).unwrap_or_else(|p| p.into_inner());
                 }
             };
-            if let Err(why) = self.one(&frame, &record, &mut input) {
+            if let Err(why) = self.one(&offer, &mut input) {
                 lock(&self.shared.state).failure = Some(why);
                 let mut m = lock(&self.shared.mailbox);
                 m.closed = true;
@@ -330,12 +428,8 @@ impl Worker {
         }
     }
 
-    fn one(
-        &mut self,
-        frame: &Frame,
-        record: &FrameRecord,
-        input: &mut [f32],
-    ) -> Result<(), String> {
+    fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), String> {
+        let (frame, record) = (&offer.frame, &offer.record);
         let t0 = Instant::now();
         let format = Some(frame.format);
         let Some(label) = from_record(
@@ -367,7 +461,6 @@ impl Worker {
                 self.model.path.display()
             ));
         };
-        let shape_true = self.model.classes.iter().position(|c| *c == label.shape);
         let now = Instant::now();
         self.recent.push_back(now);
         while self
@@ -389,6 +482,11 @@ impl Worker {
         } else {
             None
         };
+        let mailbox = lock(&self.shared.mailbox);
+        if mailbox.generation != offer.generation {
+            // Its record was cut from the run while the network ran.
+            return Ok(());
+        }
         let mut state = lock(&self.shared.state);
         state.ran += 1;
         state.loop_hz = self.recent.len() as f64;
@@ -401,30 +499,12 @@ impl Worker {
             measured_n: label.fz(),
             predicted_n: prediction.force.fz.value(),
         });
-        // A label whose indenter the model does not know is shown, not scored.
-        if let Some(shape_true) = shape_true {
-            let scored = score(&self.model.classes, shape_true, &label, &prediction);
-            state.errors.add(&scored);
-            if let Some(stage) = label.stage_mm {
-                match state.cells.iter_mut().find(|c| c.stage_mm == stage) {
-                    Some(c) => c.errors.add(&scored),
-                    None => {
-                        let mut errors = Errors::default();
-                        errors.add(&scored);
-                        state.cells.push(CellErrors {
-                            stage_mm: stage,
-                            errors,
-                        });
-                    }
-                }
-            }
-            let mut eval = lock(&self.shared.evaluation);
-            eval.metrics.add(&scored, &keys(&label));
-            eval.rows.push(Row {
-                scored,
-                stage_mm: label.stage_mm,
-            });
-        }
+        self.shared.tally(
+            &mut state,
+            &mut lock(&self.shared.evaluation),
+            &label,
+            &prediction,
+        );
         lock(&self.shared.frames).push(ValidatedFrame {
             frame_id: frame.id,
             record_index: record.index,
@@ -446,5 +526,144 @@ impl Worker {
             input: input_picture,
         });
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_calibration::profile::{ImageSize, Optical};
+    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::clock::HostTime;
+    use fringe_rig::store::documents::Position;
+    use fringe_rig::units::{Millimetres, Newtons, Wrench};
+    use fringe_sensor_models::backend::BackendKind;
+    use std::path::Path;
+
+    const SIDE: u32 = 64;
+
+    fn profile() -> Profile {
+        let c = f64::from(SIDE) / 2.0;
+        Profile {
+            sensor_id: "test".into(),
+            created_utc: "2026-01-01T00:00:00Z".into(),
+            source: "test".into(),
+            image: ImageSize {
+                width: SIDE,
+                height: SIDE,
+            },
+            optical: Optical {
+                centre_x_px: c,
+                centre_y_px: c,
+                shift_x_px: 0.0,
+                shift_y_px: 0.0,
+                radius_px: c - 2.0,
+                crop_radius_px: c - 4.0,
+                sigma_x_px: 0.0,
+                sigma_y_px: 0.0,
+                sigma_radius_px: 0.0,
+                residual_rms_px: 0.0,
+                frames: 1,
+            },
+            registration: None,
+            force_offsets: None,
+        }
+    }
+
+    fn frame(id: u64) -> Frame {
+        Frame {
+            id,
+            device_timestamp: id,
+            host_arrival: HostTime::now(),
+            width: SIDE,
+            height: SIDE,
+            format: PixelFormat::Mono8,
+            data: vec![(id % 200) as u8; (SIDE * SIDE) as usize],
+        }
+    }
+
+    /// A labelled record: index `index`, pressed with `fz` N (the F/T reads the press negative).
+    fn record(index: u64, fz: f64) -> FrameRecord {
+        let at = |v: f64| Position {
+            x: Millimetres(v),
+            y: Millimetres(25.0),
+            z: Millimetres(14.0),
+        };
+        FrameRecord {
+            index,
+            frame_id: index,
+            file: format!("frames/{index:06}.png"),
+            device_timestamp: index,
+            host_arrival_ns: index,
+            exposure: None,
+            exposure_ticks: None,
+            point: index / 4,
+            commanded: at(12.5),
+            measured: at(12.5),
+            wrench: Some(Wrench {
+                fz: Newtons(-fz),
+                ..Wrench::default()
+            }),
+            shape: "pentagon".into(),
+            contact: Some([0.0, 0.0]),
+            valid: true,
+            notes: Vec::new(),
+        }
+    }
+
+    /// Offers a frame and waits until the worker has taken it (none is skipped).
+    fn offer(tap: &Arc<dyn RecordTap>, live: &LiveValidation, index: u64, fz: f64) {
+        tap.recorded(&frame(index), &record(index, fz));
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(30) {
+            let m = lock(&live.shared.mailbox);
+            if m.next.is_none() && !m.busy {
+                return;
+            }
+            drop(m);
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        panic!("the worker did not take frame {index}");
+    }
+
+    #[test]
+    fn frames_of_records_cut_from_the_run_leave_the_counts_and_the_metrics() {
+        let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../sensor-models/tests/fixtures/custom/model.safetensors");
+        let model = Model::open(&weights).expect("fixture model");
+        let backend = model.backend(BackendKind::Tract, 1).expect("tract");
+        let source = FrameSource {
+            run_id: "run".into(),
+            profile: profile(),
+        };
+        let (live, tap) = LiveValidation::start(model, backend, source).expect("start");
+        // Records 0..4 are kept; 4..8 belong to a point that is interrupted, cut and done again
+        // with other labels under the same indices.
+        for i in 0..8 {
+            offer(&tap, &live, i, if i < 4 { 1.0 } else { 7.0 });
+        }
+        assert_eq!(live.state().ran, 8);
+        tap.cut(4);
+        let s = live.state();
+        assert_eq!((s.offered, s.ran, s.cut), (4, 4, 4));
+        for i in 4..10 {
+            offer(&tap, &live, i, 2.0);
+        }
+        let v = live.finish(Duration::from_secs(30));
+        assert_eq!(v.state.offered, 10);
+        assert_eq!(v.state.ran + v.state.skipped, 10);
+        assert_eq!(v.state.cut, 4);
+        let mut indices: Vec<u64> = v.frames.iter().map(|f| f.record_index).collect();
+        indices.sort_unstable();
+        assert_eq!(indices, (0..10).collect::<Vec<_>>());
+        // No label of the cut attempt (7 N) is left in the frames or in the metrics.
+        assert!(v.frames.iter().all(|f| (f.label.fz() - 7.0).abs() > 1.0));
+        assert_eq!(v.evaluation.rows.len(), 10);
+        assert!(v
+            .evaluation
+            .rows
+            .iter()
+            .all(|r| (r.scored.fz_true - 7.0).abs() > 1.0));
+        assert_eq!(v.state.errors.n, 10);
     }
 }

@@ -2,7 +2,7 @@
 //! reference-layout datasets.
 
 use super::model::{open_model, ReferenceChoice};
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
@@ -10,7 +10,7 @@ use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::evaluate;
 use fringe_sensor_models::report;
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct EvalArgs {
@@ -30,8 +30,8 @@ pub struct EvalArgs {
     /// Preprocess as the reference code does, for models it trained.
     #[arg(long, value_name = "SENSOR", num_args = 0..=1, default_missing_value = "layered")]
     reference_preprocessing: Option<ReferenceChoice>,
-    /// Inference threads.
-    #[arg(long, default_value_t = 2)]
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
     threads: usize,
     /// Inference backend: tract (built in), onnxruntime (cargo feature `onnxruntime`) or torch
     /// (cargo feature `torch`; also runs TorchScript modules).
@@ -40,6 +40,13 @@ pub struct EvalArgs {
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
+    if let Some(run) = a.report.as_deref().and_then(fringe_rig::store::run_holding) {
+        bail!(
+            "--report {}: that is inside the run {} (a report never goes into a run: the run would no longer verify); choose a directory outside it",
+            a.report.as_deref().unwrap_or(Path::new("")).display(),
+            run.display()
+        );
+    }
     let model = open_model(&a.model)?;
     let profile = match &a.profile {
         Some(p) => Some(Profile::load(p)?),
@@ -49,7 +56,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     for d in &a.data {
         sources.push(dataset::read(d)?);
     }
-    let mut backend = model.backend(a.backend, a.threads.max(1))?;
+    let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let tty = std::io::stderr().is_terminal();
     let mut last = 0;
     let eval = evaluate(

@@ -7,6 +7,7 @@ use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::model::Model;
+use fringe_sensor_models::model_card::ModelCard;
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::{predictions, Prediction};
 use fringe_sensor_models::preprocess::ReferenceSensor;
@@ -69,8 +70,8 @@ struct RunArgs {
     /// One JSON object per line instead of text.
     #[arg(long)]
     json: bool,
-    /// Inference threads.
-    #[arg(long, default_value_t = 2)]
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
     threads: usize,
     /// Inference backend: tract (built in), onnxruntime (cargo feature `onnxruntime`) or torch
     /// (cargo feature `torch`; also runs TorchScript modules).
@@ -145,7 +146,7 @@ fn run_images(a: RunArgs) -> Result<()> {
     };
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     let config = m.preprocessing(profile.as_ref(), reference)?;
-    let mut backend = m.backend(a.backend, a.threads.max(1))?;
+    let mut backend = m.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let size = m.input_size;
     for image in &a.images {
         let tensor = config
@@ -203,6 +204,7 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 
 fn export(path: &Path, out: &Path) -> Result<()> {
     let m = open_model(path)?;
+    refuse_model_file(&m.path, out)?;
     let bytes = onnx_graph::encode(m.onnx()?);
     let tmp = out.with_extension("onnx.partial");
     std::fs::write(&tmp, &bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
@@ -218,5 +220,29 @@ fn export(path: &Path, out: &Path) -> Result<()> {
         m.input_size,
         onnx_graph::OUTPUTS.join(", ")
     );
+    Ok(())
+}
+
+/// Refuses an output that is one of the model's own files (its weights or its card,
+/// `<file>.json` or `<stem>.json`): writing the graph there would destroy the model.
+fn refuse_model_file(model: &Path, out: &Path) -> Result<()> {
+    let real = |p: &Path| std::fs::canonicalize(p).ok();
+    let Some(out_real) = real(out) else {
+        // It does not exist yet: it is no file of the model.
+        return Ok(());
+    };
+    let own = std::iter::once(model.to_path_buf()).chain(ModelCard::candidates(model));
+    if own
+        .collect::<Vec<_>>()
+        .iter()
+        .any(|f| real(f).as_ref() == Some(&out_real))
+    {
+        bail!(
+            "{}: that is a file of the model {} (its weights or its card): writing the ONNX graph there would destroy it; give another output, e.g. {}",
+            out.display(),
+            model.display(),
+            model.with_extension("onnx").display()
+        );
+    }
     Ok(())
 }

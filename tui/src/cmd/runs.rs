@@ -107,7 +107,7 @@ pub struct ExportArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Round forces, torques and positions to this step (the reference trained on 0.1).
-    #[arg(long, value_name = "STEP")]
+    #[arg(long, value_name = "STEP", value_parser = crate::cmd::arg_values::round_step)]
     round: Option<f64>,
     /// Export runs that fail `fringe verify` too (their problems go into 0.export.json).
     #[arg(long)]
@@ -115,11 +115,6 @@ pub struct ExportArgs {
 }
 
 pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
-    if let Some(step) = args.round {
-        if !(step.is_finite() && step > 0.0) {
-            anyhow::bail!("--round {step}: give a positive step such as 0.1");
-        }
-    }
     let ExportFormat::Reference = args.format;
     let options = fringe_rig::store::export::ExportOptions {
         round: args.round,

@@ -41,8 +41,8 @@ pub struct ValidateArgs {
     /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
-    /// Inference threads.
-    #[arg(long, default_value_t = 2)]
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
     threads: usize,
     /// Run headless (the default when stdout is not a terminal).
     #[arg(long)]
@@ -74,13 +74,13 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
             model: Some(crate::ui::ModelChoice {
                 path: model_path.clone(),
                 backend: a.backend,
-                threads: a.threads.max(1),
+                threads: crate::cmd::arg_values::cap_threads(a.threads),
             }),
             tab: crate::ui::Tab::Validate,
             start: false,
         });
     }
-    let backend = model.backend(a.backend, a.threads.max(1))?;
+    let backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     println!(
         "fringe {}: rig: {}",
         env!("CARGO_PKG_VERSION"),
@@ -148,6 +148,12 @@ fn print_summary(v: &Validation) {
         "live validation ({} backend): {} labelled frames offered, {} run, {} skipped; {:.1} predictions/s, {:.1} ms per frame",
         s.backend, s.offered, s.ran, s.skipped, s.loop_hz, s.latency_ms
     );
+    if s.cut > 0 {
+        println!(
+            "{} frames validated during interrupted points were cut from the run with those points' records: they are not in these figures",
+            s.cut
+        );
+    }
     if e.n > 0 {
         println!(
             "Fz RMSE {:.3} N over {} frames; contact RMSE {:.3} mm over {} frames in contact; shape accuracy {:.1} %",

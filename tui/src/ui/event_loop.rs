@@ -75,8 +75,11 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
     // A terminal that hung up cannot be restored; nothing is printed about it (stderr is that
     // terminal too).
     let _ = ratatui::try_restore();
-    // A scan still running is aborted and waited for, so z retracts and the run is closed.
-    app.stop_scan();
+    // A scan still running is stopped and waited for, so z retracts and the run is closed:
+    // as aborted when the operator quit, as interrupted (resumable) when the terminal hung up
+    // or the process was told to end.
+    let interrupted = TERMINATE.load(Ordering::SeqCst) || result.is_err();
+    app.stop_scan(interrupted);
     app.close_bench();
     result
 }
@@ -379,7 +382,7 @@ impl App {
     fn key(&mut self, code: KeyCode, mods: KeyModifiers) {
         self.state.error = None;
         if code == KeyCode::Char('c') && mods.contains(KeyModifiers::CONTROL) {
-            self.stop_scan();
+            self.stop_scan(false);
             self.quit = true;
             return;
         }
@@ -742,7 +745,7 @@ impl App {
         model: Option<ModelChoice>,
         profile: ProfileUse,
     ) {
-        self.stop_scan();
+        self.stop_scan(false);
         self.close_bench();
         self.state.validation = None;
         let scan = &mut self.state.scan;
@@ -762,10 +765,15 @@ impl App {
         }));
     }
 
-    /// Aborts a running scan and waits for its thread (z retracts, the run is closed).
-    fn stop_scan(&mut self) {
+    /// Stops a running scan and waits for its thread (z retracts, the run is closed): aborted,
+    /// or `interrupted` (closed resumable: the operator did not decide it).
+    fn stop_scan(&mut self, interrupted: bool) {
         if let Some(mut r) = self.running.take() {
-            r.control.abort();
+            if interrupted {
+                r.control.interrupt();
+            } else {
+                r.control.abort();
+            }
             let _ = r.replies.send(Reply::Abort);
             if let Some(t) = r.thread.take() {
                 let _ = t.join();

@@ -50,8 +50,16 @@ pub struct AptEmulatorConfig {
     /// The actuator fitted, which sets the position, velocity and acceleration scales (changed
     /// by MOT_SET_TSTACTUATORTYPE to a known actuator code).
     pub actuator: Actuator,
-    /// Period of update messages (real controllers: about 100 ms).
+    /// Period of update messages (real controllers: 100 ms, as the APT protocol documents).
     pub update_period: Duration,
+    /// When the first update message goes out after HW_START_UPDATEMSGS. The protocol says
+    /// "up to" one period (the controller's own timer runs on): a full period by default, the
+    /// latest a real one may take.
+    pub first_update: Duration,
+    /// Each update message is sent up to this much later than its period says (USB and the
+    /// controller's main loop), drawn from `jitter_seed`; 0: on the dot.
+    pub update_jitter: Duration,
+    pub jitter_seed: u64,
     pub update_message: UpdateMessage,
     pub keepalive: KeepAlive,
     /// Which limit switch status bit 0 stands for.
@@ -74,6 +82,9 @@ impl AptEmulatorConfig {
             channel: 1,
             actuator,
             update_period: Duration::from_millis(100),
+            first_update: Duration::from_millis(100),
+            update_jitter: Duration::ZERO,
+            jitter_seed: 1,
             update_message: UpdateMessage::StatusUpdate,
             keepalive: KeepAlive::Required {
                 timeout: Duration::from_secs(3),
@@ -185,6 +196,8 @@ pub struct EmulatorCore {
     rel_param: i32,
     actuator_code: Option<u8>,
     updates: Option<Updates>,
+    /// xorshift state for the update jitter.
+    jitter_state: u64,
     end_of_move_msgs: bool,
     motion: Option<Motion>,
     /// Sign of the last commanded motion (+1 forward, -1 reverse).
@@ -232,6 +245,7 @@ impl EmulatorCore {
             rel_param: 0,
             actuator_code: a.type_code,
             updates: None,
+            jitter_state: config.jitter_seed | 1,
             end_of_move_msgs: true,
             motion: None,
             direction: 1.0,
@@ -465,10 +479,11 @@ impl EmulatorCore {
             Message::ModIdentify { .. } => self.counters.identify += 1,
             Message::HwNoFlashProgramming => {}
             Message::HwStartUpdateMsgs => {
+                let first = after(now, self.config.first_update);
                 self.updates = Some(Updates {
                     started: now,
                     last_ack: now,
-                    next_due: now,
+                    next_due: after(first, self.jitter()),
                 });
             }
             Message::HwStopUpdateMsgs => self.updates = None,
@@ -653,14 +668,10 @@ impl EmulatorCore {
                 };
                 if let Some(m) = end {
                     self.motion = None;
+                    // Update messages keep their own cadence: the status that shows the end of
+                    // the motion comes with the next one, as on a real controller (the short
+                    // MOVE_HOMED carries none).
                     if self.end_of_move_msgs {
-                        // With update messages on, the final status goes out just before the
-                        // end-of-move message, so a host that reads its status then (the
-                        // short MOVE_HOMED carries none) sees the motion's end.
-                        if let Some(u) = &mut self.updates {
-                            u.next_due = now;
-                        }
-                        out.extend(self.due_update(now));
                         out.push(self.reply(m));
                     }
                 }
@@ -692,15 +703,36 @@ impl EmulatorCore {
             UpdateMessage::UStatusUpdate => Message::GetUStatusUpdate(self.ustatus_block(&st)),
         };
         self.counters.status_updates += 1;
+        // The controller's timer runs on a fixed period; jitter delays a message, not the timer.
         let period = self.config.update_period;
-        let mut next = after(u.next_due, period);
-        if next <= now {
-            next = after(now, period);
+        let mut tick = after(u.started, self.config.first_update);
+        let since = now.since(tick);
+        if now >= tick {
+            let periods = since.as_nanos() / period.as_nanos().max(1) + 1;
+            tick = after(
+                tick,
+                Duration::from_nanos((periods * period.as_nanos()) as u64),
+            );
         }
+        let next = after(tick, self.jitter());
         if let Some(u) = &mut self.updates {
             u.next_due = next;
         }
         Some(self.reply(m))
+    }
+
+    /// A delay in [0, update_jitter] for the next update message.
+    fn jitter(&mut self) -> Duration {
+        let max = self.config.update_jitter.as_nanos() as u64;
+        if max == 0 {
+            return Duration::ZERO;
+        }
+        let mut x = self.jitter_state;
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        self.jitter_state = x;
+        Duration::from_nanos(x % (max + 1))
     }
 }
 
@@ -855,15 +887,18 @@ mod tests {
         let (mut c, _, t0) = setup();
         c.handle(&host(Message::HwStartUpdateMsgs), t0);
         let mut sent = 0;
-        for i in 0..=30 {
+        for i in 0..=300u64 {
             // 3 s in 10 ms steps, acknowledging every 0.9 s.
-            let t = at(t0, i as f64 * 0.1);
-            if i % 9 == 8 {
+            let t = after(t0, Duration::from_millis(10 * i));
+            if i % 90 == 80 {
                 c.handle(&host(Message::AckUStatusUpdate), t);
             }
             sent += c.tick(t).len();
         }
-        assert_eq!(sent, 31, "one update per 100 ms while acknowledged");
+        assert_eq!(
+            sent, 30,
+            "one update per 100 ms while acknowledged, the first 100 ms after the start"
+        );
         assert!(c.updates_running());
         // No acknowledgement after 2.4 s: 1 s later the updates stop.
         let mut late = 0;
@@ -873,6 +908,74 @@ mod tests {
         assert!(!c.updates_running());
         assert!(late < 10, "{late}");
         assert_eq!(c.counters().updates_lapsed, 1);
+    }
+
+    /// The times (ms after HW_START_UPDATEMSGS) of the update messages sent in `seconds`,
+    /// ticking every millisecond and acknowledging every 0.9 s.
+    fn update_times(c: &mut EmulatorCore, t0: HostTime, seconds: u64) -> Vec<u64> {
+        c.handle(&host(Message::HwStartUpdateMsgs), t0);
+        let mut times = Vec::new();
+        for ms in 0..=seconds * 1000 {
+            let t = after(t0, Duration::from_millis(ms));
+            if ms % 900 == 899 {
+                c.handle(&host(Message::AckUStatusUpdate), t);
+            }
+            let n = c
+                .tick(t)
+                .iter()
+                .filter(|p| matches!(p.message, Message::GetStatusUpdate(_)))
+                .count();
+            times.extend(std::iter::repeat_n(ms, n));
+        }
+        times
+    }
+
+    #[test]
+    fn update_messages_start_a_period_after_the_request_and_keep_a_100_ms_cadence() {
+        let (mut c, _, t0) = setup();
+        let times = update_times(&mut c, t0, 2);
+        assert_eq!(times.first(), Some(&100), "the first update: {times:?}");
+        assert!(times.windows(2).all(|w| w[1] - w[0] == 100), "{times:?}");
+        // A motion's end is not announced with an extra update: the cadence runs on.
+        let (mut c, motor, t0) = setup();
+        c.handle(&host(Message::HwStartUpdateMsgs), t0);
+        c.handle(
+            &host(Message::MoveRelative {
+                channel: 1,
+                distance: zfs25().to_steps(Millimetres(0.05)).expect("steps"),
+            }),
+            at(t0, 0.05),
+        );
+        let mut updates = Vec::new();
+        for ms in 0..=1000u64 {
+            let t = after(t0, Duration::from_millis(ms));
+            for p in c.tick(t) {
+                if matches!(p.message, Message::GetStatusUpdate(_)) {
+                    updates.push(ms);
+                }
+            }
+        }
+        assert!(!motor.status_at(at(t0, 1.0)).moving);
+        assert!(updates.iter().all(|ms| ms % 100 == 0), "{updates:?}");
+    }
+
+    #[test]
+    fn jittered_updates_come_late_by_at_most_the_jitter_and_keep_the_period_on_average() {
+        let (mut c, _, t0) = setup();
+        c.config.update_jitter = Duration::from_millis(30);
+        c.jitter_state = 0x5eed;
+        let times = update_times(&mut c, t0, 10);
+        assert!((100..=130).contains(&times[0]), "{times:?}");
+        for (k, t) in times.iter().enumerate() {
+            let tick = 100 * (k as u64 + 1);
+            assert!(
+                (tick..=tick + 30).contains(t),
+                "update {k} at {t} ms: {times:?}"
+            );
+        }
+        let gaps: Vec<u64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(gaps.iter().any(|g| *g != 100), "jitter seen: {gaps:?}");
+        assert!((99..=100).contains(&times.len()), "{}", times.len());
     }
 
     #[test]

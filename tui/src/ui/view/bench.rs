@@ -186,6 +186,17 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
             lost,
         ]),
         Line::from(vec![
+            Span::raw("     "),
+            Span::styled(
+                format!("peak |F| {:>7.3} N since opened or tared", b.force.peak_n),
+                Style::new().fg(if b.force.max_n > 0.0 && b.force.peak_n > b.force.max_n {
+                    WARN
+                } else {
+                    MEASURED
+                }),
+            ),
+        ]),
+        Line::from(vec![
             Span::raw(format!(
                 "cam  {:>5.1} fps  frame {}  ",
                 b.camera.fps, b.camera.frame_id

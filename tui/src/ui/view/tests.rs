@@ -146,6 +146,7 @@ fn on_bench() -> UiState {
                 lost: 3,
                 restarts: 0,
                 max_n: 15.0,
+                peak_n: 15.9,
             },
             camera: CameraState {
                 device: "simulated camera".into(),
@@ -165,7 +166,7 @@ fn on_bench() -> UiState {
             messages: [
                 "bench open: jog, home and tare from here; a scan takes the devices over",
                 "z: moving by +0.100 mm",
-                "force 15.70 N over the ceiling 15.00 N: every axis stopped; retract z before anything else",
+                "force 15.70 N over the ceiling 15.00 N: z stopped; moves into or across the sensor are refused until it is under; retract z (←, or h)",
             ]
             .map(String::from)
             .into(),
@@ -252,6 +253,7 @@ fn validating() -> UiState {
         offered: 300,
         ran: 280,
         skipped: 20,
+        cut: 0,
         loop_hz: 46.5,
         latency_ms: 18.2,
         history: (0..40)

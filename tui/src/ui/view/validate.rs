@@ -112,6 +112,11 @@ fn draw_metrics(f: &mut Frame, area: Rect, v: &ValidationState) {
                 v.loop_hz, v.latency_ms, v.ran, v.offered
             )),
             Span::styled(format!("{} skipped", v.skipped), skipped_style),
+            Span::raw(if v.cut > 0 {
+                format!(" · {} cut with interrupted points", v.cut)
+            } else {
+                String::new()
+            }),
         ]),
         match &v.failure {
             Some(why) => Line::styled(why.clone(), Style::new().fg(BAD)),
