@@ -8,6 +8,7 @@
 //! - [`offset_check`]: the zero-load check against the sensor's profile, called at every offset
 //!   measurement.
 //! - [`origin`]: the stage position of the sensor centre, origin of contact labels.
+//! - [`resume_check`]: what a resume may not change (plan, sync, sensor, camera, geometry).
 //! - [`sidecar`]: files a caller adds to a run (the engine never names where they come from).
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
@@ -19,5 +20,6 @@ pub mod offset_check;
 pub mod origin;
 pub mod plan;
 pub mod press;
+pub mod resume_check;
 pub mod sidecar;
 pub mod watchers;

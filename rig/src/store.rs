@@ -16,6 +16,7 @@
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
 //! - [`durable`]: atomic file replacement and durable directory entries.
+//! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
 //! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
 //! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
 //! - [`manifest`]: the checksum manifest.
@@ -28,6 +29,7 @@ pub mod durable;
 pub mod export;
 pub mod force_log;
 pub mod manifest;
+pub mod own_file;
 pub mod run_list;
 pub mod run_lock;
 pub mod run_writer;

@@ -323,6 +323,35 @@ fn damage_of_every_kind_is_reported() {
 }
 
 #[test]
+fn frames_of_another_size_than_the_runs_fail_verify() {
+    let root = scratch("two-sizes");
+    let mut w = RunWriter::create(&root, &start("run-sizes")).expect("create");
+    write_frames(&mut w, 0..3);
+    // Then frames from another camera size (a resume on another rig, as it was possible).
+    for id in 3..5 {
+        let index = w.next_index();
+        let small = Frame {
+            width: 4,
+            height: 2,
+            data: vec![9; 24],
+            ..frame(id)
+        };
+        let file = w.save_frame_image(&small, index).expect("frame image");
+        w.append_frame(&record(index, file, -1.0)).expect("record");
+    }
+    w.checkpoint().expect("checkpoint");
+    let dir = w.finish(&stop(5, 300)).expect("finish");
+    let report = verify(&dir).expect("verify");
+    let sized: Vec<&String> = report
+        .problems
+        .iter()
+        .filter(|p| p.contains("4x2 px, where the run's frames are 8x4 px"))
+        .collect();
+    assert_eq!(sized.len(), 2, "{:?}", report.problems);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
 fn a_refused_or_damaged_resume_leaves_the_run_as_it_was() {
     let root = scratch("refused");
     let mut w = RunWriter::create(&root, &start("run-d")).expect("create");

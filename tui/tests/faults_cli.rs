@@ -339,6 +339,22 @@ fn a_second_process_cannot_write_a_run_being_written_and_a_killed_writers_lock_i
     // The writer is killed: its lock goes with it, and the resume takes the run over.
     first.kill().expect("kill -9");
     let _ = first.wait();
+    // A resume on a rig that films at another size is refused before the run is touched.
+    let other = dir.join("other-size.toml");
+    std::fs::write(
+        &other,
+        QUICK_RIG.replace("image_scale = 0.25", "image_scale = 0.125"),
+    )
+    .expect("rig file");
+    let frames_before = std::fs::read(run.join("frames.jsonl")).expect("frames");
+    let refused = resume(&other, &run);
+    let t = text(&refused);
+    assert!(!refused.status.success(), "{t}");
+    assert!(t.contains("sim.image_scale: 0.25 -> 0.125"), "{t}");
+    assert_eq!(
+        std::fs::read(run.join("frames.jsonl")).expect("frames"),
+        frames_before
+    );
     resume_to_the_end(&rig, &run);
     assert!(
         !run.join(".lock").exists(),

@@ -391,8 +391,10 @@ fn quitting_is_refused_while_a_scan_runs_and_ctrl_c_aborts_it_with_z_retracted()
 }
 
 #[test]
-fn a_hung_up_terminal_aborts_the_scan_and_the_process_exits() {
+fn a_hung_up_terminal_interrupts_the_scan_resumable_and_the_process_exits() {
     let dir = scratch("hangup");
+    // The UI opens the rig file of its working directory (quick axes) and the built-in plan.
+    let (rig, _) = common::scan_files(&dir);
     let pane = Pane::start("hangup", &dir, &fringe());
     pane.wait_for("ready: press r to run", Duration::from_secs(30));
     let shell = pane.flag("pane_pid");
@@ -417,7 +419,18 @@ fn a_hung_up_terminal_aborts_the_scan_and_the_process_exits() {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
+    // A hang-up is an interruption, not the operator's decision: z retracted and the run closed
+    // resumable (before, it was closed as aborted and could not be resumed).
     let recorded = runs(&dir);
     assert_eq!(recorded.len(), 1);
-    assert_eq!(recorded[0].1["exit_status"], "aborted", "{:?}", recorded[0]);
+    let (run, stop) = &recorded[0];
+    assert_eq!(stop["exit_status"], "failed", "{stop}");
+    let reason = stop["reason"].as_str().unwrap_or_default();
+    assert!(reason.contains("interrupted"), "{reason}");
+    let out = common::resume(&rig, run);
+    let t = common::text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(t.contains("completed: 6 of 6 points"), "{t}");
+    let verify = common::fringe(&["verify", run.to_str().expect("path")]);
+    assert!(verify.status.success(), "{}", common::text(&verify));
 }

@@ -522,22 +522,17 @@ fn open_run(
         RunTarget::Resume { dir } => {
             // Everything is checked before the run is touched: a refused resume changes nothing.
             let (writer, existing) = RunWriter::reopen_if(dir, |existing| {
-                if existing.start.plan != setup.plan_text {
-                    return Err(ScanError::Setup(format!(
-                        "{}: the run was made with a different plan; resume it with the plan stored in its {} (the `plan` field)",
-                        dir.display(),
-                        crate::store::START
-                    )));
+                match super::resume_check::refusal(
+                    &dir.display().to_string(),
+                    &existing.start,
+                    &setup.plan_text,
+                    setup.sync.name(),
+                    &setup.sensor_id,
+                    &setup.rig_text,
+                ) {
+                    Some(why) => Err(ScanError::Setup(why)),
+                    None => Ok(()),
                 }
-                if existing.start.sync_method != setup.sync.name() {
-                    return Err(ScanError::Setup(format!(
-                        "{}: the run used sync method {}, the rig now says {}",
-                        dir.display(),
-                        existing.start.sync_method,
-                        setup.sync
-                    )));
-                }
-                Ok(())
             })?;
             let first = existing.checkpoint.as_ref().map_or(0, |c| c.next_point);
             let failed = existing.failed_stop.map(|s| s.reason);

@@ -311,6 +311,8 @@ fn write_export(
                 continue;
             }
             let name = format!("image_{k}.tiff");
+            super::own_file::check_in(run, Path::new(&record.file))
+                .map_err(|e| StoreError::io(&source, e))?;
             let image = image::open(&source).map_err(|e| StoreError::Content {
                 path: source.clone(),
                 message: format!("{e} (frame of record {})", record.index),

@@ -40,6 +40,17 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
 
 /// SHA-256 of a file, lower-case hex.
 pub fn sha256_file(path: &Path) -> Result<String, StoreError> {
+    if let Ok(meta) = std::fs::symlink_metadata(path) {
+        if !meta.file_type().is_file() {
+            return Err(StoreError::io(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "is not a regular file (a link, a FIFO or a device): a run's files are its own regular files",
+                ),
+            ));
+        }
+    }
     let mut file = File::open(path).map_err(|e| StoreError::io(path, e))?;
     let mut hasher = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];
@@ -80,6 +91,12 @@ pub fn check(dir: &Path) -> Result<Vec<String>, StoreError> {
         };
         listed.push(rel.to_string());
         let file = dir.join(rel);
+        if let Err(e) = super::own_file::check_in(dir, Path::new(rel)) {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                problems.push(format!("{rel}: {e}"));
+                continue;
+            }
+        }
         if !file.is_file() {
             problems.push(format!("{rel}: listed in {MANIFEST} but missing"));
             continue;

@@ -9,6 +9,7 @@
 
 use super::documents::{now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use super::durable::{sync_dir, write_atomic};
+use super::own_file;
 use super::run_lock::RunLock;
 use super::{
     force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START,
@@ -31,7 +32,7 @@ fn json<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, StoreErro
 
 /// Reads a JSON document.
 pub fn read_document<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StoreError> {
-    let text = std::fs::read_to_string(path).map_err(|e| StoreError::io(path, e))?;
+    let text = own_file::read_to_string(path).map_err(|e| StoreError::io(path, e))?;
     serde_json::from_str(&text).map_err(|e| StoreError::Parse {
         path: path.to_path_buf(),
         line: e.line(),
@@ -43,7 +44,7 @@ pub fn read_document<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, S
 pub fn read_lines<T: serde::de::DeserializeOwned>(
     path: &Path,
 ) -> Result<(Vec<T>, Option<String>), StoreError> {
-    let text = match std::fs::read_to_string(path) {
+    let text = match own_file::read_to_string(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((Vec::new(), None)),
         Err(e) => return Err(StoreError::io(path, e)),
@@ -410,7 +411,7 @@ pub(crate) struct FrameLines {
 /// Reads `frames.jsonl` (a missing file holds no records).
 pub(crate) fn read_frame_lines(path: &Path) -> Result<FrameLines, StoreError> {
     let (records, torn) = read_lines::<FrameRecord>(path)?;
-    let text = match std::fs::read(path) {
+    let text = match own_file::read(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => return Err(StoreError::io(path, e)),
@@ -532,7 +533,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
     let (events, torn) = read_lines::<Event>(&dir.join(EVENTS))?;
     let events_torn = torn.map_or(0, |t| t.len() as u64);
     let force_path = dir.join(FORCE);
-    let bytes = std::fs::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
+    let bytes = own_file::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
     let (samples, force_torn) = force_log::decode_all(&bytes).map_err(|e| StoreError::Content {
         path: force_path.clone(),
         message: e.to_string(),

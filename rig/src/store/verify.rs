@@ -6,7 +6,7 @@ use super::documents::{FrameRecord, StartDocument, StopDocument};
 use super::run_writer::{
     check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
 };
-use super::{force_log, manifest, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
+use super::{force_log, manifest, own_file, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use std::path::Path;
 
 /// What `fringe verify` found.
@@ -48,7 +48,29 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
             Vec::new()
         }
     };
+    // Every frame has the run's size (the first frame's): a run filmed at two sizes is two
+    // runs in one directory.
+    let mut size: Option<(u32, u32)> = None;
+    let mut other_sizes = 0u64;
     for (k, f) in frames.iter().enumerate() {
+        let own = own_file::check_in(dir, Path::new(&f.file)).is_ok();
+        if let (Ok(path), true) = (f.file_in(dir), own) {
+            if let Some(dims) = image_size(&path) {
+                match size {
+                    None => size = Some(dims),
+                    Some(first) if first != dims => {
+                        other_sizes += 1;
+                        if other_sizes <= 3 {
+                            problems.push(format!(
+                                "{}: {}x{} px, where the run's frames are {}x{} px (filmed by another camera or at another size)",
+                                f.file, dims.0, dims.1, first.0, first.1
+                            ));
+                        }
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
         if f.index != k as u64 {
             problems.push(format!(
                 "{FRAMES}: record {} has index {}, expected {k}",
@@ -57,16 +79,24 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
             ));
         }
         match f.file_in(dir) {
-            Ok(path) if path.is_file() => {}
-            Ok(_) => problems.push(format!(
-                "{}: frame of record {} is missing",
-                f.file, f.index
-            )),
+            Ok(_) => match own_file::check_in(dir, Path::new(&f.file)) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => problems.push(format!(
+                    "{}: frame of record {} is missing",
+                    f.file, f.index
+                )),
+                Err(e) => problems.push(format!("{}: {e}", f.file)),
+            },
             Err(e) => problems.push(e.to_string()),
         }
     }
+    if other_sizes > 3 {
+        problems.push(format!(
+            "{FRAMES}: {other_sizes} frames in all are not the size of the run's first frame"
+        ));
+    }
     let force_path = dir.join(FORCE);
-    let force_samples = match std::fs::read(&force_path) {
+    let force_samples = match own_file::read(&force_path) {
         Ok(bytes) => match force_log::decode_all(&bytes) {
             Ok((samples, torn)) => {
                 if torn > 0 {
@@ -143,4 +173,15 @@ fn check_against_checkpoint(dir: &Path, lines: &FrameLines, problems: &mut Vec<S
         }
         Err(e) => problems.push(e.to_string()),
     }
+}
+
+/// Width and height of an image file, from its header; `None` when it cannot be read (a missing
+/// or damaged frame is reported by the other checks).
+fn image_size(path: &Path) -> Option<(u32, u32)> {
+    image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
 }
