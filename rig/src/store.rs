@@ -13,6 +13,7 @@
 //!   .lock             held by the process writing the run (not part of the run)
 //! ```
 //!
+//! - [`disk_space`]: room left on the disk, checked before long writes.
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
 //! - [`durable`]: atomic file replacement and durable directory entries.
@@ -24,6 +25,7 @@
 //! - [`run_list`]: the runs under a directory, newest first.
 //! - [`export`]: the reference pipeline's `0.images/` + `0.labels.csv` layout.
 
+pub mod disk_space;
 pub mod documents;
 pub mod durable;
 pub mod export;

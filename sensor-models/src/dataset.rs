@@ -12,6 +12,9 @@ use std::path::{Path, PathBuf};
 
 /// |Fz| under this is no contact, N.
 pub const CONTACT_THRESHOLD_N: f64 = 0.2;
+/// The largest force or moment a label row may hold, N or N m: far beyond any F/T sensor of an
+/// indentation bench (a row beyond it is a unit or parsing mistake, not a reading).
+pub const MAX_LABEL_N: f64 = 1e4;
 
 /// One labelled frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -236,10 +239,48 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
                 message: "a force or moment is missing".into(),
             });
         }
+        if let Some((i, v)) = force
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.abs() > MAX_LABEL_N)
+        {
+            return Err(DatasetError::Csv {
+                path: shown.clone(),
+                line,
+                message: format!(
+                    "{} = {v:e} is beyond {MAX_LABEL_N:e} (N or N m): not a reading of a force sensor; fix or remove the row",
+                    names[i + 1]
+                ),
+            });
+        }
         let (x, y) = (num(7)?, num(8)?);
         let contact = (x.is_finite() && y.is_finite()).then_some([x, y]);
-        let (force, shape, contact) = label(force, field(9), contact);
+        let named = field(9);
+        if contact.is_none() && named != "None" && force[2].abs() >= CONTACT_THRESHOLD_N {
+            return Err(DatasetError::Csv {
+                path: shown.clone(),
+                line,
+                message: format!(
+                    "Fz = {} N presses a {named} but the row has no contact position (X_Position_mm, Y_Position_mm): give it, or mark the row Indentor_Shape None",
+                    force[2]
+                ),
+            });
+        }
+        let (force, shape, contact) = label(force, named, contact);
         let image = field(0);
+        let plain = !image.is_empty()
+            && Path::new(image)
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)));
+        if !plain {
+            return Err(DatasetError::Csv {
+                path: shown.clone(),
+                line,
+                message: format!(
+                    "New_Image_Name = {image:?} is not a file name inside 0.images/ (no absolute path, no `..`): a dataset holds its own images"
+                ),
+            });
+        }
         samples.push(Sample {
             image: dir.join("0.images").join(image),
             format: None,
@@ -295,5 +336,44 @@ mod tests {
             Some([1.0, 2.0]),
         );
         assert_eq!((s.as_str(), c), ("None", None));
+    }
+
+    /// Reads a reference-layout dataset whose labels file holds `rows` after the header.
+    fn read_rows(name: &str, rows: &str) -> Result<Source, DatasetError> {
+        let dir = std::env::temp_dir().join(format!("fringe-rows-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("0.images")).expect("dataset dir");
+        let header =
+            "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape";
+        std::fs::write(dir.join("0.labels.csv"), format!("{header}\n{rows}")).expect("labels");
+        let read = read(&dir);
+        let _ = std::fs::remove_dir_all(&dir);
+        read
+    }
+
+    #[test]
+    fn label_rows_that_cannot_be_true_are_refused_naming_the_row() {
+        let ok = "image_0.tiff,0,0,-3.0,0,0,0,3.0,1.0,2.0,pentagon\n\
+                  image_1.tiff,0,0,-0.05,0,0,0,0.05,,,None\n";
+        assert_eq!(read_rows("ok", ok).expect("good rows").samples.len(), 2);
+        let cases = [
+            (
+                "image_0.tiff,0,0,-3.0,0,0,0,3.0,nan,nan,pentagon\n",
+                "no contact position",
+            ),
+            (
+                "image_0.tiff,0,0,-1e308,0,0,0,1,1,2,pentagon\n",
+                "Fz = -1e308",
+            ),
+            (
+                "/etc/passwd,0,0,-3,0,0,0,3,1,2,pentagon\n",
+                "not a file name",
+            ),
+            ("../x.tiff,0,0,-3,0,0,0,3,1,2,pentagon\n", "not a file name"),
+        ];
+        for (row, why) in cases {
+            let e = read_rows("bad", row).expect_err(row).to_string();
+            assert!(e.contains("line 2") && e.contains(why), "{row}: {e}");
+        }
     }
 }

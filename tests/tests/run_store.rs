@@ -323,6 +323,28 @@ fn damage_of_every_kind_is_reported() {
 }
 
 #[test]
+fn an_interrupted_export_removes_what_it_wrote() {
+    use fringe_rig::store::export::{export_reference, ExportOptions};
+    static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+    let root = scratch("export-interrupted");
+    let run = finished_run(&root, "run-x");
+    let out = root.join("exported");
+    let options = ExportOptions {
+        cancel: Some(&INTERRUPTED),
+        ..ExportOptions::default()
+    };
+    let e = export_reference(std::slice::from_ref(&run), &out, &options, |_| {})
+        .expect_err("interrupted");
+    assert!(e.to_string().contains("interrupted"), "{e}");
+    let left: Vec<String> = std::fs::read_dir(&root)
+        .expect("root")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, vec!["run-x".to_string()], "nothing beside the run");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
 fn frames_of_another_size_than_the_runs_fail_verify() {
     let root = scratch("two-sizes");
     let mut w = RunWriter::create(&root, &start("run-sizes")).expect("create");

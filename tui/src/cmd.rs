@@ -10,6 +10,7 @@ pub mod demo;
 pub mod devices;
 pub mod eval;
 pub mod ft;
+pub mod interrupt;
 pub mod limits;
 pub mod model;
 pub mod runs;

@@ -290,13 +290,22 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
     let verify = fringe(&["verify", path(&run)]);
     assert!(verify.status.success(), "{}", text(&verify));
 
-    // An empty directory is fine, and holds exactly the export afterwards.
+    // What an export killed earlier left (a process that is gone) is removed by the next one.
     std::fs::remove_dir_all(&out).expect("clean");
+    let stale = root.join(".dataset.partial-999999999");
+    std::fs::create_dir_all(stale.join("0.images")).expect("stale partial");
+    std::fs::write(stale.join("0.images/image_0.tiff"), b"half").expect("stale");
+
+    // An empty directory is fine, and holds exactly the export afterwards.
     std::fs::create_dir(&out).expect("empty");
     let result = fringe(&["export", path(&run), "--out", path(&out)]);
     assert!(result.status.success(), "{}", text(&result));
     let files: Vec<String> = snapshot(&out).into_keys().collect();
     assert_eq!(files.len(), 8 + 2, "{files:?}");
+    assert!(
+        !stale.exists(),
+        "the stale partial of a dead export is gone"
+    );
     let _ = std::fs::remove_dir_all(root);
 }
 

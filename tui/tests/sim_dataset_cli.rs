@@ -294,6 +294,17 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
         assert!(err.contains(flag) && err.contains(hint), "{args:?}: {err}");
         assert!(!out.exists(), "{args:?} created the directory");
     }
+    // A million full-size frames (3.5 TB) do not fit on the test machine's disk: refused before
+    // anything is written, saying how much is needed and how much is free.
+    let o = fringe(&["sim", "dataset", "--count", "1000000", "--out", s(&out)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("1000000 frames need about 3.5 TB") && err.contains("free"),
+        "{err}"
+    );
+    assert!(!out.exists(), "the directory was created");
     let o = fringe(&["sim", "dataset", "--count", "4", "--out", s(&file)]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());

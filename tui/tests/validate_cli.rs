@@ -149,4 +149,29 @@ fn validation_with_a_missing_or_bad_model_says_what_to_pass() {
         .expect("run");
     assert!(!out.status.success());
     assert!(text(&out).contains("notes.pth"), "{}", text(&out));
+    // A model whose classes do not name the plan's indenter is refused before the scan, as
+    // eval refuses it, instead of leaving every contact frame unscored.
+    let weights = dir.join("other-classes.safetensors");
+    std::fs::copy(constant_model(&dir), &weights).expect("weights");
+    std::fs::write(
+        dir.join("other-classes.json"),
+        r#"{"classes": ["None", "triangle", "rectangle"]}"#,
+    )
+    .expect("card");
+    let plan = dir.join("plan.toml");
+    std::fs::write(&plan, VALIDATE_PLAN).expect("plan");
+    let out = common::fringe_command()
+        .current_dir(&dir)
+        .args(["validate", "--no-tui", "--yes", "--model"])
+        .arg(&weights)
+        .arg("--plan")
+        .arg(&plan)
+        .arg("--out")
+        .arg(dir.join("runs"))
+        .output()
+        .expect("run");
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(t.contains("do not include pentagon"), "{t}");
+    assert!(!t.contains("completed"), "refused before the scan ran: {t}");
 }

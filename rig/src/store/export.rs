@@ -19,14 +19,18 @@ use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::io::Cursor;
 use std::path::{Component, Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The reference header line.
 pub const HEADER: &str =
     "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape";
 
 /// Export options.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct ExportOptions {
+    /// Set (by a signal handler) to stop the export: what was written is removed and an error
+    /// returned, as for any failed export.
+    pub cancel: Option<&'static AtomicBool>,
     /// Round forces, torques and positions to this step (the reference trained on 0.1).
     pub round: Option<f64>,
     /// Export runs that fail verify too (their problems are recorded in `0.export.json`).
@@ -134,6 +138,7 @@ pub fn export_reference(
     progress: impl FnMut(u64),
 ) -> Result<ExportSummary, StoreError> {
     let (parent, staging) = check_destination(runs, out)?;
+    remove_stale_partials(&parent, &staging);
     let mut checked = Vec::with_capacity(runs.len());
     // Each run stands still while it is read: a scan or a resume writing it is refused meanwhile,
     // and an export of a run being written is refused.
@@ -174,6 +179,37 @@ pub fn export_reference(
             // Best effort: the error that stopped the export is the one to report.
             let _ = std::fs::remove_dir_all(&staging);
             Err(e)
+        }
+    }
+}
+
+/// Removes what earlier exports to the same destination left when their process was killed
+/// (`.<name>.partial-<pid>` of a pid that is no longer running).
+fn remove_stale_partials(parent: &Path, staging: &Path) {
+    let Some(ours) = staging
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+    else {
+        return;
+    };
+    let Some((prefix, _)) = ours.rsplit_once('-') else {
+        return;
+    };
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix(prefix)
+            .and_then(|rest| rest.strip_prefix('-'))
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let alive = Path::new("/proc").join(pid.to_string()).exists();
+        if !alive && entry.file_type().is_ok_and(|t| t.is_dir()) {
+            let _ = std::fs::remove_dir_all(entry.path());
         }
     }
 }
@@ -301,6 +337,14 @@ fn write_export(
         let mut indices = HashSet::new();
         let mut files = HashSet::new();
         for record in records {
+            if options.cancel.is_some_and(|c| c.load(Ordering::SeqCst)) {
+                return Err(StoreError::Content {
+                    path: dir.to_path_buf(),
+                    message:
+                        "the export was interrupted (Ctrl-C or a signal); nothing was exported"
+                            .into(),
+                });
+            }
             let source = record.file_in(run)?;
             if !indices.insert(record.index) || !files.insert(record.file.clone()) {
                 duplicates += 1;

@@ -61,6 +61,14 @@ pub enum SessionError {
         dir.display()
     )]
     NoGeometry { sensor_id: String, dir: PathBuf },
+    #[error(
+        "{model}: the model's shape classes ({classes}) do not include {missing}, which this scan's          frames will be labelled with: it cannot be scored on them (use a model trained for these          indenters, or a plan that presses only those it knows)"
+    )]
+    ClassesMissing {
+        model: String,
+        classes: String,
+        missing: String,
+    },
     #[error("the simulated sensor {sensor_id}'s design geometry cannot be written into the run: {message}")]
     DesignProfile { sensor_id: String, message: String },
     #[error(transparent)]
@@ -223,6 +231,27 @@ impl ScanSession {
         backend: Box<dyn Backend>,
         run_id: &str,
     ) -> Result<(LiveValidation, String), SessionError> {
+        // Every label this scan makes (no contact, and each indenter the plan presses) must be
+        // one of the model's classes: refused up front, not left unscored frame by frame.
+        let labels = std::iter::once("None").chain(
+            self.setup
+                .program
+                .plan
+                .indenters
+                .shapes
+                .iter()
+                .map(String::as_str),
+        );
+        let missing: Vec<&str> = labels
+            .filter(|l| !model.classes.iter().any(|c| c == l))
+            .collect();
+        if !missing.is_empty() {
+            return Err(SessionError::ClassesMissing {
+                model: model.path.display().to_string(),
+                classes: model.classes.join(", "),
+                missing: missing.join(", "),
+            });
+        }
         let Some((profile, why)) = self.geometry_profile() else {
             return Err(SessionError::NoGeometry {
                 sensor_id: self.setup.sensor_id.clone(),

@@ -54,7 +54,15 @@ pub fn run(a: EvalArgs) -> Result<()> {
     };
     let mut sources = Vec::with_capacity(a.data.len());
     for d in &a.data {
-        sources.push(dataset::read(d)?);
+        let source = dataset::read(d)?;
+        if source.samples.is_empty() {
+            bail!(
+                "{}: no labelled frame to evaluate ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
+                d.display(),
+                source.skipped
+            );
+        }
+        sources.push(source);
     }
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let tty = std::io::stderr().is_terminal();

@@ -119,6 +119,8 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
     let options = fringe_rig::store::export::ExportOptions {
         round: args.round,
         allow_unverified: args.allow_unverified,
+        // Ctrl-C, SIGTERM or a hang-up stop the export and remove what it wrote.
+        cancel: Some(crate::cmd::interrupt::on_signals()),
     };
     // On a terminal the count is rewritten in place; otherwise one line per report.
     let terminal = std::io::stderr().is_terminal();

@@ -115,6 +115,11 @@ pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
     }
     let out = &args.out;
     let images = out.join(IMAGES);
+    // Before anything is written: the frames still to render must fit on the disk.
+    let rendered_before = (0..spec.count)
+        .filter(|k| images.join(image_name(*k)).is_file())
+        .count() as u64;
+    check_room(&images, &sensor, spec.count - rendered_before)?;
     let document = dataset_document(&spec, &sensor)?;
     let already = prepare(out, &document)?;
     std::fs::create_dir_all(&images)
@@ -169,6 +174,40 @@ pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
         profile_path.display(),
         out.display()
     );
+    Ok(())
+}
+
+/// Refuses to start when `frames` more frames cannot fit on the disk holding `images`. A frame
+/// takes what a rendered frame of this sensor takes: one already there, else half its raw RGB
+/// size (lossless PNG of fringes: 3.3 MB for 1920x1200).
+fn check_room(images: &Path, sensor: &SensorConfig, frames: u64) -> anyhow::Result<()> {
+    use fringe_rig::store::disk_space::{available_bytes, human};
+    if frames == 0 {
+        return Ok(());
+    }
+    let seen = std::fs::read_dir(images)
+        .ok()
+        .into_iter()
+        .flatten()
+        .filter_map(Result::ok)
+        .filter_map(|e| e.metadata().ok())
+        .filter(|m| m.is_file() && m.len() > 0)
+        .map(|m| m.len())
+        .max();
+    let raw = u64::from(sensor.geometry.width) * u64::from(sensor.geometry.height) * 3;
+    let per_frame = seen.unwrap_or(raw / 2);
+    let needed = per_frame.saturating_mul(frames);
+    let free = available_bytes(images)
+        .with_context(|| format!("{}: cannot tell the free disk space", images.display()))?;
+    if needed > free {
+        bail!(
+            "{}: {frames} frames need about {} ({} each) and the disk holding it has {} free; free space, choose another --out, or lower --count",
+            images.display(),
+            human(needed),
+            human(per_frame),
+            human(free)
+        );
+    }
     Ok(())
 }
 

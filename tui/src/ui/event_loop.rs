@@ -498,6 +498,12 @@ impl App {
             KeyCode::Char('c') => {
                 if let Some(r) = &self.running {
                     r.control.resume();
+                    // A pause asked for and taken back before the scan reached it: the scan goes
+                    // on, and says so (if it had begun to pause, its own report follows).
+                    if matches!(&self.state.scan.phase, Phase::Stopping(what) if what.starts_with("pausing"))
+                    {
+                        self.state.scan.phase = Phase::Running;
+                    }
                 }
             }
             KeyCode::Char('a') => {
@@ -868,10 +874,7 @@ impl App {
         row.exported = Some(format!("exporting to {}...", out.display()));
         let tx = self.export.0.clone();
         std::thread::spawn(move || {
-            let options = fringe_rig::store::export::ExportOptions {
-                round: None,
-                allow_unverified: false,
-            };
+            let options = fringe_rig::store::export::ExportOptions::default();
             let outcome =
                 fringe_rig::store::export::export_reference(&[dir], &out, &options, |k| {
                     if k % 250 == 0 {
