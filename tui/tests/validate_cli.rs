@@ -29,10 +29,17 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     std::fs::write(&plan, VALIDATE_PLAN).expect("plan");
     let report = dir.join("report");
     let runs = dir.join("runs");
+    // Full-size frames at 25 fps: with the network running beside it, a debug build films at
+    // 50 fps on 2 cores only with nothing else running, and drops pause the scan (the figures
+    // under test do not depend on the rate; the counts are over the frames the run keeps).
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, "[camera]\nframe_rate = 25.0\n").expect("rig file");
     let out = common::fringe_command()
         .current_dir(&dir)
         .args(["validate", "--no-tui", "--yes", "--model"])
         .arg(&model)
+        .arg("--rig")
+        .arg(&rig)
         .arg("--plan")
         .arg(&plan)
         .arg("--out")

@@ -10,6 +10,7 @@
 //! ``rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)``. Commented examples:
 //! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
 
+use fringe_rig::apt::Actuator;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
@@ -522,6 +523,35 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
                 )));
             }
         }
+        // A stepper axis (Thorlabs, and the simulated bench's emulated KST101 + ZFS25) takes its
+        // velocity and acceleration in 32-bit device units: checked here, not at the first move.
+        let stepper = match a.driver {
+            AxisDriver::Sim => Actuator::by_name("ZFS25"),
+            AxisDriver::Thorlabs => a.actuator.as_deref().and_then(Actuator::by_name),
+            _ => None,
+        };
+        if let Some(act) = stepper {
+            let v = a
+                .velocity
+                .map(|v| act.velocity_to_device(MillimetresPerSecond(v)).err());
+            let acc = a.acceleration.map(|v| {
+                act.acceleration_to_device(MillimetresPerSecondSquared(v))
+                    .err()
+            });
+            for (key, value, bad) in [
+                ("velocity", a.velocity, v.flatten().is_some()),
+                ("acceleration", a.acceleration, acc.flatten().is_some()),
+            ] {
+                if bad {
+                    return Err(err(format!(
+                        "key `{name}.{key}` = {}: more than a {} controller can be given for the {} (its {key} is a 32-bit number of device units); use a value the stage's datasheet allows",
+                        value.unwrap_or_default(),
+                        if a.driver == AxisDriver::Sim { "simulated KST101" } else { "Thorlabs" },
+                        act.name
+                    )));
+                }
+            }
+        }
         if (name == "x" || name == "z") && a.driver == AxisDriver::Manual {
             return Err(err(format!(
                 "key `{name}.driver` = \"manual\": only y may be moved by hand (x and z need sim or thorlabs)"
@@ -646,6 +676,12 @@ mod tests {
 
     #[test]
     fn errors_name_the_file_the_key_and_what_is_allowed() {
+        let e = RigConfig::parse("[z]\nvelocity = 2000\n", "rig.toml").expect_err("too fast");
+        assert!(
+            e.to_string()
+                .contains("key `z.velocity` = 2000: more than a simulated KST101"),
+            "{e}"
+        );
         let e = RigConfig::parse("[x]\nvelocity = -1\n", "rig.toml").expect_err("negative");
         assert_eq!(
             e.to_string(),
