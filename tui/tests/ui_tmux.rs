@@ -293,6 +293,8 @@ fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
 #[test]
 fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
     let dir = scratch("calibrate");
+    // The default bench at 25 fps (see the scan test).
+    std::fs::write(dir.join("rig.toml"), "[camera]\nframe_rate = 25.0\n").expect("rig file");
     let pane = Pane::start("calibrate", &dir, &fringe());
     pane.wait_for("ready: press r to run", Duration::from_secs(30));
     pane.keys("5");
@@ -335,6 +337,8 @@ fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
 #[test]
 fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     let dir = scratch("validate");
+    // The default bench at 25 fps (see the scan test).
+    std::fs::write(dir.join("rig.toml"), "[camera]\nframe_rate = 25.0\n").expect("rig file");
     let plan = dir.join("plan.toml");
     std::fs::write(&plan, common::VALIDATE_PLAN).expect("plan");
     // No --model: the model that ships with fringe.
