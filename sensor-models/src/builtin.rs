@@ -7,7 +7,7 @@
 //! `builtin:NAME`. [`open`] is the one place that resolves a name or a path.
 
 use crate::model::{Model, ModelError};
-use crate::model_card::{CardError, ModelCard};
+use crate::model_card::{CardError, CardSource, ModelCard};
 use crate::safetensors_file::read_safetensors_bytes;
 use std::path::{Path, PathBuf};
 
@@ -72,7 +72,7 @@ impl Builtin {
     pub fn model(&self) -> Result<Model, ModelError> {
         let path = self.path();
         let sd = read_safetensors_bytes(self.weights, &path.display().to_string())?;
-        Model::from_weights(&path, sd, Some(self.card()?))
+        Model::from_weights(&path, sd, Some(self.card()?), CardSource::Builtin)
     }
 }
 
@@ -102,6 +102,34 @@ mod tests {
                 Some("profile")
             );
         }
+    }
+
+    /// The default model was trained on 1920x1200 frames where the sensor is 980 px across:
+    /// frames a quarter that size (`[sim] image_scale = 0.25`) are warned about, naming both.
+    #[test]
+    fn frames_coarser_than_the_training_frames_are_warned_about() {
+        use crate::preprocess::{Centre, Colour, Preprocessing};
+        let m = open(Path::new("default")).expect("default");
+        let at = |radius: f64, w: u32, h: u32| Preprocessing {
+            centre: Centre::Image,
+            crop_radius_px: radius,
+            frame_size: Some((w, h)),
+            sensor: "layered-1".into(),
+            input_size: 112,
+            colour: Colour::Grey,
+            reference: false,
+        };
+        assert_eq!(m.scale_warning(&at(490.0, 1920, 1200)), None);
+        assert_eq!(m.scale_warning(&at(400.0, 1920, 1200)), None);
+        let w = m
+            .scale_warning(&at(122.5, 480, 300))
+            .expect("a quarter-size frame is warned about");
+        assert!(
+            w.contains("245 px across in 480x300 frames")
+                && w.contains("980 px in 1920x1200 frames")
+                && w.contains("4.0x less detail"),
+            "{w}"
+        );
     }
 
     #[test]

@@ -56,7 +56,9 @@ pub use model::{Model, ModelError};
 pub use model_file::{detect_format, read_weights, WeightsFormat};
 pub use model_file_error::{ModelFileError, ModelFileErrorKind};
 pub use preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
-pub use safetensors_file::{read_safetensors, write_safetensors};
+pub use safetensors_file::{
+    card_in_safetensors, read_safetensors, write_safetensors, write_safetensors_with_card,
+};
 pub use state_dict::StateDict;
 pub use tensor::{StoredType, Tensor};
 pub use torch_file::read_torch;

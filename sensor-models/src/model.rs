@@ -4,19 +4,24 @@
 use crate::arch::{default_class_names, recognise, ArchError, Architecture};
 use crate::backend::tract::{output_order, TractBackend};
 use crate::backend::{Backend, BackendKind, InferenceError};
-use crate::model_card::{CardError, ModelCard};
+use crate::model_card::{CardError, CardSource, ModelCard, CARD_METADATA_KEY};
 use crate::model_file::read_weights;
 use crate::model_file_error::ModelFileError;
 use crate::onnx_graph;
 use crate::preprocess::{
     Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
 };
+use crate::safetensors_file::card_in_safetensors;
 use crate::state_dict::StateDict;
 use crate::tensor::Tensor;
 use fringe_calibration::profile::Profile;
 use std::path::{Path, PathBuf};
 use tract_onnx::pb;
 use tract_onnx::prelude::Framework;
+
+/// Frames whose sensor crop is narrower than this fraction of the training frames' crop are
+/// warned about.
+const SCALE_TOLERANCE: f64 = 0.75;
 
 /// Why a model could not be opened.
 #[derive(Debug, thiserror::Error)]
@@ -97,25 +102,36 @@ pub struct Model {
     pub input_size: u32,
     pub colour: Colour,
     pub card: Option<ModelCard>,
+    /// Where the card came from (the JSON beside the file, the file's own metadata, ...).
+    pub card_source: CardSource,
     graph: Graph,
 }
 
 impl Model {
-    /// Opens a model file; its card, if any, is `<file>.json` or `<stem>.json` beside it.
+    /// Opens a model file. Its card is the JSON beside it (`<file>.json` or `<stem>.json`), else
+    /// the one in the file's own metadata (a safetensors header's `__metadata__`, an ONNX
+    /// graph's `metadata_props`, both under `fringe.model_card`).
     pub fn open(path: &Path) -> Result<Model, ModelError> {
-        let card = ModelCard::find(path)?;
+        let beside = ModelCard::find(path)?;
         let shown = path.display().to_string();
         let is_onnx = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("onnx"));
         if !is_onnx {
+            let (card, card_source) = match beside {
+                Some((card, at)) => (Some(card), CardSource::Beside(at)),
+                None => match card_in_safetensors(path)? {
+                    Some(card) => (Some(card), CardSource::Embedded),
+                    None => (None, CardSource::Missing),
+                },
+            };
             return match read_weights(path) {
-                Ok(sd) => Model::from_weights(path, sd, card),
+                Ok(sd) => Model::from_weights(path, sd, card, card_source),
                 #[cfg(feature = "torch")]
                 Err(ModelFileError {
                     kind: crate::model_file_error::ModelFileErrorKind::TorchScript,
                     ..
-                }) => Model::open_torchscript(path, card),
+                }) => Model::open_torchscript(path, card, card_source),
                 Err(e) => Err(e.into()),
             };
         }
@@ -130,6 +146,20 @@ impl Model {
             path: shown.clone(),
             source,
         })?;
+        let (card, card_source) = match beside {
+            Some((card, at)) => (Some(card), CardSource::Beside(at)),
+            None => match proto
+                .metadata_props
+                .iter()
+                .find(|p| p.key == CARD_METADATA_KEY)
+            {
+                Some(p) => (
+                    Some(ModelCard::embedded(path, &p.value)?),
+                    CardSource::Embedded,
+                ),
+                None => (None, CardSource::Missing),
+            },
+        };
         let sd = initializers(&proto);
         let recognised = recognise(&sd).ok();
         let classes = match recognised {
@@ -150,14 +180,17 @@ impl Model {
             &sd,
             Graph::Onnx(Box::new(proto)),
             card,
+            card_source,
         )
     }
 
-    /// A model from weights already read (`path` names them in messages), with its card.
+    /// A model from weights already read (`path` names them in messages), with its card and
+    /// where the card came from.
     pub fn from_weights(
         path: &Path,
         sd: StateDict,
         card: Option<ModelCard>,
+        card_source: CardSource,
     ) -> Result<Model, ModelError> {
         let (arch, n) = recognise(&sd).map_err(|source| ModelError::Arch {
             path: path.display().to_string(),
@@ -172,12 +205,17 @@ impl Model {
             &sd,
             Graph::Onnx(Box::new(proto)),
             card,
+            card_source,
         )
     }
 
     /// A TorchScript archive, loaded by libtorch once to find its shape classes.
     #[cfg(feature = "torch")]
-    fn open_torchscript(path: &Path, card: Option<ModelCard>) -> Result<Model, ModelError> {
+    fn open_torchscript(
+        path: &Path,
+        card: Option<ModelCard>,
+        card_source: CardSource,
+    ) -> Result<Model, ModelError> {
         let size = card
             .as_ref()
             .and_then(|c| c.input_size)
@@ -196,12 +234,14 @@ impl Model {
             &StateDict::new(),
             Graph::TorchScript,
             card,
+            card_source,
         )?;
         m.parameters = probe.parameters();
         m.stored = "TorchScript".into();
         Ok(m)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn assemble(
         path: &Path,
         source: Source,
@@ -210,6 +250,7 @@ impl Model {
         sd: &StateDict,
         graph: Graph,
         card: Option<ModelCard>,
+        card_source: CardSource,
     ) -> Result<Model, ModelError> {
         let shown = path.display().to_string();
         let classes = match card.as_ref().and_then(|c| c.classes.clone()) {
@@ -238,6 +279,7 @@ impl Model {
                 .unwrap_or(DEFAULT_INPUT_SIZE),
             colour: card.as_ref().and_then(|c| c.colour).unwrap_or(Colour::Grey),
             card,
+            card_source,
             graph,
         })
     }
@@ -369,6 +411,85 @@ impl Model {
                 name: other.to_string(),
             }),
         }
+    }
+
+    /// The card a copy of this model carries: its own card with what inference needs (network,
+    /// classes, input size, colour) as this model runs.
+    pub fn travelling_card(&self) -> ModelCard {
+        let mut card = self.card.clone().unwrap_or_default();
+        if card.architecture.is_none() {
+            card.architecture = self.arch.map(|a| a.name().to_string());
+        }
+        card.classes = Some(self.classes.clone());
+        card.input_size = Some(self.input_size);
+        card.colour = Some(self.colour);
+        card
+    }
+
+    /// The ONNX graph with [`Model::travelling_card`] in its `metadata_props`, as `fringe model
+    /// export` writes it.
+    pub fn onnx_with_card(&self) -> Result<pb::ModelProto, ModelError> {
+        let mut proto = self.onnx()?.clone();
+        let text =
+            serde_json::to_string(&self.travelling_card()).map_err(|e| ModelError::Onnx {
+                path: self.path.display().to_string(),
+                detail: format!("the model card cannot be written: {e}"),
+            })?;
+        proto.metadata_props.retain(|p| p.key != CARD_METADATA_KEY);
+        proto.metadata_props.push(pb::StringStringEntryProto {
+            key: CARD_METADATA_KEY.to_string(),
+            value: text,
+        });
+        Ok(proto)
+    }
+
+    /// When the model has no card (none beside it, none in its metadata), what that means:
+    /// input size, colour, classes and preprocessing are guesses, and wrong guesses give wrong
+    /// figures without any error.
+    pub fn missing_card_warning(&self) -> Option<String> {
+        if self.card_source != CardSource::Missing {
+            return None;
+        }
+        let [beside, _] = ModelCard::candidates(&self.path);
+        Some(format!(
+            "{}: no model card (none at {}, none in the file's metadata): running it as {} px {} \
+             input, classes {}; if it was trained otherwise its figures are wrong, with no error. \
+             Put its card beside it (fringe train writes one with every model)",
+            self.path.display(),
+            beside.display(),
+            self.input_size,
+            self.colour.name(),
+            self.classes.join(", ")
+        ))
+    }
+
+    /// When frames through `pre` show the sensor much coarser than the frames the model was
+    /// trained on (its card's `crop_diameter_px`), what that means: the model sees less detail
+    /// than it learnt from, and its figures do not hold, without any error.
+    pub fn scale_warning(&self, pre: &Preprocessing) -> Option<String> {
+        let card = self.card.as_ref()?;
+        let trained = card.crop_diameter_px?;
+        let now = 2.0 * pre.crop_radius_px;
+        if now >= SCALE_TOLERANCE * trained {
+            return None;
+        }
+        let frames = pre
+            .frame_size
+            .map(|(w, h)| format!(" in {w}x{h} frames"))
+            .unwrap_or_default();
+        let trained_frames = card
+            .frame_size
+            .map(|[w, h]| format!(" in {w}x{h} frames"))
+            .unwrap_or_default();
+        Some(format!(
+            "{}: the sensor {} is {now:.0} px across{frames}, but the model was trained on \
+             {trained:.0} px{trained_frames}: it would see {:.1}x less detail than it learnt \
+             from and its figures do not hold; record at the scale it was trained on (for the \
+             simulated bench, [sim] image_scale = 1) or train a model on such frames",
+            self.path.display(),
+            pre.sensor,
+            trained / now
+        ))
     }
 
     /// What the model is, in a few words ("custom CNN", "ONNX graph").

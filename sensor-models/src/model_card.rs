@@ -6,6 +6,23 @@
 use crate::preprocess::Colour;
 use std::path::{Path, PathBuf};
 
+/// The key under which a model file carries its card: in a safetensors header's `__metadata__`
+/// and in an ONNX graph's `metadata_props` (the card as JSON).
+pub const CARD_METADATA_KEY: &str = "fringe.model_card";
+
+/// Where a model's card came from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CardSource {
+    /// The JSON file beside the model.
+    Beside(PathBuf),
+    /// The model file's own metadata.
+    Embedded,
+    /// Compiled into fringe with the model.
+    Builtin,
+    /// Neither: input size, colour, classes and preprocessing are guesses.
+    Missing,
+}
+
 /// Why a model card could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum CardError {
@@ -41,6 +58,13 @@ pub struct ModelCard {
     pub preprocessing: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_id: Option<String>,
+    /// The sensor's crop across, in pixels of the frames the model was trained on: frames that
+    /// show the sensor much coarser than this give figures the model never earned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop_diameter_px: Option<f64>,
+    /// The size of the frames the model was trained on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_size: Option<[u32; 2]>,
     /// Everything else (training runs, split, losses, figures).
     #[serde(flatten)]
     pub other: serde_json::Map<String, serde_json::Value>,
@@ -54,14 +78,22 @@ impl ModelCard {
         [PathBuf::from(full), model.with_extension("json")]
     }
 
-    /// The card beside `model`, if there is one.
-    pub fn find(model: &Path) -> Result<Option<ModelCard>, CardError> {
+    /// The card beside `model` and its path, if there is one.
+    pub fn find(model: &Path) -> Result<Option<(ModelCard, PathBuf)>, CardError> {
         for p in Self::candidates(model) {
             if p.is_file() && p != model {
-                return Self::read(&p).map(Some);
+                return Self::read(&p).map(|c| Some((c, p)));
             }
         }
         Ok(None)
+    }
+
+    /// A card carried in a model file's metadata (`path` names the file in messages).
+    pub fn embedded(path: &Path, text: &str) -> Result<ModelCard, CardError> {
+        serde_json::from_str(text).map_err(|source| CardError::Parse {
+            path: format!("{} (the card in its metadata)", path.display()),
+            source,
+        })
     }
 
     pub fn read(path: &Path) -> Result<ModelCard, CardError> {

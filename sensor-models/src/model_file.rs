@@ -3,16 +3,13 @@
 //! only decides for ONNX), and says what a foreign file starts with.
 
 use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
-use crate::safetensors_file::read_safetensors;
+use crate::safetensors_file::{read_safetensors, MAX_HEADER};
 use crate::state_dict::StateDict;
 use crate::torch_file::{read_head, read_torch, ZIP_MAGIC};
 use std::path::Path;
 
 /// How many first bytes are looked at to recognise a file.
 const HEAD_LEN: usize = 512;
-
-/// Largest safetensors header the crate accepts (100 MB).
-const MAX_SAFETENSORS_HEADER: u64 = 100_000_000;
 
 /// What a file's content says it is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,7 +54,12 @@ fn format_of(head: &[u8], is_onnx_name: bool) -> Result<WeightsFormat, ModelFile
     if head[0] == 0x80 && head.get(1).is_some_and(|p| (2..=5).contains(p)) {
         return Ok(WeightsFormat::TorchLegacy);
     }
-    if looks_like_safetensors(head) {
+    if let Some(n) = safetensors_header_len(head) {
+        if n > MAX_HEADER {
+            return Err(ModelFileErrorKind::Malformed(format!(
+                "a safetensors header of {n} bytes, more than the {MAX_HEADER} bytes safetensors                  allows: the file is damaged (or not what it claims)"
+            )));
+        }
         return Ok(WeightsFormat::Safetensors);
     }
     if is_onnx_name || looks_like_onnx(head) {
@@ -73,16 +75,13 @@ fn format_of(head: &[u8], is_onnx_name: bool) -> Result<WeightsFormat, ModelFile
     Err(ModelFileErrorKind::Foreign(describe_start(head)))
 }
 
-/// An 8-byte little-endian header length, then a JSON object. (A header longer than the file
-/// still counts: reading it then reports the file as truncated.)
-fn looks_like_safetensors(head: &[u8]) -> bool {
-    let Some(len) = head.get(..8) else {
-        return false;
-    };
-    let mut b = [0u8; 8];
-    b.copy_from_slice(len);
-    let n = u64::from_le_bytes(b);
-    (2..=MAX_SAFETENSORS_HEADER).contains(&n) && head.get(8) == Some(&b'{')
+/// The header length of what looks like safetensors: an 8-byte little-endian length (at least
+/// 2, for `{}`), then a JSON object. (A header longer than the file still counts: reading it
+/// then reports the file as truncated.)
+fn safetensors_header_len(head: &[u8]) -> Option<u64> {
+    let len: [u8; 8] = head.get(..8)?.try_into().ok()?;
+    let n = u64::from_le_bytes(len);
+    (n >= 2 && head.get(8) == Some(&b'{')).then_some(n)
 }
 
 /// An ONNX ModelProto as exporters write it: field 1 (ir_version, a small varint) first, then
@@ -147,6 +146,15 @@ mod tests {
         let mut st = 10u64.to_le_bytes().to_vec();
         st.extend(b"{\"a\":1}   ");
         assert_eq!(format_of(&st, false).ok(), Some(WeightsFormat::Safetensors));
+        // A header length of 2^62 is named as such, not as a foreign file.
+        let mut huge = (1u64 << 62).to_le_bytes().to_vec();
+        huge.extend(b"{\"a\":1}");
+        let e = format_of(&huge, false).expect_err("huge header");
+        assert!(
+            e.to_string()
+                .contains("a safetensors header of 4611686018427387904 bytes"),
+            "{e}"
+        );
         assert_eq!(
             format_of(b"\x08\x08\x12\x07pytorch", false).ok(),
             Some(WeightsFormat::Onnx)

@@ -193,6 +193,22 @@ impl Preprocessing {
     }
 
     /// An image file (PNG, TIFF, ...) as a CHW tensor; grey files are read as Mono8.
+    /// When a `width` x `height` frame covers less than half the crop across (a thumbnail, a
+    /// 1x1 image through the reference geometry), what that means: most of the model's input
+    /// is black padding, and its prediction means nothing.
+    pub fn coverage_warning(&self, width: u32, height: u32) -> Option<String> {
+        let across = 2.0 * self.crop_radius_px;
+        let side = f64::from(width.min(height));
+        (side < 0.5 * across).then(|| {
+            format!(
+                "the frame is {width}x{height} px but the crop of sensor {} is {across:.0} px \
+                 across: most of the model's input lies outside the frame (black), so the \
+                 prediction means nothing",
+                self.sensor
+            )
+        })
+    }
+
     pub fn run_file(&self, path: &Path) -> Result<Vec<f32>, PreprocessError> {
         let img = image::open(path).map_err(|source| PreprocessError::Image {
             path: path.display().to_string(),

@@ -2,10 +2,12 @@
 //! raw little-endian bytes), through the `safetensors` crate.
 
 use crate::element;
+use crate::model_card::{CardError, ModelCard, CARD_METADATA_KEY};
 use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
 use crate::state_dict::StateDict;
 use crate::tensor::{StoredType, Tensor};
 use safetensors::tensor::{Dtype, SafeTensorError, SafeTensors, TensorView};
+use std::collections::HashMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -51,6 +53,44 @@ fn state_dict_of(bytes: &[u8]) -> Result<StateDict, ModelFileErrorKind> {
     Ok(state)
 }
 
+/// The model card a safetensors file carries in its header's metadata (`__metadata__`, key
+/// `fringe.model_card`), if it has one. Only the header is read; a file that is not
+/// safetensors, or whose header cannot be read, has none (reading its weights says why).
+pub fn card_in_safetensors(path: &Path) -> Result<Option<ModelCard>, CardError> {
+    let Some(header) = read_header(path) else {
+        return Ok(None);
+    };
+    let Ok(serde_json::Value::Object(header)) = serde_json::from_slice(&header) else {
+        return Ok(None);
+    };
+    match header
+        .get("__metadata__")
+        .and_then(|m| m.get(CARD_METADATA_KEY))
+        .and_then(|v| v.as_str())
+    {
+        Some(text) => ModelCard::embedded(path, text).map(Some),
+        None => Ok(None),
+    }
+}
+
+/// The JSON header of a safetensors file: its 8-byte little-endian length, then the header.
+fn read_header(path: &Path) -> Option<Vec<u8>> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut len = [0u8; 8];
+    file.read_exact(&mut len).ok()?;
+    let n = u64::from_le_bytes(len);
+    if n > MAX_HEADER {
+        return None;
+    }
+    let mut header = Vec::new();
+    file.take(n).read_to_end(&mut header).ok()?;
+    (header.len() as u64 == n).then_some(header)
+}
+
+/// The largest header the safetensors crate reads (100 MB).
+pub(crate) const MAX_HEADER: u64 = 100_000_000;
+
 /// A safetensors header the crate refused: cut short, or not safetensors at all.
 fn header_error(bytes: &[u8], e: SafeTensorError) -> ModelFileErrorKind {
     match e {
@@ -71,7 +111,27 @@ fn header_error(bytes: &[u8], e: SafeTensorError) -> ModelFileErrorKind {
 /// Writes `state` to `path` as safetensors, every tensor as F32 (through a temporary file in
 /// the same directory, renamed into place, so a reader never sees half a file).
 pub fn write_safetensors(path: impl AsRef<Path>, state: &StateDict) -> Result<(), ModelFileError> {
+    write_safetensors_with_card(path, state, None)
+}
+
+/// As [`write_safetensors`], with `card` in the header's metadata, so that the weights say how
+/// to run them even when they travel without the card beside them.
+pub fn write_safetensors_with_card(
+    path: impl AsRef<Path>,
+    state: &StateDict,
+    card: Option<&ModelCard>,
+) -> Result<(), ModelFileError> {
     let path = path.as_ref();
+    let metadata = match card {
+        Some(c) => {
+            let text = serde_json::to_string(c).map_err(|e| {
+                ModelFileErrorKind::Malformed(format!("the model card cannot be written: {e}"))
+                    .at(path)
+            })?;
+            Some(HashMap::from([(CARD_METADATA_KEY.to_string(), text)]))
+        }
+        None => None,
+    };
     let write_err = |e: std::io::Error| ModelFileErrorKind::Write(e).at(path);
     let buffers: Vec<(String, Vec<usize>, Vec<u8>)> = state
         .iter()
@@ -88,7 +148,7 @@ pub fn write_safetensors(path: impl AsRef<Path>, state: &StateDict) -> Result<()
         })?;
         views.push((name.as_str(), view));
     }
-    let serialized = safetensors::tensor::serialize(views, None)
+    let serialized = safetensors::tensor::serialize(views, metadata)
         .map_err(|e| ModelFileErrorKind::Malformed(format!("cannot serialize: {e}")).at(path))?;
     let temp = temporary_sibling(path);
     let written = (|| {
@@ -132,6 +192,15 @@ mod tests {
         let back = read_safetensors(&path).expect("read");
         assert_eq!(back, sd);
         assert!(back.contains("a.weight"));
+        assert_eq!(card_in_safetensors(&path).expect("header"), None);
+        let card = ModelCard {
+            input_size: Some(112),
+            classes: Some(vec!["None".into(), "pentagon".into()]),
+            ..ModelCard::default()
+        };
+        write_safetensors_with_card(&path, &sd, Some(&card)).expect("write with card");
+        assert_eq!(card_in_safetensors(&path).expect("header"), Some(card));
+        assert_eq!(read_safetensors(&path).expect("read"), sd);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

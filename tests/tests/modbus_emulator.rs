@@ -172,6 +172,69 @@ fn driver_over_modbus_rtu_on_a_pseudo_terminal() {
         !s.moving && s.position.0 > 1.6 && s.position.0 < 14.0,
         "{s}"
     );
+    // The driver kept the silent interval before every request: the drive dropped none.
+    assert_eq!(emulator.frames_too_soon(), 0);
+}
+
+/// The emulated drive keeps the documented RTU timing: the reply comes a turnaround after the
+/// request plus both frames' time on the wire, and a request sent within the silent interval
+/// after a reply is dropped, as an RS-485 drive drops it; after a silence the drive answers again.
+#[test]
+fn the_rtu_drive_keeps_the_documented_timing_and_drops_a_frame_sent_too_soon() {
+    let m = map("leadshine-pr");
+    let emulator = ModbusEmulator::spawn_rtu_pty(m.clone(), motor(1.0)).expect("emulator");
+    let timing = emulator.rtu_timing();
+    assert_eq!(timing.baud, 38_400);
+    assert_eq!(timing.turnaround, Duration::from_micros(1_160));
+    let path = emulator.pty_path().expect("pty").to_string();
+    let mut link = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
+    // Read the two feedback registers (0x602A, 0x602B): 8 bytes out, 9 back.
+    let request = fringe_rig::modbus::codec::rtu_frame(1, &[0x03, 0x60, 0x2A, 0x00, 0x02]);
+    let exchange = |link: &mut SerialLink| -> (Vec<u8>, Duration) {
+        let sent = Instant::now();
+        link.write_all(&request).expect("write");
+        let mut reply = Vec::new();
+        let mut buf = [0u8; 64];
+        while reply.len() < 9 && sent.elapsed() < Duration::from_millis(300) {
+            let n = link
+                .read(&mut buf, Duration::from_millis(20))
+                .expect("read");
+            reply.extend_from_slice(&buf[..n]);
+        }
+        (reply, sent.elapsed())
+    };
+    let (reply, took) = exchange(&mut link);
+    assert_eq!(reply.len(), 9, "{reply:?}");
+    // 2.29 ms + 1.16 ms + 2.58 ms at 38400 baud.
+    assert!(took >= Duration::from_micros(6_000), "{took:?}");
+    // The next request at once, inside the 1.75 ms silent interval: no answer. (A test thread
+    // that loses its core for longer than the interval sends in time: try again after a pause.)
+    let mut dropped = 0;
+    for _ in 0..5 {
+        std::thread::sleep(Duration::from_millis(20));
+        let (reply, _) = exchange(&mut link);
+        assert_eq!(
+            reply.len(),
+            9,
+            "after a silence the drive answers: {reply:?}"
+        );
+        let (reply, _) = exchange(&mut link);
+        if reply.is_empty() {
+            dropped += 1;
+            break;
+        }
+        assert_eq!(reply.len(), 9, "{reply:?}");
+    }
+    assert_eq!(
+        dropped, 1,
+        "a request sent at once after a reply was answered 5 times"
+    );
+    assert_eq!(emulator.frames_too_soon(), 1);
+    // After a silence the drive takes frames again.
+    std::thread::sleep(Duration::from_millis(20));
+    let (reply, _) = exchange(&mut link);
+    assert_eq!(reply.len(), 9, "{reply:?}");
+    assert_eq!(emulator.frames_too_soon(), 1);
 }
 
 #[test]
@@ -183,6 +246,7 @@ fn driver_in_process_both_framings_and_overtravel_alarm() {
         let mut y = stage(Box::new(link), framing, "leadshine-pr");
         moves_and_limits(&mut y, &emulator, 2000.0);
         drop(y);
+        assert_eq!(emulator.frames_too_soon(), 0, "{framing}");
     }
 
     // Past the end of travel: the carriage stops on the limit switch and the drive alarms.

@@ -6,7 +6,7 @@ mod common;
 
 use common::{
     events, fringe, fringe_command, label_rms, only_run, points_in, quick_netft_rig, resume,
-    resume_to_the_end, scan_files, scratch, text, the_run, wait_for_event, QUICK_RIG,
+    resume_to_the_end, scan_command, scan_files, scratch, text, the_run, wait_for_event, QUICK_RIG,
 };
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
@@ -21,12 +21,9 @@ fn files_with(dir: &Path, faults: &str) -> (PathBuf, PathBuf, PathBuf) {
 }
 
 fn scan(rig: &Path, plan: &Path, root: &Path) -> Output {
-    fringe_command()
-        .args(["scan", "--yes", "--out"])
-        .arg(root)
-        .arg("--rig")
-        .arg(rig)
-        .arg(plan)
+    scan_command(rig, root, plan)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
         .output()
         .expect("run fringe scan")
 }
@@ -308,16 +305,7 @@ fn a_second_process_cannot_write_a_run_being_written_and_a_killed_writers_lock_i
     let dir = scratch("two-writers");
     let (rig, plan) = scan_files(&dir);
     let root = dir.join("runs");
-    let mut first = fringe_command()
-        .args(["scan", "--yes", "--rig"])
-        .arg(&rig)
-        .arg("--out")
-        .arg(&root)
-        .arg(&plan)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn");
+    let mut first = scan_command(&rig, &root, &plan).spawn().expect("spawn");
     // Once the first point is under way, a resume of the same run is refused, naming the pid.
     let run = wait_for_event(&root, &mut first, |e| e.contains("\"kind\":\"contact\""));
     let second = resume(&rig, &run);
@@ -510,12 +498,7 @@ fn the_wall_clock_stepping_back_an_hour_mid_scan_changes_nothing_but_the_utc_str
     let offset = dir.join("faketime");
     std::fs::write(&offset, "+0\n").expect("offset file");
     let root = dir.join("runs");
-    let mut child = fringe_command()
-        .args(["scan", "--yes", "--out"])
-        .arg(&root)
-        .arg("--rig")
-        .arg(&rig)
-        .arg(&plan)
+    let mut child = scan_command(&rig, &root, &plan)
         .env("LD_PRELOAD", libfaketime())
         .env("FAKETIME_TIMESTAMP_FILE", &offset)
         .env("FAKETIME_CACHE_DURATION", "1")

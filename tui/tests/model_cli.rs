@@ -70,6 +70,12 @@ fn info_names_architecture_classes_and_parameters() {
         assert!(t.contains("3 (None, pentagon, rectangle)"), "{file}: {t}");
         assert!(t.contains("parameters:    98988"), "{file}: {t}");
         assert!(t.contains("3 x 224 x 224"), "{file}: {t}");
+        // These fixtures travel without a card: the user is told the fields are guesses.
+        assert!(t.contains("card:          none"), "{file}: {t}");
+        assert!(
+            t.contains("warning: ") && t.contains("no model card"),
+            "{file}: {t}"
+        );
     }
     let out = fringe(&["model", "info", s(&fixture("state_dict_f16.pth"))]);
     assert!(text(&out).contains("stored as:     f16"), "{}", text(&out));
@@ -168,6 +174,37 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
         t.contains("640x480") && t.contains("1920x1200") && t.contains("s1"),
         "{t}"
     );
+    // The frame size error names the image once.
+    assert_eq!(t.matches(s(&small)).count(), 1, "{t}");
+    // A 1x1 image through the 980 px reference crop runs, with a warning that the prediction
+    // means nothing; a file that is no image is named once.
+    let tiny = dir.join("tiny.png");
+    image::RgbImage::new(1, 1).save(&tiny).expect("save");
+    let out = fringe(&[
+        "model",
+        "run",
+        s(&model),
+        s(&tiny),
+        "--reference-preprocessing",
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(
+        t.contains("warning: ") && t.contains("1x1 px") && t.contains("980 px across"),
+        "{t}"
+    );
+    let junk = dir.join("junk.png");
+    std::fs::write(&junk, b"not an image").expect("junk");
+    let out = fringe(&[
+        "model",
+        "run",
+        s(&model),
+        s(&junk),
+        "--reference-preprocessing",
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert_eq!(t.matches(s(&junk)).count(), 1, "{t}");
 }
 
 #[test]
@@ -378,11 +415,40 @@ fn the_default_model_reads_simulated_presses() {
     let out = fringe(&args);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
+    assert!(!t.contains("no model card"), "{t}");
     let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
         .lines()
         .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
         .collect();
     assert_eq!(lines.len(), presses.len(), "{t}");
+
+    // Exported to ONNX, the model carries its card: the graph reads back with its 112 px grey
+    // input and its classes, and predicts what the model does.
+    let onnx = dir.join("default.onnx");
+    let out = fringe(&["model", "export", "default", "--onnx", s(&onnx)]);
+    assert!(out.status.success(), "{}", text(&out));
+    let info = fringe(&["model", "info", s(&onnx)]);
+    let t = text(&info);
+    assert!(t.contains("card:          in the file's metadata"), "{t}");
+    assert!(t.contains("3 x 112 x 112, grey"), "{t}");
+    assert!(t.contains("3 (None, pentagon, rectangle)"), "{t}");
+    assert!(!t.contains("warning"), "{t}");
+    args[2] = s(&onnx);
+    let out = fringe(&args);
+    assert!(out.status.success(), "{}", text(&out));
+    let from_onnx: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect();
+    assert_eq!(from_onnx.len(), lines.len());
+    for (a, b) in lines.iter().zip(&from_onnx) {
+        assert_eq!(a["shape"], b["shape"], "{a}\n{b}");
+        let (fa, fb) = (
+            a["force"]["fz"].as_f64().expect("fz"),
+            b["force"]["fz"].as_f64().expect("fz"),
+        );
+        assert!((fa - fb).abs() < 1e-3, "{a}\n{b}");
+    }
     for ((shape, force, x, y), p) in presses.iter().zip(&lines) {
         let want = if *shape == "none" { "None" } else { shape };
         assert_eq!(p["shape"], want, "{p}");

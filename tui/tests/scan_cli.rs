@@ -4,8 +4,8 @@
 mod common;
 
 use common::{
-    events, fringe, points_in, resume, resume_to_the_end, scan_files as files, scan_plan as plan,
-    scratch, snapshot, text, the_run, wait_for_event, TestRun, QUICK_RIG,
+    events, fringe, points_in, resume, resume_to_the_end, scan_command, scan_files as files,
+    scan_plan as plan, scratch, snapshot, text, the_run, wait_for_event, TestRun, QUICK_RIG,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -55,14 +55,7 @@ fn a_run_killed_mid_point_is_resumed_without_losing_or_repeating_a_point() {
     let dir = scratch("crash");
     let (rig, plan_path) = files(&dir);
     let root = dir.join("runs");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fringe"))
-        .args(["scan", "--yes", "--out"])
-        .arg(&root)
-        .arg("--rig")
-        .arg(&rig)
-        .arg(&plan_path)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
+    let mut child = scan_command(&rig, &root, &plan_path)
         .spawn()
         .expect("spawn");
     // Kill it (SIGKILL: no cleanup at all) while it presses point 2.

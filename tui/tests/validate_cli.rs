@@ -9,6 +9,7 @@ use common::{
     constant_model, fringe, only_run, scratch, text, CONSTANT_FZ_N as FZ_OUT, VALIDATE_PLAN,
 };
 use std::collections::HashMap;
+use std::path::Path;
 
 fn number_after(s: &str, key: &str) -> f64 {
     let rest = &s[s.find(key).unwrap_or_else(|| panic!("{key} in {s}")) + key.len()..];
@@ -19,6 +20,19 @@ fn number_after(s: &str, key: &str) -> f64 {
         .collect();
     n.parse()
         .unwrap_or_else(|_| panic!("number after {key} in {s}"))
+}
+
+/// `fringe validate --no-tui --yes --model MODEL --plan PLAN --out RUNS`, run in `dir`.
+fn validate_command(dir: &Path, model: &Path, plan: &Path, runs: &Path) -> std::process::Command {
+    let mut cmd = common::fringe_command();
+    cmd.current_dir(dir)
+        .args(["validate", "--no-tui", "--yes", "--model"])
+        .arg(model)
+        .arg("--plan")
+        .arg(plan)
+        .arg("--out")
+        .arg(runs);
+    cmd
 }
 
 #[test]
@@ -34,16 +48,9 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     // under test do not depend on the rate; the counts are over the frames the run keeps).
     let rig = dir.join("rig.toml");
     std::fs::write(&rig, "[camera]\nframe_rate = 25.0\n").expect("rig file");
-    let out = common::fringe_command()
-        .current_dir(&dir)
-        .args(["validate", "--no-tui", "--yes", "--model"])
-        .arg(&model)
+    let out = validate_command(&dir, &model, &plan, &runs)
         .arg("--rig")
         .arg(&rig)
-        .arg("--plan")
-        .arg(&plan)
-        .arg("--out")
-        .arg(&runs)
         .arg("--report")
         .arg(&report)
         .output()
@@ -167,14 +174,7 @@ fn validation_with_a_missing_or_bad_model_says_what_to_pass() {
     .expect("card");
     let plan = dir.join("plan.toml");
     std::fs::write(&plan, VALIDATE_PLAN).expect("plan");
-    let out = common::fringe_command()
-        .current_dir(&dir)
-        .args(["validate", "--no-tui", "--yes", "--model"])
-        .arg(&weights)
-        .arg("--plan")
-        .arg(&plan)
-        .arg("--out")
-        .arg(dir.join("runs"))
+    let out = validate_command(&dir, &weights, &plan, &dir.join("runs"))
         .output()
         .expect("run");
     let t = text(&out);

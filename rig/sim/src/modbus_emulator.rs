@@ -17,15 +17,25 @@
 //! - [`core`]: the sans-io drive: a request PDU in, the response PDU out, host time passed in.
 //! - [`framing`]: Modbus TCP and RTU request frames taken off a byte buffer and answered by a
 //!   core (sans-io: bytes in, reply frames out).
+//! - [`line_timing`]: the drive's timing on an RTU line (turnaround, characters on the wire, the
+//!   silent interval between frames), as documented.
 //! - [`server`]: [`ModbusEmulator`], a core on threads over TCP, RTU on a pseudo-terminal or an
 //!   in-process byte pipe.
+//!
+//! Over RTU (pseudo-terminal or in process) the drive keeps the documented timing of its line
+//! speed (the map's `[serial] baud`): it replies a turnaround after the request plus both
+//! frames' time on the wire, and drops a frame that starts less than 3.5 characters after its
+//! own reply, as a drive on RS-485 does; a driver must keep the silent interval. Modbus TCP
+//! answers as soon as the request is in (no drive documents a response time there).
 
 pub mod core;
 pub mod framing;
+pub mod line_timing;
 pub mod server;
 
 pub use self::core::{
     decode_request_pdu, ModbusCore, ServerRequest, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE,
     ILLEGAL_FUNCTION,
 };
+pub use self::line_timing::RtuTiming;
 pub use self::server::ModbusEmulator;

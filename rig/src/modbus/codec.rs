@@ -6,11 +6,33 @@
 //! is there; they never panic, whatever the input.
 
 use std::fmt;
+use std::time::Duration;
 
 /// Most registers one read may ask for (Modbus application protocol, 6.3).
 pub const MAX_READ: u16 = 125;
 /// Most registers one write-multiple may carry (6.12).
 pub const MAX_WRITE: u16 = 123;
+
+/// Bits per RTU character on the wire: start, 8 data, parity (or a second stop bit) and stop.
+/// The Modbus serial line specification (V1.02, 2.5.1) counts 11 whatever the parity.
+pub const RTU_BITS_PER_CHARACTER: u32 = 11;
+
+/// How long `bytes` characters take on an RTU line at `baud`.
+pub fn rtu_wire_time(baud: u32, bytes: usize) -> Duration {
+    let baud = u64::from(baud.max(1));
+    Duration::from_nanos(bytes as u64 * u64::from(RTU_BITS_PER_CHARACTER) * 1_000_000_000 / baud)
+}
+
+/// The silent interval that separates RTU frames: 3.5 character times, fixed at 1.75 ms above
+/// 19200 baud (Modbus serial line specification V1.02, 2.5.1.1). A frame sent sooner after the
+/// previous one on the line is, for the devices on it, part of that one: a broken frame.
+pub fn rtu_silent_interval(baud: u32) -> Duration {
+    if baud > 19_200 {
+        Duration::from_micros(1750)
+    } else {
+        rtu_wire_time(baud, 7) / 2
+    }
+}
 
 /// How Modbus frames travel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -455,6 +477,16 @@ pub fn match_reply(request: &Request, response: &Response) -> Result<Reply, Code
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn silent_interval_follows_the_serial_line_specification() {
+        // 3.5 characters of 11 bits: 4.01 ms at 9600 baud, 2.005 ms at 19200, then 1.75 ms.
+        assert_eq!(rtu_silent_interval(9600), Duration::from_nanos(4_010_416));
+        assert_eq!(rtu_silent_interval(19_200), Duration::from_nanos(2_005_208));
+        assert_eq!(rtu_silent_interval(38_400), Duration::from_micros(1750));
+        assert_eq!(rtu_silent_interval(115_200), Duration::from_micros(1750));
+        assert_eq!(rtu_wire_time(38_400, 8), Duration::from_nanos(2_291_666));
+    }
 
     fn hex(s: &str) -> Vec<u8> {
         crate::trace::format::parse_hex(s).expect("hex")

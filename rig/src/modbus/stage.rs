@@ -26,6 +26,9 @@ pub struct StageOptions {
     pub poll_interval: Duration,
     /// How long a triggered stage may stay idle away from its target before that is an error.
     pub start_grace: Duration,
+    /// The RTU line's speed when it is not the map's (`[serial] baud`): it sets the silent
+    /// interval kept between frames.
+    pub baud: Option<u32>,
 }
 
 impl Default for StageOptions {
@@ -36,6 +39,7 @@ impl Default for StageOptions {
             response_timeout: Duration::from_millis(500),
             poll_interval: Duration::from_millis(50),
             start_grace: Duration::from_millis(1000),
+            baud: None,
         }
     }
 }
@@ -79,6 +83,10 @@ pub struct ModbusStage {
     rx: Vec<u8>,
     motion: Option<Motion>,
     homed: bool,
+    /// RTU: the silence every frame must follow (3.5 characters), and when the line last carried
+    /// a frame (the end of the last reply, or of a request that got none).
+    silent_interval: Duration,
+    line_busy_until: Option<Instant>,
 }
 
 impl ModbusStage {
@@ -103,9 +111,17 @@ impl ModbusStage {
                 role: b.role,
             })
             .collect();
+        let silent_interval = match framing {
+            Framing::Rtu => {
+                codec::rtu_silent_interval(options.baud.unwrap_or(map.serial_settings(None).baud))
+            }
+            Framing::Tcp => Duration::ZERO,
+        };
         ModbusStage {
             axis: axis.to_string(),
             slave: options.slave.unwrap_or(map.slave),
+            silent_interval,
+            line_busy_until: None,
             link,
             framing,
             map,
@@ -131,8 +147,25 @@ impl ModbusStage {
         }
     }
 
-    /// Sends `request` and returns the reply's registers (empty for writes).
+    /// Sends `request` and returns the reply's registers (empty for writes). On an RTU line the
+    /// request waits for the silent interval after the last frame first: a drive takes a frame
+    /// that follows the previous one sooner as part of it, and answers neither.
     fn transact(&mut self, request: &Request) -> Result<Vec<u16>, AxisError> {
+        if let Some(busy) = self.line_busy_until {
+            let free = busy + self.silent_interval;
+            let now = Instant::now();
+            if now < free {
+                std::thread::sleep(free - now);
+            }
+        }
+        let result = self.exchange(request);
+        if self.framing == Framing::Rtu {
+            self.line_busy_until = Some(Instant::now());
+        }
+        result
+    }
+
+    fn exchange(&mut self, request: &Request) -> Result<Vec<u16>, AxisError> {
         request
             .validate()
             .map_err(|e| self.device_error(e.to_string()))?;

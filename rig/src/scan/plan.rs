@@ -433,16 +433,37 @@ fn seconds(secs: f64) -> Duration {
 /// The estimate of a dry run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Estimate {
+    /// Everything: homing, moves, presses.
     pub total: Duration,
+    /// Of which homing x, y (unless moved by hand) and z in turn, each from the far end of its
+    /// travel (where the axes are at the start is unknown), and the move to the first point.
+    pub homing: Duration,
     pub lateral_path_mm: f64,
     pub indenter_changes: usize,
     pub manual_rows: usize,
 }
 
 impl ScanProgram {
-    /// Estimated duration from the bench kinematics (operator prompts not counted).
+    /// Estimated duration from the bench kinematics, homing included (operator prompts not
+    /// counted).
     pub fn estimate(&self, bench: &BenchLimits) -> Estimate {
         let plan = &self.plan;
+        let far = |l: &SoftLimits| l.min.0.abs().max(l.max.0.abs());
+        let mut homing = move_time(far(&bench.x), &bench.x_motion).as_secs_f64()
+            + move_time(far(&bench.z), &bench.z_motion).as_secs_f64();
+        if !bench.manual_y {
+            homing += move_time(far(&bench.y), &bench.y_motion).as_secs_f64();
+        }
+        if let Some(first) = self.points.first() {
+            let to_x = move_time(first.x.0, &bench.x_motion);
+            let to_y = if bench.manual_y {
+                Duration::ZERO
+            } else {
+                move_time(first.y.0, &bench.y_motion)
+            };
+            homing += to_x.max(to_y).as_secs_f64()
+                + move_time(plan.approach.safe_z, &bench.z_motion).as_secs_f64();
+        }
         let ind = &plan.indentation;
         let (mut secs, mut path) = (0.0f64, 0.0f64);
         let (mut changes, mut rows) = (0, 0);
@@ -483,7 +504,8 @@ impl ScanProgram {
             secs += per_press;
         }
         Estimate {
-            total: seconds(secs),
+            total: seconds(secs + homing),
+            homing: seconds(homing),
             lateral_path_mm: path,
             indenter_changes: changes,
             manual_rows: rows,
@@ -578,6 +600,16 @@ force_ceiling = 10.0
             "{est:?}"
         );
         assert!(est.total > Duration::from_secs(12 * 5), "{est:?}");
+        // Homing x and z from the far ends of travel (12 mm and 25 mm at 2 mm/s, 4 mm/s^2:
+        // 6.5 s and 13 s; y is moved by hand), then to the first point (-5 mm: 3 s) and up to
+        // safe z.
+        let safe_z = program.plan.approach.safe_z;
+        let want = 6.5 + 13.0 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
+        assert!(
+            (est.homing.as_secs_f64() - want).abs() < 1e-6,
+            "{est:?} (want {want} s)"
+        );
+        assert!(est.total > est.homing);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 
 use super::error::TrainError;
 use crate::model_card::ModelCard;
-use crate::safetensors_file::{read_safetensors, write_safetensors};
+use crate::safetensors_file::{read_safetensors, write_safetensors, write_safetensors_with_card};
 use crate::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 
@@ -96,7 +96,8 @@ impl Checkpoint {
         card: &ModelCard,
         optimizer: Option<&StateDict>,
     ) -> Result<(), TrainError> {
-        write_safetensors(&self.weights, weights)?;
+        // The weights carry their card too, so that a copy without the JSON still runs right.
+        write_safetensors_with_card(&self.weights, weights, Some(card))?;
         if let Some(o) = optimizer {
             write_safetensors(self.optimizer(), o)?;
         }

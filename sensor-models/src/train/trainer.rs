@@ -260,6 +260,12 @@ fn card_for(
         colour: Some(config.pipeline.colour()),
         preprocessing: Some("profile".to_string()),
         sensor_id: sensors.first().map(|s| s.to_string()),
+        crop_diameter_px: f.preprocessing.first().map(|p| 2.0 * p.crop_radius_px),
+        frame_size: f
+            .preprocessing
+            .first()
+            .and_then(|p| p.frame_size)
+            .map(|(w, h)| [w, h]),
         other: serde_json::Map::new(),
     };
     if let Ok(v) = serde_json::to_value(record) {

@@ -171,6 +171,7 @@ impl RigConfig {
                     StageOptions {
                         slave: a.slave,
                         limits: Some(*limits),
+                        baud: a.baud,
                         ..StageOptions::default()
                     },
                 )))

@@ -224,13 +224,14 @@ impl ScanSession {
 
     /// Live validation of `model` on every frame this scan records (the newest one whenever the
     /// network is free), through the preprocessing geometry of [`Self::geometry_profile`]: the
-    /// validation to read, and a line saying which geometry it uses.
+    /// validation to read, and notes: which geometry it uses, and a warning when the frames show
+    /// the sensor coarser than the model was trained on.
     pub fn attach_validation(
         &mut self,
         model: Model,
         backend: Box<dyn Backend>,
         run_id: &str,
-    ) -> Result<(LiveValidation, String), SessionError> {
+    ) -> Result<(LiveValidation, Vec<Note>), SessionError> {
         // Every label this scan makes (no contact, and each indenter the plan presses) must be
         // one of the model's classes: refused up front, not left unscored frame by frame.
         let labels = std::iter::once("None").chain(
@@ -258,13 +259,21 @@ impl ScanSession {
                 dir: self.profile_dir.clone(),
             });
         };
+        let mut notes = vec![Note::Info(format!("preprocessing geometry: {why}"))];
+        if let Some(w) = model
+            .preprocessing(Some(&profile), None)
+            .ok()
+            .and_then(|pre| model.scale_warning(&pre))
+        {
+            notes.push(Note::Warning(w));
+        }
         let source = FrameSource {
             run_id: run_id.to_string(),
             profile,
         };
         let (validation, tap) = LiveValidation::start(model, backend, source)?;
         self.setup.taps.push(tap);
-        Ok((validation, format!("preprocessing geometry: {why}")))
+        Ok((validation, notes))
     }
 
     /// True when the rig is the simulated bench.

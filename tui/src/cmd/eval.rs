@@ -64,6 +64,21 @@ pub fn run(a: EvalArgs) -> Result<()> {
         }
         sources.push(source);
     }
+    let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
+    for source in &sources {
+        let chosen = if reference.is_some() {
+            None
+        } else {
+            source.profile.as_ref().or(profile.as_ref())
+        };
+        if let Some(w) = model
+            .preprocessing(chosen, reference)
+            .ok()
+            .and_then(|pre| model.scale_warning(&pre))
+        {
+            eprintln!("warning: {}: {w}", source.path.display());
+        }
+    }
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let tty = std::io::stderr().is_terminal();
     let mut last = 0;
@@ -72,7 +87,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         backend.as_mut(),
         &sources,
         profile.as_ref(),
-        a.reference_preprocessing.map(ReferenceChoice::sensor),
+        reference,
         |done, total| {
             let pct = 100 * done / total.max(1);
             if tty {

@@ -7,10 +7,10 @@ use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::model::Model;
-use fringe_sensor_models::model_card::ModelCard;
+use fringe_sensor_models::model_card::{CardSource, ModelCard};
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::{predictions, Prediction};
-use fringe_sensor_models::preprocess::ReferenceSensor;
+use fringe_sensor_models::preprocess::{PreprocessError, ReferenceSensor};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -104,12 +104,25 @@ pub fn open_model(path: &Path) -> Result<Model> {
             path.display()
         );
     }
-    Ok(builtin::open(path)?)
+    let m = builtin::open(path)?;
+    if let Some(w) = m.missing_card_warning() {
+        eprintln!("warning: {w}");
+    }
+    Ok(m)
 }
 
 fn info(path: &Path) -> Result<()> {
     let m = open_model(path)?;
     println!("model:         {}", m.path.display());
+    println!(
+        "card:          {}",
+        match &m.card_source {
+            CardSource::Beside(p) => p.display().to_string(),
+            CardSource::Embedded => "in the file's metadata".to_string(),
+            CardSource::Builtin => "built in".to_string(),
+            CardSource::Missing => "none (input size, colour and classes are guesses)".to_string(),
+        }
+    );
     println!("architecture:  {}", m.describe());
     println!(
         "shape classes: {} ({})",
@@ -146,12 +159,22 @@ fn run_images(a: RunArgs) -> Result<()> {
     };
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     let config = m.preprocessing(profile.as_ref(), reference)?;
+    if let Some(w) = m.scale_warning(&config) {
+        eprintln!("warning: {w}");
+    }
     let mut backend = m.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let size = m.input_size;
     for image in &a.images {
-        let tensor = config
-            .run_file(image)
-            .with_context(|| format!("{}", image.display()))?;
+        if let Ok((w, h)) = image::image_dimensions(image) {
+            if let Some(warning) = config.coverage_warning(w, h) {
+                eprintln!("warning: {}: {warning}", image.display());
+            }
+        }
+        // A read error names the file already; the others do not.
+        let tensor = config.run_file(image).map_err(|e| match e {
+            PreprocessError::Image { .. } => anyhow::Error::from(e),
+            other => anyhow::anyhow!("{}: {other}", image.display()),
+        })?;
         let raw = backend.run(&tensor, 1, size)?;
         let Some(p) = predictions(&raw, &m.classes).into_iter().next() else {
             bail!("{}: the model gave no output", image.display());
@@ -205,7 +228,9 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 fn export(path: &Path, out: &Path) -> Result<()> {
     let m = open_model(path)?;
     refuse_model_file(&m.path, out)?;
-    let bytes = onnx_graph::encode(m.onnx()?);
+    // The graph carries the model's card, so that `model info`, `model run` and eval read it
+    // with the input size, colour and classes it was trained with.
+    let bytes = onnx_graph::encode(&m.onnx_with_card()?);
     let tmp = out.with_extension("onnx.partial");
     std::fs::write(&tmp, &bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
     std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;

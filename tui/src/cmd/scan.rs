@@ -258,11 +258,12 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
     }
     let e = program.estimate(limits);
     println!(
-        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {} (operator prompts not counted)",
+        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {}, of which homing and the move to the first point up to {} (operator prompts not counted)",
         e.lateral_path_mm,
         e.indenter_changes,
         e.manual_rows,
-        clock(e.total)
+        clock(e.total),
+        clock(e.homing)
     );
 }
 

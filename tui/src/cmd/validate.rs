@@ -11,7 +11,7 @@ use crate::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::live_validation::{LiveValidation, Validation};
 use fringe_app::plans::SHORT_GRID;
-use fringe_app::{ProfileUse, RigConfig};
+use fringe_app::{Note, ProfileUse, RigConfig};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_sensor_models::backend::BackendKind;
@@ -109,8 +109,13 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
             let (Some(m), Some(b)) = (model.take(), backend.take()) else {
                 bail!("the session was opened twice");
             };
-            let (v, geometry) = session.attach_validation(m, b, &run_id)?;
-            println!("{geometry}");
+            let (v, notes) = session.attach_validation(m, b, &run_id)?;
+            for note in notes {
+                match note {
+                    Note::Info(line) => println!("{line}"),
+                    Note::Warning(line) => eprintln!("warning: {line}"),
+                }
+            }
             live = Some(v);
             Ok(())
         },

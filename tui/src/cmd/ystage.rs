@@ -128,6 +128,7 @@ fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
         let options = StageOptions {
             slave: args.slave,
             limits,
+            baud: args.baud,
             ..StageOptions::default()
         };
         Ok(Box::new(ModbusStage::new("y", link, framing, map, options)))

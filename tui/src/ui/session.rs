@@ -181,13 +181,18 @@ fn run(
     *view.lock().unwrap_or_else(|p| p.into_inner()) = Some(live);
     if let Some(m) = &req.model {
         let model = fringe_sensor_models::builtin::open(&m.path).map_err(|e| e.to_string())?;
+        if let Some(w) = model.missing_card_warning() {
+            let _ = events.send(Event::Note(Note::Warning(w)));
+        }
         let backend = model
             .backend(m.backend, m.threads)
             .map_err(|e| e.to_string())?;
-        let (v, geometry) = session
+        let (v, notes) = session
             .attach_validation(model, backend, &run_id)
             .map_err(|e| e.to_string())?;
-        let _ = events.send(Event::Note(Note::Info(geometry)));
+        for note in notes {
+            let _ = events.send(Event::Note(note));
+        }
         *validation.lock().unwrap_or_else(|p| p.into_inner()) = Some(v);
     }
     let mut operator = UiOperator {

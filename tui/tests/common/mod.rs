@@ -15,6 +15,20 @@ pub fn fringe_command() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fringe"))
 }
 
+/// `fringe scan --yes --rig RIG --out ROOT PLAN`, output not captured (for scans a test spawns
+/// and watches, or kills).
+pub fn scan_command(rig: &Path, root: &Path, plan: &Path) -> Command {
+    let mut cmd = fringe_command();
+    cmd.args(["scan", "--yes", "--rig"])
+        .arg(rig)
+        .arg("--out")
+        .arg(root)
+        .arg(plan)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null());
+    cmd
+}
+
 /// Runs the `fringe` binary with `args`.
 pub fn fringe(args: &[&str]) -> Output {
     fringe_command().args(args).output().expect("run fringe")

@@ -3,6 +3,7 @@
 
 use super::core::ModbusCore;
 use super::framing::{lock, rtu_exchange, tcp_exchange};
+use super::line_timing::{RtuLine, RtuTiming};
 use crate::motion::SimMotor;
 use fringe_rig::modbus::map::RegisterMap;
 use fringe_rig::modbus::Framing;
@@ -11,10 +12,10 @@ use fringe_rig::transport::pty::PtyDevice;
 use fringe_rig::transport::ByteLink;
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Runs one byte-stream connection until `stop`, the peer closing, or an error.
 fn serve_link<L: ByteLink>(
@@ -22,22 +23,54 @@ fn serve_link<L: ByteLink>(
     framing: Framing,
     core: Arc<Mutex<ModbusCore>>,
     slave: u8,
-    stop: Arc<AtomicBool>,
+    line: Line,
 ) {
     let mut buf = Vec::new();
     let mut chunk = [0u8; 512];
-    // The RTU inter-frame gap is 3.5 characters (1.75 ms above 19200 baud); a pseudo-terminal has
-    // no timing, so a pause of a few milliseconds ends a frame.
+    // The RTU inter-frame gap is 3.5 characters (1.75 ms above 19200 baud); reads wake at least
+    // this often, and a read that finds nothing ends whatever frame was arriving.
     let gap = Duration::from_millis(5);
-    while !stop.load(Ordering::Relaxed) {
+    let mut rtu = RtuLine::new(line.timing);
+    while !line.stop.load(Ordering::Relaxed) {
         let n = match link.read(&mut chunk, gap) {
             Ok(n) => n,
             Err(_) => return,
         };
-        buf.extend_from_slice(&chunk[..n]);
+        let arrived = Instant::now();
         let replies = match framing {
-            Framing::Rtu => rtu_exchange(&mut buf, &core, slave, n == 0),
+            Framing::Rtu => {
+                if n == 0 {
+                    rtu.silence();
+                }
+                let mut started_dropping = false;
+                if n > 0 && !rtu.accept(arrived, &mut started_dropping) {
+                    if started_dropping {
+                        line.frames_too_soon.fetch_add(1, Ordering::Relaxed);
+                    }
+                    buf.clear();
+                    continue;
+                }
+                buf.extend_from_slice(&chunk[..n]);
+                let before = buf.len();
+                let replies = rtu_exchange(&mut buf, &core, slave, n == 0);
+                let request_bytes = before - buf.len();
+                let mut start = arrived;
+                for r in &replies {
+                    let done = rtu.timing().reply_done(start, request_bytes, r.len());
+                    sleep_until(done);
+                    // The reply has left the drive when the write starts: the driver cannot
+                    // have it any sooner (a thread that loses its core after the write must
+                    // not make the driver's next frame look early).
+                    start = Instant::now();
+                    if link.write_all(r).is_err() {
+                        return;
+                    }
+                    rtu.sent(start);
+                }
+                continue;
+            }
             Framing::Tcp => {
+                buf.extend_from_slice(&chunk[..n]);
                 let mut replies = Vec::new();
                 loop {
                     match tcp_exchange(&mut buf, &core, slave) {
@@ -55,6 +88,21 @@ fn serve_link<L: ByteLink>(
             }
         }
     }
+}
+
+fn sleep_until(t: Instant) {
+    let now = Instant::now();
+    if t > now {
+        std::thread::sleep(t - now);
+    }
+}
+
+/// What a serving thread shares with the emulator handle.
+#[derive(Clone)]
+struct Line {
+    timing: RtuTiming,
+    stop: Arc<AtomicBool>,
+    frames_too_soon: Arc<AtomicU64>,
 }
 
 /// A TCP connection as a [`ByteLink`] for [`serve_link`] (read returns an error when closed).
@@ -91,17 +139,23 @@ pub struct ModbusEmulator {
     core: Arc<Mutex<ModbusCore>>,
     addr: Option<SocketAddr>,
     pty_path: Option<String>,
-    stop: Arc<AtomicBool>,
+    line: Line,
     threads: Vec<JoinHandle<()>>,
 }
 
 impl ModbusEmulator {
+    /// A drive with the documented RTU timing of its map's line speed.
     fn new(map: RegisterMap, motor: Arc<SimMotor>) -> ModbusEmulator {
+        let timing = RtuTiming::documented(map.serial_settings(None).baud);
         ModbusEmulator {
             core: Arc::new(Mutex::new(ModbusCore::new(map, motor))),
             addr: None,
             pty_path: None,
-            stop: Arc::new(AtomicBool::new(false)),
+            line: Line {
+                timing,
+                stop: Arc::new(AtomicBool::new(false)),
+                frames_too_soon: Arc::new(AtomicU64::new(0)),
+            },
             threads: Vec::new(),
         }
     }
@@ -125,11 +179,12 @@ impl ModbusEmulator {
         listener.set_nonblocking(true)?;
         let mut emulator = ModbusEmulator::new(map, motor);
         emulator.addr = Some(listener.local_addr()?);
-        let (core, stop, slave) = (
+        let (core, line, slave) = (
             emulator.core.clone(),
-            emulator.stop.clone(),
+            emulator.line.clone(),
             emulator.slave(),
         );
+        let stop = line.stop.clone();
         let accept = std::thread::Builder::new()
             .name("modbus-emulator-tcp".into())
             .spawn(move || {
@@ -139,11 +194,11 @@ impl ModbusEmulator {
                         Ok((stream, _)) => {
                             let _ = stream.set_nonblocking(false);
                             let _ = stream.set_nodelay(true);
-                            let (core, stop) = (core.clone(), stop.clone());
+                            let (core, line) = (core.clone(), line.clone());
                             let spawned = std::thread::Builder::new()
                                 .name("modbus-emulator-client".into())
                                 .spawn(move || {
-                                    serve_link(Conn(stream), Framing::Tcp, core, slave, stop)
+                                    serve_link(Conn(stream), Framing::Tcp, core, slave, line)
                                 });
                             if let Ok(h) = spawned {
                                 clients.push(h);
@@ -183,10 +238,10 @@ impl ModbusEmulator {
     }
 
     fn spawn_link<L: ByteLink + 'static>(&mut self, link: L, framing: Framing) -> io::Result<()> {
-        let (core, stop, slave) = (self.core.clone(), self.stop.clone(), self.slave());
+        let (core, line, slave) = (self.core.clone(), self.line.clone(), self.slave());
         let h = std::thread::Builder::new()
             .name("modbus-emulator".into())
-            .spawn(move || serve_link(link, framing, core, slave, stop))?;
+            .spawn(move || serve_link(link, framing, core, slave, line))?;
         self.threads.push(h);
         Ok(())
     }
@@ -221,13 +276,23 @@ impl ModbusEmulator {
         lock(&self.core).requests()
     }
 
+    /// The drive's RTU timing.
+    pub fn rtu_timing(&self) -> RtuTiming {
+        self.line.timing
+    }
+
+    /// RTU frames dropped because they began inside the silent interval after a reply.
+    pub fn frames_too_soon(&self) -> u64 {
+        self.line.frames_too_soon.load(Ordering::Relaxed)
+    }
+
     /// Stops serving.
     pub fn stop(mut self) {
         self.shutdown();
     }
 
     fn shutdown(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
+        self.line.stop.store(true, Ordering::SeqCst);
         for h in self.threads.drain(..) {
             let _ = h.join();
         }
