@@ -36,7 +36,7 @@
 //! - `pixel_format`: the camera's pixel formats (RGB8, BayerRG8, Mono8) as samples of the
 //!   rendered RGB image.
 //!
-//! Formulas and sources: docs/photoelastic-sim.md (shared project docs).
+//! Formulas, parameters and what is not simulated: docs/photoelastic-sim.md.
 //!
 //! The modules no other crate uses (`stress`, `blurred_colour`, `ft_config`, `pixel_format`) are
 //! private: callers reach them through the bench, the renderer and the sensor file. `colour`,
