@@ -12,6 +12,14 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The JSON objects of `--json` output, one per stdout line.
+fn json_lines(out: &std::process::Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect()
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
@@ -127,10 +135,7 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     ]);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
-    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("json line"))
-        .collect();
+    let lines: Vec<serde_json::Value> = json_lines(&out);
     assert_eq!(lines.len(), 2, "{t}");
     for (l, img) in lines.iter().zip([&a, &b]) {
         assert_eq!(l["image"], s(img));
@@ -312,10 +317,7 @@ fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
     args.extend(["--reference-preprocessing", "--json"]);
     let run = fringe(&args);
     assert!(run.status.success(), "{}", text(&run));
-    let preds: Vec<serde_json::Value> = String::from_utf8_lossy(&run.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("json"))
-        .collect();
+    let preds: Vec<serde_json::Value> = json_lines(&run);
     let mut sq = 0.0;
     let mut correct = 0;
     for (p, (_, fz, _, _, shape, _)) in preds.iter().zip(labels) {
@@ -416,10 +418,7 @@ fn the_default_model_reads_simulated_presses() {
     let t = text(&out);
     assert!(out.status.success(), "{t}");
     assert!(!t.contains("no model card"), "{t}");
-    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
-        .collect();
+    let lines: Vec<serde_json::Value> = json_lines(&out);
     assert_eq!(lines.len(), presses.len(), "{t}");
 
     // Exported to ONNX, the model carries its card: the graph reads back with its 112 px grey
@@ -436,10 +435,7 @@ fn the_default_model_reads_simulated_presses() {
     args[2] = s(&onnx);
     let out = fringe(&args);
     assert!(out.status.success(), "{}", text(&out));
-    let from_onnx: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
-        .collect();
+    let from_onnx: Vec<serde_json::Value> = json_lines(&out);
     assert_eq!(from_onnx.len(), lines.len());
     for (a, b) in lines.iter().zip(&from_onnx) {
         assert_eq!(a["shape"], b["shape"], "{a}\n{b}");
