@@ -257,8 +257,20 @@ fn a_box_that_reboots_is_asked_to_stream_again_and_its_restart_is_counted() {
     }
     ft.stop().expect("stop");
     let rebooted_at = rebooted_at.expect("rebooted");
-    let (before, after): (Vec<&ForceSample>, Vec<&ForceSample>) =
-        samples.iter().partition(|s| s.host_time < rebooted_at);
+    // The box's counter begins again at power-up: that splits the stream (records sent just
+    // before the reboot can be read after the test noted its time, so host time cannot).
+    let split = samples
+        .windows(2)
+        .position(|w| w[1].device_tick < w[0].device_tick)
+        .map_or(samples.len(), |i| i + 1);
+    let (before, after): (Vec<&ForceSample>, Vec<&ForceSample>) = (
+        samples[..split].iter().collect(),
+        samples[split..].iter().collect(),
+    );
+    assert!(
+        after.first().is_none_or(|f| f.host_time >= rebooted_at),
+        "a record of the new stream came before the reboot"
+    );
     let (Some(last), Some(first)) = (before.last(), after.first()) else {
         panic!(
             "samples on both sides of the reboot: {} and {}",
