@@ -9,7 +9,7 @@
 //!   `backbone.0` is conv1, `backbone.4` layer1 ... `backbone.7` layer4), the same heads on 512
 //!   features.
 
-use crate::state_dict::StateDict;
+use crate::weights::state_dict::StateDict;
 use std::fmt;
 
 /// A network architecture of the paper.
@@ -229,7 +229,7 @@ pub fn default_class_names(n: usize) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tensor::Tensor;
+    use crate::weights::tensor::Tensor;
 
     pub(crate) fn zeros(arch: Architecture, classes: usize) -> StateDict {
         StateDict::from_pairs(arch.layout(classes).into_iter().map(|(k, s)| {

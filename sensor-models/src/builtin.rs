@@ -8,7 +8,7 @@
 
 use crate::model::{Model, ModelError};
 use crate::model_card::{CardError, CardSource, ModelCard};
-use crate::safetensors_file::read_safetensors_bytes;
+use crate::weights::safetensors_file::read_safetensors_bytes;
 use std::path::{Path, PathBuf};
 
 /// A model compiled into the binary.

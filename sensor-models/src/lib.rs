@@ -16,11 +16,8 @@
 //! - `train` (cargo feature `torch`): the training loop on libtorch, checkpoints, resume.
 //! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
 //!   markdown and plots.
-//! - [`tensor`], [`state_dict`]: weights by name as PyTorch's `state_dict()` holds them.
-//! - [`model_file`]: [`read_weights`] for any weights file users have, by content.
-//! - [`torch_file`]: `.pth` / `.pt` files written by `torch.save` (zip and legacy formats),
-//!   read without Python ([`pickle`] reads the pickle, `torch_pickle` says what it means).
-//! - [`safetensors_file`]: `.safetensors` files, read and written.
+//! - [`weights`]: weights by name as PyTorch's `state_dict()` holds them, and the readers of
+//!   every weights file users have (`torch.save` zip and legacy, safetensors), by content.
 #![warn(unreachable_pub)]
 
 pub mod arch;
@@ -28,37 +25,29 @@ pub mod augment;
 pub mod backend;
 pub mod builtin;
 pub mod dataset;
-mod element;
 pub mod eval;
 pub mod metrics;
 pub mod model;
 pub mod model_card;
-pub mod model_file;
-pub mod model_file_error;
 pub mod onnx_graph;
-pub mod pickle;
 pub mod prediction;
 pub mod preprocess;
 pub mod report;
-pub mod safetensors_file;
 pub mod split;
-pub mod state_dict;
-pub mod tensor;
-pub mod torch_file;
-mod torch_pickle;
 #[cfg(feature = "torch")]
 pub mod train;
 pub mod training_set;
+pub mod weights;
 
 pub use arch::{recognise, Architecture};
 pub use backend::{Backend, InferenceError, RawOutputs};
 pub use model::{Model, ModelError};
-pub use model_file::{detect_format, read_weights, WeightsFormat};
-pub use model_file_error::{ModelFileError, ModelFileErrorKind};
 pub use preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
-pub use safetensors_file::{
+pub use weights::error::{ModelFileError, ModelFileErrorKind};
+pub use weights::format::{detect_format, read_weights, WeightsFormat};
+pub use weights::safetensors_file::{
     card_in_safetensors, read_safetensors, write_safetensors, write_safetensors_with_card,
 };
-pub use state_dict::StateDict;
-pub use tensor::{StoredType, Tensor};
-pub use torch_file::read_torch;
+pub use weights::state_dict::StateDict;
+pub use weights::tensor::{StoredType, Tensor};
+pub use weights::torch_file::read_torch;

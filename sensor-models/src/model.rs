@@ -5,15 +5,15 @@ use crate::arch::{default_class_names, recognise, ArchError, Architecture};
 use crate::backend::tract::{output_order, TractBackend};
 use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::model_card::{CardError, CardSource, ModelCard, CARD_METADATA_KEY};
-use crate::model_file::read_weights;
-use crate::model_file_error::ModelFileError;
 use crate::onnx_graph;
 use crate::preprocess::{
     Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
 };
-use crate::safetensors_file::card_in_safetensors;
-use crate::state_dict::StateDict;
-use crate::tensor::Tensor;
+use crate::weights::error::ModelFileError;
+use crate::weights::format::read_weights;
+use crate::weights::safetensors_file::card_in_safetensors;
+use crate::weights::state_dict::StateDict;
+use crate::weights::tensor::Tensor;
 use fringe_calibration::profile::Profile;
 use std::path::{Path, PathBuf};
 use tract_onnx::pb;
@@ -129,7 +129,7 @@ impl Model {
                 Ok(sd) => Model::from_weights(path, sd, card, card_source),
                 #[cfg(feature = "torch")]
                 Err(ModelFileError {
-                    kind: crate::model_file_error::ModelFileErrorKind::TorchScript,
+                    kind: crate::weights::error::ModelFileErrorKind::TorchScript,
                     ..
                 }) => Model::open_torchscript(path, card, card_source),
                 Err(e) => Err(e.into()),

@@ -7,7 +7,7 @@
 //! state-dict names, so the graph's weights can be read back by name.
 
 use crate::arch::Architecture;
-use crate::state_dict::StateDict;
+use crate::weights::state_dict::StateDict;
 use tract_onnx::pb;
 
 /// ONNX opset the graph is written for.

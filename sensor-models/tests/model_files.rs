@@ -5,7 +5,7 @@
 mod common;
 
 use common::{fixture_dir, read_inputs, resnet_fixtures, Expected};
-use fringe_sensor_models::pickle;
+use fringe_sensor_models::weights::pickle;
 use fringe_sensor_models::{
     read_safetensors, read_torch, read_weights, write_safetensors, ModelFileErrorKind, StateDict,
     StoredType,

@@ -3,8 +3,9 @@
 //! For every crate of the workspace (libraries, binaries, integration tests, examples) this reads
 //! the module tree from the crate root (`mod name;`, `#[path = "..."]`, inline `mod name { .. }`),
 //! then every `use` statement that names a module of the same crate (`crate::..`, `super::..`,
-//! `self::..`, or a child module by name), and draws an edge from the file holding the statement to
-//! the file of the deepest module the path names. A cycle in that graph fails the test, naming the
+//! `self::..`, or a child module by name), and every such path written inline in the code
+//! (`crate::bench::limits(..)`, `super::failure::Kind::Stall`, in macro arguments too), and draws an
+//! edge from the file holding it to the file of the deepest module the path names. A cycle in that graph fails the test, naming the
 //! files and the `use` lines that close it. Re-exports count: `pub use child::X` in a parent is an
 //! edge from the parent to the child, so a child must import from its siblings, not through the
 //! parent (nor the crate root).
@@ -75,6 +76,48 @@ fn a_circle_through_a_parent_re_export_is_found() {
         .map(|(from, _, _, _)| from.file_name().unwrap().to_string_lossy().into_owned())
         .collect();
     assert_eq!(files, ["a.rs", "b.rs", "inner.rs"].map(String::from).into());
+}
+
+#[test]
+fn a_circle_through_an_inline_path_is_found() {
+    let dir = std::env::temp_dir().join(format!("fringe-import-inline-{}", std::process::id()));
+    let _ = fs::remove_dir_all(&dir);
+    fs::create_dir_all(dir.join("a")).expect("scratch dir");
+    fs::write(dir.join("lib.rs"), "pub mod a;\npub mod b;\n").expect("write");
+    fs::write(
+        dir.join("a.rs"),
+        "pub mod inner;\npub fn f() -> u8 { inner::g() + crate::b::h() }\n",
+    )
+    .expect("write");
+    fs::write(
+        dir.join("a/inner.rs"),
+        "pub fn g() -> u8 { std::cmp::max(1, fringe_rig::a::x()) }\n",
+    )
+    .expect("write");
+    fs::write(
+        dir.join("b.rs"),
+        "pub fn h() -> u8 {\n    let _ = format!(\"{}\", super::a::f());\n    2\n}\n",
+    )
+    .expect("write");
+    let cycles = Crate::read(&dir.join("lib.rs")).cycles();
+    let _ = fs::remove_dir_all(&dir);
+    assert_eq!(cycles.len(), 1, "{cycles:?}");
+    let mut lines: Vec<(String, usize, String)> = cycles[0]
+        .iter()
+        .map(|(from, _, line, text)| {
+            let name = from.file_name().unwrap().to_string_lossy().into_owned();
+            (name, *line, text.clone())
+        })
+        .collect();
+    lines.sort();
+    assert_eq!(
+        lines,
+        [
+            ("a.rs", 2, "pub fn f() -> u8 { inner::g() + crate::b::h() }"),
+            ("b.rs", 2, "let _ = format!(\"{}\", super::a::f());"),
+        ]
+        .map(|(f, l, t)| (f.to_string(), l, t.to_string()))
+    );
 }
 
 fn rel(workspace: &Path, p: &Path) -> String {
@@ -356,6 +399,30 @@ impl Crate {
                         },
                     ));
                     i = end;
+                }
+                // A path written inline (`crate::sim::limits(..)`, `super::x::Y`,
+                // `child::f()`), not the tail of a longer path (`other_crate::child::f`).
+                Tok::Ident(first)
+                    if toks.get(i + 1).map(|t| &t.0) == Some(&Tok::Path)
+                        && (i == 0 || toks[i - 1].0 != Tok::Path) =>
+                {
+                    let line = toks[i].1;
+                    let mut path = vec![first.clone()];
+                    while let (Some(Tok::Path), Some(Tok::Ident(next))) =
+                        (toks.get(i + 1).map(|t| &t.0), toks.get(i + 2).map(|t| &t.0))
+                    {
+                        path.push(next.clone());
+                        i += 2;
+                    }
+                    self.uses.push((
+                        file.to_path_buf(),
+                        Use {
+                            module: here,
+                            line,
+                            text: lines.get(line - 1).map_or("", |l| l.trim()).to_string(),
+                            paths: vec![path],
+                        },
+                    ));
                 }
                 _ => {}
             }

@@ -111,6 +111,6 @@ pub fn force_log(data: &[u8]) {
 
 /// The pickle reader that `torch.save` files go through.
 pub fn pickle(data: &[u8]) {
-    let _ = fringe_sensor_models::pickle::parse(data);
-    let _ = fringe_sensor_models::pickle::parse_prefix(data);
+    let _ = fringe_sensor_models::weights::pickle::parse(data);
+    let _ = fringe_sensor_models::weights::pickle::parse_prefix(data);
 }

@@ -10,6 +10,7 @@
 //! done again, so no point is lost or recorded twice; the same holds after a crash.
 
 use super::control::{Operator, Phase, Prompt, Reply, Request, ScanControl, ScanProgress, Status};
+use super::failure::ScanError;
 use super::offset_check::OffsetCheck;
 use super::origin::ContactOrigin;
 use super::plan::{BenchLimits, ScanPoint, ScanProgram, Targets};
@@ -33,8 +34,8 @@ use crate::scan::sidecar::RunSidecar;
 use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
+use crate::store::error::StoreError;
 use crate::store::run_writer::RunWriter;
-use crate::store::StoreError;
 use crate::sync::method::SyncMethod;
 use crate::units::{Millimetres, Newtons};
 use std::path::{Path, PathBuf};
@@ -97,53 +98,6 @@ pub struct ScanOutcome {
     /// prompts): mean and max, ms.
     pub overhead_mean_ms: f64,
     pub overhead_max_ms: f64,
-}
-
-/// Why a scan could not run or stopped on a fault.
-#[derive(Debug, thiserror::Error)]
-pub enum ScanError {
-    #[error(transparent)]
-    Axis(#[from] AxisError),
-    #[error(transparent)]
-    Force(#[from] crate::force::ForceError),
-    #[error(transparent)]
-    Camera(#[from] crate::camera::CameraError),
-    #[error(transparent)]
-    Store(#[from] StoreError),
-    #[error(transparent)]
-    Press(#[from] PressError),
-    #[error(transparent)]
-    Recorder(#[from] crate::acquire::recorder::RecorderError),
-    #[error("{0}")]
-    Setup(String),
-    /// A scan that stopped on an error once its run was open: the run keeps what was recorded.
-    #[error("{source}. The run {} keeps everything recorded before this; {}, then resume it: fringe scan --resume {}", run.display(), super::failure::advice(source), run.display())]
-    Stopped {
-        run: std::path::PathBuf,
-        source: Box<ScanError>,
-    },
-}
-
-impl ScanError {
-    /// This error as the end of the scan of the run in `run` (an error that already names its
-    /// run is kept as it is).
-    pub fn stopped(self, run: &Path) -> ScanError {
-        match self {
-            ScanError::Stopped { .. } => self,
-            other => ScanError::Stopped {
-                run: run.to_path_buf(),
-                source: Box::new(other),
-            },
-        }
-    }
-
-    /// The error that stopped the scan, without the run it stopped.
-    pub fn cause(&self) -> &ScanError {
-        match self {
-            ScanError::Stopped { source, .. } => source.cause(),
-            other => other,
-        }
-    }
 }
 
 /// How a point ended.

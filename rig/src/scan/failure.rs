@@ -1,12 +1,59 @@
-//! What to do when a scan stops on a device or disk error: the advice that ends the one-line
-//! message a user sees (`ScanError::Stopped`).
+//! Why a scan could not run or stopped, and what to do when it stops on a device or disk error:
+//! the advice that ends the one-line message a user sees (`ScanError::Stopped`).
 
-use super::engine::ScanError;
 use super::press::PressError;
 use crate::acquire::recorder::RecorderError;
 use crate::axis::AxisError;
 use crate::force::ForceError;
-use crate::store::StoreError;
+use crate::store::error::StoreError;
+use std::path::Path;
+
+/// Why a scan could not run or stopped on a fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanError {
+    #[error(transparent)]
+    Axis(#[from] AxisError),
+    #[error(transparent)]
+    Force(#[from] ForceError),
+    #[error(transparent)]
+    Camera(#[from] crate::camera::CameraError),
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error(transparent)]
+    Press(#[from] PressError),
+    #[error(transparent)]
+    Recorder(#[from] RecorderError),
+    #[error("{0}")]
+    Setup(String),
+    /// A scan that stopped on an error once its run was open: the run keeps what was recorded.
+    #[error("{source}. The run {} keeps everything recorded before this; {}, then resume it", run.display(), advice(source))]
+    Stopped {
+        run: std::path::PathBuf,
+        source: Box<ScanError>,
+    },
+}
+
+impl ScanError {
+    /// This error as the end of the scan of the run in `run` (an error that already names its
+    /// run is kept as it is).
+    pub fn stopped(self, run: &Path) -> ScanError {
+        match self {
+            ScanError::Stopped { .. } => self,
+            other => ScanError::Stopped {
+                run: run.to_path_buf(),
+                source: Box::new(other),
+            },
+        }
+    }
+
+    /// The error that stopped the scan, without the run it stopped.
+    pub fn cause(&self) -> &ScanError {
+        match self {
+            ScanError::Stopped { source, .. } => source.cause(),
+            other => other,
+        }
+    }
+}
 
 /// What the user should do about `e` before resuming the run.
 pub fn advice(e: &ScanError) -> String {

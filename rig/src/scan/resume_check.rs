@@ -30,7 +30,7 @@ pub fn refusal(
     if start.plan != plan {
         return Some(format!(
             "{dir_name}: the run was made with a different plan; resume it with the plan stored in its {} (the `plan` field)",
-            crate::store::START
+            crate::store::layout::START
         ));
     }
     if start.sync_method != sync {
@@ -52,7 +52,7 @@ pub fn refusal(
     Some(format!(
         "{dir_name}: the rig changes what the run's frames are ({}): its frames so far were made with the rig stored in its {} (the `rig` field); resume it with that rig (save the field as a rig file and pass it with --rig), or start a new run",
         changed.join("; "),
-        crate::store::START
+        crate::store::layout::START
     ))
 }
 

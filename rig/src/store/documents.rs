@@ -1,6 +1,7 @@
 //! What a run directory holds: the start and stop documents, frame records and events.
 
-use super::{StoreError, FRAMES};
+use super::error::StoreError;
+use super::layout::FRAMES;
 use crate::units::{Millimetres, Wrench};
 use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};

@@ -2,7 +2,7 @@
 //! a file written and fsynced, and a directory's entries made durable. The run writer, the
 //! manifest and the export all write this way.
 
-use super::StoreError;
+use super::error::StoreError;
 use std::fs::File;
 use std::io::Write;
 use std::path::Path;

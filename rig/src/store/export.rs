@@ -11,10 +11,11 @@
 
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
+use super::error::StoreError;
+use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
 use super::run_writer::read_lines;
 use super::verify::verify;
-use super::{StoreError, FRAMES, START};
 use std::collections::HashSet;
 use std::fmt::Write as _;
 use std::io::Cursor;
@@ -331,7 +332,7 @@ fn write_export(
     let (mut k, mut none, mut skipped, mut duplicates) = (0u64, 0u64, 0u64, 0u64);
     let mut exported = Vec::with_capacity(runs.len());
     for (run, problems) in runs.iter().zip(problems) {
-        let start: StartDocument = crate::store::read_start(run)?;
+        let start: StartDocument = super::run_writer::read_start(run)?;
         let first_image = k;
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
         let mut indices = HashSet::new();

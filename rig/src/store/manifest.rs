@@ -1,8 +1,9 @@
 //! The checksum manifest: SHA-256 of every file in a run, in `sha256sum` format, so that
 //! `sha256sum -c MANIFEST.sha256` works as well as `fringe verify`.
 
+use super::error::StoreError;
+use super::layout::MANIFEST;
 use super::run_lock::LOCK;
-use super::{StoreError, MANIFEST};
 use sha2::{Digest, Sha256};
 use std::fs::File;
 use std::io::Read;

@@ -1,8 +1,9 @@
 //! The runs under a directory, newest first.
 
 use super::documents::{StartDocument, StopDocument};
+use super::error::StoreError;
+use super::layout::{FRAMES, START, STOP};
 use super::run_writer::{read_document, read_lines};
-use super::{StoreError, FRAMES, START, STOP};
 use std::path::{Path, PathBuf};
 
 /// One line of `fringe runs`.

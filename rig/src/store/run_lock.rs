@@ -9,7 +9,7 @@
 //! the manifest and `fringe verify` pass it over, and a writer removes it when it is done.
 
 use super::documents::now_utc;
-use super::StoreError;
+use super::error::StoreError;
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};
 use std::os::fd::AsRawFd;

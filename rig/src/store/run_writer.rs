@@ -9,12 +9,11 @@
 
 use super::documents::{now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
 use super::durable::{sync_dir, write_atomic};
+use super::error::StoreError;
+use super::layout::{CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP};
 use super::own_file;
 use super::run_lock::RunLock;
-use super::{
-    force_log, manifest, StoreError, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START,
-    STOP,
-};
+use super::{force_log, manifest};
 use crate::camera::writer::{save_png, FrameFileError};
 use crate::camera::Frame;
 use crate::clock::HostTime;
@@ -28,6 +27,18 @@ fn json<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, StoreErro
         path: path.to_path_buf(),
         message: format!("cannot encode: {e}"),
     })
+}
+
+/// The start document of the run in `dir`; [`StoreError::NotARun`] when `dir` has none (a
+/// missing directory, a typo, the runs root instead of one run).
+pub fn read_start(dir: &Path) -> Result<StartDocument, StoreError> {
+    let path = dir.join(START);
+    if !path.exists() {
+        return Err(StoreError::NotARun {
+            dir: dir.to_path_buf(),
+        });
+    }
+    read_document(&path)
 }
 
 /// Reads a JSON document.
@@ -184,7 +195,7 @@ impl RunWriter {
     ) -> Result<(RunWriter, Existing), E> {
         if !dir.join(START).is_file() {
             // Not a run: say so (read_start's error) rather than leave a lock file in it.
-            crate::store::read_start(dir)?;
+            read_start(dir)?;
         }
         let lock = RunLock::write(dir)?;
         let survey = survey(dir)?;
@@ -493,7 +504,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
     } else {
         None
     };
-    let start: StartDocument = crate::store::read_start(dir)?;
+    let start: StartDocument = read_start(dir)?;
     let frames_path = dir.join(FRAMES);
     let lines = read_frame_lines(&frames_path)?;
     let checkpoint_path = dir.join(CHECKPOINT);

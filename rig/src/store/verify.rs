@@ -3,10 +3,12 @@
 //! manifest.
 
 use super::documents::{FrameRecord, StartDocument, StopDocument};
+use super::error::StoreError;
+use super::layout::{CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use super::run_writer::{
     check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
 };
-use super::{force_log, manifest, own_file, StoreError, CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
+use super::{force_log, manifest, own_file};
 use std::path::Path;
 
 /// What `fringe verify` found.
@@ -30,7 +32,7 @@ impl VerifyReport {
 /// Checks the run in `dir`. Fails only when `dir` is not a run at all (no readable start
 /// document); everything else is reported as a problem.
 pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
-    let start: StartDocument = crate::store::read_start(dir)?;
+    let start: StartDocument = super::run_writer::read_start(dir)?;
     let mut problems = Vec::new();
     let frames: Vec<FrameRecord> = match read_frame_lines(&dir.join(FRAMES)) {
         Ok(lines) => {

@@ -5,9 +5,9 @@
 
 use super::{Backend, InferenceError, RawOutputs};
 use crate::arch::Architecture;
-use crate::state_dict::StateDict;
 use crate::train::net::Net;
 use crate::train::tensors::load_state_dict;
+use crate::weights::state_dict::StateDict;
 use std::path::Path;
 use tch::{nn, Device, Kind, Tensor};
 

@@ -4,7 +4,7 @@
 
 use super::error::TrainError;
 use super::tensors::{from_state, to_state};
-use crate::state_dict::StateDict;
+use crate::weights::state_dict::StateDict;
 use tch::Tensor;
 
 const BETA1: f64 = 0.9;
@@ -78,7 +78,7 @@ impl Adam {
             sd.insert(&format!("exp_avg.{name}"), to_state(m)?);
             sd.insert(&format!("exp_avg_sq.{name}"), to_state(v)?);
         }
-        let step = crate::tensor::Tensor::new(vec![1], vec![self.step as f32])
+        let step = crate::weights::tensor::Tensor::new(vec![1], vec![self.step as f32])
             .ok_or_else(|| TrainError::Internal("step tensor".into()))?;
         sd.insert("step", step);
         Ok(sd)

@@ -6,8 +6,10 @@
 
 use super::error::TrainError;
 use crate::model_card::ModelCard;
-use crate::safetensors_file::{read_safetensors, write_safetensors, write_safetensors_with_card};
-use crate::state_dict::StateDict;
+use crate::weights::safetensors_file::{
+    read_safetensors, write_safetensors, write_safetensors_with_card,
+};
+use crate::weights::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 
 /// One epoch's figures.

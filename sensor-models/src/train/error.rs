@@ -21,7 +21,7 @@ pub enum TrainError {
     #[error("{path}: {message}")]
     Checkpoint { path: String, message: String },
     #[error(transparent)]
-    Weights(#[from] crate::model_file_error::ModelFileError),
+    Weights(#[from] crate::weights::error::ModelFileError),
     #[error(transparent)]
     Eval(#[from] crate::eval::EvalError),
     #[error(transparent)]

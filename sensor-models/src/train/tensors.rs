@@ -2,8 +2,8 @@
 //! model file and backend of the crate reads).
 
 use super::error::TrainError;
-use crate::state_dict::StateDict;
-use crate::tensor::Tensor as Stored;
+use crate::weights::state_dict::StateDict;
+use crate::weights::tensor::Tensor as Stored;
 use tch::{Kind, Tensor};
 
 /// A libtorch tensor as a stored f32 tensor.

@@ -11,7 +11,8 @@ use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profi
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
-use fringe_rig::scan::engine::{run_scan, RunTarget, ScanError, ScanOutcome, ScanSetup};
+use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
+use fringe_rig::scan::failure::ScanError;
 use fringe_rig::scan::offset_check::OffsetCheck;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};

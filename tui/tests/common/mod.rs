@@ -1,10 +1,10 @@
 //! Helpers shared by the command-line tests (one set for every test file of this crate).
 #![allow(dead_code)] // each test binary uses its own subset
 
-use fringe_sensor_models::model_file::read_weights;
-use fringe_sensor_models::safetensors_file::write_safetensors;
-use fringe_sensor_models::state_dict::StateDict;
-use fringe_sensor_models::tensor::Tensor;
+use fringe_sensor_models::weights::format::read_weights;
+use fringe_sensor_models::weights::safetensors_file::write_safetensors;
+use fringe_sensor_models::weights::state_dict::StateDict;
+use fringe_sensor_models::weights::tensor::Tensor;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};

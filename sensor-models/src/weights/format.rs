@@ -2,10 +2,11 @@
 //! (zip or legacy), a safetensors file and an ONNX model apart by their content (the extension
 //! only decides for ONNX), and says what a foreign file starts with.
 
-use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
-use crate::safetensors_file::{read_safetensors, MAX_HEADER};
-use crate::state_dict::StateDict;
-use crate::torch_file::{read_head, read_torch, ZIP_MAGIC};
+use super::error::{ModelFileError, ModelFileErrorKind};
+use super::file_start::{describe_start, read_head};
+use super::safetensors_file::{read_safetensors, MAX_HEADER};
+use super::state_dict::StateDict;
+use super::torch_file::{read_torch, ZIP_MAGIC};
 use std::path::Path;
 
 /// How many first bytes are looked at to recognise a file.
@@ -57,7 +58,8 @@ fn format_of(head: &[u8], is_onnx_name: bool) -> Result<WeightsFormat, ModelFile
     if let Some(n) = safetensors_header_len(head) {
         if n > MAX_HEADER {
             return Err(ModelFileErrorKind::Malformed(format!(
-                "a safetensors header of {n} bytes, more than the {MAX_HEADER} bytes safetensors                  allows: the file is damaged (or not what it claims)"
+                "a safetensors header of {n} bytes, more than the {MAX_HEADER} bytes safetensors \
+                 allows: the file is damaged (or not what it claims)"
             )));
         }
         return Ok(WeightsFormat::Safetensors);
@@ -89,45 +91,6 @@ fn safetensors_header_len(head: &[u8]) -> Option<u64> {
 fn looks_like_onnx(head: &[u8]) -> bool {
     matches!(head, [0x08, v, next, ..] if (1..=20).contains(v) && matches!(next, 0x12 | 0x1a | 0x3a | 0x42))
 }
-
-/// The first bytes of a file, for a message: hex, as text, and a guess of what it is.
-pub(crate) fn describe_start(head: &[u8]) -> String {
-    let shown = &head[..head.len().min(8)];
-    let hex: Vec<String> = shown.iter().map(|b| format!("{b:02x}")).collect();
-    let text: String = shown
-        .iter()
-        .map(|&b| {
-            if b.is_ascii_graphic() || b == b' ' {
-                b as char
-            } else {
-                '.'
-            }
-        })
-        .collect();
-    let guess = KNOWN_STARTS
-        .iter()
-        .find(|(magic, _)| head.starts_with(magic))
-        .map(|(_, what)| format!(", {what}"))
-        .unwrap_or_default();
-    format!("{} (\"{text}\"{guess})", hex.join(" "))
-}
-
-/// First bytes of files people mistake for weights.
-const KNOWN_STARTS: [(&[u8], &str); 10] = [
-    (b"\x89PNG", "a PNG image"),
-    (b"\xff\xd8\xff", "a JPEG image"),
-    (b"II*\x00", "a TIFF image"),
-    (b"MM\x00*", "a TIFF image"),
-    (b"\x89HDF", "an HDF5 file (Keras?)"),
-    (b"\x93NUMPY", "a NumPy array"),
-    (b"\x1f\x8b", "gzip-compressed: decompress it first"),
-    (b"\x7fELF", "a program"),
-    (b"{", "JSON text"),
-    (
-        b"version https://git-lfs",
-        "a Git LFS pointer: run git lfs pull",
-    ),
-];
 
 #[cfg(test)]
 mod tests {

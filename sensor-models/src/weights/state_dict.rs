@@ -2,7 +2,7 @@
 //! from. Wrapper prefixes (`module.` from DataParallel, `_orig_mod.` from torch.compile) are
 //! removed so every key reads as the bare model's.
 
-use crate::tensor::{StoredType, Tensor};
+use super::tensor::{StoredType, Tensor};
 use std::collections::BTreeMap;
 
 /// Named tensors.

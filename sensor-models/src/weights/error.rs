@@ -1,6 +1,6 @@
 //! Why a model file could not be read or written: one line naming the file and what was found.
 
-use crate::pickle::PickleError;
+use super::pickle::PickleError;
 use std::path::{Path, PathBuf};
 
 /// A model file that could not be read (or written), with the file's path.

@@ -1,6 +1,6 @@
 //! Element types of stored tensors: their sizes and how their bytes become f32 values.
 
-use crate::tensor::StoredType;
+use super::tensor::StoredType;
 
 /// Bytes per element of `stored`.
 pub(crate) fn size_of(stored: StoredType) -> usize {

@@ -1,6 +1,6 @@
 //! `.pth` / `.pt` files written by `torch.save`, read without Python.
 //!
-//! Two containers hold the same pickle ([`crate::torch_pickle`] says what it means):
+//! Two containers hold the same pickle ([`super::torch_pickle`] says what it means):
 //! - the zip format (PyTorch >= 1.6): `<archive>/data.pkl`, one `<archive>/data/<key>` entry
 //!   of raw bytes per storage, `<archive>/byteorder`;
 //! - the legacy format (`_use_new_zipfile_serialization=False`): pickles of the magic number,
@@ -9,12 +9,13 @@
 //!
 //! Every view is checked against its storage's size before a value is read.
 
-use crate::element;
-use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
-use crate::pickle::{self, Value};
-use crate::state_dict::StateDict;
-use crate::tensor::{StoredType, Tensor};
-use crate::torch_pickle::{self, StorageType, TensorSpec};
+use super::element;
+use super::error::{ModelFileError, ModelFileErrorKind};
+use super::file_start::{describe_start, read_head};
+use super::pickle::{self, Value};
+use super::state_dict::StateDict;
+use super::tensor::{StoredType, Tensor};
+use super::torch_pickle::{self, StorageType, TensorSpec};
 use std::collections::HashMap;
 use std::io::Read;
 use std::path::Path;
@@ -59,24 +60,7 @@ fn read_torch_inner(path: &Path) -> Result<StateDict, ModelFileErrorKind> {
         let bytes = std::fs::read(path).map_err(ModelFileErrorKind::Read)?;
         read_legacy(&bytes)
     } else {
-        Err(ModelFileErrorKind::Foreign(
-            crate::model_file::describe_start(head),
-        ))
-    }
-}
-
-/// Fills `buf` with the file's first bytes; returns how many it has.
-pub(crate) fn read_head(path: &Path, buf: &mut [u8]) -> Result<usize, ModelFileErrorKind> {
-    let file = std::fs::File::open(path).map_err(ModelFileErrorKind::Read)?;
-    let mut got = 0;
-    let mut reader = file.take(buf.len() as u64);
-    loop {
-        match reader.read(&mut buf[got..]) {
-            Ok(0) => return Ok(got),
-            Ok(k) => got += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(ModelFileErrorKind::Read(e)),
-        }
+        Err(ModelFileErrorKind::Foreign(describe_start(head)))
     }
 }
 
@@ -557,8 +541,8 @@ impl Storages for LegacyStorages<'_> {
 
 #[cfg(test)]
 mod tests {
+    use super::torch_pickle::StorageRef;
     use super::*;
-    use crate::torch_pickle::StorageRef;
 
     struct OneStorage(Vec<u8>);
 

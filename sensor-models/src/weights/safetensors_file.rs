@@ -1,11 +1,11 @@
 //! `.safetensors` files (a JSON header of names, element types, shapes and offsets, then the
 //! raw little-endian bytes), through the `safetensors` crate.
 
-use crate::element;
+use super::element;
+use super::error::{ModelFileError, ModelFileErrorKind};
+use super::state_dict::StateDict;
+use super::tensor::{StoredType, Tensor};
 use crate::model_card::{CardError, ModelCard, CARD_METADATA_KEY};
-use crate::model_file_error::{ModelFileError, ModelFileErrorKind};
-use crate::state_dict::StateDict;
-use crate::tensor::{StoredType, Tensor};
 use safetensors::tensor::{Dtype, SafeTensorError, SafeTensors, TensorView};
 use std::collections::HashMap;
 use std::io::Write;

@@ -3,9 +3,9 @@
 //! (`torch._utils._rebuild_tensor_v2(storage, offset, size, stride, ...)`, parameters), and the
 //! storages they view (persistent ids `('storage', torch.FloatStorage, key, location, numel)`).
 
-use crate::model_file_error::ModelFileErrorKind;
-use crate::pickle::Value;
-use crate::tensor::StoredType;
+use super::error::ModelFileErrorKind;
+use super::pickle::Value;
+use super::tensor::StoredType;
 
 /// Keys under which training checkpoints keep the model's state dict, in order of preference.
 const CHECKPOINT_KEYS: [&str; 3] = ["model_state_dict", "state_dict", "model"];
@@ -53,7 +53,7 @@ impl StorageType {
 
     pub(crate) fn element_size(&self) -> usize {
         match self {
-            StorageType::Supported(s) => crate::element::size_of(*s),
+            StorageType::Supported(s) => super::element::size_of(*s),
             StorageType::Other { element_size, .. } => *element_size,
         }
     }
