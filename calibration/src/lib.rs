@@ -32,5 +32,5 @@ pub mod scan_run;
 pub use from_scan::{FromScanError, ScanCalibration};
 pub use offsets::{ProfileOffsetCheck, ZeroTolerance};
 pub use optical::{find_disc, DiscFit, OpticalError};
-pub use profile::{load_checked, profile_path, Expectation, Profile, ProfileError};
+pub use profile::{load_checked, profile_path, Expectation, Profile, ProfileError, ProfileWarning};
 pub use scan_run::{ScanRun, ScanRunError};

@@ -227,7 +227,7 @@ pub fn zero_load_check(profile: &ForceOffsets, now: &Bias, tol: ZeroTolerance) -
         let moved = now.mean[ch] - then[ch];
         if moved.abs() > limit + 3.0 * se {
             warnings.push(format!(
-                "{} offset moved {moved:+.4} {unit} since the profile was made (tolerance {limit} {unit}): re-bias the F/T sensor or re-run `fringe calibrate`",
+                "{} offset moved {moved:+.4} {unit} since the profile was made (tolerance {limit} {unit}): re-bias the F/T sensor or calibrate the sensor again",
                 CHANNELS[ch]
             ));
         }

@@ -228,26 +228,44 @@ pub struct Expectation<'a> {
     pub max_age_days: f64,
 }
 
+/// Why a profile cannot be used as it is. Said without naming a command: the front end adds the
+/// one that helps.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProfileWarning {
+    /// The sensor has no profile: it was never calibrated (here).
+    #[error("no profile for sensor `{sensor_id}` ({} is missing)", path.display())]
+    Missing { sensor_id: String, path: PathBuf },
+    /// The profile is older than the limit: the sensor wants calibrating again.
+    #[error("profile {} is {age_days:.0} days old (made {created_utc}; limit {limit_days} days)", path.display())]
+    Stale {
+        path: PathBuf,
+        age_days: f64,
+        created_utc: String,
+        limit_days: f64,
+    },
+    /// Unreadable, another sensor's, of unknown age or made at another image size.
+    #[error("{0}")]
+    Other(String),
+}
+
 /// Loads `dir/<sensor-id>.toml` and checks it; the profile (if readable) and warnings for a
 /// missing, unreadable, stale or mismatched profile (empty when it can be used as is).
 pub fn load_checked(
     dir: &Path,
     want: &Expectation,
     now: SystemTime,
-) -> (Option<Profile>, Vec<String>) {
+) -> (Option<Profile>, Vec<ProfileWarning>) {
     let path = match profile_path(dir, want.sensor_id) {
         Ok(p) => p,
-        Err(e) => return (None, vec![e.to_string()]),
+        Err(e) => return (None, vec![ProfileWarning::Other(e.to_string())]),
     };
     if !path.exists() {
         return (
             None,
-            vec![format!(
-                "no profile for sensor `{}` ({} is missing): run `fringe calibrate --sensor {}`",
-                want.sensor_id,
-                path.display(),
-                want.sensor_id
-            )],
+            vec![ProfileWarning::Missing {
+                sensor_id: want.sensor_id.to_string(),
+                path,
+            }],
         );
     }
     match Profile::load(&path) {
@@ -255,38 +273,43 @@ pub fn load_checked(
             let w = check(&p, &path, want, now);
             (Some(p), w)
         }
-        Err(e) => (None, vec![format!("profile unusable: {e}")]),
+        Err(e) => (
+            None,
+            vec![ProfileWarning::Other(format!("profile unusable: {e}"))],
+        ),
     }
 }
 
 /// Warnings for a stale (older than `max_age_days` or image size differs) or mismatched (sensor
 /// id differs) profile read from `path`.
-pub fn check(p: &Profile, path: &Path, want: &Expectation, now: SystemTime) -> Vec<String> {
+pub fn check(p: &Profile, path: &Path, want: &Expectation, now: SystemTime) -> Vec<ProfileWarning> {
     let mut w = Vec::new();
     let file = path.display();
     if p.sensor_id != want.sensor_id {
-        w.push(format!(
+        w.push(ProfileWarning::Other(format!(
             "profile {file} is for sensor `{}`, not `{}`: use that sensor's profile or re-calibrate",
             p.sensor_id, want.sensor_id
-        ));
+        )));
     }
     match p.age_days(now) {
-        Some(age) if age > want.max_age_days => w.push(format!(
-            "profile {file} is {age:.0} days old (made {}; limit {} days): re-run `fringe calibrate`",
-            p.created_utc, want.max_age_days
-        )),
+        Some(age) if age > want.max_age_days => w.push(ProfileWarning::Stale {
+            path: path.to_path_buf(),
+            age_days: age,
+            created_utc: p.created_utc.clone(),
+            limit_days: want.max_age_days,
+        }),
         Some(_) => {}
-        None => w.push(format!(
+        None => w.push(ProfileWarning::Other(format!(
             "profile {file}: created_utc `{}` is not an RFC 3339 UTC time, its age is unknown",
             p.created_utc
-        )),
+        ))),
     }
     if let Some(img) = want.image {
         if img != p.image {
-            w.push(format!(
+            w.push(ProfileWarning::Other(format!(
                 "profile {file} was measured on {}x{} px images, these are {}x{} px: re-calibrate for this camera setting",
                 p.image.width, p.image.height, img.width, img.height
-            ));
+            )));
         }
     }
     w
@@ -361,7 +384,10 @@ mod tests {
         let (got, w) = load_checked(&dir, &want, made + Duration::from_secs(86_400));
         assert!(got.is_some() && w.is_empty(), "{w:?}");
         let (_, w) = load_checked(&dir, &want, made + Duration::from_secs(40 * 86_400));
-        assert!(w.len() == 1 && w[0].contains("40 days old"), "{w:?}");
+        assert!(
+            w.len() == 1 && w[0].to_string().contains("40 days old"),
+            "{w:?}"
+        );
         let other_size = Expectation {
             image: Some(ImageSize {
                 width: 1280,
@@ -370,16 +396,22 @@ mod tests {
             ..want.clone()
         };
         let w = check(&p, &path, &other_size, made);
-        assert!(w.len() == 1 && w[0].contains("1280x1024"), "{w:?}");
+        assert!(
+            w.len() == 1 && w[0].to_string().contains("1280x1024"),
+            "{w:?}"
+        );
         let other = Expectation {
             sensor_id: "integrated-1",
             ..want.clone()
         };
         let w = check(&p, &path, &other, made);
-        assert!(w.len() == 1 && w[0].contains("not `integrated-1`"), "{w:?}");
+        assert!(
+            w.len() == 1 && w[0].to_string().contains("not `integrated-1`"),
+            "{w:?}"
+        );
         let (none, w) = load_checked(&dir, &other, made);
         assert!(
-            none.is_none() && w[0].contains("integrated-1.toml is missing"),
+            none.is_none() && w[0].to_string().contains("integrated-1.toml is missing"),
             "{w:?}"
         );
 

@@ -182,6 +182,9 @@ pub struct CameraInfo {
 pub enum CameraError {
     #[error("camera {camera}: {message}")]
     Device { camera: String, message: String },
+    /// The camera was not found or would not open.
+    #[error("camera {camera}: cannot open: {message}")]
+    Open { camera: String, message: String },
     #[error("camera {camera}: feature {feature} {message}")]
     Feature {
         camera: String,

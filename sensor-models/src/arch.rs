@@ -8,6 +8,11 @@
 //!   `backbone = Sequential(conv1, bn1, relu, maxpool, layer1..layer4, avgpool)` (so
 //!   `backbone.0` is conv1, `backbone.4` layer1 ... `backbone.7` layer4), the same heads on 512
 //!   features.
+//!
+//! [`Architecture::body`] is the one description of a network: the weight layout checked here,
+//! the ONNX graph (`onnx_graph`) and the libtorch network (`torch_net`) are all built from its
+//! [`Layer`]s. A new architecture is a variant here with its name and its body; nothing else
+//! names the variants.
 
 use crate::weights::state_dict::StateDict;
 use std::fmt;
@@ -23,6 +28,9 @@ pub enum Architecture {
 }
 
 impl Architecture {
+    /// Every architecture, in the order weights are recognised.
+    pub const ALL: [Architecture; 2] = [Architecture::Custom, Architecture::Resnet18];
+
     pub fn name(self) -> &'static str {
         match self {
             Architecture::Custom => "custom",
@@ -30,51 +38,84 @@ impl Architecture {
         }
     }
 
-    /// Features the heads read.
-    pub fn features(self) -> usize {
+    /// The network's body, from the input image to the features the heads read: the one
+    /// description that the weight layout, the ONNX graph and the libtorch network are built from.
+    pub fn body(self) -> Vec<Layer> {
         match self {
-            Architecture::Custom => 128,
-            Architecture::Resnet18 => 512,
+            Architecture::Custom => {
+                let ch = [3, 16, 32, 64, 128];
+                (0..4)
+                    .flat_map(|i| {
+                        [
+                            Layer::Conv(Conv {
+                                key: format!("cnn.{i}.block.0"),
+                                cin: ch[i],
+                                cout: ch[i + 1],
+                                kernel: 3,
+                                stride: 1,
+                                padding: 1,
+                                bias: true,
+                            }),
+                            Layer::Relu,
+                            Layer::MaxPool {
+                                kernel: 2,
+                                stride: 2,
+                                padding: 0,
+                            },
+                        ]
+                    })
+                    .collect()
+            }
+            Architecture::Resnet18 => {
+                let mut body = vec![
+                    Layer::Conv(Conv {
+                        key: "backbone.0".into(),
+                        cin: 3,
+                        cout: 64,
+                        kernel: 7,
+                        stride: 2,
+                        padding: 3,
+                        bias: false,
+                    }),
+                    Layer::BatchNorm {
+                        key: "backbone.1".into(),
+                        channels: 64,
+                    },
+                    Layer::Relu,
+                    Layer::MaxPool {
+                        kernel: 3,
+                        stride: 2,
+                        padding: 1,
+                    },
+                ];
+                let widths = [64, 128, 256, 512];
+                for (layer, &width) in widths.iter().enumerate() {
+                    let input = if layer == 0 { 64 } else { widths[layer - 1] };
+                    for block in 0..2 {
+                        let key = format!("backbone.{}.{block}", layer + 4);
+                        let (cin, stride) = match (layer, block) {
+                            (0, _) => (input, 1),
+                            (_, 0) => (input, 2),
+                            _ => (width, 1),
+                        };
+                        body.extend(basic_block(&key, cin, width, stride));
+                    }
+                }
+                body
+            }
         }
+    }
+
+    /// Features the heads read: the body's output channels.
+    pub fn features(self) -> usize {
+        channels_out(&self.body()).unwrap_or(0)
     }
 
     /// Every weight key with its shape, for `classes` shape classes.
     pub fn layout(self, classes: usize) -> Vec<(String, Vec<usize>)> {
         let mut keys = Vec::new();
-        match self {
-            Architecture::Custom => {
-                let ch = [3, 16, 32, 64, 128];
-                for i in 0..4 {
-                    keys.push((
-                        format!("cnn.{i}.block.0.weight"),
-                        vec![ch[i + 1], ch[i], 3, 3],
-                    ));
-                    keys.push((format!("cnn.{i}.block.0.bias"), vec![ch[i + 1]]));
-                }
-            }
-            Architecture::Resnet18 => {
-                keys.push(("backbone.0.weight".into(), vec![64, 3, 7, 7]));
-                batch_norm(&mut keys, "backbone.1", 64);
-                let widths = [64, 128, 256, 512];
-                for (layer, &width) in widths.iter().enumerate() {
-                    let input = if layer == 0 { 64 } else { widths[layer - 1] };
-                    for block in 0..2 {
-                        let p = format!("backbone.{}.{block}", layer + 4);
-                        let cin = if block == 0 { input } else { width };
-                        keys.push((format!("{p}.conv1.weight"), vec![width, cin, 3, 3]));
-                        batch_norm(&mut keys, &format!("{p}.bn1"), width);
-                        keys.push((format!("{p}.conv2.weight"), vec![width, width, 3, 3]));
-                        batch_norm(&mut keys, &format!("{p}.bn2"), width);
-                        if block == 0 && layer > 0 {
-                            keys.push((
-                                format!("{p}.downsample.0.weight"),
-                                vec![width, input, 1, 1],
-                            ));
-                            batch_norm(&mut keys, &format!("{p}.downsample.1"), width);
-                        }
-                    }
-                }
-            }
+        for layer in &self.body() {
+            layer.weights(&mut keys);
         }
         let f = self.features();
         for (head, out) in [
@@ -89,6 +130,121 @@ impl Architecture {
     }
 }
 
+/// A 2-D convolution with a square kernel; `key` is the prefix of its weights.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Conv {
+    pub key: String,
+    pub cin: usize,
+    pub cout: usize,
+    pub kernel: usize,
+    pub stride: usize,
+    pub padding: usize,
+    pub bias: bool,
+}
+
+/// One step of a network's body, in the order the input goes through it. After the body, every
+/// architecture has the same end: global average pooling, then three linear heads on the
+/// features (`force_head` 7 outputs, `class_head` one per shape class, `point_head` 2).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Layer {
+    Conv(Conv),
+    /// Batch normalisation (PyTorch's defaults: eps 1e-5) with its running statistics.
+    BatchNorm {
+        key: String,
+        channels: usize,
+    },
+    Relu,
+    /// Max pooling with a square kernel.
+    MaxPool {
+        kernel: usize,
+        stride: usize,
+        padding: usize,
+    },
+    /// The sum of `main` and `skip` applied to the same input (an empty `skip`: the input).
+    Residual {
+        main: Vec<Layer>,
+        skip: Vec<Layer>,
+    },
+}
+
+impl Layer {
+    /// Appends this step's weight keys and shapes.
+    fn weights(&self, keys: &mut Vec<(String, Vec<usize>)>) {
+        match self {
+            Layer::Conv(c) => {
+                keys.push((
+                    format!("{}.weight", c.key),
+                    vec![c.cout, c.cin, c.kernel, c.kernel],
+                ));
+                if c.bias {
+                    keys.push((format!("{}.bias", c.key), vec![c.cout]));
+                }
+            }
+            Layer::BatchNorm { key, channels } => {
+                for name in ["weight", "bias", "running_mean", "running_var"] {
+                    keys.push((format!("{key}.{name}"), vec![*channels]));
+                }
+                keys.push((format!("{key}.num_batches_tracked"), vec![]));
+            }
+            Layer::Relu | Layer::MaxPool { .. } => {}
+            Layer::Residual { main, skip } => {
+                for l in main.iter().chain(skip) {
+                    l.weights(keys);
+                }
+            }
+        }
+    }
+}
+
+/// The channels that come out of `layers` (None if no step sets them).
+fn channels_out(layers: &[Layer]) -> Option<usize> {
+    layers.iter().rev().find_map(|l| match l {
+        Layer::Conv(c) => Some(c.cout),
+        Layer::BatchNorm { channels, .. } => Some(*channels),
+        Layer::Relu | Layer::MaxPool { .. } => None,
+        Layer::Residual { main, .. } => channels_out(main),
+    })
+}
+
+/// torchvision's BasicBlock under `key`: conv 3x3 (stride), batch norm, ReLU, conv 3x3, batch
+/// norm, plus the input (through a 1x1 conv and batch norm, `downsample`, when the stride or the
+/// width changes), then ReLU.
+fn basic_block(key: &str, cin: usize, cout: usize, stride: usize) -> [Layer; 2] {
+    let conv = |name: &str, cin, kernel, stride, padding| {
+        Layer::Conv(Conv {
+            key: format!("{key}.{name}"),
+            cin,
+            cout,
+            kernel,
+            stride,
+            padding,
+            bias: false,
+        })
+    };
+    let bn = |name: &str| Layer::BatchNorm {
+        key: format!("{key}.{name}"),
+        channels: cout,
+    };
+    let skip = if stride != 1 || cin != cout {
+        vec![conv("downsample.0", cin, 1, stride, 0), bn("downsample.1")]
+    } else {
+        Vec::new()
+    };
+    [
+        Layer::Residual {
+            main: vec![
+                conv("conv1", cin, 3, stride, 1),
+                bn("bn1"),
+                Layer::Relu,
+                conv("conv2", cout, 3, 1, 1),
+                bn("bn2"),
+            ],
+            skip,
+        },
+        Layer::Relu,
+    ]
+}
+
 impl fmt::Display for Architecture {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
@@ -96,13 +252,6 @@ impl fmt::Display for Architecture {
             Architecture::Resnet18 => "ResNet-18 multitask",
         })
     }
-}
-
-fn batch_norm(keys: &mut Vec<(String, Vec<usize>)>, prefix: &str, n: usize) {
-    for name in ["weight", "bias", "running_mean", "running_var"] {
-        keys.push((format!("{prefix}.{name}"), vec![n]));
-    }
-    keys.push((format!("{prefix}.num_batches_tracked"), vec![]));
 }
 
 /// Why weights are not one of the paper's networks.
@@ -147,10 +296,13 @@ fn list<'a>(names: impl Iterator<Item = &'a str>) -> String {
 /// Recognises the architecture and the number of shape classes from the keys, and checks every
 /// key and shape (missing and unexpected keys are named).
 pub fn recognise(sd: &StateDict) -> Result<(Architecture, usize), ArchError> {
-    let arch = if sd.contains("cnn.0.block.0.weight") {
-        Architecture::Custom
-    } else if sd.contains("backbone.0.weight") {
-        Architecture::Resnet18
+    // Each architecture is told by its first weight (the first convolution's).
+    let first_key = |a: Architecture| a.layout(2).into_iter().next().map(|(k, _)| k);
+    let arch = if let Some(arch) = Architecture::ALL
+        .into_iter()
+        .find(|&a| first_key(a).is_some_and(|k| sd.contains(&k)))
+    {
+        arch
     } else {
         let mut prefixes: Vec<&str> = sd
             .keys()

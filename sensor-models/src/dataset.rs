@@ -60,7 +60,7 @@ pub struct Source {
 pub enum DatasetError {
     #[error("{0}: neither a run (start.json + frames.jsonl) nor a reference-layout dataset (0.labels.csv + 0.images/)")]
     Unknown(String),
-    #[error("{0}: no such run or dataset (give a run directory that fringe scan wrote, `fringe runs` lists them, or a dataset that fringe export or fringe sim dataset wrote)")]
+    #[error("{0}: no such run or dataset")]
     Missing(String),
     #[error(transparent)]
     Store(#[from] fringe_rig::store::StoreError),

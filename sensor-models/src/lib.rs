@@ -13,7 +13,8 @@
 //! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
 //! - [`split`]: train / validation / test by physical indentation; [`augment`]: the paper's
 //!   augmentation pipelines; [`training_set`]: a split side's network inputs and targets.
-//! - `train` (cargo feature `torch`): the training loop on libtorch, checkpoints, resume.
+//! - `torch_net` (cargo feature `torch`): the networks in libtorch, built from [`arch`]; `train`
+//!   (same feature): the training loop on libtorch, checkpoints, resume.
 //! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
 //!   markdown and plots.
 //! - [`weights`]: weights by name as PyTorch's `state_dict()` holds them, and the readers of
@@ -34,6 +35,8 @@ pub mod prediction;
 pub mod preprocess;
 pub mod report;
 pub mod split;
+#[cfg(feature = "torch")]
+pub mod torch_net;
 #[cfg(feature = "torch")]
 pub mod train;
 pub mod training_set;

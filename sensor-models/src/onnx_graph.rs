@@ -6,7 +6,7 @@
 //! Add, GlobalAveragePool, Flatten, Gemm. Weights are stored as f32 initialisers under their
 //! state-dict names, so the graph's weights can be read back by name.
 
-use crate::arch::Architecture;
+use crate::arch::{Architecture, Conv, Layer};
 use crate::weights::state_dict::StateDict;
 use tract_onnx::pb;
 
@@ -98,28 +98,13 @@ impl Builder<'_> {
         });
     }
 
-    fn conv(
-        &mut self,
-        x: String,
-        prefix: &str,
-        k: i64,
-        stride: i64,
-        pad: i64,
-        bias: bool,
-    ) -> String {
-        let mut inputs = vec![x, self.weight(&format!("{prefix}.weight"))];
-        if bias {
-            inputs.push(self.weight(&format!("{prefix}.bias")));
+    fn conv(&mut self, x: String, c: &Conv) -> String {
+        let mut inputs = vec![x, self.weight(&format!("{}.weight", c.key))];
+        if c.bias {
+            inputs.push(self.weight(&format!("{}.bias", c.key)));
         }
-        self.node(
-            "Conv",
-            inputs,
-            vec![
-                ints("kernel_shape", &[k, k]),
-                ints("strides", &[stride, stride]),
-                ints("pads", &[pad, pad, pad, pad]),
-            ],
-        )
+        let attributes = window(c.kernel, c.stride, c.padding).to_vec();
+        self.node("Conv", inputs, attributes)
     }
 
     fn batch_norm(&mut self, x: String, prefix: &str) -> String {
@@ -134,38 +119,41 @@ impl Builder<'_> {
         )
     }
 
-    fn relu(&mut self, x: String) -> String {
-        self.node("Relu", vec![x], vec![])
+    /// `layers` one after another on `x`.
+    fn layers(&mut self, mut x: String, layers: &[Layer]) -> String {
+        for layer in layers {
+            x = match layer {
+                Layer::Conv(c) => self.conv(x, c),
+                Layer::BatchNorm { key, .. } => self.batch_norm(x, key),
+                Layer::Relu => self.node("Relu", vec![x], vec![]),
+                Layer::MaxPool {
+                    kernel,
+                    stride,
+                    padding,
+                } => self.node(
+                    "MaxPool",
+                    vec![x],
+                    window(*kernel, *stride, *padding).to_vec(),
+                ),
+                Layer::Residual { main, skip } => {
+                    let y = self.layers(x.clone(), main);
+                    let s = self.layers(x, skip);
+                    self.node("Add", vec![y, s], vec![])
+                }
+            };
+        }
+        x
     }
+}
 
-    fn max_pool(&mut self, x: String, k: i64, stride: i64, pad: i64) -> String {
-        self.node(
-            "MaxPool",
-            vec![x],
-            vec![
-                ints("kernel_shape", &[k, k]),
-                ints("strides", &[stride, stride]),
-                ints("pads", &[pad, pad, pad, pad]),
-            ],
-        )
-    }
-
-    /// A torchvision BasicBlock.
-    fn basic_block(&mut self, x: String, prefix: &str, stride: i64, downsample: bool) -> String {
-        let y = self.conv(x.clone(), &format!("{prefix}.conv1"), 3, stride, 1, false);
-        let y = self.batch_norm(y, &format!("{prefix}.bn1"));
-        let y = self.relu(y);
-        let y = self.conv(y, &format!("{prefix}.conv2"), 3, 1, 1, false);
-        let y = self.batch_norm(y, &format!("{prefix}.bn2"));
-        let skip = if downsample {
-            let s = self.conv(x, &format!("{prefix}.downsample.0"), 1, stride, 0, false);
-            self.batch_norm(s, &format!("{prefix}.downsample.1"))
-        } else {
-            x
-        };
-        let sum = self.node("Add", vec![y, skip], vec![]);
-        self.relu(sum)
-    }
+/// A square window's attributes (Conv, MaxPool).
+fn window(kernel: usize, stride: usize, padding: usize) -> [pb::AttributeProto; 3] {
+    let (k, s, p) = (kernel as i64, stride as i64, padding as i64);
+    [
+        ints("kernel_shape", &[k, k]),
+        ints("strides", &[s, s]),
+        ints("pads", &[p, p, p, p]),
+    ]
 }
 
 fn value_info(name: &str, dims: &[Result<i64, &str>]) -> pb::ValueInfoProto {
@@ -203,29 +191,7 @@ pub fn build(arch: Architecture, classes: usize, sd: &StateDict) -> pb::ModelPro
         initializers: Vec::new(),
         counter: 0,
     };
-    let mut x = INPUT.to_string();
-    match arch {
-        Architecture::Custom => {
-            for i in 0..4 {
-                x = b.conv(x, &format!("cnn.{i}.block.0"), 3, 1, 1, true);
-                x = b.relu(x);
-                x = b.max_pool(x, 2, 2, 0);
-            }
-        }
-        Architecture::Resnet18 => {
-            x = b.conv(x, "backbone.0", 7, 2, 3, false);
-            x = b.batch_norm(x, "backbone.1");
-            x = b.relu(x);
-            x = b.max_pool(x, 3, 2, 1);
-            for layer in 0..4 {
-                for block in 0..2 {
-                    let stride = if layer > 0 && block == 0 { 2 } else { 1 };
-                    let prefix = format!("backbone.{}.{block}", layer + 4);
-                    x = b.basic_block(x, &prefix, stride, layer > 0 && block == 0);
-                }
-            }
-        }
-    }
+    let x = b.layers(INPUT.to_string(), &arch.body());
     let pooled = b.node("GlobalAveragePool", vec![x], vec![]);
     let features = b.node("Flatten", vec![pooled], vec![int("axis", 1)]);
     for (head, out) in ["force_head", "class_head", "point_head"]

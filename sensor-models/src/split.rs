@@ -202,8 +202,7 @@ impl Split {
             message,
         };
         let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
-        serde_json::from_str(&text)
-            .map_err(|e| err(format!("not a split written by fringe train: {e}")))
+        serde_json::from_str(&text).map_err(|e| err(format!("not a split file: {e}")))
     }
 }
 

@@ -4,16 +4,14 @@
 //!
 //! The data side is this crate's own and needs no libtorch: the split by press
 //! ([`crate::split`]), the augmentation pipelines ([`crate::augment`]) and the prepared inputs
-//! ([`crate::training_set`]). Here: the networks with the reference's parameter names
-//! (`net`), Adam as PyTorch computes it with its state by name (`adam`), checkpoints
+//! ([`crate::training_set`]). The networks are [`crate::torch_net`]'s (inference runs them
+//! too). Here: Adam as PyTorch computes it with its state by name (`adam`), checkpoints
 //! (`checkpoint`: `.safetensors` that PyTorch loads into the reference classes, a model card
 //! beside it, the optimiser state in a third file) and the loop (`trainer`).
 
 mod adam;
 mod checkpoint;
 mod error;
-pub(crate) mod net;
-pub(crate) mod tensors;
 mod trainer;
 
 pub use checkpoint::{Checkpoint, EpochRecord, TrainingRecord};

@@ -161,12 +161,13 @@ fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
     std::fs::remove_file(&manifest).expect("remove manifest");
     let report = verify(&dir).expect("verify");
     assert!(
-        report
-            .problems
-            .iter()
-            .any(|p| p.contains("MANIFEST.sha256: missing") && p.contains("fringe scan --resume")),
-        "{:?}",
-        report.problems
+        report.ended
+            && report.manifest_missing
+            && report
+                .problems
+                .iter()
+                .any(|p| p.contains("MANIFEST.sha256: missing") && p.contains("resuming it")),
+        "{report:?}"
     );
     let stop = finish_cut_close(&dir)
         .expect("finish")

@@ -2,6 +2,7 @@
 
 mod clock_text;
 mod cmd;
+mod hint;
 mod ui;
 
 use clap::{Parser, Subcommand};
@@ -132,7 +133,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // Not eprintln!: with the terminal gone (hung up) it would panic.
-            let _ = writeln!(std::io::stderr(), "fringe: {}", one_line(&e));
+            let line = hint::with_hint(one_line(&e), &e);
+            let _ = writeln!(std::io::stderr(), "fringe: {line}");
             ExitCode::FAILURE
         }
     }

@@ -123,9 +123,9 @@ impl AravisCamera {
     pub fn open(id: Option<&str>) -> Result<AravisCamera, CameraError> {
         let _ = aravis();
         let name = id.unwrap_or("(first camera)").to_string();
-        let camera = ::aravis::Camera::new(id).map_err(|e| CameraError::Device {
+        let camera = ::aravis::Camera::new(id).map_err(|e| CameraError::Open {
             camera: name.clone(),
-            message: format!("cannot open: {e} (run `fringe devices` to list cameras)"),
+            message: e.to_string(),
         })?;
         let text = |r: Result<::aravis::glib::GString, ::aravis::glib::Error>| {
             r.map(|s| s.to_string()).unwrap_or_default()

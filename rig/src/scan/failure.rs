@@ -140,6 +140,9 @@ pub fn is_disk_full(s: &StoreError) -> bool {
         StoreError::Content { message, .. } => {
             message.contains("No space left on device") || message.contains("Disk quota exceeded")
         }
-        StoreError::Parse { .. } | StoreError::NotARun { .. } | StoreError::Busy { .. } => false,
+        StoreError::Parse { .. }
+        | StoreError::NotARun { .. }
+        | StoreError::Busy { .. }
+        | StoreError::Unverified { .. } => false,
     }
 }

@@ -22,8 +22,15 @@ pub enum StoreError {
     Content { path: PathBuf, message: String },
     #[error("{}: the run is in use: {holder}; wait for it to end (or stop it), then try again", dir.display())]
     Busy { dir: PathBuf, holder: String },
-    #[error("{} is not a run (there is no {START} in it): give the directory of a run that fringe scan wrote (`fringe runs --root DIR` lists the runs in DIR)", dir.display())]
+    #[error("{} is not a run (there is no {START} in it)", dir.display())]
     NotARun { dir: PathBuf },
+    /// An export of a run that fails verification, not allowed to go on.
+    #[error("{}: fails verify with {count} problem(s), the first: {first}", run.display())]
+    Unverified {
+        run: PathBuf,
+        count: usize,
+        first: String,
+    },
 }
 
 impl StoreError {

@@ -150,14 +150,10 @@ pub fn export_reference(
         }
         let report = verify(run)?;
         if !report.ok() && !options.allow_unverified {
-            return Err(StoreError::Content {
-                path: run.clone(),
-                message: format!(
-                    "fails verify with {} problem(s), the first: {}; see `fringe verify {}`, or export it anyway with --allow-unverified",
-                    report.problems.len(),
-                    report.problems[0],
-                    run.display()
-                ),
+            return Err(StoreError::Unverified {
+                run: run.clone(),
+                count: report.problems.len(),
+                first: report.problems[0].clone(),
             });
         }
         checked.push(report.problems);

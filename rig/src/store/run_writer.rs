@@ -534,7 +534,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
             return Err(StoreError::Content {
                 path: frames_path,
                 message: format!(
-                    "record {} has index {} (records must count up from 0); run `fringe verify`",
+                    "record {} has index {} (records must count up from 0): the run is damaged",
                     k + 1,
                     f.index
                 ),

@@ -11,7 +11,7 @@ use super::run_writer::{
 use super::{force_log, manifest, own_file};
 use std::path::Path;
 
-/// What `fringe verify` found.
+/// What checking a run found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VerifyReport {
     pub run_id: String,
@@ -19,6 +19,8 @@ pub struct VerifyReport {
     pub force_samples: u64,
     /// The run ended (a stop document exists).
     pub ended: bool,
+    /// It ended but was stopped while writing its manifest (resuming it writes the manifest).
+    pub manifest_missing: bool,
     /// Every problem found, one line each; empty means the run is intact.
     pub problems: Vec<String>,
 }
@@ -118,6 +120,7 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     };
     let stop_path = dir.join(STOP);
     let ended = stop_path.exists();
+    let mut manifest_missing = false;
     if ended {
         match read_document::<StopDocument>(&stop_path) {
             Ok(stop) => {
@@ -137,18 +140,17 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
             }
             Err(e) => problems.push(e.to_string()),
         }
-        if dir.join(MANIFEST).is_file() {
+        manifest_missing = !dir.join(MANIFEST).is_file();
+        if !manifest_missing {
             problems.extend(manifest::check(dir)?);
         } else {
             problems.push(format!(
-                "{MANIFEST}: missing (the run was stopped while closing; `fringe scan --resume {}` writes it)",
-                dir.display()
+                "{MANIFEST}: missing (the run was stopped while closing; resuming it writes it)"
             ));
         }
     } else {
         problems.push(format!(
-            "{STOP}: missing: the run did not finish (resume it with `fringe scan PLAN --resume {}`)",
-            dir.display()
+            "{STOP}: missing: the run did not finish (resume it)"
         ));
     }
     Ok(VerifyReport {
@@ -156,6 +158,7 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
         frames: frames.len() as u64,
         force_samples,
         ended,
+        manifest_missing,
         problems,
     })
 }

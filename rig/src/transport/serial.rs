@@ -35,6 +35,16 @@ impl SerialSettings {
     }
 }
 
+/// A serial port that would not open (the `io::Error` of [`SerialLink::open`] carries it, for a
+/// front end that names the command listing the ports).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot open serial port {path}: {source} (check the cable, the port's path, and that your user is in the dialout group)")]
+pub struct PortOpenError {
+    pub path: String,
+    #[source]
+    pub source: serialport::Error,
+}
+
 /// An open serial port.
 pub struct SerialLink {
     port: Box<dyn serialport::SerialPort>,
@@ -62,12 +72,13 @@ impl SerialLink {
                 serialport::FlowControl::None
             })
             .timeout(Duration::from_millis(50));
-        let port = builder.open().map_err(|e| {
+        let port = builder.open().map_err(|source| {
             io::Error::new(
                 io::ErrorKind::NotFound,
-                format!(
-                    "cannot open serial port {path}: {e} (check the cable, the path from `fringe devices`, and that your user is in the dialout group)"
-                ),
+                PortOpenError {
+                    path: path.to_string(),
+                    source,
+                },
             )
         })?;
         Ok(SerialLink {

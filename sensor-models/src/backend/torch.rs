@@ -1,12 +1,12 @@
 //! The `torch` backend (cargo feature `torch`): libtorch through tch, on the CPU with `threads`
 //! intra-op threads. It runs the paper's networks from their weights (the same libtorch modules
-//! that `fringe train` trains, eval mode) and TorchScript archives (`torch.jit.script` /
+//! that `fringe train` trains, `crate::torch_net`, in eval mode) and TorchScript archives (`torch.jit.script` /
 //! `torch.jit.trace` saves) whose forward returns (force, shape logits, contact).
 
 use super::{Backend, InferenceError, RawOutputs};
 use crate::arch::Architecture;
-use crate::train::net::Net;
-use crate::train::tensors::load_state_dict;
+use crate::torch_net::state::load_state_dict;
+use crate::torch_net::Net;
 use crate::weights::state_dict::StateDict;
 use std::path::Path;
 use tch::{nn, Device, Kind, Tensor};

@@ -3,7 +3,7 @@
 //! training continues exactly.
 
 use super::error::TrainError;
-use super::tensors::{from_state, to_state};
+use crate::torch_net::state::{from_state, to_state};
 use crate::weights::state_dict::StateDict;
 use tch::Tensor;
 

@@ -124,7 +124,7 @@ impl Checkpoint {
         let card_path = self.card();
         let card = ModelCard::read(&card_path).map_err(|e| TrainError::Checkpoint {
             path: shown.clone(),
-            message: format!("{e} (a checkpoint of fringe train has its card beside it)"),
+            message: format!("{e} (a training checkpoint has its card beside it)"),
         })?;
         let record: TrainingRecord = card
             .other
@@ -132,7 +132,7 @@ impl Checkpoint {
             .cloned()
             .ok_or_else(|| TrainError::Checkpoint {
                 path: card_path.display().to_string(),
-                message: "no `training` record: not a checkpoint written by fringe train".into(),
+                message: "no `training` record: not a training checkpoint".into(),
             })
             .and_then(|v| {
                 serde_json::from_value(v).map_err(|e| TrainError::Checkpoint {

@@ -31,6 +31,8 @@ pub enum TrainError {
         path: String,
         source: std::io::Error,
     },
+    #[error(transparent)]
+    State(#[from] crate::torch_net::state::StateError),
     #[error("libtorch: {0}")]
     Torch(#[from] tch::TchError),
     #[error("{0}")]

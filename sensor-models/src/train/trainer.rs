@@ -7,8 +7,6 @@
 use super::adam::Adam;
 use super::checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
 use super::error::TrainError;
-use super::net::Net;
-use super::tensors::{load_state_dict, state_dict};
 use crate::arch::Architecture;
 use crate::augment::Pipeline;
 use crate::dataset::Source;
@@ -16,6 +14,8 @@ use crate::metrics::{Errors, Scored};
 use crate::model_card::ModelCard;
 use crate::preprocess::Preprocessing;
 use crate::split::{Side, Split, SplitSpec};
+use crate::torch_net::state::{load_state_dict, state_dict};
+use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet};
 use fringe_calibration::profile::Profile;
 use fringe_rig::seeded::{mix, SplitMix64};

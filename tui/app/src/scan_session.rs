@@ -7,7 +7,9 @@ use crate::live_validation::{FrameSource, LiveValidation};
 use crate::open_rig::RigError;
 use crate::rig_file::RigConfig;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
-use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile};
+use fringe_calibration::profile::{
+    load_checked, profile_path, Expectation, Profile, ProfileWarning,
+};
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
@@ -402,7 +404,15 @@ fn calibration_profile(
         max_age_days: PROFILE_MAX_AGE_DAYS,
     };
     let (profile, warnings) = load_checked(&dir, &want, SystemTime::now());
-    notes.extend(warnings.iter().map(|w| Note::Warning(w.to_string())));
+    notes.extend(warnings.iter().map(|w| {
+        Note::Warning(match w {
+            ProfileWarning::Missing { sensor_id, .. } => {
+                format!("{w}: run `fringe calibrate --sensor {sensor_id}`")
+            }
+            ProfileWarning::Stale { .. } => format!("{w}: re-run `fringe calibrate`"),
+            ProfileWarning::Other(_) => w.to_string(),
+        })
+    }));
     let Some(p) = profile else {
         return (fallback, None, None);
     };

@@ -82,6 +82,12 @@ pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
     for p in &report.problems {
         println!("  problem: {p}");
     }
+    let run = args.run.display();
+    if !report.ended {
+        println!("  resume it: fringe scan PLAN --resume {run}");
+    } else if report.manifest_missing {
+        println!("  resume it to write the manifest: fringe scan --resume {run}");
+    }
     anyhow::bail!(
         "run {} has {} problem(s)",
         args.run.display(),
