@@ -12,6 +12,7 @@
 //!   engine measures the offset there, at the safe height, before every point).
 
 use crate::offsets::{self, Bias};
+use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::store::documents::{Event, FrameRecord, StartDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::{self, force_log, StoreError};
@@ -75,7 +76,7 @@ impl ScanRun {
         }
         let background = records
             .iter()
-            .filter(|r| r.valid && r.shape == "None")
+            .filter(|r| r.valid && r.shape == NO_CONTACT)
             .map(|r| r.file_in(dir))
             .collect::<Result<_, _>>()?;
         let presses = presses(dir, &records)?;
@@ -114,7 +115,7 @@ fn presses(dir: &Path, records: &[FrameRecord]) -> Result<Vec<Press>, StoreError
     for point in points {
         let touching: Vec<(&FrameRecord, f64)> = records
             .iter()
-            .filter(|r| r.point == point && r.valid && r.shape != "None")
+            .filter(|r| r.point == point && r.valid && r.shape != NO_CONTACT)
             .filter_map(|r| r.wrench.map(|w| (r, w.fz.0.abs())))
             .collect();
         let Some(top) = touching.iter().map(|(_, f)| *f).reduce(f64::max) else {

@@ -10,7 +10,8 @@
 //!   by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
 //! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
 //!   the recording threads.
-//! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes.
+//! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes;
+//!   [`reference_layout`]: the reference pipeline's dataset layout (`0.images/`, `0.labels.csv`).
 //! - [`config_file`], [`seeded`]: the one TOML loader and the one seeded generator.
 //!
 //! Protocol codecs are pure (bytes <-> messages, no I/O); drivers combine a codec with a link.
@@ -36,6 +37,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod reference_layout;
 pub mod scan;
 pub mod seeded;
 pub mod store;

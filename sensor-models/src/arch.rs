@@ -15,6 +15,7 @@
 //! names the variants.
 
 use crate::weights::state_dict::StateDict;
+use fringe_rig::reference_layout::NO_CONTACT;
 use std::fmt;
 
 /// A network architecture of the paper.
@@ -371,9 +372,11 @@ pub fn recognise(sd: &StateDict) -> Result<(Architecture, usize), ArchError> {
 /// model card, three classes are the paper's (None, pentagon, rectangle).
 pub fn default_class_names(n: usize) -> Vec<String> {
     if n == 3 {
-        return ["None", "pentagon", "rectangle"].map(String::from).to_vec();
+        return [NO_CONTACT, "pentagon", "rectangle"]
+            .map(String::from)
+            .to_vec();
     }
-    std::iter::once("None".to_string())
+    std::iter::once(NO_CONTACT.to_string())
         .chain((1..n).map(|i| format!("shape {i}")))
         .collect()
 }

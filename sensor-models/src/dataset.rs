@@ -1,20 +1,18 @@
 //! Labelled frames from fringe's runs or from datasets in the reference layout
-//! (`0.images/` + `0.labels.csv`), with the reference's label rules applied once, here: every
-//! force and moment as its magnitude, and |Fz| under 0.2 N (the F/T noise floor) meaning no
-//! contact (shape "None", no contact point).
+//! (`fringe_rig::reference_layout`: `0.images/` + `0.labels.csv`), with the reference's label
+//! rules applied once, here: every force and moment as its magnitude, and the layout's no-contact
+//! rule (|Fz| under 0.2 N: shape `None`, no contact point).
 
 use fringe_calibration::profile::Profile;
 use fringe_rig::camera::PixelFormat;
+use fringe_rig::reference_layout::{
+    in_contact, read_labels, LabelsError, IMAGES, LABELS, NO_CONTACT,
+};
 use fringe_rig::store::documents::{FrameRecord, StartDocument};
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::{FRAMES, START};
+use fringe_rig::units::Newtons;
 use std::path::{Path, PathBuf};
-
-/// |Fz| under this is no contact, N.
-pub const CONTACT_THRESHOLD_N: f64 = 0.2;
-/// The largest force or moment a label row may hold, N or N m: far beyond any F/T sensor of an
-/// indentation bench (a row beyond it is a unit or parsing mistake, not a reading).
-pub const MAX_LABEL_N: f64 = 1e4;
 
 /// One labelled frame.
 #[derive(Debug, Clone, PartialEq)]
@@ -64,12 +62,8 @@ pub enum DatasetError {
     Missing(String),
     #[error(transparent)]
     Store(#[from] fringe_rig::store::StoreError),
-    #[error("{path}: line {line}: {message}")]
-    Csv {
-        path: String,
-        line: u64,
-        message: String,
-    },
+    #[error(transparent)]
+    Labels(#[from] LabelsError),
     #[error("{path}: the calibration profile cannot be read: {message}")]
     Profile { path: String, message: String },
 }
@@ -84,10 +78,10 @@ pub fn label(
     let ft = (fx * fx + fy * fy + fz * fz).sqrt();
     let forces = [fx, fy, fz, mx, my, mz, ft];
     match contact {
-        Some(c) if fz >= CONTACT_THRESHOLD_N && shape != "None" => {
+        Some(c) if in_contact(Newtons(fz)) && shape != NO_CONTACT => {
             (forces, shape.to_string(), Some(c))
         }
-        _ => (forces, "None".to_string(), None),
+        _ => (forces, NO_CONTACT.to_string(), None),
     }
 }
 
@@ -118,7 +112,7 @@ pub fn read(path: &Path) -> Result<Source, DatasetError> {
         Err(DatasetError::Missing(path.display().to_string()))
     } else if path.join(START).is_file() && path.join(FRAMES).is_file() {
         read_run(path)
-    } else if path.join("0.labels.csv").is_file() {
+    } else if path.join(LABELS).is_file() {
         read_reference(path)
     } else {
         Err(DatasetError::Unknown(path.display().to_string()))
@@ -169,127 +163,18 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
 }
 
 fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
-    let path = dir.join("0.labels.csv");
-    let shown = path.display().to_string();
-    let mut reader = csv::Reader::from_path(&path).map_err(|e| DatasetError::Csv {
-        path: shown.clone(),
-        line: 0,
-        message: e.to_string(),
-    })?;
-    let headers = reader
-        .headers()
-        .map_err(|e| DatasetError::Csv {
-            path: shown.clone(),
-            line: 1,
-            message: e.to_string(),
-        })?
-        .clone();
-    let col = |name: &str| -> Result<usize, DatasetError> {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or_else(|| DatasetError::Csv {
-                path: shown.clone(),
-                line: 1,
-                message: format!("no column {name} (the reference layout has New_Image_Name, Fx .. Ft, X_Position_mm, Y_Position_mm, Indentor_Shape)"),
-            })
-    };
-    let names = [
-        "New_Image_Name",
-        "Fx",
-        "Fy",
-        "Fz",
-        "Mx",
-        "My",
-        "Mz",
-        "X_Position_mm",
-        "Y_Position_mm",
-        "Indentor_Shape",
-    ];
-    let idx = names.map(col);
-    let mut cols = [0usize; 10];
-    for (c, i) in cols.iter_mut().zip(idx) {
-        *c = i?;
-    }
     let mut samples = Vec::new();
-    for (k, rec) in reader.records().enumerate() {
-        let line = k as u64 + 2;
-        let rec = rec.map_err(|e| DatasetError::Csv {
-            path: shown.clone(),
-            line,
-            message: e.to_string(),
-        })?;
-        let field = |i: usize| rec.get(cols[i]).unwrap_or("").trim();
-        let num = |i: usize| -> Result<f64, DatasetError> {
-            let text = field(i);
-            if text.is_empty() || text.eq_ignore_ascii_case("nan") {
-                return Ok(f64::NAN);
-            }
-            text.parse::<f64>().map_err(|_| DatasetError::Csv {
-                path: shown.clone(),
-                line,
-                message: format!("{} = {text:?} is not a number", names[i]),
-            })
-        };
-        let force = [num(1)?, num(2)?, num(3)?, num(4)?, num(5)?, num(6)?];
-        if force.iter().any(|v| !v.is_finite()) {
-            return Err(DatasetError::Csv {
-                path: shown.clone(),
-                line,
-                message: "a force or moment is missing".into(),
-            });
-        }
-        if let Some((i, v)) = force
-            .iter()
-            .enumerate()
-            .find(|(_, v)| v.abs() > MAX_LABEL_N)
-        {
-            return Err(DatasetError::Csv {
-                path: shown.clone(),
-                line,
-                message: format!(
-                    "{} = {v:e} is beyond {MAX_LABEL_N:e} (N or N m): not a reading of a force sensor; fix or remove the row",
-                    names[i + 1]
-                ),
-            });
-        }
-        let (x, y) = (num(7)?, num(8)?);
-        let contact = (x.is_finite() && y.is_finite()).then_some([x, y]);
-        let named = field(9);
-        if contact.is_none() && named != "None" && force[2].abs() >= CONTACT_THRESHOLD_N {
-            return Err(DatasetError::Csv {
-                path: shown.clone(),
-                line,
-                message: format!(
-                    "Fz = {} N presses a {named} but the row has no contact position (X_Position_mm, Y_Position_mm): give it, or mark the row Indentor_Shape None",
-                    force[2]
-                ),
-            });
-        }
-        let (force, shape, contact) = label(force, named, contact);
-        let image = field(0);
-        let plain = !image.is_empty()
-            && Path::new(image)
-                .components()
-                .all(|c| matches!(c, std::path::Component::Normal(_)));
-        if !plain {
-            return Err(DatasetError::Csv {
-                path: shown.clone(),
-                line,
-                message: format!(
-                    "New_Image_Name = {image:?} is not a file name inside 0.images/ (no absolute path, no `..`): a dataset holds its own images"
-                ),
-            });
-        }
+    for (_, row) in read_labels(&dir.join(LABELS))? {
+        let (force, shape, contact) = label(row.wrench, row.shape.as_str(), row.contact);
         samples.push(Sample {
-            image: dir.join("0.images").join(image),
+            image: dir.join(IMAGES).join(&row.image),
             format: None,
             force,
             shape,
             contact,
             // The reference layout does not say which frames share a press: each frame is its
             // own (a split of such a dataset cannot keep presses together).
-            press: format!("{}#{image}", dir.display()),
+            press: format!("{}#{}", dir.display(), row.image),
             stage_mm: None,
         });
     }

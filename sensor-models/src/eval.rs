@@ -8,6 +8,7 @@ use crate::model::{Model, ModelError};
 use crate::prediction::{predictions, Prediction};
 use crate::preprocess::{image_bytes, FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
 use fringe_calibration::profile::Profile;
+use fringe_rig::reference_layout::CONTACT_THRESHOLD;
 use std::path::Path;
 
 /// Frames run through the network at once.
@@ -82,7 +83,7 @@ pub fn keys(s: &Sample) -> Vec<String> {
 
 /// The force level a label falls in: no contact, or |Fz| rounded to the nearest newton.
 pub fn force_level(fz: f64) -> String {
-    if fz < crate::dataset::CONTACT_THRESHOLD_N {
+    if fz < CONTACT_THRESHOLD.0 {
         "force none".to_string()
     } else {
         format!("force {:.0} N", fz.round().max(1.0))

@@ -10,6 +10,7 @@
 
 use crate::dataset::Sample;
 use crate::eval::force_level;
+use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::seeded::{mix, SplitMix64};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -81,8 +82,8 @@ fn stratum(frames: &[&Sample]) -> String {
     let shape = frames
         .iter()
         .map(|s| s.shape.as_str())
-        .find(|s| *s != "None")
-        .unwrap_or("None");
+        .find(|s| *s != NO_CONTACT)
+        .unwrap_or(NO_CONTACT);
     let fz = frames.iter().map(|s| s.fz()).fold(0.0, f64::max);
     format!("{shape} / {}", force_level(fz))
 }

@@ -5,7 +5,7 @@
 mod common;
 use common::{constant_model, fringe, scratch, text};
 use fringe_calibration::profile::Profile;
-use fringe_rig::store::export::HEADER;
+use fringe_rig::reference_layout::COLUMNS;
 use fringe_sim::sensor::SensorGeometry;
 use std::path::{Path, PathBuf};
 
@@ -57,7 +57,7 @@ struct Row {
 fn rows(dir: &Path) -> Vec<Row> {
     let text = std::fs::read_to_string(dir.join("0.labels.csv")).expect("labels");
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(HEADER));
+    assert_eq!(lines.next(), Some(COLUMNS.join(",").as_str()));
     lines
         .map(|line| {
             let f: Vec<&str> = line.split(',').collect();

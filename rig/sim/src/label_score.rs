@@ -3,7 +3,7 @@
 //! true one. Frames are matched by device timestamp (exposure start in camera ticks).
 
 use crate::ground_truth::FrameTruth;
-use fringe_rig::acquire::recorder::CONTACT_FZ;
+use fringe_rig::reference_layout::in_contact;
 use fringe_rig::store::documents::FrameRecord;
 use std::collections::HashMap;
 
@@ -38,7 +38,7 @@ pub fn score(records: &[FrameRecord], truths: &[FrameTruth]) -> Option<LabelScor
         sum2 += e * e;
         max = max.max(e.abs());
         if let (Some(c), Some((_, tx, ty))) = (r.contact, t.contact) {
-            if w.fz.0.abs() >= CONTACT_FZ {
+            if in_contact(w.fz) {
                 nc += 1;
                 sumc += (c[0] - tx).powi(2) + (c[1] - ty).powi(2);
             }

@@ -15,7 +15,7 @@
 //!   the error is where in the force signal the label really looked.
 //! - **label Fz**: the labelled Fz (tared by the mean label of the frames with no true contact)
 //!   minus the true Fz averaged over the true exposure window (bench truth every millisecond), for
-//!   frames whose true |Fz| is at least [`CONTACT_FZ`] (during presses).
+//!   frames in contact by their true |Fz| ([`in_contact`], during presses).
 
 use crate::bench::{Bench, BenchConfig};
 use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
@@ -29,15 +29,15 @@ use crossbeam_channel::{select, Receiver};
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
-use fringe_rig::acquire::recorder::CONTACT_FZ;
 use fringe_rig::atical::{CalibratedSensor, Calibration};
 use fringe_rig::camera::{Camera, CameraSettings, Frame};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::ForceSample;
+use fringe_rig::reference_layout::in_contact;
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::window::mean_over;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -416,7 +416,7 @@ fn score(
         let fz_errors: Vec<f64> = rows
             .iter()
             .filter_map(|r| match r.2 {
-                Some(t) if t.abs() >= CONTACT_FZ => Some(r.1 - tare - t),
+                Some(t) if in_contact(Newtons(t)) => Some(r.1 - tare - t),
                 _ => None,
             })
             .collect();

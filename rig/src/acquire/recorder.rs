@@ -13,6 +13,7 @@ use super::record_tap::RecordTap;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
+use crate::reference_layout::{in_contact, NO_CONTACT};
 use crate::store::documents::{Exposure, FrameRecord, Position};
 use crate::store::error::StoreError;
 use crate::store::run_writer::RunWriter;
@@ -22,10 +23,6 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-
-/// Below this normal force (N) a frame has no contact: shape "None", no contact point (the
-/// paper's rule).
-pub const CONTACT_FZ: f64 = 0.2;
 
 /// What the scan is doing while a frame is exposed.
 #[derive(Debug, Clone, PartialEq)]
@@ -445,7 +442,7 @@ impl State {
             }
         };
         let file = self.writer.save_frame_image(frame, index)?;
-        let in_contact = wrench.is_some_and(|w| w.fz.0.abs() >= CONTACT_FZ);
+        let in_contact = wrench.is_some_and(|w| in_contact(w.fz));
         let record = FrameRecord {
             index,
             frame_id: frame.id,
@@ -461,7 +458,7 @@ impl State {
             shape: if in_contact {
                 filming.shape.clone()
             } else {
-                "None".into()
+                NO_CONTACT.into()
             },
             contact: in_contact.then_some(filming.contact),
             valid: wrench.is_some() && notes.is_empty(),

@@ -1,12 +1,7 @@
-//! Export to the reference pipeline's layout: `0.images/image_K.tiff` and `0.labels.csv` with
-//! exactly its columns, so the paper's Python training code reads our runs unchanged.
-//!
-//! Columns: New_Image_Name, Fx, Fy, Fz, Mx, My, Mz, Ft, X_Position_mm, Y_Position_mm,
-//! Indentor_Shape. Forces in N, torques in N m (the reference mixed N m and N mm: we write N m
-//! everywhere), Ft = |F| = sqrt(Fx^2 + Fy^2 + Fz^2), positions = contact point in mm relative to
-//! the sensor centre, "NaN" and shape "None" without contact. Frames whose label is not valid are
-//! left out and counted. Values are written in full precision unless rounding is asked for.
-//! Beside them, `0.export.json` records where the rows came from: each run, its sensor and the
+//! Export to the reference pipeline's layout (`crate::reference_layout`):
+//! `0.images/image_K.tiff` and `0.labels.csv` with exactly its columns, so the paper's Python
+//! training code reads our runs unchanged. Frames whose label is not valid are left out and
+//! counted. Beside them, `0.export.json` records where the rows came from: each run, its sensor and the
 //! calibration profile its contact labels are relative to.
 
 use super::documents::{now_utc, FrameRecord, StartDocument};
@@ -16,15 +11,11 @@ use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
 use super::run_writer::read_lines;
 use super::verify::verify;
+use crate::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS, NO_CONTACT};
 use std::collections::HashSet;
-use std::fmt::Write as _;
 use std::io::Cursor;
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-
-/// The reference header line.
-pub const HEADER: &str =
-    "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape";
 
 /// Export options.
 #[derive(Debug, Clone, Default)]
@@ -84,48 +75,21 @@ pub struct ExportProvenance {
 
 /// File name of the provenance document.
 pub const PROVENANCE: &str = "0.export.json";
-/// File name of the labels.
-pub const LABELS: &str = "0.labels.csv";
-/// Directory of the images.
-pub const IMAGES: &str = "0.images";
 
-fn fmt_value(v: f64, round: Option<f64>) -> String {
-    if v.is_nan() {
-        return "NaN".into();
-    }
-    // Negative zero is written as 0.
-    let v = if v == 0.0 { 0.0 } else { v };
-    match round {
-        Some(step) if step > 0.0 => {
-            let r = (v / step).round() * step;
-            let r = if r == 0.0 { 0.0 } else { r };
-            let decimals = (-step.log10()).ceil().max(0.0) as usize;
-            format!("{r:.decimals$}")
-        }
-        _ => format!("{v}"),
-    }
-}
-
-/// One CSV row for `record` saved as `image`.
-pub fn label_row(image: &str, record: &FrameRecord, options: &ExportOptions) -> Option<String> {
-    let w = record.wrench?;
-    let [fx, fy, fz, mx, my, mz] = w.to_array();
-    let ft = (fx * fx + fy * fy + fz * fz).sqrt();
-    let (x, y) = match record.contact {
-        Some([x, y]) if record.shape != "None" => (x, y),
-        _ => (f64::NAN, f64::NAN),
+/// The labels row of `record` saved as `image` (none without a force label).
+pub fn label_row(image: &str, record: &FrameRecord) -> Option<LabelRow> {
+    let wrench = record.wrench?.to_array();
+    let contact = record.contact.filter(|_| record.shape != NO_CONTACT);
+    let shape = match record.contact {
+        Some(_) => Shape::parse(&record.shape),
+        None => Shape::NoContact,
     };
-    let shape = if record.contact.is_some() {
-        record.shape.as_str()
-    } else {
-        "None"
-    };
-    let mut row = image.to_string();
-    for v in [fx, fy, fz, mx, my, mz, ft, x, y] {
-        let _ = write!(row, ",{}", fmt_value(v, options.round));
-    }
-    let _ = write!(row, ",{shape}");
-    Some(row)
+    Some(LabelRow {
+        image: image.to_string(),
+        wrench,
+        contact,
+        shape,
+    })
 }
 
 /// Exports `runs` (in order) into `out`, which must not exist yet or be an empty directory
@@ -323,8 +287,9 @@ fn write_export(
 ) -> Result<ExportSummary, StoreError> {
     let images = dir.join(IMAGES);
     std::fs::create_dir(&images).map_err(|e| StoreError::io(&images, e))?;
-    let mut csv = String::from(HEADER);
-    csv.push('\n');
+    let labels = dir.join(LABELS);
+    let write_error = |e: std::io::Error| StoreError::io(&labels, e);
+    let mut csv = LabelWriter::new(Vec::new(), options.round).map_err(write_error)?;
     let (mut k, mut none, mut skipped, mut duplicates) = (0u64, 0u64, 0u64, 0u64);
     let mut exported = Vec::with_capacity(runs.len());
     for (run, problems) in runs.iter().zip(problems) {
@@ -367,9 +332,8 @@ fn write_export(
                     message: e.to_string(),
                 })?;
             write_synced(&target, &tiff)?;
-            if let Some(row) = label_row(&name, &record, options) {
-                csv.push_str(&row);
-                csv.push('\n');
+            if let Some(row) = label_row(&name, &record) {
+                csv.write(&row).map_err(write_error)?;
             }
             if record.contact.is_none() {
                 none += 1;
@@ -401,8 +365,8 @@ fn write_export(
         message: format!("cannot encode: {e}"),
     })?;
     write_atomic(&provenance, json.as_bytes())?;
-    let labels = dir.join(LABELS);
-    write_atomic(&labels, csv.as_bytes())?;
+    let csv = csv.finish().map_err(write_error)?;
+    write_atomic(&labels, &csv)?;
     Ok(ExportSummary {
         images: k,
         without_contact: none,
@@ -452,38 +416,36 @@ mod tests {
         }
     }
 
+    /// The labels file's line for `record` saved as `image`.
+    fn line(image: &str, record: &FrameRecord, round: Option<f64>) -> String {
+        let mut w = LabelWriter::new(Vec::new(), round).expect("writer");
+        w.write(&label_row(image, record).expect("row"))
+            .expect("write");
+        let text = String::from_utf8(w.finish().expect("finish")).expect("utf-8");
+        text.lines().nth(1).expect("a row").to_string()
+    }
+
     #[test]
     fn rows_follow_the_reference_columns() {
-        let row = label_row(
-            "image_0.tiff",
-            &record(Some([1.25, -3.5]), -12.0),
-            &ExportOptions::default(),
-        )
-        .expect("row");
+        let row = line("image_0.tiff", &record(Some([1.25, -3.5]), -12.0), None);
         assert_eq!(
             row,
             "image_0.tiff,0.3,-0.4,-12,0.012,-0.034,0,12.010412149464313,1.25,-3.5,pentagon"
         );
-        assert_eq!(HEADER.split(',').count(), row.split(',').count());
-        let rounded = label_row(
+        assert_eq!(
+            crate::reference_layout::COLUMNS.len(),
+            row.split(',').count()
+        );
+        let rounded = line(
             "image_1.tiff",
             &record(Some([1.26, -3.54]), -4.04),
-            &ExportOptions {
-                round: Some(0.1),
-                ..ExportOptions::default()
-            },
-        )
-        .expect("row");
+            Some(0.1),
+        );
         assert_eq!(
             rounded,
             "image_1.tiff,0.3,-0.4,-4.0,0.0,0.0,0.0,4.1,1.3,-3.5,pentagon"
         );
-        let none = label_row(
-            "image_2.tiff",
-            &record(None, -0.05),
-            &ExportOptions::default(),
-        )
-        .expect("row");
+        let none = line("image_2.tiff", &record(None, -0.05), None);
         assert!(none.ends_with(",NaN,NaN,None"), "{none}");
     }
 }

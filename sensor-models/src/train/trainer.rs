@@ -18,6 +18,7 @@ use crate::torch_net::state::{load_state_dict, state_dict};
 use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet};
 use fringe_calibration::profile::Profile;
+use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::seeded::{mix, SplitMix64};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -159,11 +160,13 @@ fn frames<'a>(
 fn classes(f: &Frames<'_>) -> Vec<String> {
     let mut names: Vec<String> = (0..f.items.len())
         .map(|i| f.sample(i).shape.clone())
-        .filter(|s| s != "None")
+        .filter(|s| s != NO_CONTACT)
         .collect();
     names.sort();
     names.dedup();
-    std::iter::once("None".to_string()).chain(names).collect()
+    std::iter::once(NO_CONTACT.to_string())
+        .chain(names)
+        .collect()
 }
 
 /// The three losses of a batch, summed.

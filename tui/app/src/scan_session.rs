@@ -12,6 +12,7 @@ use fringe_calibration::profile::{
 };
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
+use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
 use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_rig::scan::failure::ScanError;
@@ -237,7 +238,7 @@ impl ScanSession {
     ) -> Result<(LiveValidation, Vec<Note>), SessionError> {
         // Every label this scan makes (no contact, and each indenter the plan presses) must be
         // one of the model's classes: refused up front, not left unscored frame by frame.
-        let labels = std::iter::once("None").chain(
+        let labels = std::iter::once(NO_CONTACT).chain(
             self.setup
                 .program
                 .plan

@@ -18,9 +18,11 @@ use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::optical::overlay::overlay;
 use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
 use fringe_calibration::profile::{profile_path, Profile};
+use fringe_rig::reference_layout::{in_contact, read_labels, CONTACT_THRESHOLD, LABELS};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::units::Newtons;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -69,9 +71,6 @@ pub struct CalibrateArgs {
     #[arg(long)]
     yes: bool,
 }
-
-/// |Fz| below this is no contact (the F/T noise floor of the reference pipeline).
-const NO_CONTACT_FZ_N: f64 = 0.2;
 
 pub fn run(args: CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     if args.max_frames == 0 {
@@ -366,59 +365,28 @@ fn is_image(p: &Path) -> bool {
             .unwrap_or(false)
 }
 
-/// The no-contact frames: from a `0.labels.csv` in DIR or beside it (|Fz| < 0.2 N) when there is
-/// one, else all of them. Also a line saying which.
+/// The no-contact frames: from a `0.labels.csv` in DIR or beside it (the layout's no-contact
+/// rule) when there is one, else all of them. Also a line saying which.
 fn choose_no_contact(dir: &Path, files: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, String)> {
     let candidates = [
-        dir.join("0.labels.csv"),
-        dir.parent()
-            .map(|p| p.join("0.labels.csv"))
-            .unwrap_or_default(),
+        dir.join(LABELS),
+        dir.parent().map(|p| p.join(LABELS)).unwrap_or_default(),
     ];
     let Some(labels) = candidates.iter().find(|p| p.is_file()) else {
         return Ok((
             files.to_vec(),
             format!(
-                "no 0.labels.csv in or beside {}: using all {} frames, assumed free of contact",
+                "no {LABELS} in or beside {}: using all {} frames, assumed free of contact",
                 dir.display(),
                 files.len()
             ),
         ));
     };
-    let text = std::fs::read_to_string(labels)
-        .with_context(|| format!("cannot read {}", labels.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines
-        .next()
-        .unwrap_or("")
-        .split(',')
-        .map(str::trim)
+    let quiet: std::collections::HashSet<String> = read_labels(labels)?
+        .into_iter()
+        .filter(|(_, row)| !in_contact(Newtons(row.wrench[2])))
+        .map(|(_, row)| row.image)
         .collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .with_context(|| format!("{}: no `{name}` column in the header", labels.display()))
-    };
-    let (name_col, fz_col) = (col("New_Image_Name")?, col("Fz")?);
-    let mut quiet = std::collections::HashSet::new();
-    for (n, line) in lines.enumerate() {
-        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
-        if cells.len() <= name_col.max(fz_col) {
-            continue;
-        }
-        let fz: f64 = cells[fz_col].parse().with_context(|| {
-            format!(
-                "{} line {}: Fz `{}` is not a number",
-                labels.display(),
-                n + 2,
-                cells[fz_col]
-            )
-        })?;
-        if fz.abs() < NO_CONTACT_FZ_N {
-            quiet.insert(cells[name_col].to_string());
-        }
-    }
     let chosen: Vec<PathBuf> = files
         .iter()
         .filter(|p| {
@@ -429,10 +397,11 @@ fn choose_no_contact(dir: &Path, files: &[PathBuf]) -> anyhow::Result<(Vec<PathB
         .cloned()
         .collect();
     let how = format!(
-        "{}: {} of {} frames have |Fz| < {NO_CONTACT_FZ_N} N (no contact)",
+        "{}: {} of {} frames have |Fz| < {} N (no contact)",
         labels.display(),
         chosen.len(),
-        files.len()
+        files.len(),
+        CONTACT_THRESHOLD.0
     );
     Ok((chosen, how))
 }

@@ -13,14 +13,13 @@ use anyhow::{anyhow, bail, Context};
 use fringe_rig::camera::writer::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
+use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS};
 use fringe_rig::store::durable::write_atomic;
-use fringe_rig::store::export::{HEADER, IMAGES, LABELS};
 use fringe_rig::units::Newtons;
 use fringe_sim::dataset::{frame, DatasetSpec, SyntheticFrame, NO_CONTACT_FRACTION};
 use fringe_sim::render::Renderer;
 use fringe_sim::scene::FrameRenderer;
 use fringe_sim::sensor::SensorConfig;
-use std::fmt::Write as _;
 use std::io::{IsTerminal, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -153,9 +152,10 @@ pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
     let rendered = render_all(&spec, &sensor, &images, &todo, args.workers)?;
     let elapsed = started.elapsed();
 
-    let (labels, without_contact) = labels_csv(&spec, &sensor);
     let labels_path = out.join(LABELS);
-    write_atomic(&labels_path, labels.as_bytes())?;
+    let (labels, without_contact) = labels_csv(&spec, &sensor)
+        .with_context(|| format!("cannot write {}", labels_path.display()))?;
+    write_atomic(&labels_path, &labels)?;
     let rate = rendered.frames as f64 / rendered.rendering.as_secs_f64().max(1e-9);
     println!(
         "wrote {} frames ({without_contact} without contact) of sensor {} to {}: {} rendered in {:.1} s, {rate:.1} frames/s with {} worker{} (after {:.1} s of renderer start-up)",
@@ -499,31 +499,24 @@ fn eta_text(seconds: f64) -> String {
 }
 
 /// `0.labels.csv` of the whole dataset, and how many rows have no contact.
-fn labels_csv(spec: &DatasetSpec, sensor: &SensorConfig) -> (String, u64) {
-    let mut csv = String::with_capacity(160 * spec.count as usize + HEADER.len() + 1);
-    csv.push_str(HEADER);
-    csv.push('\n');
+fn labels_csv(spec: &DatasetSpec, sensor: &SensorConfig) -> std::io::Result<(Vec<u8>, u64)> {
+    let mut csv = LabelWriter::new(Vec::with_capacity(160 * spec.count as usize), None)?;
     let mut without = 0;
     for k in 0..spec.count {
         let f = frame(spec, sensor, k);
-        let w = f.wrench.to_array();
-        let ft = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-        let [x, y] = f.contact_mm().unwrap_or([f64::NAN, f64::NAN]);
-        csv.push_str(&image_name(k));
-        for v in w.into_iter().chain([ft, x, y]) {
-            if v.is_nan() {
-                csv.push_str(",NaN");
-            } else {
-                let _ = write!(csv, ",{v}");
+        let shape = match f.shape {
+            Some(name) => Shape::parse(name),
+            None => {
+                without += 1;
+                Shape::NoContact
             }
-        }
-        let shape = f.shape.unwrap_or_else(|| {
-            without += 1;
-            "None"
-        });
-        csv.push(',');
-        csv.push_str(shape);
-        csv.push('\n');
+        };
+        csv.write(&LabelRow {
+            image: image_name(k),
+            wrench: f.wrench.to_array(),
+            contact: f.contact_mm(),
+            shape,
+        })?;
     }
-    (csv, without)
+    Ok((csv.finish()?, without))
 }
