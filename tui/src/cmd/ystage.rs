@@ -2,17 +2,14 @@
 
 use super::arg_values;
 use super::limits::SoftLimitArgs;
+use super::terminal_prompt::TerminalPrompt;
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::device_open::{open_axis, TraceTo};
+use fringe_app::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
+use fringe_app::host_port::HostPort;
 use fringe_rig::apt::driver::{AptConfig, Controller};
-use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
-use fringe_rig::axis::Axis;
-use fringe_rig::manual::{ManualStage, TerminalPrompt};
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::trace::record_stream;
-use fringe_rig::transport::serial::SerialLink;
-use fringe_rig::transport::tcp::TcpLink;
-use fringe_rig::transport::ByteLink;
+use fringe_rig::apt::Actuator;
 use fringe_rig::units::Millimetres;
 use std::time::Duration;
 
@@ -81,7 +78,8 @@ enum Action {
     },
 }
 
-/// What the y stage is; add a variant and an arm in [`open`] for another kind of stage.
+/// What the y stage is; add a variant and an arm in [`YstageArgs::spec`] for another kind of
+/// stage (and one in `fringe_app::device_spec::AxisSpec` for another driver).
 enum StageKind {
     ModbusTcp(String),
     ModbusRtu(String),
@@ -116,63 +114,56 @@ impl YstageArgs {
     }
 }
 
-/// Opens the y stage described by the arguments.
-fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
-    let limits = args.limits.limits()?;
-    let modbus = |link: Box<dyn ByteLink>,
-                  framing: Framing,
-                  map: RegisterMap|
-     -> anyhow::Result<Box<dyn Axis>> {
-        let link = record_stream(link, global.record_trace.as_deref(), "ystage")
-            .context("cannot start the trace recording")?;
-        let options = StageOptions {
-            slave: args.slave,
-            limits,
-            baud: args.baud,
-            ..StageOptions::default()
+impl YstageArgs {
+    /// The y stage the flags describe, as a rig file's `[y]` section would describe it.
+    fn spec(&self) -> anyhow::Result<AxisSpec> {
+        let limits = self.limits.limits()?;
+        let kind = self.kind()?;
+        self.check_options(&kind)?;
+        let modbus = |link| {
+            AxisSpec::Modbus(ModbusSpec {
+                name: "y".into(),
+                link,
+                map: self.map.clone(),
+                slave: self.slave,
+                baud: self.baud,
+                limits,
+            })
         };
-        Ok(Box::new(ModbusStage::new("y", link, framing, map, options)))
-    };
-    let kind = args.kind()?;
-    args.check_options(&kind)?;
-    match kind {
-        StageKind::ModbusTcp(addr) => {
-            let map = RegisterMap::load(&args.map)?;
-            let link = TcpLink::connect(&addr, Duration::from_secs(3))?;
-            modbus(Box::new(link), Framing::Tcp, map)
-        }
-        StageKind::ModbusRtu(path) => {
-            let map = RegisterMap::load(&args.map)?;
-            let link = SerialLink::open(&path, &map.serial_settings(args.baud))?;
-            modbus(Box::new(link), Framing::Rtu, map)
-        }
-        StageKind::Manual => Ok(Box::new(ManualStage::new(
-            "y",
-            Box::new(TerminalPrompt::stdio()),
-            limits,
-        ))),
-        StageKind::Thorlabs(path) => {
-            let name = args.actuator.as_deref().unwrap_or_default();
-            let actuator = Actuator::by_name(name).with_context(|| {
-                format!(
-                    "unknown actuator `{name}` (known: {})",
-                    Actuator::known_names()
-                )
-            })?;
-            let controller = args.controller.unwrap_or(Controller::Kst101);
-            let mut config = AptConfig::new("y", controller, actuator);
-            config.soft_limits = limits;
-            let link: Box<dyn ByteLink> = Box::new(open_serial(&path)?);
-            let link = record_stream(link, global.record_trace.as_deref(), "ystage")
-                .context("cannot start the trace recording")?;
-            Ok(Box::new(ThorlabsAxis::connect(link, config)?))
-        }
+        Ok(match kind {
+            StageKind::ModbusTcp(addr) => modbus(ModbusLink::Tcp(
+                HostPort::parse(&addr, None).context("--modbus-tcp")?,
+            )),
+            StageKind::ModbusRtu(port) => modbus(ModbusLink::Rtu { port }),
+            StageKind::Manual => AxisSpec::Manual {
+                name: "y".into(),
+                limits,
+            },
+            StageKind::Thorlabs(port) => {
+                let name = self.actuator.as_deref().unwrap_or_default();
+                let actuator = Actuator::by_name(name).with_context(|| {
+                    format!(
+                        "unknown actuator `{name}` (known: {})",
+                        Actuator::known_names()
+                    )
+                })?;
+                let controller = self.controller.unwrap_or(Controller::Kst101);
+                let mut config = AptConfig::new("y", controller, actuator);
+                config.soft_limits = limits;
+                AxisSpec::Thorlabs { port, config }
+            }
+        })
     }
 }
 
 pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
     let timeout = args.timeout;
-    let mut y = open(&args, global)?;
+    let spec = args.spec()?;
+    let mut y = open_axis(
+        &spec,
+        TraceTo::new(global.record_trace.as_deref(), "ystage"),
+        Some(Box::new(TerminalPrompt::stdio())),
+    )?;
     let status = match args.action {
         Action::Home => y.home(timeout)?,
         Action::Status => y.status()?,
