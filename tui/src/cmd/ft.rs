@@ -265,3 +265,92 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
     );
     Ok(())
 }
+
+/// The same Net F/T described by `fringe ft` flags and by a rig file's `[force]` section.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use fringe_app::RigConfig;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        ft: FtArgs,
+    }
+
+    fn flags(args: &[&str]) -> NetFtSpec {
+        let cli = Cli::try_parse_from(std::iter::once("ft").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        cli.ft.spec(Command::RealTime).expect("spec from flags")
+    }
+
+    fn rig_file(force: &str) -> NetFtSpec {
+        let text = format!(
+            "[x]\ndriver = \"thorlabs\"\n[y]\ndriver = \"manual\"\n[z]\ndriver = \"thorlabs\"\n[force]\ndriver = \"netft\"\n{force}\n[camera]\ndriver = \"aravis\"\n"
+        );
+        RigConfig::parse(&text, "rig.toml")
+            .expect("rig file")
+            .force_spec()
+            .expect("spec from the rig file")
+    }
+
+    #[test]
+    fn flags_and_a_rig_file_describe_the_same_sensor_ipv6_included() {
+        for (flag, key, host, port) in [
+            ("[fe80::1]:49153", "[fe80::1]:49153", "fe80::1", 49153),
+            ("fe80::1", "fe80::1", "fe80::1", DEFAULT_PORT),
+            ("[::1]", "[::1]", "::1", DEFAULT_PORT),
+            ("ft.local:5000", "ft.local:5000", "ft.local", 5000),
+            ("192.168.1.1", "192.168.1.1", "192.168.1.1", DEFAULT_PORT),
+        ] {
+            let a = flags(&["--netft", flag, "bias"]);
+            let b = rig_file(&format!("address = \"{key}\""));
+            assert_eq!(a, b, "{flag}");
+            assert_eq!(
+                a.address,
+                HostPort {
+                    host: host.into(),
+                    port
+                }
+            );
+            assert_eq!(a.scaling, NetFtScaling::FromBox { url: None });
+        }
+        let a = flags(&[
+            "--netft",
+            "[::1]:49152",
+            "--cpf",
+            "1000000",
+            "--cpt",
+            "1000",
+            "--force-unit",
+            "lbf",
+            "bias",
+        ]);
+        let b = rig_file(
+            "address = \"[::1]:49152\"\ncpf = 1000000.0\ncpt = 1000.0\nforce_unit = \"lbf\"\ntorque_unit = \"N-m\"",
+        );
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn both_descriptions_open_the_same_driver_on_the_same_ipv6_address() {
+        // Opening a Net F/T with its counts given only opens a UDP socket to it.
+        if std::net::UdpSocket::bind("[::1]:0").is_err() {
+            eprintln!("no IPv6 loopback here: the descriptions are compared above");
+            return;
+        }
+        let args = ["--netft", "[::1]:49152", "--cpf", "1", "--cpt", "1", "bias"];
+        let a = flags(&args);
+        let b = rig_file("address = \"[::1]:49152\"\ncpf = 1.0\ncpt = 1.0\ntorque_unit = \"N-m\"");
+        let trace = TraceTo::new(None, "netft");
+        let one = open_netft(&a, trace).expect("open from flags");
+        let two = open_netft(&b, trace).expect("open from the rig file");
+        assert_eq!(one.describe(), two.describe());
+        assert!(
+            one.describe().contains("[::1]:49152") || one.describe().contains("::1"),
+            "{}",
+            one.describe()
+        );
+    }
+}

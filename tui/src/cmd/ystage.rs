@@ -172,3 +172,122 @@ pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
     println!("y: {status}{}", if status.homed { ", homed" } else { "" });
     Ok(())
 }
+
+/// The same y stage described by `fringe ystage` flags and by a rig file's `[y]` section.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use fringe_app::device_open::open_modbus;
+    use fringe_app::RigConfig;
+    use fringe_rig::axis::Axis;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        y: YstageArgs,
+    }
+
+    fn flags(args: &[&str]) -> AxisSpec {
+        let cli = Cli::try_parse_from(std::iter::once("ystage").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        cli.y.spec().expect("spec from flags")
+    }
+
+    /// A real rig whose `[y]` section is `y`.
+    fn rig_file(y: &str) -> AxisSpec {
+        let text = format!(
+            r#"
+sensor = "s-01"
+[x]
+driver = "thorlabs"
+port = "/dev/ttyX"
+actuator = "ZFS25"
+min = 0.0
+max = 25.0
+[y]
+{y}
+min = 0.0
+max = 20.0
+[z]
+driver = "thorlabs"
+port = "/dev/ttyZ"
+actuator = "ZFS25"
+min = 0.0
+max = 25.0
+[force]
+driver = "netft"
+address = "192.168.1.1"
+[camera]
+driver = "aravis"
+[geometry]
+x_centre = 12.5
+y_centre = 10.0
+z_contact = 15.0
+"#
+        );
+        let rig = RigConfig::parse(&text, "rig.toml").expect("rig file");
+        let limits = rig.limits().expect("limits");
+        rig.axis_spec("y", &limits.y)
+            .expect("spec from the rig file")
+    }
+
+    #[test]
+    fn flags_and_a_rig_file_describe_the_same_stage() {
+        let limits = ["--min", "0", "--max", "20", "status"];
+        let with = |head: &[&'static str]| -> Vec<&'static str> {
+            head.iter().chain(limits.iter()).copied().collect()
+        };
+        // Modbus TCP at an IPv6 address, its slave id overridden.
+        let tcp = flags(&with(&["--modbus-tcp", "[::1]:1502", "--slave", "3"]));
+        assert_eq!(
+            tcp,
+            rig_file(
+                "driver = \"modbus-tcp\"\naddress = \"[::1]:1502\"\nmap = \"oriental-az\"\nslave = 3"
+            )
+        );
+        assert!(
+            matches!(&tcp, AxisSpec::Modbus(m) if m.link == ModbusLink::Tcp(HostPort { host: "::1".into(), port: 1502 })),
+            "{tcp:?}"
+        );
+        let rtu = flags(&with(&[
+            "--modbus-rtu",
+            "/dev/ttyUSB1",
+            "--map",
+            "leadshine-pr",
+            "--baud",
+            "38400",
+        ]));
+        assert_eq!(
+            rtu,
+            rig_file("driver = \"modbus-rtu\"\nport = \"/dev/ttyUSB1\"\nmap = \"leadshine-pr\"\nbaud = 38400")
+        );
+        assert_eq!(flags(&with(&["--manual"])), rig_file("driver = \"manual\""));
+        assert_eq!(
+            flags(&with(&["--apt", "/dev/ttyUSB2", "--actuator", "ZST225", "--controller", "kst201"])),
+            rig_file("driver = \"thorlabs\"\nport = \"/dev/ttyUSB2\"\nactuator = \"ZST225\"\ncontroller = \"kst201\"")
+        );
+    }
+
+    #[test]
+    fn both_descriptions_open_the_same_driver_on_the_same_address() {
+        // A listener stands in for the drive: opening a Modbus TCP stage only connects.
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("listener");
+        let addr = listener.local_addr().expect("address").to_string();
+        let from_flags = flags(&["--modbus-tcp", &addr, "status"]);
+        let from_file = rig_file(&format!(
+            "driver = \"modbus-tcp\"\naddress = \"{addr}\"\nmap = \"oriental-az\""
+        ));
+        let (AxisSpec::Modbus(a), AxisSpec::Modbus(mut b)) = (from_flags, from_file) else {
+            panic!("both are Modbus stages");
+        };
+        // The rig file always has soft limits; these flags gave none.
+        assert_eq!(b.limits.take().map(|l| l.max), Some(Millimetres(20.0)));
+        assert_eq!(a, b);
+        let trace = TraceTo::new(None, "ystage");
+        let one = open_modbus(&a, trace).expect("open from flags");
+        let two = open_modbus(&b, trace).expect("open from the rig file");
+        assert_eq!(one.endpoint(), two.endpoint());
+        assert!(one.endpoint().contains(&addr), "{}", one.endpoint());
+    }
+}
