@@ -59,23 +59,23 @@ pub enum DeviceError {
     Map {
         device: String,
         #[source]
-        source: MapError,
+        source: Box<MapError>,
     },
     /// The driver refused or the device did not answer.
     #[error("{device}: {source}")]
     Axis {
         device: String,
         #[source]
-        source: AxisError,
+        source: Box<AxisError>,
     },
     #[error("{device}: {source}")]
     Force {
         device: String,
         #[source]
-        source: ForceError,
+        source: Box<ForceError>,
     },
     #[error("camera: {0}")]
-    Camera(#[source] CameraError),
+    Camera(#[source] Box<CameraError>),
     #[error("camera: this fringe was built without Aravis camera support: rebuild with `cargo build --release --features aravis` (needs `sudo apt install libaravis-dev libusb-1.0-0-dev`)")]
     NoAravis,
     #[error("{device}: a stage moved by hand needs an operator to ask, and none was given")]
@@ -129,7 +129,10 @@ pub fn open_thorlabs(
         source,
     })?;
     let link = recorded(Box::new(serial), trace, &device)?;
-    ThorlabsAxis::connect(link, config).map_err(|source| DeviceError::Axis { device, source })
+    ThorlabsAxis::connect(link, config).map_err(|source| DeviceError::Axis {
+        device,
+        source: Box::new(source),
+    })
 }
 
 /// A Modbus stage.
@@ -137,7 +140,7 @@ pub fn open_modbus(spec: &ModbusSpec, trace: TraceTo) -> Result<ModbusStage, Dev
     let device = spec.name.clone();
     let map = RegisterMap::load(&spec.map).map_err(|source| DeviceError::Map {
         device: device.clone(),
-        source,
+        source: Box::new(source),
     })?;
     let link_error = |source| DeviceError::Link {
         device: device.clone(),
@@ -182,7 +185,7 @@ pub fn open_netft(
                 .unwrap_or_else(|| netft::netftapi2_url(&spec.address.url_host()));
             netft::fetch_config(&url, CONNECT_TIMEOUT).map_err(|source| DeviceError::Force {
                 device: device.into(),
-                source,
+                source: Box::new(source),
             })?
         }
     };
@@ -213,7 +216,7 @@ pub fn open_camera(spec: &CameraSpec) -> Result<Box<dyn Camera>, DeviceError> {
         #[cfg(feature = "aravis")]
         CameraSpec::Aravis { id } => {
             let camera = fringe_rig::camera::aravis::AravisCamera::open(id.as_deref())
-                .map_err(DeviceError::Camera)?;
+                .map_err(|e| DeviceError::Camera(Box::new(e)))?;
             Ok(Box::new(camera))
         }
         #[cfg(not(feature = "aravis"))]
