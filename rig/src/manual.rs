@@ -1,53 +1,14 @@
 //! The manual y stage: the operator moves the stage by hand (micrometer screw) and confirms.
 //!
-//! Every motion becomes a question to the operator through an [`OperatorPrompt`]: the terminal
-//! one reads lines from stdin, the TUI supplies its own, and tests script the answers.
+//! Every motion becomes a question to the operator through the engine's [`Operator`]
+//! ([`Operator::answer`]: a typed line). The front end supplies the operator: the command line's
+//! reads lines from stdin, the UI's answers through the UI, and tests script the answers.
 
 use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
+use crate::scan::control::Operator;
 use crate::units::Millimetres;
-use std::io::{self, BufRead, Write};
+use std::io;
 use std::time::Duration;
-
-/// Asks the operator something and returns the line typed, or `None` if the operator cancelled
-/// (end of input).
-pub trait OperatorPrompt: Send {
-    fn ask(&mut self, question: &str) -> io::Result<Option<String>>;
-}
-
-/// A prompt on a terminal: writes the question, reads one line.
-pub struct TerminalPrompt<R, W> {
-    input: R,
-    output: W,
-}
-
-impl TerminalPrompt<io::BufReader<io::Stdin>, io::Stderr> {
-    /// Questions on stderr, answers from stdin.
-    pub fn stdio() -> Self {
-        TerminalPrompt {
-            input: io::BufReader::new(io::stdin()),
-            output: io::stderr(),
-        }
-    }
-}
-
-impl<R: BufRead + Send, W: Write + Send> TerminalPrompt<R, W> {
-    /// A prompt on any reader and writer.
-    pub fn new(input: R, output: W) -> Self {
-        TerminalPrompt { input, output }
-    }
-}
-
-impl<R: BufRead + Send, W: Write + Send> OperatorPrompt for TerminalPrompt<R, W> {
-    fn ask(&mut self, question: &str) -> io::Result<Option<String>> {
-        write!(self.output, "{question} ")?;
-        self.output.flush()?;
-        let mut line = String::new();
-        if self.input.read_line(&mut line)? == 0 {
-            return Ok(None);
-        }
-        Ok(Some(line.trim().to_string()))
-    }
-}
 
 /// How many unreadable answers are tolerated before a question fails.
 const MAX_ATTEMPTS: usize = 3;
@@ -55,22 +16,18 @@ const MAX_ATTEMPTS: usize = 3;
 /// A y stage moved by hand.
 pub struct ManualStage {
     axis: String,
-    prompt: Box<dyn OperatorPrompt>,
+    operator: Box<dyn Operator>,
     limits: Option<SoftLimits>,
     position: Option<Millimetres>,
     homed: bool,
 }
 
 impl ManualStage {
-    /// A manual axis named `axis`, asking through `prompt`.
-    pub fn new(
-        axis: &str,
-        prompt: Box<dyn OperatorPrompt>,
-        limits: Option<SoftLimits>,
-    ) -> ManualStage {
+    /// A manual axis named `axis`, asking `operator`.
+    pub fn new(axis: &str, operator: Box<dyn Operator>, limits: Option<SoftLimits>) -> ManualStage {
         ManualStage {
             axis: axis.to_string(),
-            prompt,
+            operator,
             limits,
             position: None,
             homed: false,
@@ -84,6 +41,13 @@ impl ManualStage {
     }
 
     fn io_error(&self, source: io::Error) -> AxisError {
+        if source.kind() == io::ErrorKind::Unsupported {
+            return AxisError::Device {
+                axis: self.axis.clone(),
+                endpoint: self.endpoint(),
+                message: format!("moved by hand, but {source}"),
+            };
+        }
         AxisError::Io {
             axis: self.axis.clone(),
             endpoint: self.endpoint(),
@@ -99,7 +63,7 @@ impl ManualStage {
     ) -> Result<Millimetres, AxisError> {
         let mut q = question.to_string();
         for _ in 0..MAX_ATTEMPTS {
-            let answer = self.prompt.ask(&q).map_err(|e| self.io_error(e))?;
+            let answer = self.operator.answer(&q).map_err(|e| self.io_error(e))?;
             let Some(answer) = answer else {
                 return Err(self.cancelled());
             };
@@ -217,15 +181,25 @@ impl Axis for ManualStage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scan::control::{Prompt, Reply};
+
+    /// An operator that takes no typed answers (the trait's default).
+    struct Untyped;
+
+    impl Operator for Untyped {
+        fn ask(&mut self, _prompt: &Prompt) -> Reply {
+            Reply::Abort
+        }
+    }
 
     #[test]
-    fn terminal_prompt_reads_lines_and_reports_end_of_input() {
-        let mut out = Vec::new();
-        {
-            let mut p = TerminalPrompt::new(io::Cursor::new(b"  12.5 \n".to_vec()), &mut out);
-            assert_eq!(p.ask("where?").expect("ask"), Some("12.5".to_string()));
-            assert_eq!(p.ask("again?").expect("ask"), None);
-        }
-        assert_eq!(String::from_utf8(out).expect("utf8"), "where? again? ");
+    fn an_operator_without_typed_answers_is_a_clear_error_not_a_cancel() {
+        let mut y = ManualStage::new("y", Box::new(Untyped), None);
+        let e = y.status().expect_err("no typed answers");
+        let m = e.to_string();
+        assert!(
+            m.starts_with("axis y (manual (operator)): moved by hand, but this front end takes no typed answers"),
+            "{m}"
+        );
     }
 }

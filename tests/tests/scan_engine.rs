@@ -966,13 +966,12 @@ fn a_point_interrupted_three_times_in_a_row_ends_the_scan() {
 /// (through the scan's operator, not the stage's own prompt), and the records carry the row's y.
 #[test]
 fn a_manual_y_stage_is_asked_once_per_row_and_never_prompts_by_itself() {
-    use fringe_rig::manual::{ManualStage, TerminalPrompt};
+    use fringe_rig::manual::ManualStage;
     let dir = tempfile_dir("manual-y");
     let (rig, mut devices, _truth) = bench(17);
-    // The stage's own prompt has no input: if the engine asked it anything, the scan would fail
-    // with "cancelled".
-    let no_answers = TerminalPrompt::new(std::io::Cursor::new(Vec::new()), std::io::sink());
-    devices.y = Box::new(ManualStage::new("y", Box::new(no_answers), None));
+    // The stage's own operator has no answer: if the engine asked the stage anything, the scan
+    // would fail with "cancelled".
+    devices.y = Box::new(ManualStage::new("y", Box::new(NoAnswers), None));
     let text = plan("[11.0, 14.0]", "[25.0, 24.0]", "force_targets = [1.0]", 0.1);
     let mut setup = setup(&rig, &text);
     setup.limits.manual_y = true;
@@ -1080,5 +1079,18 @@ fn clock_fit_and_host_scans_label_every_frame_and_record_method_and_error() {
         assert_eq!(stop.sync_method.as_deref(), Some(sync.name()));
         let e = stop.sync_error_ns.expect("error estimate");
         assert!(e > 0.0 && e < 5e6, "{sync}: estimate {e} ns");
+    }
+}
+
+/// An operator with nothing to say: every question is cancelled.
+struct NoAnswers;
+
+impl Operator for NoAnswers {
+    fn ask(&mut self, _prompt: &Prompt) -> Reply {
+        Reply::Abort
+    }
+
+    fn answer(&mut self, _question: &str) -> std::io::Result<Option<String>> {
+        Ok(None)
     }
 }

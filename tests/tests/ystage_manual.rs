@@ -1,7 +1,8 @@
-//! The manual y stage with a scripted operator.
+//! The manual y stage with a scripted operator (the engine's `Operator`, typed answers).
 
 use fringe_rig::axis::{Axis, AxisError, SoftLimits};
-use fringe_rig::manual::{ManualStage, OperatorPrompt};
+use fringe_rig::manual::ManualStage;
+use fringe_rig::scan::control::{Operator, Prompt, Reply};
 use fringe_rig::units::Millimetres;
 use std::collections::VecDeque;
 use std::io;
@@ -14,8 +15,12 @@ struct Scripted {
     asked: Arc<Mutex<Vec<String>>>,
 }
 
-impl OperatorPrompt for Scripted {
-    fn ask(&mut self, question: &str) -> io::Result<Option<String>> {
+impl Operator for Scripted {
+    fn ask(&mut self, prompt: &Prompt) -> Reply {
+        panic!("the stage asks for typed answers only, not {prompt:?}")
+    }
+
+    fn answer(&mut self, question: &str) -> io::Result<Option<String>> {
         self.asked.lock().expect("lock").push(question.to_string());
         Ok(self.answers.pop_front().map(str::to_string))
     }

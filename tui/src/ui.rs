@@ -7,6 +7,7 @@
 //! - [`picture`]: frames as 24-bit half blocks.
 //! - [`plan_choice`]: the plans to choose from, loaded for the Scan screen.
 //! - [`session`]: the scan thread, its operator dialogs and events.
+//! - [`stage_operator`]: the operator a stage moved by hand asks under the UI (never stdin).
 //! - [`event_loop`]: keys, events, redraws; the terminal restored on every exit path.
 
 mod calibration;
@@ -14,6 +15,7 @@ mod event_loop;
 mod picture;
 mod plan_choice;
 mod session;
+mod stage_operator;
 mod state;
 mod view;
 

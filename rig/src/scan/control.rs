@@ -128,9 +128,21 @@ impl Prompt {
     }
 }
 
-/// The person at the bench.
+/// The person at the bench, reached through the front end (the terminal, the UI, a script).
 pub trait Operator: Send {
+    /// Asks the operator to do something and say when it is done (or to abort).
     fn ask(&mut self, prompt: &Prompt) -> Reply;
+
+    /// Asks a question the operator answers by typing a line (a stage moved by hand asks for
+    /// its reading, or for Enter once it is in place): the line, or `None` when the operator
+    /// cancelled (end of input). The default, for a front end that takes no typed answers,
+    /// refuses with an error of kind [`std::io::ErrorKind::Unsupported`].
+    fn answer(&mut self, question: &str) -> std::io::Result<Option<String>> {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::Unsupported,
+            format!("this front end takes no typed answers (asked: {question})"),
+        ))
+    }
 }
 
 /// Phases of one indentation, reported as they start.

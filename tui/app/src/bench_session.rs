@@ -11,13 +11,16 @@
 //! before the devices are released.
 
 pub use crate::jog_guard::AxisId;
-use crate::jog_guard::{Heading, JogGuard};
+use crate::jog_guard::{Heading, JogGuard, OverCeiling};
+use crate::rig_error::RigError;
 use crate::rig_file::RigConfig;
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::frame_gaps::FrameGaps;
-use fringe_rig::axis::{Axis, StopMode};
-use fringe_rig::camera::Frame;
+use fringe_rig::axis::{Axis, AxisError, StopMode};
+use fringe_rig::camera::{CameraError, Frame};
+use fringe_rig::force::ForceError;
+use fringe_rig::scan::control::Operator;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
 use std::collections::VecDeque;
@@ -149,6 +152,33 @@ impl BenchState {
     }
 }
 
+/// What the bench could not do; each names the device and what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("cannot open the rig: {0}")]
+    Rig(#[from] RigError),
+    #[error(transparent)]
+    Force(#[from] ForceError),
+    #[error(transparent)]
+    Camera(#[from] CameraError),
+    #[error(transparent)]
+    Axis(#[from] AxisError),
+    /// Several axes failed to stop.
+    #[error("{}", .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("; "))]
+    Stop(Vec<AxisError>),
+    #[error(transparent)]
+    OverCeiling(#[from] OverCeiling),
+    #[error("axis {axis}: moved by hand on this bench; {what}")]
+    MovedByHand {
+        axis: &'static str,
+        what: &'static str,
+    },
+    #[error("{axis}: not moved: the F/T sensor is not streaming, so the force ceiling cannot be watched")]
+    ForceUnwatched { axis: &'static str },
+    #[error("the F/T sensor is not streaming")]
+    NotStreaming,
+}
+
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
@@ -163,8 +193,13 @@ pub struct BenchSession {
 
 impl BenchSession {
     /// Opens the rig `config` describes on a new thread (the snapshot says Opening until the
-    /// devices answer); pictures are `picture_px` on a side.
-    pub fn open(config: RigConfig, picture_px: u32) -> std::io::Result<BenchSession> {
+    /// devices answer); pictures are `picture_px` on a side. A stage moved by hand asks
+    /// `stage_operator`, the front end's (this session never moves nor polls it).
+    pub fn open(
+        config: RigConfig,
+        picture_px: u32,
+        stage_operator: Box<dyn Operator>,
+    ) -> std::io::Result<BenchSession> {
         let state = Arc::new(Mutex::new(BenchState::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = channel();
@@ -173,8 +208,9 @@ impl BenchSession {
             std::thread::Builder::new()
                 .name("bench".into())
                 .spawn(move || {
-                    if let Err(message) = run(&config, picture_px, &state, &stop, &rx) {
-                        lock(&state).phase = BenchPhase::Failed(message);
+                    let opened = run(&config, stage_operator, picture_px, &state, &stop, &rx);
+                    if let Err(e) = opened {
+                        lock(&state).phase = BenchPhase::Failed(e.to_string());
                     }
                 })?
         };
@@ -219,12 +255,13 @@ impl Drop for BenchSession {
 /// The worker: opens the rig, then polls and obeys until told to stop.
 fn run(
     config: &RigConfig,
+    stage_operator: Box<dyn Operator>,
     picture_px: u32,
     state: &Mutex<BenchState>,
     stop: &AtomicBool,
     commands: &Receiver<BenchCommand>,
-) -> Result<(), String> {
-    let rig = config.open(None).map_err(|e| e.to_string())?;
+) -> Result<(), BenchError> {
+    let rig = config.open(None, stage_operator)?;
     let limits = rig.limits.clone();
     let devices = rig.devices;
     let mut axes: [Box<dyn Axis>; 3] = [devices.x, devices.y, devices.z];
@@ -238,10 +275,9 @@ fn run(
         s.axes[AxisId::Y.index()].manual = limits.manual_y;
         s.force.max_n = limits.max_force.0;
     }
-    let mut force = Some(ForceStream::spawn(devices.force).map_err(|e| e.to_string())?);
+    let mut force = Some(ForceStream::spawn(devices.force)?);
     let camera_device = devices.camera.info().id;
-    let camera =
-        CameraStream::spawn(devices.camera, &rig.camera_settings).map_err(|e| e.to_string())?;
+    let camera = CameraStream::spawn(devices.camera, &rig.camera_settings)?;
     {
         let mut s = lock(state);
         s.force.device = force
@@ -262,8 +298,8 @@ fn run(
         let tick = Instant::now();
         for command in commands.try_iter() {
             let outcome = obey(command, &mut axes, &mut force, &mut guard, state);
-            if let Err(message) = outcome {
-                lock(state).say(message);
+            if let Err(e) = outcome {
+                lock(state).say(e.to_string());
             }
         }
         // Force first: every sample drained (the stream keeps them all for a recorder) and
@@ -331,6 +367,10 @@ fn run(
         if polled_at.is_none_or(|t| t.elapsed() >= TICK) {
             polled_at = Some(Instant::now());
             for (i, axis) in axes.iter_mut().enumerate() {
+                // A stage moved by hand is asked, not polled: its reading is the operator's.
+                if i == AxisId::Y.index() && limits.manual_y {
+                    continue;
+                }
                 let polled = axis.status();
                 let mut s = lock(state);
                 match polled {
@@ -438,39 +478,34 @@ fn obey(
     force: &mut Option<ForceStream>,
     guard: &mut JogGuard,
     state: &Mutex<BenchState>,
-) -> Result<(), String> {
+) -> Result<(), BenchError> {
     match command {
         BenchCommand::Jog { axis, by } => {
             if lock(state).axes[axis.index()].manual {
-                return Err(format!(
-                    "axis {}: moved by hand on this bench; it is not jogged from here",
-                    axis.name()
-                ));
+                return Err(BenchError::MovedByHand {
+                    axis: axis.name(),
+                    what: "it is not jogged from here",
+                });
             }
             let heading = Heading::of_jog(axis, by.0);
             guard.admit(axis, heading)?;
             if heading != Heading::Away && force.is_none() {
-                return Err(format!(
-                    "{}: not moved: the F/T sensor is not streaming, so the force ceiling cannot be watched",
-                    axis.name()
-                ));
+                return Err(BenchError::ForceUnwatched { axis: axis.name() });
             }
-            axes[axis.index()]
-                .begin_move_by(by)
-                .map_err(|e| e.to_string())?;
+            axes[axis.index()].begin_move_by(by)?;
             guard.begun(axis, heading);
             lock(state).say(format!("{}: moving by {:+.3} mm", axis.name(), by.0));
         }
         BenchCommand::Home(axis) => {
             if lock(state).axes[axis.index()].manual {
-                return Err(format!(
-                    "axis {}: moved by hand; nothing to home",
-                    axis.name()
-                ));
+                return Err(BenchError::MovedByHand {
+                    axis: axis.name(),
+                    what: "nothing to home",
+                });
             }
             let heading = Heading::of_home(axis);
             guard.admit(axis, heading)?;
-            axes[axis.index()].begin_home().map_err(|e| e.to_string())?;
+            axes[axis.index()].begin_home()?;
             guard.begun(axis, heading);
             lock(state).say(format!("{}: homing", axis.name()));
         }
@@ -478,29 +513,28 @@ fn obey(
             let mut failed = Vec::new();
             for axis in axes.iter_mut() {
                 if let Err(e) = axis.stop(StopMode::Immediate) {
-                    failed.push(e.to_string());
+                    failed.push(e);
                 }
             }
             guard.stopped_all();
             if !failed.is_empty() {
-                return Err(failed.join("; "));
+                return Err(BenchError::Stop(failed));
             }
             lock(state).say("every axis stopped");
         }
         BenchCommand::Tare => {
             let Some(stream) = force.take() else {
-                return Err("the F/T sensor is not streaming".into());
+                return Err(BenchError::NotStreaming);
             };
-            let mut sensor = stream.stop().map_err(|e| e.to_string())?;
+            let mut sensor = stream.stop()?;
             // A sensor biased on the host (a DAQ, a Net F/T in host-bias mode) takes its bias
             // from a running acquisition: started for it, stopped again before the stream
             // starts it anew.
             let biased = sensor
                 .start()
                 .and_then(|()| sensor.bias())
-                .and_then(|()| sensor.stop())
-                .map_err(|e| e.to_string());
-            *force = Some(ForceStream::spawn(sensor).map_err(|e| e.to_string())?);
+                .and_then(|()| sensor.stop());
+            *force = Some(ForceStream::spawn(sensor)?);
             biased?;
             lock(state).force.peak_n = 0.0;
             lock(state).say("F/T sensor tared (bias set to the present load)");

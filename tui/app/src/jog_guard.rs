@@ -10,6 +10,16 @@
 
 use std::time::{Duration, Instant};
 
+/// A move into or across the sensor refused while the force is over the ceiling.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{axis}: {what} is refused while the force ({force_n:.2} N) is over the ceiling {ceiling_n:.2} N; retract z first (←, or h to home z)")]
+pub struct OverCeiling {
+    pub axis: &'static str,
+    pub what: &'static str,
+    pub force_n: f64,
+    pub ceiling_n: f64,
+}
+
 /// An axis of the bench.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AxisId {
@@ -98,8 +108,8 @@ impl JogGuard {
 
     /// Whether a motion of `axis` going `heading` may start now; the refusal says why and what
     /// to do.
-    pub fn admit(&self, axis: AxisId, heading: Heading) -> Result<(), String> {
-        let Some(force) = self.force_n.filter(|f| *f > self.ceiling_n) else {
+    pub fn admit(&self, axis: AxisId, heading: Heading) -> Result<(), OverCeiling> {
+        let Some(force_n) = self.force_n.filter(|f| *f > self.ceiling_n) else {
             return Ok(());
         };
         let what = match heading {
@@ -107,12 +117,12 @@ impl JogGuard {
             Heading::Into => "a move into the sensor",
             Heading::Across => "a move across the sensor",
         };
-        Err(format!(
-            "{}: {what} is refused while the force ({force:.2} N) is over the ceiling \
-             {:.2} N; retract z first (←, or h to home z)",
-            axis.name(),
-            self.ceiling_n
-        ))
+        Err(OverCeiling {
+            axis: axis.name(),
+            what,
+            force_n,
+            ceiling_n: self.ceiling_n,
+        })
     }
 
     /// A motion of `axis` going `heading` was started (replacing any before it).
@@ -178,7 +188,7 @@ mod tests {
         g.sample(19.0);
         assert!(g.admit(AxisId::Z, Heading::Into).is_ok());
         g.sample(20.5);
-        let refused = g.admit(AxisId::Z, Heading::Into).unwrap_err();
+        let refused = g.admit(AxisId::Z, Heading::Into).unwrap_err().to_string();
         assert!(refused.contains("into the sensor") && refused.contains("20.50 N"));
         assert!(g.admit(AxisId::X, Heading::Across).is_err());
         assert!(g.admit(AxisId::Z, Heading::of_jog(AxisId::Z, -0.1)).is_ok());

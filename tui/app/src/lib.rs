@@ -5,13 +5,17 @@
 //! - [`RigConfig`], [`RigSource`]: the rig file, read and checked (or the simulated bench when
 //!   there is none); module `rig_file` (private), with the file's sections reached through
 //!   [`RigConfig`].
-//! - [`OpenRig`], [`RigError`]: opening the devices it describes, real or simulated; module
-//!   `open_rig` (private).
-//! - [`ScanSession`] and its [`ProfileUse`], [`Note`], [`SessionEnd`], [`SessionError`],
-//!   [`TruthScore`]: a scan on the opened rig (profile -> origin, operator, progress, truth
-//!   scoring); module `scan_session` (private).
+//! - [`OpenRig`], [`RigError`]: opening the devices it describes, real or simulated; modules
+//!   `open_rig` and `rig_error` (private), the bench it describes in `rig_bench`, its device
+//!   sections as descriptions in `rig_devices`.
+//! - The one opener of real devices: [`device_spec`] (what a device is and how it is reached,
+//!   from a rig file section or a command's flags), [`device_open`] (opening it), [`host_port`]
+//!   (`HOST[:PORT]`, IPv6 included).
+//! - [`ScanSession`] and its [`ProfileUse`], [`Note`], [`SessionEnd`], [`SessionError`]: a scan
+//!   on the opened rig (profile -> origin, operator, progress, truth scoring); module
+//!   `scan_session` (private); [`TruthScore`] in `truth_score` (private).
 //!
-//! And six public modules:
+//! And nine public modules (the three above and):
 //! - [`bench_session`]: the bench outside a scan: device states, jog, home, stop, tare, the
 //!   force and the newest frame.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
@@ -26,11 +30,17 @@
 
 pub mod bench_session;
 pub mod calibration_scan;
+pub mod device_open;
+pub mod device_spec;
+pub mod host_port;
 pub mod jog_guard;
 pub mod live_validation;
 pub mod live_view;
 mod open_rig;
 pub mod plans;
+mod rig_bench;
+mod rig_devices;
+mod rig_error;
 mod rig_file;
 mod scan_session;
 #[cfg(feature = "sim")]
@@ -38,7 +48,10 @@ pub mod sim_bench;
 #[cfg(not(feature = "sim"))]
 #[path = "no_sim_bench.rs"]
 mod sim_bench;
+mod truth_score;
 
-pub use open_rig::{OpenRig, RigError};
+pub use open_rig::OpenRig;
+pub use rig_error::RigError;
 pub use rig_file::{RigConfig, RigSource};
-pub use scan_session::{Note, ProfileUse, ScanSession, SessionEnd, SessionError, TruthScore};
+pub use scan_session::{Note, ProfileUse, ScanSession, SessionEnd, SessionError};
+pub use truth_score::TruthScore;

@@ -17,14 +17,17 @@ use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
 use fringe_rig::camera::Frame;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_sensor_models::backend::Backend;
+use fringe_sensor_models::backend::{Backend, InferenceError};
 use fringe_sensor_models::dataset::{from_record, Sample};
 use fringe_sensor_models::eval::{keys, score, Evaluation, Row};
 use fringe_sensor_models::metrics::{Errors, Metrics};
 use fringe_sensor_models::model::{Model, ModelError};
 use fringe_sensor_models::prediction::{predictions, Prediction};
-use fringe_sensor_models::preprocess::{tensor_image, thumbnail, FrameRef, Preprocessor};
+use fringe_sensor_models::preprocess::{
+    tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor,
+};
 use std::collections::VecDeque;
+use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -111,6 +114,25 @@ pub struct ValidationState {
     pub cells: Vec<CellErrors>,
     /// Why the worker stopped, if it failed.
     pub failure: Option<String>,
+}
+
+/// Why the validation worker stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum ValidationError {
+    #[error("frame {frame}: {source}")]
+    Frame {
+        frame: u64,
+        #[source]
+        source: PreprocessError,
+    },
+    #[error("{}: {source}", .model.display())]
+    Inference {
+        model: PathBuf,
+        #[source]
+        source: InferenceError,
+    },
+    #[error("{}: the network gave no prediction", .model.display())]
+    NoPrediction { model: PathBuf },
 }
 
 /// A labelled frame handed to the worker, with the cut generation it belongs to.
@@ -419,7 +441,7 @@ impl Worker {
                 }
             };
             if let Err(why) = self.one(&offer, &mut input) {
-                lock(&self.shared.state).failure = Some(why);
+                lock(&self.shared.state).failure = Some(why.to_string());
                 let mut m = lock(&self.shared.mailbox);
                 m.closed = true;
                 m.busy = false;
@@ -428,7 +450,7 @@ impl Worker {
         }
     }
 
-    fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), String> {
+    fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), ValidationError> {
         let (frame, record) = (&offer.frame, &offer.record);
         let t0 = Instant::now();
         let format = Some(frame.format);
@@ -446,20 +468,24 @@ impl Worker {
             format: frame.format,
             data: &frame.data,
         };
-        self.pre
-            .run_into(fref, 0.0, input)
-            .map_err(|e| format!("frame {}: {e}", frame.id))?;
+        let frame_error = |source| ValidationError::Frame {
+            frame: frame.id,
+            source,
+        };
+        self.pre.run_into(fref, 0.0, input).map_err(frame_error)?;
         let size = self.pre.config.input_size;
-        let raw = self
-            .backend
-            .run(input, 1, size)
-            .map_err(|e| format!("{}: {e}", self.model.path.display()))?;
+        let raw =
+            self.backend
+                .run(input, 1, size)
+                .map_err(|source| ValidationError::Inference {
+                    model: self.model.path.clone(),
+                    source,
+                })?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let Some(prediction) = predictions(&raw, &self.model.classes).into_iter().next() else {
-            return Err(format!(
-                "{}: the network gave no prediction",
-                self.model.path.display()
-            ));
+            return Err(ValidationError::NoPrediction {
+                model: self.model.path.clone(),
+            });
         };
         let now = Instant::now();
         self.recent.push_back(now);
@@ -476,7 +502,7 @@ impl Worker {
         let pictures = if due {
             self.pictured = Some(now);
             Some((
-                thumbnail(fref, THUMBNAIL_PX).map_err(|e| format!("frame {}: {e}", frame.id))?,
+                thumbnail(fref, THUMBNAIL_PX).map_err(frame_error)?,
                 tensor_image(input, size).unwrap_or_default(),
             ))
         } else {

@@ -1,16 +1,13 @@
 //! A build without the simulated bench (cargo feature `sim` off): rig files whose devices are all
 //! simulated are refused when they are read, so these answer only if that check is bypassed.
 
-use crate::open_rig::{OpenRig, RigError};
 use crate::rig_file::{RigConfig, NO_SIM};
-use fringe_rig::camera::CameraSettings;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Newtons;
 
-fn refused(rig: &RigConfig) -> ConfigError {
+pub(crate) fn refused(rig: &RigConfig) -> ConfigError {
     rig.err(NO_SIM.into())
 }
 
@@ -24,15 +21,4 @@ pub(crate) fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
 
 pub(crate) fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
     Err(refused(rig))
-}
-
-pub(crate) fn open(
-    rig: &RigConfig,
-    _limits: BenchLimits,
-    _origin: ContactOrigin,
-    _sync: SyncMethod,
-    _sensor_id: String,
-    _camera_settings: CameraSettings,
-) -> Result<OpenRig, RigError> {
-    Err(RigError::Config(refused(rig)))
 }

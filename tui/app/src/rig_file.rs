@@ -1,6 +1,7 @@
 //! The rig file (`rig.toml`): which device is which, how each is reached and set up, the soft
-//! limits, the sync method and the bench geometry, read and checked. Opening the devices it
-//! describes is [`crate::open_rig`]; the simulated bench's part is [`crate::sim_bench`].
+//! limits, the sync method and the bench geometry, read and checked. The bench it describes
+//! (limits, origin, sensor) is module `rig_bench`; its devices as descriptions `rig_devices`;
+//! opening them `open_rig`; the simulated bench's part `sim_bench`.
 //!
 //! A missing file means the simulated bench ([`RigConfig::resolve`]): every device `driver =
 //! "sim"`. A rig is either wholly simulated (one shared virtual bench) or wholly real; mixing the
@@ -11,15 +12,11 @@
 //! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
 
 use fringe_rig::apt::Actuator;
-use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{
-    Decibels, Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared,
-    Newtons,
+    Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -365,84 +362,6 @@ impl RigConfig {
         Ok(method)
     }
 
-    /// Soft limits, kinematics, force ceiling and contact height of the bench.
-    pub fn limits(&self) -> Result<BenchLimits, ConfigError> {
-        let max_force = Newtons(self.file.force.max_force.unwrap_or(20.0));
-        if self.simulated {
-            return crate::sim_bench::limits(self, max_force);
-        }
-        let f = &self.file;
-        let axis = |name: &str, a: &AxisSection| -> Result<(SoftLimits, Kinematics), ConfigError> {
-            let (Some(min), Some(max)) = (a.min, a.max) else {
-                return Err(self.err(format!(
-                    "[{name}]: keys `{name}.min` and `{name}.max` (soft limits, mm) are required on real hardware"
-                )));
-            };
-            let limits = SoftLimits::new(Millimetres(min), Millimetres(max))
-                .map_err(|e| self.err(format!("[{name}] min/max: {e}")))?;
-            Ok((
-                limits,
-                Kinematics {
-                    velocity: MillimetresPerSecond(a.velocity.unwrap_or(1.0)),
-                    acceleration: MillimetresPerSecondSquared(a.acceleration.unwrap_or(1.0)),
-                },
-            ))
-        };
-        let (x, x_motion) = axis("x", &f.x)?;
-        let (y, y_motion) = axis("y", &f.y)?;
-        let (z, z_motion) = axis("z", &f.z)?;
-        let contact_z = f.geometry.z_contact.ok_or_else(|| {
-            self.err(
-                "key `geometry.z_contact` is required on real hardware: the z (mm) at which the indenter roughly touches the sensor (the approach stops 3 mm past it)"
-                    .into(),
-            )
-        })?;
-        Ok(BenchLimits {
-            x,
-            y,
-            z,
-            x_motion,
-            y_motion,
-            z_motion,
-            manual_y: f.y.driver == AxisDriver::Manual,
-            max_force,
-            contact_z: Millimetres(contact_z),
-        })
-    }
-
-    /// The contact origin given by the rig file (or the simulated bench's geometry).
-    pub fn origin(&self) -> Result<ContactOrigin, ConfigError> {
-        let g = &self.file.geometry;
-        if self.simulated {
-            return crate::sim_bench::origin(self);
-        }
-        match (g.x_centre, g.y_centre) {
-            (Some(x), Some(y)) => Ok(ContactOrigin {
-                x: Millimetres(x),
-                y: Millimetres(y),
-                source: format!("{} [geometry]", self.origin),
-            }),
-            _ => Err(self.err(
-                "keys `geometry.x_centre` and `geometry.y_centre` (stage mm over the sensor centre) are required on real hardware until `fringe calibrate` has written a profile for this sensor"
-                    .into(),
-            )),
-        }
-    }
-
-    /// The sensor id: the rig file's, or the simulated sensor's.
-    pub fn sensor_id(&self) -> Result<String, ConfigError> {
-        if let Some(id) = &self.file.sensor {
-            return Ok(id.clone());
-        }
-        if self.simulated {
-            return crate::sim_bench::sensor_id(self);
-        }
-        Err(self.err(
-            "key `sensor` (the sensor build id, e.g. \"layered-01\") is required on real hardware"
-                .into(),
-        ))
-    }
-
     /// Directory of calibration profiles.
     pub fn profile_dir(&self) -> PathBuf {
         self.file
@@ -643,6 +562,7 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
 mod tests {
     use super::*;
     use fringe_rig::apt::driver::Controller;
+    use fringe_rig::units::Millimetres;
 
     const REFERENCE: &str = include_str!("../rigs/reference-bench.toml");
     const SIMULATED: &str = include_str!("../rigs/simulated.toml");
@@ -700,9 +620,7 @@ mod tests {
             e.to_string().contains("x, y, z, force are simulated"),
             "{e}"
         );
-        let netft =
-            RigConfig::parse("[sim]\nforce_path = \"netft\"\n", "rig.toml").expect("netft sim");
-        assert!(crate::sim_bench::config(&netft).is_ok());
+        RigConfig::parse("[sim]\nforce_path = \"netft\"\n", "rig.toml").expect("netft sim");
         let strobe = RigConfig::parse(
             "sync = \"strobe\"\n[sim]\nforce_path = \"netft\"\n",
             "rig.toml",

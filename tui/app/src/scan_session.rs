@@ -4,8 +4,11 @@
 //! bar and the terminal UI drive the same session.
 
 use crate::live_validation::{FrameSource, LiveValidation};
-use crate::open_rig::RigError;
+use crate::rig_error::RigError;
 use crate::rig_file::RigConfig;
+#[cfg(feature = "sim")]
+use crate::sim_bench::{score_run, SimBench};
+use crate::truth_score::TruthScore;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{
     load_checked, profile_path, Expectation, Profile, ProfileWarning,
@@ -14,6 +17,8 @@ use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
+#[cfg(feature = "sim")]
+use fringe_rig::scan::control::{Prompt, Reply};
 use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_rig::scan::failure::ScanError;
 use fringe_rig::scan::offset_check::OffsetCheck;
@@ -79,22 +84,12 @@ pub enum SessionError {
     Model(#[from] ModelError),
 }
 
-/// The labels of a simulated run against the bench's ground truth.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TruthScore {
-    pub frames: usize,
-    pub force_rms_n: f64,
-    pub force_max_n: f64,
-    pub contact_frames: usize,
-    pub contact_rms_mm: f64,
-}
-
 /// A rig opened and a scan set up, ready to run.
 pub struct ScanSession {
     pub setup: ScanSetup,
     devices: Devices,
     #[cfg(feature = "sim")]
-    sim: Option<crate::sim_bench::SimBench>,
+    sim: Option<SimBench>,
     /// What the front end should show before the scan starts (devices, origin, profile warnings).
     pub notes: Vec<Note>,
     /// Where the sensor's calibration profile was looked for.
@@ -108,19 +103,22 @@ pub struct SessionEnd {
     pub truth_score: Option<TruthScore>,
     /// The simulated bench that ran it, with its ground truth (simulated rigs).
     #[cfg(feature = "sim")]
-    pub sim: Option<crate::sim_bench::SimBench>,
+    pub sim: Option<SimBench>,
 }
 
 impl ScanSession {
-    /// Opens the rig `config` describes and sets up `program`.
+    /// Opens the rig `config` describes and sets up `program`. `stage_operator` is the front
+    /// end's operator for a stage moved by hand (the scan itself asks through the operator given
+    /// to [`ScanSession::run`]).
     pub fn open(
         config: &RigConfig,
         program: ScanProgram,
         plan_text: String,
         profile_use: ProfileUse,
         record_trace: Option<&Path>,
+        stage_operator: Box<dyn Operator>,
     ) -> Result<ScanSession, SessionError> {
-        let rig = config.open(record_trace)?;
+        let rig = config.open(record_trace, stage_operator)?;
         let mut notes: Vec<Note> = rig
             .devices
             .description
@@ -326,7 +324,7 @@ impl ScanSession {
         #[cfg(feature = "sim")]
         {
             let truth_score = match &self.sim {
-                Some(_) => crate::sim_bench::score_run(&outcome.run_dir)?,
+                Some(_) => score_run(&outcome.run_dir)?,
                 None => None,
             };
             Ok(SessionEnd {
@@ -354,11 +352,7 @@ struct BenchOperator<'a> {
 
 #[cfg(feature = "sim")]
 impl Operator for BenchOperator<'_> {
-    fn ask(
-        &mut self,
-        prompt: &fringe_rig::scan::control::Prompt,
-    ) -> fringe_rig::scan::control::Reply {
-        use fringe_rig::scan::control::{Prompt, Reply};
+    fn ask(&mut self, prompt: &Prompt) -> Reply {
         use fringe_sim::bench::{IndenterTip, MountedIndenter};
         if let (Some(bench), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
             return match IndenterTip::standard(shape) {
@@ -381,6 +375,10 @@ impl Operator for BenchOperator<'_> {
             };
         }
         self.inner.ask(prompt)
+    }
+
+    fn answer(&mut self, question: &str) -> std::io::Result<Option<String>> {
+        self.inner.answer(question)
     }
 }
 

@@ -2,14 +2,14 @@
 //! from the `[sim]` section and the axis settings, its soft limits, geometry and sensor, and
 //! starting it with every device's real driver talking to its emulators.
 
-use crate::open_rig::{device, OpenRig, RigError};
+use crate::rig_error::RigError;
 use crate::rig_file::{AxisSection, RigConfig, SimForcePath};
+use crate::truth_score::TruthScore;
 use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::camera::CameraSettings;
 use fringe_rig::config_file::ConfigError;
+use fringe_rig::devices::Devices;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::bench::{AxisConfig, Bench};
 use fringe_sim::ground_truth::TruthSink;
@@ -136,28 +136,12 @@ pub fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
 }
 
 /// Starts the simulated bench, its ground truth recorded.
-pub fn open(
-    rig: &RigConfig,
-    limits: BenchLimits,
-    origin: ContactOrigin,
-    sync: SyncMethod,
-    sensor_id: String,
-    camera_settings: CameraSettings,
-) -> Result<OpenRig, RigError> {
+pub fn start(rig: &RigConfig) -> Result<(SimBench, Devices), RigError> {
     let config = config(rig)?;
     let truth = TruthSpool::new();
     let sink: Arc<dyn TruthSink> = truth.clone();
-    let (sim, devices) = SimRig::start(&config, Some(sink)).map_err(|e| device("rig", e))?;
-    Ok(OpenRig {
-        devices,
-        limits,
-        origin,
-        sync,
-        sensor_id,
-        camera_settings,
-        text: rig.text.clone(),
-        sim: Some(SimBench { rig: sim, truth }),
-    })
+    let (sim, devices) = SimRig::start(&config, Some(sink)).map_err(RigError::Sim)?;
+    Ok((SimBench { rig: sim, truth }, devices))
 }
 
 /// Copies the axis settings a simulated axis understands.
@@ -172,9 +156,7 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
 
 /// Scores the labels of the simulated run in `run_dir` against the ground truth it keeps
 /// (`truth.jsonl`); `None` when no labelled frame has a truth record.
-pub fn score_run(
-    run_dir: &Path,
-) -> Result<Option<crate::scan_session::TruthScore>, fringe_rig::store::StoreError> {
+pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
     let (records, _) = fringe_rig::store::run_writer::read_lines::<
         fringe_rig::store::documents::FrameRecord,
     >(&run_dir.join(fringe_rig::store::FRAMES))?;
@@ -185,7 +167,7 @@ pub fn score_run(
         }
     })?;
     Ok(
-        fringe_sim::label_score::score(&records, &truth).map(|s| crate::scan_session::TruthScore {
+        fringe_sim::label_score::score(&records, &truth).map(|s| TruthScore {
             frames: s.frames,
             force_rms_n: s.force_rms_n,
             force_max_n: s.force_max_n,

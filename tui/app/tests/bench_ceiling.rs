@@ -4,6 +4,7 @@
 
 use fringe_app::bench_session::{AxisId, BenchCommand, BenchPhase, BenchSession, BenchState};
 use fringe_app::RigConfig;
+use fringe_rig::scan::control::{Operator, Prompt, Reply};
 use fringe_rig::units::Millimetres;
 use std::time::{Duration, Instant};
 
@@ -16,6 +17,15 @@ max_force = 12.0
 seed = 11
 image_scale = 0.25
 "#;
+
+/// No one at a simulated bench: nothing is moved by hand there.
+struct Nobody;
+
+impl Operator for Nobody {
+    fn ask(&mut self, _prompt: &Prompt) -> Reply {
+        Reply::Abort
+    }
+}
 
 fn wait_for(
     bench: &BenchSession,
@@ -81,7 +91,7 @@ fn jog_z(bench: &BenchSession, by: f64) -> BenchState {
 #[test]
 fn jogs_into_the_gel_stop_at_the_ceiling_and_a_retract_always_goes() {
     let config = RigConfig::parse(RIG, "bench ceiling test").expect("rig");
-    let bench = BenchSession::open(config, 32).expect("bench");
+    let bench = BenchSession::open(config, 32, Box::new(Nobody)).expect("bench");
     wait_for(&bench, "the bench open", Duration::from_secs(60), |s| {
         s.phase == BenchPhase::Ready
     });

@@ -4,11 +4,10 @@ use super::arg_values;
 use super::limits::SoftLimitArgs;
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::device_open::{open_thorlabs, TraceTo};
 use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};
-use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
+use fringe_rig::apt::Actuator;
 use fringe_rig::axis::{Axis, AxisStatus, StopMode};
-use fringe_rig::trace::record_stream;
-use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::time::Duration;
 
@@ -106,11 +105,11 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
     config.home.velocity = MillimetresPerSecond(args.velocity.min(1.0));
     config.timeouts = Timeouts::default();
     config.soft_limits = args.limits.limits()?;
-    let serial = open_serial(&args.port)?;
-    let link: Box<dyn ByteLink> = Box::new(serial);
-    let link = record_stream(link, global.record_trace.as_deref(), "apt")
-        .context("cannot start the trace recording (check --record-trace DIR)")?;
-    let mut axis = ThorlabsAxis::connect(link, config)?;
+    let mut axis = open_thorlabs(
+        &args.port,
+        config,
+        TraceTo::new(global.record_trace.as_deref(), "apt"),
+    )?;
     if let Some(info) = axis.info() {
         println!(
             "controller: {} serial {} firmware {} on {}",

@@ -2,6 +2,8 @@
 
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::device_open::open_camera;
+use fringe_app::device_spec::CameraSpec;
 use fringe_rig::acquire::frame_gaps::FrameGaps;
 use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
 use fringe_rig::camera::writer::FrameWriter;
@@ -94,18 +96,10 @@ fn parse_roi(text: &str) -> Result<Roi, String> {
     }
 }
 
-#[cfg(feature = "aravis")]
 fn open_aravis(id: &str) -> anyhow::Result<Box<dyn Camera>> {
-    let cam = fringe_rig::camera::aravis::AravisCamera::open(Some(id))?;
-    Ok(Box::new(cam))
-}
-
-#[cfg(not(feature = "aravis"))]
-fn open_aravis(_id: &str) -> anyhow::Result<Box<dyn Camera>> {
-    bail!(
-        "this fringe was built without Aravis camera support: rebuild with `cargo build --release --features aravis` \
-         (needs `sudo apt install libaravis-dev libusb-1.0-0-dev`)"
-    )
+    Ok(open_camera(&CameraSpec::Aravis {
+        id: Some(id.to_string()),
+    })?)
 }
 
 /// Boxed cameras are cameras, so a recorder can wrap whichever source was opened.

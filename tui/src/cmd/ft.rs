@@ -8,10 +8,11 @@
 use super::arg_values;
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::device_open::{open_netft, TraceTo};
+use fringe_app::device_spec::{NetFtScaling, NetFtSpec};
+use fringe_app::host_port::HostPort;
 use fringe_rig::force::{ForceSample, ForceSensor};
-use fringe_rig::netft::{self, Command, NetFt, NetFtConfig, NetFtOptions, DEFAULT_PORT};
-use fringe_rig::trace::record_datagrams;
-use fringe_rig::transport::udp::UdpLink;
+use fringe_rig::netft::{Command, NetFt, NetFtConfig, DEFAULT_PORT};
 use fringe_rig::transport::DatagramLink;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -66,54 +67,23 @@ enum FtAction {
     Bias,
 }
 
-/// Splits `HOST[:PORT]` (`[v6]:PORT` for IPv6) into a host and a port.
-fn split_host_port(text: &str) -> anyhow::Result<(String, u16)> {
-    let bad =
-        || format!("--netft `{text}`: expected HOST or HOST:PORT (for example 192.168.1.1:49152)");
-    if let Some(rest) = text.strip_prefix('[') {
-        let (host, after) = rest.split_once(']').with_context(bad)?;
-        let port = match after.strip_prefix(':') {
-            Some(p) => p.parse().with_context(bad)?,
-            None if after.is_empty() => DEFAULT_PORT,
-            None => bail!(bad()),
+impl FtArgs {
+    /// The Net F/T the flags describe, as a rig file's `[force]` section would describe it.
+    fn spec(&self, mode: Command) -> anyhow::Result<NetFtSpec> {
+        let address = HostPort::parse(&self.netft, Some(DEFAULT_PORT)).context("--netft")?;
+        let scaling = match (self.cpf, self.cpt) {
+            (Some(cpf), Some(cpt)) => NetFtScaling::Given(NetFtConfig::new(
+                cpf,
+                cpt,
+                &self.force_unit,
+                &self.torque_unit,
+                "--cpf/--cpt",
+            )?),
+            _ => NetFtScaling::FromBox {
+                url: self.config_url.clone(),
+            },
         };
-        return Ok((host.to_string(), port));
-    }
-    match text.split_once(':') {
-        Some((host, port)) if !port.contains(':') => {
-            if host.is_empty() {
-                bail!(bad());
-            }
-            Ok((host.to_string(), port.parse().with_context(bad)?))
-        }
-        // A bare IPv6 address.
-        Some(_) => Ok((text.to_string(), DEFAULT_PORT)),
-        None if text.is_empty() => bail!(bad()),
-        None => Ok((text.to_string(), DEFAULT_PORT)),
-    }
-}
-
-fn scaling(args: &FtArgs, host: &str) -> anyhow::Result<NetFtConfig> {
-    match (args.cpf, args.cpt) {
-        (Some(cpf), Some(cpt)) => Ok(NetFtConfig::new(
-            cpf,
-            cpt,
-            &args.force_unit,
-            &args.torque_unit,
-            "--cpf/--cpt",
-        )?),
-        _ => {
-            let host_for_url = if host.contains(':') {
-                format!("[{host}]")
-            } else {
-                host.to_string()
-            };
-            let url = args
-                .config_url
-                .clone()
-                .unwrap_or_else(|| netft::netftapi2_url(&host_for_url));
-            Ok(netft::fetch_config(&url, Duration::from_secs(3))?)
-        }
+        Ok(NetFtSpec::new(address, scaling, mode))
     }
 }
 
@@ -122,33 +92,11 @@ fn connect(
     global: &Global,
     mode: Command,
 ) -> anyhow::Result<NetFt<Box<dyn DatagramLink>>> {
-    let (host, port) = split_host_port(&args.netft)?;
-    let config = scaling(args, &host)?;
-    let addr = if host.contains(':') {
-        format!("[{host}]:{port}")
-    } else {
-        format!("{host}:{port}")
-    };
-    let link: Box<dyn DatagramLink> = Box::new(
-        UdpLink::connect(&addr)
-            .with_context(|| format!("cannot open a UDP socket to Net F/T {addr}"))?,
-    );
-    let dir = global.record_trace.as_deref();
-    let link = record_datagrams(link, dir, "netft").with_context(|| match dir {
-        Some(d) => format!(
-            "cannot record a trace in {} (check the directory is writable)",
-            d.display()
-        ),
-        None => "cannot open the link".to_string(),
-    })?;
-    Ok(NetFt::new(
-        link,
-        config,
-        NetFtOptions {
-            mode,
-            ..NetFtOptions::default()
-        },
-    ))
+    let spec = args.spec(mode)?;
+    Ok(open_netft(
+        &spec,
+        TraceTo::new(global.record_trace.as_deref(), "netft"),
+    )?)
 }
 
 pub fn run(args: FtArgs, global: &Global) -> anyhow::Result<()> {
@@ -318,26 +266,91 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The same Net F/T described by `fringe ft` flags and by a rig file's `[force]` section.
 #[cfg(test)]
 mod tests {
-    use super::split_host_port;
+    use super::*;
+    use clap::Parser;
+    use fringe_app::RigConfig;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        ft: FtArgs,
+    }
+
+    fn flags(args: &[&str]) -> NetFtSpec {
+        let cli = Cli::try_parse_from(std::iter::once("ft").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        cli.ft.spec(Command::RealTime).expect("spec from flags")
+    }
+
+    fn rig_file(force: &str) -> NetFtSpec {
+        let text = format!(
+            "[x]\ndriver = \"thorlabs\"\n[y]\ndriver = \"manual\"\n[z]\ndriver = \"thorlabs\"\n[force]\ndriver = \"netft\"\n{force}\n[camera]\ndriver = \"aravis\"\n"
+        );
+        RigConfig::parse(&text, "rig.toml")
+            .expect("rig file")
+            .force_spec()
+            .expect("spec from the rig file")
+    }
 
     #[test]
-    fn host_and_port() {
-        assert_eq!(
-            split_host_port("192.168.1.1").expect("bare"),
-            ("192.168.1.1".into(), 49152)
+    fn flags_and_a_rig_file_describe_the_same_sensor_ipv6_included() {
+        for (flag, key, host, port) in [
+            ("[fe80::1]:49153", "[fe80::1]:49153", "fe80::1", 49153),
+            ("fe80::1", "fe80::1", "fe80::1", DEFAULT_PORT),
+            ("[::1]", "[::1]", "::1", DEFAULT_PORT),
+            ("ft.local:5000", "ft.local:5000", "ft.local", 5000),
+            ("192.168.1.1", "192.168.1.1", "192.168.1.1", DEFAULT_PORT),
+        ] {
+            let a = flags(&["--netft", flag, "bias"]);
+            let b = rig_file(&format!("address = \"{key}\""));
+            assert_eq!(a, b, "{flag}");
+            assert_eq!(
+                a.address,
+                HostPort {
+                    host: host.into(),
+                    port
+                }
+            );
+            assert_eq!(a.scaling, NetFtScaling::FromBox { url: None });
+        }
+        let a = flags(&[
+            "--netft",
+            "[::1]:49152",
+            "--cpf",
+            "1000000",
+            "--cpt",
+            "1000",
+            "--force-unit",
+            "lbf",
+            "bias",
+        ]);
+        let b = rig_file(
+            "address = \"[::1]:49152\"\ncpf = 1000000.0\ncpt = 1000.0\nforce_unit = \"lbf\"\ntorque_unit = \"N-m\"",
         );
-        assert_eq!(
-            split_host_port("ft.local:5000").expect("port"),
-            ("ft.local".into(), 5000)
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn both_descriptions_open_the_same_driver_on_the_same_ipv6_address() {
+        // Opening a Net F/T with its counts given only opens a UDP socket to it.
+        if std::net::UdpSocket::bind("[::1]:0").is_err() {
+            eprintln!("no IPv6 loopback here: the descriptions are compared above");
+            return;
+        }
+        let args = ["--netft", "[::1]:49152", "--cpf", "1", "--cpt", "1", "bias"];
+        let a = flags(&args);
+        let b = rig_file("address = \"[::1]:49152\"\ncpf = 1.0\ncpt = 1.0\ntorque_unit = \"N-m\"");
+        let trace = TraceTo::new(None, "netft");
+        let one = open_netft(&a, trace).expect("open from flags");
+        let two = open_netft(&b, trace).expect("open from the rig file");
+        assert_eq!(one.describe(), two.describe());
+        assert!(
+            one.describe().contains("[::1]:49152") || one.describe().contains("::1"),
+            "{}",
+            one.describe()
         );
-        assert_eq!(split_host_port("[::1]:7").expect("v6"), ("::1".into(), 7));
-        assert_eq!(
-            split_host_port("fe80::1").expect("bare v6"),
-            ("fe80::1".into(), 49152)
-        );
-        assert!(split_host_port("host:port").is_err());
-        assert!(split_host_port(":80").is_err());
     }
 }

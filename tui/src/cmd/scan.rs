@@ -3,6 +3,7 @@
 //! a progress bar; Ctrl-C asks for a pause, twice stops now, three times aborts; `--resume RUN`
 //! continues a run that a crash or power loss interrupted.
 
+use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
 use crate::Global;
 use anyhow::bail;
@@ -159,6 +160,7 @@ pub fn execute(
         plan_text,
         profile_use,
         global.record_trace.as_deref(),
+        Box::new(TerminalPrompt::stdio()),
     )?;
     for note in &session.notes {
         match note {

@@ -2,17 +2,14 @@
 
 use super::arg_values;
 use super::limits::SoftLimitArgs;
+use super::terminal_prompt::TerminalPrompt;
 use crate::Global;
 use anyhow::{bail, Context};
+use fringe_app::device_open::{open_axis, TraceTo};
+use fringe_app::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
+use fringe_app::host_port::HostPort;
 use fringe_rig::apt::driver::{AptConfig, Controller};
-use fringe_rig::apt::{open_serial, Actuator, ThorlabsAxis};
-use fringe_rig::axis::Axis;
-use fringe_rig::manual::{ManualStage, TerminalPrompt};
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::trace::record_stream;
-use fringe_rig::transport::serial::SerialLink;
-use fringe_rig::transport::tcp::TcpLink;
-use fringe_rig::transport::ByteLink;
+use fringe_rig::apt::Actuator;
 use fringe_rig::units::Millimetres;
 use std::time::Duration;
 
@@ -81,7 +78,8 @@ enum Action {
     },
 }
 
-/// What the y stage is; add a variant and an arm in [`open`] for another kind of stage.
+/// What the y stage is; add a variant and an arm in [`YstageArgs::spec`] for another kind of
+/// stage (and one in `fringe_app::device_spec::AxisSpec` for another driver).
 enum StageKind {
     ModbusTcp(String),
     ModbusRtu(String),
@@ -116,63 +114,56 @@ impl YstageArgs {
     }
 }
 
-/// Opens the y stage described by the arguments.
-fn open(args: &YstageArgs, global: &Global) -> anyhow::Result<Box<dyn Axis>> {
-    let limits = args.limits.limits()?;
-    let modbus = |link: Box<dyn ByteLink>,
-                  framing: Framing,
-                  map: RegisterMap|
-     -> anyhow::Result<Box<dyn Axis>> {
-        let link = record_stream(link, global.record_trace.as_deref(), "ystage")
-            .context("cannot start the trace recording")?;
-        let options = StageOptions {
-            slave: args.slave,
-            limits,
-            baud: args.baud,
-            ..StageOptions::default()
+impl YstageArgs {
+    /// The y stage the flags describe, as a rig file's `[y]` section would describe it.
+    fn spec(&self) -> anyhow::Result<AxisSpec> {
+        let limits = self.limits.limits()?;
+        let kind = self.kind()?;
+        self.check_options(&kind)?;
+        let modbus = |link| {
+            AxisSpec::Modbus(ModbusSpec {
+                name: "y".into(),
+                link,
+                map: self.map.clone(),
+                slave: self.slave,
+                baud: self.baud,
+                limits,
+            })
         };
-        Ok(Box::new(ModbusStage::new("y", link, framing, map, options)))
-    };
-    let kind = args.kind()?;
-    args.check_options(&kind)?;
-    match kind {
-        StageKind::ModbusTcp(addr) => {
-            let map = RegisterMap::load(&args.map)?;
-            let link = TcpLink::connect(&addr, Duration::from_secs(3))?;
-            modbus(Box::new(link), Framing::Tcp, map)
-        }
-        StageKind::ModbusRtu(path) => {
-            let map = RegisterMap::load(&args.map)?;
-            let link = SerialLink::open(&path, &map.serial_settings(args.baud))?;
-            modbus(Box::new(link), Framing::Rtu, map)
-        }
-        StageKind::Manual => Ok(Box::new(ManualStage::new(
-            "y",
-            Box::new(TerminalPrompt::stdio()),
-            limits,
-        ))),
-        StageKind::Thorlabs(path) => {
-            let name = args.actuator.as_deref().unwrap_or_default();
-            let actuator = Actuator::by_name(name).with_context(|| {
-                format!(
-                    "unknown actuator `{name}` (known: {})",
-                    Actuator::known_names()
-                )
-            })?;
-            let controller = args.controller.unwrap_or(Controller::Kst101);
-            let mut config = AptConfig::new("y", controller, actuator);
-            config.soft_limits = limits;
-            let link: Box<dyn ByteLink> = Box::new(open_serial(&path)?);
-            let link = record_stream(link, global.record_trace.as_deref(), "ystage")
-                .context("cannot start the trace recording")?;
-            Ok(Box::new(ThorlabsAxis::connect(link, config)?))
-        }
+        Ok(match kind {
+            StageKind::ModbusTcp(addr) => modbus(ModbusLink::Tcp(
+                HostPort::parse(&addr, None).context("--modbus-tcp")?,
+            )),
+            StageKind::ModbusRtu(port) => modbus(ModbusLink::Rtu { port }),
+            StageKind::Manual => AxisSpec::Manual {
+                name: "y".into(),
+                limits,
+            },
+            StageKind::Thorlabs(port) => {
+                let name = self.actuator.as_deref().unwrap_or_default();
+                let actuator = Actuator::by_name(name).with_context(|| {
+                    format!(
+                        "unknown actuator `{name}` (known: {})",
+                        Actuator::known_names()
+                    )
+                })?;
+                let controller = self.controller.unwrap_or(Controller::Kst101);
+                let mut config = AptConfig::new("y", controller, actuator);
+                config.soft_limits = limits;
+                AxisSpec::Thorlabs { port, config }
+            }
+        })
     }
 }
 
 pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
     let timeout = args.timeout;
-    let mut y = open(&args, global)?;
+    let spec = args.spec()?;
+    let mut y = open_axis(
+        &spec,
+        TraceTo::new(global.record_trace.as_deref(), "ystage"),
+        Some(Box::new(TerminalPrompt::stdio())),
+    )?;
     let status = match args.action {
         Action::Home => y.home(timeout)?,
         Action::Status => y.status()?,
@@ -180,4 +171,123 @@ pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
     };
     println!("y: {status}{}", if status.homed { ", homed" } else { "" });
     Ok(())
+}
+
+/// The same y stage described by `fringe ystage` flags and by a rig file's `[y]` section.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use fringe_app::device_open::open_modbus;
+    use fringe_app::RigConfig;
+    use fringe_rig::axis::Axis;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        y: YstageArgs,
+    }
+
+    fn flags(args: &[&str]) -> AxisSpec {
+        let cli = Cli::try_parse_from(std::iter::once("ystage").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        cli.y.spec().expect("spec from flags")
+    }
+
+    /// A real rig whose `[y]` section is `y`.
+    fn rig_file(y: &str) -> AxisSpec {
+        let text = format!(
+            r#"
+sensor = "s-01"
+[x]
+driver = "thorlabs"
+port = "/dev/ttyX"
+actuator = "ZFS25"
+min = 0.0
+max = 25.0
+[y]
+{y}
+min = 0.0
+max = 20.0
+[z]
+driver = "thorlabs"
+port = "/dev/ttyZ"
+actuator = "ZFS25"
+min = 0.0
+max = 25.0
+[force]
+driver = "netft"
+address = "192.168.1.1"
+[camera]
+driver = "aravis"
+[geometry]
+x_centre = 12.5
+y_centre = 10.0
+z_contact = 15.0
+"#
+        );
+        let rig = RigConfig::parse(&text, "rig.toml").expect("rig file");
+        let limits = rig.limits().expect("limits");
+        rig.axis_spec("y", &limits.y)
+            .expect("spec from the rig file")
+    }
+
+    #[test]
+    fn flags_and_a_rig_file_describe_the_same_stage() {
+        let limits = ["--min", "0", "--max", "20", "status"];
+        let with = |head: &[&'static str]| -> Vec<&'static str> {
+            head.iter().chain(limits.iter()).copied().collect()
+        };
+        // Modbus TCP at an IPv6 address, its slave id overridden.
+        let tcp = flags(&with(&["--modbus-tcp", "[::1]:1502", "--slave", "3"]));
+        assert_eq!(
+            tcp,
+            rig_file(
+                "driver = \"modbus-tcp\"\naddress = \"[::1]:1502\"\nmap = \"oriental-az\"\nslave = 3"
+            )
+        );
+        assert!(
+            matches!(&tcp, AxisSpec::Modbus(m) if m.link == ModbusLink::Tcp(HostPort { host: "::1".into(), port: 1502 })),
+            "{tcp:?}"
+        );
+        let rtu = flags(&with(&[
+            "--modbus-rtu",
+            "/dev/ttyUSB1",
+            "--map",
+            "leadshine-pr",
+            "--baud",
+            "38400",
+        ]));
+        assert_eq!(
+            rtu,
+            rig_file("driver = \"modbus-rtu\"\nport = \"/dev/ttyUSB1\"\nmap = \"leadshine-pr\"\nbaud = 38400")
+        );
+        assert_eq!(flags(&with(&["--manual"])), rig_file("driver = \"manual\""));
+        assert_eq!(
+            flags(&with(&["--apt", "/dev/ttyUSB2", "--actuator", "ZST225", "--controller", "kst201"])),
+            rig_file("driver = \"thorlabs\"\nport = \"/dev/ttyUSB2\"\nactuator = \"ZST225\"\ncontroller = \"kst201\"")
+        );
+    }
+
+    #[test]
+    fn both_descriptions_open_the_same_driver_on_the_same_address() {
+        // A listener stands in for the drive: opening a Modbus TCP stage only connects.
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("listener");
+        let addr = listener.local_addr().expect("address").to_string();
+        let from_flags = flags(&["--modbus-tcp", &addr, "status"]);
+        let from_file = rig_file(&format!(
+            "driver = \"modbus-tcp\"\naddress = \"{addr}\"\nmap = \"oriental-az\""
+        ));
+        let (AxisSpec::Modbus(a), AxisSpec::Modbus(mut b)) = (from_flags, from_file) else {
+            panic!("both are Modbus stages");
+        };
+        // The rig file always has soft limits; these flags gave none.
+        assert_eq!(b.limits.take().map(|l| l.max), Some(Millimetres(20.0)));
+        assert_eq!(a, b);
+        let trace = TraceTo::new(None, "ystage");
+        let one = open_modbus(&a, trace).expect("open from flags");
+        let two = open_modbus(&b, trace).expect("open from the rig file");
+        assert_eq!(one.endpoint(), two.endpoint());
+        assert!(one.endpoint().contains(&addr), "{}", one.endpoint());
+    }
 }

@@ -5,6 +5,7 @@
 use super::calibration;
 use super::plan_choice::{self, PlanSource};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
+use super::stage_operator::UiStageOperator;
 use super::state::{
     BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, RunRow, RunsView, Tab,
     UiState, JOG_STEPS_MM,
@@ -609,7 +610,11 @@ impl App {
         self.state.bench.held = None;
         if want && self.bench.is_none() {
             self.state.bench.bench = Default::default();
-            match BenchSession::open(self.opts.config.clone(), BENCH_PICTURE_PX) {
+            match BenchSession::open(
+                self.opts.config.clone(),
+                BENCH_PICTURE_PX,
+                Box::new(UiStageOperator),
+            ) {
                 Ok(b) => self.bench = Some(b),
                 Err(e) => self.state.error = Some(format!("cannot start the bench thread: {e}")),
             }

@@ -2,6 +2,7 @@
 //! a model) live validation attached, the operator's prompts sent to the UI as dialogs and
 //! answered from it, progress sent as events. The UI thread never waits on it.
 
+use super::stage_operator::UiStageOperator;
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::live_validation::LiveValidation;
 use fringe_app::live_view::LiveView;
@@ -160,8 +161,15 @@ fn run(
     validation: &Mutex<Option<LiveValidation>>,
 ) -> Result<(), String> {
     let run_id = new_run_id(&req.program.plan.name);
-    let mut session = ScanSession::open(&req.config, req.program, req.plan_text, req.profile, None)
-        .map_err(|e| e.to_string())?;
+    let mut session = ScanSession::open(
+        &req.config,
+        req.program,
+        req.plan_text,
+        req.profile,
+        None,
+        Box::new(UiStageOperator),
+    )
+    .map_err(|e| e.to_string())?;
     for note in &session.notes {
         let _ = events.send(Event::Note(note.clone()));
     }

@@ -1,0 +1,91 @@
+//! The bench a rig file describes: soft limits and kinematics, the force ceiling, the contact
+//! height and origin, and the sensor's id; from the file's keys on real hardware, from the
+//! simulated bench (`sim_bench`) when the rig is simulated.
+
+use crate::rig_file::{AxisDriver, AxisSection, RigConfig};
+use crate::sim_bench;
+use fringe_rig::axis::{Kinematics, SoftLimits};
+use fringe_rig::config_file::ConfigError;
+use fringe_rig::scan::origin::ContactOrigin;
+use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
+
+impl RigConfig {
+    /// Soft limits, kinematics, force ceiling and contact height of the bench.
+    pub fn limits(&self) -> Result<BenchLimits, ConfigError> {
+        let max_force = Newtons(self.file.force.max_force.unwrap_or(20.0));
+        if self.simulated {
+            return sim_bench::limits(self, max_force);
+        }
+        let f = &self.file;
+        let axis = |name: &str, a: &AxisSection| -> Result<(SoftLimits, Kinematics), ConfigError> {
+            let (Some(min), Some(max)) = (a.min, a.max) else {
+                return Err(self.err(format!(
+                    "[{name}]: keys `{name}.min` and `{name}.max` (soft limits, mm) are required on real hardware"
+                )));
+            };
+            let limits = SoftLimits::new(Millimetres(min), Millimetres(max))
+                .map_err(|e| self.err(format!("[{name}] min/max: {e}")))?;
+            Ok((
+                limits,
+                Kinematics {
+                    velocity: MillimetresPerSecond(a.velocity.unwrap_or(1.0)),
+                    acceleration: MillimetresPerSecondSquared(a.acceleration.unwrap_or(1.0)),
+                },
+            ))
+        };
+        let (x, x_motion) = axis("x", &f.x)?;
+        let (y, y_motion) = axis("y", &f.y)?;
+        let (z, z_motion) = axis("z", &f.z)?;
+        let contact_z = f.geometry.z_contact.ok_or_else(|| {
+            self.err(
+                "key `geometry.z_contact` is required on real hardware: the z (mm) at which the indenter roughly touches the sensor (the approach stops 3 mm past it)"
+                    .into(),
+            )
+        })?;
+        Ok(BenchLimits {
+            x,
+            y,
+            z,
+            x_motion,
+            y_motion,
+            z_motion,
+            manual_y: f.y.driver == AxisDriver::Manual,
+            max_force,
+            contact_z: Millimetres(contact_z),
+        })
+    }
+
+    /// The contact origin given by the rig file (or the simulated bench's geometry).
+    pub fn origin(&self) -> Result<ContactOrigin, ConfigError> {
+        let g = &self.file.geometry;
+        if self.simulated {
+            return sim_bench::origin(self);
+        }
+        match (g.x_centre, g.y_centre) {
+            (Some(x), Some(y)) => Ok(ContactOrigin {
+                x: Millimetres(x),
+                y: Millimetres(y),
+                source: format!("{} [geometry]", self.origin),
+            }),
+            _ => Err(self.err(
+                "keys `geometry.x_centre` and `geometry.y_centre` (stage mm over the sensor centre) are required on real hardware until `fringe calibrate` has written a profile for this sensor"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The sensor id: the rig file's, or the simulated sensor's.
+    pub fn sensor_id(&self) -> Result<String, ConfigError> {
+        if let Some(id) = &self.file.sensor {
+            return Ok(id.clone());
+        }
+        if self.simulated {
+            return sim_bench::sensor_id(self);
+        }
+        Err(self.err(
+            "key `sensor` (the sensor build id, e.g. \"layered-01\") is required on real hardware"
+                .into(),
+        ))
+    }
+}
