@@ -2,6 +2,7 @@
 
 mod clock_text;
 mod cmd;
+mod signals;
 mod ui;
 
 use clap::{Parser, Subcommand};
