@@ -12,7 +12,8 @@
 //! - [`state`]: what is on screen, as plain data; [`view`] draws it (pure; snapshot-tested)
 //!   with [`widgets`] and [`picture`] (frames as 24-bit half blocks).
 //! - [`workers`]: the threads the screens start (verify, evaluate, export, fit, write).
-//! - [`session`]: the scan thread, its operator dialogs and events; [`plan_choice`]: the plans
+//! - [`session`]: the scan thread, its operator dialogs and events ([`scan_events`]: what they
+//!   change on screen); [`plan_choice`]: the plans
 //!   to choose from; [`calibration`]: the built-in calibration plan and its fitted view.
 
 mod app;
@@ -22,6 +23,7 @@ mod event_loop;
 mod keys;
 mod picture;
 mod plan_choice;
+mod scan_events;
 mod screen;
 mod screens;
 mod session;

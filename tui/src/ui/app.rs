@@ -4,11 +4,12 @@
 
 use super::calibration;
 use super::plan_choice::{self, PlanSource};
+use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
-use super::state::{BenchView, Dialog, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
 use fringe_app::bench_session::{BenchCommand, BenchPhase, BenchSession};
-use fringe_app::{Note, ProfileUse, RigConfig};
-use fringe_rig::scan::control::{Prompt, Reply, ScanProgress};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_rig::scan::control::Reply;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
@@ -27,16 +28,7 @@ pub struct UiOptions {
     pub start: bool,
 }
 
-/// How a scan ended, for the screens that wait on it (the calibration fits its run).
-pub enum ScanEnd {
-    Ended {
-        completed: bool,
-        summary: String,
-        run_dir: PathBuf,
-    },
-    Failed(String),
-}
-
+/// The UI's state and what acts behind it, shared by every screen.
 pub struct App {
     pub state: UiState,
     pub opts: UiOptions,
@@ -121,97 +113,14 @@ impl App {
         }
         let moving = matches!(self.state.scan.phase, Phase::Running | Phase::Stopping(_));
         let changed = !events.is_empty();
-        let ends = events.into_iter().filter_map(|e| self.event(e)).collect();
-        (changed || moving, ends)
-    }
-
-    fn event(&mut self, e: Event) -> Option<ScanEnd> {
-        let scan = &mut self.state.scan;
-        match e {
-            Event::Note(Note::Info(t)) => scan.log(t.trim().to_string()),
-            Event::Note(Note::Warning(t)) => scan.log(format!("warning: {t}")),
-            Event::Geometry {
-                origin_mm,
-                disc_radius_mm,
-            } => {
-                scan.origin_mm = origin_mm;
-                scan.disc_radius_mm = disc_radius_mm;
-            }
-            Event::Progress(p) => match p {
-                ScanProgress::Message(m) => {
-                    if let Some(dir) = m.strip_prefix("run directory ") {
-                        scan.run_dir = Some(dir.to_string());
-                    }
-                    scan.log(m);
-                }
-                ScanProgress::Phase { point, phase } => {
-                    scan.current = Some((point, phase.name()));
-                }
-                ScanProgress::Status(s) => {
-                    scan.done = s.points_done;
-                    scan.total = s.points_total;
-                    scan.eta = s.eta;
-                    scan.force_n = s.force_n;
-                    scan.frame_rate_hz = s.frame_rate_hz;
-                    scan.frames = s.frames_recorded;
-                    scan.dropped = s.dropped_frames;
-                }
-                ScanProgress::Paused { reason } => {
-                    scan.log(format!("paused: {reason}"));
-                    scan.phase = Phase::Paused(reason);
-                }
-                ScanProgress::Resumed => {
-                    scan.log("resumed");
-                    scan.phase = Phase::Running;
-                }
-            },
-            Event::Prompt(p) => {
-                let title = match &p {
-                    Prompt::ChangeIndenter { .. } => "change the indenter",
-                    Prompt::MoveY { .. } => "move the y stage",
-                    Prompt::Resume { .. } => "scan paused",
-                };
-                if let Prompt::Resume { reason } = &p {
-                    scan.phase = Phase::Paused(reason.clone());
-                }
-                self.state.dialog = Some(Dialog {
-                    title: title.to_string(),
-                    message: p.message(),
-                });
-            }
-            Event::Ended {
-                completed,
-                summary,
-                run_dir,
-            } => {
-                scan.log(summary.clone());
-                if completed {
-                    scan.done = scan.total;
-                }
-                scan.current = None;
-                scan.phase = Phase::Finished {
-                    completed,
-                    summary: summary.clone(),
-                };
-                self.state.dialog = None;
-                self.refresh_runs();
-                return Some(ScanEnd::Ended {
-                    completed,
-                    summary,
-                    run_dir,
-                });
-            }
-            Event::Failed(why) => {
-                scan.log(format!("failed: {why}"));
-                scan.phase = Phase::Failed(why.clone());
-                scan.current = None;
-                self.state.dialog = None;
-                self.state.error = Some(why.clone());
-                self.refresh_runs();
-                return Some(ScanEnd::Failed(why));
-            }
+        let ends: Vec<ScanEnd> = events
+            .into_iter()
+            .filter_map(|e| scan_events::apply(&mut self.state, e))
+            .collect();
+        if !ends.is_empty() {
+            self.refresh_runs();
         }
-        None
+        (changed || moving, ends)
     }
 
     pub fn scan_active(&self) -> bool {

@@ -72,7 +72,6 @@ fn run_loop(
         if signals::stop_requested() {
             break;
         }
-        dirty |= tick(app, screens);
         let wait = FRAME.saturating_sub(last_draw.elapsed());
         match input.recv_timeout(wait) {
             Ok(Ok(TermEvent::Key(k))) if k.kind != KeyEventKind::Release => {
@@ -85,6 +84,7 @@ fn run_loop(
             Ok(Err(e)) => return Err(anyhow::anyhow!("reading the terminal: {e}")),
             Err(RecvTimeoutError::Disconnected) => break,
         }
+        dirty |= tick(app, screens);
         let (changed, ends) = app.pump();
         dirty |= changed;
         for end in &ends {
@@ -101,7 +101,8 @@ fn run_loop(
     Ok(())
 }
 
-/// The screens take what their threads published (the shown one first opens what it needs).
+/// The screens take what their threads published (the Bench screen first opens or closes the
+/// bench as it is shown or not).
 fn tick(app: &mut App, screens: &mut [Box<dyn Screen>]) -> bool {
     let shown = screens::index(app.state.tab);
     let mut changed = false;

@@ -97,7 +97,7 @@ const DIALOG: &[Binding<Reply>] = &[
 ];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Choose {
+enum Pick {
     Up,
     Down,
     Close,
@@ -105,32 +105,32 @@ enum Choose {
 }
 
 /// The plan chooser (its title names its keys).
-const PICKER: &[Binding<Choose>] = &[
+const PICKER: &[Binding<Pick>] = &[
     Binding {
         keys: &[code(KeyCode::Up)],
         scope: Scope::Everywhere,
-        action: Choose::Up,
+        action: Pick::Up,
         label: "",
         help: "",
     },
     Binding {
         keys: &[code(KeyCode::Down)],
         scope: Scope::Everywhere,
-        action: Choose::Down,
+        action: Pick::Down,
         label: "",
         help: "",
     },
     Binding {
         keys: &[code(KeyCode::Esc), char('q'), char('l')],
         scope: Scope::Everywhere,
-        action: Choose::Close,
+        action: Pick::Close,
         label: "",
         help: "",
     },
     Binding {
         keys: &[code(KeyCode::Enter)],
         scope: Scope::Everywhere,
-        action: Choose::Choose,
+        action: Pick::Choose,
         label: "",
         help: "",
     },
@@ -198,17 +198,17 @@ pub fn dispatch(app: &mut App, screens: &mut [Box<dyn Screen>], code: KeyCode, m
     }
 }
 
-fn choose(app: &mut App, action: Option<Choose>) {
+fn choose(app: &mut App, action: Option<Pick>) {
     let Some(picker) = &mut app.state.picker else {
         return;
     };
     match action {
-        Some(Choose::Up) => picker.selected = picker.selected.saturating_sub(1),
-        Some(Choose::Down) => {
+        Some(Pick::Up) => picker.selected = picker.selected.saturating_sub(1),
+        Some(Pick::Down) => {
             picker.selected = (picker.selected + 1).min(picker.items.len().saturating_sub(1))
         }
-        Some(Choose::Close) => app.state.picker = None,
-        Some(Choose::Choose) => {
+        Some(Pick::Close) => app.state.picker = None,
+        Some(Pick::Choose) => {
             let i = picker.selected;
             app.state.picker = None;
             app.choose(i);
@@ -231,4 +231,70 @@ pub fn help_rows() -> Vec<HelpRow> {
     rows.extend(binding::help_rows(DIALOG, None));
     rows.extend(binding::help_rows(KEYS, None));
     rows
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_help_lists_every_key_from_the_tables() {
+        let rows: Vec<(String, String)> =
+            help_rows().into_iter().map(|r| (r.keys, r.what)).collect();
+        let expected = [
+            (
+                "1-5 / Tab",
+                "Scan, Validate, Runs, Bench, Calibrate screens",
+            ),
+            ("l", "choose the scan plan (built in, ./plans/*.toml)"),
+            ("r", "run the scan plan (with live validation on Validate)"),
+            ("p", "pause after the current press"),
+            ("P", "pause now (z retracts)"),
+            ("c", "continue a paused scan"),
+            ("a", "abort the scan (z retracts, the run is closed)"),
+            ("Up / Down (Runs)", "choose a run"),
+            ("Enter (Runs)", "verify the chosen run"),
+            ("e (Runs)", "evaluate the chosen run with the model"),
+            (
+                "x (Runs)",
+                "export the chosen run to exports/ (reference layout)",
+            ),
+            ("g", "refresh the runs"),
+            ("x y z (Bench)", "choose the axis to jog"),
+            (
+                "← → (Bench)",
+                "jog the axis by the step (within its soft limits)",
+            ),
+            ("s (Bench)", "next jog step: 0.01, 0.1, 1, 5 mm"),
+            ("h (Bench)", "home the chosen axis"),
+            ("Space (Bench)", "stop every axis at once"),
+            ("t (Bench)", "tare the F/T sensor (nothing touching)"),
+            (
+                "r (Calibrate)",
+                "run the calibration scan, then fit the profile",
+            ),
+            (
+                "w (Calibrate)",
+                "write the fitted profile (profiles/<sensor>.toml)",
+            ),
+            ("Enter", "answer a dialog: continue"),
+            ("?", "show or hide these keys"),
+            ("q / Esc", "quit (asks to abort a running scan first)"),
+            ("Ctrl-C", "abort a running scan and quit"),
+        ]
+        .map(|(k, w)| (k.to_string(), w.to_string()));
+        assert_eq!(rows, expected);
+    }
+
+    #[test]
+    fn ctrl_c_is_found_before_the_keys_without_ctrl() {
+        assert_eq!(
+            binding::find(KEYS, KeyCode::Char('c'), KeyModifiers::CONTROL, true),
+            Some(Action::AbortAndQuit)
+        );
+        assert_eq!(
+            binding::find(KEYS, KeyCode::Char('c'), KeyModifiers::NONE, true),
+            None
+        );
+    }
 }

@@ -2,8 +2,9 @@
 //! and what runs behind it while the UI runs ([`Screen`]: its keys, its threads, what it does
 //! when a scan ends). Each screen is one file under `screens/`.
 
-use super::app::{App, ScanEnd};
+use super::app::App;
 use super::binding::HelpRow;
+use super::scan_events::ScanEnd;
 use super::state::{Tab, UiState};
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::Rect;

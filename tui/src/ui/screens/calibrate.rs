@@ -3,10 +3,11 @@
 //! and centre (red), the optical figures, the registration and its residual per press, the force
 //! offsets; `w` writes the profile.
 
-use crate::ui::app::{App, ScanEnd};
+use crate::ui::app::App;
 use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::calibration;
 use crate::ui::picture::Picture;
+use crate::ui::scan_events::ScanEnd;
 use crate::ui::screen::{Screen, ScreenDef};
 use crate::ui::state::{CalibrateView, CalibrationPhase, Phase, ScanView, Tab};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, WARN};

@@ -85,6 +85,9 @@ fn help() -> Vec<HelpRow> {
     binding::help_rows(KEYS, Some(SCREEN.title))
 }
 
+/// Where a thread's lines go in a run's row.
+type Column = fn(&mut RunRow) -> &mut Option<String>;
+
 /// The verifications, evaluations and exports under way: progress and outcomes, by run.
 struct Runs {
     verify: (Sender<Verdict>, Receiver<Verdict>),
@@ -152,7 +155,7 @@ impl Screen for Runs {
     fn tick(&mut self, app: &mut App, _shown: bool) -> bool {
         let rows = &mut app.state.runs.rows;
         let mut changed = false;
-        let columns: [(&Receiver<Verdict>, fn(&mut RunRow) -> &mut Option<String>); 3] = [
+        let columns: [(&Receiver<Verdict>, Column); 3] = [
             (&self.verify.1, |r| &mut r.verified),
             (&self.evaluate.1, |r| &mut r.evaluated),
             (&self.export.1, |r| &mut r.exported),
