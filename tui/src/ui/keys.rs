@@ -1,7 +1,7 @@
 //! The keys of the whole UI: Ctrl-C first, then the overlay that is open (help, plan chooser,
 //! dialog), then the shown screen's table, then every screen's keys that act everywhere, then
 //! the keys for moving between screens, the help and quitting. The `?` help is made from the
-//! same tables, in that order.
+//! same tables ([`help_rows`]).
 
 use super::app::App;
 use super::binding::{self, char, code, ctrl, Binding, HelpRow, Scope};

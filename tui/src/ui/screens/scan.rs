@@ -117,7 +117,7 @@ pub fn key_hint(s: &UiState) -> &'static str {
     }
 }
 
-pub fn draw(f: &mut Frame, area: Rect, s: &UiState) {
+fn draw(f: &mut Frame, area: Rect, s: &UiState) {
     let v = &s.scan;
     let [left, right] =
         Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(area);

@@ -26,7 +26,7 @@ pub const SCREEN: ScreenDef = ScreenDef {
     open: |_| Box::new(Plain),
 };
 
-pub fn draw(f: &mut Frame, area: Rect, s: &UiState) {
+fn draw(f: &mut Frame, area: Rect, s: &UiState) {
     let Some(v) = &s.validation else {
         let text = match &s.model {
             Some(m) => vec![
