@@ -10,7 +10,6 @@ pub mod demo;
 pub mod devices;
 pub mod eval;
 pub mod ft;
-pub mod interrupt;
 pub mod limits;
 pub mod model;
 pub mod runs;

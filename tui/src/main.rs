@@ -3,6 +3,7 @@
 mod clock_text;
 mod cmd;
 mod hint;
+mod signals;
 mod ui;
 
 use clap::{Parser, Subcommand};

@@ -1,24 +1,40 @@
-//! The terminal UI (ratatui on crossterm): Scan, Validate and Runs screens over the application
-//! layer. The event loop reads what the scan and validation threads publish and redraws at most
-//! every 33 ms; it never waits on a device, the disk or the network.
+//! The terminal UI (ratatui on crossterm): Scan, Validate, Runs, Bench and Calibrate screens
+//! over the application layer. The event loop reads what the scan and the screens' threads
+//! publish and redraws at most every 33 ms; it never waits on a device, the disk or the network.
 //!
-//! - [`state`]: what is on screen, as plain data.
-//! - [`view`]: drawing the state (pure; snapshot-tested).
-//! - [`picture`]: frames as 24-bit half blocks.
-//! - [`plan_choice`]: the plans to choose from, loaded for the Scan screen.
-//! - [`session`]: the scan thread, its operator dialogs and events.
-//! - [`stage_operator`]: the operator a stage moved by hand asks under the UI (never stdin).
-//! - [`event_loop`]: keys, events, redraws; the terminal restored on every exit path.
+//! - [`event_loop`]: the terminal, its input thread, the loop; the terminal restored on every
+//!   exit path.
+//! - [`keys`]: dispatch of a key (overlays, the shown screen, every screen, the global keys)
+//!   and the `?` help, both from the binding tables ([`binding`]).
+//! - [`screens`]: the list of screens; each file under `screens/` owns its keys, what runs
+//!   behind it ([`screen::Screen`]) and its drawing.
+//! - [`app`]: what every screen acts on: the state, the scan, the bench session, the plans.
+//! - [`state`]: what is on screen, as plain data; [`view`] draws it (pure; snapshot-tested)
+//!   with [`widgets`] and [`picture`] (frames as 24-bit half blocks).
+//! - [`workers`]: the threads the screens start (verify, evaluate, export, fit, write).
+//! - [`session`]: the scan thread, its operator dialogs and events ([`scan_events`]: what they
+//!   change on screen); [`plan_choice`]: the plans
+//!   to choose from; [`calibration`]: the built-in calibration plan and its fitted view;
+//!   [`stage_operator`]: the operator a stage moved by hand asks under the UI (never stdin).
 
+mod app;
+mod binding;
 mod calibration;
 mod event_loop;
+mod keys;
 mod picture;
 mod plan_choice;
+mod scan_events;
+mod screen;
+mod screens;
 mod session;
 mod stage_operator;
 mod state;
 mod view;
+mod widgets;
+mod workers;
 
-pub use event_loop::{run, UiOptions};
+pub use app::UiOptions;
+pub use event_loop::run;
 pub use session::ModelChoice;
 pub use state::Tab;

@@ -1,5 +1,6 @@
 //! `fringe runs` and `fringe verify`: what runs exist and whether one is intact.
 
+use crate::signals::{Again, Signal};
 use crate::Global;
 use anyhow::Context;
 use fringe_rig::store::documents::ExitStatus;
@@ -126,7 +127,10 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
         round: args.round,
         allow_unverified: args.allow_unverified,
         // Ctrl-C, SIGTERM or a hang-up stop the export and remove what it wrote.
-        cancel: Some(crate::cmd::interrupt::on_signals()),
+        cancel: Some(crate::signals::catch(
+            &[Signal::Interrupt, Signal::Terminate, Signal::HangUp],
+            Again::Counts,
+        )),
     };
     // On a terminal the count is rewritten in place; otherwise one line per report.
     let terminal = std::io::stderr().is_terminal();

@@ -17,7 +17,7 @@ use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::store::documents::{ExitStatus, StartDocument};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -436,7 +436,8 @@ impl Bar {
 mod interrupt {
     use super::*;
 
-    static PRESSES: AtomicUsize = AtomicUsize::new(0);
+    use crate::signals::{self, Again, Signal};
+
     /// An operator prompt is waiting for an answer.
     static AT_PROMPT: AtomicBool = AtomicBool::new(false);
 
@@ -444,22 +445,14 @@ mod interrupt {
         AT_PROMPT.store(open, Ordering::SeqCst);
     }
 
-    extern "C" fn on_sigint(_: libc::c_int) {
-        PRESSES.fetch_add(1, Ordering::SeqCst);
-    }
-
     pub fn install(control: ScanControl) {
-        let handler: extern "C" fn(libc::c_int) = on_sigint;
-        // SAFETY: the handler only touches an atomic counter (async-signal-safe).
-        unsafe {
-            libc::signal(libc::SIGINT, handler as libc::sighandler_t);
-        }
+        signals::catch(&[Signal::Interrupt], Again::Counts);
         let _ = std::thread::Builder::new()
             .name("ctrl-c".into())
             .spawn(move || {
                 let mut seen = 0;
                 loop {
-                    let n = PRESSES.load(Ordering::SeqCst);
+                    let n = signals::received();
                     while seen < n {
                         seen += 1;
                         if AT_PROMPT.load(Ordering::SeqCst) {

@@ -74,6 +74,7 @@ pub use with_torch::run;
 #[cfg(feature = "torch")]
 mod with_torch {
     use super::*;
+    use crate::signals::{self, Again, Signal};
     use anyhow::{bail, Context};
     use fringe_calibration::profile::Profile;
     use fringe_sensor_models::dataset;
@@ -81,19 +82,7 @@ mod with_torch {
         train, Checkpoint, Outcome, TrainConfig, TrainEvent, TrainingRecord,
     };
     use std::io::{IsTerminal, Write};
-    use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::Instant;
-
-    /// Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
-    static STOP: AtomicBool = AtomicBool::new(false);
-
-    extern "C" fn on_sigint(_: libc::c_int) {
-        STOP.store(true, Ordering::SeqCst);
-        // SAFETY: signal() is async-signal-safe; the next Ctrl-C ends the process.
-        unsafe {
-            libc::signal(libc::SIGINT, libc::SIG_DFL);
-        }
-    }
 
     fn check(a: &TrainArgs) -> Result<()> {
         if let Some(e) = a.epochs {
@@ -195,11 +184,8 @@ mod with_torch {
             );
             sources.push(s);
         }
-        let handler: extern "C" fn(libc::c_int) = on_sigint;
-        // SAFETY: the handler only stores to an atomic and resets the disposition.
-        unsafe {
-            libc::signal(libc::SIGINT, handler as libc::sighandler_t);
-        }
+        // Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
+        let stop = signals::catch(&[Signal::Interrupt], Again::Ends);
         let tty = std::io::stderr().is_terminal();
         let started = Instant::now();
         let mut last_pct = usize::MAX;
@@ -260,7 +246,7 @@ mod with_torch {
             &sources,
             profile.as_ref(),
             a.resume.as_deref(),
-            &STOP,
+            stop,
             &mut progress,
         )?;
         let _ = std::io::stderr().flush();

@@ -10,7 +10,7 @@ use std::time::Duration;
 /// Messages kept in the scan log.
 pub const LOG_LINES: usize = 200;
 
-/// The screens, in tab order.
+/// The screens by name (their order and titles are `screens::ALL`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Tab {
     Scan,
@@ -18,26 +18,6 @@ pub enum Tab {
     Runs,
     Bench,
     Calibrate,
-}
-
-impl Tab {
-    pub const ALL: [Tab; 5] = [
-        Tab::Scan,
-        Tab::Validate,
-        Tab::Runs,
-        Tab::Bench,
-        Tab::Calibrate,
-    ];
-
-    pub fn title(self) -> &'static str {
-        match self {
-            Tab::Scan => "Scan",
-            Tab::Validate => "Validate",
-            Tab::Runs => "Runs",
-            Tab::Bench => "Bench",
-            Tab::Calibrate => "Calibrate",
-        }
-    }
 }
 
 /// Where the scan is.

@@ -2,10 +2,12 @@
 //! it (insta snapshots under `snapshots/`) and the colours that carry meaning.
 
 use super::draw;
+use crate::ui::keys;
 use crate::ui::state::{
     BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, PlanPoint, PressRow, RunRow,
     RunsView, ScanView, Tab, UiState,
 };
+use crate::ui::widgets;
 use fringe_app::bench_session::{
     AxisId, AxisState, BenchPhase, BenchState, CameraState, ForcePoint, ForceState,
 };
@@ -295,7 +297,7 @@ fn scan_screen_before_the_run_shows_the_plan_and_how_to_start() {
     insta::assert_snapshot!("scan_ready", t.backend());
     let b = t.backend().buffer();
     let (x, y) = find(b, "ready: press r to run").expect("phase line");
-    assert_eq!(b[(x, y)].fg, super::ACCENT);
+    assert_eq!(b[(x, y)].fg, widgets::ACCENT);
     assert!(find(b, "short-grid: 9 points").is_some());
     assert!(find(b, "9 points to 2, 5 N, about 0:01:35").is_some());
     assert!(
@@ -313,7 +315,7 @@ fn scan_screen_while_running_shows_progress_force_and_the_frame() {
     assert!(find(b, "force   4.87 N   ETA 0:01:01").is_some());
     assert!(find(b, "44 %").is_some(), "4 of 9 points done");
     let (x, y) = find(b, "warning: no calibration profile").expect("warning in the log");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     // The frame: half blocks, red on the left, blue on the right.
     let cells: Vec<_> = b.content().iter().filter(|c| c.symbol() == "▀").collect();
     assert!(
@@ -334,20 +336,20 @@ fn validate_screen_compares_prediction_and_measurement() {
     assert!(find(b, "46.5 predictions/s · 18.2 ms/frame · 280 of 300 run").is_some());
     // Measured (x) and predicted (+) contact on the disc, in their colours.
     let (x, y) = find(b, "×").expect("measured contact");
-    assert_eq!(b[(x, y)].fg, super::MEASURED);
+    assert_eq!(b[(x, y)].fg, widgets::MEASURED);
     let (x, y) = find(b, "+").expect("predicted contact");
-    assert_eq!(b[(x, y)].fg, super::PREDICTED);
+    assert_eq!(b[(x, y)].fg, widgets::PREDICTED);
     // Wrong shape: predicted cylinder for a sphere, in red with the probability.
     let (x, y) = find(b, "cylinder 62 %").expect("shape line");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "(measured: sphere)").is_some());
     let (x, y) = find(b, "20 skipped").expect("skipped frames");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     // Grid cells coloured by their Fz RMSE.
     for (text, colour) in [
-        (" 0.30", super::GOOD),
-        (" 1.00", super::WARN),
-        (" 2.20", super::BAD),
+        (" 0.30", widgets::GOOD),
+        (" 1.00", widgets::WARN),
+        (" 2.20", widgets::BAD),
     ] {
         let (x, y) = find(b, text).unwrap_or_else(|| panic!("cell {text}"));
         assert_eq!(b[(x, y)].bg, colour, "cell {text}");
@@ -382,7 +384,7 @@ fn a_dialog_is_drawn_over_the_screen_with_its_answers() {
     let b = t.backend().buffer();
     let (x, y) = find(b, "change the indenter").expect("dialog title");
     // The border around the title is in the warning colour.
-    assert_eq!(b[(x - 2, y)].fg, super::WARN);
+    assert_eq!(b[(x - 2, y)].fg, widgets::WARN);
     assert!(find(b, "continue").is_some() && find(b, "abort the scan").is_some());
 }
 
@@ -394,7 +396,7 @@ fn an_error_replaces_the_key_hints_in_red() {
     let b = t.backend().buffer();
     let (x, y) = find(b, "a scan is running").expect("error line");
     assert_eq!(y, 35, "on the last row");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "next screen").is_none());
 }
 
@@ -433,24 +435,24 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
     insta::assert_snapshot!("runs", t.backend());
     let b = t.backend().buffer();
     let (x, y) = find(b, "ok: 2310 frames").expect("verdict");
-    assert_eq!(b[(x, y)].fg, super::GOOD);
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
     let (x, y) = find(b, "1 problem(s)").expect("verdict");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     let (x, y) = find(b, "20261124-170000").expect("selected row");
     assert!(b[(x, y)].modifier.contains(Modifier::REVERSED));
     let (x, y) = find(b, "unfinished").expect("status");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "cannot evaluate").expect("evaluation error");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "Fz 0.465 N").is_some(), "evaluation figures");
     assert!(
         find(b, "e evaluate with default").is_some(),
         "which model e uses"
     );
     let (x, y) = find(b, "exported 2310 images").expect("export outcome");
-    assert_eq!(b[(x, y)].fg, super::GOOD);
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
     let (x, y) = find(b, "cannot export").expect("export error");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
 }
 
 #[test]
@@ -463,17 +465,17 @@ fn bench_shows_devices_jog_state_force_and_frame() {
     assert!(b[(x, y)].modifier.contains(Modifier::BOLD));
     assert!(find(b, "11.2345 mm").is_some(), "z position");
     let (x, y) = find(b, "not homed").expect("x not homed");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "forward limit").expect("fault shown");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     let (x, y) = find(b, "moving").expect("z moving");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "Fz ").expect("force");
-    assert_eq!(b[(x, y)].fg, super::BAD, "over the ceiling");
+    assert_eq!(b[(x, y)].fg, widgets::BAD, "over the ceiling");
     let (x, y) = find(b, "3 lost").expect("lost samples");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "force 15.70 N over the ceiling").expect("the stop is said");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "jog step 0.1 mm").is_some());
     assert!(find(b, "←/→ jog").is_some(), "the bench keys in the footer");
     // The picture: red left half, blue right half, as 24-bit colours.
@@ -497,7 +499,7 @@ fn bench_shows_devices_jog_state_force_and_frame() {
     let t = render(&held, 120, 30);
     let b = t.backend().buffer();
     let (x, y) = find(b, "a scan holds the devices").expect("why the bench is closed");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
 }
 
 /// The Calibrate screen with a fit awaiting `w`: one press an outlier, one not located.
@@ -540,13 +542,13 @@ fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
     insta::assert_snapshot!("calibrate", t.backend());
     let b = t.backend().buffer();
     let (x, y) = find(b, "fitted: press w").expect("how to accept");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "0.31 px").expect("a residual");
-    assert_eq!(b[(x, y)].fg, super::GOOD);
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
     let (x, y) = find(b, "7.90 px, left out").expect("an outlier");
-    assert_eq!(b[(x, y)].fg, super::WARN);
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
     let (x, y) = find(b, "not located").expect("a press not located");
-    assert_eq!(b[(x, y)].fg, super::BAD);
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "crop radius 520 px").is_some());
     assert!(find(b, "Fz +0.1500 N").is_some());
     assert!(
@@ -565,7 +567,7 @@ fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
     let t = render(&written, 140, 30);
     let b = t.backend().buffer();
     let (x, y) = find(b, "written: profiles/layered-1.toml").expect("where it went");
-    assert_eq!(b[(x, y)].fg, super::GOOD);
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
 }
 
 #[test]
@@ -574,8 +576,17 @@ fn help_lists_every_key() {
     s.help = true;
     let t = render(&s, 100, 30);
     let b = t.backend().buffer();
-    for (key, what) in super::help::KEYS {
-        assert!(find(b, what).is_some(), "help names {key}: {what}");
+    let rows = keys::help_rows();
+    assert_eq!(rows.len(), 24, "{rows:?}");
+    for row in rows {
+        let line = format!("{} ", row.keys);
+        assert!(find(b, &line).is_some(), "help names {}", row.keys);
+        assert!(
+            find(b, &row.what).is_some(),
+            "help names {}: {}",
+            row.keys,
+            row.what
+        );
     }
 }
 

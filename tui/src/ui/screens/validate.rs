@@ -2,11 +2,13 @@
 //! measured Fz over time, the contact points on the disc, the shape with its probability, the
 //! running metrics, the error by grid cell, the loop rate and the frames skipped.
 
-use super::disc::{aspect, canvas, Glyph, Layer};
-use super::time_chart::{self, Series};
-use super::{legend_panel, panel, BAD, GOOD, MEASURED, PREDICTED, WARN};
+use super::scan::key_hint;
 use crate::ui::picture::Picture;
-use crate::ui::state::UiState;
+use crate::ui::screen::{Plain, ScreenDef};
+use crate::ui::state::{Tab, UiState};
+use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
+use crate::ui::widgets::time_chart::{self, Series};
+use crate::ui::widgets::{legend_panel, panel, BAD, GOOD, MEASURED, PREDICTED, WARN};
 use fringe_app::live_validation::ValidationState;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
@@ -14,7 +16,17 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
-pub(crate) fn draw(f: &mut Frame, area: Rect, s: &UiState) {
+/// No keys of its own: `r` (Scan) runs the plan with live validation when this screen is shown.
+pub const SCREEN: ScreenDef = ScreenDef {
+    tab: Tab::Validate,
+    title: "Validate",
+    help: Vec::new,
+    draw,
+    hint: key_hint,
+    open: |_| Box::new(Plain),
+};
+
+fn draw(f: &mut Frame, area: Rect, s: &UiState) {
     let Some(v) = &s.validation else {
         let text = match &s.model {
             Some(m) => vec![

@@ -2,21 +2,181 @@
 //! faults; F/T: force, rate, lost samples; camera: fps, drops), the chosen axis and jog step,
 //! the force over the last seconds, the newest frame and what the bench said.
 
-use super::time_chart::{self, Series};
-use super::{panel, ACCENT, BAD, GOOD, MEASURED, WARN};
+use crate::ui::app::App;
+use crate::ui::binding::{self, char, code, Binding, HelpRow, Scope};
 use crate::ui::picture::Picture;
-use crate::ui::state::BenchView;
-use fringe_app::bench_session::{AxisId, BenchPhase};
+use crate::ui::screen::{Screen, ScreenDef};
+use crate::ui::stage_operator::UiStageOperator;
+use crate::ui::state::{BenchView, Tab, JOG_STEPS_MM};
+use crate::ui::widgets::time_chart::{self, Series};
+use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, WARN};
+use fringe_app::bench_session::{AxisId, BenchCommand, BenchPhase, BenchSession};
+use fringe_rig::units::Millimetres;
+use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, Wrap};
 use ratatui::Frame;
 
-/// The keys that act on the bench.
-pub(crate) const KEY_HINT: &str = "x y z axis · ←/→ jog · s step · h home · Space stop · t tare";
+/// Side of the Bench screen's frame picture, px.
+const PICTURE_PX: u32 = 96;
 
-pub(crate) fn draw(f: &mut Frame, area: Rect, v: &BenchView) {
+pub const SCREEN: ScreenDef = ScreenDef {
+    tab: Tab::Bench,
+    title: "Bench",
+    help,
+    draw: |f, area, s| draw(f, area, &s.bench),
+    hint: |_| KEY_HINT,
+    open: |_| Box::new(Bench),
+};
+
+/// The keys that act on the bench.
+const KEY_HINT: &str = "x y z axis · ←/→ jog · s step · h home · Space stop · t tare";
+
+#[derive(Debug, Clone, Copy)]
+enum Action {
+    Axis(AxisId),
+    NextStep,
+    Jog(f64),
+    Home,
+    Stop,
+    Tare,
+}
+
+const KEYS: &[Binding<Action>] = &[
+    Binding {
+        keys: &[char('x')],
+        scope: Scope::Shown,
+        action: Action::Axis(AxisId::X),
+        label: "x y z",
+        help: "choose the axis to jog",
+    },
+    Binding {
+        keys: &[char('y')],
+        scope: Scope::Shown,
+        action: Action::Axis(AxisId::Y),
+        label: "",
+        help: "",
+    },
+    Binding {
+        keys: &[char('z')],
+        scope: Scope::Shown,
+        action: Action::Axis(AxisId::Z),
+        label: "",
+        help: "",
+    },
+    Binding {
+        keys: &[code(KeyCode::Left), char('-')],
+        scope: Scope::Shown,
+        action: Action::Jog(-1.0),
+        label: "← →",
+        help: "jog the axis by the step (within its soft limits)",
+    },
+    Binding {
+        keys: &[code(KeyCode::Right), char('+'), char('=')],
+        scope: Scope::Shown,
+        action: Action::Jog(1.0),
+        label: "",
+        help: "",
+    },
+    Binding {
+        keys: &[char('s')],
+        scope: Scope::Shown,
+        action: Action::NextStep,
+        label: "s",
+        help: "next jog step: 0.01, 0.1, 1, 5 mm",
+    },
+    Binding {
+        keys: &[char('h')],
+        scope: Scope::Shown,
+        action: Action::Home,
+        label: "h",
+        help: "home the chosen axis",
+    },
+    Binding {
+        keys: &[char(' ')],
+        scope: Scope::Shown,
+        action: Action::Stop,
+        label: "Space",
+        help: "stop every axis at once",
+    },
+    Binding {
+        keys: &[char('t')],
+        scope: Scope::Shown,
+        action: Action::Tare,
+        label: "t",
+        help: "tare the F/T sensor (nothing touching)",
+    },
+];
+
+fn help() -> Vec<HelpRow> {
+    binding::help_rows(KEYS, Some(SCREEN.title))
+}
+
+/// Opens the bench (the [`App`] holds it) while the screen is shown and no scan holds the
+/// devices; closes it when another screen is (so a scan can open them).
+struct Bench;
+
+impl Screen for Bench {
+    fn key(&mut self, app: &mut App, code: KeyCode, mods: KeyModifiers, shown: bool) -> bool {
+        let Some(action) = binding::find(KEYS, code, mods, shown) else {
+            return false;
+        };
+        let view = &mut app.state.bench;
+        match action {
+            Action::Axis(axis) => view.axis = axis,
+            Action::NextStep => view.step = (view.step + 1) % JOG_STEPS_MM.len(),
+            Action::Jog(sign) => {
+                let by = Millimetres(sign * view.step_mm());
+                let axis = view.axis;
+                app.bench_command(BenchCommand::Jog { axis, by });
+            }
+            Action::Home => {
+                let axis = view.axis;
+                app.bench_command(BenchCommand::Home(axis))
+            }
+            Action::Stop => app.bench_command(BenchCommand::Stop),
+            Action::Tare => app.bench_command(BenchCommand::Tare),
+        }
+        true
+    }
+
+    fn tick(&mut self, app: &mut App, shown: bool) -> bool {
+        if shown && app.scan_active() {
+            app.close_bench();
+            app.state.bench.held = Some(
+                "a scan holds the devices: its state is on the Scan screen; the bench opens \
+                 here when it ends"
+                    .into(),
+            );
+            return false;
+        }
+        app.state.bench.held = None;
+        if shown && app.bench.is_none() {
+            app.state.bench.bench = Default::default();
+            match BenchSession::open(
+                app.opts.config.clone(),
+                PICTURE_PX,
+                Box::new(UiStageOperator),
+            ) {
+                Ok(b) => app.bench = Some(b),
+                Err(e) => app.state.error = Some(format!("cannot start the bench thread: {e}")),
+            }
+        } else if !shown {
+            app.close_bench();
+        }
+        match &app.bench {
+            Some(b) => {
+                app.state.bench.bench = b.state();
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+fn draw(f: &mut Frame, area: Rect, v: &BenchView) {
     let [left, right] =
         Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(area);
     let [devices_area, chart_area] =

@@ -1,20 +1,113 @@
 //! The Scan screen: the plan's points on the disc with the path, progress, force, the newest
-//! frame, the force chart and the scan's messages.
+//! frame, the force chart and the scan's messages. Its keys choose, run, pause, continue and
+//! abort the scan on every screen (the scan goes on whichever screen is shown).
 
-use super::disc::{aspect, canvas, Glyph, Layer};
-use super::time_chart::{self, Series};
-use super::{panel, ACCENT, BAD, GOOD, PENDING, WARN};
 use crate::clock_text::clock;
+use crate::ui::app::App;
+use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::picture::Picture;
-use crate::ui::state::{Phase, UiState};
+use crate::ui::screen::{Screen, ScreenDef};
+use crate::ui::state::{Phase, Tab, UiState};
+use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
+use crate::ui::widgets::time_chart::{self, Series};
+use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, PENDING, WARN};
+use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Gauge, List, ListItem, Paragraph};
 use ratatui::Frame;
 
+pub const SCREEN: ScreenDef = ScreenDef {
+    tab: Tab::Scan,
+    title: "Scan",
+    help,
+    draw,
+    hint: key_hint,
+    open: |_| Box::new(ScanKeys),
+};
+
+#[derive(Debug, Clone, Copy)]
+enum Action {
+    ChoosePlan,
+    Run,
+    Pause,
+    PauseNow,
+    Continue,
+    Abort,
+}
+
+const KEYS: &[Binding<Action>] = &[
+    Binding {
+        keys: &[char('l')],
+        scope: Scope::Everywhere,
+        action: Action::ChoosePlan,
+        label: "l",
+        help: "choose the scan plan (built in, ./plans/*.toml)",
+    },
+    Binding {
+        keys: &[char('r')],
+        scope: Scope::Everywhere,
+        action: Action::Run,
+        label: "r",
+        help: "run the scan plan (with live validation on Validate)",
+    },
+    Binding {
+        keys: &[char('p')],
+        scope: Scope::Everywhere,
+        action: Action::Pause,
+        label: "p",
+        help: "pause after the current press",
+    },
+    Binding {
+        keys: &[char('P')],
+        scope: Scope::Everywhere,
+        action: Action::PauseNow,
+        label: "P",
+        help: "pause now (z retracts)",
+    },
+    Binding {
+        keys: &[char('c')],
+        scope: Scope::Everywhere,
+        action: Action::Continue,
+        label: "c",
+        help: "continue a paused scan",
+    },
+    Binding {
+        keys: &[char('a')],
+        scope: Scope::Everywhere,
+        action: Action::Abort,
+        label: "a",
+        help: "abort the scan (z retracts, the run is closed)",
+    },
+];
+
+fn help() -> Vec<HelpRow> {
+    binding::help_rows(KEYS, Some(SCREEN.title))
+}
+
+/// The scan's keys (the scan itself is the [`App`]'s: every screen shows it).
+struct ScanKeys;
+
+impl Screen for ScanKeys {
+    fn key(&mut self, app: &mut App, code: KeyCode, mods: KeyModifiers, shown: bool) -> bool {
+        let Some(action) = binding::find(KEYS, code, mods, shown) else {
+            return false;
+        };
+        match action {
+            Action::ChoosePlan => app.open_picker(),
+            Action::Run => app.run_scan(),
+            Action::Pause => app.pause(false),
+            Action::PauseNow => app.pause(true),
+            Action::Continue => app.resume(),
+            Action::Abort => app.abort(),
+        }
+        true
+    }
+}
+
 /// The keys that act on the scan now.
-pub(crate) fn key_hint(s: &UiState) -> &'static str {
+pub fn key_hint(s: &UiState) -> &'static str {
     match s.scan.phase {
         Phase::Ready => "r run the scan · l choose the plan",
         Phase::Running => "p pause after this press · P pause now · a abort",
@@ -24,7 +117,7 @@ pub(crate) fn key_hint(s: &UiState) -> &'static str {
     }
 }
 
-pub(crate) fn draw(f: &mut Frame, area: Rect, s: &UiState) {
+fn draw(f: &mut Frame, area: Rect, s: &UiState) {
     let v = &s.scan;
     let [left, right] =
         Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(area);
@@ -180,7 +273,7 @@ fn draw_force_chart(f: &mut Frame, area: Rect, s: &UiState) {
         &[
             Series {
                 name: "|Fz|",
-                color: super::MEASURED,
+                color: MEASURED,
                 points: &fz,
             },
             Series {

@@ -1,0 +1,371 @@
+//! What every screen acts on: the on-screen state, the scan (its thread, its events, its
+//! controls), the bench session that holds the devices when no scan does, and the plans to
+//! choose from. Screens and the global keys call these; nothing here knows the screens.
+
+use super::calibration;
+use super::plan_choice::{self, PlanSource};
+use super::scan_events::{self, ScanEnd};
+use super::session::{self, Event, ModelChoice, Running, ScanRequest};
+use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use fringe_app::bench_session::{BenchCommand, BenchPhase, BenchSession};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_rig::scan::control::Reply;
+use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
+use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::run_list::list;
+use std::path::{Path, PathBuf};
+
+/// How the UI starts.
+pub struct UiOptions {
+    pub config: RigConfig,
+    pub rig: String,
+    pub plan_text: String,
+    pub plan_origin: String,
+    pub runs: PathBuf,
+    pub model: Option<ModelChoice>,
+    pub tab: Tab,
+    /// Start the scan at once.
+    pub start: bool,
+}
+
+/// The UI's state and what acts behind it, shared by every screen.
+pub struct App {
+    pub state: UiState,
+    pub opts: UiOptions,
+    program: ScanProgram,
+    limits: BenchLimits,
+    /// The plans `l` offers.
+    plans: Vec<PlanSource>,
+    running: Option<Running>,
+    /// The bench, open while the Bench screen is shown and no scan holds the devices.
+    pub bench: Option<BenchSession>,
+    pub quit: bool,
+}
+
+impl App {
+    pub fn new(opts: UiOptions, program: &ScanProgram, limits: &BenchLimits) -> App {
+        let origin = opts.config.origin().ok();
+        let scan = plan_choice::scan_view(
+            program,
+            limits,
+            origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
+        );
+        let plans = plan_choice::available(
+            PlanSource {
+                label: opts.plan_origin.clone(),
+                text: opts.plan_text.clone(),
+                origin: opts.plan_origin.clone(),
+                unreadable: None,
+            },
+            Path::new("plans"),
+        );
+        let state = UiState {
+            tab: opts.tab,
+            help: false,
+            rig: opts.rig.clone(),
+            scan,
+            model: opts.model.as_ref().map(|m| m.path.display().to_string()),
+            validation: None,
+            runs: RunsView {
+                root: opts.runs.display().to_string(),
+                ..RunsView::default()
+            },
+            bench: BenchView::default(),
+            calibrate: calibration::ready_view(&opts.config),
+            dialog: None,
+            picker: None,
+            error: None,
+        };
+        App {
+            state,
+            program: program.clone(),
+            limits: limits.clone(),
+            plans,
+            opts,
+            running: None,
+            bench: None,
+            quit: false,
+        }
+    }
+
+    /// Takes what the scan thread published: whether anything changed (or the scan moves), and
+    /// how the scan ended if it did.
+    pub fn pump(&mut self) -> (bool, Vec<ScanEnd>) {
+        let Some(running) = &self.running else {
+            return (false, Vec::new());
+        };
+        let events: Vec<Event> = running.events.try_iter().collect();
+        if let Some(v) = running
+            .view
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+        {
+            self.state.scan.live = v.state();
+        }
+        if let Some(v) = running
+            .validation
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+        {
+            self.state.validation = Some(v.state());
+        }
+        let moving = matches!(self.state.scan.phase, Phase::Running | Phase::Stopping(_));
+        let changed = !events.is_empty();
+        let ends: Vec<ScanEnd> = events
+            .into_iter()
+            .filter_map(|e| scan_events::apply(&mut self.state, e))
+            .collect();
+        if !ends.is_empty() {
+            self.refresh_runs();
+        }
+        (changed || moving, ends)
+    }
+
+    pub fn scan_active(&self) -> bool {
+        matches!(
+            self.state.scan.phase,
+            Phase::Running | Phase::Paused(_) | Phase::Stopping(_)
+        )
+    }
+
+    /// Runs the chosen plan (with live validation on the Validate screen).
+    pub fn run_scan(&mut self) {
+        if self.scan_active() {
+            self.state.error = Some("a scan is already running".into());
+            return;
+        }
+        if self.state.tab == Tab::Bench {
+            self.state.tab = Tab::Scan;
+        }
+        let model = if self.state.tab == Tab::Validate || self.opts.tab == Tab::Validate {
+            self.opts.model.clone()
+        } else {
+            None
+        };
+        self.start_program(
+            self.program.clone(),
+            self.opts.plan_text.clone(),
+            model,
+            ProfileUse::Consume,
+        );
+    }
+
+    /// Starts `program` on the scan thread (stopping any scan and closing the bench first).
+    pub fn start_program(
+        &mut self,
+        program: ScanProgram,
+        plan_text: String,
+        model: Option<ModelChoice>,
+        profile: ProfileUse,
+    ) {
+        self.stop_scan(false);
+        self.close_bench();
+        self.state.validation = None;
+        let scan = &mut self.state.scan;
+        scan.phase = Phase::Running;
+        scan.done = 0;
+        scan.current = None;
+        scan.run_dir = None;
+        scan.total = program.points.len() as u64;
+        scan.log(format!("starting {}", program.plan.name));
+        self.running = Some(session::start(ScanRequest {
+            config: self.opts.config.clone(),
+            program,
+            plan_text,
+            runs: self.opts.runs.clone(),
+            model,
+            profile,
+        }));
+    }
+
+    /// Stops a running scan and waits for its thread (z retracts, the run is closed): aborted,
+    /// or `interrupted` (closed resumable: the operator did not decide it).
+    pub fn stop_scan(&mut self, interrupted: bool) {
+        if let Some(mut r) = self.running.take() {
+            if interrupted {
+                r.control.interrupt();
+            } else {
+                r.control.abort();
+            }
+            let _ = r.replies.send(Reply::Abort);
+            if let Some(t) = r.thread.take() {
+                let _ = t.join();
+            }
+            // The last validation state stays on screen.
+            if let Some(v) = r
+                .validation
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .as_ref()
+            {
+                self.state.validation = Some(v.state());
+            }
+        }
+    }
+
+    /// Pauses the running scan after the current press, or `now` (z retracts).
+    pub fn pause(&mut self, now: bool) {
+        let Some(r) = &self.running else { return };
+        if !matches!(self.state.scan.phase, Phase::Running) {
+            return;
+        }
+        if now {
+            r.control.pause_now();
+            self.state.scan.phase = Phase::Stopping("pausing now: z retracts".into());
+        } else {
+            r.control.pause();
+            self.state.scan.phase = Phase::Stopping("pausing after this press".into());
+        }
+    }
+
+    /// Continues a paused scan.
+    pub fn resume(&mut self) {
+        if let Some(r) = &self.running {
+            r.control.resume();
+            // A pause asked for and taken back before the scan reached it: the scan goes on,
+            // and says so (if it had begun to pause, its own report follows).
+            if matches!(&self.state.scan.phase, Phase::Stopping(what) if what.starts_with("pausing"))
+            {
+                self.state.scan.phase = Phase::Running;
+            }
+        }
+    }
+
+    /// Aborts a running scan (z retracts, the run is closed).
+    pub fn abort(&mut self) {
+        if let Some(r) = &self.running {
+            if self.scan_active() {
+                r.control.abort();
+                self.state.scan.phase = Phase::Stopping("aborting: z retracts".into());
+            }
+        }
+    }
+
+    /// Answers the scan's dialog.
+    pub fn answer(&mut self, reply: Reply) {
+        if let Some(running) = &self.running {
+            if reply == Reply::Abort {
+                running.control.abort();
+                self.state.scan.phase = Phase::Stopping("aborting: z retracts".into());
+            } else if matches!(self.state.scan.phase, Phase::Paused(_)) {
+                self.state.scan.phase = Phase::Running;
+            }
+            let _ = running.replies.send(reply);
+            self.state.dialog = None;
+        }
+    }
+
+    /// Opens the plan chooser on the Scan screen (not while a scan runs).
+    pub fn open_picker(&mut self) {
+        if self.scan_active() {
+            self.state.error = Some("a scan is running: choose a plan when it ends".into());
+            return;
+        }
+        let current = self
+            .plans
+            .iter()
+            .position(|p| p.text == self.opts.plan_text)
+            .unwrap_or(0);
+        self.state.tab = Tab::Scan;
+        self.state.picker = Some(Picker {
+            items: self.plans.iter().map(|p| p.label.clone()).collect(),
+            selected: current,
+        });
+    }
+
+    /// Makes the plan chosen in the chooser the one `r` runs, or says why it cannot be.
+    pub fn choose(&mut self, i: usize) {
+        let Some(src) = self.plans.get(i).cloned() else {
+            return;
+        };
+        match plan_choice::load(&src, &self.limits) {
+            Ok(program) => {
+                let old = &self.state.scan;
+                let mut view = plan_choice::scan_view(&program, &self.limits, old.origin_mm);
+                view.disc_radius_mm = old.disc_radius_mm;
+                view.log = old.log.clone();
+                view.log(format!(
+                    "plan {} chosen ({})",
+                    program.plan.name, src.origin
+                ));
+                self.state.scan = view;
+                self.program = program;
+                self.opts.plan_text = src.text;
+                self.opts.plan_origin = src.origin;
+            }
+            Err(e) => self.state.error = Some(format!("{e:#}")),
+        }
+    }
+
+    /// Stops any motion and releases the bench's devices (waits for its thread).
+    pub fn close_bench(&mut self) {
+        if let Some(b) = self.bench.take() {
+            b.close();
+            self.state.bench.bench.phase = BenchPhase::Closed;
+        }
+    }
+
+    /// Sends `command` to the bench, or says why it is not open.
+    pub fn bench_command(&mut self, command: BenchCommand) {
+        match &self.bench {
+            Some(b) => b.send(command),
+            None => {
+                self.state.error = Some(
+                    self.state
+                        .bench
+                        .held
+                        .clone()
+                        .unwrap_or_else(|| "the bench is not open".into()),
+                )
+            }
+        }
+    }
+
+    /// Lists the runs again, keeping the verdicts already shown.
+    pub fn refresh_runs(&mut self) {
+        let root = &self.opts.runs;
+        let rows = match list(root) {
+            Ok((runs, _)) => runs
+                .into_iter()
+                .map(|r| RunRow {
+                    name: r.dir.file_name().map_or_else(
+                        || r.dir.display().to_string(),
+                        |n| n.to_string_lossy().into_owned(),
+                    ),
+                    status: match &r.stop {
+                        None => "unfinished".into(),
+                        Some(s) => match s.exit_status {
+                            ExitStatus::Completed => "completed".into(),
+                            ExitStatus::Aborted => "aborted".into(),
+                            ExitStatus::Failed => "failed".into(),
+                        },
+                    },
+                    frames: r.frames as usize,
+                    verified: None,
+                    evaluated: None,
+                    exported: None,
+                })
+                .collect(),
+            Err(e) => {
+                self.state.error = Some(format!("{}: {e}", root.display()));
+                Vec::new()
+            }
+        };
+        let old: Vec<RunRow> = std::mem::take(&mut self.state.runs.rows);
+        self.state.runs.rows = rows
+            .into_iter()
+            .map(|mut r| {
+                if let Some(o) = old.iter().find(|o| o.name == r.name) {
+                    r.verified = o.verified.clone();
+                    r.evaluated = o.evaluated.clone();
+                    r.exported = o.exported.clone();
+                }
+                r
+            })
+            .collect();
+        let n = self.state.runs.rows.len();
+        self.state.runs.selected = self.state.runs.selected.min(n.saturating_sub(1));
+    }
+}
