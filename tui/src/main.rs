@@ -2,11 +2,13 @@
 
 mod clock_text;
 mod cmd;
+mod global;
 mod hint;
 mod signals;
 mod ui;
 
 use clap::{Parser, Subcommand};
+use global::Global;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -25,11 +27,6 @@ struct Cli {
 
     #[command(subcommand)]
     command: Option<Command>,
-}
-
-/// Options shared by every command that opens devices.
-pub struct Global {
-    pub record_trace: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]

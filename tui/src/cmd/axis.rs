@@ -2,7 +2,7 @@
 
 use super::arg_values;
 use super::limits::SoftLimitArgs;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::device_open::{open_thorlabs, TraceTo};
 use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};

@@ -6,7 +6,7 @@
 //! TIFF): centre, shift from the image centre, radius and crop radius.
 
 use crate::cmd::scan::execute;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,

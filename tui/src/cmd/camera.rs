@@ -1,6 +1,6 @@
 //! `fringe camera`: grab frames from a GenICam camera (Aravis) or a recorded camera trace.
 
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::device_open::open_camera;
 use fringe_app::device_spec::CameraSpec;

@@ -4,7 +4,7 @@
 //! run and scored against the simulator's ground truth.
 
 use crate::cmd::scan::execute;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::plans::DEMO;
 use fringe_app::{ProfileUse, RigConfig};

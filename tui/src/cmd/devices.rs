@@ -1,6 +1,6 @@
 //! `fringe devices`: what is plugged in.
 
-use crate::Global;
+use crate::global::Global;
 use anyhow::Context;
 use fringe_rig::transport::serial::list_ports;
 

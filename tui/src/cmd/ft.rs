@@ -6,7 +6,7 @@
 //! ```
 
 use super::arg_values;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::device_open::{open_netft, TraceTo};
 use fringe_app::device_spec::{NetFtScaling, NetFtSpec};

@@ -1,7 +1,7 @@
 //! `fringe runs` and `fringe verify`: what runs exist and whether one is intact.
 
+use crate::global::Global;
 use crate::signals::{Again, Signal};
-use crate::Global;
 use anyhow::Context;
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;

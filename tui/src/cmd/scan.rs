@@ -5,7 +5,7 @@
 
 use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
-use crate::Global;
+use crate::global::Global;
 use anyhow::bail;
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};

@@ -5,7 +5,7 @@
 //! this machine and points to the bring-up commands. The full simulated bench (axes, camera,
 //! renderer) replaces this with a short grid scan.
 
-use crate::Global;
+use crate::global::Global;
 use anyhow::Context;
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};

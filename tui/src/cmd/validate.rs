@@ -7,7 +7,7 @@
 
 use crate::cmd::model::open_model;
 use crate::cmd::scan::execute;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::live_validation::{LiveValidation, Validation};
 use fringe_app::plans::SHORT_GRID;

@@ -3,7 +3,7 @@
 use super::arg_values;
 use super::limits::SoftLimitArgs;
 use super::terminal_prompt::TerminalPrompt;
-use crate::Global;
+use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::device_open::{open_axis, TraceTo};
 use fringe_app::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
