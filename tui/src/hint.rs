@@ -22,6 +22,12 @@ pub fn with_hint(text: String, e: &anyhow::Error) -> String {
     }
 }
 
+/// A library error as the UI shows it: its text with the command that helps.
+pub fn describe(e: impl Into<anyhow::Error>) -> String {
+    let e = e.into();
+    with_hint(e.to_string(), &e)
+}
+
 fn for_cause(e: &(dyn Error + 'static)) -> Option<String> {
     if let Some(s) = e.downcast_ref::<ScanError>() {
         return scan(s);
@@ -70,5 +76,49 @@ fn store(e: &StoreError) -> Option<String> {
             run.display()
         )),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_rig::transport::serial::{SerialLink, SerialSettings};
+    use std::path::PathBuf;
+
+    #[test]
+    fn a_stopped_scan_is_resumed_and_a_wrong_directory_pointed_to_the_run_list() {
+        let run = PathBuf::from("runs/2026-11-26-main");
+        let stopped = ScanError::Store(StoreError::NotARun { dir: run.clone() }).stopped(&run);
+        let e = anyhow::Error::from(stopped).context("the scan stopped");
+        assert_eq!(
+            for_error(&e).as_deref(),
+            Some("fringe scan --resume runs/2026-11-26-main")
+        );
+        let missing = anyhow::Error::from(DatasetError::Store(StoreError::NotARun {
+            dir: "runs".into(),
+        }));
+        let text = describe(missing);
+        assert!(
+            text.starts_with("runs is not a run") && text.contains("`fringe runs --root DIR`"),
+            "{text}"
+        );
+        let plain = anyhow::anyhow!("something else");
+        assert_eq!(for_error(&plain), None);
+    }
+
+    #[test]
+    fn a_port_that_will_not_open_points_to_the_device_list() {
+        let Err(e) = SerialLink::open("/dev/ttyFRINGE-ABSENT", &SerialSettings::plain(115_200))
+        else {
+            panic!("an absent port opened");
+        };
+        let e = anyhow::Error::from(e).context("axis x");
+        let text = with_hint(format!("{e:#}"), &e);
+        assert!(
+            text.contains("/dev/ttyFRINGE-ABSENT")
+                && text.contains("dialout")
+                && text.ends_with("`fringe devices` lists the serial ports"),
+            "{text}"
+        );
     }
 }

@@ -3,6 +3,7 @@
 //! answered from it, progress sent as events. The UI thread never waits on it.
 
 use super::stage_operator::UiStageOperator;
+use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::live_validation::LiveValidation;
 use fringe_app::live_view::LiveView;
@@ -169,7 +170,7 @@ fn run(
         None,
         Box::new(UiStageOperator),
     )
-    .map_err(|e| e.to_string())?;
+    .map_err(hint::describe)?;
     for note in &session.notes {
         let _ = events.send(Event::Note(note.clone()));
     }
@@ -223,7 +224,7 @@ fn run(
                     .send(Event::Progress(p));
             },
         )
-        .map_err(|e| e.to_string())?;
+        .map_err(hint::describe)?;
     let o = &end.outcome;
     let mut summary = format!(
         "{} of {} points, {} frames ({} dropped) in {}",
