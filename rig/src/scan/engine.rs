@@ -27,9 +27,10 @@ use crate::acquire::recorder::{
 };
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
-use crate::camera::CameraSettings;
+use crate::camera::{Camera, CameraSettings};
 use crate::clock::HostTime;
 use crate::devices::Devices;
+use crate::force::ForceSensor;
 use crate::scan::sidecar::RunSidecar;
 use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
@@ -167,247 +168,253 @@ pub fn run_scan(
         camera,
         description,
     } = devices;
-    let safe_z = Millimetres(setup.program.plan.approach.safe_z);
-    let mut axes = Axes { x, y, z };
-
     // Open the run first: a bad resume target must fail before anything moves.
-    let (writer, first_point, discarded, failed) = open_run(setup, &description, &target)?;
-    let run_dir = writer.dir().to_path_buf();
+    let opened = open_run(setup, &description, &target)?;
+    let run_dir = opened.writer.dir().to_path_buf();
     progress(ScanProgress::Message(format!(
         "run directory {}",
         run_dir.display()
     )));
-    let sidecar_dir = run_dir.clone();
+    let bench = Bench {
+        axes: Axes { x, y, z },
+        force,
+        camera,
+    };
     // Whatever fails from here on, the run keeps what was recorded: the error says where it is
     // and how to go on.
-    let body = move || -> Result<ScanOutcome, ScanError> {
-        progress(ScanProgress::Message("homing x, y and z".into()));
-        axes.z.begin_home()?;
-        axes.z.wait_idle(MOVE_TIMEOUT)?;
-        axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
-        axes.x.begin_home()?;
-        if !setup.limits.manual_y {
-            axes.y.begin_home()?;
-            axes.y.wait_idle(MOVE_TIMEOUT)?;
-        }
-        axes.x.wait_idle(MOVE_TIMEOUT)?;
+    scan_opened_run(setup, bench, opened, control, operator, progress)
+        .map_err(|e| e.stopped(&run_dir))
+}
 
-        let stream = ForceStream::spawn(force)?;
-        let monitor = stream.monitor();
-        let tick_hz = camera.info().tick_frequency as f64;
-        let cameras = match setup.sync {
-            SyncMethod::ClockFit | SyncMethod::Strobe => {
-                CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
-            }
-            SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
-        };
-        let context = FrameContext::default();
-        let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
-        let recorder = Recorder::spawn(
-            writer,
-            stream.samples().clone(),
-            cameras.frames().clone(),
-            labeler,
-            context.clone(),
-            setup.taps.clone(),
-        )?;
-        if discarded > 0 || first_point > 0 || failed.is_some() {
-            let after = failed
-                .map(|why| format!(" (the run had failed: {why})"))
-                .unwrap_or_default();
-            recorder.event(
+/// The devices a scan moves and films with.
+struct Bench {
+    axes: Axes,
+    force: Box<dyn ForceSensor>,
+    camera: Box<dyn Camera>,
+}
+
+/// A run opened for writing, and where the scan starts in it.
+struct OpenedRun {
+    writer: RunWriter,
+    first_point: u64,
+    /// Frame records of an unfinished point cut on reopening.
+    discarded: u64,
+    /// Why the run failed last time, when it had.
+    failed: Option<String>,
+}
+
+/// The threads that read the devices for the whole scan.
+struct Streams {
+    force: ForceStream,
+    cameras: CameraStream,
+}
+
+/// The scan of an opened run: the bench homed and its streams started, the points, the bench
+/// left safe, the run closed.
+fn scan_opened_run(
+    setup: &ScanSetup,
+    bench: Bench,
+    opened: OpenedRun,
+    control: &ScanControl,
+    operator: &mut dyn Operator,
+    progress: &dyn Fn(ScanProgress),
+) -> Result<ScanOutcome, ScanError> {
+    let Bench {
+        mut axes,
+        force,
+        camera,
+    } = bench;
+    let safe_z = Millimetres(setup.program.plan.approach.safe_z);
+    home(&mut axes, setup, safe_z, progress)?;
+    let run_dir = opened.writer.dir().to_path_buf();
+    let (streams, recorder, context) = start_recording(setup, force, camera, opened.writer)?;
+    if opened.discarded > 0 || opened.first_point > 0 || opened.failed.is_some() {
+        let after = opened
+            .failed
+            .map(|why| format!(" (the run had failed: {why})"))
+            .unwrap_or_default();
+        recorder.event(
             "resume-run",
-            Some(first_point),
-            &format!("resumed at point {first_point}; {discarded} frame records of the unfinished point cut{after}"),
+            Some(opened.first_point),
+            &format!(
+                "resumed at point {}; {} frame records of the unfinished point cut{after}",
+                opened.first_point, opened.discarded
+            ),
         );
-        }
-        let cancel = Arc::new(AtomicBool::new(false));
-        let tare = SharedTare::default();
-        let mut press = setup.press.clone();
-        press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
-        press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
-        press.approach_limit = approach_limit(&setup.limits, safe_z);
-        let watch = WatchSettings {
-            ceiling: press.ceiling,
-            ..setup.watch.clone()
-        };
-        let watchers = Watchers::spawn(
-            monitor.clone(),
-            Box::new(recorder.stats_source()),
-            control.clone(),
-            tare.clone(),
-            watch,
-            cancel.clone(),
-        );
-        if !watchers.running() {
-            return Err(ScanError::Setup("cannot start the watcher thread".into()));
-        }
-        // Wait for the force stream before the first reading.
-        let started = Instant::now();
-        while monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-
-        let mut run = Runner {
-            setup,
-            run_dir: sidecar_dir,
+    }
+    let mut run = Runner::start(
+        setup,
+        control,
+        progress,
+        RunnerParts {
+            run_dir,
             axes,
-            monitor,
+            monitor: streams.force.monitor(),
             recorder,
             context,
-            watchers,
-            cancel,
-            tare,
-            press,
-            control,
-            progress,
             safe_z,
-            points_done: first_point,
-            started: Instant::now(),
-            done_this_session: 0,
-            watcher_retries: (0, 0),
-            offset_checked: false,
-            force_restarts_seen: 0,
-            tare_not_before: None,
-            pending_checkpoint: None,
-            last_status: Instant::now(),
-            mounted: None,
-            manual_y_at: None,
-            frames_discarded: discarded,
-            excluded: Duration::ZERO,
-            overheads: Vec::new(),
-        };
-        let result = run.points(first_point, operator);
-        // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
-        // The state the bench is left in goes into the run's events (what a user reads after a
-        // failure: was z lifted off the sensor, did x and y stop).
-        let mut end_state = vec![match run.retract() {
-            Ok(()) => format!("z retracted to {:.3} mm", safe_z.0),
-            Err(e) => format!("z NOT retracted ({e})"),
-        }];
-        // A y stage moved by hand has nothing to stop (and asking it its position would prompt).
-        let manual_y = setup.limits.manual_y;
-        for (name, axis) in [("x", &mut run.axes.x), ("y", &mut run.axes.y)] {
-            if name == "y" && manual_y {
-                continue;
-            }
-            end_state.push(match axis.status() {
-                Ok(s) if s.moving => {
-                    let stopped = axis
-                        .stop(StopMode::Profiled)
-                        .and_then(|_| axis.wait_idle(MOVE_TIMEOUT));
-                    match stopped {
-                        Ok(_) => format!("{name} stopped"),
-                        Err(e) => format!("{name} NOT stopped ({e})"),
-                    }
-                }
-                Ok(s) => format!("{name} at rest at {:.3} mm", s.position.0),
-                Err(e) => format!("{name} unreachable ({e})"),
-            });
-        }
-        run.recorder
-            .event("end-state", Some(run.points_done), &end_state.join("; "));
-        run.context.set(None);
-        if let Some(why) = cameras.latch_error() {
-            run.recorder.event(
+            first_point: opened.first_point,
+            discarded: opened.discarded,
+        },
+    )?;
+    let result = run.points(opened.first_point, operator);
+    // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
+    run.leave_bench_safe();
+    run.context.set(None);
+    if let Some(why) = streams.cameras.latch_error() {
+        run.recorder.event(
             "sync",
             None,
             &format!("the camera clock could not be latched, clock-fit labels used the frame arrivals only: {why}"),
         );
+    }
+    close_run(run, streams, result)
+}
+
+/// Homes z (then lifts it to the safe height), x and, unless it is moved by hand, y.
+fn home(
+    axes: &mut Axes,
+    setup: &ScanSetup,
+    safe_z: Millimetres,
+    progress: &dyn Fn(ScanProgress),
+) -> Result<(), ScanError> {
+    progress(ScanProgress::Message("homing x, y and z".into()));
+    axes.z.begin_home()?;
+    axes.z.wait_idle(MOVE_TIMEOUT)?;
+    axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
+    axes.x.begin_home()?;
+    if !setup.limits.manual_y {
+        axes.y.begin_home()?;
+        axes.y.wait_idle(MOVE_TIMEOUT)?;
+    }
+    axes.x.wait_idle(MOVE_TIMEOUT)?;
+    Ok(())
+}
+
+/// Starts the force and camera streams and the recorder that labels and writes their frames
+/// into `writer`'s run.
+fn start_recording(
+    setup: &ScanSetup,
+    force: Box<dyn ForceSensor>,
+    camera: Box<dyn Camera>,
+    writer: RunWriter,
+) -> Result<(Streams, Recorder, FrameContext), ScanError> {
+    let stream = ForceStream::spawn(force)?;
+    let tick_hz = camera.info().tick_frequency as f64;
+    let cameras = match setup.sync {
+        SyncMethod::ClockFit | SyncMethod::Strobe => {
+            CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
         }
-        let (status, reason) = match &result {
-            Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
-            // Not the operator's decision: closed as a failed run is, which a resume reopens.
-            Ok(Ending::Aborted(_)) if control.interrupted() => (
-                ExitStatus::Failed,
-                "interrupted: the terminal hung up or the process was asked to end (SIGHUP or SIGTERM); resume the run to go on".to_string(),
-            ),
-            Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
-            Err(e) => (ExitStatus::Failed, e.to_string()),
-        };
-        run.recorder.event(
-            "stop",
-            Some(run.points_done),
-            &format!("{status:?}: {reason}"),
-        );
-        let Runner {
-            recorder,
-            watchers,
-            points_done,
-            frames_discarded,
-            overheads,
-            ..
-        } = run;
-        let ms = |d: &Duration| d.as_secs_f64() * 1e3;
-        let overhead_mean_ms =
-            overheads.iter().map(ms).sum::<f64>() / overheads.len().max(1) as f64;
-        let overhead_max_ms = overheads.iter().map(ms).fold(0.0, f64::max);
-        drop(watchers);
-        let camera_result = cameras.stop();
-        let stats = stream.monitor().stats();
-        let force_result = stream.stop();
-        let last_counts = recorder.stats();
-        let (writer, counts, recorder_error) = match recorder.finish() {
-            Ok((writer, counts)) => (writer, counts, None),
-            Err(RecorderFailure {
-                error,
-                writer: Some(writer),
-            }) => {
-                let mut writer = *writer;
-                // Cut the unfinished point's records: a full disk gets back the space of its
-                // images, enough to close the run.
-                let _ = writer.rollback();
-                (writer, last_counts, Some(error))
-            }
-            Err(RecorderFailure {
-                error,
-                writer: None,
-            }) => return Err(error.into()),
-        };
-        let (status, reason) = match &recorder_error {
-            Some(e) => (ExitStatus::Failed, e.to_string()),
-            None => (status, reason),
-        };
-        let frames = writer.next_index();
-        let force_samples = writer.force_samples();
-        let stop = StopDocument {
-            exit_status: status,
-            reason: reason.clone(),
-            stopped_utc: now_utc(),
-            frames,
-            dropped_frames: counts.dropped_frames,
-            force_samples,
-            lost_force_samples: stats.lost,
-            points_done,
-            sync_method: Some(setup.sync.name().into()),
-            sync_error_ns: counts.sync_error_ns,
-        };
-        for sidecar in &setup.sidecars {
-            append_sidecar(writer.dir(), sidecar.as_ref(), true)?;
-        }
-        let run_dir = writer.finish(&stop)?;
-        if let Some(e) = recorder_error {
-            return Err(e.into());
-        }
-        result?;
-        camera_result?;
-        force_result?;
-        Ok(ScanOutcome {
-            run_dir,
-            status,
-            reason,
-            points_done,
-            points_total: setup.program.points.len() as u64,
-            frames,
-            dropped_frames: counts.dropped_frames,
-            force_samples,
-            lost_force_samples: stats.lost,
-            frames_discarded,
-            overhead_mean_ms,
-            overhead_max_ms,
-        })
+        SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
     };
-    body().map_err(|e| e.stopped(&run_dir))
+    let context = FrameContext::default();
+    let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
+    let recorder = Recorder::spawn(
+        writer,
+        stream.samples().clone(),
+        cameras.frames().clone(),
+        labeler,
+        context.clone(),
+        setup.taps.clone(),
+    )?;
+    let streams = Streams {
+        force: stream,
+        cameras,
+    };
+    Ok((streams, recorder, context))
+}
+
+/// Stops the recorder: its run writer and counts, with the error that stopped it early (its
+/// unfinished point's records then cut, so that a full disk gets back the space of their images,
+/// enough to close the run).
+fn finish_recorder(
+    recorder: Recorder,
+) -> Result<(RunWriter, RecorderStats, Option<StoreError>), ScanError> {
+    let last_counts = recorder.stats();
+    match recorder.finish() {
+        Ok((writer, counts)) => Ok((writer, counts, None)),
+        Err(RecorderFailure {
+            error,
+            writer: Some(writer),
+        }) => {
+            let mut writer = *writer;
+            let _ = writer.rollback();
+            Ok((writer, last_counts, Some(error)))
+        }
+        Err(RecorderFailure {
+            error,
+            writer: None,
+        }) => Err(error.into()),
+    }
+}
+
+/// Stops the streams and the recorder and closes the run with its stop document: the run's
+/// outcome, or the first error among the points', the recorder's, the streams'.
+fn close_run(
+    run: Runner<'_>,
+    streams: Streams,
+    result: Result<Ending, ScanError>,
+) -> Result<ScanOutcome, ScanError> {
+    let (status, reason) = run.record_stop(&result);
+    let Runner {
+        setup,
+        recorder,
+        watchers,
+        points_done,
+        frames_discarded,
+        overheads,
+        ..
+    } = run;
+    let ms = |d: &Duration| d.as_secs_f64() * 1e3;
+    let overhead_mean_ms = overheads.iter().map(ms).sum::<f64>() / overheads.len().max(1) as f64;
+    let overhead_max_ms = overheads.iter().map(ms).fold(0.0, f64::max);
+    drop(watchers);
+    let camera_result = streams.cameras.stop();
+    let stats = streams.force.monitor().stats();
+    let force_result = streams.force.stop();
+    let (writer, counts, recorder_error) = finish_recorder(recorder)?;
+    let (status, reason) = match &recorder_error {
+        Some(e) => (ExitStatus::Failed, e.to_string()),
+        None => (status, reason),
+    };
+    let frames = writer.next_index();
+    let force_samples = writer.force_samples();
+    let stop = StopDocument {
+        exit_status: status,
+        reason: reason.clone(),
+        stopped_utc: now_utc(),
+        frames,
+        dropped_frames: counts.dropped_frames,
+        force_samples,
+        lost_force_samples: stats.lost,
+        points_done,
+        sync_method: Some(setup.sync.name().into()),
+        sync_error_ns: counts.sync_error_ns,
+    };
+    for sidecar in &setup.sidecars {
+        append_sidecar(writer.dir(), sidecar.as_ref(), true)?;
+    }
+    let run_dir = writer.finish(&stop)?;
+    if let Some(e) = recorder_error {
+        return Err(e.into());
+    }
+    result?;
+    camera_result?;
+    force_result?;
+    Ok(ScanOutcome {
+        run_dir,
+        status,
+        reason,
+        points_done,
+        points_total: setup.program.points.len() as u64,
+        frames,
+        dropped_frames: counts.dropped_frames,
+        force_samples,
+        lost_force_samples: stats.lost,
+        frames_discarded,
+        overhead_mean_ms,
+        overhead_max_ms,
+    })
 }
 
 /// Appends the lines a sidecar gathered since it was last taken to its file in the run; `sync`
@@ -452,7 +459,7 @@ fn open_run(
     setup: &ScanSetup,
     description: &[String],
     target: &RunTarget,
-) -> Result<(RunWriter, u64, u64, Option<String>), ScanError> {
+) -> Result<OpenedRun, ScanError> {
     match target {
         RunTarget::New { root, run_id } => {
             let start = StartDocument {
@@ -471,7 +478,12 @@ fn open_run(
                 seed: setup.seed,
                 sync_method: setup.sync.name().into(),
             };
-            Ok((RunWriter::create(root, &start)?, 0, 0, None))
+            Ok(OpenedRun {
+                writer: RunWriter::create(root, &start)?,
+                first_point: 0,
+                discarded: 0,
+                failed: None,
+            })
         }
         RunTarget::Resume { dir } => {
             // Everything is checked before the run is touched: a refused resume changes nothing.
@@ -488,9 +500,12 @@ fn open_run(
                     None => Ok(()),
                 }
             })?;
-            let first = existing.checkpoint.as_ref().map_or(0, |c| c.next_point);
-            let failed = existing.failed_stop.map(|s| s.reason);
-            Ok((writer, first, existing.discarded_frames, failed))
+            Ok(OpenedRun {
+                writer,
+                first_point: existing.checkpoint.as_ref().map_or(0, |c| c.next_point),
+                discarded: existing.discarded_frames,
+                failed: existing.failed_stop.map(|s| s.reason),
+            })
         }
     }
 }
@@ -569,6 +584,137 @@ struct Runner<'a> {
     overheads: Vec<Duration>,
     /// The checkpoint of the current point, made while the axes move to it.
     pending_checkpoint: Option<PendingCheckpoint>,
+}
+
+/// What a runner starts with, besides the setup, control and progress it borrows.
+struct RunnerParts {
+    run_dir: PathBuf,
+    axes: Axes,
+    monitor: ForceMonitor,
+    recorder: Recorder,
+    context: FrameContext,
+    safe_z: Millimetres,
+    first_point: u64,
+    discarded: u64,
+}
+
+impl<'a> Runner<'a> {
+    /// The runner of a scan whose streams and recorder run: the press settings from the plan,
+    /// the watchers started, the force stream waited for.
+    fn start(
+        setup: &'a ScanSetup,
+        control: &'a ScanControl,
+        progress: &'a dyn Fn(ScanProgress),
+        parts: RunnerParts,
+    ) -> Result<Runner<'a>, ScanError> {
+        let cancel = Arc::new(AtomicBool::new(false));
+        let tare = SharedTare::default();
+        let mut press = setup.press.clone();
+        press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
+        press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
+        press.approach_limit = approach_limit(&setup.limits, parts.safe_z);
+        let watch = WatchSettings {
+            ceiling: press.ceiling,
+            ..setup.watch.clone()
+        };
+        let watchers = Watchers::spawn(
+            parts.monitor.clone(),
+            Box::new(parts.recorder.stats_source()),
+            control.clone(),
+            tare.clone(),
+            watch,
+            cancel.clone(),
+        );
+        if !watchers.running() {
+            return Err(ScanError::Setup("cannot start the watcher thread".into()));
+        }
+        // Wait for the force stream before the first reading.
+        let started = Instant::now();
+        while parts.monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        Ok(Runner {
+            setup,
+            run_dir: parts.run_dir,
+            axes: parts.axes,
+            monitor: parts.monitor,
+            recorder: parts.recorder,
+            context: parts.context,
+            watchers,
+            cancel,
+            tare,
+            press,
+            control,
+            progress,
+            safe_z: parts.safe_z,
+            points_done: parts.first_point,
+            started: Instant::now(),
+            done_this_session: 0,
+            watcher_retries: (0, 0),
+            offset_checked: false,
+            force_restarts_seen: 0,
+            tare_not_before: None,
+            pending_checkpoint: None,
+            last_status: Instant::now(),
+            mounted: None,
+            manual_y_at: None,
+            frames_discarded: parts.discarded,
+            excluded: Duration::ZERO,
+            overheads: Vec::new(),
+        })
+    }
+
+    /// How the scan ended, as the stop document says it, recorded among the run's events.
+    fn record_stop(&self, result: &Result<Ending, ScanError>) -> (ExitStatus, String) {
+        let (status, reason) = match result {
+            Ok(Ending::Completed) => (ExitStatus::Completed, "all points done".to_string()),
+            // Not the operator's decision: closed as a failed run is, which a resume reopens.
+            Ok(Ending::Aborted(_)) if self.control.interrupted() => (
+                ExitStatus::Failed,
+                "interrupted: the terminal hung up or the process was asked to end (SIGHUP or SIGTERM); resume the run to go on".to_string(),
+            ),
+            Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
+            Err(e) => (ExitStatus::Failed, e.to_string()),
+        };
+        self.recorder.event(
+            "stop",
+            Some(self.points_done),
+            &format!("{status:?}: {reason}"),
+        );
+        (status, reason)
+    }
+
+    /// Leaves the bench safe whatever happened (z retracted, x and y stopped) and records the
+    /// state it is left in among the run's events: what a user reads after a failure (was z
+    /// lifted off the sensor, did x and y stop).
+    fn leave_bench_safe(&mut self) {
+        let mut end_state = vec![match self.retract() {
+            Ok(()) => format!("z retracted to {:.3} mm", self.safe_z.0),
+            Err(e) => format!("z NOT retracted ({e})"),
+        }];
+        // A y stage moved by hand has nothing to stop (and asking it its position would prompt).
+        let manual_y = self.setup.limits.manual_y;
+        for (name, axis) in [("x", &mut self.axes.x), ("y", &mut self.axes.y)] {
+            if name == "y" && manual_y {
+                continue;
+            }
+            end_state.push(match axis.status() {
+                Ok(s) if s.moving => {
+                    let stopped = axis
+                        .stop(StopMode::Profiled)
+                        .and_then(|_| axis.wait_idle(MOVE_TIMEOUT));
+                    match stopped {
+                        Ok(_) => format!("{name} stopped"),
+                        Err(e) => format!("{name} NOT stopped ({e})"),
+                    }
+                }
+                Ok(s) => format!("{name} at rest at {:.3} mm", s.position.0),
+                Err(e) => format!("{name} unreachable ({e})"),
+            });
+        }
+        self.recorder
+            .event("end-state", Some(self.points_done), &end_state.join("; "));
+    }
 }
 
 impl Runner<'_> {

@@ -304,23 +304,14 @@ pub fn train(
         None => None,
     };
     let split = match &resumed {
+        // A resumed training keeps its split.
         Some((_, _, record, _)) => {
             let path = resume
                 .and_then(Path::parent)
                 .map_or_else(|| record.split.clone(), |d| d.join(&record.split));
             Split::load(&path)?
         }
-        None => {
-            let s = Split::new(
-                &samples,
-                SplitSpec {
-                    seed: config.seed,
-                    ..SplitSpec::default()
-                },
-            )?;
-            s.save(&split_path)?;
-            s
-        }
+        None => new_split(&samples, config.seed, &split_path)?,
     };
     let side = |s: Side| split.indices(&samples, s);
     let (train_idx, val_idx, test_idx) = (side(Side::Train), side(Side::Val), side(Side::Test));
@@ -339,38 +330,14 @@ pub fn train(
         test: test_idx.len(),
         path: split_path.clone(),
     });
-    let prepare = |idx: &[usize],
-                   pipeline: Option<Pipeline>,
-                   name: &'static str,
-                   events: &mut dyn FnMut(TrainEvent)| {
+    let prepare = |idx: &[usize], pipeline, side, events: &mut dyn FnMut(TrainEvent)| {
         let items: Vec<Item<'_>> = idx.iter().map(|&i| f.item(i)).collect();
-        let (tx, rx) = std::sync::mpsc::channel();
-        let result = std::thread::scope(|scope| {
-            let h = scope.spawn(|| {
-                TrainingSet::prepare(
-                    &items,
-                    &classes,
-                    pipeline,
-                    config.pipeline.colour(),
-                    config.input_size,
-                    config.seed,
-                    config.threads,
-                    stop,
-                    &move |done, total| {
-                        let _ = tx.send((done, total));
-                    },
-                )
-            });
-            for (done, total) in rx {
-                events(TrainEvent::Preparing {
-                    side: name,
-                    done,
-                    total,
-                });
-            }
-            h.join()
-        });
-        result.unwrap_or_else(|_| Err(crate::training_set::TrainingSetError::Stopped))
+        let side = SideToPrepare {
+            items: &items,
+            pipeline,
+            name: side,
+        };
+        prepare_side(config, &classes, side, stop, events)
     };
     let train_set = prepare(&train_idx, Some(config.pipeline), "training", events)?;
     let val_set = prepare(&val_idx, None, "validation", events)?;
@@ -499,28 +466,8 @@ pub fn train(
     let card = card_for(config, &classes, &f, &record);
     let weights = state_dict(&vs, record.batches_trained)?;
     final_cp.write(&weights, &card, Some(&adam.state()?))?;
-    let model = crate::model::Model::open(&final_cp.weights)?;
-    let mut backend = model.tract(config.threads.max(1))?;
-    let test_sources: Vec<Source> = sources
-        .iter()
-        .map(|s| Source {
-            samples: s
-                .samples
-                .iter()
-                .filter(|x| split.side_of(&x.press) == Some(Side::Test))
-                .cloned()
-                .collect(),
-            ..s.clone()
-        })
-        .collect();
-    let evaluation = crate::eval::evaluate(
-        &model,
-        backend.as_mut(),
-        &test_sources,
-        fallback,
-        None,
-        |done, total| events(TrainEvent::Evaluating { done, total }),
-    )?;
+    let evaluation =
+        evaluate_on_test(&final_cp.weights, config, sources, &split, fallback, events)?;
     let m = &evaluation.metrics;
     record.evaluation = Some(serde_json::json!({
         "side": "test",
@@ -537,6 +484,103 @@ pub fn train(
         model: final_cp.weights,
         evaluation,
     })
+}
+
+/// A new split by press of `samples`, saved to `path`.
+fn new_split(
+    samples: &[crate::dataset::Sample],
+    seed: u64,
+    path: &Path,
+) -> Result<Split, TrainError> {
+    let split = Split::new(
+        samples,
+        SplitSpec {
+            seed,
+            ..SplitSpec::default()
+        },
+    )?;
+    split.save(path)?;
+    Ok(split)
+}
+
+/// One side of the split to prepare: its items, its augmentation pipeline (none for
+/// validation), its name for progress.
+struct SideToPrepare<'a, 'b> {
+    items: &'a [Item<'b>],
+    pipeline: Option<Pipeline>,
+    name: &'static str,
+}
+
+/// The network inputs of one side, prepared on `config.threads` threads while the progress is
+/// reported on this one.
+fn prepare_side(
+    config: &TrainConfig,
+    classes: &[String],
+    side: SideToPrepare<'_, '_>,
+    stop: &AtomicBool,
+    events: &mut dyn FnMut(TrainEvent),
+) -> Result<TrainingSet, crate::training_set::TrainingSetError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let result = std::thread::scope(|scope| {
+        let h = scope.spawn(|| {
+            TrainingSet::prepare(
+                side.items,
+                classes,
+                side.pipeline,
+                config.pipeline.colour(),
+                config.input_size,
+                config.seed,
+                config.threads,
+                stop,
+                &move |done, total| {
+                    let _ = tx.send((done, total));
+                },
+            )
+        });
+        for (done, total) in rx {
+            events(TrainEvent::Preparing {
+                side: side.name,
+                done,
+                total,
+            });
+        }
+        h.join()
+    });
+    result.unwrap_or_else(|_| Err(crate::training_set::TrainingSetError::Stopped))
+}
+
+/// The model written to `weights` evaluated on the test side of `split` by the default backend
+/// (the file just written is checked to load and run), as `fringe eval` evaluates.
+fn evaluate_on_test(
+    weights: &Path,
+    config: &TrainConfig,
+    sources: &[Source],
+    split: &Split,
+    fallback: Option<&Profile>,
+    events: &mut dyn FnMut(TrainEvent),
+) -> Result<crate::eval::Evaluation, TrainError> {
+    let model = crate::model::Model::open(weights)?;
+    let mut backend = model.tract(config.threads.max(1))?;
+    let test_sources: Vec<Source> = sources
+        .iter()
+        .map(|s| Source {
+            samples: s
+                .samples
+                .iter()
+                .filter(|x| split.side_of(&x.press) == Some(Side::Test))
+                .cloned()
+                .collect(),
+            ..s.clone()
+        })
+        .collect();
+    Ok(crate::eval::evaluate(
+        &model,
+        backend.as_mut(),
+        &test_sources,
+        fallback,
+        None,
+        |done, total| events(TrainEvent::Evaluating { done, total }),
+    )?)
 }
 
 /// `loss.png`: training and validation loss by epoch.
