@@ -51,25 +51,38 @@ fn no_import_cycle_between_files() {
     );
 }
 
-#[test]
-fn a_circle_through_a_parent_re_export_is_found() {
-    let dir = std::env::temp_dir().join(format!("fringe-import-cycles-{}", std::process::id()));
+/// The cycles of a scratch crate whose root `lib.rs` declares `pub mod a; pub mod b;`, with
+/// `a.rs`, `a/inner.rs` and `b.rs` holding `a`, `inner` and `b`.
+fn cycles_of(
+    name: &str,
+    a: &str,
+    inner: &str,
+    b: &str,
+) -> Vec<Vec<(PathBuf, PathBuf, usize, String)>> {
+    let dir = std::env::temp_dir().join(format!("fringe-import-{name}-{}", std::process::id()));
     let _ = fs::remove_dir_all(&dir);
     fs::create_dir_all(dir.join("a")).expect("scratch dir");
-    fs::write(dir.join("lib.rs"), "pub mod a;\npub mod b;\n").expect("write");
-    fs::write(dir.join("a.rs"), "mod inner;\npub use inner::Thing;\n").expect("write");
-    fs::write(
-        dir.join("a/inner.rs"),
-        "use crate::b::{self, Other};\npub struct Thing;\n",
-    )
-    .expect("write");
-    fs::write(
-        dir.join("b.rs"),
-        "// use crate::nothing;\nuse super::a::Thing;\npub struct Other;\n#[cfg(test)]\nmod tests {\n    use super::*;\n}\n",
-    )
-    .expect("write");
+    for (file, text) in [
+        ("lib.rs", "pub mod a;\npub mod b;\n"),
+        ("a.rs", a),
+        ("a/inner.rs", inner),
+        ("b.rs", b),
+    ] {
+        fs::write(dir.join(file), text).expect("write");
+    }
     let cycles = Crate::read(&dir.join("lib.rs")).cycles();
     let _ = fs::remove_dir_all(&dir);
+    cycles
+}
+
+#[test]
+fn a_circle_through_a_parent_re_export_is_found() {
+    let cycles = cycles_of(
+        "re-export",
+        "mod inner;\npub use inner::Thing;\n",
+        "use crate::b::{self, Other};\npub struct Thing;\n",
+        "// use crate::nothing;\nuse super::a::Thing;\npub struct Other;\n#[cfg(test)]\nmod tests {\n    use super::*;\n}\n",
+    );
     assert_eq!(cycles.len(), 1, "{cycles:?}");
     let files: BTreeSet<String> = cycles[0]
         .iter()
@@ -80,27 +93,12 @@ fn a_circle_through_a_parent_re_export_is_found() {
 
 #[test]
 fn a_circle_through_an_inline_path_is_found() {
-    let dir = std::env::temp_dir().join(format!("fringe-import-inline-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(dir.join("a")).expect("scratch dir");
-    fs::write(dir.join("lib.rs"), "pub mod a;\npub mod b;\n").expect("write");
-    fs::write(
-        dir.join("a.rs"),
+    let cycles = cycles_of(
+        "inline",
         "pub mod inner;\npub fn f() -> u8 { inner::g() + crate::b::h() }\n",
-    )
-    .expect("write");
-    fs::write(
-        dir.join("a/inner.rs"),
         "pub fn g() -> u8 { std::cmp::max(1, fringe_rig::a::x()) }\n",
-    )
-    .expect("write");
-    fs::write(
-        dir.join("b.rs"),
         "pub fn h() -> u8 {\n    let _ = format!(\"{}\", super::a::f());\n    2\n}\n",
-    )
-    .expect("write");
-    let cycles = Crate::read(&dir.join("lib.rs")).cycles();
-    let _ = fs::remove_dir_all(&dir);
+    );
     assert_eq!(cycles.len(), 1, "{cycles:?}");
     let mut lines: Vec<(String, usize, String)> = cycles[0]
         .iter()
