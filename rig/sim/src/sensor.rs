@@ -686,4 +686,47 @@ mod tests {
         let e = SensorConfig::load(&dir.join("missing.toml")).expect_err("missing");
         assert!(e.to_string().contains("missing.toml"));
     }
+
+    /// The other units of each design (`layered-2.toml`, ...) load, are named as their files, and
+    /// differ from their design where real units do: material, layer, optics, geometry, LEDs and
+    /// the seed of their residual stress and noise.
+    #[test]
+    fn unit_builds_load_and_differ_from_their_design() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sensors");
+        let mut units = 0;
+        for entry in std::fs::read_dir(&dir).expect("sensors/") {
+            let path = entry.expect("entry").path();
+            let name = path.file_stem().and_then(|s| s.to_str()).expect("name");
+            if name == "layered" || name == "integrated" {
+                continue;
+            }
+            let unit = SensorConfig::load(&path).expect(name);
+            assert_eq!(unit.id, name, "{name}: id differs from the file name");
+            let design = match unit.variant {
+                Variant::Layered => SensorConfig::layered(),
+                Variant::Integrated => SensorConfig::integrated(),
+            };
+            assert!(name.starts_with(unit.variant.name()), "{name}");
+            assert_ne!(unit.seed, design.seed, "{name}: seed");
+            assert_ne!(unit.layer.f_sigma_n_per_m, design.layer.f_sigma_n_per_m, "{name}");
+            assert_ne!(
+                unit.layer.effective_modulus_mpa, design.layer.effective_modulus_mpa,
+                "{name}"
+            );
+            assert_ne!(unit.optics.blur_px, design.optics.blur_px, "{name}");
+            assert_ne!(unit.optics.illumination_dn, design.optics.illumination_dn, "{name}");
+            assert_ne!(
+                unit.optics.residual_birefringence, design.optics.residual_birefringence,
+                "{name}"
+            );
+            assert_ne!(unit.geometry.centre_offset_px, design.geometry.centre_offset_px, "{name}");
+            assert_ne!(unit.geometry.rotation_deg, design.geometry.rotation_deg, "{name}");
+            assert_ne!(unit.leds.strength_dn, design.leds.strength_dn, "{name}");
+            // Same disc, whatever the camera distance: the stage-to-image scale follows the radius.
+            let disc_mm = |c: &SensorConfig| c.geometry.disc_radius_px / c.geometry.px_per_mm;
+            assert!((disc_mm(&unit) - disc_mm(&design)).abs() < 0.05, "{name}");
+            units += 1;
+        }
+        assert!(units >= 4, "{units} unit builds in {}", dir.display());
+    }
 }
