@@ -111,22 +111,24 @@ pub(crate) fn frame_bytes(
     Ok((img.width(), img.height(), data, format))
 }
 
-/// Evaluates `model` on `backend` over `sources`; each source's frames are preprocessed with
-/// its run's profile, else `profile`, else the reference geometry `reference`. `progress`
-/// hears (frames done, frames in all).
-pub fn evaluate(
+/// A batch of frames ready for the network: their inputs (CHW, concatenated), their samples,
+/// and each label's shape as an index into the model's classes.
+pub struct Batch<'a> {
+    pub input: Vec<f32>,
+    pub samples: &'a [Sample],
+    pub shapes: Vec<usize>,
+}
+
+/// Preprocesses the frames of `sources` in batches of up to `BATCH` and hands each batch to
+/// `each`; each source's frames are preprocessed with its run's profile, else `profile`, else
+/// the reference geometry `reference` (the one preparation for evaluation and adaptation).
+pub fn for_each_batch(
     model: &Model,
-    backend: &mut dyn Backend,
     sources: &[Source],
     profile: Option<&Profile>,
     reference: Option<ReferenceSensor>,
-    mut progress: impl FnMut(usize, usize),
-) -> Result<Evaluation, EvalError> {
-    let total: usize = sources.iter().map(|s| s.samples.len()).sum();
-    let mut metrics = Metrics::new(model.classes.clone());
-    let mut rows = Vec::with_capacity(total);
-    let size = model.input_size;
-    let mut done = 0;
+    mut each: impl FnMut(Batch<'_>) -> Result<(), EvalError>,
+) -> Result<(), EvalError> {
     for source in sources {
         let chosen = if reference.is_some() {
             None
@@ -136,9 +138,9 @@ pub fn evaluate(
         let mut pre = Preprocessor::new(model.preprocessing(chosen, reference)?);
         let per = pre.config.tensor_len();
         for chunk in source.samples.chunks(BATCH) {
-            let mut batch = vec![0f32; per * chunk.len()];
-            let mut truth = Vec::with_capacity(chunk.len());
-            for (s, out) in chunk.iter().zip(batch.chunks_exact_mut(per)) {
+            let mut input = vec![0f32; per * chunk.len()];
+            let mut shapes = Vec::with_capacity(chunk.len());
+            for (s, out) in chunk.iter().zip(input.chunks_exact_mut(per)) {
                 let shape = model
                     .classes
                     .iter()
@@ -163,31 +165,58 @@ pub fn evaluate(
                     path: s.image.display().to_string(),
                     source,
                 })?;
-                truth.push(shape);
+                shapes.push(shape);
             }
-            let raw =
-                backend
-                    .run(&batch, chunk.len(), size)
-                    .map_err(|source| EvalError::Inference {
-                        path: chunk[0].image.display().to_string(),
-                        source,
-                    })?;
-            for ((s, p), shape_true) in chunk
-                .iter()
-                .zip(predictions(&raw, &model.classes))
-                .zip(truth)
-            {
-                let scored = score(&model.classes, shape_true, s, &p);
-                metrics.add(&scored, &keys(s));
-                rows.push(Row {
-                    scored,
-                    stage_mm: s.stage_mm,
-                });
-            }
-            done += chunk.len();
-            progress(done, total);
+            each(Batch {
+                input,
+                samples: chunk,
+                shapes,
+            })?;
         }
     }
+    Ok(())
+}
+
+/// Evaluates `model` on `backend` over `sources`; each source's frames are preprocessed with
+/// its run's profile, else `profile`, else the reference geometry `reference`. `progress`
+/// hears (frames done, frames in all).
+pub fn evaluate(
+    model: &Model,
+    backend: &mut dyn Backend,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    reference: Option<ReferenceSensor>,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Evaluation, EvalError> {
+    let total: usize = sources.iter().map(|s| s.samples.len()).sum();
+    let mut metrics = Metrics::new(model.classes.clone());
+    let mut rows = Vec::with_capacity(total);
+    let size = model.input_size;
+    let mut done = 0;
+    for_each_batch(model, sources, profile, reference, |batch| {
+        let raw = backend
+            .run(&batch.input, batch.samples.len(), size)
+            .map_err(|source| EvalError::Inference {
+                path: batch.samples[0].image.display().to_string(),
+                source,
+            })?;
+        for ((s, p), shape_true) in batch
+            .samples
+            .iter()
+            .zip(predictions(&raw, &model.classes))
+            .zip(batch.shapes)
+        {
+            let scored = score(&model.classes, shape_true, s, &p);
+            metrics.add(&scored, &keys(s));
+            rows.push(Row {
+                scored,
+                stage_mm: s.stage_mm,
+            });
+        }
+        done += batch.samples.len();
+        progress(done, total);
+        Ok(())
+    })?;
     Ok(Evaluation {
         metrics,
         rows,

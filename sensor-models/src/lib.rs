@@ -15,12 +15,15 @@
 //!   augmentation pipelines; [`training_set`]: a split side's network inputs and targets.
 //! - `torch_net` (cargo feature `torch`): the networks in libtorch, built from [`arch`]; `train`
 //!   (same feature): the training loop on libtorch, checkpoints, resume.
+//! - [`adapt`]: a model adapted to one sensor unit in pure Rust (its heads fitted again on the
+//!   unit's labelled frames).
 //! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
 //!   markdown and plots.
 //! - [`weights`]: weights by name as PyTorch's `state_dict()` holds them, and the readers of
 //!   every weights file users have (`torch.save` zip and legacy, safetensors), by content.
 #![warn(unreachable_pub)]
 
+pub mod adapt;
 pub mod arch;
 pub mod augment;
 pub mod backend;

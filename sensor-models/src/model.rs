@@ -105,6 +105,8 @@ pub struct Model {
     /// Where the card came from (the JSON beside the file, the file's own metadata, ...).
     pub card_source: CardSource,
     graph: Graph,
+    /// The weights, when the model was read from a weights file (what adaptation starts from).
+    weights: Option<std::sync::Arc<StateDict>>,
 }
 
 impl Model {
@@ -172,7 +174,7 @@ impl Model {
                          the model card (\"classes\": [...])"
                 .into(),
         })?;
-        Model::assemble(
+        let mut model = Model::assemble(
             path,
             Source::Onnx,
             recognised.map(|r| r.0),
@@ -181,7 +183,12 @@ impl Model {
             Graph::Onnx(Box::new(proto)),
             card,
             card_source,
-        )
+        )?;
+        // A graph of one of the paper's networks holds every weight under its state-dict name.
+        if recognised.is_some() {
+            model.weights = Some(std::sync::Arc::new(sd));
+        }
+        Ok(model)
     }
 
     /// A model from weights already read (`path` names them in messages), with its card and
@@ -197,7 +204,7 @@ impl Model {
             source,
         })?;
         let proto = onnx_graph::build(arch, n, &sd);
-        Model::assemble(
+        let mut model = Model::assemble(
             path,
             Source::Weights,
             Some(arch),
@@ -206,7 +213,16 @@ impl Model {
             Graph::Onnx(Box::new(proto)),
             card,
             card_source,
-        )
+        )?;
+        model.weights = Some(std::sync::Arc::new(sd));
+        Ok(model)
+    }
+
+    /// The weights by name, when the model is one of the paper's networks: a weights file, or
+    /// an ONNX graph that holds them under their state-dict names (as `fringe model export`
+    /// writes it); not another graph, not a TorchScript module.
+    pub fn weights(&self) -> Option<&StateDict> {
+        self.weights.as_deref()
     }
 
     /// A TorchScript archive, loaded by libtorch once to find its shape classes.
@@ -281,6 +297,7 @@ impl Model {
             card,
             card_source,
             graph,
+            weights: None,
         })
     }
 

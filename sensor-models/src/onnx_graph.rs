@@ -237,3 +237,18 @@ pub fn build(arch: Architecture, classes: usize, sd: &StateDict) -> pb::ModelPro
 pub fn encode(model: &pb::ModelProto) -> Vec<u8> {
     prost::Message::encode_to_vec(model)
 }
+
+/// The graph of a network built by [`build`], cut after the features its heads read: one output
+/// `features` [N, F]. `None` for a graph whose `force` output is not a linear head on a tensor.
+pub fn features_graph(proto: &pb::ModelProto) -> Option<pb::ModelProto> {
+    let graph = proto.graph.as_ref()?;
+    let head = graph
+        .node
+        .iter()
+        .find(|n| n.op_type == "Gemm" && n.output.iter().any(|o| o == OUTPUTS[0]))?;
+    let features = head.input.first()?.clone();
+    let mut cut = proto.clone();
+    let g = cut.graph.as_mut()?;
+    g.output = vec![value_info(&features, &[Err("batch"), Err("features")])];
+    Some(cut)
+}

@@ -1,6 +1,7 @@
 //! One module per `fringe` subcommand. Each parses its arguments with clap and calls into the
 //! engine crates; none holds device or protocol logic of its own.
 
+pub mod adapt;
 pub mod arg_values;
 pub mod axis;
 pub mod calibrate;

@@ -62,6 +62,9 @@ enum Command {
     /// Evaluate a model on runs or reference-layout datasets: the paper's Table-2 figures,
     /// errors by grid position and force level, a report with plots (--report DIR).
     Eval(cmd::eval::EvalArgs),
+    /// Adapt a model to one sensor unit without libtorch: its heads fitted again on the unit's
+    /// labelled frames (runs or datasets), cross-validated over presses.
+    Adapt(cmd::adapt::AdaptArgs),
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
@@ -118,6 +121,7 @@ fn main() -> ExitCode {
         Some(Command::Calibrate(args)) => cmd::calibrate::run(args, &global),
         Some(Command::Model(args)) => cmd::model::run(args),
         Some(Command::Eval(args)) => cmd::eval::run(args),
+        Some(Command::Adapt(args)) => cmd::adapt::run(args),
         Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]

@@ -460,3 +460,140 @@ fn the_default_model_reads_simulated_presses() {
         }
     }
 }
+
+/// `fringe eval`'s figure on the line that starts with `key`.
+fn eval_figure(printed: &str, key: &str) -> f64 {
+    printed
+        .lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no `{key}` figure in:\n{printed}"))
+}
+
+/// Frames of another layered unit (`rig/sim/sensors/layered-3.toml`) rendered into `dir`.
+fn unit_frames(dir: &Path, count: u32, seed: u32) -> PathBuf {
+    let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
+    let out = fringe(&[
+        "sim",
+        "dataset",
+        "--sensor",
+        s(&sensor),
+        "--count",
+        &count.to_string(),
+        "--seed",
+        &seed.to_string(),
+        "--out",
+        s(dir),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    dir.to_path_buf()
+}
+
+/// Fz RMSE, contact RMSE and shape accuracy of `model` on `data`.
+fn eval_on(model: &str, data: &Path) -> (f64, f64, f64) {
+    let profile = data.join("profile.toml");
+    let out = fringe(&["eval", "--model", model, "--profile", s(&profile), s(data)]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    (
+        eval_figure(&t, "Fz RMSE:"),
+        eval_figure(&t, "contact RMSE:"),
+        eval_figure(&t, "shape accuracy:"),
+    )
+}
+
+#[test]
+fn adapt_fits_the_default_model_to_another_unit_and_is_reproducible() {
+    let dir = scratch("adapt");
+    let train = unit_frames(&dir.join("unit"), 150, 11);
+    let held_out = unit_frames(&dir.join("held-out"), 100, 12);
+    let adapt = |out: &Path| {
+        let profile = train.join("profile.toml");
+        let o = fringe(&[
+            "adapt",
+            s(&train),
+            "--profile",
+            s(&profile),
+            "--out",
+            s(out),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        text(&o)
+    };
+    let first = dir.join("unit-3.safetensors");
+    let printed = adapt(&first);
+    assert!(
+        printed.contains("on 150 frames of 150 presses"),
+        "{printed}"
+    );
+    assert!(
+        printed.contains("cross-validated over presses"),
+        "{printed}"
+    );
+
+    // The shipped model misreads this unit; the adapted one reads its held-out presses.
+    let (fz0, contact0, shape0) = eval_on("default", &held_out);
+    let (fz, contact, shape) = eval_on(s(&first), &held_out);
+    assert!(fz0 > 1.0, "the shipped model on layered-3: Fz RMSE {fz0} N");
+    assert!(fz < 0.7 && fz < fz0 / 2.0, "Fz RMSE {fz0} -> {fz} N");
+    assert!(
+        contact < contact0,
+        "contact RMSE {contact0} -> {contact} mm"
+    );
+    assert!(shape >= shape0 - 0.02, "shape accuracy {shape0} -> {shape}");
+
+    // The card names the unit and how it was adapted; the same data and seed give the same
+    // weights, byte for byte.
+    let card: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(first.with_extension("json")).expect("card beside the weights"),
+    )
+    .expect("card is JSON");
+    assert_eq!(card["sensor_id"], "layered-3");
+    assert_eq!(card["adaptation"]["method"], "heads");
+    assert_eq!(card["adaptation"]["presses"], 150);
+    let second = dir.join("again.safetensors");
+    adapt(&second);
+    assert_eq!(
+        std::fs::read(&first).expect("first"),
+        std::fs::read(&second).expect("second")
+    );
+
+    // An existing file is never overwritten.
+    let o = fringe(&["adapt", s(&train), "--out", s(&first)]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("the file exists"), "{}", text(&o));
+}
+
+#[test]
+fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
+    let dir = scratch("adapt-bad");
+    let few = unit_frames(&dir.join("few"), 3, 21);
+    let profile = few.join("profile.toml");
+    let out = dir.join("few.safetensors");
+    let o = fringe(&["adapt", s(&few), "--profile", s(&profile), "--out", s(&out)]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("too few to adapt on") && t.contains("at least 5"),
+        "{t}"
+    );
+    assert!(!out.exists());
+
+    // The weights are written as safetensors only; an ONNX graph of the paper's network (as
+    // `fringe model export` writes it) is a base like its weights file.
+    let o = fringe(&["adapt", s(&few), "--out", s(&dir.join("adapted.onnx"))]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("adapted.onnx") && t.contains("*.safetensors"),
+        "{t}"
+    );
+    let onnx = dir.join("default.onnx");
+    let o = fringe(&["model", "export", "default", "--onnx", s(&onnx)]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = fringe(&["adapt", s(&few), "--model", s(&onnx), "--out", s(&out)]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("too few to adapt on"), "{t}");
+}

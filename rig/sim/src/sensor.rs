@@ -708,19 +708,31 @@ mod tests {
             };
             assert!(name.starts_with(unit.variant.name()), "{name}");
             assert_ne!(unit.seed, design.seed, "{name}: seed");
-            assert_ne!(unit.layer.f_sigma_n_per_m, design.layer.f_sigma_n_per_m, "{name}");
+            assert_ne!(
+                unit.layer.f_sigma_n_per_m, design.layer.f_sigma_n_per_m,
+                "{name}"
+            );
             assert_ne!(
                 unit.layer.effective_modulus_mpa, design.layer.effective_modulus_mpa,
                 "{name}"
             );
             assert_ne!(unit.optics.blur_px, design.optics.blur_px, "{name}");
-            assert_ne!(unit.optics.illumination_dn, design.optics.illumination_dn, "{name}");
+            assert_ne!(
+                unit.optics.illumination_dn, design.optics.illumination_dn,
+                "{name}"
+            );
             assert_ne!(
                 unit.optics.residual_birefringence, design.optics.residual_birefringence,
                 "{name}"
             );
-            assert_ne!(unit.geometry.centre_offset_px, design.geometry.centre_offset_px, "{name}");
-            assert_ne!(unit.geometry.rotation_deg, design.geometry.rotation_deg, "{name}");
+            assert_ne!(
+                unit.geometry.centre_offset_px, design.geometry.centre_offset_px,
+                "{name}"
+            );
+            assert_ne!(
+                unit.geometry.rotation_deg, design.geometry.rotation_deg,
+                "{name}"
+            );
             assert_ne!(unit.leds.strength_dn, design.leds.strength_dn, "{name}");
             // Same disc, whatever the camera distance: the stage-to-image scale follows the radius.
             let disc_mm = |c: &SensorConfig| c.geometry.disc_radius_px / c.geometry.px_per_mm;

@@ -14,12 +14,77 @@ type Plan = Arc<TypedRunnableModel>;
 
 /// tract running one ONNX model.
 pub struct TractBackend {
-    proto: pb::ModelProto,
+    graph: TractGraph,
     /// Which graph output is force, shape logits, contact.
     order: [usize; 3],
     classes: usize,
+}
+
+/// An ONNX graph on tract: a plan optimised once per batch size and input size and kept, run on
+/// the executor's threads. What [`TractBackend`] runs, and what reads a network's features.
+pub(crate) struct TractGraph {
+    proto: pb::ModelProto,
     plans: HashMap<(usize, u32), Plan>,
     executor: Executor,
+}
+
+impl TractGraph {
+    /// `proto` on `threads` threads, loaded once now so that a bad graph is refused at once,
+    /// not at the first frame.
+    pub(crate) fn new(proto: pb::ModelProto, threads: usize) -> Result<TractGraph, InferenceError> {
+        let executor = if threads > 1 {
+            Executor::multithread(threads)
+        } else {
+            Executor::SingleThread
+        };
+        let mut g = TractGraph {
+            proto,
+            plans: HashMap::new(),
+            executor,
+        };
+        g.plan(1, crate::preprocess::DEFAULT_INPUT_SIZE)?;
+        Ok(g)
+    }
+
+    fn plan(&mut self, batch: usize, size: u32) -> Result<Plan, InferenceError> {
+        if let Some(p) = self.plans.get(&(batch, size)) {
+            return Ok(p.clone());
+        }
+        let s = size as usize;
+        let plan = tract_onnx::onnx()
+            .model_for_proto_model(&self.proto)
+            .and_then(|m| m.with_input_fact(0, f32::fact([batch, 3, s, s]).into()))
+            .and_then(|m| m.into_optimized())
+            .and_then(|m| m.into_runnable())
+            .map_err(load_err)?;
+        self.plans.insert((batch, size), plan.clone());
+        Ok(plan)
+    }
+
+    /// Every output of the graph for `batch` images of 3 x `size` x `size`, each flattened.
+    pub(crate) fn run(
+        &mut self,
+        input: &[f32],
+        batch: usize,
+        size: u32,
+    ) -> Result<Vec<Vec<f32>>, InferenceError> {
+        super::check_input(input, batch, size)?;
+        let s = size as usize;
+        let plan = self.plan(batch, size)?;
+        let tensor = Tensor::from_shape(&[batch, 3, s, s], input).map_err(run_err)?;
+        let outputs = multithread_tract_scope(self.executor.clone(), || {
+            plan.run(tvec!(tensor.into_tvalue()))
+        })
+        .map_err(run_err)?;
+        outputs
+            .iter()
+            .map(|out| {
+                out.to_plain_array_view::<f32>()
+                    .map(|view| view.iter().copied().collect())
+                    .map_err(|e| InferenceError::Outputs(format!("{e}")))
+            })
+            .collect()
+    }
 }
 
 fn load_err(e: impl std::fmt::Display) -> InferenceError {
@@ -65,36 +130,11 @@ impl TractBackend {
         threads: usize,
     ) -> Result<TractBackend, InferenceError> {
         let order = output_order(&proto)?;
-        let executor = if threads > 1 {
-            Executor::multithread(threads)
-        } else {
-            Executor::SingleThread
-        };
-        let mut b = TractBackend {
-            proto,
+        Ok(TractBackend {
+            graph: TractGraph::new(proto, threads)?,
             order,
             classes,
-            plans: HashMap::new(),
-            executor,
-        };
-        // Load once now so a bad graph is refused at once, not at the first frame.
-        b.plan(1, crate::preprocess::DEFAULT_INPUT_SIZE)?;
-        Ok(b)
-    }
-
-    fn plan(&mut self, batch: usize, size: u32) -> Result<Plan, InferenceError> {
-        if let Some(p) = self.plans.get(&(batch, size)) {
-            return Ok(p.clone());
-        }
-        let s = size as usize;
-        let plan = tract_onnx::onnx()
-            .model_for_proto_model(&self.proto)
-            .and_then(|m| m.with_input_fact(0, f32::fact([batch, 3, s, s]).into()))
-            .and_then(|m| m.into_optimized())
-            .and_then(|m| m.into_runnable())
-            .map_err(load_err)?;
-        self.plans.insert((batch, size), plan.clone());
-        Ok(plan)
+        })
     }
 }
 
@@ -109,23 +149,13 @@ impl Backend for TractBackend {
         batch: usize,
         size: u32,
     ) -> Result<RawOutputs, InferenceError> {
-        super::check_input(input, batch, size)?;
-        let s = size as usize;
-        let plan = self.plan(batch, size)?;
-        let tensor = Tensor::from_shape(&[batch, 3, s, s], input).map_err(run_err)?;
-        let outputs = multithread_tract_scope(self.executor.clone(), || {
-            plan.run(tvec!(tensor.into_tvalue()))
-        })
-        .map_err(run_err)?;
-        let values = |i: usize| -> Result<Vec<f32>, InferenceError> {
-            let out = outputs
+        let outputs = self.graph.run(input, batch, size)?;
+        let values = |i: usize| -> Result<&[f32], InferenceError> {
+            outputs
                 .get(self.order[i])
-                .ok_or_else(|| InferenceError::Outputs(format!("output {i} is missing")))?;
-            let view = out
-                .to_plain_array_view::<f32>()
-                .map_err(|e| InferenceError::Outputs(format!("{e}")))?;
-            Ok(view.iter().copied().collect())
+                .map(Vec::as_slice)
+                .ok_or_else(|| InferenceError::Outputs(format!("output {i} is missing")))
         };
-        RawOutputs::from_flat(&values(0)?, &values(1)?, self.classes, &values(2)?, batch)
+        RawOutputs::from_flat(values(0)?, values(1)?, self.classes, values(2)?, batch)
     }
 }

@@ -1,0 +1,449 @@
+//! A model adapted to one sensor unit without libtorch: the network's body is kept, its three
+//! linear heads (force, shape, contact) are fitted again on the features the body gives for the
+//! unit's labelled frames, each pulled towards the head it came with by an amount chosen by
+//! cross-validation over presses (frames of one press never sit on both sides of a fold).
+//!
+//! What it reports is honest: the base heads' error on the frames (they never saw them) against
+//! the fitted heads' cross-validated error (each press predicted by heads fitted without it).
+
+pub mod head_fit;
+
+use crate::backend::tract::TractGraph;
+use crate::backend::InferenceError;
+use crate::dataset::{Sample, Source};
+use crate::eval::{for_each_batch, EvalError};
+use crate::model::Model;
+use crate::onnx_graph::features_graph;
+use crate::weights::state_dict::StateDict;
+use crate::weights::tensor::Tensor;
+use fringe_calibration::profile::Profile;
+use fringe_rig::seeded::SplitMix64;
+use head_fit::{log_loss, ridge, softmax, Head};
+use nalgebra::DMatrix;
+use std::collections::BTreeMap;
+
+/// How the heads are fitted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptConfig {
+    /// Cross-validation folds (over presses).
+    pub folds: usize,
+    /// Seed of the presses' assignment to folds.
+    pub seed: u64,
+    /// Inference threads for the features.
+    pub threads: usize,
+}
+
+impl Default for AdaptConfig {
+    fn default() -> Self {
+        AdaptConfig {
+            folds: 5,
+            seed: 42,
+            threads: 2,
+        }
+    }
+}
+
+/// The pulls towards the base heads that cross-validation chooses from, in samples' worth.
+pub const PULLS: [f64; 8] = [0.001, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0, 10000.0];
+
+/// Fewest presses to adapt on: every fold must leave presses to fit on.
+pub const MIN_PRESSES: usize = 5;
+
+/// One head's fit.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct HeadReport {
+    /// `force_head`, `class_head` or `point_head`.
+    pub head: &'static str,
+    /// What the error figures measure.
+    pub figure: &'static str,
+    /// The base head on the frames.
+    pub before: f64,
+    /// The fitted head, cross-validated.
+    pub after: f64,
+    /// The pull chosen per output (one for the shape head).
+    pub pull: Vec<f64>,
+}
+
+/// The adapted weights and how they were found.
+#[derive(Debug, Clone)]
+pub struct Adapted {
+    pub weights: StateDict,
+    pub frames: usize,
+    pub presses: usize,
+    pub heads: Vec<HeadReport>,
+}
+
+/// Why a model could not be adapted.
+#[derive(Debug, thiserror::Error)]
+pub enum AdaptError {
+    #[error(transparent)]
+    Eval(#[from] EvalError),
+    #[error(
+        "{0}: only the paper's networks can be adapted, from a weights file or an ONNX graph \
+         that holds their weights by name (`fringe model export` writes one); this is another \
+         graph or a TorchScript module"
+    )]
+    NotWeights(String),
+    #[error("{path}: {source}")]
+    Features {
+        path: String,
+        source: InferenceError,
+    },
+    #[error(
+        "{presses} presses ({frames} frames) are too few to adapt on: at least {MIN_PRESSES} \
+         presses, with contact, are needed"
+    )]
+    TooFew { presses: usize, frames: usize },
+    #[error("the {0} head could not be fitted (the features are degenerate)")]
+    Singular(&'static str),
+}
+
+/// The labelled frames' features and targets.
+struct Table {
+    features: DMatrix<f64>,
+    samples: Vec<Sample>,
+    shapes: Vec<usize>,
+    /// Fold of each frame.
+    fold: Vec<usize>,
+}
+
+/// Adapts `model`'s heads to the frames of `sources` (each preprocessed with its run's profile,
+/// else `profile`). `progress` hears (frames done, frames in all) while the features are read.
+pub fn adapt_heads(
+    model: &Model,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    config: &AdaptConfig,
+    progress: impl FnMut(usize, usize),
+) -> Result<Adapted, AdaptError> {
+    let shown = model.path.display().to_string();
+    let base = model
+        .weights()
+        .ok_or_else(|| AdaptError::NotWeights(shown.clone()))?;
+    let table = read_features(model, sources, profile, config, progress)?;
+    let presses = {
+        let mut p: Vec<&str> = table.samples.iter().map(|s| s.press.as_str()).collect();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    };
+    let in_contact = table.samples.iter().filter(|s| s.contact.is_some()).count();
+    if presses < MIN_PRESSES || in_contact == 0 {
+        return Err(AdaptError::TooFew {
+            presses,
+            frames: table.samples.len(),
+        });
+    }
+    let mut weights = base.clone();
+    let heads = vec![
+        fit_force(&table, base, &mut weights)?,
+        fit_shape(&table, base, &mut weights)?,
+        fit_contact(&table, base, &mut weights)?,
+    ];
+    Ok(Adapted {
+        weights,
+        frames: table.samples.len(),
+        presses,
+        heads,
+    })
+}
+
+/// Runs the network's body over every frame.
+fn read_features(
+    model: &Model,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    config: &AdaptConfig,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Table, AdaptError> {
+    let shown = model.path.display().to_string();
+    let proto = model
+        .onnx()
+        .ok()
+        .and_then(features_graph)
+        .ok_or_else(|| AdaptError::NotWeights(shown.clone()))?;
+    let features_err = |source| AdaptError::Features {
+        path: shown.clone(),
+        source,
+    };
+    let mut graph = TractGraph::new(proto, config.threads).map_err(features_err)?;
+    let total: usize = sources.iter().map(|s| s.samples.len()).sum();
+    let mut rows: Vec<Vec<f32>> = Vec::with_capacity(total);
+    let mut samples = Vec::with_capacity(total);
+    let mut shapes = Vec::with_capacity(total);
+    let mut failed = None;
+    for_each_batch(model, sources, profile, None, |batch| {
+        let n = batch.samples.len();
+        let read = graph
+            .run(&batch.input, n, model.input_size)
+            .and_then(|out| {
+                let flat = out.into_iter().next().unwrap_or_default();
+                if flat.is_empty() || flat.len() % n != 0 {
+                    return Err(InferenceError::Outputs(format!(
+                        "the features of {n} frames came as {} values",
+                        flat.len()
+                    )));
+                }
+                Ok(flat)
+            });
+        match read {
+            Ok(flat) => {
+                let width = flat.len() / n;
+                rows.extend(flat.chunks_exact(width).map(<[f32]>::to_vec));
+            }
+            Err(e) => {
+                failed = Some(e);
+                return Err(EvalError::Image {
+                    path: batch.samples[0].image.display().to_string(),
+                    message: "the network's features could not be read".into(),
+                });
+            }
+        }
+        samples.extend_from_slice(batch.samples);
+        shapes.extend(batch.shapes);
+        progress(samples.len(), total);
+        Ok(())
+    })
+    .map_err(|e| match failed.take() {
+        Some(source) => features_err(source),
+        None => AdaptError::Eval(e),
+    })?;
+    let width = rows.first().map_or(0, Vec::len);
+    let features = DMatrix::from_fn(rows.len(), width, |i, j| f64::from(rows[i][j]));
+    let fold = folds(&samples, config.folds.max(2), config.seed);
+    Ok(Table {
+        features,
+        samples,
+        shapes,
+        fold,
+    })
+}
+
+/// Each frame's fold: presses shuffled with `seed` and dealt round the folds.
+fn folds(samples: &[Sample], folds: usize, seed: u64) -> Vec<usize> {
+    let mut presses: Vec<&str> = samples.iter().map(|s| s.press.as_str()).collect();
+    presses.sort_unstable();
+    presses.dedup();
+    SplitMix64::new(seed).shuffle(&mut presses);
+    let of: BTreeMap<&str, usize> = presses
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (*p, i % folds))
+        .collect();
+    samples
+        .iter()
+        .map(|s| of.get(s.press.as_str()).copied().unwrap_or(0))
+        .collect()
+}
+
+/// A head of the state dict as a [`Head`].
+fn head_of(sd: &StateDict, name: &str) -> Option<Head> {
+    let w = sd.get(&format!("{name}.weight"))?;
+    let b = sd.get(&format!("{name}.bias"))?;
+    let (&out, &f) = (w.shape.first()?, w.shape.get(1)?);
+    let weight = DMatrix::from_fn(out, f, |i, j| f64::from(w.data[i * f + j]));
+    let bias = nalgebra::DVector::from_fn(out, |i, _| f64::from(b.data[i]));
+    Some(Head { weight, bias })
+}
+
+/// Writes `head` into `sd` under `name`.
+fn put_head(sd: &mut StateDict, name: &str, head: &Head) {
+    let (out, f) = head.weight.shape();
+    let w: Vec<f32> = (0..out)
+        .flat_map(|i| (0..f).map(move |j| (i, j)))
+        .map(|(i, j)| head.weight[(i, j)] as f32)
+        .collect();
+    let b: Vec<f32> = head.bias.iter().map(|&v| v as f32).collect();
+    if let (Some(w), Some(b)) = (Tensor::new(vec![out, f], w), Tensor::new(vec![out], b)) {
+        sd.insert(&format!("{name}.weight"), w);
+        sd.insert(&format!("{name}.bias"), b);
+    }
+}
+
+/// The rows of `m` at `idx`.
+fn rows_of(m: &DMatrix<f64>, idx: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(idx.len(), m.ncols(), |i, j| m[(idx[i], j)])
+}
+
+/// Ridge fits of `y` on `x` for each pull: the cross-validated squared error per output and
+/// pull, and the fit on all rows per pull.
+fn ridge_path(
+    x: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    fold: &[usize],
+    prior: &Head,
+    name: &'static str,
+) -> Result<(Vec<Vec<f64>>, Vec<Head>), AdaptError> {
+    let folds = fold.iter().copied().max().map_or(0, |m| m + 1);
+    let mut sse = vec![vec![0.0; y.ncols()]; PULLS.len()];
+    let mut fits = Vec::with_capacity(PULLS.len());
+    for (p, &pull) in PULLS.iter().enumerate() {
+        for k in 0..folds {
+            let (train, test): (Vec<usize>, Vec<usize>) =
+                (0..fold.len()).partition(|&i| fold[i] != k);
+            if train.is_empty() || test.is_empty() {
+                continue;
+            }
+            let head = ridge(&rows_of(x, &train), &rows_of(y, &train), prior, pull)
+                .ok_or(AdaptError::Singular(name))?;
+            let err = head.apply(&rows_of(x, &test)) - rows_of(y, &test);
+            for (o, col) in err.column_iter().enumerate() {
+                sse[p][o] += col.norm_squared();
+            }
+        }
+        fits.push(ridge(x, y, prior, pull).ok_or(AdaptError::Singular(name))?);
+    }
+    Ok((sse, fits))
+}
+
+/// Per output, the pull with the least cross-validated error; the head assembled from those
+/// fits, and the chosen pulls.
+fn choose_per_output(sse: &[Vec<f64>], fits: &[Head]) -> (Head, Vec<f64>, Vec<f64>) {
+    let mut head = fits[0].clone();
+    let outputs = head.outputs();
+    let best_of = |o: usize| {
+        (0..PULLS.len())
+            .min_by(|&a, &b| sse[a][o].total_cmp(&sse[b][o]))
+            .unwrap_or(0)
+    };
+    let chosen: Vec<usize> = (0..outputs).map(best_of).collect();
+    for (o, &best) in chosen.iter().enumerate() {
+        head.weight.set_row(o, &fits[best].weight.row(o));
+        head.bias[o] = fits[best].bias[o];
+    }
+    let pulls = chosen.iter().map(|&b| PULLS[b]).collect();
+    let best_sse = chosen.iter().enumerate().map(|(o, &b)| sse[b][o]).collect();
+    (head, pulls, best_sse)
+}
+
+/// The force head: [Fx Fy Fz Mx My Mz Ft] on every frame; reported as Fz RMSE, N.
+fn fit_force(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+    const NAME: &str = "force_head";
+    let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
+    let y = DMatrix::from_fn(t.samples.len(), 7, |i, j| t.samples[i].force[j]);
+    let before = (prior.apply(&t.features) - &y).column(2).norm_squared();
+    let (sse, fits) = ridge_path(&t.features, &y, &t.fold, &prior, NAME)?;
+    let (head, pull, best) = choose_per_output(&sse, &fits);
+    put_head(out, NAME, &head);
+    let n = t.samples.len() as f64;
+    Ok(HeadReport {
+        head: NAME,
+        figure: "Fz RMSE, N",
+        before: (before / n).sqrt(),
+        after: (best[2] / n).sqrt(),
+        pull,
+    })
+}
+
+/// The contact head: x, y on the frames in contact; reported as contact RMSE, mm.
+fn fit_contact(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+    const NAME: &str = "point_head";
+    let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
+    let idx: Vec<usize> = (0..t.samples.len())
+        .filter(|&i| t.samples[i].contact.is_some())
+        .collect();
+    let x = rows_of(&t.features, &idx);
+    let y = DMatrix::from_fn(idx.len(), 2, |i, j| {
+        t.samples[idx[i]].contact.map_or(0.0, |c| c[j])
+    });
+    let fold: Vec<usize> = idx.iter().map(|&i| t.fold[i]).collect();
+    let before = (prior.apply(&x) - &y).norm_squared();
+    let (sse, fits) = ridge_path(&x, &y, &fold, &prior, NAME)?;
+    let (head, pull, best) = choose_per_output(&sse, &fits);
+    put_head(out, NAME, &head);
+    let n = idx.len() as f64;
+    Ok(HeadReport {
+        head: NAME,
+        figure: "contact RMSE, mm",
+        before: (before / n).sqrt(),
+        after: (best.iter().sum::<f64>() / n).sqrt(),
+        pull,
+    })
+}
+
+/// The shape head: softmax over the classes; the pull with the least cross-validated log loss;
+/// reported as accuracy.
+fn fit_shape(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+    const NAME: &str = "class_head";
+    let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
+    let folds = t.fold.iter().copied().max().map_or(0, |m| m + 1);
+    let accuracy = |logits: &DMatrix<f64>, y: &[usize]| -> f64 {
+        let right = (0..y.len())
+            .filter(|&i| logits.row(i).transpose().argmax().0 == y[i])
+            .count();
+        right as f64 / y.len().max(1) as f64
+    };
+    let before = accuracy(&prior.apply(&t.features), &t.shapes);
+    let mut best: Option<(f64, f64, f64)> = None; // (log loss, pull, accuracy)
+    for &pull in &PULLS {
+        let mut loss = 0.0;
+        let mut right = 0.0;
+        for k in 0..folds {
+            let (train, test): (Vec<usize>, Vec<usize>) =
+                (0..t.fold.len()).partition(|&i| t.fold[i] != k);
+            if train.is_empty() || test.is_empty() {
+                continue;
+            }
+            let ys = |idx: &[usize]| idx.iter().map(|&i| t.shapes[i]).collect::<Vec<_>>();
+            let head = softmax(&rows_of(&t.features, &train), &ys(&train), &prior, pull)
+                .ok_or(AdaptError::Singular(NAME))?;
+            let logits = head.apply(&rows_of(&t.features, &test));
+            loss += log_loss(&logits, &ys(&test)) * test.len() as f64;
+            right += accuracy(&logits, &ys(&test)) * test.len() as f64;
+        }
+        let better = match best {
+            Some((l, _, _)) => loss < l,
+            None => true,
+        };
+        if better {
+            best = Some((loss, pull, right / t.shapes.len().max(1) as f64));
+        }
+    }
+    let (_, pull, after) = best.ok_or(AdaptError::Singular(NAME))?;
+    let head = softmax(&t.features, &t.shapes, &prior, pull).ok_or(AdaptError::Singular(NAME))?;
+    put_head(out, NAME, &head);
+    Ok(HeadReport {
+        head: NAME,
+        figure: "shape accuracy",
+        before,
+        after,
+        pull: vec![pull],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn sample(press: &str) -> Sample {
+        Sample {
+            image: PathBuf::from(format!("{press}.png")),
+            format: None,
+            force: [0.0; 7],
+            shape: "None".into(),
+            contact: None,
+            press: press.into(),
+            stage_mm: None,
+        }
+    }
+
+    #[test]
+    fn folds_keep_every_press_on_one_side_and_use_every_fold() {
+        let samples: Vec<Sample> = (0..40).map(|i| sample(&format!("p{}", i / 4))).collect();
+        let fold = folds(&samples, 5, 42);
+        for (a, b) in samples.iter().zip(&fold) {
+            for (c, d) in samples.iter().zip(&fold) {
+                if a.press == c.press {
+                    assert_eq!(b, d, "press {} in two folds", a.press);
+                }
+            }
+        }
+        let mut used: Vec<usize> = fold.clone();
+        used.sort_unstable();
+        used.dedup();
+        assert_eq!(used, [0, 1, 2, 3, 4]);
+        assert_eq!(fold, folds(&samples, 5, 42), "seeded");
+        assert_ne!(fold, folds(&samples, 5, 43), "another seed deals otherwise");
+    }
+}

@@ -1,0 +1,155 @@
+//! `fringe adapt --model BASE DATA... --out FILE.safetensors`: a model adapted to one sensor
+//! unit in pure Rust (no libtorch): its heads fitted again on the unit's labelled frames.
+
+use super::model::open_model;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig, Adapted};
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::model_card::ModelCard;
+use fringe_sensor_models::{write_safetensors_with_card, Model};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct AdaptArgs {
+    /// The model to start from: a weights file (.pth / .pt / .safetensors) of the paper's
+    /// networks, or `default` (the model that ships with fringe).
+    #[arg(long, default_value = "default")]
+    model: PathBuf,
+    /// The unit's labelled frames: run directories or reference-layout datasets.
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+    /// The adapted weights (.safetensors; the card is written beside them and into them).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// Calibration profile for data that carries none (reference-layout datasets).
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
+    /// Cross-validation folds over presses.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(2..=20))]
+    folds: u64,
+    /// Seed of the presses' assignment to folds.
+    #[arg(long, default_value_t = 42)]
+    seed: u64,
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
+    threads: usize,
+}
+
+pub fn run(a: AdaptArgs) -> Result<()> {
+    if a.out.extension().and_then(|e| e.to_str()) != Some("safetensors") {
+        bail!(
+            "--out {}: the adapted weights are written as safetensors: name the file *.safetensors",
+            a.out.display()
+        );
+    }
+    if a.out.exists() {
+        bail!(
+            "--out {}: the file exists; choose a new name (an adapted model never overwrites another)",
+            a.out.display()
+        );
+    }
+    let model = open_model(&a.model)?;
+    let profile = match &a.profile {
+        Some(p) => Some(Profile::load(p)?),
+        None => None,
+    };
+    let mut sources = Vec::with_capacity(a.data.len());
+    for d in &a.data {
+        let source = dataset::read(d)?;
+        if source.samples.is_empty() {
+            bail!(
+                "{}: no labelled frame to adapt on ({} left out for want of a trustworthy label)",
+                d.display(),
+                source.skipped
+            );
+        }
+        sources.push(source);
+    }
+    let config = AdaptConfig {
+        folds: a.folds as usize,
+        seed: a.seed,
+        threads: crate::cmd::arg_values::cap_threads(a.threads),
+    };
+    let tty = std::io::stderr().is_terminal();
+    let mut last = 0;
+    let adapted = adapt_heads(
+        &model,
+        &sources,
+        profile.as_ref(),
+        &config,
+        |done, total| {
+            let pct = 100 * done / total.max(1);
+            if tty {
+                eprint!("\rreading features: {done} of {total} frames ({pct} %)");
+                let _ = std::io::stderr().flush();
+            } else if pct >= last + 25 || done == total {
+                eprintln!("reading features: {done} of {total} frames ({pct} %)");
+                last = pct;
+            }
+        },
+    )?;
+    if tty {
+        eprintln!();
+    }
+    let unit = sources
+        .iter()
+        .find_map(|s| s.sensor_id.clone())
+        .or_else(|| profile.as_ref().map(|p| p.sensor_id.clone()));
+    let card = adapted_card(&model, &adapted, &a, unit.as_deref());
+    write_safetensors_with_card(&a.out, &adapted.weights, Some(&card))?;
+    let card_path = a.out.with_extension("json");
+    let text = serde_json::to_string_pretty(&card).context("the model card")?;
+    std::fs::write(&card_path, text + "\n")
+        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    println!(
+        "adapted {} ({}) on {} frames of {} presses",
+        model.path.display(),
+        model.describe(),
+        adapted.frames,
+        adapted.presses
+    );
+    for h in &adapted.heads {
+        println!(
+            "  {:<11} {}: {:.4} before, {:.4} after (cross-validated over presses)",
+            h.head, h.figure, h.before, h.after
+        );
+    }
+    println!("wrote {} and {}", a.out.display(), card_path.display());
+    Ok(())
+}
+
+/// The base model's card for the adapted weights: the unit they were adapted to, and how.
+fn adapted_card(model: &Model, adapted: &Adapted, a: &AdaptArgs, unit: Option<&str>) -> ModelCard {
+    let mut card = model.travelling_card();
+    if let Some(unit) = unit {
+        card.sensor_id = Some(unit.to_string());
+    }
+    if let Some(training) = card.other.remove("training") {
+        card.other.insert("base_training".into(), training);
+    }
+    let data: Vec<String> = a.data.iter().map(|d| shown(d)).collect();
+    card.other.insert(
+        "adaptation".into(),
+        serde_json::json!({
+            "method": "heads",
+            "about": "the network's heads fitted again on the unit's frames (pure Rust), each \
+                      pulled towards the base model's by cross-validation over presses",
+            "base": shown(&model.path),
+            "data": data,
+            "frames": adapted.frames,
+            "presses": adapted.presses,
+            "folds": a.folds,
+            "seed": a.seed,
+            "heads": adapted.heads,
+            "fringe_version": env!("CARGO_PKG_VERSION"),
+        }),
+    );
+    card
+}
+
+fn shown(p: &Path) -> String {
+    p.display().to_string()
+}
