@@ -18,11 +18,12 @@
 //! - [`adapt`]: a model adapted to one sensor unit in pure Rust (its heads fitted again on the
 //!   unit's labelled frames).
 //! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
-//!   markdown and plots.
+//!   markdown and plots; [`acceptance`]: an evaluation against a spec, with a verdict.
 //! - [`weights`]: weights by name as PyTorch's `state_dict()` holds them, and the readers of
 //!   every weights file users have (`torch.save` zip and legacy, safetensors), by content.
 #![warn(unreachable_pub)]
 
+pub mod acceptance;
 pub mod adapt;
 pub mod arch;
 pub mod augment;
