@@ -71,49 +71,102 @@ pub fn calibrate(
     spot: SpotSettings,
 ) -> Result<ScanCalibration, FromScanError> {
     let name = run.dir.display().to_string();
-    if run.background.is_empty() {
-        return Err(FromScanError::NoBackground { run: name });
-    }
-    let used = frames::spread(&run.background, max_frames);
-    let background = frames::grey_average(&used).map_err(|source| FromScanError::Frames {
-        run: name.clone(),
-        source,
-    })?;
-    let fit = optical::find_disc_in(&background).map_err(|source| FromScanError::Optical {
-        run: name.clone(),
-        source,
-    })?;
+    let (background, fit) = optical_fit(run, max_frames, &name)?;
     let drift = offsets::drift(&run.offsets);
     let offsets = run
         .offsets
         .last()
         .map(|b| ForceOffsets::from_bias(b, drift.as_ref()));
-    let frames_err = |source| FromScanError::Frames {
-        run: name.clone(),
+    let contact_bg = registration_background(run, &fit, spot, &name)?;
+    let centre = [fit.centre_x, fit.centre_y];
+    let (presses, example_press) = locate_presses(run, &contact_bg, centre, &name)?;
+    let registration = register_presses(&presses, &fit);
+    Ok(ScanCalibration {
+        background,
+        fit,
+        biases: run.offsets.clone(),
+        drift,
+        offsets,
+        presses,
+        registration,
+        example_press,
+    })
+}
+
+/// The mean of at most `max_frames` of the run's no-contact frames (spread through the run) and
+/// the optical fit of that mean; `name` names the run in errors.
+fn optical_fit(
+    run: &ScanRun,
+    max_frames: usize,
+    name: &str,
+) -> Result<(GreyImage, DiscFit), FromScanError> {
+    if run.background.is_empty() {
+        return Err(FromScanError::NoBackground {
+            run: name.to_string(),
+        });
+    }
+    let used = frames::spread(&run.background, max_frames);
+    let background = frames::grey_average(&used).map_err(|source| FromScanError::Frames {
+        run: name.to_string(),
         source,
-    };
-    let rgb = |paths: &[std::path::PathBuf]| -> Result<Vec<RgbImage>, FrameError> {
-        paths
-            .iter()
-            .map(|p| frames::read(p).map(|i| i.to_rgb8()))
-            .collect()
-    };
-    let bg_frames = rgb(&frames::spread(
+    })?;
+    let fit = optical::find_disc_in(&background).map_err(|source| FromScanError::Optical {
+        run: name.to_string(),
+        source,
+    })?;
+    Ok((background, fit))
+}
+
+/// Reads the frames at `paths` as RGB images.
+fn read_rgb(paths: &[std::path::PathBuf]) -> Result<Vec<RgbImage>, FrameError> {
+    paths
+        .iter()
+        .map(|p| frames::read(p).map(|i| i.to_rgb8()))
+        .collect()
+}
+
+/// The background for locating presses: [`REGISTRATION_BACKGROUND_FRAMES`] no-contact frames of
+/// the run within the optical fit's crop circle, with the `spot` settings.
+fn registration_background(
+    run: &ScanRun,
+    fit: &DiscFit,
+    spot: SpotSettings,
+    name: &str,
+) -> Result<ContactBackground, FromScanError> {
+    let bg_frames = read_rgb(&frames::spread(
         &run.background,
         REGISTRATION_BACKGROUND_FRAMES,
     ))
-    .map_err(frames_err)?;
+    .map_err(|source| FromScanError::Frames {
+        run: name.to_string(),
+        source,
+    })?;
     let centre = [fit.centre_x, fit.centre_y];
-    let contact_bg = ContactBackground::new(&bg_frames, centre, fit.crop_radius, fit.outside_dn)
-        .map_err(|source| FromScanError::Background {
-            run: name.clone(),
-            source,
-        })?
-        .with_settings(spot);
+    Ok(
+        ContactBackground::new(&bg_frames, centre, fit.crop_radius, fit.outside_dn)
+            .map_err(|source| FromScanError::Background {
+                run: name.to_string(),
+                source,
+            })?
+            .with_settings(spot),
+    )
+}
+
+/// Every press of the run located in its frames, and the first frame of the located press
+/// nearest `centre` (px) with its spot.
+fn locate_presses(
+    run: &ScanRun,
+    contact_bg: &ContactBackground,
+    centre: [f64; 2],
+    name: &str,
+) -> Result<(Vec<LocatedPress>, Option<(RgbImage, ContactSpot)>), FromScanError> {
     let mut presses = Vec::with_capacity(run.presses.len());
     let mut example: Option<(f64, RgbImage, ContactSpot)> = None;
     for p in &run.presses {
-        let pressed = rgb(&p.files).map_err(frames_err)?;
+        let pressed = read_rgb(&p.files).map_err(|source| FromScanError::Frames {
+            run: name.to_string(),
+            source,
+        })?;
         let spot = contact_bg.locate(&pressed);
         if let (Ok(s), Some(first)) = (&spot, pressed.first()) {
             let d = (s.u_px - centre[0]).hypot(s.v_px - centre[1]);
@@ -129,6 +182,11 @@ pub fn calibrate(
             spot,
         });
     }
+    Ok((presses, example.map(|(_, img, s)| (img, s))))
+}
+
+/// The stage-to-image registration of the located presses about the optical fit's centre.
+fn register_presses(presses: &[LocatedPress], fit: &DiscFit) -> Result<RegistrationFit, FitError> {
     let located: Vec<Press> = presses
         .iter()
         .filter_map(|p| {
@@ -139,20 +197,10 @@ pub fn calibrate(
             })
         })
         .collect();
-    let registration = register(
+    register(
         &located,
-        centre,
+        [fit.centre_x, fit.centre_y],
         [fit.sigma_x, fit.sigma_y],
         &FitSettings::default(),
-    );
-    Ok(ScanCalibration {
-        background,
-        fit,
-        biases: run.offsets.clone(),
-        drift,
-        offsets,
-        presses,
-        registration,
-        example_press: example.map(|(_, img, s)| (img, s)),
-    })
+    )
 }

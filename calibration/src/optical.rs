@@ -30,7 +30,8 @@ pub mod edges;
 pub mod grey;
 pub mod overlay;
 
-use edges::{edge_on_ray, initial_estimate, EdgePoint, Ray};
+use circle_fit::CircleFit;
+use edges::{edge_on_ray, initial_estimate, EdgePoint, Initial, Ray};
 use grey::{median_f64, GreyImage};
 
 /// Rays for the edge points.
@@ -107,6 +108,49 @@ pub fn find_disc(frames: &[GreyImage]) -> Result<DiscFit, OpticalError> {
 
 /// Finds the disc in one (averaged) grey image.
 pub fn find_disc_in(g: &GreyImage) -> Result<DiscFit, OpticalError> {
+    let (init, noise) = first_estimate(g)?;
+    let contrast = init.inside_dn - init.outside_dn;
+    let first = edge_circle(g, [init.cx, init.cy], init.r, contrast, noise, 3.0)?;
+    let c = first.fit.circle;
+    let EdgeCircle {
+        fit,
+        inliers,
+        rays,
+        angles,
+    } = edge_circle(g, [c.cx, c.cy], c.r, contrast, noise, 2.0)?;
+    let c = fit.circle;
+    let centre = [c.cx, c.cy];
+    let model = model_edge(g, &fit, &angles, &init);
+    let (radius, sigma_radius) = match model {
+        Some(m) => (m.radius, m.sigma_radius.max(fit.sigma_r)),
+        None => (c.r, fit.sigma_r),
+    };
+    let crop_radius = crop::crop_radius(g, centre, radius, contrast, noise);
+    Ok(DiscFit {
+        width: g.width,
+        height: g.height,
+        frames: g.frames,
+        centre_x: c.cx,
+        centre_y: c.cy,
+        radius,
+        sigma_x: fit.sigma_cx,
+        sigma_y: fit.sigma_cy,
+        sigma_radius,
+        edge_radius: c.r,
+        residual_rms_px: fit.rms_px,
+        inliers,
+        rays,
+        crop_radius,
+        edge_blur_px: model.map(|m| m.blur_sigma),
+        inside_dn: init.inside_dn,
+        outside_dn: init.outside_dn,
+        noise_dn: noise,
+    })
+}
+
+/// The first estimate of the disc and the image noise sigma, DN; an error when the image is too
+/// small, uniform, of too little contrast or its bright region too small for a sensor.
+fn first_estimate(g: &GreyImage) -> Result<(Initial, f64), OpticalError> {
     let no = |m: String| Err(OpticalError::NoSensor(m));
     if g.width < 16 || g.height < 16 {
         return no(format!("the image is only {}x{} px", g.width, g.height));
@@ -129,85 +173,90 @@ pub fn find_disc_in(g: &GreyImage) -> Result<DiscFit, OpticalError> {
             2.0 * init.r
         ));
     }
-    let mut centre = [init.cx, init.cy];
-    let mut r = init.r;
-    let mut last = None;
-    for pass in 0..2 {
-        let (points, rays) = edge_points(g, centre, r, contrast, noise);
-        if rays == 0 {
-            return no("no ray from the bright region's centre stays in the image".into());
-        }
-        let support = points.len() as f64 / rays as f64;
-        if support < MIN_EDGE_SUPPORT {
-            return no(format!(
-                "only {:.0} % of {rays} rays show a bright-to-dark edge (need {:.0} %)",
-                100.0 * support,
-                100.0 * MIN_EDGE_SUPPORT
-            ));
-        }
-        let xy: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
-        let range = (0.05 * min_dim, 2.0 * g.width.max(g.height) as f64);
-        let band = if pass == 0 { 3.0 } else { 2.0 };
-        let Some((fit, inliers)) = circle_fit::robust(&xy, band, 0.5, range) else {
-            return no("the edge points do not form a circle".into());
-        };
-        let n_in = inliers.iter().filter(|&&k| k).count();
-        if (n_in as f64) < MIN_INLIER_FRACTION * rays as f64 {
-            return no(format!(
-                "only {n_in} of {rays} rays lie on one circle (need {:.0} %)",
-                100.0 * MIN_INLIER_FRACTION
-            ));
-        }
-        if fit.rms_px > MAX_RESIDUAL_PX {
-            return no(format!(
-                "the edge points scatter {:.1} px RMS about the best circle (limit {MAX_RESIDUAL_PX} px)",
-                fit.rms_px
-            ));
-        }
-        centre = [fit.circle.cx, fit.circle.cy];
-        r = fit.circle.r;
-        let used: Vec<f64> = points
-            .iter()
-            .zip(&inliers)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| p.angle)
-            .collect();
-        last = Some((fit, n_in, rays, used));
+    Ok((init, noise))
+}
+
+/// The circle through the edge points about one centre estimate.
+struct EdgeCircle {
+    fit: CircleFit,
+    /// Edge points on the circle.
+    inliers: usize,
+    /// Rays inside the image.
+    rays: usize,
+    /// Angles of the rays whose edge point is on the circle, rad.
+    angles: Vec<f64>,
+}
+
+/// Edge points on rays from `centre` (about radius `r`) and the robust circle through them
+/// (RANSAC band `band` px); an error when too few rays show an edge or lie on the circle, or the
+/// points scatter too far from it.
+fn edge_circle(
+    g: &GreyImage,
+    centre: [f64; 2],
+    r: f64,
+    contrast: f64,
+    noise: f64,
+    band: f64,
+) -> Result<EdgeCircle, OpticalError> {
+    let no = |m: String| Err(OpticalError::NoSensor(m));
+    let (points, rays) = edge_points(g, centre, r, contrast, noise);
+    if rays == 0 {
+        return no("no ray from the bright region's centre stays in the image".into());
     }
-    let Some((fit, n_in, rays, angles)) = last else {
-        return no("no fit".into());
+    let support = points.len() as f64 / rays as f64;
+    if support < MIN_EDGE_SUPPORT {
+        return no(format!(
+            "only {:.0} % of {rays} rays show a bright-to-dark edge (need {:.0} %)",
+            100.0 * support,
+            100.0 * MIN_EDGE_SUPPORT
+        ));
+    }
+    let xy: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+    let min_dim = g.width.min(g.height) as f64;
+    let range = (0.05 * min_dim, 2.0 * g.width.max(g.height) as f64);
+    let Some((fit, inliers)) = circle_fit::robust(&xy, band, 0.5, range) else {
+        return no("the edge points do not form a circle".into());
     };
-    let c = fit.circle;
-    let centre = [c.cx, c.cy];
-    // Radius from the edge-profile model on the inlier rays' median profile.
-    let model = median_profile(g, centre, c.r, &angles).and_then(|samples| {
-        edge_model::fit(&samples, c.r, init.inside_dn, init.outside_dn)
-            .filter(|m| (m.radius - c.r).abs() < 8.0 && m.sigma_radius < 1.0)
-    });
-    let (radius, sigma_radius) = match model {
-        Some(m) => (m.radius, m.sigma_radius.max(fit.sigma_r)),
-        None => (c.r, fit.sigma_r),
-    };
-    let crop_radius = crop::crop_radius(g, centre, radius, contrast, noise);
-    Ok(DiscFit {
-        width: g.width,
-        height: g.height,
-        frames: g.frames,
-        centre_x: c.cx,
-        centre_y: c.cy,
-        radius,
-        sigma_x: fit.sigma_cx,
-        sigma_y: fit.sigma_cy,
-        sigma_radius,
-        edge_radius: c.r,
-        residual_rms_px: fit.rms_px,
+    let n_in = inliers.iter().filter(|&&k| k).count();
+    if (n_in as f64) < MIN_INLIER_FRACTION * rays as f64 {
+        return no(format!(
+            "only {n_in} of {rays} rays lie on one circle (need {:.0} %)",
+            100.0 * MIN_INLIER_FRACTION
+        ));
+    }
+    if fit.rms_px > MAX_RESIDUAL_PX {
+        return no(format!(
+            "the edge points scatter {:.1} px RMS about the best circle (limit {MAX_RESIDUAL_PX} px)",
+            fit.rms_px
+        ));
+    }
+    let angles: Vec<f64> = points
+        .iter()
+        .zip(&inliers)
+        .filter(|(_, &k)| k)
+        .map(|(p, _)| p.angle)
+        .collect();
+    Ok(EdgeCircle {
+        fit,
         inliers: n_in,
         rays,
-        crop_radius,
-        edge_blur_px: model.map(|m| m.blur_sigma),
-        inside_dn: init.inside_dn,
-        outside_dn: init.outside_dn,
-        noise_dn: noise,
+        angles,
+    })
+}
+
+/// The edge-profile model fitted to the median profile of the rays at `angles` about the circle
+/// of `fit`; `None` when it fails or disagrees with the circle (8 px or more apart, or a radius
+/// sigma of 1 px or more).
+fn model_edge(
+    g: &GreyImage,
+    fit: &CircleFit,
+    angles: &[f64],
+    init: &Initial,
+) -> Option<edge_model::EdgeModelFit> {
+    let c = fit.circle;
+    median_profile(g, [c.cx, c.cy], c.r, angles).and_then(|samples| {
+        edge_model::fit(&samples, c.r, init.inside_dn, init.outside_dn)
+            .filter(|m| (m.radius - c.r).abs() < 8.0 && m.sigma_radius < 1.0)
     })
 }
 

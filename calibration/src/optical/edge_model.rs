@@ -54,67 +54,22 @@ pub fn fit(
     if n < 12 {
         return None;
     }
-    let peak = samples
-        .iter()
-        .filter(|(r, _)| (r - r_start).abs() < 6.0)
-        .map(|&(_, v)| v)
-        .fold(f64::MIN, f64::max);
-    let mut p = vec![
-        r_start,
-        1.5,
-        inside - outside,
-        (peak - inside).max(1.0),
-        5.0,
-        outside,
-        0.0,
-    ];
+    let mut p = start(samples, r_start, inside, outside);
     let m = p.len();
-    let cost = |p: &[f64]| -> f64 {
-        samples
-            .iter()
-            .map(|&(r, v)| (model(p, r) - v).powi(2))
-            .sum()
-    };
     let mut lambda = 1e-3;
-    let mut current = cost(&p);
+    let mut current = cost(samples, &p);
     let mut jtj = DMatrix::<f64>::zeros(m, m);
     for _ in 0..200 {
-        let mut jac = DMatrix::<f64>::zeros(n, m);
-        let mut res = DVector::<f64>::zeros(n);
-        for (i, &(r, v)) in samples.iter().enumerate() {
-            let f0 = model(&p, r);
-            res[i] = v - f0;
-            for k in 0..m {
-                let h = 1e-6 * p[k].abs().max(1e-3);
-                let mut q = p.clone();
-                q[k] += h;
-                jac[(i, k)] = (model(&q, r) - f0) / h;
-            }
-        }
+        let (jac, res) = linearise(samples, &p);
         jtj = jac.transpose() * &jac;
         let jtr = jac.transpose() * &res;
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut a = jtj.clone();
-            for k in 0..m {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-9);
-            }
-            let Some(step) = a.lu().solve(&jtr) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let q: Vec<f64> = p.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            let c = cost(&q);
-            if c.is_finite() && c < current {
-                let gain = current - c;
-                p = q;
-                current = c;
-                lambda = (lambda * 0.3).max(1e-9);
-                improved = gain > 1e-12 * current.max(1e-12);
-                break;
-            }
-            lambda *= 10.0;
-        }
+        let Some((q, c)) = damped_step(samples, &p, &jtj, &jtr, current, &mut lambda) else {
+            break;
+        };
+        let gain = current - c;
+        p = q;
+        current = c;
+        let improved = gain > 1e-12 * current.max(1e-12);
         if !improved {
             break;
         }
@@ -127,6 +82,83 @@ pub fn fit(
         sigma_radius,
         blur_sigma: p[1].abs(),
     })
+}
+
+/// Starting parameters: the edge at `r_start`, 1.5 px blur, the step between the class levels,
+/// the ring from the highest sample within 6 px of `r_start` (5 px wide), no inside slope.
+fn start(samples: &[(f64, f64)], r_start: f64, inside: f64, outside: f64) -> Vec<f64> {
+    let peak = samples
+        .iter()
+        .filter(|(r, _)| (r - r_start).abs() < 6.0)
+        .map(|&(_, v)| v)
+        .fold(f64::MIN, f64::max);
+    vec![
+        r_start,
+        1.5,
+        inside - outside,
+        (peak - inside).max(1.0),
+        5.0,
+        outside,
+        0.0,
+    ]
+}
+
+/// Sum of squared differences between the model with `p` and the samples.
+fn cost(samples: &[(f64, f64)], p: &[f64]) -> f64 {
+    samples
+        .iter()
+        .map(|&(r, v)| (model(p, r) - v).powi(2))
+        .sum()
+}
+
+/// The model's Jacobian in the parameters at `p` (forward differences) and the residuals
+/// (sample minus model), one row per sample.
+fn linearise(samples: &[(f64, f64)], p: &[f64]) -> (DMatrix<f64>, DVector<f64>) {
+    let (n, m) = (samples.len(), p.len());
+    let mut jac = DMatrix::<f64>::zeros(n, m);
+    let mut res = DVector::<f64>::zeros(n);
+    for (i, &(r, v)) in samples.iter().enumerate() {
+        let f0 = model(p, r);
+        res[i] = v - f0;
+        for k in 0..m {
+            let h = 1e-6 * p[k].abs().max(1e-3);
+            let mut q = p.to_vec();
+            q[k] += h;
+            jac[(i, k)] = (model(&q, r) - f0) / h;
+        }
+    }
+    (jac, res)
+}
+
+/// One Levenberg-Marquardt step from `p`: the damping `lambda` raised tenfold until the cost
+/// falls below `current` (at most 12 tries), then eased by 0.3. The new parameters and their
+/// cost; `None` when no try lowered it.
+fn damped_step(
+    samples: &[(f64, f64)],
+    p: &[f64],
+    jtj: &DMatrix<f64>,
+    jtr: &DVector<f64>,
+    current: f64,
+    lambda: &mut f64,
+) -> Option<(Vec<f64>, f64)> {
+    for _ in 0..12 {
+        let mut a = jtj.clone();
+        for k in 0..p.len() {
+            a[(k, k)] += *lambda * jtj[(k, k)].max(1e-9);
+        }
+        let Some(step) = a.lu().solve(jtr) else {
+            *lambda *= 10.0;
+            continue;
+        };
+        let q: Vec<f64> = p.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+        let c = cost(samples, &q);
+        if c.is_finite() && c < current {
+            *lambda = (*lambda * 0.3).max(1e-9);
+            return Some((q, c));
+        }
+        *lambda *= 10.0;
+    }
+    None
 }
 
 #[cfg(test)]

@@ -211,6 +211,87 @@ fn robust_sigma(v: &mut [f64]) -> f64 {
     crate::optical::grey::median_f64(v) / 0.6745
 }
 
+/// The bins of `bg` (from frames of `size` px) whose centre lies inside the crop circle; an
+/// error for a crop circle that is not finite and positive or holds fewer than 400 bins.
+fn crop_bins(
+    bg: &Binned,
+    size: (u32, u32),
+    centre_px: [f64; 2],
+    crop_radius_px: f64,
+) -> Result<Vec<usize>, ContactError> {
+    let bad_crop = || ContactError::BadCrop {
+        cu: centre_px[0],
+        cv: centre_px[1],
+        radius: crop_radius_px,
+        w: size.0,
+        h: size.1,
+    };
+    let crop_ok = crop_radius_px.is_finite()
+        && crop_radius_px > 0.0
+        && centre_px.iter().all(|c| c.is_finite());
+    if !crop_ok {
+        return Err(bad_crop());
+    }
+    let mut inside = Vec::new();
+    for bj in 0..bg.bh {
+        for bi in 0..bg.bw {
+            let [u, v] = bin_centre(bi, bj);
+            if (u - centre_px[0]).hypot(v - centre_px[1]) <= crop_radius_px {
+                inside.push(bj * bg.bw + bi);
+            }
+        }
+    }
+    if inside.len() < 400 {
+        return Err(bad_crop());
+    }
+    Ok(inside)
+}
+
+/// Per-channel noise of one binned frame from two or more `frames`: the robust spread of each
+/// frame's bins (every third of `inside`) about their mean `bg`, DN.
+fn noise_between_frames(
+    frames: &[RgbImage],
+    bg: &Binned,
+    inside: &[usize],
+    size: (u32, u32),
+) -> Result<[f64; 3], ContactError> {
+    let mut bin_noise_dn = [0.0; 3];
+    let n = frames.len() as f64;
+    let mut dev: [Vec<f64>; 3] = Default::default();
+    for f in frames {
+        let one = bin_frames(std::slice::from_ref(f), "no-contact background", size)?;
+        for (c, d) in dev.iter_mut().enumerate() {
+            d.extend(
+                inside
+                    .iter()
+                    .step_by(3)
+                    .map(|&k| f64::from(one.ch[c][k] - bg.ch[c][k])),
+            );
+        }
+    }
+    for c in 0..3 {
+        // Deviations from the mean of n frames have variance (n - 1) / n of a frame's.
+        bin_noise_dn[c] = robust_sigma(&mut dev[c]) * (n / (n - 1.0)).sqrt();
+    }
+    Ok(bin_noise_dn)
+}
+
+/// Per-channel noise of one binned frame from a single frame `bg`: the robust spread of the
+/// differences between horizontally neighbouring bins of `inside`, DN.
+fn noise_between_neighbours(bg: &Binned, inside: &[usize]) -> [f64; 3] {
+    let bw = bg.bw;
+    let mut bin_noise_dn = [0.0; 3];
+    for (c, noise) in bin_noise_dn.iter_mut().enumerate() {
+        let mut d: Vec<f64> = inside
+            .iter()
+            .filter(|&&k| k % bw + 1 < bw)
+            .map(|&k| f64::from(bg.ch[c][k + 1] - bg.ch[c][k]))
+            .collect();
+        *noise = robust_sigma(&mut d) / std::f64::consts::SQRT_2;
+    }
+    bin_noise_dn
+}
+
 /// The unloaded sensor, prepared for locating presses: the mean of no-contact frames, binned,
 /// its noise, the relative illumination and the usable crop circle from the optical fit.
 #[derive(Debug, Clone)]
@@ -296,64 +377,12 @@ impl ContactBackground {
             .map(|f| f.dimensions())
             .ok_or(ContactError::NoFrames("no-contact background"))?;
         let bg = bin_frames(frames, "no-contact background", size)?;
-        let (bw, bh) = (bg.bw, bg.bh);
-        let bad_crop = || ContactError::BadCrop {
-            cu: centre_px[0],
-            cv: centre_px[1],
-            radius: crop_radius_px,
-            w: size.0,
-            h: size.1,
-        };
-        let crop_ok = crop_radius_px.is_finite()
-            && crop_radius_px > 0.0
-            && centre_px.iter().all(|c| c.is_finite());
-        if !crop_ok {
-            return Err(bad_crop());
-        }
-        let mut inside = Vec::new();
-        for bj in 0..bh {
-            for bi in 0..bw {
-                let [u, v] = bin_centre(bi, bj);
-                if (u - centre_px[0]).hypot(v - centre_px[1]) <= crop_radius_px {
-                    inside.push(bj * bw + bi);
-                }
-            }
-        }
-        if inside.len() < 400 {
-            return Err(bad_crop());
-        }
-
-        // Noise of one binned frame, per channel.
-        let mut bin_noise_dn = [0.0; 3];
-        if frames.len() >= 2 {
-            let n = frames.len() as f64;
-            let mut dev: [Vec<f64>; 3] = Default::default();
-            for f in frames {
-                let one = bin_frames(std::slice::from_ref(f), "no-contact background", size)?;
-                for (c, d) in dev.iter_mut().enumerate() {
-                    d.extend(
-                        inside
-                            .iter()
-                            .step_by(3)
-                            .map(|&k| f64::from(one.ch[c][k] - bg.ch[c][k])),
-                    );
-                }
-            }
-            for c in 0..3 {
-                // Deviations from the mean of n frames have variance (n - 1) / n of a frame's.
-                bin_noise_dn[c] = robust_sigma(&mut dev[c]) * (n / (n - 1.0)).sqrt();
-            }
+        let inside = crop_bins(&bg, size, centre_px, crop_radius_px)?;
+        let bin_noise_dn = if frames.len() >= 2 {
+            noise_between_frames(frames, &bg, &inside, size)?
         } else {
-            for (c, noise) in bin_noise_dn.iter_mut().enumerate() {
-                let mut d: Vec<f64> = inside
-                    .iter()
-                    .filter(|&&k| k % bw + 1 < bw)
-                    .map(|&k| f64::from(bg.ch[c][k + 1] - bg.ch[c][k]))
-                    .collect();
-                *noise = robust_sigma(&mut d) / std::f64::consts::SQRT_2;
-            }
-        }
-
+            noise_between_neighbours(&bg, &inside)
+        };
         let illumination = illumination_surface(&bg, &inside, centre_px, crop_radius_px, dark_dn)?;
         Ok(ContactBackground {
             width: size.0,
@@ -395,16 +424,31 @@ impl ContactBackground {
         Ok(img)
     }
 
+    /// The pattern in the mean of `pressed`: per bin the colour difference (or its gradient)
+    /// above the threshold over the relative illumination, and its map for the outline.
     fn pattern(&self, pressed: &[RgbImage]) -> Result<Pattern, ContactError> {
         let p = bin_frames(pressed, "pressed frames", (self.width, self.height))?;
-        let bw = self.bg.bw;
         let noise_scale = (1.0 / pressed.len() as f64 + 1.0 / self.frames as f64).sqrt();
         let sig: [f64; 3] = std::array::from_fn(|c| self.bin_noise_dn[c] * noise_scale);
         let sigma_rms = ((sig[0] * sig[0] + sig[1] * sig[1] + sig[2] * sig[2]) / 3.0).sqrt();
         let threshold = THRESHOLD_SIGMAS * sigma_rms;
+        let diff = self.fitted_difference(&p, sigma_rms);
+        let grid = self.difference_grid(&diff);
+        let (weights, above_total) = self.weights(&diff, &grid, threshold, sigma_rms);
+        let map = self.outline_map(&diff, &grid);
+        Ok(Pattern {
+            weights,
+            above_total,
+            sigma_rms,
+            map,
+        })
+    }
 
-        // Gain and offset per channel: first an offset from the median difference (robust to the
-        // pattern covering less than half the crop), then least squares away from the pattern.
+    /// Per channel and bin of `inside`, the pressed frame `p` minus the background with its
+    /// gain and offset fitted: first an offset from the median difference (robust to the
+    /// pattern covering less than half the crop), then least squares away from the pattern,
+    /// three times.
+    fn fitted_difference(&self, p: &Binned, sigma_rms: f64) -> [Vec<f32>; 3] {
         let mut diff: [Vec<f32>; 3] = std::array::from_fn(|c| {
             let mut d: Vec<f64> = self
                 .inside
@@ -418,16 +462,7 @@ impl ContactBackground {
                 .collect()
         });
         for _ in 0..3 {
-            let mut mags: Vec<f64> = (0..self.inside.len())
-                .map(|n| magnitude(&diff, n))
-                .collect();
-            let median = crate::optical::grey::median_f64(&mut mags.clone());
-            let cut = (3.0 * sigma_rms).max(median);
-            let above: Vec<bool> = mags.iter_mut().map(|m| *m > cut).collect();
-            let mut use_bin = dilate_exclusion(&self.inside, &above, bw, self.bg.bh, 4);
-            if use_bin.iter().filter(|&&u| u).count() < self.inside.len() / 4 {
-                use_bin = above.iter().map(|&a| !a).collect();
-            }
+            let use_bin = self.gain_fit_bins(&diff, sigma_rms);
             for (c, d) in diff.iter_mut().enumerate() {
                 let (g, o) = gain_offset(&self.bg.ch[c], &p.ch[c], &self.inside, &use_bin);
                 *d = self
@@ -437,26 +472,58 @@ impl ContactBackground {
                     .collect();
             }
         }
+        diff
+    }
 
-        // Weights: colour difference (or its gradient) above the threshold over the relative
-        // illumination.
-        let mut grid: [Vec<f32>; 3] = std::array::from_fn(|_| vec![f32::NAN; bw * self.bg.bh]);
+    /// Bins of `inside` for the gain fit: those more than 4 bins from any whose difference
+    /// magnitude exceeds both 3 noise sigmas and the median (or, when that leaves fewer than a
+    /// quarter, just those not above it).
+    fn gain_fit_bins(&self, diff: &[Vec<f32>; 3], sigma_rms: f64) -> Vec<bool> {
+        let mags: Vec<f64> = (0..self.inside.len()).map(|n| magnitude(diff, n)).collect();
+        let median = crate::optical::grey::median_f64(&mut mags.clone());
+        let cut = (3.0 * sigma_rms).max(median);
+        let above: Vec<bool> = mags.iter().map(|m| *m > cut).collect();
+        let use_bin = dilate_exclusion(&self.inside, &above, self.bg.bw, self.bg.bh, 4);
+        if use_bin.iter().filter(|&&u| u).count() < self.inside.len() / 4 {
+            return above.iter().map(|&a| !a).collect();
+        }
+        use_bin
+    }
+
+    /// The difference of `inside`'s bins laid out on the full bin grid (NaN outside the crop).
+    fn difference_grid(&self, diff: &[Vec<f32>; 3]) -> [Vec<f32>; 3] {
+        let mut grid: [Vec<f32>; 3] =
+            std::array::from_fn(|_| vec![f32::NAN; self.bg.bw * self.bg.bh]);
         for (n, &k) in self.inside.iter().enumerate() {
             for c in 0..3 {
                 grid[c][k] = diff[c][n];
             }
         }
+        grid
+    }
+
+    /// The pattern's weights: colour difference (or its gradient) above `threshold` over the
+    /// relative illumination, (u px, v px, weight, weight noise) per bin; and the number of
+    /// bins whose colour difference is above the threshold.
+    fn weights(
+        &self,
+        diff: &[Vec<f32>; 3],
+        grid: &[Vec<f32>; 3],
+        threshold: f64,
+        sigma_rms: f64,
+    ) -> (Vec<(f64, f64, f64, f64)>, usize) {
+        let bw = self.bg.bw;
         let mut weights = Vec::new(); // (u, v, weight, weight noise)
         let mut above_total = 0usize;
         for (n, &k) in self.inside.iter().enumerate() {
-            let e = magnitude(&diff, n);
+            let e = magnitude(diff, n);
             if e > threshold {
                 above_total += 1;
             }
             let ill = f64::from(self.illumination[k]);
             let [u, v] = bin_centre(k % bw, k / bw);
             if self.settings.gradient {
-                let Some(g) = gradient(&grid, k, bw, self.bg.bh) else {
+                let Some(g) = gradient(grid, k, bw, self.bg.bh) else {
                     continue;
                 };
                 // NaN (a neighbour outside the crop) fails the comparison.
@@ -468,25 +535,27 @@ impl ContactBackground {
                 weights.push((u, v, (e - threshold) / ill, sigma_rms / ill));
             }
         }
+        (weights, above_total)
+    }
+
+    /// The colour difference magnitude (or its gradient) over the relative illumination per
+    /// bin, NaN outside the crop circle: the map the outline refinement samples.
+    fn outline_map(&self, diff: &[Vec<f32>; 3], grid: &[Vec<f32>; 3]) -> Vec<f32> {
+        let bw = self.bg.bw;
         let mut map = vec![f32::NAN; bw * self.bg.bh];
         for (n, &k) in self.inside.iter().enumerate() {
             let ill = f64::from(self.illumination[k]);
             let value = if self.settings.gradient {
-                let Some(g) = gradient(&grid, k, bw, self.bg.bh) else {
+                let Some(g) = gradient(grid, k, bw, self.bg.bh) else {
                     continue;
                 };
                 g
             } else {
-                magnitude(&diff, n)
+                magnitude(diff, n)
             };
             map[k] = (value / ill) as f32;
         }
-        Ok(Pattern {
-            weights,
-            above_total,
-            sigma_rms,
-            map,
-        })
+        map
     }
 
     /// Locates the contact in the mean of `pressed` (frames of one dwell).
@@ -497,109 +566,22 @@ impl ContactBackground {
             sigma_rms,
             map,
         } = self.pattern(pressed)?;
-        let no_contact = |bins: usize| ContactError::NoContact {
-            bins,
-            need: MIN_SPOT_BINS,
-            bin: BIN_PX,
-            sigmas: THRESHOLD_SIGMAS,
-            noise_dn: sigma_rms,
-        };
         if above_total < MIN_SPOT_BINS {
-            return Err(no_contact(above_total));
+            return Err(no_contact(above_total, sigma_rms));
         }
-
-        // Seed: the densest spot (weight smoothed over a 5 mm-ish box), then the window.
-        let seed = densest(&weights, 80.0);
-        let r90 = radius_holding(&weights, seed, 0.9);
-        let mut window = WINDOW_OVER_R90 * r90;
-        let mut c = seed;
-        for _ in 0..3 {
-            c = iterate_centroid(&weights, c, window);
-            let r90_now = radius_holding_within(&weights, c, 0.9, window);
-            window = WINDOW_OVER_R90 * r90_now.max(2.0 * BIN_PX as f64);
-        }
+        let (c, window) = settle_window(&weights);
         let r50 = radius_holding_within(&weights, c, 0.5, window);
         let r90 = radius_holding_within(&weights, c, 0.9, window);
-        let mut room =
-            self.crop_radius_px - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1]);
-        if room < window {
-            for _ in 0..3 {
-                room = self.crop_radius_px
-                    - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1]);
-                if room < r50.max(2.0 * BIN_PX as f64) {
-                    break;
-                }
-                window = room;
-                c = iterate_centroid(&weights, c, window);
-            }
-            room = self.crop_radius_px - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1]);
-            if room < r50.max(2.0 * BIN_PX as f64) {
-                return Err(ContactError::NearCropEdge {
-                    u: c[0],
-                    v: c[1],
-                    room: room.max(0.0),
-                    need: r50,
-                    limit: self.crop_radius_px - r50,
-                });
-            }
-            window = window.min(room);
-        }
-
-        // Statistics in the final window.
-        let (mut sw, mut su, mut sv, mut vu, mut vv, mut noise2, mut bins) =
-            (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0usize);
-        for &(u, v, w, s) in &weights {
-            let t = taper((u - c[0]).hypot(v - c[1]), window);
-            if t <= 0.0 {
-                continue;
-            }
-            bins += 1;
-            sw += t * w;
-            su += t * w * u;
-            sv += t * w * v;
-            noise2 += t * t * s * s;
-        }
+        let (c, window) = self.fit_window_in_crop(&weights, c, window, r50)?;
+        let sums = WindowSums::new(&weights, c, window);
+        let (sw, noise2, bins) = (sums.sw, sums.noise2, sums.bins);
         if bins < MIN_SPOT_BINS || sw <= 0.0 {
-            return Err(no_contact(bins));
+            return Err(no_contact(bins, sigma_rms));
         }
-        let (mut cu, mut cv) = (su / sw, sv / sw);
-        for &(u, v, _, s) in &weights {
-            let t = taper((u - cu).hypot(v - cv), window);
-            vu += (t * s * (u - cu)).powi(2);
-            vv += (t * s * (v - cv)).powi(2);
-        }
+        let (mut cu, mut cv) = (sums.su / sw, sums.sv / sw);
+        let [mut vu, mut vv] = centroid_variance(&weights, [cu, cv], window);
         if self.settings.boundary_level > 0.0 {
-            let mut c = [cu, cv];
-            let mut spread = [0.0, 0.0];
-            let mut cut = 1.0;
-            for _ in 0..4 {
-                let Some(o) = boundary_centre(
-                    &map,
-                    self.bg.bw,
-                    self.bg.bh,
-                    c,
-                    window,
-                    self.settings.boundary_level,
-                    self.settings.outermost,
-                ) else {
-                    cut = 1.0;
-                    break;
-                };
-                c = o.centre;
-                spread = o.half_diff;
-                cut = o.cut_fraction;
-            }
-            if cut > MAX_CUT_RAYS {
-                let room = self.crop_radius_px
-                    - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1]);
-                return Err(ContactError::OutlineCut {
-                    u: c[0],
-                    v: c[1],
-                    percent: 100.0 * cut,
-                    window,
-                    room: room.max(0.0),
-                });
-            }
+            let (c, spread) = self.outline_centre(&map, [cu, cv], window)?;
             cu = c[0];
             cv = c[1];
             // Sigma from the two halves of the rays (even and odd) as well as the noise.
@@ -618,6 +600,165 @@ impl ContactBackground {
             frames: pressed.len(),
         })
     }
+
+    /// Room between `c` (px) and the crop edge, px (negative outside the crop circle).
+    fn room(&self, c: [f64; 2]) -> f64 {
+        self.crop_radius_px - (c[0] - self.centre_px[0]).hypot(c[1] - self.centre_px[1])
+    }
+
+    /// The centroid `c` and its `window` shrunk to fit inside the crop circle (the centroid
+    /// iterated in each smaller window); [`ContactError::NearCropEdge`] when that leaves less
+    /// room than the radius `r50` holding half the pattern.
+    fn fit_window_in_crop(
+        &self,
+        weights: &[(f64, f64, f64, f64)],
+        mut c: [f64; 2],
+        mut window: f64,
+        r50: f64,
+    ) -> Result<([f64; 2], f64), ContactError> {
+        let mut room = self.room(c);
+        if room < window {
+            for _ in 0..3 {
+                room = self.room(c);
+                if room < r50.max(2.0 * BIN_PX as f64) {
+                    break;
+                }
+                window = room;
+                c = iterate_centroid(weights, c, window);
+            }
+            room = self.room(c);
+            if room < r50.max(2.0 * BIN_PX as f64) {
+                return Err(ContactError::NearCropEdge {
+                    u: c[0],
+                    v: c[1],
+                    room: room.max(0.0),
+                    need: r50,
+                    limit: self.crop_radius_px - r50,
+                });
+            }
+            window = window.min(room);
+        }
+        Ok((c, window))
+    }
+
+    /// The centre of the pattern's outline about `start` in `window` (4 iterations of
+    /// [`boundary_centre`]) and the half difference of its even and odd rays per axis, px;
+    /// [`ContactError::OutlineCut`] when more than [`MAX_CUT_RAYS`] of the rays are cut.
+    fn outline_centre(
+        &self,
+        map: &[f32],
+        start: [f64; 2],
+        window: f64,
+    ) -> Result<([f64; 2], [f64; 2]), ContactError> {
+        let mut c = start;
+        let mut spread = [0.0, 0.0];
+        let mut cut = 1.0;
+        for _ in 0..4 {
+            let Some(o) = boundary_centre(
+                map,
+                self.bg.bw,
+                self.bg.bh,
+                c,
+                window,
+                self.settings.boundary_level,
+                self.settings.outermost,
+            ) else {
+                cut = 1.0;
+                break;
+            };
+            c = o.centre;
+            spread = o.half_diff;
+            cut = o.cut_fraction;
+        }
+        if cut > MAX_CUT_RAYS {
+            return Err(ContactError::OutlineCut {
+                u: c[0],
+                v: c[1],
+                percent: 100.0 * cut,
+                window,
+                room: self.room(c).max(0.0),
+            });
+        }
+        Ok((c, spread))
+    }
+}
+
+/// [`ContactError::NoContact`] for `bins` bins above the threshold at noise `noise_dn`.
+fn no_contact(bins: usize, noise_dn: f64) -> ContactError {
+    ContactError::NoContact {
+        bins,
+        need: MIN_SPOT_BINS,
+        bin: BIN_PX,
+        sigmas: THRESHOLD_SIGMAS,
+        noise_dn,
+    }
+}
+
+/// The centroid window: seeded at the densest spot (weight over an 80 px box) with
+/// [`WINDOW_OVER_R90`] times the radius holding 90 % of all the weight, then three times the
+/// centroid iterated in it and the window re-set from the weight within it. (centre, window) px.
+fn settle_window(weights: &[(f64, f64, f64, f64)]) -> ([f64; 2], f64) {
+    let seed = densest(weights, 80.0);
+    let r90 = radius_holding(weights, seed, 0.9);
+    let mut window = WINDOW_OVER_R90 * r90;
+    let mut c = seed;
+    for _ in 0..3 {
+        c = iterate_centroid(weights, c, window);
+        let r90_now = radius_holding_within(weights, c, 0.9, window);
+        window = WINDOW_OVER_R90 * r90_now.max(2.0 * BIN_PX as f64);
+    }
+    (c, window)
+}
+
+/// The sums over the weights in a tapered window.
+struct WindowSums {
+    /// Summed tapered weight.
+    sw: f64,
+    /// Summed tapered weight times u and v, px.
+    su: f64,
+    sv: f64,
+    /// Summed variance of the tapered weights.
+    noise2: f64,
+    /// Bins inside the window.
+    bins: usize,
+}
+
+impl WindowSums {
+    /// The sums over `weights` in the taper of `window` about `c`.
+    fn new(weights: &[(f64, f64, f64, f64)], c: [f64; 2], window: f64) -> WindowSums {
+        let (mut sw, mut su, mut sv, mut noise2, mut bins) = (0.0, 0.0, 0.0, 0.0, 0usize);
+        for &(u, v, w, s) in weights {
+            let t = taper((u - c[0]).hypot(v - c[1]), window);
+            if t <= 0.0 {
+                continue;
+            }
+            bins += 1;
+            sw += t * w;
+            su += t * w * u;
+            sv += t * w * v;
+            noise2 += t * t * s * s;
+        }
+        WindowSums {
+            sw,
+            su,
+            sv,
+            noise2,
+            bins,
+        }
+    }
+}
+
+/// The noise variance of the centroid `c` per axis, times the summed weight squared: the
+/// weights' noise, tapered by `window` about `c`, times their distance from it.
+fn centroid_variance(weights: &[(f64, f64, f64, f64)], c: [f64; 2], window: f64) -> [f64; 2] {
+    let (cu, cv) = (c[0], c[1]);
+    let (mut vu, mut vv) = (0.0, 0.0);
+    for &(u, v, _, s) in weights {
+        let t = taper((u - cu).hypot(v - cv), window);
+        vu += (t * s * (u - cu)).powi(2);
+        vv += (t * s * (v - cv)).powi(2);
+    }
+    [vu, vv]
 }
 
 /// Bins above the threshold: (u px, v px, weight, weight noise).
@@ -663,8 +804,9 @@ fn sample(map: &[f32], bw: usize, bh: usize, u: f64, v: f64) -> f64 {
     top + (bottom - top) * fy
 }
 
-/// The centre of the pattern's outline: along rays from `c`, the outermost radius (within
-/// `window`) where the profile falls to `level` times the ray's own peak; the area centroid
+/// The centre of the pattern's outline: along rays from `c`, the radius (within `window`) where
+/// the profile falls to `level` times the ray's own peak (the outermost such fall, or the first
+/// beyond the peak: [`fall_on_ray`]); the area centroid
 /// of the polygon through those points. A smooth change of the pattern's strength across it
 /// (sensitivity varying with the residual birefringence, uneven light) scales each ray's
 /// profile and leaves that radius in place. `None` when fewer than half of the rays find the
@@ -699,52 +841,67 @@ fn boundary_centre(
                 )
             })
             .collect();
-        let (mut peak, mut at_peak) = (f64::MIN, 0);
-        for (k, &p) in prof.iter().enumerate() {
-            if p.is_finite() && p > peak {
-                peak = p;
-                at_peak = k;
+        let found = fall_on_ray(&prof, level, outermost).map(|at| {
+            let rad = step * at;
+            if rad > 0.9 * window {
+                outer += 1;
             }
-        }
-        let target = level * peak;
-        // Outermost: walk inwards from the window's edge to the first sample at or above the
-        // level (dark fringes inside the pattern do not end it); otherwise walk outwards from the
-        // peak to the first fall below it (rings further out do not extend it). Samples outside
-        // the crop circle (NaN) on the way mean the pattern may go on beyond: no point.
-        let mut found = None;
-        let mut crossing = |k: usize| -> bool {
-            let (a, b) = (prof[k], prof[k + 1]);
-            if a.is_finite() && b.is_finite() && a >= target && b < target {
-                let f = (a - target) / (a - b);
-                let rad = step * (k as f64 + f);
-                if rad > 0.9 * window {
-                    outer += 1;
-                }
-                found = Some([c[0] + dx * rad, c[1] + dy * rad]);
-                return true;
-            }
-            false
-        };
-        if outermost {
-            for k in (at_peak..n_steps).rev() {
-                if !prof[k + 1].is_finite() || crossing(k) {
-                    break;
-                }
-            }
-        } else {
-            for k in at_peak..n_steps {
-                if !prof[k + 1].is_finite() || crossing(k) {
-                    break;
-                }
-            }
-        }
+            [c[0] + dx * rad, c[1] + dy * rad]
+        });
         pts.push(found);
     }
+    outline_of(&pts, outer)
+}
+
+/// Where the profile `prof` (samples along a ray) falls to `level` times its peak, in samples
+/// from its start (linear between samples). Outermost: walking inwards from the window's edge
+/// to the first sample at or above the level (dark fringes inside the pattern do not end it);
+/// otherwise walking outwards from the peak to the first fall below it (rings further out do
+/// not extend it). Samples outside the crop circle (NaN) on the way mean the pattern may go on
+/// beyond: `None`.
+fn fall_on_ray(prof: &[f64], level: f64, outermost: bool) -> Option<f64> {
+    let n_steps = prof.len() - 1;
+    let (mut peak, mut at_peak) = (f64::MIN, 0);
+    for (k, &p) in prof.iter().enumerate() {
+        if p.is_finite() && p > peak {
+            peak = p;
+            at_peak = k;
+        }
+    }
+    let target = level * peak;
+    if outermost {
+        first_crossing(prof, target, (at_peak..n_steps).rev())
+    } else {
+        first_crossing(prof, target, at_peak..n_steps)
+    }
+}
+
+/// The first step `k` of `steps` where `prof` falls from at or above `target` at `k` to below
+/// it at `k + 1`, as `k` plus the fraction of the step; `None` at a non-finite sample at `k + 1`
+/// first, or when no step crosses.
+fn first_crossing(prof: &[f64], target: f64, steps: impl Iterator<Item = usize>) -> Option<f64> {
+    for k in steps {
+        if !prof[k + 1].is_finite() {
+            return None;
+        }
+        let (a, b) = (prof[k], prof[k + 1]);
+        if a.is_finite() && b.is_finite() && a >= target && b < target {
+            let f = (a - target) / (a - b);
+            return Some(k as f64 + f);
+        }
+    }
+    None
+}
+
+/// The outline from its points on [`BOUNDARY_RAYS`] rays (`None` where a ray found none), of
+/// which `outer` lie beyond 0.9 of the window: the centroids of all, even and odd rays'
+/// polygons (missing rays skipped, the polygon joining their neighbours). `None` when fewer
+/// than half of the rays found the outline or a polygon is degenerate.
+fn outline_of(pts: &[Option<[f64; 2]>], outer: usize) -> Option<Outline> {
     let ok = pts.iter().filter(|p| p.is_some()).count();
     if (ok as f64) < 0.5 * BOUNDARY_RAYS as f64 {
         return None;
     }
-    // Missing rays: skipped (the polygon joins their neighbours).
     let poly = |sel: &dyn Fn(usize) -> bool| -> Option<[f64; 2]> {
         let p: Vec<[f64; 2]> = pts
             .iter()
@@ -866,77 +1023,23 @@ fn illumination_surface(
     crop: f64,
     dark_dn: f64,
 ) -> Result<Vec<f32>, ContactError> {
-    let bw = bg.bw;
-    let terms = |x: f64, y: f64| -> Vec<f64> {
-        let mut t = Vec::new();
-        for d in 0..=ILLUMINATION_DEGREE {
-            for i in 0..=d {
-                t.push(x.powi((d - i) as i32) * y.powi(i as i32));
-            }
-        }
-        t
+    let b = Brightness {
+        bg,
+        centre,
+        crop,
+        dark_dn,
     };
-    let n_terms = (ILLUMINATION_DEGREE + 1) * (ILLUMINATION_DEGREE + 2) / 2;
-    let grey = |k: usize| {
-        (f64::from(bg.ch[0][k]) + f64::from(bg.ch[1][k]) + f64::from(bg.ch[2][k])) / 3.0 - dark_dn
-    };
-    let mean = inside.iter().map(|&k| grey(k)).sum::<f64>() / inside.len() as f64;
+    let mean = inside.iter().map(|&k| b.grey(k)).sum::<f64>() / inside.len() as f64;
     if mean.is_nan() || mean <= 1.0 {
         return Err(ContactError::Dark { mean_dn: mean });
     }
-    let xy = |k: usize| {
-        let [u, v] = bin_centre(k % bw, k / bw);
-        ((u - centre[0]) / crop, (v - centre[1]) / crop)
-    };
     let mut keep = vec![true; inside.len()];
-    let mut coef = nalgebra::DVector::<f64>::zeros(n_terms);
+    let mut coef = nalgebra::DVector::<f64>::zeros(ILLUMINATION_TERMS);
     for _ in 0..2 {
-        let mut ata = nalgebra::DMatrix::<f64>::zeros(n_terms, n_terms);
-        let mut atb = nalgebra::DVector::<f64>::zeros(n_terms);
-        for (&k, _) in inside.iter().zip(&keep).filter(|(_, &q)| q) {
-            let (x, y) = xy(k);
-            let t = terms(x, y);
-            let g = grey(k);
-            for a in 0..n_terms {
-                atb[a] += t[a] * g;
-                for b in a..n_terms {
-                    ata[(a, b)] += t[a] * t[b];
-                }
-            }
-        }
-        for a in 0..n_terms {
-            for b in 0..a {
-                ata[(a, b)] = ata[(b, a)];
-            }
-        }
-        coef = match ata.cholesky() {
-            Some(ch) => ch.solve(&atb),
-            None => return Err(ContactError::Dark { mean_dn: mean }),
-        };
-        // Drop specks (dust, hot pixels) beyond 4 robust sigmas and refit.
-        let res: Vec<f64> = inside
-            .iter()
-            .map(|&k| {
-                let (x, y) = xy(k);
-                grey(k)
-                    - terms(x, y)
-                        .iter()
-                        .zip(coef.iter())
-                        .map(|(a, b)| a * b)
-                        .sum::<f64>()
-            })
-            .collect();
-        let s = robust_sigma(&mut res.clone());
-        keep = res.iter().map(|r| r.abs() <= 4.0 * s.max(1e-6)).collect();
+        coef = fit_surface(&b, inside, &keep).ok_or(ContactError::Dark { mean_dn: mean })?;
+        keep = without_specks(&b, inside, &coef);
     }
-    let at = |x: f64, y: f64| {
-        terms(x, y)
-            .iter()
-            .zip(coef.iter())
-            .map(|(a, b)| a * b)
-            .sum::<f64>()
-    };
-    let centre_level = at(0.0, 0.0);
+    let centre_level = surface_at(&coef, 0.0, 0.0);
     if centre_level.is_nan() || centre_level <= 1.0 {
         return Err(ContactError::Dark {
             mean_dn: centre_level,
@@ -944,10 +1047,99 @@ fn illumination_surface(
     }
     let mut out = vec![0f32; bg.ch[0].len()];
     for &k in inside {
-        let (x, y) = xy(k);
-        out[k] = (at(x, y) / centre_level).max(0.05) as f32;
+        let (x, y) = b.xy(k);
+        out[k] = (surface_at(&coef, x, y) / centre_level).max(0.05) as f32;
     }
     Ok(out)
+}
+
+/// Terms of the illumination surface.
+const ILLUMINATION_TERMS: usize = (ILLUMINATION_DEGREE + 1) * (ILLUMINATION_DEGREE + 2) / 2;
+
+/// The background's brightness as the illumination surface is fitted to it.
+struct Brightness<'a> {
+    bg: &'a Binned,
+    /// Optical centre, px.
+    centre: [f64; 2],
+    /// Crop radius, px.
+    crop: f64,
+    dark_dn: f64,
+}
+
+impl Brightness<'_> {
+    /// Mean of the channels minus the dark level at bin `k`, DN.
+    fn grey(&self, k: usize) -> f64 {
+        let ch = &self.bg.ch;
+        (f64::from(ch[0][k]) + f64::from(ch[1][k]) + f64::from(ch[2][k])) / 3.0 - self.dark_dn
+    }
+
+    /// Position of bin `k` relative to the centre, in crop radii.
+    fn xy(&self, k: usize) -> (f64, f64) {
+        let [u, v] = bin_centre(k % self.bg.bw, k / self.bg.bw);
+        (
+            (u - self.centre[0]) / self.crop,
+            (v - self.centre[1]) / self.crop,
+        )
+    }
+}
+
+/// The monomials x^(d-i) y^i of the surface, by degree d up to [`ILLUMINATION_DEGREE`].
+fn surface_terms(x: f64, y: f64) -> Vec<f64> {
+    let mut t = Vec::new();
+    for d in 0..=ILLUMINATION_DEGREE {
+        for i in 0..=d {
+            t.push(x.powi((d - i) as i32) * y.powi(i as i32));
+        }
+    }
+    t
+}
+
+/// The surface with coefficients `coef` at (x, y) (crop radii).
+fn surface_at(coef: &nalgebra::DVector<f64>, x: f64, y: f64) -> f64 {
+    surface_terms(x, y)
+        .iter()
+        .zip(coef.iter())
+        .map(|(a, b)| a * b)
+        .sum::<f64>()
+}
+
+/// Least-squares coefficients of the surface over the kept bins of `inside` (normal equations,
+/// Cholesky); `None` when they are singular.
+fn fit_surface(b: &Brightness, inside: &[usize], keep: &[bool]) -> Option<nalgebra::DVector<f64>> {
+    let n_terms = ILLUMINATION_TERMS;
+    let mut ata = nalgebra::DMatrix::<f64>::zeros(n_terms, n_terms);
+    let mut atb = nalgebra::DVector::<f64>::zeros(n_terms);
+    for (&k, _) in inside.iter().zip(keep).filter(|(_, &q)| q) {
+        let (x, y) = b.xy(k);
+        let t = surface_terms(x, y);
+        let g = b.grey(k);
+        for a in 0..n_terms {
+            atb[a] += t[a] * g;
+            for c in a..n_terms {
+                ata[(a, c)] += t[a] * t[c];
+            }
+        }
+    }
+    for a in 0..n_terms {
+        for c in 0..a {
+            ata[(a, c)] = ata[(c, a)];
+        }
+    }
+    Some(ata.cholesky()?.solve(&atb))
+}
+
+/// Bins of `inside` to keep for the next fit: all but specks (dust, hot pixels) beyond 4
+/// robust sigmas of the residuals from the surface `coef`.
+fn without_specks(b: &Brightness, inside: &[usize], coef: &nalgebra::DVector<f64>) -> Vec<bool> {
+    let res: Vec<f64> = inside
+        .iter()
+        .map(|&k| {
+            let (x, y) = b.xy(k);
+            b.grey(k) - surface_at(coef, x, y)
+        })
+        .collect();
+    let s = robust_sigma(&mut res.clone());
+    res.iter().map(|r| r.abs() <= 4.0 * s.max(1e-6)).collect()
 }
 
 /// Window weight at distance `r` from the centre: 1 inside 0.8 R, a cosine taper to 0 at R.

@@ -15,6 +15,14 @@ use image::{Rgb, RgbImage};
 pub const PLOT_PX: u32 = 720;
 const MARGIN: f64 = 70.0;
 const FONT_SCALE: i64 = 3;
+/// Residual plot colours: text, frame and press dots;
+const BLACK: [u8; 3] = [0, 0, 0];
+/// grid lines;
+const GREY: [u8; 3] = [215, 215, 215];
+/// inlier vectors and the scale bar;
+const INLIER_COLOUR: [u8; 3] = [30, 70, 200];
+/// outlier vectors.
+const OUTLIER_COLOUR: [u8; 3] = [210, 30, 30];
 
 /// Sets pixel (x, y) if it lies in the image.
 fn put(img: &mut RgbImage, x: i64, y: i64, colour: [u8; 3]) {
@@ -201,63 +209,106 @@ fn fmt_round(x: f64) -> String {
 /// `fit.residuals`).
 pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
     let mut img = RgbImage::from_pixel(PLOT_PX, PLOT_PX, Rgb([255, 255, 255]));
-    let black = [0, 0, 0];
-    let grey = [215, 215, 215];
     let n = stage_mm.len().min(fit.residuals.len());
     let pts = &stage_mm[..n];
     if n == 0 {
-        text(&mut img, 20, 20, FONT_SCALE, "no presses", black);
+        text(&mut img, 20, 20, FONT_SCALE, "no presses", BLACK);
         return img;
     }
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for p in pts {
-        x0 = x0.min(p[0]);
-        x1 = x1.max(p[0]);
-        y0 = y0.min(p[1]);
-        y1 = y1.max(p[1]);
-    }
-    let span = (x1 - x0).max(y1 - y0).max(1.0);
-    let pad = 0.15 * span;
-    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-    let half = 0.5 * span + pad;
-    let inner = f64::from(PLOT_PX) - 2.0 * MARGIN;
-    let px_per_mm = inner / (2.0 * half);
-    let to_plot = |x: f64, y: f64| -> [f64; 2] {
-        [
-            MARGIN + (x - (cx - half)) * px_per_mm,
-            MARGIN + ((cy + half) - y) * px_per_mm,
-        ]
-    };
+    let frame = PlotFrame::around(pts);
+    draw_axes(&mut img, &frame);
+    let vectors = ResidualVectors::new(fit, pts, frame.span);
+    draw_residuals(&mut img, &frame, fit, pts, &vectors);
+    draw_header(&mut img, &frame, fit, n, vectors.scale);
+    img
+}
 
-    // Grid and tick labels every round number of mm.
+/// The square of stage mm shown on the plot and its mapping to plot px.
+struct PlotFrame {
+    /// Largest extent of the presses, mm (at least 1).
+    span: f64,
+    /// Centre of the presses' bounding box, mm.
+    cx: f64,
+    cy: f64,
+    /// Half the side of the shown square, mm.
+    half: f64,
+    /// Side of the plotting area inside the margins, px.
+    inner: f64,
+    px_per_mm: f64,
+}
+
+impl PlotFrame {
+    /// The square about the bounding box of `pts`, padded by 15 % of its span on each side.
+    fn around(pts: &[[f64; 2]]) -> PlotFrame {
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in pts {
+            x0 = x0.min(p[0]);
+            x1 = x1.max(p[0]);
+            y0 = y0.min(p[1]);
+            y1 = y1.max(p[1]);
+        }
+        let span = (x1 - x0).max(y1 - y0).max(1.0);
+        let pad = 0.15 * span;
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        let half = 0.5 * span + pad;
+        let inner = f64::from(PLOT_PX) - 2.0 * MARGIN;
+        let px_per_mm = inner / (2.0 * half);
+        PlotFrame {
+            span,
+            cx,
+            cy,
+            half,
+            inner,
+            px_per_mm,
+        }
+    }
+
+    /// Plot px of the stage point (x, y) mm.
+    fn to_plot(&self, x: f64, y: f64) -> [f64; 2] {
+        [
+            MARGIN + (x - (self.cx - self.half)) * self.px_per_mm,
+            MARGIN + ((self.cy + self.half) - y) * self.px_per_mm,
+        ]
+    }
+}
+
+/// Draws the grid with tick labels every round number of mm, the frame box and the axis names.
+fn draw_axes(img: &mut RgbImage, frame: &PlotFrame) {
+    let PlotFrame {
+        cx,
+        cy,
+        half,
+        inner,
+        ..
+    } = *frame;
     let step = round_down_125(2.0 * half / 4.0);
     let mut t = ((cx - half) / step).ceil() * step;
     while t <= cx + half + 1e-9 {
-        let [u, _] = to_plot(t, cy);
-        line(&mut img, [u, MARGIN], [u, MARGIN + inner], grey);
+        let [u, _] = frame.to_plot(t, cy);
+        line(img, [u, MARGIN], [u, MARGIN + inner], GREY);
         let label = fmt_round_signed(t);
         text(
-            &mut img,
+            img,
             u as i64 - text_width(&label, 2) / 2,
             (MARGIN + inner + 8.0) as i64,
             2,
             &label,
-            black,
+            BLACK,
         );
         t += step;
     }
     let mut t = ((cy - half) / step).ceil() * step;
     while t <= cy + half + 1e-9 {
-        let [_, v] = to_plot(cx, t);
-        line(&mut img, [MARGIN, v], [MARGIN + inner, v], grey);
+        let [_, v] = frame.to_plot(cx, t);
+        line(img, [MARGIN, v], [MARGIN + inner, v], GREY);
         let label = fmt_round_signed(t);
         text(
-            &mut img,
+            img,
             MARGIN as i64 - 8 - text_width(&label, 2),
             v as i64 - 5,
             2,
             &label,
-            black,
+            BLACK,
         );
         t += step;
     }
@@ -268,32 +319,59 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
         [MARGIN, MARGIN + inner],
     ];
     for k in 0..4 {
-        line(&mut img, box_corners[k], box_corners[(k + 1) % 4], black);
+        line(img, box_corners[k], box_corners[(k + 1) % 4], BLACK);
     }
     text(
-        &mut img,
+        img,
         (MARGIN + inner / 2.0) as i64 - text_width("stage x mm", 2) / 2,
         (MARGIN + inner + 30.0) as i64,
         2,
         "stage x mm",
-        black,
+        BLACK,
     );
-    text(&mut img, 6, (MARGIN - 24.0) as i64, 2, "stage y mm", black);
+    text(img, 6, (MARGIN - 24.0) as i64, 2, "stage y mm", BLACK);
+}
 
-    // Residual vectors in the stage frame, mm.
-    let res_mm: Vec<[f64; 2]> = fit.residuals[..n]
-        .iter()
-        .map(|r| fit.px_to_stage_vector(r.residual_px))
-        .collect();
-    // The scale follows the inliers; an outlier's vector is capped and labelled with its length.
-    let any_inlier = fit.residuals[..n].iter().any(|r| !r.outlier);
-    let longest = res_mm
-        .iter()
-        .zip(&fit.residuals[..n])
-        .filter(|(_, r)| !any_inlier || !r.outlier)
-        .map(|(v, _)| v[0].hypot(v[1]))
-        .fold(0.0f64, f64::max);
-    // Spacing: the smallest distance between two presses (or the span for one press).
+/// The presses' residual vectors in the stage frame and the factor they are drawn at.
+struct ResidualVectors {
+    /// Per press, seen minus predicted turned back into the stage frame, mm.
+    mm: Vec<[f64; 2]>,
+    /// The smallest distance between two presses (or the span for one press), mm.
+    spacing: f64,
+    /// Drawing factor: round, the longest inlier vector about a third of the spacing.
+    scale: f64,
+}
+
+impl ResidualVectors {
+    /// The vectors of `fit`'s residuals at `pts` (one per residual); `span` as in [`PlotFrame`].
+    fn new(fit: &SimilarityFit, pts: &[[f64; 2]], span: f64) -> ResidualVectors {
+        let n = pts.len();
+        let mm: Vec<[f64; 2]> = fit.residuals[..n]
+            .iter()
+            .map(|r| fit.px_to_stage_vector(r.residual_px))
+            .collect();
+        // The scale follows the inliers; an outlier's vector is capped and labelled with its
+        // length.
+        let any_inlier = fit.residuals[..n].iter().any(|r| !r.outlier);
+        let longest = mm
+            .iter()
+            .zip(&fit.residuals[..n])
+            .filter(|(_, r)| !any_inlier || !r.outlier)
+            .map(|(v, _)| v[0].hypot(v[1]))
+            .fold(0.0f64, f64::max);
+        let spacing = smallest_spacing(pts, span);
+        let scale = if longest > 0.0 {
+            round_down_125((0.35 * spacing / longest).max(1e-9))
+        } else {
+            1.0
+        };
+        ResidualVectors { mm, spacing, scale }
+    }
+}
+
+/// The smallest distance between two distinct points of `pts` (`span` if there is none).
+fn smallest_spacing(pts: &[[f64; 2]], span: f64) -> f64 {
+    let n = pts.len();
     let mut spacing = span;
     for i in 0..n {
         for j in i + 1..n {
@@ -303,44 +381,48 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
             }
         }
     }
-    let scale = if longest > 0.0 {
-        round_down_125((0.35 * spacing / longest).max(1e-9))
-    } else {
-        1.0
-    };
+    spacing
+}
+
+/// Draws each press as a black dot with its scaled residual vector (blue for inliers; red,
+/// circled and capped at 0.45 of the spacing with its length written, for outliers).
+fn draw_residuals(
+    img: &mut RgbImage,
+    frame: &PlotFrame,
+    fit: &SimilarityFit,
+    pts: &[[f64; 2]],
+    vectors: &ResidualVectors,
+) {
+    let scale = vectors.scale;
     for (k, p) in pts.iter().enumerate() {
         let outlier = fit.residuals[k].outlier;
         let colour = if outlier {
-            [210, 30, 30]
+            OUTLIER_COLOUR
         } else {
-            [30, 70, 200]
+            INLIER_COLOUR
         };
-        let a = to_plot(p[0], p[1]);
-        let mut d = [scale * res_mm[k][0], scale * res_mm[k][1]];
+        let a = frame.to_plot(p[0], p[1]);
+        let mut d = [scale * vectors.mm[k][0], scale * vectors.mm[k][1]];
         let len = d[0].hypot(d[1]);
-        let cap = 0.45 * spacing;
+        let cap = 0.45 * vectors.spacing;
         if len > cap {
             d = [d[0] * cap / len, d[1] * cap / len];
             let label = format!("{:.1} px", fit.residuals[k].length_px());
-            text(
-                &mut img,
-                a[0] as i64 + 12,
-                a[1] as i64 + 12,
-                2,
-                &label,
-                colour,
-            );
+            text(img, a[0] as i64 + 12, a[1] as i64 + 12, 2, &label, colour);
         }
-        let b = to_plot(p[0] + d[0], p[1] + d[1]);
-        thick_line(&mut img, a, b, 2, colour);
-        dot(&mut img, b, 2.0, colour);
-        dot(&mut img, a, 4.0, black);
+        let b = frame.to_plot(p[0] + d[0], p[1] + d[1]);
+        thick_line(img, a, b, 2, colour);
+        dot(img, b, 2.0, colour);
+        dot(img, a, 4.0, BLACK);
         if outlier {
-            circle(&mut img, a, 9.0, colour);
+            circle(img, a, 9.0, colour);
         }
     }
+}
 
-    // Header: scale factor, RMS and a residual bar.
+/// Writes the header (drawing factor, RMS residual, presses used) and draws a bar of a round
+/// number of residual px at that factor.
+fn draw_header(img: &mut RgbImage, frame: &PlotFrame, fit: &SimilarityFit, n: usize, scale: f64) {
     let head = format!(
         "residuals x{}   rms {:.3} px   {} of {} presses",
         fmt_round(scale),
@@ -348,7 +430,8 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
         fit.inliers,
         n
     );
-    text(&mut img, MARGIN as i64, 14, 2, &head, black);
+    text(img, MARGIN as i64, 14, 2, &head, BLACK);
+    let (inner, px_per_mm) = (frame.inner, frame.px_per_mm);
     let bar_px_residual = if fit.px_per_mm > 0.0 {
         // A round residual (px) whose bar is at most a quarter of the plot.
         round_down_125((0.25 * inner / px_per_mm / scale * fit.px_per_mm).max(1e-9))
@@ -357,17 +440,16 @@ pub fn residual_plot(fit: &SimilarityFit, stage_mm: &[[f64; 2]]) -> RgbImage {
     };
     let bar_len = bar_px_residual / fit.px_per_mm.max(1e-12) * scale * px_per_mm;
     let (bx, by) = (MARGIN + inner - bar_len - 10.0, MARGIN - 14.0);
-    thick_line(&mut img, [bx, by], [bx + bar_len, by], 3, [30, 70, 200]);
+    thick_line(img, [bx, by], [bx + bar_len, by], 3, INLIER_COLOUR);
     let label = format!("{} px", fmt_round(bar_px_residual));
     text(
-        &mut img,
+        img,
         (bx - 10.0) as i64 - text_width(&label, 2),
         by as i64 - 5,
         2,
         &label,
-        black,
+        BLACK,
     );
-    img
 }
 
 fn fmt_round_signed(x: f64) -> String {

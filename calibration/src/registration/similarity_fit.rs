@@ -217,17 +217,7 @@ pub fn fit_similarity(
     presses: &[Press],
     settings: &FitSettings,
 ) -> Result<SimilarityFit, FitError> {
-    if presses.len() < 3 {
-        return Err(FitError::TooFew(presses.len()));
-    }
-    for (index, p) in presses.iter().enumerate() {
-        let ok = p.stage_mm.iter().chain(&p.pixel).all(|v| v.is_finite())
-            && p.sigma_px.is_finite()
-            && p.sigma_px >= 0.0;
-        if !ok {
-            return Err(FitError::NotFinite { index });
-        }
-    }
+    check_presses(presses)?;
     let mut use_press = vec![true; presses.len()];
     let (minor, major) = spread(presses, &use_press);
     if major <= 0.0 {
@@ -244,49 +234,111 @@ pub fn fit_similarity(
 
     // Mirror on all presses first (an outlier inflates both choices alike).
     let mirror = decide_mirror(presses, &use_press, mean_sigma2, settings)?.0;
+    drop_outliers(presses, &mut use_press, mirror, mean_sigma2, settings);
 
-    // Outliers under that choice.
+    let (mirror, chosen, other) = decide_mirror(presses, &use_press, mean_sigma2, settings)?;
+    similarity_of(
+        presses,
+        &use_press,
+        mirror,
+        &chosen,
+        &other,
+        mean_sigma2,
+        settings,
+    )
+}
+
+/// At least 3 presses, each with finite positions and a finite, non-negative sigma.
+fn check_presses(presses: &[Press]) -> Result<(), FitError> {
+    if presses.len() < 3 {
+        return Err(FitError::TooFew(presses.len()));
+    }
+    for (index, p) in presses.iter().enumerate() {
+        let ok = p.stage_mm.iter().chain(&p.pixel).all(|v| v.is_finite())
+            && p.sigma_px.is_finite()
+            && p.sigma_px >= 0.0;
+        if !ok {
+            return Err(FitError::NotFinite { index });
+        }
+    }
+    Ok(())
+}
+
+/// Clears `use_press` for outliers under `mirror`, one at a time (the press most beyond its
+/// expected leave-one-out error), while 5 or more are used and the rest would not be collinear.
+fn drop_outliers(
+    presses: &[Press],
+    use_press: &mut [bool],
+    mirror: bool,
+    mean_sigma2: f64,
+    settings: &FitSettings,
+) {
     loop {
         let n_used = use_press.iter().filter(|&&u| u).count();
         if n_used < 5 {
             break;
         }
-        // (press, leave-one-out error / its expected size)
-        let mut worst: Option<(usize, f64, f64)> = None;
-        for i in (0..presses.len()).filter(|&i| use_press[i]) {
-            let mut others = use_press.clone();
-            others[i] = false;
-            let Some(s) = solve(presses, &others, mirror) else {
-                continue;
-            };
-            let [u, v] = predict(mirror, &s.params, presses[i].stage_mm);
-            let err = (presses[i].pixel[0] - u).hypot(presses[i].pixel[1] - v);
-            let s2 = noise_var(s.rss, n_used - 1, mean_sigma2, settings.noise_floor_px);
-            let ratio = err / (2.0 * s2).sqrt();
-            let better = match worst {
-                None => true,
-                Some(w) => ratio > w.1,
-            };
-            if better {
-                worst = Some((i, ratio, err));
-            }
-        }
-        let Some((worst, ratio, err)) = worst else {
+        let Some((worst, ratio, err)) =
+            worst_left_out(presses, use_press, mirror, mean_sigma2, settings)
+        else {
             break;
         };
         if ratio <= settings.outlier_factor || err <= settings.min_outlier_px {
             break;
         }
         use_press[worst] = false;
-        let (minor, major) = spread(presses, &use_press);
+        let (minor, major) = spread(presses, use_press);
         if minor < settings.min_spread_ratio * major {
             // Dropping it would leave a line: keep it.
             use_press[worst] = true;
             break;
         }
     }
+}
 
-    let (mirror, chosen, other) = decide_mirror(presses, &use_press, mean_sigma2, settings)?;
+/// The used press whose prediction from the fit of the other used presses is worst against its
+/// expected size: (press, error / expected size, error px).
+fn worst_left_out(
+    presses: &[Press],
+    use_press: &[bool],
+    mirror: bool,
+    mean_sigma2: f64,
+    settings: &FitSettings,
+) -> Option<(usize, f64, f64)> {
+    let n_used = use_press.iter().filter(|&&u| u).count();
+    let mut worst: Option<(usize, f64, f64)> = None;
+    for i in (0..presses.len()).filter(|&i| use_press[i]) {
+        let mut others = use_press.to_vec();
+        others[i] = false;
+        let Some(s) = solve(presses, &others, mirror) else {
+            continue;
+        };
+        let [u, v] = predict(mirror, &s.params, presses[i].stage_mm);
+        let err = (presses[i].pixel[0] - u).hypot(presses[i].pixel[1] - v);
+        let s2 = noise_var(s.rss, n_used - 1, mean_sigma2, settings.noise_floor_px);
+        let ratio = err / (2.0 * s2).sqrt();
+        let better = match worst {
+            None => true,
+            Some(w) => ratio > w.1,
+        };
+        if better {
+            worst = Some((i, ratio, err));
+        }
+    }
+    worst
+}
+
+/// The fit from the `chosen` mirror's solution over the used presses (`other`: the other
+/// mirror's): scale, rotation and their sigmas, residuals of every press.
+fn similarity_of(
+    presses: &[Press],
+    use_press: &[bool],
+    mirror: bool,
+    chosen: &Solved,
+    other: &Solved,
+    mean_sigma2: f64,
+    settings: &FitSettings,
+) -> Result<SimilarityFit, FitError> {
     let n = use_press.iter().filter(|&&u| u).count();
     let s2 = noise_var(chosen.rss, n, mean_sigma2, settings.noise_floor_px);
     let covariance = chosen.inverse * s2;
@@ -302,17 +354,6 @@ pub fn fit_similarity(
     let jt = Vector4::new(-p[1] / (k * k), p[0] / (k * k), 0.0, 0.0);
     let var_k = (jk.transpose() * covariance * jk)[0];
     let var_t = (jt.transpose() * covariance * jt)[0];
-    let residuals: Vec<PressResidual> = presses
-        .iter()
-        .zip(&use_press)
-        .map(|(pr, &used)| {
-            let [u, v] = predict(mirror, &p, pr.stage_mm);
-            PressResidual {
-                residual_px: [pr.pixel[0] - u, pr.pixel[1] - v],
-                outlier: !used,
-            }
-        })
-        .collect();
     Ok(SimilarityFit {
         px_per_mm: k,
         sigma_px_per_mm: var_k.max(0.0).sqrt(),
@@ -320,7 +361,7 @@ pub fn fit_similarity(
         sigma_rotation_deg: var_t.max(0.0).sqrt().to_degrees(),
         mirror,
         offset_px: [p[2], -p[3]],
-        residuals,
+        residuals: press_residuals(presses, use_press, mirror, &p),
         residual_rms_px: (chosen.rss / n as f64).sqrt(),
         inliers: n,
         other_mirror_rms_px: (other.rss / n as f64).sqrt(),
@@ -328,6 +369,26 @@ pub fn fit_similarity(
         covariance,
         params: p,
     })
+}
+
+/// Each press's residual under `params`, flagged as an outlier when not used.
+fn press_residuals(
+    presses: &[Press],
+    use_press: &[bool],
+    mirror: bool,
+    params: &Vector4<f64>,
+) -> Vec<PressResidual> {
+    presses
+        .iter()
+        .zip(use_press)
+        .map(|(pr, &used)| {
+            let [u, v] = predict(mirror, params, pr.stage_mm);
+            PressResidual {
+                residual_px: [pr.pixel[0] - u, pr.pixel[1] - v],
+                outlier: !used,
+            }
+        })
+        .collect()
 }
 
 /// (mirror, chosen, other) over the used presses; an error when the choice is not decisive.
