@@ -172,90 +172,122 @@ pub fn read_labels(path: &Path) -> Result<Vec<(u64, LabelRow)>, LabelsError> {
     };
     let mut reader = csv::Reader::from_path(path).map_err(|e| err(0, e.to_string()))?;
     let headers = reader.headers().map_err(|e| err(1, e.to_string()))?.clone();
-    // Every column but Ft, in COLUMNS order.
-    let needed: Vec<&str> = COLUMNS.iter().copied().filter(|c| *c != "Ft").collect();
-    let mut cols = Vec::with_capacity(needed.len());
-    for name in &needed {
-        let at = headers
-            .iter()
-            .position(|h| h.trim() == *name)
-            .ok_or_else(|| {
-                err(
-                    1,
-                    format!(
-                        "no column {name} (the reference layout has New_Image_Name, Fx .. Ft, \
-                     X_Position_mm, Y_Position_mm, Indentor_Shape)"
-                    ),
-                )
-            })?;
-        cols.push(at);
-    }
+    let columns = LabelColumns::find(&headers).map_err(|m| err(1, m))?;
     let mut rows = Vec::new();
     for (k, record) in reader.records().enumerate() {
         let line = k as u64 + 2;
         let record = record.map_err(|e| err(line, e.to_string()))?;
-        let field = |i: usize| record.get(cols[i]).unwrap_or("").trim();
-        let num = |i: usize| -> Result<f64, LabelsError> {
-            let text = field(i);
-            if text.is_empty() || text.eq_ignore_ascii_case("nan") {
-                return Ok(f64::NAN);
-            }
-            text.parse::<f64>()
-                .map_err(|_| err(line, format!("{} = {text:?} is not a number", needed[i])))
-        };
-        let wrench = [num(1)?, num(2)?, num(3)?, num(4)?, num(5)?, num(6)?];
-        if wrench.iter().any(|v| !v.is_finite()) {
-            return Err(err(line, "a force or moment is missing".into()));
-        }
-        if let Some((i, v)) = wrench.iter().enumerate().find(|(_, v)| v.abs() > MAX_LABEL) {
-            return Err(err(
-                line,
-                format!(
-                    "{} = {v:e} is beyond {MAX_LABEL:e} (N or N m): not a reading of a force \
-                     sensor; fix or remove the row",
-                    needed[i + 1]
-                ),
-            ));
-        }
-        let (x, y) = (num(7)?, num(8)?);
-        let contact = (x.is_finite() && y.is_finite()).then_some([x, y]);
-        let shape = Shape::parse(field(9));
-        if contact.is_none() && shape != Shape::NoContact && in_contact(Newtons(wrench[2])) {
-            return Err(err(
-                line,
-                format!(
-                    "Fz = {} N presses a {} but the row has no contact position \
-                     (X_Position_mm, Y_Position_mm): give it, or mark the row Indentor_Shape None",
-                    wrench[2],
-                    shape.as_str()
-                ),
-            ));
-        }
-        let image = field(0);
-        let plain = !image.is_empty()
-            && Path::new(image)
-                .components()
-                .all(|c| matches!(c, Component::Normal(_)));
-        if !plain {
-            return Err(err(
-                line,
-                format!(
-                    "New_Image_Name = {image:?} is not a file name inside {IMAGES}/ (no absolute \
-                     path, no `..`): a dataset holds its own images"
-                ),
-            ));
-        }
-        rows.push((
-            line,
-            LabelRow {
-                image: image.to_string(),
-                wrench,
-                contact,
-                shape,
-            },
-        ));
+        let row = columns.row(&record).map_err(|m| err(line, m))?;
+        rows.push((line, row));
     }
     Ok(rows)
+}
+
+/// Where a labels file has the columns it is read by: every column but Ft, in [`COLUMNS`]
+/// order.
+struct LabelColumns {
+    /// The columns' names.
+    names: Vec<&'static str>,
+    /// Each column's position in the file.
+    at: Vec<usize>,
+}
+
+impl LabelColumns {
+    /// Finds every column but Ft by name among `headers`.
+    fn find(headers: &csv::StringRecord) -> Result<LabelColumns, String> {
+        let names: Vec<&'static str> = COLUMNS.iter().copied().filter(|c| *c != "Ft").collect();
+        let mut at = Vec::with_capacity(names.len());
+        for name in &names {
+            let position = headers
+                .iter()
+                .position(|h| h.trim() == *name)
+                .ok_or_else(|| {
+                    format!(
+                        "no column {name} (the reference layout has New_Image_Name, Fx .. Ft, \
+                     X_Position_mm, Y_Position_mm, Indentor_Shape)"
+                    )
+                })?;
+            at.push(position);
+        }
+        Ok(LabelColumns { names, at })
+    }
+
+    /// Field `i` of `record`, trimmed; empty when the row is short.
+    fn field<'r>(&self, record: &'r csv::StringRecord, i: usize) -> &'r str {
+        record.get(self.at[i]).unwrap_or("").trim()
+    }
+
+    /// Field `i` of `record` as a number; NaN when it is empty or `nan`.
+    fn num(&self, record: &csv::StringRecord, i: usize) -> Result<f64, String> {
+        let text = self.field(record, i);
+        if text.is_empty() || text.eq_ignore_ascii_case("nan") {
+            return Ok(f64::NAN);
+        }
+        text.parse::<f64>()
+            .map_err(|_| format!("{} = {text:?} is not a number", self.names[i]))
+    }
+
+    /// One row, checked: wrench, contact position where the indenter presses, image name.
+    fn row(&self, record: &csv::StringRecord) -> Result<LabelRow, String> {
+        let wrench = self.wrench(record)?;
+        let (x, y) = (self.num(record, 7)?, self.num(record, 8)?);
+        let contact = (x.is_finite() && y.is_finite()).then_some([x, y]);
+        let shape = Shape::parse(self.field(record, 9));
+        if contact.is_none() && shape != Shape::NoContact && in_contact(Newtons(wrench[2])) {
+            return Err(format!(
+                "Fz = {} N presses a {} but the row has no contact position \
+                 (X_Position_mm, Y_Position_mm): give it, or mark the row Indentor_Shape None",
+                wrench[2],
+                shape.as_str()
+            ));
+        }
+        let image = self.field(record, 0);
+        check_image_name(image)?;
+        Ok(LabelRow {
+            image: image.to_string(),
+            wrench,
+            contact,
+            shape,
+        })
+    }
+
+    /// The row's forces and moments, each a finite number within [`MAX_LABEL`].
+    fn wrench(&self, record: &csv::StringRecord) -> Result<[f64; 6], String> {
+        let wrench = [
+            self.num(record, 1)?,
+            self.num(record, 2)?,
+            self.num(record, 3)?,
+            self.num(record, 4)?,
+            self.num(record, 5)?,
+            self.num(record, 6)?,
+        ];
+        if wrench.iter().any(|v| !v.is_finite()) {
+            return Err("a force or moment is missing".into());
+        }
+        if let Some((i, v)) = wrench.iter().enumerate().find(|(_, v)| v.abs() > MAX_LABEL) {
+            return Err(format!(
+                "{} = {v:e} is beyond {MAX_LABEL:e} (N or N m): not a reading of a force \
+                 sensor; fix or remove the row",
+                self.names[i + 1]
+            ));
+        }
+        Ok(wrench)
+    }
+}
+
+/// Checks that an image name is a plain relative path, inside the dataset's images.
+fn check_image_name(image: &str) -> Result<(), String> {
+    let plain = !image.is_empty()
+        && Path::new(image)
+            .components()
+            .all(|c| matches!(c, Component::Normal(_)));
+    if !plain {
+        return Err(format!(
+            "New_Image_Name = {image:?} is not a file name inside {IMAGES}/ (no absolute \
+             path, no `..`): a dataset holds its own images"
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

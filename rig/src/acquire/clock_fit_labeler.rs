@@ -142,6 +142,37 @@ pub struct ClockFitLabeler {
     last_error_ns: Option<f64>,
 }
 
+/// The spread of the latch `ticks` about their mean, in ns at `ns_per_tick`: the root of the
+/// sum of squared distances.
+fn tick_spread_ns(ticks: &[u64], ns_per_tick: f64) -> f64 {
+    let mean_tick = ticks.iter().map(|&t| t as f64).sum::<f64>() / ticks.len() as f64;
+    ticks
+        .iter()
+        .map(|&t| ((t as f64 - mean_tick) * ns_per_tick).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The one-way line `ow` shifted onto the latch line `lf` at the latches' centre (`ticks`);
+/// what is left between the two lines at the latches adds to the latch line's error `line`.
+fn one_way_on_latch_line(ow: &OneWayFit, lf: &LatchFit, ticks: &[u64], line: f64) -> CameraClock {
+    let diffs: Vec<f64> = ticks
+        .iter()
+        .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
+        .collect();
+    let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
+    let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
+        / diffs.len().max(1) as f64)
+        .sqrt();
+    let mut map = ow.map;
+    map.host_at_origin_ns -= offset;
+    CameraClock {
+        map,
+        error_ns: (line * line + disagreement * disagreement).sqrt(),
+        calibrated: true,
+    }
+}
+
 impl ClockFitLabeler {
     /// A labeler; `latches` brings timestamp-latch exchanges when the camera offers them.
     pub fn new(
@@ -281,12 +312,30 @@ impl ClockFitLabeler {
         }
     }
 
+    /// Refits the camera clock when frames or latches came in since the last fit.
     fn refit_camera(&mut self) {
         let new_latches = self.drain_latches();
         let stale = self.frames.len() != self.frames_at_fit;
         if !(stale || new_latches) && self.camera.is_some() {
             return;
         }
+        self.refit_camera_one_way();
+        if new_latches || self.latch_fit.is_none() {
+            let all: Vec<TimestampLatch> = self.latches.iter().copied().collect();
+            self.latch_fit = latch::fit(&all, "camera").ok();
+        }
+        let Some(ow) = &self.camera_fit else {
+            return;
+        };
+        self.camera = Some(match &self.latch_fit {
+            Some(lf) => self.latch_calibrated_clock(ow, lf),
+            None => self.uncalibrated_clock(ow),
+        });
+    }
+
+    /// Refits the one-way line of the frames when enough new frames came in (about every
+    /// `refit_every`), the frames were cut back, or there is no fit yet; at least 10 frames.
+    fn refit_camera_one_way(&mut self) {
         let refit_frames = self.camera_fit.is_none()
             || self.frames.len() < self.frames_at_fit
             || self.frames.len() >= self.frames_at_fit + self.frames_per_refit();
@@ -302,75 +351,49 @@ impl ClockFitLabeler {
                 self.frames_at_fit = self.frames.len();
             }
         }
-        if new_latches || self.latch_fit.is_none() {
-            let all: Vec<TimestampLatch> = self.latches.iter().copied().collect();
-            self.latch_fit = latch::fit(&all, "camera").ok();
-        }
-        let Some(ow) = &self.camera_fit else {
-            return;
+    }
+
+    /// The camera clock from the latch line `lf`, or from the one-way line `ow` moved onto it
+    /// when the frames know the rate better than the latches.
+    fn latch_calibrated_clock(&self, ow: &OneWayFit, lf: &LatchFit) -> CameraClock {
+        // The latch line's own error at its centre: each kept midpoint is uniform within
+        // its half round trip, or scattered as the residuals say, whichever is larger.
+        let per_latch = lf.rms_residual_ns.max(lf.half_round_trip_ns / 3f64.sqrt());
+        let line = per_latch / (lf.used as f64).sqrt();
+        let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
+        // Which line knows the rate better: the one-way line (frames over a long span
+        // with steady delays) or the latch line (latches over a short one, or frames
+        // delivered with widely varying delays)?
+        let latch_rate_error = per_latch / tick_spread_ns(&ticks, lf.map.ns_per_tick).max(1.0);
+        let frames_span_ns = match (self.frames.front(), self.frames.back()) {
+            (Some(a), Some(b)) => (b.0 - a.0) as f64 * ow.map.ns_per_tick,
+            _ => 0.0,
         };
-        self.camera = Some(match &self.latch_fit {
-            Some(lf) => {
-                // The latch line's own error at its centre: each kept midpoint is uniform within
-                // its half round trip, or scattered as the residuals say, whichever is larger.
-                let per_latch = lf.rms_residual_ns.max(lf.half_round_trip_ns / 3f64.sqrt());
-                let line = per_latch / (lf.used as f64).sqrt();
-                let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
-                // Which line knows the rate better: the one-way line (frames over a long span
-                // with steady delays) or the latch line (latches over a short one, or frames
-                // delivered with widely varying delays)?
-                let mean_tick = ticks.iter().map(|&t| t as f64).sum::<f64>() / ticks.len() as f64;
-                let spread_ns = ticks
-                    .iter()
-                    .map(|&t| ((t as f64 - mean_tick) * lf.map.ns_per_tick).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                let latch_rate_error = per_latch / spread_ns.max(1.0);
-                let frames_span_ns = match (self.frames.front(), self.frames.back()) {
-                    (Some(a), Some(b)) => (b.0 - a.0) as f64 * ow.map.ns_per_tick,
-                    _ => 0.0,
-                };
-                let one_way_rate_error = 2.0 * ow.hull_gap_ns / frames_span_ns.max(1.0);
-                if latch_rate_error < one_way_rate_error {
-                    CameraClock {
-                        map: lf.map,
-                        error_ns: line,
-                        calibrated: true,
-                    }
-                } else {
-                    // Shift the one-way line onto the latch line at the latches' centre; what
-                    // is left between the two lines at the latches is part of the error.
-                    let diffs: Vec<f64> = ticks
-                        .iter()
-                        .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
-                        .collect();
-                    let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
-                    let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
-                        / diffs.len().max(1) as f64)
-                        .sqrt();
-                    let mut map = ow.map;
-                    map.host_at_origin_ns -= offset;
-                    CameraClock {
-                        map,
-                        error_ns: (line * line + disagreement * disagreement).sqrt(),
-                        calibrated: true,
-                    }
-                }
+        let one_way_rate_error = 2.0 * ow.hull_gap_ns / frames_span_ns.max(1.0);
+        if latch_rate_error < one_way_rate_error {
+            CameraClock {
+                map: lf.map,
+                error_ns: line,
+                calibrated: true,
             }
-            None => {
-                // The least-delayed frame arrived the assumed readout after its exposure ended.
-                let exposure_ns =
-                    self.options.exposure.0 * 1e3 + self.options.assumed_readout.as_nanos() as f64;
-                let mut map = ow.map;
-                map.host_at_origin_ns -= exposure_ns;
-                let unseen = self.options.uncalibrated_latency_error.as_nanos() as f64;
-                CameraClock {
-                    map,
-                    error_ns: (ow.hull_gap_ns.powi(2) + unseen * unseen).sqrt(),
-                    calibrated: false,
-                }
-            }
-        });
+        } else {
+            one_way_on_latch_line(ow, lf, &ticks, line)
+        }
+    }
+
+    /// The camera clock from the one-way line `ow` alone: the least-delayed frame arrived the
+    /// assumed readout after its exposure ended.
+    fn uncalibrated_clock(&self, ow: &OneWayFit) -> CameraClock {
+        let exposure_ns =
+            self.options.exposure.0 * 1e3 + self.options.assumed_readout.as_nanos() as f64;
+        let mut map = ow.map;
+        map.host_at_origin_ns -= exposure_ns;
+        let unseen = self.options.uncalibrated_latency_error.as_nanos() as f64;
+        CameraClock {
+            map,
+            error_ns: (ow.hull_gap_ns.powi(2) + unseen * unseen).sqrt(),
+            calibrated: false,
+        }
     }
 
     /// Frames between camera refits (about `refit_every` at the observed frame rate).

@@ -78,176 +78,26 @@ impl Calibration {
 
     /// Parses `.cal` text; `source` names it in errors.
     pub fn parse(text: &str, source: &str) -> Result<Calibration, CalError> {
-        let invalid = |element: &str, message: String| CalError::Invalid {
-            file: source.to_string(),
-            element: element.to_string(),
-            message,
-        };
+        let reader = CalReader { source };
         let doc = roxmltree::Document::parse(text)
-            .map_err(|e| invalid("XML", format!("not valid XML: {e}")))?;
+            .map_err(|e| reader.invalid("XML", format!("not valid XML: {e}")))?;
         let root = doc.root_element();
-        if root.tag_name().name() != "FTSensor" {
-            return Err(invalid(
-                &format!("<{}>", root.tag_name().name()),
-                "the root element must be <FTSensor>".into(),
-            ));
-        }
-        let attr = |node: roxmltree::Node, name: &str| {
-            node.attribute(name).unwrap_or("").trim().to_string()
-        };
-        let required =
-            |node: roxmltree::Node, element: &str, name: &str| -> Result<String, CalError> {
-                match node.attribute(name).map(str::trim) {
-                    Some(v) if !v.is_empty() => Ok(v.to_string()),
-                    _ => Err(invalid(element, format!("attribute `{name}` is missing"))),
-                }
-            };
-        let num_gages = attr(root, "NumGages");
-        if !num_gages.is_empty() && num_gages != "6" {
-            return Err(invalid(
-                "<FTSensor>",
-                format!("NumGages is {num_gages}; only six-gauge transducers are supported"),
-            ));
-        }
+        reader.check_root(root)?;
         let cal = root
             .children()
-            .find(|n| n.is_element() && n.tag_name().name() == "Calibration")
-            .ok_or_else(|| invalid("<Calibration>", "element is missing".into()))?;
-        let force_units = required(cal, "<Calibration>", "ForceUnits")?;
-        let torque_units = required(cal, "<Calibration>", "TorqueUnits")?;
-        let dist_units = required(cal, "<Calibration>", "DistUnits")?;
-        let angle_units = cal
-            .attribute("AngleUnits")
-            .unwrap_or("degrees")
-            .trim()
-            .to_string();
-        let f_conv = newtons_per(&force_units).ok_or_else(|| {
-            invalid(
-                "<Calibration>",
-                format!("ForceUnits `{force_units}` is unknown (known: {FORCE_UNITS})"),
-            )
-        })?;
-        let t_conv = newton_metres_per(&torque_units).ok_or_else(|| {
-            invalid(
-                "<Calibration>",
-                format!("TorqueUnits `{torque_units}` is unknown (known: {TORQUE_UNITS})"),
-            )
-        })?;
-        let d_conv = metres_per(&dist_units).ok_or_else(|| {
-            invalid(
-                "<Calibration>",
-                format!("DistUnits `{dist_units}` is unknown (known: {LENGTH_UNITS})"),
-            )
-        })?;
-        let a_conv = match angle_units.to_ascii_lowercase().as_str() {
-            "deg" | "degree" | "degrees" => std::f64::consts::PI / 180.0,
-            "rad" | "radian" | "radians" => 1.0,
-            other => {
-                return Err(invalid(
-                    "<Calibration>",
-                    format!("AngleUnits `{other}` is unknown (known: degrees, radians)"),
-                ))
-            }
-        };
-
-        let has_user_axes = cal
-            .children()
-            .any(|n| n.is_element() && n.tag_name().name() == "UserAxis");
+            .find(|n| is_element_named(n, "Calibration"))
+            .ok_or_else(|| reader.invalid("<Calibration>", "element is missing".into()))?;
+        let units = reader.units(cal)?;
+        let has_user_axes = cal.children().any(|n| is_element_named(&n, "UserAxis"));
         let row_tag = if has_user_axes { "UserAxis" } else { "Axis" };
-        let mut rows: [Option<([f64; 6], f64)>; 6] = [None; 6];
-        for node in cal
-            .children()
-            .filter(|n| n.is_element() && n.tag_name().name() == row_tag)
-        {
-            let name = attr(node, "Name");
-            let element = format!("<{row_tag} Name=\"{name}\">");
-            let idx = AXES.iter().position(|a| *a == name).ok_or_else(|| {
-                invalid(&element, format!("Name must be one of {}", AXES.join(", ")))
-            })?;
-            if rows[idx].is_some() {
-                return Err(invalid(&element, "this axis appears twice".into()));
-            }
-            let values_text = required(node, &element, "values")?;
-            let values: Vec<f64> = values_text
-                .split_whitespace()
-                .map(|v| {
-                    v.parse::<f64>()
-                        .map_err(|_| invalid(&element, format!("values: `{v}` is not a number")))
-                })
-                .collect::<Result<_, _>>()?;
-            let values: [f64; 6] = values.try_into().map_err(|v: Vec<f64>| {
-                invalid(
-                    &element,
-                    format!("values has {} numbers, expected 6 (one per gauge)", v.len()),
-                )
-            })?;
-            let scale_text = node.attribute("scale").map(str::trim).unwrap_or("");
-            let scale = if scale_text.is_empty() {
-                if row_tag == "Axis" {
-                    return Err(invalid(&element, "attribute `scale` is missing".into()));
-                }
-                1.0
-            } else {
-                scale_text
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|s| s.is_finite() && *s != 0.0)
-                    .ok_or_else(|| {
-                        invalid(
-                            &element,
-                            format!("scale `{scale_text}` must be a non-zero number"),
-                        )
-                    })?
-            };
-            let max_text = node.attribute("max").map(str::trim).unwrap_or("0");
-            let max = max_text
-                .parse::<f64>()
-                .map_err(|_| invalid(&element, format!("max `{max_text}` is not a number")))?;
-            let row = values.map(|v| v / scale);
-            if row.iter().any(|v| !v.is_finite()) {
-                return Err(invalid(&element, "values must be finite numbers".into()));
-            }
-            rows[idx] = Some((row, max));
-        }
-        let mut matrix = Matrix6::zeros();
-        let mut max_loads = [0.0; 6];
-        for (i, row) in rows.iter().enumerate() {
-            let (values, max) = row.ok_or_else(|| {
-                invalid(
-                    &format!("<{row_tag} Name=\"{}\">", AXES[i]),
-                    "element is missing".into(),
-                )
-            })?;
-            let conv = if i < 3 { f_conv } else { t_conv };
-            for (j, v) in values.iter().enumerate() {
-                matrix[(i, j)] = v * conv;
-            }
-            max_loads[i] = max * conv;
-        }
+        let rows = reader.axis_rows(cal, row_tag)?;
+        let (mut matrix, max_loads) = reader.assemble(&rows, row_tag, &units)?;
         if !has_user_axes {
             if let Some(bt) = cal
                 .children()
-                .find(|n| n.is_element() && n.tag_name().name() == "BasicTransform")
+                .find(|n| is_element_named(n, "BasicTransform"))
             {
-                let mut tt = [0.0; 6];
-                for (k, name) in ["Dx", "Dy", "Dz", "Rx", "Ry", "Rz"].iter().enumerate() {
-                    let text = bt.attribute(*name).map(str::trim).unwrap_or("0");
-                    tt[k] = text
-                        .parse::<f64>()
-                        .ok()
-                        .filter(|v| v.is_finite())
-                        .ok_or_else(|| {
-                            invalid(
-                                "<BasicTransform>",
-                                format!("{name} `{text}` is not a number"),
-                            )
-                        })?;
-                }
-                let basic = ToolTransform::from_ati(
-                    [tt[0] * d_conv, tt[1] * d_conv, tt[2] * d_conv],
-                    [tt[3] * a_conv, tt[4] * a_conv, tt[5] * a_conv],
-                );
-                matrix = basic.matrix() * matrix;
+                matrix = reader.basic_transform(bt, &units)?.matrix() * matrix;
             }
         }
         Ok(Calibration {
@@ -258,9 +108,9 @@ impl Calibration {
             part_number: attr(cal, "PartNumber"),
             cal_date: attr(cal, "CalDate"),
             file_version: attr(root, "CalFileVersion"),
-            force_units,
-            torque_units,
-            dist_units,
+            force_units: units.force,
+            torque_units: units.torque,
+            dist_units: units.dist,
             user_axes: has_user_axes,
             max_loads,
             matrix,
@@ -282,5 +132,247 @@ impl Calibration {
             Some(t) => t.apply(w),
             None => w,
         }
+    }
+}
+
+/// One axis row as read: the six matrix values divided by `scale`, and the rated load `max`,
+/// both still in the file's units.
+type AxisRow = ([f64; 6], f64);
+
+/// The `<Calibration>` element's units and their factors to N, N m, m and rad.
+struct Units {
+    force: String,
+    torque: String,
+    dist: String,
+    /// N per force unit.
+    force_factor: f64,
+    /// N m per torque unit.
+    torque_factor: f64,
+    /// m per distance unit.
+    dist_factor: f64,
+    /// rad per angle unit.
+    angle_factor: f64,
+}
+
+/// Whether `node` is an element with tag `name`.
+fn is_element_named(node: &roxmltree::Node<'_, '_>, name: &str) -> bool {
+    node.is_element() && node.tag_name().name() == name
+}
+
+/// The trimmed value of attribute `name`, empty when it is absent.
+fn attr(node: roxmltree::Node<'_, '_>, name: &str) -> String {
+    node.attribute(name).unwrap_or("").trim().to_string()
+}
+
+/// Reads the parts of one `.cal` document, naming `source` in its errors.
+struct CalReader<'s> {
+    source: &'s str,
+}
+
+impl CalReader<'_> {
+    /// A [`CalError::Invalid`] for `element` of this file.
+    fn invalid(&self, element: &str, message: String) -> CalError {
+        CalError::Invalid {
+            file: self.source.to_string(),
+            element: element.to_string(),
+            message,
+        }
+    }
+
+    /// The trimmed, non-empty value of attribute `name` of `node`, called `element` in errors.
+    fn required(
+        &self,
+        node: roxmltree::Node<'_, '_>,
+        element: &str,
+        name: &str,
+    ) -> Result<String, CalError> {
+        match node.attribute(name).map(str::trim) {
+            Some(v) if !v.is_empty() => Ok(v.to_string()),
+            _ => Err(self.invalid(element, format!("attribute `{name}` is missing"))),
+        }
+    }
+
+    /// Checks that the root is `<FTSensor>` for a six-gauge transducer.
+    fn check_root(&self, root: roxmltree::Node<'_, '_>) -> Result<(), CalError> {
+        if root.tag_name().name() != "FTSensor" {
+            return Err(self.invalid(
+                &format!("<{}>", root.tag_name().name()),
+                "the root element must be <FTSensor>".into(),
+            ));
+        }
+        let num_gages = attr(root, "NumGages");
+        if !num_gages.is_empty() && num_gages != "6" {
+            return Err(self.invalid(
+                "<FTSensor>",
+                format!("NumGages is {num_gages}; only six-gauge transducers are supported"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The units named by `<Calibration>` and their conversion factors.
+    fn units(&self, cal: roxmltree::Node<'_, '_>) -> Result<Units, CalError> {
+        let force = self.required(cal, "<Calibration>", "ForceUnits")?;
+        let torque = self.required(cal, "<Calibration>", "TorqueUnits")?;
+        let dist = self.required(cal, "<Calibration>", "DistUnits")?;
+        let angle = cal
+            .attribute("AngleUnits")
+            .unwrap_or("degrees")
+            .trim()
+            .to_string();
+        let unknown = |what: &str, unit: &str, known: &str| {
+            self.invalid(
+                "<Calibration>",
+                format!("{what} `{unit}` is unknown (known: {known})"),
+            )
+        };
+        let force_factor =
+            newtons_per(&force).ok_or_else(|| unknown("ForceUnits", &force, FORCE_UNITS))?;
+        let torque_factor = newton_metres_per(&torque)
+            .ok_or_else(|| unknown("TorqueUnits", &torque, TORQUE_UNITS))?;
+        let dist_factor =
+            metres_per(&dist).ok_or_else(|| unknown("DistUnits", &dist, LENGTH_UNITS))?;
+        let angle_factor = match angle.to_ascii_lowercase().as_str() {
+            "deg" | "degree" | "degrees" => std::f64::consts::PI / 180.0,
+            "rad" | "radian" | "radians" => 1.0,
+            other => return Err(unknown("AngleUnits", other, "degrees, radians")),
+        };
+        Ok(Units {
+            force,
+            torque,
+            dist,
+            force_factor,
+            torque_factor,
+            dist_factor,
+            angle_factor,
+        })
+    }
+
+    /// The six `row_tag` rows of `<Calibration>` by axis, `None` for an axis not given.
+    fn axis_rows(
+        &self,
+        cal: roxmltree::Node<'_, '_>,
+        row_tag: &str,
+    ) -> Result<[Option<AxisRow>; 6], CalError> {
+        let mut rows: [Option<AxisRow>; 6] = [None; 6];
+        for node in cal.children().filter(|n| is_element_named(n, row_tag)) {
+            let name = attr(node, "Name");
+            let element = format!("<{row_tag} Name=\"{name}\">");
+            let idx = AXES.iter().position(|a| *a == name).ok_or_else(|| {
+                self.invalid(&element, format!("Name must be one of {}", AXES.join(", ")))
+            })?;
+            if rows[idx].is_some() {
+                return Err(self.invalid(&element, "this axis appears twice".into()));
+            }
+            rows[idx] = Some(self.axis_row(node, &element, row_tag)?);
+        }
+        Ok(rows)
+    }
+
+    /// One axis row's `values / scale` and `max`; `scale` may be left out of a `UserAxis` only.
+    fn axis_row(
+        &self,
+        node: roxmltree::Node<'_, '_>,
+        element: &str,
+        row_tag: &str,
+    ) -> Result<AxisRow, CalError> {
+        let values_text = self.required(node, element, "values")?;
+        let values: Vec<f64> = values_text
+            .split_whitespace()
+            .map(|v| {
+                v.parse::<f64>()
+                    .map_err(|_| self.invalid(element, format!("values: `{v}` is not a number")))
+            })
+            .collect::<Result<_, _>>()?;
+        let values: [f64; 6] = values.try_into().map_err(|v: Vec<f64>| {
+            self.invalid(
+                element,
+                format!("values has {} numbers, expected 6 (one per gauge)", v.len()),
+            )
+        })?;
+        let scale_text = node.attribute("scale").map(str::trim).unwrap_or("");
+        let scale = if scale_text.is_empty() {
+            if row_tag == "Axis" {
+                return Err(self.invalid(element, "attribute `scale` is missing".into()));
+            }
+            1.0
+        } else {
+            scale_text
+                .parse::<f64>()
+                .ok()
+                .filter(|s| s.is_finite() && *s != 0.0)
+                .ok_or_else(|| {
+                    self.invalid(
+                        element,
+                        format!("scale `{scale_text}` must be a non-zero number"),
+                    )
+                })?
+        };
+        let max_text = node.attribute("max").map(str::trim).unwrap_or("0");
+        let max = max_text
+            .parse::<f64>()
+            .map_err(|_| self.invalid(element, format!("max `{max_text}` is not a number")))?;
+        let row = values.map(|v| v / scale);
+        if row.iter().any(|v| !v.is_finite()) {
+            return Err(self.invalid(element, "values must be finite numbers".into()));
+        }
+        Ok((row, max))
+    }
+
+    /// The matrix in N and N m per volt and the rated loads, from all six rows.
+    fn assemble(
+        &self,
+        rows: &[Option<AxisRow>; 6],
+        row_tag: &str,
+        units: &Units,
+    ) -> Result<(Matrix6<f64>, [f64; 6]), CalError> {
+        let mut matrix = Matrix6::zeros();
+        let mut max_loads = [0.0; 6];
+        for (i, row) in rows.iter().enumerate() {
+            let (values, max) = row.ok_or_else(|| {
+                self.invalid(
+                    &format!("<{row_tag} Name=\"{}\">", AXES[i]),
+                    "element is missing".into(),
+                )
+            })?;
+            let conv = if i < 3 {
+                units.force_factor
+            } else {
+                units.torque_factor
+            };
+            for (j, v) in values.iter().enumerate() {
+                matrix[(i, j)] = v * conv;
+            }
+            max_loads[i] = max * conv;
+        }
+        Ok((matrix, max_loads))
+    }
+
+    /// The `<BasicTransform>` (a missing attribute is 0) in metres and radians.
+    fn basic_transform(
+        &self,
+        bt: roxmltree::Node<'_, '_>,
+        units: &Units,
+    ) -> Result<ToolTransform, CalError> {
+        let mut tt = [0.0; 6];
+        for (k, name) in ["Dx", "Dy", "Dz", "Rx", "Ry", "Rz"].iter().enumerate() {
+            let text = bt.attribute(*name).map(str::trim).unwrap_or("0");
+            tt[k] = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    self.invalid(
+                        "<BasicTransform>",
+                        format!("{name} `{text}` is not a number"),
+                    )
+                })?;
+        }
+        let d = units.dist_factor;
+        let a = units.angle_factor;
+        Ok(ToolTransform::from_ati(
+            [tt[0] * d, tt[1] * d, tt[2] * d],
+            [tt[3] * a, tt[4] * a, tt[5] * a],
+        ))
     }
 }

@@ -340,6 +340,116 @@ impl AravisCamera {
         })
     }
 
+    /// Sets the pixel format, then the region (the whole sensor when `s` gives none); the
+    /// region set.
+    fn set_format_and_region(&self, s: &CameraSettings) -> Result<Roi, CameraError> {
+        self.camera
+            .set_pixel_format(to_aravis_format(s.pixel_format))
+            .map_err(|e| {
+                self.feature_err(
+                    "PixelFormat",
+                    &format!("cannot be set to {:?}", s.pixel_format),
+                    e,
+                )
+            })?;
+        let roi = match s.roi {
+            Some(r) => r,
+            None => {
+                let (w, h) = self.camera.sensor_size().map_err(|e| {
+                    self.feature_err("SensorWidth/SensorHeight", "cannot be read", e)
+                })?;
+                Roi {
+                    x: 0,
+                    y: 0,
+                    width: w.max(0) as u32,
+                    height: h.max(0) as u32,
+                }
+            }
+        };
+        self.camera
+            .set_region(
+                roi.x as i32,
+                roi.y as i32,
+                roi.width as i32,
+                roi.height as i32,
+            )
+            .map_err(|e| {
+                self.feature_err(
+                    "Width/Height/OffsetX/OffsetY",
+                    &format!(
+                        "cannot be set to {}x{}+{}+{}",
+                        roi.width, roi.height, roi.x, roi.y
+                    ),
+                    e,
+                )
+            })?;
+        Ok(roi)
+    }
+
+    /// Turns automatic exposure and gain off and sets both, checking the exposure read back.
+    fn set_exposure_and_gain(&self, s: &CameraSettings) -> Result<(), CameraError> {
+        self.set_enum_if_available("ExposureAuto", "Off")?;
+        let exposure_feature = self.require(&["ExposureTime", "ExposureTimeAbs"], "exposure")?;
+        let got = self.set_float(exposure_feature, s.exposure.value())?;
+        self.check_close(exposure_feature, s.exposure.value(), got)?;
+
+        self.set_enum_if_available("GainAuto", "Off")?;
+        self.camera.set_gain(s.gain.value()).map_err(|e| {
+            self.feature_err(
+                "Gain",
+                &format!("cannot be set to {} dB", s.gain.value()),
+                e,
+            )
+        })
+    }
+
+    /// Enables a fixed frame rate where the camera has the switch and sets it, checking the
+    /// rate read back.
+    fn set_frame_rate(&self, s: &CameraSettings) -> Result<(), CameraError> {
+        if self.available("AcquisitionFrameRateEnable") {
+            self.camera
+                .set_boolean("AcquisitionFrameRateEnable", true)
+                .map_err(|e| self.feature_err("AcquisitionFrameRateEnable", "cannot be set", e))?;
+        }
+        let rate_feature = self.require(
+            &["AcquisitionFrameRate", "AcquisitionFrameRateAbs"],
+            "the frame rate",
+        )?;
+        let got = self.set_float(rate_feature, s.frame_rate.value())?;
+        self.check_close(rate_feature, s.frame_rate.value(), got)
+    }
+
+    /// Checks that the pixel format, region `roi` and gain read back as `s` set them.
+    fn check_applied(
+        &self,
+        s: &CameraSettings,
+        roi: Roi,
+        applied: &CameraSettings,
+    ) -> Result<(), CameraError> {
+        if applied.pixel_format != s.pixel_format {
+            return Err(self.feature_err(
+                "PixelFormat",
+                &format!("was set to {:?}", s.pixel_format),
+                format!("reads back {:?}", applied.pixel_format),
+            ));
+        }
+        if applied.roi != Some(roi) {
+            return Err(self.feature_err(
+                "Width/Height/OffsetX/OffsetY",
+                &format!("were set to {roi:?}"),
+                format!("read back {:?}", applied.roi),
+            ));
+        }
+        if (applied.gain.value() - s.gain.value()).abs() > 0.1 {
+            return Err(self.feature_err(
+                "Gain",
+                &format!("was set to {} dB", s.gain.value()),
+                format!("reads back {} dB", applied.gain.value()),
+            ));
+        }
+        Ok(())
+    }
+
     fn pop_complete(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
         let Some(stream) = &self.stream else {
             return Err(CameraError::Device {
@@ -419,100 +529,15 @@ impl Camera for AravisCamera {
             });
         }
         // Pixel format and region first: they bound the exposure and the frame rate.
-        self.camera
-            .set_pixel_format(to_aravis_format(s.pixel_format))
-            .map_err(|e| {
-                self.feature_err(
-                    "PixelFormat",
-                    &format!("cannot be set to {:?}", s.pixel_format),
-                    e,
-                )
-            })?;
-        let roi = match s.roi {
-            Some(r) => r,
-            None => {
-                let (w, h) = self.camera.sensor_size().map_err(|e| {
-                    self.feature_err("SensorWidth/SensorHeight", "cannot be read", e)
-                })?;
-                Roi {
-                    x: 0,
-                    y: 0,
-                    width: w.max(0) as u32,
-                    height: h.max(0) as u32,
-                }
-            }
-        };
-        self.camera
-            .set_region(
-                roi.x as i32,
-                roi.y as i32,
-                roi.width as i32,
-                roi.height as i32,
-            )
-            .map_err(|e| {
-                self.feature_err(
-                    "Width/Height/OffsetX/OffsetY",
-                    &format!(
-                        "cannot be set to {}x{}+{}+{}",
-                        roi.width, roi.height, roi.x, roi.y
-                    ),
-                    e,
-                )
-            })?;
-
-        self.set_enum_if_available("ExposureAuto", "Off")?;
-        let exposure_feature = self.require(&["ExposureTime", "ExposureTimeAbs"], "exposure")?;
-        let got = self.set_float(exposure_feature, s.exposure.value())?;
-        self.check_close(exposure_feature, s.exposure.value(), got)?;
-
-        self.set_enum_if_available("GainAuto", "Off")?;
-        self.camera.set_gain(s.gain.value()).map_err(|e| {
-            self.feature_err(
-                "Gain",
-                &format!("cannot be set to {} dB", s.gain.value()),
-                e,
-            )
-        })?;
-
-        if self.available("AcquisitionFrameRateEnable") {
-            self.camera
-                .set_boolean("AcquisitionFrameRateEnable", true)
-                .map_err(|e| self.feature_err("AcquisitionFrameRateEnable", "cannot be set", e))?;
-        }
-        let rate_feature = self.require(
-            &["AcquisitionFrameRate", "AcquisitionFrameRateAbs"],
-            "the frame rate",
-        )?;
-        let got = self.set_float(rate_feature, s.frame_rate.value())?;
-        self.check_close(rate_feature, s.frame_rate.value(), got)?;
-
+        let roi = self.set_format_and_region(s)?;
+        self.set_exposure_and_gain(s)?;
+        self.set_frame_rate(s)?;
         self.configure_trigger(&s.trigger)?;
         if let Some(line) = &s.exposure_active_line {
             self.configure_exposure_active(line)?;
         }
-
         let applied = self.read_settings(s)?;
-        if applied.pixel_format != s.pixel_format {
-            return Err(self.feature_err(
-                "PixelFormat",
-                &format!("was set to {:?}", s.pixel_format),
-                format!("reads back {:?}", applied.pixel_format),
-            ));
-        }
-        if applied.roi != Some(roi) {
-            return Err(self.feature_err(
-                "Width/Height/OffsetX/OffsetY",
-                &format!("were set to {roi:?}"),
-                format!("read back {:?}", applied.roi),
-            ));
-        }
-        if (applied.gain.value() - s.gain.value()).abs() > 0.1 {
-            return Err(self.feature_err(
-                "Gain",
-                &format!("was set to {} dB", s.gain.value()),
-                format!("reads back {} dB", applied.gain.value()),
-            ));
-        }
+        self.check_applied(s, roi, &applied)?;
         self.applied = Some(applied);
         Ok(())
     }

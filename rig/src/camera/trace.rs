@@ -159,28 +159,79 @@ pub fn describe_settings(s: &CameraSettings) -> String {
     )
 }
 
+/// Why one index line did not parse; [`LineError::at`] adds the file and line.
+enum LineError {
+    Syntax(String),
+    Field(TraceFieldError),
+}
+
+impl From<TraceFieldError> for LineError {
+    fn from(e: TraceFieldError) -> Self {
+        LineError::Field(e)
+    }
+}
+
+impl LineError {
+    /// The error for line `line` of the index at `path`.
+    fn at(self, path: PathBuf, line: usize) -> CameraTraceError {
+        match self {
+            LineError::Syntax(message) => CameraTraceError::Parse {
+                path,
+                line,
+                message,
+            },
+            LineError::Field(source) => CameraTraceError::Field { path, line, source },
+        }
+    }
+}
+
+/// A latch line `latch HOST_BEFORE DEVICE_TICKS HOST_AFTER`, split into fields.
+fn parse_latch(fields: &[&str]) -> Result<TraceLatch, LineError> {
+    if fields.len() != 4 {
+        return Err(LineError::Syntax(
+            "a latch line is `latch HOST_BEFORE DEVICE_TICKS HOST_AFTER`".into(),
+        ));
+    }
+    Ok(TraceLatch {
+        host_before: parse_seconds(fields[1])?,
+        device_ticks: num(fields[2], "device ticks")?,
+        host_after: parse_seconds(fields[3])?,
+    })
+}
+
+/// A frame line `ID DEVICE_TIMESTAMP HOST_SECONDS WIDTH HEIGHT FORMAT FILE`, split into fields.
+fn parse_frame(fields: &[&str]) -> Result<TraceFrame, LineError> {
+    if fields.len() != 7 {
+        return Err(LineError::Syntax(format!(
+            "a frame line has 7 fields `ID DEVICE_TIMESTAMP HOST_SECONDS WIDTH HEIGHT FORMAT FILE`, found {}",
+            fields.len()
+        )));
+    }
+    Ok(TraceFrame {
+        id: num(fields[0], "frame id")?,
+        device_timestamp: num(fields[1], "device timestamp")?,
+        host_offset: parse_seconds(fields[2])?,
+        width: num(fields[3], "width")?,
+        height: num(fields[4], "height")?,
+        format: parse_format_name(fields[5])
+            .ok_or_else(|| TraceFieldError::PixelFormat(fields[5].to_string()))?,
+        file: fields[6].to_string(),
+    })
+}
+
 impl CameraTrace {
     /// Parses an index; `dir` is where its frame files are.
     pub fn parse(text: &str, dir: &Path) -> Result<CameraTrace, CameraTraceError> {
         let path = dir.join(INDEX);
-        let err = |line: usize, message: String| CameraTraceError::Parse {
-            path: path.clone(),
-            line,
-            message,
-        };
-        let field_err = |line: usize, source: TraceFieldError| CameraTraceError::Field {
-            path: path.clone(),
-            line,
-            source,
-        };
         let mut lines = text.lines().enumerate();
         match lines.next() {
             Some((_, first)) if first.trim_end() == MAGIC => {}
             _ => {
-                return Err(err(
-                    1,
-                    format!("not a camera trace: the first line must be `{MAGIC}`"),
-                ))
+                return Err(CameraTraceError::Parse {
+                    path,
+                    line: 1,
+                    message: format!("not a camera trace: the first line must be `{MAGIC}`"),
+                })
             }
         }
         let mut trace = CameraTrace {
@@ -198,69 +249,47 @@ impl CameraTrace {
             latches: Vec::new(),
         };
         for (i, raw) in lines {
-            let n = i + 1;
             let line = raw.trim();
             if line.is_empty() {
                 continue;
             }
-            if let Some(comment) = line.strip_prefix('#') {
-                if let Some((key, value)) = comment.trim().split_once(": ") {
-                    let value = value.trim().to_string();
-                    match key {
-                        "device" => trace.device = value,
-                        "camera" => trace.info.id = value,
-                        "vendor" => trace.info.vendor = value,
-                        "model" => trace.info.model = value,
-                        "serial" => trace.info.serial = value,
-                        "tick-frequency" => {
-                            trace.info.tick_frequency =
-                                num(&value, "tick-frequency").map_err(|e| field_err(n, e))?
-                        }
-                        "configured" => trace.configured.push(value),
-                        _ => {}
-                    }
-                }
-                continue;
-            }
-            let fields: Vec<&str> = line.split_whitespace().collect();
-            if fields[0] == "latch" {
-                if fields.len() != 4 {
-                    return Err(err(
-                        n,
-                        "a latch line is `latch HOST_BEFORE DEVICE_TICKS HOST_AFTER`".into(),
-                    ));
-                }
-                trace.latches.push(TraceLatch {
-                    host_before: parse_seconds(fields[1]).map_err(|e| field_err(n, e))?,
-                    device_ticks: num(fields[2], "device ticks").map_err(|e| field_err(n, e))?,
-                    host_after: parse_seconds(fields[3]).map_err(|e| field_err(n, e))?,
-                });
-                continue;
-            }
-            if fields.len() != 7 {
-                return Err(err(
-                    n,
-                    format!(
-                        "a frame line has 7 fields `ID DEVICE_TIMESTAMP HOST_SECONDS WIDTH HEIGHT FORMAT FILE`, found {}",
-                        fields.len()
-                    ),
-                ));
-            }
-            let parse = || -> Result<TraceFrame, TraceFieldError> {
-                Ok(TraceFrame {
-                    id: num(fields[0], "frame id")?,
-                    device_timestamp: num(fields[1], "device timestamp")?,
-                    host_offset: parse_seconds(fields[2])?,
-                    width: num(fields[3], "width")?,
-                    height: num(fields[4], "height")?,
-                    format: parse_format_name(fields[5])
-                        .ok_or_else(|| TraceFieldError::PixelFormat(fields[5].to_string()))?,
-                    file: fields[6].to_string(),
-                })
-            };
-            trace.frames.push(parse().map_err(|e| field_err(n, e))?);
+            trace
+                .parse_line(line)
+                .map_err(|e| e.at(path.clone(), i + 1))?;
         }
         Ok(trace)
+    }
+
+    /// Takes one non-empty index line: a `# key: value` header, a latch or a frame.
+    fn parse_line(&mut self, line: &str) -> Result<(), LineError> {
+        if let Some(comment) = line.strip_prefix('#') {
+            if let Some((key, value)) = comment.trim().split_once(": ") {
+                self.header_field(key, value.trim().to_string())?;
+            }
+            return Ok(());
+        }
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        if fields[0] == "latch" {
+            self.latches.push(parse_latch(&fields)?);
+        } else {
+            self.frames.push(parse_frame(&fields)?);
+        }
+        Ok(())
+    }
+
+    /// Takes one `# key: value` header line; unknown keys are comments.
+    fn header_field(&mut self, key: &str, value: String) -> Result<(), TraceFieldError> {
+        match key {
+            "device" => self.device = value,
+            "camera" => self.info.id = value,
+            "vendor" => self.info.vendor = value,
+            "model" => self.info.model = value,
+            "serial" => self.info.serial = value,
+            "tick-frequency" => self.info.tick_frequency = num(&value, "tick-frequency")?,
+            "configured" => self.configured.push(value),
+            _ => {}
+        }
+        Ok(())
     }
 
     /// Loads `dir/index.trace`.

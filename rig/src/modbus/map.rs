@@ -311,27 +311,28 @@ impl RegisterMap {
         Ok(map)
     }
 
+    /// Checks the map as a whole: steps per mm, then each section.
     fn check(&self) -> Result<(), MapCheckError> {
         if !(self.steps_per_mm.is_finite() && self.steps_per_mm > 0.0) {
             return Err(MapCheckError::StepsPerMm(self.steps_per_mm));
         }
-        let words = |key: &str, w: u8| {
-            if w == 1 || w == 2 {
-                Ok(())
-            } else {
-                Err(MapCheckError::Words {
-                    key: key.to_string(),
-                    words: w,
-                })
-            }
-        };
+        self.check_profile_registers()?;
+        self.check_operation()?;
+        self.check_trigger()?;
+        self.check_writes()?;
+        self.check_status()
+    }
+
+    /// Checks the speed, acceleration and deceleration registers: widths, positive scales,
+    /// and a motion profile to write them to.
+    fn check_profile_registers(&self) -> Result<(), MapCheckError> {
         for (key, f) in [
             ("registers.speed", &self.registers.speed),
             ("registers.acceleration", &self.registers.acceleration),
             ("registers.deceleration", &self.registers.deceleration),
         ] {
             if let Some(f) = f {
-                words(key, f.words)?;
+                check_words(key, f.words)?;
                 if !(f.scale.is_finite() && f.scale > 0.0) {
                     return Err(MapCheckError::Scale {
                         key,
@@ -343,14 +344,24 @@ impl RegisterMap {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Checks that the operation codes, if any, fit the operation register.
+    fn check_operation(&self) -> Result<(), MapCheckError> {
         if let Some(op) = &self.operation {
-            words("operation", op.words)?;
+            check_words("operation", op.words)?;
             fits("operation.absolute", op.absolute, op.words)?;
             if let Some(r) = op.relative {
                 fits("operation.relative", r, op.words)?;
             }
         }
-        words("trigger", self.trigger.words)?;
+        Ok(())
+    }
+
+    /// Checks that the start, stop and emergency stop values fit the trigger register.
+    fn check_trigger(&self) -> Result<(), MapCheckError> {
+        check_words("trigger", self.trigger.words)?;
         fits("trigger.start", self.trigger.start, self.trigger.words)?;
         for (key, v) in [
             ("trigger.stop", self.trigger.stop),
@@ -360,6 +371,12 @@ impl RegisterMap {
                 fits(key, v, self.trigger.words)?;
             }
         }
+        Ok(())
+    }
+
+    /// Checks the preset and homing writes (homing needs at least one): each value and release
+    /// value fits its register.
+    fn check_writes(&self) -> Result<(), MapCheckError> {
         let mut writes: Vec<(String, &Write)> = self
             .preset
             .iter()
@@ -378,13 +395,18 @@ impl RegisterMap {
             );
         }
         for (key, w) in writes {
-            words(&key, w.words)?;
+            check_words(&key, w.words)?;
             fits(&format!("{key}.value"), w.value, w.words)?;
             if let Some(r) = w.release {
                 fits(&format!("{key}.release"), r, w.words)?;
             }
         }
-        words("status", self.status.words)?;
+        Ok(())
+    }
+
+    /// Checks the status register: a moving bit, and every mask non-zero and within its width.
+    fn check_status(&self) -> Result<(), MapCheckError> {
+        check_words("status", self.status.words)?;
         if !self.status.bits.iter().any(|b| b.role == Role::Moving) {
             return Err(MapCheckError::NoMovingBit);
         }
@@ -429,6 +451,18 @@ impl RegisterMap {
             [a, b] => self.word_order.join([*a, *b]),
             _ => 0,
         }
+    }
+}
+
+/// Checks that register `key` is one or two words wide.
+fn check_words(key: &str, words: u8) -> Result<(), MapCheckError> {
+    if words == 1 || words == 2 {
+        Ok(())
+    } else {
+        Err(MapCheckError::Words {
+            key: key.to_string(),
+            words,
+        })
     }
 }
 

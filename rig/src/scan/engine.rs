@@ -718,6 +718,7 @@ impl<'a> Runner<'a> {
 }
 
 impl Runner<'_> {
+    /// Runs the program's points from `first` on, until the last is done or the scan ends.
     fn points(&mut self, first: u64, operator: &mut dyn Operator) -> Result<Ending, ScanError> {
         let points = self.setup.program.points.clone();
         let mut k = first as usize;
@@ -726,110 +727,22 @@ impl Runner<'_> {
             let p = &points[k];
             let point_started = Instant::now();
             self.excluded = Duration::ZERO;
-            // The checkpoint before the point: waited for here when the scan stops for the
-            // operator (pause, indenter change, manual y row), otherwise made while the axes
-            // move to the point and waited for before the point films anything.
-            let stops = self.control.request() != Request::Run
-                || self.mounted.as_deref() != Some(p.shape.as_str())
-                || (self.setup.limits.manual_y && row_confirmed != Some(p.y.0));
-            let pending = self.recorder.checkpoint_begin(p.index)?;
-            if stops {
-                pending.wait(CHECKPOINT_TIMEOUT)?;
-            } else {
-                self.pending_checkpoint = Some(pending);
-            }
-            match self.control.request() {
-                Request::Abort => return Ok(Ending::Aborted("aborted by the operator".into())),
-                Request::PauseAfterIndentation | Request::PauseNow => {
-                    if !self.pause("paused by the operator".into(), operator)? {
-                        return Ok(Ending::Aborted("aborted by the operator".into()));
-                    }
-                }
-                Request::Run => {}
-            }
-            if self.mounted.as_deref() != Some(p.shape.as_str()) {
-                let prompt = Prompt::ChangeIndenter {
-                    shape: p.shape.clone(),
-                };
-                if !self.ask(operator, &prompt, Some(p.index)) {
-                    return Ok(Ending::Aborted("aborted at the indenter prompt".into()));
-                }
-                self.mounted = Some(p.shape.clone());
-            }
-            if self.setup.limits.manual_y && row_confirmed != Some(p.y.0) {
-                let prompt = Prompt::MoveY { y_mm: p.y.0 };
-                if !self.ask(operator, &prompt, Some(p.index)) {
-                    return Ok(Ending::Aborted("aborted at the y stage prompt".into()));
-                }
-                row_confirmed = Some(p.y.0);
-                self.manual_y_at = Some(p.y);
+            self.checkpoint_before(p, row_confirmed)?;
+            if let Some(ending) = self.before_point(p, &mut row_confirmed, operator)? {
+                return Ok(ending);
             }
             match self.point(p)? {
                 PointEnd::Done => {
-                    let total = point_started.elapsed();
-                    let overhead = total.saturating_sub(self.excluded);
-                    self.overheads.push(overhead);
-                    self.recorder.event(
-                        "point-done",
-                        Some(p.index),
-                        &format!(
-                            "x {:.3} mm, y {:.3} mm, {} (repetition {}) in {:.1} s, software overhead {:.1} ms",
-                            p.x.0,
-                            p.y.0,
-                            p.shape,
-                            p.repetition + 1,
-                            total.as_secs_f64(),
-                            overhead.as_secs_f64() * 1e3
-                        ),
-                    );
-                    self.points_done = p.index + 1;
-                    self.done_this_session += 1;
-                    for sidecar in &self.setup.sidecars {
-                        append_sidecar(&self.run_dir, sidecar.as_ref(), false)?;
-                    }
+                    self.point_done(p, point_started.elapsed())?;
                     k += 1;
                 }
                 PointEnd::NoContact(why) => {
-                    self.recorder.event("point-skipped", Some(p.index), &why);
-                    (self.progress)(ScanProgress::Message(format!(
-                        "point {}: {why}; skipped",
-                        p.index + 1
-                    )));
-                    self.points_done = p.index + 1;
+                    self.point_skipped(p, &why);
                     k += 1;
                 }
                 PointEnd::Interrupted(alarm) => {
-                    self.context.set(None);
-                    self.watchers.set_filming(false);
-                    self.retract()?;
-                    self.tare_not_before = Some(HostTime::now());
-                    let cut = self.recorder.rollback(Duration::from_secs(10))?;
-                    self.frames_discarded += cut;
-                    self.recorder.event(
-                        "point-interrupted",
-                        Some(p.index),
-                        &format!("{alarm}; {cut} frame records cut, the point will be done again"),
-                    );
-                    if self.control.request() == Request::Abort {
-                        return Ok(Ending::Aborted("aborted by the operator".into()));
-                    }
-                    if alarm != Alarm::Requested {
-                        let (point, times) = self.watcher_retries;
-                        let times = if point == p.index { times + 1 } else { 1 };
-                        self.watcher_retries = (p.index, times);
-                        if times >= MAX_WATCHER_RETRIES {
-                            return Ok(Ending::Aborted(format!(
-                                "point {} was interrupted {times} times in a row by the watchers (last: {alarm}); the scan stops so that the cause can be fixed (the points done are kept)",
-                                p.index + 1
-                            )));
-                        }
-                    }
-                    let reason = match alarm {
-                        Alarm::Requested => "paused by the operator".to_string(),
-                        other => other.to_string(),
-                    };
-                    if !self.pause(reason, operator)? {
-                        return Ok(Ending::Aborted("aborted while paused".into()));
+                    if let Some(ending) = self.point_interrupted(p, alarm, operator)? {
+                        return Ok(ending);
                     }
                 }
             }
@@ -838,7 +751,147 @@ impl Runner<'_> {
         Ok(Ending::Completed)
     }
 
-    /// Asks the operator; false means abort.
+    /// Begins the checkpoint before point `p`: waited for here when the scan stops for the
+    /// operator (pause, indenter change, manual y row), otherwise made while the axes move to
+    /// the point and waited for before the point films anything.
+    fn checkpoint_before(
+        &mut self,
+        p: &ScanPoint,
+        row_confirmed: Option<f64>,
+    ) -> Result<(), ScanError> {
+        let stops = self.control.request() != Request::Run
+            || self.mounted.as_deref() != Some(p.shape.as_str())
+            || (self.setup.limits.manual_y && row_confirmed != Some(p.y.0));
+        let pending = self.recorder.checkpoint_begin(p.index)?;
+        if stops {
+            pending.wait(CHECKPOINT_TIMEOUT)?;
+        } else {
+            self.pending_checkpoint = Some(pending);
+        }
+        Ok(())
+    }
+
+    /// Serves a pause or abort request, then asks the operator to change the indenter or move
+    /// a manual y stage when point `p` needs it; `Some` ends the scan.
+    fn before_point(
+        &mut self,
+        p: &ScanPoint,
+        row_confirmed: &mut Option<f64>,
+        operator: &mut dyn Operator,
+    ) -> Result<Option<Ending>, ScanError> {
+        match self.control.request() {
+            Request::Abort => return Ok(Some(Ending::Aborted("aborted by the operator".into()))),
+            Request::PauseAfterIndentation | Request::PauseNow => {
+                if !self.pause("paused by the operator".into(), operator)? {
+                    return Ok(Some(Ending::Aborted("aborted by the operator".into())));
+                }
+            }
+            Request::Run => {}
+        }
+        if self.mounted.as_deref() != Some(p.shape.as_str()) {
+            let prompt = Prompt::ChangeIndenter {
+                shape: p.shape.clone(),
+            };
+            if !self.ask(operator, &prompt, Some(p.index)) {
+                return Ok(Some(Ending::Aborted(
+                    "aborted at the indenter prompt".into(),
+                )));
+            }
+            self.mounted = Some(p.shape.clone());
+        }
+        if self.setup.limits.manual_y && *row_confirmed != Some(p.y.0) {
+            let prompt = Prompt::MoveY { y_mm: p.y.0 };
+            if !self.ask(operator, &prompt, Some(p.index)) {
+                return Ok(Some(Ending::Aborted(
+                    "aborted at the y stage prompt".into(),
+                )));
+            }
+            *row_confirmed = Some(p.y.0);
+            self.manual_y_at = Some(p.y);
+        }
+        Ok(None)
+    }
+
+    /// Records point `p` as done after `total` (its software overhead among them) and appends
+    /// the sidecars.
+    fn point_done(&mut self, p: &ScanPoint, total: Duration) -> Result<(), ScanError> {
+        let overhead = total.saturating_sub(self.excluded);
+        self.overheads.push(overhead);
+        self.recorder.event(
+            "point-done",
+            Some(p.index),
+            &format!(
+                "x {:.3} mm, y {:.3} mm, {} (repetition {}) in {:.1} s, software overhead {:.1} ms",
+                p.x.0,
+                p.y.0,
+                p.shape,
+                p.repetition + 1,
+                total.as_secs_f64(),
+                overhead.as_secs_f64() * 1e3
+            ),
+        );
+        self.points_done = p.index + 1;
+        self.done_this_session += 1;
+        for sidecar in &self.setup.sidecars {
+            append_sidecar(&self.run_dir, sidecar.as_ref(), false)?;
+        }
+        Ok(())
+    }
+
+    /// Records point `p` as skipped for want of contact (`why`) and tells the operator.
+    fn point_skipped(&mut self, p: &ScanPoint, why: &str) {
+        self.recorder.event("point-skipped", Some(p.index), why);
+        (self.progress)(ScanProgress::Message(format!(
+            "point {}: {why}; skipped",
+            p.index + 1
+        )));
+        self.points_done = p.index + 1;
+    }
+
+    /// After point `p` was interrupted by `alarm`: retracts, cuts its frames and pauses, so
+    /// that the point is done again; `Some` ends the scan (an abort, or too many watcher
+    /// interruptions of one point in a row).
+    fn point_interrupted(
+        &mut self,
+        p: &ScanPoint,
+        alarm: Alarm,
+        operator: &mut dyn Operator,
+    ) -> Result<Option<Ending>, ScanError> {
+        self.context.set(None);
+        self.watchers.set_filming(false);
+        self.retract()?;
+        self.tare_not_before = Some(HostTime::now());
+        let cut = self.recorder.rollback(Duration::from_secs(10))?;
+        self.frames_discarded += cut;
+        self.recorder.event(
+            "point-interrupted",
+            Some(p.index),
+            &format!("{alarm}; {cut} frame records cut, the point will be done again"),
+        );
+        if self.control.request() == Request::Abort {
+            return Ok(Some(Ending::Aborted("aborted by the operator".into())));
+        }
+        if alarm != Alarm::Requested {
+            let (point, times) = self.watcher_retries;
+            let times = if point == p.index { times + 1 } else { 1 };
+            self.watcher_retries = (p.index, times);
+            if times >= MAX_WATCHER_RETRIES {
+                return Ok(Some(Ending::Aborted(format!(
+                    "point {} was interrupted {times} times in a row by the watchers (last: {alarm}); the scan stops so that the cause can be fixed (the points done are kept)",
+                    p.index + 1
+                ))));
+            }
+        }
+        let reason = match alarm {
+            Alarm::Requested => "paused by the operator".to_string(),
+            other => other.to_string(),
+        };
+        if !self.pause(reason, operator)? {
+            return Ok(Some(Ending::Aborted("aborted while paused".into())));
+        }
+        Ok(None)
+    }
+
     fn ask(&mut self, operator: &mut dyn Operator, prompt: &Prompt, point: Option<u64>) -> bool {
         self.recorder.event("prompt", point, &prompt.message());
         let asked = Instant::now();
@@ -1091,6 +1144,7 @@ impl Runner<'_> {
         end
     }
 
+    /// Approaches point `p` to first contact, presses and dwells at each target, and retracts.
     fn indent(&mut self, p: &ScanPoint, filming: &mut Filming) -> Result<PointEnd, ScanError> {
         let i = p.index;
         self.phase(i, Phase::Approach);
@@ -1113,13 +1167,6 @@ impl Runner<'_> {
                 contact.z.0, contact.force.0
             ),
         );
-        let down = if press.approach_limit.0 >= self.safe_z.0 {
-            1.0
-        } else {
-            -1.0
-        };
-        let ind = &self.setup.program.plan.indentation;
-        let dwell = self.setup.program.dwell;
         let n = match &self.setup.program.targets {
             Targets::Force(t) => t.len(),
             Targets::Depth(t) => t.len(),
@@ -1128,47 +1175,93 @@ impl Runner<'_> {
         for k in 0..n {
             self.phase(i, Phase::Pressing(k));
             let pressing = Instant::now();
-            let reached = match &self.setup.program.targets {
-                Targets::Force(t) => {
-                    // Ramp: intermediate targets no more than half a second of ramp apart.
-                    let step = (ind.ramp_rate * 0.5).max(0.2);
-                    let mut result = Ok(contact);
-                    let mut f = force_now.0;
-                    while (t[k].0 - f).abs() > 1e-9 {
-                        f = if t[k].0 > f {
-                            (f + step).min(t[k].0)
-                        } else {
-                            (f - step).max(t[k].0)
-                        };
-                        result = press_to(self.axes.z.as_mut(), &guard, Newtons(f));
-                        if result.is_err() {
-                            break;
-                        }
-                    }
-                    result
-                }
-                Targets::Depth(t) => {
-                    let target = Millimetres(contact.z.0 + down * t[k].0);
-                    self.press_depth(&guard, target, ind.ramp_rate)
-                }
-            };
+            let reached = self.press_target(&guard, contact, force_now, k);
             self.excluded += pressing.elapsed();
             let reached = match reached {
                 Ok(r) => r,
                 Err(e) => return self.press_failed(e),
             };
             force_now = reached.force;
-            filming.commanded.z = reached.z;
-            filming.measured = self.position()?;
-            self.context.set(Some(filming.clone()));
-            self.phase(i, Phase::Dwell(k));
-            let dwelling = Instant::now();
-            let dwelt = self.dwell(dwell);
-            self.excluded += dwelling.elapsed();
-            if let Some(alarm) = dwelt {
+            if let Some(alarm) = self.hold(i, k, reached.z, filming)? {
                 return Ok(PointEnd::Interrupted(alarm));
             }
         }
+        self.retract_after_point(i)
+    }
+
+    /// Presses to target `k` from `contact`, the force now being `force_now`: a force target
+    /// in a ramp, a depth target past contact at the ramp rate.
+    fn press_target(
+        &mut self,
+        guard: &ForceGuard<'_>,
+        contact: super::press::PressPoint,
+        force_now: Newtons,
+        k: usize,
+    ) -> Result<super::press::PressPoint, PressError> {
+        let setup = self.setup;
+        let ramp_rate = setup.program.plan.indentation.ramp_rate;
+        match &setup.program.targets {
+            Targets::Force(t) => self.press_force_ramp(guard, contact, force_now, t[k], ramp_rate),
+            Targets::Depth(t) => {
+                let down = if self.press.approach_limit.0 >= self.safe_z.0 {
+                    1.0
+                } else {
+                    -1.0
+                };
+                let target = Millimetres(contact.z.0 + down * t[k].0);
+                self.press_depth(guard, target, ramp_rate)
+            }
+        }
+    }
+
+    /// Ramps the pressing force from `from` to `target` through intermediate targets no more
+    /// than half a second of ramp (`rate`, N/s) apart; `contact` when already there.
+    fn press_force_ramp(
+        &mut self,
+        guard: &ForceGuard<'_>,
+        contact: super::press::PressPoint,
+        from: Newtons,
+        target: Newtons,
+        rate: f64,
+    ) -> Result<super::press::PressPoint, PressError> {
+        let step = (rate * 0.5).max(0.2);
+        let mut result = Ok(contact);
+        let mut f = from.0;
+        while (target.0 - f).abs() > 1e-9 {
+            f = if target.0 > f {
+                (f + step).min(target.0)
+            } else {
+                (f - step).max(target.0)
+            };
+            result = press_to(self.axes.z.as_mut(), guard, Newtons(f));
+            if result.is_err() {
+                break;
+            }
+        }
+        result
+    }
+
+    /// Films target `k` of point `i`, reached at z `reached_z`, for the dwell; the alarm if the
+    /// dwell was interrupted.
+    fn hold(
+        &mut self,
+        i: u64,
+        k: usize,
+        reached_z: Millimetres,
+        filming: &mut Filming,
+    ) -> Result<Option<Alarm>, ScanError> {
+        filming.commanded.z = reached_z;
+        filming.measured = self.position()?;
+        self.context.set(Some(filming.clone()));
+        self.phase(i, Phase::Dwell(k));
+        let dwelling = Instant::now();
+        let dwelt = self.dwell(self.setup.program.dwell);
+        self.excluded += dwelling.elapsed();
+        Ok(dwelt)
+    }
+
+    /// Moves z back to the safe height after point `i`, watching for interruptions.
+    fn retract_after_point(&mut self, i: u64) -> Result<PointEnd, ScanError> {
         self.phase(i, Phase::Retract);
         let retracting = Instant::now();
         self.axes.z.begin_move_to(self.safe_z)?;

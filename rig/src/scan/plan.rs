@@ -235,144 +235,199 @@ impl Plan {
         if self.name.contains('\0') {
             return Err(err("key name: contains a NUL byte".into()));
         }
-        let xs = self.grid.x.values("grid.x").map_err(err)?;
-        let ys = self.grid.y.values("grid.y").map_err(err)?;
+        let (xs, ys) = self.grid_values(bench).map_err(err)?;
+        self.check_safe_z(bench).map_err(err)?;
+        self.check_shapes().map_err(err)?;
+        self.check_forces(bench).map_err(err)?;
+        let targets = self.targets().map_err(err)?;
+        self.check_pressing(&targets).map_err(err)?;
+        // The size check comes before anything is allocated for the points.
+        self.check_count(xs.len(), ys.len()).map_err(err)?;
+        Ok(ScanProgram {
+            plan: self.clone(),
+            targets,
+            dwell: Duration::from_secs_f64(self.indentation.dwell),
+            points: self.expand(&xs, &ys),
+        })
+    }
+
+    /// The grid's x and y coordinates, each checked against the bench's soft limits.
+    fn grid_values(&self, bench: &BenchLimits) -> Result<(Vec<f64>, Vec<f64>), String> {
+        let xs = self.grid.x.values("grid.x")?;
+        let ys = self.grid.y.values("grid.y")?;
         for (key, values, limits) in [("grid.x", &xs, &bench.x), ("grid.y", &ys, &bench.y)] {
             if let Some(v) = values
                 .iter()
                 .find(|v| limits.check(key, Millimetres(**v)).is_err())
             {
-                return Err(err(format!(
+                return Err(format!(
                     "key {key}: {v} mm is outside the soft limits {:.3} .. {:.3} mm of the rig",
                     limits.min.0, limits.max.0
-                )));
+                ));
             }
         }
+        Ok((xs, ys))
+    }
+
+    /// Checks that `approach.safe_z` is within the z soft limits.
+    fn check_safe_z(&self, bench: &BenchLimits) -> Result<(), String> {
         if bench
             .z
             .check("z", Millimetres(self.approach.safe_z))
             .is_err()
         {
-            return Err(err(format!(
+            return Err(format!(
                 "key approach.safe_z: {} mm is outside the z soft limits {:.3} .. {:.3} mm",
                 self.approach.safe_z, bench.z.min.0, bench.z.max.0
-            )));
-        }
-        if self.indenters.shapes.is_empty() {
-            return Err(err(
-                "key indenters.shapes: name at least one indenter".into()
             ));
         }
-        if let Some(s) = self.indenters.shapes.iter().find(|s| s.trim().is_empty()) {
-            return Err(err(format!(
-                "key indenters.shapes: {s:?} is not a name (give each indenter a name, e.g. \"pentagon\")"
-            )));
+        Ok(())
+    }
+
+    /// Checks that there is at least one indenter and that each has a name.
+    fn check_shapes(&self) -> Result<(), String> {
+        if self.indenters.shapes.is_empty() {
+            return Err("key indenters.shapes: name at least one indenter".into());
         }
+        if let Some(s) = self.indenters.shapes.iter().find(|s| s.trim().is_empty()) {
+            return Err(format!(
+                "key indenters.shapes: {s:?} is not a name (give each indenter a name, e.g. \"pentagon\")"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the force ceiling against the rig and the contact threshold against the ceiling.
+    fn check_forces(&self, bench: &BenchLimits) -> Result<(), String> {
         let ceiling = self.safety.force_ceiling;
         if !(ceiling.is_finite() && ceiling > 0.0) || ceiling > bench.max_force.0 {
-            return Err(err(format!(
+            return Err(format!(
                 "key safety.force_ceiling: {} N must be positive and at most the rig's {:.1} N",
                 shown(ceiling),
                 bench.max_force.0
-            )));
+            ));
         }
-        let ind = &self.indentation;
         let threshold = self.approach.contact_threshold;
         if !(threshold.is_finite() && threshold >= MIN_CONTACT_THRESHOLD.0 && threshold < ceiling) {
-            return Err(err(format!(
+            return Err(format!(
                 "key approach.contact_threshold: {} N must be a number from {} N (above the F/T noise) and below the force ceiling {ceiling} N",
                 shown(threshold),
                 MIN_CONTACT_THRESHOLD.0
-            )));
+            ));
         }
+        Ok(())
+    }
+
+    /// The checked force or depth targets (exactly one of the two lists is given).
+    fn targets(&self) -> Result<Targets, String> {
+        let ind = &self.indentation;
         let count_targets = ind.force_targets.len() + ind.depth_targets.len();
         if count_targets > MAX_TARGETS {
-            return Err(err(format!(
+            return Err(format!(
                 "section [indentation]: {count_targets} targets per point; at most {MAX_TARGETS}"
-            )));
+            ));
         }
-        let targets = match (ind.force_targets.is_empty(), ind.depth_targets.is_empty()) {
-            (false, true) => {
-                if let Some(t) = ind
-                    .force_targets
-                    .iter()
-                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < ceiling))
-                {
-                    return Err(err(format!(
-                        "key indentation.force_targets: {} N must be above 0 and below the force ceiling {ceiling} N",
-                        shown(*t)
-                    )));
-                }
-                if let Some(t) = ind.force_targets.iter().find(|t| **t <= threshold) {
-                    return Err(err(format!(
-                        "key indentation.force_targets: {t} N is not above approach.contact_threshold = {threshold} N (first contact must come before every target)"
-                    )));
-                }
-                Targets::Force(ind.force_targets.iter().map(|t| Newtons(*t)).collect())
-            }
-            (true, false) => {
-                if let Some(t) = ind
-                    .depth_targets
-                    .iter()
-                    .find(|t| !(t.is_finite() && **t > 0.0 && **t < MAX_DEPTH.0))
-                {
-                    return Err(err(format!(
-                        "key indentation.depth_targets: {} mm must be above 0 and below {} mm",
-                        shown(*t),
-                        MAX_DEPTH.0
-                    )));
-                }
-                Targets::Depth(ind.depth_targets.iter().map(|t| Millimetres(*t)).collect())
-            }
-            _ => {
-                return Err(err(
-                    "section [indentation]: give either force_targets or depth_targets".into(),
-                ))
-            }
-        };
+        match (ind.force_targets.is_empty(), ind.depth_targets.is_empty()) {
+            (false, true) => self.force_targets().map(Targets::Force),
+            (true, false) => self.depth_targets().map(Targets::Depth),
+            _ => Err("section [indentation]: give either force_targets or depth_targets".into()),
+        }
+    }
+
+    /// The force targets, each between the contact threshold and the force ceiling.
+    fn force_targets(&self) -> Result<Vec<Newtons>, String> {
+        let ind = &self.indentation;
+        let ceiling = self.safety.force_ceiling;
+        let threshold = self.approach.contact_threshold;
+        if let Some(t) = ind
+            .force_targets
+            .iter()
+            .find(|t| !(t.is_finite() && **t > 0.0 && **t < ceiling))
+        {
+            return Err(format!(
+                "key indentation.force_targets: {} N must be above 0 and below the force ceiling {ceiling} N",
+                shown(*t)
+            ));
+        }
+        if let Some(t) = ind.force_targets.iter().find(|t| **t <= threshold) {
+            return Err(format!(
+                "key indentation.force_targets: {t} N is not above approach.contact_threshold = {threshold} N (first contact must come before every target)"
+            ));
+        }
+        Ok(ind.force_targets.iter().map(|t| Newtons(*t)).collect())
+    }
+
+    /// The depth targets, each above 0 and below [`MAX_DEPTH`].
+    fn depth_targets(&self) -> Result<Vec<Millimetres>, String> {
+        let ind = &self.indentation;
+        if let Some(t) = ind
+            .depth_targets
+            .iter()
+            .find(|t| !(t.is_finite() && **t > 0.0 && **t < MAX_DEPTH.0))
+        {
+            return Err(format!(
+                "key indentation.depth_targets: {} mm must be above 0 and below {} mm",
+                shown(*t),
+                MAX_DEPTH.0
+            ));
+        }
+        Ok(ind.depth_targets.iter().map(|t| Millimetres(*t)).collect())
+    }
+
+    /// Checks the ramp rate (in the targets' unit), the dwell and the repetitions.
+    fn check_pressing(&self, targets: &Targets) -> Result<(), String> {
+        let ind = &self.indentation;
         let (rate_range, rate_unit) = match targets {
             Targets::Force(_) => (FORCE_RAMP_RATE, "N/s"),
             Targets::Depth(_) => (DEPTH_RAMP_RATE, "mm/s"),
         };
         if !(ind.ramp_rate.is_finite() && rate_range.contains(&ind.ramp_rate)) {
-            return Err(err(format!(
+            return Err(format!(
                 "key indentation.ramp_rate: {} must be a number from {} to {} {rate_unit}",
                 shown(ind.ramp_rate),
                 rate_range.start(),
                 rate_range.end()
-            )));
+            ));
         }
         if !(ind.dwell.is_finite() && ind.dwell >= 0.0 && ind.dwell <= MAX_DWELL.as_secs_f64()) {
-            return Err(err(format!(
+            return Err(format!(
                 "key indentation.dwell: {} s must be a number from 0 to {} s",
                 shown(ind.dwell),
                 MAX_DWELL.as_secs()
-            )));
+            ));
         }
         if ind.repetitions == 0 || ind.repetitions > MAX_REPETITIONS {
-            return Err(err(format!(
+            return Err(format!(
                 "key indentation.repetitions: {} must be from 1 to {MAX_REPETITIONS}",
                 ind.repetitions
-            )));
+            ));
         }
-        // The size check comes before anything is allocated for the points.
+        Ok(())
+    }
+
+    /// Checks that the plan holds at most [`MAX_POINTS`] indentations, without allocating them.
+    fn check_count(&self, x_count: usize, y_count: usize) -> Result<(), String> {
+        let shapes = self.indenters.shapes.len();
+        let repetitions = self.indentation.repetitions;
         let count = [
-            self.indenters.shapes.len() as u128,
-            xs.len() as u128,
-            ys.len() as u128,
-            u128::from(ind.repetitions),
+            shapes as u128,
+            x_count as u128,
+            y_count as u128,
+            u128::from(repetitions),
         ]
         .iter()
         .product::<u128>();
         if count > MAX_POINTS as u128 {
-            return Err(err(format!(
-                "the plan has {count} indentations ({} shapes x {} x {} y x {} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid",
-                self.indenters.shapes.len(),
-                xs.len(),
-                ys.len(),
-                ind.repetitions
-            )));
+            return Err(format!(
+                "the plan has {count} indentations ({shapes} shapes x {x_count} x {y_count} y x {repetitions} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid"
+            ));
         }
+        Ok(())
+    }
+
+    /// The points in execution order: indenter, then y row, then x (snake or raster), then
+    /// repetition.
+    fn expand(&self, xs: &[f64], ys: &[f64]) -> Vec<ScanPoint> {
         let mut points = Vec::new();
         let mut last: Option<(String, f64)> = None;
         for shape in &self.indenters.shapes {
@@ -381,10 +436,10 @@ impl Plan {
                 let row_xs: Vec<f64> = if reverse {
                     xs.iter().rev().copied().collect()
                 } else {
-                    xs.clone()
+                    xs.to_vec()
                 };
                 for x in row_xs {
-                    for repetition in 0..ind.repetitions {
+                    for repetition in 0..self.indentation.repetitions {
                         let change_indenter = last.as_ref().is_none_or(|(s, _)| s != shape);
                         let new_row = last.as_ref().is_none_or(|(_, ly)| ly != y);
                         points.push(ScanPoint {
@@ -401,12 +456,7 @@ impl Plan {
                 }
             }
         }
-        Ok(ScanProgram {
-            plan: self.clone(),
-            targets,
-            dwell: Duration::from_secs_f64(ind.dwell),
-            points,
-        })
+        points
     }
 }
 

@@ -288,59 +288,21 @@ fn write_export(
     let images = dir.join(IMAGES);
     std::fs::create_dir(&images).map_err(|e| StoreError::io(&images, e))?;
     let labels = dir.join(LABELS);
-    let write_error = |e: std::io::Error| StoreError::io(&labels, e);
-    let mut csv = LabelWriter::new(Vec::new(), options.round).map_err(write_error)?;
-    let (mut k, mut none, mut skipped, mut duplicates) = (0u64, 0u64, 0u64, 0u64);
+    let csv =
+        LabelWriter::new(Vec::new(), options.round).map_err(|e| StoreError::io(&labels, e))?;
+    let mut writer = ExportWriter {
+        dir,
+        images,
+        labels,
+        options,
+        csv,
+        counts: ExportCounts::default(),
+    };
     let mut exported = Vec::with_capacity(runs.len());
     for (run, problems) in runs.iter().zip(problems) {
         let start: StartDocument = super::run_writer::read_start(run)?;
-        let first_image = k;
-        let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
-        let mut indices = HashSet::new();
-        let mut files = HashSet::new();
-        for record in records {
-            if options.cancel.is_some_and(|c| c.load(Ordering::SeqCst)) {
-                return Err(StoreError::Content {
-                    path: dir.to_path_buf(),
-                    message:
-                        "the export was interrupted (Ctrl-C or a signal); nothing was exported"
-                            .into(),
-                });
-            }
-            let source = record.file_in(run)?;
-            if !indices.insert(record.index) || !files.insert(record.file.clone()) {
-                duplicates += 1;
-                continue;
-            }
-            if !record.valid || record.wrench.is_none() {
-                skipped += 1;
-                continue;
-            }
-            let name = format!("image_{k}.tiff");
-            super::own_file::check_in(run, Path::new(&record.file))
-                .map_err(|e| StoreError::io(&source, e))?;
-            let image = image::open(&source).map_err(|e| StoreError::Content {
-                path: source.clone(),
-                message: format!("{e} (frame of record {})", record.index),
-            })?;
-            let target = images.join(&name);
-            let mut tiff = Vec::new();
-            image
-                .write_to(&mut Cursor::new(&mut tiff), image::ImageFormat::Tiff)
-                .map_err(|e| StoreError::Content {
-                    path: target.clone(),
-                    message: e.to_string(),
-                })?;
-            write_synced(&target, &tiff)?;
-            if let Some(row) = label_row(&name, &record) {
-                csv.write(&row).map_err(write_error)?;
-            }
-            if record.contact.is_none() {
-                none += 1;
-            }
-            k += 1;
-            progress(k);
-        }
+        let first_image = writer.counts.images;
+        writer.export_run(run, &mut progress)?;
         exported.push(ExportedRun {
             dir: run.display().to_string(),
             run_id: start.run_id,
@@ -348,34 +310,151 @@ fn write_export(
             calibration_profile: start.calibration_profile.map(|p| p.path),
             sync_method: start.sync_method,
             first_image,
-            images: k - first_image,
+            images: writer.counts.images - first_image,
             problems,
         });
     }
-    sync_dir(&images)?;
+    sync_dir(&writer.images)?;
+    let provenance = write_provenance(dir, options, &exported)?;
+    let ExportWriter {
+        labels,
+        csv,
+        counts,
+        ..
+    } = writer;
+    let csv = csv.finish().map_err(|e| StoreError::io(&labels, e))?;
+    write_atomic(&labels, &csv)?;
+    Ok(ExportSummary {
+        images: counts.images,
+        without_contact: counts.without_contact,
+        skipped_invalid: counts.skipped_invalid,
+        skipped_duplicates: counts.skipped_duplicates,
+        labels,
+        provenance,
+        runs: exported,
+    })
+}
+
+/// How many images an export wrote and how many records it left out, so far.
+#[derive(Default)]
+struct ExportCounts {
+    /// Images written (the next image is `image_{images}.tiff`).
+    images: u64,
+    /// Images written whose frame has no contact.
+    without_contact: u64,
+    /// Records left out as invalid or without a wrench.
+    skipped_invalid: u64,
+    /// Records left out for repeating an index or a file of their run.
+    skipped_duplicates: u64,
+}
+
+/// An export under way: where it writes, the label rows so far and the counts.
+struct ExportWriter<'a> {
+    /// The export directory.
+    dir: &'a Path,
+    /// Its image folder.
+    images: PathBuf,
+    /// Its label file (written at the end).
+    labels: PathBuf,
+    options: &'a ExportOptions,
+    csv: LabelWriter<Vec<u8>>,
+    counts: ExportCounts,
+}
+
+impl ExportWriter<'_> {
+    /// Exports the valid frames of the run in `run`, in record order, skipping repeated ones.
+    fn export_run(&mut self, run: &Path, progress: &mut impl FnMut(u64)) -> Result<(), StoreError> {
+        let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
+        let mut indices = HashSet::new();
+        let mut files = HashSet::new();
+        for record in records {
+            self.check_cancel()?;
+            let source = record.file_in(run)?;
+            if !indices.insert(record.index) || !files.insert(record.file.clone()) {
+                self.counts.skipped_duplicates += 1;
+                continue;
+            }
+            if !record.valid || record.wrench.is_none() {
+                self.counts.skipped_invalid += 1;
+                continue;
+            }
+            let name = format!("image_{}.tiff", self.counts.images);
+            self.write_image(run, &source, &record, &name)?;
+            if let Some(row) = label_row(&name, &record) {
+                self.csv
+                    .write(&row)
+                    .map_err(|e| StoreError::io(&self.labels, e))?;
+            }
+            if record.contact.is_none() {
+                self.counts.without_contact += 1;
+            }
+            self.counts.images += 1;
+            progress(self.counts.images);
+        }
+        Ok(())
+    }
+
+    /// Fails when the export was cancelled (by a signal).
+    fn check_cancel(&self) -> Result<(), StoreError> {
+        if self
+            .options
+            .cancel
+            .is_some_and(|c| c.load(Ordering::SeqCst))
+        {
+            return Err(StoreError::Content {
+                path: self.dir.to_path_buf(),
+                message: "the export was interrupted (Ctrl-C or a signal); nothing was exported"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Writes the frame of `record` (at `source`, inside `run`) as TIFF image `name`.
+    fn write_image(
+        &self,
+        run: &Path,
+        source: &Path,
+        record: &FrameRecord,
+        name: &str,
+    ) -> Result<(), StoreError> {
+        super::own_file::check_in(run, Path::new(&record.file))
+            .map_err(|e| StoreError::io(source, e))?;
+        let image = image::open(source).map_err(|e| StoreError::Content {
+            path: source.to_path_buf(),
+            message: format!("{e} (frame of record {})", record.index),
+        })?;
+        let target = self.images.join(name);
+        let mut tiff = Vec::new();
+        image
+            .write_to(&mut Cursor::new(&mut tiff), image::ImageFormat::Tiff)
+            .map_err(|e| StoreError::Content {
+                path: target.clone(),
+                message: e.to_string(),
+            })?;
+        write_synced(&target, &tiff)
+    }
+}
+
+/// Writes the provenance document of an export of `exported` into `dir`; its path.
+fn write_provenance(
+    dir: &Path,
+    options: &ExportOptions,
+    exported: &[ExportedRun],
+) -> Result<PathBuf, StoreError> {
     let provenance = dir.join(PROVENANCE);
     let doc = ExportProvenance {
         software: format!("fringe {}", env!("CARGO_PKG_VERSION")),
         exported_utc: now_utc(),
         round: options.round,
-        runs: exported.clone(),
+        runs: exported.to_vec(),
     };
     let json = serde_json::to_string_pretty(&doc).map_err(|e| StoreError::Content {
         path: provenance.clone(),
         message: format!("cannot encode: {e}"),
     })?;
     write_atomic(&provenance, json.as_bytes())?;
-    let csv = csv.finish().map_err(write_error)?;
-    write_atomic(&labels, &csv)?;
-    Ok(ExportSummary {
-        images: k,
-        without_contact: none,
-        skipped_invalid: skipped,
-        skipped_duplicates: duplicates,
-        labels,
-        provenance,
-        runs: exported,
-    })
+    Ok(provenance)
 }
 
 #[cfg(test)]

@@ -36,110 +36,13 @@ impl VerifyReport {
 pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     let start: StartDocument = super::run_writer::read_start(dir)?;
     let mut problems = Vec::new();
-    let frames: Vec<FrameRecord> = match read_frame_lines(&dir.join(FRAMES)) {
-        Ok(lines) => {
-            if let Some(t) = &lines.torn {
-                problems.push(format!(
-                    "{FRAMES}: torn last line ({} bytes, a crash mid-write)",
-                    t.len()
-                ));
-            }
-            check_against_checkpoint(dir, &lines, &mut problems);
-            lines.records
-        }
-        Err(e) => {
-            problems.push(e.to_string());
-            Vec::new()
-        }
-    };
-    // Every frame has the run's size (the first frame's): a run filmed at two sizes is two
-    // runs in one directory.
-    let mut size: Option<(u32, u32)> = None;
-    let mut other_sizes = 0u64;
-    for (k, f) in frames.iter().enumerate() {
-        let own = own_file::check_in(dir, Path::new(&f.file)).is_ok();
-        if let (Ok(path), true) = (f.file_in(dir), own) {
-            if let Some(dims) = image_size(&path) {
-                match size {
-                    None => size = Some(dims),
-                    Some(first) if first != dims => {
-                        other_sizes += 1;
-                        if other_sizes <= 3 {
-                            problems.push(format!(
-                                "{}: {}x{} px, where the run's frames are {}x{} px (filmed by another camera or at another size)",
-                                f.file, dims.0, dims.1, first.0, first.1
-                            ));
-                        }
-                    }
-                    Some(_) => {}
-                }
-            }
-        }
-        if f.index != k as u64 {
-            problems.push(format!(
-                "{FRAMES}: record {} has index {}, expected {k}",
-                k + 1,
-                f.index
-            ));
-        }
-        match f.file_in(dir) {
-            Ok(_) => match own_file::check_in(dir, Path::new(&f.file)) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => problems.push(format!(
-                    "{}: frame of record {} is missing",
-                    f.file, f.index
-                )),
-                Err(e) => problems.push(format!("{}: {e}", f.file)),
-            },
-            Err(e) => problems.push(e.to_string()),
-        }
-    }
-    if other_sizes > 3 {
-        problems.push(format!(
-            "{FRAMES}: {other_sizes} frames in all are not the size of the run's first frame"
-        ));
-    }
-    let force_path = dir.join(FORCE);
-    let force_samples = match own_file::read(&force_path) {
-        Ok(bytes) => match force_log::decode_all(&bytes) {
-            Ok((samples, torn)) => {
-                if torn > 0 {
-                    problems.push(format!("{FORCE}: {torn} bytes of a torn record at the end"));
-                }
-                samples.len() as u64
-            }
-            Err(message) => {
-                problems.push(format!("{FORCE}: {message}"));
-                0
-            }
-        },
-        Err(e) => {
-            problems.push(format!("{FORCE}: {e}"));
-            0
-        }
-    };
-    let stop_path = dir.join(STOP);
-    let ended = stop_path.exists();
+    let frames = read_frames(dir, &mut problems);
+    check_frames(dir, &frames, &mut problems);
+    let force_samples = count_force_samples(dir, &mut problems);
+    let ended = dir.join(STOP).exists();
     let mut manifest_missing = false;
     if ended {
-        match read_document::<StopDocument>(&stop_path) {
-            Ok(stop) => {
-                if stop.frames != frames.len() as u64 {
-                    problems.push(format!(
-                        "{STOP}: says {} frames, {FRAMES} holds {}",
-                        stop.frames,
-                        frames.len()
-                    ));
-                }
-                if stop.force_samples != force_samples {
-                    problems.push(format!(
-                        "{STOP}: says {} force samples, {FORCE} holds {force_samples}",
-                        stop.force_samples
-                    ));
-                }
-            }
-            Err(e) => problems.push(e.to_string()),
-        }
+        check_stop_counts(dir, frames.len() as u64, force_samples, &mut problems);
         manifest_missing = !dir.join(MANIFEST).is_file();
         if !manifest_missing {
             problems.extend(manifest::check(dir)?);
@@ -161,6 +64,153 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
         manifest_missing,
         problems,
     })
+}
+
+/// The frame records, reporting a torn last line and records the checkpoint counts but the
+/// file lost; none when the file cannot be read.
+fn read_frames(dir: &Path, problems: &mut Vec<String>) -> Vec<FrameRecord> {
+    match read_frame_lines(&dir.join(FRAMES)) {
+        Ok(lines) => {
+            if let Some(t) = &lines.torn {
+                problems.push(format!(
+                    "{FRAMES}: torn last line ({} bytes, a crash mid-write)",
+                    t.len()
+                ));
+            }
+            check_against_checkpoint(dir, &lines, problems);
+            lines.records
+        }
+        Err(e) => {
+            problems.push(e.to_string());
+            Vec::new()
+        }
+    }
+}
+
+/// Checks each record in turn: its frame's size, its index and that its frame exists inside
+/// the run.
+fn check_frames(dir: &Path, frames: &[FrameRecord], problems: &mut Vec<String>) {
+    let mut sizes = FrameSizes::default();
+    for (k, f) in frames.iter().enumerate() {
+        if let Some(dims) = frame_size(dir, f) {
+            sizes.note(&f.file, dims, problems);
+        }
+        if f.index != k as u64 {
+            problems.push(format!(
+                "{FRAMES}: record {} has index {}, expected {k}",
+                k + 1,
+                f.index
+            ));
+        }
+        check_frame_file(dir, f, problems);
+    }
+    sizes.finish(problems);
+}
+
+/// Width and height of a record's frame when it is a readable image inside the run.
+fn frame_size(dir: &Path, f: &FrameRecord) -> Option<(u32, u32)> {
+    let own = own_file::check_in(dir, Path::new(&f.file)).is_ok();
+    match (f.file_in(dir), own) {
+        (Ok(path), true) => image_size(&path),
+        _ => None,
+    }
+}
+
+/// Reports a record whose frame is outside the run, missing or unreadable.
+fn check_frame_file(dir: &Path, f: &FrameRecord, problems: &mut Vec<String>) {
+    match f.file_in(dir) {
+        Ok(_) => match own_file::check_in(dir, Path::new(&f.file)) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => problems.push(format!(
+                "{}: frame of record {} is missing",
+                f.file, f.index
+            )),
+            Err(e) => problems.push(format!("{}: {e}", f.file)),
+        },
+        Err(e) => problems.push(e.to_string()),
+    }
+}
+
+/// Every frame has the run's size (the first frame's): a run filmed at two sizes is two runs
+/// in one directory. The first three others are reported one by one, more as a count.
+#[derive(Default)]
+struct FrameSizes {
+    /// The first frame's width and height.
+    first: Option<(u32, u32)>,
+    /// How many frames differ from it.
+    others: u64,
+}
+
+impl FrameSizes {
+    /// Notes the size of frame `file`, reporting it if it is one of the first three to differ.
+    fn note(&mut self, file: &str, dims: (u32, u32), problems: &mut Vec<String>) {
+        match self.first {
+            None => self.first = Some(dims),
+            Some(first) if first != dims => {
+                self.others += 1;
+                if self.others <= 3 {
+                    problems.push(format!(
+                        "{}: {}x{} px, where the run's frames are {}x{} px (filmed by another camera or at another size)",
+                        file, dims.0, dims.1, first.0, first.1
+                    ));
+                }
+            }
+            Some(_) => {}
+        }
+    }
+
+    /// Reports how many frames differ in all, when more than three do.
+    fn finish(&self, problems: &mut Vec<String>) {
+        if self.others > 3 {
+            problems.push(format!(
+                "{FRAMES}: {} frames in all are not the size of the run's first frame",
+                self.others
+            ));
+        }
+    }
+}
+
+/// The number of whole samples in the force log, reporting a torn or unreadable log (0 then).
+fn count_force_samples(dir: &Path, problems: &mut Vec<String>) -> u64 {
+    match own_file::read(&dir.join(FORCE)) {
+        Ok(bytes) => match force_log::decode_all(&bytes) {
+            Ok((samples, torn)) => {
+                if torn > 0 {
+                    problems.push(format!("{FORCE}: {torn} bytes of a torn record at the end"));
+                }
+                samples.len() as u64
+            }
+            Err(message) => {
+                problems.push(format!("{FORCE}: {message}"));
+                0
+            }
+        },
+        Err(e) => {
+            problems.push(format!("{FORCE}: {e}"));
+            0
+        }
+    }
+}
+
+/// Reports where the stop document's frame and force sample counts differ from the files.
+fn check_stop_counts(dir: &Path, frames: u64, force_samples: u64, problems: &mut Vec<String>) {
+    match read_document::<StopDocument>(&dir.join(STOP)) {
+        Ok(stop) => {
+            if stop.frames != frames {
+                problems.push(format!(
+                    "{STOP}: says {} frames, {FRAMES} holds {frames}",
+                    stop.frames
+                ));
+            }
+            if stop.force_samples != force_samples {
+                problems.push(format!(
+                    "{STOP}: says {} force samples, {FORCE} holds {force_samples}",
+                    stop.force_samples
+                ));
+            }
+        }
+        Err(e) => problems.push(e.to_string()),
+    }
 }
 
 /// Every record the last checkpoint counts must still be there (a file cut or damaged in the

@@ -98,7 +98,39 @@ pub fn fit(pairs: &[(u64, HostTime)], options: &OneWayOptions) -> Result<OneWayF
     let d0 = pairs.iter().map(|p| p.0).min().unwrap_or(0);
     let r0 = pairs[0].1 .0 as f64;
     let nominal = options.nominal_ns_per_tick;
-    // x: nominal device time since d0 (ns); y: arrival minus nominal device time, relative to r0.
+    let mut pts = offset_points(pairs, d0, r0, nominal);
+    let (x_min, x_max) = (pts[0].0, pts[pts.len() - 1].0);
+    if x_max <= x_min {
+        return Err(FitError::NoSpan {
+            clock: options.clock.clone(),
+        });
+    }
+    let (hull, rejected) = hull_without_early(&mut pts, options.max_early_ns, need);
+    let (a, b) = middle_segment(&pts, &hull, 0.5 * (x_min + x_max));
+    let slope = if b.0 > a.0 {
+        (b.1 - a.1) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    let offset_at = |x: f64| a.1 + slope * (x - a.0);
+    let delays: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, y - offset_at(x))).collect();
+    let mean_delay_ns = delays.iter().map(|d| d.1).sum::<f64>() / delays.len() as f64;
+    Ok(OneWayFit {
+        map: ClockMap {
+            tick_origin: d0,
+            host_at_origin_ns: r0 + offset_at(0.0),
+            ns_per_tick: nominal * (1.0 + slope),
+        },
+        used: pts.len(),
+        rejected,
+        mean_delay_ns,
+        hull_gap_ns: hull_gap(&delays, x_min, x_max),
+    })
+}
+
+/// The points (x, y), sorted by x, one per device time: x is the nominal device time since
+/// `d0` (ns), y the arrival minus the nominal device time, relative to `r0`.
+fn offset_points(pairs: &[(u64, HostTime)], d0: u64, r0: f64, nominal: f64) -> Vec<(f64, f64)> {
     let mut pts: Vec<(f64, f64)> = pairs
         .iter()
         .map(|&(d, r)| {
@@ -109,76 +141,74 @@ pub fn fit(pairs: &[(u64, HostTime)], options: &OneWayOptions) -> Result<OneWayF
     pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     // Equal device times: only the least-delayed one can be on the hull.
     pts.dedup_by(|later, earlier| later.0 == earlier.0);
-    let (x_min, x_max) = (pts[0].0, pts[pts.len() - 1].0);
-    if x_max <= x_min {
-        return Err(FitError::NoSpan {
-            clock: options.clock.clone(),
-        });
-    }
+    pts
+}
+
+/// The lower hull of `pts` after removing, one at a time and while more than `need` points
+/// are left, the hull vertex deepest below its neighbours' line by more than `max_early_ns`;
+/// the hull and how many points were removed.
+fn hull_without_early(
+    pts: &mut Vec<(f64, f64)>,
+    max_early_ns: f64,
+    need: usize,
+) -> (Vec<usize>, usize) {
     let mut rejected = 0;
-    let hull = loop {
-        let hull = lower_hull(&pts);
-        let mut worst: Option<(usize, f64)> = None;
-        for k in 0..hull.len() {
-            // Interior vertices against their neighbours; end vertices against the next segment.
-            let (a, b) = if k > 0 && k + 1 < hull.len() {
-                (hull[k - 1], hull[k + 1])
-            } else if k == 0 && hull.len() >= 3 {
-                (hull[1], hull[2])
-            } else if k + 1 == hull.len() && hull.len() >= 3 {
-                (hull[k - 2], hull[k - 1])
-            } else {
-                continue;
-            };
-            let p = pts[hull[k]];
-            let depth = line_at(pts[a], pts[b], p.0) - p.1;
-            if depth > options.max_early_ns && worst.is_none_or(|(_, d)| depth > d) {
-                worst = Some((hull[k], depth));
-            }
-        }
-        match worst {
-            Some((index, _)) if pts.len() > need => {
+    loop {
+        let hull = lower_hull(pts);
+        match deepest_early_vertex(pts, &hull, max_early_ns) {
+            Some(index) if pts.len() > need => {
                 pts.remove(index);
                 rejected += 1;
             }
-            _ => break hull,
+            _ => return (hull, rejected),
         }
-    };
-    let x_mid = 0.5 * (x_min + x_max);
-    let seg = hull
-        .windows(2)
+    }
+}
+
+/// The index (into `pts`) of the hull vertex lying deepest below the line through its hull
+/// neighbours, if it lies more than `max_early_ns` below it.
+fn deepest_early_vertex(pts: &[(f64, f64)], hull: &[usize], max_early_ns: f64) -> Option<usize> {
+    let mut worst: Option<(usize, f64)> = None;
+    for k in 0..hull.len() {
+        // Interior vertices against their neighbours; end vertices against the next segment.
+        let (a, b) = if k > 0 && k + 1 < hull.len() {
+            (hull[k - 1], hull[k + 1])
+        } else if k == 0 && hull.len() >= 3 {
+            (hull[1], hull[2])
+        } else if k + 1 == hull.len() && hull.len() >= 3 {
+            (hull[k - 2], hull[k - 1])
+        } else {
+            continue;
+        };
+        let p = pts[hull[k]];
+        let depth = line_at(pts[a], pts[b], p.0) - p.1;
+        if depth > max_early_ns && worst.is_none_or(|(_, d)| depth > d) {
+            worst = Some((hull[k], depth));
+        }
+    }
+    worst.map(|(index, _)| index)
+}
+
+/// The ends of the hull segment spanning `x_mid`, or of the whole hull when none does.
+fn middle_segment(pts: &[(f64, f64)], hull: &[usize], x_mid: f64) -> ((f64, f64), (f64, f64)) {
+    hull.windows(2)
         .find(|w| pts[w[0]].0 <= x_mid && x_mid <= pts[w[1]].0)
         .map(|w| (pts[w[0]], pts[w[1]]))
-        .unwrap_or((pts[hull[0]], pts[hull[hull.len() - 1]]));
-    let (a, b) = seg;
-    let slope = if b.0 > a.0 {
-        (b.1 - a.1) / (b.0 - a.0)
-    } else {
-        0.0
-    };
-    let offset_at = |x: f64| a.1 + slope * (x - a.0);
-    let delays: Vec<(f64, f64)> = pts.iter().map(|&(x, y)| (x, y - offset_at(x))).collect();
-    let mean_delay_ns = delays.iter().map(|d| d.1).sum::<f64>() / delays.len() as f64;
+        .unwrap_or((pts[hull[0]], pts[hull[hull.len() - 1]]))
+}
+
+/// Mean over ten equal spans of `x_min ..= x_max` of the smallest delay in each span that
+/// holds any of `delays` (x, delay).
+fn hull_gap(delays: &[(f64, f64)], x_min: f64, x_max: f64) -> f64 {
     let bins = 10usize;
     let mut best = vec![f64::INFINITY; bins];
-    for &(x, delay) in &delays {
+    for &(x, delay) in delays {
         let k = (((x - x_min) / (x_max - x_min)) * bins as f64).floor() as usize;
         let k = k.min(bins - 1);
         best[k] = best[k].min(delay);
     }
     let filled: Vec<f64> = best.into_iter().filter(|b| b.is_finite()).collect();
-    let hull_gap_ns = filled.iter().sum::<f64>() / filled.len().max(1) as f64;
-    Ok(OneWayFit {
-        map: ClockMap {
-            tick_origin: d0,
-            host_at_origin_ns: r0 + offset_at(0.0),
-            ns_per_tick: nominal * (1.0 + slope),
-        },
-        used: pts.len(),
-        rejected,
-        mean_delay_ns,
-        hull_gap_ns,
-    })
+    filled.iter().sum::<f64>() / filled.len().max(1) as f64
 }
 
 #[cfg(test)]

@@ -142,6 +142,42 @@ fn parse_directed_hex(text: &str) -> Result<(Direction, Vec<u8>), String> {
     Ok((dir, bytes))
 }
 
+/// One data line `SECONDS > HEX...` (or `<`, with an optional `# comment`): its time, no
+/// earlier than `last_time`, its direction and its bytes.
+fn parse_data_line(
+    line: &str,
+    last_time: Duration,
+) -> Result<(Duration, Direction, Vec<u8>), String> {
+    let body = line.split_once('#').map(|(b, _)| b).unwrap_or(line).trim();
+    let (time_text, rest) = body
+        .split_once(char::is_whitespace)
+        .ok_or_else(|| "expected `SECONDS > HEX...` or `SECONDS < HEX...`".to_string())?;
+    let time = parse_time(time_text, last_time)?;
+    let (direction, bytes) = parse_directed_hex(rest)?;
+    Ok((time, direction, bytes))
+}
+
+/// A data line's time in seconds since the trace started, no earlier than `last_time`.
+fn parse_time(time_text: &str, last_time: Duration) -> Result<Duration, String> {
+    let secs: f64 = time_text
+        .parse()
+        .map_err(|_| format!("`{time_text}` is not a time in seconds"))?;
+    if !secs.is_finite() || secs < 0.0 {
+        return Err(format!(
+            "time {secs} must be a non-negative number of seconds"
+        ));
+    }
+    let time = Duration::try_from_secs_f64(secs).map_err(|_| {
+        format!("time {secs} s is too large (a trace's times count seconds from its start)")
+    })?;
+    if time < last_time {
+        return Err(format!(
+            "time {secs} goes backwards (previous line was later)"
+        ));
+    }
+    Ok(time)
+}
+
 impl Trace {
     /// Parses trace text; `source_name` names it in errors.
     pub fn parse(text: &str, source_name: &str) -> Result<Trace, TraceError> {
@@ -172,70 +208,15 @@ impl Trace {
             }
             if let Some(comment) = line.strip_prefix('#') {
                 if let Some((key, value)) = comment.split_once(':') {
-                    let value = value.trim();
-                    match key.trim() {
-                        "device" => trace.device = value.to_string(),
-                        "endpoint" => trace.endpoint = value.to_string(),
-                        "kind" => {
-                            trace.kind = match value {
-                                "stream" => LinkKind::Stream,
-                                "datagram" => LinkKind::Datagram,
-                                other => {
-                                    return Err(err(
-                                        lineno,
-                                        format!("kind `{other}`: allowed are stream, datagram"),
-                                    ))
-                                }
-                            }
-                        }
-                        "unordered" => {
-                            let (dir, bytes) =
-                                parse_directed_hex(value).map_err(|m| err(lineno, m))?;
-                            if dir != Direction::ToDevice {
-                                return Err(err(
-                                    lineno,
-                                    "unordered messages must be host to device (`>`)".into(),
-                                ));
-                            }
-                            trace.unordered.push(bytes);
-                        }
-                        _ => {}
-                    }
+                    trace
+                        .header_field(key.trim(), value.trim())
+                        .map_err(|m| err(lineno, m))?;
                 }
                 continue;
             }
-            let body = line.split_once('#').map(|(b, _)| b).unwrap_or(line).trim();
-            let (time_text, rest) = body.split_once(char::is_whitespace).ok_or_else(|| {
-                err(
-                    lineno,
-                    "expected `SECONDS > HEX...` or `SECONDS < HEX...`".into(),
-                )
-            })?;
-            let secs: f64 = time_text
-                .parse()
-                .map_err(|_| err(lineno, format!("`{time_text}` is not a time in seconds")))?;
-            if !secs.is_finite() || secs < 0.0 {
-                return Err(err(
-                    lineno,
-                    format!("time {secs} must be a non-negative number of seconds"),
-                ));
-            }
-            let time = Duration::try_from_secs_f64(secs).map_err(|_| {
-                err(
-                    lineno,
-                    format!(
-                        "time {secs} s is too large (a trace's times count seconds from its start)"
-                    ),
-                )
-            })?;
-            if time < last_time {
-                return Err(err(
-                    lineno,
-                    format!("time {secs} goes backwards (previous line was later)"),
-                ));
-            }
+            let (time, direction, bytes) =
+                parse_data_line(line, last_time).map_err(|m| err(lineno, m))?;
             last_time = time;
-            let (direction, bytes) = parse_directed_hex(rest).map_err(|m| err(lineno, m))?;
             trace.entries.push(TraceEntry {
                 time,
                 direction,
@@ -244,6 +225,30 @@ impl Trace {
             });
         }
         Ok(trace)
+    }
+
+    /// Takes one `# key: value` header line; unknown keys are comments.
+    fn header_field(&mut self, key: &str, value: &str) -> Result<(), String> {
+        match key {
+            "device" => self.device = value.to_string(),
+            "endpoint" => self.endpoint = value.to_string(),
+            "kind" => {
+                self.kind = match value {
+                    "stream" => LinkKind::Stream,
+                    "datagram" => LinkKind::Datagram,
+                    other => return Err(format!("kind `{other}`: allowed are stream, datagram")),
+                }
+            }
+            "unordered" => {
+                let (dir, bytes) = parse_directed_hex(value)?;
+                if dir != Direction::ToDevice {
+                    return Err("unordered messages must be host to device (`>`)".into());
+                }
+                self.unordered.push(bytes);
+            }
+            _ => {}
+        }
+        Ok(())
     }
 
     /// Loads and parses a trace file.
