@@ -262,27 +262,8 @@ impl Preprocessor {
     ) -> Result<(), PreprocessError> {
         let cfg = &self.config;
         cfg.check()?;
-        let want = frame.width as usize * frame.height as usize * frame.format.bytes_per_pixel();
-        if frame.data.len() != want {
-            return Err(PreprocessError::Bytes {
-                got: frame.data.len(),
-                want,
-                w: frame.width,
-                h: frame.height,
-                format: frame.format,
-            });
-        }
-        if let Some((w, h)) = cfg.frame_size {
-            if (w, h) != (frame.width, frame.height) {
-                return Err(PreprocessError::FrameSize {
-                    sensor: cfg.sensor.clone(),
-                    got_w: frame.width,
-                    got_h: frame.height,
-                    want_w: w,
-                    want_h: h,
-                });
-            }
-        }
+        check_bytes(frame)?;
+        cfg.check_frame_size(frame)?;
         let n = cfg.input_size as usize;
         assert_eq!(out.len(), 3 * n * n, "output buffer of the wrong size");
         // Reference mode filters RGB and converts after the resize, rounding as PIL does; the
@@ -291,12 +272,48 @@ impl Preprocessor {
             (Colour::Grey, false) => Channels::Luma,
             _ => Channels::Rgb,
         };
-        let full_centre = match cfg.centre {
+        let (src, window) = cfg.crop(frame, channels, rotation_deg);
+        let c = channels.count();
+        self.resized.resize(n * n * c, 0.0);
+        resample(src.as_ref(), window, &mut self.scratch, &mut self.resized);
+        normalise_into_planes(&self.resized, c, cfg.colour, out);
+        Ok(())
+    }
+}
+
+impl Preprocessing {
+    /// Refuses a frame of another size than the profile's camera gives, if the profile says.
+    fn check_frame_size(&self, frame: FrameRef) -> Result<(), PreprocessError> {
+        if let Some((w, h)) = self.frame_size {
+            if (w, h) != (frame.width, frame.height) {
+                return Err(PreprocessError::FrameSize {
+                    sensor: self.sensor.clone(),
+                    got_w: frame.width,
+                    got_h: frame.height,
+                    want_w: w,
+                    want_h: h,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// What the network input is resampled from: `frame` read in `channels` (as superpixels
+    /// when the output is at least 2x smaller than the crop), turned by `rotation_deg` about
+    /// the crop centre, and the masked crop window in its coordinates.
+    fn crop<'a>(
+        &self,
+        frame: FrameRef<'a>,
+        channels: Channels,
+        rotation_deg: f64,
+    ) -> (Box<dyn Pixels + 'a>, Window) {
+        let n = self.input_size as usize;
+        let full_centre = match self.centre {
             Centre::Image => [frame.width as f64 / 2.0, frame.height as f64 / 2.0],
             Centre::At(c) => c,
         };
         // Superpixels when the output is at least 2x smaller than the crop.
-        let half = 2.0 * cfg.crop_radius_px >= 2.0 * n as f64 && !cfg.reference;
+        let half = 2.0 * self.crop_radius_px >= 2.0 * n as f64 && !self.reference;
         let base = pixels(frame, channels, half);
         let s = base.scale();
         let centre = [full_centre[0] * s, full_centre[1] * s];
@@ -311,48 +328,17 @@ impl Preprocessor {
         };
         let window = Window {
             centre,
-            radius: cfg.crop_radius_px * s,
+            radius: self.crop_radius_px * s,
             out: n,
-            quantise: cfg.reference,
+            quantise: self.reference,
             mask: true,
         };
-        let c = channels.count();
-        self.resized.resize(n * n * c, 0.0);
-        resample(src.as_ref(), window, &mut self.scratch, &mut self.resized);
-        let plane = n * n;
-        let (r, rest) = out.split_at_mut(plane);
-        let (g, b) = rest.split_at_mut(plane);
-        let norm = |v: f32| (v / 255.0 - 0.5) / 0.5;
-        match (c, cfg.colour) {
-            (1, _) => {
-                for (i, &v) in self.resized.iter().enumerate() {
-                    let x = norm(v);
-                    (r[i], g[i], b[i]) = (x, x, x);
-                }
-            }
-            (_, Colour::Rgb) => {
-                for (i, p) in self.resized.chunks_exact(3).enumerate() {
-                    (r[i], g[i], b[i]) = (norm(p[0]), norm(p[1]), norm(p[2]));
-                }
-            }
-            (_, Colour::Grey) => {
-                // PIL's "L": (R 19595 + G 38470 + B 7471 + 2^15) >> 16 on the 8-bit values.
-                for (i, p) in self.resized.chunks_exact(3).enumerate() {
-                    let l =
-                        (p[0] as u32 * 19595 + p[1] as u32 * 38470 + p[2] as u32 * 7471 + 0x8000)
-                            >> 16;
-                    let x = norm(l as f32);
-                    (r[i], g[i], b[i]) = (x, x, x);
-                }
-            }
-        }
-        Ok(())
+        (src, window)
     }
 }
 
-/// A whole frame as a small RGB picture for displays: the square about the frame's centre that
-/// holds all of it (letterboxed in black), resampled as the network input is, without the mask.
-pub fn thumbnail(frame: FrameRef, side: u32) -> Result<image::RgbImage, PreprocessError> {
+/// Refuses a frame whose bytes are not its width x height pixels of its format.
+fn check_bytes(frame: FrameRef) -> Result<(), PreprocessError> {
     let want = frame.width as usize * frame.height as usize * frame.format.bytes_per_pixel();
     if frame.data.len() != want {
         return Err(PreprocessError::Bytes {
@@ -363,6 +349,44 @@ pub fn thumbnail(frame: FrameRef, side: u32) -> Result<image::RgbImage, Preproce
             format: frame.format,
         });
     }
+    Ok(())
+}
+
+/// The resampled crop (`c` channels per pixel, 8-bit levels) normalised into the three CHW
+/// planes of `out`, grey repeated in each (converted from RGB as PIL's "L" in `Grey` colour).
+fn normalise_into_planes(resized: &[f32], c: usize, colour: Colour, out: &mut [f32]) {
+    let plane = out.len() / 3;
+    let (r, rest) = out.split_at_mut(plane);
+    let (g, b) = rest.split_at_mut(plane);
+    let norm = |v: f32| (v / 255.0 - 0.5) / 0.5;
+    match (c, colour) {
+        (1, _) => {
+            for (i, &v) in resized.iter().enumerate() {
+                let x = norm(v);
+                (r[i], g[i], b[i]) = (x, x, x);
+            }
+        }
+        (_, Colour::Rgb) => {
+            for (i, p) in resized.chunks_exact(3).enumerate() {
+                (r[i], g[i], b[i]) = (norm(p[0]), norm(p[1]), norm(p[2]));
+            }
+        }
+        (_, Colour::Grey) => {
+            // PIL's "L": (R 19595 + G 38470 + B 7471 + 2^15) >> 16 on the 8-bit values.
+            for (i, p) in resized.chunks_exact(3).enumerate() {
+                let l =
+                    (p[0] as u32 * 19595 + p[1] as u32 * 38470 + p[2] as u32 * 7471 + 0x8000) >> 16;
+                let x = norm(l as f32);
+                (r[i], g[i], b[i]) = (x, x, x);
+            }
+        }
+    }
+}
+
+/// A whole frame as a small RGB picture for displays: the square about the frame's centre that
+/// holds all of it (letterboxed in black), resampled as the network input is, without the mask.
+pub fn thumbnail(frame: FrameRef, side: u32) -> Result<image::RgbImage, PreprocessError> {
+    check_bytes(frame)?;
     if !(8..=1024).contains(&side) {
         return Err(PreprocessError::InputSize(side));
     }

@@ -100,23 +100,22 @@ impl TrainingSet {
         stop: &AtomicBool,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<TrainingSet, TrainingSetError> {
-        let copies = pipeline.map_or(1, Pipeline::copies);
-        let noise = pipeline.map_or(0.0, Pipeline::noise_dn);
-        let plane = (input_size as usize).pow(2);
-        let stride = Self::planes(colour) * plane;
-        let mut class_of = Vec::with_capacity(items.len());
-        for it in items {
-            let c = classes
-                .iter()
-                .position(|c| *c == it.sample.shape)
-                .ok_or_else(|| TrainingSetError::Shape {
-                    path: it.sample.image.display().to_string(),
-                    shape: it.sample.shape.clone(),
-                    classes: classes.join(", "),
-                })?;
-            class_of.push(c as i64);
-        }
-        let mut pixels = vec![0u8; items.len() * copies * stride];
+        let class_of = class_indices(items, classes)?;
+        let job = Job {
+            items,
+            class_of: &class_of,
+            pipeline,
+            copies: pipeline.map_or(1, Pipeline::copies),
+            noise: pipeline.map_or(0.0, Pipeline::noise_dn),
+            colour,
+            input_size,
+            stride: Self::planes(colour) * (input_size as usize).pow(2),
+            seed,
+            stop,
+            progress,
+            done: AtomicUsize::new(0),
+        };
+        let mut pixels = vec![0u8; items.len() * job.copies * job.stride];
         let mut targets = vec![
             Target {
                 fz: 0.0,
@@ -124,96 +123,9 @@ impl TrainingSet {
                 contact: None,
                 item: 0,
             };
-            items.len() * copies
+            items.len() * job.copies
         ];
-        let done = AtomicUsize::new(0);
-        let threads = threads.clamp(1, 64);
-        let per_thread = items.len().div_ceil(threads).max(1);
-        let results: Vec<Result<(), TrainingSetError>> = std::thread::scope(|scope| {
-            let handles: Vec<_> = pixels
-                .chunks_mut(per_thread * copies * stride)
-                .zip(targets.chunks_mut(per_thread * copies))
-                .enumerate()
-                .map(|(t, (px, tg))| {
-                    let first = t * per_thread;
-                    let done = &done;
-                    let class_of = &class_of;
-                    scope.spawn(move || -> Result<(), TrainingSetError> {
-                        let mut pre: Option<Preprocessor> = None;
-                        let mut tensor = Vec::new();
-                        for (k, (px, tg)) in px
-                            .chunks_mut(copies * stride)
-                            .zip(tg.chunks_mut(copies))
-                            .enumerate()
-                        {
-                            if stop.load(Ordering::Relaxed) {
-                                return Err(TrainingSetError::Stopped);
-                            }
-                            let index = first + k;
-                            let it = items[index];
-                            let config = Preprocessing {
-                                colour,
-                                input_size,
-                                ..it.preprocessing.clone()
-                            };
-                            let pre = match &mut pre {
-                                Some(p) if p.config == config => p,
-                                slot => slot.insert(Preprocessor::new(config)),
-                            };
-                            tensor.resize(pre.config.tensor_len(), 0.0);
-                            let s = it.sample;
-                            let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
-                            for copy in 0..copies {
-                                let aug = pipeline.map(|_| augmentation(seed, index, copy));
-                                let angle = aug.map_or(0.0, |a| a.rotation_deg);
-                                pre.run_into(
-                                    FrameRef {
-                                        width: w,
-                                        height: h,
-                                        format,
-                                        data: &data,
-                                    },
-                                    angle,
-                                    &mut tensor,
-                                )
-                                .map_err(|source| {
-                                    EvalError::Frame {
-                                        path: s.image.display().to_string(),
-                                        source,
-                                    }
-                                })?;
-                                if let Some(a) = aug {
-                                    add_noise(&mut tensor, colour, noise, a.noise_seed);
-                                }
-                                let out = &mut px[copy * stride..(copy + 1) * stride];
-                                for (o, v) in out.iter_mut().zip(&tensor) {
-                                    *o = ((v * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
-                                }
-                                tg[copy] = Target {
-                                    fz: round1(s.fz()),
-                                    class: class_of[index],
-                                    contact: s.contact.map(|c| {
-                                        let [x, y] = rotate_label(c, angle, it.mirror);
-                                        [round1(x), round1(y)]
-                                    }),
-                                    item: index,
-                                };
-                            }
-                            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                            progress(n, items.len());
-                        }
-                        Ok(())
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or(Err(TrainingSetError::Stopped)))
-                .collect()
-        });
-        for r in results {
-            r?;
-        }
+        job.run(threads, &mut pixels, &mut targets)?;
         Ok(TrainingSet {
             colour,
             input_size,
@@ -240,6 +152,162 @@ impl TrainingSet {
                 Colour::Rgb => out.extend(px.iter().map(|&v| norm(v))),
             }
         }
+    }
+}
+
+/// Each item's shape class index in `classes`; an error names the frame of a shape not there.
+fn class_indices(items: &[Item<'_>], classes: &[String]) -> Result<Vec<i64>, TrainingSetError> {
+    items
+        .iter()
+        .map(|it| {
+            classes
+                .iter()
+                .position(|c| *c == it.sample.shape)
+                .map(|c| c as i64)
+                .ok_or_else(|| TrainingSetError::Shape {
+                    path: it.sample.image.display().to_string(),
+                    shape: it.sample.shape.clone(),
+                    classes: classes.join(", "),
+                })
+        })
+        .collect()
+}
+
+/// The preparation of a side, shared by the threads that do it.
+struct Job<'a, 'b> {
+    items: &'a [Item<'b>],
+    class_of: &'a [i64],
+    pipeline: Option<Pipeline>,
+    /// Inputs made of each item (the pipeline's copies, else one).
+    copies: usize,
+    /// The pipeline's noise added to each copy, grey levels.
+    noise: f64,
+    colour: Colour,
+    input_size: u32,
+    /// Bytes per input.
+    stride: usize,
+    seed: u64,
+    stop: &'a AtomicBool,
+    progress: &'a (dyn Fn(usize, usize) + Sync),
+    /// Items prepared so far, over all threads.
+    done: AtomicUsize,
+}
+
+impl Job<'_, '_> {
+    /// Prepares every item into `pixels` and `targets` on `threads` threads, each taking a run
+    /// of consecutive items.
+    fn run(
+        &self,
+        threads: usize,
+        pixels: &mut [u8],
+        targets: &mut [Target],
+    ) -> Result<(), TrainingSetError> {
+        let (copies, stride) = (self.copies, self.stride);
+        let threads = threads.clamp(1, 64);
+        let per_thread = self.items.len().div_ceil(threads).max(1);
+        let results: Vec<Result<(), TrainingSetError>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = pixels
+                .chunks_mut(per_thread * copies * stride)
+                .zip(targets.chunks_mut(per_thread * copies))
+                .enumerate()
+                .map(|(t, (px, tg))| scope.spawn(move || self.run_from(t * per_thread, px, tg)))
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or(Err(TrainingSetError::Stopped)))
+                .collect()
+        });
+        results.into_iter().collect()
+    }
+
+    /// One thread's share: the items from `first` on, into `px` and `tg` (as many as they
+    /// hold), reporting progress after each.
+    fn run_from(
+        &self,
+        first: usize,
+        px: &mut [u8],
+        tg: &mut [Target],
+    ) -> Result<(), TrainingSetError> {
+        let mut pre: Option<Preprocessor> = None;
+        let mut tensor = Vec::new();
+        for (k, (px, tg)) in px
+            .chunks_mut(self.copies * self.stride)
+            .zip(tg.chunks_mut(self.copies))
+            .enumerate()
+        {
+            if self.stop.load(Ordering::Relaxed) {
+                return Err(TrainingSetError::Stopped);
+            }
+            self.item(first + k, &mut pre, &mut tensor, px, tg)?;
+            let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+            (self.progress)(n, self.items.len());
+        }
+        Ok(())
+    }
+
+    /// Item `index`'s copies into `px` and `tg`: its frame read once, then each copy
+    /// preprocessed (turned by the copy's augmentation), made noisy and stored with its target.
+    /// `pre` is the thread's preprocessor, kept while the preprocessing stays the same.
+    fn item(
+        &self,
+        index: usize,
+        pre: &mut Option<Preprocessor>,
+        tensor: &mut Vec<f32>,
+        px: &mut [u8],
+        tg: &mut [Target],
+    ) -> Result<(), TrainingSetError> {
+        let it = self.items[index];
+        let config = Preprocessing {
+            colour: self.colour,
+            input_size: self.input_size,
+            ..it.preprocessing.clone()
+        };
+        let pre = match pre {
+            Some(p) if p.config == config => p,
+            slot => slot.insert(Preprocessor::new(config)),
+        };
+        tensor.resize(pre.config.tensor_len(), 0.0);
+        let s = it.sample;
+        let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
+        let frame = FrameRef {
+            width: w,
+            height: h,
+            format,
+            data: &data,
+        };
+        for copy in 0..self.copies {
+            let aug = self.pipeline.map(|_| augmentation(self.seed, index, copy));
+            let angle = aug.map_or(0.0, |a| a.rotation_deg);
+            pre.run_into(frame, angle, tensor)
+                .map_err(|source| EvalError::Frame {
+                    path: s.image.display().to_string(),
+                    source,
+                })?;
+            if let Some(a) = aug {
+                add_noise(tensor, self.colour, self.noise, a.noise_seed);
+            }
+            quantise(
+                tensor,
+                &mut px[copy * self.stride..(copy + 1) * self.stride],
+            );
+            tg[copy] = Target {
+                fz: round1(s.fz()),
+                class: self.class_of[index],
+                contact: s.contact.map(|c| {
+                    let [x, y] = rotate_label(c, angle, it.mirror);
+                    [round1(x), round1(y)]
+                }),
+                item: index,
+            };
+        }
+        Ok(())
+    }
+}
+
+/// A normalised input (-1 to 1) as 8-bit grey levels into `out`.
+fn quantise(tensor: &[f32], out: &mut [u8]) {
+    for (o, v) in out.iter_mut().zip(tensor) {
+        *o = ((v * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
     }
 }
 

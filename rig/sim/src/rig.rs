@@ -26,6 +26,7 @@ use crate::faults::{
 use crate::ft_sensor::SimFtSensor;
 use crate::ground_truth::TruthSink;
 use crate::modbus_emulator::ModbusEmulator;
+use crate::motion::SimMotor;
 use crate::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 use crate::render::Renderer;
 use crate::scene::{LoadSource, SceneSource};
@@ -33,8 +34,10 @@ use crate::sensor::SensorConfig;
 use fringe_rig::apt::driver::{AptConfig, Controller};
 use fringe_rig::apt::{Actuator, ThorlabsAxis};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
+use fringe_rig::camera::Camera;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
+use fringe_rig::force::ForceSensor;
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::netft::{NetFt, NetFtOptions};
 use fringe_rig::transport::memory::byte_pair;
@@ -177,180 +180,21 @@ impl SimRig {
         let config = config.seeded();
         let bench = Bench::new(config.bench.clone());
         let mut description = Vec::new();
-        for f in &config.faults {
-            f.check().map_err(|e| device_error(f.device.name(), e))?;
-            if f.while_streaming && config.force_path == ForcePath::Daq {
-                return Err(device_error(
-                    "force",
-                    "while_streaming watches the Net F/T's stream: it needs sim.force_path = \"netft\"",
-                ));
-            }
-            let netft_only = matches!(f.fault, FaultKind::Loss | FaultKind::Reboot);
-            if netft_only && config.force_path == ForcePath::Daq {
-                let name = if f.fault == FaultKind::Loss {
-                    "loss"
-                } else {
-                    "reboot"
-                };
-                return Err(device_error(
-                    "force",
-                    format!(
-                        "fault `{name}` needs the Net F/T force path (sim.force_path = \"netft\")"
-                    ),
-                ));
-            }
-        }
-        let faults_on = |device: FaultDevice| -> Faults {
-            let motor = match device {
-                FaultDevice::X => Some(bench.motor_x()),
-                FaultDevice::Y => Some(bench.motor_y()),
-                FaultDevice::Z => Some(bench.motor_z()),
-                FaultDevice::Force | FaultDevice::Camera => None,
-            };
-            Faults::new(
-                config
-                    .faults
-                    .iter()
-                    .filter(|f| f.device == device)
-                    .map(|f| FaultTrigger::new(f.clone(), motor.clone()))
-                    .collect(),
-            )
+        check_faults(&config)?;
+        let wiring = Wiring {
+            config: &config,
+            bench: &bench,
+            truth: truth.as_ref(),
         };
-
-        let mut apt = Vec::new();
-        let mut axes = Vec::new();
-        for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
-            let driver_config = config.apt_config(name);
-            let emulator_config = AptEmulatorConfig::matching(&driver_config).ok_or_else(|| {
-                device_error(name, "no emulated controller for this configuration")
-            })?;
-            let (host, device) =
-                byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
-            apt.push(
-                AptEmulator::spawn(emulator_config, motor, Box::new(device))
-                    .map_err(|e| device_error(name, e))?,
-            );
-            let device = if name == "x" {
-                FaultDevice::X
-            } else {
-                FaultDevice::Z
-            };
-            let host = FaultyLink::new(host, faults_on(device));
-            let axis = ThorlabsAxis::connect(Box::new(host), driver_config)
-                .map_err(|e| device_error(name, e))?;
-            description.push(format!(
-                "{name}: Thorlabs KST101 + ZFS25 (emulated, in process)"
-            ));
-            axes.push(axis);
-        }
-        let z = axes.pop().ok_or_else(|| device_error("z", "missing"))?;
-        let x = axes.pop().ok_or_else(|| device_error("x", "missing"))?;
-
-        let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
-        let (modbus, link) =
-            ModbusEmulator::spawn_in_process(map.clone(), bench.motor_y(), Framing::Rtu)
-                .map_err(|e| device_error("y", e))?;
-        let y_limits = fringe_rig::axis::SoftLimits::new(
-            Millimetres(0.0),
-            Millimetres(config.bench.y.travel_mm),
-        )
-        .ok();
-        let y = ModbusStage::new(
-            "y",
-            Box::new(FaultyLink::new(link, faults_on(FaultDevice::Y))),
-            Framing::Rtu,
-            map,
-            StageOptions {
-                limits: y_limits,
-                ..StageOptions::default()
-            },
-        );
-        description.push(format!(
-            "y: Modbus RTU drive, map {} (emulated, in process)",
-            config.y_map
-        ));
-
-        let load: Arc<dyn LoadSource> = bench.clone();
-        let mut ft = SimFtSensor::new(load, config.bench.ft_noise);
-        if let Some(t) = &truth {
-            ft = ft.with_truth(t.clone());
-        }
+        let (apt_x, x) = wiring.apt_axis("x", bench.motor_x(), FaultDevice::X, &mut description)?;
+        let (apt_z, z) = wiring.apt_axis("z", bench.motor_z(), FaultDevice::Z, &mut description)?;
+        let (modbus, y) = wiring.y_stage(&mut description)?;
         let schedule = ExposureSchedule::new();
-        let mut netft = None;
-        let force: Box<dyn fringe_rig::force::ForceSensor> = match config.force_path {
-            ForcePath::Daq => {
-                let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
-                    .map_err(|e| device_error("force", e))?;
-                let mut daq = SimDaq::new(config.daq.clone(), &cal, Box::new(ft))
-                    .map_err(|e| device_error("force", e))?
-                    .with_strobe(schedule.clone());
-                if let Some(t) = &truth {
-                    daq = daq.with_truth(t.clone());
-                }
-                description.push(
-                    "force: Mini40 through a 5 kHz DAQ with the exposure strobe (simulated)".into(),
-                );
-                Box::new(CalibratedSensor::new(daq, cal))
-            }
-            ForcePath::Netft => {
-                let emulator_config = NetFtEmulatorConfig::default();
-                let driver_config = emulator_config
-                    .driver_config()
-                    .map_err(|e| device_error("force", e))?;
-                let (emulator, link) =
-                    NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
-                        .map_err(|e| device_error("force", e))?;
-                let link = FaultyDatagrams::new(link, faults_on(FaultDevice::Force))
-                    .with_power_switch(emulator.power_switch());
-                netft = Some(emulator);
-                description.push("force: Net F/T (emulated, in process)".into());
-                Box::new(NetFt::new(link, driver_config, NetFtOptions::default()))
-            }
-        };
-
-        let renderer =
-            Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
-        let scene: Arc<dyn SceneSource> = bench.clone();
-        let mut camera = SimCamera::new(config.camera.clone(), scene, Box::new(renderer))
-            .with_schedule(schedule);
-        if let Some(t) = &truth {
-            camera = camera.with_truth(t.clone());
-        }
-        description.push(format!(
-            "camera: simulated {}x{} (frame rate as the camera is configured), sensor {} ({})",
-            config.sensor.geometry.width,
-            config.sensor.geometry.height,
-            config.sensor.id,
-            config.sensor.variant.name()
-        ));
-        // Over a Net F/T the faults act on its UDP link (above); over the DAQ on the sensor.
-        let force_faults = match config.force_path {
-            ForcePath::Netft => Faults::default(),
-            ForcePath::Daq => faults_on(FaultDevice::Force),
-        };
-        let force: Box<dyn fringe_rig::force::ForceSensor> = if force_faults.is_empty() {
-            force
-        } else {
-            Box::new(FaultyForce::new(force, force_faults))
-        };
-        let camera_faults = faults_on(FaultDevice::Camera);
-        let camera: Box<dyn fringe_rig::camera::Camera> = if camera_faults.is_empty() {
-            Box::new(camera)
-        } else {
-            Box::new(FaultyCamera::new(Box::new(camera), camera_faults))
-        };
-        for f in &config.faults {
-            description.push(format!(
-                "injected fault: {} {:?} after {} s{}{}",
-                f.device.name(),
-                f.fault,
-                f.after,
-                if f.while_moving { ", while moving" } else { "" },
-                f.duration
-                    .map(|d| format!(", for {d} s"))
-                    .unwrap_or_default()
-            ));
-        }
+        let (force, netft) = wiring.force(&schedule, &mut description)?;
+        let camera = wiring.camera(schedule, &mut description)?;
+        let force = wiring.force_with_faults(force);
+        let camera = wiring.camera_with_faults(camera);
+        description.extend(config.faults.iter().map(fault_description));
         let devices = Devices {
             x: Box::new(x),
             y: Box::new(y),
@@ -363,12 +207,231 @@ impl SimRig {
             SimRig {
                 config,
                 bench,
-                _apt: apt,
+                _apt: vec![apt_x, apt_z],
                 _modbus: modbus,
                 _netft: netft,
             },
             devices,
         ))
+    }
+}
+
+/// Refuses faults that are malformed or that need the Net F/T force path on the DAQ's.
+fn check_faults(config: &SimRigConfig) -> Result<(), SimRigError> {
+    for f in &config.faults {
+        f.check().map_err(|e| device_error(f.device.name(), e))?;
+        if f.while_streaming && config.force_path == ForcePath::Daq {
+            return Err(device_error(
+                "force",
+                "while_streaming watches the Net F/T's stream: it needs sim.force_path = \"netft\"",
+            ));
+        }
+        let netft_only = matches!(f.fault, FaultKind::Loss | FaultKind::Reboot);
+        if netft_only && config.force_path == ForcePath::Daq {
+            let name = if f.fault == FaultKind::Loss {
+                "loss"
+            } else {
+                "reboot"
+            };
+            return Err(device_error(
+                "force",
+                format!("fault `{name}` needs the Net F/T force path (sim.force_path = \"netft\")"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The line of the rig's description naming an injected fault.
+fn fault_description(f: &FaultSpec) -> String {
+    format!(
+        "injected fault: {} {:?} after {} s{}{}",
+        f.device.name(),
+        f.fault,
+        f.after,
+        if f.while_moving { ", while moving" } else { "" },
+        f.duration
+            .map(|d| format!(", for {d} s"))
+            .unwrap_or_default()
+    )
+}
+
+/// What the simulated devices are wired from: the configuration, the bench they share and where
+/// the ground truth goes.
+struct Wiring<'a> {
+    config: &'a SimRigConfig,
+    bench: &'a Arc<Bench>,
+    truth: Option<&'a Arc<dyn TruthSink>>,
+}
+
+impl Wiring<'_> {
+    /// The faults configured on `device`, their clocks starting now.
+    fn faults_on(&self, device: FaultDevice) -> Faults {
+        let motor = match device {
+            FaultDevice::X => Some(self.bench.motor_x()),
+            FaultDevice::Y => Some(self.bench.motor_y()),
+            FaultDevice::Z => Some(self.bench.motor_z()),
+            FaultDevice::Force | FaultDevice::Camera => None,
+        };
+        Faults::new(
+            self.config
+                .faults
+                .iter()
+                .filter(|f| f.device == device)
+                .map(|f| FaultTrigger::new(f.clone(), motor.clone()))
+                .collect(),
+        )
+    }
+
+    /// The x or z axis (`name`): an emulated KST101 driving `motor`, and the real driver
+    /// connected to it through the axis's faults.
+    fn apt_axis(
+        &self,
+        name: &str,
+        motor: Arc<SimMotor>,
+        device: FaultDevice,
+        description: &mut Vec<String>,
+    ) -> Result<(AptEmulatorHandle, ThorlabsAxis), SimRigError> {
+        let driver_config = self.config.apt_config(name);
+        let emulator_config = AptEmulatorConfig::matching(&driver_config)
+            .ok_or_else(|| device_error(name, "no emulated controller for this configuration"))?;
+        let (host, link) = byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
+        let emulator = AptEmulator::spawn(emulator_config, motor, Box::new(link))
+            .map_err(|e| device_error(name, e))?;
+        let host = FaultyLink::new(host, self.faults_on(device));
+        let axis = ThorlabsAxis::connect(Box::new(host), driver_config)
+            .map_err(|e| device_error(name, e))?;
+        description.push(format!(
+            "{name}: Thorlabs KST101 + ZFS25 (emulated, in process)"
+        ));
+        Ok((emulator, axis))
+    }
+
+    /// The y axis: an emulated Modbus RTU drive with the configured register map, and the real
+    /// stage driver connected to it through the axis's faults.
+    fn y_stage(
+        &self,
+        description: &mut Vec<String>,
+    ) -> Result<(ModbusEmulator, ModbusStage), SimRigError> {
+        let config = self.config;
+        let map = RegisterMap::load(&config.y_map).map_err(|e| device_error("y", e))?;
+        let (modbus, link) =
+            ModbusEmulator::spawn_in_process(map.clone(), self.bench.motor_y(), Framing::Rtu)
+                .map_err(|e| device_error("y", e))?;
+        let y_limits = fringe_rig::axis::SoftLimits::new(
+            Millimetres(0.0),
+            Millimetres(config.bench.y.travel_mm),
+        )
+        .ok();
+        let y = ModbusStage::new(
+            "y",
+            Box::new(FaultyLink::new(link, self.faults_on(FaultDevice::Y))),
+            Framing::Rtu,
+            map,
+            StageOptions {
+                limits: y_limits,
+                ..StageOptions::default()
+            },
+        );
+        description.push(format!(
+            "y: Modbus RTU drive, map {} (emulated, in process)",
+            config.y_map
+        ));
+        Ok((modbus, y))
+    }
+
+    /// The force sensor on the configured path: the simulated Mini40 through the DAQ (strobed
+    /// by `schedule`) and the `.cal` math, or through an emulated Net F/T box (returned too, to
+    /// keep it running) and its driver, with the force faults on its UDP link.
+    fn force(
+        &self,
+        schedule: &Arc<ExposureSchedule>,
+        description: &mut Vec<String>,
+    ) -> Result<(Box<dyn ForceSensor>, Option<NetFtEmulator>), SimRigError> {
+        let load: Arc<dyn LoadSource> = self.bench.clone();
+        let mut ft = SimFtSensor::new(load, self.config.bench.ft_noise);
+        if let Some(t) = self.truth {
+            ft = ft.with_truth(t.clone());
+        }
+        match self.config.force_path {
+            ForcePath::Daq => {
+                let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
+                    .map_err(|e| device_error("force", e))?;
+                let mut daq = SimDaq::new(self.config.daq.clone(), &cal, Box::new(ft))
+                    .map_err(|e| device_error("force", e))?
+                    .with_strobe(schedule.clone());
+                if let Some(t) = self.truth {
+                    daq = daq.with_truth(t.clone());
+                }
+                description.push(
+                    "force: Mini40 through a 5 kHz DAQ with the exposure strobe (simulated)".into(),
+                );
+                Ok((Box::new(CalibratedSensor::new(daq, cal)), None))
+            }
+            ForcePath::Netft => {
+                let emulator_config = NetFtEmulatorConfig::default();
+                let driver_config = emulator_config
+                    .driver_config()
+                    .map_err(|e| device_error("force", e))?;
+                let (emulator, link) =
+                    NetFtEmulator::spawn_in_process(emulator_config, Box::new(ft))
+                        .map_err(|e| device_error("force", e))?;
+                let link = FaultyDatagrams::new(link, self.faults_on(FaultDevice::Force))
+                    .with_power_switch(emulator.power_switch());
+                description.push("force: Net F/T (emulated, in process)".into());
+                let driver = NetFt::new(link, driver_config, NetFtOptions::default());
+                Ok((Box::new(driver), Some(emulator)))
+            }
+        }
+    }
+
+    /// The simulated camera filming the sensor build on the bench, exposing on `schedule`.
+    fn camera(
+        &self,
+        schedule: Arc<ExposureSchedule>,
+        description: &mut Vec<String>,
+    ) -> Result<SimCamera, SimRigError> {
+        let config = self.config;
+        let renderer =
+            Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
+        let scene: Arc<dyn SceneSource> = self.bench.clone();
+        let mut camera = SimCamera::new(config.camera.clone(), scene, Box::new(renderer))
+            .with_schedule(schedule);
+        if let Some(t) = self.truth {
+            camera = camera.with_truth(t.clone());
+        }
+        description.push(format!(
+            "camera: simulated {}x{} (frame rate as the camera is configured), sensor {} ({})",
+            config.sensor.geometry.width,
+            config.sensor.geometry.height,
+            config.sensor.id,
+            config.sensor.variant.name()
+        ));
+        Ok(camera)
+    }
+
+    /// `force` with the force faults, when on the DAQ path (over a Net F/T they act on its UDP
+    /// link: [`Wiring::force`]).
+    fn force_with_faults(&self, force: Box<dyn ForceSensor>) -> Box<dyn ForceSensor> {
+        let force_faults = match self.config.force_path {
+            ForcePath::Netft => Faults::default(),
+            ForcePath::Daq => self.faults_on(FaultDevice::Force),
+        };
+        if force_faults.is_empty() {
+            force
+        } else {
+            Box::new(FaultyForce::new(force, force_faults))
+        }
+    }
+
+    /// `camera` with the camera faults, if any.
+    fn camera_with_faults(&self, camera: SimCamera) -> Box<dyn Camera> {
+        let camera_faults = self.faults_on(FaultDevice::Camera);
+        if camera_faults.is_empty() {
+            Box::new(camera)
+        } else {
+            Box::new(FaultyCamera::new(Box::new(camera), camera_faults))
+        }
     }
 }
 

@@ -338,15 +338,20 @@ impl SensorConfig {
 
     /// Checks every value the renderer relies on; `source_name` goes into the error.
     pub fn validate(&self, source_name: &str) -> Result<(), SensorConfigError> {
-        let bad = |key: &'static str, value: String, allowed: &'static str| {
-            Err(SensorConfigError::Invalid {
+        self.check_layer()
+            .and_then(|()| self.check_non_negative())
+            .and_then(|()| self.check_positive())
+            .and_then(|()| self.check_sizes())
+            .map_err(|bad| SensorConfigError::Invalid {
                 source_name: source_name.into(),
-                key,
-                value,
-                allowed,
+                key: bad.key,
+                value: bad.value,
+                allowed: bad.allowed,
             })
-        };
-        let finite = |v: f64| v.is_finite();
+    }
+
+    /// The photoelastic layer's values.
+    fn check_layer(&self) -> Result<(), Bad> {
         let l = &self.layer;
         if !(finite(l.top_mm) && l.top_mm >= 0.0) {
             return bad("layer.top_mm", l.top_mm.to_string(), "must be >= 0");
@@ -389,6 +394,11 @@ impl SensorConfig {
                 "must be > 0",
             );
         }
+        Ok(())
+    }
+
+    /// The blur's range, and the optics', LEDs' and noise's values that may be 0 but not less.
+    fn check_non_negative(&self) -> Result<(), Bad> {
         let o = &self.optics;
         if !(finite(o.blur_px) && (0.0..=40.0).contains(&o.blur_px)) {
             return bad(
@@ -415,6 +425,12 @@ impl SensorConfig {
                 return bad(key, v.to_string(), "must be a number >= 0");
             }
         }
+        Ok(())
+    }
+
+    /// The values that must be more than 0 (scales, radii, widths, sizes of cells).
+    fn check_positive(&self) -> Result<(), Bad> {
+        let o = &self.optics;
         for (key, v) in [
             ("optics.vignetting_factor", o.vignetting_factor),
             ("optics.rim_width_px", o.rim_width_px),
@@ -445,6 +461,11 @@ impl SensorConfig {
                 return bad(key, v.to_string(), "must be a number > 0");
             }
         }
+        Ok(())
+    }
+
+    /// The image's size and placement, and the counts (field cells, threads, LEDs).
+    fn check_sizes(&self) -> Result<(), Bad> {
         let g = &self.geometry;
         if !(16..=8192).contains(&g.width) {
             return bad(
@@ -533,6 +554,27 @@ impl SensorConfig {
             self.layer.effective_modulus_mpa,
         )
     }
+}
+
+/// A value [`SensorConfig::validate`] refuses: its key, the value and what is allowed.
+struct Bad {
+    key: &'static str,
+    value: String,
+    allowed: &'static str,
+}
+
+/// Refuses `value` of `key`, saying what is `allowed`.
+fn bad(key: &'static str, value: String, allowed: &'static str) -> Result<(), Bad> {
+    Err(Bad {
+        key,
+        value,
+        allowed,
+    })
+}
+
+/// Whether `v` is a finite number.
+fn finite(v: f64) -> bool {
+    v.is_finite()
 }
 
 /// Overlays `file` on `defaults`, one level of tables deep (sections are merged key by key).

@@ -22,7 +22,7 @@ use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
 use crate::daq_emulator::{SimDaq, SimDaqConfig};
 use crate::ft_sensor::SimFtSensor;
 use crate::ground_truth::{BenchRecorder, FrameTruth, TruthLog, TruthRecord, TruthSink};
-use crate::motion::Kinematics;
+use crate::motion::{Kinematics, SimMotor};
 use crate::rig::SIM_CAL;
 use crate::scene::{FrameRenderer, LoadSource, Scene, SceneSource};
 use crossbeam_channel::{select, Receiver};
@@ -194,61 +194,13 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
     };
     bench_config.ft_noise.seed = config.seed.wrapping_add(1);
     let bench = Bench::new(bench_config.clone());
-    let (cx, cy) = (Millimetres(0.0), Millimetres(0.0));
-    let above = bench.z_for_depth(cx, cy, Millimetres(-0.3));
-    let pressed = bench.z_for_depth(cx, cy, Millimetres(config.press_depth_mm));
-    let fast = Kinematics {
-        velocity: MillimetresPerSecond(20.0),
-        acceleration: MillimetresPerSecondSquared(200.0),
-    };
-    let (x, y) = bench.stage_xy_for(cx, cy);
-    let t0 = HostTime::now();
-    for (motor, target) in [
-        (bench.motor_x(), x),
-        (bench.motor_y(), y),
-        (bench.motor_z(), above),
-    ] {
-        motor.set_kinematics(fast);
-        let target = Millimetres(target.0 - motor.zero_offset().0);
-        motor.move_to(t0, target);
-    }
-    let z = bench.motor_z();
-    z.set_kinematics(Kinematics {
-        velocity: MillimetresPerSecond(5.0),
-        acceleration: MillimetresPerSecondSquared(100.0),
-    });
-    let z_target = |mm: Millimetres| Millimetres(mm.0 - z.zero_offset().0);
+    let presses = Presses::over_centre(&bench, config.press_depth_mm);
     // Let the stages arrive before anything is recorded.
     std::thread::sleep(Duration::from_millis(1500));
 
     let schedule = ExposureSchedule::new();
-    let load: Arc<dyn LoadSource> = bench.clone();
-    let ft = SimFtSensor::new(load, bench_config.ft_noise).with_truth(sink.clone());
-    let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
-        .map_err(|e| SyncBenchError::new("F/T calibration", e))?;
-    let daq_config = SimDaqConfig {
-        clock_drift_ppm: config.force_drift_ppm,
-        arrival_jitter_ms: config.arrival_jitter_ms,
-        seed: config.seed.wrapping_add(4),
-        ..SimDaqConfig::default()
-    };
-    let daq = SimDaq::new(daq_config, &cal, Box::new(ft))
-        .map_err(|e| SyncBenchError::new("simulated DAQ", e))?
-        .with_strobe(schedule.clone())
-        .with_truth(sink.clone());
-    let sensor = CalibratedSensor::new(daq, cal);
-    let camera_config = SimCameraConfig {
-        seed: config.seed.wrapping_add(2),
-        clock_drift_ppm: config.camera_drift_ppm,
-        arrival_jitter_ms: config.arrival_jitter_ms,
-        readout_ms: config.readout_ms,
-        drop_probability: 0.0,
-        ..SimCameraConfig::default()
-    };
-    let scene: Arc<dyn SceneSource> = bench.clone();
-    let camera = SimCamera::new(camera_config, scene, Box::new(Blank))
-        .with_schedule(schedule)
-        .with_truth(sink.clone());
+    let sensor = force_sensor(config, &bench, &bench_config, &schedule, &sink)?;
+    let camera = camera(config, &bench, schedule, &sink);
     let tick_hz = camera.info().tick_frequency as f64;
     let settings = CameraSettings::default();
     let recorder = BenchRecorder::spawn(bench.clone(), sink.clone(), Duration::from_millis(1))
@@ -269,68 +221,16 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
         .collect();
     let samples: Receiver<_> = stream.samples().clone();
     let frames: Receiver<Frame> = cameras.frames().clone();
-    let started = Instant::now();
-    let scored_from = started + Duration::from_secs_f64(config.warm_up_s.max(0.0));
-    let end = scored_from + Duration::from_secs_f64(config.seconds.max(0.0));
-    let half = Duration::from_secs_f64(config.press_period_s.max(0.2) / 2.0);
-    let mut next_move = started + half;
-    let mut down = false;
     let mut labelled: Vec<Labelled> = Vec::new();
-    let mut delivered = 0;
-    while Instant::now() < end {
-        if Instant::now() >= next_move {
-            down = !down;
-            z.move_to(
-                HostTime::now(),
-                z_target(if down { pressed } else { above }),
-            );
-            next_move += half;
-        }
-        select! {
-            recv(samples) -> s => {
-                if let Ok(s) = s {
-                    feed_sample(&mut lanes, s);
-                }
-            }
-            recv(frames) -> f => {
-                if let Ok(frame) = f {
-                    let scored = Instant::now() >= scored_from;
-                    delivered += usize::from(scored);
-                    for lane in lanes.iter_mut() {
-                        lane.labeler.observe_frame(&frame);
-                        if scored {
-                            lane.pending.push_back(frame.clone());
-                        }
-                    }
-                }
-            }
-            default(Duration::from_millis(20)) => {}
-        }
-        for (i, lane) in lanes.iter_mut().enumerate() {
-            lane.poll(i, false, &mut labelled);
-        }
-    }
+    let delivered = label_while_pressing(
+        config,
+        &presses,
+        (&samples, &frames),
+        &mut lanes,
+        &mut labelled,
+    );
     let latch_error = cameras.latch_error();
-    cameras
-        .stop()
-        .map_err(|e| SyncBenchError::new("camera stream", e))?;
-    // Let the force stream cover the last windows, then drain it.
-    let tail = Instant::now() + Duration::from_millis(100);
-    while Instant::now() < tail {
-        if let Ok(s) = samples.recv_timeout(Duration::from_millis(10)) {
-            feed_sample(&mut lanes, s);
-        }
-    }
-    let force_samples = stream.monitor().stats().received;
-    stream
-        .stop()
-        .map_err(|e| SyncBenchError::new("force stream", e))?;
-    while let Ok(s) = samples.try_recv() {
-        feed_sample(&mut lanes, s);
-    }
-    for (i, lane) in lanes.iter_mut().enumerate() {
-        lane.poll(i, true, &mut labelled);
-    }
+    let force_samples = stop_streams(cameras, stream, &samples, &mut lanes, &mut labelled)?;
     recorder.stop();
     let scores = score(&truth.records(), &lanes, &labelled)?;
     Ok(SyncBenchReport {
@@ -341,9 +241,191 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
     })
 }
 
+/// The indenter over the sensor centre, pressing it: the z motor and its two positions.
+struct Presses {
+    z: Arc<SimMotor>,
+    above: Millimetres,
+    pressed: Millimetres,
+}
+
+impl Presses {
+    /// Sends the stages (fast) over the sensor centre with the indenter just above the gel, and
+    /// gives z its pressing speed; `depth_mm` is how deep a press goes.
+    fn over_centre(bench: &Bench, depth_mm: f64) -> Presses {
+        let (cx, cy) = (Millimetres(0.0), Millimetres(0.0));
+        let above = bench.z_for_depth(cx, cy, Millimetres(-0.3));
+        let pressed = bench.z_for_depth(cx, cy, Millimetres(depth_mm));
+        let fast = Kinematics {
+            velocity: MillimetresPerSecond(20.0),
+            acceleration: MillimetresPerSecondSquared(200.0),
+        };
+        let (x, y) = bench.stage_xy_for(cx, cy);
+        let t0 = HostTime::now();
+        for (motor, target) in [
+            (bench.motor_x(), x),
+            (bench.motor_y(), y),
+            (bench.motor_z(), above),
+        ] {
+            motor.set_kinematics(fast);
+            let target = Millimetres(target.0 - motor.zero_offset().0);
+            motor.move_to(t0, target);
+        }
+        let z = bench.motor_z();
+        z.set_kinematics(Kinematics {
+            velocity: MillimetresPerSecond(5.0),
+            acceleration: MillimetresPerSecondSquared(100.0),
+        });
+        Presses { z, above, pressed }
+    }
+
+    /// Starts z down into the gel (`down`) or back up above it.
+    fn move_z(&self, down: bool) {
+        let mm = if down { self.pressed } else { self.above };
+        self.z
+            .move_to(HostTime::now(), Millimetres(mm.0 - self.z.zero_offset().0));
+    }
+}
+
+/// The simulated Mini40 behind the simulated DAQ (its clock drifting and its blocks arriving
+/// with jitter as configured, the strobe from `schedule`) and the `.cal` math.
+fn force_sensor(
+    config: &SyncBenchConfig,
+    bench: &Arc<Bench>,
+    bench_config: &BenchConfig,
+    schedule: &Arc<ExposureSchedule>,
+    sink: &Arc<dyn TruthSink>,
+) -> Result<CalibratedSensor<SimDaq>, SyncBenchError> {
+    let load: Arc<dyn LoadSource> = bench.clone();
+    let ft = SimFtSensor::new(load, bench_config.ft_noise).with_truth(sink.clone());
+    let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
+        .map_err(|e| SyncBenchError::new("F/T calibration", e))?;
+    let daq_config = SimDaqConfig {
+        clock_drift_ppm: config.force_drift_ppm,
+        arrival_jitter_ms: config.arrival_jitter_ms,
+        seed: config.seed.wrapping_add(4),
+        ..SimDaqConfig::default()
+    };
+    let daq = SimDaq::new(daq_config, &cal, Box::new(ft))
+        .map_err(|e| SyncBenchError::new("simulated DAQ", e))?
+        .with_strobe(schedule.clone())
+        .with_truth(sink.clone());
+    Ok(CalibratedSensor::new(daq, cal))
+}
+
+/// The simulated camera (blank frames, drifting clock, jittered arrivals, no drops) exposing on
+/// `schedule`.
+fn camera(
+    config: &SyncBenchConfig,
+    bench: &Arc<Bench>,
+    schedule: Arc<ExposureSchedule>,
+    sink: &Arc<dyn TruthSink>,
+) -> SimCamera {
+    let camera_config = SimCameraConfig {
+        seed: config.seed.wrapping_add(2),
+        clock_drift_ppm: config.camera_drift_ppm,
+        arrival_jitter_ms: config.arrival_jitter_ms,
+        readout_ms: config.readout_ms,
+        drop_probability: 0.0,
+        ..SimCameraConfig::default()
+    };
+    let scene: Arc<dyn SceneSource> = bench.clone();
+    SimCamera::new(camera_config, scene, Box::new(Blank))
+        .with_schedule(schedule)
+        .with_truth(sink.clone())
+}
+
+/// Feeds the force samples and frames (`streams`) to every lane for the warm-up and the scored
+/// time, pressing every half period, and labels what the lanes can; the number of frames
+/// delivered while scoring.
+fn label_while_pressing(
+    config: &SyncBenchConfig,
+    presses: &Presses,
+    streams: (&Receiver<ForceSample>, &Receiver<Frame>),
+    lanes: &mut [Lane],
+    labelled: &mut Vec<Labelled>,
+) -> usize {
+    let (samples, frames) = streams;
+    let started = Instant::now();
+    let scored_from = started + Duration::from_secs_f64(config.warm_up_s.max(0.0));
+    let end = scored_from + Duration::from_secs_f64(config.seconds.max(0.0));
+    let half = Duration::from_secs_f64(config.press_period_s.max(0.2) / 2.0);
+    let mut next_move = started + half;
+    let mut down = false;
+    let mut delivered = 0;
+    while Instant::now() < end {
+        if Instant::now() >= next_move {
+            down = !down;
+            presses.move_z(down);
+            next_move += half;
+        }
+        select! {
+            recv(samples) -> s => {
+                if let Ok(s) = s {
+                    feed_sample(lanes, s);
+                }
+            }
+            recv(frames) -> f => {
+                if let Ok(frame) = f {
+                    let scored = Instant::now() >= scored_from;
+                    delivered += usize::from(scored);
+                    feed_frame(lanes, &frame, scored);
+                }
+            }
+            default(Duration::from_millis(20)) => {}
+        }
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            lane.poll(i, false, labelled);
+        }
+    }
+    delivered
+}
+
+/// Stops the camera stream, lets the force stream cover the last windows and stops it, feeding
+/// the lanes every sample left, then labels or gives up on every frame still pending; the
+/// number of force samples received.
+fn stop_streams(
+    cameras: CameraStream,
+    stream: ForceStream,
+    samples: &Receiver<ForceSample>,
+    lanes: &mut [Lane],
+    labelled: &mut Vec<Labelled>,
+) -> Result<u64, SyncBenchError> {
+    cameras
+        .stop()
+        .map_err(|e| SyncBenchError::new("camera stream", e))?;
+    let tail = Instant::now() + Duration::from_millis(100);
+    while Instant::now() < tail {
+        if let Ok(s) = samples.recv_timeout(Duration::from_millis(10)) {
+            feed_sample(lanes, s);
+        }
+    }
+    let force_samples = stream.monitor().stats().received;
+    stream
+        .stop()
+        .map_err(|e| SyncBenchError::new("force stream", e))?;
+    while let Ok(s) = samples.try_recv() {
+        feed_sample(lanes, s);
+    }
+    for (i, lane) in lanes.iter_mut().enumerate() {
+        lane.poll(i, true, labelled);
+    }
+    Ok(force_samples)
+}
+
+/// Gives a force sample to every lane's labeler.
 fn feed_sample(lanes: &mut [Lane], s: ForceSample) {
     for lane in lanes.iter_mut() {
         lane.labeler.push_sample(&s);
+    }
+}
+
+/// Shows a frame to every lane's labeler, and queues it for labelling if it is `scored`.
+fn feed_frame(lanes: &mut [Lane], frame: &Frame, scored: bool) {
+    for lane in lanes.iter_mut() {
+        lane.labeler.observe_frame(frame);
+        if scored {
+            lane.pending.push_back(frame.clone());
+        }
     }
 }
 
@@ -351,88 +433,137 @@ fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
+/// One labelled frame against its truth: (label time error in ns, labelled Fz, true Fz).
+type Row = (f64, f64, Option<f64>);
+
+/// The ground truth the labels are scored against.
+struct ScoringTruth {
+    /// The DAQ's first sample, true host time.
+    daq_start: HostTime,
+    /// The DAQ's true sample period, ns.
+    sample_ns: f64,
+    /// Every frame's truth by its exposure-start device timestamp.
+    frames: HashMap<u64, FrameTruth>,
+    /// The bench's true wrench over time: (host time ns, wrench).
+    bench: Vec<(f64, [f64; 6])>,
+}
+
+impl ScoringTruth {
+    /// The truth from the records of a run, which must hold the DAQ clock.
+    fn from_records(records: &[TruthRecord]) -> Result<ScoringTruth, SyncBenchError> {
+        let daq = records
+            .iter()
+            .rev()
+            .find_map(|r| match r {
+                TruthRecord::DaqClock {
+                    start,
+                    rate_hz,
+                    drift_ppm,
+                } => Some((*start, *rate_hz, *drift_ppm)),
+                _ => None,
+            })
+            .ok_or_else(|| SyncBenchError::new("ground truth", "no DAQ clock recorded"))?;
+        let frames = records
+            .iter()
+            .filter_map(|r| match r {
+                TruthRecord::Frame(f) => Some((f.exposure_start_ticks, *f)),
+                _ => None,
+            })
+            .collect();
+        let bench = records
+            .iter()
+            .filter_map(|r| match r {
+                TruthRecord::Bench { truth, wrench } => Some((truth.t.0 as f64, wrench.to_array())),
+                _ => None,
+            })
+            .collect();
+        Ok(ScoringTruth {
+            daq_start: daq.0,
+            sample_ns: 1e9 / (daq.1 * (1.0 + daq.2 * 1e-6)),
+            frames,
+            bench,
+        })
+    }
+
+    /// The true host time (ns) of a position in the force stream's sample index.
+    fn true_host(&self, ticks: f64) -> f64 {
+        self.daq_start.0 as f64 + ticks * self.sample_ns
+    }
+
+    /// The true Fz averaged over a frame's true exposure window.
+    fn true_fz(&self, f: &FrameTruth) -> Option<f64> {
+        mean_over(
+            &self.bench,
+            f.exposure_start.0 as f64,
+            f.exposure_end.0 as f64,
+        )
+        .ok()
+        .map(|m| m.mean[2])
+    }
+
+    /// The frame labelled `label` (by its device timestamp `ts`) against its truth, if it has
+    /// one.
+    fn row(&self, ts: u64, label: &ExposureLabel) -> Option<Row> {
+        let f = self.frames.get(&ts)?;
+        let mid_ticks = 0.5 * (label.window_ticks[0] + label.window_ticks[1]);
+        let mid_true = 0.5 * (f.exposure_start.0 as f64 + f.exposure_end.0 as f64);
+        Some((
+            self.true_host(mid_ticks) - mid_true,
+            label.mean.mean[2],
+            self.true_fz(f),
+        ))
+    }
+}
+
+/// Every method's score from the ground truth `records`.
 fn score(
     records: &[TruthRecord],
     lanes: &[Lane],
     labelled: &[Labelled],
 ) -> Result<Vec<MethodScore>, SyncBenchError> {
-    let daq = records
+    let truth = ScoringTruth::from_records(records)?;
+    Ok(lanes
         .iter()
-        .rev()
-        .find_map(|r| match r {
-            TruthRecord::DaqClock {
-                start,
-                rate_hz,
-                drift_ppm,
-            } => Some((*start, *rate_hz, *drift_ppm)),
-            _ => None,
+        .enumerate()
+        .map(|(i, lane)| {
+            let rows: Vec<Row> = labelled
+                .iter()
+                .filter(|l| l.0 == i)
+                .filter_map(|(_, ts, label)| truth.row(*ts, label))
+                .collect();
+            method_score(lane, &rows)
         })
-        .ok_or_else(|| SyncBenchError::new("ground truth", "no DAQ clock recorded"))?;
-    let sample_ns = 1e9 / (daq.1 * (1.0 + daq.2 * 1e-6));
-    let true_host = |ticks: f64| daq.0 .0 as f64 + ticks * sample_ns;
-    let frames: HashMap<u64, FrameTruth> = records
+        .collect())
+}
+
+/// A method's score from its lane and its labelled frames against their truth: Fz is tared by
+/// the mean label of the frames with no true contact and scored over the frames in contact.
+fn method_score(lane: &Lane, rows: &[Row]) -> MethodScore {
+    let errors: Vec<f64> = rows.iter().map(|r| r.0).collect();
+    let free: Vec<f64> = rows
         .iter()
-        .filter_map(|r| match r {
-            TruthRecord::Frame(f) => Some((f.exposure_start_ticks, *f)),
+        .filter(|r| r.2 == Some(0.0))
+        .map(|r| r.1)
+        .collect();
+    let tare = free.iter().sum::<f64>() / free.len().max(1) as f64;
+    let fz_errors: Vec<f64> = rows
+        .iter()
+        .filter_map(|r| match r.2 {
+            Some(t) if in_contact(Newtons(t)) => Some(r.1 - tare - t),
             _ => None,
         })
         .collect();
-    let bench: Vec<(f64, [f64; 6])> = records
-        .iter()
-        .filter_map(|r| match r {
-            TruthRecord::Bench { truth, wrench } => Some((truth.t.0 as f64, wrench.to_array())),
-            _ => None,
-        })
-        .collect();
-    let true_fz = |f: &FrameTruth| {
-        mean_over(&bench, f.exposure_start.0 as f64, f.exposure_end.0 as f64)
-            .ok()
-            .map(|m| m.mean[2])
-    };
-    let mut scores = Vec::new();
-    for (i, lane) in lanes.iter().enumerate() {
-        // (time error, label Fz, true Fz)
-        let rows: Vec<(f64, f64, Option<f64>)> = labelled
-            .iter()
-            .filter(|l| l.0 == i)
-            .filter_map(|(_, ts, label)| {
-                let f = frames.get(ts)?;
-                let mid_ticks = 0.5 * (label.window_ticks[0] + label.window_ticks[1]);
-                let mid_true = 0.5 * (f.exposure_start.0 as f64 + f.exposure_end.0 as f64);
-                Some((
-                    true_host(mid_ticks) - mid_true,
-                    label.mean.mean[2],
-                    true_fz(f),
-                ))
-            })
-            .collect();
-        let errors: Vec<f64> = rows.iter().map(|r| r.0).collect();
-        let free: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.2 == Some(0.0))
-            .map(|r| r.1)
-            .collect();
-        let tare = free.iter().sum::<f64>() / free.len().max(1) as f64;
-        let fz_errors: Vec<f64> = rows
-            .iter()
-            .filter_map(|r| match r.2 {
-                Some(t) if in_contact(Newtons(t)) => Some(r.1 - tare - t),
-                _ => None,
-            })
-            .collect();
-        scores.push(MethodScore {
-            method: lane.labeler.method(),
-            frames: rows.len(),
-            unlabelled: lane.unlabelled,
-            first_unlabelled: lane.why.clone(),
-            time_rms_ns: rms(&errors),
-            time_max_ns: errors.iter().fold(0.0, |m, e| m.max(e.abs())),
-            time_mean_ns: errors.iter().sum::<f64>() / errors.len().max(1) as f64,
-            fz_frames: fz_errors.len(),
-            fz_rms_n: rms(&fz_errors),
-            fz_max_n: fz_errors.iter().fold(0.0, |m, e| m.max(e.abs())),
-            estimated_error_ns: lane.labeler.estimated_error_ns(),
-        });
+    MethodScore {
+        method: lane.labeler.method(),
+        frames: rows.len(),
+        unlabelled: lane.unlabelled,
+        first_unlabelled: lane.why.clone(),
+        time_rms_ns: rms(&errors),
+        time_max_ns: errors.iter().fold(0.0, |m, e| m.max(e.abs())),
+        time_mean_ns: errors.iter().sum::<f64>() / errors.len().max(1) as f64,
+        fz_frames: fz_errors.len(),
+        fz_rms_n: rms(&fz_errors),
+        fz_max_n: fz_errors.iter().fold(0.0, |m, e| m.max(e.abs())),
+        estimated_error_ns: lane.labeler.estimated_error_ns(),
     }
-    Ok(scores)
 }

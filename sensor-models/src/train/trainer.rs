@@ -17,9 +17,11 @@ use crate::split::{Side, Split, SplitSpec};
 use crate::torch_net::state::{load_state_dict, state_dict};
 use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet};
+use crate::weights::state_dict::StateDict;
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::seeded::{mix, SplitMix64};
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -288,12 +290,7 @@ pub fn train(
     stop: &AtomicBool,
     events: &mut dyn FnMut(TrainEvent),
 ) -> Result<Outcome, TrainError> {
-    tch::set_num_threads(config.threads.max(1) as i32);
-    tch::manual_seed(config.seed as i64);
-    std::fs::create_dir_all(&config.out).map_err(|source| TrainError::Write {
-        path: config.out.display().to_string(),
-        source,
-    })?;
+    set_up(config)?;
     let f = frames(sources, fallback, config)?;
     let classes = classes(&f);
     let samples: Vec<crate::dataset::Sample> =
@@ -305,29 +302,14 @@ pub fn train(
     };
     let split = match &resumed {
         // A resumed training keeps its split.
-        Some((_, _, record, _)) => {
-            let path = resume
-                .and_then(Path::parent)
-                .map_or_else(|| record.split.clone(), |d| d.join(&record.split));
-            Split::load(&path)?
-        }
+        Some((_, _, record, _)) => resumed_split(resume, record)?,
         None => new_split(&samples, config.seed, &split_path)?,
     };
-    let side = |s: Side| split.indices(&samples, s);
-    let (train_idx, val_idx, test_idx) = (side(Side::Train), side(Side::Val), side(Side::Test));
-    for (name, v) in [
-        ("training", &train_idx),
-        ("validation", &val_idx),
-        ("test", &test_idx),
-    ] {
-        if v.is_empty() {
-            return Err(TrainError::EmptySide(name));
-        }
-    }
+    let sides = Sides::of(&split, &samples)?;
     events(TrainEvent::Split {
-        train: train_idx.len(),
-        val: val_idx.len(),
-        test: test_idx.len(),
+        train: sides.train.len(),
+        val: sides.val.len(),
+        test: sides.test.len(),
         path: split_path.clone(),
     });
     let prepare = |idx: &[usize], pipeline, side, events: &mut dyn FnMut(TrainEvent)| {
@@ -339,13 +321,74 @@ pub fn train(
         };
         prepare_side(config, &classes, side, stop, events)
     };
-    let train_set = prepare(&train_idx, Some(config.pipeline), "training", events)?;
-    let val_set = prepare(&val_idx, None, "validation", events)?;
+    let train_set = prepare(&sides.train, Some(config.pipeline), "training", events)?;
+    let val_set = prepare(&sides.val, None, "validation", events)?;
 
-    let vs = tch::nn::VarStore::new(Device::cuda_if_available());
-    let net = Net::new(&vs.root(), config.arch, classes.len());
-    let mut adam = Adam::new(&vs, config.lr);
-    let mut record = TrainingRecord {
+    let record = first_record(config, sources, &sides, train_set.len(), &f);
+    let mut run = Run::new(config, &classes, &f, record);
+    run.load_start(resume, resumed.as_ref())?;
+    if let Some(checkpoint) = run.epochs(&train_set, &val_set, stop, events)? {
+        return Ok(Outcome::Interrupted { checkpoint });
+    }
+    run.finish(sources, &split, fallback, events)
+}
+
+/// libtorch's threads and seed set, and the output directory made.
+fn set_up(config: &TrainConfig) -> Result<(), TrainError> {
+    tch::set_num_threads(config.threads.max(1) as i32);
+    tch::manual_seed(config.seed as i64);
+    std::fs::create_dir_all(&config.out).map_err(|source| TrainError::Write {
+        path: config.out.display().to_string(),
+        source,
+    })
+}
+
+/// The split a resumed training was made with, read from beside its checkpoint `resume`.
+fn resumed_split(resume: Option<&Path>, record: &TrainingRecord) -> Result<Split, TrainError> {
+    let path = resume
+        .and_then(Path::parent)
+        .map_or_else(|| record.split.clone(), |d| d.join(&record.split));
+    Ok(Split::load(&path)?)
+}
+
+/// The frame indices of the split's three sides.
+struct Sides {
+    train: Vec<usize>,
+    val: Vec<usize>,
+    test: Vec<usize>,
+}
+
+impl Sides {
+    /// The sides of `split` over `samples`, each checked to hold a frame.
+    fn of(split: &Split, samples: &[crate::dataset::Sample]) -> Result<Sides, TrainError> {
+        let side = |s: Side| split.indices(samples, s);
+        let sides = Sides {
+            train: side(Side::Train),
+            val: side(Side::Val),
+            test: side(Side::Test),
+        };
+        for (name, v) in [
+            ("training", &sides.train),
+            ("validation", &sides.val),
+            ("test", &sides.test),
+        ] {
+            if v.is_empty() {
+                return Err(TrainError::EmptySide(name));
+            }
+        }
+        Ok(sides)
+    }
+}
+
+/// The record of a training not yet started: its data and settings, no epoch trained.
+fn first_record(
+    config: &TrainConfig,
+    sources: &[Source],
+    sides: &Sides,
+    train_inputs: usize,
+    f: &Frames<'_>,
+) -> TrainingRecord {
+    TrainingRecord {
         data: sources.iter().map(|s| s.path.clone()).collect(),
         split: PathBuf::from("split.json"),
         pipeline: config.pipeline,
@@ -357,79 +400,167 @@ pub fn train(
         batch_in_epoch: 0,
         loss_sum_in_epoch: 0.0,
         batches_trained: 0,
-        train_frames: train_idx.len(),
-        train_inputs: train_set.len(),
-        val_frames: val_idx.len(),
-        test_frames: test_idx.len(),
+        train_frames: sides.train.len(),
+        train_inputs,
+        val_frames: sides.val.len(),
+        test_frames: sides.test.len(),
         profiles: f.profiles.clone(),
         history: Vec::new(),
         evaluation: None,
         init: None,
-    };
-    if let (Some(init), None) = (&config.init, &resumed) {
-        let what = init.display().to_string();
-        let weights = crate::read_weights(init)?;
-        load_state_dict(&vs, &weights, &what)?;
-        record.init = Some(init.clone());
     }
-    if let Some((weights, _, r, opt)) = &resumed {
-        let what = resume.map(|p| p.display().to_string()).unwrap_or_default();
-        load_state_dict(&vs, weights, &what)?;
-        adam.restore(opt, &what)?;
-        record.epoch = r.epoch;
-        record.batch_in_epoch = r.batch_in_epoch;
-        record.loss_sum_in_epoch = r.loss_sum_in_epoch;
-        record.batches_trained = r.batches_trained;
-        record.history = r.history.clone();
-        record.init = r.init.clone();
+}
+
+/// What [`Checkpoint::read`] gives back: weights, card, training record, optimiser state.
+type Resumed = (StateDict, ModelCard, TrainingRecord, StateDict);
+
+/// A training under way: the network, its optimiser and the record its checkpoints carry.
+struct Run<'a> {
+    config: &'a TrainConfig,
+    classes: &'a [String],
+    frames: &'a Frames<'a>,
+    vs: tch::nn::VarStore,
+    net: Net,
+    adam: Adam,
+    record: TrainingRecord,
+}
+
+impl<'a> Run<'a> {
+    /// A network freshly initialised (from libtorch's seed) with its optimiser.
+    fn new(
+        config: &'a TrainConfig,
+        classes: &'a [String],
+        frames: &'a Frames<'a>,
+        record: TrainingRecord,
+    ) -> Run<'a> {
+        let vs = tch::nn::VarStore::new(Device::cuda_if_available());
+        let net = Net::new(&vs.root(), config.arch, classes.len());
+        let adam = Adam::new(&vs, config.lr);
+        Run {
+            config,
+            classes,
+            frames,
+            vs,
+            net,
+            adam,
+            record,
+        }
     }
-    let batches = train_set.len().div_ceil(config.batch.max(1));
-    let mut buf = Vec::new();
-    while record.epoch < config.epochs {
-        let epoch = record.epoch;
-        let started = Instant::now();
-        let idx = order(train_set.len(), config.seed, epoch);
+
+    /// Loads the weights to start from: `--init`'s for a new training; for one resumed from
+    /// the checkpoint `resume`, its weights, optimiser state and progress.
+    fn load_start(
+        &mut self,
+        resume: Option<&Path>,
+        resumed: Option<&Resumed>,
+    ) -> Result<(), TrainError> {
+        if let (Some(init), None) = (&self.config.init, resumed) {
+            let what = init.display().to_string();
+            let weights = crate::read_weights(init)?;
+            load_state_dict(&self.vs, &weights, &what)?;
+            self.record.init = Some(init.clone());
+        }
+        if let Some((weights, _, r, opt)) = resumed {
+            let what = resume.map(|p| p.display().to_string()).unwrap_or_default();
+            load_state_dict(&self.vs, weights, &what)?;
+            self.adam.restore(opt, &what)?;
+            self.record.epoch = r.epoch;
+            self.record.batch_in_epoch = r.batch_in_epoch;
+            self.record.loss_sum_in_epoch = r.loss_sum_in_epoch;
+            self.record.batches_trained = r.batches_trained;
+            self.record.history = r.history.clone();
+            self.record.init = r.init.clone();
+        }
+        Ok(())
+    }
+
+    /// Trains the epochs that remain, validating and checkpointing after each; the checkpoint
+    /// to resume from when `stop` ended it early.
+    fn epochs(
+        &mut self,
+        train_set: &TrainingSet,
+        val_set: &TrainingSet,
+        stop: &AtomicBool,
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<Option<PathBuf>, TrainError> {
+        let batches = train_set.len().div_ceil(self.config.batch.max(1));
+        let mut buf = Vec::new();
+        while self.record.epoch < self.config.epochs {
+            let started = Instant::now();
+            let images = match self.batches(train_set, batches, started, &mut buf, stop, events)? {
+                ControlFlow::Continue(images) => images,
+                ControlFlow::Break(checkpoint) => return Ok(Some(checkpoint)),
+            };
+            self.end_epoch(val_set, batches, images, started, events)?;
+            if let Some(checkpoint) = self.epoch_checkpoint(stop, events)? {
+                return Ok(Some(checkpoint));
+            }
+        }
+        Ok(None)
+    }
+
+    /// The batches of the current epoch from where it stands: the number of images trained,
+    /// or the checkpoint written when `stop` interrupted the epoch.
+    fn batches(
+        &mut self,
+        train_set: &TrainingSet,
+        batches: usize,
+        started: Instant,
+        buf: &mut Vec<f32>,
+        stop: &AtomicBool,
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<ControlFlow<PathBuf, usize>, TrainError> {
+        let epoch = self.record.epoch;
+        let batch = self.config.batch;
+        let idx = order(train_set.len(), self.config.seed, epoch);
         let mut images = 0usize;
-        for b in record.batch_in_epoch..batches {
-            let chunk = &idx[b * config.batch..((b + 1) * config.batch).min(idx.len())];
-            adam.zero_grad();
-            let (l, _) = loss(&net, &train_set, chunk, &mut buf, true);
-            l.backward();
-            adam.step();
-            let lv = l.double_value(&[]);
-            record.loss_sum_in_epoch += lv;
-            record.batch_in_epoch = b + 1;
-            record.batches_trained += 1;
+        for b in self.record.batch_in_epoch..batches {
+            let chunk = &idx[b * batch..((b + 1) * batch).min(idx.len())];
+            let lv = self.step(train_set, chunk, buf);
+            self.record.loss_sum_in_epoch += lv;
+            self.record.batch_in_epoch = b + 1;
+            self.record.batches_trained += 1;
             images += chunk.len();
             events(TrainEvent::Batch {
                 epoch: epoch + 1,
-                epochs: config.epochs,
+                epochs: self.config.epochs,
                 batch: b + 1,
                 batches,
                 loss: lv,
                 images_per_second: images as f64 / started.elapsed().as_secs_f64().max(1e-9),
             });
             if stop.load(Ordering::Relaxed) && b + 1 < batches {
-                let cp = Checkpoint::new(
-                    &config.out,
-                    &format!("checkpoint_epoch_{}_batch_{}", epoch + 1, b + 1),
-                );
-                let card = card_for(config, &classes, &f, &record);
-                cp.write(
-                    &state_dict(&vs, record.batches_trained)?,
-                    &card,
-                    Some(&adam.state()?),
-                )?;
-                return Ok(Outcome::Interrupted {
-                    checkpoint: cp.weights,
-                });
+                let name = format!("checkpoint_epoch_{}_batch_{}", epoch + 1, b + 1);
+                let cp = self.write_checkpoint(&name)?;
+                return Ok(ControlFlow::Break(cp.weights));
             }
         }
-        let (val_loss, errors) = validate(&net, &val_set);
+        Ok(ControlFlow::Continue(images))
+    }
+
+    /// One optimiser step on the inputs `chunk`; the batch's loss.
+    fn step(&mut self, train_set: &TrainingSet, chunk: &[usize], buf: &mut Vec<f32>) -> f64 {
+        self.adam.zero_grad();
+        let (l, _) = loss(&self.net, train_set, chunk, buf, true);
+        l.backward();
+        self.adam.step();
+        l.double_value(&[])
+    }
+
+    /// Closes an epoch: validates, records its figures, reports them and redraws `loss.png`.
+    fn end_epoch(
+        &mut self,
+        val_set: &TrainingSet,
+        batches: usize,
+        images: usize,
+        started: Instant,
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<(), TrainError> {
+        let (val_loss, errors) = validate(&self.net, val_set);
         let seconds = started.elapsed().as_secs_f64();
         let er = EpochRecord {
-            epoch: epoch + 1,
-            train_loss: record.loss_sum_in_epoch / batches.max(1) as f64,
+            epoch: self.record.epoch + 1,
+            train_loss: self.record.loss_sum_in_epoch / batches.max(1) as f64,
             val_loss,
             val_fz_rmse_n: errors.fz_rmse(),
             val_contact_rmse_mm: errors.contact_rmse(),
@@ -437,39 +568,80 @@ pub fn train(
             seconds,
             images_per_second: images as f64 / seconds.max(1e-9),
         };
-        record.history.push(er.clone());
-        record.epoch += 1;
-        record.batch_in_epoch = 0;
-        record.loss_sum_in_epoch = 0.0;
+        self.record.history.push(er.clone());
+        self.record.epoch += 1;
+        self.record.batch_in_epoch = 0;
+        self.record.loss_sum_in_epoch = 0.0;
         events(TrainEvent::Epoch(er));
-        plot_losses(&config.out, &record.history)?;
-        let last = record.epoch == config.epochs;
-        if record.epoch.is_multiple_of(2) || last || stop.load(Ordering::Relaxed) {
-            let cp = Checkpoint::new(&config.out, &format!("checkpoint_epoch_{}", record.epoch));
-            let card = card_for(config, &classes, &f, &record);
-            cp.write(
-                &state_dict(&vs, record.batches_trained)?,
-                &card,
-                Some(&adam.state()?),
-            )?;
+        plot_losses(&self.config.out, &self.record.history)
+    }
+
+    /// The checkpoint after an epoch (every second one, the last, or when stopping); the
+    /// checkpoint to resume from when `stop` ends the training before its last epoch.
+    fn epoch_checkpoint(
+        &mut self,
+        stop: &AtomicBool,
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<Option<PathBuf>, TrainError> {
+        let last = self.record.epoch == self.config.epochs;
+        if self.record.epoch.is_multiple_of(2) || last || stop.load(Ordering::Relaxed) {
+            let cp = self.write_checkpoint(&format!("checkpoint_epoch_{}", self.record.epoch))?;
             events(TrainEvent::Checkpoint(cp.weights.clone()));
             if stop.load(Ordering::Relaxed) && !last {
-                return Ok(Outcome::Interrupted {
-                    checkpoint: cp.weights,
-                });
+                return Ok(Some(cp.weights));
             }
         }
+        Ok(None)
     }
-    // The final model, evaluated on the test side by fringe eval's own evaluation (the default
-    // backend reading the file just written: the checkpoint is checked to load and run).
-    let final_cp = Checkpoint::new(&config.out, "model");
-    let card = card_for(config, &classes, &f, &record);
-    let weights = state_dict(&vs, record.batches_trained)?;
-    final_cp.write(&weights, &card, Some(&adam.state()?))?;
-    let evaluation =
-        evaluate_on_test(&final_cp.weights, config, sources, &split, fallback, events)?;
+
+    /// Writes the checkpoint `name` (weights, card and optimiser state) in the output directory.
+    fn write_checkpoint(&self, name: &str) -> Result<Checkpoint, TrainError> {
+        let cp = Checkpoint::new(&self.config.out, name);
+        let card = card_for(self.config, self.classes, self.frames, &self.record);
+        cp.write(
+            &state_dict(&self.vs, self.record.batches_trained)?,
+            &card,
+            Some(&self.adam.state()?),
+        )?;
+        Ok(cp)
+    }
+
+    /// The final model, evaluated on the test side by fringe eval's own evaluation (the default
+    /// backend reading the file just written: the checkpoint is checked to load and run), then
+    /// written again with the test figures in its card.
+    fn finish(
+        mut self,
+        sources: &[Source],
+        split: &Split,
+        fallback: Option<&Profile>,
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<Outcome, TrainError> {
+        let final_cp = Checkpoint::new(&self.config.out, "model");
+        let card = card_for(self.config, self.classes, self.frames, &self.record);
+        let weights = state_dict(&self.vs, self.record.batches_trained)?;
+        final_cp.write(&weights, &card, Some(&self.adam.state()?))?;
+        let evaluation = evaluate_on_test(
+            &final_cp.weights,
+            self.config,
+            sources,
+            split,
+            fallback,
+            events,
+        )?;
+        self.record.evaluation = Some(test_figures(&evaluation));
+        let card = card_for(self.config, self.classes, self.frames, &self.record);
+        final_cp.write(&weights, &card, Some(&self.adam.state()?))?;
+        Ok(Outcome::Finished {
+            model: final_cp.weights,
+            evaluation,
+        })
+    }
+}
+
+/// The test-side figures the final card records under `training.evaluation`.
+fn test_figures(evaluation: &crate::eval::Evaluation) -> serde_json::Value {
     let m = &evaluation.metrics;
-    record.evaluation = Some(serde_json::json!({
+    serde_json::json!({
         "side": "test",
         "frames": m.all.n,
         "fz_mse_n2": m.all.fz_mse(),
@@ -477,12 +649,6 @@ pub fn train(
         "contact_rmse_mm": m.all.contact_rmse(),
         "shape_accuracy": m.all.accuracy(),
         "macro": m.macro_scores(),
-    }));
-    let card = card_for(config, &classes, &f, &record);
-    final_cp.write(&weights, &card, Some(&adam.state()?))?;
-    Ok(Outcome::Finished {
-        model: final_cp.weights,
-        evaluation,
     })
 }
 

@@ -420,54 +420,83 @@ fn storage_slice<'a>(
 
 /// The legacy format, from the whole file's bytes.
 fn read_legacy(bytes: &[u8]) -> Result<StateDict, ModelFileErrorKind> {
-    let mut pos = 0usize;
-    let mut next = |part: &'static str| -> Result<Value, ModelFileErrorKind> {
-        let (value, used) =
-            pickle::parse_prefix(&bytes[pos..]).map_err(|e| ModelFileErrorKind::pickle(part, e))?;
-        pos += used;
-        Ok(value)
-    };
-    let magic = next("the magic number")?;
-    if magic != Value::BigInt(LEGACY_MAGIC.to_vec()) {
-        return Err(ModelFileErrorKind::Foreign(format!(
-            "a Python pickle of {}, not a torch.save file",
-            magic.describe()
-        )));
-    }
-    let protocol = next("the protocol version")?;
-    if protocol.as_int() != Some(LEGACY_PROTOCOL) {
-        return Err(ModelFileErrorKind::Unsupported(format!(
-            "legacy torch format version {protocol:?} (1001 is read)"
-        )));
-    }
-    let sys_info = next("the system info")?;
-    let big_endian = matches!(sys_info.get("little_endian"), Some(Value::Bool(false)));
-    let root = next("the object")?;
-    let keys = next("the storage keys")?;
+    let mut pickles = Pickles { bytes, pos: 0 };
+    let big_endian = legacy_header(&mut pickles)?;
+    let root = pickles.next("the object")?;
+    let keys = pickles.next("the storage keys")?;
     let Some(keys) = keys.as_sequence() else {
         return Err(ModelFileErrorKind::Malformed(format!(
             "storage keys are {}, not a list",
             keys.describe()
         )));
     };
+    let spans = storage_spans(bytes, pickles.pos, keys, &root, big_endian)?;
+    let mut storages = LegacyStorages {
+        bytes,
+        spans,
+        big_endian,
+    };
+    build_state_dict(&root, &mut storages)
+}
+
+/// The pickles a legacy file starts with, read one after another.
+struct Pickles<'a> {
+    bytes: &'a [u8],
+    /// Where the next one starts.
+    pos: usize,
+}
+
+impl Pickles<'_> {
+    /// The next pickle's value; `part` names it in errors.
+    fn next(&mut self, part: &'static str) -> Result<Value, ModelFileErrorKind> {
+        let (value, used) = pickle::parse_prefix(&self.bytes[self.pos..])
+            .map_err(|e| ModelFileErrorKind::pickle(part, e))?;
+        self.pos += used;
+        Ok(value)
+    }
+}
+
+/// Reads and checks the magic number, the protocol version and the system info; whether the
+/// file's storages are big-endian.
+fn legacy_header(pickles: &mut Pickles<'_>) -> Result<bool, ModelFileErrorKind> {
+    let magic = pickles.next("the magic number")?;
+    if magic != Value::BigInt(LEGACY_MAGIC.to_vec()) {
+        return Err(ModelFileErrorKind::Foreign(format!(
+            "a Python pickle of {}, not a torch.save file",
+            magic.describe()
+        )));
+    }
+    let protocol = pickles.next("the protocol version")?;
+    if protocol.as_int() != Some(LEGACY_PROTOCOL) {
+        return Err(ModelFileErrorKind::Unsupported(format!(
+            "legacy torch format version {protocol:?} (1001 is read)"
+        )));
+    }
+    let sys_info = pickles.next("the system info")?;
+    Ok(matches!(
+        sys_info.get("little_endian"),
+        Some(Value::Bool(false))
+    ))
+}
+
+/// Where each storage's bytes lie in the file: the storages follow one another from `pos` in
+/// the order of `keys`, each sized by the element type the tensors of `root` give it.
+fn storage_spans(
+    bytes: &[u8],
+    mut pos: usize,
+    keys: &[Value],
+    root: &Value,
+    big_endian: bool,
+) -> Result<HashMap<String, std::ops::Range<usize>>, ModelFileErrorKind> {
     let mut refs = Vec::new();
-    torch_pickle::all_storages(&root, &mut refs);
+    torch_pickle::all_storages(root, &mut refs);
     let element_sizes: HashMap<&str, usize> = refs
         .iter()
         .map(|r| (r.key.as_str(), r.storage_type.element_size()))
         .collect();
     let mut spans = HashMap::new();
     for (index, key) in keys.iter().enumerate() {
-        let key = match key {
-            Value::Str(s) => s.clone(),
-            Value::Int(i) => i.to_string(),
-            other => {
-                return Err(ModelFileErrorKind::Malformed(format!(
-                    "storage key {index} is {}",
-                    other.describe()
-                )))
-            }
-        };
+        let key = storage_key(index, key)?;
         let Some(&size) = element_sizes.get(key.as_str()) else {
             return Err(ModelFileErrorKind::Malformed(format!(
                 "storage '{key}' is stored but no tensor uses it"
@@ -478,38 +507,58 @@ fn read_legacy(bytes: &[u8]) -> Result<StateDict, ModelFileErrorKind> {
                 "storage '{key}' has an unknown element type"
             )));
         }
-        let rest = bytes.len() - pos;
-        let Some(count) = bytes.get(pos..pos + 8) else {
-            return Err(ModelFileErrorKind::Truncated(format!(
-                "storage '{key}' (number {index}) starts at byte {pos}, file has {}",
-                bytes.len()
-            )));
-        };
-        let mut count_bytes = [0u8; 8];
-        count_bytes.copy_from_slice(count);
-        let count = if big_endian {
-            u64::from_be_bytes(count_bytes)
-        } else {
-            u64::from_le_bytes(count_bytes)
-        };
-        let needed = count.saturating_mul(size as u64);
-        let have = (rest - 8) as u64;
-        if needed > have {
-            return Err(ModelFileErrorKind::Truncated(format!(
-                "storage '{key}' needs {needed} bytes, file has {have}"
-            )));
-        }
-        let start = pos + 8;
-        let end = start + needed as usize;
-        spans.insert(key, start..end);
-        pos = end;
+        let span = storage_span(bytes, pos, (&key, index), size, big_endian)?;
+        pos = span.end;
+        spans.insert(key, span);
     }
-    let mut storages = LegacyStorages {
-        bytes,
-        spans,
-        big_endian,
+    Ok(spans)
+}
+
+/// Storage key number `index` as a string (pickled as a str or an int).
+fn storage_key(index: usize, key: &Value) -> Result<String, ModelFileErrorKind> {
+    match key {
+        Value::Str(s) => Ok(s.clone()),
+        Value::Int(i) => Ok(i.to_string()),
+        other => Err(ModelFileErrorKind::Malformed(format!(
+            "storage key {index} is {}",
+            other.describe()
+        ))),
+    }
+}
+
+/// The bytes of the storage at `pos` (its element count, then `size`-byte elements), checked to
+/// be in the file; `name` is its key and number, for errors.
+fn storage_span(
+    bytes: &[u8],
+    pos: usize,
+    name: (&str, usize),
+    size: usize,
+    big_endian: bool,
+) -> Result<std::ops::Range<usize>, ModelFileErrorKind> {
+    let (key, index) = name;
+    let rest = bytes.len() - pos;
+    let Some(count) = bytes.get(pos..pos + 8) else {
+        return Err(ModelFileErrorKind::Truncated(format!(
+            "storage '{key}' (number {index}) starts at byte {pos}, file has {}",
+            bytes.len()
+        )));
     };
-    build_state_dict(&root, &mut storages)
+    let mut count_bytes = [0u8; 8];
+    count_bytes.copy_from_slice(count);
+    let count = if big_endian {
+        u64::from_be_bytes(count_bytes)
+    } else {
+        u64::from_le_bytes(count_bytes)
+    };
+    let needed = count.saturating_mul(size as u64);
+    let have = (rest - 8) as u64;
+    if needed > have {
+        return Err(ModelFileErrorKind::Truncated(format!(
+            "storage '{key}' needs {needed} bytes, file has {have}"
+        )));
+    }
+    let start = pos + 8;
+    Ok(start..start + needed as usize)
 }
 
 struct LegacyStorages<'a> {

@@ -262,6 +262,70 @@ impl SimCamera {
         }
     }
 
+    /// What the threads of an acquisition share, with its `stop` flag.
+    fn shared(&self, stop: Arc<AtomicBool>) -> Arc<Shared> {
+        Arc::new(Shared {
+            config: self.config.clone(),
+            settings: self.settings.clone(),
+            clock: self.clock,
+            schedule: self.schedule.clone(),
+            truth: self.truth.clone(),
+            stats: self.stats.clone(),
+            stop,
+            name: self.name(),
+        })
+    }
+
+    /// Records the device clock into the ground truth, if any.
+    fn record_clock(&self) {
+        if let Some(sink) = &self.truth {
+            sink.record(TruthRecord::CameraClock {
+                t: HostTime::now(),
+                ticks_at_ref: self.clock.ticks_at_ref,
+                reference: self.clock.reference,
+                drift_ppm: self.clock.drift_ppm,
+            });
+        }
+    }
+
+    /// Starts a thread of this camera named `name` running `f`.
+    fn spawn<T: Send + 'static>(
+        &self,
+        name: &str,
+        f: impl FnOnce() -> T + Send + 'static,
+    ) -> Result<JoinHandle<T>, CameraError> {
+        std::thread::Builder::new()
+            .name(name.into())
+            .spawn(f)
+            .map_err(|source| CameraError::Io {
+                camera: self.name(),
+                source,
+            })
+    }
+
+    /// Starts the timing thread sending exposures to `render`: in free run it opens them at
+    /// the frame rate, noting the next id in `next_id`; otherwise it waits for the software
+    /// triggers sent on the sender returned.
+    fn spawn_timing(
+        &self,
+        shared: Arc<Shared>,
+        render: Sender<Job>,
+        next_id: Arc<Mutex<(u64, Option<HostTime>)>>,
+    ) -> Result<(Option<Sender<Job>>, JoinHandle<()>), CameraError> {
+        if self.settings.trigger == TriggerMode::FreeRun {
+            let timing = self.spawn("sim-camera-timing", move || {
+                timing_free_run(shared, render, next_id)
+            })?;
+            Ok((None, timing))
+        } else {
+            let (trig_tx, trig_rx) = unbounded::<Job>();
+            let timing = self.spawn("sim-camera-timing", move || {
+                timing_triggered(shared, render, trig_rx)
+            })?;
+            Ok((Some(trig_tx), timing))
+        }
+    }
+
     fn roi(&self) -> Roi {
         self.settings.roi.unwrap_or(Roi {
             x: 0,
@@ -491,24 +555,8 @@ impl Camera for SimCamera {
         *self.stats.lock().unwrap_or_else(|e| e.into_inner()) = SimCameraStats::default();
         self.leftover = None;
         let stop = Arc::new(AtomicBool::new(false));
-        let shared = Arc::new(Shared {
-            config: self.config.clone(),
-            settings: self.settings.clone(),
-            clock: self.clock,
-            schedule: self.schedule.clone(),
-            truth: self.truth.clone(),
-            stats: self.stats.clone(),
-            stop: stop.clone(),
-            name: self.name(),
-        });
-        if let Some(sink) = &self.truth {
-            sink.record(TruthRecord::CameraClock {
-                t: HostTime::now(),
-                ticks_at_ref: self.clock.ticks_at_ref,
-                reference: self.clock.reference,
-                drift_ppm: self.clock.drift_ppm,
-            });
-        }
+        let shared = self.shared(stop.clone());
+        self.record_clock();
         let (job_tx, job_rx) = bounded::<Job>(FRAME_MEMORY);
         let (rendered_tx, rendered_rx) = unbounded::<Rendered>();
         let (frame_tx, frame_rx) = bounded::<Frame>(self.config.host_buffers.max(1));
@@ -516,43 +564,14 @@ impl Camera for SimCamera {
         let next_id = Arc::new(Mutex::new((0u64, None)));
         let scene = self.scene.clone();
         let s = shared.clone();
-        let render = std::thread::Builder::new()
-            .name("sim-camera-render".into())
-            .spawn(move || render_loop(s, scene, renderer, job_rx, rendered_tx, roi))
-            .map_err(|source| CameraError::Io {
-                camera: self.name(),
-                source,
-            })?;
-        let s = shared.clone();
-        let delivery = std::thread::Builder::new()
-            .name("sim-camera-delivery".into())
-            .spawn(move || delivery_loop(s, rendered_rx, frame_tx))
-            .map_err(|source| CameraError::Io {
-                camera: self.name(),
-                source,
-            })?;
-        let s = shared.clone();
-        let (triggers, timing) = if self.settings.trigger == TriggerMode::FreeRun {
-            let ids = next_id.clone();
-            (
-                None,
-                std::thread::Builder::new()
-                    .name("sim-camera-timing".into())
-                    .spawn(move || timing_free_run(s, job_tx, ids)),
-            )
-        } else {
-            let (trig_tx, trig_rx) = unbounded::<Job>();
-            (
-                Some(trig_tx),
-                std::thread::Builder::new()
-                    .name("sim-camera-timing".into())
-                    .spawn(move || timing_triggered(s, job_tx, trig_rx)),
-            )
-        };
-        let timing = timing.map_err(|source| CameraError::Io {
-            camera: self.name(),
-            source,
+        let render = self.spawn("sim-camera-render", move || {
+            render_loop(s, scene, renderer, job_rx, rendered_tx, roi)
         })?;
+        let s = shared.clone();
+        let delivery = self.spawn("sim-camera-delivery", move || {
+            delivery_loop(s, rendered_rx, frame_tx)
+        })?;
+        let (triggers, timing) = self.spawn_timing(shared.clone(), job_tx, next_id.clone())?;
         self.running = Some(Running {
             stop,
             frames: frame_rx,
