@@ -18,9 +18,11 @@ use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::frame_gaps::FrameGaps;
 use fringe_rig::axis::{Axis, AxisError, StopMode};
-use fringe_rig::camera::{CameraError, Frame};
-use fringe_rig::force::ForceError;
+use fringe_rig::camera::{CameraError, CameraSettings, Frame};
+use fringe_rig::devices::Devices;
+use fringe_rig::force::{ForceError, StreamStats};
 use fringe_rig::scan::control::Operator;
+use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
 use std::collections::VecDeque;
@@ -261,147 +263,195 @@ fn run(
     stop: &AtomicBool,
     commands: &Receiver<BenchCommand>,
 ) -> Result<(), BenchError> {
+    // The rest of the opened rig (a simulated bench) lives until the devices are released.
     let rig = config.open(None, stage_operator)?;
-    let limits = rig.limits.clone();
-    let devices = rig.devices;
-    let mut axes: [Box<dyn Axis>; 3] = [devices.x, devices.y, devices.z];
-    {
-        let mut s = lock(state);
-        s.devices = devices.description.clone();
-        for (i, l) in [&limits.x, &limits.y, &limits.z].into_iter().enumerate() {
-            s.axes[i].limits_mm = (l.min.0, l.max.0);
-            s.axes[i].endpoint = axes[i].endpoint();
-        }
-        s.axes[AxisId::Y.index()].manual = limits.manual_y;
-        s.force.max_n = limits.max_force.0;
-    }
-    let mut force = Some(ForceStream::spawn(devices.force)?);
-    let camera_device = devices.camera.info().id;
-    let camera = CameraStream::spawn(devices.camera, &rig.camera_settings)?;
-    {
-        let mut s = lock(state);
-        s.force.device = force
-            .as_ref()
-            .map(|f| f.monitor().device().to_string())
-            .unwrap_or_default();
-        s.camera.device = camera_device;
-        s.phase = BenchPhase::Ready;
-        s.say("bench open: jog, home and tare from here; a scan takes the devices over");
-    }
-    let started = Instant::now();
-    let mut guard = JogGuard::new(limits.max_force.0);
-    let mut polled_at: Option<Instant> = None;
-    let mut meter = Meters::new(started);
-    let mut last_picture: Option<Instant> = None;
-    let mut newest: Option<Frame> = None;
+    let mut bench = Worker::start(
+        rig.devices,
+        &rig.limits,
+        &rig.camera_settings,
+        picture_px,
+        state,
+    )?;
     while !stop.load(Ordering::SeqCst) {
         let tick = Instant::now();
+        bench.tick(commands);
+        let period = if bench.guard.guarding() {
+            GUARD_TICK
+        } else {
+            TICK
+        };
+        let spent = tick.elapsed();
+        if spent < period {
+            std::thread::sleep(period - spent);
+        }
+    }
+    bench.close();
+    Ok(())
+}
+
+/// The open bench as the worker holds it between ticks.
+struct Worker<'a> {
+    state: &'a Mutex<BenchState>,
+    axes: [Box<dyn Axis>; 3],
+    /// None only while a tare restarts the stream, or after a tare failed to restart it.
+    force: Option<ForceStream>,
+    camera: CameraStream,
+    max_force_n: f64,
+    manual_y: bool,
+    picture_px: u32,
+    started: Instant,
+    guard: JogGuard,
+    polled_at: Option<Instant>,
+    meter: Meters,
+    last_picture: Option<Instant>,
+    /// The newest frame not yet made into a picture.
+    newest: Option<Frame>,
+}
+
+/// The force samples of one tick, checked against the ceiling.
+struct ForceBatch {
+    /// The highest |F|, N.
+    peak: f64,
+    /// Axes stopped for force.
+    stopped: Vec<&'static str>,
+    /// The |F| of the last sample that stopped an axis, N.
+    over: Option<f64>,
+    /// Points for the chart.
+    points: Vec<ForcePoint>,
+}
+
+impl<'a> Worker<'a> {
+    /// Starts the F/T and camera streams on the opened devices and shows them in the snapshot.
+    fn start(
+        devices: Devices,
+        limits: &BenchLimits,
+        camera_settings: &CameraSettings,
+        picture_px: u32,
+        state: &'a Mutex<BenchState>,
+    ) -> Result<Worker<'a>, BenchError> {
+        let axes: [Box<dyn Axis>; 3] = [devices.x, devices.y, devices.z];
+        show_axes(&mut lock(state), &devices.description, limits, &axes);
+        let force = ForceStream::spawn(devices.force)?;
+        let camera_device = devices.camera.info().id;
+        let camera = CameraStream::spawn(devices.camera, camera_settings)?;
+        {
+            let mut s = lock(state);
+            s.force.device = force.monitor().device().to_string();
+            s.camera.device = camera_device;
+            s.phase = BenchPhase::Ready;
+            s.say("bench open: jog, home and tare from here; a scan takes the devices over");
+        }
+        let started = Instant::now();
+        Ok(Worker {
+            state,
+            axes,
+            force: Some(force),
+            camera,
+            max_force_n: limits.max_force.0,
+            manual_y: limits.manual_y,
+            picture_px,
+            started,
+            guard: JogGuard::new(limits.max_force.0),
+            polled_at: None,
+            meter: Meters::new(started),
+            last_picture: None,
+            newest: None,
+        })
+    }
+
+    /// One tick: the commands obeyed, the force checked, the axes polled when due, the camera
+    /// read, the snapshot refreshed.
+    fn tick(&mut self, commands: &Receiver<BenchCommand>) {
         for command in commands.try_iter() {
-            let outcome = obey(command, &mut axes, &mut force, &mut guard, state);
+            let outcome = obey(
+                command,
+                &mut self.axes,
+                &mut self.force,
+                &mut self.guard,
+                self.state,
+            );
             if let Err(e) = outcome {
-                lock(state).say(e.to_string());
+                lock(self.state).say(e.to_string());
             }
         }
         // Force first: every sample drained (the stream keeps them all for a recorder) and
         // checked against the ceiling.
-        if let Some(f) = &force {
-            let mut peak = 0.0f64;
-            let mut stopped = Vec::new();
-            let mut over = None;
-            let mut points = Vec::new();
-            for sample in f.samples().try_iter() {
-                let w = sample.wrench;
-                let fz = w.fz.0;
-                let total = (w.fx.0 * w.fx.0 + w.fy.0 * w.fy.0 + fz * fz).sqrt();
-                peak = peak.max(total);
-                for id in guard.sample(total) {
-                    let _ = axes[id.index()].stop(StopMode::Immediate);
-                    stopped.push(id.name());
-                    over = Some(total);
-                }
-                meter.force_samples += 1;
-                let t = started.elapsed().as_secs_f64();
-                if t - meter.last_point_s >= 1.0 / CHART_HZ {
-                    meter.last_point_s = t;
-                    points.push(ForcePoint {
-                        t_s: t,
-                        fz_n: fz,
-                        f_n: total,
-                    });
-                }
-            }
-            if let Some(total) = over {
-                lock(state).say(format!(
-                    "force {total:.2} N over the ceiling {:.2} N: {} stopped; moves into or \
-                     across the sensor are refused until it is under; retract z (←, or h)",
-                    limits.max_force.0,
-                    stopped.join(", ")
-                ));
-            }
-            let stats = f.monitor().stats();
-            let mut s = lock(state);
-            s.force.peak_n = s.force.peak_n.max(peak);
-            if let Some(p) = points.last() {
-                s.force.fz_n = p.fz_n;
-                s.force.f_n = p.f_n;
-            }
-            s.chart.extend(points);
-            let now = started.elapsed().as_secs_f64();
-            while s.chart.front().is_some_and(|p| now - p.t_s > CHART_SECONDS) {
-                s.chart.pop_front();
-            }
-            s.force.received = stats.received;
-            s.force.lost = stats.lost;
-            if stats.restarts > s.force.restarts {
-                let device = f.monitor().device().to_string();
-                s.say(format!(
-                    "{device}: the F/T sensor restarted (its sample counter began again): its bias is gone; press t to tare again"
-                ));
-            }
-            s.force.restarts = stats.restarts;
-            if let Some(e) = f.monitor().error() {
-                s.phase = BenchPhase::Failed(e);
-            }
-        }
+        self.watch_force();
         // Axes, at the poll rate.
-        if polled_at.is_none_or(|t| t.elapsed() >= TICK) {
-            polled_at = Some(Instant::now());
-            for (i, axis) in axes.iter_mut().enumerate() {
-                // A stage moved by hand is asked, not polled: its reading is the operator's.
-                if i == AxisId::Y.index() && limits.manual_y {
-                    continue;
+        if self.polled_at.is_none_or(|t| t.elapsed() >= TICK) {
+            self.polled_at = Some(Instant::now());
+            self.poll_axes();
+        }
+        self.read_camera();
+        self.meter.publish(&mut lock(self.state));
+    }
+
+    /// Drains the F/T stream, stopping axes over the ceiling, and shows the force.
+    fn watch_force(&mut self) {
+        let Some(f) = &self.force else {
+            return;
+        };
+        let batch = check_samples(
+            f,
+            &mut self.guard,
+            &mut self.axes,
+            &mut self.meter,
+            self.started,
+        );
+        if let Some(total) = batch.over {
+            lock(self.state).say(format!(
+                "force {total:.2} N over the ceiling {:.2} N: {} stopped; moves into or \
+                 across the sensor are refused until it is under; retract z (←, or h)",
+                self.max_force_n,
+                batch.stopped.join(", ")
+            ));
+        }
+        let stats = f.monitor().stats();
+        show_force(&mut lock(self.state), f, stats, batch, self.started);
+    }
+
+    /// Polls every axis the bench moves (a stage moved by hand is asked, not polled).
+    fn poll_axes(&mut self) {
+        for (i, axis) in self.axes.iter_mut().enumerate() {
+            // A stage moved by hand is asked, not polled: its reading is the operator's.
+            if i == AxisId::Y.index() && self.manual_y {
+                continue;
+            }
+            let polled = axis.status();
+            let mut s = lock(self.state);
+            match polled {
+                Ok(st) => {
+                    let a = &mut s.axes[i];
+                    a.position_mm = Some(st.position.0);
+                    a.homed = st.homed;
+                    a.moving = st.moving;
+                    a.faults = st.faults.iter().map(|f| f.to_string()).collect();
+                    self.guard.polled(AxisId::ALL[i], st.moving);
                 }
-                let polled = axis.status();
-                let mut s = lock(state);
-                match polled {
-                    Ok(st) => {
-                        let a = &mut s.axes[i];
-                        a.position_mm = Some(st.position.0);
-                        a.homed = st.homed;
-                        a.moving = st.moving;
-                        a.faults = st.faults.iter().map(|f| f.to_string()).collect();
-                        guard.polled(AxisId::ALL[i], st.moving);
-                    }
-                    Err(e) => {
-                        s.axes[i].position_mm = None;
-                        s.say(e.to_string());
-                    }
+                Err(e) => {
+                    s.axes[i].position_mm = None;
+                    s.say(e.to_string());
                 }
             }
         }
-        // Camera: the newest frame kept, ids counted for drops.
-        for frame in camera.frames().try_iter() {
-            meter.gaps.observe(frame.id);
-            meter.frames += 1;
-            newest = Some(frame);
+    }
+
+    /// Camera: the newest frame kept, ids counted for drops, and a picture made when due.
+    fn read_camera(&mut self) {
+        for frame in self.camera.frames().try_iter() {
+            self.meter.gaps.observe(frame.id);
+            self.meter.frames += 1;
+            self.newest = Some(frame);
         }
-        if let Some(e) = camera.error() {
-            lock(state).phase = BenchPhase::Failed(e);
+        if let Some(e) = self.camera.error() {
+            lock(self.state).phase = BenchPhase::Failed(e);
         }
-        let due = last_picture.is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / PICTURE_HZ);
+        let due = self
+            .last_picture
+            .is_none_or(|t| t.elapsed().as_secs_f64() >= 1.0 / PICTURE_HZ);
         if due {
-            if let Some(frame) = newest.take() {
-                last_picture = Some(Instant::now());
+            if let Some(frame) = self.newest.take() {
+                self.last_picture = Some(Instant::now());
                 let picture = thumbnail(
                     FrameRef {
                         width: frame.width,
@@ -409,30 +459,115 @@ fn run(
                         format: frame.format,
                         data: &frame.data,
                     },
-                    picture_px,
+                    self.picture_px,
                 )
                 .ok();
-                let mut s = lock(state);
+                let mut s = lock(self.state);
                 s.picture = picture;
                 s.camera.frame_id = frame.id;
             }
         }
-        meter.publish(&mut lock(state));
-        let period = if guard.guarding() { GUARD_TICK } else { TICK };
-        let spent = tick.elapsed();
-        if spent < period {
-            std::thread::sleep(period - spent);
+    }
+
+    /// Stops any motion and the streams, and says the bench is closed.
+    fn close(mut self) {
+        for axis in self.axes.iter_mut() {
+            let _ = axis.stop(StopMode::Profiled);
+        }
+        let _ = self.camera.stop();
+        if let Some(f) = self.force.take() {
+            let _ = f.stop();
+        }
+        lock(self.state).phase = BenchPhase::Closed;
+    }
+}
+
+/// Shows the devices and the axes' endpoints and limits in the snapshot.
+fn show_axes(
+    s: &mut BenchState,
+    description: &[String],
+    limits: &BenchLimits,
+    axes: &[Box<dyn Axis>; 3],
+) {
+    s.devices = description.to_vec();
+    for (i, l) in [&limits.x, &limits.y, &limits.z].into_iter().enumerate() {
+        s.axes[i].limits_mm = (l.min.0, l.max.0);
+        s.axes[i].endpoint = axes[i].endpoint();
+    }
+    s.axes[AxisId::Y.index()].manual = limits.manual_y;
+    s.force.max_n = limits.max_force.0;
+}
+
+/// Checks every sample the stream has handed over against the ceiling, stopping at once the
+/// axes the guard names, and keeps the chart's points.
+fn check_samples(
+    f: &ForceStream,
+    guard: &mut JogGuard,
+    axes: &mut [Box<dyn Axis>; 3],
+    meter: &mut Meters,
+    started: Instant,
+) -> ForceBatch {
+    let mut batch = ForceBatch {
+        peak: 0.0,
+        stopped: Vec::new(),
+        over: None,
+        points: Vec::new(),
+    };
+    for sample in f.samples().try_iter() {
+        let w = sample.wrench;
+        let fz = w.fz.0;
+        let total = (w.fx.0 * w.fx.0 + w.fy.0 * w.fy.0 + fz * fz).sqrt();
+        batch.peak = batch.peak.max(total);
+        for id in guard.sample(total) {
+            let _ = axes[id.index()].stop(StopMode::Immediate);
+            batch.stopped.push(id.name());
+            batch.over = Some(total);
+        }
+        meter.force_samples += 1;
+        let t = started.elapsed().as_secs_f64();
+        if t - meter.last_point_s >= 1.0 / CHART_HZ {
+            meter.last_point_s = t;
+            batch.points.push(ForcePoint {
+                t_s: t,
+                fz_n: fz,
+                f_n: total,
+            });
         }
     }
-    for axis in axes.iter_mut() {
-        let _ = axis.stop(StopMode::Profiled);
+    batch
+}
+
+/// Shows a tick's force in the snapshot: the latest and peak force, the chart, the stream's
+/// counts, a restart of the sensor and a failed stream.
+fn show_force(
+    s: &mut BenchState,
+    f: &ForceStream,
+    stats: StreamStats,
+    batch: ForceBatch,
+    started: Instant,
+) {
+    s.force.peak_n = s.force.peak_n.max(batch.peak);
+    if let Some(p) = batch.points.last() {
+        s.force.fz_n = p.fz_n;
+        s.force.f_n = p.f_n;
     }
-    let _ = camera.stop();
-    if let Some(f) = force.take() {
-        let _ = f.stop();
+    s.chart.extend(batch.points);
+    let now = started.elapsed().as_secs_f64();
+    while s.chart.front().is_some_and(|p| now - p.t_s > CHART_SECONDS) {
+        s.chart.pop_front();
     }
-    lock(state).phase = BenchPhase::Closed;
-    Ok(())
+    s.force.received = stats.received;
+    s.force.lost = stats.lost;
+    if stats.restarts > s.force.restarts {
+        let device = f.monitor().device().to_string();
+        s.say(format!(
+            "{device}: the F/T sensor restarted (its sample counter began again): its bias is gone; press t to tare again"
+        ));
+    }
+    s.force.restarts = stats.restarts;
+    if let Some(e) = f.monitor().error() {
+        s.phase = BenchPhase::Failed(e);
+    }
 }
 
 /// Rates over the last second.

@@ -17,7 +17,7 @@ use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
 use fringe_rig::camera::Frame;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_sensor_models::backend::{Backend, InferenceError};
+use fringe_sensor_models::backend::{Backend, InferenceError, RawOutputs};
 use fringe_sensor_models::dataset::{from_record, Sample};
 use fringe_sensor_models::eval::{keys, score, Evaluation, Row};
 use fringe_sensor_models::metrics::{Errors, Metrics};
@@ -450,6 +450,8 @@ impl Worker {
         }
     }
 
+    /// Runs the network on one offered frame and publishes its prediction against the frame's
+    /// label (a frame without a label, or cut from the run meanwhile, is passed over).
     fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), ValidationError> {
         let (frame, record) = (&offer.frame, &offer.record);
         let t0 = Instant::now();
@@ -468,19 +470,7 @@ impl Worker {
             format: frame.format,
             data: &frame.data,
         };
-        let frame_error = |source| ValidationError::Frame {
-            frame: frame.id,
-            source,
-        };
-        self.pre.run_into(fref, 0.0, input).map_err(frame_error)?;
-        let size = self.pre.config.input_size;
-        let raw =
-            self.backend
-                .run(input, 1, size)
-                .map_err(|source| ValidationError::Inference {
-                    model: self.model.path.clone(),
-                    source,
-                })?;
+        let raw = self.infer(fref, frame.id, input)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let Some(prediction) = predictions(&raw, &self.model.classes).into_iter().next() else {
             return Err(ValidationError::NoPrediction {
@@ -488,6 +478,42 @@ impl Worker {
             });
         };
         let now = Instant::now();
+        self.count_rate(now);
+        let pictures = self.pictures(now, fref, frame.id, input)?;
+        // Held while the prediction is published: a cut waits for it, then takes it out.
+        let mailbox = lock(&self.shared.mailbox);
+        if mailbox.generation != offer.generation {
+            // Its record was cut from the run while the network ran.
+            return Ok(());
+        }
+        self.publish(offer, label, prediction, latency_ms, pictures);
+        Ok(())
+    }
+
+    /// Preprocesses frame `frame_id` into `input` and runs the network on it.
+    fn infer(
+        &mut self,
+        fref: FrameRef,
+        frame_id: u64,
+        input: &mut [f32],
+    ) -> Result<RawOutputs, ValidationError> {
+        self.pre
+            .run_into(fref, 0.0, input)
+            .map_err(|source| ValidationError::Frame {
+                frame: frame_id,
+                source,
+            })?;
+        let size = self.pre.config.input_size;
+        self.backend
+            .run(input, 1, size)
+            .map_err(|source| ValidationError::Inference {
+                model: self.model.path.clone(),
+                source,
+            })
+    }
+
+    /// Counts a prediction made at `now` in the rate over the last second.
+    fn count_rate(&mut self, now: Instant) {
         self.recent.push_back(now);
         while self
             .recent
@@ -496,23 +522,42 @@ impl Worker {
         {
             self.recent.pop_front();
         }
+    }
+
+    /// The frame's and the network input's pictures, when they are due (at most
+    /// [`PICTURE_RATE_HZ`]).
+    fn pictures(
+        &mut self,
+        now: Instant,
+        fref: FrameRef,
+        frame_id: u64,
+        input: &[f32],
+    ) -> Result<Option<(image::RgbImage, image::RgbImage)>, ValidationError> {
         let due = self
             .pictured
             .is_none_or(|t| now.duration_since(t).as_secs_f64() >= 1.0 / PICTURE_RATE_HZ);
-        let pictures = if due {
-            self.pictured = Some(now);
-            Some((
-                thumbnail(fref, THUMBNAIL_PX).map_err(frame_error)?,
-                tensor_image(input, size).unwrap_or_default(),
-            ))
-        } else {
-            None
-        };
-        let mailbox = lock(&self.shared.mailbox);
-        if mailbox.generation != offer.generation {
-            // Its record was cut from the run while the network ran.
-            return Ok(());
+        if !due {
+            return Ok(None);
         }
+        self.pictured = Some(now);
+        let frame = thumbnail(fref, THUMBNAIL_PX).map_err(|source| ValidationError::Frame {
+            frame: frame_id,
+            source,
+        })?;
+        let size = self.pre.config.input_size;
+        Ok(Some((frame, tensor_image(input, size).unwrap_or_default())))
+    }
+
+    /// Publishes a prediction: the counts, the chart, the metrics, the frame for reports and
+    /// the newest prediction (with the last pictures when none were made for it).
+    fn publish(
+        &self,
+        offer: &Offer,
+        label: Sample,
+        prediction: Prediction,
+        latency_ms: f64,
+        pictures: Option<(image::RgbImage, image::RgbImage)>,
+    ) {
         let mut state = lock(&self.shared.state);
         state.ran += 1;
         state.loop_hz = self.recent.len() as f64;
@@ -532,8 +577,8 @@ impl Worker {
             &prediction,
         );
         lock(&self.shared.frames).push(ValidatedFrame {
-            frame_id: frame.id,
-            record_index: record.index,
+            frame_id: offer.frame.id,
+            record_index: offer.record.index,
             t_s: self.started.elapsed().as_secs_f64(),
             label: label.clone(),
             prediction: prediction.clone(),
@@ -551,7 +596,6 @@ impl Worker {
             frame: frame_picture,
             input: input_picture,
         });
-        Ok(())
     }
 }
 

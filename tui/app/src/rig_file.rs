@@ -418,69 +418,117 @@ impl RigConfig {
 
 /// Checks what the types cannot; returns whether the rig is simulated.
 fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
-    let err = |message: String| ConfigError {
-        origin: origin.into(),
-        message,
-    };
     for (name, a) in [("x", &f.x), ("y", &f.y), ("z", &f.z)] {
-        for (key, v, unit) in [
-            ("velocity", a.velocity, "mm/s"),
-            ("acceleration", a.acceleration, "mm/s^2"),
-        ] {
-            if let Some(v) = v {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(err(format!(
-                        "key `{name}.{key}` = {v}: must be a number > 0 ({unit})"
-                    )));
-                }
-            }
-        }
-        if let (Some(lo), Some(hi)) = (a.min, a.max) {
-            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return Err(err(format!(
-                    "keys `{name}.min` = {lo} and `{name}.max` = {hi}: need min < max (mm)"
+        check_axis(name, a, origin)?;
+    }
+    check_positions(f, origin)?;
+    for (key, v) in [("force.cpf", f.force.cpf), ("force.cpt", f.force.cpt)] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(origin, format!(
+                    "key `{key}` = {v}: must be a number > 0 (counts per unit, from the sensor's calibration sheet)"
                 )));
             }
         }
-        // A stepper axis (Thorlabs, and the simulated bench's emulated KST101 + ZFS25) takes its
-        // velocity and acceleration in 32-bit device units: checked here, not at the first move.
-        let stepper = match a.driver {
-            AxisDriver::Sim => Actuator::by_name("ZFS25"),
-            AxisDriver::Thorlabs => a.actuator.as_deref().and_then(Actuator::by_name),
-            _ => None,
-        };
-        if let Some(act) = stepper {
-            let v = a
-                .velocity
-                .map(|v| act.velocity_to_device(MillimetresPerSecond(v)).err());
-            let acc = a.acceleration.map(|v| {
-                act.acceleration_to_device(MillimetresPerSecondSquared(v))
-                    .err()
-            });
-            for (key, value, bad) in [
-                ("velocity", a.velocity, v.flatten().is_some()),
-                ("acceleration", a.acceleration, acc.flatten().is_some()),
-            ] {
-                if bad {
-                    return Err(err(format!(
-                        "key `{name}.{key}` = {}: more than a {} controller can be given for the {} (its {key} is a 32-bit number of device units); use a value the stage's datasheet allows",
-                        value.unwrap_or_default(),
-                        if a.driver == AxisDriver::Sim { "simulated KST101" } else { "Thorlabs" },
-                        act.name
-                    )));
-                }
+    }
+    check_sim(&f.sim, origin)?;
+    if let Some(m) = f.force.max_force {
+        if !(m.is_finite() && m > 0.0) {
+            return Err(bad(
+                origin,
+                format!("key `force.max_force` = {m}: must be a number > 0 (N)"),
+            ));
+        }
+    }
+    let simulated = wholly_simulated(f, origin)?;
+    if let Some(s) = &f.sync {
+        s.parse::<SyncMethod>()
+            .map_err(|e| bad(origin, format!("key `sync`: {e}")))?;
+    }
+    Ok(simulated)
+}
+
+/// An error in the rig file `origin`.
+fn bad(origin: &str, message: String) -> ConfigError {
+    ConfigError {
+        origin: origin.into(),
+        message,
+    }
+}
+
+/// Checks axis `name`'s motion settings, soft limits and driver.
+fn check_axis(name: &str, a: &AxisSection, origin: &str) -> Result<(), ConfigError> {
+    for (key, v, unit) in [
+        ("velocity", a.velocity, "mm/s"),
+        ("acceleration", a.acceleration, "mm/s^2"),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(
+                    origin,
+                    format!("key `{name}.{key}` = {v}: must be a number > 0 ({unit})"),
+                ));
             }
         }
-        if (name == "x" || name == "z") && a.driver == AxisDriver::Manual {
-            return Err(err(format!(
-                "key `{name}.driver` = \"manual\": only y may be moved by hand (x and z need sim or thorlabs)"
+    }
+    if let (Some(lo), Some(hi)) = (a.min, a.max) {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(bad(
+                origin,
+                format!("keys `{name}.min` = {lo} and `{name}.max` = {hi}: need min < max (mm)"),
+            ));
+        }
+    }
+    check_stepper_units(name, a, origin)?;
+    if (name == "x" || name == "z") && a.driver == AxisDriver::Manual {
+        return Err(bad(origin, format!(
+            "key `{name}.driver` = \"manual\": only y may be moved by hand (x and z need sim or thorlabs)"
+        )));
+    }
+    Ok(())
+}
+
+/// A stepper axis (Thorlabs, and the simulated bench's emulated KST101 + ZFS25) takes its
+/// velocity and acceleration in 32-bit device units: checked here, not at the first move.
+fn check_stepper_units(name: &str, a: &AxisSection, origin: &str) -> Result<(), ConfigError> {
+    let stepper = match a.driver {
+        AxisDriver::Sim => Actuator::by_name("ZFS25"),
+        AxisDriver::Thorlabs => a.actuator.as_deref().and_then(Actuator::by_name),
+        _ => None,
+    };
+    let Some(act) = stepper else {
+        return Ok(());
+    };
+    let v = a
+        .velocity
+        .map(|v| act.velocity_to_device(MillimetresPerSecond(v)).err());
+    let acc = a.acceleration.map(|v| {
+        act.acceleration_to_device(MillimetresPerSecondSquared(v))
+            .err()
+    });
+    for (key, value, too_big) in [
+        ("velocity", a.velocity, v.flatten().is_some()),
+        ("acceleration", a.acceleration, acc.flatten().is_some()),
+    ] {
+        if too_big {
+            return Err(bad(origin, format!(
+                "key `{name}.{key}` = {}: more than a {} controller can be given for the {} (its {key} is a 32-bit number of device units); use a value the stage's datasheet allows",
+                value.unwrap_or_default(),
+                if a.driver == AxisDriver::Sim { "simulated KST101" } else { "Thorlabs" },
+                act.name
             )));
         }
     }
+    Ok(())
+}
+
+/// Checks the bench geometry, the soft limits and the homing settings are numbers.
+fn check_positions(f: &RigFile, origin: &str) -> Result<(), ConfigError> {
     let finite = |key: &str, v: Option<f64>, unit: &str| match v {
-        Some(v) if !v.is_finite() => {
-            Err(err(format!("key `{key}` = {v}: must be a number ({unit})")))
-        }
+        Some(v) if !v.is_finite() => Err(bad(
+            origin,
+            format!("key `{key}` = {v}: must be a number ({unit})"),
+        )),
         _ => Ok(()),
     };
     finite("geometry.x_centre", f.geometry.x_centre, "mm")?;
@@ -493,41 +541,39 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
             finite(&format!("{name}.home.offset"), Some(h.offset), "mm")?;
             if let Some(v) = h.velocity {
                 if !(v.is_finite() && v > 0.0) {
-                    return Err(err(format!(
-                        "key `{name}.home.velocity` = {v}: must be a number > 0 (mm/s)"
-                    )));
+                    return Err(bad(
+                        origin,
+                        format!("key `{name}.home.velocity` = {v}: must be a number > 0 (mm/s)"),
+                    ));
                 }
             }
         }
     }
-    for (key, v) in [("force.cpf", f.force.cpf), ("force.cpt", f.force.cpt)] {
-        if let Some(v) = v {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(err(format!(
-                    "key `{key}` = {v}: must be a number > 0 (counts per unit, from the sensor's calibration sheet)"
-                )));
-            }
-        }
-    }
+    Ok(())
+}
+
+/// Checks the simulated bench's faults and image scale.
+fn check_sim(sim: &SimSection, origin: &str) -> Result<(), ConfigError> {
     #[cfg(feature = "sim")]
-    for fault in &f.sim.faults {
+    for fault in &sim.faults {
         fault
             .check()
-            .map_err(|e| err(format!("[[sim.faults]]: {e}")))?;
+            .map_err(|e| bad(origin, format!("[[sim.faults]]: {e}")))?;
     }
-    let k = f.sim.image_scale;
+    let k = sim.image_scale;
     if !(k.is_finite() && (0.05..=1.0).contains(&k)) {
-        return Err(err(format!(
+        return Err(bad(
+            origin,
+            format!(
             "key `sim.image_scale` = {k}: must be between 0.05 and 1 (1 = the full 1920x1200 image)"
-        )));
+        ),
+        ));
     }
-    if let Some(m) = f.force.max_force {
-        if !(m.is_finite() && m > 0.0) {
-            return Err(err(format!(
-                "key `force.max_force` = {m}: must be a number > 0 (N)"
-            )));
-        }
-    }
+    Ok(())
+}
+
+/// Whether every device is simulated; a rig mixing simulated and real devices is refused.
+fn wholly_simulated(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
     let sims = [
         f.x.driver == AxisDriver::Sim,
         f.y.driver == AxisDriver::Sim,
@@ -544,15 +590,11 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
             .filter(|(_, s)| *s)
             .map(|(n, _)| *n)
             .collect();
-        return Err(err(format!(
+        return Err(bad(origin, format!(
             "devices {} are simulated (driver \"sim\", the default) but others are real: a rig is wholly simulated or wholly real; set a real driver for {}",
             sim.join(", "),
             sim.join(", ")
         )));
-    }
-    if let Some(s) = &f.sync {
-        s.parse::<SyncMethod>()
-            .map_err(|e| err(format!("key `sync`: {e}")))?;
     }
     Ok(simulated)
 }

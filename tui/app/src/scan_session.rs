@@ -140,32 +140,11 @@ impl ScanSession {
         // that evaluation and training preprocess its frames without being told a profile.
         #[cfg(feature = "sim")]
         let profile = match (profile, &rig.sim) {
-            (None, Some(sim)) => {
-                let design = sim.design_profile(&rig.sensor_id);
-                let content =
-                    toml::to_string_pretty(&design).map_err(|e| SessionError::DesignProfile {
-                        sensor_id: rig.sensor_id.clone(),
-                        message: e.to_string(),
-                    })?;
-                notes.push(Note::Info(format!(
-                    "the run records {} in place of a calibration profile",
-                    design.source
-                )));
-                Some(ProfileRef {
-                    path: format!("(no file: {})", design.source),
-                    content,
-                })
-            }
+            (None, Some(sim)) => Some(design_profile(sim, &rig.sensor_id, &mut notes)?),
             (p, _) => p,
         };
         #[cfg(feature = "sim")]
-        let (seed, sidecars) = match &rig.sim {
-            Some(s) => (
-                Some(s.config().seed),
-                vec![s.truth.clone() as Arc<dyn RunSidecar>],
-            ),
-            None => (None, Vec::new()),
-        };
+        let (seed, sidecars) = sim_record(rig.sim.as_ref());
         #[cfg(not(feature = "sim"))]
         let (seed, sidecars): (Option<u64>, Vec<Arc<dyn RunSidecar>>) = (None, Vec::new());
         let setup = ScanSetup {
@@ -338,6 +317,41 @@ impl ScanSession {
             outcome,
             truth_score: None,
         })
+    }
+}
+
+/// The simulated sensor's design geometry, recorded by a run on the simulated bench without a
+/// calibration profile; a note says so.
+#[cfg(feature = "sim")]
+fn design_profile(
+    sim: &SimBench,
+    sensor_id: &str,
+    notes: &mut Vec<Note>,
+) -> Result<ProfileRef, SessionError> {
+    let design = sim.design_profile(sensor_id);
+    let content = toml::to_string_pretty(&design).map_err(|e| SessionError::DesignProfile {
+        sensor_id: sensor_id.to_string(),
+        message: e.to_string(),
+    })?;
+    notes.push(Note::Info(format!(
+        "the run records {} in place of a calibration profile",
+        design.source
+    )));
+    Ok(ProfileRef {
+        path: format!("(no file: {})", design.source),
+        content,
+    })
+}
+
+/// The seed and the ground truth a run on the simulated bench records (none on a real rig).
+#[cfg(feature = "sim")]
+fn sim_record(sim: Option<&SimBench>) -> (Option<u64>, Vec<Arc<dyn RunSidecar>>) {
+    match sim {
+        Some(s) => (
+            Some(s.config().seed),
+            vec![s.truth.clone() as Arc<dyn RunSidecar>],
+        ),
+        None => (None, Vec::new()),
     }
 }
 

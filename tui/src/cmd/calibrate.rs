@@ -9,9 +9,9 @@ use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::calibration_scan::{
-    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
+    calibrate_run, spot_settings, CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
 };
-use fringe_app::{ProfileUse, RigConfig};
+use fringe_app::{ProfileUse, RigConfig, SessionEnd};
 use fringe_calibration::frames;
 use fringe_calibration::from_scan::ScanCalibration;
 use fringe_calibration::offsets::CHANNELS;
@@ -137,20 +137,56 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     let out = args.out.clone().unwrap_or_else(|| config.profile_dir());
     // A sensor id that cannot name a profile file is refused before anything moves.
     profile_path(&out, &args.sensor)?;
+    warn_other_sensor(&config, &out, &args.sensor);
+    let (spot, default_note) = spot_settings(args.variant.as_deref(), &config)?;
+    if let Some(note) = default_note {
+        println!("{note}");
+    }
+    let end = calibration_scan(args, &config, global)?;
+    let run_dir = end.outcome.run_dir.clone();
+    println!(
+        "locating the contact in the presses of {}...",
+        run_dir.display()
+    );
+    let result = calibrate_run(&run_dir, &args.sensor, args.max_frames, spot)?;
+    let cal = &result.cal;
+    print_calibration(cal);
+    #[cfg(feature = "sim")]
+    if let Some(sim) = &end.sim {
+        print_truth(&sim.calibration_truth(cal));
+    }
+    if let Err(e) = &cal.registration {
+        eprintln!(
+            "warning: no image-to-stage registration ({e}); the profile keeps the optical part and the force offsets, and scans use the rig file's contact origin"
+        );
+    }
+    let written = result.write(&out)?;
+    print_written(&written);
+    Ok(())
+}
+
+/// Warns when the rig file names another sensor than the one calibrated, whose profile the
+/// rig's scans would read.
+fn warn_other_sensor(config: &RigConfig, out: &Path, sensor: &str) {
     if let Ok(rig_sensor) = config.sensor_id() {
-        if rig_sensor != args.sensor {
+        if rig_sensor != sensor {
             eprintln!(
                 "warning: the rig file names sensor {rig_sensor}; scans on it read {}, not this profile",
-                profile_path(&out, &rig_sensor)
+                profile_path(out, &rig_sensor)
                     .map(|p| p.display().to_string())
                     .unwrap_or_default()
             );
         }
     }
-    let (spot, default_note) = spot_settings(args.variant.as_deref(), &config)?;
-    if let Some(note) = default_note {
-        println!("{note}");
-    }
+}
+
+/// Runs the calibration plan (`--plan` or the built-in grid) into a new run; an error unless
+/// the scan completed.
+fn calibration_scan(
+    args: &CalibrateArgs,
+    config: &RigConfig,
+    global: &Global,
+) -> anyhow::Result<SessionEnd> {
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
@@ -165,7 +201,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
                 force_n: args.force,
                 indenter: args.indenter.clone(),
             }
-            .plan_text(&config)?,
+            .plan_text(config)?,
             "built-in calibration grid".into(),
         ),
     };
@@ -180,7 +216,7 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         run_id: new_run_id(&format!("calibration-{}", args.sensor)),
     };
     let end = execute(
-        &config,
+        config,
         program,
         text,
         target,
@@ -190,21 +226,19 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
         &mut |_| Ok(()),
     )?;
     let outcome = &end.outcome;
-    let run_dir = outcome.run_dir.clone();
-    println!("calibration scan written to {}", run_dir.display());
+    println!("calibration scan written to {}", outcome.run_dir.display());
     if outcome.status != ExitStatus::Completed {
         bail!(
             "the calibration scan did not complete ({}); no profile written (the run is kept in {})",
             outcome.reason,
-            run_dir.display()
+            outcome.run_dir.display()
         );
     }
-    println!(
-        "locating the contact in the presses of {}...",
-        run_dir.display()
-    );
-    let result = calibrate_run(&run_dir, &args.sensor, args.max_frames, spot)?;
-    let cal = &result.cal;
+    Ok(end)
+}
+
+/// Prints what the calibration found: the optical fit, each press and the force offsets.
+fn print_calibration(cal: &ScanCalibration) {
     println!(
         "optical: {} no-contact frames averaged, {} presses",
         cal.fit.frames,
@@ -213,20 +247,10 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
     print_fit(&cal.fit);
     print_presses(cal);
     print_offsets(cal);
-    #[cfg(feature = "sim")]
-    if let Some(sim) = &end.sim {
-        print_truth(&sim.calibration_truth(cal));
-    }
-    let registration_error = match &cal.registration {
-        Ok(_) => None,
-        Err(e) => Some(e.to_string()),
-    };
-    if let Some(why) = &registration_error {
-        eprintln!(
-            "warning: no image-to-stage registration ({why}); the profile keeps the optical part and the force offsets, and scans use the rig file's contact origin"
-        );
-    }
-    let written = result.write(&out)?;
+}
+
+/// Names the files written: the profile and its report images.
+fn print_written(written: &WrittenProfile) {
     println!("wrote {}", written.profile.display());
     println!(
         "wrote {} (fitted disc green, crop circle yellow, centre red)",
@@ -244,7 +268,6 @@ fn from_rig(args: &CalibrateArgs, global: &Global) -> anyhow::Result<()> {
             p.display()
         );
     }
-    Ok(())
 }
 
 fn print_presses(cal: &ScanCalibration) {

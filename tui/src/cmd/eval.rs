@@ -6,8 +6,10 @@ use anyhow::{bail, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::backend::BackendKind;
-use fringe_sensor_models::dataset;
-use fringe_sensor_models::eval::evaluate;
+use fringe_sensor_models::dataset::{self, Source};
+use fringe_sensor_models::eval::{evaluate, Evaluation};
+use fringe_sensor_models::model::Model;
+use fringe_sensor_models::preprocess::ReferenceSensor;
 use fringe_sensor_models::report;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -52,33 +54,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
         Some(p) => Some(Profile::load(p)?),
         None => None,
     };
-    let mut sources = Vec::with_capacity(a.data.len());
-    for d in &a.data {
-        let source = dataset::read(d)?;
-        if source.samples.is_empty() {
-            bail!(
-                "{}: no labelled frame to evaluate ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
-                d.display(),
-                source.skipped
-            );
-        }
-        sources.push(source);
-    }
+    let sources = read_sources(&a.data)?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
-    for source in &sources {
-        let chosen = if reference.is_some() {
-            None
-        } else {
-            source.profile.as_ref().or(profile.as_ref())
-        };
-        if let Some(w) = model
-            .preprocessing(chosen, reference)
-            .ok()
-            .and_then(|pre| model.scale_warning(&pre))
-        {
-            eprintln!("warning: {}: {w}", source.path.display());
-        }
-    }
+    warn_scale(&model, &sources, profile.as_ref(), reference);
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     let tty = std::io::stderr().is_terminal();
     let mut last = 0;
@@ -102,6 +80,58 @@ pub fn run(a: EvalArgs) -> Result<()> {
     if tty {
         eprintln!();
     }
+    print_figures(&model, &eval);
+    if let Some(dir) = &a.report {
+        let title = format!("Evaluation of {}", model.path.display());
+        let path = report::write(dir, &title, &eval)?;
+        println!("report:         {}", path.display());
+    }
+    Ok(())
+}
+
+/// Reads every dataset; one without a labelled frame is refused.
+fn read_sources(data: &[PathBuf]) -> Result<Vec<Source>> {
+    let mut sources = Vec::with_capacity(data.len());
+    for d in data {
+        let source = dataset::read(d)?;
+        if source.samples.is_empty() {
+            bail!(
+                "{}: no labelled frame to evaluate ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
+                d.display(),
+                source.skipped
+            );
+        }
+        sources.push(source);
+    }
+    Ok(sources)
+}
+
+/// Warns of each source whose frames the model would see at another scale than it was
+/// trained on.
+fn warn_scale(
+    model: &Model,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    reference: Option<ReferenceSensor>,
+) {
+    for source in sources {
+        let chosen = if reference.is_some() {
+            None
+        } else {
+            source.profile.as_ref().or(profile)
+        };
+        if let Some(w) = model
+            .preprocessing(chosen, reference)
+            .ok()
+            .and_then(|pre| model.scale_warning(&pre))
+        {
+            eprintln!("warning: {}: {w}", source.path.display());
+        }
+    }
+}
+
+/// Prints the model and its Table-2 figures.
+fn print_figures(model: &Model, eval: &Evaluation) {
     let m = &eval.metrics;
     let s = m.macro_scores();
     println!(
@@ -121,10 +151,4 @@ pub fn run(a: EvalArgs) -> Result<()> {
         "macro:          precision {:.4}, recall {:.4}, F1 {:.4}",
         s.precision, s.recall, s.f1
     );
-    if let Some(dir) = &a.report {
-        let title = format!("Evaluation of {}", model.path.display());
-        let path = report::write(dir, &title, &eval)?;
-        println!("report:         {}", path.display());
-    }
-    Ok(())
 }

@@ -11,7 +11,8 @@ use anyhow::{bail, Context};
 use fringe_app::device_open::{open_netft, TraceTo};
 use fringe_app::device_spec::{NetFtScaling, NetFtSpec};
 use fringe_app::host_port::HostPort;
-use fringe_rig::force::{ForceSample, ForceSensor};
+use fringe_rig::clock::HostTime;
+use fringe_rig::force::{ForceSample, ForceSensor, StreamStats};
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, DEFAULT_PORT};
 use fringe_rig::transport::DatagramLink;
 use std::fs::File;
@@ -135,6 +136,8 @@ fn csv_row(out: &mut impl Write, s: &ForceSample) -> std::io::Result<()> {
     )
 }
 
+/// Streams samples into the CSV file `csv` for `duration` and reports their rate and losses; a
+/// file that would hold only the header is removed.
 fn stream(
     mut sensor: NetFt<Box<dyn DatagramLink>>,
     duration: Duration,
@@ -166,19 +169,78 @@ fn stream(
         discard_empty();
         return Err(e.into());
     }
+    let recording = record(&mut sensor, &mut out, duration, &write_err)?;
+    let stopped = sensor.stop();
+    out.flush().map_err(write_err)?;
+    recording.print(&sensor.stats());
+    if recording.count == 0 {
+        // A CSV of only the header would pass for a recording; leave nothing instead.
+        drop(out);
+        discard_empty();
+        recording.ended?;
+        bail!(
+            "{}: no sample arrived in {:.1} s; nothing written to {} (check the address and that the sensor streams)",
+            sensor.describe(),
+            duration.as_secs_f64(),
+            csv.display()
+        );
+    }
+    println!("csv: {}", csv.display());
+    recording.ended?;
+    stopped?;
+    Ok(())
+}
+
+/// What a stream recorded.
+struct Recording {
+    /// How the stream ended: the duration over, or why it stopped early.
+    ended: anyhow::Result<()>,
+    count: u64,
+    first: Option<HostTime>,
+    last: Option<HostTime>,
+}
+
+impl Recording {
+    /// Prints the samples counted, their rate and the stream's losses.
+    fn print(&self, stats: &StreamStats) {
+        let span = match (self.first, self.last) {
+            (Some(a), Some(b)) => b.since(a).as_secs_f64(),
+            _ => 0.0,
+        };
+        let count = self.count;
+        let rate = if count > 1 && span > 0.0 {
+            (count - 1) as f64 / span
+        } else {
+            0.0
+        };
+        println!("samples: {count}");
+        println!("rate: {rate:.1} Hz");
+        println!("lost packets: {}", stats.lost);
+        println!("out of order: {}", stats.out_of_order);
+    }
+}
+
+/// Writes every sample to `out` for `duration`, or until the stream stalls for a second or
+/// fails; an error only when a row cannot be written.
+fn record(
+    sensor: &mut NetFt<Box<dyn DatagramLink>>,
+    out: &mut impl Write,
+    duration: Duration,
+    write_err: &dyn Fn(std::io::Error) -> anyhow::Error,
+) -> anyhow::Result<Recording> {
     let started = Instant::now();
     let mut count = 0u64;
     let mut first = None;
     let mut last = None;
     let mut last_arrival = Instant::now();
     let stall = Duration::from_secs(1);
-    let result = loop {
+    let ended = loop {
         if started.elapsed() >= duration {
             break Ok(());
         }
         match sensor.next_sample(Duration::from_millis(50)) {
             Ok(Some(s)) => {
-                csv_row(&mut out, &s).map_err(write_err)?;
+                csv_row(out, &s).map_err(write_err)?;
                 count += 1;
                 first.get_or_insert(s.host_time);
                 last = Some(s.host_time);
@@ -195,38 +257,12 @@ fn stream(
             Err(e) => break Err(e.into()),
         }
     };
-    let stopped = sensor.stop();
-    out.flush().map_err(write_err)?;
-    let stats = sensor.stats();
-    let span = match (first, last) {
-        (Some(a), Some(b)) => b.since(a).as_secs_f64(),
-        _ => 0.0,
-    };
-    let rate = if count > 1 && span > 0.0 {
-        (count - 1) as f64 / span
-    } else {
-        0.0
-    };
-    println!("samples: {count}");
-    println!("rate: {rate:.1} Hz");
-    println!("lost packets: {}", stats.lost);
-    println!("out of order: {}", stats.out_of_order);
-    if count == 0 {
-        // A CSV of only the header would pass for a recording; leave nothing instead.
-        drop(out);
-        discard_empty();
-        result?;
-        bail!(
-            "{}: no sample arrived in {:.1} s; nothing written to {} (check the address and that the sensor streams)",
-            sensor.describe(),
-            duration.as_secs_f64(),
-            csv.display()
-        );
-    }
-    println!("csv: {}", csv.display());
-    result?;
-    stopped?;
-    Ok(())
+    Ok(Recording {
+        ended,
+        count,
+        first,
+        last,
+    })
 }
 
 fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {

@@ -333,47 +333,86 @@ fn render_all(
         // Whole frames in parallel: rendering and PNG encoding both keep every core busy.
         config.threads = 1;
     }
-    let next = AtomicUsize::new(0);
-    let stop = AtomicBool::new(false);
+    let work = Work {
+        spec,
+        sensor,
+        images,
+        todo,
+        next: AtomicUsize::new(0),
+        stop: AtomicBool::new(false),
+    };
     let (tx, rx) = crossbeam_channel::unbounded::<Progress>();
     let started = Instant::now();
-    let mut first_error = None;
-    let mut rendered = Rendered {
-        frames: 0,
-        startup: Duration::ZERO,
-        rendering: Duration::ZERO,
-    };
-    std::thread::scope(|scope| {
+    let (rendered, first_error) = std::thread::scope(|scope| {
         for _ in 0..workers {
             let tx = tx.clone();
-            let (config, next, stop) = (&config, &next, &stop);
-            scope.spawn(move || {
-                let mut renderer = match Renderer::new(config.clone()) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        let _ = tx.send(Progress::Failed(e.into()));
-                        return;
-                    }
-                };
-                let _ = tx.send(Progress::Ready);
-                let mut rgb = Vec::new();
-                while !stop.load(Ordering::Relaxed) {
-                    let Some(&k) = todo.get(next.fetch_add(1, Ordering::Relaxed)) else {
-                        break;
-                    };
-                    let f = frame(spec, sensor, k);
-                    let message = match save(&mut renderer, &f, images, &mut rgb) {
-                        Ok(()) => Progress::Frame,
-                        Err(e) => Progress::Failed(e),
-                    };
-                    if tx.send(message).is_err() {
-                        break;
-                    }
-                }
-            });
+            let (config, work) = (&config, &work);
+            scope.spawn(move || work.render(config, tx));
         }
         drop(tx);
-        let mut meter = Meter::new(todo.len() as u64);
+        work.follow(rx, workers, started)
+    });
+    match first_error {
+        Some(e) => Err(e),
+        None => Ok(rendered),
+    }
+}
+
+/// The frames to render, shared by the workers.
+struct Work<'a> {
+    spec: &'a DatasetSpec,
+    sensor: &'a SensorConfig,
+    images: &'a Path,
+    todo: &'a [u64],
+    /// Index into `todo` of the next frame to take.
+    next: AtomicUsize,
+    /// Set on the first failure: the workers take no more frames.
+    stop: AtomicBool,
+}
+
+impl Work<'_> {
+    /// One worker: builds a renderer on `config`, then renders and saves frames until none
+    /// is left or one failed, telling `tx` of each.
+    fn render(&self, config: &SensorConfig, tx: crossbeam_channel::Sender<Progress>) {
+        let mut renderer = match Renderer::new(config.clone()) {
+            Ok(r) => r,
+            Err(e) => {
+                let _ = tx.send(Progress::Failed(e.into()));
+                return;
+            }
+        };
+        let _ = tx.send(Progress::Ready);
+        let mut rgb = Vec::new();
+        while !self.stop.load(Ordering::Relaxed) {
+            let Some(&k) = self.todo.get(self.next.fetch_add(1, Ordering::Relaxed)) else {
+                break;
+            };
+            let f = frame(self.spec, self.sensor, k);
+            let message = match save(&mut renderer, &f, self.images, &mut rgb) {
+                Ok(()) => Progress::Frame,
+                Err(e) => Progress::Failed(e),
+            };
+            if tx.send(message).is_err() {
+                break;
+            }
+        }
+    }
+
+    /// Follows the `workers`' messages until they are all done, showing progress; stops them
+    /// at the first failure, which is returned with what was rendered.
+    fn follow(
+        &self,
+        rx: crossbeam_channel::Receiver<Progress>,
+        workers: usize,
+        started: Instant,
+    ) -> (Rendered, Option<anyhow::Error>) {
+        let mut first_error = None;
+        let mut rendered = Rendered {
+            frames: 0,
+            startup: Duration::ZERO,
+            rendering: Duration::ZERO,
+        };
+        let mut meter = Meter::new(self.todo.len() as u64);
         let mut ready = 0;
         let mut rendering_from = started;
         for message in rx {
@@ -390,17 +429,14 @@ fn render_all(
                     meter.show(rendered.frames, rendering_from);
                 }
                 Progress::Failed(e) => {
-                    stop.store(true, Ordering::Relaxed);
+                    self.stop.store(true, Ordering::Relaxed);
                     first_error.get_or_insert(e);
                 }
             }
         }
         meter.finish();
         rendered.rendering = rendering_from.elapsed();
-    });
-    match first_error {
-        Some(e) => Err(e),
-        None => Ok(rendered),
+        (rendered, first_error)
     }
 }
 

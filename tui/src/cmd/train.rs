@@ -82,6 +82,7 @@ mod with_torch {
         train, Checkpoint, Outcome, TrainConfig, TrainEvent, TrainingRecord,
     };
     use std::io::{IsTerminal, Write};
+    use std::path::Path;
     use std::time::Instant;
 
     fn check(a: &TrainArgs) -> Result<()> {
@@ -132,39 +133,7 @@ mod with_torch {
         };
         let mut data = a.data.clone();
         if let Some(cp) = &a.resume {
-            if !cp.is_file() {
-                bail!("--resume {}: no such checkpoint", cp.display());
-            }
-            let card =
-                fringe_sensor_models::model_card::ModelCard::read(&Checkpoint::at(cp).card())?;
-            let record: TrainingRecord = card
-                .other
-                .get("training")
-                .cloned()
-                .map(serde_json::from_value)
-                .transpose()?
-                .with_context(|| format!("{}: not a checkpoint written by fringe train (its card has no training record)", cp.display()))?;
-            if data.is_empty() {
-                data = record.data.clone();
-            } else if data != record.data {
-                bail!("--resume {}: the checkpoint was trained on {:?}, not {:?}: resume with the same data (or none, to take it from the checkpoint)", cp.display(), record.data, data);
-            }
-            // Settings come from the checkpoint; --epochs may extend the training.
-            config.pipeline = record.pipeline;
-            config.batch = record.batch;
-            config.lr = record.lr;
-            config.seed = record.seed;
-            if let Some(arch) = card.architecture.as_deref() {
-                config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;
-            }
-            if let Some(size) = card.input_size {
-                config.input_size = size;
-            }
-            config.out = cp
-                .parent()
-                .map(PathBuf::from)
-                .unwrap_or_else(|| PathBuf::from("."));
-            config.epochs = a.epochs.unwrap_or(record.epochs);
+            resume_settings(cp, a.epochs, &mut config, &mut data)?;
         }
         if data.is_empty() {
             bail!("no data: name one or more run directories or reference-layout datasets");
@@ -173,8 +142,75 @@ mod with_torch {
             Some(p) => Some(Profile::load(p)?),
             None => None,
         };
+        let sources = read_sources(&data)?;
+        // Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
+        let stop = signals::catch(&[Signal::Interrupt], Again::Ends);
+        let mut progress = Progress {
+            tty: std::io::stderr().is_terminal(),
+            started: Instant::now(),
+            last_pct: usize::MAX,
+            batch: config.batch,
+        };
+        let outcome = train(
+            &config,
+            &sources,
+            profile.as_ref(),
+            a.resume.as_deref(),
+            stop,
+            &mut |e| progress.show(e),
+        )?;
+        let _ = std::io::stderr().flush();
+        report(outcome, &config);
+        Ok(())
+    }
+
+    /// Takes the data (when none is named) and the settings from checkpoint `cp`'s card;
+    /// `epochs` (--epochs) may extend the training.
+    fn resume_settings(
+        cp: &Path,
+        epochs: Option<usize>,
+        config: &mut TrainConfig,
+        data: &mut Vec<PathBuf>,
+    ) -> Result<()> {
+        if !cp.is_file() {
+            bail!("--resume {}: no such checkpoint", cp.display());
+        }
+        let card = fringe_sensor_models::model_card::ModelCard::read(&Checkpoint::at(cp).card())?;
+        let record: TrainingRecord = card
+            .other
+            .get("training")
+            .cloned()
+            .map(serde_json::from_value)
+            .transpose()?
+            .with_context(|| format!("{}: not a checkpoint written by fringe train (its card has no training record)", cp.display()))?;
+        if data.is_empty() {
+            *data = record.data.clone();
+        } else if *data != record.data {
+            bail!("--resume {}: the checkpoint was trained on {:?}, not {:?}: resume with the same data (or none, to take it from the checkpoint)", cp.display(), record.data, data);
+        }
+        // Settings come from the checkpoint; --epochs may extend the training.
+        config.pipeline = record.pipeline;
+        config.batch = record.batch;
+        config.lr = record.lr;
+        config.seed = record.seed;
+        if let Some(arch) = card.architecture.as_deref() {
+            config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;
+        }
+        if let Some(size) = card.input_size {
+            config.input_size = size;
+        }
+        config.out = cp
+            .parent()
+            .map(PathBuf::from)
+            .unwrap_or_else(|| PathBuf::from("."));
+        config.epochs = epochs.unwrap_or(record.epochs);
+        Ok(())
+    }
+
+    /// Reads every dataset, saying how many labelled frames each has.
+    fn read_sources(data: &[PathBuf]) -> Result<Vec<dataset::Source>> {
         let mut sources = Vec::with_capacity(data.len());
-        for d in &data {
+        for d in data {
             let s = dataset::read(d)?;
             eprintln!(
                 "data: {} ({} labelled frames, {} left out without a trustworthy label)",
@@ -184,72 +220,79 @@ mod with_torch {
             );
             sources.push(s);
         }
-        // Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
-        let stop = signals::catch(&[Signal::Interrupt], Again::Ends);
-        let tty = std::io::stderr().is_terminal();
-        let started = Instant::now();
-        let mut last_pct = usize::MAX;
-        let mut progress = |e: TrainEvent| {
+        Ok(sources)
+    }
+
+    /// The training's progress on stderr: bars on a terminal, fewer lines in a log.
+    struct Progress {
+        tty: bool,
+        started: Instant,
+        /// The last preparation percentage shown.
+        last_pct: usize,
+        /// Images per batch, for the epoch's ETA.
+        batch: usize,
+    }
+
+    impl Progress {
+        /// Shows one event of the training.
+        fn show(&mut self, e: TrainEvent) {
+            let tty = self.tty;
             match e {
-            TrainEvent::Split { train, val, test, path } => eprintln!(
-                "split by press: {train} frames for training, {val} for validation, {test} for test ({})",
-                path.display()
-            ),
-            TrainEvent::Preparing { side, done, total } => {
-                let pct = 100 * done / total.max(1);
-                if tty {
-                    eprint!("\rpreparing the {side} inputs: {done} of {total} frames ({pct} %)");
-                    if done == total {
+                TrainEvent::Split { train, val, test, path } => eprintln!(
+                    "split by press: {train} frames for training, {val} for validation, {test} for test ({})",
+                    path.display()
+                ),
+                TrainEvent::Preparing { side, done, total } => {
+                    let pct = 100 * done / total.max(1);
+                    if tty {
+                        eprint!("\rpreparing the {side} inputs: {done} of {total} frames ({pct} %)");
+                        if done == total {
+                            eprintln!();
+                        }
+                    } else if pct / 25 != self.last_pct / 25 || done == total {
+                        eprintln!("preparing the {side} inputs: {done} of {total} frames ({pct} %)");
+                    }
+                    self.last_pct = pct;
+                }
+                TrainEvent::Batch { epoch, epochs, batch, batches, loss, images_per_second } => {
+                    if tty {
+                        let width = 24;
+                        let filled = width * batch / batches.max(1);
+                        let left = (batches - batch) as f64 * (images_per_second.recip() * self.batch as f64);
+                        eprint!(
+                            "\repoch {epoch}/{epochs} [{}{}] {batch}/{batches} loss {loss:.4} {images_per_second:.0} img/s, epoch ETA {}   ",
+                            "#".repeat(filled),
+                            ".".repeat(width - filled),
+                            duration(left)
+                        );
+                    }
+                }
+                TrainEvent::Epoch(r) => {
+                    if tty {
                         eprintln!();
                     }
-                } else if pct / 25 != last_pct / 25 || done == total {
-                    eprintln!("preparing the {side} inputs: {done} of {total} frames ({pct} %)");
-                }
-                last_pct = pct;
-            }
-            TrainEvent::Batch { epoch, epochs, batch, batches, loss, images_per_second } => {
-                if tty {
-                    let width = 24;
-                    let filled = width * batch / batches.max(1);
-                    let left = (batches - batch) as f64 * (images_per_second.recip() * config.batch as f64);
-                    eprint!(
-                        "\repoch {epoch}/{epochs} [{}{}] {batch}/{batches} loss {loss:.4} {images_per_second:.0} img/s, epoch ETA {}   ",
-                        "#".repeat(filled),
-                        ".".repeat(width - filled),
-                        duration(left)
+                    eprintln!(
+                        "epoch {}: loss {:.4} (validation {:.4}); validation Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.3}; {:.0} s, {:.0} img/s; {} so far",
+                        r.epoch, r.train_loss, r.val_loss, r.val_fz_rmse_n, r.val_contact_rmse_mm, r.val_shape_accuracy, r.seconds, r.images_per_second,
+                        duration(self.started.elapsed().as_secs_f64())
                     );
                 }
-            }
-            TrainEvent::Epoch(r) => {
-                if tty {
-                    eprintln!();
-                }
-                eprintln!(
-                    "epoch {}: loss {:.4} (validation {:.4}); validation Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.3}; {:.0} s, {:.0} img/s; {} so far",
-                    r.epoch, r.train_loss, r.val_loss, r.val_fz_rmse_n, r.val_contact_rmse_mm, r.val_shape_accuracy, r.seconds, r.images_per_second,
-                    duration(started.elapsed().as_secs_f64())
-                );
-            }
-            TrainEvent::Checkpoint(p) => eprintln!("checkpoint: {}", p.display()),
-            TrainEvent::Evaluating { done, total } => {
-                if tty {
-                    eprint!("\revaluating on the test side: {done} of {total} frames");
-                    if done == total {
-                        eprintln!();
+                TrainEvent::Checkpoint(p) => eprintln!("checkpoint: {}", p.display()),
+                TrainEvent::Evaluating { done, total } => {
+                    if tty {
+                        eprint!("\revaluating on the test side: {done} of {total} frames");
+                        if done == total {
+                            eprintln!();
+                        }
                     }
                 }
             }
         }
-        };
-        let outcome = train(
-            &config,
-            &sources,
-            profile.as_ref(),
-            a.resume.as_deref(),
-            stop,
-            &mut progress,
-        )?;
-        let _ = std::io::stderr().flush();
+    }
+
+    /// Prints the test metrics of a finished training, or how to resume an interrupted one
+    /// (and exits 130).
+    fn report(outcome: Outcome, config: &TrainConfig) {
         match outcome {
             Outcome::Finished { model, evaluation } => {
                 let m = &evaluation.metrics;
@@ -262,7 +305,6 @@ mod with_torch {
                 println!("contact RMSE:   {:.4} mm", m.all.contact_rmse());
                 println!("shape accuracy: {:.4}", m.all.accuracy());
                 println!("loss curves:    {}", config.out.join("loss.png").display());
-                Ok(())
             }
             Outcome::Interrupted { checkpoint } => {
                 eprintln!(

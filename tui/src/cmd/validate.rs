@@ -11,7 +11,7 @@ use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::live_validation::{LiveValidation, Validation};
 use fringe_app::plans::SHORT_GRID;
-use fringe_app::{Note, ProfileUse, RigConfig};
+use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_sensor_models::backend::BackendKind;
@@ -53,8 +53,7 @@ pub struct ValidateArgs {
 }
 
 pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
-    let model_path = &a.model;
-    let model = open_model(model_path)?;
+    let model = open_model(&a.model)?;
     let (text, origin) = match &a.plan {
         Some(p) => (fringe_app::plans::read_file(p)?, p.display().to_string()),
         None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
@@ -62,23 +61,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
     if !a.no_tui && std::io::stdout().is_terminal() {
-        if a.report.is_some() {
-            bail!("--report DIR writes the headless run's report: add --no-tui");
-        }
-        return crate::ui::run(crate::ui::UiOptions {
-            config,
-            rig: source.describe(),
-            plan_text: text,
-            plan_origin: origin,
-            runs: a.out.clone(),
-            model: Some(crate::ui::ModelChoice {
-                path: model_path.clone(),
-                backend: a.backend,
-                threads: crate::cmd::arg_values::cap_threads(a.threads),
-            }),
-            tab: crate::ui::Tab::Validate,
-            start: false,
-        });
+        return run_ui(&a, config, &source, text, origin);
     }
     let backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     println!(
@@ -126,23 +109,57 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let v = live.finish(Duration::from_secs(10));
     print_summary(&v);
     if let Some(dir) = &a.report {
-        let title = format!(
-            "Live validation of {} on run {}",
-            v.state.model,
-            end.outcome.run_dir.display()
-        );
-        let report = fringe_sensor_models::report::write(dir, &title, &v.evaluation)?;
-        let lines = write_frames(dir, &v)?;
-        println!(
-            "report written to {} ({} frames in {})",
-            report.display(),
-            v.frames.len(),
-            lines.display()
-        );
+        write_report(dir, &v, &end.outcome.run_dir)?;
     }
     if let Some(why) = &v.state.failure {
         bail!("live validation stopped: {why}");
     }
+    Ok(())
+}
+
+/// Live validation in the terminal UI, on its Validate screen (`--report` is refused: the
+/// report is the headless run's).
+fn run_ui(
+    a: &ValidateArgs,
+    config: RigConfig,
+    source: &RigSource,
+    text: String,
+    origin: String,
+) -> Result<()> {
+    if a.report.is_some() {
+        bail!("--report DIR writes the headless run's report: add --no-tui");
+    }
+    crate::ui::run(crate::ui::UiOptions {
+        config,
+        rig: source.describe(),
+        plan_text: text,
+        plan_origin: origin,
+        runs: a.out.clone(),
+        model: Some(crate::ui::ModelChoice {
+            path: a.model.clone(),
+            backend: a.backend,
+            threads: crate::cmd::arg_values::cap_threads(a.threads),
+        }),
+        tab: crate::ui::Tab::Validate,
+        start: false,
+    })
+}
+
+/// Writes the evaluation report and every validated frame into `dir`, and says where.
+fn write_report(dir: &Path, v: &Validation, run_dir: &Path) -> Result<()> {
+    let title = format!(
+        "Live validation of {} on run {}",
+        v.state.model,
+        run_dir.display()
+    );
+    let report = fringe_sensor_models::report::write(dir, &title, &v.evaluation)?;
+    let lines = write_frames(dir, v)?;
+    println!(
+        "report written to {} ({} frames in {})",
+        report.display(),
+        v.frames.len(),
+        lines.display()
+    );
     Ok(())
 }
 

@@ -2,7 +2,7 @@
 //! operator's dialog; and how the scan ended, for the screens that wait on it.
 
 use super::session::Event;
-use super::state::{Dialog, Phase, UiState};
+use super::state::{Dialog, Phase, ScanView, UiState};
 use fringe_app::Note;
 use fringe_rig::scan::control::{Prompt, ScanProgress};
 use std::path::PathBuf;
@@ -30,34 +30,7 @@ pub fn apply(state: &mut UiState, e: Event) -> Option<ScanEnd> {
             scan.origin_mm = origin_mm;
             scan.disc_radius_mm = disc_radius_mm;
         }
-        Event::Progress(p) => match p {
-            ScanProgress::Message(m) => {
-                if let Some(dir) = m.strip_prefix("run directory ") {
-                    scan.run_dir = Some(dir.to_string());
-                }
-                scan.log(m);
-            }
-            ScanProgress::Phase { point, phase } => {
-                scan.current = Some((point, phase.name()));
-            }
-            ScanProgress::Status(s) => {
-                scan.done = s.points_done;
-                scan.total = s.points_total;
-                scan.eta = s.eta;
-                scan.force_n = s.force_n;
-                scan.frame_rate_hz = s.frame_rate_hz;
-                scan.frames = s.frames_recorded;
-                scan.dropped = s.dropped_frames;
-            }
-            ScanProgress::Paused { reason } => {
-                scan.log(format!("paused: {reason}"));
-                scan.phase = Phase::Paused(reason);
-            }
-            ScanProgress::Resumed => {
-                scan.log("resumed");
-                scan.phase = Phase::Running;
-            }
-        },
+        Event::Progress(p) => show_progress(scan, p),
         Event::Prompt(p) => {
             let title = match &p {
                 Prompt::ChangeIndenter { .. } => "change the indenter",
@@ -103,4 +76,36 @@ pub fn apply(state: &mut UiState, e: Event) -> Option<ScanEnd> {
         }
     }
     None
+}
+
+/// Shows the scan's progress: a message, the point's phase, the counts, a pause or resume.
+fn show_progress(scan: &mut ScanView, p: ScanProgress) {
+    match p {
+        ScanProgress::Message(m) => {
+            if let Some(dir) = m.strip_prefix("run directory ") {
+                scan.run_dir = Some(dir.to_string());
+            }
+            scan.log(m);
+        }
+        ScanProgress::Phase { point, phase } => {
+            scan.current = Some((point, phase.name()));
+        }
+        ScanProgress::Status(s) => {
+            scan.done = s.points_done;
+            scan.total = s.points_total;
+            scan.eta = s.eta;
+            scan.force_n = s.force_n;
+            scan.frame_rate_hz = s.frame_rate_hz;
+            scan.frames = s.frames_recorded;
+            scan.dropped = s.dropped_frames;
+        }
+        ScanProgress::Paused { reason } => {
+            scan.log(format!("paused: {reason}"));
+            scan.phase = Phase::Paused(reason);
+        }
+        ScanProgress::Resumed => {
+            scan.log("resumed");
+            scan.phase = Phase::Running;
+        }
+    }
 }

@@ -7,7 +7,7 @@ use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::live_validation::LiveValidation;
 use fringe_app::live_view::LiveView;
-use fringe_app::{Note, ProfileUse, RigConfig, ScanSession};
+use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{Operator, Prompt, Reply, ScanControl, ScanProgress};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::ScanProgram;
@@ -153,6 +153,8 @@ pub fn start(req: ScanRequest) -> Running {
     }
 }
 
+/// The scan thread: the session opened, the live view and validation attached, the scan run
+/// and its end told.
 fn run(
     req: ScanRequest,
     events: Sender<Event>,
@@ -174,34 +176,12 @@ fn run(
     for note in &session.notes {
         let _ = events.send(Event::Note(note.clone()));
     }
-    let geometry = session.geometry_profile();
-    let disc_radius_mm = geometry.as_ref().and_then(|(p, _)| {
-        p.registration
-            .as_ref()
-            .map(|r| p.optical.crop_radius_px / r.px_per_mm)
-    });
-    let origin = &session.setup.origin;
-    let _ = events.send(Event::Geometry {
-        origin_mm: (origin.x.0, origin.y.0),
-        disc_radius_mm,
-    });
+    send_geometry(&session, &events);
     let (live, tap) = LiveView::start(PICTURE_PX).map_err(|e| format!("live view: {e}"))?;
     session.setup.taps.push(tap);
     *view.lock().unwrap_or_else(|p| p.into_inner()) = Some(live);
     if let Some(m) = &req.model {
-        let model = fringe_sensor_models::builtin::open(&m.path).map_err(|e| e.to_string())?;
-        if let Some(w) = model.missing_card_warning() {
-            let _ = events.send(Event::Note(Note::Warning(w)));
-        }
-        let backend = model
-            .backend(m.backend, m.threads)
-            .map_err(|e| e.to_string())?;
-        let (v, notes) = session
-            .attach_validation(model, backend, &run_id)
-            .map_err(|e| e.to_string())?;
-        for note in notes {
-            let _ = events.send(Event::Note(note));
-        }
+        let v = attach_model(&mut session, m, &run_id, &events)?;
         *validation.lock().unwrap_or_else(|p| p.into_inner()) = Some(v);
     }
     let mut operator = UiOperator {
@@ -226,6 +206,57 @@ fn run(
         )
         .map_err(hint::describe)?;
     let o = &end.outcome;
+    let _ = events.send(Event::Ended {
+        completed: o.status == ExitStatus::Completed,
+        summary: summary(&end),
+        run_dir: o.run_dir.clone(),
+    });
+    Ok(())
+}
+
+/// Tells the UI the disc: the contact origin and, with a registration, the disc's radius.
+fn send_geometry(session: &ScanSession, events: &Sender<Event>) {
+    let geometry = session.geometry_profile();
+    let disc_radius_mm = geometry.as_ref().and_then(|(p, _)| {
+        p.registration
+            .as_ref()
+            .map(|r| p.optical.crop_radius_px / r.px_per_mm)
+    });
+    let origin = &session.setup.origin;
+    let _ = events.send(Event::Geometry {
+        origin_mm: (origin.x.0, origin.y.0),
+        disc_radius_mm,
+    });
+}
+
+/// Opens model `m` on its backend and attaches live validation to the session, sending the
+/// UI what it warns of.
+fn attach_model(
+    session: &mut ScanSession,
+    m: &ModelChoice,
+    run_id: &str,
+    events: &Sender<Event>,
+) -> Result<LiveValidation, String> {
+    let model = fringe_sensor_models::builtin::open(&m.path).map_err(|e| e.to_string())?;
+    if let Some(w) = model.missing_card_warning() {
+        let _ = events.send(Event::Note(Note::Warning(w)));
+    }
+    let backend = model
+        .backend(m.backend, m.threads)
+        .map_err(|e| e.to_string())?;
+    let (v, notes) = session
+        .attach_validation(model, backend, run_id)
+        .map_err(|e| e.to_string())?;
+    for note in notes {
+        let _ = events.send(Event::Note(note));
+    }
+    Ok(v)
+}
+
+/// The scan's end in one line: points, frames, the run, why it stopped and (simulated) the
+/// labels against the truth.
+fn summary(end: &SessionEnd) -> String {
+    let o = &end.outcome;
     let mut summary = format!(
         "{} of {} points, {} frames ({} dropped) in {}",
         o.points_done,
@@ -243,10 +274,5 @@ fn run(
             s.force_rms_n, s.contact_rms_mm
         ));
     }
-    let _ = events.send(Event::Ended {
-        completed: o.status == ExitStatus::Completed,
-        summary,
-        run_dir: o.run_dir.clone(),
-    });
-    Ok(())
+    summary
 }

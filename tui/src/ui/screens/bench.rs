@@ -10,11 +10,13 @@ use crate::ui::stage_operator::UiStageOperator;
 use crate::ui::state::{BenchView, Tab, JOG_STEPS_MM};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, WARN};
-use fringe_app::bench_session::{AxisId, BenchCommand, BenchPhase, BenchSession};
+use fringe_app::bench_session::{
+    AxisId, AxisState, BenchCommand, BenchPhase, BenchSession, BenchState,
+};
 use fringe_rig::units::Millimetres;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
-use ratatui::style::{Modifier, Style};
+use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, Wrap};
 use ratatui::Frame;
@@ -237,15 +239,9 @@ fn draw(f: &mut Frame, area: Rect, v: &BenchView) {
     );
 }
 
+/// The devices panel: the phase and jog step, the axes, the F/T sensor and the camera.
 fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
-    let b = &v.bench;
-    let (phase, colour) = match (&v.held, &b.phase) {
-        (Some(why), _) => (why.clone(), WARN),
-        (None, BenchPhase::Opening) => ("opening the devices...".to_string(), ACCENT),
-        (None, BenchPhase::Ready) => ("ready".to_string(), GOOD),
-        (None, BenchPhase::Failed(e)) => (format!("failed: {e}"), BAD),
-        (None, BenchPhase::Closed) => ("closed".to_string(), ACCENT),
-    };
+    let (phase, colour) = phase_text(v);
     let block = panel("bench");
     let inner = block.inner(area);
     f.render_widget(block, area);
@@ -262,39 +258,29 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
         ])),
         status_area,
     );
+    f.render_widget(axis_table(v), table_area);
+    f.render_widget(Paragraph::new(stream_lines(&v.bench)), lines_area);
+}
+
+/// What the bench is doing (or why it is held), and its colour.
+fn phase_text(v: &BenchView) -> (String, Color) {
+    match (&v.held, &v.bench.phase) {
+        (Some(why), _) => (why.clone(), WARN),
+        (None, BenchPhase::Opening) => ("opening the devices...".to_string(), ACCENT),
+        (None, BenchPhase::Ready) => ("ready".to_string(), GOOD),
+        (None, BenchPhase::Failed(e)) => (format!("failed: {e}"), BAD),
+        (None, BenchPhase::Closed) => ("closed".to_string(), ACCENT),
+    }
+}
+
+/// The axes, one row each, the chosen one marked and bold.
+fn axis_table(v: &BenchView) -> Table<'static> {
     let rows: Vec<Row> = AxisId::ALL
         .iter()
-        .zip(&b.axes)
+        .zip(&v.bench.axes)
         .map(|(id, a)| {
             let chosen = *id == v.axis;
-            let position = a
-                .position_mm
-                .map_or("-".to_string(), |p| format!("{p:>9.4} mm"));
-            let state = if a.manual {
-                Span::raw("by hand")
-            } else if a.moving {
-                Span::styled("moving", Style::new().fg(WARN))
-            } else {
-                Span::raw("idle")
-            };
-            let homed = if a.homed || a.manual {
-                Span::styled("homed", Style::new().fg(GOOD))
-            } else {
-                Span::styled("not homed", Style::new().fg(WARN))
-            };
-            let faults = if a.faults.is_empty() {
-                Span::raw("")
-            } else {
-                Span::styled(a.faults.join(", "), Style::new().fg(BAD))
-            };
-            let row = Row::new(vec![
-                Cell::from(format!("{} {}", if chosen { "▶" } else { " " }, id.name())),
-                Cell::from(position),
-                Cell::from(homed),
-                Cell::from(state),
-                Cell::from(format!("{:.3} .. {:.3}", a.limits_mm.0, a.limits_mm.1)),
-                Cell::from(faults),
-            ]);
+            let row = axis_row(*id, a, chosen);
             if chosen {
                 row.style(Style::new().add_modifier(Modifier::BOLD))
             } else {
@@ -302,7 +288,7 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
             }
         })
         .collect();
-    let table = Table::new(
+    Table::new(
         rows,
         [
             Constraint::Length(4),
@@ -316,8 +302,43 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
     .header(
         Row::new(["axis", "position", "", "", "soft limits, mm", ""])
             .style(Style::new().add_modifier(Modifier::DIM)),
-    );
-    f.render_widget(table, table_area);
+    )
+}
+
+/// One axis: position, homed, moving, soft limits and faults.
+fn axis_row(id: AxisId, a: &AxisState, chosen: bool) -> Row<'static> {
+    let position = a
+        .position_mm
+        .map_or("-".to_string(), |p| format!("{p:>9.4} mm"));
+    let state = if a.manual {
+        Span::raw("by hand")
+    } else if a.moving {
+        Span::styled("moving", Style::new().fg(WARN))
+    } else {
+        Span::raw("idle")
+    };
+    let homed = if a.homed || a.manual {
+        Span::styled("homed", Style::new().fg(GOOD))
+    } else {
+        Span::styled("not homed", Style::new().fg(WARN))
+    };
+    let faults = if a.faults.is_empty() {
+        Span::raw("")
+    } else {
+        Span::styled(a.faults.join(", "), Style::new().fg(BAD))
+    };
+    Row::new(vec![
+        Cell::from(format!("{} {}", if chosen { "▶" } else { " " }, id.name())),
+        Cell::from(position),
+        Cell::from(homed),
+        Cell::from(state),
+        Cell::from(format!("{:.3} .. {:.3}", a.limits_mm.0, a.limits_mm.1)),
+        Cell::from(faults),
+    ])
+}
+
+/// The F/T sensor's force, ceiling, rate, losses and peak, and the camera's rate and drops.
+fn stream_lines(b: &BenchState) -> Vec<Line<'static>> {
     let over = b.force.max_n > 0.0 && b.force.f_n > b.force.max_n;
     let lost = if b.force.lost > 0 {
         Span::styled(format!("{} lost", b.force.lost), Style::new().fg(WARN))
@@ -332,7 +353,7 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
     } else {
         Span::raw("0 dropped")
     };
-    let lines = vec![
+    vec![
         Line::from(vec![
             Span::raw("F/T  "),
             Span::styled(
@@ -363,6 +384,5 @@ fn draw_devices(f: &mut Frame, area: Rect, v: &BenchView) {
             )),
             dropped,
         ]),
-    ];
-    f.render_widget(Paragraph::new(lines), lines_area);
+    ]
 }

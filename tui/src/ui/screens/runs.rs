@@ -186,46 +186,7 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>) {
         );
         return;
     }
-    let rows = v.rows.iter().map(|r| {
-        let status = match r.status.as_str() {
-            "completed" => Style::new().fg(GOOD),
-            "unfinished" => Style::new().fg(WARN),
-            _ => Style::new().fg(BAD),
-        };
-        let verified = match r.verified.as_deref() {
-            Some(v) if v.starts_with("ok") => {
-                Cell::from(v.to_string()).style(Style::new().fg(GOOD))
-            }
-            Some(v) if v.starts_with("verifying") => Cell::from(v.to_string()),
-            Some(v) => Cell::from(v.to_string()).style(Style::new().fg(BAD)),
-            None => Cell::from("-"),
-        };
-        let evaluated = match r.evaluated.as_deref() {
-            Some(e) if e.starts_with("cannot") => {
-                Cell::from(e.to_string()).style(Style::new().fg(BAD))
-            }
-            Some(e) => Cell::from(e.to_string()),
-            None => Cell::from("-"),
-        };
-        let exported = match r.exported.as_deref() {
-            Some(e) if e.starts_with("cannot") => {
-                Cell::from(e.to_string()).style(Style::new().fg(BAD))
-            }
-            Some(e) if e.starts_with("exported") => {
-                Cell::from(e.to_string()).style(Style::new().fg(GOOD))
-            }
-            Some(e) => Cell::from(e.to_string()),
-            None => Cell::from("-"),
-        };
-        Row::new(vec![
-            Cell::from(r.name.clone()),
-            Cell::from(r.status.clone()).style(status),
-            Cell::from(r.frames.to_string()),
-            verified,
-            evaluated,
-            exported,
-        ])
-    });
+    let rows = v.rows.iter().map(run_row);
     // The whole run id, which the other commands take (up to a width that leaves the rest room).
     let widest = v
         .rows
@@ -260,4 +221,40 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>) {
     .block(panel(&title));
     let mut state = TableState::default().with_selected(Some(v.selected));
     f.render_stateful_widget(table, area, &mut state);
+}
+
+/// One run: its id, status, frames, and what verification, evaluation and export said.
+fn run_row(r: &RunRow) -> Row<'static> {
+    let status = match r.status.as_str() {
+        "completed" => Style::new().fg(GOOD),
+        "unfinished" => Style::new().fg(WARN),
+        _ => Style::new().fg(BAD),
+    };
+    let verified = match r.verified.as_deref() {
+        Some(v) if v.starts_with("ok") => Cell::from(v.to_string()).style(Style::new().fg(GOOD)),
+        Some(v) if v.starts_with("verifying") => Cell::from(v.to_string()),
+        Some(v) => Cell::from(v.to_string()).style(Style::new().fg(BAD)),
+        None => Cell::from("-"),
+    };
+    let evaluated = match r.evaluated.as_deref() {
+        Some(e) if e.starts_with("cannot") => Cell::from(e.to_string()).style(Style::new().fg(BAD)),
+        Some(e) => Cell::from(e.to_string()),
+        None => Cell::from("-"),
+    };
+    let exported = match r.exported.as_deref() {
+        Some(e) if e.starts_with("cannot") => Cell::from(e.to_string()).style(Style::new().fg(BAD)),
+        Some(e) if e.starts_with("exported") => {
+            Cell::from(e.to_string()).style(Style::new().fg(GOOD))
+        }
+        Some(e) => Cell::from(e.to_string()),
+        None => Cell::from("-"),
+    };
+    Row::new(vec![
+        Cell::from(r.name.clone()),
+        Cell::from(r.status.clone()).style(status),
+        Cell::from(r.frames.to_string()),
+        verified,
+        evaluated,
+        exported,
+    ])
 }

@@ -7,13 +7,13 @@ use crate::ui::app::App;
 use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::picture::Picture;
 use crate::ui::screen::{Screen, ScreenDef};
-use crate::ui::state::{Phase, Tab, UiState};
+use crate::ui::state::{Phase, ScanView, Tab, UiState};
 use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, PENDING, WARN};
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
-use ratatui::style::Style;
+use ratatui::style::{Color, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Gauge, List, ListItem, Paragraph};
 use ratatui::Frame;
@@ -123,8 +123,24 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
         Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(area);
     let [disc_area, log_area] =
         Layout::vertical([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(left);
+    draw_plan(f, disc_area, v);
+    draw_log(f, log_area, v);
+    let [status_area, gauge_area, bottom] = Layout::vertical([
+        Constraint::Length(7),
+        Constraint::Length(1),
+        Constraint::Min(0),
+    ])
+    .areas(right);
+    draw_status(f, status_area, v);
+    draw_progress(f, gauge_area, v);
+    let [chart_area, picture_area] =
+        Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(bottom);
+    draw_force_chart(f, chart_area, s);
+    draw_frame(f, picture_area, v);
+}
 
-    // Plan on the disc: all points and the path; done points green; the current one yellow.
+/// The plan on the disc: all points and the path; done points green; the current one yellow.
+fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView) {
     let all: Vec<(f64, f64)> = v.points.iter().map(|p| (p.x_mm, p.y_mm)).collect();
     let done: Vec<(f64, f64)> = all.iter().copied().take(v.done as usize).collect();
     let current: Vec<(f64, f64)> = v
@@ -174,15 +190,19 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
                     glyph: glyph(current_index),
                 },
             ],
-            aspect(disc_area),
+            aspect(area),
         ),
-        disc_area,
+        area,
     );
+}
+
+/// The scan's messages, newest first; warnings in yellow.
+fn draw_log(f: &mut Frame, area: Rect, v: &ScanView) {
     let lines: Vec<ListItem> = v
         .log
         .iter()
         .rev()
-        .take(log_area.height.saturating_sub(2) as usize)
+        .take(area.height.saturating_sub(2) as usize)
         .map(|l| {
             let style = if l.starts_with("warning") {
                 Style::new().fg(WARN)
@@ -194,27 +214,13 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
         .collect();
     f.render_widget(
         List::new(lines).block(panel("messages (newest first)")),
-        log_area,
+        area,
     );
+}
 
-    let [status_area, gauge_area, bottom] = Layout::vertical([
-        Constraint::Length(7),
-        Constraint::Length(1),
-        Constraint::Min(0),
-    ])
-    .areas(right);
-    let (phase, colour) = match &v.phase {
-        Phase::Ready => ("ready: press r to run".to_string(), ACCENT),
-        Phase::Running => ("running".to_string(), GOOD),
-        Phase::Paused(why) => (format!("paused: {why}"), WARN),
-        Phase::Stopping(what) => (what.clone(), WARN),
-        Phase::Finished {
-            completed: true,
-            summary,
-        } => (format!("completed: {summary}"), GOOD),
-        Phase::Finished { summary, .. } => (format!("stopped: {summary}"), WARN),
-        Phase::Failed(why) => (format!("failed: {why}"), BAD),
-    };
+/// The status panel: the phase, the plan's size and estimate, the point, force and camera.
+fn draw_status(f: &mut Frame, area: Rect, v: &ScanView) {
+    let (phase, colour) = phase_text(&v.phase);
     let point = match &v.current {
         Some((i, what)) => format!("point {} of {}: {what}", i + 1, v.total),
         None => format!("{} of {} points", v.done, v.total),
@@ -236,8 +242,28 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
     ];
     f.render_widget(
         Paragraph::new(status).block(panel(v.run_dir.as_deref().unwrap_or("scan"))),
-        status_area,
+        area,
     );
+}
+
+/// What the scan is doing, and its colour.
+fn phase_text(phase: &Phase) -> (String, Color) {
+    match phase {
+        Phase::Ready => ("ready: press r to run".to_string(), ACCENT),
+        Phase::Running => ("running".to_string(), GOOD),
+        Phase::Paused(why) => (format!("paused: {why}"), WARN),
+        Phase::Stopping(what) => (what.clone(), WARN),
+        Phase::Finished {
+            completed: true,
+            summary,
+        } => (format!("completed: {summary}"), GOOD),
+        Phase::Finished { summary, .. } => (format!("stopped: {summary}"), WARN),
+        Phase::Failed(why) => (format!("failed: {why}"), BAD),
+    }
+}
+
+/// The share of the points done, as a gauge.
+fn draw_progress(f: &mut Frame, area: Rect, v: &ScanView) {
     let ratio = if v.total == 0 {
         0.0
     } else {
@@ -248,14 +274,15 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
             .gauge_style(Style::new().fg(GOOD))
             .ratio(ratio)
             .label(format!("{:.0} %", 100.0 * ratio)),
-        gauge_area,
+        area,
     );
-    let [chart_area, picture_area] =
-        Layout::horizontal([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(bottom);
-    draw_force_chart(f, chart_area, s);
+}
+
+/// The newest frame, or a line saying there is none yet.
+fn draw_frame(f: &mut Frame, area: Rect, v: &ScanView) {
     let block = panel("frame");
-    let inner = block.inner(picture_area);
-    f.render_widget(block, picture_area);
+    let inner = block.inner(area);
+    f.render_widget(block, area);
     match &v.live.picture {
         Some(p) => f.render_widget(Picture(p), inner),
         None => f.render_widget(Paragraph::new("no frame yet"), inner),
