@@ -152,6 +152,9 @@ fn registration_background(
     )
 }
 
+/// A pressed frame and the contact spot found in it.
+type PressedFrame = (RgbImage, ContactSpot);
+
 /// Every press of the run located in its frames, and the first frame of the located press
 /// nearest `centre` (px) with its spot.
 fn locate_presses(
@@ -159,7 +162,7 @@ fn locate_presses(
     contact_bg: &ContactBackground,
     centre: [f64; 2],
     name: &str,
-) -> Result<(Vec<LocatedPress>, Option<(RgbImage, ContactSpot)>), FromScanError> {
+) -> Result<(Vec<LocatedPress>, Option<PressedFrame>), FromScanError> {
     let mut presses = Vec::with_capacity(run.presses.len());
     let mut example: Option<(f64, RgbImage, ContactSpot)> = None;
     for p in &run.presses {

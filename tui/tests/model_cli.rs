@@ -504,7 +504,7 @@ fn eval_on(model: &str, data: &Path) -> (f64, f64, f64) {
 }
 
 #[test]
-fn adapt_fits_the_default_model_to_another_unit_and_is_reproducible() {
+fn adapt_fits_the_default_model_to_another_unit_and_acceptance_judges_it() {
     let dir = scratch("adapt");
     let train = unit_frames(&dir.join("unit"), 150, 11);
     let held_out = unit_frames(&dir.join("held-out"), 100, 12);
@@ -542,6 +542,61 @@ fn adapt_fits_the_default_model_to_another_unit_and_is_reproducible() {
         "contact RMSE {contact0} -> {contact} mm"
     );
     assert!(shape >= shape0 - 0.02, "shape accuracy {shape0} -> {shape}");
+
+    // Acceptance: the shipped model fails the paper's row on this unit, saying where; a spec
+    // it meets passes; a spec with a key fringe does not know is refused naming it.
+    let held_profile = held_out.join("profile.toml");
+    let judged = |model: &str, spec: &str| {
+        fringe(&[
+            "eval",
+            "--model",
+            model,
+            "--profile",
+            s(&held_profile),
+            "--spec",
+            spec,
+            s(&held_out),
+        ])
+    };
+    let o = judged("default", "paper");
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("verdict:        FAIL"), "{t}");
+    assert!(t.contains("FAIL fz_rmse_n over all frames"), "{t}");
+    assert!(t.contains("weakest:") && t.contains("force "), "{t}");
+    assert!(
+        t.contains("the model fails the spec paper: fz_rmse_n"),
+        "{t}"
+    );
+    let loose = dir.join("loose.toml");
+    std::fs::write(
+        &loose,
+        "fz_rmse_n = 50.0
+[[force_range]]
+from_n = 0.0
+to_n = 20.0
+shape_accuracy = 0.5
+",
+    )
+    .expect("spec");
+    let o = judged("default", s(&loose));
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("verdict:        PASS") && t.contains("over force 0-20 N"),
+        "{t}"
+    );
+    let typo = dir.join("typo.toml");
+    std::fs::write(
+        &typo,
+        "fz_rmse = 0.5
+",
+    )
+    .expect("spec");
+    let o = judged("default", s(&typo));
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("typo.toml") && t.contains("fz_rmse"), "{t}");
 
     // The card names the unit and how it was adapted; the same data and seed give the same
     // weights, byte for byte.

@@ -1,15 +1,15 @@
 //! `fringe adapt --model BASE DATA... --out FILE.safetensors`: a model adapted to one sensor
 //! unit in pure Rust (no libtorch): its heads fitted again on the unit's labelled frames.
 
+use super::eval::read_sources;
+use super::frames_progress::FramesProgress;
 use super::model::open_model;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig, Adapted};
-use fringe_sensor_models::dataset;
 use fringe_sensor_models::model_card::ModelCard;
 use fringe_sensor_models::{write_safetensors_with_card, Model};
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -56,44 +56,21 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         Some(p) => Some(Profile::load(p)?),
         None => None,
     };
-    let mut sources = Vec::with_capacity(a.data.len());
-    for d in &a.data {
-        let source = dataset::read(d)?;
-        if source.samples.is_empty() {
-            bail!(
-                "{}: no labelled frame to adapt on ({} left out for want of a trustworthy label)",
-                d.display(),
-                source.skipped
-            );
-        }
-        sources.push(source);
-    }
+    let sources = read_sources(&a.data, "adapt on")?;
     let config = AdaptConfig {
         folds: a.folds as usize,
         seed: a.seed,
         threads: crate::cmd::arg_values::cap_threads(a.threads),
     };
-    let tty = std::io::stderr().is_terminal();
-    let mut last = 0;
+    let mut progress = FramesProgress::new("reading features");
     let adapted = adapt_heads(
         &model,
         &sources,
         profile.as_ref(),
         &config,
-        |done, total| {
-            let pct = 100 * done / total.max(1);
-            if tty {
-                eprint!("\rreading features: {done} of {total} frames ({pct} %)");
-                let _ = std::io::stderr().flush();
-            } else if pct >= last + 25 || done == total {
-                eprintln!("reading features: {done} of {total} frames ({pct} %)");
-                last = pct;
-            }
-        },
+        |done, total| progress.show(done, total),
     )?;
-    if tty {
-        eprintln!();
-    }
+    progress.finish();
     let unit = sources
         .iter()
         .find_map(|s| s.sensor_id.clone())

@@ -1,17 +1,19 @@
 //! `fringe eval --model MODEL DATA... [--report DIR]`: a model's Table-2 figures on runs or
 //! reference-layout datasets.
 
+use super::frames_progress::FramesProgress;
 use super::model::{open_model, ReferenceChoice};
+use super::verdict;
 use anyhow::{bail, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
+use fringe_sensor_models::acceptance::judge;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset::{self, Source};
 use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::preprocess::ReferenceSensor;
 use fringe_sensor_models::report;
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -39,6 +41,10 @@ pub struct EvalArgs {
     /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
+    /// Judge the figures against a spec: a TOML file of thresholds (README.md, "Acceptance"), or
+    /// `paper` for the paper's custom-CNN row; the exit status is 1 when the model fails it.
+    #[arg(long, value_name = "FILE|paper")]
+    spec: Option<PathBuf>,
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
@@ -49,54 +55,57 @@ pub fn run(a: EvalArgs) -> Result<()> {
             run.display()
         );
     }
+    let spec = a.spec.as_deref().map(verdict::load).transpose()?;
     let model = open_model(&a.model)?;
     let profile = match &a.profile {
         Some(p) => Some(Profile::load(p)?),
         None => None,
     };
-    let sources = read_sources(&a.data)?;
+    let sources = read_sources(&a.data, "evaluate")?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     warn_scale(&model, &sources, profile.as_ref(), reference);
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
-    let tty = std::io::stderr().is_terminal();
-    let mut last = 0;
+    let mut progress = FramesProgress::new("evaluating");
     let eval = evaluate(
         &model,
         backend.as_mut(),
         &sources,
         profile.as_ref(),
         reference,
-        |done, total| {
-            let pct = 100 * done / total.max(1);
-            if tty {
-                eprint!("\revaluating: {done} of {total} frames ({pct} %)");
-                let _ = std::io::stderr().flush();
-            } else if pct >= last + 25 || done == total {
-                eprintln!("evaluating: {done} of {total} frames ({pct} %)");
-                last = pct;
-            }
-        },
+        |done, total| progress.show(done, total),
     )?;
-    if tty {
-        eprintln!();
-    }
+    progress.finish();
     print_figures(&model, &eval);
     if let Some(dir) = &a.report {
         let title = format!("Evaluation of {}", model.path.display());
         let path = report::write(dir, &title, &eval)?;
         println!("report:         {}", path.display());
     }
+    if let Some(spec) = &spec {
+        let v = judge(&eval, spec);
+        for line in verdict::lines(&v) {
+            println!("{line}");
+        }
+        if !v.pass {
+            bail!(
+                "the model fails the spec {}: {}",
+                a.spec.as_deref().unwrap_or(Path::new("")).display(),
+                v.failures().join("; ")
+            );
+        }
+    }
     Ok(())
 }
 
-/// Reads every dataset; one without a labelled frame is refused.
-fn read_sources(data: &[PathBuf]) -> Result<Vec<Source>> {
+/// Reads every dataset; one without a labelled frame is refused, saying what it was wanted for
+/// (`evaluate`, `adapt on`).
+pub(crate) fn read_sources(data: &[PathBuf], purpose: &str) -> Result<Vec<Source>> {
     let mut sources = Vec::with_capacity(data.len());
     for d in data {
         let source = dataset::read(d)?;
         if source.samples.is_empty() {
             bail!(
-                "{}: no labelled frame to evaluate ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
+                "{}: no labelled frame to {purpose} ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
                 d.display(),
                 source.skipped
             );
