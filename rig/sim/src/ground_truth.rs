@@ -494,10 +494,14 @@ mod tests {
     fn recorder_samples_the_bench_at_its_period() {
         let bench = Bench::new(BenchConfig::default());
         let log = TruthLog::new();
+        let started = std::time::Instant::now();
         let rec = BenchRecorder::spawn(bench, log.clone(), std::time::Duration::from_millis(2))
             .expect("spawn");
         std::thread::sleep(std::time::Duration::from_millis(100));
         rec.stop();
+        // The sleep and the stop overrun by however long a loaded machine makes them: at one
+        // record per 2 ms, no more records than the time that really passed holds.
+        let most = started.elapsed().as_millis() as usize / 2 + 2;
         let times: Vec<u64> = log
             .records()
             .iter()
@@ -507,8 +511,8 @@ mod tests {
             })
             .collect();
         assert!(
-            times.len() >= 20 && times.len() <= 52,
-            "{} records",
+            times.len() >= 20 && times.len() <= most,
+            "{} records (at most {most})",
             times.len()
         );
         assert!(times.windows(2).all(|p| p[1] - p[0] == 2_000_000));

@@ -71,7 +71,7 @@ pub enum SessionError {
     )]
     NoGeometry { sensor_id: String, dir: PathBuf },
     #[error(
-        "{model}: the model's shape classes ({classes}) do not include {missing}, which this scan's          frames will be labelled with: it cannot be scored on them (use a model trained for these          indenters, or a plan that presses only those it knows)"
+        "{model}: the model's shape classes ({classes}) do not include {missing}, which this scan's frames will be labelled with: it cannot be scored on them (use a model trained for these indenters, or a plan that presses only those it knows)"
     )]
     ClassesMissing {
         model: String,
