@@ -12,6 +12,7 @@ use crate::backend::tract::TractGraph;
 use crate::backend::InferenceError;
 use crate::dataset::{Sample, Source};
 use crate::eval::{for_each_batch, EvalError};
+use crate::metrics::Scored;
 use crate::model::Model;
 use crate::onnx_graph::features_graph;
 use crate::weights::state_dict::StateDict;
@@ -94,17 +95,90 @@ pub enum AdaptError {
          presses, with contact, are needed"
     )]
     TooFew { presses: usize, frames: usize },
+    #[error(
+        "features of {got} values cannot join features of {have}: read every frame with the \
+         same base model"
+    )]
+    Width { have: usize, got: usize },
     #[error("the {0} head could not be fitted (the features are degenerate)")]
     Singular(&'static str),
 }
 
-/// The labelled frames' features and targets.
-struct Table {
-    features: DMatrix<f64>,
+/// The network body's features of labelled frames, beside their labels: read once, then fitted
+/// on and predicted from as often as needed (commissioning adds each round's presses to them).
+#[derive(Debug, Clone)]
+pub struct Features {
+    matrix: DMatrix<f64>,
     samples: Vec<Sample>,
+    /// Each label's shape as an index into the model's classes.
     shapes: Vec<usize>,
-    /// Fold of each frame.
-    fold: Vec<usize>,
+}
+
+impl Features {
+    /// Runs `model`'s body over every frame of `sources` (each preprocessed with its run's
+    /// profile, else `profile`) on `threads` threads; `progress` hears (frames done, frames in
+    /// all).
+    pub fn read(
+        model: &Model,
+        sources: &[Source],
+        profile: Option<&Profile>,
+        threads: usize,
+        progress: impl FnMut(usize, usize),
+    ) -> Result<Features, AdaptError> {
+        read_features(model, sources, profile, threads, progress)
+    }
+
+    /// Frames held.
+    pub fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// The frames' labels, in the order read.
+    pub fn samples(&self) -> &[Sample] {
+        &self.samples
+    }
+
+    /// Distinct presses among the frames.
+    pub fn presses(&self) -> usize {
+        let mut p: Vec<&str> = self.samples.iter().map(|s| s.press.as_str()).collect();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    }
+
+    /// Adds `more`'s frames (read with the same model) after these.
+    pub fn append(&mut self, more: Features) -> Result<(), AdaptError> {
+        if self.is_empty() {
+            *self = more;
+            return Ok(());
+        }
+        if more.is_empty() {
+            return Ok(());
+        }
+        if more.matrix.ncols() != self.matrix.ncols() {
+            return Err(AdaptError::Width {
+                have: self.matrix.ncols(),
+                got: more.matrix.ncols(),
+            });
+        }
+        let (a, b) = (self.matrix.nrows(), more.matrix.nrows());
+        let width = self.matrix.ncols();
+        let matrix = DMatrix::from_fn(a + b, width, |i, j| {
+            if i < a {
+                self.matrix[(i, j)]
+            } else {
+                more.matrix[(i - a, j)]
+            }
+        });
+        self.matrix = matrix;
+        self.samples.extend(more.samples);
+        self.shapes.extend(more.shapes);
+        Ok(())
+    }
 }
 
 /// Adapts `model`'s heads to the frames of `sources` (each preprocessed with its run's profile,
@@ -116,24 +190,34 @@ pub fn adapt_heads(
     config: &AdaptConfig,
     progress: impl FnMut(usize, usize),
 ) -> Result<Adapted, AdaptError> {
-    let shown = model.path.display().to_string();
     let base = model
         .weights()
-        .ok_or_else(|| AdaptError::NotWeights(shown.clone()))?;
-    let table = read_features(model, sources, profile, config, progress)?;
-    let presses = {
-        let mut p: Vec<&str> = table.samples.iter().map(|s| s.press.as_str()).collect();
-        p.sort_unstable();
-        p.dedup();
-        p.len()
-    };
-    let in_contact = table.samples.iter().filter(|s| s.contact.is_some()).count();
+        .ok_or_else(|| AdaptError::NotWeights(model.path.display().to_string()))?;
+    let features = read_features(model, sources, profile, config.threads, progress)?;
+    fit_heads(base, &features, config)
+}
+
+/// The heads of `base` fitted again on `features`, each pulled towards its base head by
+/// cross-validation over presses (`config`'s folds and seed).
+pub fn fit_heads(
+    base: &StateDict,
+    features: &Features,
+    config: &AdaptConfig,
+) -> Result<Adapted, AdaptError> {
+    let presses = features.presses();
+    let in_contact = features.samples.iter().filter(|s| s.contact.is_some()).count();
     if presses < MIN_PRESSES || in_contact == 0 {
         return Err(AdaptError::TooFew {
             presses,
-            frames: table.samples.len(),
+            frames: features.len(),
         });
     }
+    let table = Table {
+        features: &features.matrix,
+        samples: &features.samples,
+        shapes: &features.shapes,
+        fold: folds(&features.samples, config.folds.max(2), config.seed),
+    };
     let mut weights = base.clone();
     let heads = vec![
         fit_force(&table, base, &mut weights)?,
@@ -142,10 +226,46 @@ pub fn adapt_heads(
     ];
     Ok(Adapted {
         weights,
-        frames: table.samples.len(),
+        frames: features.len(),
         presses,
         heads,
     })
+}
+
+/// What the heads of `weights` predict for each frame of `features`, scored against its label
+/// (the same figures the whole network gives: the heads are its last layers).
+pub fn head_scores(weights: &StateDict, features: &Features) -> Result<Vec<Scored>, AdaptError> {
+    let head = |name: &'static str| head_of(weights, name).ok_or(AdaptError::Singular(name));
+    let (force, class, point) = (head("force_head")?, head("class_head")?, head("point_head")?);
+    let (f, c, p) = (
+        force.apply(&features.matrix),
+        class.apply(&features.matrix),
+        point.apply(&features.matrix),
+    );
+    if f.ncols() < 3 || p.ncols() < 2 {
+        return Err(AdaptError::Singular("force_head"));
+    }
+    Ok((0..features.len())
+        .map(|i| {
+            let s = &features.samples[i];
+            Scored {
+                fz_true: s.fz(),
+                fz_pred: f[(i, 2)],
+                shape_true: features.shapes[i],
+                shape_pred: c.row(i).transpose().argmax().0,
+                contact_true: s.contact,
+                contact_pred: [p[(i, 0)], p[(i, 1)]],
+            }
+        })
+        .collect())
+}
+
+/// The labelled frames' features and targets, with each frame's fold.
+struct Table<'a> {
+    features: &'a DMatrix<f64>,
+    samples: &'a [Sample],
+    shapes: &'a [usize],
+    fold: Vec<usize>,
 }
 
 /// Runs the network's body over every frame.
@@ -153,9 +273,9 @@ fn read_features(
     model: &Model,
     sources: &[Source],
     profile: Option<&Profile>,
-    config: &AdaptConfig,
+    threads: usize,
     mut progress: impl FnMut(usize, usize),
-) -> Result<Table, AdaptError> {
+) -> Result<Features, AdaptError> {
     let shown = model.path.display().to_string();
     let proto = model
         .onnx()
@@ -166,7 +286,7 @@ fn read_features(
         path: shown.clone(),
         source,
     };
-    let mut graph = TractGraph::new(proto, config.threads).map_err(features_err)?;
+    let mut graph = TractGraph::new(proto, threads).map_err(features_err)?;
     let total: usize = sources.iter().map(|s| s.samples.len()).sum();
     let mut rows: Vec<Vec<f32>> = Vec::with_capacity(total);
     let mut samples = Vec::with_capacity(total);
@@ -209,13 +329,11 @@ fn read_features(
         None => AdaptError::Eval(e),
     })?;
     let width = rows.first().map_or(0, Vec::len);
-    let features = DMatrix::from_fn(rows.len(), width, |i, j| f64::from(rows[i][j]));
-    let fold = folds(&samples, config.folds.max(2), config.seed);
-    Ok(Table {
-        features,
+    let matrix = DMatrix::from_fn(rows.len(), width, |i, j| f64::from(rows[i][j]));
+    Ok(Features {
+        matrix,
         samples,
         shapes,
-        fold,
     })
 }
 
@@ -317,12 +435,12 @@ fn choose_per_output(sse: &[Vec<f64>], fits: &[Head]) -> (Head, Vec<f64>, Vec<f6
 }
 
 /// The force head: [Fx Fy Fz Mx My Mz Ft] on every frame; reported as Fz RMSE, N.
-fn fit_force(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_force(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "force_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let y = DMatrix::from_fn(t.samples.len(), 7, |i, j| t.samples[i].force[j]);
-    let before = (prior.apply(&t.features) - &y).column(2).norm_squared();
-    let (sse, fits) = ridge_path(&t.features, &y, &t.fold, &prior, NAME)?;
+    let before = (prior.apply(t.features) - &y).column(2).norm_squared();
+    let (sse, fits) = ridge_path(t.features, &y, &t.fold, &prior, NAME)?;
     let (head, pull, best) = choose_per_output(&sse, &fits);
     put_head(out, NAME, &head);
     let n = t.samples.len() as f64;
@@ -336,13 +454,13 @@ fn fit_force(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadRep
 }
 
 /// The contact head: x, y on the frames in contact; reported as contact RMSE, mm.
-fn fit_contact(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_contact(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "point_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let idx: Vec<usize> = (0..t.samples.len())
         .filter(|&i| t.samples[i].contact.is_some())
         .collect();
-    let x = rows_of(&t.features, &idx);
+    let x = rows_of(t.features, &idx);
     let y = DMatrix::from_fn(idx.len(), 2, |i, j| {
         t.samples[idx[i]].contact.map_or(0.0, |c| c[j])
     });
@@ -363,7 +481,7 @@ fn fit_contact(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadR
 
 /// The shape head: softmax over the classes; the pull with the least cross-validated log loss;
 /// reported as accuracy.
-fn fit_shape(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_shape(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "class_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let folds = t.fold.iter().copied().max().map_or(0, |m| m + 1);
@@ -373,7 +491,7 @@ fn fit_shape(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadRep
             .count();
         right as f64 / y.len().max(1) as f64
     };
-    let before = accuracy(&prior.apply(&t.features), &t.shapes);
+    let before = accuracy(&prior.apply(t.features), t.shapes);
     let mut best: Option<(f64, f64, f64)> = None; // (log loss, pull, accuracy)
     for &pull in &PULLS {
         let mut loss = 0.0;
@@ -385,9 +503,9 @@ fn fit_shape(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadRep
                 continue;
             }
             let ys = |idx: &[usize]| idx.iter().map(|&i| t.shapes[i]).collect::<Vec<_>>();
-            let head = softmax(&rows_of(&t.features, &train), &ys(&train), &prior, pull)
+            let head = softmax(&rows_of(t.features, &train), &ys(&train), &prior, pull)
                 .ok_or(AdaptError::Singular(NAME))?;
-            let logits = head.apply(&rows_of(&t.features, &test));
+            let logits = head.apply(&rows_of(t.features, &test));
             loss += log_loss(&logits, &ys(&test)) * test.len() as f64;
             right += accuracy(&logits, &ys(&test)) * test.len() as f64;
         }
@@ -400,7 +518,7 @@ fn fit_shape(t: &Table, base: &StateDict, out: &mut StateDict) -> Result<HeadRep
         }
     }
     let (_, pull, after) = best.ok_or(AdaptError::Singular(NAME))?;
-    let head = softmax(&t.features, &t.shapes, &prior, pull).ok_or(AdaptError::Singular(NAME))?;
+    let head = softmax(t.features, t.shapes, &prior, pull).ok_or(AdaptError::Singular(NAME))?;
     put_head(out, NAME, &head);
     Ok(HeadReport {
         head: NAME,

@@ -15,13 +15,15 @@
 //!   on the opened rig (profile -> origin, operator, progress, truth scoring); module
 //!   `scan_session` (private); [`TruthScore`] in `truth_score` (private).
 //!
-//! And nine public modules (the three above and):
+//! And ten public modules (the three above and):
 //! - [`bench_session`]: the bench outside a scan: device states, jog, home, stop, tare, the
 //!   force and the newest frame.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
+//! - [`commission`]: commissioning a unit: where to press, its plans, its journal and its
+//!   certificate (and the unit's commissioned model).
 //! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
 //!   default).
 //!
@@ -30,6 +32,7 @@
 
 pub mod bench_session;
 pub mod calibration_scan;
+pub mod commission;
 pub mod device_open;
 pub mod device_spec;
 pub mod host_port;

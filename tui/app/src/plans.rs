@@ -1,6 +1,6 @@
 //! The built-in scan plans, from the files in `tui/app/plans/` (each file is also a commented
 //! example to copy): `fringe` runs `short-grid`, `fringe calibrate` runs `calibration`, `fringe
-//! demo` runs `demo`.
+//! demo` runs `demo`, `fringe commission` runs `commission` with its own points.
 
 /// A plan shipped with fringe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -39,8 +39,15 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
     text: include_str!("../plans/demo.toml"),
 };
 
+/// The presses of `fringe commission` (its rounds and acceptance scan replace the points).
+pub const COMMISSION: BuiltinPlan = BuiltinPlan {
+    name: "commission",
+    path: "tui/app/plans/commission.toml",
+    text: include_str!("../plans/commission.toml"),
+};
+
 /// Every built-in plan.
-pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
+pub const ALL: [BuiltinPlan; 4] = [SHORT_GRID, CALIBRATION, DEMO, COMMISSION];
 
 /// A built-in plan by name.
 pub fn by_name(name: &str) -> Option<BuiltinPlan> {
@@ -59,7 +66,7 @@ pub struct PlanFileError {
 fn advice(e: &std::io::Error) -> &'static str {
     match e.kind() {
         std::io::ErrorKind::NotFound => {
-            " (check the path; the built-in plans are short-grid, calibration and demo, with commented copies in tui/app/plans/)"
+            " (check the path; the built-in plans are short-grid, calibration, demo and commission, with commented copies in tui/app/plans/)"
         }
         std::io::ErrorKind::PermissionDenied => " (make the file readable by your user)",
         _ => " (a plan is a TOML text file; see tui/app/plans/ for examples)",

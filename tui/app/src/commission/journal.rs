@@ -1,0 +1,237 @@
+//! The commissioning's journal (`journal.json` in its directory): the choices made and the runs
+//! recorded so far, written before each scan starts and after it ends, so that a commissioning
+//! cut short (Ctrl-C, a crash, power loss) goes on from its runs with `--resume DIR` and
+//! presses nothing twice.
+
+use fringe_rig::store::documents::{ExitStatus, StopDocument};
+use fringe_rig::store::durable::write_atomic;
+use fringe_rig::store::layout::{MANIFEST, STOP};
+use fringe_rig::store::run_writer::read_document;
+use std::path::{Path, PathBuf};
+
+/// The journal's file name in a commissioning directory.
+pub const JOURNAL: &str = "journal.json";
+/// Format of the journal this version writes; older ones are read, newer ones refused.
+pub const JOURNAL_FORMAT: u32 = 1;
+
+/// What the commissioning was asked to do (fixed when it starts; `--resume` keeps them).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Options {
+    pub sensor: String,
+    /// The base model as given (`default` or a path).
+    pub base: String,
+    /// Simulated or real bench time for the presses, minutes (calibration and acceptance not
+    /// counted).
+    pub budget_min: f64,
+    /// The spec's text (TOML), or `None` for the paper's row.
+    pub spec: Option<String>,
+    /// Where the spec came from, for the report.
+    pub spec_origin: String,
+    pub seed: u64,
+    /// Presses per adaptive round.
+    pub round_presses: usize,
+    /// Presses of the acceptance scan.
+    pub acceptance_presses: usize,
+}
+
+/// One scan of the commissioning.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ScanEntry {
+    /// The run's directory name under `runs/`.
+    pub run_id: String,
+    /// The plan it runs (TOML).
+    pub plan: String,
+    /// Bench time the plan was estimated to take, s.
+    pub estimate_s: f64,
+    /// Bench time it took, s (when it ended).
+    #[serde(default)]
+    pub took_s: Option<f64>,
+    /// The run completed (its frames may be used).
+    #[serde(default)]
+    pub completed: bool,
+}
+
+/// The journal.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Journal {
+    pub format: u32,
+    pub fringe_version: String,
+    pub started_utc: String,
+    pub options: Options,
+    #[serde(default)]
+    pub calibration: Option<ScanEntry>,
+    #[serde(default)]
+    pub rounds: Vec<ScanEntry>,
+    #[serde(default)]
+    pub acceptance: Option<ScanEntry>,
+}
+
+/// A journal that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum JournalError {
+    #[error(
+        "{0}: no commissioning journal here (give the directory `fringe commission` printed when \
+         it started, the one holding journal.json)"
+    )]
+    Missing(PathBuf),
+    #[error("{path}: {message}")]
+    Read { path: PathBuf, message: String },
+    #[error(
+        "{path}: journal format {found} is newer than this fringe reads ({JOURNAL_FORMAT}): \
+         resume it with the newer fringe that started it"
+    )]
+    Newer { path: PathBuf, found: u32 },
+}
+
+impl Journal {
+    pub fn new(options: Options) -> Journal {
+        Journal {
+            format: JOURNAL_FORMAT,
+            fringe_version: env!("CARGO_PKG_VERSION").to_string(),
+            started_utc: fringe_rig::store::documents::now_utc(),
+            options,
+            calibration: None,
+            rounds: Vec::new(),
+            acceptance: None,
+        }
+    }
+
+    /// Reads the journal of the commissioning in `dir`.
+    pub fn read(dir: &Path) -> Result<Journal, JournalError> {
+        let path = dir.join(JOURNAL);
+        if !path.is_file() {
+            return Err(JournalError::Missing(dir.to_path_buf()));
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| JournalError::Read {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        #[derive(serde::Deserialize)]
+        struct Format {
+            format: u32,
+        }
+        let format: Format = serde_json::from_str(&text).map_err(|e| JournalError::Read {
+            path: path.clone(),
+            message: format!("not a commissioning journal ({e})"),
+        })?;
+        if format.format > JOURNAL_FORMAT {
+            return Err(JournalError::Newer {
+                path,
+                found: format.format,
+            });
+        }
+        serde_json::from_str(&text).map_err(|e| JournalError::Read {
+            path,
+            message: format!("damaged journal ({e}); the runs under runs/ are intact"),
+        })
+    }
+
+    /// Writes the journal into `dir`, whole or not at all.
+    pub fn write(&self, dir: &Path) -> Result<(), JournalError> {
+        let path = dir.join(JOURNAL);
+        let text = serde_json::to_string_pretty(self).map_err(|e| JournalError::Read {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        write_atomic(&path, (text + "\n").as_bytes()).map_err(|e| JournalError::Read {
+            path,
+            message: e.to_string(),
+        })
+    }
+
+    /// Bench time the rounds took (or, for one still to finish, were estimated to take), s.
+    pub fn round_seconds(&self) -> f64 {
+        self.rounds
+            .iter()
+            .map(|r| r.took_s.unwrap_or(r.estimate_s))
+            .sum()
+    }
+}
+
+/// Where a journal's scan stands on disk.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunState {
+    /// Not started: start it as a new run with its id.
+    Absent,
+    /// Started and cut short: resume it.
+    Unfinished,
+    /// Ended, with how.
+    Ended(StopDocument),
+}
+
+/// The state of the run `dir`.
+pub fn run_state(dir: &Path) -> Result<RunState, JournalError> {
+    if !dir.join(fringe_rig::store::layout::START).is_file() {
+        return Ok(RunState::Absent);
+    }
+    let stop = dir.join(STOP);
+    if !stop.is_file() || !dir.join(MANIFEST).is_file() {
+        return Ok(RunState::Unfinished);
+    }
+    let document: StopDocument = read_document(&stop).map_err(|e| JournalError::Read {
+        path: stop.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(RunState::Ended(document))
+}
+
+/// A run that ended completed.
+pub fn completed(state: &RunState) -> bool {
+    matches!(state, RunState::Ended(s) if s.exit_status == ExitStatus::Completed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options() -> Options {
+        Options {
+            sensor: "unit-7".into(),
+            base: "default".into(),
+            budget_min: 10.0,
+            spec: None,
+            spec_origin: "paper".into(),
+            seed: 42,
+            round_presses: 6,
+            acceptance_presses: 8,
+        }
+    }
+
+    #[test]
+    fn a_journal_reads_back_and_a_newer_one_is_refused() {
+        let dir = std::env::temp_dir().join(format!("fringe-journal-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let mut j = Journal::new(options());
+        j.rounds.push(ScanEntry {
+            run_id: "round-1".into(),
+            plan: "name = \"r\"".into(),
+            estimate_s: 60.0,
+            took_s: Some(55.0),
+            completed: true,
+        });
+        j.rounds.push(ScanEntry {
+            run_id: "round-2".into(),
+            plan: String::new(),
+            estimate_s: 40.0,
+            took_s: None,
+            completed: false,
+        });
+        j.write(&dir).expect("write");
+        let back = Journal::read(&dir).expect("read");
+        assert_eq!(back, j);
+        assert_eq!(back.round_seconds(), 95.0);
+        let newer = std::fs::read_to_string(dir.join(JOURNAL))
+            .expect("text")
+            .replace("\"format\": 1", "\"format\": 9");
+        std::fs::write(dir.join(JOURNAL), newer).expect("write");
+        let e = Journal::read(&dir).expect_err("newer").to_string();
+        assert!(e.contains("format 9 is newer"), "{e}");
+        let e = Journal::read(&dir.join("nothing")).expect_err("missing").to_string();
+        assert!(e.contains("no commissioning journal"), "{e}");
+        assert_eq!(
+            run_state(&dir.join("no-run")).expect("state"),
+            RunState::Absent
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
