@@ -115,6 +115,15 @@ pub struct Features {
 }
 
 impl Features {
+    /// No frames yet.
+    pub fn empty() -> Features {
+        Features {
+            matrix: DMatrix::zeros(0, 0),
+            samples: Vec::new(),
+            shapes: Vec::new(),
+        }
+    }
+
     /// Runs `model`'s body over every frame of `sources` (each preprocessed with its run's
     /// profile, else `profile`) on `threads` threads; `progress` hears (frames done, frames in
     /// all).

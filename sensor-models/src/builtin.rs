@@ -58,6 +58,11 @@ impl Builtin {
         PathBuf::from(format!("builtin:{}", self.name))
     }
 
+    /// Its weights file's bytes, as shipped (what a certificate hashes).
+    pub fn weights_bytes(&self) -> &'static [u8] {
+        self.weights
+    }
+
     /// Its card, as shipped.
     pub fn card(&self) -> Result<ModelCard, ModelError> {
         serde_json::from_str(self.card).map_err(|source| {

@@ -56,8 +56,12 @@ pub struct ModelCard {
     /// "reference-integrated" (the reference pipeline's geometry).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preprocessing: Option<String>,
+    /// The sensor unit the model was trained or adapted for (a commissioned model's unit).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_id: Option<String>,
+    /// The sensor design the model is for: `layered` or `integrated`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variant: Option<String>,
     /// The sensor's crop across, in pixels of the frames the model was trained on: frames that
     /// show the sensor much coarser than this give figures the model never earned.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -65,6 +65,10 @@ enum Command {
     /// Adapt a model to one sensor unit without libtorch: its heads fitted again on the unit's
     /// labelled frames (runs or datasets), cross-validated over presses.
     Adapt(cmd::adapt::AdaptArgs),
+    /// Commission a sensor unit in one job: calibrate it, press where the model errs most,
+    /// adapt the model to it, accept or reject it against a spec on held-out presses; a
+    /// certificate beside its profile.
+    Commission(cmd::commission::CommissionArgs),
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
@@ -122,6 +126,7 @@ fn main() -> ExitCode {
         Some(Command::Model(args)) => cmd::model::run(args),
         Some(Command::Eval(args)) => cmd::eval::run(args),
         Some(Command::Adapt(args)) => cmd::adapt::run(args),
+        Some(Command::Commission(args)) => cmd::commission::run(args, &global),
         Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]

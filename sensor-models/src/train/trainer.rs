@@ -265,6 +265,9 @@ fn card_for(
         colour: Some(config.pipeline.colour()),
         preprocessing: Some("profile".to_string()),
         sensor_id: sensors.first().map(|s| s.to_string()),
+        // Runs and datasets do not record their sensor's design; `fringe model info` shows
+        // a card without it as of unknown design.
+        variant: None,
         crop_diameter_px: f.preprocessing.first().map(|p| 2.0 * p.crop_radius_px),
         frame_size: f
             .preprocessing

@@ -75,7 +75,7 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         .iter()
         .find_map(|s| s.sensor_id.clone())
         .or_else(|| profile.as_ref().map(|p| p.sensor_id.clone()));
-    let card = adapted_card(&model, &adapted, &a, unit.as_deref());
+    let card = adapted_card(&model, &adapted, &a.data, a.folds, a.seed, unit.as_deref());
     write_safetensors_with_card(&a.out, &adapted.weights, Some(&card))?;
     let card_path = a.out.with_extension("json");
     let text = serde_json::to_string_pretty(&card).context("the model card")?;
@@ -98,8 +98,16 @@ pub fn run(a: AdaptArgs) -> Result<()> {
     Ok(())
 }
 
-/// The base model's card for the adapted weights: the unit they were adapted to, and how.
-fn adapted_card(model: &Model, adapted: &Adapted, a: &AdaptArgs, unit: Option<&str>) -> ModelCard {
+/// The base model's card for the adapted weights: the unit they were adapted to, and how
+/// (adapted on `data`, `folds` folds over presses seeded with `seed`).
+pub(crate) fn adapted_card(
+    model: &Model,
+    adapted: &Adapted,
+    data: &[PathBuf],
+    folds: u64,
+    seed: u64,
+    unit: Option<&str>,
+) -> ModelCard {
     let mut card = model.travelling_card();
     if let Some(unit) = unit {
         card.sensor_id = Some(unit.to_string());
@@ -107,7 +115,7 @@ fn adapted_card(model: &Model, adapted: &Adapted, a: &AdaptArgs, unit: Option<&s
     if let Some(training) = card.other.remove("training") {
         card.other.insert("base_training".into(), training);
     }
-    let data: Vec<String> = a.data.iter().map(|d| shown(d)).collect();
+    let data: Vec<String> = data.iter().map(|d| shown(d)).collect();
     card.other.insert(
         "adaptation".into(),
         serde_json::json!({
@@ -118,8 +126,8 @@ fn adapted_card(model: &Model, adapted: &Adapted, a: &AdaptArgs, unit: Option<&s
             "data": data,
             "frames": adapted.frames,
             "presses": adapted.presses,
-            "folds": a.folds,
-            "seed": a.seed,
+            "folds": folds,
+            "seed": seed,
             "heads": adapted.heads,
             "fringe_version": env!("CARGO_PKG_VERSION"),
         }),

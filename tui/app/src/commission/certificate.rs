@@ -87,6 +87,26 @@ pub struct Certificate {
     pub compute_s: f64,
 }
 
+impl ModelRef {
+    /// The model `spec` names (`default`, `builtin:NAME` or a file), hashed.
+    pub fn of(spec: &Path, describe: String) -> Result<ModelRef, CertificateError> {
+        use sha2::Digest;
+        let bytes = match fringe_sensor_models::builtin::named(spec) {
+            Some(Ok(b)) => b.weights_bytes().to_vec(),
+            _ => std::fs::read(spec).map_err(|e| CertificateError::Read {
+                path: spec.to_path_buf(),
+                message: format!("cannot hash the base model: {e}"),
+            })?,
+        };
+        let digest = sha2::Sha256::digest(&bytes);
+        Ok(ModelRef {
+            path: spec.display().to_string(),
+            sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
+            describe,
+        })
+    }
+}
+
 /// A certificate that cannot be read.
 #[derive(Debug, thiserror::Error)]
 pub enum CertificateError {

@@ -1,0 +1,297 @@
+//! `fringe commission [--rig R] [--base MODEL] [--budget MINUTES] [--spec FILE|paper]`: a sensor
+//! unit taken from first light to a verdict in one job. The calibration scan and the unit's
+//! profile; rounds of presses chosen where the model errs most or has not pressed, each round
+//! predicted by the model as adapted so far before it is adapted on (the learning curve);
+//! the model's heads adapted to the unit in pure Rust; an acceptance scan at held-out positions
+//! judged against the spec; everything kept in one directory beside the unit's profile with
+//! `certificate.json` and `report.md`. `--resume DIR` goes on after Ctrl-C or a crash from the
+//! runs already recorded.
+
+mod certify;
+mod rounds;
+
+use crate::cmd::scan::execute;
+use crate::global::Global;
+use anyhow::{bail, Context, Result};
+use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationGrid};
+use fringe_app::commission::certificate::{directory_name, PROFILE};
+use fringe_app::commission::journal::{
+    completed, run_state, Journal, Options, RunState, ScanEntry,
+};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_calibration::profile::Profile;
+use fringe_rig::scan::engine::RunTarget;
+use fringe_rig::scan::plan::Plan;
+use fringe_sensor_models::acceptance::Spec;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct CommissionArgs {
+    /// The rig file (default: ./rig.toml if present, else the simulated bench). The unit is the
+    /// rig's sensor (its `sensor` key, or the simulated sensor's id).
+    #[arg(long, value_name = "FILE")]
+    rig: Option<PathBuf>,
+    /// The model to adapt: a weights file of the paper's networks, or `default` (the model that
+    /// ships with fringe).
+    #[arg(long, value_name = "MODEL", default_value = "default")]
+    base: PathBuf,
+    /// Bench time for the adaptive presses, minutes (the calibration and acceptance scans come
+    /// on top).
+    #[arg(long, value_name = "MINUTES", default_value_t = 10.0)]
+    budget: f64,
+    /// What the unit must meet: a spec file (TOML; see `fringe eval --spec`) or `paper` (the
+    /// paper's custom-CNN row: Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %).
+    #[arg(long, value_name = "FILE", default_value = "paper")]
+    spec: String,
+    /// Positions pressed per adaptive round (each with every indenter of the model).
+    #[arg(long, value_name = "N", default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=100))]
+    round_presses: u64,
+    /// Held-out positions of the acceptance scan (each with every indenter).
+    #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=200))]
+    acceptance_presses: u64,
+    /// Seed of the adaptation's cross-validation folds.
+    #[arg(long, default_value_t = 42)]
+    seed: u64,
+    /// Go on with the commissioning in DIR (after Ctrl-C, a crash or power loss) from the runs it
+    /// recorded; its options are the ones it started with.
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
+    threads: usize,
+    /// Answer every operator prompt with "continue".
+    #[arg(long)]
+    yes: bool,
+}
+
+/// A commissioning under way: where it lives and what it was asked.
+pub(crate) struct Commissioning<'a> {
+    pub dir: PathBuf,
+    pub journal: Journal,
+    pub config: RigConfig,
+    pub spec: Spec,
+    pub global: &'a Global,
+    pub yes: bool,
+    pub threads: usize,
+    /// Computation time so far (features, fits, evaluation), s.
+    pub compute_s: f64,
+}
+
+pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
+    let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let sensor = config.sensor_id()?;
+    println!(
+        "fringe {}: commissioning of sensor {sensor} on rig: {}",
+        env!("CARGO_PKG_VERSION"),
+        source.describe()
+    );
+    let (dir, journal) = match &a.resume {
+        Some(dir) => resumed(dir, &sensor)?,
+        None => started(&a, &config, &sensor)?,
+    };
+    let spec = match &journal.options.spec {
+        Some(text) => Spec::parse(text, &journal.options.spec_origin)?,
+        None => Spec::paper(),
+    };
+    let mut c = Commissioning {
+        dir,
+        journal,
+        config,
+        spec,
+        global,
+        yes: a.yes,
+        threads: crate::cmd::arg_values::cap_threads(a.threads),
+        compute_s: 0.0,
+    };
+    println!("commissioning directory: {}", c.dir.display());
+    println!("  (after Ctrl-C or a crash: fringe commission --resume {})", c.dir.display());
+    let base = rounds::open_base(&c.journal.options.base)?;
+    let profile = calibrate(&mut c)?;
+    let adapted = rounds::adapt(&mut c, &base, &profile)?;
+    certify::accept(&mut c, &base, &profile, adapted)
+}
+
+/// A new commissioning: its options checked (spec, budget) before anything moves, its directory
+/// and journal made.
+fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(PathBuf, Journal)> {
+    if !(a.budget.is_finite() && a.budget > 0.0) {
+        bail!("--budget {}: give the bench time for the presses in minutes, above 0", a.budget);
+    }
+    let (spec_text, spec_origin) = if a.spec == "paper" {
+        (None, "the paper's custom-CNN row (Table 2)".to_string())
+    } else {
+        let path = Path::new(&a.spec);
+        Spec::load(path)?;
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the spec {}", path.display()))?;
+        (Some(text), path.display().to_string())
+    };
+    rounds::open_base(&a.base.display().to_string())?;
+    let journal = Journal::new(Options {
+        sensor: sensor.to_string(),
+        base: a.base.display().to_string(),
+        budget_min: a.budget,
+        spec: spec_text,
+        spec_origin,
+        seed: a.seed,
+        round_presses: a.round_presses as usize,
+        acceptance_presses: a.acceptance_presses as usize,
+    });
+    let dir = config
+        .profile_dir()
+        .join(directory_name(sensor, &journal.started_utc));
+    std::fs::create_dir_all(dir.join("runs"))
+        .with_context(|| format!("cannot create the commissioning directory {}", dir.display()))?;
+    journal.write(&dir)?;
+    Ok((dir, journal))
+}
+
+/// A commissioning to go on with: its journal, for the same unit.
+fn resumed(dir: &Path, sensor: &str) -> Result<(PathBuf, Journal)> {
+    let journal = Journal::read(dir)?;
+    if journal.options.sensor != sensor {
+        bail!(
+            "{}: this commissioning is of sensor {}, and the rig's sensor is {sensor}: resume it on the rig it started on (--rig)",
+            dir.display(),
+            journal.options.sensor
+        );
+    }
+    println!(
+        "resuming the commissioning started {} (budget {} min, base {})",
+        journal.started_utc, journal.options.budget_min, journal.options.base
+    );
+    Ok((dir.to_path_buf(), journal))
+}
+
+/// Step 1: the calibration scan (recorded once) and the unit's profile from it, written where
+/// the rig's scans read it and into the commissioning directory.
+fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
+    let sensor = c.journal.options.sensor.clone();
+    let kept = c.dir.join(PROFILE);
+    let entry = match c.journal.calibration.clone() {
+        Some(e) if e.completed && kept.is_file() => return Ok(Profile::load(&kept)?),
+        Some(e) => e,
+        None => {
+            let plan = CalibrationGrid::defaults(&sensor).plan_text(&c.config)?;
+            let e = ScanEntry {
+                run_id: format!("calibration-{sensor}"),
+                estimate_s: estimate_s(&plan, &c.config)?,
+                plan,
+                took_s: None,
+                completed: false,
+            };
+            c.journal.calibration = Some(e.clone());
+            c.journal.write(&c.dir)?;
+            e
+        }
+    };
+    println!("step 1: calibration ({})", CalibrationGrid::defaults(&sensor).describe());
+    let (run_dir, took) = scan(c, &entry, ProfileUse::Ignore)?;
+    let (spot, _) = spot_settings(None, &c.config)?;
+    let result = calibrate_run(&run_dir, &sensor, fringe_app::calibration_scan::DEFAULT_MAX_FRAMES, spot)
+        .with_context(|| format!("the calibration of {sensor} failed; the run is kept in {}", run_dir.display()))?;
+    if let Err(e) = &result.cal.registration {
+        bail!(
+            "the calibration found no image-to-stage registration ({e}): commissioning needs it to place presses on the disc; check the unit sits under the indenter and resume: fringe commission --resume {}",
+            c.dir.display()
+        );
+    }
+    let written = result.write(&c.config.profile_dir())?;
+    std::fs::copy(&written.profile, &kept)
+        .with_context(|| format!("cannot copy the profile into {}", kept.display()))?;
+    println!("wrote {} (the unit's profile; a copy in the commissioning directory)", written.profile.display());
+    if let Some(e) = c.journal.calibration.as_mut() {
+        e.completed = true;
+        e.took_s = Some(took);
+    }
+    c.journal.write(&c.dir)?;
+    Ok(result.profile)
+}
+
+/// The bench time `plan` is estimated to take on the rig, s.
+pub(crate) fn estimate_s(plan: &str, config: &RigConfig) -> Result<f64> {
+    let limits = config.limits()?;
+    let program = Plan::parse(plan, "commissioning plan")?.program(&limits, "commissioning plan")?;
+    Ok(program.estimate(&limits).total.as_secs_f64())
+}
+
+/// Runs (or resumes, or takes as done) the scan of `entry` into the directory's `runs/`; its
+/// run directory and the bench time it took now, s. An error unless it completed.
+pub(crate) fn scan(
+    c: &Commissioning<'_>,
+    entry: &ScanEntry,
+    profile_use: ProfileUse,
+) -> Result<(PathBuf, f64)> {
+    let root = c.dir.join("runs");
+    let run_dir = root.join(&entry.run_id);
+    let state = run_state(&run_dir)?;
+    if completed(&state) {
+        return Ok((run_dir, 0.0));
+    }
+    let target = match state {
+        RunState::Absent => RunTarget::New {
+            root,
+            run_id: entry.run_id.clone(),
+        },
+        RunState::Unfinished => {
+            if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(&run_dir)? {
+                if stop.exit_status == fringe_rig::store::documents::ExitStatus::Completed {
+                    return Ok((run_dir, 0.0));
+                }
+            }
+            println!("resuming the run {}", run_dir.display());
+            RunTarget::Resume { dir: run_dir.clone() }
+        }
+        RunState::Ended(stop) => {
+            let kept = set_aside(&run_dir)?;
+            println!(
+                "the scan {} ended {} ({}); it is kept as {} and pressed again",
+                entry.run_id,
+                format!("{:?}", stop.exit_status).to_lowercase(),
+                stop.reason,
+                kept.display()
+            );
+            RunTarget::New {
+                root,
+                run_id: entry.run_id.clone(),
+            }
+        }
+    };
+    let limits = c.config.limits()?;
+    let program = Plan::parse(&entry.plan, &entry.run_id)?.program(&limits, &entry.run_id)?;
+    let started = Instant::now();
+    let end = execute(
+        &c.config,
+        program,
+        entry.plan.clone(),
+        target,
+        c.yes,
+        profile_use,
+        c.global,
+        &mut |_| Ok(()),
+    )?;
+    let outcome = end.outcome;
+    if outcome.status != fringe_rig::store::documents::ExitStatus::Completed {
+        bail!(
+            "the scan {} stopped ({}); resume the commissioning to finish it: fringe commission --resume {}",
+            outcome.run_dir.display(),
+            outcome.reason,
+            c.dir.display()
+        );
+    }
+    Ok((outcome.run_dir, started.elapsed().as_secs_f64()))
+}
+
+/// Moves a run that ended without completing out of the way (`<run>.stopped-N`), kept whole.
+fn set_aside(run_dir: &Path) -> Result<PathBuf> {
+    for n in 1..1000 {
+        let to = run_dir.with_extension(format!("stopped-{n}"));
+        if !to.exists() {
+            std::fs::rename(run_dir, &to)
+                .with_context(|| format!("cannot move {} aside", run_dir.display()))?;
+            return Ok(to);
+        }
+    }
+    bail!("{}: too many stopped runs beside it", run_dir.display())
+}

@@ -1,0 +1,326 @@
+//! Steps 4 and 5 of commissioning: the adapted model written with its card, the acceptance scan
+//! at held-out positions (between the lattice the rounds press on), the whole network evaluated
+//! on it and judged against the spec, the report and the certificate.
+
+use super::rounds::{shapes, Adaptation, LATTICE_MM};
+use super::{estimate_s, scan, Commissioning};
+use crate::cmd::adapt::adapted_card;
+use crate::cmd::frames_progress::FramesProgress;
+use crate::cmd::model::open_model;
+use crate::cmd::verdict;
+use anyhow::{bail, Context, Result};
+use fringe_app::commission::certificate::{
+    Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
+};
+use fringe_app::commission::journal::ScanEntry;
+use fringe_app::commission::press_choice::{choose, PressedPoint, UsableDisc};
+use fringe_app::commission::press_plan::press_plan;
+use fringe_app::ProfileUse;
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::acceptance::{judge, Verdict};
+use fringe_sensor_models::backend::BackendKind;
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::eval::{evaluate, Evaluation};
+use fringe_sensor_models::model::Model;
+use fringe_sensor_models::report;
+use fringe_sensor_models::write_safetensors_with_card;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Steps 4 and 5; an error (exit status 1) when the unit fails, after the certificate says why.
+pub(crate) fn accept(
+    c: &mut Commissioning<'_>,
+    base: &Model,
+    profile: &Profile,
+    adaptation: Adaptation,
+) -> Result<()> {
+    let model_path = write_model(c, base, &adaptation)?;
+    let entry = acceptance_entry(c, base, profile)?;
+    println!("step 4: acceptance at {} held-out positions", c.journal.options.acceptance_presses);
+    let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
+    if let Some(e) = c.journal.acceptance.as_mut() {
+        e.completed = true;
+        e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
+    }
+    c.journal.write(&c.dir)?;
+    let started = Instant::now();
+    let model = open_model(&model_path)?;
+    let source = dataset::read(&run_dir)?;
+    let presses = {
+        let mut p: Vec<&str> = source.samples.iter().map(|s| s.press.as_str()).collect();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    };
+    let mut backend = model.backend(BackendKind::Tract, c.threads)?;
+    let mut progress = FramesProgress::new("evaluating the acceptance scan");
+    let eval = evaluate(&model, backend.as_mut(), &[source], None, None, |d, t| {
+        progress.show(d, t)
+    })?;
+    progress.finish();
+    c.compute_s += started.elapsed().as_secs_f64();
+    let v = judge(&eval, &c.spec);
+    let cert = certificate(c, base, &adaptation, &eval, &v, &run_dir, presses)?;
+    write_report(c, &cert, &eval, &adaptation)?;
+    let path = cert.write(&c.dir)?;
+    for line in verdict::lines(&v) {
+        println!("{line}");
+    }
+    println!("wrote {}", path.display());
+    println!("wrote {}", c.dir.join("report.md").display());
+    if !v.pass {
+        bail!(
+            "sensor {} fails the spec ({}): {}; the certificate says where ({})",
+            cert.sensor_id,
+            cert.spec_origin,
+            v.failures().join("; "),
+            path.display()
+        );
+    }
+    println!(
+        "sensor {} is commissioned: fringe validate and fringe eval use {} for it by default",
+        cert.sensor_id,
+        model_path.display()
+    );
+    Ok(())
+}
+
+/// The adapted model in the directory, with its card beside it and in it.
+fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<PathBuf> {
+    let path = c.dir.join(MODEL);
+    let card = adapted_card(
+        base,
+        &a.adapted,
+        &a.runs,
+        5,
+        c.journal.options.seed,
+        Some(&c.journal.options.sensor),
+    );
+    write_safetensors_with_card(&path, &a.adapted.weights, Some(&card))?;
+    let card_path = path.with_extension("json");
+    let text = serde_json::to_string_pretty(&card).context("the model card")?;
+    std::fs::write(&card_path, text + "\n")
+        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    println!(
+        "step 3: adapted {} on {} frames of {} presses: wrote {}",
+        base.path.display(),
+        a.adapted.frames,
+        a.adapted.presses,
+        path.display()
+    );
+    for h in &a.adapted.heads {
+        println!(
+            "  {:<11} {}: {:.4} before, {:.4} after (cross-validated over presses)",
+            h.head, h.figure, h.before, h.after
+        );
+    }
+    Ok(path)
+}
+
+/// The acceptance scan's journal entry: positions between the rounds' lattice, spread over the
+/// disc (chosen once, before the scan, and kept).
+fn acceptance_entry(c: &mut Commissioning<'_>, base: &Model, profile: &Profile) -> Result<ScanEntry> {
+    if let Some(e) = &c.journal.acceptance {
+        return Ok(e.clone());
+    }
+    let limits = c.config.limits()?;
+    let disc = UsableDisc::from_profile(profile)?;
+    let held_out = disc.lattice(LATTICE_MM, 0.5, &limits, &c.journal.options.sensor)?;
+    let points = choose(&held_out, &[], c.journal.options.acceptance_presses, 1e6);
+    let plan = press_plan(
+        "acceptance",
+        &points,
+        &shapes(base),
+        &format!(
+            "fringe commission, sensor {}: acceptance at {} held-out positions (half a lattice step from every adaptive press)",
+            c.journal.options.sensor,
+            points.len()
+        ),
+    )?;
+    let e = ScanEntry {
+        run_id: "acceptance".into(),
+        estimate_s: estimate_s(&plan, &c.config)?,
+        plan,
+        took_s: None,
+        completed: false,
+    };
+    c.journal.acceptance = Some(e.clone());
+    c.journal.write(&c.dir)?;
+    Ok(e)
+}
+
+/// Paths relative to the commissioning directory, for the certificate.
+fn relative(dir: &Path, p: &Path) -> String {
+    p.strip_prefix(dir).unwrap_or(p).display().to_string()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn certificate(
+    c: &Commissioning<'_>,
+    base: &Model,
+    a: &Adaptation,
+    eval: &Evaluation,
+    v: &Verdict,
+    acceptance: &Path,
+    presses: usize,
+) -> Result<Certificate> {
+    let all = &eval.metrics.all;
+    let bench_s: f64 = [&c.journal.calibration, &c.journal.acceptance]
+        .into_iter()
+        .flatten()
+        .chain(c.journal.rounds.iter())
+        .map(|e| e.took_s.unwrap_or(0.0))
+        .sum();
+    Ok(Certificate {
+        format: CERTIFICATE_FORMAT,
+        fringe_version: env!("CARGO_PKG_VERSION").to_string(),
+        issued_utc: fringe_rig::store::documents::now_utc(),
+        sensor_id: c.journal.options.sensor.clone(),
+        variant: base.card.as_ref().and_then(|card| card.variant.clone()),
+        pass: v.pass,
+        failures: v.failures(),
+        figures: Figures {
+            fz_rmse_n: all.fz_rmse(),
+            contact_rmse_mm: all.contact_rmse(),
+            shape_accuracy: all.accuracy(),
+            macro_f1: eval.metrics.macro_scores().f1,
+            frames: all.n,
+            presses,
+        },
+        verdict: serde_json::to_value(v).context("the verdict")?,
+        spec: serde_json::to_value(&c.spec).context("the spec")?,
+        spec_origin: c.journal.options.spec_origin.clone(),
+        base_model: ModelRef::of(Path::new(&c.journal.options.base), base.describe())?,
+        model: MODEL.to_string(),
+        adaptation: "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses".into(),
+        profile: PROFILE.to_string(),
+        runs: UsedRuns {
+            calibration: c
+                .journal
+                .calibration
+                .as_ref()
+                .map(|e| format!("runs/{}", e.run_id))
+                .unwrap_or_default(),
+            rounds: a.runs.iter().map(|r| relative(&c.dir, r)).collect(),
+            acceptance: relative(&c.dir, acceptance),
+        },
+        learning_curve: a.curve.clone(),
+        bench_s,
+        compute_s: c.compute_s,
+    })
+}
+
+/// `report.md` (the evaluation's report with the commissioning's verdict, learning curve and
+/// press map before it) and its plots.
+fn write_report(
+    c: &Commissioning<'_>,
+    cert: &Certificate,
+    eval: &Evaluation,
+    a: &Adaptation,
+) -> Result<()> {
+    let title = format!("Acceptance of sensor {}", cert.sensor_id);
+    let path = report::write(&c.dir, &title, eval)?;
+    let evaluation = std::fs::read_to_string(&path).unwrap_or_default();
+    let curve = |f: fn(&CurvePoint) -> f64| -> Vec<[f64; 2]> {
+        a.curve
+            .iter()
+            .map(|p| [p.presses_before as f64, f(p)])
+            .collect()
+    };
+    let fz = curve(|p| p.fz_rmse_n);
+    let contact = curve(|p| p.contact_rmse_mm);
+    report::line_plot(
+        "RMSE on unseen presses",
+        "presses adapted on",
+        &[("Fz, N", &fz), ("contact, mm", &contact)],
+    )
+    .save(c.dir.join("learning.png"))
+    .context("learning.png")?;
+    press_map(&a.pressed)
+        .save(c.dir.join("presses.png"))
+        .context("presses.png")?;
+    let mut md = format!(
+        "# Commissioning of sensor {}\n\nVerdict: **{}** against {}.\n\n",
+        cert.sensor_id,
+        if cert.pass { "PASS" } else { "FAIL" },
+        cert.spec_origin
+    );
+    for f in &cert.failures {
+        let _ = writeln!(md, "- fails: {f}");
+    }
+    let _ = write!(
+        md,
+        "\nHeld-out acceptance ({} presses, {} frames): Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %, macro F1 {:.3}.\n\nBase model {} (sha256 {}); bench time {:.0} s, computation {:.0} s; fringe {}.\n\n## Learning curve\n\nEach round's presses predicted by the model adapted on every press before them.\n\n![learning curve](learning.png)\n\n| round | presses before | frames | Fz RMSE, N | contact RMSE, mm | shape accuracy |\n|---|---|---|---|---|---|\n",
+        cert.figures.presses,
+        cert.figures.frames,
+        cert.figures.fz_rmse_n,
+        cert.figures.contact_rmse_mm,
+        100.0 * cert.figures.shape_accuracy,
+        cert.figures.macro_f1,
+        cert.base_model.path,
+        cert.base_model.sha256,
+        cert.bench_s,
+        cert.compute_s,
+        cert.fringe_version
+    );
+    for p in &a.curve {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.3} | {:.2} | {:.1} % |",
+            p.round,
+            p.presses_before,
+            p.frames,
+            p.fz_rmse_n,
+            p.contact_rmse_mm,
+            100.0 * p.shape_accuracy
+        );
+    }
+    md.push_str("\n## Presses\n\nEach adaptive press where it was made, its error before adaptation in the spec's units (green at or under the threshold, red at three times it and over).\n\n![presses](presses.png)\n\n");
+    md.push_str(&evaluation.replacen("# ", "## ", 1));
+    std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// The adaptive presses on the stage, each a disc coloured by its error (spec units).
+fn press_map(pressed: &[PressedPoint]) -> image::RgbImage {
+    use fringe_calibration::registration::plot::{circle, dot, text};
+    let side = 560u32;
+    let mut img = image::RgbImage::from_pixel(side, side, image::Rgb([255, 255, 255]));
+    if pressed.is_empty() {
+        return img;
+    }
+    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+    for p in pressed {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p.stage_mm[k]);
+            hi[k] = hi[k].max(p.stage_mm[k]);
+        }
+    }
+    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
+    let margin = 60.0;
+    let scale = (f64::from(side) - 2.0 * margin) / span;
+    let at = |p: [f64; 2]| {
+        [
+            margin + (p[0] - lo[0]) * scale,
+            f64::from(side) - margin - (p[1] - lo[1]) * scale,
+        ]
+    };
+    for p in pressed {
+        let t = ((p.error - 1.0) / 2.0).clamp(0.0, 1.0);
+        let colour = [(40.0 + 190.0 * t) as u8, (170.0 - 130.0 * t) as u8, 40];
+        let c = at(p.stage_mm);
+        dot(&mut img, c, 9.0, colour);
+        circle(&mut img, c, 9.0, [0, 0, 0]);
+    }
+    text(&mut img, 10, 10, 2, "adaptive presses, stage mm", [0, 0, 0]);
+    text(
+        &mut img,
+        10,
+        i64::from(side) - 24,
+        2,
+        &format!("x {:.1}-{:.1}  y {:.1}-{:.1}", lo[0], hi[0], lo[1], hi[1]),
+        [0, 0, 0],
+    );
+    img
+}

@@ -1,0 +1,273 @@
+//! Steps 2 and 3 of commissioning: rounds of presses where the model is weakest, each predicted
+//! by the model as adapted on every press before it (an honest held-out learning curve), then
+//! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
+
+use super::{estimate_s, scan, Commissioning};
+use crate::cmd::frames_progress::FramesProgress;
+use crate::cmd::model::open_model;
+use anyhow::{bail, Result};
+use fringe_app::commission::certificate::CurvePoint;
+use fringe_app::commission::journal::ScanEntry;
+use fringe_app::commission::press_choice::{choose, PressedPoint, UsableDisc};
+use fringe_app::commission::press_errors::round_errors;
+use fringe_app::commission::press_plan::press_plan;
+use fringe_app::ProfileUse;
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::model::Model;
+use fringe_sensor_models::weights::state_dict::StateDict;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Spacing of the lattice presses are chosen from, mm.
+pub(crate) const LATTICE_MM: f64 = 2.0;
+/// Distance beyond which a place counts as unvisited, mm.
+const COVERAGE_MM: f64 = 6.0;
+/// A round stops the presses early when its unseen presses are within this share of every
+/// threshold of the spec.
+const EARLY_MARGIN: f64 = 0.8;
+/// Rounds pressed before an early stop is considered.
+const MIN_ROUNDS: usize = 3;
+
+/// The adaptation's outcome: the adapted weights, the runs and the learning curve.
+pub(crate) struct Adaptation {
+    pub adapted: Adapted,
+    pub runs: Vec<PathBuf>,
+    pub curve: Vec<CurvePoint>,
+    pub pressed: Vec<PressedPoint>,
+}
+
+/// Opens the base model and checks that it can be adapted (the paper's networks, by weights,
+/// with a no-contact class and at least one indenter).
+pub(crate) fn open_base(spec: &str) -> Result<Model> {
+    let model = open_model(Path::new(spec))?;
+    if model.weights().is_none() {
+        bail!(
+            "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
+            model.describe()
+        );
+    }
+    if model.classes.first().map(String::as_str) != Some("None") || model.classes.len() < 2 {
+        bail!(
+            "--base {spec}: its shape classes ({}) must be \"None\" followed by the indenters it knows; commissioning presses each of them",
+            model.classes.join(", ")
+        );
+    }
+    Ok(model)
+}
+
+/// The indenters pressed: the model's classes after "None".
+pub(crate) fn shapes(model: &Model) -> Vec<String> {
+    model.classes.iter().skip(1).cloned().collect()
+}
+
+/// Step 2 and 3: the rounds recorded so far replayed (resume), then new rounds while the
+/// budget lasts; the heads fitted on every press.
+pub(crate) fn adapt(
+    c: &mut Commissioning<'_>,
+    base: &Model,
+    profile: &Profile,
+) -> Result<Adaptation> {
+    let Some(base_weights) = base.weights() else {
+        bail!("{}: the base model holds no weights", base.path.display());
+    };
+    let limits = c.config.limits()?;
+    let disc = UsableDisc::from_profile(profile)?;
+    let sensor = c.journal.options.sensor.clone();
+    let candidates = disc.lattice(LATTICE_MM, 0.0, &limits, &sensor)?;
+    println!(
+        "step 2: presses over the usable disc ({:.1} mm about stage ({:.2}, {:.2}) mm, {} candidate positions), budget {} min of bench time",
+        disc.reach_mm,
+        disc.centre_mm[0],
+        disc.centre_mm[1],
+        candidates.len(),
+        c.journal.options.budget_min
+    );
+    let mut state = Rounds {
+        features: Features::empty(),
+        weights: base_weights.clone(),
+        adapted: None,
+        runs: Vec::new(),
+        curve: Vec::new(),
+        pressed: Vec::new(),
+    };
+    let mut round = 0;
+    loop {
+        let entry = match c.journal.rounds.get(round).cloned() {
+            Some(e) => e,
+            None => match next_round(c, &state, &candidates, base, round)? {
+                Some(e) => e,
+                None => break,
+            },
+        };
+        let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
+        if let Some(e) = c.journal.rounds.get_mut(round) {
+            e.completed = true;
+            e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
+        }
+        c.journal.write(&c.dir)?;
+        state.learn(c, base, base_weights, &run_dir, round)?;
+        round += 1;
+    }
+    let Some(adapted) = state.adapted else {
+        bail!(
+            "the budget of {} min allowed too few presses to adapt on (at least {} positions); give a larger --budget",
+            c.journal.options.budget_min,
+            fringe_sensor_models::adapt::MIN_PRESSES
+        );
+    };
+    Ok(Adaptation {
+        adapted,
+        runs: state.runs,
+        curve: state.curve,
+        pressed: state.pressed,
+    })
+}
+
+/// What the rounds have learnt so far.
+struct Rounds {
+    features: Features,
+    /// The heads as adapted so far (the base model's before any fit).
+    weights: StateDict,
+    adapted: Option<Adapted>,
+    runs: Vec<PathBuf>,
+    curve: Vec<CurvePoint>,
+    pressed: Vec<PressedPoint>,
+}
+
+impl Rounds {
+    /// A round's run: its frames predicted by the current heads (the curve, the errors by
+    /// position), then added to the frames adapted on and the heads fitted again.
+    fn learn(
+        &mut self,
+        c: &mut Commissioning<'_>,
+        base: &Model,
+        base_weights: &StateDict,
+        run_dir: &Path,
+        round: usize,
+    ) -> Result<()> {
+        let started = Instant::now();
+        let source = dataset::read(run_dir)?;
+        let mut progress = FramesProgress::new("reading the round's features");
+        let features = Features::read(base, &[source], None, c.threads, |d, t| {
+            progress.show(d, t)
+        })?;
+        progress.finish();
+        let scores = head_scores(&self.weights, &features)?;
+        let errors = round_errors(
+            round + 1,
+            self.features.presses(),
+            features.samples(),
+            &scores,
+            &c.spec,
+        );
+        let p = &errors.curve;
+        println!(
+            "round {}: {} frames of {} presses, unseen by the model adapted on {} presses: Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %",
+            p.round,
+            p.frames,
+            features.presses(),
+            p.presses_before,
+            p.fz_rmse_n,
+            p.contact_rmse_mm,
+            100.0 * p.shape_accuracy
+        );
+        self.curve.push(errors.curve);
+        self.pressed.extend(errors.presses);
+        self.features.append(features)?;
+        self.runs.push(run_dir.to_path_buf());
+        let config = AdaptConfig {
+            folds: 5,
+            seed: c.journal.options.seed,
+            threads: c.threads,
+        };
+        if self.features.presses() >= fringe_sensor_models::adapt::MIN_PRESSES {
+            let adapted = fit_heads(base_weights, &self.features, &config)?;
+            self.weights = adapted.weights.clone();
+            self.adapted = Some(adapted);
+        }
+        c.compute_s += started.elapsed().as_secs_f64();
+        Ok(())
+    }
+}
+
+/// The next round's presses, recorded in the journal before it runs; `None` when the budget
+/// cannot hold another round or the last rounds met the spec.
+fn next_round(
+    c: &mut Commissioning<'_>,
+    state: &Rounds,
+    candidates: &[[f64; 2]],
+    base: &Model,
+    round: usize,
+) -> Result<Option<ScanEntry>> {
+    if round >= MIN_ROUNDS {
+        if let Some(last) = state.curve.last() {
+            if meets(&c.spec, last, EARLY_MARGIN) {
+                println!(
+                    "round {} met the spec with room ({}% of each threshold) on presses it had not seen: no more presses",
+                    last.round,
+                    EARLY_MARGIN * 100.0
+                );
+                return Ok(None);
+            }
+        }
+    }
+    let n = c.journal.options.round_presses;
+    let points = choose(candidates, &state.pressed, n, COVERAGE_MM);
+    if points.is_empty() {
+        println!("every candidate position is pressed: no more presses");
+        return Ok(None);
+    }
+    let name = format!("round-{}", round + 1);
+    let plan = press_plan(
+        &name,
+        &points,
+        &shapes(base),
+        &format!(
+            "fringe commission, sensor {}: adaptive round {} ({} positions chosen where the model erred most or has not pressed)",
+            c.journal.options.sensor,
+            round + 1,
+            points.len()
+        ),
+    )?;
+    let estimate = estimate_s(&plan, &c.config)?;
+    let spent = c.journal.round_seconds();
+    let budget = 60.0 * c.journal.options.budget_min;
+    if spent + estimate > budget {
+        println!(
+            "the bench budget is spent ({:.0} s of {:.0} s; the next round would take about {:.0} s): no more presses",
+            spent, budget, estimate
+        );
+        return Ok(None);
+    }
+    let entry = ScanEntry {
+        run_id: name,
+        plan,
+        estimate_s: estimate,
+        took_s: None,
+        completed: false,
+    };
+    c.journal.rounds.push(entry.clone());
+    c.journal.write(&c.dir)?;
+    println!(
+        "round {}: {} positions x {} indenters, about {:.0} s of bench time ({:.0} s of {:.0} s spent)",
+        round + 1,
+        points.len(),
+        shapes(base).len(),
+        estimate,
+        spent,
+        budget
+    );
+    Ok(Some(entry))
+}
+
+/// The curve point meets every whole-set threshold of `spec` scaled by `margin`.
+fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: f64) -> bool {
+    let t = &spec.all;
+    t.fz_rmse_n.is_none_or(|v| p.fz_rmse_n <= margin * v)
+        && t.contact_rmse_mm.is_none_or(|v| p.contact_rmse_mm <= margin * v)
+        && t
+            .shape_accuracy
+            .is_none_or(|v| 1.0 - p.shape_accuracy <= margin * (1.0 - v))
+}
