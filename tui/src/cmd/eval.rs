@@ -2,7 +2,7 @@
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
-use super::model::{open_model, ReferenceChoice};
+use super::model::{choose_model, ReferenceChoice};
 use super::verdict;
 use anyhow::{bail, Result};
 use clap::Args;
@@ -19,9 +19,10 @@ use std::path::{Path, PathBuf};
 #[derive(Args)]
 pub struct EvalArgs {
     /// The model: .pth / .pt, .safetensors or .onnx, or `default` (the model that ships with
-    /// fringe, trained for the simulated layered sensor).
-    #[arg(long, default_value = "default")]
-    model: PathBuf,
+    /// fringe, trained for the simulated layered sensor). Default: the commissioned model of
+    /// the data's sensor (`fringe commission`, under the rig file's profiles), else `default`.
+    #[arg(long)]
+    model: Option<PathBuf>,
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).
     #[arg(required = true)]
     data: Vec<PathBuf>,
@@ -56,12 +57,12 @@ pub fn run(a: EvalArgs) -> Result<()> {
         );
     }
     let spec = a.spec.as_deref().map(verdict::load).transpose()?;
-    let model = open_model(&a.model)?;
     let profile = match &a.profile {
         Some(p) => Some(Profile::load(p)?),
         None => None,
     };
     let sources = read_sources(&a.data, "evaluate")?;
+    let model = choose_model(a.model.as_deref(), &profiles_dir(), data_sensor(&sources))?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     warn_scale(&model, &sources, profile.as_ref(), reference);
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
@@ -95,6 +96,27 @@ pub fn run(a: EvalArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Where profiles and commissionings live: the rig file's `profiles` (./rig.toml), else
+/// `profiles`.
+fn profiles_dir() -> PathBuf {
+    match fringe_app::RigConfig::resolve(None) {
+        Ok((config, _)) => config.profile_dir(),
+        Err(e) => {
+            eprintln!("warning: {e}; looking for commissioned models in profiles/");
+            PathBuf::from("profiles")
+        }
+    }
+}
+
+/// The sensor every source was recorded on, when they agree.
+fn data_sensor(sources: &[Source]) -> Option<&str> {
+    let first = sources.first()?.sensor_id.as_deref()?;
+    sources
+        .iter()
+        .all(|s| s.sensor_id.as_deref() == Some(first))
+        .then_some(first)
 }
 
 /// Reads every dataset; one without a labelled frame is refused, saying what it was wanted for

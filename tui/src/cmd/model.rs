@@ -111,6 +111,49 @@ pub fn open_model(path: &Path) -> Result<Model> {
     Ok(m)
 }
 
+/// The model a command runs when `given` is `None`: the newest passing commissioning's model of
+/// the unit `sensor` under `profiles`, else the model that ships with fringe. A given model
+/// adapted to another unit is run with a warning.
+pub fn choose_model(given: Option<&Path>, profiles: &Path, sensor: Option<&str>) -> Result<Model> {
+    let path = match (given, sensor) {
+        (Some(p), _) => p.to_path_buf(),
+        (None, Some(unit)) => {
+            let (found, notes) =
+                fringe_app::commission::certificate::commissioned_model(profiles, unit);
+            for n in notes {
+                eprintln!("warning: {n}");
+            }
+            match found {
+                Some(c) => {
+                    println!(
+                        "model: sensor {unit}'s commissioned model {} (certificate of {}; give --model to run another)",
+                        c.model.display(),
+                        c.certificate.issued_utc
+                    );
+                    c.model
+                }
+                None => PathBuf::from(builtin::DEFAULT),
+            }
+        }
+        (None, None) => PathBuf::from(builtin::DEFAULT),
+    };
+    let model = open_model(&path)?;
+    let adapted_to = model
+        .card
+        .as_ref()
+        .filter(|c| c.other.contains_key("adaptation"))
+        .and_then(|c| c.sensor_id.clone());
+    if let (Some(for_unit), Some(unit)) = (adapted_to, sensor) {
+        if for_unit != unit {
+            eprintln!(
+                "warning: {} was adapted to sensor {for_unit}, and this is sensor {unit}: its figures here are not the ones it was accepted with",
+                model.path.display()
+            );
+        }
+    }
+    Ok(model)
+}
+
 fn info(path: &Path) -> Result<()> {
     let m = open_model(path)?;
     println!("model:         {}", m.path.display());

@@ -5,7 +5,7 @@
 //! frames skipped; with `--report DIR` the evaluation report (report.md, plots) and every frame
 //! validated (validation.jsonl).
 
-use crate::cmd::model::open_model;
+use crate::cmd::model::choose_model;
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
@@ -23,8 +23,9 @@ use std::time::Duration;
 pub struct ValidateArgs {
     /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads, or
     /// `default` (the model that ships with fringe, trained for the simulated layered sensor).
-    #[arg(long, value_name = "FILE", default_value = "default")]
-    model: PathBuf,
+    /// Default: the rig's sensor's commissioned model (`fringe commission`), else `default`.
+    #[arg(long, value_name = "FILE")]
+    model: Option<PathBuf>,
     /// The scan plan that presses the sensor (default: the built-in short grid).
     #[arg(long, value_name = "FILE")]
     plan: Option<PathBuf>,
@@ -53,15 +54,19 @@ pub struct ValidateArgs {
 }
 
 pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
-    let model = open_model(&a.model)?;
     let (text, origin) = match &a.plan {
         Some(p) => (fringe_app::plans::read_file(p)?, p.display().to_string()),
         None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
     };
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let model = choose_model(
+        a.model.as_deref(),
+        &config.profile_dir(),
+        config.sensor_id().ok().as_deref(),
+    )?;
     if !a.no_tui && std::io::stdout().is_terminal() {
-        return run_ui(&a, config, &source, text, origin);
+        return run_ui(&a, &model.path, config, &source, text, origin);
     }
     let backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
     println!(
@@ -121,6 +126,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
 /// report is the headless run's).
 fn run_ui(
     a: &ValidateArgs,
+    model: &Path,
     config: RigConfig,
     source: &RigSource,
     text: String,
@@ -136,7 +142,7 @@ fn run_ui(
         plan_origin: origin,
         runs: a.out.clone(),
         model: Some(crate::ui::ModelChoice {
-            path: a.model.clone(),
+            path: model.to_path_buf(),
             backend: a.backend,
             threads: crate::cmd::arg_values::cap_threads(a.threads),
         }),
