@@ -1,4 +1,5 @@
-//! Scan plans (`plan.toml`): a grid of stage positions, indenters, and how each point is pressed.
+//! Scan plans (`plan.toml`): the stage positions (a grid or a list of points), indenters, and how
+//! each point is pressed.
 //!
 //! ```toml
 //! name = "pentagon-grid"
@@ -6,6 +7,8 @@
 //! x = { start = -10.0, stop = 10.0, step = 5.0 }   # or explicit: x = [-10.0, 0.0, 10.0]
 //! y = [0.0]
 //! order = "snake"                                   # or "raster"
+//! # instead of x, y and order, a list of stage positions (x, y in mm), pressed as written:
+//! # points = [[12.5, 24.0], [11.0, 26.5]]
 //! [indenters]
 //! shapes = ["pentagon", "rectangle"]                # the operator is asked to change between
 //! [approach]
@@ -20,8 +23,12 @@
 //! force_ceiling = 12.0      # N
 //! ```
 //!
-//! The order is: indenter (outermost: a prompt to change it), then y rows (a manual y stage is
-//! asked once per row), then x along the row (snake reverses every other row), then repetitions.
+//! `[grid]` holds either `x` and `y` or `points`, never both. With `x` and `y` the order is:
+//! indenter (outermost: a prompt to change it), then y rows (a manual y stage is asked once per
+//! row), then x along the row (snake reverses every other row), then repetitions. With `points`
+//! it is: indenter, then the points in the order written (a manual y stage is asked whenever a
+//! point's y differs from the previous point's), then repetitions; `order` is refused with
+//! `points`.
 
 use crate::axis::{Kinematics, SoftLimits};
 use crate::config_file::{load_toml, parse_toml, ConfigError};
@@ -98,13 +105,54 @@ pub enum Order {
     Snake,
 }
 
+/// `[grid]`: either `x` and `y` (a grid, ordered by `order`) or `points` (stage positions in the
+/// order written). [`Plan::program`] refuses any other combination.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSection {
-    pub x: Axis1d,
-    pub y: Axis1d,
-    #[serde(default)]
-    pub order: Order,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<Axis1d>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<Axis1d>,
+    /// Stage positions `[x, y]`, mm, pressed in the order written.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "xy_pairs"
+    )]
+    pub points: Option<Vec<[f64; 2]>>,
+    /// Row order of an x/y grid; not given means snake. Refused with `points`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<Order>,
+}
+
+/// `grid.points` as read: a list of lists, each exactly `[x, y]` (a fixed-size array would take
+/// the first two numbers of `[x, y, z]` and drop the rest without a word).
+fn xy_pairs<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec<[f64; 2]>>, D::Error> {
+    use serde::de::Error;
+    let lists: Vec<Vec<f64>> = serde::Deserialize::deserialize(d)?;
+    let n = lists.len();
+    lists
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| match p.as_slice() {
+            [x, y] => Ok([*x, *y]),
+            _ => Err(D::Error::custom(format!(
+                "point {} of {n} has {} numbers; write each point as [x, y] (mm)",
+                i + 1,
+                p.len()
+            ))),
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
+/// The checked stage positions of a plan.
+enum Lateral<'a> {
+    /// The x values of every row and the y of each row.
+    Grid { xs: Vec<f64>, ys: Vec<f64> },
+    /// `grid.points`, in the order written.
+    Points(&'a [[f64; 2]]),
 }
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -235,38 +283,68 @@ impl Plan {
         if self.name.contains('\0') {
             return Err(err("key name: contains a NUL byte".into()));
         }
-        let (xs, ys) = self.grid_values(bench).map_err(err)?;
+        let lateral = self.lateral(bench).map_err(err)?;
         self.check_safe_z(bench).map_err(err)?;
         self.check_shapes().map_err(err)?;
         self.check_forces(bench).map_err(err)?;
         let targets = self.targets().map_err(err)?;
         self.check_pressing(&targets).map_err(err)?;
         // The size check comes before anything is allocated for the points.
-        self.check_count(xs.len(), ys.len()).map_err(err)?;
+        self.check_count(&lateral).map_err(err)?;
+        let points = match &lateral {
+            Lateral::Grid { xs, ys } => self.expand(xs, ys),
+            Lateral::Points(points) => self.expand_points(points),
+        };
         Ok(ScanProgram {
             plan: self.clone(),
             targets,
             dwell: Duration::from_secs_f64(self.indentation.dwell),
-            points: self.expand(&xs, &ys),
+            points,
         })
     }
 
-    /// The grid's x and y coordinates, each checked against the bench's soft limits.
-    fn grid_values(&self, bench: &BenchLimits) -> Result<(Vec<f64>, Vec<f64>), String> {
-        let xs = self.grid.x.values("grid.x")?;
-        let ys = self.grid.y.values("grid.y")?;
-        for (key, values, limits) in [("grid.x", &xs, &bench.x), ("grid.y", &ys, &bench.y)] {
-            if let Some(v) = values
-                .iter()
-                .find(|v| limits.check(key, Millimetres(**v)).is_err())
-            {
-                return Err(format!(
-                    "key {key}: {v} mm is outside the soft limits {:.3} .. {:.3} mm of the rig",
-                    limits.min.0, limits.max.0
-                ));
+    /// The stage positions: `grid.x` and `grid.y`, or `grid.points` (exactly one of the two
+    /// forms), each checked against the bench's soft limits.
+    fn lateral(&self, bench: &BenchLimits) -> Result<Lateral<'_>, String> {
+        let grid = &self.grid;
+        match (&grid.x, &grid.y, &grid.points) {
+            (Some(x), Some(y), None) => {
+                let (xs, ys) = grid_values(x, y, bench)?;
+                Ok(Lateral::Grid { xs, ys })
             }
+            (None, None, Some(points)) => {
+                if let Some(order) = grid.order {
+                    let order = match order {
+                        Order::Snake => "snake",
+                        Order::Raster => "raster",
+                    };
+                    return Err(format!(
+                        "keys grid.order and grid.points: order = \"{order}\" applies to an x/y grid only; points are pressed in the order written: remove order"
+                    ));
+                }
+                check_points(points, bench)?;
+                Ok(Lateral::Points(points))
+            }
+            (x, y, Some(_)) => {
+                let (given, grid_keys) = match (x.is_some(), y.is_some()) {
+                    (true, true) => ("grid.x, grid.y and grid.points", "x and y"),
+                    (true, false) => ("grid.x and grid.points", "x"),
+                    _ => ("grid.y and grid.points", "y"),
+                };
+                Err(format!(
+                    "keys {given}: give either x and y (a grid) or points (a list of [x, y] stage positions), not both: remove points, or remove {grid_keys}"
+                ))
+            }
+            (None, None, None) => Err(
+                "section [grid]: give the stage positions, either x and y (a grid, e.g. x = [10.5, 12.5] and y = [25.0]) or points (a list of [x, y] in mm, e.g. points = [[12.5, 24.0], [11.0, 26.5]])".into(),
+            ),
+            (Some(_), None, None) => Err(
+                "key grid.x: given without grid.y: add y (the rows, e.g. y = [25.0]), or replace x with points = [[x, y], ...]".into(),
+            ),
+            (None, Some(_), None) => Err(
+                "key grid.y: given without grid.x: add x (the positions along each row, e.g. x = [10.5, 12.5]), or replace y with points = [[x, y], ...]".into(),
+            ),
         }
-        Ok((xs, ys))
     }
 
     /// Checks that `approach.safe_z` is within the z soft limits.
@@ -406,20 +484,20 @@ impl Plan {
     }
 
     /// Checks that the plan holds at most [`MAX_POINTS`] indentations, without allocating them.
-    fn check_count(&self, x_count: usize, y_count: usize) -> Result<(), String> {
+    fn check_count(&self, lateral: &Lateral) -> Result<(), String> {
         let shapes = self.indenters.shapes.len();
         let repetitions = self.indentation.repetitions;
-        let count = [
-            shapes as u128,
-            x_count as u128,
-            y_count as u128,
-            u128::from(repetitions),
-        ]
-        .iter()
-        .product::<u128>();
+        let (positions, described) = match lateral {
+            Lateral::Grid { xs, ys } => (
+                xs.len() as u128 * ys.len() as u128,
+                format!("{} x x {} y", xs.len(), ys.len()),
+            ),
+            Lateral::Points(points) => (points.len() as u128, format!("{} points", points.len())),
+        };
+        let count = shapes as u128 * positions * u128::from(repetitions);
         if count > MAX_POINTS as u128 {
             return Err(format!(
-                "the plan has {count} indentations ({shapes} shapes x {x_count} x {y_count} y x {repetitions} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid"
+                "the plan has {count} indentations ({shapes} shapes x {described} x {repetitions} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid"
             ));
         }
         Ok(())
@@ -432,7 +510,7 @@ impl Plan {
         let mut last: Option<(String, f64)> = None;
         for shape in &self.indenters.shapes {
             for (row, y) in ys.iter().enumerate() {
-                let reverse = self.grid.order == Order::Snake && row % 2 == 1;
+                let reverse = self.grid.order.unwrap_or_default() == Order::Snake && row % 2 == 1;
                 let row_xs: Vec<f64> = if reverse {
                     xs.iter().rev().copied().collect()
                 } else {
@@ -458,6 +536,91 @@ impl Plan {
         }
         points
     }
+
+    /// The points of `grid.points` in execution order: indenter, then the points as written,
+    /// then repetition.
+    fn expand_points(&self, positions: &[[f64; 2]]) -> Vec<ScanPoint> {
+        let mut points = Vec::new();
+        let mut last: Option<(&str, f64)> = None;
+        for shape in &self.indenters.shapes {
+            for &[x, y] in positions {
+                for repetition in 0..self.indentation.repetitions {
+                    let change_indenter = last.is_none_or(|(s, _)| s != shape);
+                    let new_row = last.is_none_or(|(_, ly)| ly != y);
+                    points.push(ScanPoint {
+                        index: points.len() as u64,
+                        shape: shape.clone(),
+                        x: Millimetres(x),
+                        y: Millimetres(y),
+                        repetition,
+                        change_indenter,
+                        new_row,
+                    });
+                    last = Some((shape, y));
+                }
+            }
+        }
+        points
+    }
+}
+
+/// A grid's x and y coordinates, each checked against the bench's soft limits.
+fn grid_values(
+    x: &Axis1d,
+    y: &Axis1d,
+    bench: &BenchLimits,
+) -> Result<(Vec<f64>, Vec<f64>), String> {
+    let xs = x.values("grid.x")?;
+    let ys = y.values("grid.y")?;
+    for (key, values, limits) in [("grid.x", &xs, &bench.x), ("grid.y", &ys, &bench.y)] {
+        if let Some(v) = values
+            .iter()
+            .find(|v| limits.check(key, Millimetres(**v)).is_err())
+        {
+            return Err(format!(
+                "key {key}: {v} mm is outside the soft limits {:.3} .. {:.3} mm of the rig",
+                limits.min.0, limits.max.0
+            ));
+        }
+    }
+    Ok((xs, ys))
+}
+
+/// Checks `grid.points`: at least one and at most [`MAX_POINTS`] positions, each a pair of
+/// numbers within the bench's x and y soft limits. Errors give the point's number, counted from
+/// 1 as the operator reads the file.
+fn check_points(points: &[[f64; 2]], bench: &BenchLimits) -> Result<(), String> {
+    if points.is_empty() {
+        return Err(
+            "key grid.points: give at least one [x, y] position, e.g. points = [[12.5, 24.0]]"
+                .into(),
+        );
+    }
+    let n = points.len();
+    if n > MAX_POINTS {
+        return Err(format!(
+            "key grid.points: {n} points is too many (at most {MAX_POINTS}): split the plan into several plans"
+        ));
+    }
+    for (i, &[x, y]) in points.iter().enumerate() {
+        let at = format!("point {} of {n}, [{}, {}]", i + 1, shown(x), shown(y));
+        if !(x.is_finite() && y.is_finite()) {
+            return Err(format!(
+                "key grid.points: {at}: x and y must be numbers (mm)"
+            ));
+        }
+        for (axis, v, limits) in [("x", x, &bench.x), ("y", y, &bench.y)] {
+            if limits.check(axis, Millimetres(v)).is_err() {
+                return Err(format!(
+                    "key grid.points: {at}: {axis} = {} mm is outside the {axis} soft limits {:.3} .. {:.3} mm of the rig",
+                    shown(v),
+                    limits.min.0,
+                    limits.max.0
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Time of a trapezoidal move of `distance` with `k` (rest to rest).
@@ -813,6 +976,198 @@ force_ceiling = 10.0
             acceleration: MillimetresPerSecondSquared(f64::MIN_POSITIVE),
         };
         assert_eq!(move_time(1e300, &k), Duration::MAX);
+    }
+
+    /// `PLAN` with its x/y grid replaced by `points = {points}`.
+    fn with_points(points: &str) -> String {
+        let grid = "x = { start = -5.0, stop = 5.0, step = 5.0 }\ny = [0.0, 2.0]\n";
+        assert!(PLAN.contains(grid));
+        PLAN.replace(grid, &format!("points = {points}\n"))
+    }
+
+    #[test]
+    fn points_are_pressed_as_written_for_each_shape_then_repeated() {
+        let text = with_points("[[5.0, 2.0], [-5.0, 0.0], [0.0, 0.0], [1, 2]]")
+            .replace("dwell = 0.5", "dwell = 0.5\nrepetitions = 2");
+        let plan = Plan::parse(&text, "plan.toml").expect("parse");
+        let program = plan.program(&bench(), "plan.toml").expect("valid");
+        let got: Vec<(&str, f64, f64, u32, bool, bool)> = program
+            .points
+            .iter()
+            .map(|p| {
+                (
+                    p.shape.as_str(),
+                    p.x.0,
+                    p.y.0,
+                    p.repetition,
+                    p.change_indenter,
+                    p.new_row,
+                )
+            })
+            .collect();
+        let per_shape = |shape, first_new_row| {
+            vec![
+                (shape, 5.0, 2.0, 0, true, first_new_row),
+                (shape, 5.0, 2.0, 1, false, false),
+                (shape, -5.0, 0.0, 0, false, true),
+                (shape, -5.0, 0.0, 1, false, false),
+                (shape, 0.0, 0.0, 0, false, false),
+                (shape, 0.0, 0.0, 1, false, false),
+                (shape, 1.0, 2.0, 0, false, true),
+                (shape, 1.0, 2.0, 1, false, false),
+            ]
+        };
+        // The rectangle starts at y = 2 where the pentagon ended: a new indenter, the same row.
+        let want = [per_shape("pentagon", true), per_shape("rectangle", false)].concat();
+        assert_eq!(got, want);
+        assert!(program
+            .points
+            .iter()
+            .enumerate()
+            .all(|(i, p)| p.index == i as u64));
+        let est = program.estimate(&bench());
+        assert_eq!(est.indenter_changes, 2);
+        assert_eq!(est.manual_rows, 5);
+        // 12 + 5 + 3 mm per shape (|dx| + |dy|), and 4 mm from (1, 2) back to (5, 2).
+        assert!(
+            (est.lateral_path_mm - (2.0 * 20.0 + 4.0)).abs() < 1e-9,
+            "{est:?}"
+        );
+        // Homing ends at the first point as written (5 mm: 3 s), not at a grid corner.
+        let safe_z = program.plan.approach.safe_z;
+        let want = 6.5 + 13.0 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
+        assert!((est.homing.as_secs_f64() - want).abs() < 1e-6, "{est:?}");
+    }
+
+    #[test]
+    fn a_grid_is_given_by_x_and_y_or_by_points_never_both() {
+        let both = PLAN.replace("y = [0.0, 2.0]", "y = [0.0, 2.0]\npoints = [[0.0, 0.0]]");
+        let msg = refusal(&both);
+        assert!(
+            msg.starts_with("plan.toml: keys grid.x, grid.y and grid.points:")
+                && msg.contains("not both"),
+            "{msg}"
+        );
+        let x_and_points = with_points("[[0.0, 0.0]]").replace("[grid]", "[grid]\nx = [1.0]");
+        let msg = refusal(&x_and_points);
+        assert!(
+            msg.starts_with("plan.toml: keys grid.x and grid.points:")
+                && msg.ends_with("remove points, or remove x"),
+            "{msg}"
+        );
+        let neither = with_points("[[0.0, 0.0]]").replace("points = [[0.0, 0.0]]\n", "");
+        let msg = refusal(&neither);
+        assert!(
+            msg.starts_with("plan.toml: section [grid]:")
+                && msg.contains("x and y")
+                && msg.contains("points = [["),
+            "{msg}"
+        );
+        let x_only = PLAN.replace("y = [0.0, 2.0]\n", "");
+        let msg = refusal(&x_only);
+        assert!(
+            msg.starts_with("plan.toml: key grid.x: given without grid.y")
+                && msg.contains("points = [[x, y], ...]"),
+            "{msg}"
+        );
+        let y_only = PLAN.replace("x = { start = -5.0, stop = 5.0, step = 5.0 }\n", "");
+        let msg = refusal(&y_only);
+        assert!(
+            msg.starts_with("plan.toml: key grid.y: given without grid.x"),
+            "{msg}"
+        );
+        for order in ["snake", "raster"] {
+            let ordered = with_points("[[0.0, 0.0]]")
+                .replace("[indenters]", &format!("order = \"{order}\"\n[indenters]"));
+            let msg = refusal(&ordered);
+            assert!(
+                msg.starts_with("plan.toml: keys grid.order and grid.points:")
+                    && msg.contains("remove order"),
+                "{msg}"
+            );
+        }
+        assert!(refusal(&with_points("[[0.0, 0.0]]")).starts_with("accepted with 2 points"));
+    }
+
+    #[test]
+    fn every_point_is_checked_against_the_rig() {
+        let msg = refusal(&with_points("[[0.0, 0.0], [5.0, 2.0], [15.0, 2.0]]"));
+        assert!(
+            msg.starts_with("plan.toml: key grid.points: point 3 of 3, [15, 2]: x = 15 mm")
+                && msg.contains("-12.000 .. 12.000 mm"),
+            "{msg}"
+        );
+        let msg = refusal(&with_points("[[0.0, -12.5]]"));
+        assert!(
+            msg.starts_with("plan.toml: key grid.points: point 1 of 1, [0, -12.5]: y = -12.5 mm"),
+            "{msg}"
+        );
+        for bad in ["[[nan, 0.0]]", "[[0.0, inf]]", "[[0.0, 0.0], [-inf, 1.0]]"] {
+            let msg = refusal(&with_points(bad));
+            assert!(
+                msg.starts_with("plan.toml: key grid.points: point")
+                    && msg.contains("must be numbers"),
+                "{bad}: {msg}"
+            );
+        }
+        let msg = refusal(&with_points("[]"));
+        assert!(
+            msg.starts_with("plan.toml: key grid.points: give at least one"),
+            "{msg}"
+        );
+        // A point is a pair: a single number or a triple is refused when the file is read.
+        for bad in ["[[1.0]]", "[[1.0, 2.0, 3.0]]", "[1.0, 2.0]"] {
+            let msg = refusal(&with_points(bad));
+            assert!(msg.contains("points"), "{bad}: {msg}");
+            assert!(!msg.starts_with("accepted"), "{bad}: {msg}");
+        }
+    }
+
+    #[test]
+    fn oversized_point_lists_are_refused_before_expansion() {
+        let plan = Plan::parse(&with_points("[[0.0, 0.0]]"), "p").expect("parse");
+        let program = |points: Vec<[f64; 2]>, repetitions| {
+            let mut plan = plan.clone();
+            plan.grid.points = Some(points);
+            plan.indentation.repetitions = repetitions;
+            plan.program(&bench(), "p")
+        };
+        let msg = program(vec![[0.0, 0.0]; MAX_POINTS + 1], 1)
+            .expect_err("too many")
+            .to_string();
+        assert!(
+            msg.contains("grid.points") && msg.contains("at most 100000"),
+            "{msg}"
+        );
+        // 2 shapes x 30000 points x 2 repetitions: the list alone is allowed, the product not.
+        let msg = program(vec![[0.0, 0.0]; 30_000], 2)
+            .expect_err("too many indentations")
+            .to_string();
+        assert!(
+            msg.contains("120000 indentations (2 shapes x 30000 points x 2 repetitions)"),
+            "{msg}"
+        );
+        let ok = program(vec![[0.0, 0.0]; 25_000], 2).expect("100000 indentations");
+        assert_eq!(ok.points.len(), MAX_POINTS);
+    }
+
+    #[test]
+    fn plans_serialize_back_to_the_form_they_were_written_in() {
+        // A grid plan as before: no points key; a points plan: no x, y or order.
+        let grid = Plan::parse(PLAN, "p").expect("parse");
+        let written = toml::to_string(&grid).expect("serialize");
+        assert!(!written.contains("points"), "{written}");
+        assert_eq!(Plan::parse(&written, "p").expect("reparse"), grid);
+        let points = Plan::parse(&with_points("[[1.5, -2.0], [0.0, 3.0]]"), "p").expect("parse");
+        let written = toml::to_string(&points).expect("serialize");
+        assert!(written.contains("points = "), "{written}");
+        assert!(
+            !written.lines().any(|l| ["x", "y", "order", "[grid."]
+                .iter()
+                .any(|k| l.starts_with(k))),
+            "{written}"
+        );
+        assert_eq!(Plan::parse(&written, "p").expect("reparse"), points);
     }
 
     #[test]

@@ -44,7 +44,7 @@ pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
     let config = RigConfig::parse(&rig_text, "fringe demo --sensor/--seed")?;
     let mut plan = Plan::parse(DEMO.text, &DEMO.origin())?;
     if args.quick {
-        plan.grid.x = Axis1d::Points(vec![12.5]);
+        plan.grid.x = Some(Axis1d::Points(vec![12.5]));
         plan.indentation.force_targets.truncate(2);
         plan.indentation.dwell = 0.3;
     }
