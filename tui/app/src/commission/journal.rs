@@ -144,7 +144,7 @@ impl Journal {
         self.rounds
             .iter()
             .map(|r| r.took_s.unwrap_or(r.estimate_s))
-            .sum()
+            .fold(0.0, |a, b| a + b)
     }
 }
 

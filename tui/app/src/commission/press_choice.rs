@@ -151,6 +151,22 @@ pub fn choose(
     chosen
 }
 
+/// `points` in the order of a short path: from the one nearest `start`, always on to the
+/// nearest left (the stages move slowly; the choice's order would cross the disc each time).
+pub fn tour(points: &[[f64; 2]], start: [f64; 2]) -> Vec<[f64; 2]> {
+    let mut left = points.to_vec();
+    let mut at = start;
+    let mut out = Vec::with_capacity(left.len());
+    while !left.is_empty() {
+        let next = (0..left.len())
+            .min_by(|&a, &b| dist(&left[a], &at).total_cmp(&dist(&left[b], &at)))
+            .unwrap_or(0);
+        at = left.remove(next);
+        out.push(at);
+    }
+    out
+}
+
 /// The error expected at `c` from the pressed points near it (inverse squared distance
 /// weights, softened by `scale`).
 fn expected_error(c: &[f64; 2], pressed: &[PressedPoint], scale: f64) -> f64 {
@@ -233,6 +249,17 @@ mod tests {
             }
         }
         assert_eq!(picks, choose(&cands, &[], 7, 6.0), "deterministic");
+    }
+
+    #[test]
+    fn a_tour_is_shorter_than_the_choice_order() {
+        let cands = DISC.lattice(1.0, 0.0, &limits(50.0), "u").expect("points");
+        let picks = choose(&cands, &[], 8, 6.0);
+        let length = |p: &[[f64; 2]]| p.windows(2).map(|w| dist(&w[0], &w[1])).sum::<f64>();
+        let toured = tour(&picks, DISC.centre_mm);
+        assert_eq!(toured.len(), picks.len());
+        assert!(picks.iter().all(|p| toured.contains(p)));
+        assert!(length(&toured) < 0.8 * length(&picks), "{} vs {}", length(&toured), length(&picks));
     }
 
     #[test]

@@ -13,7 +13,7 @@ use fringe_app::commission::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
 use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, PressedPoint, UsableDisc};
+use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc};
 use fringe_app::commission::press_plan::press_plan;
 use fringe_app::ProfileUse;
 use fringe_calibration::profile::Profile;
@@ -127,7 +127,10 @@ fn acceptance_entry(c: &mut Commissioning<'_>, base: &Model, profile: &Profile) 
     let limits = c.config.limits()?;
     let disc = UsableDisc::from_profile(profile)?;
     let held_out = disc.lattice(LATTICE_MM, 0.5, &limits, &c.journal.options.sensor)?;
-    let points = choose(&held_out, &[], c.journal.options.acceptance_presses, 1e6);
+    let points = tour(
+        &choose(&held_out, &[], c.journal.options.acceptance_presses, 1e6),
+        disc.centre_mm,
+    );
     let plan = press_plan(
         "acceptance",
         &points,

@@ -8,7 +8,7 @@ use crate::cmd::model::open_model;
 use anyhow::{bail, Result};
 use fringe_app::commission::certificate::CurvePoint;
 use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, PressedPoint, UsableDisc};
+use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc};
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::commission::press_plan::press_plan;
 use fringe_app::ProfileUse;
@@ -85,6 +85,7 @@ pub(crate) fn adapt(
         c.journal.options.budget_min
     );
     let mut state = Rounds {
+        centre: disc.centre_mm,
         features: Features::empty(),
         weights: base_weights.clone(),
         adapted: None,
@@ -127,6 +128,8 @@ pub(crate) fn adapt(
 
 /// What the rounds have learnt so far.
 struct Rounds {
+    /// The disc's centre on the stage, mm (where the first round's path starts).
+    centre: [f64; 2],
     features: Features,
     /// The heads as adapted so far (the base model's before any fit).
     weights: StateDict,
@@ -213,34 +216,14 @@ fn next_round(
             }
         }
     }
-    let n = c.journal.options.round_presses;
-    let points = choose(candidates, &state.pressed, n, COVERAGE_MM);
-    if points.is_empty() {
-        println!("every candidate position is pressed: no more presses");
-        return Ok(None);
-    }
-    let name = format!("round-{}", round + 1);
-    let plan = press_plan(
-        &name,
-        &points,
-        &shapes(base),
-        &format!(
-            "fringe commission, sensor {}: adaptive round {} ({} positions chosen where the model erred most or has not pressed)",
-            c.journal.options.sensor,
-            round + 1,
-            points.len()
-        ),
-    )?;
-    let estimate = estimate_s(&plan, &c.config)?;
     let spent = c.journal.round_seconds();
     let budget = 60.0 * c.journal.options.budget_min;
-    if spent + estimate > budget {
-        println!(
-            "the bench budget is spent ({:.0} s of {:.0} s; the next round would take about {:.0} s): no more presses",
-            spent, budget, estimate
-        );
+    let name = format!("round-{}", round + 1);
+    let Some((points, plan, estimate)) =
+        sized_round(c, state, candidates, base, &name, budget - spent)?
+    else {
         return Ok(None);
-    }
+    };
     let entry = ScanEntry {
         run_id: name,
         plan,
@@ -260,6 +243,52 @@ fn next_round(
         budget
     );
     Ok(Some(entry))
+}
+
+/// The round's positions, plan and estimated bench time: as many positions as `left` seconds
+/// hold (a last round may be smaller); `None` when not one press fits or every position is
+/// pressed.
+fn sized_round(
+    c: &Commissioning<'_>,
+    state: &Rounds,
+    candidates: &[[f64; 2]],
+    base: &Model,
+    name: &str,
+    left: f64,
+) -> Result<Option<(Vec<[f64; 2]>, String, f64)>> {
+    let mut n = c.journal.options.round_presses;
+    loop {
+        let points = tour(
+            &choose(candidates, &state.pressed, n, COVERAGE_MM),
+            state.pressed.last().map_or(state.centre, |p| p.stage_mm),
+        );
+        if points.is_empty() {
+            println!("every candidate position is pressed: no more presses");
+            return Ok(None);
+        }
+        let plan = press_plan(
+            name,
+            &points,
+            &shapes(base),
+            &format!(
+                "fringe commission, sensor {}: adaptive {name} ({} positions chosen where the model erred most or has not pressed)",
+                c.journal.options.sensor,
+                points.len()
+            ),
+        )?;
+        let estimate = estimate_s(&plan, &c.config)?;
+        if estimate <= left {
+            return Ok(Some((points, plan, estimate)));
+        }
+        if n == 1 {
+            println!(
+                "the bench budget is spent ({:.0} s left; one more press would take about {estimate:.0} s): no more presses",
+                left.max(0.0)
+            );
+            return Ok(None);
+        }
+        n -= 1;
+    }
 }
 
 /// The curve point meets every whole-set threshold of `spec` scaled by `margin`.

@@ -1,0 +1,217 @@
+//! `fringe commission` on a simulated unit of the layered design (`layered-3`, at a quarter of
+//! the frame size, quick axes): the whole job cut short by a kill and resumed, its certificate
+//! recomputed by `fringe eval`, the unit's commissioned model chosen by default, the
+//! adaptation's determinism; and bad input refused before anything moves.
+
+mod common;
+use common::{fringe, fringe_command, scratch, text, QUICK_RIG};
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+/// The quick quarter-size bench with the `layered-3` unit, its profiles in `profiles`.
+fn unit_rig(dir: &Path) -> PathBuf {
+    let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
+    let rig = QUICK_RIG
+        .replace(
+            "name = \"quick simulated bench\"",
+            &format!(
+                "name = \"quick layered-3\"\nprofiles = \"{}\"",
+                dir.join("profiles").display()
+            ),
+        )
+        .replace(
+            "[sim]\n",
+            &format!("[sim]\nsensor = \"{}\"\n", sensor.display()),
+        );
+    let path = dir.join("rig.toml");
+    std::fs::write(&path, rig).expect("rig file");
+    path
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// The commissioning directory under `profiles` (there is one).
+fn commissioning(profiles: &Path) -> PathBuf {
+    let found: Vec<PathBuf> = std::fs::read_dir(profiles)
+        .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).collect())
+        .unwrap_or_default();
+    found
+        .into_iter()
+        .find(|p| p.is_dir() && p.to_string_lossy().contains(".commission-"))
+        .unwrap_or_else(|| panic!("no commissioning under {}", profiles.display()))
+}
+
+fn figure(printed: &str, key: &str) -> f64 {
+    printed
+        .lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no `{key}` figure in:\n{printed}"))
+}
+
+#[test]
+fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_eval() {
+    let dir = scratch("commission");
+    let rig = unit_rig(&dir);
+    let profiles = dir.join("profiles");
+    // A spec this small a budget can meet: the test is of the job, not of the figures
+    // (BENCHMARKS.md has those).
+    let spec = dir.join("spec.toml");
+    std::fs::write(&spec, "fz_rmse_n = 3.0\ncontact_rmse_mm = 6.0\n").expect("spec");
+    let args = [
+        "commission",
+        "--rig",
+        s(&rig),
+        "--yes",
+        "--budget",
+        "1.5",
+        "--round-presses",
+        "3",
+        "--acceptance-presses",
+        "3",
+        "--spec",
+        s(&spec),
+    ];
+
+    // Killed while the first adaptive round presses.
+    let mut child = fringe_command()
+        .args(args)
+        .current_dir(&dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start fringe commission");
+    let until = Instant::now() + Duration::from_secs(240);
+    let events = |p: &Path| std::fs::read_to_string(p.join("events.jsonl")).unwrap_or_default();
+    let cut = loop {
+        if let Some(c) = std::fs::read_dir(&profiles).ok().and_then(|_| {
+            let c = commissioning(&profiles);
+            events(&c.join("runs/round-1"))
+                .contains("\"checkpoint\"")
+                .then_some(c)
+        }) {
+            break c;
+        }
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!("fringe commission ended before its first round: {status}");
+        }
+        assert!(Instant::now() < until, "round 1 did not start in time");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    child.kill().expect("kill");
+    let _ = child.wait();
+
+    // Resumed: nothing recorded is pressed again, the round goes on from its checkpoint.
+    let o = fringe_command()
+        .args(["commission", "--rig", s(&rig), "--yes", "--resume", s(&cut)])
+        .current_dir(&dir)
+        .output()
+        .expect("resume");
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("resuming the run"), "{t}");
+    assert!(!t.contains("step 1: calibration"), "calibrated twice: {t}");
+    assert!(t.contains("verdict:        PASS"), "{t}");
+    assert!(events(&cut.join("runs/round-1")).contains("resume-run"));
+    let runs: Vec<String> = std::fs::read_dir(cut.join("runs"))
+        .expect("runs")
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect();
+    assert!(
+        runs.iter().all(|r| !r.contains("stopped")),
+        "a run was pressed again: {runs:?}"
+    );
+    assert!(runs.contains(&"acceptance".to_string()), "{runs:?}");
+
+    // The certificate: verdict, figures, learning curve, hash of the base, the runs used.
+    let cert: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(cut.join("certificate.json")).expect("certificate"),
+    )
+    .expect("certificate json");
+    assert_eq!(cert["pass"], true, "{cert}");
+    assert_eq!(cert["sensor_id"], "layered-3");
+    assert_eq!(cert["variant"], "layered");
+    assert_eq!(cert["base_model"]["sha256"].as_str().map(str::len), Some(64));
+    assert!(!cert["learning_curve"].as_array().expect("curve").is_empty());
+    for f in ["report.md", "learning.png", "presses.png", "fz.png", "model.json", "profile.toml"] {
+        assert!(cut.join(f).is_file(), "{f} missing");
+    }
+
+    // `fringe eval` on the acceptance run recomputes the certificate's figures.
+    let acceptance = cut.join(cert["runs"]["acceptance"].as_str().expect("acceptance run"));
+    let model = cut.join("model.safetensors");
+    let o = fringe(&["eval", "--model", s(&model), s(&acceptance)]);
+    let e = text(&o);
+    assert!(o.status.success(), "{e}");
+    let fz = cert["figures"]["fz_rmse_n"].as_f64().expect("fz");
+    let contact = cert["figures"]["contact_rmse_mm"].as_f64().expect("contact");
+    assert!((figure(&e, "Fz RMSE:") - fz).abs() < 1e-4, "{e}\n{cert}");
+    assert!((figure(&e, "contact RMSE:") - contact).abs() < 1e-4, "{e}\n{cert}");
+
+    // Without --model, eval of the unit's data runs its commissioned model.
+    std::fs::copy(&rig, dir.join("rig.toml")).ok();
+    let o = fringe_command()
+        .args(["eval", s(&acceptance)])
+        .current_dir(&dir)
+        .output()
+        .expect("eval");
+    let e = text(&o);
+    assert!(e.contains("sensor layered-3's commissioned model"), "{e}");
+    assert!((figure(&e, "Fz RMSE:") - fz).abs() < 1e-4, "{e}");
+
+    // Deterministic: the same runs and seed give the same weights, byte for byte.
+    let first = std::fs::read(&model).expect("model");
+    let o = fringe_command()
+        .args(["commission", "--rig", s(&rig), "--yes", "--resume", s(&cut)])
+        .current_dir(&dir)
+        .output()
+        .expect("again");
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(std::fs::read(&model).expect("model"), first, "weights differ");
+}
+
+#[test]
+fn bad_input_is_refused_before_anything_moves() {
+    let dir = scratch("commission-bad");
+    let rig = unit_rig(&dir);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["commission", "--rig", s(&rig), "--yes"];
+        args.extend_from_slice(extra);
+        let o = fringe_command()
+            .args(&args)
+            .current_dir(&dir)
+            .output()
+            .expect("run");
+        assert!(!o.status.success());
+        text(&o)
+    };
+    let spec = dir.join("spec.toml");
+    std::fs::write(&spec, "fz_rmse_n = 0.49\nfz_rsme_mm = 1.0\n").expect("spec");
+    let t = run(&["--spec", s(&spec)]);
+    assert!(t.contains("spec.toml") && t.contains("fz_rsme_mm"), "{t}");
+    std::fs::write(&spec, "fz_rmse_n = 0.0\n").expect("spec");
+    let t = run(&["--spec", s(&spec)]);
+    assert!(t.contains("fz_rmse_n"), "{t}");
+    let t = run(&["--budget", "0"]);
+    assert!(t.contains("--budget 0"), "{t}");
+    let t = run(&["--base", s(&dir.join("nothing.safetensors"))]);
+    assert!(t.contains("nothing.safetensors") && t.contains("no such model"), "{t}");
+    let t = run(&["--resume", s(&dir.join("profiles"))]);
+    assert!(t.contains("no commissioning journal"), "{t}");
+    // Nothing was pressed, calibrated or written.
+    assert!(!dir.join("profiles").exists() || commissioning_count(&dir.join("profiles")) == 0);
+}
+
+fn commissioning_count(profiles: &Path) -> usize {
+    std::fs::read_dir(profiles)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .filter(|e| e.file_name().to_string_lossy().contains(".commission-"))
+                .count()
+        })
+        .unwrap_or(0)
+}
