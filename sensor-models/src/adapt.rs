@@ -7,6 +7,7 @@
 //! the fitted heads' cross-validated error (each press predicted by heads fitted without it).
 
 pub mod head_fit;
+pub mod last_block;
 
 use crate::backend::tract::TractGraph;
 use crate::backend::InferenceError;
@@ -135,6 +136,19 @@ impl Features {
         progress: impl FnMut(usize, usize),
     ) -> Result<Features, AdaptError> {
         read_features(model, sources, profile, threads, progress)
+    }
+
+    /// Features already computed, with their labels (rows in the same order).
+    pub(crate) fn from_parts(
+        matrix: DMatrix<f64>,
+        samples: Vec<Sample>,
+        shapes: Vec<usize>,
+    ) -> Features {
+        Features {
+            matrix,
+            samples,
+            shapes,
+        }
     }
 
     /// Frames held.
@@ -344,6 +358,20 @@ fn read_features(
         samples,
         shapes,
     })
+}
+
+/// The presses of one fold (the first of `folds`, dealt with `seed`): presses to hold out.
+pub fn held_out_presses(samples: &[Sample], folds: usize, seed: u64) -> Vec<String> {
+    let fold = self::folds(samples, folds.max(2), seed);
+    let mut presses: Vec<String> = samples
+        .iter()
+        .zip(&fold)
+        .filter(|(_, f)| **f == 0)
+        .map(|(s, _)| s.press.clone())
+        .collect();
+    presses.sort_unstable();
+    presses.dedup();
+    presses
 }
 
 /// Each frame's fold: presses shuffled with `seed` and dealt round the folds.

@@ -252,3 +252,22 @@ pub fn features_graph(proto: &pb::ModelProto) -> Option<pb::ModelProto> {
     g.output = vec![value_info(&features, &[Err("batch"), Err("features")])];
     Some(cut)
 }
+
+/// The graph of a network built by [`build`], cut before the convolution whose weight is the
+/// state-dict tensor `weight`: one output `input` [N, C, H, W], what that convolution reads.
+/// `None` when no convolution reads `weight`.
+pub fn conv_input_graph(proto: &pb::ModelProto, weight: &str) -> Option<pb::ModelProto> {
+    let graph = proto.graph.as_ref()?;
+    let conv = graph
+        .node
+        .iter()
+        .find(|n| n.op_type == "Conv" && n.input.get(1).is_some_and(|w| w == weight))?;
+    let input = conv.input.first()?.clone();
+    let mut cut = proto.clone();
+    let g = cut.graph.as_mut()?;
+    g.output = vec![value_info(
+        &input,
+        &[Err("batch"), Err("channels"), Err("height"), Err("width")],
+    )];
+    Some(cut)
+}

@@ -1,5 +1,5 @@
-//! `fringe commission` on a simulated unit of the layered design (`layered-3`, at a quarter of
-//! the frame size, quick axes): the whole job cut short by a kill and resumed, its certificate
+//! `fringe commission` on a simulated unit of the layered design (`layered-3`, at half the
+//! frame size, quick axes): the whole job cut short by a kill and resumed, its certificate
 //! recomputed by `fringe eval`, the unit's commissioned model chosen by default, the
 //! adaptation's determinism; and bad input refused before anything moves.
 
@@ -9,8 +9,13 @@ use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// The quick quarter-size bench with the `layered-3` unit, its profiles in `profiles`.
+/// The quick bench with the `layered-3` unit at half the frame size (at a quarter the optical fit
+/// finds no disc: see the last test), its profiles in `profiles`.
 fn unit_rig(dir: &Path) -> PathBuf {
+    unit_rig_at(dir, 0.5)
+}
+
+fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
     let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
     let rig = QUICK_RIG
         .replace(
@@ -23,7 +28,8 @@ fn unit_rig(dir: &Path) -> PathBuf {
         .replace(
             "[sim]\n",
             &format!("[sim]\nsensor = \"{}\"\n", sensor.display()),
-        );
+        )
+        .replace("image_scale = 0.25", &format!("image_scale = {scale}"));
     let path = dir.join("rig.toml");
     std::fs::write(&path, rig).expect("rig file");
     path
@@ -91,7 +97,7 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
         if let Some(c) = std::fs::read_dir(&profiles).ok().and_then(|_| {
             let c = commissioning(&profiles);
             events(&c.join("runs/round-1"))
-                .contains("\"checkpoint\"")
+                .contains("\"point-done\"")
                 .then_some(c)
         }) {
             break c;
@@ -214,4 +220,28 @@ fn commissioning_count(profiles: &Path) -> usize {
                 .count()
         })
         .unwrap_or(0)
+}
+
+#[test]
+fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
+    // At a quarter of the frame size the disc is 120 px across the optical fit's rays: it finds
+    // no disc, as with a camera out of focus or a unit not under it.
+    let dir = scratch("commission-no-disc");
+    let rig = unit_rig_at(&dir, 0.25);
+    let o = fringe_command()
+        .args(["commission", "--rig", s(&rig), "--yes"])
+        .current_dir(&dir)
+        .output()
+        .expect("run");
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("the calibration of layered-3 failed"), "{t}");
+    assert!(t.contains("no sensor disc found"), "{t}");
+    assert!(!t.contains("step 2"), "{t}");
+    let c = commissioning(&dir.join("profiles"));
+    let journal = std::fs::read_to_string(c.join("journal.json")).expect("journal");
+    assert!(journal.contains("\"rounds\": []"), "{journal}");
+    // Resuming presses the calibration again; the failed scan is kept beside it.
+    assert!(t.contains("fringe commission --resume"), "{t}");
+    assert!(c.join("runs/calibration-layered-3.stopped-1").is_dir());
 }

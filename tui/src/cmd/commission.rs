@@ -8,12 +8,15 @@
 //! runs already recorded.
 
 mod certify;
+mod last_block;
 mod rounds;
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::calibration_scan::{calibrate_run, spot_settings, CalibrationGrid};
+use fringe_app::calibration_scan::{
+    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
+};
 use fringe_app::commission::certificate::{directory_name, PROFILE};
 use fringe_app::commission::journal::{
     completed, run_state, Journal, Options, RunState, ScanEntry,
@@ -189,14 +192,22 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
     println!("step 1: calibration ({})", CalibrationGrid::defaults(&sensor).describe());
     let (run_dir, took) = scan(c, &entry, ProfileUse::Ignore)?;
     let (spot, _) = spot_settings(None, &c.config)?;
-    let result = calibrate_run(&run_dir, &sensor, fringe_app::calibration_scan::DEFAULT_MAX_FRAMES, spot)
-        .with_context(|| format!("the calibration of {sensor} failed; the run is kept in {}", run_dir.display()))?;
-    if let Err(e) = &result.cal.registration {
+    let fitted = calibrate_run(&run_dir, &sensor, DEFAULT_MAX_FRAMES, spot);
+    let failure = match &fitted {
+        Err(e) => Some(e.to_string()),
+        Ok(r) => r.cal.registration.as_ref().err().map(|e| {
+            format!("no image-to-stage registration ({e}): commissioning needs it to place presses on the disc")
+        }),
+    };
+    if let Some(why) = failure {
+        let kept = set_aside(&run_dir)?;
         bail!(
-            "the calibration found no image-to-stage registration ({e}): commissioning needs it to place presses on the disc; check the unit sits under the indenter and resume: fringe commission --resume {}",
+            "the calibration of {sensor} failed: {why}. Check that the unit sits under the indenter, lit and in focus, then resume (the calibration is pressed again; this scan is kept as {}): fringe commission --resume {}",
+            kept.display(),
             c.dir.display()
         );
     }
+    let result = fitted?;
     let written = result.write(&c.config.profile_dir())?;
     std::fs::copy(&written.profile, &kept)
         .with_context(|| format!("cannot copy the profile into {}", kept.display()))?;

@@ -89,7 +89,7 @@ pub(crate) fn accept(
 /// The adapted model in the directory, with its card beside it and in it.
 fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<PathBuf> {
     let path = c.dir.join(MODEL);
-    let card = adapted_card(
+    let mut card = adapted_card(
         base,
         &a.adapted,
         &a.runs,
@@ -97,7 +97,24 @@ fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<Pa
         c.journal.options.seed,
         Some(&c.journal.options.sensor),
     );
-    write_safetensors_with_card(&path, &a.adapted.weights, Some(&card))?;
+    if let Some(serde_json::Value::Object(adaptation)) = card.other.get_mut("adaptation") {
+        adaptation.insert("method".into(), a.method().into());
+        if let Some(b) = &a.block {
+            adaptation.insert(
+                "last_block".into(),
+                serde_json::json!({
+                    "about": "the custom CNN's last convolution block trained again with the heads (pure Rust, Adam, pulled towards the base), one fold of presses held out; the epoch with the least held-out error kept, epoch 0 being the heads alone",
+                    "epoch_kept": b.epoch,
+                    "held_out_presses": b.held_out_presses,
+                    "train_frames": b.train_frames,
+                    "heads_only_held_out": b.heads_only,
+                    "kept_held_out": b.kept,
+                    "held_out_curve": b.curve,
+                }),
+            );
+        }
+    }
+    write_safetensors_with_card(&path, a.weights(), Some(&card))?;
     let card_path = path.with_extension("json");
     let text = serde_json::to_string_pretty(&card).context("the model card")?;
     std::fs::write(&card_path, text + "\n")
@@ -196,7 +213,10 @@ fn certificate(
         spec_origin: c.journal.options.spec_origin.clone(),
         base_model: ModelRef::of(Path::new(&c.journal.options.base), base.describe())?,
         model: MODEL.to_string(),
-        adaptation: "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses".into(),
+        adaptation: match a.method() {
+            "last block" => "last block: the custom CNN's last convolution block and its heads trained again on the unit's frames in pure Rust, kept because it beat the heads alone on held-out presses (model.json has both figures)".into(),
+            _ => "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses".into(),
+        },
         profile: PROFILE.to_string(),
         runs: UsedRuns {
             calibration: c

@@ -13,6 +13,7 @@ use fringe_app::commission::press_errors::round_errors;
 use fringe_app::commission::press_plan::press_plan;
 use fringe_app::ProfileUse;
 use fringe_calibration::profile::Profile;
+use fringe_sensor_models::adapt::last_block::BlockFit;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::model::Model;
@@ -32,10 +33,31 @@ const MIN_ROUNDS: usize = 3;
 
 /// The adaptation's outcome: the adapted weights, the runs and the learning curve.
 pub(crate) struct Adaptation {
+    /// The heads alone, fitted on every press.
     pub adapted: Adapted,
+    /// The last block trained with the heads (the custom CNN), when it ran.
+    pub block: Option<BlockFit>,
     pub runs: Vec<PathBuf>,
     pub curve: Vec<CurvePoint>,
     pub pressed: Vec<PressedPoint>,
+}
+
+impl Adaptation {
+    /// The weights to use: the last block's when it beat the heads alone on held-out presses.
+    pub fn weights(&self) -> &StateDict {
+        match &self.block {
+            Some(b) if b.epoch > 0 => &b.weights,
+            _ => &self.adapted.weights,
+        }
+    }
+
+    /// Which adaptation the weights come from.
+    pub fn method(&self) -> &'static str {
+        match &self.block {
+            Some(b) if b.epoch > 0 => "last block",
+            _ => "heads",
+        }
+    }
 }
 
 /// Opens the base model and checks that it can be adapted (the paper's networks, by weights,
@@ -118,8 +140,10 @@ pub(crate) fn adapt(
             fringe_sensor_models::adapt::MIN_PRESSES
         );
     };
+    let block = super::last_block::train(c, base, &state.runs)?;
     Ok(Adaptation {
         adapted,
+        block,
         runs: state.runs,
         curve: state.curve,
         pressed: state.pressed,

@@ -1,0 +1,78 @@
+//! Step 3's second candidate: the custom CNN's last block trained again with its heads on the
+//! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
+
+use super::Commissioning;
+use crate::cmd::frames_progress::FramesProgress;
+use anyhow::Result;
+use fringe_sensor_models::adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
+use fringe_sensor_models::adapt::{fit_heads, held_out_presses, AdaptConfig};
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::model::Model;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Every how many frames of a press the block trains on (neighbours are nearly the same
+/// picture).
+const EVERY: usize = 2;
+
+/// Trains the last block on the frames of `runs`; `None` for a model without the custom CNN's
+/// last block.
+pub(crate) fn train(c: &mut Commissioning<'_>, base: &Model, runs: &[PathBuf]) -> Result<Option<BlockFit>> {
+    let Some(base_weights) = base.weights() else {
+        return Ok(None);
+    };
+    let started = Instant::now();
+    let sources = runs
+        .iter()
+        .map(|r| dataset::read(r))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut progress = FramesProgress::new("reading the last block's inputs");
+    let Some(data) = BlockInputs::read(base, &sources, c.threads, EVERY, |d, t| progress.show(d, t))? else {
+        progress.finish();
+        return Ok(None);
+    };
+    progress.finish();
+    let seed = c.journal.options.seed;
+    let samples: Vec<_> = sources.iter().flat_map(|s| s.samples.iter().cloned()).collect();
+    let held_out = held_out_presses(&samples, 5, seed);
+    let config = BlockConfig {
+        seed,
+        threads: c.threads,
+        ..BlockConfig::default()
+    };
+    let heads = AdaptConfig {
+        folds: 5,
+        seed,
+        threads: c.threads,
+    };
+    println!(
+        "step 3: training the last block with the heads on {} frames ({} presses held out), {} epochs",
+        data.len(),
+        held_out.len(),
+        config.epochs
+    );
+    let fit = train_last_block(
+        base_weights,
+        &data,
+        &held_out,
+        &config,
+        |f| Ok(fit_heads(base_weights, f, &heads)?.weights),
+        |epoch, units| println!("  epoch {epoch}: held-out error {units:.3} of the spec"),
+    )?;
+    c.compute_s += started.elapsed().as_secs_f64();
+    let show = |h: &fringe_sensor_models::adapt::last_block::HeldOut| {
+        format!(
+            "Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %",
+            h.fz_rmse_n,
+            h.contact_rmse_mm,
+            100.0 * h.shape_accuracy
+        )
+    };
+    println!("  on the held-out presses: heads alone {}", show(&fit.heads_only));
+    if fit.epoch > 0 {
+        println!("  last block, epoch {}: {} (kept)", fit.epoch, show(&fit.kept));
+    } else {
+        println!("  the last block did no better on them: the heads alone are kept");
+    }
+    Ok(Some(fit))
+}
