@@ -228,7 +228,11 @@ pub fn fit_heads(
     config: &AdaptConfig,
 ) -> Result<Adapted, AdaptError> {
     let presses = features.presses();
-    let in_contact = features.samples.iter().filter(|s| s.contact.is_some()).count();
+    let in_contact = features
+        .samples
+        .iter()
+        .filter(|s| s.contact.is_some())
+        .count();
     if presses < MIN_PRESSES || in_contact == 0 {
         return Err(AdaptError::TooFew {
             presses,
@@ -259,7 +263,11 @@ pub fn fit_heads(
 /// (the same figures the whole network gives: the heads are its last layers).
 pub fn head_scores(weights: &StateDict, features: &Features) -> Result<Vec<Scored>, AdaptError> {
     let head = |name: &'static str| head_of(weights, name).ok_or(AdaptError::Singular(name));
-    let (force, class, point) = (head("force_head")?, head("class_head")?, head("point_head")?);
+    let (force, class, point) = (
+        head("force_head")?,
+        head("class_head")?,
+        head("point_head")?,
+    );
     let (f, c, p) = (
         force.apply(&features.matrix),
         class.apply(&features.matrix),
@@ -472,7 +480,11 @@ fn choose_per_output(sse: &[Vec<f64>], fits: &[Head]) -> (Head, Vec<f64>, Vec<f6
 }
 
 /// The force head: [Fx Fy Fz Mx My Mz Ft] on every frame; reported as Fz RMSE, N.
-fn fit_force(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_force(
+    t: &Table<'_>,
+    base: &StateDict,
+    out: &mut StateDict,
+) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "force_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let y = DMatrix::from_fn(t.samples.len(), 7, |i, j| t.samples[i].force[j]);
@@ -491,7 +503,11 @@ fn fit_force(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<Hea
 }
 
 /// The contact head: x, y on the frames in contact; reported as contact RMSE, mm.
-fn fit_contact(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_contact(
+    t: &Table<'_>,
+    base: &StateDict,
+    out: &mut StateDict,
+) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "point_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let idx: Vec<usize> = (0..t.samples.len())
@@ -518,7 +534,11 @@ fn fit_contact(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<H
 
 /// The shape head: softmax over the classes; the pull with the least cross-validated log loss;
 /// reported as accuracy.
-fn fit_shape(t: &Table<'_>, base: &StateDict, out: &mut StateDict) -> Result<HeadReport, AdaptError> {
+fn fit_shape(
+    t: &Table<'_>,
+    base: &StateDict,
+    out: &mut StateDict,
+) -> Result<HeadReport, AdaptError> {
     const NAME: &str = "class_head";
     let prior = head_of(base, NAME).ok_or(AdaptError::Singular(NAME))?;
     let folds = t.fold.iter().copied().max().map_or(0, |m| m + 1);

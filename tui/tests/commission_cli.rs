@@ -141,9 +141,19 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     assert_eq!(cert["pass"], true, "{cert}");
     assert_eq!(cert["sensor_id"], "layered-3");
     assert_eq!(cert["variant"], "layered");
-    assert_eq!(cert["base_model"]["sha256"].as_str().map(str::len), Some(64));
+    assert_eq!(
+        cert["base_model"]["sha256"].as_str().map(str::len),
+        Some(64)
+    );
     assert!(!cert["learning_curve"].as_array().expect("curve").is_empty());
-    for f in ["report.md", "learning.png", "presses.png", "fz.png", "model.json", "profile.toml"] {
+    for f in [
+        "report.md",
+        "learning.png",
+        "presses.png",
+        "fz.png",
+        "model.json",
+        "profile.toml",
+    ] {
         assert!(cut.join(f).is_file(), "{f} missing");
     }
 
@@ -154,12 +164,18 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     let e = text(&o);
     assert!(o.status.success(), "{e}");
     let fz = cert["figures"]["fz_rmse_n"].as_f64().expect("fz");
-    let contact = cert["figures"]["contact_rmse_mm"].as_f64().expect("contact");
+    let contact = cert["figures"]["contact_rmse_mm"]
+        .as_f64()
+        .expect("contact");
     assert!((figure(&e, "Fz RMSE:") - fz).abs() < 1e-4, "{e}\n{cert}");
-    assert!((figure(&e, "contact RMSE:") - contact).abs() < 1e-4, "{e}\n{cert}");
+    assert!(
+        (figure(&e, "contact RMSE:") - contact).abs() < 1e-4,
+        "{e}\n{cert}"
+    );
 
-    // Without --model, eval of the unit's data runs its commissioned model.
-    std::fs::copy(&rig, dir.join("rig.toml")).ok();
+    // Without --model, eval of the unit's data runs its commissioned model (the rig file in the
+    // working directory names where the profiles are).
+    assert_eq!(rig, dir.join("rig.toml"));
     let o = fringe_command()
         .args(["eval", s(&acceptance)])
         .current_dir(&dir)
@@ -177,7 +193,11 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
         .output()
         .expect("again");
     assert!(o.status.success(), "{}", text(&o));
-    assert_eq!(std::fs::read(&model).expect("model"), first, "weights differ");
+    assert_eq!(
+        std::fs::read(&model).expect("model"),
+        first,
+        "weights differ"
+    );
 }
 
 #[test]
@@ -205,7 +225,10 @@ fn bad_input_is_refused_before_anything_moves() {
     let t = run(&["--budget", "0"]);
     assert!(t.contains("--budget 0"), "{t}");
     let t = run(&["--base", s(&dir.join("nothing.safetensors"))]);
-    assert!(t.contains("nothing.safetensors") && t.contains("no such model"), "{t}");
+    assert!(
+        t.contains("nothing.safetensors") && t.contains("no such model"),
+        "{t}"
+    );
     let t = run(&["--resume", s(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // Nothing was pressed, calibrated or written.

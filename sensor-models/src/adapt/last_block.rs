@@ -57,7 +57,7 @@ impl BlockInputs {
         let Some(proto) = model
             .onnx()
             .ok()
-            .and_then(|p| conv_input_graph(&p, &format!("{BLOCK}.weight")))
+            .and_then(|p| conv_input_graph(p, &format!("{BLOCK}.weight")))
         else {
             return Ok(None);
         };
@@ -390,10 +390,8 @@ fn backward(p: &Params, f: &Forward, s: &Sample, shape: usize, d: Dims, g: &mut 
     let k = d.k();
     let grads = output_grads(f, s, shape);
     let mut d_features = vec![0f32; d.out];
-    for h in 0..3 {
-        let (hw, _) = &p.heads[h];
-        let (gw, gb) = &mut g.heads[h];
-        for (r, dy) in grads[h].iter().enumerate() {
+    for ((grad, (hw, _)), (gw, gb)) in grads.iter().zip(&p.heads).zip(&mut g.heads) {
+        for (r, dy) in grad.iter().enumerate() {
             gb[r] += dy;
             for o in 0..d.out {
                 gw[r * d.out + o] += dy * f.features[o];
@@ -402,8 +400,8 @@ fn backward(p: &Params, f: &Forward, s: &Sample, shape: usize, d: Dims, g: &mut 
         }
     }
     let cells = d.cells();
-    for o in 0..d.out {
-        let share = d_features[o] / cells as f32;
+    for (o, d_feature) in d_features.iter().enumerate() {
+        let share = d_feature / cells as f32;
         for &(pos, z) in &f.winners[o * cells..(o + 1) * cells] {
             if z <= 0.0 {
                 continue;
@@ -439,7 +437,10 @@ fn held_out(p: &Params, data: &BlockInputs, frames: &[usize], d: Dims) -> HeldOu
         let argmax = f.outputs[1]
             .iter()
             .enumerate()
-            .fold((0, f32::NEG_INFINITY), |b, (j, v)| if *v > b.1 { (j, *v) } else { b })
+            .fold(
+                (0, f32::NEG_INFINITY),
+                |b, (j, v)| if *v > b.1 { (j, *v) } else { b },
+            )
             .0;
         e.add(&Scored {
             fz_true: s.fz(),
@@ -451,7 +452,11 @@ fn held_out(p: &Params, data: &BlockInputs, frames: &[usize], d: Dims) -> HeldOu
         });
     }
     let (fz, contact, acc) = (e.fz_rmse(), e.contact_rmse(), e.accuracy());
-    let contact_units = if e.n_contact > 0 { contact / CONTACT_UNIT } else { 0.0 };
+    let contact_units = if e.n_contact > 0 {
+        contact / CONTACT_UNIT
+    } else {
+        0.0
+    };
     HeldOut {
         fz_rmse_n: fz,
         contact_rmse_mm: contact,
@@ -463,7 +468,13 @@ fn held_out(p: &Params, data: &BlockInputs, frames: &[usize], d: Dims) -> HeldOu
 }
 
 /// The summed gradient of `batch` (frames of `data`), over `threads` threads.
-fn batch_gradient(p: &Params, data: &BlockInputs, batch: &[usize], d: Dims, threads: usize) -> Params {
+fn batch_gradient(
+    p: &Params,
+    data: &BlockInputs,
+    batch: &[usize],
+    d: Dims,
+    threads: usize,
+) -> Params {
     let parts = threads.clamp(1, batch.len().max(1));
     let chunk = batch.len().div_ceil(parts).max(1);
     std::thread::scope(|scope| {
@@ -543,7 +554,7 @@ pub fn train_last_block(
         w: data.width,
         out: start.conv_b.len(),
     };
-    if start.conv_w.len() != d.out * d.k() || d.h % 2 != 0 || d.w % 2 != 0 {
+    if start.conv_w.len() != d.out * d.k() || !d.h.is_multiple_of(2) || !d.w.is_multiple_of(2) {
         return Err(AdaptError::Singular("cnn.3 block"));
     }
     let (val, train): (Vec<usize>, Vec<usize>) =
@@ -609,7 +620,11 @@ mod tests {
             out: 3,
         };
         let mut rng = SplitMix64::new(7);
-        let mut v = |n: usize| (0..n).map(|_| rng.range(-0.5..0.5) as f32).collect::<Vec<_>>();
+        let mut v = |n: usize| {
+            (0..n)
+                .map(|_| rng.range(-0.5..0.5) as f32)
+                .collect::<Vec<_>>()
+        };
         let p = Params {
             conv_w: v(d.out * d.k()),
             conv_b: v(d.out),
@@ -631,8 +646,8 @@ mod tests {
         let lse = top + logits.iter().map(|l| (l - top).exp()).sum::<f64>().ln();
         l += lse - logits[shape];
         if let Some(c) = s.contact {
-            for j in 0..2 {
-                l += ((f64::from(f.outputs[2][j]) - c[j]) / CONTACT_UNIT).powi(2);
+            for (out, want) in f.outputs[2].iter().zip(c) {
+                l += ((f64::from(*out) - want) / CONTACT_UNIT).powi(2);
             }
         }
         l
@@ -655,12 +670,22 @@ mod tests {
         backward(&p, &f, &s, 1, d, &mut g);
         let eps = 1e-3f32;
         let mut checked = 0;
-        for (which, idx) in [(0usize, 0usize), (0, 5), (0, 40), (1, 1), (2, 3), (3, 2), (6, 4), (7, 1)] {
+        for (which, idx) in [
+            (0usize, 0usize),
+            (0, 5),
+            (0, 40),
+            (1, 1),
+            (2, 3),
+            (3, 2),
+            (6, 4),
+            (7, 1),
+        ] {
             let mut plus = p.clone();
             let mut minus = p.clone();
             plus.slices_mut()[which][idx] += eps;
             minus.slices_mut()[which][idx] -= eps;
-            let numeric = (loss(&plus, &x, &s, 1, d) - loss(&minus, &x, &s, 1, d)) / (2.0 * f64::from(eps));
+            let numeric =
+                (loss(&plus, &x, &s, 1, d) - loss(&minus, &x, &s, 1, d)) / (2.0 * f64::from(eps));
             let analytic = f64::from(g.slices()[which][idx]);
             assert!(
                 (numeric - analytic).abs() < 2e-2 * (1.0 + numeric.abs()),

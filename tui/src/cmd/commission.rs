@@ -53,6 +53,10 @@ pub struct CommissionArgs {
     /// Held-out positions of the acceptance scan (each with every indenter).
     #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=200))]
     acceptance_presses: u64,
+    /// Also train the custom CNN's last convolution block with the heads (pure Rust, a minute or
+    /// two more), kept only when it beats the heads alone on held-out presses.
+    #[arg(long)]
+    last_block: bool,
     /// Seed of the adaptation's cross-validation folds.
     #[arg(long, default_value_t = 42)]
     seed: u64,
@@ -108,7 +112,10 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         compute_s: 0.0,
     };
     println!("commissioning directory: {}", c.dir.display());
-    println!("  (after Ctrl-C or a crash: fringe commission --resume {})", c.dir.display());
+    println!(
+        "  (after Ctrl-C or a crash: fringe commission --resume {})",
+        c.dir.display()
+    );
     let base = rounds::open_base(&c.journal.options.base)?;
     let profile = calibrate(&mut c)?;
     let adapted = rounds::adapt(&mut c, &base, &profile)?;
@@ -119,7 +126,10 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
 /// and journal made.
 fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(PathBuf, Journal)> {
     if !(a.budget.is_finite() && a.budget > 0.0) {
-        bail!("--budget {}: give the bench time for the presses in minutes, above 0", a.budget);
+        bail!(
+            "--budget {}: give the bench time for the presses in minutes, above 0",
+            a.budget
+        );
     }
     let (spec_text, spec_origin) = if a.spec == "paper" {
         (None, "the paper's custom-CNN row (Table 2)".to_string())
@@ -140,12 +150,17 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
         seed: a.seed,
         round_presses: a.round_presses as usize,
         acceptance_presses: a.acceptance_presses as usize,
+        last_block: a.last_block,
     });
     let dir = config
         .profile_dir()
         .join(directory_name(sensor, &journal.started_utc));
-    std::fs::create_dir_all(dir.join("runs"))
-        .with_context(|| format!("cannot create the commissioning directory {}", dir.display()))?;
+    std::fs::create_dir_all(dir.join("runs")).with_context(|| {
+        format!(
+            "cannot create the commissioning directory {}",
+            dir.display()
+        )
+    })?;
     journal.write(&dir)?;
     Ok((dir, journal))
 }
@@ -189,7 +204,10 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
             e
         }
     };
-    println!("step 1: calibration ({})", CalibrationGrid::defaults(&sensor).describe());
+    println!(
+        "step 1: calibration ({})",
+        CalibrationGrid::defaults(&sensor).describe()
+    );
     let (run_dir, took) = scan(c, &entry, ProfileUse::Ignore)?;
     let (spot, _) = spot_settings(None, &c.config)?;
     let fitted = calibrate_run(&run_dir, &sensor, DEFAULT_MAX_FRAMES, spot);
@@ -211,7 +229,10 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
     let written = result.write(&c.config.profile_dir())?;
     std::fs::copy(&written.profile, &kept)
         .with_context(|| format!("cannot copy the profile into {}", kept.display()))?;
-    println!("wrote {} (the unit's profile; a copy in the commissioning directory)", written.profile.display());
+    println!(
+        "wrote {} (the unit's profile; a copy in the commissioning directory)",
+        written.profile.display()
+    );
     if let Some(e) = c.journal.calibration.as_mut() {
         e.completed = true;
         e.took_s = Some(took);
@@ -223,7 +244,8 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
 /// The bench time `plan` is estimated to take on the rig, s.
 pub(crate) fn estimate_s(plan: &str, config: &RigConfig) -> Result<f64> {
     let limits = config.limits()?;
-    let program = Plan::parse(plan, "commissioning plan")?.program(&limits, "commissioning plan")?;
+    let program =
+        Plan::parse(plan, "commissioning plan")?.program(&limits, "commissioning plan")?;
     Ok(program.estimate(&limits).total.as_secs_f64())
 }
 
@@ -252,7 +274,9 @@ pub(crate) fn scan(
                 }
             }
             println!("resuming the run {}", run_dir.display());
-            RunTarget::Resume { dir: run_dir.clone() }
+            RunTarget::Resume {
+                dir: run_dir.clone(),
+            }
         }
         RunState::Ended(stop) => {
             let kept = set_aside(&run_dir)?;

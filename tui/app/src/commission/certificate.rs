@@ -209,7 +209,11 @@ pub fn commissioned_model(profiles: &Path, sensor: &str) -> (Option<Commissioned
                         notes,
                     );
                 }
-                notes.push(format!("{}: its model {} is missing", dir.display(), c.model));
+                notes.push(format!(
+                    "{}: its model {} is missing",
+                    dir.display(),
+                    c.model
+                ));
             }
             Ok(_) => {}
             Err(e) => notes.push(e.to_string()),

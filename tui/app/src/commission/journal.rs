@@ -32,6 +32,9 @@ pub struct Options {
     pub round_presses: usize,
     /// Presses of the acceptance scan.
     pub acceptance_presses: usize,
+    /// Also train the custom CNN's last block (kept when it beats the heads alone).
+    #[serde(default)]
+    pub last_block: bool,
 }
 
 /// One scan of the commissioning.
@@ -194,6 +197,7 @@ mod tests {
             seed: 42,
             round_presses: 6,
             acceptance_presses: 8,
+            last_block: false,
         }
     }
 
@@ -226,7 +230,9 @@ mod tests {
         std::fs::write(dir.join(JOURNAL), newer).expect("write");
         let e = Journal::read(&dir).expect_err("newer").to_string();
         assert!(e.contains("format 9 is newer"), "{e}");
-        let e = Journal::read(&dir.join("nothing")).expect_err("missing").to_string();
+        let e = Journal::read(&dir.join("nothing"))
+            .expect_err("missing")
+            .to_string();
         assert!(e.contains("no commissioning journal"), "{e}");
         assert_eq!(
             run_state(&dir.join("no-run")).expect("state"),

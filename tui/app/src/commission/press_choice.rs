@@ -126,7 +126,10 @@ pub fn choose(
     let mut chosen = Vec::with_capacity(n);
     while chosen.len() < n && !left.is_empty() {
         let score = |c: &[f64; 2]| -> (f64, f64) {
-            let d = taken.iter().map(|t| dist(c, t)).fold(f64::INFINITY, f64::min);
+            let d = taken
+                .iter()
+                .map(|t| dist(c, t))
+                .fold(f64::INFINITY, f64::min);
             let need = if worst > 0.0 {
                 expected_error(c, pressed, scale) / worst
             } else {
@@ -134,12 +137,13 @@ pub fn choose(
             };
             ((d / scale).min(1.0) * (0.25 + need), d)
         };
-        let best = (0..left.len())
-            .map(|i| (i, score(&left[i])))
-            .fold(None::<(usize, (f64, f64))>, |best, (i, s)| match best {
+        let best = (0..left.len()).map(|i| (i, score(&left[i]))).fold(
+            None::<(usize, (f64, f64))>,
+            |best, (i, s)| match best {
                 Some((_, b)) if (b.0, b.1) >= (s.0, s.1) => best,
                 _ => Some((i, s)),
-            });
+            },
+        );
         let Some((i, (s, _))) = best else { break };
         if s <= 0.0 {
             break;
@@ -227,7 +231,9 @@ mod tests {
         assert!(half.iter().all(|p| p[0] <= 25.0 && p[1] <= 25.0));
         assert!(half.len() < all.len() / 2);
         let held_out = DISC.lattice(2.0, 0.5, &limits(50.0), "u").expect("points");
-        assert!(held_out.iter().all(|h| all.iter().all(|a| dist(a, h) > 0.4)));
+        assert!(held_out
+            .iter()
+            .all(|h| all.iter().all(|a| dist(a, h) > 0.4)));
         let far = UsableDisc {
             centre_mm: [200.0, 200.0],
             ..DISC
@@ -259,7 +265,12 @@ mod tests {
         let toured = tour(&picks, DISC.centre_mm);
         assert_eq!(toured.len(), picks.len());
         assert!(picks.iter().all(|p| toured.contains(p)));
-        assert!(length(&toured) < 0.8 * length(&picks), "{} vs {}", length(&toured), length(&picks));
+        assert!(
+            length(&toured) < 0.8 * length(&picks),
+            "{} vs {}",
+            length(&toured),
+            length(&picks)
+        );
     }
 
     #[test]
@@ -278,10 +289,7 @@ mod tests {
             error: 3.0,
         });
         let next = choose(&cands, &pressed, 3, 6.0);
-        let near_bad = next
-            .iter()
-            .filter(|p| dist(p, &[34.0, 25.0]) < 6.0)
-            .count();
+        let near_bad = next.iter().filter(|p| dist(p, &[34.0, 25.0]) < 6.0).count();
         assert!(near_bad >= 2, "{next:?}");
     }
 }

@@ -123,7 +123,10 @@ mod tests {
         assert!((r.presses[0].error - 1.0).abs() < 1e-9, "{:?}", r.presses);
         assert!((r.presses[1].error - 2.0).abs() < 1e-9, "{:?}", r.presses);
         assert_eq!(r.presses[1].stage_mm, [14.0, 20.0]);
-        assert_eq!((r.curve.round, r.curve.presses_before, r.curve.frames), (2, 12, 3));
+        assert_eq!(
+            (r.curve.round, r.curve.presses_before, r.curve.frames),
+            (2, 12, 3)
+        );
         assert!((r.curve.fz_rmse_n - (2.0 * 0.49f64.powi(2) / 3.0).sqrt()).abs() < 1e-9);
     }
 }

@@ -37,7 +37,10 @@ pub(crate) fn accept(
 ) -> Result<()> {
     let model_path = write_model(c, base, &adaptation)?;
     let entry = acceptance_entry(c, base, profile)?;
-    println!("step 4: acceptance at {} held-out positions", c.journal.options.acceptance_presses);
+    println!(
+        "step 4: acceptance at {} held-out positions",
+        c.journal.options.acceptance_presses
+    );
     let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
     if let Some(e) = c.journal.acceptance.as_mut() {
         e.completed = true;
@@ -137,7 +140,11 @@ fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<Pa
 
 /// The acceptance scan's journal entry: positions between the rounds' lattice, spread over the
 /// disc (chosen once, before the scan, and kept).
-fn acceptance_entry(c: &mut Commissioning<'_>, base: &Model, profile: &Profile) -> Result<ScanEntry> {
+fn acceptance_entry(
+    c: &mut Commissioning<'_>,
+    base: &Model,
+    profile: &Profile,
+) -> Result<ScanEntry> {
     if let Some(e) = &c.journal.acceptance {
         return Ok(e.clone());
     }

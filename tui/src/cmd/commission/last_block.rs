@@ -4,7 +4,9 @@
 use super::Commissioning;
 use crate::cmd::frames_progress::FramesProgress;
 use anyhow::Result;
-use fringe_sensor_models::adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
+use fringe_sensor_models::adapt::last_block::{
+    train_last_block, BlockConfig, BlockFit, BlockInputs,
+};
 use fringe_sensor_models::adapt::{fit_heads, held_out_presses, AdaptConfig};
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::model::Model;
@@ -17,7 +19,11 @@ const EVERY: usize = 2;
 
 /// Trains the last block on the frames of `runs`; `None` for a model without the custom CNN's
 /// last block.
-pub(crate) fn train(c: &mut Commissioning<'_>, base: &Model, runs: &[PathBuf]) -> Result<Option<BlockFit>> {
+pub(crate) fn train(
+    c: &mut Commissioning<'_>,
+    base: &Model,
+    runs: &[PathBuf],
+) -> Result<Option<BlockFit>> {
     let Some(base_weights) = base.weights() else {
         return Ok(None);
     };
@@ -27,13 +33,18 @@ pub(crate) fn train(c: &mut Commissioning<'_>, base: &Model, runs: &[PathBuf]) -
         .map(|r| dataset::read(r))
         .collect::<Result<Vec<_>, _>>()?;
     let mut progress = FramesProgress::new("reading the last block's inputs");
-    let Some(data) = BlockInputs::read(base, &sources, c.threads, EVERY, |d, t| progress.show(d, t))? else {
+    let Some(data) =
+        BlockInputs::read(base, &sources, c.threads, EVERY, |d, t| progress.show(d, t))?
+    else {
         progress.finish();
         return Ok(None);
     };
     progress.finish();
     let seed = c.journal.options.seed;
-    let samples: Vec<_> = sources.iter().flat_map(|s| s.samples.iter().cloned()).collect();
+    let samples: Vec<_> = sources
+        .iter()
+        .flat_map(|s| s.samples.iter().cloned())
+        .collect();
     let held_out = held_out_presses(&samples, 5, seed);
     let config = BlockConfig {
         seed,
@@ -68,9 +79,16 @@ pub(crate) fn train(c: &mut Commissioning<'_>, base: &Model, runs: &[PathBuf]) -
             100.0 * h.shape_accuracy
         )
     };
-    println!("  on the held-out presses: heads alone {}", show(&fit.heads_only));
+    println!(
+        "  on the held-out presses: heads alone {}",
+        show(&fit.heads_only)
+    );
     if fit.epoch > 0 {
-        println!("  last block, epoch {}: {} (kept)", fit.epoch, show(&fit.kept));
+        println!(
+            "  last block, epoch {}: {} (kept)",
+            fit.epoch,
+            show(&fit.kept)
+        );
     } else {
         println!("  the last block did no better on them: the heads alone are kept");
     }

@@ -140,7 +140,11 @@ pub(crate) fn adapt(
             fringe_sensor_models::adapt::MIN_PRESSES
         );
     };
-    let block = super::last_block::train(c, base, &state.runs)?;
+    let block = if c.journal.options.last_block {
+        super::last_block::train(c, base, &state.runs)?
+    } else {
+        None
+    };
     Ok(Adaptation {
         adapted,
         block,
@@ -177,9 +181,8 @@ impl Rounds {
         let started = Instant::now();
         let source = dataset::read(run_dir)?;
         let mut progress = FramesProgress::new("reading the round's features");
-        let features = Features::read(base, &[source], None, c.threads, |d, t| {
-            progress.show(d, t)
-        })?;
+        let features =
+            Features::read(base, &[source], None, c.threads, |d, t| progress.show(d, t))?;
         progress.finish();
         let scores = head_scores(&self.weights, &features)?;
         let errors = round_errors(
@@ -269,6 +272,9 @@ fn next_round(
     Ok(Some(entry))
 }
 
+/// A round's positions (stage mm), its plan and its estimated bench time (s).
+type SizedRound = (Vec<[f64; 2]>, String, f64);
+
 /// The round's positions, plan and estimated bench time: as many positions as `left` seconds
 /// hold (a last round may be smaller); `None` when not one press fits or every position is
 /// pressed.
@@ -279,7 +285,7 @@ fn sized_round(
     base: &Model,
     name: &str,
     left: f64,
-) -> Result<Option<(Vec<[f64; 2]>, String, f64)>> {
+) -> Result<Option<SizedRound>> {
     let mut n = c.journal.options.round_presses;
     loop {
         let points = tour(
@@ -319,8 +325,8 @@ fn sized_round(
 fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: f64) -> bool {
     let t = &spec.all;
     t.fz_rmse_n.is_none_or(|v| p.fz_rmse_n <= margin * v)
-        && t.contact_rmse_mm.is_none_or(|v| p.contact_rmse_mm <= margin * v)
-        && t
-            .shape_accuracy
+        && t.contact_rmse_mm
+            .is_none_or(|v| p.contact_rmse_mm <= margin * v)
+        && t.shape_accuracy
             .is_none_or(|v| 1.0 - p.shape_accuracy <= margin * (1.0 - v))
 }
