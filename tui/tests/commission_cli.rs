@@ -231,6 +231,24 @@ fn bad_input_is_refused_before_anything_moves() {
     );
     let t = run(&["--resume", s(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
+    // A unit of the other design: the shipped (layered) model is refused as its base.
+    let integrated = dir.join("integrated.toml");
+    let text_of_rig = std::fs::read_to_string(&rig).expect("rig");
+    std::fs::write(
+        &integrated,
+        text_of_rig.replace(
+            "name = \"quick layered-3\"",
+            "name = \"quick layered-3\"\nvariant = \"integrated\"",
+        ),
+    )
+    .expect("rig");
+    let o = fringe(&["commission", "--rig", s(&integrated), "--yes"]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("the model is for the layered sensor design and this unit is integrated"),
+        "{t}"
+    );
     // Nothing was pressed, calibrated or written.
     assert!(!dir.join("profiles").exists() || commissioning_count(&dir.join("profiles")) == 0);
 }

@@ -55,6 +55,6 @@ mod truth_score;
 
 pub use open_rig::OpenRig;
 pub use rig_error::RigError;
-pub use rig_file::{RigConfig, RigSource};
+pub use rig_file::{RigConfig, RigSource, SensorVariant};
 pub use scan_session::{Note, ProfileUse, ScanSession, SessionEnd, SessionError};
 pub use truth_score::TruthScore;

@@ -22,3 +22,7 @@ pub(crate) fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
 pub(crate) fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
     Err(refused(rig))
 }
+
+pub(crate) fn sensor_variant(rig: &RigConfig) -> Result<&'static str, ConfigError> {
+    Err(refused(rig))
+}

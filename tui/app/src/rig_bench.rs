@@ -75,6 +75,18 @@ impl RigConfig {
         }
     }
 
+    /// The sensor's design: the rig file's `variant`, or the simulated sensor's; `None` when a
+    /// real rig's file does not say.
+    pub fn sensor_variant(&self) -> Result<Option<&'static str>, ConfigError> {
+        if let Some(v) = self.file.variant {
+            return Ok(Some(v.name()));
+        }
+        if self.simulated {
+            return sim_bench::sensor_variant(self).map(Some);
+        }
+        Ok(None)
+    }
+
     /// The sensor id: the rig file's, or the simulated sensor's.
     pub fn sensor_id(&self) -> Result<String, ConfigError> {
         if let Some(id) = &self.file.sensor {

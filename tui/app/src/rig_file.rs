@@ -205,6 +205,23 @@ impl Default for SimSection {
     }
 }
 
+/// A sensor design: the two builds of the reference paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SensorVariant {
+    Layered,
+    Integrated,
+}
+
+impl SensorVariant {
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorVariant::Layered => "layered",
+            SensorVariant::Integrated => "integrated",
+        }
+    }
+}
+
 /// The rig file as written.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -212,6 +229,9 @@ pub struct RigFile {
     pub name: Option<String>,
     /// Sensor build id (profiles/<sensor>.toml); the simulated sensor's id when simulated.
     pub sensor: Option<String>,
+    /// The sensor's design, `layered` or `integrated` (a model of the other design is refused);
+    /// the simulated sensor's when simulated.
+    pub variant: Option<SensorVariant>,
     /// strobe, clock-fit or host (default: strobe where the force path records the strobe,
     /// clock-fit otherwise).
     pub sync: Option<String>,

@@ -135,6 +135,11 @@ pub fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
     Ok(config(rig)?.sensor.id)
 }
 
+/// The simulated sensor's design, `layered` or `integrated`.
+pub fn sensor_variant(rig: &RigConfig) -> Result<&'static str, ConfigError> {
+    Ok(config(rig)?.sensor.variant.name())
+}
+
 /// Starts the simulated bench, its ground truth recorded.
 pub fn start(rig: &RigConfig) -> Result<(SimBench, Devices), RigError> {
     let config = config(rig)?;

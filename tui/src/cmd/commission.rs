@@ -116,7 +116,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         "  (after Ctrl-C or a crash: fringe commission --resume {})",
         c.dir.display()
     );
-    let base = rounds::open_base(&c.journal.options.base)?;
+    let base = rounds::open_base(&c.journal.options.base, c.config.sensor_variant()?)?;
     let profile = calibrate(&mut c)?;
     let adapted = rounds::adapt(&mut c, &base, &profile)?;
     certify::accept(&mut c, &base, &profile, adapted)
@@ -140,7 +140,7 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
             .with_context(|| format!("cannot read the spec {}", path.display()))?;
         (Some(text), path.display().to_string())
     };
-    rounds::open_base(&a.base.display().to_string())?;
+    rounds::open_base(&a.base.display().to_string(), config.sensor_variant()?)?;
     let journal = Journal::new(Options {
         sensor: sensor.to_string(),
         base: a.base.display().to_string(),

@@ -2,7 +2,7 @@
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
-use super::model::{choose_model, ReferenceChoice};
+use super::model::{choose_model, ForSensor, ReferenceChoice};
 use super::verdict;
 use anyhow::{bail, Result};
 use clap::Args;
@@ -62,7 +62,16 @@ pub fn run(a: EvalArgs) -> Result<()> {
         None => None,
     };
     let sources = read_sources(&a.data, "evaluate")?;
-    let model = choose_model(a.model.as_deref(), &profiles_dir(), data_sensor(&sources))?;
+    let profiles = profiles_dir();
+    let model = choose_model(
+        a.model.as_deref(),
+        &ForSensor {
+            profiles: &profiles,
+            unit: data_sensor(&sources),
+            // Runs do not record their sensor's design.
+            variant: None,
+        },
+    )?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     warn_scale(&model, &sources, profile.as_ref(), reference);
     let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;

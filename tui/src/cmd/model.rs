@@ -111,11 +111,21 @@ pub fn open_model(path: &Path) -> Result<Model> {
     Ok(m)
 }
 
+/// The sensor a model is chosen for: where its profiles live, its unit and its design, as far as
+/// they are known.
+pub struct ForSensor<'a> {
+    pub profiles: &'a Path,
+    pub unit: Option<&'a str>,
+    pub variant: Option<&'a str>,
+}
+
 /// The model a command runs when `given` is `None`: the newest passing commissioning's model of
-/// the unit `sensor` under `profiles`, else the model that ships with fringe. A given model
-/// adapted to another unit is run with a warning.
-pub fn choose_model(given: Option<&Path>, profiles: &Path, sensor: Option<&str>) -> Result<Model> {
-    let path = match (given, sensor) {
+/// the unit under `profiles`, else the model that ships with fringe. A model whose card names
+/// another design than the sensor's is refused; one adapted to another unit is run with a
+/// warning.
+pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
+    let (profiles, unit) = (sensor.profiles, sensor.unit);
+    let path = match (given, unit) {
         (Some(p), _) => p.to_path_buf(),
         (None, Some(unit)) => {
             let (found, notes) =
@@ -138,12 +148,21 @@ pub fn choose_model(given: Option<&Path>, profiles: &Path, sensor: Option<&str>)
         (None, None) => PathBuf::from(builtin::DEFAULT),
     };
     let model = open_model(&path)?;
+    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
+    if let (Some(design), Some(variant)) = (design, sensor.variant) {
+        if design != variant {
+            bail!(
+                "{}: the model is for the {design} sensor design and this sensor is {variant}: give a model of the {variant} design (--model)",
+                model.path.display()
+            );
+        }
+    }
     let adapted_to = model
         .card
         .as_ref()
         .filter(|c| c.other.contains_key("adaptation"))
         .and_then(|c| c.sensor_id.clone());
-    if let (Some(for_unit), Some(unit)) = (adapted_to, sensor) {
+    if let (Some(for_unit), Some(unit)) = (adapted_to, unit) {
         if for_unit != unit {
             eprintln!(
                 "warning: {} was adapted to sensor {for_unit}, and this is sensor {unit}: its figures here are not the ones it was accepted with",

@@ -5,7 +5,7 @@
 //! frames skipped; with `--report DIR` the evaluation report (report.md, plots) and every frame
 //! validated (validation.jsonl).
 
-use crate::cmd::model::choose_model;
+use crate::cmd::model::{choose_model, ForSensor};
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
@@ -60,10 +60,14 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     };
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let unit = config.sensor_id().ok();
     let model = choose_model(
         a.model.as_deref(),
-        &config.profile_dir(),
-        config.sensor_id().ok().as_deref(),
+        &ForSensor {
+            profiles: &config.profile_dir(),
+            unit: unit.as_deref(),
+            variant: config.sensor_variant()?,
+        },
     )?;
     if !a.no_tui && std::io::stdout().is_terminal() {
         return run_ui(&a, &model.path, config, &source, text, origin);

@@ -61,9 +61,18 @@ impl Adaptation {
 }
 
 /// Opens the base model and checks that it can be adapted (the paper's networks, by weights,
-/// with a no-contact class and at least one indenter).
-pub(crate) fn open_base(spec: &str) -> Result<Model> {
+/// with a no-contact class and at least one indenter) and that it is of the sensor's design
+/// (`variant`, when known).
+pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
     let model = open_model(Path::new(spec))?;
+    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
+    if let (Some(design), Some(variant)) = (design, variant) {
+        if design != variant {
+            bail!(
+                "--base {spec}: the model is for the {design} sensor design and this unit is {variant}: give a base model of the {variant} design"
+            );
+        }
+    }
     if model.weights().is_none() {
         bail!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
