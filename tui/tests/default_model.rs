@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{fringe, fringe_command, only_run, scratch, text};
+use common::{fringe, fringe_command, only_run, printed_figure, scratch, text};
 use std::path::Path;
 
 const CARD: &str = include_str!("../../sensor-models/models/layered-custom.json");
@@ -16,18 +16,6 @@ const CARD: &str = include_str!("../../sensor-models/models/layered-custom.json"
 /// The paper's custom CNN row (Sensor 1, gray, 10 augmentations): Fz RMSE, contact RMSE, shape
 /// accuracy.
 const PAPER_CUSTOM_CNN: (f64, f64, f64) = (0.4927, 1.4683, 0.9532);
-
-fn figure(eval: &str, key: &str) -> f64 {
-    let line = eval
-        .lines()
-        .find(|l| l.starts_with(key))
-        .unwrap_or_else(|| panic!("no `{key}` line in:\n{eval}"));
-    line[key.len()..]
-        .split_whitespace()
-        .next()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no number on `{line}`"))
-}
 
 #[test]
 fn the_default_model_meets_the_figures_it_claims_on_a_held_out_scan() {
@@ -69,9 +57,9 @@ fn the_default_model_meets_the_figures_it_claims_on_a_held_out_scan() {
     let eval = text(&out);
     assert!(out.status.success(), "{eval}");
     assert!(eval.contains("builtin:layered (custom CNN)"), "{eval}");
-    let fz = figure(&eval, "Fz RMSE:");
-    let contact = figure(&eval, "contact RMSE:");
-    let accuracy = figure(&eval, "shape accuracy:");
+    let fz = printed_figure(&eval, "Fz RMSE:");
+    let contact = printed_figure(&eval, "contact RMSE:");
+    let accuracy = printed_figure(&eval, "shape accuracy:");
 
     // The card's figures, within the noise of one scan (the bench's F/T noise and frame timing
     // differ between runs; the model and the plan do not).

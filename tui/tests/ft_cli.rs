@@ -2,7 +2,7 @@
 //! netftapi2.xml), checking the CSV rows and the printed sample count, rate and lost packets.
 
 mod common;
-use common::{fringe_command, scratch};
+use common::{fringe_command, printed_figure, scratch};
 
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
@@ -12,15 +12,6 @@ use std::sync::Arc;
 use std::time::Duration;
 
 const XML: &str = "<?xml version=\"1.0\"?><netft><cfgcpf>1000000</cfgcpf><cfgcpt>1000</cfgcpt><scfgfu>N</scfgfu><scfgtu>N-mm</scfgtu><comrdtrate>1000</comrdtrate></netft>";
-
-fn printed(stdout: &str, key: &str) -> f64 {
-    stdout
-        .lines()
-        .find_map(|l| l.strip_prefix(key))
-        .and_then(|v| v.split_whitespace().next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("`{key}` not printed in:\n{stdout}"))
-}
 
 #[test]
 fn stream_reads_the_configuration_page_and_writes_csv() {
@@ -67,9 +58,9 @@ fn stream_reads_the_configuration_page_and_writes_csv() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "fringe failed:\n{stdout}\n{stderr}");
 
-    let count = printed(&stdout, "samples: ");
-    let rate = printed(&stdout, "rate: ");
-    assert_eq!(printed(&stdout, "lost packets: "), 0.0, "{stdout}");
+    let count = printed_figure(&stdout, "samples: ");
+    let rate = printed_figure(&stdout, "rate: ");
+    assert_eq!(printed_figure(&stdout, "lost packets: "), 0.0, "{stdout}");
     assert!(
         (350.0..=520.0).contains(&count),
         "about 500 samples in 0.5 s at 1 kHz: {stdout}"

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{fringe, scratch, text};
+use common::{fringe, printed_figure, scratch, text};
 use fringe_calibration::profile::{ImageSize, Optical, Profile};
 use std::path::{Path, PathBuf};
 
@@ -462,15 +462,6 @@ fn the_default_model_reads_simulated_presses() {
 }
 
 /// `fringe eval`'s figure on the line that starts with `key`.
-fn eval_figure(printed: &str, key: &str) -> f64 {
-    printed
-        .lines()
-        .find_map(|l| l.strip_prefix(key))
-        .and_then(|rest| rest.split_whitespace().next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no `{key}` figure in:\n{printed}"))
-}
-
 /// Frames of another layered unit (`rig/sim/sensors/layered-3.toml`) rendered into `dir`.
 fn unit_frames(dir: &Path, count: u32, seed: u32) -> PathBuf {
     let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
@@ -497,9 +488,9 @@ fn eval_on(model: &str, data: &Path) -> (f64, f64, f64) {
     let t = text(&out);
     assert!(out.status.success(), "{t}");
     (
-        eval_figure(&t, "Fz RMSE:"),
-        eval_figure(&t, "contact RMSE:"),
-        eval_figure(&t, "shape accuracy:"),
+        printed_figure(&t, "Fz RMSE:"),
+        printed_figure(&t, "contact RMSE:"),
+        printed_figure(&t, "shape accuracy:"),
     )
 }
 

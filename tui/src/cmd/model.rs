@@ -148,15 +148,7 @@ pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Mode
         (None, None) => PathBuf::from(builtin::DEFAULT),
     };
     let model = open_model(&path)?;
-    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
-    if let (Some(design), Some(variant)) = (design, sensor.variant) {
-        if design != variant {
-            bail!(
-                "{}: the model is for the {design} sensor design and this sensor is {variant}: give a model of the {variant} design (--model)",
-                model.path.display()
-            );
-        }
-    }
+    check_design(&model, sensor.variant)?;
     let adapted_to = model
         .card
         .as_ref()
@@ -171,6 +163,20 @@ pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Mode
         }
     }
     Ok(model)
+}
+
+/// Refuses `model` when its card names another sensor design than `variant` (when known).
+pub fn check_design(model: &Model, variant: Option<&str>) -> Result<()> {
+    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
+    if let (Some(design), Some(variant)) = (design, variant) {
+        if design != variant {
+            bail!(
+                "{}: the model is for the {design} sensor design and this unit is {variant}: give a model of the {variant} design",
+                model.path.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 fn info(path: &Path) -> Result<()> {

@@ -463,3 +463,14 @@ pub fn resume_to_the_end(rig: &Path, run: &Path) -> String {
     assert!(verify.status.success(), "{}", text(&verify));
     t
 }
+
+/// The number after `key` at the start of a line of what fringe printed (eval's "Fz RMSE:",
+/// ft's "Fz N:", ...).
+pub fn printed_figure(printed: &str, key: &str) -> f64 {
+    printed
+        .lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no `{key}` figure in:\n{printed}"))
+}

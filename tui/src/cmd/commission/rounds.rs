@@ -4,7 +4,7 @@
 
 use super::{estimate_s, scan, Commissioning};
 use crate::cmd::frames_progress::FramesProgress;
-use crate::cmd::model::open_model;
+use crate::cmd::model::{check_design, open_model};
 use anyhow::{bail, Result};
 use fringe_app::commission::certificate::CurvePoint;
 use fringe_app::commission::journal::ScanEntry;
@@ -65,14 +65,7 @@ impl Adaptation {
 /// (`variant`, when known).
 pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
     let model = open_model(Path::new(spec))?;
-    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
-    if let (Some(design), Some(variant)) = (design, variant) {
-        if design != variant {
-            bail!(
-                "--base {spec}: the model is for the {design} sensor design and this unit is {variant}: give a base model of the {variant} design"
-            );
-        }
-    }
+    check_design(&model, variant)?;
     if model.weights().is_none() {
         bail!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
