@@ -37,28 +37,38 @@ pub struct CommissionArgs {
     rig: Option<PathBuf>,
     /// The model to adapt: a weights file of the paper's networks, or `default` (the model that
     /// ships with fringe).
-    #[arg(long, value_name = "MODEL", default_value = "default")]
+    #[arg(
+        long,
+        conflicts_with = "resume",
+        value_name = "MODEL",
+        default_value = "default"
+    )]
     base: PathBuf,
     /// Bench time for the adaptive presses, minutes (the calibration and acceptance scans come
-    /// on top).
-    #[arg(long, value_name = "MINUTES", default_value_t = 10.0)]
-    budget: f64,
+    /// on top); default 10. With --resume: the new budget of the commissioning resumed.
+    #[arg(long, value_name = "MINUTES")]
+    budget: Option<f64>,
     /// What the unit must meet: a spec file (TOML; see `fringe eval --spec`) or `paper` (the
     /// paper's custom-CNN row: Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %).
-    #[arg(long, value_name = "FILE", default_value = "paper")]
+    #[arg(
+        long,
+        conflicts_with = "resume",
+        value_name = "FILE",
+        default_value = "paper"
+    )]
     spec: String,
     /// Positions pressed per adaptive round (each with every indenter of the model).
-    #[arg(long, value_name = "N", default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=100))]
+    #[arg(long, conflicts_with = "resume", value_name = "N", default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=100))]
     round_presses: u64,
     /// Held-out positions of the acceptance scan (each with every indenter).
-    #[arg(long, value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=200))]
+    #[arg(long, conflicts_with = "resume", value_name = "N", default_value_t = 10, value_parser = clap::value_parser!(u64).range(2..=200))]
     acceptance_presses: u64,
     /// Also train the custom CNN's last convolution block with the heads (pure Rust, a minute or
     /// two more), kept only when it beats the heads alone on held-out presses.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "resume")]
     last_block: bool,
     /// Seed of the adaptation's cross-validation folds.
-    #[arg(long, default_value_t = 42)]
+    #[arg(long, conflicts_with = "resume", default_value_t = 42)]
     seed: u64,
     /// Go on with the commissioning in DIR (after Ctrl-C, a crash or power loss) from the runs it
     /// recorded; its options are the ones it started with.
@@ -94,7 +104,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         source.describe()
     );
     let (dir, journal) = match &a.resume {
-        Some(dir) => resumed(dir, &sensor)?,
+        Some(dir) => resumed(dir, &sensor, a.budget)?,
         None => started(&a, &config, &sensor)?,
     };
     let spec = match &journal.options.spec {
@@ -125,12 +135,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
 /// A new commissioning: its options checked (spec, budget) before anything moves, its directory
 /// and journal made.
 fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(PathBuf, Journal)> {
-    if !(a.budget.is_finite() && a.budget > 0.0) {
-        bail!(
-            "--budget {}: give the bench time for the presses in minutes, above 0",
-            a.budget
-        );
-    }
+    let budget = checked_budget(a.budget.unwrap_or(DEFAULT_BUDGET_MIN))?;
     let (spec_text, spec_origin) = if a.spec == "paper" {
         (None, "the paper's custom-CNN row (Table 2)".to_string())
     } else {
@@ -144,7 +149,7 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
     let journal = Journal::new(Options {
         sensor: sensor.to_string(),
         base: a.base.display().to_string(),
-        budget_min: a.budget,
+        budget_min: budget,
         spec: spec_text,
         spec_origin,
         seed: a.seed,
@@ -165,15 +170,29 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
     Ok((dir, journal))
 }
 
-/// A commissioning to go on with: its journal, for the same unit.
-fn resumed(dir: &Path, sensor: &str) -> Result<(PathBuf, Journal)> {
-    let journal = Journal::read(dir)?;
+/// Bench time for the presses when `--budget` is not given, minutes.
+const DEFAULT_BUDGET_MIN: f64 = 10.0;
+
+fn checked_budget(minutes: f64) -> Result<f64> {
+    if !(minutes.is_finite() && minutes > 0.0) {
+        bail!("--budget {minutes}: give the bench time for the presses in minutes, above 0");
+    }
+    Ok(minutes)
+}
+
+/// A commissioning to go on with: its journal, for the same unit; `budget` replaces its budget.
+fn resumed(dir: &Path, sensor: &str, budget: Option<f64>) -> Result<(PathBuf, Journal)> {
+    let mut journal = Journal::read(dir)?;
     if journal.options.sensor != sensor {
         bail!(
             "{}: this commissioning is of sensor {}, and the rig's sensor is {sensor}: resume it on the rig it started on (--rig)",
             dir.display(),
             journal.options.sensor
         );
+    }
+    if let Some(b) = budget {
+        journal.options.budget_min = checked_budget(b)?;
+        journal.write(dir)?;
     }
     println!(
         "resuming the commissioning started {} (budget {} min, base {})",
