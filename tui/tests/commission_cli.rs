@@ -228,8 +228,6 @@ fn bad_input_is_refused_before_anything_moves() {
     // A resumed commissioning keeps its options; only the budget may be given again.
     let t = run(&["--resume", s(&dir.join("profiles")), "--seed", "3"]);
     assert!(t.contains("cannot be used with"), "{t}");
-    let t = run(&["--resume", s(&dir.join("profiles")), "--budget", "-1"]);
-    assert!(t.contains("no commissioning journal") || t.contains("--budget -1"), "{t}");
     // A unit of the other design: the shipped (layered) model is refused as its base.
     let integrated = dir.join("integrated.toml");
     let text_of_rig = std::fs::read_to_string(&rig).expect("rig");
