@@ -68,16 +68,18 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
 }
 
 /// `fringe` on a terminal: the UI on the Scan screen with the built-in plan, ready to run (r);
-/// the Validate screen runs the model that ships with fringe.
+/// the Validate screen runs the rig's sensor's commissioned model, else the one that ships with
+/// fringe.
 pub fn run_ui() -> anyhow::Result<()> {
     let (config, source) = RigConfig::resolve(None)?;
+    let model = crate::ui::ModelChoice::for_rig(&config);
     crate::ui::run(crate::ui::UiOptions {
         config,
         rig: source.describe(),
         plan_text: SHORT_GRID.text.to_string(),
         plan_origin: SHORT_GRID.origin(),
         runs: PathBuf::from("runs"),
-        model: Some(crate::ui::ModelChoice::builtin()),
+        model: Some(model),
         tab: crate::ui::Tab::Scan,
         start: false,
     })

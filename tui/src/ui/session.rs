@@ -47,10 +47,17 @@ pub struct ModelChoice {
 }
 
 impl ModelChoice {
-    /// The model that ships with fringe, on the default backend.
-    pub fn builtin() -> ModelChoice {
+    /// The rig's sensor's commissioned model (`fringe commission`), else the model that ships
+    /// with fringe; on the default backend.
+    pub fn for_rig(config: &fringe_app::RigConfig) -> ModelChoice {
+        let commissioned = config.sensor_id().ok().and_then(|unit| {
+            fringe_app::commission::certificate::commissioned_model(&config.profile_dir(), &unit)
+                .0
+                .map(|c| c.model)
+        });
         ModelChoice {
-            path: PathBuf::from(fringe_sensor_models::builtin::DEFAULT),
+            path: commissioned
+                .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
             backend: BackendKind::Tract,
             threads: 2,
         }

@@ -121,9 +121,14 @@ impl Runs {
                 workers::verify(name, dir, self.verify.0.clone());
             }
             Action::Evaluate => {
-                // The session's model (the one that ships when none was named).
+                // The session's model (the unit's commissioned one, else the one that ships,
+                // when none was named).
                 row.evaluated = Some("evaluating...".into());
-                let choice = app.opts.model.clone().unwrap_or_else(ModelChoice::builtin);
+                let choice = app
+                    .opts
+                    .model
+                    .clone()
+                    .unwrap_or_else(|| ModelChoice::for_rig(&app.opts.config));
                 workers::evaluate(name, dir, choice, self.evaluate.0.clone());
             }
             Action::Export => {
