@@ -10,24 +10,20 @@
 mod certify;
 mod last_block;
 mod rounds;
+mod session;
 
-use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::commission::certificate::{directory_name, PROFILE};
-use fringe_app::commission::journal::{
-    completed, run_state, Journal, Options, RunState, ScanEntry,
-};
+use fringe_app::commission::journal::{Journal, Options, ScanEntry};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::profile::Profile;
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::Plan;
 use fringe_sensor_models::acceptance::Spec;
+use session::{estimate_s, scan, set_aside, Commissioning};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 #[derive(clap::Args)]
 pub struct CommissionArgs {
@@ -80,19 +76,6 @@ pub struct CommissionArgs {
     /// Answer every operator prompt with "continue".
     #[arg(long)]
     yes: bool,
-}
-
-/// A commissioning under way: where it lives and what it was asked.
-pub(crate) struct Commissioning<'a> {
-    pub dir: PathBuf,
-    pub journal: Journal,
-    pub config: RigConfig,
-    pub spec: Spec,
-    pub global: &'a Global,
-    pub yes: bool,
-    pub threads: usize,
-    /// Computation time so far (features, fits, evaluation), s.
-    pub compute_s: f64,
 }
 
 pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
@@ -258,94 +241,4 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
     }
     c.journal.write(&c.dir)?;
     Ok(result.profile)
-}
-
-/// The bench time `plan` is estimated to take on the rig, s.
-pub(crate) fn estimate_s(plan: &str, config: &RigConfig) -> Result<f64> {
-    let limits = config.limits()?;
-    let program =
-        Plan::parse(plan, "commissioning plan")?.program(&limits, "commissioning plan")?;
-    Ok(program.estimate(&limits).total.as_secs_f64())
-}
-
-/// Runs (or resumes, or takes as done) the scan of `entry` into the directory's `runs/`; its
-/// run directory and the bench time it took now, s. An error unless it completed.
-pub(crate) fn scan(
-    c: &Commissioning<'_>,
-    entry: &ScanEntry,
-    profile_use: ProfileUse,
-) -> Result<(PathBuf, f64)> {
-    let root = c.dir.join("runs");
-    let run_dir = root.join(&entry.run_id);
-    let state = run_state(&run_dir)?;
-    if completed(&state) {
-        return Ok((run_dir, 0.0));
-    }
-    let target = match state {
-        RunState::Absent => RunTarget::New {
-            root,
-            run_id: entry.run_id.clone(),
-        },
-        RunState::Unfinished => {
-            if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(&run_dir)? {
-                if stop.exit_status == fringe_rig::store::documents::ExitStatus::Completed {
-                    return Ok((run_dir, 0.0));
-                }
-            }
-            println!("resuming the run {}", run_dir.display());
-            RunTarget::Resume {
-                dir: run_dir.clone(),
-            }
-        }
-        RunState::Ended(stop) => {
-            let kept = set_aside(&run_dir)?;
-            println!(
-                "the scan {} ended {} ({}); it is kept as {} and pressed again",
-                entry.run_id,
-                format!("{:?}", stop.exit_status).to_lowercase(),
-                stop.reason,
-                kept.display()
-            );
-            RunTarget::New {
-                root,
-                run_id: entry.run_id.clone(),
-            }
-        }
-    };
-    let limits = c.config.limits()?;
-    let program = Plan::parse(&entry.plan, &entry.run_id)?.program(&limits, &entry.run_id)?;
-    let started = Instant::now();
-    let end = execute(
-        &c.config,
-        program,
-        entry.plan.clone(),
-        target,
-        c.yes,
-        profile_use,
-        c.global,
-        &mut |_| Ok(()),
-    )?;
-    let outcome = end.outcome;
-    if outcome.status != fringe_rig::store::documents::ExitStatus::Completed {
-        bail!(
-            "the scan {} stopped ({}); resume the commissioning to finish it: fringe commission --resume {}",
-            outcome.run_dir.display(),
-            outcome.reason,
-            c.dir.display()
-        );
-    }
-    Ok((outcome.run_dir, started.elapsed().as_secs_f64()))
-}
-
-/// Moves a run that ended without completing out of the way (`<run>.stopped-N`), kept whole.
-fn set_aside(run_dir: &Path) -> Result<PathBuf> {
-    for n in 1..1000 {
-        let to = run_dir.with_extension(format!("stopped-{n}"));
-        if !to.exists() {
-            std::fs::rename(run_dir, &to)
-                .with_context(|| format!("cannot move {} aside", run_dir.display()))?;
-            return Ok(to);
-        }
-    }
-    bail!("{}: too many stopped runs beside it", run_dir.display())
 }

@@ -3,7 +3,7 @@
 //! on it and judged against the spec, the report and the certificate.
 
 use super::rounds::{shapes, Adaptation, LATTICE_MM};
-use super::{estimate_s, scan, Commissioning};
+use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::adapt::adapted_card;
 use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::model::open_model;

@@ -1,7 +1,7 @@
 //! Step 3's second candidate: the custom CNN's last block trained again with its heads on the
 //! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
 
-use super::Commissioning;
+use super::session::Commissioning;
 use crate::cmd::frames_progress::FramesProgress;
 use anyhow::Result;
 use fringe_sensor_models::adapt::last_block::{

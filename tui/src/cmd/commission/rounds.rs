@@ -2,7 +2,7 @@
 //! by the model as adapted on every press before it (an honest held-out learning curve), then
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
-use super::{estimate_s, scan, Commissioning};
+use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::model::{check_design, open_model};
 use anyhow::{bail, Result};
