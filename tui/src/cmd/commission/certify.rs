@@ -267,7 +267,7 @@ fn write_report(
     )
     .save(c.dir.join("learning.png"))
     .context("learning.png")?;
-    press_map(&a.pressed)
+    press_map(&a.pressed, &a.disc)
         .save(c.dir.join("presses.png"))
         .context("presses.png")?;
     let mut md = format!(
@@ -312,45 +312,64 @@ fn write_report(
     Ok(())
 }
 
-/// The adaptive presses on the stage, each a disc coloured by its error (spec units).
-fn press_map(pressed: &[PressedPoint]) -> image::RgbImage {
-    use fringe_calibration::registration::plot::{circle, dot, text};
+/// The adaptive presses on the stage over the usable disc (grey circle, its centre marked), each
+/// a dot coloured by its error before adaptation (spec units: green at or under the threshold,
+/// red at three times it and over).
+fn press_map(pressed: &[PressedPoint], disc: &UsableDisc) -> image::RgbImage {
+    use fringe_calibration::registration::plot::{circle, dot, line, text};
     let side = 560u32;
     let mut img = image::RgbImage::from_pixel(side, side, image::Rgb([255, 255, 255]));
-    if pressed.is_empty() {
-        return img;
-    }
-    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
-    for p in pressed {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p.stage_mm[k]);
-            hi[k] = hi[k].max(p.stage_mm[k]);
-        }
-    }
-    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
-    let margin = 60.0;
-    let scale = (f64::from(side) - 2.0 * margin) / span;
+    let margin = 50.0;
+    let scale = (f64::from(side) - 2.0 * margin) / (2.0 * disc.reach_mm.max(1e-3));
+    let middle = f64::from(side) / 2.0;
+    // Stage x to the right, stage y up.
     let at = |p: [f64; 2]| {
         [
-            margin + (p[0] - lo[0]) * scale,
-            f64::from(side) - margin - (p[1] - lo[1]) * scale,
+            middle + (p[0] - disc.centre_mm[0]) * scale,
+            middle - (p[1] - disc.centre_mm[1]) * scale,
         ]
     };
+    let grey = [170, 170, 170];
+    circle(&mut img, [middle, middle], disc.reach_mm * scale, grey);
+    line(
+        &mut img,
+        [middle - 8.0, middle],
+        [middle + 8.0, middle],
+        grey,
+    );
+    line(
+        &mut img,
+        [middle, middle - 8.0],
+        [middle, middle + 8.0],
+        grey,
+    );
     for p in pressed {
         let t = ((p.error - 1.0) / 2.0).clamp(0.0, 1.0);
         let colour = [(40.0 + 190.0 * t) as u8, (170.0 - 130.0 * t) as u8, 40];
         let c = at(p.stage_mm);
-        dot(&mut img, c, 9.0, colour);
-        circle(&mut img, c, 9.0, [0, 0, 0]);
+        dot(&mut img, c, 8.0, colour);
+        circle(&mut img, c, 8.0, [0, 0, 0]);
     }
-    text(&mut img, 10, 10, 2, "adaptive presses, stage mm", [0, 0, 0]);
+    let black = [0, 0, 0];
+    text(
+        &mut img,
+        10,
+        10,
+        2,
+        "adaptive presses: error before adaptation",
+        black,
+    );
+    text(&mut img, 10, 30, 2, "green at the spec, red at 3x", black);
     text(
         &mut img,
         10,
         i64::from(side) - 24,
         2,
-        &format!("x {:.1}-{:.1}  y {:.1}-{:.1}", lo[0], hi[0], lo[1], hi[1]),
-        [0, 0, 0],
+        &format!(
+            "disc: {:.1} mm about stage x {:.1} y {:.1} mm",
+            disc.reach_mm, disc.centre_mm[0], disc.centre_mm[1]
+        ),
+        black,
     );
     img
 }

@@ -40,6 +40,8 @@ pub(crate) struct Adaptation {
     pub runs: Vec<PathBuf>,
     pub curve: Vec<CurvePoint>,
     pub pressed: Vec<PressedPoint>,
+    /// Where presses could go.
+    pub disc: UsableDisc,
 }
 
 impl Adaptation {
@@ -153,6 +155,7 @@ pub(crate) fn adapt(
         runs: state.runs,
         curve: state.curve,
         pressed: state.pressed,
+        disc,
     })
 }
 
