@@ -39,15 +39,16 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
     text: include_str!("../plans/demo.toml"),
 };
 
-/// The presses of `fringe commission` (its rounds and acceptance scan replace the points).
+/// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
+/// indenters): a template, not among the plans offered to run ([`ALL`]).
 pub const COMMISSION: BuiltinPlan = BuiltinPlan {
     name: "commission",
     path: "tui/app/plans/commission.toml",
     text: include_str!("../plans/commission.toml"),
 };
 
-/// Every built-in plan.
-pub const ALL: [BuiltinPlan; 4] = [SHORT_GRID, CALIBRATION, DEMO, COMMISSION];
+/// Every built-in plan offered to run.
+pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
 
 /// A built-in plan by name.
 pub fn by_name(name: &str) -> Option<BuiltinPlan> {
@@ -66,7 +67,7 @@ pub struct PlanFileError {
 fn advice(e: &std::io::Error) -> &'static str {
     match e.kind() {
         std::io::ErrorKind::NotFound => {
-            " (check the path; the built-in plans are short-grid, calibration, demo and commission, with commented copies in tui/app/plans/)"
+            " (check the path; the built-in plans are short-grid, calibration and demo, with commented copies in tui/app/plans/)"
         }
         std::io::ErrorKind::PermissionDenied => " (make the file readable by your user)",
         _ => " (a plan is a TOML text file; see tui/app/plans/ for examples)",
@@ -89,12 +90,19 @@ mod tests {
     #[test]
     fn every_built_in_plan_is_valid_on_the_simulated_bench() {
         let limits = crate::RigConfig::simulated().limits().expect("limits");
-        for plan in ALL {
+        for plan in ALL.into_iter().chain([COMMISSION]) {
             let parsed = Plan::parse(plan.text, &plan.origin()).expect("parses");
             assert_eq!(parsed.name, plan.name);
             let program = parsed.program(&limits, &plan.origin()).expect("valid");
             assert!(!program.points.is_empty());
+        }
+        for plan in ALL {
             assert_eq!(by_name(plan.name), Some(plan));
         }
+        assert_eq!(
+            by_name(COMMISSION.name),
+            None,
+            "a template, not offered to run"
+        );
     }
 }
