@@ -129,9 +129,14 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
         (Some(text), path.display().to_string())
     };
     rounds::open_base(&a.base.display().to_string(), config.sensor_variant()?)?;
+    // A base file is kept by its absolute path: a resume from another directory finds it.
+    let base = match fringe_sensor_models::builtin::named(&a.base) {
+        Some(_) => a.base.clone(),
+        None => std::fs::canonicalize(&a.base).unwrap_or_else(|_| a.base.clone()),
+    };
     let journal = Journal::new(Options {
         sensor: sensor.to_string(),
-        base: a.base.display().to_string(),
+        base: base.display().to_string(),
         budget_min: budget,
         spec: spec_text,
         spec_origin,
