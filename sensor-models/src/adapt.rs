@@ -305,23 +305,55 @@ fn read_features(
     sources: &[Source],
     profile: Option<&Profile>,
     threads: usize,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<Features, AdaptError> {
-    let shown = model.path.display().to_string();
     let proto = model
         .onnx()
         .ok()
         .and_then(features_graph)
-        .ok_or_else(|| AdaptError::NotWeights(shown.clone()))?;
-    let features_err = |source| AdaptError::Features {
-        path: shown.clone(),
+        .ok_or_else(|| AdaptError::NotWeights(model.path.display().to_string()))?;
+    let run = run_cut_graph(model, proto, sources, profile, threads, progress)?;
+    let width = run.per_frame;
+    let matrix = DMatrix::from_fn(run.samples.len(), width, |i, j| {
+        f64::from(run.values[i * width + j])
+    });
+    Ok(Features {
+        matrix,
+        samples: run.samples,
+        shapes: run.shapes,
+    })
+}
+
+/// A cut of a network run over frames: its first output, frame after frame.
+pub(crate) struct CutRun {
+    pub values: Vec<f32>,
+    /// Values per frame.
+    pub per_frame: usize,
+    pub samples: Vec<Sample>,
+    pub shapes: Vec<usize>,
+}
+
+/// Runs `proto` (a graph cut from `model`'s network) over every frame of `sources`, each
+/// preprocessed as evaluation does (its run's profile, else `profile`), on `threads` threads;
+/// `progress` hears (frames done, frames in all). The one reading of a network's insides for
+/// adaptation: the heads' features and the last block's inputs.
+pub(crate) fn run_cut_graph(
+    model: &Model,
+    proto: tract_onnx::pb::ModelProto,
+    sources: &[Source],
+    profile: Option<&Profile>,
+    threads: usize,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<CutRun, AdaptError> {
+    let err = |source| AdaptError::Features {
+        path: model.path.display().to_string(),
         source,
     };
-    let mut graph = TractGraph::new(proto, threads).map_err(features_err)?;
+    let mut graph = TractGraph::new(proto, threads).map_err(err)?;
     let total: usize = sources.iter().map(|s| s.samples.len()).sum();
-    let mut rows: Vec<Vec<f32>> = Vec::with_capacity(total);
-    let mut samples = Vec::with_capacity(total);
-    let mut shapes = Vec::with_capacity(total);
+    let mut values = Vec::new();
+    let (mut samples, mut shapes) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    let mut per_frame = 0;
     let mut failed = None;
     for_each_batch(model, sources, profile, None, |batch| {
         let n = batch.samples.len();
@@ -329,9 +361,10 @@ fn read_features(
             .run(&batch.input, n, model.input_size)
             .and_then(|out| {
                 let flat = out.into_iter().next().unwrap_or_default();
-                if flat.is_empty() || flat.len() % n != 0 {
+                let per = flat.len() / n.max(1);
+                if flat.is_empty() || flat.len() % n != 0 || (per_frame != 0 && per != per_frame) {
                     return Err(InferenceError::Outputs(format!(
-                        "the features of {n} frames came as {} values",
+                        "the network's values for {n} frames came as {} values",
                         flat.len()
                     )));
                 }
@@ -339,14 +372,14 @@ fn read_features(
             });
         match read {
             Ok(flat) => {
-                let width = flat.len() / n;
-                rows.extend(flat.chunks_exact(width).map(<[f32]>::to_vec));
+                per_frame = flat.len() / n;
+                values.extend(flat);
             }
             Err(e) => {
                 failed = Some(e);
                 return Err(EvalError::Image {
                     path: batch.samples[0].image.display().to_string(),
-                    message: "the network's features could not be read".into(),
+                    message: "the network's insides could not be read".into(),
                 });
             }
         }
@@ -356,13 +389,12 @@ fn read_features(
         Ok(())
     })
     .map_err(|e| match failed.take() {
-        Some(source) => features_err(source),
+        Some(source) => err(source),
         None => AdaptError::Eval(e),
     })?;
-    let width = rows.first().map_or(0, Vec::len);
-    let matrix = DMatrix::from_fn(rows.len(), width, |i, j| f64::from(rows[i][j]));
-    Ok(Features {
-        matrix,
+    Ok(CutRun {
+        values,
+        per_frame,
         samples,
         shapes,
     })

@@ -10,11 +10,9 @@
 //! least held-out error, and epoch 0 (the heads alone, fitted on the other presses) is a
 //! candidate, so the block is used only where it does better on presses it never saw.
 
-use super::{AdaptError, Features};
-use crate::backend::tract::TractGraph;
+use super::{run_cut_graph, AdaptError, Features};
 use crate::backend::InferenceError;
 use crate::dataset::{Sample, Source};
-use crate::eval::{for_each_batch, EvalError};
 use crate::metrics::{Errors, Scored};
 use crate::model::Model;
 use crate::onnx_graph::conv_input_graph;
@@ -51,9 +49,8 @@ impl BlockInputs {
         sources: &[Source],
         threads: usize,
         every: usize,
-        mut progress: impl FnMut(usize, usize),
+        progress: impl FnMut(usize, usize),
     ) -> Result<Option<BlockInputs>, AdaptError> {
-        let shown = model.path.display().to_string();
         let Some(proto) = model
             .onnx()
             .ok()
@@ -61,11 +58,6 @@ impl BlockInputs {
         else {
             return Ok(None);
         };
-        let err = |source| AdaptError::Features {
-            path: shown.clone(),
-            source,
-        };
-        let mut graph = TractGraph::new(proto, threads).map_err(err)?;
         let thinned: Vec<Source> = sources
             .iter()
             .map(|s| Source {
@@ -73,32 +65,8 @@ impl BlockInputs {
                 ..s.clone()
             })
             .collect();
-        let total: usize = thinned.iter().map(|s| s.samples.len()).sum();
-        let mut values = Vec::new();
-        let (mut samples, mut shapes) = (Vec::with_capacity(total), Vec::with_capacity(total));
-        let mut failed = None;
-        for_each_batch(model, &thinned, None, None, |batch| {
-            let n = batch.samples.len();
-            match graph.run(&batch.input, n, model.input_size) {
-                Ok(out) => values.extend(out.into_iter().next().unwrap_or_default()),
-                Err(e) => {
-                    failed = Some(e);
-                    return Err(EvalError::Image {
-                        path: batch.samples[0].image.display().to_string(),
-                        message: "the network's last block inputs could not be read".into(),
-                    });
-                }
-            }
-            samples.extend_from_slice(batch.samples);
-            shapes.extend(batch.shapes);
-            progress(samples.len(), total);
-            Ok(())
-        })
-        .map_err(|e| match failed.take() {
-            Some(source) => err(source),
-            None => AdaptError::Eval(e),
-        })?;
-        let per = values.len() / samples.len().max(1);
+        let run = run_cut_graph(model, proto, &thinned, None, threads, progress)?;
+        let per = run.per_frame;
         let channels = model
             .weights()
             .and_then(|w| w.get(&format!("{BLOCK}.weight")))
@@ -106,17 +74,20 @@ impl BlockInputs {
             .unwrap_or(0);
         let side = ((per / channels.max(1)) as f64).sqrt().round() as usize;
         if channels == 0 || side < 2 || channels * side * side != per {
-            return Err(err(InferenceError::Outputs(format!(
-                "the last block's input came as {per} values per frame, not channels x side x side"
-            ))));
+            return Err(AdaptError::Features {
+                path: model.path.display().to_string(),
+                source: InferenceError::Outputs(format!(
+                    "the last block's input came as {per} values per frame, not channels x side x side"
+                )),
+            });
         }
         Ok(Some(BlockInputs {
-            values,
+            values: run.values,
             channels,
             height: side,
             width: side,
-            samples,
-            shapes,
+            samples: run.samples,
+            shapes: run.shapes,
         }))
     }
 
