@@ -2,6 +2,8 @@
 //! `fringe calibrate --images` and the frames of a calibration scan's run.
 
 use crate::optical::grey::{self, GreyImage};
+use fringe_rig::camera::{debayer, PixelFormat};
+use fringe_rig::store::frame_file::FrameStorage;
 use std::path::{Path, PathBuf};
 
 /// A frame file that could not be used, naming it.
@@ -25,13 +27,47 @@ pub enum FrameError {
     },
     #[error("no frames to read")]
     Empty,
+    #[error("cannot read frame {path}: {message}")]
+    Stored { path: PathBuf, message: String },
 }
 
-/// Reads one frame file.
-pub fn read(path: &Path) -> Result<image::DynamicImage, FrameError> {
-    image::open(path).map_err(|source| FrameError::Read {
+/// Reads one frame file: as its run stored it when `storage` is given (a BayerRG8 mosaic
+/// demosaiced by fringe's one demosaicing), else as an ordinary image. Calibration needs whole
+/// frames: a run that stored only the disc's square is refused.
+pub fn read(
+    path: &Path,
+    storage: Option<&FrameStorage>,
+) -> Result<image::DynamicImage, FrameError> {
+    let Some(storage) = storage else {
+        return image::open(path).map_err(|source| FrameError::Read {
+            path: path.to_path_buf(),
+            source,
+        });
+    };
+    let stored = storage.read(path).map_err(|e| FrameError::Stored {
         path: path.to_path_buf(),
-        source,
+        message: e.to_string(),
+    })?;
+    if stored.cutout.is_some() {
+        return Err(FrameError::Stored {
+            path: path.to_path_buf(),
+            message: "the run stored only the square around the disc: calibration needs whole \
+                      frames (run a calibration scan, which stores them)"
+                .into(),
+        });
+    }
+    let (w, h) = (stored.width, stored.height);
+    let image = match stored.format {
+        PixelFormat::Mono8 => image::GrayImage::from_raw(w, h, stored.data).map(Into::into),
+        PixelFormat::Rgb8 => image::RgbImage::from_raw(w, h, stored.data).map(Into::into),
+        PixelFormat::BayerRg8 => {
+            image::RgbImage::from_raw(w, h, debayer::to_rgb8(&stored.data, w as usize, h as usize))
+                .map(Into::into)
+        }
+    };
+    image.ok_or_else(|| FrameError::Stored {
+        path: path.to_path_buf(),
+        message: format!("{w}x{h} pixels do not match the file's bytes"),
     })
 }
 
@@ -41,12 +77,15 @@ pub fn spread<T: Clone>(paths: &[T], max: usize) -> Vec<T> {
     paths.iter().step_by(step).cloned().collect()
 }
 
-/// The grey mean of the frame files `paths` (all the same size).
-pub fn grey_average(paths: &[PathBuf]) -> Result<GreyImage, FrameError> {
+/// The grey mean of the frame files `paths` (all the same size), read as [`read`] does.
+pub fn grey_average(
+    paths: &[PathBuf],
+    storage: Option<&FrameStorage>,
+) -> Result<GreyImage, FrameError> {
     let first = paths.first().ok_or(FrameError::Empty)?;
     let mut frames = Vec::with_capacity(paths.len());
     for path in paths {
-        let g = GreyImage::from_image(&read(path)?);
+        let g = GreyImage::from_image(&read(path, storage)?);
         check_size(path, first, &frames, g.width, g.height)?;
         frames.push(g);
     }
@@ -65,12 +104,15 @@ pub fn grey_average(paths: &[PathBuf]) -> Result<GreyImage, FrameError> {
 }
 
 /// The RGB mean of the frame files `paths` (all the same size), as f32 DN row-major RGB.
-pub fn rgb_average(paths: &[PathBuf]) -> Result<(usize, usize, Vec<f32>), FrameError> {
+pub fn rgb_average(
+    paths: &[PathBuf],
+    storage: Option<&FrameStorage>,
+) -> Result<(usize, usize, Vec<f32>), FrameError> {
     let first = paths.first().ok_or(FrameError::Empty)?;
     let mut sum: Vec<f32> = Vec::new();
     let (mut w, mut h) = (0, 0);
     for (k, path) in paths.iter().enumerate() {
-        let img = read(path)?.to_rgb8();
+        let img = read(path, storage)?.to_rgb8();
         let (iw, ih) = (img.width() as usize, img.height() as usize);
         if k == 0 {
             (w, h) = (iw, ih);
@@ -134,10 +176,10 @@ mod tests {
         let b = dir.join("b.png");
         image::RgbImage::new(8, 6).save(&a).expect("a");
         image::RgbImage::new(6, 6).save(&b).expect("b");
-        let e = grey_average(&[a.clone(), b.clone()]).expect_err("sizes differ");
+        let e = grey_average(&[a.clone(), b.clone()], None).expect_err("sizes differ");
         let text = e.to_string();
         assert!(text.contains("b.png") && text.contains("a.png"), "{text}");
-        let e = rgb_average(&[a, b]).expect_err("sizes differ");
+        let e = rgb_average(&[a, b], None).expect_err("sizes differ");
         assert!(e.to_string().contains("6x6 px"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }

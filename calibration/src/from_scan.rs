@@ -106,10 +106,12 @@ fn optical_fit(
         });
     }
     let used = frames::spread(&run.background, max_frames);
-    let background = frames::grey_average(&used).map_err(|source| FromScanError::Frames {
-        run: name.to_string(),
-        source,
-    })?;
+    let storage = run.start.frame_storage();
+    let background =
+        frames::grey_average(&used, Some(&storage)).map_err(|source| FromScanError::Frames {
+            run: name.to_string(),
+            source,
+        })?;
     let fit = optical::find_disc_in(&background).map_err(|source| FromScanError::Optical {
         run: name.to_string(),
         source,
@@ -118,10 +120,11 @@ fn optical_fit(
 }
 
 /// Reads the frames at `paths` as RGB images.
-fn read_rgb(paths: &[std::path::PathBuf]) -> Result<Vec<RgbImage>, FrameError> {
+fn read_rgb(run: &ScanRun, paths: &[std::path::PathBuf]) -> Result<Vec<RgbImage>, FrameError> {
+    let storage = run.start.frame_storage();
     paths
         .iter()
-        .map(|p| frames::read(p).map(|i| i.to_rgb8()))
+        .map(|p| frames::read(p, Some(&storage)).map(|i| i.to_rgb8()))
         .collect()
 }
 
@@ -133,10 +136,10 @@ fn registration_background(
     spot: SpotSettings,
     name: &str,
 ) -> Result<ContactBackground, FromScanError> {
-    let bg_frames = read_rgb(&frames::spread(
-        &run.background,
-        REGISTRATION_BACKGROUND_FRAMES,
-    ))
+    let bg_frames = read_rgb(
+        run,
+        &frames::spread(&run.background, REGISTRATION_BACKGROUND_FRAMES),
+    )
     .map_err(|source| FromScanError::Frames {
         run: name.to_string(),
         source,
@@ -166,7 +169,7 @@ fn locate_presses(
     let mut presses = Vec::with_capacity(run.presses.len());
     let mut example: Option<(f64, RgbImage, ContactSpot)> = None;
     for p in &run.presses {
-        let pressed = read_rgb(&p.files).map_err(|source| FromScanError::Frames {
+        let pressed = read_rgb(run, &p.files).map_err(|source| FromScanError::Frames {
             run: name.to_string(),
             source,
         })?;

@@ -14,7 +14,7 @@
 use crate::offsets::{self, Bias};
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::store::documents::{Event, FrameRecord, StartDocument};
-use fringe_rig::store::run_writer::{read_document, read_lines};
+use fringe_rig::store::run_writer::read_lines;
 use fringe_rig::store::{self, force_log, StoreError};
 use fringe_rig::units::Wrench;
 use std::path::{Path, PathBuf};
@@ -65,7 +65,7 @@ pub enum ScanRunError {
 impl ScanRun {
     /// Reads the run at `dir`.
     pub fn read(dir: &Path) -> Result<ScanRun, ScanRunError> {
-        let start: StartDocument = read_document(&dir.join(store::START))?;
+        let start: StartDocument = store::read_start(dir)?;
         let frames_path = dir.join(store::FRAMES);
         let (records, _torn) = read_lines::<FrameRecord>(&frames_path)?;
         if records.is_empty() {

@@ -3,6 +3,7 @@
 
 #[cfg(feature = "aravis")]
 pub mod aravis;
+pub mod debayer;
 pub mod trace;
 pub mod writer;
 
@@ -51,6 +52,16 @@ pub struct Roi {
     pub y: u32,
     pub width: u32,
     pub height: u32,
+}
+
+/// A part of the camera's frames kept on its own: `roi` cut out of `frame_width` x
+/// `frame_height` frames (a run that stores only the square around the disc). Coordinates in the
+/// part plus (`roi.x`, `roi.y`) are coordinates in the full frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Cutout {
+    pub roi: Roi,
+    pub frame_width: u32,
+    pub frame_height: u32,
 }
 
 /// Everything set on a camera before acquisition.
@@ -129,14 +140,16 @@ impl CameraSettings {
 }
 
 impl Default for CameraSettings {
-    /// The reference rig: free run at 50 fps, 2000 us exposure, gain 0, full frame RGB.
+    /// The reference rig: free run at 50 fps, 2000 us exposure, gain 0, full frame in the
+    /// colour camera's native BayerRG8 (one byte per pixel: the daA1920-160uc reaches its full
+    /// rate over USB3 only in 8-bit Bayer; RGB8 is interpolated in the camera from the mosaic).
     fn default() -> Self {
         CameraSettings {
             exposure: Microseconds(2000.0),
             gain: Decibels(0.0),
             frame_rate: Hertz(50.0),
             roi: None,
-            pixel_format: PixelFormat::Rgb8,
+            pixel_format: PixelFormat::BayerRg8,
             trigger: TriggerMode::FreeRun,
             exposure_active_line: None,
         }

@@ -6,7 +6,7 @@
 //!   frames.jsonl      one record per frame (appended, one line each)
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
-//!   frames/NNNNNNNN.png  lossless frames
+//!   frames/NNNNNNNN.png  lossless frames, stored as start.json's `frames` says (frame_file)
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
@@ -18,6 +18,7 @@
 //! - [`disk_space`]: room left on the disk, checked before long writes.
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
+//! - [`frame_file`]: how the frames are stored (pixel format, region, encoding), written and read.
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
 //! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
@@ -33,6 +34,7 @@ pub mod durable;
 pub mod error;
 pub mod export;
 pub mod force_log;
+pub mod frame_file;
 pub mod layout;
 pub mod manifest;
 pub mod own_file;

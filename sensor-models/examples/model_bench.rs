@@ -90,6 +90,7 @@ fn main() {
                 height: h,
                 format,
                 data,
+                cutout: None,
             };
             let (med, mean) = time(n, || {
                 pre.run_into(frame, 0.0, &mut out).expect("preprocess");

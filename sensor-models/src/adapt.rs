@@ -626,7 +626,7 @@ mod tests {
     fn sample(press: &str) -> Sample {
         Sample {
             image: PathBuf::from(format!("{press}.png")),
-            format: None,
+            storage: None,
             force: [0.0; 7],
             shape: "None".into(),
             contact: None,

@@ -4,12 +4,12 @@
 //! rule (|Fz| under 0.2 N: shape `None`, no contact point).
 
 use fringe_calibration::profile::Profile;
-use fringe_rig::camera::PixelFormat;
 use fringe_rig::reference_layout::{
     in_contact, read_labels, LabelsError, IMAGES, LABELS, NO_CONTACT,
 };
-use fringe_rig::store::documents::{FrameRecord, StartDocument};
-use fringe_rig::store::run_writer::{read_document, read_lines};
+use fringe_rig::store::documents::FrameRecord;
+use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::store::run_writer::{read_lines, read_start};
 use fringe_rig::store::{FRAMES, START};
 use fringe_rig::units::Newtons;
 use std::path::{Path, PathBuf};
@@ -18,9 +18,9 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sample {
     pub image: PathBuf,
-    /// How the image file's pixels are to be read (a run's Bayer frames are stored as the raw
-    /// mosaic in a grey PNG).
-    pub format: Option<PixelFormat>,
+    /// How the image file's pixels are stored: the run's ([`FrameStorage`]); `None` for an
+    /// ordinary image file (the reference layout).
+    pub storage: Option<FrameStorage>,
     /// [Fx Fy Fz Mx My Mz Ft] as magnitudes.
     pub force: [f64; 7],
     /// "None" or the indenter's name.
@@ -91,13 +91,13 @@ pub fn from_record(
     r: &FrameRecord,
     run_id: &str,
     image: PathBuf,
-    format: Option<PixelFormat>,
+    storage: Option<FrameStorage>,
 ) -> Option<Sample> {
     let w = r.wrench.filter(|_| r.valid)?;
     let (force, shape, contact) = label(w.to_array(), &r.shape, r.contact);
     Some(Sample {
         image,
-        format,
+        storage,
         force,
         shape,
         contact,
@@ -119,19 +119,8 @@ pub fn read(path: &Path) -> Result<Source, DatasetError> {
     }
 }
 
-/// The pixel format a run's camera delivered (from the rig text in its start document).
-fn run_format(start: &StartDocument) -> Option<PixelFormat> {
-    let rig: toml::Value = toml::from_str(&start.rig).ok()?;
-    match rig.get("camera")?.get("pixel_format")?.as_str()? {
-        "bayerrg8" => Some(PixelFormat::BayerRg8),
-        "mono8" => Some(PixelFormat::Mono8),
-        "rgb8" => Some(PixelFormat::Rgb8),
-        _ => None,
-    }
-}
-
 fn read_run(dir: &Path) -> Result<Source, DatasetError> {
-    let start: StartDocument = read_document(&dir.join(START))?;
+    let start = read_start(dir)?;
     let (records, _) = read_lines::<FrameRecord>(&dir.join(FRAMES))?;
     let profile = match &start.calibration_profile {
         Some(p) => {
@@ -144,11 +133,11 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
         }
         None => None,
     };
-    let format = run_format(&start);
+    let storage = Some(start.frame_storage());
     let mut samples = Vec::with_capacity(records.len());
     let mut skipped = 0;
     for r in &records {
-        match from_record(r, &start.run_id, dir.join(&r.file), format) {
+        match from_record(r, &start.run_id, dir.join(&r.file), storage) {
             Some(s) => samples.push(s),
             None => skipped += 1,
         }
@@ -168,7 +157,7 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
         let (force, shape, contact) = label(row.wrench, row.shape.as_str(), row.contact);
         samples.push(Sample {
             image: dir.join(IMAGES).join(&row.image),
-            format: None,
+            storage: None,
             force,
             shape,
             contact,

@@ -6,10 +6,10 @@ use crate::dataset::{Sample, Source};
 use crate::metrics::{Metrics, Scored};
 use crate::model::{Model, ModelError};
 use crate::prediction::{predictions, Prediction};
-use crate::preprocess::{image_bytes, FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
+use crate::preprocess::{FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::CONTACT_THRESHOLD;
-use std::path::Path;
+use fringe_rig::store::frame_file::{read_plain, StoredFrame};
 
 /// Frames run through the network at once.
 const BATCH: usize = 8;
@@ -90,25 +90,28 @@ pub fn force_level(fz: f64) -> String {
     }
 }
 
-/// Reads an image file as the frame the camera gave (`format` says how a run stored it).
-pub(crate) fn frame_bytes(
-    path: &Path,
-    format: Option<fringe_rig::camera::PixelFormat>,
-) -> Result<(u32, u32, Vec<u8>, fringe_rig::camera::PixelFormat), EvalError> {
-    let img = image::open(path).map_err(|e| EvalError::Image {
-        path: path.display().to_string(),
+/// Reads a sample's frame file as the camera delivered it, as its run stored it (or as an
+/// ordinary image file).
+pub(crate) fn read_frame(s: &Sample) -> Result<StoredFrame, EvalError> {
+    match &s.storage {
+        Some(storage) => storage.read(&s.image),
+        None => read_plain(&s.image),
+    }
+    .map_err(|e| EvalError::Image {
+        path: s.image.display().to_string(),
         message: e.to_string(),
-    })?;
-    let (data, read_as) = image_bytes(&img);
-    let format = match (format, read_as) {
-        // A run's Bayer mosaic is stored in a grey PNG.
-        (
-            Some(fringe_rig::camera::PixelFormat::BayerRg8),
-            fringe_rig::camera::PixelFormat::Mono8,
-        ) => fringe_rig::camera::PixelFormat::BayerRg8,
-        _ => read_as,
-    };
-    Ok((img.width(), img.height(), data, format))
+    })
+}
+
+/// The preprocessing's view of a stored frame.
+pub(crate) fn frame_ref(f: &StoredFrame) -> FrameRef<'_> {
+    FrameRef {
+        width: f.width,
+        height: f.height,
+        format: f.format,
+        data: &f.data,
+        cutout: f.cutout,
+    }
 }
 
 /// A batch of frames ready for the network: their inputs (CHW, concatenated), their samples,
@@ -150,21 +153,12 @@ pub fn for_each_batch(
                         shape: s.shape.clone(),
                         classes: model.classes.join(", "),
                     })?;
-                let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
-                pre.run_into(
-                    FrameRef {
-                        width: w,
-                        height: h,
-                        format,
-                        data: &data,
-                    },
-                    0.0,
-                    out,
-                )
-                .map_err(|source| EvalError::Frame {
-                    path: s.image.display().to_string(),
-                    source,
-                })?;
+                let frame = read_frame(s)?;
+                pre.run_into(frame_ref(&frame), 0.0, out)
+                    .map_err(|source| EvalError::Frame {
+                        path: s.image.display().to_string(),
+                        source,
+                    })?;
                 shapes.push(shape);
             }
             each(Batch {

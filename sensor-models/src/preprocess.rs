@@ -23,6 +23,7 @@ pub use source::FrameRef;
 
 use fringe_calibration::profile::Profile;
 use fringe_rig::camera::PixelFormat;
+use fringe_rig::store::frame_file::read_plain;
 use resample::{resample, Scratch, Window};
 use source::{pixels, Channels, Pixels, Rotated};
 use std::path::Path;
@@ -103,11 +104,8 @@ pub enum PreprocessError {
     Centre(f64, f64),
     #[error("input size {0} px is outside 8..=1024")]
     InputSize(u32),
-    #[error("{path}: {source}")]
-    Image {
-        path: String,
-        source: image::ImageError,
-    },
+    #[error("{0}")]
+    File(String),
 }
 
 /// The preprocessing of one sensor and one network input.
@@ -210,28 +208,14 @@ impl Preprocessing {
     }
 
     pub fn run_file(&self, path: &Path) -> Result<Vec<f32>, PreprocessError> {
-        let img = image::open(path).map_err(|source| PreprocessError::Image {
-            path: path.display().to_string(),
-            source,
-        })?;
-        let (data, format) = image_bytes(&img);
+        let f = read_plain(path).map_err(|e| PreprocessError::File(e.to_string()))?;
         self.run(FrameRef {
-            width: img.width(),
-            height: img.height(),
-            format,
-            data: &data,
+            width: f.width,
+            height: f.height,
+            format: f.format,
+            data: &f.data,
+            cutout: None,
         })
-    }
-}
-
-/// An image's bytes as a camera frame would hold them.
-pub fn image_bytes(img: &image::DynamicImage) -> (Vec<u8>, PixelFormat) {
-    match img {
-        image::DynamicImage::ImageLuma8(g) => (g.as_raw().clone(), PixelFormat::Mono8),
-        image::DynamicImage::ImageLuma16(_) | image::DynamicImage::ImageLumaA8(_) => {
-            (img.to_luma8().into_raw(), PixelFormat::Mono8)
-        }
-        _ => (img.to_rgb8().into_raw(), PixelFormat::Rgb8),
     }
 }
 
@@ -285,11 +269,12 @@ impl Preprocessing {
     /// Refuses a frame of another size than the profile's camera gives, if the profile says.
     fn check_frame_size(&self, frame: FrameRef) -> Result<(), PreprocessError> {
         if let Some((w, h)) = self.frame_size {
-            if (w, h) != (frame.width, frame.height) {
+            let (got_w, got_h) = frame.frame_size();
+            if (w, h) != (got_w, got_h) {
                 return Err(PreprocessError::FrameSize {
                     sensor: self.sensor.clone(),
-                    got_w: frame.width,
-                    got_h: frame.height,
+                    got_w,
+                    got_h,
                     want_w: w,
                     want_h: h,
                 });
@@ -308,10 +293,14 @@ impl Preprocessing {
         rotation_deg: f64,
     ) -> (Box<dyn Pixels + 'a>, Window) {
         let n = self.input_size as usize;
-        let full_centre = match self.centre {
-            Centre::Image => [frame.width as f64 / 2.0, frame.height as f64 / 2.0],
+        let (frame_w, frame_h) = frame.frame_size();
+        let in_frame = match self.centre {
+            Centre::Image => [f64::from(frame_w) / 2.0, f64::from(frame_h) / 2.0],
             Centre::At(c) => c,
         };
+        // The centre in this image's pixels (a stored cutout starts inside the frame).
+        let origin = frame.origin();
+        let full_centre = [in_frame[0] - origin[0], in_frame[1] - origin[1]];
         // Superpixels when the output is at least 2x smaller than the crop.
         let half = 2.0 * self.crop_radius_px >= 2.0 * n as f64 && !self.reference;
         let base = pixels(frame, channels, half);

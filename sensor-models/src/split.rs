@@ -216,7 +216,7 @@ mod tests {
     fn sample(press: &str, shape: &str, fz: f64) -> Sample {
         Sample {
             image: PathBuf::from(format!("{press}.png")),
-            format: None,
+            storage: None,
             force: [0.0, 0.0, fz, 0.0, 0.0, 0.0, fz],
             shape: shape.to_string(),
             contact: (shape != "None").then_some([1.0, 2.0]),

@@ -9,8 +9,8 @@
 
 use crate::augment::{add_noise, augmentation, rotate_label, Pipeline};
 use crate::dataset::Sample;
-use crate::eval::{frame_bytes, EvalError};
-use crate::preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
+use crate::eval::{frame_ref, read_frame, EvalError};
+use crate::preprocess::{Colour, Preprocessing, Preprocessor};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// One frame to prepare: its sample, the preprocessing of its source and whether the source's
@@ -268,13 +268,8 @@ impl Job<'_, '_> {
         };
         tensor.resize(pre.config.tensor_len(), 0.0);
         let s = it.sample;
-        let (w, h, data, format) = frame_bytes(&s.image, s.format)?;
-        let frame = FrameRef {
-            width: w,
-            height: h,
-            format,
-            data: &data,
-        };
+        let stored = read_frame(s)?;
+        let frame = frame_ref(&stored);
         for copy in 0..self.copies {
             let aug = self.pipeline.map(|_| augmentation(self.seed, index, copy));
             let angle = aug.map_or(0.0, |a| a.rotation_deg);
@@ -367,7 +362,7 @@ mod tests {
         let dir = tempfile::tempdir().expect("dir");
         let s = Sample {
             image: frame(dir.path()),
-            format: None,
+            storage: None,
             force: [0.0, 0.0, 3.04, 0.0, 0.0, 0.0, 3.04],
             shape: "pentagon".into(),
             contact: Some([4.0, 0.0]),

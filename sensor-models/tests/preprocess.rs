@@ -55,6 +55,7 @@ fn rgb(data: &[u8]) -> FrameRef<'_> {
         height: H,
         format: PixelFormat::Rgb8,
         data,
+        cutout: None,
     }
 }
 
@@ -148,6 +149,7 @@ fn bayer_mono_and_rgb_frames_give_the_same_tensor_within_the_mosaic_error() {
                 height: H,
                 format: PixelFormat::BayerRg8,
                 data: &bayer,
+                cutout: None,
             })
             .expect("bayer");
         // Inside the disc (the mask's edge falls on whole superpixels, so its last ring of
@@ -178,6 +180,7 @@ fn bayer_mono_and_rgb_frames_give_the_same_tensor_within_the_mosaic_error() {
             height: H,
             format: PixelFormat::Mono8,
             data: &grey,
+            cutout: None,
         })
         .expect("mono");
     let r = p.run(rgb(&green_rgb)).expect("rgb");
@@ -202,6 +205,7 @@ fn bad_frames_are_refused_with_what_is_wrong() {
             height: 600,
             format: PixelFormat::Rgb8,
             data: &big,
+            cutout: None,
         })
         .expect_err("size")
         .to_string();

@@ -74,6 +74,7 @@ fn reference_mode_matches_torchvision() {
                 height: 1200,
                 format: PixelFormat::Rgb8,
                 data: &data,
+                cutout: None,
             })
             .expect("preprocess");
         assert_eq!(got.len(), want.len());

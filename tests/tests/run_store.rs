@@ -34,6 +34,8 @@ fn start(id: &str) -> StartDocument {
         calibration_profile: None,
         seed: Some(42),
         sync_method: "strobe".into(),
+        // A run of layout 1 (before the storage was recorded): RGB8 frames in RGB PNGs.
+        frames: None,
     }
 }
 

@@ -83,6 +83,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         seed: Some(rig.config.seed),
         profile: None,
         camera: CameraSettings::default(),
+        cutout: None,
         press: PressSettings::default(),
         watch: WatchSettings::default(),
         sidecars: Vec::new(),

@@ -1,9 +1,10 @@
 //! Acquisition throughput: full 1920x1200 frames at 50 Hz plus the 5 kHz force stream recorded
 //! into a run, with the simulated camera rendering in the same process.
 //!
-//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--bayer] [--keep-frames] [--keep-run]`
-//! (default 600 s; `--bayer`: the camera delivers its native BayerRG8 mosaic, one byte per pixel,
-//! instead of on-camera interpolated RGB8). The simulated bench presses the layered sensor with the pentagon at about
+//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--rgb] [--disc] [--keep-frames] [--keep-run]`
+//! (default 600 s; the camera delivers its native BayerRG8 mosaic, one byte per pixel, stored as
+//! colour planes in PNG; `--rgb`: on-camera interpolated RGB8 instead, in an RGB PNG; `--disc`:
+//! only the square around the disc is stored, with the rig file's default margin). The simulated bench presses the layered sensor with the pentagon at about
 //! 4 N (so every frame has fringes to render and to compress); the force stream, the camera
 //! stream and the recorder (strobe labels, lossless PNG frames, the raw force log, frame records)
 //! run on their own threads as in a scan, filming all the time. Every 10 s it prints the counts;
@@ -22,6 +23,7 @@ use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::camera::{CameraSettings, PixelFormat};
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
+use fringe_rig::store::frame_file::{FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;
@@ -77,7 +79,8 @@ fn reap_frames(dir: &Path, bytes: &mut u64) {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let keep = args.iter().any(|a| a == "--keep-frames");
-    let bayer = args.iter().any(|a| a == "--bayer");
+    let rgb = args.iter().any(|a| a == "--rgb");
+    let disc = args.iter().any(|a| a == "--disc");
     let seconds: f64 = match args.iter().find(|a| !a.starts_with("--")) {
         Some(a) => a.parse()?,
         None => 600.0,
@@ -107,6 +110,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Duration::from_secs(60),
     )?;
 
+    let pixel_format = if rgb {
+        PixelFormat::Rgb8
+    } else {
+        CameraSettings::default().pixel_format
+    };
+    let g = &config.sensor.geometry;
+    let cutout = if disc {
+        Some(FrameStorage::disc_square(
+            [
+                f64::from(g.width) / 2.0 + g.centre_offset_px[0],
+                f64::from(g.height) / 2.0 + g.centre_offset_px[1],
+            ],
+            g.disc_radius_px,
+            DISC_MARGIN_PX,
+            g.width,
+            g.height,
+        )?)
+    } else {
+        None
+    };
     let root = std::env::temp_dir().join(format!("fringe-record-bench-{}", std::process::id()));
     let start = StartDocument {
         layout_version: LAYOUT_VERSION,
@@ -119,15 +142,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         calibration_profile: None,
         seed: Some(config.seed),
         sync_method: "strobe".into(),
+        frames: Some(FrameStorage::new(pixel_format, cutout)?),
     };
     let writer = RunWriter::create(&root, &start)?;
     let run_dir = writer.dir().to_path_buf();
     let stream = ForceStream::spawn(devices.force)?;
     let monitor = stream.monitor();
-    let mut settings = CameraSettings::default();
-    if bayer {
-        settings.pixel_format = PixelFormat::BayerRg8;
-    }
+    let settings = CameraSettings {
+        pixel_format,
+        ..CameraSettings::default()
+    };
     let tick_hz = devices.camera.info().tick_frequency as f64;
     let cameras = CameraStream::spawn_with_latches(devices.camera, &settings, LATCH_PERIOD)?;
     let context = FrameContext::default();
@@ -194,7 +218,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let stored = bytes_in(&run_dir) + reaped;
     println!(
         "--- {wall:.1} s of recording, 1920x1200 {} frames, layered sensor pressed",
-        if bayer { "BayerRG8" } else { "RGB8" }
+        if rgb { "RGB8" } else { "BayerRG8" }
     );
     println!(
         "frames: {} seen, {} recorded with a label, {} without, {} dropped by the camera",

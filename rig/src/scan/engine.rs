@@ -27,7 +27,7 @@ use crate::acquire::recorder::{
 };
 use crate::acquire::strobe_labeler::StrobeLabeler;
 use crate::axis::{Axis, AxisError, StopMode};
-use crate::camera::{Camera, CameraSettings};
+use crate::camera::{Camera, CameraSettings, Cutout};
 use crate::clock::HostTime;
 use crate::devices::Devices;
 use crate::force::ForceSensor;
@@ -36,6 +36,7 @@ use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
 use crate::store::error::StoreError;
+use crate::store::frame_file::FrameStorage;
 use crate::store::run_writer::RunWriter;
 use crate::sync::method::SyncMethod;
 use crate::units::{Millimetres, Newtons};
@@ -59,6 +60,9 @@ pub struct ScanSetup {
     pub seed: Option<u64>,
     pub profile: Option<ProfileRef>,
     pub camera: CameraSettings,
+    /// The part of each frame a new run stores (the square around the disc); `None`: whole
+    /// frames. A resumed run stores what it stored before.
+    pub cutout: Option<Cutout>,
     /// Press tuning; the contact threshold, ceiling and approach limit are set from the plan and
     /// the bench.
     pub press: PressSettings,
@@ -299,16 +303,21 @@ fn start_recording(
     camera: Box<dyn Camera>,
     writer: RunWriter,
 ) -> Result<(Streams, Recorder, FrameContext), ScanError> {
+    // The camera delivers the pixel format the run stores: a resumed run's, not today's default.
+    let settings = CameraSettings {
+        pixel_format: writer.frame_storage().pixel_format,
+        ..setup.camera.clone()
+    };
     let stream = ForceStream::spawn(force)?;
     let tick_hz = camera.info().tick_frequency as f64;
     let cameras = match setup.sync {
         SyncMethod::ClockFit | SyncMethod::Strobe => {
-            CameraStream::spawn_with_latches(camera, &setup.camera, LATCH_PERIOD)?
+            CameraStream::spawn_with_latches(camera, &settings, LATCH_PERIOD)?
         }
-        SyncMethod::Host => CameraStream::spawn(camera, &setup.camera)?,
+        SyncMethod::Host => CameraStream::spawn(camera, &settings)?,
     };
     let context = FrameContext::default();
-    let labeler = labeler_for(setup.sync, &setup.camera, tick_hz, &cameras);
+    let labeler = labeler_for(setup.sync, &settings, tick_hz, &cameras);
     let recorder = Recorder::spawn(
         writer,
         stream.samples().clone(),
@@ -477,6 +486,10 @@ fn open_run(
                 calibration_profile: setup.profile.clone(),
                 seed: setup.seed,
                 sync_method: setup.sync.name().into(),
+                frames: Some(
+                    FrameStorage::new(setup.camera.pixel_format, setup.cutout)
+                        .map_err(|e| ScanError::Setup(format!("storing frames: {e}")))?,
+                ),
             };
             Ok(OpenedRun {
                 writer: RunWriter::create(root, &start)?,

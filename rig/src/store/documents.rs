@@ -1,13 +1,17 @@
 //! What a run directory holds: the start and stop documents, frame records and events.
 
 use super::error::StoreError;
+use super::frame_file::{Encoding, FrameStorage};
 use super::layout::FRAMES;
+use crate::camera::writer::parse_format_name;
+use crate::camera::PixelFormat;
 use crate::units::{Millimetres, Wrench};
 use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
-/// Version of the run layout written by this build.
-pub const LAYOUT_VERSION: u32 = 1;
+/// Version of the run layout written by this build. 2: the start document records how the
+/// frames are stored ([`StartDocument::frames`]); runs of layout 1 are still read.
+pub const LAYOUT_VERSION: u32 = 2;
 
 /// Written once when a run starts.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -28,6 +32,29 @@ pub struct StartDocument {
     pub seed: Option<u64>,
     /// Synchronisation method ("strobe", "clock-fit", "host").
     pub sync_method: String,
+    /// How the frames are stored (pixel format, the part of the frame kept, encoding); absent
+    /// in runs of layout 1 ([`StartDocument::frame_storage`] says how they stored them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frames: Option<FrameStorage>,
+}
+
+impl StartDocument {
+    /// How this run's frames are stored: as recorded, or, for a run of layout 1, the camera's
+    /// pixels in ordinary PNGs, whole frames, in the pixel format its rig text names (the raw
+    /// BayerRG8 mosaic in a grey PNG) or else RGB8 (the default camera format of layout 1).
+    pub fn frame_storage(&self) -> FrameStorage {
+        self.frames.unwrap_or(FrameStorage {
+            pixel_format: rig_pixel_format(&self.rig).unwrap_or(PixelFormat::Rgb8),
+            cutout: None,
+            encoding: Encoding::Png,
+        })
+    }
+}
+
+/// `camera.pixel_format` of a rig file's text, if it names one.
+fn rig_pixel_format(rig: &str) -> Option<PixelFormat> {
+    let rig: toml::Value = toml::from_str(rig).ok()?;
+    parse_format_name(rig.get("camera")?.get("pixel_format")?.as_str()?)
 }
 
 /// A calibration profile as recorded by a run.

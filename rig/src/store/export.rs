@@ -7,10 +7,12 @@
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
 use super::error::StoreError;
+use super::frame_file::{FrameStorage, StoredFrame};
 use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
-use super::run_writer::read_lines;
+use super::run_writer::{read_lines, read_start};
 use super::verify::verify;
+use crate::camera::{debayer, PixelFormat};
 use crate::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS, NO_CONTACT};
 use std::collections::HashSet;
 use std::io::Cursor;
@@ -364,6 +366,7 @@ struct ExportWriter<'a> {
 impl ExportWriter<'_> {
     /// Exports the valid frames of the run in `run`, in record order, skipping repeated ones.
     fn export_run(&mut self, run: &Path, progress: &mut impl FnMut(u64)) -> Result<(), StoreError> {
+        let storage = read_start(run)?.frame_storage();
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
         let mut indices = HashSet::new();
         let mut files = HashSet::new();
@@ -379,7 +382,7 @@ impl ExportWriter<'_> {
                 continue;
             }
             let name = format!("image_{}.tiff", self.counts.images);
-            self.write_image(run, &source, &record, &name)?;
+            self.write_image(run, &storage, &source, &record, &name)?;
             if let Some(row) = label_row(&name, &record) {
                 self.csv
                     .write(&row)
@@ -410,19 +413,28 @@ impl ExportWriter<'_> {
         Ok(())
     }
 
-    /// Writes the frame of `record` (at `source`, inside `run`) as TIFF image `name`.
+    /// Writes the frame of `record` (at `source`, inside `run`, stored as `storage` says) as
+    /// TIFF image `name`.
     fn write_image(
         &self,
         run: &Path,
+        storage: &FrameStorage,
         source: &Path,
         record: &FrameRecord,
         name: &str,
     ) -> Result<(), StoreError> {
         super::own_file::check_in(run, Path::new(&record.file))
             .map_err(|e| StoreError::io(source, e))?;
-        let image = image::open(source).map_err(|e| StoreError::Content {
+        let stored = storage.read(source).map_err(|e| StoreError::Content {
             path: source.to_path_buf(),
             message: format!("{e} (frame of record {})", record.index),
+        })?;
+        let image = reference_image(stored).ok_or_else(|| StoreError::Content {
+            path: source.to_path_buf(),
+            message: format!(
+                "frame of record {}: its pixels do not fill it",
+                record.index
+            ),
         })?;
         let target = self.images.join(name);
         let mut tiff = Vec::new();
@@ -433,6 +445,36 @@ impl ExportWriter<'_> {
                 message: e.to_string(),
             })?;
         write_synced(&target, &tiff)
+    }
+}
+
+/// A stored frame as the reference code reads images: RGB (a BayerRG8 mosaic demosaiced by
+/// [`debayer::to_rgb8`], fringe's one demosaicing) or grey, the whole camera frame (a run that
+/// stored only the disc's square has black around it, where nothing was recorded).
+pub fn reference_image(stored: StoredFrame) -> Option<image::DynamicImage> {
+    let (w, h) = (stored.width, stored.height);
+    let (channels, pixels) = match stored.format {
+        PixelFormat::Mono8 => (1, stored.data),
+        PixelFormat::Rgb8 => (3, stored.data),
+        PixelFormat::BayerRg8 => (3, debayer::to_rgb8(&stored.data, w as usize, h as usize)),
+    };
+    let (fw, fh, pixels) = match stored.cutout {
+        None => (w, h, pixels),
+        Some(c) => {
+            let mut full = vec![0u8; c.frame_width as usize * c.frame_height as usize * channels];
+            let row = w as usize * channels;
+            for (y, line) in pixels.chunks_exact(row).enumerate() {
+                let at =
+                    ((c.roi.y as usize + y) * c.frame_width as usize + c.roi.x as usize) * channels;
+                full.get_mut(at..at + row)?.copy_from_slice(line);
+            }
+            (c.frame_width, c.frame_height, full)
+        }
+    };
+    if channels == 1 {
+        image::GrayImage::from_raw(fw, fh, pixels).map(Into::into)
+    } else {
+        image::RgbImage::from_raw(fw, fh, pixels).map(Into::into)
     }
 }
 

@@ -7,14 +7,17 @@
 //! the disk is a valid prefix except possibly one torn line or force record at the end, which
 //! [`RunWriter::reopen`] cuts off.
 
-use super::documents::{now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
+use super::documents::{
+    now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument, LAYOUT_VERSION,
+};
 use super::durable::{sync_dir, write_atomic};
 use super::error::StoreError;
+use super::frame_file::FrameStorage;
 use super::layout::{CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP};
 use super::own_file;
 use super::run_lock::RunLock;
 use super::{force_log, manifest};
-use crate::camera::writer::{save_png, FrameFileError};
+use crate::camera::writer::FrameFileError;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
@@ -38,7 +41,19 @@ pub fn read_start(dir: &Path) -> Result<StartDocument, StoreError> {
             dir: dir.to_path_buf(),
         });
     }
-    read_document(&path)
+    let start: StartDocument = read_document(&path)?;
+    if start.layout_version > LAYOUT_VERSION {
+        return Err(StoreError::Content {
+            path,
+            message: format!(
+                "the run has layout version {} but this fringe ({}) reads up to {LAYOUT_VERSION}: \
+                 read it with a newer fringe",
+                start.layout_version,
+                env!("CARGO_PKG_VERSION")
+            ),
+        });
+    }
+    Ok(start)
 }
 
 /// Reads a JSON document.
@@ -126,6 +141,8 @@ pub struct RunWriter {
     next_index: u64,
     force_samples: u64,
     last_checkpoint: Option<Checkpoint>,
+    /// How the run stores its frames (its start document's, never today's default).
+    storage: FrameStorage,
     /// This process's hold on the run: no other writes it meanwhile (released last).
     _lock: RunLock,
 }
@@ -173,6 +190,7 @@ impl RunWriter {
             next_index: 0,
             force_samples: 0,
             last_checkpoint: None,
+            storage: start.frame_storage(),
             _lock: lock,
         };
         sync_dir(&writer.dir)?;
@@ -207,6 +225,11 @@ impl RunWriter {
         &self.dir
     }
 
+    /// How the run stores its frames.
+    pub fn frame_storage(&self) -> FrameStorage {
+        self.storage
+    }
+
     /// Index the next frame record must have.
     pub fn next_index(&self) -> u64 {
         self.next_index
@@ -224,7 +247,7 @@ impl RunWriter {
         let rel = format!("{FRAME_DIR}/{index:08}.png");
         let path = self.dir.join(&rel);
         let tmp = self.dir.join(format!("{FRAME_DIR}/{index:08}.png.tmp"));
-        save_png(frame, &tmp).map_err(|e| match e {
+        self.storage.write(frame, &tmp).map_err(|e| match e {
             FrameFileError::Io { path, source }
             | FrameFileError::Image {
                 path,
@@ -604,6 +627,7 @@ impl Survey {
             next_index: existing.frames.len() as u64,
             force_samples: existing.force_samples,
             last_checkpoint: existing.checkpoint.clone(),
+            storage: existing.start.frame_storage(),
             _lock: lock,
         };
         writer.remove_images_from(writer.next_index)?;

@@ -629,7 +629,7 @@ mod tests {
         let (p, d, x) = tiny();
         let s = Sample {
             image: "f.png".into(),
-            format: None,
+            storage: None,
             force: [0.1, -0.2, 3.0, 0.01, 0.02, 0.0, 0.3],
             shape: "pentagon".into(),
             contact: Some([1.5, -2.0]),

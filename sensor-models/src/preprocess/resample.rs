@@ -260,6 +260,7 @@ mod tests {
             height: height as u32,
             format: PixelFormat::Rgb8,
             data: &data,
+            cutout: None,
         };
         for (channels, mask, centre, radius, n) in [
             (Channels::Luma, true, [48.3, 30.1], 26.7, 11),

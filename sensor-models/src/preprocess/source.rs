@@ -6,7 +6,7 @@
 //! the output is at least 2x smaller than the crop: no full-size demosaic is made. Otherwise it
 //! is demosaiced bilinearly, pixel by pixel, as rows are asked for.
 
-use fringe_rig::camera::PixelFormat;
+use fringe_rig::camera::{debayer, Cutout, PixelFormat};
 
 /// A frame's bytes as the camera delivered them.
 #[derive(Debug, Clone, Copy)]
@@ -15,6 +15,24 @@ pub struct FrameRef<'a> {
     pub height: u32,
     pub format: PixelFormat,
     pub data: &'a [u8],
+    /// Where these pixels lie in the camera's frame when they are a part of it (a run that
+    /// stored only the disc's square); `None`: the whole frame.
+    pub cutout: Option<Cutout>,
+}
+
+impl FrameRef<'_> {
+    /// The camera frame's size: the cutout's frame, or this image's own.
+    pub fn frame_size(&self) -> (u32, u32) {
+        self.cutout.map_or((self.width, self.height), |c| {
+            (c.frame_width, c.frame_height)
+        })
+    }
+
+    /// Full-frame coordinates of this image's top-left corner.
+    pub fn origin(&self) -> [f64; 2] {
+        self.cutout
+            .map_or([0.0, 0.0], |c| [f64::from(c.roi.x), f64::from(c.roi.y)])
+    }
 }
 
 /// What each pixel is turned into.
@@ -177,52 +195,16 @@ impl Pixels for BayerHalf<'_> {
     }
 }
 
-/// BayerRG8 demosaiced bilinearly at full resolution.
+/// BayerRG8 demosaiced at full resolution ([`debayer`], fringe's one demosaicing).
 struct BayerFull<'a> {
     frame: FrameRef<'a>,
     channels: Channels,
 }
 
 impl BayerFull<'_> {
-    fn at(&self, x: i64, y: i64) -> f32 {
-        let (w, h) = (self.frame.width as i64, self.frame.height as i64);
-        // Mirror at the edges keeps the colour phase (reflect by 2).
-        let x = if x < 0 {
-            x + 2
-        } else if x >= w {
-            x - 2
-        } else {
-            x
-        };
-        let y = if y < 0 {
-            y + 2
-        } else if y >= h {
-            y - 2
-        } else {
-            y
-        };
-        let (x, y) = (x.clamp(0, w - 1), y.clamp(0, h - 1));
-        self.frame.data[(y * w + x) as usize] as f32
-    }
-
     fn rgb(&self, x: i64, y: i64) -> [f32; 3] {
-        let here = self.at(x, y);
-        let cross =
-            0.25 * (self.at(x - 1, y) + self.at(x + 1, y) + self.at(x, y - 1) + self.at(x, y + 1));
-        let diag = 0.25
-            * (self.at(x - 1, y - 1)
-                + self.at(x + 1, y - 1)
-                + self.at(x - 1, y + 1)
-                + self.at(x + 1, y + 1));
-        let horiz = 0.5 * (self.at(x - 1, y) + self.at(x + 1, y));
-        let vert = 0.5 * (self.at(x, y - 1) + self.at(x, y + 1));
-        match (x & 1, y & 1) {
-            (0, 0) => [here, cross, diag],
-            (1, 1) => [diag, cross, here],
-            // G on a red row: red left and right, blue above and below.
-            (1, 0) => [horiz, here, vert],
-            _ => [vert, here, horiz],
-        }
+        let f = self.frame;
+        debayer::rgb_at(f.data, f.width as usize, f.height as usize, x, y)
     }
 }
 

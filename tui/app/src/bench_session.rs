@@ -458,6 +458,7 @@ impl<'a> Worker<'a> {
                         height: frame.height,
                         format: frame.format,
                         data: &frame.data,
+                        cutout: None,
                     },
                     self.picture_px,
                 )

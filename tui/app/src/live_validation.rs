@@ -455,12 +455,12 @@ impl Worker {
     fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), ValidationError> {
         let (frame, record) = (&offer.frame, &offer.record);
         let t0 = Instant::now();
-        let format = Some(frame.format);
+        // The frame is at hand: the label's sample needs no file storage to read it from.
         let Some(label) = from_record(
             record,
             &self.source.run_id,
             record.file.clone().into(),
-            format,
+            None,
         ) else {
             return Ok(());
         };
@@ -469,6 +469,7 @@ impl Worker {
             height: frame.height,
             format: frame.format,
             data: &frame.data,
+            cutout: None,
         };
         let raw = self.infer(fref, frame.id, input)?;
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;

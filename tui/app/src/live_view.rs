@@ -150,6 +150,7 @@ fn picture_worker(shared: &Shared) {
             height: frame.height,
             format: frame.format,
             data: &frame.data,
+            cutout: None,
         };
         // A frame of the wrong size for its format is skipped; the recorder reports it.
         if let Ok(picture) = thumbnail(fref, shared.side) {

@@ -243,7 +243,28 @@ pub struct RigFile {
     pub force: ForceSection,
     pub camera: CameraSection,
     pub geometry: GeometrySection,
+    pub recording: RecordingSection,
     pub sim: SimSection,
+}
+
+/// What a scan stores of each frame.
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordingSection {
+    /// `frame` (default): whole frames; `disc`: only the square around the sensor's disc (from
+    /// its calibration profile), widened by `disc_margin_px`. Calibration scans always store
+    /// whole frames.
+    pub store: Option<String>,
+    /// Margin around the disc, px (default 40): room for the disc to move a little in the image
+    /// (a knocked camera) before the profile is redone.
+    pub disc_margin_px: Option<f64>,
+}
+
+/// The part of each frame a scan stores (`[recording] store`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StoredPart {
+    Frame,
+    Disc { margin_px: f64 },
 }
 
 /// Where the rig configuration came from.
@@ -342,8 +363,10 @@ impl RigConfig {
             origin: origin.to_string(),
             simulated,
         };
-        // Camera keys are checked here, before a dry run or any homing, not when the camera opens.
+        // Camera and recording keys are checked here, before a dry run or any homing, not when
+        // the camera opens.
         config.camera_settings()?;
+        config.stored_part()?;
         Ok(config)
     }
 
@@ -388,6 +411,27 @@ impl RigConfig {
             .profiles
             .clone()
             .unwrap_or_else(|| PathBuf::from("profiles"))
+    }
+
+    /// The part of each frame scans store, from [recording].
+    pub fn stored_part(&self) -> Result<StoredPart, ConfigError> {
+        let r = &self.file.recording;
+        let margin_px = r
+            .disc_margin_px
+            .unwrap_or(fringe_rig::store::frame_file::DISC_MARGIN_PX);
+        if !(margin_px.is_finite() && (0.0..=1000.0).contains(&margin_px)) {
+            return Err(self.err(format!(
+                "key `recording.disc_margin_px` = {margin_px}: use a margin from 0 to 1000 px"
+            )));
+        }
+        match r.store.as_deref() {
+            None | Some("frame") => Ok(StoredPart::Frame),
+            Some("disc") => Ok(StoredPart::Disc { margin_px }),
+            Some(other) => Err(self.err(format!(
+                "key `recording.store` = {other:?}: use \"frame\" (whole frames) or \"disc\" \
+                 (the square around the sensor's disc)"
+            ))),
+        }
     }
 
     /// Camera settings from [camera].

@@ -5,7 +5,7 @@
 
 use crate::live_validation::{FrameSource, LiveValidation};
 use crate::rig_error::RigError;
-use crate::rig_file::RigConfig;
+use crate::rig_file::{RigConfig, StoredPart};
 #[cfg(feature = "sim")]
 use crate::sim_bench::{score_run, SimBench};
 use crate::truth_score::TruthScore;
@@ -13,7 +13,7 @@ use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{
     load_checked, profile_path, Expectation, Profile, ProfileWarning,
 };
-use fringe_rig::camera::CameraSettings;
+use fringe_rig::camera::{CameraSettings, Cutout};
 use fringe_rig::devices::Devices;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
@@ -28,6 +28,7 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::ProfileRef;
+use fringe_rig::store::frame_file::FrameStorage;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::backend::Backend;
@@ -70,6 +71,8 @@ pub enum SessionError {
         dir.display()
     )]
     NoGeometry { sensor_id: String, dir: PathBuf },
+    #[error("{0}")]
+    Recording(String),
     #[error(
         "{model}: the model's shape classes ({classes}) do not include {missing}, which this scan's frames will be labelled with: it cannot be scored on them (use a model trained for these indenters, or a plan that presses only those it knows)"
     )]
@@ -147,6 +150,15 @@ impl ScanSession {
         let (seed, sidecars) = sim_record(rig.sim.as_ref());
         #[cfg(not(feature = "sim"))]
         let (seed, sidecars): (Option<u64>, Vec<Arc<dyn RunSidecar>>) = (None, Vec::new());
+        let cutout = match (config.stored_part().map_err(RigError::from)?, profile_use) {
+            (StoredPart::Frame, _) | (_, ProfileUse::Ignore) => None,
+            (StoredPart::Disc { margin_px }, ProfileUse::Consume) => Some(disc_cutout(
+                profile.as_ref(),
+                &rig.sensor_id,
+                margin_px,
+                config,
+            )?),
+        };
         let setup = ScanSetup {
             program,
             plan_text,
@@ -158,6 +170,7 @@ impl ScanSession {
             seed,
             profile,
             camera: rig.camera_settings.clone(),
+            cutout,
             press: PressSettings::default(),
             watch: WatchSettings::default(),
             sidecars,
@@ -400,6 +413,34 @@ impl Operator for BenchOperator<'_> {
 /// file's, its force offsets are checked against the scan's first no-contact offset, and the run
 /// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
 /// scan goes on with the rig file's origin.
+/// The square around the disc of the sensor's profile that `[recording] store = "disc"` keeps.
+fn disc_cutout(
+    profile: Option<&ProfileRef>,
+    sensor_id: &str,
+    margin_px: f64,
+    config: &RigConfig,
+) -> Result<Cutout, SessionError> {
+    let Some(p) = profile else {
+        return Err(SessionError::Recording(format!(
+            "[recording] store = \"disc\" needs the calibration profile of sensor {sensor_id} \
+             in {}: run `fringe calibrate` first, or store whole frames (store = \"frame\")",
+            config.profile_dir().display()
+        )));
+    };
+    let profile: Profile = toml::from_str(&p.content).map_err(|e| {
+        SessionError::Recording(format!("{}: the profile cannot be read: {e}", p.path))
+    })?;
+    let o = &profile.optical;
+    FrameStorage::disc_square(
+        [o.centre_x_px, o.centre_y_px],
+        o.radius_px,
+        margin_px,
+        profile.image.width,
+        profile.image.height,
+    )
+    .map_err(|e| SessionError::Recording(format!("[recording] store = \"disc\": {e} ({})", p.path)))
+}
+
 fn calibration_profile(
     config: &RigConfig,
     sensor_id: &str,

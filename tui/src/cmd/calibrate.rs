@@ -107,7 +107,7 @@ fn from_images(args: &CalibrateArgs, dir: &Path) -> anyhow::Result<()> {
     }
     println!("{how}");
     let used = frames::spread(&chosen, args.max_frames);
-    let average = frames::grey_average(&used).with_context(|| dir.display().to_string())?;
+    let average = frames::grey_average(&used, None).with_context(|| dir.display().to_string())?;
     let fit = optical::find_disc_in(&average)
         .with_context(|| format!("{} ({} frames averaged)", dir.display(), used.len()))?;
     print_fit(&fit);

@@ -240,7 +240,7 @@ fn run_images(a: RunArgs) -> Result<()> {
         }
         // A read error names the file already; the others do not.
         let tensor = config.run_file(image).map_err(|e| match e {
-            PreprocessError::Image { .. } => anyhow::Error::from(e),
+            PreprocessError::File(_) => anyhow::Error::from(e),
             other => anyhow::anyhow!("{}: {other}", image.display()),
         })?;
         let raw = backend.run(&tensor, 1, size)?;

@@ -145,7 +145,7 @@ impl<'a> TestRun<'a> {
         use fringe_rig::store::run_writer::RunWriter;
         use fringe_rig::units::{Millimetres, Newtons, Wrench};
         let start = StartDocument {
-            layout_version: 1,
+            layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
             run_id: self.id.into(),
             started_utc: now_utc(),
             software: "test".into(),
@@ -155,6 +155,10 @@ impl<'a> TestRun<'a> {
             calibration_profile: None,
             seed: None,
             sync_method: self.sync.into(),
+            frames: Some(
+                fringe_rig::store::frame_file::FrameStorage::new(PixelFormat::Mono8, None)
+                    .expect("storage"),
+            ),
         };
         let mut w = RunWriter::create(root, &start).expect("create");
         for point in 0..self.points {

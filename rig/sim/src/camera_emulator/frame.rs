@@ -72,7 +72,10 @@ mod tests {
 
     #[test]
     fn full_frames_at_0_db_are_handed_over_without_a_copy() {
-        let s = CameraSettings::default();
+        let s = CameraSettings {
+            pixel_format: PixelFormat::Rgb8,
+            ..CameraSettings::default()
+        };
         let full = Roi {
             x: 0,
             y: 0,
@@ -93,7 +96,10 @@ mod tests {
         let image: Vec<u8> = (0..6u8)
             .flat_map(|p| [10 * p, 10 * p + 1, 10 * p + 2])
             .collect();
-        let mut s = CameraSettings::default();
+        let mut s = CameraSettings {
+            pixel_format: PixelFormat::Rgb8,
+            ..CameraSettings::default()
+        };
         let roi = Roi {
             x: 1,
             y: 1,

@@ -90,7 +90,7 @@ mod tests {
     fn sample(press: &str, at: [f64; 2]) -> Sample {
         Sample {
             image: PathBuf::from("f.png"),
-            format: None,
+            storage: None,
             force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
             shape: "pentagon".into(),
             contact: Some([0.0, 0.0]),

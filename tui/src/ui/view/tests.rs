@@ -242,7 +242,7 @@ fn validating() -> UiState {
     s.model = Some("models/disc7.pth".into());
     let label = Sample {
         image: PathBuf::from("frames/000812.png"),
-        format: None,
+        storage: None,
         force: [0.1, 0.1, 4.9, 0.0, 0.0, 0.0, 4.9],
         shape: "sphere".into(),
         contact: Some([2.0, -1.0]),

@@ -1,0 +1,523 @@
+//! How a run stores its frames (`frames/NNNNNNNN.png`): the one place that writes and reads them.
+//!
+//! A run records in its start document how its frames are stored ([`FrameStorage`]): the pixel
+//! format the camera delivered, the part of the frame kept (all of it, or the square around the
+//! sensor's disc), and the encoding. Readers take all three from the run, never from today's
+//! defaults. Encodings, both lossless and both ordinary PNG files:
+//!
+//! - [`Encoding::Png`]: the pixels as delivered: RGB8 in an RGB PNG, Mono8 in a grey PNG.
+//! - [`Encoding::PngBayerPlanes`]: a BayerRG8 mosaic in a grey PNG of the same size holding its
+//!   four colour planes side by side: red (even rows, even columns) top left, the green of the red
+//!   rows top right, the green of the blue rows bottom left, blue bottom right. PNG's filters then
+//!   predict each pixel from neighbours of its own colour: a third of the bytes of the RGB8 PNG
+//!   and less than half the CPU to write (BENCHMARKS.md, "Recording: bytes and CPU per frame").
+//!
+//! PNGs are written with fast deflate (fdeflate) and the Avg filter (the mean of the left and
+//! upper neighbours), chosen by that measurement.
+//!
+//! Runs written before the storage was recorded (layout 1) hold the camera's pixels as they
+//! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
+//! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
+
+use crate::camera::writer::{format_name, FrameFileError};
+use crate::camera::{Cutout, Frame, PixelFormat, Roi};
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use image::ImageEncoder;
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::Path;
+
+/// Margin around the disc when only the disc's square is stored and none is named, px: room for
+/// the disc to move a little in the image (a knocked camera) before the profile is redone.
+pub const DISC_MARGIN_PX: f64 = 40.0;
+
+/// How the pixels of a stored frame are encoded in its file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Encoding {
+    /// The pixels as delivered, in an RGB or grey PNG.
+    Png,
+    /// A BayerRG8 mosaic's four colour planes side by side in a grey PNG.
+    PngBayerPlanes,
+}
+
+/// How a run stores its frames; recorded in its start document.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct FrameStorage {
+    /// What the camera delivered, which the files hold.
+    pub pixel_format: PixelFormat,
+    /// The part of each frame stored; `None`: the whole frame.
+    pub cutout: Option<Cutout>,
+    pub encoding: Encoding,
+}
+
+/// A stored frame read back: the pixels as the camera delivered them (inside the cutout).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredFrame {
+    pub width: u32,
+    pub height: u32,
+    pub format: PixelFormat,
+    pub data: Vec<u8>,
+    /// Where the image lies in the camera's frame; `None`: it is the whole frame.
+    pub cutout: Option<Cutout>,
+}
+
+/// A cutout that cannot be stored, with what to do.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct CutoutError(pub String);
+
+impl FrameStorage {
+    /// How frames of `format` are stored, whole or as `cutout`. A Bayer cutout must start on
+    /// even coordinates and have an even size (the mosaic's pattern stays RG), and a cutout must
+    /// lie inside the frame.
+    pub fn new(format: PixelFormat, cutout: Option<Cutout>) -> Result<FrameStorage, CutoutError> {
+        if let Some(c) = cutout {
+            let r = c.roi;
+            let inside = r.width > 0
+                && r.height > 0
+                && u64::from(r.x) + u64::from(r.width) <= u64::from(c.frame_width)
+                && u64::from(r.y) + u64::from(r.height) <= u64::from(c.frame_height);
+            if !inside {
+                return Err(CutoutError(format!(
+                    "the stored region {}x{} at ({}, {}) does not lie inside the {}x{} frame",
+                    r.width, r.height, r.x, r.y, c.frame_width, c.frame_height
+                )));
+            }
+            if format == PixelFormat::BayerRg8 && (r.x | r.y | r.width | r.height) & 1 == 1 {
+                return Err(CutoutError(format!(
+                    "the stored region {}x{} at ({}, {}) of a BayerRG8 frame must start on even \
+                     coordinates and have an even size",
+                    r.width, r.height, r.x, r.y
+                )));
+            }
+        }
+        Ok(FrameStorage {
+            pixel_format: format,
+            cutout,
+            encoding: match format {
+                PixelFormat::BayerRg8 => Encoding::PngBayerPlanes,
+                PixelFormat::Mono8 | PixelFormat::Rgb8 => Encoding::Png,
+            },
+        })
+    }
+
+    /// The square around a disc of `radius_px` centred at `centre_px` (full-frame px), widened by
+    /// `margin_px`, on even coordinates, cut to the frame. Fails when the disc and its margin do
+    /// not fit in the frame (the profile belongs to another camera setting, or the disc is at the
+    /// edge: store whole frames).
+    pub fn disc_square(
+        centre_px: [f64; 2],
+        radius_px: f64,
+        margin_px: f64,
+        frame_width: u32,
+        frame_height: u32,
+    ) -> Result<Cutout, CutoutError> {
+        let half = radius_px + margin_px;
+        let finite = centre_px
+            .iter()
+            .chain([&radius_px, &margin_px])
+            .all(|v| v.is_finite());
+        let fits = finite
+            && radius_px > 0.0
+            && margin_px >= 0.0
+            && centre_px[0] - half >= 0.0
+            && centre_px[1] - half >= 0.0
+            && centre_px[0] + half <= f64::from(frame_width)
+            && centre_px[1] + half <= f64::from(frame_height);
+        if !fits {
+            return Err(CutoutError(format!(
+                "the disc (centre ({:.0}, {:.0}) px, radius {radius_px:.0} px) with a margin of \
+                 {margin_px:.0} px does not lie inside the {frame_width}x{frame_height} frame: \
+                 recalibrate the sensor, lower the margin, or store whole frames",
+                centre_px[0], centre_px[1]
+            )));
+        }
+        let even_down = |v: f64| (v.floor().max(0.0) as u32) & !1;
+        let even_up = |v: f64| (v.ceil() as u32).div_ceil(2) * 2;
+        let x0 = even_down(centre_px[0] - half);
+        let y0 = even_down(centre_px[1] - half);
+        let x1 = even_up(centre_px[0] + half).min(frame_width & !1);
+        let y1 = even_up(centre_px[1] + half).min(frame_height & !1);
+        Ok(Cutout {
+            roi: Roi {
+                x: x0,
+                y: y0,
+                width: x1 - x0,
+                height: y1 - y0,
+            },
+            frame_width,
+            frame_height,
+        })
+    }
+
+    /// Writes `frame` (its cutout) to `path`. A frame in another pixel format than the run's, or
+    /// of another size than its cutout's frame, is refused: the camera's setting changed.
+    pub fn write(&self, frame: &Frame, path: &Path) -> Result<(), FrameFileError> {
+        let content = |message: String| FrameFileError::Content {
+            path: path.to_path_buf(),
+            message,
+        };
+        let expected =
+            frame.width as usize * frame.height as usize * frame.format.bytes_per_pixel();
+        if frame.data.len() != expected {
+            return Err(content(format!(
+                "frame {} has {} bytes but {}x{} {} needs {expected}",
+                frame.id,
+                frame.data.len(),
+                frame.width,
+                frame.height,
+                format_name(frame.format)
+            )));
+        }
+        if frame.format != self.pixel_format {
+            return Err(content(format!(
+                "frame {} is {} but the run stores {}: the camera's pixel format changed during \
+                 the run",
+                frame.id,
+                format_name(frame.format),
+                format_name(self.pixel_format)
+            )));
+        }
+        let (width, height, pixels) = match self.cutout {
+            None => (
+                frame.width,
+                frame.height,
+                std::borrow::Cow::Borrowed(&frame.data[..]),
+            ),
+            Some(c) => {
+                if (frame.width, frame.height) != (c.frame_width, c.frame_height) {
+                    return Err(content(format!(
+                        "frame {} is {}x{} but the run stores a region of {}x{} frames: the \
+                         camera's frame size changed during the run",
+                        frame.id, frame.width, frame.height, c.frame_width, c.frame_height
+                    )));
+                }
+                (
+                    c.roi.width,
+                    c.roi.height,
+                    std::borrow::Cow::Owned(cut(frame, c.roi)),
+                )
+            }
+        };
+        let pixels = match self.encoding {
+            Encoding::Png => pixels,
+            Encoding::PngBayerPlanes => std::borrow::Cow::Owned(to_planes(&pixels, width, height)),
+        };
+        let io = |source: io::Error| FrameFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = File::create(path).map_err(io)?;
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        let colour = match self.pixel_format {
+            PixelFormat::Rgb8 => image::ExtendedColorType::Rgb8,
+            PixelFormat::Mono8 | PixelFormat::BayerRg8 => image::ExtendedColorType::L8,
+        };
+        PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Avg)
+            .write_image(&pixels, width, height, colour)
+            .map_err(|source| FrameFileError::Image {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        out.flush().map_err(io)
+    }
+
+    /// Reads a frame file written by [`FrameStorage::write`].
+    pub fn read(&self, path: &Path) -> Result<StoredFrame, FrameFileError> {
+        let (width, height, data) = read_png(path, self.pixel_format)?;
+        if let Some(c) = self.cutout {
+            if (width, height) != (c.roi.width, c.roi.height) {
+                return Err(FrameFileError::Content {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "image is {width}x{height} but the run stores {}x{} regions",
+                        c.roi.width, c.roi.height
+                    ),
+                });
+            }
+        }
+        let data = match self.encoding {
+            Encoding::Png => data,
+            Encoding::PngBayerPlanes => {
+                if width % 2 == 1 || height % 2 == 1 {
+                    return Err(FrameFileError::Content {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "image is {width}x{height}: Bayer planes need an even size"
+                        ),
+                    });
+                }
+                from_planes(&data, width, height)
+            }
+        };
+        Ok(StoredFrame {
+            width,
+            height,
+            format: self.pixel_format,
+            data,
+            cutout: self.cutout,
+        })
+    }
+
+    /// Expected bytes of one stored frame: its pixels times the bytes per pixel measured on
+    /// rendered fringe frames (BENCHMARKS.md, "Recording"), rounded up by a quarter for scenes
+    /// busier than the ones measured. `frame_px` is the camera frame's pixel count, used when
+    /// the whole frame is stored.
+    pub fn expected_frame_bytes(&self, frame_px: u64) -> u64 {
+        let px = self.cutout.map_or(frame_px, |c| {
+            u64::from(c.roi.width) * u64::from(c.roi.height)
+        });
+        // Measured: Bayer planes 0.48 B/px (whole frame), 0.60 B/px (disc square, where the
+        // fringes are); RGB8 1.49 B/px; Mono8 about a third of RGB8.
+        let per_px = match self.pixel_format {
+            PixelFormat::BayerRg8 => 0.60,
+            PixelFormat::Mono8 => 0.55,
+            PixelFormat::Rgb8 => 1.85,
+        };
+        (px as f64 * per_px * 1.25).ceil() as u64
+    }
+}
+
+/// Reads an ordinary image file as a whole camera frame: RGB as RGB8, grey as Mono8 (image
+/// folders and the reference layout).
+pub fn read_plain(path: &Path) -> Result<StoredFrame, FrameFileError> {
+    let img = open(path)?;
+    let (width, height) = (img.width(), img.height());
+    let (data, format) = match img {
+        image::DynamicImage::ImageLuma8(g) => (g.into_raw(), PixelFormat::Mono8),
+        image::DynamicImage::ImageLuma16(_) | image::DynamicImage::ImageLumaA8(_) => {
+            (img.to_luma8().into_raw(), PixelFormat::Mono8)
+        }
+        other => (other.to_rgb8().into_raw(), PixelFormat::Rgb8),
+    };
+    Ok(StoredFrame {
+        width,
+        height,
+        format,
+        data,
+        cutout: None,
+    })
+}
+
+fn open(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
+    image::ImageReader::open(path)
+        .map_err(|source| FrameFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .with_guessed_format()
+        .map_err(|source| FrameFileError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .decode()
+        .map_err(|source| FrameFileError::Image {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// A PNG's pixels, checked to be 8-bit RGB (for RGB8) or grey (otherwise).
+fn read_png(path: &Path, format: PixelFormat) -> Result<(u32, u32, Vec<u8>), FrameFileError> {
+    let img = open(path)?;
+    let (width, height) = (img.width(), img.height());
+    match (format, img) {
+        (PixelFormat::Mono8 | PixelFormat::BayerRg8, image::DynamicImage::ImageLuma8(buf)) => {
+            Ok((width, height, buf.into_raw()))
+        }
+        (PixelFormat::Rgb8, image::DynamicImage::ImageRgb8(buf)) => {
+            Ok((width, height, buf.into_raw()))
+        }
+        (format, img) => Err(FrameFileError::Content {
+            path: path.to_path_buf(),
+            message: format!(
+                "image colour type is {:?} but the run stores {} (8-bit {})",
+                img.color(),
+                format_name(format),
+                if format == PixelFormat::Rgb8 {
+                    "RGB"
+                } else {
+                    "grey"
+                }
+            ),
+        }),
+    }
+}
+
+/// The pixels of `roi` of `frame`.
+fn cut(frame: &Frame, roi: Roi) -> Vec<u8> {
+    let bpp = frame.format.bytes_per_pixel();
+    let row_bytes = roi.width as usize * bpp;
+    let mut out = Vec::with_capacity(row_bytes * roi.height as usize);
+    for y in roi.y..roi.y + roi.height {
+        let start = (y as usize * frame.width as usize + roi.x as usize) * bpp;
+        out.extend_from_slice(&frame.data[start..start + row_bytes]);
+    }
+    out
+}
+
+/// A `width` x `height` mosaic (both even) as its colour planes side by side:
+/// [R | G of red rows] over [G of blue rows | B].
+pub fn to_planes(mosaic: &[u8], width: u32, height: u32) -> Vec<u8> {
+    let (w, h) = (width as usize, height as usize);
+    let (hw, hh) = (w / 2, h / 2);
+    let mut out = vec![0; w * h];
+    for (row, line) in mosaic.chunks_exact(w.max(1)).enumerate().take(2 * hh) {
+        let target = (row & 1) * hh + row / 2;
+        let dst = &mut out[target * w..(target + 1) * w];
+        let (even, odd) = dst.split_at_mut(hw);
+        for (k, pair) in line.chunks_exact(2).enumerate() {
+            even[k] = pair[0];
+            odd[k] = pair[1];
+        }
+    }
+    out
+}
+
+/// The mosaic back from [`to_planes`].
+pub fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
+    let (w, h) = (width as usize, height as usize);
+    let (hw, hh) = (w / 2, h / 2);
+    let mut out = vec![0; w * h];
+    for (row, line) in out.chunks_exact_mut(w.max(1)).enumerate().take(2 * hh) {
+        let source = (row & 1) * hh + row / 2;
+        let src = &planes[source * w..(source + 1) * w];
+        let (even, odd) = src.split_at(hw);
+        for (k, pair) in line.chunks_exact_mut(2).enumerate() {
+            pair[0] = even[k];
+            pair[1] = odd[k];
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::HostTime;
+
+    fn frame(format: PixelFormat, w: u32, h: u32) -> Frame {
+        let data = (0..(w * h) as usize * format.bytes_per_pixel())
+            .map(|i| (i * 37 % 251) as u8)
+            .collect();
+        Frame {
+            id: 7,
+            device_timestamp: 123,
+            host_arrival: HostTime(9),
+            width: w,
+            height: h,
+            format,
+            data,
+        }
+    }
+
+    fn temp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("fringe-frame-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        dir.join(name)
+    }
+
+    #[test]
+    fn planes_put_each_colour_in_its_quarter_and_come_back() {
+        // 4x2 mosaic: R G R G / G B G B.
+        let mosaic = [1, 2, 3, 4, 5, 6, 7, 8];
+        let planes = to_planes(&mosaic, 4, 2);
+        assert_eq!(planes, vec![1, 3, 2, 4, 5, 7, 6, 8]);
+        assert_eq!(from_planes(&planes, 4, 2), mosaic);
+    }
+
+    #[test]
+    fn every_format_comes_back_bit_for_bit_whole_and_cut() {
+        for format in [PixelFormat::Mono8, PixelFormat::Rgb8, PixelFormat::BayerRg8] {
+            let f = frame(format, 10, 6);
+            let whole = FrameStorage::new(format, None).expect("storage");
+            let path = temp(&format!("{}.png", format_name(format)));
+            whole.write(&f, &path).expect("write");
+            let back = whole.read(&path).expect("read");
+            assert_eq!((back.width, back.height, back.format), (10, 6, format));
+            assert_eq!(back.data, f.data);
+
+            let cutout = Cutout {
+                roi: Roi {
+                    x: 2,
+                    y: 2,
+                    width: 6,
+                    height: 4,
+                },
+                frame_width: 10,
+                frame_height: 6,
+            };
+            let cut_storage = FrameStorage::new(format, Some(cutout)).expect("storage");
+            cut_storage.write(&f, &path).expect("write cut");
+            let back = cut_storage.read(&path).expect("read cut");
+            assert_eq!(back.cutout, Some(cutout));
+            let bpp = format.bytes_per_pixel();
+            for y in 0..4usize {
+                let row = &back.data[y * 6 * bpp..(y + 1) * 6 * bpp];
+                let start = ((y + 2) * 10 + 2) * bpp;
+                assert_eq!(row, &f.data[start..start + 6 * bpp], "{format:?} row {y}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_frame_unlike_the_run_is_refused_naming_what_changed() {
+        let storage = FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage");
+        let path = temp("refused.png");
+        let e = storage
+            .write(&frame(PixelFormat::Rgb8, 4, 4), &path)
+            .expect_err("another format");
+        assert!(e.to_string().contains("pixel format changed"), "{e}");
+        let cutout = FrameStorage::disc_square([50.0, 40.0], 20.0, 4.0, 100, 80).expect("fits");
+        assert_eq!(
+            cutout.roi,
+            Roi {
+                x: 26,
+                y: 16,
+                width: 48,
+                height: 48
+            }
+        );
+        let cut = FrameStorage::new(PixelFormat::BayerRg8, Some(cutout)).expect("storage");
+        let e = cut
+            .write(&frame(PixelFormat::BayerRg8, 90, 80), &path)
+            .expect_err("another size");
+        assert!(e.to_string().contains("frame size changed"), "{e}");
+    }
+
+    #[test]
+    fn a_cutout_must_hold_the_disc_and_keep_the_bayer_pattern() {
+        let e = FrameStorage::disc_square([30.0, 40.0], 35.0, 4.0, 100, 80).expect_err("off");
+        assert!(e.to_string().contains("does not lie inside"), "{e}");
+        let odd = Cutout {
+            roi: Roi {
+                x: 1,
+                y: 0,
+                width: 4,
+                height: 4,
+            },
+            frame_width: 10,
+            frame_height: 6,
+        };
+        assert!(FrameStorage::new(PixelFormat::BayerRg8, Some(odd)).is_err());
+        assert!(FrameStorage::new(PixelFormat::Mono8, Some(odd)).is_ok());
+        let outside = Cutout {
+            frame_width: 4,
+            ..odd
+        };
+        assert!(FrameStorage::new(PixelFormat::Mono8, Some(outside)).is_err());
+    }
+
+    #[test]
+    fn plain_files_are_read_as_their_colour_type() {
+        let f = frame(PixelFormat::Rgb8, 6, 4);
+        let path = temp("plain.png");
+        FrameStorage::new(PixelFormat::Rgb8, None)
+            .expect("storage")
+            .write(&f, &path)
+            .expect("write");
+        let rgb = read_plain(&path).expect("read");
+        assert_eq!((rgb.format, &rgb.data), (PixelFormat::Rgb8, &f.data));
+    }
+}
