@@ -436,3 +436,96 @@ fn a_refused_or_damaged_resume_leaves_the_run_as_it_was() {
     assert!(err.to_string().contains("were changed"), "{err}");
     let _ = std::fs::remove_dir_all(root);
 }
+
+/// A run of `frames` BayerRG8 8x4 frames, stored as `start` says; its directory.
+fn bayer_run(root: &Path, start: &StartDocument) -> PathBuf {
+    let mut w = RunWriter::create(root, start).expect("create");
+    for id in 0..4 {
+        let index = w.next_index();
+        let mosaic = Frame {
+            format: PixelFormat::BayerRg8,
+            data: (0..32).map(|k| (k as u64 * 13 + 5 * id) as u8).collect(),
+            ..frame(id)
+        };
+        let file = w.save_frame_image(&mosaic, index).expect("frame image");
+        w.append_frame(&record(index, file, -2.0)).expect("record");
+        let from = w.force_samples();
+        w.append_force(&samples(from, 100)).expect("force");
+    }
+    w.checkpoint().expect("checkpoint");
+    w.finish(&stop(4, 400)).expect("finish")
+}
+
+/// The mosaic `bayer_run` wrote as frame `id`.
+fn mosaic_of(id: u64) -> Vec<u8> {
+    (0..32).map(|k| (k as u64 * 13 + 5 * id) as u8).collect()
+}
+
+#[test]
+fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
+    use fringe_rig::camera::debayer;
+    use fringe_rig::store::export::{export_reference, ExportOptions};
+    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
+    use fringe_rig::store::read_start;
+    let root = scratch("bayer-layouts");
+    // Layout 1: the mosaic as it is in a grey PNG, known as Bayer from the rig text only.
+    let old = StartDocument {
+        rig: "[camera]\npixel_format = \"bayerrg8\"\n".into(),
+        ..start("run-old")
+    };
+    // Layout 2: the storage recorded, the mosaic as colour planes.
+    let new = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
+        ..start("run-new")
+    };
+    for (start, encoding) in [(old, Encoding::Png), (new, Encoding::PngBayerPlanes)] {
+        let dir = bayer_run(&root, &start);
+        let report = verify(&dir).expect("verify");
+        assert!(report.ok(), "{:?}", report.problems);
+        let storage = read_start(&dir).expect("start").frame_storage();
+        assert_eq!(
+            (storage.pixel_format, storage.encoding),
+            (PixelFormat::BayerRg8, encoding)
+        );
+        let (records, _) =
+            fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES))
+                .expect("records");
+        for r in &records {
+            let stored = storage.read(&r.file_in(&dir).expect("file")).expect("read");
+            assert_eq!(stored.data, mosaic_of(r.frame_id), "{}", r.file);
+        }
+        // The reference layout gets RGB, demosaiced by the one documented demosaicing.
+        let out = root.join(format!("export-{}", start.run_id));
+        export_reference(std::slice::from_ref(&dir), &out, &ExportOptions::default(), |_| {})
+            .expect("export");
+        for (k, r) in records.iter().enumerate() {
+            let tiff = image::open(out.join("0.images").join(format!("image_{k}.tiff")))
+                .expect("exported image");
+            let rgb = tiff.as_rgb8().expect("an RGB image");
+            assert_eq!(
+                rgb.as_raw(),
+                &debayer::to_rgb8(&mosaic_of(r.frame_id), 8, 4),
+                "image_{k}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn a_run_of_a_newer_layout_is_refused_naming_the_versions() {
+    let root = scratch("newer-layout");
+    let dir = finished_run(&root, "run-future");
+    let start_path = dir.join(fringe_rig::store::START);
+    let text = std::fs::read_to_string(&start_path).expect("start");
+    let future = text.replace("\"layout_version\": 1", "\"layout_version\": 99");
+    assert_ne!(future, text, "the start document names its layout version");
+    std::fs::write(&start_path, future).expect("write");
+    let e = fringe_rig::store::read_start(&dir).expect_err("newer layout");
+    assert!(
+        e.to_string().contains("layout version 99") && e.to_string().contains("newer fringe"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -1095,3 +1095,98 @@ impl Operator for NoAnswers {
         Ok(None)
     }
 }
+
+/// Keeps every frame the camera delivered that became a record, by record index.
+#[derive(Debug, Default)]
+struct Delivered(Mutex<BTreeMap<u64, fringe_rig::camera::Frame>>);
+
+impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
+    fn recorded(&self, frame: &fringe_rig::camera::Frame, record: &FrameRecord) {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .insert(record.index, frame.clone());
+    }
+    fn cut(&self, first: u64) {
+        self.0
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .retain(|&i, _| i < first);
+    }
+}
+
+#[test]
+fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square() {
+    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
+    for disc in [false, true] {
+        let name = if disc { "bits-disc" } else { "bits-whole" };
+        let dir = tempfile_dir(name);
+        let (rig, devices, _truth) = bench(31);
+        let text = plan("[12.0]", "[25.0]", "force_targets = [3.0]", 0.2);
+        let mut setup = setup(&rig, &text);
+        let g = &rig.config.sensor.geometry;
+        if disc {
+            setup.cutout = Some(
+                FrameStorage::disc_square(
+                    [
+                        f64::from(g.width) / 2.0 + g.centre_offset_px[0],
+                        f64::from(g.height) / 2.0 + g.centre_offset_px[1],
+                    ],
+                    g.disc_radius_px,
+                    10.0,
+                    g.width,
+                    g.height,
+                )
+                .expect("the disc fits"),
+            );
+        }
+        let delivered = Arc::new(Delivered::default());
+        setup.taps.push(delivered.clone());
+        let (mut operator, _) = scripted(Reply::Continue);
+        let out = run_scan(
+            &setup,
+            devices,
+            RunTarget::New {
+                root: dir.clone(),
+                run_id: name.into(),
+            },
+            &ScanControl::new(),
+            &mut operator,
+            &|_| {},
+        )
+        .expect("scan");
+        assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+        let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start");
+        let storage = start.frames.expect("the run records how it stores frames");
+        // The simulated camera delivers its native format by default, stored as colour planes.
+        assert_eq!(storage.pixel_format, PixelFormat::BayerRg8);
+        assert_eq!(storage.encoding, Encoding::PngBayerPlanes);
+        assert_eq!(storage.cutout, setup.cutout);
+        let records = records(&out.run_dir);
+        let delivered = delivered.0.lock().unwrap_or_else(|p| p.into_inner());
+        assert_eq!(delivered.len(), records.len());
+        assert!(records.len() > 20, "{} records", records.len());
+        for r in &records {
+            let camera = &delivered[&r.index];
+            let stored = storage
+                .read(&r.file_in(&out.run_dir).expect("file"))
+                .expect("stored frame");
+            let (x0, y0, w, h) = match storage.cutout {
+                None => (0, 0, camera.width, camera.height),
+                Some(c) => (c.roi.x, c.roi.y, c.roi.width, c.roi.height),
+            };
+            assert_eq!((stored.width, stored.height), (w, h));
+            let expected: Vec<u8> = (y0..y0 + h)
+                .flat_map(|y| {
+                    let at = (y * camera.width + x0) as usize;
+                    camera.data[at..at + w as usize].iter().copied()
+                })
+                .collect();
+            assert!(stored.data == expected, "{name}: record {} differs", r.index);
+        }
+        assert!(verify(&out.run_dir).expect("verify").ok());
+        drop(rig);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
