@@ -26,6 +26,14 @@ fn committed_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("traces/camera")
 }
 
+/// The settings the committed trace was filmed with (a Mono8 camera).
+fn mono8() -> CameraSettings {
+    CameraSettings {
+        pixel_format: PixelFormat::Mono8,
+        ..Default::default()
+    }
+}
+
 fn pixels(id: u64) -> Vec<u8> {
     (0..H)
         .flat_map(|y| (0..W).map(move |x| ((x * 13 + y * 7) as u64 + id * 29) as u8))
@@ -63,11 +71,7 @@ fn info() -> CameraInfo {
 fn generate_committed_camera_trace() {
     let dir = committed_dir();
     let mut w = CameraTraceWriter::create(&dir, "camera", &info(), HostTime(0)).expect("create");
-    let s = CameraSettings {
-        pixel_format: PixelFormat::Mono8,
-        ..Default::default()
-    };
-    w.configured(&s).expect("configured");
+    w.configured(&mono8()).expect("configured");
     for f in expected_frames() {
         w.frame(&f).expect("frame");
     }
@@ -116,8 +120,7 @@ fn committed_camera_trace_replays_ids_timestamps_gaps_and_pixels() {
     );
 
     let mut cam = ReplayCamera::new(trace, ReplayPace::AsFastAsPossible);
-    cam.configure(&CameraSettings::default())
-        .expect("configure");
+    cam.configure(&mono8()).expect("configure");
     cam.start().expect("start");
     let frames = drain(&mut cam);
     assert_eq!(frames.len(), expected.len());
@@ -155,8 +158,7 @@ fn committed_camera_trace_replays_ids_timestamps_gaps_and_pixels() {
 #[test]
 fn paced_replay_keeps_the_recorded_arrival_times() {
     let mut cam = ReplayCamera::open(&committed_dir(), ReplayPace::Recorded).expect("open");
-    cam.configure(&CameraSettings::default())
-        .expect("configure");
+    cam.configure(&mono8()).expect("configure");
     let t0 = Instant::now();
     cam.start().expect("start");
     let frames = drain(&mut cam);
@@ -184,7 +186,7 @@ fn replay_in_software_trigger_mode_gives_one_frame_per_trigger() {
     let mut cam = ReplayCamera::open(&committed_dir(), ReplayPace::AsFastAsPossible).expect("open");
     let s = CameraSettings {
         trigger: TriggerMode::Software,
-        ..Default::default()
+        ..mono8()
     };
     cam.configure(&s).expect("configure");
     cam.start().expect("start");
@@ -309,4 +311,20 @@ fn recording_camera_round_trip_replays_what_was_delivered() {
         latch.device_ticks
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_pixel_format_the_replayed_camera_does_not_offer_is_refused_naming_what_it_offers() {
+    let mut cam = ReplayCamera::open(&committed_dir(), ReplayPace::AsFastAsPossible).expect("open");
+    let e = cam
+        .configure(&CameraSettings {
+            pixel_format: PixelFormat::BayerRg8,
+            ..Default::default()
+        })
+        .expect_err("the trace holds mono8 frames only");
+    let text = e.to_string();
+    assert!(
+        text.contains("PixelFormat") && text.contains("bayerrg8") && text.contains("offers mono8"),
+        "{text}"
+    );
 }

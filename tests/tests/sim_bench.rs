@@ -563,6 +563,8 @@ fn frames_show_the_scene_at_mid_exposure() {
         assert_eq!(t.fate, FrameFate::Delivered);
         assert_eq!(t.exposure_start_ticks, f.device_timestamp);
         assert_eq!(t.arrival, Some(f.host_arrival));
-        assert_eq!(f.data.len(), 16 * 8 * 3);
+        // The camera's native BayerRG8 unless configured otherwise: one byte per pixel.
+        assert_eq!(f.format, fringe_rig::camera::PixelFormat::BayerRg8);
+        assert_eq!(f.data.len(), 16 * 8);
     }
 }

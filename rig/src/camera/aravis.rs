@@ -18,6 +18,7 @@ use super::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
     TriggerMode,
 };
+use super::writer::format_name;
 use crate::clock::HostTime;
 use ::aravis::prelude::*;
 use std::sync::OnceLock;
@@ -346,9 +347,22 @@ impl AravisCamera {
         self.camera
             .set_pixel_format(to_aravis_format(s.pixel_format))
             .map_err(|e| {
+                // Say what the camera offers, so the rig file can name one of them.
+                let offered = self
+                    .camera
+                    .dup_available_pixel_formats_as_strings()
+                    .map(|names| {
+                        let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
+                        format!(
+                            " (the camera offers {}; set [camera] pixel_format to mono8, rgb8 \
+                             or bayerrg8 among them)",
+                            names.join(", ")
+                        )
+                    })
+                    .unwrap_or_default();
                 self.feature_err(
                     "PixelFormat",
-                    &format!("cannot be set to {:?}", s.pixel_format),
+                    &format!("cannot be set to {}{offered}", format_name(s.pixel_format)),
                     e,
                 )
             })?;

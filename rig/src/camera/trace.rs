@@ -537,12 +537,36 @@ impl ReplayCamera {
     }
 }
 
+impl ReplayCamera {
+    /// The pixel formats the trace's frames are in (what the replayed camera offers).
+    pub fn offered_formats(&self) -> Vec<PixelFormat> {
+        let mut offered: Vec<PixelFormat> = self.trace.frames.iter().map(|f| f.format).collect();
+        offered.sort_by_key(|f| format_name(*f));
+        offered.dedup();
+        offered
+    }
+}
+
 impl Camera for ReplayCamera {
     fn info(&self) -> CameraInfo {
         self.trace.info.clone()
     }
 
+    /// A replayed camera offers the pixel formats its trace holds, no other.
     fn configure(&mut self, settings: &CameraSettings) -> Result<(), CameraError> {
+        let offered = self.offered_formats();
+        if !offered.is_empty() && !offered.contains(&settings.pixel_format) {
+            let names: Vec<&str> = offered.iter().map(|f| format_name(*f)).collect();
+            return Err(CameraError::Feature {
+                camera: self.name(),
+                feature: "PixelFormat".into(),
+                message: format!(
+                    "cannot be set to {}: the camera offers {} (set [camera] pixel_format to it)",
+                    format_name(settings.pixel_format),
+                    names.join(", ")
+                ),
+            });
+        }
         self.software_trigger = settings.trigger == TriggerMode::Software;
         Ok(())
     }

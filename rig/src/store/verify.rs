@@ -37,7 +37,7 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     let start: StartDocument = super::run_writer::read_start(dir)?;
     let mut problems = Vec::new();
     let frames = read_frames(dir, &mut problems);
-    check_frames(dir, &frames, &mut problems);
+    check_frames(dir, &start, &frames, &mut problems);
     let force_samples = count_force_samples(dir, &mut problems);
     let ended = dir.join(STOP).exists();
     let mut manifest_missing = false;
@@ -87,10 +87,21 @@ fn read_frames(dir: &Path, problems: &mut Vec<String>) -> Vec<FrameRecord> {
     }
 }
 
-/// Checks each record in turn: its frame's size, its index and that its frame exists inside
-/// the run.
-fn check_frames(dir: &Path, frames: &[FrameRecord], problems: &mut Vec<String>) {
-    let mut sizes = FrameSizes::default();
+/// Checks each record in turn: its frame's size (the stored region's, when the run stores only
+/// a part of each frame), its index and that its frame exists inside the run.
+fn check_frames(
+    dir: &Path,
+    start: &StartDocument,
+    frames: &[FrameRecord],
+    problems: &mut Vec<String>,
+) {
+    let mut sizes = FrameSizes {
+        first: start
+            .frame_storage()
+            .cutout
+            .map(|c| (c.roi.width, c.roi.height)),
+        others: 0,
+    };
     for (k, f) in frames.iter().enumerate() {
         if let Some(dims) = frame_size(dir, f) {
             sizes.note(&f.file, dims, problems);
@@ -131,8 +142,8 @@ fn check_frame_file(dir: &Path, f: &FrameRecord, problems: &mut Vec<String>) {
     }
 }
 
-/// Every frame has the run's size (the first frame's): a run filmed at two sizes is two runs
-/// in one directory. The first three others are reported one by one, more as a count.
+/// Every frame has the run's size (its stored region's, else the first frame's): a run filmed at
+/// two sizes is two runs in one directory. The first three others are reported one by one, more as a count.
 #[derive(Default)]
 struct FrameSizes {
     /// The first frame's width and height.
@@ -150,7 +161,7 @@ impl FrameSizes {
                 self.others += 1;
                 if self.others <= 3 {
                     problems.push(format!(
-                        "{}: {}x{} px, where the run's frames are {}x{} px (filmed by another camera or at another size)",
+                        "{}: {}x{} px, where the run's frames are {}x{} px (filmed by another camera or at another size, or edited)",
                         file, dims.0, dims.1, first.0, first.1
                     ));
                 }

@@ -674,9 +674,32 @@ mod tests {
     const SIMULATED: &str = include_str!("../rigs/simulated.toml");
 
     #[test]
+    fn recording_keys_are_checked_when_the_file_is_read() {
+        let disc = RigConfig::parse("[recording]\nstore = \"disc\"\n", "rig.toml").expect("disc");
+        assert_eq!(
+            disc.stored_part().expect("stored part"),
+            StoredPart::Disc {
+                margin_px: fringe_rig::store::frame_file::DISC_MARGIN_PX
+            }
+        );
+        for (text, key) in [
+            ("[recording]\nstore = \"crop\"\n", "recording.store"),
+            ("[recording]\ndisc_margin_px = -3.0\n", "recording.disc_margin_px"),
+        ] {
+            let e = RigConfig::parse(text, "rig.toml").expect_err(text).to_string();
+            assert!(e.contains("rig.toml") && e.contains(key), "{e}");
+        }
+    }
+
+    #[test]
     fn the_shipped_examples_parse_and_give_the_expected_bench() {
         let sim = RigConfig::parse(SIMULATED, "simulated.toml").expect("simulated example");
         assert!(sim.is_simulated());
+        assert_eq!(
+            sim.camera_settings().expect("camera").pixel_format,
+            PixelFormat::BayerRg8
+        );
+        assert_eq!(sim.stored_part().expect("recording"), StoredPart::Frame);
         assert_eq!(sim.sync().expect("sync"), SyncMethod::Strobe);
         let l = sim.limits().expect("limits");
         assert_eq!(l.x.max, Millimetres(25.0));

@@ -66,9 +66,10 @@ struct GrabArgs {
     /// Frame rate in Hz.
     #[arg(long, default_value_t = 50.0)]
     frame_rate: f64,
-    /// Pixel format.
-    #[arg(long, value_enum, default_value = "rgb8")]
-    pixel_format: FormatArg,
+    /// Pixel format (default: the colour camera's native bayerrg8, or the format a replayed
+    /// trace holds).
+    #[arg(long, value_enum)]
+    pixel_format: Option<FormatArg>,
     /// Region of interest X,Y,WIDTH,HEIGHT (default: full sensor).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_roi)]
     roi: Option<Roi>,
@@ -135,16 +136,23 @@ impl Camera for Boxed {
 }
 
 pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
+    // Without --pixel-format: the camera's native format, or what a replayed trace holds.
+    let mut native = CameraSettings::default().pixel_format;
     let source: Box<dyn Camera> = match (&args.aravis, &args.replay) {
         (Some(id), _) => open_aravis(id)?,
-        (None, Some(dir)) => Box::new(
-            ReplayCamera::open(dir, ReplayPace::AsFastAsPossible).with_context(|| {
-                format!(
-                    "cannot open the camera trace {} (give a directory that --record-trace wrote)",
-                    dir.display()
-                )
-            })?,
-        ),
+        (None, Some(dir)) => {
+            let replay =
+                ReplayCamera::open(dir, ReplayPace::AsFastAsPossible).with_context(|| {
+                    format!(
+                        "cannot open the camera trace {} (give a directory that --record-trace wrote)",
+                        dir.display()
+                    )
+                })?;
+            if let Some(&first) = replay.offered_formats().first() {
+                native = first;
+            }
+            Box::new(replay)
+        }
         (None, None) => bail!("give a camera source: --aravis ID or --replay TRACE_DIR"),
     };
     let mut camera: Box<dyn Camera> = match &global.record_trace {
@@ -156,11 +164,11 @@ pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
         None => source,
     };
     match args.action {
-        CameraAction::Grab(grab) => run_grab(camera.as_mut(), &grab),
+        CameraAction::Grab(grab) => run_grab(camera.as_mut(), &grab, native),
     }
 }
 
-fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
+fn run_grab(camera: &mut dyn Camera, args: &GrabArgs, native: PixelFormat) -> anyhow::Result<()> {
     let trigger = match args.trigger {
         TriggerArg::FreeRun => TriggerMode::FreeRun,
         TriggerArg::Software => TriggerMode::Software,
@@ -171,9 +179,10 @@ fn run_grab(camera: &mut dyn Camera, args: &GrabArgs) -> anyhow::Result<()> {
         frame_rate: Hertz(args.frame_rate),
         roi: args.roi,
         pixel_format: match args.pixel_format {
-            FormatArg::Mono8 => PixelFormat::Mono8,
-            FormatArg::Rgb8 => PixelFormat::Rgb8,
-            FormatArg::Bayerrg8 => PixelFormat::BayerRg8,
+            Some(FormatArg::Mono8) => PixelFormat::Mono8,
+            Some(FormatArg::Rgb8) => PixelFormat::Rgb8,
+            Some(FormatArg::Bayerrg8) => PixelFormat::BayerRg8,
+            None => native,
         },
         trigger: trigger.clone(),
         exposure_active_line: None,
