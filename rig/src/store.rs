@@ -26,6 +26,7 @@
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
 //! - [`run_list`]: the runs under a directory, newest first.
+//! - [`run_size`]: a run's size on disk, expected before a scan starts and measured after.
 //! - [`export`]: the reference pipeline's `0.images/` + `0.labels.csv` layout.
 
 pub mod disk_space;
@@ -40,6 +41,7 @@ pub mod manifest;
 pub mod own_file;
 pub mod run_list;
 pub mod run_lock;
+pub mod run_size;
 pub mod run_writer;
 pub mod verify;
 

@@ -351,9 +351,11 @@ fn a_second_process_cannot_write_a_run_being_written_and_a_killed_writers_lock_i
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The disk filling up during a run: the runs directory is a 3 MB tmpfs mounted in a private
-/// mount namespace (`unshare -rm`: no root needed where user namespaces are allowed), made larger
-/// again before the resume.
+/// The disk filling up during a run: the runs directory is a tmpfs mounted in a private mount
+/// namespace (`unshare -rm`: no root needed where user namespaces are allowed), of 2 GB while
+/// the scan checks for room before it starts (a size limit, not memory taken), shrunk to 3 MB
+/// once the run exists (the rig is homing: nothing filmed yet), made large again before the
+/// resume.
 #[test]
 fn a_full_disk_stops_the_scan_saying_so_and_the_run_resumes_once_there_is_space() {
     let dir = scratch("disk-full");
@@ -362,14 +364,18 @@ fn a_full_disk_stops_the_scan_saying_so_and_the_run_resumes_once_there_is_space(
     std::fs::create_dir_all(&root).expect("runs dir");
     let script = r#"
 set -u
-mount -t tmpfs -o size=3m fringe-test "$ROOT" || exit 90
-"$FRINGE" scan --yes --rig "$RIG" --out "$ROOT" "$PLAN" >"$DIR/first.txt" 2>&1
+mount -t tmpfs -o size=2g fringe-test "$ROOT" || exit 90
+"$FRINGE" scan --yes --rig "$RIG" --out "$ROOT" "$PLAN" >"$DIR/first.txt" 2>&1 &
+scan=$!
+while [ -z "$(ls -A "$ROOT")" ] && kill -0 "$scan" 2>/dev/null; do sleep 0.02; done
+mount -o remount,size=3m "$ROOT" || exit 92
+wait "$scan"
 echo $? >"$DIR/first.rc"
 run=$(ls -d "$ROOT"/*/ | head -n 1)
 echo "$run" >"$DIR/run.txt"
 "$FRINGE" verify "$run" >"$DIR/verify-first.txt" 2>&1
 echo $? >"$DIR/verify-first.rc"
-mount -o remount,size=512m "$ROOT" || exit 91
+mount -o remount,size=2g "$ROOT" || exit 91
 "$FRINGE" scan --yes --rig "$RIG" --resume "$run" >"$DIR/resume.txt" 2>&1
 echo $? >"$DIR/resume.rc"
 "$FRINGE" verify "$run" >"$DIR/verify.txt" 2>&1
@@ -387,7 +393,7 @@ cp "$run/frames.jsonl" "$run/events.jsonl" "$DIR/"
         .expect("unshare (util-linux) runs the test in its own mount namespace");
     assert!(
         status.success(),
-        "the namespace script failed ({status}): 90 = tmpfs mount refused, 91 = remount refused"
+        "the namespace script failed ({status}): 90 = tmpfs mount refused, 91 or 92 = remount refused"
     );
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
     let first = read("first.txt");

@@ -64,6 +64,32 @@ fn runs_lists_and_verify_judges_runs() {
 }
 
 #[test]
+fn runs_shows_each_runs_size_on_disk() {
+    let root = scratch("sizes");
+    write_run(&root, "run-small", true);
+    let big = write_run(&root, "run-big", false);
+    // 4.2 MB more in the unfinished run, as the frames of a point it was recording.
+    std::fs::write(big.join("frames/00000099.png"), vec![7u8; 4_200_000]).expect("frame");
+    let out = fringe(&["runs", "--root", path(&root)]);
+    let listing = text(&out);
+    assert!(out.status.success(), "{listing}");
+    let line = |name: &str| {
+        listing
+            .lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("no {name} in {listing}"))
+            .to_string()
+    };
+    assert!(
+        listing.lines().next().is_some_and(|h| h.contains("size")),
+        "{listing}"
+    );
+    // Sizes are whole megabytes, rounded up: the small run's few kilobytes show as 1 MB.
+    assert!(line("run-big").contains(" 5 MB "), "{listing}");
+    assert!(line("run-small").contains(" 1 MB "), "{listing}");
+}
+
+#[test]
 fn export_writes_the_reference_layout() {
     let root = std::env::temp_dir().join(format!("fringe-export-cli-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&root);

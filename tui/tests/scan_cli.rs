@@ -30,6 +30,130 @@ fn a_dry_run_prints_points_path_and_duration_and_moves_nothing() {
 }
 
 #[test]
+fn a_dry_run_states_the_runs_size_on_disk_and_the_free_space() {
+    let dir = scratch("dry-size");
+    let (rig, plan_path) = files(&dir);
+    let root = dir.join("runs");
+    let dry = |rig: &Path| {
+        let out = fringe(&[
+            "scan",
+            plan_path.to_str().expect("path"),
+            "--rig",
+            rig.to_str().expect("path"),
+            "--out",
+            root.to_str().expect("path"),
+            "--dry-run",
+        ]);
+        let t = text(&out);
+        assert!(out.status.success(), "{t}");
+        t
+    };
+    // The quick rig's camera: a quarter of 1920x1200, BayerRG8 at 50 fps.
+    let t = dry(&rig);
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("expected on disk: "))
+        .unwrap_or_else(|| panic!("no expected size in {t}"));
+    assert!(
+        line.contains("frames ") && line.contains(" of 480x300 bayerrg8, "),
+        "{line}"
+    );
+    assert!(
+        line.contains("force log ") && line.contains("records "),
+        "{line}"
+    );
+    assert!(
+        t.contains(&format!(
+            "free on the filesystem holding {}: ",
+            root.display()
+        )),
+        "{t}"
+    );
+    assert!(!t.contains("would be refused"), "{t}");
+    // Only the disc's square: the square of the simulated sensor's design geometry (whose disc
+    // nearly fills the quarter-size frame: a small margin).
+    let disc = dir.join("disc-rig.toml");
+    let store = "[recording]\nstore = \"disc\"\ndisc_margin_px = 4.0\n";
+    std::fs::write(&disc, format!("{QUICK_RIG}{store}")).expect("rig");
+    let t = dry(&disc);
+    assert!(t.contains("disc squares of 480x300 bayerrg8"), "{t}");
+    assert!(!root.exists(), "a dry run writes no run");
+}
+
+/// A plan of the quick rig's three points that films for weeks: ten targets held 600 s each,
+/// a thousand times (about 100 TB of frames).
+fn weeks_long_plan() -> String {
+    plan("[11.0, 12.5, 14.0]")
+        .replace(
+            "force_targets = [1.0, 3.0]",
+            "force_targets = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5]",
+        )
+        .replace("dwell = 0.4", "dwell = 600.0\nrepetitions = 1000")
+}
+
+#[test]
+fn a_scan_that_will_not_fit_on_the_disk_is_refused_before_anything_moves() {
+    let dir = scratch("no-room");
+    let (rig, _) = files(&dir);
+    let root = dir.join("runs");
+    let plan_path = dir.join("weeks.toml");
+    std::fs::write(&plan_path, weeks_long_plan()).expect("plan");
+    let out = fringe(&[
+        "scan",
+        "--yes",
+        "--rig",
+        rig.to_str().expect("path"),
+        "--out",
+        root.to_str().expect("path"),
+        plan_path.to_str().expect("path"),
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains(&format!(
+            "{}: not enough disk space for this scan",
+            root.display()
+        )) && t.contains("it will write about")
+            && t.contains("needs")
+            && t.contains(&format!("the filesystem holding {} has", root.display()))
+            && t.contains("--out DIR")
+            && t.contains("[recording] store = \"disc\""),
+        "{t}"
+    );
+    assert!(
+        !t.contains("homing") && !t.contains("run directory"),
+        "moved: {t}"
+    );
+    assert!(the_run(&root).is_none(), "a run was created: {t}");
+
+    // A resume of such a run is refused for its points left, the run unchanged.
+    let crashed = TestRun {
+        id: "crashed",
+        points: 3,
+        finish: false,
+        plan: &weeks_long_plan(),
+        sync: "strobe",
+    }
+    .write(&dir.join("old"));
+    let before = snapshot(&crashed);
+    let out = resume(&rig, &crashed);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains(&format!(
+            "{}: not enough disk space to resume this run (2998 points left)",
+            crashed.display()
+        )),
+        "{t}"
+    );
+    assert!(!t.contains("homing"), "moved: {t}");
+    assert!(
+        snapshot(&crashed) == before,
+        "the refused resume changed the run"
+    );
+}
+
+#[test]
 fn a_plan_outside_the_soft_limits_is_refused_naming_file_and_key() {
     let dir = scratch("limits");
     let (rig, _) = files(&dir);

@@ -32,6 +32,7 @@
 
 use crate::axis::{Kinematics, SoftLimits};
 use crate::config_file::{load_toml, parse_toml, ConfigError};
+use crate::store::run_size::RecordingTime;
 use crate::units::{Millimetres, Newtons};
 use std::path::Path;
 use std::time::Duration;
@@ -651,6 +652,9 @@ pub struct Estimate {
     /// Of which homing x, y (unless moved by hand) and z in turn, each from the far end of its
     /// travel (where the axes are at the start is unknown), and the move to the first point.
     pub homing: Duration,
+    /// Of which the indentations (approach, ramps, dwells, retract): the time the scan films,
+    /// since frames are stored only while the indenter presses.
+    pub filming: Duration,
     pub lateral_path_mm: f64,
     pub indenter_changes: usize,
     pub manual_rows: usize,
@@ -660,14 +664,21 @@ impl ScanProgram {
     /// Estimated duration from the bench kinematics, homing included (operator prompts not
     /// counted).
     pub fn estimate(&self, bench: &BenchLimits) -> Estimate {
+        self.estimate_from(bench, 0)
+    }
+
+    /// [`ScanProgram::estimate`] of the points from index `first` on (what a resumed run has
+    /// left): homing, the move to point `first`, and the points after it.
+    pub fn estimate_from(&self, bench: &BenchLimits, first: usize) -> Estimate {
         let plan = &self.plan;
+        let points = self.points.get(first..).unwrap_or_default();
         let far = |l: &SoftLimits| l.min.0.abs().max(l.max.0.abs());
         let mut homing = move_time(far(&bench.x), &bench.x_motion).as_secs_f64()
             + move_time(far(&bench.z), &bench.z_motion).as_secs_f64();
         if !bench.manual_y {
             homing += move_time(far(&bench.y), &bench.y_motion).as_secs_f64();
         }
-        if let Some(first) = self.points.first() {
+        if let Some(first) = points.first() {
             let to_x = move_time(first.x.0, &bench.x_motion);
             let to_y = if bench.manual_y {
                 Duration::ZERO
@@ -695,7 +706,8 @@ impl ScanProgram {
             + n_targets as f64 * ind.dwell
             + move_time(approach + 1.0, &bench.z_motion).as_secs_f64();
         let mut at: Option<(f64, f64)> = None;
-        for p in &self.points {
+        let mut filming = 0.0f64;
+        for p in points {
             if p.change_indenter {
                 changes += 1;
             }
@@ -715,13 +727,25 @@ impl ScanProgram {
             }
             at = Some((p.x.0, p.y.0));
             secs += per_press;
+            filming += per_press;
         }
         Estimate {
             total: seconds(secs + homing),
             homing: seconds(homing),
+            filming: seconds(filming),
             lateral_path_mm: path,
             indenter_changes: changes,
             manual_rows: rows,
+        }
+    }
+}
+
+impl Estimate {
+    /// How long the scan records: the force stream all along, frames while it films.
+    pub fn recording_time(&self) -> RecordingTime {
+        RecordingTime {
+            total: self.total,
+            filming: self.filming,
         }
     }
 }
@@ -823,6 +847,28 @@ force_ceiling = 10.0
             "{est:?} (want {want} s)"
         );
         assert!(est.total > est.homing);
+        assert!(
+            est.filming > Duration::ZERO && est.filming + est.homing < est.total,
+            "{est:?}"
+        );
+
+        // A resume from point 6 (the second shape): only the last six points, and the homing
+        // ends at point 6 (-5, 0) as the whole plan's ends at point 0.
+        let rest = program.estimate_from(&bench(), 6);
+        assert_eq!(program.estimate_from(&bench(), 0), est);
+        assert_eq!((rest.indenter_changes, rest.manual_rows), (1, 2));
+        assert!(
+            (rest.lateral_path_mm - (2.0 * 10.0 + 2.0)).abs() < 1e-9,
+            "{rest:?}"
+        );
+        assert_eq!(rest.homing, est.homing);
+        assert!(
+            rest.total < est.total && rest.total > rest.homing,
+            "{rest:?}"
+        );
+        let none_left = program.estimate_from(&bench(), program.points.len() + 3);
+        assert_eq!(none_left.lateral_path_mm, 0.0);
+        assert!(none_left.total < rest.total, "{none_left:?}");
     }
 
     #[test]

@@ -15,9 +15,12 @@
 //!   on the opened rig (profile -> origin, operator, progress, truth scoring); module
 //!   `scan_session` (private); [`TruthScore`] in `truth_score` (private).
 //!
-//! And ten public modules (the three above and):
+//! And the public modules (the three above and):
 //! - [`bench_session`]: the bench outside a scan: device states, jog, home, stop, tare, the
 //!   force and the newest frame.
+//! - [`disk_room`]: room on disk for a scan: the camera frame a size estimate assumes, a run's
+//!   expected size, and the refusal (by the session, before anything moves) of a run that will
+//!   not fit.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
@@ -35,6 +38,7 @@ pub mod calibration_scan;
 pub mod commission;
 pub mod device_open;
 pub mod device_spec;
+pub mod disk_room;
 pub mod host_port;
 pub mod jog_guard;
 pub mod live_validation;

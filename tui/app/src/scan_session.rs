@@ -3,6 +3,7 @@
 //! the simulated bench) the labels scored against the ground truth. The command line's progress
 //! bar and the terminal UI drive the same session.
 
+use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
 use crate::live_validation::{FrameSource, LiveValidation};
 use crate::rig_error::RigError;
 use crate::rig_file::{RigConfig, StoredPart};
@@ -14,6 +15,7 @@ use fringe_calibration::profile::{
     load_checked, profile_path, Expectation, Profile, ProfileWarning,
 };
 use fringe_rig::camera::{CameraSettings, Cutout};
+use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
@@ -85,6 +87,10 @@ pub enum SessionError {
     DesignProfile { sensor_id: String, message: String },
     #[error(transparent)]
     Model(#[from] ModelError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Room(#[from] RoomError),
 }
 
 /// A rig opened and a scan set up, ready to run.
@@ -97,6 +103,10 @@ pub struct ScanSession {
     pub notes: Vec<Note>,
     /// Where the sensor's calibration profile was looked for.
     profile_dir: PathBuf,
+    /// The camera frame the expected size of the run assumes ([`camera_frame`]).
+    camera_frame: FrameSize,
+    /// How the scan treats the profile (a calibration scan stores whole frames).
+    profile_use: ProfileUse,
 }
 
 /// A finished session.
@@ -159,6 +169,7 @@ impl ScanSession {
                 config,
             )?),
         };
+        let camera_frame = camera_frame(parsed(profile.as_ref()).as_ref(), config);
         let setup = ScanSetup {
             program,
             plan_text,
@@ -184,6 +195,8 @@ impl ScanSession {
             sim: rig.sim,
             notes,
             profile_dir: config.profile_dir(),
+            camera_frame,
+            profile_use,
         })
     }
 
@@ -287,6 +300,13 @@ impl ScanSession {
         operator: &mut dyn Operator,
         progress: &(dyn Fn(ScanProgress) + Sync),
     ) -> Result<SessionEnd, SessionError> {
+        // Before anything homes or moves: a run that will not fit on its disk is refused.
+        check_room(
+            &self.setup,
+            self.camera_frame,
+            &target,
+            self.profile_use == ProfileUse::Consume,
+        )?;
         #[cfg(feature = "sim")]
         let bench = self.sim.as_ref().map(|s| s.bench().clone());
         // What the bench filmed before this scan (the Bench screen, an earlier run's end) is no
@@ -409,12 +429,8 @@ impl Operator for BenchOperator<'_> {
     }
 }
 
-/// The sensor's calibration profile, if there is one: its contact origin replaces the rig
-/// file's, its force offsets are checked against the scan's first no-contact offset, and the run
-/// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
-/// scan goes on with the rig file's origin.
 /// The square around the disc of the sensor's profile that `[recording] store = "disc"` keeps.
-fn disc_cutout(
+pub(crate) fn disc_cutout(
     profile: Option<&ProfileRef>,
     sensor_id: &str,
     margin_px: f64,
@@ -441,6 +457,10 @@ fn disc_cutout(
     .map_err(|e| SessionError::Recording(format!("[recording] store = \"disc\": {e} ({})", p.path)))
 }
 
+/// The sensor's calibration profile, if there is one: its contact origin replaces the rig
+/// file's, its force offsets are checked against the scan's first no-contact offset, and the run
+/// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
+/// scan goes on with the rig file's origin.
 fn calibration_profile(
     config: &RigConfig,
     sensor_id: &str,

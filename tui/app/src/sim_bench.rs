@@ -262,18 +262,25 @@ impl SimBench {
     /// against the bench's stages), for using a model on the simulated bench before a
     /// calibration has been made. Labelled as such in `source`.
     pub fn design_profile(&self, sensor_id: &str) -> fringe_calibration::profile::Profile {
-        let config = self.config();
-        let b = &config.bench.geometry;
-        sensor_profile(
-            &config.sensor,
-            sensor_id,
-            format!(
-                "the simulated {} sensor's design geometry",
-                config.sensor.id
-            ),
-            [b.x_centre_mm, b.y_centre_mm],
-        )
+        design_profile(self.config(), sensor_id)
     }
+}
+
+/// [`SimBench::design_profile`] of the simulated rig `config` describes, without starting it.
+pub fn design_profile(
+    config: &SimRigConfig,
+    sensor_id: &str,
+) -> fringe_calibration::profile::Profile {
+    let b = &config.bench.geometry;
+    sensor_profile(
+        &config.sensor,
+        sensor_id,
+        format!(
+            "the simulated {} sensor's design geometry",
+            config.sensor.id
+        ),
+        [b.x_centre_mm, b.y_centre_mm],
+    )
 }
 
 /// A simulated sensor build's design geometry as a calibration profile, dated now: the optical

@@ -3,8 +3,10 @@
 use crate::global::Global;
 use crate::signals::{Again, Signal};
 use anyhow::Context;
+use fringe_rig::store::disk_space::human;
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
+use fringe_rig::store::run_size::bytes_on_disk;
 use fringe_rig::store::verify::verify;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -36,8 +38,8 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "{:<32} {:<24} {:<16} {:>7}  status",
-        "run (directory)", "started (UTC)", "sensor", "frames"
+        "{:<32} {:<24} {:<16} {:>7} {:>8}  status",
+        "run (directory)", "started (UTC)", "sensor", "frames", "size"
     );
     for r in &runs {
         let mut status = match &r.stop {
@@ -56,9 +58,11 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
         if name != r.start.run_id {
             status.push_str(&format!(" (run id {})", r.start.run_id));
         }
+        // The bytes of its files; "?" when the directory cannot be read to the end.
+        let size = bytes_on_disk(&r.dir).map_or_else(|_| "?".to_string(), human);
         println!(
-            "{:<32} {:<24} {:<16} {:>7}  {status}",
-            name, r.start.started_utc, r.start.sensor_id, r.frames
+            "{:<32} {:<24} {:<16} {:>7} {:>8}  {status}",
+            name, r.start.started_utc, r.start.sensor_id, r.frames, size
         );
     }
     for u in &unreadable {

@@ -7,6 +7,7 @@ use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
 use crate::global::Global;
 use anyhow::bail;
+use fringe_app::disk_room::{free_bytes, needed_bytes, Recording};
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
@@ -14,9 +15,10 @@ use fringe_rig::scan::control::{
 };
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
+use fringe_rig::store::disk_space::human;
 use fringe_rig::store::documents::{ExitStatus, StartDocument};
 use std::io::{BufRead, IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -99,6 +101,13 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     println!("plan: {origin}");
     if args.dry_run {
         print_dry_run(&program, &limits);
+        // A resumed run is written where it is.
+        print_room(
+            &config,
+            &program,
+            &limits,
+            args.resume.as_deref().unwrap_or(&args.out),
+        );
         return Ok(());
     }
     if let Some(dir) = &args.resume {
@@ -269,6 +278,43 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
         clock(e.total),
         clock(e.homing)
     );
+}
+
+/// What a run of `program` will take on disk and what the disk holding `out` has free, from the
+/// rig file and the profile directory only (the devices stay closed); says so when the scan
+/// would be refused.
+fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, out: &Path) {
+    let recording = match Recording::from_rig_files(config) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("expected on disk: cannot be estimated: {e}");
+            return;
+        }
+    };
+    let size = recording.expected(program.estimate(limits).recording_time());
+    println!("expected on disk: {}", recording.describe(&size));
+    match free_bytes(out) {
+        Ok(free) => {
+            println!(
+                "free on the filesystem holding {}: {}",
+                out.display(),
+                human(free)
+            );
+            let need = needed_bytes(size.total_bytes());
+            if need > free {
+                let disc = if recording.storage.cutout.is_none() {
+                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file)"
+                } else {
+                    ""
+                };
+                eprintln!(
+                    "warning: the scan would be refused: with a margin it needs {} free; free space there, write the run elsewhere (--out DIR), or run a smaller plan{disc}",
+                    human(need)
+                );
+            }
+        }
+        Err(e) => eprintln!("warning: {e}"),
+    }
 }
 
 fn join(v: impl Iterator<Item = f64>) -> String {

@@ -8,6 +8,7 @@ use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
 use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
 use fringe_app::bench_session::{BenchCommand, BenchPhase, BenchSession};
+use fringe_app::disk_room::Recording;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::control::Reply;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
@@ -34,6 +35,8 @@ pub struct App {
     pub opts: UiOptions,
     program: ScanProgram,
     limits: BenchLimits,
+    /// How a scan of the rig records, for the plan's expected size.
+    recording: Option<Recording>,
     /// The plans `l` offers.
     plans: Vec<PlanSource>,
     running: Option<Running>,
@@ -45,10 +48,14 @@ pub struct App {
 impl App {
     pub fn new(opts: UiOptions, program: &ScanProgram, limits: &BenchLimits) -> App {
         let origin = opts.config.origin().ok();
+        // From the rig file and the profiles only; the Scan screen leaves the size out when
+        // they cannot tell it (a scan then says why).
+        let recording = Recording::from_rig_files(&opts.config).ok();
         let scan = plan_choice::scan_view(
             program,
             limits,
             origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
+            recording.as_ref(),
         );
         let plans = plan_choice::available(
             PlanSource {
@@ -80,6 +87,7 @@ impl App {
             state,
             program: program.clone(),
             limits: limits.clone(),
+            recording,
             plans,
             opts,
             running: None,
@@ -283,7 +291,12 @@ impl App {
         match plan_choice::load(&src, &self.limits) {
             Ok(program) => {
                 let old = &self.state.scan;
-                let mut view = plan_choice::scan_view(&program, &self.limits, old.origin_mm);
+                let mut view = plan_choice::scan_view(
+                    &program,
+                    &self.limits,
+                    old.origin_mm,
+                    self.recording.as_ref(),
+                );
                 view.disc_radius_mm = old.disc_radius_mm;
                 view.log = old.log.clone();
                 view.log(format!(

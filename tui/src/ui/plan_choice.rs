@@ -3,6 +3,7 @@
 //! what the Scan screen shows of it before it runs.
 
 use super::state::{Phase, PlanPoint, ScanView};
+use fringe_app::disk_room::Recording;
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use std::collections::VecDeque;
 use std::path::Path;
@@ -70,8 +71,14 @@ pub fn load(src: &PlanSource, limits: &BenchLimits) -> anyhow::Result<ScanProgra
     Ok(plan.program(limits, &src.origin)?)
 }
 
-/// The Scan screen of a plan that has not run: its points, targets and estimated duration.
-pub fn scan_view(program: &ScanProgram, limits: &BenchLimits, origin_mm: (f64, f64)) -> ScanView {
+/// The Scan screen of a plan that has not run: its points, targets, estimated duration and, when
+/// the rig's recording is known, expected size on disk.
+pub fn scan_view(
+    program: &ScanProgram,
+    limits: &BenchLimits,
+    origin_mm: (f64, f64),
+    recording: Option<&Recording>,
+) -> ScanView {
     let list = |v: Vec<f64>| {
         v.iter()
             .map(|x| x.to_string())
@@ -82,7 +89,8 @@ pub fn scan_view(program: &ScanProgram, limits: &BenchLimits, origin_mm: (f64, f
         Targets::Force(t) => format!("{} N", list(t.iter().map(|v| v.0).collect())),
         Targets::Depth(t) => format!("{} mm deep", list(t.iter().map(|v| v.0).collect())),
     };
-    let estimate = program.estimate(limits).total;
+    let estimated = program.estimate(limits);
+    let estimate = estimated.total;
     ScanView {
         plan: program.plan.name.clone(),
         points: program
@@ -97,6 +105,7 @@ pub fn scan_view(program: &ScanProgram, limits: &BenchLimits, origin_mm: (f64, f
         disc_radius_mm: None,
         targets,
         estimate,
+        expected_bytes: recording.map(|r| r.expected(estimated.recording_time()).total_bytes()),
         phase: Phase::Ready,
         done: 0,
         total: program.points.len() as u64,
@@ -173,8 +182,16 @@ mod tests {
 
         let limits = limits();
         let program = load(&plans[4], &limits).expect("the wide plan loads");
-        let view = scan_view(&program, &limits, (12.5, 25.0));
+        let recording = Recording::from_rig_files(&fringe_app::RigConfig::simulated())
+            .expect("the simulated bench's recording");
+        let view = scan_view(&program, &limits, (12.5, 25.0), Some(&recording));
         assert_eq!(view.plan, "wide");
+        let time = program.estimate(&limits).recording_time();
+        assert_eq!(
+            view.expected_bytes,
+            Some(recording.expected(time).total_bytes())
+        );
+        assert!(view.expected_bytes > Some(100_000_000), "{view:?}");
         assert_eq!(view.points.len(), 6);
         assert_eq!(view.targets, "1, 4 N");
         assert!(view.estimate.as_secs() > 10);

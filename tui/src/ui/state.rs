@@ -55,6 +55,8 @@ pub struct ScanView {
     /// Force (N) or depth (mm) targets, as text.
     pub targets: String,
     pub estimate: Duration,
+    /// The run's expected size on disk, bytes, when the rig's recording is known.
+    pub expected_bytes: Option<u64>,
     pub phase: Phase,
     pub done: u64,
     pub total: u64,

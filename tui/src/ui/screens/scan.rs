@@ -11,6 +11,7 @@ use crate::ui::state::{Phase, ScanView, Tab, UiState};
 use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, PENDING, WARN};
+use fringe_rig::store::disk_space::human;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
@@ -228,10 +229,13 @@ fn draw_status(f: &mut Frame, area: Rect, v: &ScanView) {
     let status = vec![
         Line::from(Span::styled(phase, Style::new().fg(colour))),
         Line::from(format!(
-            "{} points to {}, about {}",
+            "{} points to {}, about {}{}",
             v.points.len(),
             v.targets,
-            clock(v.estimate)
+            clock(v.estimate),
+            v.expected_bytes
+                .map(|b| format!(", {} on disk", human(b)))
+                .unwrap_or_default()
         )),
         Line::from(point),
         Line::from(format!("force {:>6.2} N   ETA {}", v.force_n, clock(v.eta))),

@@ -78,6 +78,8 @@ fn ready() -> UiState {
             disc_radius_mm: Some(12.5),
             targets: "2, 5 N".into(),
             estimate: Duration::from_secs(95),
+            // Its presses filmed in whole 1920x1200 BayerRG8 frames at 50 fps.
+            expected_bytes: Some(2_420_000_000),
             phase: Phase::Ready,
             done: 0,
             total: 9,
