@@ -218,6 +218,10 @@ fn parse_utc_seconds(s: &str) -> Option<f64> {
     Some(days as f64 * 86_400.0 + hh * 3600.0 + mm * 60.0 + ss)
 }
 
+/// A profile older than this many days is stale: scans that use it warn to re-run the
+/// calibration.
+pub const MAX_AGE_DAYS: f64 = 90.0;
+
 /// What a consumer expects of the profile it is about to use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Expectation<'a> {

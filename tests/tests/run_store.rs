@@ -497,8 +497,13 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         }
         // The reference layout gets RGB, demosaiced by the one documented demosaicing.
         let out = root.join(format!("export-{}", start.run_id));
-        export_reference(std::slice::from_ref(&dir), &out, &ExportOptions::default(), |_| {})
-            .expect("export");
+        export_reference(
+            std::slice::from_ref(&dir),
+            &out,
+            &ExportOptions::default(),
+            |_| {},
+        )
+        .expect("export");
         for (k, r) in records.iter().enumerate() {
             let tiff = image::open(out.join("0.images").join(format!("image_{k}.tiff")))
                 .expect("exported image");

@@ -1183,7 +1183,11 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square(
                     camera.data[at..at + w as usize].iter().copied()
                 })
                 .collect();
-            assert!(stored.data == expected, "{name}: record {} differs", r.index);
+            assert!(
+                stored.data == expected,
+                "{name}: record {} differs",
+                r.index
+            );
         }
         assert!(verify(&out.run_dir).expect("verify").ok());
         drop(rig);

@@ -14,11 +14,11 @@
 //! so they are used by one thread at a time; it is `Send` (moving it to another thread is fine)
 //! but deliberately not `Sync`.
 
+use super::writer::format_name;
 use super::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
     TriggerMode,
 };
-use super::writer::format_name;
 use crate::clock::HostTime;
 use ::aravis::prelude::*;
 use std::sync::OnceLock;

@@ -6,9 +6,9 @@
 //! a real camera tells only once it is opened: the estimate takes it from [`camera_frame`], the
 //! one place that chooses it.
 
+use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_file::{RigConfig, StoredPart};
-use crate::scan_session::{disc_cutout, SessionError, PROFILE_MAX_AGE_DAYS};
-use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile};
+use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
 use fringe_rig::store::disk_space::{available_bytes, human};
@@ -91,7 +91,7 @@ impl Recording {
     /// profile directory only (no device is opened): the camera's pixel format and frame rate,
     /// `[recording] store` with the disc of the sensor's calibration profile (on the simulated
     /// bench without one, of its design geometry, as a scan would), and [`camera_frame`].
-    pub fn from_rig_files(config: &RigConfig) -> Result<Recording, SessionError> {
+    pub fn from_rig_files(config: &RigConfig) -> Result<Recording, RecordingError> {
         let camera = config.camera_settings()?;
         let sensor_id = config.sensor_id()?;
         let profile = profile_on_file(config, &sensor_id);
@@ -105,7 +105,7 @@ impl Recording {
             )?),
         };
         let storage = FrameStorage::new(camera.pixel_format, cutout)
-            .map_err(|e| SessionError::Recording(format!("storing frames: {e}")))?;
+            .map_err(|e| RecordingError::Disc(format!("storing frames: {e}")))?;
         Ok(Recording {
             storage,
             frame: camera_frame(parsed(profile.as_ref()).as_ref(), config),
@@ -161,7 +161,7 @@ fn profile_on_file(config: &RigConfig, sensor_id: &str) -> Option<ProfileRef> {
     let want = Expectation {
         sensor_id,
         image: None,
-        max_age_days: PROFILE_MAX_AGE_DAYS,
+        max_age_days: MAX_AGE_DAYS,
     };
     if load_checked(&dir, &want, SystemTime::now()).0.is_some() {
         let path = profile_path(&dir, sensor_id).ok()?;
@@ -383,7 +383,7 @@ mod tests {
         let size = recording.expected(RecordingTime::filming_throughout(Duration::from_secs(60)));
         let text = recording.describe(&size);
         assert!(
-            text.contains("3000 of 1920x1200 bayerrg8, 1.73 MB each")
+            text.contains("3000 of 1920x1200 bayerrg8, 1.38 MB each")
                 && text.contains("force log 25 MB"),
             "{text}"
         );

@@ -45,6 +45,7 @@ pub mod live_validation;
 pub mod live_view;
 mod open_rig;
 pub mod plans;
+mod recording_part;
 mod rig_bench;
 mod rig_devices;
 mod rig_error;

@@ -89,7 +89,9 @@ mod tests {
 
     #[test]
     fn every_built_in_plan_is_valid_on_the_simulated_bench() {
-        let limits = crate::RigConfig::simulated().limits().expect("limits");
+        let limits = crate::rig_file::RigConfig::simulated()
+            .limits()
+            .expect("limits");
         for plan in ALL.into_iter().chain([COMMISSION]) {
             let parsed = Plan::parse(plan.text, &plan.origin()).expect("parses");
             assert_eq!(parsed.name, plan.name);

@@ -684,9 +684,14 @@ mod tests {
         );
         for (text, key) in [
             ("[recording]\nstore = \"crop\"\n", "recording.store"),
-            ("[recording]\ndisc_margin_px = -3.0\n", "recording.disc_margin_px"),
+            (
+                "[recording]\ndisc_margin_px = -3.0\n",
+                "recording.disc_margin_px",
+            ),
         ] {
-            let e = RigConfig::parse(text, "rig.toml").expect_err(text).to_string();
+            let e = RigConfig::parse(text, "rig.toml")
+                .expect_err(text)
+                .to_string();
             assert!(e.contains("rig.toml") && e.contains(key), "{e}");
         }
     }

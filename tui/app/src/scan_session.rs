@@ -5,6 +5,7 @@
 
 use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
 use crate::live_validation::{FrameSource, LiveValidation};
+use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_error::RigError;
 use crate::rig_file::{RigConfig, StoredPart};
 #[cfg(feature = "sim")]
@@ -12,9 +13,9 @@ use crate::sim_bench::{score_run, SimBench};
 use crate::truth_score::TruthScore;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{
-    load_checked, profile_path, Expectation, Profile, ProfileWarning,
+    load_checked, profile_path, Expectation, Profile, ProfileWarning, MAX_AGE_DAYS,
 };
-use fringe_rig::camera::{CameraSettings, Cutout};
+use fringe_rig::camera::CameraSettings;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
 use fringe_rig::reference_layout::NO_CONTACT;
@@ -30,7 +31,6 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frame_file::FrameStorage;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::backend::Backend;
@@ -40,7 +40,6 @@ use std::sync::Arc;
 use std::time::SystemTime;
 
 /// A profile older than this is reported as stale.
-pub(crate) const PROFILE_MAX_AGE_DAYS: f64 = 90.0;
 
 /// How a scan treats the sensor's calibration profile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,8 +72,8 @@ pub enum SessionError {
         dir.display()
     )]
     NoGeometry { sensor_id: String, dir: PathBuf },
-    #[error("{0}")]
-    Recording(String),
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
     #[error(
         "{model}: the model's shape classes ({classes}) do not include {missing}, which this scan's frames will be labelled with: it cannot be scored on them (use a model trained for these indenters, or a plan that presses only those it knows)"
     )]
@@ -429,34 +428,6 @@ impl Operator for BenchOperator<'_> {
     }
 }
 
-/// The square around the disc of the sensor's profile that `[recording] store = "disc"` keeps.
-pub(crate) fn disc_cutout(
-    profile: Option<&ProfileRef>,
-    sensor_id: &str,
-    margin_px: f64,
-    config: &RigConfig,
-) -> Result<Cutout, SessionError> {
-    let Some(p) = profile else {
-        return Err(SessionError::Recording(format!(
-            "[recording] store = \"disc\" needs the calibration profile of sensor {sensor_id} \
-             in {}: run `fringe calibrate` first, or store whole frames (store = \"frame\")",
-            config.profile_dir().display()
-        )));
-    };
-    let profile: Profile = toml::from_str(&p.content).map_err(|e| {
-        SessionError::Recording(format!("{}: the profile cannot be read: {e}", p.path))
-    })?;
-    let o = &profile.optical;
-    FrameStorage::disc_square(
-        [o.centre_x_px, o.centre_y_px],
-        o.radius_px,
-        margin_px,
-        profile.image.width,
-        profile.image.height,
-    )
-    .map_err(|e| SessionError::Recording(format!("[recording] store = \"disc\": {e} ({})", p.path)))
-}
-
 /// The sensor's calibration profile, if there is one: its contact origin replaces the rig
 /// file's, its force offsets are checked against the scan's first no-contact offset, and the run
 /// records which profile it used. Missing, stale or mismatched profiles are warned about, and the
@@ -475,7 +446,7 @@ fn calibration_profile(
     let want = Expectation {
         sensor_id,
         image: None,
-        max_age_days: PROFILE_MAX_AGE_DAYS,
+        max_age_days: MAX_AGE_DAYS,
     };
     let (profile, warnings) = load_checked(&dir, &want, SystemTime::now());
     notes.extend(warnings.iter().map(|w| {
