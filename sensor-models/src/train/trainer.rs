@@ -715,7 +715,7 @@ fn prepare_side(
         }
         h.join()
     });
-    result.unwrap_or_else(|_| Err(crate::training_set::TrainingSetError::Stopped))
+    result.unwrap_or(Err(crate::training_set::TrainingSetError::Stopped))
 }
 
 /// The model written to `weights` evaluated on the test side of `split` by the default backend

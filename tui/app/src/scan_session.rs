@@ -39,8 +39,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::SystemTime;
 
-/// A profile older than this is reported as stale.
-
 /// How a scan treats the sensor's calibration profile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProfileUse {
