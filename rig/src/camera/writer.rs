@@ -102,7 +102,19 @@ pub fn load_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, FrameFileError> {
-    let img = image::ImageReader::open(path)
+    let (w, h, data) = read_pixels(path, format, "the index says")?;
+    if (w, h) != (width, height) {
+        return Err(FrameFileError::Content {
+            path: path.to_path_buf(),
+            message: format!("image is {w}x{h} but the index says {width}x{height}"),
+        });
+    }
+    Ok(data)
+}
+
+/// Decodes an image file (PNG, TIFF, ...), naming it in errors.
+pub fn open_image(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
+    image::ImageReader::open(path)
         .map_err(|source| FrameFileError::Io {
             path: path.to_path_buf(),
             source,
@@ -116,26 +128,29 @@ pub fn load_png(
         .map_err(|source| FrameFileError::Image {
             path: path.to_path_buf(),
             source,
-        })?;
-    if img.width() != width || img.height() != height {
-        return Err(FrameFileError::Content {
-            path: path.to_path_buf(),
-            message: format!(
-                "image is {}x{} but the index says {width}x{height}",
-                img.width(),
-                img.height()
-            ),
-        });
-    }
+        })
+}
+
+/// An image file's width, height and pixels, checked to be 8-bit RGB for RGB8 and 8-bit grey
+/// otherwise; `whose` names what says the format in the error ("the index says").
+pub fn read_pixels(
+    path: &Path,
+    format: PixelFormat,
+    whose: &str,
+) -> Result<(u32, u32, Vec<u8>), FrameFileError> {
+    let img = open_image(path)?;
+    let (width, height) = (img.width(), img.height());
     match (format, img) {
         (PixelFormat::Mono8 | PixelFormat::BayerRg8, image::DynamicImage::ImageLuma8(buf)) => {
-            Ok(buf.into_raw())
+            Ok((width, height, buf.into_raw()))
         }
-        (PixelFormat::Rgb8, image::DynamicImage::ImageRgb8(buf)) => Ok(buf.into_raw()),
+        (PixelFormat::Rgb8, image::DynamicImage::ImageRgb8(buf)) => {
+            Ok((width, height, buf.into_raw()))
+        }
         (format, img) => Err(FrameFileError::Content {
             path: path.to_path_buf(),
             message: format!(
-                "image colour type is {:?} but the index says {} (expected 8-bit {})",
+                "image colour type is {:?} but {whose} {} (expected 8-bit {})",
                 img.color(),
                 format_name(format),
                 if format == PixelFormat::Rgb8 {

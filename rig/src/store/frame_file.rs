@@ -19,7 +19,7 @@
 //! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
 //! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
 
-use crate::camera::writer::{format_name, FrameFileError};
+use crate::camera::writer::{format_name, open_image, read_pixels, FrameFileError};
 use crate::camera::{Cutout, Frame, PixelFormat, Roi};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::ImageEncoder;
@@ -225,7 +225,7 @@ impl FrameStorage {
 
     /// Reads a frame file written by [`FrameStorage::write`].
     pub fn read(&self, path: &Path) -> Result<StoredFrame, FrameFileError> {
-        let (width, height, data) = read_png(path, self.pixel_format)?;
+        let (width, height, data) = read_pixels(path, self.pixel_format, "the run stores")?;
         if let Some(c) = self.cutout {
             if (width, height) != (c.roi.width, c.roi.height) {
                 return Err(FrameFileError::Content {
@@ -284,7 +284,7 @@ impl FrameStorage {
 /// Reads an ordinary image file as a whole camera frame: RGB as RGB8, grey as Mono8 (image
 /// folders and the reference layout).
 pub fn read_plain(path: &Path) -> Result<StoredFrame, FrameFileError> {
-    let img = open(path)?;
+    let img = open_image(path)?;
     let (width, height) = (img.width(), img.height());
     let (data, format) = match img {
         image::DynamicImage::ImageLuma8(g) => (g.into_raw(), PixelFormat::Mono8),
@@ -300,51 +300,6 @@ pub fn read_plain(path: &Path) -> Result<StoredFrame, FrameFileError> {
         data,
         cutout: None,
     })
-}
-
-fn open(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
-    image::ImageReader::open(path)
-        .map_err(|source| FrameFileError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .with_guessed_format()
-        .map_err(|source| FrameFileError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .decode()
-        .map_err(|source| FrameFileError::Image {
-            path: path.to_path_buf(),
-            source,
-        })
-}
-
-/// A PNG's pixels, checked to be 8-bit RGB (for RGB8) or grey (otherwise).
-fn read_png(path: &Path, format: PixelFormat) -> Result<(u32, u32, Vec<u8>), FrameFileError> {
-    let img = open(path)?;
-    let (width, height) = (img.width(), img.height());
-    match (format, img) {
-        (PixelFormat::Mono8 | PixelFormat::BayerRg8, image::DynamicImage::ImageLuma8(buf)) => {
-            Ok((width, height, buf.into_raw()))
-        }
-        (PixelFormat::Rgb8, image::DynamicImage::ImageRgb8(buf)) => {
-            Ok((width, height, buf.into_raw()))
-        }
-        (format, img) => Err(FrameFileError::Content {
-            path: path.to_path_buf(),
-            message: format!(
-                "image colour type is {:?} but the run stores {} (8-bit {})",
-                img.color(),
-                format_name(format),
-                if format == PixelFormat::Rgb8 {
-                    "RGB"
-                } else {
-                    "grey"
-                }
-            ),
-        }),
-    }
 }
 
 /// The pixels of `roi` of `frame`.
