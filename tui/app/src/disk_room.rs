@@ -214,6 +214,15 @@ pub enum RoomError {
         /// What to do.
         advice: String,
     },
+    #[error(
+        "{}: cannot make the directory for the runs: {source} (choose one you can write, with --out DIR)",
+        dir.display()
+    )]
+    Unwritable {
+        dir: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("{}: cannot tell the free disk space: {source}", dir.display())]
     Unmeasured {
         dir: PathBuf,
@@ -319,6 +328,14 @@ pub(crate) fn check_room(
     target: &RunTarget,
     may_store_disc: bool,
 ) -> Result<(), RoomError> {
+    // A directory for new runs that cannot be made is that, not a full disk (/proc, say, has
+    // no free space to measure): made here, as the run writer would make it.
+    if let RunTarget::New { root, .. } = target {
+        std::fs::create_dir_all(root).map_err(|source| RoomError::Unwritable {
+            dir: root.clone(),
+            source,
+        })?;
+    }
     let Some(run) = planned_run(setup, frame, target, may_store_disc) else {
         return Ok(());
     };
