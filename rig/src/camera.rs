@@ -171,6 +171,22 @@ pub struct Frame {
     pub data: Vec<u8>,
 }
 
+/// A `width` x `height` frame of `format` with varied bytes, for the crate's unit tests.
+#[cfg(test)]
+pub(crate) fn test_frame(format: PixelFormat, width: u32, height: u32) -> Frame {
+    Frame {
+        id: 7,
+        device_timestamp: 123,
+        host_arrival: HostTime(9),
+        width,
+        height,
+        format,
+        data: (0..(width * height) as usize * format.bytes_per_pixel())
+            .map(|i| (i * 37 % 251) as u8)
+            .collect(),
+    }
+}
+
 /// One timestamp-latch exchange: the device clock read between two host times.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TimestampLatch {

@@ -239,22 +239,9 @@ impl FrameWriter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::clock::HostTime;
 
     fn frame(format: PixelFormat) -> Frame {
-        let (w, h) = (5u32, 3u32);
-        let data = (0..(w * h) as usize * format.bytes_per_pixel())
-            .map(|i| (i * 37 % 251) as u8)
-            .collect();
-        Frame {
-            id: 7,
-            device_timestamp: 123,
-            host_arrival: HostTime(9),
-            width: w,
-            height: h,
-            format,
-            data,
-        }
+        crate::camera::test_frame(format, 5, 3)
     }
 
     #[test]

@@ -352,21 +352,9 @@ pub fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::clock::HostTime;
 
     fn frame(format: PixelFormat, w: u32, h: u32) -> Frame {
-        let data = (0..(w * h) as usize * format.bytes_per_pixel())
-            .map(|i| (i * 37 % 251) as u8)
-            .collect();
-        Frame {
-            id: 7,
-            device_timestamp: 123,
-            host_arrival: HostTime(9),
-            width: w,
-            height: h,
-            format,
-            data,
-        }
+        crate::camera::test_frame(format, w, h)
     }
 
     fn temp(name: &str) -> std::path::PathBuf {
