@@ -38,17 +38,8 @@ pub fn read(
     path: &Path,
     storage: Option<&FrameStorage>,
 ) -> Result<image::DynamicImage, FrameError> {
-    let Some(storage) = storage else {
-        return image::open(path).map_err(|source| FrameError::Read {
-            path: path.to_path_buf(),
-            source,
-        });
-    };
-    let stored = storage.read(path).map_err(|e| FrameError::Stored {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    if stored.cutout.is_some() {
+    let (image, cutout) = decode(path, storage)?;
+    if cutout.is_some() {
         return Err(FrameError::Stored {
             path: path.to_path_buf(),
             message: "the run stored only the square around the disc: calibration needs whole \
@@ -56,6 +47,55 @@ pub fn read(
                 .into(),
         });
     }
+    Ok(image)
+}
+
+/// Reads one frame file as [`read`] does, but a run's cutout (the square around the disc) is
+/// placed where it lies in the camera's frame, black around it: for measurements inside the
+/// disc and just around it (the health check), which the cutout's margin holds.
+pub fn read_placed(path: &Path, storage: &FrameStorage) -> Result<GreyImage, FrameError> {
+    let (image, cutout) = decode(path, Some(storage))?;
+    let grey = GreyImage::from_image(&image);
+    let Some(c) = cutout else {
+        return Ok(grey);
+    };
+    let (w, h) = (c.frame_width as usize, c.frame_height as usize);
+    let (x0, y0) = (c.roi.x as usize, c.roi.y as usize);
+    if x0 + grey.width > w || y0 + grey.height > h {
+        return Err(FrameError::Stored {
+            path: path.to_path_buf(),
+            message: format!(
+                "its {}x{} px cutout at ({x0}, {y0}) does not fit the {w}x{h} px frame the run \
+                 names",
+                grey.width, grey.height
+            ),
+        });
+    }
+    let mut data = vec![0.0f32; w * h];
+    for (j, row) in grey.data.chunks(grey.width).enumerate() {
+        let at = (y0 + j) * w + x0;
+        data[at..at + grey.width].copy_from_slice(row);
+    }
+    GreyImage::from_values(w, h, data).ok_or(FrameError::Empty)
+}
+
+/// A frame file's pixels as an image, and the part of the camera's frame they are.
+fn decode(
+    path: &Path,
+    storage: Option<&FrameStorage>,
+) -> Result<(image::DynamicImage, Option<fringe_rig::camera::Cutout>), FrameError> {
+    let Some(storage) = storage else {
+        return image::open(path)
+            .map(|i| (i, None))
+            .map_err(|source| FrameError::Read {
+                path: path.to_path_buf(),
+                source,
+            });
+    };
+    let stored = storage.read(path).map_err(|e| FrameError::Stored {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let (w, h) = (stored.width, stored.height);
     let image = match stored.format {
         PixelFormat::Mono8 => image::GrayImage::from_raw(w, h, stored.data).map(Into::into),
@@ -65,10 +105,11 @@ pub fn read(
                 .map(Into::into)
         }
     };
-    image.ok_or_else(|| FrameError::Stored {
+    let image = image.ok_or_else(|| FrameError::Stored {
         path: path.to_path_buf(),
         message: format!("{w}x{h} pixels do not match the file's bytes"),
-    })
+    })?;
+    Ok((image, stored.cutout))
 }
 
 /// At most `max` of `paths`, spread evenly over them (first one included).

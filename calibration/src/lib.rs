@@ -6,6 +6,8 @@
 //!
 //! - [`frames`]: frame files (PNG, TIFF) read and averaged.
 //! - [`from_scan`]: the whole calibration from a calibration scan's run.
+//! - [`health`]: a unit's signature in a run's no-contact frames and what changed since it was
+//!   accepted (the health check's optical figures).
 //! - [`optical`]: the sensor disc (centre, radius, crop radius) from no-contact frames.
 //! - [`offsets`]: F/T bias, its drift through a run and the zero-load check.
 //! - [`registration`]: contact positions in pressed frames, the stage-to-image similarity
@@ -23,6 +25,7 @@
 
 pub mod frames;
 pub mod from_scan;
+pub mod health;
 pub mod offsets;
 pub mod optical;
 pub mod profile;

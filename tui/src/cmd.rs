@@ -6,6 +6,7 @@ pub mod arg_values;
 pub mod axis;
 pub mod calibrate;
 pub mod camera;
+pub mod check;
 pub mod commission;
 #[cfg(feature = "sim")]
 pub mod demo;

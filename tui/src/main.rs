@@ -69,6 +69,10 @@ enum Command {
     /// adapt the model to it, accept or reject it against a spec on held-out presses; a
     /// certificate beside its profile.
     Commission(cmd::commission::CommissionArgs),
+    /// Check a commissioned unit against its certificate in at most two minutes of bench time:
+    /// optics, light, surface, F/T zero and the model's errors; a verdict (ok, calibrate again,
+    /// commission again, replace) with its evidence, kept in the unit's history (--history).
+    Check(cmd::check::CheckArgs),
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
@@ -127,6 +131,7 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => cmd::eval::run(args),
         Some(Command::Adapt(args)) => cmd::adapt::run(args),
         Some(Command::Commission(args)) => cmd::commission::run(args, &global),
+        Some(Command::Check(args)) => cmd::check::run(args, &global),
         Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]

@@ -27,6 +27,8 @@
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
 //! - [`commission`]: commissioning a unit: where to press, its plans, its journal and its
 //!   certificate (and the unit's commissioned model).
+//! - [`health`]: a unit's health check against its certificate: the check's presses, the
+//!   figures and their thresholds, the verdict, the unit's history.
 //! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
 //!   default).
 //!
@@ -39,6 +41,7 @@ pub mod commission;
 pub mod device_open;
 pub mod device_spec;
 pub mod disk_room;
+pub mod health;
 pub mod host_port;
 pub mod jog_guard;
 pub mod live_validation;

@@ -10,7 +10,7 @@
 mod certify;
 mod last_block;
 mod rounds;
-mod session;
+pub(crate) mod session;
 
 use crate::global::Global;
 use anyhow::{bail, Context, Result};

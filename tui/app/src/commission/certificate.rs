@@ -215,6 +215,11 @@ pub fn commissioned_model(profiles: &Path, sensor: &str) -> (Option<Commissioned
                     c.model
                 ));
             }
+            Ok(c) if c.sensor_id != sensor => notes.push(format!(
+                "{}: its certificate is of sensor {}, not {sensor}: passed over",
+                dir.display(),
+                c.sensor_id
+            )),
             Ok(_) => {}
             Err(e) => notes.push(e.to_string()),
         }

@@ -1,0 +1,16 @@
+//! A unit's health over its life: a short check against what it was accepted with (its
+//! commissioning certificate), the verdict with its evidence, and the unit's history.
+//!
+//! - [`check_plan`]: the check's presses, a fixed subset of the acceptance positions, sized to
+//!   the bench time a check may take.
+//! - [`model_errors`]: the model's errors at the check's positions, and at the same positions of
+//!   the acceptance scan.
+//! - [`figures`]: every figure compared (optics, light, surface, force zero, the model's errors),
+//!   its threshold and the verdict: ok, calibrate again, commission again, or replace the unit.
+//! - [`history`]: every check appended to `<profiles>/<sensor>.health.jsonl`, read back with
+//!   damaged lines reported and passed over.
+
+pub mod check_plan;
+pub mod figures;
+pub mod history;
+pub mod model_errors;

@@ -1,0 +1,410 @@
+//! The figures a check compares with what the unit was accepted with, their thresholds, and the
+//! verdict.
+//!
+//! Every figure has a threshold and the action it calls for when it moves past it:
+//!
+//! | figure | threshold | when it moves |
+//! |---|---|---|
+//! | optical centre shift | 5 sigma of the two fits, at least [`Thresholds::centre_share`] of the radius | calibrate again (the camera moved) |
+//! | disc radius change | 5 sigma, at least [`Thresholds::radius_share`] of the radius | calibrate again (focus or distance changed) |
+//! | turn of the rim's light | [`Thresholds::turn_deg`] | calibrate again (the camera turned) |
+//! | F/T zero against the profile | [`Thresholds::force_offset_n`] | calibrate again (the force offsets) |
+//! | darkest rim sector | [`Thresholds::rim_ratio`] | replace or repair (an LED is out) |
+//! | darkest side of the disc | [`Thresholds::side_ratio`] | replace or repair (the light is uneven) |
+//! | sharp local change of the disc | [`Thresholds::surface_cells`] cells | replace (the surface is damaged) |
+//! | disc brightness | [`Thresholds::dimmer`], [`Thresholds::brighter`] | replace (the LEDs are dimming), commission again (brighter) |
+//! | force gain of the model | [`Thresholds::gain_change`] | commission again (the material changed) |
+//! | Fz RMSE, contact RMSE | [`Thresholds::rmse_ratio`] times the acceptance's and an absolute margin | commission again |
+//! | shape accuracy | [`Thresholds::accuracy_drop`] below the acceptance's | commission again |
+//!
+//! The verdict is the gravest action called for: replace, then calibrate again, then commission
+//! again, else ok; the diagnosis is the first moved figure of that action in the table's order.
+//! The thresholds were set from repeated checks of unchanged units on the simulated bench
+//! (BENCHMARKS.md, "Unit health").
+
+use crate::health::model_errors::ModelErrors;
+use fringe_calibration::health::change::Change;
+
+/// What a check calls for, from least to gravest.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Verdict {
+    Ok,
+    Recommission,
+    Recalibrate,
+    Replace,
+}
+
+impl Verdict {
+    /// What to do, for people.
+    pub fn advice(self) -> &'static str {
+        match self {
+            Verdict::Ok => "ok: the unit is as it was accepted",
+            Verdict::Recommission => {
+                "commission again: the model no longer fits the unit (fringe commission)"
+            }
+            Verdict::Recalibrate => {
+                "calibrate again: the optics or the force zero moved (fringe calibrate), then check again"
+            }
+            Verdict::Replace => "replace or repair the unit: its light or its surface is damaged",
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Ok => "ok",
+            Verdict::Recommission => "recommission",
+            Verdict::Recalibrate => "recalibrate",
+            Verdict::Replace => "replace",
+        }
+    }
+}
+
+/// Which side of its threshold a figure must stay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Rule {
+    /// Moved when above the threshold.
+    AtMost,
+    /// Moved when below the threshold.
+    AtLeast,
+}
+
+/// One figure of a check.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Figure {
+    /// Stable name, for the history and its plots.
+    pub key: String,
+    pub value: f64,
+    pub threshold: f64,
+    pub rule: Rule,
+    pub unit: String,
+    /// What it calls for when it moved.
+    pub action: Verdict,
+    pub moved: bool,
+    /// What a move means, with the numbers.
+    pub finding: String,
+}
+
+impl Figure {
+    fn new(
+        key: &str,
+        value: f64,
+        rule: Rule,
+        threshold: f64,
+        unit: &str,
+        action: Verdict,
+        finding: String,
+    ) -> Figure {
+        let moved = match rule {
+            Rule::AtMost => value > threshold,
+            Rule::AtLeast => value < threshold,
+        } || !value.is_finite();
+        Figure {
+            key: key.to_string(),
+            value,
+            threshold,
+            rule,
+            unit: unit.to_string(),
+            action,
+            moved,
+            finding,
+        }
+    }
+
+    /// `key = value unit (at most / at least threshold)`.
+    pub fn describe(&self) -> String {
+        format!(
+            "{:<22} {:>9.4} {:<4} ({} {:.4}){}",
+            self.key,
+            self.value,
+            self.unit,
+            match self.rule {
+                Rule::AtMost => "at most",
+                Rule::AtLeast => "at least",
+            },
+            self.threshold,
+            if self.moved {
+                format!("  MOVED: {}", self.finding)
+            } else {
+                String::new()
+            }
+        )
+    }
+}
+
+/// The thresholds of the figures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Thresholds {
+    /// Least centre shift that counts, as a share of the disc radius (on top of 5 sigma).
+    pub centre_share: f64,
+    /// Least radius change that counts, as a share of the radius (on top of 5 sigma).
+    pub radius_share: f64,
+    pub turn_deg: f64,
+    pub force_offset_n: f64,
+    pub rim_ratio: f64,
+    pub side_ratio: f64,
+    pub surface_cells: usize,
+    pub dimmer: f64,
+    pub brighter: f64,
+    pub gain_change: f64,
+    pub rmse_ratio: f64,
+    /// Fz RMSE must also grow by this much, N ...
+    pub fz_margin_n: f64,
+    /// ... and contact RMSE by this much, mm.
+    pub contact_margin_mm: f64,
+    pub accuracy_drop: f64,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            centre_share: 0.004,
+            radius_share: 0.004,
+            turn_deg: 2.0,
+            force_offset_n: 0.06,
+            rim_ratio: 0.75,
+            side_ratio: 0.92,
+            surface_cells: 6,
+            dimmer: 0.85,
+            brighter: 1.15,
+            gain_change: 0.06,
+            rmse_ratio: 1.8,
+            fz_margin_n: 0.1,
+            contact_margin_mm: 0.3,
+            accuracy_drop: 0.05,
+        }
+    }
+}
+
+/// What a check measured.
+#[derive(Debug, Clone)]
+pub struct Measured<'a> {
+    pub change: &'a Change,
+    /// The reference disc radius, px.
+    pub radius_px: f64,
+    /// Combined 1-sigma of the radius change, px.
+    pub radius_sigma_px: f64,
+    /// The F/T zero (Fx, Fy, Fz) at the check's first no-contact window minus the profile's, N.
+    pub force_offset_n: Option<[f64; 3]>,
+    /// The model's errors at the check's positions now and at the acceptance.
+    pub model_now: Option<&'a ModelErrors>,
+    pub model_then: Option<&'a ModelErrors>,
+}
+
+/// A check's outcome.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Assessment {
+    pub verdict: Verdict,
+    /// The finding behind the verdict (empty when ok).
+    pub diagnosis: String,
+    pub figures: Vec<Figure>,
+}
+
+impl Assessment {
+    /// The figures that moved.
+    pub fn moved(&self) -> impl Iterator<Item = &Figure> {
+        self.figures.iter().filter(|f| f.moved)
+    }
+}
+
+/// The figures of `m` against `t`, and the verdict.
+pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
+    let c = m.change;
+    let r = m.radius_px;
+    let mut figures = Vec::new();
+    let sigma = c.centre_sigma_px[0].hypot(c.centre_sigma_px[1]);
+    figures.push(Figure::new(
+        "centre_shift_px",
+        c.centre_shift(),
+        Rule::AtMost,
+        (5.0 * sigma).max(t.centre_share * r),
+        "px",
+        Verdict::Recalibrate,
+        format!(
+            "the camera moved: the optical centre shifted by ({:+.1}, {:+.1}) px",
+            c.centre_shift_px[0], c.centre_shift_px[1]
+        ),
+    ));
+    figures.push(Figure::new(
+        "radius_change_px",
+        c.radius_change_px.abs(),
+        Rule::AtMost,
+        (5.0 * m.radius_sigma_px).max(t.radius_share * r),
+        "px",
+        Verdict::Recalibrate,
+        format!(
+            "the disc's radius in the image changed by {:+.1} px (focus or camera distance)",
+            c.radius_change_px
+        ),
+    ));
+    figures.push(Figure::new(
+        "turn_deg",
+        c.turn_deg.abs(),
+        Rule::AtMost,
+        t.turn_deg,
+        "deg",
+        Verdict::Recalibrate,
+        format!("the camera turned by about {:+.0} degrees", c.turn_deg),
+    ));
+    if let Some(o) = m.force_offset_n {
+        let moved = o[0].hypot(o[1]).hypot(o[2]);
+        figures.push(Figure::new(
+            "force_zero_n",
+            moved,
+            Rule::AtMost,
+            t.force_offset_n,
+            "N",
+            Verdict::Recalibrate,
+            format!(
+                "the F/T zero moved by ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the profile was made",
+                o[0], o[1], o[2]
+            ),
+        ));
+    }
+    figures.push(Figure::new(
+        "darkest_rim",
+        c.darkest_rim_ratio,
+        Rule::AtLeast,
+        t.rim_ratio,
+        "x",
+        Verdict::Replace,
+        format!(
+            "an LED is out: the rim at {:.0}-{:.0} degrees gives {:.0} % of its light",
+            c.darkest_rim_deg,
+            c.darkest_rim_deg + fringe_calibration::health::change::RIM_SECTOR_DEG as f64,
+            100.0 * c.darkest_rim_ratio
+        ),
+    ));
+    figures.push(Figure::new(
+        "darkest_side",
+        c.darkest_side_ratio,
+        Rule::AtLeast,
+        t.side_ratio,
+        "x",
+        Verdict::Replace,
+        format!(
+            "the light is uneven: the disc's side at {:.0} degrees gives {:.0} % of its light",
+            c.darkest_side_deg,
+            100.0 * c.darkest_side_ratio
+        ),
+    ));
+    figures.push(Figure::new(
+        "surface_cells",
+        c.surface_cells as f64,
+        Rule::AtMost,
+        t.surface_cells as f64,
+        "",
+        Verdict::Replace,
+        format!(
+            "the surface is damaged (a scratch): {} of {} places of the disc changed sharply, by up to {:.1} DN",
+            c.surface_cells, c.cells_compared, c.surface_peak_dn
+        ),
+    ));
+    figures.push(Figure::new(
+        "dimming",
+        c.brightness_ratio,
+        Rule::AtLeast,
+        t.dimmer,
+        "x",
+        Verdict::Replace,
+        format!(
+            "the LEDs are dimming: the disc gives {:.0} % of its light",
+            100.0 * c.brightness_ratio
+        ),
+    ));
+    figures.push(Figure::new(
+        "brightening",
+        c.brightness_ratio,
+        Rule::AtMost,
+        t.brighter,
+        "x",
+        Verdict::Recommission,
+        format!(
+            "the disc is brighter: {:.0} % of its light",
+            100.0 * c.brightness_ratio
+        ),
+    ));
+    if let (Some(now), Some(then)) = (m.model_now, m.model_then) {
+        model_figures(&mut figures, now, then, t);
+    }
+    let verdict = figures
+        .iter()
+        .filter(|f| f.moved)
+        .map(|f| f.action)
+        .max()
+        .unwrap_or(Verdict::Ok);
+    let diagnosis = figures
+        .iter()
+        .find(|f| f.moved && f.action == verdict)
+        .map(|f| f.finding.clone())
+        .unwrap_or_default();
+    Assessment {
+        verdict,
+        diagnosis,
+        figures,
+    }
+}
+
+fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelErrors, t: &Thresholds) {
+    let gain = now.force_gain / then.force_gain - 1.0;
+    figures.push(Figure::new(
+        "force_gain_change",
+        gain.abs(),
+        Rule::AtMost,
+        t.gain_change,
+        "x",
+        Verdict::Recommission,
+        format!(
+            "the material changed: the model reads {:.0} % {} force than at acceptance",
+            100.0 * gain.abs(),
+            if gain < 0.0 { "less" } else { "more" }
+        ),
+    ));
+    let grown = |now: f64, then: f64, margin: f64| {
+        if now > then + margin {
+            now / then.max(1e-9)
+        } else {
+            1.0
+        }
+    };
+    figures.push(Figure::new(
+        "fz_rmse_growth",
+        grown(now.fz_rmse_n, then.fz_rmse_n, t.fz_margin_n),
+        Rule::AtMost,
+        t.rmse_ratio,
+        "x",
+        Verdict::Recommission,
+        format!(
+            "the model's force error grew: Fz RMSE {:.3} N, {:.3} N at acceptance",
+            now.fz_rmse_n, then.fz_rmse_n
+        ),
+    ));
+    figures.push(Figure::new(
+        "contact_rmse_growth",
+        grown(now.contact_rmse_mm, then.contact_rmse_mm, t.contact_margin_mm),
+        Rule::AtMost,
+        t.rmse_ratio,
+        "x",
+        Verdict::Recommission,
+        format!(
+            "the model's contact error grew: contact RMSE {:.2} mm, {:.2} mm at acceptance",
+            now.contact_rmse_mm, then.contact_rmse_mm
+        ),
+    ));
+    figures.push(Figure::new(
+        "shape_accuracy_drop",
+        then.shape_accuracy - now.shape_accuracy,
+        Rule::AtMost,
+        t.accuracy_drop,
+        "",
+        Verdict::Recommission,
+        format!(
+            "the model's shape accuracy fell: {:.1} %, {:.1} % at acceptance",
+            100.0 * now.shape_accuracy,
+            100.0 * then.shape_accuracy
+        ),
+    ));
+}

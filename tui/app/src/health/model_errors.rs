@@ -1,0 +1,93 @@
+//! The model's errors over a set of evaluated frames, and by position: what a check compares
+//! with the same positions of the acceptance scan.
+
+use fringe_sensor_models::eval::Row;
+
+/// Frames whose measured |Fz| is below this, N, do not count for the force gain (their
+/// relative error is noise).
+pub const GAIN_MIN_FZ_N: f64 = 1.0;
+/// Two presses at positions closer than this, mm, are at the same position.
+pub const SAME_POSITION_MM: f64 = 0.5;
+
+/// The model's errors over some frames.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ModelErrors {
+    pub frames: usize,
+    pub fz_rmse_n: f64,
+    pub contact_rmse_mm: f64,
+    pub shape_accuracy: f64,
+    /// Predicted over measured Fz, least squares through zero, over frames pressed at least
+    /// [`GAIN_MIN_FZ_N`]: a unit whose material changed reads a force too high or too low.
+    pub force_gain: f64,
+}
+
+impl ModelErrors {
+    /// The errors of `rows`; `None` without a pressed frame.
+    pub fn of(rows: &[&Row]) -> Option<ModelErrors> {
+        let pressed: Vec<&&Row> = rows
+            .iter()
+            .filter(|r| r.scored.fz_true >= GAIN_MIN_FZ_N)
+            .collect();
+        if rows.is_empty() || pressed.is_empty() {
+            return None;
+        }
+        let n = rows.len() as f64;
+        let fz_rmse_n = (rows
+            .iter()
+            .map(|r| (r.scored.fz_pred - r.scored.fz_true).powi(2))
+            .sum::<f64>()
+            / n)
+            .sqrt();
+        let contact: Vec<f64> = rows
+            .iter()
+            .filter_map(|r| {
+                let t = r.scored.contact_true?;
+                let p = r.scored.contact_pred;
+                Some((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2))
+            })
+            .collect();
+        let contact_rmse_mm = if contact.is_empty() {
+            0.0
+        } else {
+            (contact.iter().sum::<f64>() / contact.len() as f64).sqrt()
+        };
+        let correct = rows
+            .iter()
+            .filter(|r| r.scored.shape_pred == r.scored.shape_true)
+            .count();
+        let (sxy, sxx) = pressed.iter().fold((0.0, 0.0), |(sxy, sxx), r| {
+            (
+                sxy + r.scored.fz_pred * r.scored.fz_true,
+                sxx + r.scored.fz_true * r.scored.fz_true,
+            )
+        });
+        Some(ModelErrors {
+            frames: rows.len(),
+            fz_rmse_n,
+            contact_rmse_mm,
+            shape_accuracy: correct as f64 / n,
+            force_gain: sxy / sxx,
+        })
+    }
+}
+
+/// The rows pressed at any of `positions` (stage mm, within [`SAME_POSITION_MM`]).
+pub fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&'a Row> {
+    rows.iter()
+        .filter(|r| {
+            r.stage_mm.is_some_and(|s| {
+                positions
+                    .iter()
+                    .any(|p| (s[0] - p[0]).hypot(s[1] - p[1]) < SAME_POSITION_MM)
+            })
+        })
+        .collect()
+}
+
+/// The errors at each of `positions`, in their order (`None` where no frame was pressed).
+pub fn by_position(rows: &[Row], positions: &[[f64; 2]]) -> Vec<Option<ModelErrors>> {
+    positions
+        .iter()
+        .map(|p| ModelErrors::of(&at_positions(rows, std::slice::from_ref(p))))
+        .collect()
+}

@@ -1,0 +1,303 @@
+//! `fringe check [--rig R] [--sensor ID]`: a unit checked against what it was accepted with (its
+//! newest passing commissioning certificate) in at most two minutes of bench time: a few of its
+//! acceptance positions pressed again with every indenter; the optics, light and surface of its
+//! no-contact frames, its F/T zero and its model's errors compared; a verdict with the evidence,
+//! appended to the unit's history. `--history` shows the history and plots it.
+
+mod history_view;
+
+use crate::cmd::commission::session::estimate_s;
+use crate::cmd::frames_progress::FramesProgress;
+use crate::cmd::model::{check_design, open_model};
+use crate::cmd::scan::execute;
+use crate::global::Global;
+use anyhow::{bail, Context, Result};
+use fringe_app::commission::certificate::{commissioned_model, Commissioned, PROFILE};
+use fringe_app::commission::journal::Journal;
+use fringe_app::health::check_plan::{acceptance_positions, check_plan, MAX_BENCH_S};
+use fringe_app::health::figures::{assess, Assessment, Measured, Thresholds, Verdict};
+use fringe_app::health::history::{self, history_path, Entry, HISTORY_FORMAT};
+use fringe_app::health::model_errors::{at_positions, ModelErrors, SAME_POSITION_MM};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_calibration::health::change::Change;
+use fringe_calibration::health::signature::Signature;
+use fringe_calibration::profile::Profile;
+use fringe_calibration::ScanRun;
+use fringe_rig::scan::engine::RunTarget;
+use fringe_rig::scan::plan::Plan;
+use fringe_rig::store::documents::ExitStatus;
+use fringe_sensor_models::backend::BackendKind;
+use fringe_sensor_models::dataset;
+use fringe_sensor_models::eval::{evaluate, Row};
+use fringe_sensor_models::model::Model;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub struct CheckArgs {
+    /// The rig file (default: ./rig.toml if present, else the simulated bench).
+    #[arg(long, value_name = "FILE")]
+    rig: Option<PathBuf>,
+    /// The unit to check (default: the rig's sensor). It must be the one under the camera.
+    #[arg(long, value_name = "ID")]
+    sensor: Option<String>,
+    /// Show the unit's history of checks and plot it (<profiles>/<sensor>.health.png); nothing
+    /// moves.
+    #[arg(long)]
+    history: bool,
+    /// Directory that receives the check's run.
+    #[arg(long, value_name = "DIR", default_value = "runs")]
+    out: PathBuf,
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
+    threads: usize,
+    /// Answer every operator prompt with "continue".
+    #[arg(long)]
+    yes: bool,
+}
+
+pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
+    let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let sensor = unit(&config, a.sensor.as_deref())?;
+    let profiles = config.profile_dir();
+    if a.history {
+        return history_view::show(&profiles, &sensor);
+    }
+    println!(
+        "fringe {}: health check of sensor {sensor} on rig: {}",
+        env!("CARGO_PKG_VERSION"),
+        source.describe()
+    );
+    let accepted = certificate(&profiles, &sensor, &config)?;
+    let dir = accepted.dir.clone();
+    let journal = Journal::read(&dir)?;
+    let Some(acceptance) = &journal.acceptance else {
+        bail!(
+            "{}: the commissioning's journal has no acceptance scan to check against",
+            dir.display()
+        );
+    };
+    let model = open_model(&accepted.model)?;
+    check_design(&model, config.sensor_variant()?)?;
+    let shapes: Vec<String> = model.classes.iter().skip(1).cloned().collect();
+    let positions = acceptance_positions(
+        &acceptance.plan,
+        &format!("{} (acceptance)", dir.display()),
+    )?;
+    let plan = check_plan(&sensor, &positions, &shapes, |p| {
+        estimate_s(p, &config).map_err(|e| e.to_string())
+    })?;
+    println!(
+        "against the commissioning {} (issued {}, fringe {})",
+        dir.display(),
+        accepted.certificate.issued_utc,
+        accepted.certificate.fringe_version
+    );
+    println!(
+        "the check presses {} of the {} acceptance positions with {}: about {:.0} s of bench time (a check takes at most {MAX_BENCH_S:.0} s)",
+        plan.positions.len(),
+        positions.len(),
+        shapes.join(", "),
+        plan.estimate_s
+    );
+    let limits = config.limits()?;
+    let program = Plan::parse(&plan.plan, "check plan")?.program(&limits, "check plan")?;
+    let started = Instant::now();
+    let run_id = format!(
+        "check-{sensor}-{}",
+        fringe_rig::store::documents::now_utc().replace([':', '.'], "-")
+    );
+    let end = execute(
+        &config,
+        program,
+        plan.plan.clone(),
+        RunTarget::New {
+            root: a.out.clone(),
+            run_id,
+        },
+        a.yes,
+        ProfileUse::Consume,
+        global,
+        &mut |_| Ok(()),
+    )?;
+    let bench_s = started.elapsed().as_secs_f64();
+    let run_dir = end.outcome.run_dir.clone();
+    if end.outcome.status != ExitStatus::Completed {
+        bail!(
+            "the check's scan stopped ({}): no verdict; its run is kept in {}. Check again when the bench is ready",
+            end.outcome.reason,
+            run_dir.display()
+        );
+    }
+    let threads = crate::cmd::arg_values::cap_threads(a.threads);
+    let (assessment, model_now, model_then) =
+        compare(&accepted, &run_dir, &model, &plan.positions, threads)?;
+    report(&assessment);
+    let entry = Entry {
+        format: HISTORY_FORMAT,
+        fringe_version: env!("CARGO_PKG_VERSION").to_string(),
+        checked_utc: fringe_rig::store::documents::now_utc(),
+        sensor_id: sensor.clone(),
+        certificate: dir.display().to_string(),
+        run: run_dir.display().to_string(),
+        bench_s,
+        assessment: assessment.clone(),
+        model_now,
+        model_then,
+    };
+    let path = history_path(&profiles, &sensor);
+    history::append(&path, &entry)?;
+    println!("appended to {} (fringe check --history shows it)", path.display());
+    if assessment.verdict != Verdict::Ok {
+        bail!(
+            "sensor {sensor}: {}: {}",
+            assessment.verdict.advice(),
+            assessment.diagnosis
+        );
+    }
+    Ok(())
+}
+
+/// The unit: `--sensor`, else the rig's sensor; both given must agree.
+fn unit(config: &RigConfig, given: Option<&str>) -> Result<String> {
+    let rig = config.sensor_id();
+    match (given, rig) {
+        (Some(g), Ok(r)) if g != r => bail!(
+            "--sensor {g}: the rig's sensor is {r} (its `sensor` key, or the simulated sensor): check the unit that is under the camera, on the rig file that names it"
+        ),
+        (Some(g), _) => Ok(g.to_string()),
+        (None, Ok(r)) => Ok(r),
+        (None, Err(e)) => bail!("{e}; or give the unit with --sensor ID"),
+    }
+}
+
+/// The unit's newest passing commissioning, or what to do.
+fn certificate(profiles: &Path, sensor: &str, config: &RigConfig) -> Result<Commissioned> {
+    let (found, notes) = commissioned_model(profiles, sensor);
+    for n in &notes {
+        eprintln!("warning: {n}");
+    }
+    let Some(c) = found else {
+        bail!(
+            "no certificate of sensor {sensor} under {} (looked for {}/{sensor}.commission-*/certificate.json that passed): commission it first: fringe commission{}",
+            profiles.display(),
+            profiles.display(),
+            match &config.origin {
+                o if o.ends_with(".toml") => format!(" --rig {o}"),
+                _ => String::new(),
+            }
+        );
+    };
+    if c.certificate.fringe_version != env!("CARGO_PKG_VERSION") {
+        eprintln!(
+            "note: {} was written by fringe {}, this is fringe {}: its runs and figures are compared as they are",
+            c.dir.join("certificate.json").display(),
+            c.certificate.fringe_version,
+            env!("CARGO_PKG_VERSION")
+        );
+    }
+    Ok(c)
+}
+
+/// Everything compared: the no-contact signatures of the commissioning's calibration scan and
+/// of the check, the F/T zero against the commissioned profile, the model's errors at the
+/// check's positions now and in the acceptance scan.
+fn compare(
+    accepted: &Commissioned,
+    run_dir: &Path,
+    model: &Model,
+    positions: &[[f64; 2]],
+    threads: usize,
+) -> Result<(Assessment, Option<ModelErrors>, Option<ModelErrors>)> {
+    let dir = &accepted.dir;
+    let cert = &accepted.certificate;
+    let reference_run = ScanRun::read(&dir.join(&cert.runs.calibration))?;
+    let check_run = ScanRun::read(run_dir)?;
+    println!("measuring the no-contact frames (the commissioning's and the check's)");
+    let then = Signature::measure(&reference_run)?;
+    let now = Signature::measure(&check_run)?;
+    let change = Change::between(&then, &now)?;
+    let profile = Profile::load(&dir.join(PROFILE))?;
+    let force_offset_n = match (&profile.force_offsets, check_run.offsets.first()) {
+        (Some(p), Some(b)) => Some([
+            b.mean[0] - p.force_n[0],
+            b.mean[1] - p.force_n[1],
+            b.mean[2] - p.force_n[2],
+        ]),
+        _ => None,
+    };
+    let rows_now = evaluated(model, run_dir, None, threads, "evaluating the check")?;
+    let acceptance = dir.join(&cert.runs.acceptance);
+    let rows_then = evaluated(
+        model,
+        &acceptance,
+        Some(positions),
+        threads,
+        "evaluating the acceptance at the same positions",
+    )?;
+    let model_now = ModelErrors::of(&rows_now.iter().collect::<Vec<_>>());
+    let model_then = ModelErrors::of(&at_positions(&rows_then, positions));
+    let measured = Measured {
+        change: &change,
+        radius_px: then.fit.radius,
+        radius_sigma_px: then.fit.sigma_radius.hypot(now.fit.sigma_radius),
+        force_offset_n,
+        model_now: model_now.as_ref(),
+        model_then: model_then.as_ref(),
+    };
+    Ok((
+        assess(&measured, &Thresholds::default()),
+        model_now,
+        model_then,
+    ))
+}
+
+/// The model run on the labelled frames of `run` (only those pressed at `positions`, when
+/// given).
+fn evaluated(
+    model: &Model,
+    run: &Path,
+    positions: Option<&[[f64; 2]]>,
+    threads: usize,
+    what: &'static str,
+) -> Result<Vec<Row>> {
+    let mut source = dataset::read(run)?;
+    if let Some(positions) = positions {
+        source.samples.retain(|s| {
+            s.stage_mm.is_some_and(|m| {
+                positions
+                    .iter()
+                    .any(|p| (m[0] - p[0]).hypot(m[1] - p[1]) < SAME_POSITION_MM)
+            })
+        });
+        if source.samples.is_empty() {
+            bail!(
+                "{}: no frames at the check's positions: the acceptance scan does not hold them",
+                run.display()
+            );
+        }
+    }
+    let mut backend = model.backend(BackendKind::Tract, threads)?;
+    let mut progress = FramesProgress::new(what);
+    let eval = evaluate(model, backend.as_mut(), &[source], None, None, |d, t| {
+        progress.show(d, t)
+    })
+    .with_context(|| format!("evaluating the model on {}", run.display()))?;
+    progress.finish();
+    Ok(eval.rows)
+}
+
+/// The figures, the verdict and its evidence.
+fn report(a: &Assessment) {
+    println!("figures against their thresholds:");
+    for f in &a.figures {
+        println!("  {}", f.describe());
+    }
+    println!("verdict: {}", a.verdict.advice());
+    if a.verdict != Verdict::Ok {
+        println!("because: {}", a.diagnosis);
+        for f in a.moved().filter(|f| f.finding != a.diagnosis) {
+            println!("  also: {} ({})", f.finding, f.action.name());
+        }
+    }
+}

@@ -1,0 +1,108 @@
+//! `fringe check --history`: the unit's checks as a table, and each figure over the checks with
+//! its threshold as one picture (`<profiles>/<sensor>.health.png`).
+
+use anyhow::{bail, Context, Result};
+use fringe_app::health::figures::Rule;
+use fringe_app::health::history::{self, history_path, Entry};
+use fringe_sensor_models::report::line_plot;
+use image::RgbImage;
+use std::path::Path;
+
+/// The figures plotted, in the order of the picture's panels.
+const PLOTTED: [&str; 9] = [
+    "centre_shift_px",
+    "turn_deg",
+    "force_zero_n",
+    "darkest_rim",
+    "darkest_side",
+    "surface_cells",
+    "dimming",
+    "force_gain_change",
+    "fz_rmse_growth",
+];
+
+pub(super) fn show(profiles: &Path, sensor: &str) -> Result<()> {
+    let path = history_path(profiles, sensor);
+    let h = history::read(&path)?;
+    for n in &h.notes {
+        eprintln!("warning: {n}");
+    }
+    if h.entries.is_empty() {
+        bail!(
+            "{}: no checks of sensor {sensor} yet (fringe check --rig R makes one)",
+            path.display()
+        );
+    }
+    println!("{} checks of sensor {sensor} ({})", h.entries.len(), path.display());
+    println!(
+        "{:>3}  {:<20}  {:<12}  {:>8}  {:>7}  {:>6}  {:>6}  {:>5}  {:>7}  diagnosis",
+        "#", "checked (UTC)", "verdict", "centre px", "zero N", "rim", "side", "cells", "gain"
+    );
+    for (k, e) in h.entries.iter().enumerate() {
+        let f = |key: &str| e.figure(key).unwrap_or(f64::NAN);
+        println!(
+            "{:>3}  {:<20}  {:<12}  {:>8.2}  {:>7.3}  {:>6.2}  {:>6.2}  {:>5.0}  {:>7.3}  {}",
+            k + 1,
+            e.checked_utc.chars().take(19).collect::<String>(),
+            e.verdict().name(),
+            f("centre_shift_px"),
+            f("force_zero_n"),
+            f("darkest_rim"),
+            f("darkest_side"),
+            f("surface_cells"),
+            f("force_gain_change"),
+            e.assessment.diagnosis
+        );
+    }
+    let picture = plot(&h.entries);
+    let out = profiles.join(format!("{sensor}.health.png"));
+    picture
+        .save(&out)
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    println!(
+        "wrote {} (each figure over the checks, its threshold in red)",
+        out.display()
+    );
+    Ok(())
+}
+
+/// One panel per figure: its value at each check (blue) and its threshold (red), three panels
+/// a row.
+fn plot(entries: &[Entry]) -> RgbImage {
+    let panels: Vec<RgbImage> = PLOTTED
+        .iter()
+        .map(|key| {
+            let mut values = Vec::new();
+            let mut thresholds = Vec::new();
+            let mut label = (*key).to_string();
+            for (k, e) in entries.iter().enumerate() {
+                if let Some(f) = e.assessment.figures.iter().find(|f| f.key == *key) {
+                    let x = (k + 1) as f64;
+                    values.push([x, f.value]);
+                    thresholds.push([x, f.threshold]);
+                    let side = match f.rule {
+                        Rule::AtMost => "at most",
+                        Rule::AtLeast => "at least",
+                    };
+                    label = format!("{key} {}, {side} red", f.unit);
+                }
+            }
+            line_plot(
+                &label,
+                "check",
+                &[("value", &values), ("threshold", &thresholds)],
+            )
+        })
+        .collect();
+    let (w, h) = panels
+        .first()
+        .map_or((1, 1), |p| (p.width(), p.height()));
+    let columns = 3u32;
+    let rows = (panels.len() as u32).div_ceil(columns);
+    let mut out = RgbImage::from_pixel(w * columns, h * rows, image::Rgb([255, 255, 255]));
+    for (k, p) in panels.iter().enumerate() {
+        let (c, r) = (k as u32 % columns, k as u32 / columns);
+        image::imageops::overlay(&mut out, p, i64::from(c * w), i64::from(r * h));
+    }
+    out
+}
