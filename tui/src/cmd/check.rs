@@ -217,15 +217,7 @@ fn compare(
     let then = Signature::measure(&reference_run)?;
     let now = Signature::measure(&check_run)?;
     let change = Change::between(&then, &now)?;
-    let profile = Profile::load(&dir.join(PROFILE))?;
-    let force_offset_n = match (&profile.force_offsets, check_run.offsets.first()) {
-        (Some(p), Some(b)) => Some([
-            b.mean[0] - p.force_n[0],
-            b.mean[1] - p.force_n[1],
-            b.mean[2] - p.force_n[2],
-        ]),
-        _ => None,
-    };
+    let force_offset_n = force_zero_moved(&reference_run, &check_run, &dir.join(PROFILE))?;
     let rows_now = evaluated(model, run_dir, None, threads, "evaluating the check")?;
     let acceptance = dir.join(&cert.runs.acceptance);
     let rows_then = evaluated(
@@ -250,6 +242,32 @@ fn compare(
         model_now,
         model_then,
     ))
+}
+
+/// The F/T zero (Fx, Fy, Fz, N) at the check's first no-contact window minus the one at the
+/// commissioning's calibration scan's first window: both a few seconds after the bench opened,
+/// so the zero's slow wander within a session is alike in both. Without windows in the
+/// calibration run, the profile's offsets (its last window) are the reference.
+fn force_zero_moved(
+    reference: &ScanRun,
+    check: &ScanRun,
+    profile: &Path,
+) -> Result<Option<[f64; 3]>> {
+    let Some(now) = check.offsets.first() else {
+        return Ok(None);
+    };
+    let then = match reference.offsets.first() {
+        Some(b) => [b.mean[0], b.mean[1], b.mean[2]],
+        None => match Profile::load(profile)?.force_offsets {
+            Some(o) => o.force_n,
+            None => return Ok(None),
+        },
+    };
+    Ok(Some([
+        now.mean[0] - then[0],
+        now.mean[1] - then[1],
+        now.mean[2] - then[2],
+    ]))
 }
 
 /// The model run on the labelled frames of `run` (only those pressed at `positions`, when

@@ -8,7 +8,7 @@
 //! | optical centre shift | 5 sigma of the two fits, at least [`Thresholds::centre_share`] of the radius | calibrate again (the camera moved) |
 //! | disc radius change | 5 sigma, at least [`Thresholds::radius_share`] of the radius | calibrate again (focus or distance changed) |
 //! | turn of the rim's light | [`Thresholds::turn_deg`] | calibrate again (the camera turned) |
-//! | F/T zero against the profile | [`Thresholds::force_offset_n`] | calibrate again (the force offsets) |
+//! | F/T zero against the calibration's, largest axis | [`Thresholds::force_offset_n`] | calibrate again (the force offsets) |
 //! | darkest rim sector | [`Thresholds::rim_ratio`] | replace or repair (an LED is out) |
 //! | darkest side of the disc | [`Thresholds::side_ratio`] | replace or repair (the light is uneven) |
 //! | sharp local change of the disc | [`Thresholds::surface_cells`] cells | replace (the surface is damaged) |
@@ -187,7 +187,8 @@ pub struct Measured<'a> {
     pub radius_px: f64,
     /// Combined 1-sigma of the radius change, px.
     pub radius_sigma_px: f64,
-    /// The F/T zero (Fx, Fy, Fz) at the check's first no-contact window minus the profile's, N.
+    /// The F/T zero (Fx, Fy, Fz) at the check's first no-contact window minus the one when the
+    /// unit was calibrated, N (the figure is its largest axis).
     pub force_offset_n: Option<[f64; 3]>,
     /// The model's errors at the check's positions now and at the acceptance.
     pub model_now: Option<&'a ModelErrors>,
@@ -250,7 +251,7 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         format!("the camera turned by about {:+.0} degrees", c.turn_deg),
     ));
     if let Some(o) = m.force_offset_n {
-        let moved = o[0].hypot(o[1]).hypot(o[2]);
+        let moved = o.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         figures.push(Figure::new(
             "force_zero_n",
             moved,
@@ -259,7 +260,7 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
             "N",
             Verdict::Recalibrate,
             format!(
-                "the F/T zero moved by ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the profile was made",
+                "the F/T zero moved by ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the unit was calibrated",
                 o[0], o[1], o[2]
             ),
         ));
