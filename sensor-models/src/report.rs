@@ -147,7 +147,8 @@ impl Axes {
         ] {
             line(img, p, q, BLACK);
         }
-        let decimals = |t: f64| if t < 1.0 { 1 } else { 0 };
+        // As many decimals as the tick step needs (0.02 -> 2).
+        let decimals = |t: f64| (-t.log10()).ceil().max(0.0) as usize;
         let mut t = (self.lo[0] / ticks[0]).ceil() * ticks[0];
         while t <= self.hi[0] + 1e-9 {
             let label = fmt(t, decimals(ticks[0]));

@@ -4,7 +4,7 @@
 //! adaptation's determinism; and bad input refused before anything moves.
 
 mod common;
-use common::{fringe, fringe_command, printed_figure, scratch, text, QUICK_RIG};
+use common::{fringe, fringe_command, printed_figure, scratch, text, unit_rig_at};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
@@ -13,26 +13,6 @@ use std::time::{Duration, Instant};
 /// finds no disc: see the last test), its profiles in `profiles`.
 fn unit_rig(dir: &Path) -> PathBuf {
     unit_rig_at(dir, 0.5)
-}
-
-fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
-    let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
-    let rig = QUICK_RIG
-        .replace(
-            "name = \"quick simulated bench\"",
-            &format!(
-                "name = \"quick layered-3\"\nprofiles = \"{}\"",
-                dir.join("profiles").display()
-            ),
-        )
-        .replace(
-            "[sim]\n",
-            &format!("[sim]\nsensor = \"{}\"\n", sensor.display()),
-        )
-        .replace("image_scale = 0.25", &format!("image_scale = {scale}"));
-    let path = dir.join("rig.toml");
-    std::fs::write(&path, rig).expect("rig file");
-    path
 }
 
 fn s(p: &Path) -> &str {

@@ -341,6 +341,28 @@ seed = 5
 image_scale = 0.25
 "#;
 
+/// [`QUICK_RIG`] with the simulated `layered-3` unit (rig/sim/sensors/layered-3.toml) at
+/// `scale` of the full frame size, its profiles in `dir/profiles`, written to `dir/rig.toml`.
+pub fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
+    let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
+    let rig = QUICK_RIG
+        .replace(
+            "name = \"quick simulated bench\"",
+            &format!(
+                "name = \"quick layered-3\"\nprofiles = \"{}\"",
+                dir.join("profiles").display()
+            ),
+        )
+        .replace(
+            "[sim]\n",
+            &format!("[sim]\nsensor = \"{}\"\n", sensor.display()),
+        )
+        .replace("image_scale = 0.25", &format!("image_scale = {scale}"));
+    let path = dir.join("rig.toml");
+    std::fs::write(&path, rig).expect("rig file");
+    path
+}
+
 /// [`QUICK_RIG`] with its force through the emulated Net F/T (RDT datagrams, in process), which
 /// records no exposure strobe: frames are placed by the clock fit.
 pub fn quick_netft_rig() -> String {
