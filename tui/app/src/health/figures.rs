@@ -201,6 +201,9 @@ pub struct Assessment {
     pub verdict: Verdict,
     /// The finding behind the verdict (empty when ok).
     pub diagnosis: String,
+    /// The key of the figure behind it (empty when ok).
+    #[serde(default)]
+    pub cause: String,
     pub figures: Vec<Figure>,
 }
 
@@ -337,14 +340,15 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         .map(|f| f.action)
         .max()
         .unwrap_or(Verdict::Ok);
-    let diagnosis = figures
+    let (diagnosis, cause) = figures
         .iter()
         .find(|f| f.moved && f.action == verdict)
-        .map(|f| f.finding.clone())
+        .map(|f| (f.finding.clone(), f.key.clone()))
         .unwrap_or_default();
     Assessment {
         verdict,
         diagnosis,
+        cause,
         figures,
     }
 }
