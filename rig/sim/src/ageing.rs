@@ -256,6 +256,7 @@ mod tests {
     use crate::bench::IndenterTip;
     use crate::contact::elastic_force;
     use crate::render::Renderer;
+    use crate::scene::FrameRenderer;
     use crate::test_support::{contact, disc_pixels, grey, quiet, render};
     use fringe_rig::units::Millimetres;
 
@@ -394,7 +395,8 @@ mod tests {
             mean_near(&before, w, new, 2.0),
         );
         eprintln!("hot spot {spot_before} -> {spot_after}; left behind {left_before}, where it went before {left_after}");
-        assert!((spot_before - spot_after).abs() < 3.0);
+        // Sampled on another pixel grid: equal within a few DN of a 160 DN peak.
+        assert!((spot_before - spot_after).abs() < 0.06 * spot_before);
         assert!(spot_after > left_before + 30.0 && spot_after > left_after + 30.0);
     }
 

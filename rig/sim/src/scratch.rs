@@ -117,7 +117,7 @@ impl Scratch {
     }
 
     /// Distance of the sensor-frame point `p` from the groove's line segment, mm.
-    fn distance_mm(&self, p: [f64; 2]) -> f64 {
+    pub fn distance_mm(&self, p: [f64; 2]) -> f64 {
         let [ax, ay] = self.from_mm;
         let (dx, dy) = (self.to_mm[0] - ax, self.to_mm[1] - ay);
         let (px, py) = (p[0] - ax, p[1] - ay);

@@ -41,6 +41,7 @@ mod tests {
     use super::*;
     use crate::ft_sensor::{FtNoiseConfig, SimFtSensor};
     use crate::render::Renderer;
+    use crate::scene::FrameRenderer;
     use crate::scene::{ForceReading, LoadSource};
     use crate::sensor::SensorConfig;
     use crate::test_support::{disc_pixels, grey, quiet, render, small};
