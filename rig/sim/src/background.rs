@@ -18,8 +18,14 @@
 //! Residual casting birefringence is a smooth field in the sensor frame: a sum of three random
 //! low-frequency plane waves scaled to mean `residual_birefringence` and +-40 % around it,
 //! sampled at the centre of each 2x2 pixel block (the renderer's half-resolution grid).
+//!
+//! A unit's flaws (docs/photoelastic-sim.md, "Ageing of a unit"): dead LEDs (`leds.out`) give no
+//! hot spot and take their share of the illumination, most on their side of the disc
+//! ([`LedLoss`]); scratches (`[[surface.scratches]]`) add residual order and scattered light along
+//! their line ([`crate::scratch`]).
 
 use crate::blurred_colour::BlurredColourTable;
+use crate::scratch::ScratchCanvas;
 use crate::sensor::{SensorConfig, SensorGeometry};
 
 /// Colour of the LED light added after the polariser (cool white), R G B.
@@ -137,6 +143,7 @@ impl Background {
         let rim_sigma = o.rim_width_px.hypot(blur_sigma);
         let rim_peak = o.rim_glow_dn * o.rim_width_px / rim_sigma;
 
+        let led_loss = LedLoss::new(config, geometry);
         let mut illumination = vec![0.0f32; width * height];
         let mut glow = vec![0.0f32; width * height];
         let mut spans = Vec::with_capacity(height);
@@ -150,7 +157,11 @@ impl Background {
                 let q = r / focal;
                 let vignetting = 1.0 / ((1.0 + q * q) * (1.0 + q * q));
                 let shading = 1.0 + o.rim_shading * (r / radius).powi(6);
-                let light = (o.illumination_dn * mask * vignetting * shading) as f32;
+                let mut light = o.illumination_dn * mask * vignetting * shading;
+                if let Some(loss) = &led_loss {
+                    light *= loss.remaining(i as f64 + 0.5, j as f64 + 0.5);
+                }
+                let light = light as f32;
                 let k = j * width + i;
                 illumination[k] = light;
                 if light > DARK_DN {
@@ -164,7 +175,14 @@ impl Background {
         }
         add_hot_spots(config, geometry, blur_sigma, width, height, &mut glow);
 
-        let residual = residual_field(config, geometry, width, height, &spans);
+        let mut residual = residual_field(config, geometry, width, height, &spans);
+        let canvas = ScratchCanvas {
+            geometry,
+            blur_sigma_px: blur_sigma,
+            width,
+            height,
+        };
+        canvas.add(&config.surface.scratches, &mut residual, &mut glow);
         Background {
             width,
             height,
@@ -227,8 +245,69 @@ impl Background {
     }
 }
 
-/// Adds the LED ring's hot spots to `glow`. LED angles are in the sensor frame, so they turn and
-/// mirror with the image.
+/// Angle of LED `n` of the ring in the sensor frame, radians.
+fn led_angle(config: &SensorConfig, n: u32) -> f64 {
+    let leds = &config.leds;
+    (leds.phase_deg + 360.0 * f64::from(n) / f64::from(leds.count)).to_radians()
+}
+
+/// The illumination left when LEDs have failed (`leds.out`). Each LED lights the whole disc, more
+/// on its own side: a dead LED k at angle a_k (sensor frame) takes
+///
+///     (1 / count) (1 + clamp((x cos a_k + y sin a_k) / R, -1, 1))
+///
+/// of the light at sensor-frame point (x, y) mm, R the disc radius in mm: 1 / count at the
+/// centre, twice that at the rim next to it, nothing at the opposite rim, and 1 / count averaged
+/// over the disc. The light left is 1 minus the sum over the dead LEDs, clamped to 0..=1. Its
+/// angles are in the sensor frame, so it turns and mirrors with the image like the hot spots.
+#[derive(Debug, Clone)]
+pub struct LedLoss {
+    /// Per dead LED: (x cos a_k + y sin a_k) / R as an affine function [a_u, a_v, b] of the pixel
+    /// position (u, v) px.
+    lobes: Vec<[f64; 3]>,
+    /// 1 / count.
+    share: f64,
+}
+
+impl LedLoss {
+    /// The loss of `config`'s dead LEDs seen through `geometry`; `None` when every LED lights.
+    pub fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Option<LedLoss> {
+        let dead = config.dead_leds();
+        if dead.is_empty() || config.leds.count == 0 {
+            return None;
+        }
+        let radius_mm = config.geometry.disc_radius_px / geometry.px_per_mm;
+        let o = geometry.to_sensor(0.0, 0.0);
+        let eu = geometry.to_sensor(1.0, 0.0);
+        let ev = geometry.to_sensor(0.0, 1.0);
+        let lobes = dead
+            .iter()
+            .map(|&k| {
+                let (s, c) = led_angle(config, k).sin_cos();
+                let along = |p: [f64; 2]| (p[0] * c + p[1] * s) / radius_mm;
+                let b = along(o);
+                [along(eu) - b, along(ev) - b, b]
+            })
+            .collect();
+        Some(LedLoss {
+            lobes,
+            share: 1.0 / f64::from(config.leds.count),
+        })
+    }
+
+    /// Fraction of the illumination left at image position (`u`, `v`) px.
+    pub fn remaining(&self, u: f64, v: f64) -> f64 {
+        let lost: f64 = self
+            .lobes
+            .iter()
+            .map(|l| self.share * (1.0 + (l[0] * u + l[1] * v + l[2]).clamp(-1.0, 1.0)))
+            .sum();
+        (1.0 - lost).clamp(0.0, 1.0)
+    }
+}
+
+/// Adds the LED ring's hot spots to `glow`, but for the dead LEDs (`leds.out`). LED angles are in
+/// the sensor frame, so they turn and mirror with the image.
 fn add_hot_spots(
     config: &SensorConfig,
     geometry: &SensorGeometry,
@@ -246,8 +325,9 @@ fn add_hot_spots(
     let peak = leds.strength_dn * sigma0 * sigma0 / sigma2;
     let reach = 4.0 * sigma2.sqrt();
     let ring_mm = leds.radius_factor * config.geometry.disc_radius_px / geometry.px_per_mm;
-    for n in 0..leds.count {
-        let a = (leds.phase_deg + 360.0 * n as f64 / leds.count as f64).to_radians();
+    let dead = config.dead_leds();
+    for n in (0..leds.count).filter(|n| dead.binary_search(n).is_err()) {
+        let a = led_angle(config, n);
         let [pu, pv] = geometry.to_pixel(ring_mm * a.cos(), ring_mm * a.sin());
         let j0 = (pv - reach).floor().max(0.0) as usize;
         let j1 = ((pv + reach).ceil().max(0.0) as usize).min(height);

@@ -84,6 +84,13 @@ pub struct FtNoiseConfig {
     pub bias_force_n: f64,
     /// Sigma of the power-up bias per torque axis, N m.
     pub bias_torque_nm: f64,
+    /// Shift of the transducer's zero, N, in the F/T frame [fx, fy, fz] (an overload or a
+    /// temperature change): added to the power-up bias of every power cycle (default none; a
+    /// rig file's `[sim.ageing] ft_offset_n`).
+    pub zero_shift_n: [f64; 3],
+    /// Session of the bench (a rig file's `[sim] session`, see [`crate::session`]): salts the
+    /// noise and drift, not the power-up bias (default 0: the seed as it is).
+    pub session: u64,
 }
 
 impl Default for FtNoiseConfig {
@@ -96,6 +103,8 @@ impl Default for FtNoiseConfig {
             torque_drift_nm_per_sqrt_s: 0.0001,
             bias_force_n: 2.0,
             bias_torque_nm: 0.05,
+            zero_shift_n: [0.0; 3],
+            session: 0,
         }
     }
 }

@@ -17,10 +17,15 @@
 //! and 1.5 mN m per torque axis (the 0.2 N noise floor used to call "no contact" is 4 sigma), a
 //! random walk drift of 5 mN/sqrt(s) (force) and 0.1 mN m/sqrt(s) (torque), and a power-up bias
 //! drawn per power cycle (sigma 2 N, 50 mN m) from the seed and the power-cycle number: the same
-//! seed and cycle give the same bias, another cycle another one.
+//! seed and cycle give the same bias, another cycle another one. A shifted zero
+//! ([`FtNoiseConfig::zero_shift_n`], an aged transducer) is added to every power-up bias, and
+//! the ground truth's bias includes it. The noise and drift are drawn from the seed, the power
+//! cycle and the session ([`FtNoiseConfig::session`]): another session of the same bench has the
+//! same bias and other noise.
 
 use crate::ground_truth::{TruthRecord, TruthSink};
 use crate::scene::{ForceReading, LoadSource};
+use crate::session::salted;
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::Wrench;
 
@@ -77,8 +82,12 @@ impl SimFtSensor {
         let mut bias_rng = StdRng::seed_from_u64(mix_seed(self.config.seed, 2 * cycle + 1));
         let sig = self.sigmas(self.config.bias_force_n, self.config.bias_torque_nm);
         self.bias = sig.map(|s| s * standard_normal(&mut bias_rng));
+        for (b, shift) in self.bias.iter_mut().zip(self.config.zero_shift_n) {
+            *b += shift;
+        }
         self.drift = [0.0; 6];
-        self.rng = StdRng::seed_from_u64(mix_seed(self.config.seed, 2 * cycle + 2));
+        let noise_seed = mix_seed(self.config.seed, 2 * cycle + 2);
+        self.rng = StdRng::seed_from_u64(salted(noise_seed, self.config.session));
         self.last = None;
         self.record_bias();
     }
@@ -303,5 +312,49 @@ mod tests {
         }
         let sd = (sum2 / n as f64).sqrt();
         assert!((sd - 0.05).abs() < 0.012, "drift after 100 s {sd}");
+    }
+
+    #[test]
+    fn a_shifted_zero_moves_every_reading_and_the_recorded_bias() {
+        let cfg = FtNoiseConfig::default();
+        let shift = [0.3, -0.2, 1.5];
+        let load: Arc<dyn LoadSource> = Arc::new(Constant(Wrench::default()));
+        let log = crate::ground_truth::TruthLog::new();
+        let mut plain = SimFtSensor::new(load.clone(), cfg);
+        let mut aged = SimFtSensor::new(
+            load,
+            FtNoiseConfig {
+                zero_shift_n: shift,
+                ..cfg
+            },
+        )
+        .with_truth(log.clone());
+        for cycle in 0..2 {
+            let (a, b) = (samples(&mut plain, 500), samples(&mut aged, 500));
+            for (p, q) in a.iter().zip(&b) {
+                for i in 0..6 {
+                    let expected = if i < 3 { shift[i] } else { 0.0 };
+                    assert!(
+                        (q[i] - p[i] - expected).abs() < 1e-9,
+                        "cycle {cycle}: {p:?} {q:?}"
+                    );
+                }
+            }
+            let mean_fz = |d: &[[f64; 6]]| d.iter().map(|v| v[2]).sum::<f64>() / d.len() as f64;
+            assert!((mean_fz(&b) - mean_fz(&a) - 1.5).abs() < 1e-9);
+            plain.power_cycle();
+            aged.power_cycle();
+        }
+        let recorded: Vec<Wrench> = log
+            .records()
+            .into_iter()
+            .filter_map(|r| match r {
+                TruthRecord::FtBias { bias, .. } => Some(bias),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(recorded.len(), 3, "{recorded:?}");
+        assert_eq!(recorded.last(), Some(&aged.bias()));
+        assert!((aged.bias().fz.0 - plain.bias().fz.0 - 1.5).abs() < 1e-12);
     }
 }

@@ -28,6 +28,10 @@
 //! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
 //!   and scored against the ground truth.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
+//! - [`scratch`]: a scratch on the contact surface (sensor file `[[surface.scratches]]`).
+//! - [`ageing`]: what changed in a unit since it was accepted (a rig file's `[sim.ageing]`).
+//! - [`session`]: repeated sessions of the same bench (a rig file's `[sim] session`): other noise,
+//!   the same unit.
 //! - [`sensor`]: one sensor build (layer, optics, artefacts, image geometry) from a TOML file, and
 //!   the exact sensor-frame mm <-> image px map.
 //! - [`background`]: the unloaded sensor image (illumination, rim, LED hot spots, residual
@@ -48,6 +52,7 @@
 //! defining module, never through these re-exports.
 #![warn(unreachable_pub)]
 
+pub mod ageing;
 pub mod apt_emulator;
 pub mod background;
 pub mod bench;
@@ -72,9 +77,13 @@ mod pixel_format;
 pub mod render;
 pub mod rig;
 pub mod scene;
+pub mod scratch;
 pub mod sensor;
+pub mod session;
 mod stress;
 pub mod sync_score;
+#[cfg(test)]
+mod test_support;
 pub mod truth_spool;
 
 pub use apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};

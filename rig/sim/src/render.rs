@@ -16,7 +16,12 @@
 //! colour times the pixel's illumination plus its glow; then gain drift, LED
 //! flicker, offset drift, Poisson-Gaussian noise (variance a I + b, from a random place in the
 //! noise tile) and the gamma table. Rows are split across `threads` scoped threads. The same seed,
-//! scene and frame index give the same bytes.
+//! session, scene and frame index give the same bytes.
+//!
+//! The session ([`Renderer::set_session`], a rig file's `[sim] session`, see [`crate::session`])
+//! salts the per-frame noise and flicker and shifts the slow drift by a session-derived number of
+//! frames: another session films the same unit with other noise. Session 0 (the default) leaves
+//! the seed as it is.
 //!
 //! BayerRG8 and Mono8 frames go through the same stages but only for the channels they keep
 //! (Bayer: one per pixel, so a third of the light and output work), with the same noise samples,
@@ -36,6 +41,7 @@ use crate::indenter::{PressureMap, Shape};
 use crate::pixel_format::{bayer_channel, grey};
 use crate::scene::{Contact, FrameRenderer, Scene};
 use crate::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
+use crate::session;
 use fringe_rig::camera::PixelFormat;
 
 /// Sphere fields are cached by contact radius rounded to this step, mm.
@@ -353,10 +359,11 @@ impl Drift {
         waves.iter().map(|w| (w[0] * t + w[1]).sin()).sum::<f64>() / 3.0
     }
 
-    /// (gain including flicker, offset in DN) of frame `frame`.
-    fn at(&self, frame: u64) -> (f32, f32) {
-        let t = frame as f64;
-        let mut state = self.seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xF11C;
+    /// (gain including flicker, offset in DN) of frame `frame` of session `session`.
+    fn at(&self, frame: u64, session: u64) -> (f32, f32) {
+        let t = frame.wrapping_add(session::drift_frames(session)) as f64;
+        let seed = session::salted(self.seed, session);
+        let mut state = seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xF11C;
         let flicker = (self.flicker * standard_normal(&mut state)).clamp(-0.05, 0.05);
         // Clamped so the fixed-point gain of the output stage cannot overflow.
         let gain = ((1.0 + self.gain_amplitude * Self::smooth(&self.gain_waves, t))
@@ -431,6 +438,8 @@ pub struct Renderer {
     /// Pixels where the contact changes the fringe order and its spread by less than this many
     /// fringes keep the unloaded background (0 = compute every lit pixel).
     skip_below: f32,
+    /// Session of the bench filming ([`crate::session`]): salts noise, flicker and drift.
+    session: u64,
 }
 
 impl Renderer {
@@ -497,6 +506,7 @@ impl Renderer {
             frame_lut: Box::new([0; LUT_ROWS * NOISE_LEVELS]),
             drift: Drift::new(&config),
             skip_below: SKIP_BELOW_FRINGES,
+            session: 0,
             config,
         };
         let (key, _) = field_key(&renderer.config.rectangle());
@@ -510,6 +520,17 @@ impl Renderer {
     /// The configuration this renderer was built from.
     pub fn config(&self) -> &SensorConfig {
         &self.config
+    }
+
+    /// Films session `session` of the bench from now on (0, the default, is the sensor seed's own
+    /// noise): the noise, flicker and drift phase of every frame follow the session too.
+    pub fn set_session(&mut self, session: u64) {
+        self.session = session;
+    }
+
+    /// The session being filmed.
+    pub fn session(&self) -> u64 {
+        self.session
     }
 
     /// The exact sensor-frame to image map used for every frame.
@@ -760,7 +781,7 @@ impl Renderer {
         debug_assert_eq!(L::BYTES, L::FORMAT.bytes_per_pixel());
         out.resize(w * h * L::BYTES, 0);
         let field = scene.contact.map(|c| (c, self.field(&c.shape)));
-        let (gain, offset) = self.drift.at(frame_index);
+        let (gain, offset) = self.drift.at(frame_index, self.session);
         let gain_q = (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32;
         let offset_q = (offset * LIGHT_STEPS_PER_DN).round() as i32;
         self.fold_gain(gain_q, offset_q);
@@ -768,7 +789,8 @@ impl Renderer {
         let params = FrameParams {
             contact,
             lut: &self.frame_lut,
-            noise_seed: self.config.seed ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
+            noise_seed: session::salted(self.config.seed, self.session)
+                ^ frame_index.wrapping_mul(0xD6E8_FEB8_6659_FD93),
         };
         let threads = self.config.threads.min(h.div_ceil(BAND_ROWS)).max(1);
         // Bands of rows go to whichever thread is free: the contact's rows cost more than the
@@ -797,73 +819,7 @@ impl Renderer {
 mod tests {
     use super::*;
     use crate::background::pixel_light;
-    use fringe_rig::units::{Millimetres, Newtons};
-
-    /// A 320x200 sensor at 3 px/mm (disc radius 90 px = 30 mm), coarse field grid.
-    fn small(mut c: SensorConfig) -> SensorConfig {
-        c.geometry.width = 320;
-        c.geometry.height = 200;
-        c.geometry.disc_radius_px = 90.0;
-        c.geometry.px_per_mm = 3.0;
-        c.geometry.centre_offset_px = [6.0, -2.0];
-        c.leds.width_px = 8.0;
-        c.optics.rim_width_px = 2.0;
-        c.field.cells = 128;
-        c.field.cell_mm = 0.6;
-        c
-    }
-
-    /// [`small`] without noise, drift or flicker.
-    fn quiet(c: SensorConfig) -> SensorConfig {
-        let mut c = small(c);
-        c.noise.poisson_a = 0.0;
-        c.noise.gaussian_b = 0.0;
-        c.noise.gain_drift = 0.0;
-        c.noise.offset_drift_dn = 0.0;
-        c.noise.flicker = 0.0;
-        c
-    }
-
-    fn contact(shape: Shape, force: f64, x: f64, y: f64, angle_deg: f64) -> Contact {
-        Contact {
-            shape,
-            force: Newtons(force),
-            x: Millimetres(x),
-            y: Millimetres(y),
-            angle_deg,
-        }
-    }
-
-    fn render(r: &mut Renderer, contact: Option<Contact>, frame: u64) -> Vec<u8> {
-        let mut out = Vec::new();
-        r.render(&Scene { contact }, frame, &mut out);
-        assert_eq!(out.len(), (r.width() * r.height() * 3) as usize);
-        out
-    }
-
-    /// Pixels (i, j) whose centre lies within `fraction` of the disc radius.
-    fn disc_pixels(r: &Renderer, fraction: f64) -> Vec<(usize, usize)> {
-        let g = r.geometry();
-        let radius = fraction * r.config().geometry.disc_radius_px;
-        let mut out = Vec::new();
-        for j in 0..r.height() as usize {
-            for i in 0..r.width() as usize {
-                let (du, dv) = (
-                    i as f64 + 0.5 - g.centre_px[0],
-                    j as f64 + 0.5 - g.centre_px[1],
-                );
-                if du.hypot(dv) < radius {
-                    out.push((i, j));
-                }
-            }
-        }
-        out
-    }
-
-    fn grey(img: &[u8], w: usize, i: usize, j: usize) -> f64 {
-        let k = 3 * (j * w + i);
-        (f64::from(img[k]) + f64::from(img[k + 1]) + f64::from(img[k + 2])) / 3.0
-    }
+    use crate::test_support::{contact, disc_pixels, grey, quiet, render, small};
 
     /// Bilinear grey value at image position (u, v) px (pixel centres at + 0.5).
     fn grey_at(img: &[u8], w: usize, u: f64, v: f64) -> f64 {

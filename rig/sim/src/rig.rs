@@ -15,6 +15,7 @@
 //! [`SimServe`] exposes the same emulators on pseudo-terminals and loopback sockets for
 //! third-party software (`fringe sim serve`).
 
+use crate::ageing::Ageing;
 use crate::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
 use crate::bench::{AxisConfig, Bench, BenchConfig};
 use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
@@ -31,6 +32,7 @@ use crate::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 use crate::render::Renderer;
 use crate::scene::{LoadSource, SceneSource};
 use crate::sensor::SensorConfig;
+use crate::session::salted;
 use fringe_rig::apt::driver::{AptConfig, Controller};
 use fringe_rig::apt::{Actuator, ThorlabsAxis};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
@@ -78,6 +80,12 @@ pub struct SimRigConfig {
     pub y_map: String,
     /// Faults to inject (none on a normal bench): see [`crate::faults`].
     pub faults: Vec<FaultSpec>,
+    /// Session of this bench (default 0): another session films and measures the same unit with
+    /// other noise ([`crate::session`]).
+    pub session: u64,
+    /// What changed in the unit since it was accepted (default nothing): see [`crate::ageing`].
+    /// Applied to `sensor` and `bench` when the bench is built ([`SimRigConfig::as_built`]).
+    pub ageing: Ageing,
 }
 
 impl Default for SimRigConfig {
@@ -107,6 +115,8 @@ impl Default for SimRigConfig {
             daq: SimDaqConfig::default(),
             y_map: "leadshine-pr".into(),
             faults: Vec::new(),
+            session: 0,
+            ageing: Ageing::default(),
         }
     }
 }
@@ -116,14 +126,33 @@ impl SimRigConfig {
     /// sensor keeps its own seed: it is part of the build its file describes (residual
     /// birefringence, noise, drift), so the bench films the same sensor build that
     /// `fringe sim render` and `fringe sim dataset` render, whatever the bench's seed.
+    ///
+    /// The session salts the seeds of what differs between sessions on a real bench
+    /// ([`crate::session`]): camera drops, jitter and latch delays, DAQ jitter and the F/T noise;
+    /// the surface and the F/T power-up bias keep the master seed's (the renderer and the stage
+    /// controllers get the session where they are built). Session 0 salts nothing.
     pub fn seeded(&self) -> SimRigConfig {
         let mut c = self.clone();
         let s = self.seed;
         c.bench.seed = s;
         c.bench.ft_noise.seed = s.wrapping_add(1);
-        c.camera.seed = s.wrapping_add(2);
-        c.daq.seed = s.wrapping_add(4);
+        c.bench.ft_noise.session = self.session;
+        c.camera.seed = salted(s.wrapping_add(2), self.session);
+        c.daq.seed = salted(s.wrapping_add(4), self.session);
         c
+    }
+
+    /// The bench as it is built: [`SimRigConfig::seeded`], then the unit's ageing applied to the
+    /// sensor build and the bench ([`Ageing::apply_to_sensor`], [`Ageing::apply_to_bench`]). The
+    /// result keeps `ageing` as a record of what was applied; do not apply it again.
+    pub fn as_built(&self) -> Result<SimRigConfig, SimRigError> {
+        self.ageing
+            .check_for(&self.sensor)
+            .map_err(|e| device_error("sensor", e))?;
+        let mut c = self.seeded();
+        self.ageing.apply_to_sensor(&mut c.sensor);
+        self.ageing.apply_to_bench(&mut c.bench);
+        Ok(c)
     }
 
     /// The driver configuration of the x or z axis (the emulated controller matches it).
@@ -172,12 +201,14 @@ pub struct SimRig {
 
 impl SimRig {
     /// Builds the bench and its emulators and connects the real drivers to them.
-    /// `truth` receives the ground truth (exposures, clocks, F/T bias) if given.
+    /// `truth` receives the ground truth (exposures, clocks, F/T bias) if given. The running
+    /// rig's `config` is the bench as built ([`SimRigConfig::as_built`]: seeds spread, the unit's
+    /// ageing applied): what the bench really is.
     pub fn start(
         config: &SimRigConfig,
         truth: Option<Arc<dyn TruthSink>>,
     ) -> Result<(SimRig, Devices), SimRigError> {
-        let config = config.seeded();
+        let config = config.as_built()?;
         let bench = Bench::new(config.bench.clone());
         let mut description = Vec::new();
         check_faults(&config)?;
@@ -293,8 +324,9 @@ impl Wiring<'_> {
         description: &mut Vec<String>,
     ) -> Result<(AptEmulatorHandle, ThorlabsAxis), SimRigError> {
         let driver_config = self.config.apt_config(name);
-        let emulator_config = AptEmulatorConfig::matching(&driver_config)
+        let mut emulator_config = AptEmulatorConfig::matching(&driver_config)
             .ok_or_else(|| device_error(name, "no emulated controller for this configuration"))?;
+        emulator_config.jitter_seed = salted(emulator_config.jitter_seed, self.config.session);
         let (host, link) = byte_pair(&format!("apt-{name}"), &format!("emulated KST101 {name}"));
         let emulator = AptEmulator::spawn(emulator_config, motor, Box::new(link))
             .map_err(|e| device_error(name, e))?;
@@ -392,8 +424,9 @@ impl Wiring<'_> {
         description: &mut Vec<String>,
     ) -> Result<SimCamera, SimRigError> {
         let config = self.config;
-        let renderer =
+        let mut renderer =
             Renderer::new(config.sensor.clone()).map_err(|e| device_error("camera", e))?;
+        renderer.set_session(config.session);
         let scene: Arc<dyn SceneSource> = self.bench.clone();
         let mut camera = SimCamera::new(config.camera.clone(), scene, Box::new(renderer))
             .with_schedule(schedule);
@@ -464,15 +497,16 @@ impl SimServe {
         netft: SocketAddr,
         modbus: SocketAddr,
     ) -> Result<SimServe, SimRigError> {
-        let config = config.seeded();
+        let config = config.as_built()?;
         let bench = Bench::new(config.bench.clone());
         let mut apt = Vec::new();
         let mut paths = Vec::new();
         for (name, motor) in [("x", bench.motor_x()), ("z", bench.motor_z())] {
-            let emulator_config = AptEmulatorConfig::matching(&config.apt_config(name))
+            let mut emulator_config = AptEmulatorConfig::matching(&config.apt_config(name))
                 .ok_or_else(|| {
                     device_error(name, "no emulated controller for this configuration")
                 })?;
+            emulator_config.jitter_seed = salted(emulator_config.jitter_seed, config.session);
             let handle = AptEmulator::spawn_pty(emulator_config, motor)
                 .map_err(|e| device_error(name, e))?;
             paths.push(handle.slave_path().unwrap_or_default().to_string());
@@ -523,5 +557,73 @@ mod tests {
             assert_eq!(seeded.sensor, config.sensor, "seed {seed}");
             assert_eq!(seeded.camera.seed, seed.wrapping_add(2));
         }
+    }
+
+    #[test]
+    fn sessions_salt_only_the_seeds_of_what_differs_between_sessions() {
+        let config = SimRigConfig {
+            seed: 5,
+            ..SimRigConfig::default()
+        };
+        let zero = config.seeded();
+        assert_eq!(
+            (zero.camera.seed, zero.daq.seed, zero.bench.ft_noise.seed),
+            (7, 9, 6)
+        );
+        assert_eq!(zero.bench.ft_noise.session, 0);
+        let three = SimRigConfig {
+            session: 3,
+            ..config.clone()
+        }
+        .seeded();
+        assert_eq!(three.bench.seed, zero.bench.seed);
+        assert_eq!(three.bench.ft_noise.seed, zero.bench.ft_noise.seed);
+        assert_eq!(three.bench.ft_noise.session, 3);
+        assert_eq!(three.sensor, zero.sensor);
+        assert_ne!(three.camera.seed, zero.camera.seed);
+        assert_ne!(three.daq.seed, zero.daq.seed);
+    }
+
+    /// The ageing reaches the running bench: its configuration is the aged unit and the F/T
+    /// sensor's recorded bias carries the shifted zero.
+    #[test]
+    fn a_started_rig_films_and_measures_the_aged_unit() {
+        let mut config = SimRigConfig::default();
+        let s = &mut config.sensor;
+        s.geometry.width = 320;
+        s.geometry.height = 200;
+        s.geometry.disc_radius_px = 90.0;
+        s.geometry.px_per_mm = 3.0;
+        s.field.cells = 64;
+        s.field.cell_mm = 1.2;
+        let bias_of = |config: &SimRigConfig| {
+            let log = crate::ground_truth::TruthLog::new();
+            let (rig, _devices) = SimRig::start(config, Some(log.clone())).expect("sim rig");
+            let bias = log.records().into_iter().find_map(|r| match r {
+                crate::ground_truth::TruthRecord::FtBias { bias, .. } => Some(bias),
+                _ => None,
+            });
+            (rig.config.clone(), bias.expect("an ft_bias record"))
+        };
+        let (plain, plain_bias) = bias_of(&config);
+        assert_eq!(plain.sensor, config.sensor);
+        config.ageing = Ageing {
+            camera_shift_px: [5.0, 0.0],
+            led_dimming_pct: 10.0,
+            ft_offset_n: [0.0, 0.0, 2.0],
+            ..Ageing::default()
+        };
+        let (aged, aged_bias) = bias_of(&config);
+        let shifted =
+            aged.sensor.geometry.centre_offset_px[0] - plain.sensor.geometry.centre_offset_px[0];
+        assert_eq!(shifted, 5.0);
+        assert!(
+            (aged.sensor.optics.illumination_dn - 0.9 * plain.sensor.optics.illumination_dn).abs()
+                < 1e-9
+        );
+        assert!((aged_bias.fz.0 - plain_bias.fz.0 - 2.0).abs() < 1e-12);
+        config.ageing.leds_out = vec![12];
+        let e = SimRig::start(&config, None).err().expect("LED 12 of 12");
+        assert!(e.to_string().contains("sim.ageing.leds_out"), "{e}");
     }
 }

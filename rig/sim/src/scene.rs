@@ -72,7 +72,8 @@ pub trait FrameRenderer: Send {
     /// Image height in pixels.
     fn height(&self) -> u32;
     /// Renders `scene` as frame number `frame_index` (drives noise, flicker and drift) into `out`,
-    /// resized to width * height * 3 bytes.
+    /// resized to width * height * 3 bytes. The same renderer (for [`crate::render::Renderer`]:
+    /// the same sensor seed and session), scene and frame index give the same bytes.
     fn render(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>);
 
     /// Renders `scene` in the camera's pixel `format` (see [`pixel_format`]) into `out`, resized to

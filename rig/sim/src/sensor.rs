@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 use crate::indenter::Shape;
+use crate::scratch::Scratch;
 use crate::stress::Layer;
 
 /// Which of the two sensor builds of the reference paper.
@@ -122,6 +123,21 @@ pub struct LedConfig {
     pub strength_dn: f64,
     /// Angle of the first LED in the sensor frame, degrees (default 7.5).
     pub phase_deg: f64,
+    /// LEDs that failed, by 0-based index in ring order from `phase_deg` (default none): their
+    /// hot spot is gone and the disc's illumination loses their share, most on their side
+    /// (docs/photoelastic-sim.md, "Ageing of a unit").
+    #[serde(default)]
+    pub out: Vec<u32>,
+}
+
+/// The contact surface's flaws.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SurfaceFinish {
+    /// Grooves on the contact surface (default none; `[[surface.scratches]]`, see
+    /// [`crate::scratch`]).
+    #[serde(default)]
+    pub scratches: Vec<Scratch>,
 }
 
 /// Sensor noise, brightness drift and LED flicker.
@@ -184,6 +200,9 @@ pub struct SensorConfig {
     pub noise: NoiseConfig,
     pub indenters: IndenterConfig,
     pub field: FieldConfig,
+    /// Scratches on the contact surface (default none).
+    #[serde(default)]
+    pub surface: SurfaceFinish,
 }
 
 /// A sensor configuration that cannot be used.
@@ -199,7 +218,7 @@ pub enum SensorConfigError {
     #[error("sensor configuration {source_name}: key `{key}` = {value}: {allowed}")]
     Invalid {
         source_name: String,
-        key: &'static str,
+        key: String,
         value: String,
         allowed: &'static str,
     },
@@ -249,6 +268,7 @@ impl SensorConfig {
                 width_px: 30.0,
                 strength_dn: 150.0,
                 phase_deg: 7.5,
+                out: Vec::new(),
             },
             noise: NoiseConfig {
                 poisson_a: 0.05,
@@ -267,6 +287,7 @@ impl SensorConfig {
                 cells: 384,
                 cell_mm: 0.25,
             },
+            surface: SurfaceFinish::default(),
         }
     }
 
@@ -320,7 +341,7 @@ impl SensorConfig {
             Some(other) => {
                 return Err(SensorConfigError::Invalid {
                     source_name: source_name.into(),
-                    key: "variant",
+                    key: "variant".into(),
                     value: other.to_string(),
                     allowed: "allowed: \"layered\" or \"integrated\"",
                 })
@@ -342,6 +363,7 @@ impl SensorConfig {
             .and_then(|()| self.check_non_negative())
             .and_then(|()| self.check_positive())
             .and_then(|()| self.check_sizes())
+            .and_then(|()| self.check_flaws())
             .map_err(|bad| SensorConfigError::Invalid {
                 source_name: source_name.into(),
                 key: bad.key,
@@ -508,6 +530,33 @@ impl SensorConfig {
         Ok(())
     }
 
+    /// The dead LEDs (each below `leds.count`) and the scratches' ranges.
+    fn check_flaws(&self) -> Result<(), Bad> {
+        if let Some(k) = self.leds.out.iter().find(|&&k| k >= self.leds.count) {
+            return bad(
+                "leds.out",
+                k.to_string(),
+                "each must be an LED index below leds.count (0-based, ring order from phase_deg)",
+            );
+        }
+        for (n, scratch) in self.surface.scratches.iter().enumerate() {
+            scratch.check().map_err(|b| Bad {
+                key: format!("surface.scratches[{n}].{}", b.field),
+                value: b.value,
+                allowed: b.allowed,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// The failed LEDs, each once, in ring order.
+    pub fn dead_leds(&self) -> Vec<u32> {
+        let mut out = self.leds.out.clone();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// The photoelastic layer.
     pub fn layer(&self) -> Layer {
         Layer {
@@ -558,15 +607,15 @@ impl SensorConfig {
 
 /// A value [`SensorConfig::validate`] refuses: its key, the value and what is allowed.
 struct Bad {
-    key: &'static str,
+    key: String,
     value: String,
     allowed: &'static str,
 }
 
 /// Refuses `value` of `key`, saying what is `allowed`.
-fn bad(key: &'static str, value: String, allowed: &'static str) -> Result<(), Bad> {
+fn bad(key: &str, value: String, allowed: &'static str) -> Result<(), Bad> {
     Err(Bad {
-        key,
+        key: key.into(),
         value,
         allowed,
     })

@@ -190,6 +190,13 @@ pub struct SimSection {
     /// and what a run keeps when a device fails.
     #[cfg(feature = "sim")]
     pub faults: Vec<fringe_sim::faults::FaultSpec>,
+    /// Session of the bench (default 0): repeated checks of the same unchanged bench differ only
+    /// by their noise (see fringe_sim::session).
+    pub session: u64,
+    /// What changed in the unit since it was accepted (`[sim.ageing]`, see fringe_sim::ageing;
+    /// default nothing).
+    #[cfg(feature = "sim")]
+    pub ageing: fringe_sim::ageing::Ageing,
 }
 
 impl Default for SimSection {
@@ -201,6 +208,9 @@ impl Default for SimSection {
             image_scale: 1.0,
             #[cfg(feature = "sim")]
             faults: Vec::new(),
+            session: 0,
+            #[cfg(feature = "sim")]
+            ageing: fringe_sim::ageing::Ageing::default(),
         }
     }
 }
@@ -624,6 +634,8 @@ fn check_sim(sim: &SimSection, origin: &str) -> Result<(), ConfigError> {
             .check()
             .map_err(|e| bad(origin, format!("[[sim.faults]]: {e}")))?;
     }
+    #[cfg(feature = "sim")]
+    sim.ageing.check().map_err(|e| bad(origin, e.to_string()))?;
     let k = sim.image_scale;
     if !(k.is_finite() && (0.05..=1.0).contains(&k)) {
         return Err(bad(
@@ -820,6 +832,54 @@ mod tests {
         }
         let e = RigConfig::parse("[camera]\nframe_rate = 0.0\n", "sim.toml").expect_err("sim 0 Hz");
         assert!(e.to_string().contains("camera.frame_rate"), "{e}");
+    }
+
+    #[test]
+    fn ageing_keys_are_checked_when_the_file_is_read() {
+        let good = "[sim]\nsession = 3\n[sim.ageing]\nfringe_value_pct = 10.0\nleds_out = [2]\n\
+                    camera_shift_px = [5.0, -2.0]\nft_offset_n = [0.0, 0.0, 1.5]\n\
+                    [[sim.ageing.scratches]]\nfrom_mm = [-4.0, 2.0]\nto_mm = [6.0, 5.0]\n";
+        let c = RigConfig::parse(good, "rig.toml").expect("valid ageing");
+        assert_eq!(c.file.sim.session, 3);
+        let a = &c.file.sim.ageing;
+        assert_eq!(a.fringe_value_pct, 10.0);
+        assert_eq!(a.leds_out, vec![2]);
+        assert_eq!(a.scratches.len(), 1);
+        assert_eq!(a.scratches[0].width_mm, 0.3, "default width");
+        assert_eq!(a.modulus_pct, 0.0, "default: no change");
+        for (text, expected) in [
+            (
+                "[sim.ageing]\nfringe_pct = 10.0\n",
+                vec!["rig.toml", "fringe_pct", "fringe_value_pct"],
+            ),
+            (
+                "[sim.ageing]\nled_dimming_pct = 120.0\n",
+                vec!["rig.toml: key `sim.ageing.led_dimming_pct` = 120.0", "0..=100"],
+            ),
+            (
+                "[sim.ageing]\ncamera_rotation_deg = inf\n",
+                vec!["sim.ageing.camera_rotation_deg", "-180..=180"],
+            ),
+            (
+                "[sim.ageing]\nft_offset_n = [0.0, 0.0]\n",
+                vec!["rig.toml", "ft_offset_n"],
+            ),
+            (
+                "[[sim.ageing.scratches]]\nfrom_mm = [0.0, 0.0]\nto_mm = [1.0, 0.0]\nwidth_mm = 0.0\n",
+                vec!["sim.ageing.scratches[0].width_mm", "(0, 5]"],
+            ),
+            (
+                "[[sim.ageing.scratches]]\nfrom_mm = [0.0, 0.0]\n",
+                vec!["rig.toml", "to_mm"],
+            ),
+        ] {
+            let e = RigConfig::parse(text, "rig.toml")
+                .expect_err(text)
+                .to_string();
+            for part in expected {
+                assert!(e.contains(part), "{text}: {e} lacks {part}");
+            }
+        }
     }
 
     #[test]

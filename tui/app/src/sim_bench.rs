@@ -82,8 +82,14 @@ pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
             SimForcePath::Netft => ForcePath::Netft,
         },
         faults: s.faults.clone(),
+        session: s.session,
+        // The camera shift is given in px of the full frame, like the sensor's geometry.
+        ageing: s.ageing.scaled(s.image_scale),
         ..SimRigConfig::default()
     };
+    c.ageing
+        .check_for(&c.sensor)
+        .map_err(|e| rig.err(e.to_string()))?;
     for (section, axis) in [
         (&rig.file.x, &mut c.bench.x),
         (&rig.file.y, &mut c.bench.y),
@@ -335,5 +341,54 @@ pub fn sensor_profile(
             outliers: 0,
         }),
         force_offsets: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `[sim]` session and ageing reach the simulated bench: the camera shift scaled with the
+    /// image, the rest as written, applied to the sensor and the F/T sensor when it is built.
+    #[test]
+    fn the_rig_files_ageing_and_session_reach_the_simulated_bench() {
+        let text = "[sim]\nimage_scale = 0.25\nsession = 2\n[sim.ageing]\n\
+                    camera_shift_px = [8.0, -4.0]\nleds_out = [2]\nft_offset_n = [0.0, 0.5, 1.5]\n\
+                    fringe_value_pct = 10.0\n";
+        let rig = RigConfig::parse(text, "rig.toml").expect("rig file");
+        let c = config(&rig).expect("sim config");
+        assert_eq!(c.session, 2);
+        assert_eq!(c.ageing.camera_shift_px, [2.0, -1.0]);
+        let built = c.as_built().expect("as built");
+        let plain =
+            config(&RigConfig::parse("[sim]\nimage_scale = 0.25\n", "rig.toml").expect("plain"))
+                .expect("plain config");
+        let (a, p) = (&built.sensor.geometry, &plain.sensor.geometry);
+        assert_eq!(
+            [
+                a.centre_offset_px[0] - p.centre_offset_px[0],
+                a.centre_offset_px[1] - p.centre_offset_px[1]
+            ],
+            [2.0, -1.0]
+        );
+        assert_eq!(built.sensor.leds.out, vec![2]);
+        assert!(
+            (built.sensor.layer.f_sigma_n_per_m / plain.sensor.layer.f_sigma_n_per_m - 1.1).abs()
+                < 1e-12
+        );
+        assert_eq!(built.bench.ft_noise.zero_shift_n, [0.0, 0.5, 1.5]);
+        assert_eq!(built.bench.ft_noise.session, 2);
+        assert_eq!(plain.as_built().expect("plain built").sensor, plain.sensor);
+
+        let rig = RigConfig::parse(
+            "[sim]\nsensor = \"integrated\"\n[sim.ageing]\nleds_out = [16]\n",
+            "rig.toml",
+        )
+        .expect("parses: the LED count is the sensor's");
+        let e = config(&rig).expect_err("16 LEDs: 0..16").to_string();
+        assert!(
+            e.contains("rig.toml") && e.contains("sim.ageing.leds_out") && e.contains("0..16"),
+            "{e}"
+        );
     }
 }
