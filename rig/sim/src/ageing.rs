@@ -1,5 +1,5 @@
 //! Ageing of a sensor unit: what has changed in a unit since it was accepted, as a rig file's
-//! `[sim.ageing]` table. A coming `fringe check` compares a unit with what it was accepted with;
+//! `[sim.ageing]` table. `fringe check` compares a unit with what it was accepted with;
 //! this is how the simulated bench shows it a unit that aged (and, with the defaults, one that
 //! did not).
 //!

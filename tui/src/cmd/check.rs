@@ -17,7 +17,9 @@ use fringe_app::commission::journal::Journal;
 use fringe_app::health::check_plan::{acceptance_positions, check_plan, MAX_BENCH_S};
 use fringe_app::health::figures::{assess, Assessment, Measured, Thresholds, Verdict};
 use fringe_app::health::history::{self, history_path, Entry, HISTORY_FORMAT};
-use fringe_app::health::model_errors::{at_positions, ModelErrors, SAME_POSITION_MM};
+use fringe_app::health::model_errors::{
+    at_positions, thinned, ModelErrors, EVAL_FRAMES, SAME_POSITION_MM,
+};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::health::change::Change;
 use fringe_calibration::health::signature::Signature;
@@ -103,9 +105,12 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     let limits = config.limits()?;
     let program = Plan::parse(&plan.plan, "check plan")?.program(&limits, "check plan")?;
     let started = Instant::now();
-    let run_id = format!(
-        "check-{sensor}-{}",
-        fringe_rig::store::documents::now_utc().replace([':', '.'], "-")
+    let run_id = free_run_id(
+        &a.out,
+        &format!(
+            "check-{sensor}-{}",
+            fringe_rig::store::documents::now_utc().replace([':', '.'], "-")
+        ),
     );
     let end = execute(
         &config,
@@ -156,6 +161,15 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `id`, or `id-2`, `id-3`, ... when a run of that id is in `root` (two checks started in the
+/// same millisecond; the scan engine still refuses a run that exists when it starts).
+fn free_run_id(root: &Path, id: &str) -> String {
+    (1..)
+        .map(|n| if n == 1 { id.to_string() } else { format!("{id}-{n}") })
+        .find(|c| !root.join(c).exists())
+        .unwrap_or_else(|| id.to_string())
 }
 
 /// The unit: `--sensor`, else the rig's sensor; both given must agree.
@@ -270,8 +284,8 @@ fn force_zero_moved(
     ]))
 }
 
-/// The model run on the labelled frames of `run` (only those pressed at `positions`, when
-/// given).
+/// The model run on at most [`EVAL_FRAMES`] of the labelled frames of `run` (only of those
+/// pressed at `positions`, when given).
 fn evaluated(
     model: &Model,
     run: &Path,
@@ -295,6 +309,7 @@ fn evaluated(
             );
         }
     }
+    source.samples = thinned(std::mem::take(&mut source.samples), EVAL_FRAMES);
     let mut backend = model.backend(BackendKind::Tract, threads)?;
     let mut progress = FramesProgress::new(what);
     let eval = evaluate(model, backend.as_mut(), &[source], None, None, |d, t| {

@@ -10,8 +10,8 @@
 //! | turn of the rim's light | [`Thresholds::turn_deg`] | calibrate again (the camera turned) |
 //! | F/T zero against the calibration's, largest axis | [`Thresholds::force_offset_n`] | calibrate again (the force offsets) |
 //! | darkest rim sector | [`Thresholds::rim_ratio`] | replace or repair (an LED is out) |
-//! | darkest side of the disc | [`Thresholds::side_ratio`] | replace or repair (the light is uneven) |
 //! | sharp local change of the disc | [`Thresholds::surface_cells`] cells | replace (the surface is damaged) |
+//! | darkest side of the disc | [`Thresholds::side_ratio`] | replace or repair (the light is uneven) |
 //! | disc brightness | [`Thresholds::dimmer`], [`Thresholds::brighter`] | replace (the LEDs are dimming), commission again (brighter) |
 //! | force gain of the model | [`Thresholds::gain_change`] | commission again (the material changed) |
 //! | Fz RMSE, contact RMSE | [`Thresholds::rmse_ratio`] times the acceptance's and an absolute margin | commission again |
@@ -161,16 +161,16 @@ pub struct Thresholds {
 impl Default for Thresholds {
     fn default() -> Self {
         Thresholds {
-            centre_share: 0.004,
-            radius_share: 0.004,
+            centre_share: 0.002,
+            radius_share: 0.002,
             turn_deg: 2.0,
-            force_offset_n: 0.06,
+            force_offset_n: 0.04,
             rim_ratio: 0.75,
             side_ratio: 0.92,
             surface_cells: 6,
             dimmer: 0.85,
             brighter: 1.15,
-            gain_change: 0.06,
+            gain_change: 0.03,
             rmse_ratio: 1.8,
             fz_margin_n: 0.1,
             contact_margin_mm: 0.3,
@@ -283,6 +283,18 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         ),
     ));
     figures.push(Figure::new(
+        "surface_cells",
+        c.surface_cells as f64,
+        Rule::AtMost,
+        t.surface_cells as f64,
+        "",
+        Verdict::Replace,
+        format!(
+            "the surface is damaged (a scratch): {} of {} places of the disc changed sharply, by up to {:.1} DN",
+            c.surface_cells, c.cells_compared, c.surface_peak_dn
+        ),
+    ));
+    figures.push(Figure::new(
         "darkest_side",
         c.darkest_side_ratio,
         Rule::AtLeast,
@@ -293,18 +305,6 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
             "the light is uneven: the disc's side at {:.0} degrees gives {:.0} % of its light",
             c.darkest_side_deg,
             100.0 * c.darkest_side_ratio
-        ),
-    ));
-    figures.push(Figure::new(
-        "surface_cells",
-        c.surface_cells as f64,
-        Rule::AtMost,
-        t.surface_cells as f64,
-        "",
-        Verdict::Replace,
-        format!(
-            "the surface is damaged (a scratch): {} of {} places of the disc changed sharply, by up to {:.1} DN",
-            c.surface_cells, c.cells_compared, c.surface_peak_dn
         ),
     ));
     figures.push(Figure::new(
@@ -412,4 +412,94 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
             100.0 * then.shape_accuracy
         ),
     ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unchanged() -> Change {
+        Change {
+            centre_shift_px: [0.05, -0.02],
+            centre_sigma_px: [0.02, 0.02],
+            radius_change_px: 0.03,
+            brightness_ratio: 0.97,
+            turn_deg: 0.0,
+            darkest_rim_deg: 40.0,
+            darkest_rim_ratio: 0.97,
+            darkest_side_deg: 90.0,
+            darkest_side_ratio: 0.99,
+            surface_cells: 0,
+            cells_compared: 1400,
+            surface_peak_dn: 0.9,
+            surface_noise_dn: 0.2,
+        }
+    }
+
+    fn errors(gain: f64, fz: f64) -> ModelErrors {
+        ModelErrors {
+            frames: 900,
+            fz_rmse_n: fz,
+            contact_rmse_mm: 1.0,
+            shape_accuracy: 0.99,
+            force_gain: gain,
+        }
+    }
+
+    fn assessed(change: &Change, zero: [f64; 3], now: &ModelErrors) -> Assessment {
+        let then = errors(1.0, 0.3);
+        assess(
+            &Measured {
+                change,
+                radius_px: 245.0,
+                radius_sigma_px: 0.03,
+                force_offset_n: Some(zero),
+                model_now: Some(now),
+                model_then: Some(&then),
+            },
+            &Thresholds::default(),
+        )
+    }
+
+    #[test]
+    fn an_unchanged_unit_is_ok_with_nothing_moved() {
+        let a = assessed(&unchanged(), [0.01, -0.02, 0.015], &errors(1.01, 0.32));
+        assert_eq!(a.verdict, Verdict::Ok);
+        assert_eq!(a.moved().count(), 0, "{a:?}");
+        assert!(a.cause.is_empty() && a.diagnosis.is_empty());
+    }
+
+    #[test]
+    fn the_gravest_action_wins_and_names_its_first_figure() {
+        // A dead LED also worsens the model: the unit is to be repaired, not commissioned again.
+        let mut led = unchanged();
+        led.darkest_rim_ratio = 0.3;
+        led.darkest_side_ratio = 0.85;
+        let a = assessed(&led, [0.0; 3], &errors(0.93, 0.7));
+        assert_eq!(a.verdict, Verdict::Replace);
+        assert_eq!(a.cause, "darkest_rim");
+        assert!(a.diagnosis.contains("an LED is out"), "{}", a.diagnosis);
+        assert!(a.moved().any(|f| f.key == "force_gain_change"));
+        // A knocked camera: calibrate again, before judging the model.
+        let mut knocked = unchanged();
+        knocked.centre_shift_px = [2.5, 0.0];
+        let a = assessed(&knocked, [0.0; 3], &errors(1.0, 0.9));
+        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recalibrate, "centre_shift_px"));
+        // The F/T zero: the largest axis against its threshold.
+        let a = assessed(&unchanged(), [0.0, 0.01, 0.1], &errors(1.0, 0.3));
+        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recalibrate, "force_zero_n"));
+        assert!(a.diagnosis.contains("+0.100"), "{}", a.diagnosis);
+        // The material: the model reads less force.
+        let a = assessed(&unchanged(), [0.0; 3], &errors(0.91, 0.45));
+        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recommission, "force_gain_change"));
+        assert!(a.diagnosis.contains("9 % less"), "{}", a.diagnosis);
+    }
+
+    #[test]
+    fn a_figure_that_could_not_be_measured_counts_as_moved() {
+        let mut c = unchanged();
+        c.brightness_ratio = f64::NAN;
+        let a = assessed(&c, [0.0; 3], &errors(1.0, 0.3));
+        assert_ne!(a.verdict, Verdict::Ok);
+    }
 }

@@ -8,6 +8,16 @@ use fringe_sensor_models::eval::Row;
 pub const GAIN_MIN_FZ_N: f64 = 1.0;
 /// Two presses at positions closer than this, mm, are at the same position.
 pub const SAME_POSITION_MM: f64 = 0.5;
+/// Frames of a run the model is evaluated on at most: every k-th, spread evenly over its
+/// presses (a press's neighbouring frames differ by little; a few hundred give the errors to a
+/// few per cent).
+pub const EVAL_FRAMES: usize = 300;
+
+/// Every k-th of `items` so that at most `max` remain, the first one kept.
+pub fn thinned<T>(items: Vec<T>, max: usize) -> Vec<T> {
+    let step = items.len().div_ceil(max.max(1)).max(1);
+    items.into_iter().step_by(step).collect()
+}
 
 /// The model's errors over some frames.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
