@@ -20,6 +20,7 @@
 mod app;
 mod binding;
 mod calibration;
+mod health;
 mod event_loop;
 mod keys;
 mod picture;

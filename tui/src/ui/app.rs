@@ -3,6 +3,7 @@
 //! choose from. Screens and the global keys call these; nothing here knows the screens.
 
 use super::calibration;
+use super::health;
 use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
@@ -79,6 +80,7 @@ impl App {
             },
             bench: BenchView::default(),
             calibrate: calibration::ready_view(&opts.config),
+            health: health::view(&opts.config),
             dialog: None,
             picker: None,
             error: None,

@@ -243,8 +243,8 @@ mod tests {
             help_rows().into_iter().map(|r| (r.keys, r.what)).collect();
         let expected = [
             (
-                "1-5 / Tab",
-                "Scan, Validate, Runs, Bench, Calibrate screens",
+                "1-6 / Tab",
+                "Scan, Validate, Runs, Bench, Calibrate, Health screens",
             ),
             ("l", "choose the scan plan (built in, ./plans/*.toml)"),
             ("r", "run the scan plan (with live validation on Validate)"),
@@ -276,6 +276,10 @@ mod tests {
             (
                 "w (Calibrate)",
                 "write the fitted profile (profiles/<sensor>.toml)",
+            ),
+            (
+                "Up / Down (Health)",
+                "choose a check: its figures against their thresholds",
             ),
             ("Enter", "answer a dialog: continue"),
             ("?", "show or hide these keys"),

@@ -3,6 +3,7 @@
 
 mod bench;
 mod calibrate;
+mod health;
 mod runs;
 mod scan;
 mod validate;
@@ -16,6 +17,7 @@ pub const ALL: &[ScreenDef] = &[
     runs::SCREEN,
     bench::SCREEN,
     calibrate::SCREEN,
+    health::SCREEN,
 ];
 
 /// Where `tab` is in [`ALL`].
@@ -35,6 +37,7 @@ mod tests {
             Tab::Runs,
             Tab::Bench,
             Tab::Calibrate,
+            Tab::Health,
         ] {
             assert_eq!(ALL.iter().filter(|s| s.tab == tab).count(), 1, "{tab:?}");
         }

@@ -18,6 +18,7 @@ pub enum Tab {
     Runs,
     Bench,
     Calibrate,
+    Health,
 }
 
 /// Where the scan is.
@@ -185,6 +186,22 @@ pub struct CalibrateView {
     pub picture: Option<image::RgbImage>,
 }
 
+/// The Health screen: the unit's checks against its commissioning certificate.
+#[derive(Debug, Clone, Default)]
+pub struct HealthView {
+    pub sensor: String,
+    /// The certificate checks compare with (its directory and date), or what to do without one.
+    pub certificate: String,
+    /// The history file.
+    pub history: String,
+    /// Every check, oldest first.
+    pub checks: Vec<fringe_app::health::history::Entry>,
+    /// Lines of the history passed over (damaged, newer), and why the history cannot be read.
+    pub notes: Vec<String>,
+    /// The check whose figures are shown.
+    pub selected: usize,
+}
+
 /// A question the scan asks, shown over every screen until answered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dialog {
@@ -213,6 +230,7 @@ pub struct UiState {
     pub runs: RunsView,
     pub bench: BenchView,
     pub calibrate: CalibrateView,
+    pub health: HealthView,
     pub dialog: Option<Dialog>,
     pub picker: Option<Picker>,
     /// The newest error, shown until the next key.

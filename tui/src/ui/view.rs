@@ -27,7 +27,7 @@ pub fn draw(f: &mut Frame, s: &UiState) {
     let selected = screens::index(s.tab);
     let screen = &screens::ALL[selected];
     let [tabs_area, rig_area] =
-        Layout::horizontal([Constraint::Length(56), Constraint::Min(0)]).areas(top);
+        Layout::horizontal([Constraint::Length(67), Constraint::Min(0)]).areas(top);
     f.render_widget(
         Tabs::new(titles).select(selected).highlight_style(
             Style::new()

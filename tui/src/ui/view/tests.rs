@@ -5,7 +5,7 @@ use super::draw;
 use crate::ui::keys;
 use crate::ui::state::{
     BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, PlanPoint, PressRow, RunRow,
-    RunsView, ScanView, Tab, UiState,
+    HealthView, RunsView, ScanView, Tab, UiState,
 };
 use crate::ui::widgets;
 use fringe_app::bench_session::{
@@ -111,6 +111,7 @@ fn ready() -> UiState {
             offsets: Vec::new(),
             picture: None,
         },
+        health: HealthView::default(),
         dialog: None,
         picker: None,
         error: None,
@@ -579,7 +580,7 @@ fn help_lists_every_key() {
     let t = render(&s, 100, 30);
     let b = t.backend().buffer();
     let rows = keys::help_rows();
-    assert_eq!(rows.len(), 24, "{rows:?}");
+    assert_eq!(rows.len(), 25, "{rows:?}");
     for row in rows {
         let line = format!("{} ", row.keys);
         assert!(find(b, &line).is_some(), "help names {}", row.keys);
@@ -642,4 +643,80 @@ fn the_plan_chooser_lists_the_plans_with_the_chosen_one_highlighted() {
     assert!(b[(x, y)].modifier.contains(Modifier::REVERSED));
     let (x, y) = find(b, "calibration (built in)").expect("listed");
     assert!(!b[(x, y)].modifier.contains(Modifier::REVERSED));
+}
+
+/// A check of a unit whose figures are `change`'s, at `utc`.
+fn check_entry(utc: &str, change: &fringe_calibration::health::change::Change) -> fringe_app::health::history::Entry {
+    use fringe_app::health::figures::{assess, Measured, Thresholds};
+    let a = assess(
+        &Measured {
+            change,
+            radius_px: 245.0,
+            radius_sigma_px: 0.02,
+            force_offset_n: Some([0.004, -0.002, 0.006]),
+            model_now: None,
+            model_then: None,
+        },
+        &Thresholds::default(),
+    );
+    fringe_app::health::history::Entry {
+        format: 1,
+        fringe_version: "0.1.0".into(),
+        checked_utc: utc.into(),
+        sensor_id: "layered-3".into(),
+        certificate: "profiles/layered-3.commission-2026-11-20T09-00-00Z".into(),
+        run: "runs/check".into(),
+        bench_s: 45.0,
+        assessment: a,
+        model_now: None,
+        model_then: None,
+    }
+}
+
+#[test]
+fn health_screen_lists_the_checks_and_the_chosen_one_s_figures_with_the_moved_ones_marked() {
+    use fringe_app::health::figures::Verdict;
+    use fringe_calibration::health::change::Change;
+    let unchanged = Change {
+        centre_shift_px: [0.003, -0.001],
+        centre_sigma_px: [0.01, 0.01],
+        radius_change_px: 0.004,
+        brightness_ratio: 0.96,
+        turn_deg: 0.0,
+        darkest_rim_deg: 40.0,
+        darkest_rim_ratio: 0.97,
+        darkest_side_deg: 90.0,
+        darkest_side_ratio: 0.99,
+        surface_cells: 0,
+        cells_compared: 1436,
+        surface_peak_dn: 0.8,
+        surface_noise_dn: 0.2,
+    };
+    let knocked = Change {
+        centre_shift_px: [2.49, 0.01],
+        ..unchanged.clone()
+    };
+    let mut s = ready();
+    s.tab = Tab::Health;
+    s.health = HealthView {
+        sensor: "layered-3".into(),
+        certificate: "profiles/layered-3.commission-2026-11-20T09-00-00Z (issued 2026-11-20T09:12:00Z, passed)".into(),
+        history: "profiles/layered-3.health.jsonl".into(),
+        checks: vec![
+            check_entry("2026-11-21T08:00:00Z", &unchanged),
+            check_entry("2026-11-27T08:00:00Z", &knocked),
+        ],
+        notes: vec!["profiles/layered-3.health.jsonl:2: damaged entry passed over".into()],
+        selected: 1,
+    };
+    assert_eq!(s.health.checks[1].verdict(), Verdict::Recalibrate);
+    let t = render(&s, 150, 24);
+    insta::assert_snapshot!("health", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "recalibrate").expect("verdict");
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
+    let (x, y) = find(b, "MOVED").expect("moved figure");
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
+    assert!(find(b, "centre_shift_px").is_some());
+    assert!(find(b, "damaged entry passed over").is_some());
 }
