@@ -20,8 +20,8 @@
 mod app;
 mod binding;
 mod calibration;
-mod health;
 mod event_loop;
+mod health;
 mod keys;
 mod picture;
 mod plan_choice;

@@ -50,7 +50,14 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
 
     let check = |rig: &Path| {
         fringe_command()
-            .args(["check", "--rig", s(rig), "--yes", "--out", s(&dir.join("runs"))])
+            .args([
+                "check",
+                "--rig",
+                s(rig),
+                "--yes",
+                "--out",
+                s(&dir.join("runs")),
+            ])
             .current_dir(&dir)
             .output()
             .expect("check")
@@ -114,7 +121,10 @@ fn bad_input_is_refused_before_anything_moves() {
     // No certificate: commission it first, naming where certificates are looked for.
     let t = run(&[]);
     assert!(t.contains("no certificate of sensor layered-3"), "{t}");
-    assert!(t.contains(s(&profiles)) && t.contains("fringe commission"), "{t}");
+    assert!(
+        t.contains(s(&profiles)) && t.contains("fringe commission"),
+        "{t}"
+    );
     // Another unit than the one under the camera.
     let t = run(&["--sensor", "layered-9"]);
     assert!(t.contains("the rig's sensor is layered-3"), "{t}");
@@ -134,7 +144,11 @@ fn bad_input_is_refused_before_anything_moves() {
     assert!(t.contains("certificate format 99 is newer"), "{t}");
     assert!(t.contains("no certificate of sensor layered-3"), "{t}");
     // A damaged history is reported, not fatal.
-    std::fs::write(profiles.join("layered-3.health.jsonl"), "{\"format\":1,\"che\n").expect("h");
+    std::fs::write(
+        profiles.join("layered-3.health.jsonl"),
+        "{\"format\":1,\"che\n",
+    )
+    .expect("h");
     let t = run(&["--history"]);
     assert!(t.contains("layered-3.health.jsonl:1: damaged entry"), "{t}");
     assert!(t.contains("no checks of sensor layered-3 yet"), "{t}");

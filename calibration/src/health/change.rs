@@ -99,11 +99,11 @@ impl Change {
         let surface = surface(then, now);
         let f = (&then.fit, &now.fit);
         Ok(Change {
-            centre_shift_px: [
-                f.1.centre_x - f.0.centre_x,
-                f.1.centre_y - f.0.centre_y,
+            centre_shift_px: [f.1.centre_x - f.0.centre_x, f.1.centre_y - f.0.centre_y],
+            centre_sigma_px: [
+                f.0.sigma_x.hypot(f.1.sigma_x),
+                f.0.sigma_y.hypot(f.1.sigma_y),
             ],
-            centre_sigma_px: [f.0.sigma_x.hypot(f.1.sigma_x), f.0.sigma_y.hypot(f.1.sigma_y)],
             radius_change_px: f.1.radius - f.0.radius,
             brightness_ratio,
             turn_deg: turn as f64,
@@ -275,7 +275,10 @@ mod tests {
             let mut data = Vec::with_capacity(W * H);
             for j in 0..H {
                 for i in 0..W {
-                    let (u, v) = (i as f64 + 0.5 - self.centre[0], j as f64 + 0.5 - self.centre[1]);
+                    let (u, v) = (
+                        i as f64 + 0.5 - self.centre[0],
+                        j as f64 + 0.5 - self.centre[1],
+                    );
                     let r = u.hypot(v);
                     let angle = (-v).atan2(u);
                     let mask = 1.0 / (1.0 + (1.7 * (r - R) / 1.0).exp());
@@ -293,11 +296,13 @@ mod tests {
                         let d2 = (u - p[0]).powi(2) + (v - p[1]).powi(2);
                         glow += 100.0 * (-0.5 * d2 / 9.0).exp();
                     }
-                    let residual = 8.0 * ((u * 0.02 + v * 0.013).sin() + (u * 0.011 - v * 0.017).cos());
+                    let residual =
+                        8.0 * ((u * 0.02 + v * 0.013).sin() + (u * 0.011 - v * 0.017).cos());
                     let mut value = mask * vignetting * (150.0 * light + residual) + glow;
                     if let Some((a, b)) = self.scratch {
                         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                        let t = (((u + self.centre[0] - a[0]) * dx + (v + self.centre[1] - a[1]) * dy)
+                        let t = (((u + self.centre[0] - a[0]) * dx
+                            + (v + self.centre[1] - a[1]) * dy)
                             / (dx * dx + dy * dy))
                             .clamp(0.0, 1.0);
                         let (cx, cy) = (a[0] + t * dx, a[1] + t * dy);

@@ -101,12 +101,7 @@ impl Signature {
         let r = fit.radius;
         let brightness_dn = annulus_mean(&mean, centre, [0.0, INNER * r], 1)[0];
         let rim_dn = annulus_mean(&mean, centre, [RIM_BAND[0] * r, RIM_BAND[1] * r], RIM_BINS);
-        let sides_dn = annulus_mean(
-            &mean,
-            centre,
-            [SIDE_BAND[0] * r, SIDE_BAND[1] * r],
-            SIDES,
-        );
+        let sides_dn = annulus_mean(&mean, centre, [SIDE_BAND[0] * r, SIDE_BAND[1] * r], SIDES);
         let cell_px = 2.0 * INNER * r / CELLS as f64;
         let per_frame: Vec<Vec<Option<f32>>> =
             greys.iter().map(|g| cell_means(g, centre, r)).collect();

@@ -25,7 +25,7 @@
 //! their line ([`crate::scratch`]).
 
 use crate::blurred_colour::BlurredColourTable;
-use crate::scratch::ScratchCanvas;
+use crate::scratch_canvas::ScratchCanvas;
 use crate::sensor::{SensorConfig, SensorGeometry};
 
 /// Colour of the LED light added after the polariser (cool white), R G B.

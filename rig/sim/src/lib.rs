@@ -28,7 +28,8 @@
 //! - [`sync_score`]: the three synchronisation methods run side by side on one simulated bench
 //!   and scored against the ground truth.
 //! - [`scene`]: the traits that connect the bench, the emulated devices and the renderer.
-//! - [`scratch`]: a scratch on the contact surface (sensor file `[[surface.scratches]]`).
+//! - [`scratch`]: a scratch on the contact surface (sensor file `[[surface.scratches]]`);
+//!   `scratch_canvas` draws it into the unloaded background.
 //! - [`ageing`]: what changed in a unit since it was accepted (a rig file's `[sim.ageing]`).
 //! - [`session`]: repeated sessions of the same bench (a rig file's `[sim] session`): other noise,
 //!   the same unit.
@@ -78,6 +79,7 @@ pub mod render;
 pub mod rig;
 pub mod scene;
 pub mod scratch;
+mod scratch_canvas;
 pub mod sensor;
 pub mod session;
 mod stress;

@@ -91,7 +91,11 @@ fn trials(ageing: &str, want: Verdict, cause: &str) {
 fn an_unchanged_unit_raises_no_figure_in_ten_sessions() {
     let accepted = signature(&rig(0, ""), 0);
     for s in 1..=10 {
-        assert_eq!(judged(&accepted, s, ""), (Verdict::Ok, String::new()), "session {s}");
+        assert_eq!(
+            judged(&accepted, s, ""),
+            (Verdict::Ok, String::new()),
+            "session {s}"
+        );
     }
 }
 

@@ -82,10 +82,8 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     let model = open_model(&accepted.model)?;
     check_design(&model, config.sensor_variant()?)?;
     let shapes: Vec<String> = model.classes.iter().skip(1).cloned().collect();
-    let positions = acceptance_positions(
-        &acceptance.plan,
-        &format!("{} (acceptance)", dir.display()),
-    )?;
+    let positions =
+        acceptance_positions(&acceptance.plan, &format!("{} (acceptance)", dir.display()))?;
     let plan = check_plan(&sensor, &positions, &shapes, |p| {
         estimate_s(p, &config).map_err(|e| e.to_string())
     })?;
@@ -152,7 +150,10 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     };
     let path = history_path(&profiles, &sensor);
     history::append(&path, &entry)?;
-    println!("appended to {} (fringe check --history shows it)", path.display());
+    println!(
+        "appended to {} (fringe check --history shows it)",
+        path.display()
+    );
     if assessment.verdict != Verdict::Ok {
         bail!(
             "sensor {sensor}: {}: {}",
@@ -167,7 +168,13 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
 /// same millisecond; the scan engine still refuses a run that exists when it starts).
 fn free_run_id(root: &Path, id: &str) -> String {
     (1..)
-        .map(|n| if n == 1 { id.to_string() } else { format!("{id}-{n}") })
+        .map(|n| {
+            if n == 1 {
+                id.to_string()
+            } else {
+                format!("{id}-{n}")
+            }
+        })
         .find(|c| !root.join(c).exists())
         .unwrap_or_else(|| id.to_string())
 }

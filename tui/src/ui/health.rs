@@ -38,7 +38,11 @@ pub fn view(config: &RigConfig) -> HealthView {
             "{} (issued {}, {})",
             c.dir.display(),
             c.certificate.issued_utc,
-            if c.certificate.pass { "passed" } else { "failed" }
+            if c.certificate.pass {
+                "passed"
+            } else {
+                "failed"
+            }
         ),
         None => format!(
             "none under {}: commission the unit first (fringe commission)",

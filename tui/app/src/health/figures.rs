@@ -389,7 +389,11 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
     ));
     figures.push(Figure::new(
         "contact_rmse_growth",
-        grown(now.contact_rmse_mm, then.contact_rmse_mm, t.contact_margin_mm),
+        grown(
+            now.contact_rmse_mm,
+            then.contact_rmse_mm,
+            t.contact_margin_mm,
+        ),
         Rule::AtMost,
         t.rmse_ratio,
         "x",
@@ -484,14 +488,23 @@ mod tests {
         let mut knocked = unchanged();
         knocked.centre_shift_px = [2.5, 0.0];
         let a = assessed(&knocked, [0.0; 3], &errors(1.0, 0.9));
-        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recalibrate, "centre_shift_px"));
+        assert_eq!(
+            (a.verdict, a.cause.as_str()),
+            (Verdict::Recalibrate, "centre_shift_px")
+        );
         // The F/T zero: the largest axis against its threshold.
         let a = assessed(&unchanged(), [0.0, 0.01, 0.1], &errors(1.0, 0.3));
-        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recalibrate, "force_zero_n"));
+        assert_eq!(
+            (a.verdict, a.cause.as_str()),
+            (Verdict::Recalibrate, "force_zero_n")
+        );
         assert!(a.diagnosis.contains("+0.100"), "{}", a.diagnosis);
         // The material: the model reads less force.
         let a = assessed(&unchanged(), [0.0; 3], &errors(0.91, 0.45));
-        assert_eq!((a.verdict, a.cause.as_str()), (Verdict::Recommission, "force_gain_change"));
+        assert_eq!(
+            (a.verdict, a.cause.as_str()),
+            (Verdict::Recommission, "force_gain_change")
+        );
         assert!(a.diagnosis.contains("9 % less"), "{}", a.diagnosis);
     }
 

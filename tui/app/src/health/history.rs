@@ -208,7 +208,10 @@ mod tests {
         assert_eq!(h.notes.len(), 1, "{:?}", h.notes);
         assert!(h.notes[0].contains(":2: damaged entry"), "{:?}", h.notes);
         assert_eq!(h.entries[0].verdict(), Verdict::Ok);
-        assert_eq!(h.entries[0].figure("force_zero_n").map(|v| v > 0.0), Some(true));
+        assert_eq!(
+            h.entries[0].figure("force_zero_n").map(|v| v > 0.0),
+            Some(true)
+        );
     }
 
     #[test]

@@ -33,7 +33,11 @@ pub(super) fn show(profiles: &Path, sensor: &str) -> Result<()> {
             path.display()
         );
     }
-    println!("{} checks of sensor {sensor} ({})", h.entries.len(), path.display());
+    println!(
+        "{} checks of sensor {sensor} ({})",
+        h.entries.len(),
+        path.display()
+    );
     println!(
         "{:>3}  {:<20}  {:<12}  {:>8}  {:>7}  {:>6}  {:>6}  {:>5}  {:>7}  diagnosis",
         "#", "checked (UTC)", "verdict", "centre px", "zero N", "rim", "side", "cells", "gain"
@@ -94,9 +98,7 @@ fn plot(entries: &[Entry]) -> RgbImage {
             )
         })
         .collect();
-    let (w, h) = panels
-        .first()
-        .map_or((1, 1), |p| (p.width(), p.height()));
+    let (w, h) = panels.first().map_or((1, 1), |p| (p.width(), p.height()));
     let columns = 3u32;
     let rows = (panels.len() as u32).div_ceil(columns);
     let mut out = RgbImage::from_pixel(w * columns, h * rows, image::Rgb([255, 255, 255]));

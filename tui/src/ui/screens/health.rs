@@ -108,7 +108,10 @@ fn draw(f: &mut Frame, area: Rect, v: &HealthView) {
     ])
     .areas(area);
     let head_text = vec![
-        Line::from(format!("sensor {} · certificate {}", v.sensor, v.certificate)),
+        Line::from(format!(
+            "sensor {} · certificate {}",
+            v.sensor, v.certificate
+        )),
         Line::from(format!(
             "history {} · fringe check --rig <rig> checks the unit in two minutes of bench time",
             v.history
@@ -139,7 +142,13 @@ fn draw(f: &mut Frame, area: Rect, v: &HealthView) {
         Layout::horizontal([Constraint::Percentage(45), Constraint::Percentage(55)]).areas(body);
     let rows = v.checks.iter().map(|e| {
         Row::new(vec![
-            Cell::from(e.checked_utc.chars().take(16).collect::<String>().replace('T', " ")),
+            Cell::from(
+                e.checked_utc
+                    .chars()
+                    .take(16)
+                    .collect::<String>()
+                    .replace('T', " "),
+            ),
             Cell::from(e.verdict().name()).style(verdict_style(e.verdict())),
             Cell::from(e.assessment.cause.clone()),
         ])
@@ -187,12 +196,20 @@ fn draw(f: &mut Frame, area: Rect, v: &HealthView) {
         verdict_style(chosen.verdict()),
     ))];
     if !chosen.assessment.diagnosis.is_empty() {
-        lines.push(Line::from(format!("because {}", chosen.assessment.diagnosis)));
+        lines.push(Line::from(format!(
+            "because {}",
+            chosen.assessment.diagnosis
+        )));
     }
     f.render_widget(Paragraph::new(lines).wrap(Wrap { trim: true }), said);
     let title = format!(
         "figures of the check of {}",
-        chosen.checked_utc.chars().take(16).collect::<String>().replace('T', " ")
+        chosen
+            .checked_utc
+            .chars()
+            .take(16)
+            .collect::<String>()
+            .replace('T', " ")
     );
     let table = Table::new(
         figures,

@@ -4,8 +4,8 @@
 use super::draw;
 use crate::ui::keys;
 use crate::ui::state::{
-    BenchView, CalibrateView, CalibrationPhase, Dialog, Phase, Picker, PlanPoint, PressRow, RunRow,
-    HealthView, RunsView, ScanView, Tab, UiState,
+    BenchView, CalibrateView, CalibrationPhase, Dialog, HealthView, Phase, Picker, PlanPoint,
+    PressRow, RunRow, RunsView, ScanView, Tab, UiState,
 };
 use crate::ui::widgets;
 use fringe_app::bench_session::{
@@ -646,7 +646,10 @@ fn the_plan_chooser_lists_the_plans_with_the_chosen_one_highlighted() {
 }
 
 /// A check of a unit whose figures are `change`'s, at `utc`.
-fn check_entry(utc: &str, change: &fringe_calibration::health::change::Change) -> fringe_app::health::history::Entry {
+fn check_entry(
+    utc: &str,
+    change: &fringe_calibration::health::change::Change,
+) -> fringe_app::health::history::Entry {
     use fringe_app::health::figures::{assess, Measured, Thresholds};
     let a = assess(
         &Measured {
