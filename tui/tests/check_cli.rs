@@ -5,12 +5,8 @@
 //! damaged history.
 
 mod common;
-use common::{fringe, fringe_command, scratch, text, unit_rig_at};
+use common::{arg, fringe, fringe_command, refused_in, scratch, text, unit_rig_at};
 use std::path::Path;
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
 
 /// The bench time a check said it would take, s.
 fn announced_s(t: &str) -> f64 {
@@ -32,7 +28,7 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
         .args([
             "commission",
             "--rig",
-            s(&rig),
+            arg(&rig),
             "--yes",
             "--budget",
             "1",
@@ -41,7 +37,7 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
             "--acceptance-presses",
             "3",
             "--spec",
-            s(&spec),
+            arg(&spec),
         ])
         .current_dir(&dir)
         .output()
@@ -53,10 +49,10 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
             .args([
                 "check",
                 "--rig",
-                s(rig),
+                arg(rig),
                 "--yes",
                 "--out",
-                s(&dir.join("runs")),
+                arg(&dir.join("runs")),
             ])
             .current_dir(&dir)
             .output()
@@ -91,7 +87,7 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
     assert!((zero - 0.1).abs() < 0.04, "{t}");
 
     // Both checks are in the unit's history, and plotted.
-    let o = fringe(&["check", "--rig", s(&rig), "--history"]);
+    let o = fringe(&["check", "--rig", arg(&rig), "--history"]);
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("2 checks of sensor layered-3"), "{t}");
@@ -108,21 +104,15 @@ fn bad_input_is_refused_before_anything_moves() {
     let rig = unit_rig_at(&dir, 0.5);
     let profiles = dir.join("profiles");
     let run = |extra: &[&str]| {
-        let mut args = vec!["check", "--rig", s(&rig), "--yes"];
+        let mut args = vec!["check", "--rig", arg(&rig), "--yes"];
         args.extend_from_slice(extra);
-        let o = fringe_command()
-            .args(&args)
-            .current_dir(&dir)
-            .output()
-            .expect("run");
-        assert!(!o.status.success(), "{}", text(&o));
-        text(&o)
+        refused_in(&dir, &args)
     };
     // No certificate: commission it first, naming where certificates are looked for.
     let t = run(&[]);
     assert!(t.contains("no certificate of sensor layered-3"), "{t}");
     assert!(
-        t.contains(s(&profiles)) && t.contains("fringe commission"),
+        t.contains(arg(&profiles)) && t.contains("fringe commission"),
         "{t}"
     );
     // Another unit than the one under the camera.

@@ -4,7 +4,7 @@
 //! adaptation's determinism; and bad input refused before anything moves.
 
 mod common;
-use common::{fringe, fringe_command, printed_figure, scratch, text, unit_rig_at};
+use common::{arg, fringe, fringe_command, printed_figure, refused_in, scratch, text, unit_rig_at};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
@@ -13,10 +13,6 @@ use std::time::{Duration, Instant};
 /// finds no disc: see the last test), its profiles in `profiles`.
 fn unit_rig(dir: &Path) -> PathBuf {
     unit_rig_at(dir, 0.5)
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 /// The commissioning directory under `profiles` (there is one).
@@ -42,7 +38,7 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     let args = [
         "commission",
         "--rig",
-        s(&rig),
+        arg(&rig),
         "--yes",
         "--budget",
         "1.5",
@@ -51,7 +47,7 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
         "--acceptance-presses",
         "3",
         "--spec",
-        s(&spec),
+        arg(&spec),
     ];
 
     // Killed while the first adaptive round presses.
@@ -84,7 +80,14 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
 
     // Resumed: nothing recorded is pressed again, the round goes on from its checkpoint.
     let o = fringe_command()
-        .args(["commission", "--rig", s(&rig), "--yes", "--resume", s(&cut)])
+        .args([
+            "commission",
+            "--rig",
+            arg(&rig),
+            "--yes",
+            "--resume",
+            arg(&cut),
+        ])
         .current_dir(&dir)
         .output()
         .expect("resume");
@@ -131,7 +134,7 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     // `fringe eval` on the acceptance run recomputes the certificate's figures.
     let acceptance = cut.join(cert["runs"]["acceptance"].as_str().expect("acceptance run"));
     let model = cut.join("model.safetensors");
-    let o = fringe(&["eval", "--model", s(&model), s(&acceptance)]);
+    let o = fringe(&["eval", "--model", arg(&model), arg(&acceptance)]);
     let e = text(&o);
     assert!(o.status.success(), "{e}");
     let fz = cert["figures"]["fz_rmse_n"].as_f64().expect("fz");
@@ -151,7 +154,7 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     // working directory names where the profiles are).
     assert_eq!(rig, dir.join("rig.toml"));
     let o = fringe_command()
-        .args(["eval", s(&acceptance)])
+        .args(["eval", arg(&acceptance)])
         .current_dir(&dir)
         .output()
         .expect("eval");
@@ -162,7 +165,14 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     // Deterministic: the same runs and seed give the same weights, byte for byte.
     let first = std::fs::read(&model).expect("model");
     let o = fringe_command()
-        .args(["commission", "--rig", s(&rig), "--yes", "--resume", s(&cut)])
+        .args([
+            "commission",
+            "--rig",
+            arg(&rig),
+            "--yes",
+            "--resume",
+            arg(&cut),
+        ])
         .current_dir(&dir)
         .output()
         .expect("again");
@@ -179,34 +189,28 @@ fn bad_input_is_refused_before_anything_moves() {
     let dir = scratch("commission-bad");
     let rig = unit_rig(&dir);
     let run = |extra: &[&str]| {
-        let mut args = vec!["commission", "--rig", s(&rig), "--yes"];
+        let mut args = vec!["commission", "--rig", arg(&rig), "--yes"];
         args.extend_from_slice(extra);
-        let o = fringe_command()
-            .args(&args)
-            .current_dir(&dir)
-            .output()
-            .expect("run");
-        assert!(!o.status.success());
-        text(&o)
+        refused_in(&dir, &args)
     };
     let spec = dir.join("spec.toml");
     std::fs::write(&spec, "fz_rmse_n = 0.49\nfz_rsme_mm = 1.0\n").expect("spec");
-    let t = run(&["--spec", s(&spec)]);
+    let t = run(&["--spec", arg(&spec)]);
     assert!(t.contains("spec.toml") && t.contains("fz_rsme_mm"), "{t}");
     std::fs::write(&spec, "fz_rmse_n = 0.0\n").expect("spec");
-    let t = run(&["--spec", s(&spec)]);
+    let t = run(&["--spec", arg(&spec)]);
     assert!(t.contains("fz_rmse_n"), "{t}");
     let t = run(&["--budget", "0"]);
     assert!(t.contains("--budget 0"), "{t}");
-    let t = run(&["--base", s(&dir.join("nothing.safetensors"))]);
+    let t = run(&["--base", arg(&dir.join("nothing.safetensors"))]);
     assert!(
         t.contains("nothing.safetensors") && t.contains("no such model"),
         "{t}"
     );
-    let t = run(&["--resume", s(&dir.join("profiles"))]);
+    let t = run(&["--resume", arg(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // A resumed commissioning keeps its options; only the budget may be given again.
-    let t = run(&["--resume", s(&dir.join("profiles")), "--seed", "3"]);
+    let t = run(&["--resume", arg(&dir.join("profiles")), "--seed", "3"]);
     assert!(t.contains("cannot be used with"), "{t}");
     // A unit of the other design: the shipped (layered) model is refused as its base.
     let integrated = dir.join("integrated.toml");
@@ -219,7 +223,7 @@ fn bad_input_is_refused_before_anything_moves() {
         ),
     )
     .expect("rig");
-    let o = fringe(&["commission", "--rig", s(&integrated), "--yes"]);
+    let o = fringe(&["commission", "--rig", arg(&integrated), "--yes"]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(
@@ -247,7 +251,7 @@ fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
     let dir = scratch("commission-no-disc");
     let rig = unit_rig_at(&dir, 0.25);
     let o = fringe_command()
-        .args(["commission", "--rig", s(&rig), "--yes"])
+        .args(["commission", "--rig", arg(&rig), "--yes"])
         .current_dir(&dir)
         .output()
         .expect("run");

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{fringe, printed_figure, scratch, text};
+use common::{arg, fringe, printed_figure, scratch, text};
 use fringe_calibration::profile::{ImageSize, Optical, Profile};
 use std::path::{Path, PathBuf};
 
@@ -18,10 +18,6 @@ fn json_lines(out: &std::process::Output) -> Vec<serde_json::Value> {
         .lines()
         .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
         .collect()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
 }
 
 /// A 1920x1200 RGB frame with fringes about the image centre, pressed to `strength`.
@@ -71,7 +67,7 @@ fn info_names_architecture_classes_and_parameters() {
         "checkpoint.pth",
         "model.safetensors",
     ] {
-        let out = fringe(&["model", "info", s(&fixture(file))]);
+        let out = fringe(&["model", "info", arg(&fixture(file))]);
         let t = text(&out);
         assert!(out.status.success(), "{file}: {t}");
         assert!(t.contains("custom CNN"), "{file}: {t}");
@@ -85,7 +81,7 @@ fn info_names_architecture_classes_and_parameters() {
             "{file}: {t}"
         );
     }
-    let out = fringe(&["model", "info", s(&fixture("state_dict_f16.pth"))]);
+    let out = fringe(&["model", "info", arg(&fixture("state_dict_f16.pth"))]);
     assert!(text(&out).contains("stored as:     f16"), "{}", text(&out));
 }
 
@@ -94,17 +90,17 @@ fn foreign_truncated_and_missing_files_are_refused_naming_them() {
     let dir = scratch("foreign");
     let foreign = dir.join("notes.pth");
     std::fs::write(&foreign, "just some text, not a model").expect("write");
-    let out = fringe(&["model", "info", s(&foreign)]);
+    let out = fringe(&["model", "info", arg(&foreign)]);
     assert!(!out.status.success());
     let t = text(&out);
     assert!(t.contains("notes.pth") && t.lines().count() == 1, "{t}");
     let bytes = std::fs::read(fixture("state_dict.pth")).expect("read");
     let cut = dir.join("cut.pth");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
-    let out = fringe(&["model", "info", s(&cut)]);
+    let out = fringe(&["model", "info", arg(&cut)]);
     assert!(!out.status.success());
     assert!(text(&out).contains("cut.pth"), "{}", text(&out));
-    let out = fringe(&["model", "info", s(&dir.join("absent.pth"))]);
+    let out = fringe(&["model", "info", arg(&dir.join("absent.pth"))]);
     assert!(!out.status.success());
     assert!(
         text(&out).contains("absent.pth: no such model file"),
@@ -121,15 +117,15 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     frame(&b, 3.0);
     let model = fixture("state_dict.pth");
     // Without a profile or the reference geometry there is no crop to make.
-    let out = fringe(&["model", "run", s(&model), s(&a)]);
+    let out = fringe(&["model", "run", arg(&model), arg(&a)]);
     assert!(!out.status.success());
     assert!(text(&out).contains("--profile"), "{}", text(&out));
     let out = fringe(&[
         "model",
         "run",
-        s(&model),
-        s(&a),
-        s(&b),
+        arg(&model),
+        arg(&a),
+        arg(&b),
         "--reference-preprocessing",
         "--json",
     ]);
@@ -138,7 +134,7 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     let lines: Vec<serde_json::Value> = json_lines(&out);
     assert_eq!(lines.len(), 2, "{t}");
     for (l, img) in lines.iter().zip([&a, &b]) {
-        assert_eq!(l["image"], s(img));
+        assert_eq!(l["image"], arg(img));
         assert!(l["force"]["fz"].is_f64());
         let total: f64 = l["probabilities"]
             .as_object()
@@ -153,8 +149,8 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     let out = fringe(&[
         "model",
         "run",
-        s(&model),
-        s(&a),
+        arg(&model),
+        arg(&a),
         "--reference-preprocessing",
     ]);
     let t = text(&out);
@@ -168,10 +164,10 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     let out = fringe(&[
         "model",
         "run",
-        s(&model),
-        s(&small),
+        arg(&model),
+        arg(&small),
         "--profile",
-        s(&profile),
+        arg(&profile),
     ]);
     assert!(!out.status.success());
     let t = text(&out);
@@ -180,7 +176,7 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
         "{t}"
     );
     // The frame size error names the image once.
-    assert_eq!(t.matches(s(&small)).count(), 1, "{t}");
+    assert_eq!(t.matches(arg(&small)).count(), 1, "{t}");
     // A 1x1 image through the 980 px reference crop runs, with a warning that the prediction
     // means nothing; a file that is no image is named once.
     let tiny = dir.join("tiny.png");
@@ -188,8 +184,8 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     let out = fringe(&[
         "model",
         "run",
-        s(&model),
-        s(&tiny),
+        arg(&model),
+        arg(&tiny),
         "--reference-preprocessing",
     ]);
     let t = text(&out);
@@ -203,13 +199,13 @@ fn run_prints_one_prediction_per_image_and_needs_a_geometry() {
     let out = fringe(&[
         "model",
         "run",
-        s(&model),
-        s(&junk),
+        arg(&model),
+        arg(&junk),
         "--reference-preprocessing",
     ]);
     let t = text(&out);
     assert!(!out.status.success(), "{t}");
-    assert_eq!(t.matches(s(&junk)).count(), 1, "{t}");
+    assert_eq!(t.matches(arg(&junk)).count(), 1, "{t}");
 }
 
 #[test]
@@ -221,7 +217,7 @@ fn export_refuses_to_write_the_graph_over_the_models_own_files() {
     std::fs::write(&card, "{\"notes\": \"the card of m\"}").expect("card");
     let before = std::fs::read(&weights).expect("weights");
     for target in [&weights, &card] {
-        let out = fringe(&["model", "export", s(&weights), "--onnx", s(target)]);
+        let out = fringe(&["model", "export", arg(&weights), "--onnx", arg(target)]);
         let t = text(&out);
         assert!(!out.status.success(), "{t}");
         assert!(t.contains("file of the model"), "{t}");
@@ -243,13 +239,13 @@ fn export_writes_an_onnx_graph_that_onnxruntime_runs_with_pytorchs_outputs() {
     let out = fringe(&[
         "model",
         "export",
-        s(&fixture("legacy.pth")),
+        arg(&fixture("legacy.pth")),
         "--onnx",
-        s(&onnx),
+        arg(&onnx),
     ]);
     assert!(out.status.success(), "{}", text(&out));
     // The exported graph reads back as the same network.
-    let info = fringe(&["model", "info", s(&onnx)]);
+    let info = fringe(&["model", "info", arg(&onnx)]);
     assert!(
         text(&info).contains("custom CNN (ONNX graph)"),
         "{}",
@@ -303,17 +299,17 @@ fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
     let out = fringe(&[
         "eval",
         "--model",
-        s(&model),
-        s(&data),
+        arg(&model),
+        arg(&data),
         "--reference-preprocessing",
         "--report",
-        s(&report),
+        arg(&report),
     ]);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
     // The same predictions, one by one.
-    let mut args = vec!["model", "run", s(&model)];
-    args.extend(paths.iter().map(|p| s(p)));
+    let mut args = vec!["model", "run", arg(&model)];
+    args.extend(paths.iter().map(|p| arg(p)));
     args.extend(["--reference-preprocessing", "--json"]);
     let run = fringe(&args);
     assert!(run.status.success(), "{}", text(&run));
@@ -371,7 +367,7 @@ fn the_default_model_reads_simulated_presses() {
     assert!(t.contains("3 (None, pentagon, rectangle)"), "{t}");
     // The simulated layered sensor's design profile, as `fringe sim dataset` writes it.
     let data = dir.join("data");
-    let out = fringe(&["sim", "dataset", "--count", "1", "--out", s(&data)]);
+    let out = fringe(&["sim", "dataset", "--count", "1", "--out", arg(&data)]);
     assert!(out.status.success(), "{}", text(&out));
     let profile = data.join("profile.toml");
     // Presses the model never saw: (shape, Fz N, x mm, y mm).
@@ -400,7 +396,7 @@ fn the_default_model_reads_simulated_presses() {
             "--frame",
             &(1000 + k).to_string(),
             "--out",
-            s(&png),
+            arg(&png),
         ]);
         assert!(out.status.success(), "{}", text(&out));
         images.push(png);
@@ -410,10 +406,10 @@ fn the_default_model_reads_simulated_presses() {
         "run",
         "default",
         "--profile",
-        s(&profile),
+        arg(&profile),
         "--json",
     ];
-    args.extend(images.iter().map(|p| s(p)));
+    args.extend(images.iter().map(|p| arg(p)));
     let out = fringe(&args);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
@@ -424,15 +420,15 @@ fn the_default_model_reads_simulated_presses() {
     // Exported to ONNX, the model carries its card: the graph reads back with its 112 px grey
     // input and its classes, and predicts what the model does.
     let onnx = dir.join("default.onnx");
-    let out = fringe(&["model", "export", "default", "--onnx", s(&onnx)]);
+    let out = fringe(&["model", "export", "default", "--onnx", arg(&onnx)]);
     assert!(out.status.success(), "{}", text(&out));
-    let info = fringe(&["model", "info", s(&onnx)]);
+    let info = fringe(&["model", "info", arg(&onnx)]);
     let t = text(&info);
     assert!(t.contains("card:          in the file's metadata"), "{t}");
     assert!(t.contains("3 x 112 x 112, grey"), "{t}");
     assert!(t.contains("3 (None, pentagon, rectangle)"), "{t}");
     assert!(!t.contains("warning"), "{t}");
-    args[2] = s(&onnx);
+    args[2] = arg(&onnx);
     let out = fringe(&args);
     assert!(out.status.success(), "{}", text(&out));
     let from_onnx: Vec<serde_json::Value> = json_lines(&out);
@@ -469,13 +465,13 @@ fn unit_frames(dir: &Path, count: u32, seed: u32) -> PathBuf {
         "sim",
         "dataset",
         "--sensor",
-        s(&sensor),
+        arg(&sensor),
         "--count",
         &count.to_string(),
         "--seed",
         &seed.to_string(),
         "--out",
-        s(dir),
+        arg(dir),
     ]);
     assert!(out.status.success(), "{}", text(&out));
     dir.to_path_buf()
@@ -484,7 +480,14 @@ fn unit_frames(dir: &Path, count: u32, seed: u32) -> PathBuf {
 /// Fz RMSE, contact RMSE and shape accuracy of `model` on `data`.
 fn eval_on(model: &str, data: &Path) -> (f64, f64, f64) {
     let profile = data.join("profile.toml");
-    let out = fringe(&["eval", "--model", model, "--profile", s(&profile), s(data)]);
+    let out = fringe(&[
+        "eval",
+        "--model",
+        model,
+        "--profile",
+        arg(&profile),
+        arg(data),
+    ]);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
     (
@@ -503,11 +506,11 @@ fn adapt_fits_the_default_model_to_another_unit_and_acceptance_judges_it() {
         let profile = train.join("profile.toml");
         let o = fringe(&[
             "adapt",
-            s(&train),
+            arg(&train),
             "--profile",
-            s(&profile),
+            arg(&profile),
             "--out",
-            s(out),
+            arg(out),
         ]);
         assert!(o.status.success(), "{}", text(&o));
         text(&o)
@@ -525,7 +528,7 @@ fn adapt_fits_the_default_model_to_another_unit_and_acceptance_judges_it() {
 
     // The shipped model misreads this unit; the adapted one reads its held-out presses.
     let (fz0, contact0, shape0) = eval_on("default", &held_out);
-    let (fz, contact, shape) = eval_on(s(&first), &held_out);
+    let (fz, contact, shape) = eval_on(arg(&first), &held_out);
     assert!(fz0 > 1.0, "the shipped model on layered-3: Fz RMSE {fz0} N");
     assert!(fz < 0.7 && fz < fz0 / 2.0, "Fz RMSE {fz0} -> {fz} N");
     assert!(
@@ -543,10 +546,10 @@ fn adapt_fits_the_default_model_to_another_unit_and_acceptance_judges_it() {
             "--model",
             model,
             "--profile",
-            s(&held_profile),
+            arg(&held_profile),
             "--spec",
             spec,
-            s(&held_out),
+            arg(&held_out),
         ])
     };
     let o = judged("default", "paper");
@@ -570,7 +573,7 @@ shape_accuracy = 0.5
 ",
     )
     .expect("spec");
-    let o = judged("default", s(&loose));
+    let o = judged("default", arg(&loose));
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(
@@ -584,7 +587,7 @@ shape_accuracy = 0.5
 ",
     )
     .expect("spec");
-    let o = judged("default", s(&typo));
+    let o = judged("default", arg(&typo));
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(t.contains("typo.toml") && t.contains("fz_rmse"), "{t}");
@@ -606,7 +609,7 @@ shape_accuracy = 0.5
     );
 
     // An existing file is never overwritten.
-    let o = fringe(&["adapt", s(&train), "--out", s(&first)]);
+    let o = fringe(&["adapt", arg(&train), "--out", arg(&first)]);
     assert!(!o.status.success());
     assert!(text(&o).contains("the file exists"), "{}", text(&o));
 }
@@ -617,7 +620,14 @@ fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
     let few = unit_frames(&dir.join("few"), 3, 21);
     let profile = few.join("profile.toml");
     let out = dir.join("few.safetensors");
-    let o = fringe(&["adapt", s(&few), "--profile", s(&profile), "--out", s(&out)]);
+    let o = fringe(&[
+        "adapt",
+        arg(&few),
+        "--profile",
+        arg(&profile),
+        "--out",
+        arg(&out),
+    ]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(
@@ -628,7 +638,7 @@ fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
 
     // The weights are written as safetensors only; an ONNX graph of the paper's network (as
     // `fringe model export` writes it) is a base like its weights file.
-    let o = fringe(&["adapt", s(&few), "--out", s(&dir.join("adapted.onnx"))]);
+    let o = fringe(&["adapt", arg(&few), "--out", arg(&dir.join("adapted.onnx"))]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(
@@ -636,9 +646,16 @@ fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
         "{t}"
     );
     let onnx = dir.join("default.onnx");
-    let o = fringe(&["model", "export", "default", "--onnx", s(&onnx)]);
+    let o = fringe(&["model", "export", "default", "--onnx", arg(&onnx)]);
     assert!(o.status.success(), "{}", text(&o));
-    let o = fringe(&["adapt", s(&few), "--model", s(&onnx), "--out", s(&out)]);
+    let o = fringe(&[
+        "adapt",
+        arg(&few),
+        "--model",
+        arg(&onnx),
+        "--out",
+        arg(&out),
+    ]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(t.contains("too few to adapt on"), "{t}");

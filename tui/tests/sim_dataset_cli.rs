@@ -3,7 +3,7 @@
 //! eval` with its own profile; bad flags refused with one line naming the flag.
 
 mod common;
-use common::{constant_model, fringe, scratch, text};
+use common::{arg, constant_model, fringe, scratch, text};
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::COLUMNS;
 use fringe_sim::sensor::SensorGeometry;
@@ -21,16 +21,12 @@ fn coarse_sensor(dir: &Path) -> PathBuf {
     path
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
 fn dataset(sensor: &Path, out: &Path, count: &str, seed: &str) -> std::process::Output {
     fringe(&[
         "sim",
         "dataset",
         "--sensor",
-        s(sensor),
+        arg(sensor),
         "--count",
         count,
         "--seed",
@@ -40,7 +36,7 @@ fn dataset(sensor: &Path, out: &Path, count: &str, seed: &str) -> std::process::
         "--force-max",
         "9",
         "--out",
-        s(out),
+        arg(out),
     ])
 }
 
@@ -247,7 +243,7 @@ fn the_same_seed_gives_the_same_dataset_and_eval_reads_its_profile() {
 
     // `fringe eval` preprocesses the dataset with its profile.toml: no --profile needed.
     let model = constant_model(&dir);
-    let o = fringe(&["eval", "--model", s(&model), s(&a)]);
+    let o = fringe(&["eval", "--model", arg(&model), arg(&a)]);
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("frames:         6 ("), "{t}");
@@ -286,7 +282,7 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
             args.extend(["--count", "4"]);
         }
         args.extend_from_slice(extra);
-        args.extend(["--out", s(&out)]);
+        args.extend(["--out", arg(&out)]);
         let o = fringe(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{args:?}");
@@ -296,7 +292,7 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
     }
     // A million full-size frames (3.5 TB) do not fit on the test machine's disk: refused before
     // anything is written, saying how much is needed and how much is free.
-    let o = fringe(&["sim", "dataset", "--count", "1000000", "--out", s(&out)]);
+    let o = fringe(&["sim", "dataset", "--count", "1000000", "--out", arg(&out)]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -305,7 +301,7 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
         "{err}"
     );
     assert!(!out.exists(), "the directory was created");
-    let o = fringe(&["sim", "dataset", "--count", "4", "--out", s(&file)]);
+    let o = fringe(&["sim", "dataset", "--count", "4", "--out", arg(&file)]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -317,7 +313,7 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
     let other = dir.join("other");
     std::fs::create_dir_all(&other).expect("dir");
     std::fs::write(other.join("notes.txt"), "mine").expect("file");
-    let o = fringe(&["sim", "dataset", "--count", "4", "--out", s(&other)]);
+    let o = fringe(&["sim", "dataset", "--count", "4", "--out", arg(&other)]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("not empty") && err.contains("dataset.json"),

@@ -6,17 +6,13 @@
 #![cfg(feature = "torch")]
 
 mod common;
-use common::{fringe, fringe_command, scratch, text};
+use common::{arg, fringe, fringe_command, scratch, text};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::read_safetensors;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::sync::OnceLock;
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
 
 /// One dataset for every test of this file: 60 frames of the layered sensor (a coarser
 /// fringe-field grid keeps the renderer's start short in a debug build), forces up to 4 N.
@@ -36,7 +32,7 @@ fn data() -> &'static Path {
             "sim",
             "dataset",
             "--sensor",
-            s(&sensor),
+            arg(&sensor),
             "--count",
             "60",
             "--seed",
@@ -44,7 +40,7 @@ fn data() -> &'static Path {
             "--force-max",
             "4",
             "--out",
-            s(&out),
+            arg(&out),
         ]);
         assert!(o.status.success(), "{}", text(&o));
         out
@@ -54,7 +50,7 @@ fn data() -> &'static Path {
 fn train(out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "train",
-        s(data()),
+        arg(data()),
         "--batch",
         "8",
         "--input-size",
@@ -62,7 +58,7 @@ fn train(out: &Path, extra: &[&str]) -> std::process::Output {
         "--pipeline",
         "rgb3-clean",
         "--out",
-        s(out),
+        arg(out),
     ];
     args.extend_from_slice(extra);
     fringe(&args)
@@ -153,7 +149,7 @@ fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_doe
     let o = fringe(&[
         "train",
         "--resume",
-        s(&b.join("checkpoint_epoch_2.safetensors")),
+        arg(&b.join("checkpoint_epoch_2.safetensors")),
         "--epochs",
         "4",
     ]);
@@ -182,7 +178,10 @@ fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_doe
     // --init starts from trained weights (fine-tuning): its first epoch starts where the
     // four-epoch model ended, far below a random start, and the card names the weights.
     let c = dir.join("c");
-    let o = train(&c, &["--epochs", "1", "--lr", "2e-4", "--init", s(&model)]);
+    let o = train(
+        &c,
+        &["--epochs", "1", "--lr", "2e-4", "--init", arg(&model)],
+    );
     assert!(o.status.success(), "{}", text(&o));
     let tuned = record(&c.join("model.safetensors"));
     let first = tuned["history"][0]["train_loss"].as_f64().expect("loss");
@@ -192,16 +191,16 @@ fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_doe
         loss(3),
         loss(0)
     );
-    assert_eq!(tuned["init"].as_str(), Some(s(&model)), "{tuned}");
+    assert_eq!(tuned["init"].as_str(), Some(arg(&model)), "{tuned}");
     let o = train(
         &dir.join("d"),
-        &["--init", s(&dir.join("absent.safetensors"))],
+        &["--init", arg(&dir.join("absent.safetensors"))],
     );
     assert!(!o.status.success());
     assert!(text(&o).contains("absent.safetensors"), "{}", text(&o));
 
     // fringe eval reads the model with its card and the dataset with its profile.
-    let o = fringe(&["eval", "--model", s(&model), s(data())]);
+    let o = fringe(&["eval", "--model", arg(&model), arg(data())]);
     assert!(
         o.status.success() && text(&o).contains("shape accuracy"),
         "{}",
@@ -217,7 +216,7 @@ fn ctrl_c_saves_a_checkpoint_and_the_training_resumes_from_it() {
     let mut child = fringe_command()
         .args([
             "train",
-            s(data()),
+            arg(data()),
             "--batch",
             "4",
             "--input-size",
@@ -225,7 +224,7 @@ fn ctrl_c_saves_a_checkpoint_and_the_training_resumes_from_it() {
             "--epochs",
             "50",
             "--out",
-            s(&out),
+            arg(&out),
         ])
         .stderr(Stdio::piped())
         .stdout(Stdio::piped())
@@ -274,7 +273,7 @@ fn pytorch_agrees(model: &Path, arch: &str, dir: &Path) {
         .join("../sensor-models/tests/python/check_trained.py");
     let o = std::process::Command::new(&python)
         .arg(&script)
-        .args([s(model), arch, s(dir), "64"])
+        .args([arg(model), arch, arg(dir), "64"])
         .output()
         .expect("run python (FRINGE_TORCH_PYTHON)");
     assert!(o.status.success(), "{}", text(&o));

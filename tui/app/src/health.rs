@@ -14,3 +14,5 @@ pub mod check_plan;
 pub mod figures;
 pub mod history;
 pub mod model_errors;
+#[cfg(test)]
+mod test_change;

@@ -341,6 +341,22 @@ seed = 5
 image_scale = 0.25
 "#;
 
+/// `p` as a command-line argument.
+pub fn arg(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// Runs `fringe args` in `dir`; asserts that it fails and returns what it printed.
+pub fn refused_in(dir: &Path, args: &[&str]) -> String {
+    let o = fringe_command()
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run fringe");
+    assert!(!o.status.success(), "{}", text(&o));
+    text(&o)
+}
+
 /// [`QUICK_RIG`] with the simulated `layered-3` unit (rig/sim/sensors/layered-3.toml) at
 /// `scale` of the full frame size, its profiles in `dir/profiles`, written to `dir/rig.toml`.
 pub fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {

@@ -143,24 +143,10 @@ pub fn read(path: &Path) -> Result<History, HistoryError> {
 mod tests {
     use super::*;
     use crate::health::figures::{assess, Measured, Thresholds};
-    use fringe_calibration::health::change::Change;
+    use crate::health::test_change::unchanged;
 
     fn entry(utc: &str) -> Entry {
-        let change = Change {
-            centre_shift_px: [0.1, -0.2],
-            centre_sigma_px: [0.05, 0.05],
-            radius_change_px: 0.1,
-            brightness_ratio: 1.01,
-            turn_deg: 0.0,
-            darkest_rim_deg: 40.0,
-            darkest_rim_ratio: 0.97,
-            darkest_side_deg: 90.0,
-            darkest_side_ratio: 0.99,
-            surface_cells: 0,
-            cells_compared: 1800,
-            surface_peak_dn: 0.8,
-            surface_noise_dn: 0.2,
-        };
+        let change = unchanged();
         let m = Measured {
             change: &change,
             radius_px: 245.0,
