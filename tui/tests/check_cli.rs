@@ -31,7 +31,7 @@ fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_
             arg(&rig),
             "--yes",
             "--budget",
-            "1",
+            "1.5",
             "--round-presses",
             "3",
             "--acceptance-presses",
