@@ -133,8 +133,16 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
         );
     }
     let threads = crate::cmd::arg_values::cap_threads(a.threads);
-    let (assessment, model_now, model_then) =
-        compare(&accepted, &run_dir, &model, &plan.positions, threads)?;
+    let reference = reference_calibration(&accepted, &profiles, &sensor);
+    println!("optics and F/T zero compared with {}", reference.about);
+    let (assessment, model_now, model_then) = compare(
+        &accepted,
+        &reference,
+        &run_dir,
+        &model,
+        &plan.positions,
+        threads,
+    )?;
     report(&assessment);
     let entry = Entry {
         format: HISTORY_FORMAT,
@@ -220,11 +228,55 @@ fn certificate(profiles: &Path, sensor: &str, config: &RigConfig) -> Result<Comm
     Ok(c)
 }
 
-/// Everything compared: the no-contact signatures of the commissioning's calibration scan and
-/// of the check, the F/T zero against the commissioned profile, the model's errors at the
-/// check's positions now and in the acceptance scan.
+/// The calibration the optics and the F/T zero are compared with.
+struct Reference {
+    /// Its calibration scan.
+    run: PathBuf,
+    /// The profile made from it.
+    profile: PathBuf,
+    about: String,
+}
+
+/// The unit's profile when it was made from a calibration scan after the commissioning (the unit
+/// was calibrated again, as a check may advise: the next check compares with that calibration,
+/// or it would tell the user to calibrate again for ever); else the commissioning's calibration
+/// scan and profile.
+fn reference_calibration(accepted: &Commissioned, profiles: &Path, sensor: &str) -> Reference {
+    let cert = &accepted.certificate;
+    let commissioned = Reference {
+        run: accepted.dir.join(&cert.runs.calibration),
+        profile: accepted.dir.join(PROFILE),
+        about: "the commissioning's calibration scan".into(),
+    };
+    let Ok(path) = fringe_calibration::profile_path(profiles, sensor) else {
+        return commissioned;
+    };
+    let Ok(p) = Profile::load(&path) else {
+        return commissioned;
+    };
+    let run = PathBuf::from(&p.source);
+    let later = p.created_utc.as_str() > cert.issued_utc.as_str();
+    if later && run.join(fringe_rig::store::layout::START).is_file() && run != commissioned.run {
+        Reference {
+            about: format!(
+                "the unit's calibration of {} ({}, made after its commissioning)",
+                p.created_utc,
+                path.display()
+            ),
+            run,
+            profile: path,
+        }
+    } else {
+        commissioned
+    }
+}
+
+/// Everything compared: the no-contact signatures of the reference calibration scan and of the
+/// check, the F/T zero against the reference calibration's, the model's errors at the check's
+/// positions now and in the acceptance scan.
 fn compare(
     accepted: &Commissioned,
+    reference: &Reference,
     run_dir: &Path,
     model: &Model,
     positions: &[[f64; 2]],
@@ -232,13 +284,13 @@ fn compare(
 ) -> Result<(Assessment, Option<ModelErrors>, Option<ModelErrors>)> {
     let dir = &accepted.dir;
     let cert = &accepted.certificate;
-    let reference_run = ScanRun::read(&dir.join(&cert.runs.calibration))?;
+    let reference_run = ScanRun::read(&reference.run)?;
     let check_run = ScanRun::read(run_dir)?;
     println!("measuring the no-contact frames (the commissioning's and the check's)");
     let then = Signature::measure(&reference_run)?;
     let now = Signature::measure(&check_run)?;
     let change = Change::between(&then, &now)?;
-    let force_offset_n = force_zero_moved(&reference_run, &check_run, &dir.join(PROFILE))?;
+    let force_offset_n = force_zero_moved(&reference_run, &check_run, &reference.profile)?;
     let rows_now = evaluated(model, run_dir, None, threads, "evaluating the check")?;
     let acceptance = dir.join(&cert.runs.acceptance);
     let rows_then = evaluated(
@@ -339,5 +391,86 @@ fn report(a: &Assessment) {
         for f in a.moved().filter(|f| f.finding != a.diagnosis) {
             println!("  also: {} ({})", f.finding, f.action.name());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_app::commission::certificate::Certificate;
+
+    /// A profile of `layered-3` made at `utc` from the run `source`.
+    fn profile(utc: &str, source: &Path) -> String {
+        format!(
+            "sensor_id = \"layered-3\"\ncreated_utc = \"{utc}\"\nsource = \"{}\"\n\n[image]\nwidth = 960\nheight = 600\n\n[optical]\ncentre_x_px = 502.0\ncentre_y_px = 289.5\nshift_x_px = 22.0\nshift_y_px = -10.5\nradius_px = 252.5\ncrop_radius_px = 227.0\nsigma_x_px = 0.01\nsigma_y_px = 0.01\nsigma_radius_px = 0.013\nresidual_rms_px = 0.12\nframes = 46\n",
+            source.display()
+        )
+    }
+
+    #[test]
+    fn a_unit_calibrated_again_after_its_commissioning_is_compared_with_that_calibration() {
+        let root =
+            std::env::temp_dir().join(format!("fringe-check-reference-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let profiles = root.join("profiles");
+        let dir = profiles.join("layered-3.commission-2026-11-20T09-00-00Z");
+        let commissioned_run = dir.join("runs/calibration-layered-3");
+        std::fs::create_dir_all(&commissioned_run).expect("dirs");
+        let text = serde_json::json!({
+            "format": 1, "fringe_version": "0.1.0", "issued_utc": "2026-11-20T09:30:00.000Z",
+            "sensor_id": "layered-3", "pass": true, "failures": [],
+            "figures": {"fz_rmse_n": 0.3, "contact_rmse_mm": 1.0, "shape_accuracy": 0.99,
+                        "macro_f1": 0.99, "frames": 100, "presses": 6},
+            "verdict": {}, "spec": {}, "spec_origin": "test",
+            "base_model": {"path": "default", "sha256": "0", "describe": "test"},
+            "model": "model.safetensors", "adaptation": "heads", "profile": "profile.toml",
+            "runs": {"calibration": "runs/calibration-layered-3", "rounds": [], "acceptance": "runs/acceptance"},
+            "learning_curve": [], "bench_s": 1.0, "compute_s": 1.0
+        });
+        std::fs::write(dir.join("certificate.json"), text.to_string()).expect("cert");
+        let accepted = Commissioned {
+            model: dir.join("model.safetensors"),
+            certificate: Certificate::read(&dir).expect("certificate"),
+            dir: dir.clone(),
+        };
+        let unit_profile = profiles.join("layered-3.toml");
+        // The profile the commissioning wrote: the commissioning's scan.
+        std::fs::write(
+            &unit_profile,
+            profile("2026-11-20T09:05:00.000Z", &commissioned_run),
+        )
+        .expect("profile");
+        let r = reference_calibration(&accepted, &profiles, "layered-3");
+        assert_eq!(
+            (r.run, r.profile),
+            (commissioned_run.clone(), dir.join(PROFILE))
+        );
+        // Calibrated again later, from a scan of its own: that scan is the reference.
+        let later_run = root.join("runs/calibration-layered-3-later");
+        std::fs::create_dir_all(&later_run).expect("run");
+        std::fs::write(later_run.join(fringe_rig::store::layout::START), "{}").expect("start");
+        std::fs::write(
+            &unit_profile,
+            profile("2026-11-27T08:00:00.000Z", &later_run),
+        )
+        .expect("profile");
+        let r = reference_calibration(&accepted, &profiles, "layered-3");
+        assert_eq!((r.run, r.profile.clone()), (later_run, unit_profile));
+        assert!(
+            r.about.contains("made after its commissioning"),
+            "{}",
+            r.about
+        );
+        // A profile from an image folder (no run to measure) leaves the commissioning's.
+        std::fs::write(
+            &profiles.join("layered-3.toml"),
+            profile("2026-11-28T08:00:00.000Z", &root),
+        )
+        .expect("profile");
+        assert_eq!(
+            reference_calibration(&accepted, &profiles, "layered-3").run,
+            commissioned_run
+        );
+        let _ = std::fs::remove_dir_all(&root);
     }
 }
