@@ -463,7 +463,7 @@ mod tests {
         );
         // A profile from an image folder (no run to measure) leaves the commissioning's.
         std::fs::write(
-            &profiles.join("layered-3.toml"),
+            profiles.join("layered-3.toml"),
             profile("2026-11-28T08:00:00.000Z", &root),
         )
         .expect("profile");
