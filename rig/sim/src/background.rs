@@ -254,7 +254,9 @@ fn led_angle(config: &SensorConfig, n: u32) -> f64 {
 /// The illumination left when LEDs have failed (`leds.out`). Each LED lights the whole disc, more
 /// on its own side: a dead LED k at angle a_k (sensor frame) takes
 ///
-///     (1 / count) (1 + clamp((x cos a_k + y sin a_k) / R, -1, 1))
+/// ```text
+/// (1 / count) (1 + clamp((x cos a_k + y sin a_k) / R, -1, 1))
+/// ```
 ///
 /// of the light at sensor-frame point (x, y) mm, R the disc radius in mm: 1 / count at the
 /// centre, twice that at the rim next to it, nothing at the opposite rim, and 1 / count averaged
