@@ -5,7 +5,9 @@
 //! damaged history.
 
 mod common;
-use common::{arg, fringe, fringe_command, refused_in, scratch, text, unit_rig_at};
+use common::{
+    arg, fringe, fringe_command, quick_commission, refused_in, scratch, text, unit_rig_at,
+};
 use std::path::Path;
 
 /// The bench time a check said it would take, s.
@@ -22,26 +24,7 @@ fn announced_s(t: &str) -> f64 {
 fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_history() {
     let dir = scratch("check");
     let rig = unit_rig_at(&dir, 0.5);
-    let spec = dir.join("spec.toml");
-    std::fs::write(&spec, "fz_rmse_n = 3.0\ncontact_rmse_mm = 6.0\n").expect("spec");
-    let o = fringe_command()
-        .args([
-            "commission",
-            "--rig",
-            arg(&rig),
-            "--yes",
-            "--budget",
-            "1.5",
-            "--round-presses",
-            "3",
-            "--acceptance-presses",
-            "3",
-            "--spec",
-            arg(&spec),
-        ])
-        .current_dir(&dir)
-        .output()
-        .expect("commission");
+    let o = quick_commission(&dir, &rig).output().expect("commission");
     assert!(o.status.success(), "{}", text(&o));
 
     let check = |rig: &Path| {

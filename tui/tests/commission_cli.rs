@@ -4,7 +4,10 @@
 //! adaptation's determinism; and bad input refused before anything moves.
 
 mod common;
-use common::{arg, fringe, fringe_command, printed_figure, refused_in, scratch, text, unit_rig_at};
+use common::{
+    arg, fringe, fringe_command, printed_figure, quick_commission, refused_in, scratch, text,
+    unit_rig_at,
+};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
@@ -31,29 +34,9 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
     let dir = scratch("commission");
     let rig = unit_rig(&dir);
     let profiles = dir.join("profiles");
-    // A spec this small a budget can meet: the test is of the job, not of the figures
-    // (BENCHMARKS.md has those).
-    let spec = dir.join("spec.toml");
-    std::fs::write(&spec, "fz_rmse_n = 3.0\ncontact_rmse_mm = 6.0\n").expect("spec");
-    let args = [
-        "commission",
-        "--rig",
-        arg(&rig),
-        "--yes",
-        "--budget",
-        "1.5",
-        "--round-presses",
-        "3",
-        "--acceptance-presses",
-        "3",
-        "--spec",
-        arg(&spec),
-    ];
-
-    // Killed while the first adaptive round presses.
-    let mut child = fringe_command()
-        .args(args)
-        .current_dir(&dir)
+    // Killed while the first adaptive round presses (a spec this small a budget can meet: the
+    // test is of the job, not of the figures, which BENCHMARKS.md has).
+    let mut child = quick_commission(&dir, &rig)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()

@@ -17,9 +17,7 @@ use fringe_app::commission::journal::Journal;
 use fringe_app::health::check_plan::{acceptance_positions, check_plan, MAX_BENCH_S};
 use fringe_app::health::figures::{assess, Assessment, Measured, Thresholds, Verdict};
 use fringe_app::health::history::{self, history_path, Entry, HISTORY_FORMAT};
-use fringe_app::health::model_errors::{
-    at_positions, thinned, ModelErrors, EVAL_FRAMES, SAME_POSITION_MM,
-};
+use fringe_app::health::model_errors::{at_any, at_positions, thinned, ModelErrors, EVAL_FRAMES};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::health::change::Change;
 use fringe_calibration::health::signature::Signature;
@@ -354,13 +352,7 @@ fn evaluated(
 ) -> Result<Vec<Row>> {
     let mut source = dataset::read(run)?;
     if let Some(positions) = positions {
-        source.samples.retain(|s| {
-            s.stage_mm.is_some_and(|m| {
-                positions
-                    .iter()
-                    .any(|p| (m[0] - p[0]).hypot(m[1] - p[1]) < SAME_POSITION_MM)
-            })
-        });
+        source.samples.retain(|s| at_any(s.stage_mm, positions));
         if source.samples.is_empty() {
             bail!(
                 "{}: no frames at the check's positions: the acceptance scan does not hold them",

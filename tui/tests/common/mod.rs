@@ -379,6 +379,20 @@ pub fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
     path
 }
 
+/// `fringe commission` of the unit on `rig` (from [`unit_rig_at`]) in `dir` on the smallest
+/// bench budget that adapts (1.5 min, 3 positions a round, 3 acceptance positions) against a
+/// loose spec (`dir/spec.toml`): the tests are of the jobs, not of the figures.
+pub fn quick_commission(dir: &Path, rig: &Path) -> Command {
+    let spec = dir.join("spec.toml");
+    std::fs::write(&spec, "fz_rmse_n = 3.0\ncontact_rmse_mm = 6.0\n").expect("spec");
+    let mut c = fringe_command();
+    c.args(["commission", "--rig", arg(rig), "--yes", "--budget", "1.5"])
+        .args(["--round-presses", "3", "--acceptance-presses", "3"])
+        .args(["--spec", arg(&spec)])
+        .current_dir(dir);
+    c
+}
+
 /// [`QUICK_RIG`] with its force through the emulated Net F/T (RDT datagrams, in process), which
 /// records no exposure strobe: frames are placed by the clock fit.
 pub fn quick_netft_rig() -> String {

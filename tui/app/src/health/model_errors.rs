@@ -81,16 +81,20 @@ impl ModelErrors {
     }
 }
 
-/// The rows pressed at any of `positions` (stage mm, within [`SAME_POSITION_MM`]).
+/// A press at `stage_mm` (when known) was made at one of `positions` (within
+/// [`SAME_POSITION_MM`]).
+pub fn at_any(stage_mm: Option<[f64; 2]>, positions: &[[f64; 2]]) -> bool {
+    stage_mm.is_some_and(|s| {
+        positions
+            .iter()
+            .any(|p| (s[0] - p[0]).hypot(s[1] - p[1]) < SAME_POSITION_MM)
+    })
+}
+
+/// The rows pressed at any of `positions`.
 pub fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&'a Row> {
     rows.iter()
-        .filter(|r| {
-            r.stage_mm.is_some_and(|s| {
-                positions
-                    .iter()
-                    .any(|p| (s[0] - p[0]).hypot(s[1] - p[1]) < SAME_POSITION_MM)
-            })
-        })
+        .filter(|r| at_any(r.stage_mm, positions))
         .collect()
 }
 
