@@ -19,6 +19,10 @@ use std::path::{Component, Path, PathBuf};
 pub const LABELS: &str = "0.labels.csv";
 /// Directory of the images.
 pub const IMAGES: &str = "0.images";
+/// Beside them in a dataset `fringe sim dataset` rendered: its spec (count, seed, the simulated
+/// sensor with its `variant`), and the sensor's design geometry as a calibration profile.
+pub const SIM_DATASET_DOC: &str = "dataset.json";
+pub const SIM_DATASET_PROFILE: &str = "profile.toml";
 /// The columns, in the reference's order.
 pub const COLUMNS: [&str; 11] = [
     "New_Image_Name",

@@ -17,6 +17,8 @@ pub struct Builtin {
     pub name: &'static str,
     /// What it is for, in a few words.
     pub about: &'static str,
+    /// The sensor design it is for (its card's `variant`).
+    pub design: &'static str,
     weights: &'static [u8],
     card: &'static str,
 }
@@ -25,6 +27,7 @@ pub struct Builtin {
 pub const BUILTIN: &[Builtin] = &[Builtin {
     name: "layered",
     about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
+    design: "layered",
     weights: include_bytes!("../models/layered-custom.safetensors"),
     card: include_str!("../models/layered-custom.json"),
 }];
@@ -81,6 +84,26 @@ impl Builtin {
     }
 }
 
+/// The model that ships for a sensor design, as a model argument (`builtin:NAME`); `default`
+/// when the design is not known. A design no model ships for is refused, naming those that do.
+pub fn for_design(design: Option<&str>) -> Result<PathBuf, ModelError> {
+    let Some(design) = design else {
+        return Ok(PathBuf::from(DEFAULT));
+    };
+    BUILTIN
+        .iter()
+        .find(|b| b.design == design)
+        .map(Builtin::path)
+        .ok_or_else(|| ModelError::NoneShipped {
+            design: design.to_string(),
+            known: BUILTIN
+                .iter()
+                .map(|b| b.design)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+}
+
 /// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file.
 pub fn open(spec: &Path) -> Result<Model, ModelError> {
     match named(spec) {
@@ -106,6 +129,13 @@ mod tests {
                 m.card.as_ref().and_then(|c| c.preprocessing.as_deref()),
                 Some("profile")
             );
+            assert_eq!(
+                m.card.as_ref().and_then(|c| c.variant.as_deref()),
+                Some(b.design),
+                "{}",
+                b.name
+            );
+            assert_eq!(for_design(Some(b.design)).ok(), Some(b.path()));
         }
     }
 

@@ -5,7 +5,8 @@
 
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::{
-    in_contact, read_labels, LabelsError, IMAGES, LABELS, NO_CONTACT,
+    in_contact, read_labels, LabelsError, IMAGES, LABELS, NO_CONTACT, SIM_DATASET_DOC,
+    SIM_DATASET_PROFILE,
 };
 use fringe_rig::store::documents::FrameRecord;
 use fringe_rig::store::frame_file::FrameStorage;
@@ -49,6 +50,9 @@ pub struct Source {
     /// The calibration profile: a run's, or a reference-layout dataset's `profile.toml`.
     pub profile: Option<Profile>,
     pub sensor_id: Option<String>,
+    /// The sensor's design (`layered`, `integrated`): a run's (recorded, or found in its rig
+    /// text), a `fringe sim dataset`'s (`dataset.json`); `None` when the data does not say.
+    pub variant: Option<String>,
     /// Records left out: no force label, or marked untrustworthy.
     pub skipped: usize,
 }
@@ -146,6 +150,7 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
         path: dir.to_path_buf(),
         samples,
         profile,
+        variant: start.sensor_variant(),
         sensor_id: Some(start.sensor_id),
         skipped,
     })
@@ -169,7 +174,7 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
     }
     // A dataset that names its sensor's geometry (`fringe sim dataset` writes one) is
     // preprocessed with it, as a run is with its calibration profile.
-    let profile_path = dir.join("profile.toml");
+    let profile_path = dir.join(SIM_DATASET_PROFILE);
     let profile = if profile_path.is_file() {
         Some(
             Profile::load(&profile_path).map_err(|e| DatasetError::Profile {
@@ -184,9 +189,18 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
         path: dir.to_path_buf(),
         samples,
         sensor_id: profile.as_ref().map(|p| p.sensor_id.clone()),
+        variant: simulated_variant(dir),
         profile,
         skipped: 0,
     })
+}
+
+/// The design of the simulated sensor a `fringe sim dataset` rendered (`dataset.json`,
+/// `sensor.variant`); `None` for other datasets or an unreadable file.
+fn simulated_variant(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join(SIM_DATASET_DOC)).ok()?;
+    let doc: serde_json::Value = serde_json::from_str(&text).ok()?;
+    Some(doc.get("sensor")?.get("variant")?.as_str()?.to_string())
 }
 
 #[cfg(test)]

@@ -182,6 +182,12 @@ pub fn evaluate(
     reference: Option<ReferenceSensor>,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<Evaluation, EvalError> {
+    for s in sources {
+        model.check_design(
+            s.variant.as_deref(),
+            &format!("the data in {}", s.path.display()),
+        )?;
+    }
     let total: usize = sources.iter().map(|s| s.samples.len()).sum();
     let mut metrics = Metrics::new(model.classes.clone());
     let mut rows = Vec::with_capacity(total);

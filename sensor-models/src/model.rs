@@ -64,6 +64,21 @@ pub enum ModelError {
         path: String,
         source: InferenceError,
     },
+    #[error(
+        "no model ships for the {design} sensor design (fringe ships models for: {known}): give \
+         --model with one trained for it (`fringe train`) or commission the unit"
+    )]
+    NoneShipped { design: String, known: String },
+    #[error(
+        "{path}: the model is for the {design} sensor design and {what} is {variant}: its \
+         figures there mean nothing; give a model of the {variant} design"
+    )]
+    OtherDesign {
+        path: String,
+        design: String,
+        variant: String,
+        what: String,
+    },
 }
 
 /// Where the model came from.
@@ -458,6 +473,22 @@ impl Model {
             value: text,
         });
         Ok(proto)
+    }
+
+    /// Refuses frames of another sensor design than the one the model's card names: `what`
+    /// says whose design `variant` is ("this unit", "the data in runs/x"). A model without a
+    /// card, or data whose design is not known, passes.
+    pub fn check_design(&self, variant: Option<&str>, what: &str) -> Result<(), ModelError> {
+        let design = self.card.as_ref().and_then(|c| c.variant.as_deref());
+        match (design, variant) {
+            (Some(design), Some(variant)) if design != variant => Err(ModelError::OtherDesign {
+                path: self.path.display().to_string(),
+                design: design.to_string(),
+                variant: variant.to_string(),
+                what: what.to_string(),
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// When the model has no card (none beside it, none in its metadata), what that means:

@@ -29,6 +29,7 @@ fn start(id: &str) -> StartDocument {
         started_utc: fringe_rig::store::documents::now_utc(),
         software: "fringe test".into(),
         sensor_id: "layered-01".into(),
+        variant: None,
         plan: "[grid]\nx = [0.0, 5.0]\n".into(),
         rig: "simulated = true\n".into(),
         calibration_profile: None,
@@ -533,4 +534,41 @@ fn a_run_of_a_newer_layout_is_refused_naming_the_versions() {
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Which sensor design a run was recorded on decides which model may read it: runs record it
+/// since layout 2 gained `variant`; older runs still say it, through their rig text.
+#[test]
+fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
+    use fringe_rig::store::read_start;
+    let root = scratch("design");
+    // Written before the design was recorded: the simulated camera's line in the rig text.
+    let old_simulated = StartDocument {
+        rig: "[sim]\nsensor = \"integrated\"\n\n# devices:\n# camera: simulated 480x300 (frame rate as the camera is configured), sensor layered-01 (integrated)".into(),
+        ..start("old-sim")
+    };
+    // ... or the rig file's own `variant` key (real hardware).
+    let old_real = StartDocument {
+        rig: "variant = \"layered\"\nsensor = \"layered-01\"\n".into(),
+        ..start("old-real")
+    };
+    let recorded = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        variant: Some("integrated".into()),
+        ..start("recorded")
+    };
+    let unknown = start("unknown");
+    for (doc, want) in [
+        (old_simulated, Some("integrated")),
+        (old_real, Some("layered")),
+        (recorded, Some("integrated")),
+        (unknown, None),
+    ] {
+        let mut w = RunWriter::create(&root, &doc).expect("create");
+        write_frames(&mut w, 0..2);
+        let dir = w.finish(&stop(2, 0)).expect("finish");
+        let back = read_start(&dir).expect("start");
+        assert_eq!(back.sensor_variant().as_deref(), want, "{}", doc.run_id);
+    }
+    std::fs::remove_dir_all(&root).ok();
 }

@@ -79,6 +79,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         },
         sync: SyncMethod::Strobe,
         sensor_id: rig.config.sensor.id.clone(),
+        variant: Some(rig.config.sensor.variant.name().into()),
         rig_text: "simulated bench".into(),
         seed: Some(rig.config.seed),
         profile: None,

@@ -1,85 +1,10 @@
-//! `fringe check` on a commissioned simulated unit (`layered-3`, at half the frame size, quick
-//! axes): unchanged, it checks ok; with its F/T zero moved by 0.1 N it is told to calibrate again
-//! with the evidence; the history keeps both and plots them. Bad input is refused before anything
-//! moves: no certificate, another unit, certificates of another sensor or a newer format, a
-//! damaged history.
+//! `fringe check`'s bad input, refused before anything moves: no certificate, another unit,
+//! certificates of another sensor or a newer format, a damaged history. (Checks of a
+//! commissioned unit, ok and with its F/T zero moved, are in `commission_cli.rs`: they check the
+//! unit that test commissions, which takes minutes of simulated bench time to make.)
 
 mod common;
-use common::{
-    arg, fringe, fringe_command, quick_commission, refused_in, scratch, text, unit_rig_at,
-};
-use std::path::Path;
-
-/// The bench time a check said it would take, s.
-fn announced_s(t: &str) -> f64 {
-    t.split("acceptance positions with ")
-        .nth(1)
-        .and_then(|r| r.split("about ").nth(1))
-        .and_then(|r| r.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no announced bench time in: {t}"))
-}
-
-#[test]
-fn an_unchanged_unit_checks_ok_and_a_moved_force_zero_is_caught_and_kept_in_its_history() {
-    let dir = scratch("check");
-    let rig = unit_rig_at(&dir, 0.5);
-    let o = quick_commission(&dir, &rig).output().expect("commission");
-    assert!(o.status.success(), "{}", text(&o));
-
-    let check = |rig: &Path| {
-        fringe_command()
-            .args([
-                "check",
-                "--rig",
-                arg(rig),
-                "--yes",
-                "--out",
-                arg(&dir.join("runs")),
-            ])
-            .current_dir(&dir)
-            .output()
-            .expect("check")
-    };
-    let o = check(&rig);
-    let t = text(&o);
-    assert!(o.status.success(), "{t}");
-    assert!(t.contains("verdict: ok"), "{t}");
-    let said = announced_s(&t);
-    assert!(said > 10.0 && said <= 120.0, "{t}");
-
-    // The same unit, its F/T zero moved by 0.1 N along z (an overload, a knock).
-    let aged = dir.join("aged.toml");
-    let rig_text = std::fs::read_to_string(&rig).expect("rig");
-    std::fs::write(
-        &aged,
-        format!("{rig_text}\n[sim.ageing]\nft_offset_n = [0.0, 0.0, 0.1]\n"),
-    )
-    .expect("aged rig");
-    let o = check(&aged);
-    let t = text(&o);
-    assert!(!o.status.success(), "{t}");
-    assert!(t.contains("verdict: calibrate again"), "{t}");
-    assert!(t.contains("because: the F/T zero moved"), "{t}");
-    let zero = t
-        .lines()
-        .find(|l| l.trim_start().starts_with("force_zero_n"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or_else(|| panic!("no force_zero_n figure: {t}"));
-    assert!((zero - 0.1).abs() < 0.04, "{t}");
-
-    // Both checks are in the unit's history, and plotted.
-    let o = fringe(&["check", "--rig", arg(&rig), "--history"]);
-    let t = text(&o);
-    assert!(o.status.success(), "{t}");
-    assert!(t.contains("2 checks of sensor layered-3"), "{t}");
-    assert!(t.contains("recalibrate"), "{t}");
-    assert!(dir.join("profiles/layered-3.health.png").is_file());
-    // Each check's run is kept like any run.
-    let runs = std::fs::read_dir(dir.join("runs")).expect("runs").count();
-    assert_eq!(runs, 2);
-}
+use common::{arg, refused_in, scratch, unit_rig_at};
 
 #[test]
 fn bad_input_is_refused_before_anything_moves() {

@@ -1,7 +1,8 @@
 //! `fringe commission` on a simulated unit of the layered design (`layered-3`, at half the
 //! frame size, quick axes): the whole job cut short by a kill and resumed, its certificate
 //! recomputed by `fringe eval`, the unit's commissioned model chosen by default, the
-//! adaptation's determinism; and bad input refused before anything moves.
+//! adaptation's determinism, then `fringe check` of the commissioned unit over its life; and bad
+//! input refused before anything moves.
 
 mod common;
 use common::{
@@ -30,7 +31,7 @@ fn commissioning(profiles: &Path) -> PathBuf {
 }
 
 #[test]
-fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_eval() {
+fn a_unit_is_commissioned_through_a_kill_recomputed_by_eval_and_checked_over_its_life() {
     let dir = scratch("commission");
     let rig = unit_rig(&dir);
     let profiles = dir.join("profiles");
@@ -165,6 +166,76 @@ fn a_unit_is_commissioned_through_a_kill_and_its_certificate_is_recomputed_by_ev
         first,
         "weights differ"
     );
+
+    checks_of_the_commissioned_unit(&dir, &rig);
+}
+
+/// The bench time a check said it would take, s.
+fn announced_s(t: &str) -> f64 {
+    t.split("acceptance positions with ")
+        .nth(1)
+        .and_then(|r| r.split("about ").nth(1))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no announced bench time in: {t}"))
+}
+
+/// `fringe check` of the unit commissioned in `dir` on `rig`: unchanged, it checks ok; with its
+/// F/T zero moved by 0.1 N it is told to calibrate again with the evidence; the history keeps
+/// both and plots them.
+fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
+    let check = |rig: &Path| {
+        fringe_command()
+            .args([
+                "check",
+                "--rig",
+                arg(rig),
+                "--yes",
+                "--out",
+                arg(&dir.join("runs")),
+            ])
+            .current_dir(dir)
+            .output()
+            .expect("check")
+    };
+    let o = check(rig);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("verdict: ok"), "{t}");
+    let said = announced_s(&t);
+    assert!(said > 10.0 && said <= 120.0, "{t}");
+
+    // The same unit, its F/T zero moved by 0.1 N along z (an overload, a knock).
+    let aged = dir.join("aged.toml");
+    let rig_text = std::fs::read_to_string(rig).expect("rig");
+    std::fs::write(
+        &aged,
+        format!("{rig_text}\n[sim.ageing]\nft_offset_n = [0.0, 0.0, 0.1]\n"),
+    )
+    .expect("aged rig");
+    let o = check(&aged);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(t.contains("verdict: calibrate again"), "{t}");
+    assert!(t.contains("because: the F/T zero moved"), "{t}");
+    let zero = t
+        .lines()
+        .find(|l| l.trim_start().starts_with("force_zero_n"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|v| v.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no force_zero_n figure: {t}"));
+    assert!((zero - 0.1).abs() < 0.04, "{t}");
+
+    // Both checks are in the unit's history, and plotted.
+    let o = fringe(&["check", "--rig", arg(rig), "--history"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("2 checks of sensor layered-3"), "{t}");
+    assert!(t.contains("recalibrate"), "{t}");
+    assert!(dir.join("profiles/layered-3.health.png").is_file());
+    // Each check's run is kept like any run.
+    let runs = std::fs::read_dir(dir.join("runs")).expect("runs").count();
+    assert_eq!(runs, 2);
 }
 
 #[test]
@@ -195,7 +266,7 @@ fn bad_input_is_refused_before_anything_moves() {
     // A resumed commissioning keeps its options; only the budget may be given again.
     let t = run(&["--resume", arg(&dir.join("profiles")), "--seed", "3"]);
     assert!(t.contains("cannot be used with"), "{t}");
-    // A unit of the other design: the shipped (layered) model is refused as its base.
+    // A unit of the other design: the shipped layered model is refused as its base.
     let integrated = dir.join("integrated.toml");
     let text_of_rig = std::fs::read_to_string(&rig).expect("rig");
     std::fs::write(
@@ -206,7 +277,14 @@ fn bad_input_is_refused_before_anything_moves() {
         ),
     )
     .expect("rig");
-    let o = fringe(&["commission", "--rig", arg(&integrated), "--yes"]);
+    let o = fringe(&[
+        "commission",
+        "--rig",
+        arg(&integrated),
+        "--yes",
+        "--base",
+        "builtin:layered",
+    ]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(

@@ -322,3 +322,33 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
     assert_eq!(std::fs::read_dir(&other).expect("dir").count(), 1);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Frames of the integrated design are read by the model that ships for it, never silently by
+/// the layered one: `fringe eval` without `--model` picks it from the dataset's sensor, and a
+/// model of the other design is refused naming both.
+#[test]
+fn eval_takes_the_model_of_the_datasets_sensor_design() {
+    let dir = scratch("design");
+    let sensor = dir.join("coarse-integrated.toml");
+    std::fs::write(
+        &sensor,
+        "variant = \"integrated\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
+    )
+    .expect("write sensor file");
+    let data = dir.join("data");
+    let o = dataset(&sensor, &data, "4", "3");
+    assert!(o.status.success(), "{}", text(&o));
+    let o = fringe(&["eval", arg(&data)]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("model:          builtin:integrated"), "{t}");
+    let o = fringe(&["eval", "--model", "default", arg(&data)]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("builtin:layered: the model is for the layered sensor design and the data in")
+            && t.contains("is integrated"),
+        "{t}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

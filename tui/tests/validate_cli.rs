@@ -181,4 +181,23 @@ fn validation_with_a_missing_or_bad_model_says_what_to_pass() {
     assert!(!out.status.success(), "{t}");
     assert!(t.contains("do not include pentagon"), "{t}");
     assert!(!t.contains("completed"), "refused before the scan ran: {t}");
+    // A model of the other sensor design reads these frames wrongly with no error: refused
+    // before the scan, naming both designs.
+    let weights = dir.join("integrated.safetensors");
+    std::fs::copy(constant_model(&dir), &weights).expect("weights");
+    std::fs::write(
+        dir.join("integrated.json"),
+        r#"{"classes": ["None", "pentagon", "rectangle"], "variant": "integrated"}"#,
+    )
+    .expect("card");
+    let out = validate_command(&dir, &weights, &plan, &dir.join("runs"))
+        .output()
+        .expect("run");
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains("the model is for the integrated sensor design and this sensor is layered"),
+        "{t}"
+    );
+    assert!(!t.contains("completed"), "refused before the scan ran: {t}");
 }

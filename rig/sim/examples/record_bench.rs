@@ -137,6 +137,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         started_utc: now_utc(),
         software: format!("fringe {} record_bench", env!("CARGO_PKG_VERSION")),
         sensor_id: config.sensor.id.clone(),
+        variant: Some(config.sensor.variant.name().into()),
         plan: String::new(),
         rig: "simulated bench".into(),
         calibration_profile: None,

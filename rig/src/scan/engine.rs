@@ -55,6 +55,8 @@ pub struct ScanSetup {
     pub origin: ContactOrigin,
     pub sync: SyncMethod,
     pub sensor_id: String,
+    /// The sensor's design (`layered`, `integrated`), when the rig names or simulates it.
+    pub variant: Option<String>,
     /// The rig configuration as used, for the start document.
     pub rig_text: String,
     pub seed: Option<u64>,
@@ -477,6 +479,7 @@ fn open_run(
                 started_utc: now_utc(),
                 software: format!("fringe {}", env!("CARGO_PKG_VERSION")),
                 sensor_id: setup.sensor_id.clone(),
+                variant: setup.variant.clone(),
                 plan: setup.plan_text.clone(),
                 rig: format!(
                     "{}\n# devices:\n# {}",

@@ -22,6 +22,11 @@ pub struct StartDocument {
     pub started_utc: String,
     pub software: String,
     pub sensor_id: String,
+    /// The sensor's design (`layered`, `integrated`) when the rig names it or simulates it;
+    /// absent in runs written before it was recorded ([`StartDocument::sensor_variant`] finds
+    /// it in their rig text).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub variant: Option<String>,
     /// The scan plan as given (TOML text).
     pub plan: String,
     /// The rig configuration as used (TOML text; "simulated" details included).
@@ -47,6 +52,26 @@ impl StartDocument {
             pixel_format: rig_pixel_format(&self.rig).unwrap_or(PixelFormat::Rgb8),
             cutout: None,
             encoding: Encoding::Png,
+        })
+    }
+
+    /// The sensor's design: as recorded, else (runs written before it was recorded) the rig
+    /// text's `variant` key, else the design the simulated camera's line in the rig text names
+    /// (`# camera: simulated WxH ..., sensor ID (DESIGN)`). `None` when nothing says.
+    pub fn sensor_variant(&self) -> Option<String> {
+        if let Some(v) = &self.variant {
+            return Some(v.clone());
+        }
+        if let Some(v) = toml::from_str::<toml::Value>(&self.rig)
+            .ok()
+            .and_then(|rig| rig.get("variant")?.as_str().map(str::to_string))
+        {
+            return Some(v);
+        }
+        self.rig.lines().find_map(|line| {
+            let rest = line.strip_prefix("# camera: simulated ")?;
+            let (_, after) = rest.rsplit_once(&format!("sensor {} (", self.sensor_id))?;
+            Some(after.strip_suffix(')')?.to_string())
         })
     }
 }

@@ -174,6 +174,7 @@ impl ScanSession {
             origin,
             sync: rig.sync,
             sensor_id: rig.sensor_id.clone(),
+            variant: config.sensor_variant().ok().flatten().map(str::to_string),
             rig_text: rig.text.clone(),
             seed,
             profile,
@@ -236,6 +237,8 @@ impl ScanSession {
         backend: Box<dyn Backend>,
         run_id: &str,
     ) -> Result<(LiveValidation, Vec<Note>), SessionError> {
+        // A model of another sensor design reads these frames wrongly, with no error.
+        model.check_design(self.setup.variant.as_deref(), "this sensor")?;
         // Every label this scan makes (no contact, and each indenter the plan presses) must be
         // one of the model's classes: refused up front, not left unscored frame by frame.
         let labels = std::iter::once(NO_CONTACT).chain(

@@ -8,7 +8,7 @@ mod history_view;
 
 use crate::cmd::commission::session::estimate_s;
 use crate::cmd::frames_progress::FramesProgress;
-use crate::cmd::model::{check_design, open_model};
+use crate::cmd::model::open_model;
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
@@ -78,7 +78,7 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
         );
     };
     let model = open_model(&accepted.model)?;
-    check_design(&model, config.sensor_variant()?)?;
+    model.check_design(config.sensor_variant()?, "this unit")?;
     let shapes: Vec<String> = model.classes.iter().skip(1).cloned().collect();
     let positions =
         acceptance_positions(&acceptance.plan, &format!("{} (acceptance)", dir.display()))?;

@@ -31,15 +31,10 @@ pub struct CommissionArgs {
     /// rig's sensor (its `sensor` key, or the simulated sensor's id).
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
-    /// The model to adapt: a weights file of the paper's networks, or `default` (the model that
-    /// ships with fringe).
-    #[arg(
-        long,
-        conflicts_with = "resume",
-        value_name = "MODEL",
-        default_value = "default"
-    )]
-    base: PathBuf,
+    /// The model to adapt: a weights file of the paper's networks, or `builtin:NAME`. Default:
+    /// the model that ships for the sensor's design.
+    #[arg(long, conflicts_with = "resume", value_name = "MODEL")]
+    base: Option<PathBuf>,
     /// Bench time for the adaptive presses, minutes (the calibration and acceptance scans come
     /// on top); default 10. With --resume: the new budget of the commissioning resumed.
     #[arg(long, value_name = "MINUTES")]
@@ -128,11 +123,16 @@ fn started(a: &CommissionArgs, config: &RigConfig, sensor: &str) -> Result<(Path
             .with_context(|| format!("cannot read the spec {}", path.display()))?;
         (Some(text), path.display().to_string())
     };
-    rounds::open_base(&a.base.display().to_string(), config.sensor_variant()?)?;
+    let variant = config.sensor_variant()?;
+    let given = match &a.base {
+        Some(b) => b.clone(),
+        None => fringe_sensor_models::builtin::for_design(variant)?,
+    };
+    rounds::open_base(&given.display().to_string(), variant)?;
     // A base file is kept by its absolute path: a resume from another directory finds it.
-    let base = match fringe_sensor_models::builtin::named(&a.base) {
-        Some(_) => a.base.clone(),
-        None => std::fs::canonicalize(&a.base).unwrap_or_else(|_| a.base.clone()),
+    let base = match fringe_sensor_models::builtin::named(&given) {
+        Some(_) => given,
+        None => std::fs::canonicalize(&given).unwrap_or(given),
     };
     let journal = Journal::new(Options {
         sensor: sensor.to_string(),

@@ -67,9 +67,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
         a.model.as_deref(),
         &ForSensor {
             profiles: &profiles,
-            unit: data_sensor(&sources),
-            // Runs do not record their sensor's design.
-            variant: None,
+            unit: agreed(&sources, |s| s.sensor_id.as_deref()),
+            // Evaluation refuses a model of another design source by source too.
+            variant: agreed(&sources, |s| s.variant.as_deref()),
         },
     )?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
@@ -119,12 +119,12 @@ fn profiles_dir() -> PathBuf {
     }
 }
 
-/// The sensor every source was recorded on, when they agree.
-fn data_sensor(sources: &[Source]) -> Option<&str> {
-    let first = sources.first()?.sensor_id.as_deref()?;
+/// What every source says of its sensor (`of`: its id, its design), when they agree.
+fn agreed(sources: &[Source], of: impl Fn(&Source) -> Option<&str>) -> Option<&str> {
+    let first = of(sources.first()?)?;
     sources
         .iter()
-        .all(|s| s.sensor_id.as_deref() == Some(first))
+        .all(|s| of(s) == Some(first))
         .then_some(first)
 }
 

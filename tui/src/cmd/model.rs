@@ -120,9 +120,9 @@ pub struct ForSensor<'a> {
 }
 
 /// The model a command runs when `given` is `None`: the newest passing commissioning's model of
-/// the unit under `profiles`, else the model that ships with fringe. A model whose card names
-/// another design than the sensor's is refused; one adapted to another unit is run with a
-/// warning.
+/// the unit under `profiles`, else the model that ships for the sensor's design. A model whose
+/// card names another design than the sensor's is refused; one adapted to another unit is run
+/// with a warning.
 pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
     let (profiles, unit) = (sensor.profiles, sensor.unit);
     let path = match (given, unit) {
@@ -142,13 +142,13 @@ pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Mode
                     );
                     c.model
                 }
-                None => PathBuf::from(builtin::DEFAULT),
+                None => builtin::for_design(sensor.variant)?,
             }
         }
-        (None, None) => PathBuf::from(builtin::DEFAULT),
+        (None, None) => builtin::for_design(sensor.variant)?,
     };
     let model = open_model(&path)?;
-    check_design(&model, sensor.variant)?;
+    model.check_design(sensor.variant, "this sensor")?;
     let adapted_to = model
         .card
         .as_ref()
@@ -163,20 +163,6 @@ pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Mode
         }
     }
     Ok(model)
-}
-
-/// Refuses `model` when its card names another sensor design than `variant` (when known).
-pub fn check_design(model: &Model, variant: Option<&str>) -> Result<()> {
-    let design = model.card.as_ref().and_then(|c| c.variant.as_deref());
-    if let (Some(design), Some(variant)) = (design, variant) {
-        if design != variant {
-            bail!(
-                "{}: the model is for the {design} sensor design and this unit is {variant}: give a model of the {variant} design",
-                model.path.display()
-            );
-        }
-    }
-    Ok(())
 }
 
 fn info(path: &Path) -> Result<()> {

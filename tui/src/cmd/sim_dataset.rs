@@ -25,10 +25,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-/// What the dataset's spec is recorded in.
-pub const DATASET_JSON: &str = "dataset.json";
-/// The sensor's design geometry as a calibration profile.
-pub const PROFILE_TOML: &str = "profile.toml";
+use fringe_rig::reference_layout::{SIM_DATASET_DOC, SIM_DATASET_PROFILE};
 /// Suffix of an image being written (removed when a run continues).
 const PARTIAL: &str = ".partial";
 
@@ -124,8 +121,8 @@ pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&images)
         .with_context(|| format!("cannot create {}", images.display()))?;
     let json = serde_json::to_string_pretty(&document).context("cannot encode dataset.json")?;
-    write_atomic(&out.join(DATASET_JSON), json.as_bytes())?;
-    let profile_path = out.join(PROFILE_TOML);
+    write_atomic(&out.join(SIM_DATASET_DOC), json.as_bytes())?;
+    let profile_path = out.join(SIM_DATASET_PROFILE);
     fringe_app::sim_bench::sensor_profile(
         &sensor,
         &sensor.id,
@@ -222,13 +219,13 @@ fn prepare(out: &Path, document: &serde_json::Value) -> anyhow::Result<bool> {
             out.display()
         );
     }
-    let doc_path = out.join(DATASET_JSON);
+    let doc_path = out.join(SIM_DATASET_DOC);
     if !doc_path.exists() {
         let mut entries = std::fs::read_dir(out)
             .with_context(|| format!("--out {}: cannot read the directory", out.display()))?;
         if entries.next().is_some() {
             bail!(
-                "--out {}: the directory is not empty and holds no {DATASET_JSON}: choose a new or empty directory",
+                "--out {}: the directory is not empty and holds no {SIM_DATASET_DOC}: choose a new or empty directory",
                 out.display()
             );
         }

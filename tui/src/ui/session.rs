@@ -48,7 +48,8 @@ pub struct ModelChoice {
 
 impl ModelChoice {
     /// The rig's sensor's commissioned model (`fringe commission`), else the model that ships
-    /// with fringe; on the default backend.
+    /// for its design (else `default`, which live validation then refuses when it is of
+    /// another design, saying so); on the default backend.
     pub fn for_rig(config: &fringe_app::RigConfig) -> ModelChoice {
         let commissioned = config.sensor_id().ok().and_then(|unit| {
             fringe_app::commission::certificate::commissioned_model(&config.profile_dir(), &unit)
@@ -57,6 +58,10 @@ impl ModelChoice {
         });
         ModelChoice {
             path: commissioned
+                .or_else(|| {
+                    let design = config.sensor_variant().ok().flatten();
+                    fringe_sensor_models::builtin::for_design(design).ok()
+                })
                 .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
             backend: BackendKind::Tract,
             threads: 2,

@@ -150,6 +150,7 @@ impl<'a> TestRun<'a> {
             started_utc: now_utc(),
             software: "test".into(),
             sensor_id: "integrated-02".into(),
+            variant: Some("integrated".into()),
             plan: self.plan.into(),
             rig: String::new(),
             calibration_profile: None,

@@ -4,7 +4,7 @@
 
 use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::frames_progress::FramesProgress;
-use crate::cmd::model::{check_design, open_model};
+use crate::cmd::model::open_model;
 use anyhow::{bail, Result};
 use fringe_app::commission::certificate::CurvePoint;
 use fringe_app::commission::journal::ScanEntry;
@@ -67,7 +67,7 @@ impl Adaptation {
 /// (`variant`, when known).
 pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
     let model = open_model(Path::new(spec))?;
-    check_design(&model, variant)?;
+    model.check_design(variant, "this unit")?;
     if model.weights().is_none() {
         bail!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
