@@ -31,6 +31,7 @@ pub mod backend;
 pub mod builtin;
 pub mod dataset;
 pub mod eval;
+pub mod lr_schedule;
 pub mod metrics;
 pub mod model;
 pub mod model_card;

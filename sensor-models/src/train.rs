@@ -7,7 +7,8 @@
 //! ([`crate::training_set`]). The networks are [`crate::torch_net`]'s (inference runs them
 //! too). Here: Adam as PyTorch computes it with its state by name (`adam`), checkpoints
 //! (`checkpoint`: `.safetensors` that PyTorch loads into the reference classes, a model card
-//! beside it, the optimiser state in a third file) and the loop (`trainer`).
+//! beside it, the optimiser state in a third file) and the loop (`trainer`), with its
+//! learning-rate schedule ([`crate::lr_schedule`]).
 
 mod adam;
 mod checkpoint;

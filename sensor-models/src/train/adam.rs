@@ -42,6 +42,11 @@ impl Adam {
         }
     }
 
+    /// The rate of the steps that follow (a schedule's).
+    pub(crate) fn set_lr(&mut self, lr: f64) {
+        self.lr = lr;
+    }
+
     pub(crate) fn zero_grad(&mut self) {
         for (_, p, _, _) in &mut self.params {
             p.zero_grad();

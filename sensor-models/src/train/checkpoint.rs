@@ -23,6 +23,9 @@ pub struct EpochRecord {
     pub val_fz_rmse_n: f64,
     pub val_contact_rmse_mm: f64,
     pub val_shape_accuracy: f64,
+    /// The learning rate of the epoch (absent in records before schedules).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lr: Option<f64>,
     pub seconds: f64,
     pub images_per_second: f64,
 }
@@ -37,6 +40,9 @@ pub struct TrainingRecord {
     pub epochs: usize,
     pub batch: usize,
     pub lr: f64,
+    /// How the rate changed over the epochs (absent in records before schedules: constant).
+    #[serde(default)]
+    pub schedule: crate::lr_schedule::Schedule,
     pub seed: u64,
     /// Epochs completed.
     pub epoch: usize,

@@ -35,6 +35,8 @@ pub struct TrainConfig {
     pub epochs: usize,
     pub batch: usize,
     pub lr: f64,
+    /// How the rate changes over the epochs.
+    pub schedule: crate::lr_schedule::Schedule,
     pub seed: u64,
     pub input_size: u32,
     /// Threads for libtorch and for preparing the data.
@@ -398,6 +400,7 @@ fn first_record(
         epochs: config.epochs,
         batch: config.batch,
         lr: config.lr,
+        schedule: config.schedule,
         seed: config.seed,
         epoch: 0,
         batch_in_epoch: 0,
@@ -489,6 +492,7 @@ impl<'a> Run<'a> {
         let batches = train_set.len().div_ceil(self.config.batch.max(1));
         let mut buf = Vec::new();
         while self.record.epoch < self.config.epochs {
+            self.adam.set_lr(self.epoch_lr());
             let started = Instant::now();
             let images = match self.batches(train_set, batches, started, &mut buf, stop, events)? {
                 ControlFlow::Continue(images) => images,
@@ -541,6 +545,13 @@ impl<'a> Run<'a> {
         Ok(ControlFlow::Continue(images))
     }
 
+    /// The learning rate of the current epoch.
+    fn epoch_lr(&self) -> f64 {
+        self.config
+            .schedule
+            .lr(self.config.lr, self.record.epoch, self.config.epochs)
+    }
+
     /// One optimiser step on the inputs `chunk`; the batch's loss.
     fn step(&mut self, train_set: &TrainingSet, chunk: &[usize], buf: &mut Vec<f32>) -> f64 {
         self.adam.zero_grad();
@@ -568,6 +579,7 @@ impl<'a> Run<'a> {
             val_fz_rmse_n: errors.fz_rmse(),
             val_contact_rmse_mm: errors.contact_rmse(),
             val_shape_accuracy: errors.accuracy(),
+            lr: Some(self.epoch_lr()),
             seconds,
             images_per_second: images as f64 / seconds.max(1e-9),
         };

@@ -18,9 +18,11 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct EvalArgs {
-    /// The model: .pth / .pt, .safetensors or .onnx, or `default` (the model that ships with
-    /// fringe, trained for the simulated layered sensor). Default: the commissioned model of
-    /// the data's sensor (`fringe commission`, under the rig file's profiles), else `default`.
+    /// The model: .pth / .pt, .safetensors or .onnx, or `builtin:layered` / `builtin:integrated`
+    /// (the models that ship with fringe; `default` is the layered one). Default: the
+    /// commissioned model of the data's sensor (`fringe commission`, under the rig file's
+    /// profiles), else the model that ships for its design. A model of another design than the
+    /// data's is refused.
     #[arg(long)]
     model: Option<PathBuf>,
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).

@@ -5,6 +5,7 @@
 use anyhow::Result;
 use clap::Args;
 use fringe_sensor_models::augment::Pipeline;
+use fringe_sensor_models::lr_schedule::Schedule;
 use fringe_sensor_models::Architecture;
 use std::path::PathBuf;
 
@@ -26,6 +27,10 @@ pub struct TrainArgs {
     batch: usize,
     #[arg(long, default_value_t = 1e-3)]
     lr: f64,
+    /// Learning rate over the epochs: constant (the reference's) or cosine (from --lr down to a
+    /// hundredth of it at the last epoch).
+    #[arg(long, default_value = "constant")]
+    schedule: Schedule,
     /// Seed of the split, the augmentation, the initial weights and the batch order.
     #[arg(long, default_value_t = 42)]
     seed: u64,
@@ -125,6 +130,7 @@ mod with_torch {
             epochs: a.epochs.unwrap_or(40),
             batch: a.batch,
             lr: a.lr,
+            schedule: a.schedule,
             seed: a.seed,
             input_size: a.input_size,
             threads: a.threads,
@@ -192,6 +198,7 @@ mod with_torch {
         config.pipeline = record.pipeline;
         config.batch = record.batch;
         config.lr = record.lr;
+        config.schedule = record.schedule;
         config.seed = record.seed;
         if let Some(arch) = card.architecture.as_deref() {
             config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;

@@ -22,8 +22,9 @@ use std::time::Duration;
 #[derive(clap::Args)]
 pub struct ValidateArgs {
     /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads, or
-    /// `default` (the model that ships with fringe, trained for the simulated layered sensor).
-    /// Default: the rig's sensor's commissioned model (`fringe commission`), else `default`.
+    /// `builtin:layered` / `builtin:integrated` (the models that ship with fringe; `default` is
+    /// the layered one). Default: the rig's sensor's commissioned model (`fringe commission`),
+    /// else the model that ships for its design. A model of another design is refused.
     #[arg(long, value_name = "FILE")]
     model: Option<PathBuf>,
     /// The scan plan that presses the sensor (default: the built-in short grid).

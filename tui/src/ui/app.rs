@@ -76,6 +76,13 @@ impl App {
             validation: None,
             runs: RunsView {
                 root: opts.runs.display().to_string(),
+                model: opts
+                    .model
+                    .clone()
+                    .unwrap_or_else(|| ModelChoice::for_rig(&opts.config))
+                    .path
+                    .display()
+                    .to_string(),
                 ..RunsView::default()
             },
             bench: BenchView::default(),

@@ -101,6 +101,9 @@ pub struct RunRow {
 #[derive(Debug, Clone, Default)]
 pub struct RunsView {
     pub root: String,
+    /// The model `e` evaluates with: the one named, else the unit's commissioned one, else the
+    /// one that ships for the sensor's design.
+    pub model: String,
     pub rows: Vec<RunRow>,
     pub selected: usize,
 }

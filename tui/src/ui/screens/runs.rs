@@ -21,7 +21,7 @@ pub const SCREEN: ScreenDef = ScreenDef {
     tab: Tab::Runs,
     title: "Runs",
     help,
-    draw: |f, area, s| draw(f, area, &s.runs, s.model.as_deref()),
+    draw: |f, area, s| draw(f, area, &s.runs),
     hint: key_hint,
     open: |_| Box::<Runs>::default(),
 };
@@ -177,12 +177,10 @@ impl Screen for Runs {
     }
 }
 
-/// `model`: what `e` evaluates with (the model that ships when none was named).
-fn draw(f: &mut Frame, area: Rect, v: &RunsView, model: Option<&str>) {
+fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
     let title = format!(
         "runs in {} · Enter verify · e evaluate with {} · x export · g refresh",
-        v.root,
-        model.unwrap_or(fringe_sensor_models::builtin::DEFAULT)
+        v.root, v.model
     );
     if v.rows.is_empty() {
         f.render_widget(

@@ -97,6 +97,7 @@ fn ready() -> UiState {
         validation: None,
         runs: RunsView {
             root: "runs".into(),
+            model: "builtin:layered".into(),
             ..RunsView::default()
         },
         bench: BenchView::default(),
@@ -449,7 +450,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
     assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "Fz 0.465 N").is_some(), "evaluation figures");
     assert!(
-        find(b, "e evaluate with default").is_some(),
+        find(b, "e evaluate with builtin:layered").is_some(),
         "which model e uses"
     );
     let (x, y) = find(b, "exported 2310 images").expect("export outcome");
