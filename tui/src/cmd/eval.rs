@@ -72,6 +72,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
             unit: agreed(&sources, |s| s.sensor_id.as_deref()),
             // Evaluation refuses a model of another design source by source too.
             variant: agreed(&sources, |s| s.variant.as_deref()),
+            whose: "the data's sensor",
         },
     )?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);

@@ -117,6 +117,8 @@ pub struct ForSensor<'a> {
     pub profiles: &'a Path,
     pub unit: Option<&'a str>,
     pub variant: Option<&'a str>,
+    /// Whose design `variant` is, in messages ("this sensor", "the data's sensor").
+    pub whose: &'a str,
 }
 
 /// The model a command runs when `given` is `None`: the newest passing commissioning's model of
@@ -148,7 +150,7 @@ pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Mode
         (None, None) => builtin::for_design(sensor.variant)?,
     };
     let model = open_model(&path)?;
-    model.check_design(sensor.variant, "this sensor")?;
+    model.check_design(sensor.variant, sensor.whose)?;
     let adapted_to = model
         .card
         .as_ref()

@@ -68,6 +68,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
             profiles: &config.profile_dir(),
             unit: unit.as_deref(),
             variant: config.sensor_variant()?,
+            whose: "this sensor",
         },
     )?;
     if !a.no_tui && std::io::stdout().is_terminal() {
