@@ -47,9 +47,15 @@ fn data() -> &'static Path {
     })
 }
 
+/// One libtorch thread for every training here: the real-time bench tests that run beside
+/// these (three tests at a time on 2 cores) keep a core, and their F/T streams no gaps.
+const THREADS: [&str; 2] = ["--threads", "1"];
+
 fn train(out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "train",
+        THREADS[0],
+        THREADS[1],
         arg(data()),
         "--batch",
         "8",
@@ -148,6 +154,8 @@ fn training_lowers_the_loss_and_a_resumed_training_ends_where_a_straight_one_doe
     assert!(o.status.success(), "{}", text(&o));
     let o = fringe(&[
         "train",
+        THREADS[0],
+        THREADS[1],
         "--resume",
         arg(&b.join("checkpoint_epoch_2.safetensors")),
         "--epochs",
@@ -216,6 +224,8 @@ fn ctrl_c_saves_a_checkpoint_and_the_training_resumes_from_it() {
     let mut child = fringe_command()
         .args([
             "train",
+            THREADS[0],
+            THREADS[1],
             arg(data()),
             "--batch",
             "4",
@@ -256,6 +266,8 @@ fn ctrl_c_saves_a_checkpoint_and_the_training_resumes_from_it() {
     let epochs_done = record(Path::new(resume))["epoch"].as_u64().expect("epoch");
     let o = fringe(&[
         "train",
+        THREADS[0],
+        THREADS[1],
         "--resume",
         resume,
         "--epochs",
