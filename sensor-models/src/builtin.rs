@@ -43,16 +43,15 @@ pub fn named(spec: &Path) -> Option<Result<&'static Builtin, ModelError>> {
         return BUILTIN.first().map(Ok);
     }
     let name = s.strip_prefix("builtin:")?;
-    Some(BUILTIN.iter().find(|b| b.name == name).ok_or_else(|| {
-        ModelError::UnknownBuiltin {
-            name: name.to_string(),
-            known: BUILTIN
-                .iter()
-                .map(|b| b.name)
-                .collect::<Vec<_>>()
-                .join(", "),
-        }
-    }))
+    Some(
+        BUILTIN
+            .iter()
+            .find(|b| b.name == name)
+            .ok_or_else(|| ModelError::UnknownBuiltin {
+                name: name.to_string(),
+                known: listed(|b| b.name),
+            }),
+    )
 }
 
 impl Builtin {
@@ -96,12 +95,13 @@ pub fn for_design(design: Option<&str>) -> Result<PathBuf, ModelError> {
         .map(Builtin::path)
         .ok_or_else(|| ModelError::NoneShipped {
             design: design.to_string(),
-            known: BUILTIN
-                .iter()
-                .map(|b| b.design)
-                .collect::<Vec<_>>()
-                .join(", "),
+            known: listed(|b| b.design),
         })
+}
+
+/// What every built-in model has of `what`, listed for a message.
+fn listed(what: impl Fn(&Builtin) -> &'static str) -> String {
+    BUILTIN.iter().map(what).collect::<Vec<_>>().join(", ")
 }
 
 /// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file.
