@@ -3,7 +3,7 @@
 //! `0.labels.csv`, writes the profile and the report PNG; bad folders give one clear line.
 
 mod common;
-use common::{fringe, scratch, text};
+use common::{coarse_sensor, fringe, scratch, text};
 use fringe_calibration::profile::Profile;
 use std::path::PathBuf;
 
@@ -29,12 +29,7 @@ fn render(sensor: &str, shape: &str, force: &str, frame: &str, out: &std::path::
 fn calibrates_a_reference_pipeline_folder_and_writes_profile_and_report() {
     let root = scratch("folder");
     // A coarse fringe-field grid keeps the renders quick; the image stays full size.
-    let sensor = root.join("coarse.toml");
-    std::fs::write(
-        &sensor,
-        "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
-    )
-    .expect("sensor file");
+    let sensor = coarse_sensor(&root, "layered");
     let sensor = sensor.to_str().expect("utf-8");
     let images = root.join("0.images");
     std::fs::create_dir_all(&images).expect("images dir");

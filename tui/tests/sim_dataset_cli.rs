@@ -3,23 +3,11 @@
 //! eval` with its own profile; bad flags refused with one line naming the flag.
 
 mod common;
-use common::{arg, constant_model, fringe, scratch, text};
+use common::{arg, coarse_sensor, constant_model, fringe, scratch, text};
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::COLUMNS;
 use fringe_sim::sensor::SensorGeometry;
-use std::path::{Path, PathBuf};
-
-/// A layered sensor with a coarser fringe-field grid: renderer start-up stays short in a debug
-/// build, the images stay full size.
-fn coarse_sensor(dir: &Path) -> PathBuf {
-    let path = dir.join("coarse.toml");
-    std::fs::write(
-        &path,
-        "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
-    )
-    .expect("write sensor file");
-    path
-}
+use std::path::Path;
 
 fn dataset(sensor: &Path, out: &Path, count: &str, seed: &str) -> std::process::Output {
     fringe(&[
@@ -96,7 +84,7 @@ fn box_difference(a: &image::RgbImage, b: &image::RgbImage, at: [f64; 2]) -> f64
 #[test]
 fn writes_a_dataset_whose_images_agree_with_their_labels_and_continues_after_an_interruption() {
     let dir = scratch("main");
-    let sensor = coarse_sensor(&dir);
+    let sensor = coarse_sensor(&dir, "layered");
     let out = dir.join("data");
     let o = dataset(&sensor, &out, "24", "7");
     assert!(o.status.success(), "{}", text(&o));
@@ -214,7 +202,7 @@ fn writes_a_dataset_whose_images_agree_with_their_labels_and_continues_after_an_
 #[test]
 fn the_same_seed_gives_the_same_dataset_and_eval_reads_its_profile() {
     let dir = scratch("seed");
-    let sensor = coarse_sensor(&dir);
+    let sensor = coarse_sensor(&dir, "layered");
     let (a, b, c) = (dir.join("a"), dir.join("b"), dir.join("c"));
     for (out, seed) in [(&a, "5"), (&b, "5"), (&c, "6")] {
         let o = dataset(&sensor, out, "6", seed);
@@ -329,12 +317,7 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
 #[test]
 fn eval_takes_the_model_of_the_datasets_sensor_design() {
     let dir = scratch("design");
-    let sensor = dir.join("coarse-integrated.toml");
-    std::fs::write(
-        &sensor,
-        "variant = \"integrated\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
-    )
-    .expect("write sensor file");
+    let sensor = coarse_sensor(&dir, "integrated");
     let data = dir.join("data");
     let o = dataset(&sensor, &data, "4", "3");
     assert!(o.status.success(), "{}", text(&o));

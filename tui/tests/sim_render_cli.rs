@@ -1,7 +1,7 @@
 //! `fringe sim render`: writes a full-size PNG; refuses bad values with one clear line.
 
 mod common;
-use common::{fringe, scratch};
+use common::{coarse_sensor, fringe, scratch};
 
 #[test]
 fn renders_a_full_size_frame_with_fringes_at_the_contact() {
@@ -10,12 +10,7 @@ fn renders_a_full_size_frame_with_fringes_at_the_contact() {
     // A coarser fringe-field grid than the default keeps this debug-build test quick; the image
     // stays full size.
     let sensor_dir = scratch("coarse");
-    let sensor = sensor_dir.join("coarse.toml");
-    std::fs::write(
-        &sensor,
-        "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
-    )
-    .expect("write sensor file");
+    let sensor = coarse_sensor(&sensor_dir, "layered");
     let o = fringe(&[
         "sim",
         "render",

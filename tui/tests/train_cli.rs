@@ -6,7 +6,7 @@
 #![cfg(feature = "torch")]
 
 mod common;
-use common::{arg, fringe, fringe_command, scratch, text};
+use common::{arg, coarse_sensor, fringe, fringe_command, scratch, text};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::read_safetensors;
 use std::io::{BufRead, BufReader};
@@ -21,12 +21,7 @@ fn data() -> &'static Path {
     DATA.get_or_init(|| {
         // Shared by every test of this binary, so kept (statics are never dropped).
         let dir = scratch("data").keep();
-        let sensor = dir.join("coarse.toml");
-        std::fs::write(
-            &sensor,
-            "variant = \"layered\"\n[field]\ncells = 128\ncell_mm = 0.75\n",
-        )
-        .expect("sensor file");
+        let sensor = coarse_sensor(&dir, "layered");
         let out = dir.join("sim");
         let o = fringe(&[
             "sim",

@@ -531,3 +531,15 @@ pub fn printed_figure(printed: &str, key: &str) -> f64 {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no `{key}` figure in:\n{printed}"))
 }
+
+/// A sensor of `design` with a coarser fringe-field grid: renderer start-up stays short in a
+/// debug build, the images stay full size.
+pub fn coarse_sensor(dir: &Path, design: &str) -> PathBuf {
+    let path = dir.join(format!("coarse-{design}.toml"));
+    std::fs::write(
+        &path,
+        format!("variant = \"{design}\"\n[field]\ncells = 128\ncell_mm = 0.75\n"),
+    )
+    .expect("write sensor file");
+    path
+}
