@@ -338,12 +338,21 @@ mod tests {
     }
 
     fn prepare(s: &Sample, pre: &Preprocessing, pipeline: Option<Pipeline>) -> TrainingSet {
+        prepare_mirrored(s, pre, pipeline, false)
+    }
+
+    fn prepare_mirrored(
+        s: &Sample,
+        pre: &Preprocessing,
+        pipeline: Option<Pipeline>,
+        mirror: bool,
+    ) -> TrainingSet {
         let classes = vec!["None".to_string(), "pentagon".to_string()];
         TrainingSet::prepare(
             &[Item {
                 sample: s,
                 preprocessing: pre,
-                mirror: false,
+                mirror,
             }],
             &classes,
             pipeline,
@@ -395,6 +404,70 @@ mod tests {
                 diff.abs() < 12.0,
                 "copy {k}: image at {angle_img:.0} deg, label at {angle_label:.0} deg"
             );
+        }
+    }
+
+    /// The input pixel (x right, y up, from the input's centre) of the brightest spot.
+    fn brightest(batch: &[f32], size: usize) -> [f64; 2] {
+        let (best, _) = batch[..size * size]
+            .iter()
+            .enumerate()
+            .fold((0, f32::MIN), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
+        let half = size as f64 / 2.0 - 0.5;
+        [(best % size) as f64 - half, half - (best / size) as f64]
+    }
+
+    /// Under every registration a camera may have (mirrored or not, turned by any angle, as the
+    /// integrated design's is mirrored and turned 90 degrees), each copy's label is where an
+    /// unturned frame with its spot at the copy's spot would be labelled: copies teach the
+    /// network the same map from image to label as the frames it will read.
+    #[test]
+    fn copies_keep_the_registrations_map_from_spot_to_label() {
+        let dir = tempfile::tempdir().expect("dir");
+        let (k, centre) = (5.0, [100.0, 80.0]);
+        let contact = [4.0, 5.0];
+        for (mirror, rotation_deg) in [(true, 90.0), (true, 0.0), (false, 0.0), (false, 37.0)] {
+            let (s, c) = f64::to_radians(rotation_deg).sin_cos();
+            let m = if mirror { -1.0 } else { 1.0 };
+            // The sensor frame seen by the camera: a mirror, then a turn, counter-clockwise on
+            // screen (image rows grow downwards).
+            let to_input = |[x, y]: [f64; 2]| [k * (c * m * x - s * y), k * (s * m * x + c * y)];
+            let [du, dv_up] = to_input(contact);
+            let (u, v) = (centre[0] + du, centre[1] - dv_up);
+            let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
+            for y in (v as u32 - 4)..(v as u32 + 4) {
+                for x in (u as u32 - 4)..(u as u32 + 4) {
+                    img.put_pixel(x, y, image::Rgb([250, 250, 250]));
+                }
+            }
+            let path = dir.path().join(format!("{mirror}-{rotation_deg}.png"));
+            img.save(&path).expect("png");
+            let sample = Sample {
+                image: path,
+                storage: None,
+                force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
+                shape: "pentagon".into(),
+                contact: Some(contact),
+                press: "p".into(),
+                stage_mm: None,
+            };
+            let set = prepare_mirrored(&sample, &preprocessing(), Some(Pipeline::Gray10), mirror);
+            // Input pixels per frame pixel: 32 px for the 140 px crop.
+            let scale = 32.0 / 140.0;
+            let mut batch = Vec::new();
+            for copy in 0..set.len() {
+                set.batch(&[copy], &mut batch);
+                let spot = brightest(&batch, 32);
+                let label = set.targets[copy].contact.expect("contact");
+                let [eu, ev] = to_input([f64::from(label[0]), f64::from(label[1])]);
+                let want = [eu * scale, ev * scale];
+                let miss = ((spot[0] - want[0]).powi(2) + (spot[1] - want[1]).powi(2)).sqrt();
+                assert!(
+                    miss < 1.5,
+                    "mirror {mirror}, turn {rotation_deg} deg, copy {copy}: spot at {spot:?} px, \
+                     the label {label:?} mm says {want:?} px"
+                );
+            }
         }
     }
 }
