@@ -8,6 +8,14 @@
 //!   `backbone = Sequential(conv1, bn1, relu, maxpool, layer1..layer4, avgpool)` (so
 //!   `backbone.0` is conv1, `backbone.4` layer1 ... `backbone.7` layer4), the same heads on 512
 //!   features.
+//! - Keypoint CNN (fringe's own, not the paper's): the custom CNN's four convolutions
+//!   (`kp.{0..3}.conv.{weight,bias}`, the same widths) without the last max-pool, so the last
+//!   feature map keeps an eighth of the input's resolution (14x14 at 112 px), and [`Keypoints`]:
+//!   16 maps (a 1x1 convolution, `keypoints.{weight,bias}`), each a softmax over the positions
+//!   whose expected position (x, y, -1 to 1 across the map) is read out. The heads read the
+//!   pooled 128 features and the 32 coordinates. Global average pooling keeps what is seen but
+//!   not where: the paper's two networks can tell position only from the disc's edge within
+//!   their view, and the contact point is a position.
 //!
 //! [`Architecture::body`] is the one description of a network: the weight layout checked here,
 //! the ONNX graph (`onnx_graph`) and the libtorch network (`torch_net`) are all built from its
@@ -18,7 +26,7 @@ use crate::weights::state_dict::StateDict;
 use fringe_rig::reference_layout::NO_CONTACT;
 use std::fmt;
 
-/// A network architecture of the paper.
+/// A network architecture: the paper's two and fringe's keypoint CNN.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Architecture {
@@ -26,17 +34,40 @@ pub enum Architecture {
     Custom,
     /// ResNet-18 with three heads.
     Resnet18,
+    /// The custom CNN's convolutions with keypoints that keep where the fringes are.
+    Keypoint,
+}
+
+/// Expected positions of softmax maps (spatial soft-argmax) read from the body's last feature
+/// map: a 1x1 convolution `key` from `channels` to `maps` maps, a softmax over each map's
+/// positions, then per map its expected x and y, from -1 at the first column's (row's) far
+/// edge to 1 at the last one's (position centres at `(2 i + 1) / n - 1`), x right and y down.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Keypoints {
+    pub key: String,
+    pub channels: usize,
+    pub maps: usize,
 }
 
 impl Architecture {
     /// Every architecture, in the order weights are recognised.
-    pub const ALL: [Architecture; 2] = [Architecture::Custom, Architecture::Resnet18];
+    pub const ALL: [Architecture; 3] = [
+        Architecture::Custom,
+        Architecture::Resnet18,
+        Architecture::Keypoint,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             Architecture::Custom => "custom",
             Architecture::Resnet18 => "resnet18",
+            Architecture::Keypoint => "keypoint",
         }
+    }
+
+    /// The architecture of a name ([`Architecture::name`]).
+    pub fn from_name(name: &str) -> Option<Architecture> {
+        Architecture::ALL.into_iter().find(|a| a.name() == name)
     }
 
     /// The network's body, from the input image to the features the heads read: the one
@@ -66,6 +97,30 @@ impl Architecture {
                         ]
                     })
                     .collect()
+            }
+            Architecture::Keypoint => {
+                let ch = [3, 16, 32, 64, 128];
+                let mut body = Vec::new();
+                for i in 0..4 {
+                    body.push(Layer::Conv(Conv {
+                        key: format!("kp.{i}.conv"),
+                        cin: ch[i],
+                        cout: ch[i + 1],
+                        kernel: 3,
+                        stride: 1,
+                        padding: 1,
+                        bias: true,
+                    }));
+                    body.push(Layer::Relu);
+                    if i < 3 {
+                        body.push(Layer::MaxPool {
+                            kernel: 2,
+                            stride: 2,
+                            padding: 0,
+                        });
+                    }
+                }
+                body
             }
             Architecture::Resnet18 => {
                 let mut body = vec![
@@ -107,9 +162,22 @@ impl Architecture {
         }
     }
 
-    /// Features the heads read: the body's output channels.
+    /// The keypoints read beside the pooled features, for the architectures that have them.
+    pub fn keypoints(self) -> Option<Keypoints> {
+        match self {
+            Architecture::Keypoint => Some(Keypoints {
+                key: "keypoints".into(),
+                channels: channels_out(&self.body()).unwrap_or(0),
+                maps: 16,
+            }),
+            Architecture::Custom | Architecture::Resnet18 => None,
+        }
+    }
+
+    /// Features the heads read: the body's output channels (pooled), then each keypoint's x
+    /// and y.
     pub fn features(self) -> usize {
-        channels_out(&self.body()).unwrap_or(0)
+        channels_out(&self.body()).unwrap_or(0) + self.keypoints().map_or(0, |k| 2 * k.maps)
     }
 
     /// Every weight key with its shape, for `classes` shape classes.
@@ -117,6 +185,10 @@ impl Architecture {
         let mut keys = Vec::new();
         for layer in &self.body() {
             layer.weights(&mut keys);
+        }
+        if let Some(k) = self.keypoints() {
+            keys.push((format!("{}.weight", k.key), vec![k.maps, k.channels, 1, 1]));
+            keys.push((format!("{}.bias", k.key), vec![k.maps]));
         }
         let f = self.features();
         for (head, out) in [
@@ -144,8 +216,9 @@ pub struct Conv {
 }
 
 /// One step of a network's body, in the order the input goes through it. After the body, every
-/// architecture has the same end: global average pooling, then three linear heads on the
-/// features (`force_head` 7 outputs, `class_head` one per shape class, `point_head` 2).
+/// architecture has the same end: global average pooling (with the [`Keypoints`] beside it, for
+/// the architectures that have them), then three linear heads on the features (`force_head` 7
+/// outputs, `class_head` one per shape class, `point_head` 2).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Layer {
     Conv(Conv),
@@ -251,6 +324,7 @@ impl fmt::Display for Architecture {
         f.write_str(match self {
             Architecture::Custom => "custom CNN",
             Architecture::Resnet18 => "ResNet-18 multitask",
+            Architecture::Keypoint => "keypoint CNN",
         })
     }
 }
@@ -259,8 +333,9 @@ impl fmt::Display for Architecture {
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ArchError {
     #[error(
-        "the weights are neither the custom CNN (cnn.N.block.0.*) nor the ResNet-18 multitask \
-         (backbone.*) with force_head, class_head and point_head; found {found}"
+        "the weights are none of the custom CNN (cnn.N.block.0.*), the ResNet-18 multitask \
+         (backbone.*) and the keypoint CNN (kp.N.conv.*, keypoints.*) with force_head, \
+         class_head and point_head; found {found}"
     )]
     Unknown { found: String },
     #[error("{arch} weights: missing {missing}{extra}")]
@@ -401,6 +476,9 @@ mod tests {
         assert_eq!(c, 97_440 + 1_548);
         let r = zeros(Architecture::Resnet18, 3).parameter_count();
         assert_eq!(r, 11_176_512 + 512 * 12 + 12);
+        // The custom CNN's convolutions, 16 keypoint maps on 128 channels, heads on 160.
+        let k = zeros(Architecture::Keypoint, 3).parameter_count();
+        assert_eq!(k, 97_440 + (128 * 16 + 16) + 160 * 12 + 12);
     }
 
     #[test]
@@ -413,6 +491,13 @@ mod tests {
             recognise(&zeros(Architecture::Resnet18, 5)),
             Ok((Architecture::Resnet18, 5))
         );
+        assert_eq!(
+            recognise(&zeros(Architecture::Keypoint, 3)),
+            Ok((Architecture::Keypoint, 3))
+        );
+        for a in Architecture::ALL {
+            assert_eq!(Architecture::from_name(a.name()), Some(a));
+        }
     }
 
     #[test]

@@ -3,10 +3,13 @@
 //!
 //! Input `image` [N, 3, S, S] (N and S free); outputs `force` [N, 7], `shape_logits` [N, C] and
 //! `contact` [N, 2]. Operators of opset 17: Conv, Relu, MaxPool, BatchNormalization (inference),
-//! Add, GlobalAveragePool, Flatten, Gemm. Weights are stored as f32 initialisers under their
-//! state-dict names, so the graph's weights can be read back by name.
+//! Add, GlobalAveragePool, Flatten, Gemm; the keypoints add Shape, Gather, Range, Cast,
+//! Reshape, Softmax, ReduceSum, Mul, Div, Sub, Concat and work out their positions from the
+//! feature map's size, so the graph takes any input size as the others do. Weights are stored
+//! as f32 initialisers under their state-dict names, so the graph's weights can be read back by
+//! name.
 
-use crate::arch::{Architecture, Conv, Layer};
+use crate::arch::{Architecture, Conv, Keypoints, Layer};
 use crate::weights::state_dict::StateDict;
 use tract_onnx::pb;
 
@@ -98,6 +101,81 @@ impl Builder<'_> {
         });
     }
 
+    /// A constant (not a weight) as an initialiser, named after the node count.
+    fn constant(&mut self, dims: &[i64], value: Constant) -> String {
+        self.counter += 1;
+        let name = format!("const_{}", self.counter);
+        let (data_type, raw_data) = match value {
+            Constant::I64(v) => (
+                pb::tensor_proto::DataType::Int64,
+                v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            ),
+            Constant::F32(v) => (
+                pb::tensor_proto::DataType::Float,
+                v.iter().flat_map(|x| x.to_le_bytes()).collect(),
+            ),
+        };
+        self.initializers.push(pb::TensorProto {
+            name: name.clone(),
+            dims: dims.to_vec(),
+            data_type: data_type as i32,
+            raw_data,
+            ..Default::default()
+        });
+        name
+    }
+
+    /// The keypoints' coordinates [N, 2 maps] (x0, y0, x1, y1, ...) of the feature map `x`
+    /// [N, C, H, W] (see [`Keypoints`]).
+    fn keypoints(&mut self, x: String, k: &Keypoints) -> String {
+        let maps = self.conv(
+            x,
+            &Conv {
+                key: k.key.clone(),
+                cin: k.channels,
+                cout: k.maps,
+                kernel: 1,
+                stride: 1,
+                padding: 0,
+                bias: true,
+            },
+        );
+        let shape = self.node("Shape", vec![maps.clone()], vec![]);
+        let flat_shape = self.constant(&[3], Constant::I64(vec![0, 0, -1]));
+        let flat = self.node("Reshape", vec![maps, flat_shape], vec![]);
+        let soft = self.node("Softmax", vec![flat], vec![int("axis", -1)]);
+        let p = self.node("Reshape", vec![soft, shape.clone()], vec![]);
+        // Along x (W, axis 3) the marginal sums over the rows (axis 2), and the other way.
+        let mut coords = Vec::new();
+        for (dim, summed) in [(3, 2), (2, 3)] {
+            let index = self.constant(&[], Constant::I64(vec![dim]));
+            let n = self.node("Gather", vec![shape.clone(), index], vec![int("axis", 0)]);
+            let (zero, one) = (
+                self.constant(&[], Constant::I64(vec![0])),
+                self.constant(&[], Constant::I64(vec![1])),
+            );
+            let i = self.node("Range", vec![zero, n.clone(), one], vec![]);
+            let to_float = vec![int("to", pb::tensor_proto::DataType::Float as i64)];
+            let i = self.node("Cast", vec![i], to_float.clone());
+            let n = self.node("Cast", vec![n], to_float);
+            // (2 i + 1) / n - 1
+            let two = self.constant(&[], Constant::F32(vec![2.0]));
+            let one_f = self.constant(&[], Constant::F32(vec![1.0]));
+            let twice = self.node("Mul", vec![i, two], vec![]);
+            let odd = self.node("Add", vec![twice, one_f.clone()], vec![]);
+            let scaled = self.node("Div", vec![odd, n], vec![]);
+            let position = self.node("Sub", vec![scaled, one_f], vec![]);
+            let axes = self.constant(&[1], Constant::I64(vec![summed]));
+            let marginal = self.node("ReduceSum", vec![p.clone(), axes], vec![int("keepdims", 0)]);
+            let weighted = self.node("Mul", vec![marginal, position], vec![]);
+            let last = self.constant(&[1], Constant::I64(vec![-1]));
+            coords.push(self.node("ReduceSum", vec![weighted, last], vec![int("keepdims", 1)]));
+        }
+        // [N, maps, 2] -> [N, 2 maps]
+        let pairs = self.node("Concat", coords, vec![int("axis", -1)]);
+        self.node("Flatten", vec![pairs], vec![int("axis", 1)])
+    }
+
     fn conv(&mut self, x: String, c: &Conv) -> String {
         let mut inputs = vec![x, self.weight(&format!("{}.weight", c.key))];
         if c.bias {
@@ -146,6 +224,12 @@ impl Builder<'_> {
     }
 }
 
+/// The values of a [`Builder::constant`].
+enum Constant {
+    I64(Vec<i64>),
+    F32(Vec<f32>),
+}
+
 /// A square window's attributes (Conv, MaxPool).
 fn window(kernel: usize, stride: usize, padding: usize) -> [pb::AttributeProto; 3] {
     let (k, s, p) = (kernel as i64, stride as i64, padding as i64);
@@ -192,8 +276,12 @@ pub fn build(arch: Architecture, classes: usize, sd: &StateDict) -> pb::ModelPro
         counter: 0,
     };
     let x = b.layers(INPUT.to_string(), &arch.body());
-    let pooled = b.node("GlobalAveragePool", vec![x], vec![]);
-    let features = b.node("Flatten", vec![pooled], vec![int("axis", 1)]);
+    let pooled = b.node("GlobalAveragePool", vec![x.clone()], vec![]);
+    let mut features = b.node("Flatten", vec![pooled], vec![int("axis", 1)]);
+    if let Some(k) = arch.keypoints() {
+        let coords = b.keypoints(x, &k);
+        features = b.node("Concat", vec![features, coords], vec![int("axis", 1)]);
+    }
     for (head, out) in ["force_head", "class_head", "point_head"]
         .iter()
         .zip(OUTPUTS)

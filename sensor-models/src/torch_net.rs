@@ -116,10 +116,11 @@ fn forward(steps: &[Step], x: &Tensor, train: bool) -> Tensor {
     y
 }
 
-/// A network of the paper on a [`nn::VarStore`].
+/// A network on a [`nn::VarStore`].
 #[derive(Debug)]
 pub struct Net {
     body: Vec<Step>,
+    keypoints: Option<nn::Conv2D>,
     force_head: nn::Linear,
     class_head: nn::Linear,
     point_head: nn::Linear,
@@ -130,6 +131,20 @@ impl Net {
         let f = arch.features() as i64;
         Net {
             body: steps(root, &arch.body()),
+            keypoints: arch.keypoints().map(|k| {
+                conv(
+                    root,
+                    &Conv {
+                        key: k.key,
+                        cin: k.channels,
+                        cout: k.maps,
+                        kernel: 1,
+                        stride: 1,
+                        padding: 0,
+                        bias: true,
+                    },
+                )
+            }),
             force_head: nn::linear(root / "force_head", f, 7, Default::default()),
             class_head: nn::linear(root / "class_head", f, classes as i64, Default::default()),
             point_head: nn::linear(root / "point_head", f, 2, Default::default()),
@@ -138,13 +153,40 @@ impl Net {
 
     /// The heads' outputs for an NCHW batch; `train` switches batch norm to batch statistics.
     pub fn forward(&self, x: &Tensor, train: bool) -> Outputs {
-        let features = forward(&self.body, x, train)
-            .adaptive_avg_pool2d([1, 1])
-            .flatten(1, -1);
+        let map = forward(&self.body, x, train);
+        let pooled = map.adaptive_avg_pool2d([1, 1]).flatten(1, -1);
+        let features = match &self.keypoints {
+            Some(k) => Tensor::cat(&[pooled, keypoints(&map.apply(k))], 1),
+            None => pooled,
+        };
         Outputs {
             force: features.apply(&self.force_head),
             logits: features.apply(&self.class_head),
             point: features.apply(&self.point_head),
         }
     }
+}
+
+/// The expected positions of the softmax maps [N, K, H, W] as [N, 2 K] (x0, y0, x1, y1, ...;
+/// `arch::Keypoints`).
+fn keypoints(maps: &Tensor) -> Tensor {
+    let (n, k, h, w) = maps.size4().unwrap_or((0, 0, 0, 0));
+    let p = maps
+        .view([n, k, h * w])
+        .softmax(-1, tch::Kind::Float)
+        .view([n, k, h, w]);
+    let positions = |len: i64| {
+        (Tensor::arange(len, (tch::Kind::Float, maps.device())) * 2.0 + 1.0) / len as f64 - 1.0
+    };
+    let x = (p.sum_dim_intlist(2, false, tch::Kind::Float) * positions(w)).sum_dim_intlist(
+        -1,
+        true,
+        tch::Kind::Float,
+    );
+    let y = (p.sum_dim_intlist(3, false, tch::Kind::Float) * positions(h)).sum_dim_intlist(
+        -1,
+        true,
+        tch::Kind::Float,
+    );
+    Tensor::cat(&[x, y], -1).flatten(1, -1)
 }

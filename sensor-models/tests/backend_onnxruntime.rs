@@ -1,11 +1,11 @@
 //! The `onnxruntime` backend's outputs equal PyTorch's (eval mode) within 1e-4 on checkpoints
-//! that PyTorch itself saved, in every file format, for both architectures. ONNX Runtime is the
+//! that PyTorch itself saved, in every file format, for the paper's two architectures and the keypoint CNN. ONNX Runtime is the
 //! library `ORT_DYLIB_PATH` names, else the one of the onnxruntime wheel in `FRINGE_TORCH_PYTHON`.
 #![cfg(feature = "onnxruntime")]
 
 mod common;
 
-use common::{check_backend, ort_dylib, resnet_fixtures, Expected};
+use common::{check_backend, keypoint_fixtures, ort_dylib, resnet_fixtures, Expected};
 use fringe_sensor_models::arch::Architecture;
 use fringe_sensor_models::model::Model;
 
@@ -41,4 +41,15 @@ fn a_wrong_input_size_is_refused() {
     let mut backend = model.onnxruntime(1).expect("backend");
     let err = backend.run(&[0.0; 10], 1, 224).expect_err("refused");
     assert!(err.to_string().contains("3x224x224"), "{err}");
+}
+
+#[test]
+fn keypoint_cnn_matches_pytorch_in_every_format() {
+    ort_dylib();
+    check_backend(
+        &keypoint_fixtures(),
+        Architecture::Keypoint,
+        "onnxruntime",
+        |m| m.onnxruntime(2),
+    );
 }

@@ -1,11 +1,11 @@
 //! The `torch` backend's outputs equal PyTorch's (eval mode) within 1e-4: the paper's networks
 //! from every weights format PyTorch saved, and TorchScript modules (`torch.jit.script` and
-//! `torch.jit.trace` saves) of both architectures. ONNX graphs are refused with what to use.
+//! `torch.jit.trace` saves) of every architecture. ONNX graphs are refused with what to use.
 #![cfg(feature = "torch")]
 
 mod common;
 
-use common::{check_backend_on, resnet_fixtures, Expected};
+use common::{check_backend_on, keypoint_fixtures, resnet_fixtures, Expected};
 use fringe_sensor_models::arch::Architecture;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::model::{Model, ModelError, Source};
@@ -74,4 +74,9 @@ fn a_wrong_input_size_is_refused() {
     let mut backend = model.torch(1).expect("backend");
     let err = backend.run(&[0.0; 10], 1, 224).expect_err("refused");
     assert!(err.to_string().contains("3x224x224"), "{err}");
+}
+
+#[test]
+fn keypoint_cnn_matches_pytorch_from_weights_and_torchscript() {
+    check_dir(&keypoint_fixtures(), Architecture::Keypoint);
 }

@@ -136,36 +136,47 @@ pub fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// The ResNet-18 fixtures, written once per test process by the fixture script (with the
-/// Python named by `FRINGE_TORCH_PYTHON`) into a directory under the target's tmp dir.
+/// The ResNet-18 fixtures (see [`written_fixtures`]).
 pub fn resnet_fixtures() -> PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let python = torch_python();
-        let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
-        remove_stale_fixture_dirs(&base);
-        let dir = base.join(format!("resnet18-fixtures-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        let out = Command::new(&python)
-            .arg(fixture_script())
-            .args(["--arch", "resnet18", "--out"])
-            .arg(&dir)
-            .output()
-            .unwrap_or_else(|e| {
-                panic!(
-                    "{TORCH_PYTHON_VAR}={}: cannot run: {e}",
-                    Path::new(&python).display()
-                )
-            });
-        assert!(
-            out.status.success(),
-            "model_fixtures.py --arch resnet18 failed ({}):\n{}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr)
-        );
-        dir
-    })
-    .clone()
+    DIR.get_or_init(|| written_fixtures(Architecture::Resnet18))
+        .clone()
+}
+
+/// The keypoint CNN's fixtures (see [`written_fixtures`]).
+pub fn keypoint_fixtures() -> PathBuf {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| written_fixtures(Architecture::Keypoint))
+        .clone()
+}
+
+/// Fixtures of `arch` written by the fixture script (with the Python named by
+/// `FRINGE_TORCH_PYTHON`) into a directory of this test process under the target's tmp dir.
+fn written_fixtures(arch: Architecture) -> PathBuf {
+    let python = torch_python();
+    let base = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    remove_stale_fixture_dirs(&base);
+    let dir = base.join(format!("{}-fixtures-{}", arch.name(), std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = Command::new(&python)
+        .arg(fixture_script())
+        .args(["--arch", arch.name(), "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "{TORCH_PYTHON_VAR}={}: cannot run: {e}",
+                Path::new(&python).display()
+            )
+        });
+    assert!(
+        out.status.success(),
+        "model_fixtures.py --arch {} failed ({}):\n{}",
+        arch.name(),
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir
 }
 
 /// Removes fixture directories left by test processes that are gone (Linux: by /proc).
@@ -179,7 +190,8 @@ fn remove_stale_fixture_dirs(base: &Path) {
     };
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        if let Some(pid) = name.strip_prefix("resnet18-fixtures-") {
+        let pid = name.split_once("-fixtures-").map(|(_, pid)| pid);
+        if let Some(pid) = pid {
             if !proc.join(pid).exists() {
                 let _ = std::fs::remove_dir_all(entry.path());
             }

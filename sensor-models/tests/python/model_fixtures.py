@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Model-file fixtures for fringe-sensor-models, written by real PyTorch.
 
-The two reference architectures (docs: reference-pipeline.md, "Networks"), with seeded weights,
-saved in every form users have them:
+The two reference architectures (docs: reference-pipeline.md, "Networks") and fringe's keypoint
+CNN (sensor-models/src/arch.rs), with seeded weights, saved in every form users have them:
 
   state_dict.pth         torch.save(model.state_dict())            (zip format)
   legacy.pth             the same, _use_new_zipfile_serialization=False
@@ -21,7 +21,7 @@ saved in every form users have them:
                          weights cast back to f32 first), the same for the TorchScript files
                          (under "torchscript"), and the values of views.pth
 
-Usage: model_fixtures.py --arch custom|resnet18 --out DIR
+Usage: model_fixtures.py --arch custom|resnet18|keypoint --out DIR
 """
 
 import argparse
@@ -37,7 +37,7 @@ from torch import nn
 
 N_CLASSES = 3
 INPUT_SHAPE = (2, 3, 224, 224)
-SEEDS = {"custom": 1234, "resnet18": 5678}
+SEEDS = {"custom": 1234, "resnet18": 5678, "keypoint": 4321}
 INPUT_SEED = 42
 
 
@@ -79,6 +79,57 @@ class IsoNet(nn.Module):
         )
 
 
+class KeypointBlock(nn.Module):
+    """conv 3x3 pad 1 as `conv` (keys kp.N.conv.*), ReLU, then max-pool 2 unless last."""
+
+    def __init__(self, c_in, c_out, pool):
+        super().__init__()
+        self.conv = nn.Conv2d(c_in, c_out, kernel_size=3, padding=1)
+        self.pool = pool
+
+    def forward(self, x):
+        x = torch.relu(self.conv(x))
+        if self.pool:
+            x = nn.functional.max_pool2d(x, 2)
+        return x
+
+
+class KeypointNet(nn.Module):
+    """fringe's keypoint CNN: the custom CNN's convolutions without the last pool, the pooled
+    128 features and 16 spatial soft-argmax keypoints (x, y from -1 to 1 over the feature map,
+    x right, y down) under the 3 heads."""
+
+    def __init__(self, n_classes=N_CLASSES, maps=16):
+        super().__init__()
+        channels = [3, 16, 32, 64, 128]
+        self.kp = nn.ModuleList(
+            [KeypointBlock(channels[i], channels[i + 1], i < 3) for i in range(4)]
+        )
+        self.keypoints = nn.Conv2d(128, maps, kernel_size=1)
+        features = 128 + 2 * maps
+        self.force_head = nn.Linear(features, 7)
+        self.class_head = nn.Linear(features, n_classes)
+        self.point_head = nn.Linear(features, 2)
+
+    def forward(self, x):
+        for block in self.kp:
+            x = block(x)
+        pooled = torch.flatten(nn.functional.adaptive_avg_pool2d(x, 1), 1)
+        m = self.keypoints(x)
+        n, k, h, w = m.shape
+        p = torch.softmax(m.reshape(n, k, h * w), dim=-1).reshape(n, k, h, w)
+        xs = (torch.arange(w, dtype=x.dtype) * 2.0 + 1.0) / w - 1.0
+        ys = (torch.arange(h, dtype=x.dtype) * 2.0 + 1.0) / h - 1.0
+        ex = (p.sum(2) * xs).sum(-1, keepdim=True)
+        ey = (p.sum(3) * ys).sum(-1, keepdim=True)
+        features = torch.cat([pooled, torch.cat([ex, ey], -1).flatten(1)], 1)
+        return (
+            self.force_head(features),
+            self.class_head(features),
+            self.point_head(features),
+        )
+
+
 class ResNetMultiTask(nn.Module):
     """torchvision ResNet-18 without fc as `backbone`, the 3 heads on its 512 features."""
 
@@ -105,6 +156,12 @@ def build(arch):
     torch.manual_seed(SEEDS[arch])
     if arch == "custom":
         model = IsoNet()
+    elif arch == "keypoint":
+        model = KeypointNet()
+        # Peaked maps, so the positions read out are far from the centre and the test sees them.
+        with torch.no_grad():
+            model.keypoints.weight.mul_(400.0)
+            model.point_head.weight.mul_(10.0)
     else:
         model = ResNetMultiTask()
         # Non-trivial BatchNorm statistics and affine parameters, so eval-mode BN is exercised.

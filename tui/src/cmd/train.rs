@@ -1,6 +1,6 @@
-//! `fringe train DATA... --arch custom|resnet18 [--pipeline gray10|rgb3|rgb3-clean]
+//! `fringe train DATA... --arch custom|resnet18|keypoint [--pipeline gray10|rgb3|rgb3-clean]
 //! [--epochs N] [--batch 32] [--lr 1e-3] [--out DIR] [--resume CHECKPOINT]`: the paper's
-//! networks trained on runs or reference-layout datasets (cargo feature `torch`).
+//! networks (and fringe's keypoint CNN) trained on runs or reference-layout datasets (cargo feature `torch`).
 
 use anyhow::Result;
 use clap::Args;
@@ -14,7 +14,8 @@ pub struct TrainArgs {
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv); taken from the
     /// checkpoint's card with --resume.
     data: Vec<PathBuf>,
-    /// Network: custom (the paper's custom CNN) or resnet18.
+    /// Network: custom (the paper's custom CNN), resnet18, or keypoint (the custom CNN's
+    /// convolutions with 16 soft-argmax keypoints that keep where the fringes are).
     #[arg(long, value_parser = parse_arch, default_value = "custom")]
     arch: Architecture,
     /// Augmentation: gray10 (grey + noise, 10 copies), rgb3 (RGB + noise, 3), rgb3-clean.
@@ -56,13 +57,10 @@ pub struct TrainArgs {
 }
 
 fn parse_arch(s: &str) -> Result<Architecture, String> {
-    match s {
-        "custom" => Ok(Architecture::Custom),
-        "resnet18" => Ok(Architecture::Resnet18),
-        other => Err(format!(
-            "unknown architecture `{other}`: use custom or resnet18"
-        )),
-    }
+    Architecture::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = Architecture::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown architecture `{s}`: use {}", names.join(", "))
+    })
 }
 
 #[cfg(not(feature = "torch"))]
