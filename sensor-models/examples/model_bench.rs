@@ -4,7 +4,7 @@
 //!     cargo run --release -p fringe-sensor-models --example model_bench [-- ITERATIONS]
 //!     cargo run --release -p fringe-sensor-models --example model_bench --features onnxruntime [-- ITERATIONS]
 //!
-//! Batch 1 at 224 x 224; the default backend (tract) on 1 and 2 threads, and with
+//! Batch 1 at 224 x 224 (the custom and keypoint CNNs at 112 x 112 too); the default backend (tract) on 1 and 2 threads, and with
 //! `--features onnxruntime` ONNX Runtime on 1 and 2 intra-op threads (`ORT_DYLIB_PATH` names the
 //! library; README.md); a 1920x1200 frame through the
 //! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
@@ -98,22 +98,28 @@ fn main() {
             println!("preprocess 1920x1200 {fname} -> 224 {label}: {med:.2} / {mean:.2}");
         }
     }
-    for arch in [Architecture::Custom, Architecture::Resnet18] {
+    for arch in Architecture::ALL {
         let sd = seeded(arch);
         let proto = onnx_graph::build(arch, 3, &sd);
-        for threads in [1, 2] {
+        // The small networks also at 112 px, the shipped models' input size.
+        let sizes: &[usize] = if arch == Architecture::Resnet18 {
+            &[224]
+        } else {
+            &[112, 224]
+        };
+        for (&size, threads) in sizes.iter().flat_map(|s| [(s, 1), (s, 2)]) {
             let mut b = TractBackend::new(proto.clone(), 3, threads).expect("backend");
-            let input = vec![0.1f32; 3 * 224 * 224];
+            let input = vec![0.1f32; 3 * size * size];
             let iters = if arch == Architecture::Resnet18 {
                 n.min(30)
             } else {
                 n
             };
             let (med, mean) = time(iters, || {
-                b.run(&input, 1, 224).expect("run");
+                b.run(&input, 1, size as u32).expect("run");
             });
             println!(
-                "tract {} batch 1 @224, {threads} thread(s): {med:.2} / {mean:.2}",
+                "tract {} batch 1 @{size}, {threads} thread(s): {med:.2} / {mean:.2}",
                 arch.name()
             );
         }

@@ -1,6 +1,6 @@
 //! The models that ship inside fringe, so that `fringe model`, `fringe eval` and live validation
-//! work on a fresh clone with nothing to download: custom CNNs trained by `fringe train` on
-//! frames of `fringe sim dataset`, one per simulated sensor variant, with their cards
+//! work on a fresh clone with nothing to download: networks trained by `fringe train` on frames
+//! of `fringe sim dataset`, one per simulated sensor design, with their cards
 //! (`sensor-models/models/`, README.md "The default model" gives the commands that made them).
 //!
 //! A model is named where a model file is expected: `default` (the layered sensor's) or
@@ -24,13 +24,23 @@ pub struct Builtin {
 }
 
 /// The models that ship; the first is `default`.
-pub const BUILTIN: &[Builtin] = &[Builtin {
-    name: "layered",
-    about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
-    design: "layered",
-    weights: include_bytes!("../models/layered-custom.safetensors"),
-    card: include_str!("../models/layered-custom.json"),
-}];
+pub const BUILTIN: &[Builtin] = &[
+    Builtin {
+        name: "layered",
+        about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
+        design: "layered",
+        weights: include_bytes!("../models/layered-custom.safetensors"),
+        card: include_str!("../models/layered-custom.json"),
+    },
+    Builtin {
+        name: "integrated",
+        about: "keypoint CNN for the simulated integrated sensor (trained on fringe sim dataset \
+                frames)",
+        design: "integrated",
+        weights: include_bytes!("../models/integrated-keypoint.safetensors"),
+        card: include_str!("../models/integrated-keypoint.json"),
+    },
+];
 
 /// The name that stands for the first built-in model.
 pub const DEFAULT: &str = "default";
@@ -121,7 +131,8 @@ mod tests {
     fn every_builtin_model_opens_with_its_card_and_is_small() {
         for b in BUILTIN {
             let m = b.model().expect("built-in model opens");
-            assert_eq!(m.arch, Some(Architecture::Custom), "{}", b.name);
+            let arch = m.card.as_ref().and_then(|c| c.architecture.as_deref());
+            assert_eq!(m.arch.map(Architecture::name), arch, "{}", b.name);
             assert_eq!(m.classes, ["None", "pentagon", "rectangle"], "{}", b.name);
             assert!(b.weights.len() < 1 << 20, "{} weights over 1 MB", b.name);
             assert!(b.card.len() < 1 << 20, "{} card over 1 MB", b.name);
@@ -164,6 +175,23 @@ mod tests {
                 && w.contains("980 px in 1920x1200 frames")
                 && w.contains("4.0x less detail"),
             "{w}"
+        );
+    }
+
+    #[test]
+    fn a_design_nothing_ships_for_is_refused_naming_those_that_ship() {
+        assert_eq!(
+            for_design(Some("integrated")).ok(),
+            Some(PathBuf::from("builtin:integrated"))
+        );
+        assert_eq!(for_design(None).ok(), Some(PathBuf::from(DEFAULT)));
+        let e = for_design(Some("thick")).expect_err("nothing ships for it");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("no model ships for the thick sensor design")
+                && msg.contains("layered, integrated")
+                && msg.contains("--model"),
+            "{msg}"
         );
     }
 

@@ -312,8 +312,8 @@ fn bad_flags_are_refused_with_one_line_naming_the_flag() {
 }
 
 /// Frames of the integrated design are never read silently by the layered model: `fringe eval`
-/// without `--model` looks for the model that ships for the dataset's design (none does yet, and
-/// it says so with what to do), and a model of the other design is refused naming both.
+/// without `--model` takes the model that ships for the dataset's design, and a model of the
+/// other design is refused naming both.
 #[test]
 fn eval_takes_the_model_of_the_datasets_sensor_design() {
     let dir = scratch("design");
@@ -323,11 +323,8 @@ fn eval_takes_the_model_of_the_datasets_sensor_design() {
     assert!(o.status.success(), "{}", text(&o));
     let o = fringe(&["eval", arg(&data)]);
     let t = text(&o);
-    assert!(!o.status.success(), "{t}");
-    assert!(
-        t.contains("no model ships for the integrated sensor design") && t.contains("--model"),
-        "{t}"
-    );
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("builtin:integrated (keypoint CNN)"), "{t}");
     let o = fringe(&["eval", "--model", "default", arg(&data)]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");

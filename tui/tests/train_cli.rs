@@ -353,7 +353,7 @@ fn bad_settings_are_refused_naming_the_flag() {
         (vec!["--lr", "nan"], "--lr"),
         (vec!["--batch", "0"], "--batch"),
         (vec!["--pipeline", "grey10"], "gray10"),
-        (vec!["--arch", "vgg"], "custom or resnet18"),
+        (vec!["--arch", "vgg"], "use custom, resnet18, keypoint"),
     ] {
         let mut all = vec!["train", "no-such-dir"];
         all.extend(args);

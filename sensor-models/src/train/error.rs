@@ -10,6 +10,16 @@ pub enum TrainError {
         path: String,
         source: crate::preprocess::PreprocessError,
     },
+    #[error(
+        "{first} is of the {design} sensor design and {other} of the {other_design}: a model \
+         reads one design; train one model per design"
+    )]
+    MixedDesigns {
+        first: String,
+        design: String,
+        other: String,
+        other_design: String,
+    },
     #[error("no labelled frames in {0}")]
     NoFrames(String),
     #[error("the split left no {0} frames: give more data (each side needs at least one press)")]

@@ -98,6 +98,8 @@ struct Frames<'a> {
     preprocessing: Vec<Preprocessing>,
     mirror: Vec<bool>,
     profiles: Vec<String>,
+    /// The sensor design every source that says one names (they must agree).
+    design: Option<String>,
     sources: &'a [Source],
 }
 
@@ -127,8 +129,29 @@ fn frames<'a>(
         preprocessing: Vec::new(),
         mirror: Vec::new(),
         profiles: Vec::new(),
+        design: None,
         sources,
     };
+    // A model reads one sensor design: sources of two are refused before anything is read.
+    let mut named: Option<&Source> = None;
+    for source in sources {
+        let (Some(first), Some(v)) = (named, source.variant.as_deref()) else {
+            if source.variant.is_some() {
+                named = Some(source);
+            }
+            continue;
+        };
+        let design = first.variant.as_deref().unwrap_or_default();
+        if v != design {
+            return Err(TrainError::MixedDesigns {
+                first: first.path.display().to_string(),
+                design: design.to_string(),
+                other: source.path.display().to_string(),
+                other_design: v.to_string(),
+            });
+        }
+    }
+    f.design = named.and_then(|s| s.variant.clone());
     for (si, source) in sources.iter().enumerate() {
         let path = source.path.display().to_string();
         let profile = source
@@ -267,9 +290,9 @@ fn card_for(
         colour: Some(config.pipeline.colour()),
         preprocessing: Some("profile".to_string()),
         sensor_id: sensors.first().map(|s| s.to_string()),
-        // Runs and datasets do not record their sensor's design; `fringe model info` shows
-        // a card without it as of unknown design.
-        variant: None,
+        // The data's design (runs and `fringe sim dataset` datasets record it); without it
+        // `fringe model info` shows the card as of unknown design.
+        variant: f.design.clone(),
         crop_diameter_px: f.preprocessing.first().map(|p| 2.0 * p.crop_radius_px),
         frame_size: f
             .preprocessing
@@ -784,4 +807,59 @@ fn plot_losses(dir: &Path, history: &[EpochRecord]) -> Result<(), TrainError> {
         path: path.display().to_string(),
         source: std::io::Error::other(e.to_string()),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lr_schedule::Schedule;
+
+    fn source(path: &str, variant: Option<&str>) -> Source {
+        Source {
+            path: PathBuf::from(path),
+            samples: Vec::new(),
+            profile: None,
+            sensor_id: None,
+            variant: variant.map(String::from),
+            skipped: 0,
+        }
+    }
+
+    /// Data of two sensor designs is refused before anything is read, naming both; data that
+    /// does not say its design goes with the one that does.
+    #[test]
+    fn data_of_two_sensor_designs_is_refused_naming_both() {
+        let config = TrainConfig {
+            arch: Architecture::Keypoint,
+            pipeline: Pipeline::Gray10,
+            epochs: 1,
+            batch: 32,
+            lr: 1e-3,
+            schedule: Schedule::Constant,
+            seed: 42,
+            input_size: 112,
+            threads: 1,
+            out: PathBuf::from("out"),
+            init: None,
+        };
+        let sources = [
+            source("runs/a", Some("layered")),
+            source("old-run", None),
+            source("ds-int", Some("integrated")),
+        ];
+        let e = frames(&sources, None, &config)
+            .err()
+            .expect("two designs refused");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("runs/a is of the layered sensor design and ds-int of the integrated")
+                && msg.contains("one model per design"),
+            "{msg}"
+        );
+        // One design (and a source that does not say): on to the profiles.
+        let e = frames(&sources[..2], None, &config)
+            .err()
+            .expect("no profile");
+        assert!(matches!(e, TrainError::NoProfile { .. }), "{e}");
+    }
 }
