@@ -49,6 +49,21 @@ pub struct Keypoints {
     pub maps: usize,
 }
 
+impl Keypoints {
+    /// The 1x1 convolution to the maps.
+    pub fn conv(&self) -> Conv {
+        Conv {
+            key: self.key.clone(),
+            cin: self.channels,
+            cout: self.maps,
+            kernel: 1,
+            stride: 1,
+            padding: 0,
+            bias: true,
+        }
+    }
+}
+
 impl Architecture {
     /// Every architecture, in the order weights are recognised.
     pub const ALL: [Architecture; 3] = [
@@ -74,54 +89,17 @@ impl Architecture {
     /// description that the weight layout, the ONNX graph and the libtorch network are built from.
     pub fn body(self) -> Vec<Layer> {
         match self {
-            Architecture::Custom => {
-                let ch = [3, 16, 32, 64, 128];
-                (0..4)
-                    .flat_map(|i| {
-                        [
-                            Layer::Conv(Conv {
-                                key: format!("cnn.{i}.block.0"),
-                                cin: ch[i],
-                                cout: ch[i + 1],
-                                kernel: 3,
-                                stride: 1,
-                                padding: 1,
-                                bias: true,
-                            }),
-                            Layer::Relu,
-                            Layer::MaxPool {
-                                kernel: 2,
-                                stride: 2,
-                                padding: 0,
-                            },
-                        ]
-                    })
-                    .collect()
-            }
-            Architecture::Keypoint => {
-                let ch = [3, 16, 32, 64, 128];
-                let mut body = Vec::new();
-                for i in 0..4 {
-                    body.push(Layer::Conv(Conv {
-                        key: format!("kp.{i}.conv"),
-                        cin: ch[i],
-                        cout: ch[i + 1],
-                        kernel: 3,
-                        stride: 1,
-                        padding: 1,
-                        bias: true,
-                    }));
-                    body.push(Layer::Relu);
-                    if i < 3 {
-                        body.push(Layer::MaxPool {
-                            kernel: 2,
-                            stride: 2,
-                            padding: 0,
-                        });
-                    }
-                }
-                body
-            }
+            Architecture::Custom => (0..4)
+                .flat_map(|i| [conv3(format!("cnn.{i}.block.0"), i), Layer::Relu, pool2()])
+                .collect(),
+            Architecture::Keypoint => (0..4)
+                .flat_map(|i| {
+                    let pool = (i < 3).then(pool2);
+                    [conv3(format!("kp.{i}.conv"), i), Layer::Relu]
+                        .into_iter()
+                        .chain(pool)
+                })
+                .collect(),
             Architecture::Resnet18 => {
                 let mut body = vec![
                     Layer::Conv(Conv {
@@ -187,8 +165,7 @@ impl Architecture {
             layer.weights(&mut keys);
         }
         if let Some(k) = self.keypoints() {
-            keys.push((format!("{}.weight", k.key), vec![k.maps, k.channels, 1, 1]));
-            keys.push((format!("{}.bias", k.key), vec![k.maps]));
+            Layer::Conv(k.conv()).weights(&mut keys);
         }
         let f = self.features();
         for (head, out) in [
@@ -267,6 +244,31 @@ impl Layer {
                 }
             }
         }
+    }
+}
+
+/// The widths of the custom CNN's four convolutions (the keypoint CNN's too).
+const SMALL_WIDTHS: [usize; 5] = [3, 16, 32, 64, 128];
+
+/// The `i`-th convolution of the custom CNN's widths (3x3, padding 1, with bias) under `key`.
+fn conv3(key: String, i: usize) -> Layer {
+    Layer::Conv(Conv {
+        key,
+        cin: SMALL_WIDTHS[i],
+        cout: SMALL_WIDTHS[i + 1],
+        kernel: 3,
+        stride: 1,
+        padding: 1,
+        bias: true,
+    })
+}
+
+/// Max pooling 2x2, stride 2.
+fn pool2() -> Layer {
+    Layer::MaxPool {
+        kernel: 2,
+        stride: 2,
+        padding: 0,
     }
 }
 

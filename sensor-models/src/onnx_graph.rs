@@ -128,18 +128,7 @@ impl Builder<'_> {
     /// The keypoints' coordinates [N, 2 maps] (x0, y0, x1, y1, ...) of the feature map `x`
     /// [N, C, H, W] (see [`Keypoints`]).
     fn keypoints(&mut self, x: String, k: &Keypoints) -> String {
-        let maps = self.conv(
-            x,
-            &Conv {
-                key: k.key.clone(),
-                cin: k.channels,
-                cout: k.maps,
-                kernel: 1,
-                stride: 1,
-                padding: 0,
-                bias: true,
-            },
-        );
+        let maps = self.conv(x, &k.conv());
         let shape = self.node("Shape", vec![maps.clone()], vec![]);
         let flat_shape = self.constant(&[3], Constant::I64(vec![0, 0, -1]));
         let flat = self.node("Reshape", vec![maps, flat_shape], vec![]);

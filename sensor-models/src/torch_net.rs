@@ -131,20 +131,7 @@ impl Net {
         let f = arch.features() as i64;
         Net {
             body: steps(root, &arch.body()),
-            keypoints: arch.keypoints().map(|k| {
-                conv(
-                    root,
-                    &Conv {
-                        key: k.key,
-                        cin: k.channels,
-                        cout: k.maps,
-                        kernel: 1,
-                        stride: 1,
-                        padding: 0,
-                        bias: true,
-                    },
-                )
-            }),
+            keypoints: arch.keypoints().map(|k| conv(root, &k.conv())),
             force_head: nn::linear(root / "force_head", f, 7, Default::default()),
             class_head: nn::linear(root / "class_head", f, classes as i64, Default::default()),
             point_head: nn::linear(root / "point_head", f, 2, Default::default()),
