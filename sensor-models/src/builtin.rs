@@ -1,7 +1,7 @@
 //! The models that ship inside fringe, so that `fringe model`, `fringe eval` and live validation
 //! work on a fresh clone with nothing to download: networks trained by `fringe train` on frames
 //! of `fringe sim dataset`, one per simulated sensor design, with their cards
-//! (`sensor-models/models/`, README.md "The default model" gives the commands that made them).
+//! (`sensor-models/models/`, README.md "The default models" gives the commands that made them).
 //!
 //! A model is named where a model file is expected: `default` (the layered sensor's) or
 //! `builtin:NAME`. [`open`] is the one place that resolves a name or a path.
