@@ -19,6 +19,7 @@
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
 //! - [`frame_file`]: how the frames are stored (pixel format, region, encoding), written and read.
+//! - [`stored_part`]: `[recording]` of a rig file or a plan: whole frames or the disc's square.
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
 //! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
@@ -43,6 +44,7 @@ pub mod run_list;
 pub mod run_lock;
 pub mod run_size;
 pub mod run_writer;
+pub mod stored_part;
 pub mod verify;
 
 pub use error::StoreError;

@@ -77,6 +77,11 @@ fn a_dry_run_states_the_runs_size_on_disk_and_the_free_space() {
     std::fs::write(&disc, format!("{QUICK_RIG}{store}")).expect("rig");
     let t = dry(&disc);
     assert!(t.contains("disc squares of 480x300 bayerrg8"), "{t}");
+    // The same asked by the plan on the rig that stores whole frames.
+    let plan_text = std::fs::read_to_string(&plan_path).expect("plan");
+    std::fs::write(&plan_path, format!("{plan_text}{store}")).expect("plan");
+    let t = dry(&rig);
+    assert!(t.contains("disc squares of 480x300 bayerrg8"), "{t}");
     assert!(!root.exists(), "a dry run writes no run");
 }
 

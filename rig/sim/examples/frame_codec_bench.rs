@@ -16,7 +16,9 @@
 //! - `qoi cells`: QOI of the 2x2 Bayer cells as RGBA pixels (R, G, G, B);
 //! - `webp cells`: lossless WebP (image-webp's encoder) of the same RGBA cells;
 //! - `tiff planes`: TIFF with deflate and the horizontal predictor on the planes;
-//! - `zstd planes N`: the planes after a left-neighbour difference, zstd level N.
+//! - `zstd planes N`: the planes after a left-neighbour difference, zstd level N;
+//! - for a Mono8 camera, `png mono8 avg`: the same scenes rendered grey, in a grey PNG as runs
+//!   store them.
 //!
 //! Times are per frame on one thread (wall clock of the encode or decode call, median over the
 //! frames; the machine otherwise idle).
@@ -414,6 +416,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => 12,
     };
     let (mut rgb, mut mosaic, mut rgb_crop, mut mosaic_crop) = (vec![], vec![], vec![], vec![]);
+    let (mut mono, mut mono_crop) = (vec![], vec![]);
     let configs = [SensorConfig::layered(), SensorConfig::integrated()];
     let noise = &configs[0].noise;
     let (a, b) = (noise.poisson_a, noise.gaussian_b);
@@ -440,6 +443,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             for (format, all, cropped, bpp) in [
                 (PixelFormat::Rgb8, &mut rgb, &mut rgb_crop, 3),
                 (PixelFormat::BayerRg8, &mut mosaic, &mut mosaic_crop, 1),
+                (PixelFormat::Mono8, &mut mono, &mut mono_crop, 1),
             ] {
                 let mut data = Vec::new();
                 renderer.render_as(&scene, k as u64, format, &mut data);
@@ -454,12 +458,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let (side_w, side_h) = (mosaic_crop[0].width, mosaic_crop[0].height);
-    for (title, rgb, mosaic) in [
-        ("full frames 1920x1200", &rgb, &mosaic),
+    for (title, rgb, mosaic, mono) in [
+        ("full frames 1920x1200", &rgb, &mosaic, &mono),
         (
             &*format!("disc square {side_w}x{side_h}"),
             &rgb_crop,
             &mosaic_crop,
+            &mono_crop,
         ),
     ] {
         println!(
@@ -477,6 +482,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (name, enc, dec) in mosaic_codecs() {
             measure(name, mosaic, enc, dec);
         }
+        measure(
+            "png mono8 avg",
+            mono,
+            |d, w, h| png(d, w, h, png::ColorType::Grayscale, png::Filter::Avg),
+            unpng,
+        );
     }
     Ok(())
 }

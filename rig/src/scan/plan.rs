@@ -21,6 +21,9 @@
 //! repetitions = 1
 //! [safety]
 //! force_ceiling = 12.0      # N
+//! [recording]               # optional; overrides the rig file's [recording] key by key
+//! store = "disc"            # "frame" (whole frames) or "disc" (the square around the disc)
+//! disc_margin_px = 40.0
 //! ```
 //!
 //! `[grid]` holds either `x` and `y` or `points`, never both. With `x` and `y` the order is:
@@ -33,6 +36,7 @@
 use crate::axis::{Kinematics, SoftLimits};
 use crate::config_file::{load_toml, parse_toml, ConfigError};
 use crate::store::run_size::RecordingTime;
+use crate::store::stored_part::RecordingSection;
 use crate::units::{Millimetres, Newtons};
 use std::path::Path;
 use std::time::Duration;
@@ -213,6 +217,9 @@ pub struct Plan {
     pub approach: ApproachSection,
     pub indentation: IndentationSection,
     pub safety: SafetySection,
+    /// What the scan stores of each frame, over the rig file's `[recording]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recording: Option<RecordingSection>,
 }
 
 /// What is pressed at a point.
@@ -290,6 +297,9 @@ impl Plan {
         self.check_forces(bench).map_err(err)?;
         let targets = self.targets().map_err(err)?;
         self.check_pressing(&targets).map_err(err)?;
+        if let Some(r) = &self.recording {
+            r.stored_part().map_err(err)?;
+        }
         // The size check comes before anything is allocated for the points.
         self.check_count(&lateral).map_err(err)?;
         let points = match &lateral {
@@ -1214,6 +1224,27 @@ force_ceiling = 10.0
             "{written}"
         );
         assert_eq!(Plan::parse(&written, "p").expect("reparse"), points);
+    }
+
+    #[test]
+    fn a_plan_may_say_what_is_stored_of_each_frame() {
+        let disc = format!("{PLAN}[recording]\nstore = \"disc\"\ndisc_margin_px = 20.0\n");
+        let plan = Plan::parse(&disc, "p").expect("parse");
+        let written = toml::to_string(&plan).expect("serialize");
+        assert_eq!(Plan::parse(&written, "p").expect("reparse"), plan);
+        assert!(refusal(&disc).starts_with("accepted"), "{}", refusal(&disc));
+        let t = refusal(&format!("{PLAN}[recording]\nstore = \"crop\"\n"));
+        assert!(
+            t.contains("plan.toml") && t.contains("recording.store"),
+            "{t}"
+        );
+        let t = refusal(&format!("{PLAN}[recording]\ndisc_margin_px = -2.0\n"));
+        assert!(t.contains("recording.disc_margin_px"), "{t}");
+        let t = refusal(&format!("{PLAN}[recording]\nstor = \"disc\"\n"));
+        assert!(t.contains("stor"), "{t}");
+        // A plan without the section writes none.
+        let plain = toml::to_string(&Plan::parse(PLAN, "p").expect("parse")).expect("serialize");
+        assert!(!plain.contains("recording"), "{plain}");
     }
 
     #[test]

@@ -269,11 +269,13 @@ impl FrameStorage {
             u64::from(c.roi.width) * u64::from(c.roi.height)
         });
         // Measured (frame_codec_bench): BayerRG8 planes 0.48 B/px over whole frames, 0.60 B/px
-        // over the disc square (where the fringes are); RGB8 1.49 and 1.85 B/px. Mono8 was not
-        // measured: taken as the Bayer planes' figure, one byte per pixel of like noise.
+        // over the disc square (where the fringes are); Mono8 0.41 and 0.51 B/px; RGB8 1.49 and
+        // 1.85 B/px.
         let per_px = match (self.pixel_format, self.cutout.is_some()) {
-            (PixelFormat::BayerRg8 | PixelFormat::Mono8, false) => 0.48,
-            (PixelFormat::BayerRg8 | PixelFormat::Mono8, true) => 0.60,
+            (PixelFormat::BayerRg8, false) => 0.48,
+            (PixelFormat::BayerRg8, true) => 0.60,
+            (PixelFormat::Mono8, false) => 0.41,
+            (PixelFormat::Mono8, true) => 0.51,
             (PixelFormat::Rgb8, false) => 1.49,
             (PixelFormat::Rgb8, true) => 1.85,
         };

@@ -7,15 +7,17 @@
 //! one place that chooses it.
 
 use crate::recording_part::{disc_cutout, RecordingError};
-use crate::rig_file::{RigConfig, StoredPart};
+use crate::rig_file::RigConfig;
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
+use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::frame_file::FrameStorage;
 use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSize};
 use fringe_rig::store::run_writer::{read_document, read_start, Checkpoint};
+use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::CHECKPOINT;
 use fringe_rig::units::Hertz;
 use std::path::{Path, PathBuf};
@@ -87,15 +89,19 @@ pub struct Recording {
 }
 
 impl Recording {
-    /// How a new run of the rig `config` describes would record, read from the rig file and the
-    /// profile directory only (no device is opened): the camera's pixel format and frame rate,
-    /// `[recording] store` with the disc of the sensor's calibration profile (on the simulated
-    /// bench without one, of its design geometry, as a scan would), and [`camera_frame`].
-    pub fn from_rig_files(config: &RigConfig) -> Result<Recording, RecordingError> {
+    /// How a new run of `plan` (or of any plan that leaves `[recording]` to the rig file) on the
+    /// rig `config` describes would record, read from the rig file and the profile directory only
+    /// (no device is opened): the camera's pixel format and frame rate, `[recording] store` with
+    /// the disc of the sensor's calibration profile (on the simulated bench without one, of its
+    /// design geometry, as a scan would), and [`camera_frame`].
+    pub fn from_rig_files(
+        config: &RigConfig,
+        plan: Option<&Plan>,
+    ) -> Result<Recording, RecordingError> {
         let camera = config.camera_settings()?;
         let sensor_id = config.sensor_id()?;
         let profile = profile_on_file(config, &sensor_id);
-        let cutout = match config.stored_part()? {
+        let cutout = match config.stored_part(plan)? {
             StoredPart::Frame => None,
             StoredPart::Disc { margin_px } => Some(disc_cutout(
                 profile.as_ref(),
@@ -275,7 +281,7 @@ fn planned_run(
             let mut advice = "free space there, write the run on another disk (--out DIR; --runs DIR of fringe calibrate), or run a smaller plan".to_string();
             if may_store_disc && setup.cutout.is_none() {
                 advice.push_str(
-                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file)",
+                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file or the plan)",
                 );
             }
             Some(PlannedRun {
@@ -393,7 +399,7 @@ mod tests {
     #[test]
     fn the_simulated_bench_records_its_whole_bayer_frames_and_says_so() {
         let rig = RigConfig::simulated();
-        let recording = Recording::from_rig_files(&rig).expect("recording");
+        let recording = Recording::from_rig_files(&rig, None).expect("recording");
         assert_eq!(recording.storage.pixel_format, PixelFormat::BayerRg8);
         assert_eq!(recording.storage.cutout, None);
         assert_eq!(recording.frame, REFERENCE_FRAME);
@@ -405,7 +411,7 @@ mod tests {
             "{text}"
         );
         let disc = RigConfig::parse("[recording]\nstore = \"disc\"\n", "rig.toml").expect("rig");
-        let square = Recording::from_rig_files(&disc).expect("disc recording");
+        let square = Recording::from_rig_files(&disc, None).expect("disc recording");
         assert!(square.storage.cutout.is_some());
         let minute = RecordingTime::filming_throughout(Duration::from_secs(60));
         assert!(square.expected(minute).total_bytes() < size.total_bytes());

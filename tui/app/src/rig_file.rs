@@ -14,6 +14,8 @@
 use fringe_rig::apt::Actuator;
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
+use fringe_rig::scan::plan::Plan;
+use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{
     Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared,
@@ -257,26 +259,6 @@ pub struct RigFile {
     pub sim: SimSection,
 }
 
-/// What a scan stores of each frame.
-#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
-#[serde(deny_unknown_fields, default)]
-pub struct RecordingSection {
-    /// `frame` (default): whole frames; `disc`: only the square around the sensor's disc (from
-    /// its calibration profile), widened by `disc_margin_px`. Calibration scans always store
-    /// whole frames.
-    pub store: Option<String>,
-    /// Margin around the disc, px (default 40): room for the disc to move a little in the image
-    /// (a knocked camera) before the profile is redone.
-    pub disc_margin_px: Option<f64>,
-}
-
-/// The part of each frame a scan stores (`[recording] store`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum StoredPart {
-    Frame,
-    Disc { margin_px: f64 },
-}
-
 /// Where the rig configuration came from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RigSource {
@@ -376,7 +358,7 @@ impl RigConfig {
         // Camera and recording keys are checked here, before a dry run or any homing, not when
         // the camera opens.
         config.camera_settings()?;
-        config.stored_part()?;
+        config.stored_part(None)?;
         Ok(config)
     }
 
@@ -423,25 +405,16 @@ impl RigConfig {
             .unwrap_or_else(|| PathBuf::from("profiles"))
     }
 
-    /// The part of each frame scans store, from [recording].
-    pub fn stored_part(&self) -> Result<StoredPart, ConfigError> {
-        let r = &self.file.recording;
-        let margin_px = r
-            .disc_margin_px
-            .unwrap_or(fringe_rig::store::frame_file::DISC_MARGIN_PX);
-        if !(margin_px.is_finite() && (0.0..=1000.0).contains(&margin_px)) {
-            return Err(self.err(format!(
-                "key `recording.disc_margin_px` = {margin_px}: use a margin from 0 to 1000 px"
-            )));
+    /// The part of each frame a scan of `plan` stores: the plan's `[recording]` keys over
+    /// the rig file's (`None`: the rig file's alone). A plan's keys were checked when it was
+    /// expanded; an error names the rig file's key.
+    pub fn stored_part(&self, plan: Option<&Plan>) -> Result<StoredPart, ConfigError> {
+        let rig = &self.file.recording;
+        match plan.and_then(|p| p.recording.as_ref()) {
+            Some(over) => over.over(rig).stored_part(),
+            None => rig.stored_part(),
         }
-        match r.store.as_deref() {
-            None | Some("frame") => Ok(StoredPart::Frame),
-            Some("disc") => Ok(StoredPart::Disc { margin_px }),
-            Some(other) => Err(self.err(format!(
-                "key `recording.store` = {other:?}: use \"frame\" (whole frames) or \"disc\" \
-                 (the square around the sensor's disc)"
-            ))),
-        }
+        .map_err(|m| self.err(m))
     }
 
     /// Camera settings from [camera].
@@ -689,7 +662,7 @@ mod tests {
     fn recording_keys_are_checked_when_the_file_is_read() {
         let disc = RigConfig::parse("[recording]\nstore = \"disc\"\n", "rig.toml").expect("disc");
         assert_eq!(
-            disc.stored_part().expect("stored part"),
+            disc.stored_part(None).expect("stored part"),
             StoredPart::Disc {
                 margin_px: fringe_rig::store::frame_file::DISC_MARGIN_PX
             }
@@ -716,7 +689,7 @@ mod tests {
             sim.camera_settings().expect("camera").pixel_format,
             PixelFormat::BayerRg8
         );
-        assert_eq!(sim.stored_part().expect("recording"), StoredPart::Frame);
+        assert_eq!(sim.stored_part(None).expect("recording"), StoredPart::Frame);
         assert_eq!(sim.sync().expect("sync"), SyncMethod::Strobe);
         let l = sim.limits().expect("limits");
         assert_eq!(l.x.max, Millimetres(25.0));

@@ -7,7 +7,7 @@ use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
 use crate::live_validation::{FrameSource, LiveValidation};
 use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_error::RigError;
-use crate::rig_file::{RigConfig, StoredPart};
+use crate::rig_file::RigConfig;
 #[cfg(feature = "sim")]
 use crate::sim_bench::{score_run, SimBench};
 use crate::truth_score::TruthScore;
@@ -31,6 +31,7 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::ProfileRef;
+use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::backend::Backend;
@@ -157,7 +158,12 @@ impl ScanSession {
         let (seed, sidecars) = sim_record(rig.sim.as_ref());
         #[cfg(not(feature = "sim"))]
         let (seed, sidecars): (Option<u64>, Vec<Arc<dyn RunSidecar>>) = (None, Vec::new());
-        let cutout = match (config.stored_part().map_err(RigError::from)?, profile_use) {
+        let cutout = match (
+            config
+                .stored_part(Some(&program.plan))
+                .map_err(RigError::from)?,
+            profile_use,
+        ) {
             (StoredPart::Frame, _) | (_, ProfileUse::Ignore) => None,
             (StoredPart::Disc { margin_px }, ProfileUse::Consume) => Some(disc_cutout(
                 profile.as_ref(),

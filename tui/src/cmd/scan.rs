@@ -284,7 +284,7 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
 /// rig file and the profile directory only (the devices stay closed); says so when the scan
 /// would be refused.
 fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, out: &Path) {
-    let recording = match Recording::from_rig_files(config) {
+    let recording = match Recording::from_rig_files(config, Some(&program.plan)) {
         Ok(r) => r,
         Err(e) => {
             println!("expected on disk: cannot be estimated: {e}");
@@ -303,7 +303,7 @@ fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, o
             let need = needed_bytes(size.total_bytes());
             if need > free {
                 let disc = if recording.storage.cutout.is_none() {
-                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file)"
+                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file or the plan)"
                 } else {
                     ""
                 };

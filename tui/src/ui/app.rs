@@ -15,6 +15,7 @@ use fringe_rig::scan::control::Reply;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
+use fringe_rig::store::run_size::bytes_on_disk;
 use std::path::{Path, PathBuf};
 
 /// How the UI starts.
@@ -36,8 +37,6 @@ pub struct App {
     pub opts: UiOptions,
     program: ScanProgram,
     limits: BenchLimits,
-    /// How a scan of the rig records, for the plan's expected size.
-    recording: Option<Recording>,
     /// The plans `l` offers.
     plans: Vec<PlanSource>,
     running: Option<Running>,
@@ -51,7 +50,7 @@ impl App {
         let origin = opts.config.origin().ok();
         // From the rig file and the profiles only; the Scan screen leaves the size out when
         // they cannot tell it (a scan then says why).
-        let recording = Recording::from_rig_files(&opts.config).ok();
+        let recording = Recording::from_rig_files(&opts.config, Some(&program.plan)).ok();
         let scan = plan_choice::scan_view(
             program,
             limits,
@@ -96,7 +95,6 @@ impl App {
             state,
             program: program.clone(),
             limits: limits.clone(),
-            recording,
             plans,
             opts,
             running: None,
@@ -300,11 +298,13 @@ impl App {
         match plan_choice::load(&src, &self.limits) {
             Ok(program) => {
                 let old = &self.state.scan;
+                let recording =
+                    Recording::from_rig_files(&self.opts.config, Some(&program.plan)).ok();
                 let mut view = plan_choice::scan_view(
                     &program,
                     &self.limits,
                     old.origin_mm,
-                    self.recording.as_ref(),
+                    recording.as_ref(),
                 );
                 view.disc_radius_mm = old.disc_radius_mm;
                 view.log = old.log.clone();
@@ -365,6 +365,7 @@ impl App {
                         },
                     },
                     frames: r.frames as usize,
+                    bytes: bytes_on_disk(&r.dir).ok(),
                     verified: None,
                     evaluated: None,
                     exported: None,

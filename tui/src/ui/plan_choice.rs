@@ -182,7 +182,7 @@ mod tests {
 
         let limits = limits();
         let program = load(&plans[4], &limits).expect("the wide plan loads");
-        let recording = Recording::from_rig_files(&fringe_app::RigConfig::simulated())
+        let recording = Recording::from_rig_files(&fringe_app::RigConfig::simulated(), None)
             .expect("the simulated bench's recording");
         let view = scan_view(&program, &limits, (12.5, 25.0), Some(&recording));
         assert_eq!(view.plan, "wide");

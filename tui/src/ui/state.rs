@@ -89,6 +89,8 @@ pub struct RunRow {
     /// completed, aborted, failed or unfinished.
     pub status: String,
     pub frames: usize,
+    /// Bytes the run takes on disk (`None`: it could not be read).
+    pub bytes: Option<u64>,
     /// The verdict of the last verification, if the user asked for one.
     pub verified: Option<String>,
     /// The model's figures on this run (or the evaluation's progress), if the user asked.

@@ -11,6 +11,7 @@ use crate::ui::state::{RunRow, RunsView, Tab};
 use crate::ui::widgets::{panel, BAD, GOOD, WARN};
 use crate::ui::workers::{self, Verdict};
 use crossbeam_channel::{unbounded, Receiver, Sender};
+use fringe_rig::store::disk_space::human;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::{Modifier, Style};
@@ -204,6 +205,7 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
             Constraint::Length(run_width),
             Constraint::Length(11),
             Constraint::Length(8),
+            Constraint::Length(8),
             Constraint::Min(20),
             Constraint::Length(44),
             Constraint::Length(36),
@@ -214,6 +216,7 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
             "run",
             "status",
             "frames",
+            "size",
             "verified",
             "evaluation",
             "export",
@@ -226,7 +229,7 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
     f.render_stateful_widget(table, area, &mut state);
 }
 
-/// One run: its id, status, frames, and what verification, evaluation and export said.
+/// One run: its id, status, frames, size on disk, and what verification, evaluation and export said.
 fn run_row(r: &RunRow) -> Row<'static> {
     let status = match r.status.as_str() {
         "completed" => Style::new().fg(GOOD),
@@ -256,6 +259,7 @@ fn run_row(r: &RunRow) -> Row<'static> {
         Cell::from(r.name.clone()),
         Cell::from(r.status.clone()).style(status),
         Cell::from(r.frames.to_string()),
+        Cell::from(r.bytes.map_or_else(|| "?".to_string(), human)),
         verified,
         evaluated,
         exported,

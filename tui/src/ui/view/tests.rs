@@ -413,6 +413,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             name: "20261125-083000-short-grid".into(),
             status: "completed".into(),
             frames: 2310,
+            bytes: Some(2_470_000_000),
             verified: Some("ok: 2310 frames, 115500 force samples".into()),
             evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
             exported: Some("exported 2310 images to exports/20261125-083000-short-grid".into()),
@@ -421,6 +422,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             name: "20261124-170000-short-grid".into(),
             status: "aborted".into(),
             frames: 120,
+            bytes: Some(131_500_000),
             verified: Some("1 problem(s): frames.jsonl: line 121 truncated".into()),
             evaluated: Some("cannot evaluate: frames.jsonl: line 121".into()),
             exported: Some("cannot export: it fails verify".into()),
@@ -429,6 +431,7 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
             name: "20261124-160000-wide".into(),
             status: "unfinished".into(),
             frames: 5,
+            bytes: None,
             verified: None,
             evaluated: Some("evaluating: 300 of 1672 frames".into()),
             exported: None,
@@ -449,6 +452,8 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
     let (x, y) = find(b, "cannot evaluate").expect("evaluation error");
     assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "Fz 0.465 N").is_some(), "evaluation figures");
+    assert!(find(b, "2.5 GB").is_some(), "the run's size on disk");
+    assert!(find(b, "132 MB").is_some(), "the aborted run's size");
     assert!(
         find(b, "e evaluate with builtin:layered").is_some(),
         "which model e uses"
@@ -603,6 +608,7 @@ fn every_screen_draws_at_any_terminal_size() {
         name: "r".into(),
         status: "failed".into(),
         frames: 0,
+        bytes: Some(4096),
         verified: None,
         evaluated: Some("Fz 0.465 N · contact 0.97 mm · shape 99.9 %".into()),
         exported: Some("exporting: 250 images".into()),
