@@ -206,9 +206,10 @@ fn draw(f: &mut Frame, area: Rect, v: &RunsView) {
             Constraint::Length(11),
             Constraint::Length(8),
             Constraint::Length(8),
-            Constraint::Min(20),
+            // Verification and export give way first: the run id stays whole.
+            Constraint::Fill(1),
             Constraint::Length(44),
-            Constraint::Length(36),
+            Constraint::Fill(1),
         ],
     )
     .header(

@@ -460,6 +460,18 @@ fn runs_screen_lists_runs_with_status_and_verdict() {
     );
     let (x, y) = find(b, "exported 2310 images").expect("export outcome");
     assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    // At the UI tests' 160 columns a run id as long as the scans write stays whole.
+    s.runs.rows[0].name = "model-check-2026-11-27T23-28-31-919Z".into();
+    let narrow = render(&s, 160, 12);
+    assert!(
+        find(
+            narrow.backend().buffer(),
+            "model-check-2026-11-27T23-28-31-919Z"
+        )
+        .is_some(),
+        "{}",
+        narrow.backend()
+    );
     let (x, y) = find(b, "cannot export").expect("export error");
     assert_eq!(b[(x, y)].fg, widgets::BAD);
 }
