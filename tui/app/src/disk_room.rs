@@ -79,6 +79,11 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
     REFERENCE_FRAME
 }
 
+/// What a refusal for want of disk space adds when the scan stores whole frames but could store
+/// only the disc's square.
+pub const STORE_DISC_ADVICE: &str = ", or store only the square around the sensor's disc \
+     ([recording] store = \"disc\" in the rig file or the plan)";
+
 /// How a scan records its frames: all its expected size needs besides its duration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Recording {
@@ -280,9 +285,7 @@ fn planned_run(
             let size = recording.expected(setup.program.estimate(&setup.limits).recording_time());
             let mut advice = "free space there, write the run on another disk (--out DIR; --runs DIR of fringe calibrate), or run a smaller plan".to_string();
             if may_store_disc && setup.cutout.is_none() {
-                advice.push_str(
-                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file or the plan)",
-                );
+                advice.push_str(STORE_DISC_ADVICE);
             }
             Some(PlannedRun {
                 dir: root.clone(),

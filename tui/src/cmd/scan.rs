@@ -7,7 +7,7 @@ use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
 use crate::global::Global;
 use anyhow::bail;
-use fringe_app::disk_room::{free_bytes, needed_bytes, Recording};
+use fringe_app::disk_room::{free_bytes, needed_bytes, Recording, STORE_DISC_ADVICE};
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
@@ -303,7 +303,7 @@ fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, o
             let need = needed_bytes(size.total_bytes());
             if need > free {
                 let disc = if recording.storage.cutout.is_none() {
-                    ", or store only the square around the sensor's disc ([recording] store = \"disc\" in the rig file or the plan)"
+                    STORE_DISC_ADVICE
                 } else {
                     ""
                 };
