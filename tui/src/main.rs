@@ -2,6 +2,7 @@
 
 mod clock_text;
 mod cmd;
+mod commissioning;
 mod global;
 mod hint;
 mod signals;

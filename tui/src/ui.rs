@@ -20,6 +20,7 @@
 mod app;
 mod binding;
 mod calibration;
+mod commission;
 mod event_loop;
 mod health;
 mod keys;

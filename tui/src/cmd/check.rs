@@ -6,10 +6,10 @@
 
 mod history_view;
 
-use crate::cmd::commission::session::estimate_s;
 use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::model::open_model;
 use crate::cmd::scan::execute;
+use crate::commissioning::session::estimate_s;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::commission::certificate::{commissioned_model, Commissioned, PROFILE};

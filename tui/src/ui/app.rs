@@ -3,6 +3,7 @@
 //! choose from. Screens and the global keys call these; nothing here knows the screens.
 
 use super::calibration;
+use super::commission;
 use super::health;
 use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
@@ -12,6 +13,7 @@ use fringe_app::bench_session::{BenchCommand, BenchPhase, BenchSession};
 use fringe_app::disk_room::Recording;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::control::Reply;
+use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
 use fringe_rig::store::run_list::list;
@@ -86,6 +88,7 @@ impl App {
             },
             bench: BenchView::default(),
             calibrate: calibration::ready_view(&opts.config),
+            commission: commission::ready_view(&opts.config),
             health: health::view(&opts.config),
             dialog: None,
             picker: None,
@@ -167,13 +170,27 @@ impl App {
         );
     }
 
-    /// Starts `program` on the scan thread (stopping any scan and closing the bench first).
+    /// Starts `program` on the scan thread as a new run in the runs folder (stopping any scan
+    /// and closing the bench first).
     pub fn start_program(
         &mut self,
         program: ScanProgram,
         plan_text: String,
         model: Option<ModelChoice>,
         profile: ProfileUse,
+    ) {
+        self.start_program_into(program, plan_text, model, profile, None);
+    }
+
+    /// Starts `program` on the scan thread into `target` (a new run in the runs folder when
+    /// `None`), stopping any scan and closing the bench first.
+    pub fn start_program_into(
+        &mut self,
+        program: ScanProgram,
+        plan_text: String,
+        model: Option<ModelChoice>,
+        profile: ProfileUse,
+        target: Option<RunTarget>,
     ) {
         self.stop_scan(false);
         self.close_bench();
@@ -192,6 +209,7 @@ impl App {
             runs: self.opts.runs.clone(),
             model,
             profile,
+            target,
         }));
     }
 
@@ -244,6 +262,18 @@ impl App {
             if matches!(&self.state.scan.phase, Phase::Stopping(what) if what.starts_with("pausing"))
             {
                 self.state.scan.phase = Phase::Running;
+            }
+        }
+    }
+
+    /// Stops a running scan as Ctrl-C stops `fringe scan`: z retracts and the run is closed
+    /// resumable.
+    pub fn interrupt(&mut self) {
+        if let Some(r) = &self.running {
+            if self.scan_active() {
+                r.control.interrupt();
+                self.state.scan.phase =
+                    Phase::Stopping("stopping: z retracts, the run is closed resumable".into());
             }
         }
     }

@@ -243,8 +243,8 @@ mod tests {
             help_rows().into_iter().map(|r| (r.keys, r.what)).collect();
         let expected = [
             (
-                "1-6 / Tab",
-                "Scan, Validate, Runs, Bench, Calibrate, Health screens",
+                "1-7 / Tab",
+                "Scan, Validate, Runs, Bench, Calibrate, Commission, Health screens",
             ),
             ("l", "choose the scan plan (built in, ./plans/*.toml)"),
             ("r", "run the scan plan (with live validation on Validate)"),
@@ -276,6 +276,18 @@ mod tests {
             (
                 "w (Calibrate)",
                 "write the fitted profile (profiles/<sensor>.toml)",
+            ),
+            (
+                "r (Commission)",
+                "commission the sensor: calibrate, press, adapt, accept",
+            ),
+            (
+                "c (Commission)",
+                "go on with the newest unfinished commissioning",
+            ),
+            (
+                "s (Commission)",
+                "stop commissioning; its scan closes resumable",
             ),
             (
                 "Up / Down (Health)",

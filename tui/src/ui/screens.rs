@@ -3,6 +3,7 @@
 
 mod bench;
 mod calibrate;
+mod commission;
 mod health;
 mod runs;
 mod scan;
@@ -17,6 +18,7 @@ pub const ALL: &[ScreenDef] = &[
     runs::SCREEN,
     bench::SCREEN,
     calibrate::SCREEN,
+    commission::SCREEN,
     health::SCREEN,
 ];
 
@@ -37,6 +39,7 @@ mod tests {
             Tab::Runs,
             Tab::Bench,
             Tab::Calibrate,
+            Tab::Commission,
             Tab::Health,
         ] {
             assert_eq!(ALL.iter().filter(|s| s.tab == tab).count(), 1, "{tab:?}");

@@ -132,6 +132,8 @@ pub struct ScanRequest {
     pub model: Option<ModelChoice>,
     /// Whether the scan reads the sensor's calibration profile (a calibration scan does not).
     pub profile: ProfileUse,
+    /// Where the run goes: a new run in `runs` when `None`.
+    pub target: Option<RunTarget>,
 }
 
 /// Starts the scan thread.
@@ -175,7 +177,17 @@ fn run(
     view: &Mutex<Option<LiveView>>,
     validation: &Mutex<Option<LiveValidation>>,
 ) -> Result<(), String> {
-    let run_id = new_run_id(&req.program.plan.name);
+    let target = req.target.unwrap_or_else(|| RunTarget::New {
+        root: req.runs,
+        run_id: new_run_id(&req.program.plan.name),
+    });
+    let run_id = match &target {
+        RunTarget::New { run_id, .. } => run_id.clone(),
+        RunTarget::Resume { dir } => dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+    };
     let mut session = ScanSession::open(
         &req.config,
         req.program,
@@ -202,20 +214,12 @@ fn run(
     };
     let progress_events = Mutex::new(events.clone());
     let end = session
-        .run(
-            RunTarget::New {
-                root: req.runs,
-                run_id,
-            },
-            control,
-            &mut operator,
-            &|p| {
-                let _ = progress_events
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .send(Event::Progress(p));
-            },
-        )
+        .run(target, control, &mut operator, &|p| {
+            let _ = progress_events
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .send(Event::Progress(p));
+        })
         .map_err(hint::describe)?;
     let o = &end.outcome;
     let _ = events.send(Event::Ended {

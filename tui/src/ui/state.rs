@@ -18,6 +18,7 @@ pub enum Tab {
     Runs,
     Bench,
     Calibrate,
+    Commission,
     Health,
 }
 
@@ -207,6 +208,53 @@ pub struct HealthView {
     pub selected: usize,
 }
 
+/// Where the Commission screen's commissioning is.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum CommissionPhase {
+    /// Nothing started from this screen yet.
+    #[default]
+    Ready,
+    /// Under way: the step, in words.
+    Running(String),
+    /// Asked to stop; the scan closes its run resumable.
+    Stopping,
+    /// The verdict: passed or not, and the certificate.
+    Verdict { pass: bool, summary: String },
+    /// Stopped before its verdict (an error, a stopped scan): why, and how to go on.
+    Stopped(String),
+}
+
+/// The Commission screen: a unit taken from first light to its verdict (`fringe commission`).
+#[derive(Debug, Clone, Default)]
+pub struct CommissionView {
+    pub sensor: String,
+    /// What `r` starts (base, budget, spec), in words.
+    pub plan: String,
+    pub phase: CommissionPhase,
+    /// The commissioning's directory, once it has one.
+    pub dir: Option<String>,
+    /// The newest unfinished commissioning of the unit, which `c` goes on with.
+    pub resumable: Option<String>,
+    /// What the commissioning said, newest last.
+    pub log: VecDeque<String>,
+    /// The computation under way (features, evaluation), as a line.
+    pub progress: Option<String>,
+    /// The spec's thresholds: Fz RMSE (N), contact RMSE (mm), shape accuracy (share).
+    pub thresholds: (Option<f64>, Option<f64>, Option<f64>),
+    pub curve: Vec<fringe_app::commission::certificate::CurvePoint>,
+    pub pressed: Vec<fringe_app::commission::press_choice::PressedPoint>,
+    pub disc: Option<fringe_app::commission::press_choice::UsableDisc>,
+}
+
+impl CommissionView {
+    pub fn log(&mut self, line: impl Into<String>) {
+        if self.log.len() == LOG_LINES {
+            self.log.pop_front();
+        }
+        self.log.push_back(line.into());
+    }
+}
+
 /// A question the scan asks, shown over every screen until answered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dialog {
@@ -235,6 +283,7 @@ pub struct UiState {
     pub runs: RunsView,
     pub bench: BenchView,
     pub calibrate: CalibrateView,
+    pub commission: CommissionView,
     pub health: HealthView,
     pub dialog: Option<Dialog>,
     pub picker: Option<Picker>,

@@ -26,8 +26,13 @@ pub fn draw(f: &mut Frame, s: &UiState) {
         .collect();
     let selected = screens::index(s.tab);
     let screen = &screens::ALL[selected];
-    let [tabs_area, rig_area] =
-        Layout::horizontal([Constraint::Length(67), Constraint::Min(0)]).areas(top);
+    // Each title padded by a space either side, one divider between two, then a gap.
+    let tabs_width = titles.iter().map(|t| t.width() + 3).sum::<usize>() + 1;
+    let [tabs_area, rig_area] = Layout::horizontal([
+        Constraint::Length(u16::try_from(tabs_width).unwrap_or(u16::MAX)),
+        Constraint::Min(0),
+    ])
+    .areas(top);
     f.render_widget(
         Tabs::new(titles).select(selected).highlight_style(
             Style::new()

@@ -166,17 +166,9 @@ pub fn directory_name(sensor: &str, utc: &str) -> String {
     format!("{sensor}.commission-{stamp}")
 }
 
-/// A unit's commissioned model: the newest passing certificate's.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Commissioned {
-    pub dir: PathBuf,
-    pub model: PathBuf,
-    pub certificate: Certificate,
-}
-
-/// The newest commissioning of `sensor` under `profiles` whose certificate passed (newer formats
-/// and damaged certificates are passed over, and named in the notes).
-pub fn commissioned_model(profiles: &Path, sensor: &str) -> (Option<Commissioned>, Vec<String>) {
+/// The commissioning directories of `sensor` under `profiles`, oldest first (none when the
+/// folder cannot be read).
+pub fn commissionings(profiles: &Path, sensor: &str) -> Vec<PathBuf> {
     let prefix = format!("{sensor}.commission-");
     let mut dirs: Vec<PathBuf> = match std::fs::read_dir(profiles) {
         Ok(entries) => entries
@@ -188,9 +180,33 @@ pub fn commissioned_model(profiles: &Path, sensor: &str) -> (Option<Commissioned
                         .is_some_and(|n| n.starts_with(&prefix))
             })
             .collect(),
-        Err(_) => return (None, Vec::new()),
+        Err(_) => return Vec::new(),
     };
     dirs.sort();
+    dirs
+}
+
+/// The newest commissioning of `sensor` under `profiles` that has not reached its verdict (a
+/// journal, no certificate): the one to go on with.
+pub fn unfinished(profiles: &Path, sensor: &str) -> Option<PathBuf> {
+    commissionings(profiles, sensor)
+        .into_iter()
+        .rev()
+        .find(|d| d.join(super::journal::JOURNAL).is_file() && !d.join(CERTIFICATE).is_file())
+}
+
+/// A unit's commissioned model: the newest passing certificate's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Commissioned {
+    pub dir: PathBuf,
+    pub model: PathBuf,
+    pub certificate: Certificate,
+}
+
+/// The newest commissioning of `sensor` under `profiles` whose certificate passed (newer formats
+/// and damaged certificates are passed over, and named in the notes).
+pub fn commissioned_model(profiles: &Path, sensor: &str) -> (Option<Commissioned>, Vec<String>) {
+    let dirs = commissionings(profiles, sensor);
     let mut notes = Vec::new();
     for dir in dirs.into_iter().rev() {
         if !dir.join(CERTIFICATE).is_file() {

@@ -4,8 +4,8 @@
 use super::draw;
 use crate::ui::keys;
 use crate::ui::state::{
-    BenchView, CalibrateView, CalibrationPhase, Dialog, HealthView, Phase, Picker, PlanPoint,
-    PressRow, RunRow, RunsView, ScanView, Tab, UiState,
+    BenchView, CalibrateView, CalibrationPhase, CommissionPhase, CommissionView, Dialog,
+    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, Tab, UiState,
 };
 use crate::ui::widgets;
 use fringe_app::bench_session::{
@@ -112,6 +112,7 @@ fn ready() -> UiState {
             offsets: Vec::new(),
             picture: None,
         },
+        commission: CommissionView::default(),
         health: HealthView::default(),
         dialog: None,
         picker: None,
@@ -556,6 +557,106 @@ fn calibrated() -> UiState {
     s
 }
 
+/// A commissioning of `layered-3` in its third round: two rounds scored, presses on the map.
+fn commissioning() -> UiState {
+    use fringe_app::commission::certificate::CurvePoint;
+    use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
+    let mut s = ready();
+    s.tab = Tab::Commission;
+    s.scan.phase = Phase::Running;
+    s.scan.done = 4;
+    s.scan.total = 12;
+    let point = |round, before, fz, contact, shape| CurvePoint {
+        round,
+        presses_before: before,
+        fz_rmse_n: fz,
+        contact_rmse_mm: contact,
+        shape_accuracy: shape,
+        frames: 1108,
+    };
+    let press = |x, y, error| PressedPoint {
+        stage_mm: [x, y],
+        error,
+    };
+    let mut log = VecDeque::new();
+    log.push_back("round 2: 1116 frames of 12 presses, unseen by the model adapted on 12 presses: Fz RMSE 0.262 N, contact RMSE 1.41 mm, shape accuracy 99.6 %".to_string());
+    log.push_back(
+        "round 3: 6 positions x 2 indenters, about 220 s of bench time (309 s of 600 s spent)"
+            .to_string(),
+    );
+    s.commission = CommissionView {
+        sensor: "layered-3".into(),
+        plan: String::new(),
+        phase: CommissionPhase::Running("round 3: 6 positions x 2 indenters".into()),
+        dir: Some("profiles/layered-3.commission-2026-11-28T01-29-27-699Z".into()),
+        resumable: None,
+        log,
+        progress: None,
+        thresholds: (Some(0.49), Some(1.47), Some(0.953)),
+        curve: vec![
+            point(1, 0, 2.274, 2.18, 0.970),
+            point(2, 12, 0.262, 1.41, 0.996),
+        ],
+        pressed: vec![
+            press(12.5, 25.0, 0.6),
+            press(18.0, 25.0, 1.6),
+            press(7.0, 25.0, 3.1),
+            press(12.5, 31.0, 0.9),
+        ],
+        disc: Some(UsableDisc {
+            centre_mm: [12.5, 25.0],
+            reach_mm: 8.0,
+        }),
+    };
+    s
+}
+
+#[test]
+fn commission_shows_the_learning_curve_against_the_spec_and_the_error_map() {
+    let s = commissioning();
+    let t = render(&s, 150, 30);
+    insta::assert_snapshot!("commission", t.backend());
+    let b = t.backend().buffer();
+    assert!(find(b, "round 3: 6 positions").is_some(), "the step");
+    assert!(find(b, "round 3: 6 positions x 2 indenters · point 5 of 12").is_some());
+    // Round 1's force and contact are over the spec, round 2's force within and contact within.
+    let (x, y) = find(b, "2.274").expect("round 1's force");
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
+    let (x, y) = find(b, "0.262").expect("round 2's force");
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    let (x, y) = find(b, "1.41").expect("round 2's contact");
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    let (x, y) = find(b, "97.0").expect("round 1's shapes");
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    assert!(
+        find(b, "< 0.49").is_some() && find(b, "> 95.3").is_some(),
+        "the spec row"
+    );
+    // The map: one press of each colour.
+    for colour in [widgets::GOOD, widgets::WARN, widgets::BAD] {
+        assert!(
+            b.content()
+                .iter()
+                .any(|c| c.symbol() == "●" && c.fg == colour),
+            "a press drawn in {colour:?}"
+        );
+    }
+    assert!(find(b, "s stop (resumable)").is_some(), "the footer says s");
+
+    let mut failed = commissioning();
+    failed.scan.phase = Phase::Ready;
+    failed.commission.phase = CommissionPhase::Verdict {
+        pass: false,
+        summary: "sensor layered-3 fails the paper's row: contact RMSE 1.84 mm over 1.47".into(),
+    };
+    failed.commission.resumable = Some("profiles/layered-3.commission-x".into());
+    let t = render(&failed, 150, 30);
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "FAIL: sensor layered-3").expect("the verdict");
+    assert_eq!(b[(x, y)].fg, widgets::BAD);
+    assert!(find(b, "c go on with the unfinished one").is_some());
+}
+
 #[test]
 fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
     let s = calibrated();
@@ -598,7 +699,7 @@ fn help_lists_every_key() {
     let t = render(&s, 100, 30);
     let b = t.backend().buffer();
     let rows = keys::help_rows();
-    assert_eq!(rows.len(), 25, "{rows:?}");
+    assert_eq!(rows.len(), 28, "{rows:?}");
     for row in rows {
         let line = format!("{} ", row.keys);
         assert!(find(b, &line).is_some(), "help names {}", row.keys);
@@ -613,7 +714,14 @@ fn help_lists_every_key() {
 
 #[test]
 fn every_screen_draws_at_any_terminal_size() {
-    let mut states = vec![ready(), running(), validating(), on_bench(), calibrated()];
+    let mut states = vec![
+        ready(),
+        running(),
+        validating(),
+        on_bench(),
+        calibrated(),
+        commissioning(),
+    ];
     let mut runs = ready();
     runs.tab = Tab::Runs;
     runs.runs.rows.push(RunRow {

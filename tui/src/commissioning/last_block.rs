@@ -2,7 +2,6 @@
 //! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
 
 use super::session::Commissioning;
-use crate::cmd::frames_progress::FramesProgress;
 use anyhow::Result;
 use fringe_sensor_models::adapt::last_block::{
     train_last_block, BlockConfig, BlockFit, BlockInputs,
@@ -32,14 +31,14 @@ pub(crate) fn train(
         .iter()
         .map(|r| dataset::read(r))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut progress = FramesProgress::new("reading the last block's inputs");
-    let Some(data) =
-        BlockInputs::read(base, &sources, c.threads, EVERY, |d, t| progress.show(d, t))?
+    let threads = c.threads;
+    let host = &mut *c.host;
+    let Some(data) = BlockInputs::read(base, &sources, threads, EVERY, |d, t| {
+        host.frames("reading the last block's inputs", d, t)
+    })?
     else {
-        progress.finish();
         return Ok(None);
     };
-    progress.finish();
     let seed = c.journal.options.seed;
     let samples: Vec<_> = sources
         .iter()
@@ -56,19 +55,24 @@ pub(crate) fn train(
         seed,
         threads: c.threads,
     };
-    println!(
+    c.say(format!(
         "step 3: training the last block with the heads on {} frames ({} presses held out), {} epochs",
         data.len(),
         held_out.len(),
         config.epochs
-    );
+    ));
+    let host = &mut *c.host;
     let fit = train_last_block(
         base_weights,
         &data,
         &held_out,
         &config,
         |f| Ok(fit_heads(base_weights, f, &heads)?.weights),
-        |epoch, units| println!("  epoch {epoch}: held-out error {units:.3} of the spec"),
+        |epoch, units| {
+            host.say(format!(
+                "  epoch {epoch}: held-out error {units:.3} of the spec"
+            ))
+        },
     )?;
     c.compute_s += started.elapsed().as_secs_f64();
     let show = |h: &fringe_sensor_models::adapt::last_block::HeldOut| {
@@ -79,18 +83,18 @@ pub(crate) fn train(
             100.0 * h.shape_accuracy
         )
     };
-    println!(
+    c.say(format!(
         "  on the held-out presses: heads alone {}",
         show(&fit.heads_only)
-    );
+    ));
     if fit.epoch > 0 {
-        println!(
+        c.say(format!(
             "  last block, epoch {}: {} (kept)",
             fit.epoch,
             show(&fit.kept)
-        );
+        ));
     } else {
-        println!("  the last block did no better on them: the heads alone are kept");
+        c.say("  the last block did no better on them: the heads alone are kept".into());
     }
     Ok(Some(fit))
 }

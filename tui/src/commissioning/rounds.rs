@@ -3,7 +3,6 @@
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
 use super::session::{estimate_s, scan, Commissioning};
-use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::model::open_model;
 use anyhow::{bail, Result};
 use fringe_app::commission::certificate::CurvePoint;
@@ -102,14 +101,14 @@ pub(crate) fn adapt(
     let disc = UsableDisc::from_profile(profile)?;
     let sensor = c.journal.options.sensor.clone();
     let candidates = disc.lattice(LATTICE_MM, 0.0, &limits, &sensor)?;
-    println!(
+    c.say(format!(
         "step 2: presses over the usable disc ({:.1} mm about stage ({:.2}, {:.2}) mm, {} candidate positions), budget {} min of bench time",
         disc.reach_mm,
         disc.centre_mm[0],
         disc.centre_mm[1],
         candidates.len(),
         c.journal.options.budget_min
-    );
+    ));
     let mut state = Rounds {
         centre: disc.centre_mm,
         features: Features::empty(),
@@ -135,6 +134,7 @@ pub(crate) fn adapt(
         }
         c.journal.write(&c.dir)?;
         state.learn(c, base, base_weights, &run_dir, round)?;
+        c.host.learnt(&state.curve, &state.pressed, &disc);
         round += 1;
     }
     let Some(adapted) = state.adapted else {
@@ -185,10 +185,11 @@ impl Rounds {
     ) -> Result<()> {
         let started = Instant::now();
         let source = dataset::read(run_dir)?;
-        let mut progress = FramesProgress::new("reading the round's features");
-        let features =
-            Features::read(base, &[source], None, c.threads, |d, t| progress.show(d, t))?;
-        progress.finish();
+        let threads = c.threads;
+        let host = &mut *c.host;
+        let features = Features::read(base, &[source], None, threads, |d, t| {
+            host.frames("reading the round's features", d, t)
+        })?;
         let scores = head_scores(&self.weights, &features)?;
         let errors = round_errors(
             round + 1,
@@ -198,7 +199,7 @@ impl Rounds {
             &c.spec,
         );
         let p = &errors.curve;
-        println!(
+        c.say(format!(
             "round {}: {} frames of {} presses, unseen by the model adapted on {} presses: Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %",
             p.round,
             p.frames,
@@ -207,7 +208,7 @@ impl Rounds {
             p.fz_rmse_n,
             p.contact_rmse_mm,
             100.0 * p.shape_accuracy
-        );
+        ));
         self.curve.push(errors.curve);
         self.pressed.extend(errors.presses);
         self.features.append(features)?;
@@ -239,11 +240,12 @@ fn next_round(
     if round >= MIN_ROUNDS {
         if let Some(last) = state.curve.last() {
             if meets(&c.spec, last, EARLY_MARGIN) {
-                println!(
+                let line = format!(
                     "round {} met the spec with room ({}% of each threshold) on presses it had not seen: no more presses",
                     last.round,
                     EARLY_MARGIN * 100.0
                 );
+                c.say(line);
                 return Ok(None);
             }
         }
@@ -265,7 +267,7 @@ fn next_round(
     };
     c.journal.rounds.push(entry.clone());
     c.journal.write(&c.dir)?;
-    println!(
+    c.say(format!(
         "round {}: {} positions x {} indenters, about {:.0} s of bench time ({:.0} s of {:.0} s spent)",
         round + 1,
         points.len(),
@@ -273,7 +275,7 @@ fn next_round(
         estimate,
         spent,
         budget
-    );
+    ));
     Ok(Some(entry))
 }
 
@@ -284,7 +286,7 @@ type SizedRound = (Vec<[f64; 2]>, String, f64);
 /// hold (a last round may be smaller); `None` when not one press fits or every position is
 /// pressed.
 fn sized_round(
-    c: &Commissioning<'_>,
+    c: &mut Commissioning<'_>,
     state: &Rounds,
     candidates: &[[f64; 2]],
     base: &Model,
@@ -298,7 +300,7 @@ fn sized_round(
             state.pressed.last().map_or(state.centre, |p| p.stage_mm),
         );
         if points.is_empty() {
-            println!("every candidate position is pressed: no more presses");
+            c.say("every candidate position is pressed: no more presses".into());
             return Ok(None);
         }
         let plan = press_plan(
@@ -316,10 +318,10 @@ fn sized_round(
             return Ok(Some((points, plan, estimate)));
         }
         if n == 1 {
-            println!(
+            c.say(format!(
                 "the bench budget is spent ({:.0} s left; one more press would take about {estimate:.0} s): no more presses",
                 left.max(0.0)
-            );
+            ));
             return Ok(None);
         }
         n -= 1;

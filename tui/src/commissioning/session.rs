@@ -1,8 +1,7 @@
 //! A commissioning under way ([`Commissioning`]) and the one way its scans run: started,
 //! resumed from a checkpoint, taken as done, or set aside and pressed again.
 
-use crate::cmd::scan::execute;
-use crate::global::Global;
+use super::host::Host;
 use anyhow::{bail, Context, Result};
 use fringe_app::commission::journal::{completed, run_state, Journal, RunState, ScanEntry};
 use fringe_app::{ProfileUse, RigConfig};
@@ -18,11 +17,18 @@ pub(crate) struct Commissioning<'a> {
     pub journal: Journal,
     pub config: RigConfig,
     pub spec: Spec,
-    pub global: &'a Global,
-    pub yes: bool,
+    /// Who runs the scans and hears what happens.
+    pub host: &'a mut dyn Host,
     pub threads: usize,
     /// Computation time so far (features, fits, evaluation), s.
     pub compute_s: f64,
+}
+
+impl Commissioning<'_> {
+    /// Tells the operator `line`.
+    pub fn say(&mut self, line: String) {
+        self.host.say(line);
+    }
 }
 
 /// The bench time `plan` is estimated to take on the rig, s.
@@ -36,7 +42,7 @@ pub(crate) fn estimate_s(plan: &str, config: &RigConfig) -> Result<f64> {
 /// Runs (or resumes, or takes as done) the scan of `entry` into the directory's `runs/`; its
 /// run directory and the bench time it took now, s. An error unless it completed.
 pub(crate) fn scan(
-    c: &Commissioning<'_>,
+    c: &mut Commissioning<'_>,
     entry: &ScanEntry,
     profile_use: ProfileUse,
 ) -> Result<(PathBuf, f64)> {
@@ -57,20 +63,20 @@ pub(crate) fn scan(
                     return Ok((run_dir, 0.0));
                 }
             }
-            println!("resuming the run {}", run_dir.display());
+            c.say(format!("resuming the run {}", run_dir.display()));
             RunTarget::Resume {
                 dir: run_dir.clone(),
             }
         }
         RunState::Ended(stop) => {
             let kept = set_aside(&run_dir)?;
-            println!(
+            c.say(format!(
                 "the scan {} ended {} ({}); it is kept as {} and pressed again",
                 entry.run_id,
                 format!("{:?}", stop.exit_status).to_lowercase(),
                 stop.reason,
                 kept.display()
-            );
+            ));
             RunTarget::New {
                 root,
                 run_id: entry.run_id.clone(),
@@ -80,26 +86,18 @@ pub(crate) fn scan(
     let limits = c.config.limits()?;
     let program = Plan::parse(&entry.plan, &entry.run_id)?.program(&limits, &entry.run_id)?;
     let started = Instant::now();
-    let end = execute(
-        &c.config,
-        program,
-        entry.plan.clone(),
-        target,
-        c.yes,
-        profile_use,
-        c.global,
-        &mut |_| Ok(()),
-    )?;
-    let outcome = end.outcome;
-    if outcome.status != fringe_rig::store::documents::ExitStatus::Completed {
+    let end = c
+        .host
+        .scan(&c.config, program, entry.plan.clone(), target, profile_use)?;
+    if !end.completed {
         bail!(
             "the scan {} stopped ({}); resume the commissioning to finish it: fringe commission --resume {}",
-            outcome.run_dir.display(),
-            outcome.reason,
+            end.run_dir.display(),
+            end.reason,
             c.dir.display()
         );
     }
-    Ok((outcome.run_dir, started.elapsed().as_secs_f64()))
+    Ok((end.run_dir, started.elapsed().as_secs_f64()))
 }
 
 /// Moves a run that ended without completing out of the way (`<run>.stopped-N`), kept whole.

@@ -5,10 +5,9 @@
 use super::rounds::{shapes, Adaptation, LATTICE_MM};
 use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::adapt::adapted_card;
-use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::model::open_model;
 use crate::cmd::verdict;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use fringe_app::commission::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
@@ -28,19 +27,31 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Steps 4 and 5; an error (exit status 1) when the unit fails, after the certificate says why.
+/// How the acceptance ended: the verdict and where the certificate and the model are.
+pub(crate) struct Accepted {
+    pub sensor: String,
+    pub pass: bool,
+    /// The checks the unit failed, in words (empty when it passed).
+    pub failures: Vec<String>,
+    pub spec_origin: String,
+    pub certificate: PathBuf,
+    pub model: PathBuf,
+}
+
+/// Steps 4 and 5: the verdict, after the certificate and the report are written.
 pub(crate) fn accept(
     c: &mut Commissioning<'_>,
     base: &Model,
     profile: &Profile,
     adaptation: Adaptation,
-) -> Result<()> {
+) -> Result<Accepted> {
     let model_path = write_model(c, base, &adaptation)?;
     let entry = acceptance_entry(c, base, profile)?;
-    println!(
+    let line = format!(
         "step 4: acceptance at {} held-out positions",
         c.journal.options.acceptance_presses
     );
+    c.say(line);
     let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
     if let Some(e) = c.journal.acceptance.as_mut() {
         e.completed = true;
@@ -57,40 +68,32 @@ pub(crate) fn accept(
         p.len()
     };
     let mut backend = model.backend(BackendKind::Tract, c.threads)?;
-    let mut progress = FramesProgress::new("evaluating the acceptance scan");
+    let host = &mut *c.host;
     let eval = evaluate(&model, backend.as_mut(), &[source], None, None, |d, t| {
-        progress.show(d, t)
+        host.frames("evaluating the acceptance scan", d, t)
     })?;
-    progress.finish();
     c.compute_s += started.elapsed().as_secs_f64();
     let v = judge(&eval, &c.spec);
     let cert = certificate(c, base, &adaptation, &eval, &v, &run_dir, presses)?;
     write_report(c, &cert, &eval, &adaptation)?;
     let path = cert.write(&c.dir)?;
     for line in verdict::lines(&v) {
-        println!("{line}");
+        c.say(line);
     }
-    println!("wrote {}", path.display());
-    println!("wrote {}", c.dir.join("report.md").display());
-    if !v.pass {
-        bail!(
-            "sensor {} fails the spec ({}): {}; the certificate says where ({})",
-            cert.sensor_id,
-            cert.spec_origin,
-            v.failures().join("; "),
-            path.display()
-        );
-    }
-    println!(
-        "sensor {} is commissioned: fringe validate and fringe eval use {} for it by default",
-        cert.sensor_id,
-        model_path.display()
-    );
-    Ok(())
+    c.say(format!("wrote {}", path.display()));
+    c.say(format!("wrote {}", c.dir.join("report.md").display()));
+    Ok(Accepted {
+        sensor: cert.sensor_id,
+        pass: v.pass,
+        failures: v.failures(),
+        spec_origin: cert.spec_origin,
+        certificate: path,
+        model: model_path,
+    })
 }
 
 /// The adapted model in the directory, with its card beside it and in it.
-fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<PathBuf> {
+fn write_model(c: &mut Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<PathBuf> {
     let path = c.dir.join(MODEL);
     let mut card = adapted_card(
         base,
@@ -122,18 +125,18 @@ fn write_model(c: &Commissioning<'_>, base: &Model, a: &Adaptation) -> Result<Pa
     let text = serde_json::to_string_pretty(&card).context("the model card")?;
     std::fs::write(&card_path, text + "\n")
         .with_context(|| format!("cannot write {}", card_path.display()))?;
-    println!(
+    c.say(format!(
         "step 3: adapted {} on {} frames of {} presses: wrote {}",
         base.path.display(),
         a.adapted.frames,
         a.adapted.presses,
         path.display()
-    );
+    ));
     for h in &a.adapted.heads {
-        println!(
+        c.say(format!(
             "  {:<11} {}: {:.4} before, {:.4} after (cross-validated over presses)",
             h.head, h.figure, h.before, h.after
-        );
+        ));
     }
     Ok(path)
 }

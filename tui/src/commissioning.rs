@@ -1,0 +1,285 @@
+//! A sensor unit taken from first light to a verdict in one job, whoever runs it (`fringe
+//! commission` in a terminal, the Commission screen): the calibration scan and the unit's
+//! profile; rounds of presses chosen where the model errs most or has not pressed, each round
+//! predicted by the model as adapted so far before it is adapted on (the learning curve); the
+//! model's heads adapted to the unit in pure Rust; an acceptance scan at held-out positions
+//! judged against the spec; everything kept in one directory beside the unit's profile with
+//! `certificate.json` and `report.md`. A commissioning goes on after Ctrl-C, a crash or an
+//! aborted scan from the runs already recorded.
+
+mod certify;
+pub(crate) mod host;
+mod last_block;
+mod rounds;
+pub(crate) mod session;
+
+use anyhow::{bail, Context, Result};
+pub(crate) use certify::Accepted;
+use fringe_app::calibration_scan::{
+    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
+};
+use fringe_app::commission::certificate::{directory_name, PROFILE};
+use fringe_app::commission::journal::{Journal, Options, ScanEntry};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_calibration::profile::Profile;
+use fringe_sensor_models::acceptance::Spec;
+use host::Host;
+use session::{estimate_s, scan, set_aside, Commissioning};
+use std::path::{Path, PathBuf};
+
+/// Bench time for the presses when no budget is given, minutes.
+pub(crate) const DEFAULT_BUDGET_MIN: f64 = 10.0;
+/// Positions pressed per adaptive round when not given.
+pub(crate) const DEFAULT_ROUND_PRESSES: usize = 6;
+/// Held-out positions of the acceptance scan when not given.
+pub(crate) const DEFAULT_ACCEPTANCE_PRESSES: usize = 10;
+/// Seed of the adaptation's folds when not given.
+pub(crate) const DEFAULT_SEED: u64 = 42;
+/// The spec that stands for the paper's custom-CNN row instead of a file.
+pub(crate) const PAPER_SPEC: &str = "paper";
+
+/// What a new commissioning is asked.
+pub(crate) struct NewCommissioning {
+    /// The model to adapt; the one that ships for the sensor's design when `None`.
+    pub base: Option<PathBuf>,
+    pub budget_min: Option<f64>,
+    /// A spec file, or [`PAPER_SPEC`].
+    pub spec: String,
+    pub round_presses: usize,
+    pub acceptance_presses: usize,
+    pub last_block: bool,
+    pub seed: u64,
+}
+
+impl Default for NewCommissioning {
+    fn default() -> NewCommissioning {
+        NewCommissioning {
+            base: None,
+            budget_min: None,
+            spec: PAPER_SPEC.into(),
+            round_presses: DEFAULT_ROUND_PRESSES,
+            acceptance_presses: DEFAULT_ACCEPTANCE_PRESSES,
+            last_block: false,
+            seed: DEFAULT_SEED,
+        }
+    }
+}
+
+/// A commissioning to start or to go on with.
+pub(crate) enum Request {
+    New(NewCommissioning),
+    /// The commissioning in this directory, with a new budget when given.
+    Resume {
+        dir: PathBuf,
+        budget_min: Option<f64>,
+    },
+}
+
+/// Where a commissioning lives, once it has a directory (before anything moves).
+pub(crate) struct Prepared {
+    dir: PathBuf,
+    journal: Journal,
+    spec: Spec,
+    resumed: bool,
+}
+
+impl Prepared {
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// What the unit must meet.
+    pub fn spec(&self) -> &Spec {
+        &self.spec
+    }
+
+    /// What a resumed commissioning started as, in a line (`None` for a new one).
+    pub fn resumed(&self) -> Option<String> {
+        self.resumed.then(|| {
+            format!(
+                "resuming the commissioning started {} (budget {} min, base {})",
+                self.journal.started_utc,
+                self.journal.options.budget_min,
+                self.journal.options.base
+            )
+        })
+    }
+}
+
+/// Checks `request` on the rig and makes (or reads) the commissioning's directory and journal;
+/// nothing moves yet.
+pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared> {
+    let sensor = config.sensor_id()?;
+    let (dir, journal) = match request {
+        Request::Resume { dir, budget_min } => resumed(dir, &sensor, *budget_min)?,
+        Request::New(n) => started(n, config, &sensor)?,
+    };
+    let spec = match &journal.options.spec {
+        Some(text) => Spec::parse(text, &journal.options.spec_origin)?,
+        None => Spec::paper(),
+    };
+    Ok(Prepared {
+        dir,
+        journal,
+        spec,
+        resumed: matches!(request, Request::Resume { .. }),
+    })
+}
+
+/// Runs the commissioning `prepared` on the rig to its verdict (a failing unit is an `Ok` whose
+/// certificate says fail).
+pub(crate) fn run(
+    prepared: Prepared,
+    config: RigConfig,
+    threads: usize,
+    host: &mut dyn Host,
+) -> Result<Accepted> {
+    let Prepared {
+        dir, journal, spec, ..
+    } = prepared;
+    let variant = config.sensor_variant()?;
+    let mut c = Commissioning {
+        dir,
+        journal,
+        config,
+        spec,
+        host,
+        threads,
+        compute_s: 0.0,
+    };
+    let base = rounds::open_base(&c.journal.options.base, variant)?;
+    let profile = calibrate(&mut c)?;
+    let adapted = rounds::adapt(&mut c, &base, &profile)?;
+    certify::accept(&mut c, &base, &profile, adapted)
+}
+
+/// A new commissioning: its options checked (spec, budget) before anything moves, its directory
+/// and journal made.
+fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(PathBuf, Journal)> {
+    let budget = checked_budget(n.budget_min.unwrap_or(DEFAULT_BUDGET_MIN))?;
+    let (spec_text, spec_origin) = if n.spec == PAPER_SPEC {
+        (None, "the paper's custom-CNN row (Table 2)".to_string())
+    } else {
+        let path = Path::new(&n.spec);
+        Spec::load(path)?;
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the spec {}", path.display()))?;
+        (Some(text), path.display().to_string())
+    };
+    let variant = config.sensor_variant()?;
+    let given = match &n.base {
+        Some(b) => b.clone(),
+        None => fringe_sensor_models::builtin::for_design(variant)?,
+    };
+    rounds::open_base(&given.display().to_string(), variant)?;
+    // A base file is kept by its absolute path: a resume from another directory finds it.
+    let base = match fringe_sensor_models::builtin::named(&given) {
+        Some(_) => given,
+        None => std::fs::canonicalize(&given).unwrap_or(given),
+    };
+    let journal = Journal::new(Options {
+        sensor: sensor.to_string(),
+        base: base.display().to_string(),
+        budget_min: budget,
+        spec: spec_text,
+        spec_origin,
+        seed: n.seed,
+        round_presses: n.round_presses,
+        acceptance_presses: n.acceptance_presses,
+        last_block: n.last_block,
+    });
+    let dir = config
+        .profile_dir()
+        .join(directory_name(sensor, &journal.started_utc));
+    std::fs::create_dir_all(dir.join("runs")).with_context(|| {
+        format!(
+            "cannot create the commissioning directory {}",
+            dir.display()
+        )
+    })?;
+    journal.write(&dir)?;
+    Ok((dir, journal))
+}
+
+fn checked_budget(minutes: f64) -> Result<f64> {
+    if !(minutes.is_finite() && minutes > 0.0) {
+        bail!("--budget {minutes}: give the bench time for the presses in minutes, above 0");
+    }
+    Ok(minutes)
+}
+
+/// A commissioning to go on with: its journal, for the same unit; `budget` replaces its budget.
+fn resumed(dir: &Path, sensor: &str, budget: Option<f64>) -> Result<(PathBuf, Journal)> {
+    let mut journal = Journal::read(dir)?;
+    if journal.options.sensor != sensor {
+        bail!(
+            "{}: this commissioning is of sensor {}, and the rig's sensor is {sensor}: resume it on the rig it started on (--rig)",
+            dir.display(),
+            journal.options.sensor
+        );
+    }
+    if let Some(b) = budget {
+        journal.options.budget_min = checked_budget(b)?;
+        journal.write(dir)?;
+    }
+    Ok((dir.to_path_buf(), journal))
+}
+
+/// Step 1: the calibration scan (recorded once) and the unit's profile from it, written where
+/// the rig's scans read it and into the commissioning directory.
+fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
+    let sensor = c.journal.options.sensor.clone();
+    let kept = c.dir.join(PROFILE);
+    let entry = match c.journal.calibration.clone() {
+        Some(e) if e.completed && kept.is_file() => return Ok(Profile::load(&kept)?),
+        Some(e) => e,
+        None => {
+            let plan = CalibrationGrid::defaults(&sensor).plan_text(&c.config)?;
+            let e = ScanEntry {
+                run_id: format!("calibration-{sensor}"),
+                estimate_s: estimate_s(&plan, &c.config)?,
+                plan,
+                took_s: None,
+                completed: false,
+            };
+            c.journal.calibration = Some(e.clone());
+            c.journal.write(&c.dir)?;
+            e
+        }
+    };
+    c.say(format!(
+        "step 1: calibration ({})",
+        CalibrationGrid::defaults(&sensor).describe()
+    ));
+    let (run_dir, took) = scan(c, &entry, ProfileUse::Ignore)?;
+    let (spot, _) = spot_settings(None, &c.config)?;
+    let fitted = calibrate_run(&run_dir, &sensor, DEFAULT_MAX_FRAMES, spot);
+    let failure = match &fitted {
+        Err(e) => Some(e.to_string()),
+        Ok(r) => r.cal.registration.as_ref().err().map(|e| {
+            format!("no image-to-stage registration ({e}): commissioning needs it to place presses on the disc")
+        }),
+    };
+    if let Some(why) = failure {
+        let kept = set_aside(&run_dir)?;
+        bail!(
+            "the calibration of {sensor} failed: {why}. Check that the unit sits under the indenter, lit and in focus, then resume (the calibration is pressed again; this scan is kept as {}): fringe commission --resume {}",
+            kept.display(),
+            c.dir.display()
+        );
+    }
+    let result = fitted?;
+    let written = result.write(&c.config.profile_dir())?;
+    std::fs::copy(&written.profile, &kept)
+        .with_context(|| format!("cannot copy the profile into {}", kept.display()))?;
+    c.say(format!(
+        "wrote {} (the unit's profile; a copy in the commissioning directory)",
+        written.profile.display()
+    ));
+    if let Some(e) = c.journal.calibration.as_mut() {
+        e.completed = true;
+        e.took_s = Some(took);
+    }
+    c.journal.write(&c.dir)?;
+    Ok(result.profile)
+}

@@ -1,0 +1,42 @@
+//! What a commissioning needs from whoever runs it, the terminal (`fringe commission`) or the
+//! Commission screen: its scans run on the bench, its lines and progress shown, each round's
+//! learning shown as it comes.
+
+use fringe_app::commission::certificate::CurvePoint;
+use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
+use fringe_app::{ProfileUse, RigConfig};
+use fringe_rig::scan::engine::RunTarget;
+use fringe_rig::scan::plan::ScanProgram;
+use std::path::PathBuf;
+
+/// How a scan the host ran ended.
+pub(crate) struct ScanEnded {
+    pub completed: bool,
+    /// Why it stopped, when it did not complete.
+    pub reason: String,
+    pub run_dir: PathBuf,
+}
+
+/// The side of a commissioning that meets the operator.
+pub(crate) trait Host {
+    /// Runs `program` on the rig into `target` (a new run or one resumed from its checkpoint)
+    /// and waits for its end. An error when it could not run at all.
+    fn scan(
+        &mut self,
+        config: &RigConfig,
+        program: ScanProgram,
+        plan_text: String,
+        target: RunTarget,
+        profile_use: ProfileUse,
+    ) -> anyhow::Result<ScanEnded>;
+
+    /// A line of what the commissioning does or found.
+    fn say(&mut self, line: String);
+
+    /// `done` of `total` frames of `what` (features read, frames evaluated); `done == total` ends it.
+    fn frames(&mut self, what: &'static str, done: usize, total: usize);
+
+    /// A round was scored and learnt from: the learning curve and every press so far with its
+    /// error, on the usable disc.
+    fn learnt(&mut self, _curve: &[CurvePoint], _pressed: &[PressedPoint], _disc: &UsableDisc) {}
+}
