@@ -19,6 +19,8 @@ pub struct Builtin {
     pub about: &'static str,
     /// The sensor design it is for (its card's `variant`).
     pub design: &'static str,
+    /// The model `fringe commission` adapts to a unit of its design (one per design).
+    pub commissioning_base: bool,
     weights: &'static [u8],
     card: &'static str,
 }
@@ -29,14 +31,25 @@ pub const BUILTIN: &[Builtin] = &[
         name: "layered",
         about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
         design: "layered",
+        commissioning_base: false,
         weights: include_bytes!("../models/layered-custom.safetensors"),
         card: include_str!("../models/layered-custom.json"),
+    },
+    Builtin {
+        name: "layered-keypoint",
+        about: "keypoint CNN for the simulated layered sensor: the base commissioning adapts to a \
+                layered unit (its features keep where the contact is)",
+        design: "layered",
+        commissioning_base: true,
+        weights: include_bytes!("../models/layered-keypoint.safetensors"),
+        card: include_str!("../models/layered-keypoint.json"),
     },
     Builtin {
         name: "integrated",
         about: "keypoint CNN for the simulated integrated sensor (trained on fringe sim dataset \
                 frames)",
         design: "integrated",
+        commissioning_base: true,
         weights: include_bytes!("../models/integrated-keypoint.safetensors"),
         card: include_str!("../models/integrated-keypoint.json"),
     },
@@ -109,9 +122,33 @@ pub fn for_design(design: Option<&str>) -> Result<PathBuf, ModelError> {
         })
 }
 
+/// The model `fringe commission` adapts to a unit of `design` when no base is given, as a model
+/// argument: the built-in model marked as its design's commissioning base (that of `default`'s
+/// design when the design is not known). A design no model ships for is refused.
+pub fn commissioning_base(design: Option<&str>) -> Result<PathBuf, ModelError> {
+    let design = design
+        .or(BUILTIN.first().map(|b| b.design))
+        .unwrap_or_default();
+    BUILTIN
+        .iter()
+        .find(|b| b.design == design && b.commissioning_base)
+        .map(Builtin::path)
+        .ok_or_else(|| ModelError::NoneShipped {
+            design: design.to_string(),
+            known: listed(|b| b.design),
+        })
+}
+
 /// What every built-in model has of `what`, listed for a message.
 fn listed(what: impl Fn(&Builtin) -> &'static str) -> String {
-    BUILTIN.iter().map(what).collect::<Vec<_>>().join(", ")
+    let mut seen: Vec<&str> = Vec::new();
+    for b in BUILTIN {
+        let w = what(b);
+        if !seen.contains(&w) {
+            seen.push(w);
+        }
+    }
+    seen.join(", ")
 }
 
 /// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file.
@@ -146,8 +183,43 @@ mod tests {
                 "{}",
                 b.name
             );
-            assert_eq!(for_design(Some(b.design)).ok(), Some(b.path()));
+            let shipped = for_design(Some(b.design)).expect("a model ships for its design");
+            let first = BUILTIN
+                .iter()
+                .find(|o| o.design == b.design)
+                .map(Builtin::path);
+            assert_eq!(Some(shipped), first, "the first of {}'s models", b.design);
+            let bases = BUILTIN
+                .iter()
+                .filter(|o| o.design == b.design && o.commissioning_base)
+                .count();
+            assert_eq!(bases, 1, "one commissioning base for {}", b.design);
         }
+    }
+
+    /// Commissioning adapts the keypoint CNN on both designs (the custom CNN's pooled features
+    /// do not carry where another unit's contact is), while eval and validate keep the layered
+    /// design's custom CNN for units not commissioned.
+    #[test]
+    fn commissioning_adapts_each_design_s_base_and_eval_keeps_its_default() {
+        let base = |d| commissioning_base(d).ok().map(|p| p.display().to_string());
+        assert_eq!(
+            base(Some("layered")).as_deref(),
+            Some("builtin:layered-keypoint")
+        );
+        assert_eq!(base(None).as_deref(), Some("builtin:layered-keypoint"));
+        assert_eq!(
+            base(Some("integrated")).as_deref(),
+            Some("builtin:integrated")
+        );
+        assert_eq!(
+            for_design(Some("layered")).ok(),
+            Some(PathBuf::from("builtin:layered"))
+        );
+        let b = open(Path::new("builtin:layered-keypoint")).expect("opens");
+        assert_eq!(b.arch.map(Architecture::name), Some("keypoint"));
+        let e = commissioning_base(Some("thick")).expect_err("nothing ships for it");
+        assert!(e.to_string().contains("layered, integrated"), "{e}");
     }
 
     /// The default model was trained on 1920x1200 frames where the sensor is 980 px across:

@@ -169,7 +169,7 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
     let variant = config.sensor_variant()?;
     let given = match &n.base {
         Some(b) => b.clone(),
-        None => fringe_sensor_models::builtin::for_design(variant)?,
+        None => fringe_sensor_models::builtin::commissioning_base(variant)?,
     };
     rounds::open_base(&given.display().to_string(), variant)?;
     // A base file is kept by its absolute path: a resume from another directory finds it.

@@ -1,11 +1,12 @@
-//! The models that ship inside fringe, one per simulated sensor design, against the figures
-//! their cards claim: a held-out scan of the simulated bench with that design's sensor
-//! (`tui/tests/plans/model-check.toml`: grid points that neither the training frames nor the
-//! model-eval plan use), labelled by the F/T through the synchronisation, then `fringe eval`
-//! (which takes the shipped model of the run's design unless told) on that run. The figures must
-//! be those the card records for this plan and bench, within the noise of one scan; contact and
-//! shape must beat the paper's custom CNN row (Table 2) as the cards' do. (The README's figures
-//! come from the longer model-eval plan, 5 minutes of scanning: not a test.)
+//! The models that ship inside fringe (one per simulated sensor design, and the layered design's
+//! commissioning base) against the figures their cards claim: a held-out scan of the simulated
+//! bench with that design's sensor (`tui/tests/plans/model-check.toml`: grid points that neither
+//! the training frames nor the model-eval plan use), labelled by the F/T through the
+//! synchronisation, then `fringe eval` (which takes the shipped model of the run's design unless
+//! told) on that run. The figures must be those the card records for this plan and bench, within
+//! the noise of one scan; contact and shape must beat the paper's custom CNN row (Table 2) as the
+//! cards' do. (The README's figures come from the longer model-eval plan, 5 minutes of scanning:
+//! not a test.)
 
 mod common;
 
@@ -15,6 +16,8 @@ use std::process::{Child, Stdio};
 
 const LAYERED_CARD: &str = include_str!("../../sensor-models/models/layered-custom.json");
 const INTEGRATED_CARD: &str = include_str!("../../sensor-models/models/integrated-keypoint.json");
+const LAYERED_KEYPOINT_CARD: &str =
+    include_str!("../../sensor-models/models/layered-keypoint.json");
 
 /// The paper's custom CNN row (Sensor 1, gray, 10 augmentations): Fz RMSE, contact RMSE, shape
 /// accuracy.
@@ -42,8 +45,16 @@ fn the_shipped_models_meet_the_figures_their_cards_claim_on_held_out_scans() {
         })
         .collect();
     for ((design, card, arch), dir) in designs.iter().zip(&runs) {
-        evaluation_gives_the_cards_figures(design, card, arch, dir);
+        evaluation_gives_the_cards_figures(design, card, arch, dir, None);
     }
+    // The layered design's commissioning base, on the same held-out scan.
+    evaluation_gives_the_cards_figures(
+        "layered",
+        LAYERED_KEYPOINT_CARD,
+        "keypoint CNN",
+        &runs[0],
+        Some("builtin:layered-keypoint"),
+    );
 }
 
 /// The bench of the held-out check: the simulated bench with a sensor of `design`, its camera at
@@ -98,9 +109,15 @@ fn start_held_out_scan(design: &str, card: &str) -> (Scratch, Child) {
     (dir, child)
 }
 
-/// `fringe eval` of the scan in `dir` with the model fringe picks for its design, against
-/// `card`'s figures.
-fn evaluation_gives_the_cards_figures(design: &str, card: &str, arch: &str, dir: &Path) {
+/// `fringe eval` of the scan in `dir` with `model` (else the model fringe picks for its design),
+/// against `card`'s figures.
+fn evaluation_gives_the_cards_figures(
+    design: &str,
+    card: &str,
+    arch: &str,
+    dir: &Path,
+    model: Option<&str>,
+) {
     let card: serde_json::Value = serde_json::from_str(card).expect("the shipped card is JSON");
     let claim = claim(&card);
     let claimed = |k: &str| {
@@ -110,18 +127,21 @@ fn evaluation_gives_the_cards_figures(design: &str, card: &str, arch: &str, dir:
     };
     let run = only_run(&dir.join("runs"));
 
-    let out = fringe(&[
+    let name = model.map_or_else(|| format!("builtin:{design}"), str::to_string);
+    let report = dir.join(format!("report-{}", name.replace(':', "-")));
+    let mut args = vec![
         "eval",
         run.to_str().expect("utf-8 path"),
         "--report",
-        dir.join("report").to_str().expect("utf-8 path"),
-    ]);
+        report.to_str().expect("utf-8 path"),
+    ];
+    if let Some(m) = model {
+        args.extend(["--model", m]);
+    }
+    let out = fringe(&args);
     let eval = text(&out);
     assert!(out.status.success(), "{eval}");
-    assert!(
-        eval.contains(&format!("builtin:{design} ({arch})")),
-        "{eval}"
-    );
+    assert!(eval.contains(&format!("{name} ({arch})")), "{eval}");
     let fz = printed_figure(&eval, "Fz RMSE:");
     let contact = printed_figure(&eval, "contact RMSE:");
     let accuracy = printed_figure(&eval, "shape accuracy:");

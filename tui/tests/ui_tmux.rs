@@ -451,3 +451,71 @@ fn a_hung_up_terminal_interrupts_the_scan_resumable_and_the_process_exits() {
     let verify = common::fringe(&["verify", run.to_str().expect("path")]);
     assert!(verify.status.success(), "{}", common::text(&verify));
 }
+
+#[test]
+fn a_commissioning_from_the_ui_stops_resumable_and_goes_on_without_pressing_again() {
+    let dir = scratch("commission");
+    // The quick bench with the layered-3 unit at half size, profiles in dir/profiles.
+    common::unit_rig_at(&dir, 0.5);
+    let pane = Pane::start("commission", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("6");
+    pane.wait_for("ready: r commissions the sensor", Duration::from_secs(10));
+    pane.keys("r");
+    pane.wait_for("step 1: calibration", Duration::from_secs(30));
+    pane.wait_answering("point 3 of 9", Duration::from_secs(120));
+    // Stopped mid-calibration: the scan is closed resumable and the commissioning says how to
+    // go on.
+    pane.keys("s");
+    let stopped = pane.wait_answering("stopped: ", Duration::from_secs(60));
+    assert!(
+        stopped.contains("c go on with the unfinished one"),
+        "{stopped}"
+    );
+    let profiles = dir.join("profiles");
+    let commissioning = std::fs::read_dir(&profiles)
+        .expect("profiles")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.is_dir())
+        .unwrap_or_else(|| panic!("no commissioning directory\n{stopped}"));
+    let run = commissioning.join("runs/calibration-layered-3");
+    let stop: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("stop.json")).expect("stop.json"))
+            .expect("stop.json is JSON");
+    assert_eq!(stop["exit_status"], "failed", "closed resumable: {stop}");
+    let done_before = stop["points_done"].as_u64().expect("points_done");
+    assert!(done_before >= 2, "{stop}");
+    // Taken up again: the calibration run resumes from its checkpoint and the unit's profile is
+    // written.
+    pane.keys("c");
+    pane.wait_for("resuming the run", Duration::from_secs(30));
+    let resumed = pane.wait_answering(
+        "step 2: presses over the usable disc",
+        Duration::from_secs(180),
+    );
+    assert!(resumed.contains("wrote "), "{resumed}");
+    let stop: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("stop.json")).expect("stop.json"))
+            .expect("stop.json is JSON");
+    assert_eq!(stop["exit_status"], "completed", "{stop}");
+    assert_eq!(stop["points_done"], 9, "{stop}");
+    let events = std::fs::read_to_string(run.join("events.jsonl")).expect("events");
+    // Each point done once: those done before the stop were not pressed again.
+    let pressed = events.matches("\"kind\":\"point-done\"").count();
+    assert_eq!(pressed, 9, "each calibration point done once:\n{events}");
+    let aside: Vec<_> = std::fs::read_dir(commissioning.join("runs"))
+        .expect("runs")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".stopped-"))
+        .collect();
+    assert!(aside.is_empty(), "nothing set aside to press again");
+    assert!(
+        profiles.join("layered-3.toml").is_file(),
+        "the unit's profile"
+    );
+    // Stopped again in its first round, then the UI quits cleanly.
+    pane.keys("s");
+    pane.wait_answering("stopped: ", Duration::from_secs(120));
+    pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -687,7 +687,7 @@ impl<'a> Runner<'a> {
             // Not the operator's decision: closed as a failed run is, which a resume reopens.
             Ok(Ending::Aborted(_)) if self.control.interrupted() => (
                 ExitStatus::Failed,
-                "interrupted: the terminal hung up or the process was asked to end (SIGHUP or SIGTERM); resume the run to go on".to_string(),
+                "interrupted, not aborted (a stop that keeps the run, a hung-up terminal, SIGHUP or SIGTERM); resume the run to go on".to_string(),
             ),
             Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
             Err(e) => (ExitStatus::Failed, e.to_string()),

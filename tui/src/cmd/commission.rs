@@ -29,7 +29,8 @@ pub struct CommissionArgs {
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
     /// The model to adapt: a weights file of the paper's networks, or `builtin:NAME`. Default:
-    /// the model that ships for the sensor's design.
+    /// the keypoint CNN that ships for the sensor's design (builtin:layered-keypoint,
+    /// builtin:integrated).
     #[arg(long, conflicts_with = "resume", value_name = "MODEL")]
     base: Option<PathBuf>,
     /// Bench time for the adaptive presses, minutes (the calibration and acceptance scans come

@@ -110,7 +110,7 @@ pub(crate) fn adapt(
         c.journal.options.budget_min
     ));
     let mut state = Rounds {
-        centre: disc.centre_mm,
+        disc,
         features: Features::empty(),
         weights: base_weights.clone(),
         adapted: None,
@@ -134,7 +134,6 @@ pub(crate) fn adapt(
         }
         c.journal.write(&c.dir)?;
         state.learn(c, base, base_weights, &run_dir, round)?;
-        c.host.learnt(&state.curve, &state.pressed, &disc);
         round += 1;
     }
     let Some(adapted) = state.adapted else {
@@ -161,8 +160,8 @@ pub(crate) fn adapt(
 
 /// What the rounds have learnt so far.
 struct Rounds {
-    /// The disc's centre on the stage, mm (where the first round's path starts).
-    centre: [f64; 2],
+    /// Where presses go (the first round's path starts at its centre).
+    disc: UsableDisc,
     features: Features,
     /// The heads as adapted so far (the base model's before any fit).
     weights: StateDict,
@@ -211,6 +210,7 @@ impl Rounds {
         ));
         self.curve.push(errors.curve);
         self.pressed.extend(errors.presses);
+        c.host.learnt(&self.curve, &self.pressed, &self.disc);
         self.features.append(features)?;
         self.runs.push(run_dir.to_path_buf());
         let config = AdaptConfig {
@@ -297,7 +297,10 @@ fn sized_round(
     loop {
         let points = tour(
             &choose(candidates, &state.pressed, n, COVERAGE_MM),
-            state.pressed.last().map_or(state.centre, |p| p.stage_mm),
+            state
+                .pressed
+                .last()
+                .map_or(state.disc.centre_mm, |p| p.stage_mm),
         );
         if points.is_empty() {
             c.say("every candidate position is pressed: no more presses".into());

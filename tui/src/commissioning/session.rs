@@ -7,6 +7,7 @@ use fringe_app::commission::journal::{completed, run_state, Journal, RunState, S
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::Plan;
+use fringe_rig::store::documents::ExitStatus;
 use fringe_sensor_models::acceptance::Spec;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -59,7 +60,7 @@ pub(crate) fn scan(
         },
         RunState::Unfinished => {
             if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(&run_dir)? {
-                if stop.exit_status == fringe_rig::store::documents::ExitStatus::Completed {
+                if stop.exit_status == ExitStatus::Completed {
                     return Ok((run_dir, 0.0));
                 }
             }
@@ -68,6 +69,18 @@ pub(crate) fn scan(
                 dir: run_dir.clone(),
             }
         }
+        // Closed failed (interrupted, a device error): resumed from its checkpoint.
+        RunState::Ended(stop) if stop.exit_status == ExitStatus::Failed => {
+            c.say(format!(
+                "resuming the run {} ({})",
+                run_dir.display(),
+                stop.reason
+            ));
+            RunTarget::Resume {
+                dir: run_dir.clone(),
+            }
+        }
+        // Aborted by the operator: kept aside, pressed again.
         RunState::Ended(stop) => {
             let kept = set_aside(&run_dir)?;
             c.say(format!(

@@ -195,13 +195,16 @@ impl App {
         self.stop_scan(false);
         self.close_bench();
         self.state.validation = None;
-        let scan = &mut self.state.scan;
+        // The Scan screen shows the plan that runs (a calibration or commissioning scan too).
+        let recording = Recording::from_rig_files(&self.opts.config, Some(&program.plan)).ok();
+        let old = &self.state.scan;
+        let mut scan =
+            plan_choice::scan_view(&program, &self.limits, old.origin_mm, recording.as_ref());
+        scan.disc_radius_mm = old.disc_radius_mm;
+        scan.log = old.log.clone();
         scan.phase = Phase::Running;
-        scan.done = 0;
-        scan.current = None;
-        scan.run_dir = None;
-        scan.total = program.points.len() as u64;
         scan.log(format!("starting {}", program.plan.name));
+        self.state.scan = scan;
         self.running = Some(session::start(ScanRequest {
             config: self.opts.config.clone(),
             program,

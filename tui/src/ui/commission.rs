@@ -35,9 +35,8 @@ pub fn ready_view(config: &RigConfig) -> CommissionView {
         .sensor_variant()
         .map_err(|e| e.to_string())
         .and_then(|d| {
-            fringe_sensor_models::builtin::for_design(d).map_err(|e| e.to_string())
-        })
-    {
+            fringe_sensor_models::builtin::commissioning_base(d).map_err(|e| e.to_string())
+        }) {
         Ok(b) => b.display().to_string(),
         Err(e) => format!("none ({e})"),
     };

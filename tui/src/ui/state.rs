@@ -76,11 +76,16 @@ pub struct ScanView {
 
 impl ScanView {
     pub fn log(&mut self, line: impl Into<String>) {
-        if self.log.len() == LOG_LINES {
-            self.log.pop_front();
-        }
-        self.log.push_back(line.into());
+        keep_line(&mut self.log, line.into());
     }
+}
+
+/// Adds `line` to a log of at most [`LOG_LINES`], the oldest going first.
+fn keep_line(log: &mut VecDeque<String>, line: String) {
+    if log.len() == LOG_LINES {
+        log.pop_front();
+    }
+    log.push_back(line);
 }
 
 /// One run in the runs directory.
@@ -248,10 +253,7 @@ pub struct CommissionView {
 
 impl CommissionView {
     pub fn log(&mut self, line: impl Into<String>) {
-        if self.log.len() == LOG_LINES {
-            self.log.pop_front();
-        }
-        self.log.push_back(line.into());
+        keep_line(&mut self.log, line.into());
     }
 }
 
