@@ -413,6 +413,7 @@ mod tests {
             out.push(Row {
                 scored,
                 stage_mm: None,
+                press: "p".into(),
             });
         }
         Evaluation {

@@ -19,6 +19,8 @@ const BATCH: usize = 8;
 pub struct Row {
     pub scored: Scored,
     pub stage_mm: Option<[f64; 2]>,
+    /// The press the frame belongs to (rows of one press are in time order).
+    pub press: String,
 }
 
 /// The outcome of an evaluation.
@@ -211,6 +213,7 @@ pub fn evaluate(
             rows.push(Row {
                 scored,
                 stage_mm: s.stage_mm,
+                press: s.press.clone(),
             });
         }
         done += batch.samples.len();

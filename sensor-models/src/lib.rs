@@ -39,6 +39,7 @@ pub mod onnx_graph;
 pub mod prediction;
 pub mod preprocess;
 pub mod report;
+pub mod smoothing;
 pub mod split;
 #[cfg(feature = "torch")]
 pub mod torch_net;

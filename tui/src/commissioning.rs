@@ -23,6 +23,7 @@ use fringe_app::commission::journal::{Journal, Options, ScanEntry};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::Spec;
+use fringe_sensor_models::arch::Architecture;
 use host::Host;
 use session::{estimate_s, scan, set_aside, Commissioning};
 use std::path::{Path, PathBuf};
@@ -171,7 +172,14 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         Some(b) => b.clone(),
         None => fringe_sensor_models::builtin::commissioning_base(variant)?,
     };
-    rounds::open_base(&given.display().to_string(), variant)?;
+    let opened = rounds::open_base(&given.display().to_string(), variant)?;
+    if n.last_block && opened.arch != Some(Architecture::Custom) {
+        bail!(
+            "--last-block trains the custom CNN's last convolution block, and the base {} is {}: give a custom CNN as --base (builtin:layered) or leave --last-block out",
+            given.display(),
+            opened.describe()
+        );
+    }
     // A base file is kept by its absolute path: a resume from another directory finds it.
     let base = match fringe_sensor_models::builtin::named(&given) {
         Some(_) => given,

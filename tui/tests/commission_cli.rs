@@ -261,6 +261,12 @@ fn bad_input_is_refused_before_anything_moves() {
         t.contains("nothing.safetensors") && t.contains("no such model"),
         "{t}"
     );
+    // The last block is the custom CNN's: asked of the default (keypoint) base, it is refused.
+    let t = run(&["--last-block"]);
+    assert!(
+        t.contains("--last-block") && t.contains("builtin:layered-keypoint"),
+        "{t}"
+    );
     let t = run(&["--resume", arg(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // A resumed commissioning keeps its options; only the budget may be given again.

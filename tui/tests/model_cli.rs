@@ -352,6 +352,42 @@ fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
         let img = image::open(report.join(png)).expect(png);
         assert_eq!((img.width(), img.height()), (720, 720));
     }
+    // Smoothing over time: the reference layout does not say which frames share a press, so
+    // each frame stands alone and the smoothed figures are the per-frame ones.
+    let out = fringe(&[
+        "eval",
+        "--model",
+        arg(&model),
+        arg(&data),
+        "--reference-preprocessing",
+        "--smooth",
+        "5",
+    ]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    let smoothed = t
+        .split("smoothed:")
+        .nth(1)
+        .and_then(|rest| {
+            rest.lines()
+                .find(|l| l.trim_start().starts_with("Fz RMSE:"))
+        })
+        .unwrap_or_else(|| panic!("smoothed figures\n{t}"));
+    let smoothed: f64 = smoothed
+        .trim()
+        .trim_start_matches("Fz RMSE:")
+        .trim()
+        .trim_end_matches(" N")
+        .parse()
+        .expect("number");
+    assert!((smoothed - printed).abs() < 1e-9, "{smoothed} vs {printed}");
+    let out = fringe(&["eval", "--model", arg(&model), arg(&data), "--smooth", "2"]);
+    let t = text(&out);
+    assert!(!out.status.success(), "{t}");
+    assert!(
+        t.contains("--smooth") && t.contains("give 3 to 50 frames"),
+        "{t}"
+    );
 }
 
 #[test]

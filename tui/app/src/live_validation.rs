@@ -197,6 +197,7 @@ impl Shared {
         evaluation.rows.push(Row {
             scored,
             stage_mm: label.stage_mm,
+            press: label.press.clone(),
         });
     }
 

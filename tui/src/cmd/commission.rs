@@ -53,7 +53,8 @@ pub struct CommissionArgs {
     #[arg(long, conflicts_with = "resume", value_name = "N", default_value_t = DEFAULT_ACCEPTANCE_PRESSES as u64, value_parser = clap::value_parser!(u64).range(2..=200))]
     acceptance_presses: u64,
     /// Also train the custom CNN's last convolution block with the heads (pure Rust, a minute or
-    /// two more), kept only when it beats the heads alone on held-out presses.
+    /// two more), kept only when it beats the heads alone on held-out presses; for a custom CNN
+    /// base only (--base builtin:layered).
     #[arg(long, conflicts_with = "resume")]
     last_block: bool,
     /// Seed of the adaptation's cross-validation folds.

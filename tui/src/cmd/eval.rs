@@ -14,6 +14,7 @@ use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::preprocess::ReferenceSensor;
 use fringe_sensor_models::report;
+use fringe_sensor_models::smoothing::Smoothing;
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -48,6 +49,11 @@ pub struct EvalArgs {
     /// `paper` for the paper's custom-CNN row; the exit status is 1 when the model fails it.
     #[arg(long, value_name = "FILE|paper")]
     spec: Option<PathBuf>,
+    /// Also give the figures with the force and contact of each frame read from the last N
+    /// frames of its press (the least-squares line through their readings, at the frame: causal,
+    /// no lag on a steady ramp); the per-frame figures and the spec's verdict stay per frame.
+    #[arg(long, value_name = "N")]
+    smooth: Option<usize>,
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
@@ -59,6 +65,11 @@ pub fn run(a: EvalArgs) -> Result<()> {
         );
     }
     let spec = a.spec.as_deref().map(verdict::load).transpose()?;
+    let smoothing = a
+        .smooth
+        .map(Smoothing::new)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("--smooth: {e}"))?;
     let profile = match &a.profile {
         Some(p) => Some(Profile::load(p)?),
         None => None,
@@ -89,6 +100,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
     )?;
     progress.finish();
     print_figures(&model, &eval);
+    if let Some(s) = smoothing {
+        print_smoothed(&s, &eval);
+    }
     if let Some(dir) = &a.report {
         let title = format!("Evaluation of {}", model.path.display());
         let path = report::write(dir, &title, &eval)?;
@@ -174,6 +188,17 @@ fn warn_scale(
 }
 
 /// Prints the model and its Table-2 figures.
+/// The figures of the smoothed predictions, said as such.
+fn print_smoothed(s: &Smoothing, eval: &Evaluation) {
+    let e = s.errors(&eval.rows);
+    println!(
+        "smoothed:       force and contact from the line through the last {} frames of each press, at the frame (causal, no lag on a steady ramp; shape per frame)",
+        s.frames()
+    );
+    println!("  Fz RMSE:      {:.4} N", e.fz_rmse());
+    println!("  contact RMSE: {:.4} mm", e.contact_rmse());
+}
+
 fn print_figures(model: &Model, eval: &Evaluation) {
     let m = &eval.metrics;
     let s = m.macro_scores();

@@ -82,6 +82,7 @@ pub fn run_ui() -> anyhow::Result<()> {
         plan_origin: SHORT_GRID.origin(),
         runs: PathBuf::from("runs"),
         model: Some(model),
+        model_from_rig: true,
         tab: crate::ui::Tab::Scan,
         start: false,
     })

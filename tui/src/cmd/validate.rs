@@ -152,6 +152,7 @@ fn run_ui(
             backend: a.backend,
             threads: crate::cmd::arg_values::cap_threads(a.threads),
         }),
+        model_from_rig: a.model.is_none(),
         tab: crate::ui::Tab::Validate,
         start: false,
     })

@@ -28,6 +28,9 @@ pub struct UiOptions {
     pub plan_origin: String,
     pub runs: PathBuf,
     pub model: Option<ModelChoice>,
+    /// The model is the rig's choice (the unit's commissioned one, else the shipped one), not
+    /// named by the user: a commissioning that passes in the UI replaces it.
+    pub model_from_rig: bool,
     pub tab: Tab,
     /// Start the scan at once.
     pub start: bool,

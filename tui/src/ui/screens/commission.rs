@@ -12,6 +12,7 @@ use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::commission::{self as work, FromWorker, Worker};
 use crate::ui::scan_events::ScanEnd;
 use crate::ui::screen::{Screen, ScreenDef};
+use crate::ui::session::ModelChoice;
 use crate::ui::state::{CommissionPhase, CommissionView, Phase, ScanView, Tab};
 use crate::ui::widgets::disc::{self, Glyph, Layer};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, WARN};
@@ -182,6 +183,10 @@ impl Commissioner {
             }
             FromWorker::Finished(outcome) => {
                 v.progress = None;
+                let passed = match &outcome {
+                    Ok(a) if a.pass => Some(a.model.clone()),
+                    _ => None,
+                };
                 v.phase = match outcome {
                     Ok(a) if a.pass => CommissionPhase::Verdict {
                         pass: true,
@@ -207,6 +212,7 @@ impl Commissioner {
                 };
                 v.resumable = unfinished(&app.opts.config.profile_dir(), &v.sensor)
                     .map(|d| d.display().to_string());
+                take_commissioned_model(app, passed);
                 self.worker = None;
                 self.stop = false;
             }
@@ -261,6 +267,27 @@ impl Screen for Commissioner {
         };
         let _ = worker.ends.send(reply);
     }
+}
+
+/// A passing commissioning's model becomes the session's (the Validate and Runs screens'),
+/// unless the user named a model; nothing changes for `None` (no pass).
+fn take_commissioned_model(app: &mut App, model: Option<PathBuf>) {
+    let (Some(model), true) = (model, app.opts.model_from_rig) else {
+        return;
+    };
+    let mut choice = app
+        .opts
+        .model
+        .clone()
+        .unwrap_or_else(|| ModelChoice::for_rig(&app.opts.config));
+    choice.path = model;
+    let shown = choice.path.display().to_string();
+    app.state.model = Some(shown.clone());
+    app.state.runs.model = shown.clone();
+    app.state
+        .commission
+        .log(format!("the Validate and Runs screens now use {shown}"));
+    app.opts.model = Some(choice);
 }
 
 /// The keys that act now.
