@@ -272,8 +272,8 @@ impl App {
         }
     }
 
-    /// Stops a running scan as Ctrl-C stops `fringe scan`: z retracts and the run is closed
-    /// resumable.
+    /// Stops a running scan as a hang-up or SIGTERM does: z retracts and the run is closed
+    /// resumable (not the operator's abort).
     pub fn interrupt(&mut self) {
         if let Some(r) = &self.running {
             if self.scan_active() {
