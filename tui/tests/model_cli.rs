@@ -365,22 +365,11 @@ fn eval_scores_a_reference_layout_dataset_as_model_run_predicts_it() {
     ]);
     let t = text(&out);
     assert!(out.status.success(), "{t}");
-    let smoothed = t
-        .split("smoothed:")
-        .nth(1)
-        .and_then(|rest| {
-            rest.lines()
-                .find(|l| l.trim_start().starts_with("Fz RMSE:"))
-        })
+    let (per_frame, smoothed) = t
+        .split_once("smoothed:")
         .unwrap_or_else(|| panic!("smoothed figures\n{t}"));
-    let smoothed: f64 = smoothed
-        .trim()
-        .trim_start_matches("Fz RMSE:")
-        .trim()
-        .trim_end_matches(" N")
-        .parse()
-        .expect("number");
-    assert!((smoothed - printed).abs() < 1e-9, "{smoothed} vs {printed}");
+    let smoothed = printed_figure(smoothed, "  Fz RMSE:");
+    assert_eq!(smoothed, printed_figure(per_frame, "Fz RMSE:"), "{t}");
     let out = fringe(&["eval", "--model", arg(&model), arg(&data), "--smooth", "2"]);
     let t = text(&out);
     assert!(!out.status.success(), "{t}");
