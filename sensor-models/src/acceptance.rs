@@ -100,6 +100,36 @@ pub enum SpecError {
     },
 }
 
+impl Thresholds {
+    /// The thresholds in words, as a spec reads: `Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %`
+    /// (the ones set only; `none` when none is).
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(v) = self.fz_rmse_n {
+            parts.push(format!("Fz < {v} N"));
+        }
+        if let Some(v) = self.contact_rmse_mm {
+            parts.push(format!("contact < {v} mm"));
+        }
+        if let Some(v) = self.shape_accuracy {
+            parts.push(format!("shape > {} %", percent(v)));
+        }
+        if let Some(v) = self.macro_f1 {
+            parts.push(format!("macro F1 > {v}"));
+        }
+        if parts.is_empty() {
+            "none".into()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
+/// A fraction as a percentage with no float noise (0.953 -> 95.3).
+fn percent(v: f64) -> f64 {
+    (v * 1e6).round() / 1e4
+}
+
 impl Spec {
     /// The paper's custom-CNN row (Table 2, sensor 1).
     pub fn paper() -> Spec {
@@ -395,6 +425,17 @@ mod tests {
     use super::*;
     use crate::eval::Row;
     use crate::metrics::Scored;
+
+    #[test]
+    fn thresholds_read_in_words_as_set() {
+        assert_eq!(
+            Spec::paper().all.describe(),
+            "Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %"
+        );
+        let spec = Spec::parse("contact_rmse_mm = 0.8\nmacro_f1 = 0.9\n", "t.toml").expect("spec");
+        assert_eq!(spec.all.describe(), "contact < 0.8 mm, macro F1 > 0.9");
+        assert_eq!(Thresholds::default().describe(), "none");
+    }
 
     fn evaluation(rows: &[(f64, f64, usize, usize, f64)]) -> Evaluation {
         let classes: Vec<String> = ["None", "pentagon", "rectangle"].map(String::from).to_vec();

@@ -87,6 +87,27 @@ pub enum RunTarget {
     Resume { dir: PathBuf },
 }
 
+impl RunTarget {
+    /// The run's directory.
+    pub fn dir(&self) -> PathBuf {
+        match self {
+            RunTarget::New { root, run_id } => root.join(run_id),
+            RunTarget::Resume { dir } => dir.clone(),
+        }
+    }
+
+    /// The run's id: the name of its directory.
+    pub fn run_id(&self) -> String {
+        match self {
+            RunTarget::New { run_id, .. } => run_id.clone(),
+            RunTarget::Resume { dir } => dir
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        }
+    }
+}
+
 /// How a scan ended.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScanOutcome {

@@ -41,7 +41,8 @@ pub fn ready_view(config: &RigConfig) -> CommissionView {
         Err(e) => format!("none ({e})"),
     };
     v.plan = format!(
-        "base model {base} · {DEFAULT_BUDGET_MIN} min of bench time for the presses · spec: the paper's custom-CNN row (Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %)"
+        "base model {base} · {DEFAULT_BUDGET_MIN} min of bench time for the presses · spec: the paper's custom-CNN row ({})",
+        Spec::paper().all.describe()
     );
     v.resumable = unfinished(&config.profile_dir(), &sensor).map(|d| d.display().to_string());
     v.sensor = sensor;
@@ -65,10 +66,7 @@ pub struct ScanOrder {
 impl ScanOrder {
     /// The run directory the scan writes.
     pub fn run_dir(&self) -> PathBuf {
-        match &self.target {
-            RunTarget::New { root, run_id } => root.join(run_id),
-            RunTarget::Resume { dir } => dir.clone(),
-        }
+        self.target.dir()
     }
 }
 

@@ -181,13 +181,7 @@ fn run(
         root: req.runs,
         run_id: new_run_id(&req.program.plan.name),
     });
-    let run_id = match &target {
-        RunTarget::New { run_id, .. } => run_id.clone(),
-        RunTarget::Resume { dir } => dir
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-    };
+    let run_id = target.run_id();
     let mut session = ScanSession::open(
         &req.config,
         req.program,
