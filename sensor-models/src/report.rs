@@ -17,6 +17,7 @@ const BLACK: [u8; 3] = [0, 0, 0];
 const GREY: [u8; 3] = [200, 200, 200];
 const BLUE: [u8; 3] = [31, 90, 200];
 const RED: [u8; 3] = [210, 40, 30];
+const GREEN: [u8; 3] = [30, 140, 60];
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -385,7 +386,7 @@ pub fn line_plot(ylabel: &str, xlabel: &str, series: &[(&str, &[[f64; 2]])]) -> 
         lo: [x_lo, 0.0],
         hi: [x_hi, y_hi],
     };
-    let colours = [BLUE, RED, BLACK];
+    let colours = [BLUE, RED, BLACK, GREEN];
     for (k, (name, pts)) in series.iter().enumerate() {
         let colour = colours[k % colours.len()];
         let pts: Vec<[f64; 2]> = pts

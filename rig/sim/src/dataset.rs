@@ -208,8 +208,48 @@ pub fn frame(spec: &DatasetSpec, sensor: &SensorConfig, index: u64) -> Synthetic
             },
         )
     });
-    let truth = match &contact {
-        Some((_, c)) => FtMount::default().wrench_from_normal_force(c.force.0),
+    labelled(index, render_index, contact, &noise)
+}
+
+/// A frame of one press made off the bench clock (no motion): `contact`, the indenter named
+/// `shape` (one of [`SHAPES`]) at a place and force the caller chose, or nothing, labelled as
+/// [`frame`] labels its frames, the noise and the frame number to render drawn from `seed` and
+/// `index` alone.
+pub fn pressed_frame(
+    seed: u64,
+    index: u64,
+    contact: Option<(&'static str, Contact)>,
+) -> SyntheticFrame {
+    let mut rng = SplitMix64::new(mix(seed, index));
+    let render_index = rng.next_u64() >> 32;
+    let noise: [f64; 6] = std::array::from_fn(|_| rng.normal());
+    labelled(index, render_index, contact, &noise)
+}
+
+/// Frame `index`, rendered as frame number `render_index`, of `contact`, with the F/T reading
+/// of it under `noise`.
+fn labelled(
+    index: u64,
+    render_index: u64,
+    contact: Option<(&'static str, Contact)>,
+    noise: &[f64; 6],
+) -> SyntheticFrame {
+    SyntheticFrame {
+        index,
+        render_index,
+        scene: Scene {
+            contact: contact.map(|(_, c)| c),
+        },
+        shape: contact.map(|(name, _)| name),
+        wrench: reading(contact.as_ref().map(|(_, c)| c), noise),
+    }
+}
+
+/// What the simulated, tared F/T sensor reads under `contact`: its true wrench on the default
+/// mount plus white noise (`noise`: one standard normal draw per axis).
+fn reading(contact: Option<&Contact>, noise: &[f64; 6]) -> Wrench {
+    let truth = match contact {
+        Some(c) => FtMount::default().wrench_from_normal_force(c.force.0),
         None => Wrench::default(),
     };
     let n = FtNoiseConfig::default();
@@ -222,16 +262,7 @@ pub fn frame(spec: &DatasetSpec, sensor: &SensorConfig, index: u64) -> Synthetic
         n.torque_noise_nm,
     ];
     let t = truth.to_array();
-    let wrench = Wrench::from_array(std::array::from_fn(|i| t[i] + sigma[i] * noise[i]));
-    SyntheticFrame {
-        index,
-        render_index,
-        scene: Scene {
-            contact: contact.map(|(_, c)| c),
-        },
-        shape: contact.map(|(name, _)| name),
-        wrench,
-    }
+    Wrench::from_array(std::array::from_fn(|i| t[i] + sigma[i] * noise[i]))
 }
 
 /// The indenter called `name` (one of [`SHAPES`]) in `sensor`'s sizes.
@@ -280,6 +311,35 @@ mod tests {
             Newtons(9.0),
             seed,
         )
+    }
+
+    #[test]
+    fn a_press_frame_is_labelled_with_its_force_and_place() {
+        let sensor = SensorConfig::layered();
+        let contact = |force: f64| {
+            let shape = shape_named(&sensor, "rectangle").expect("shape");
+            Contact {
+                shape,
+                force: Newtons(force),
+                x: Millimetres(3.0),
+                y: Millimetres(-2.0),
+                angle_deg: 0.0,
+            }
+        };
+        let a = pressed_frame(5, 17, Some(("rectangle", contact(6.0))));
+        assert_eq!(a, pressed_frame(5, 17, Some(("rectangle", contact(6.0)))));
+        assert_eq!(a.shape, Some("rectangle"));
+        assert_eq!(a.contact_mm(), Some([3.0, -2.0]));
+        // Fz reads the press (negative, pressing) within the F/T noise (0.05 N).
+        assert!((a.wrench.fz.0 + 6.0).abs() < 0.3, "{:?}", a.wrench);
+        let other = pressed_frame(5, 18, Some(("rectangle", contact(6.0))));
+        assert_ne!(
+            a.render_index, other.render_index,
+            "each frame its own noise"
+        );
+        let free = pressed_frame(5, 19, None);
+        assert_eq!(free.shape, None);
+        assert!(free.wrench.fz.0.abs() < 0.3);
     }
 
     #[test]
