@@ -6,7 +6,7 @@
 #![cfg(feature = "torch")]
 
 mod common;
-use common::{arg, coarse_sensor, fringe, fringe_command, scratch, text};
+use common::{arg, coarse_sensor, fringe, fringe_command, scratch, shared, text};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::read_safetensors;
 use std::io::{BufRead, BufReader};
@@ -15,30 +15,30 @@ use std::process::Stdio;
 use std::sync::OnceLock;
 
 /// One dataset for every test of this file: 60 frames of the layered sensor (a coarser
-/// fringe-field grid keeps the renderer's start short in a debug build), forces up to 4 N.
+/// fringe-field grid keeps the renderer's start short in a debug build), forces up to 4 N;
+/// rendered once per build of `fringe` and shared by the tests' processes.
 fn data() -> &'static Path {
     static DATA: OnceLock<PathBuf> = OnceLock::new();
     DATA.get_or_init(|| {
-        // Shared by every test of this binary, so kept (statics are never dropped).
-        let dir = scratch("data").keep();
-        let sensor = coarse_sensor(&dir, "layered");
-        let out = dir.join("sim");
-        let o = fringe(&[
-            "sim",
-            "dataset",
-            "--sensor",
-            arg(&sensor),
-            "--count",
-            "60",
-            "--seed",
-            "3",
-            "--force-max",
-            "4",
-            "--out",
-            arg(&out),
-        ]);
-        assert!(o.status.success(), "{}", text(&o));
-        out
+        shared("train_cli-data", |dir| {
+            let sensor = coarse_sensor(dir, "layered");
+            let o = fringe(&[
+                "sim",
+                "dataset",
+                "--sensor",
+                arg(&sensor),
+                "--count",
+                "60",
+                "--seed",
+                "3",
+                "--force-max",
+                "4",
+                "--out",
+                arg(&dir.join("sim")),
+            ]);
+            assert!(o.status.success(), "{}", text(&o));
+        })
+        .join("sim")
     })
 }
 

@@ -67,18 +67,51 @@ pub fn scratch(name: &str) -> Scratch {
     Scratch(dir)
 }
 
+/// A directory of data that tests share, made by `make` (into the empty directory it is given)
+/// once per build of `fringe`: nextest runs every test in a process of its own, so a static
+/// would make it once per test and leave each copy behind. It lives in cargo's scratch space
+/// for integration tests (`CARGO_TARGET_TMPDIR`) under `name` and the binary's size and time;
+/// copies made by earlier builds are removed. Processes that make it at once each make their
+/// own and the first to finish is kept.
+pub fn shared(name: &str, make: impl FnOnce(&Path)) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let binary = std::fs::metadata(env!("CARGO_BIN_EXE_fringe")).expect("the fringe binary");
+    let built = binary
+        .modified()
+        .ok()
+        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+        .map_or(0, |d| d.as_nanos());
+    let prefix = format!("{name}-");
+    let dir = root.join(format!("{prefix}{:x}-{built:x}", binary.len()));
+    if !dir.is_dir() {
+        let partial = root.join(format!(
+            "{}.partial-{}",
+            dir.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&partial);
+        std::fs::create_dir_all(&partial).expect("shared test data directory");
+        make(&partial);
+        if std::fs::rename(&partial, &dir).is_err() {
+            // Another process finished first: use its copy.
+            assert!(dir.is_dir(), "cannot move {} into place", partial.display());
+            let _ = std::fs::remove_dir_all(&partial);
+        }
+        for old in std::fs::read_dir(&root).into_iter().flatten().flatten() {
+            let n = old.file_name().to_string_lossy().into_owned();
+            if n.starts_with(&prefix) && !n.contains(".partial-") && old.path() != dir {
+                let _ = std::fs::remove_dir_all(old.path());
+            }
+        }
+    }
+    dir
+}
+
 /// A test's scratch directory: removed on drop unless the test is failing (panicking).
 #[derive(Debug)]
 pub struct Scratch(PathBuf);
-
-impl Scratch {
-    /// The directory, kept after the test (data shared by the tests of a binary).
-    pub fn keep(self) -> PathBuf {
-        let dir = self.0.clone();
-        std::mem::forget(self);
-        dir
-    }
-}
 
 impl std::ops::Deref for Scratch {
     type Target = Path;
