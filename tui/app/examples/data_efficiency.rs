@@ -26,7 +26,9 @@
 //! Every figure lands in `DIR/curves.csv` (a rerun or a new score replaces its own rows), the
 //! curves with the spec's threshold in `DIR/fz.png` and `DIR/contact.png`; the table is printed.
 
-use fringe_app::commission::press_choice::{choose, PressedPoint, UsableDisc, REACH_FRACTION};
+use fringe_app::commission::press_choice::{
+    choose, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
+};
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::sim_bench::sensor_profile;
 use fringe_rig::axis::{Kinematics, SoftLimits};
@@ -55,10 +57,7 @@ use std::path::{Path, PathBuf};
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
-/// The commissioning's lattice spacing and coverage scale, mm (tui/src/commissioning/rounds.rs).
-const LATTICE_MM: f64 = 2.0;
-const COVERAGE_MM: f64 = 6.0;
-/// Positions per adaptive round (the commissioning's default).
+/// Positions per adaptive round (the default of `fringe commission --round-presses`).
 const ROUND: usize = 6;
 /// Held-out positions (each pressed with every indenter).
 const HELD_OUT: usize = 15;

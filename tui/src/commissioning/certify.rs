@@ -2,7 +2,7 @@
 //! at held-out positions (between the lattice the rounds press on), the whole network evaluated
 //! on it and judged against the spec, the report and the certificate.
 
-use super::rounds::{shapes, Adaptation, LATTICE_MM};
+use super::rounds::{shapes, Adaptation};
 use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::adapt::adapted_card;
 use crate::cmd::model::open_model;
@@ -12,7 +12,7 @@ use fringe_app::commission::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
 use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc};
+use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
 use fringe_app::commission::press_plan::press_plan;
 use fringe_app::ProfileUse;
 use fringe_calibration::profile::Profile;

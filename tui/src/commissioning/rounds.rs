@@ -7,7 +7,9 @@ use crate::cmd::model::open_model;
 use anyhow::{bail, Result};
 use fringe_app::commission::certificate::CurvePoint;
 use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc};
+use fringe_app::commission::press_choice::{
+    choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM,
+};
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::commission::press_plan::press_plan;
 use fringe_app::ProfileUse;
@@ -20,10 +22,6 @@ use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Spacing of the lattice presses are chosen from, mm.
-pub(crate) const LATTICE_MM: f64 = 2.0;
-/// Distance beyond which a place counts as unvisited, mm.
-const COVERAGE_MM: f64 = 6.0;
 /// A round stops the presses early when its unseen presses are within this share of every
 /// threshold of the spec.
 const EARLY_MARGIN: f64 = 0.8;

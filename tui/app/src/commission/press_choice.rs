@@ -36,6 +36,13 @@ pub enum DiscError {
     },
 }
 
+/// Spacing of the lattice commissioning presses are chosen from (and, shifted half of it, of
+/// the acceptance scan's held-out positions), mm.
+pub const LATTICE_MM: f64 = 2.0;
+
+/// Distance beyond which a place counts as unvisited when choosing presses, mm.
+pub const COVERAGE_MM: f64 = 6.0;
+
 /// Fraction of the crop radius that press centres may reach (the indenter must stay on the
 /// disc and clear of the rim's glow).
 pub const REACH_FRACTION: f64 = 0.7;
