@@ -6,7 +6,10 @@
 //! What it reports is honest: the base heads' error on the frames (they never saw them) against
 //! the fitted heads' cross-validated error (each press predicted by heads fitted without it).
 
+#[cfg(feature = "torch")]
+pub mod fine_tune;
 pub mod head_fit;
+pub mod held_out;
 pub mod last_block;
 
 use crate::backend::tract::TractGraph;

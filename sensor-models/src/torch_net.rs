@@ -124,6 +124,8 @@ pub struct Net {
     force_head: nn::Linear,
     class_head: nn::Linear,
     point_head: nn::Linear,
+    /// Batch norm keeps its running statistics in training too.
+    batch_norm_frozen: bool,
 }
 
 impl Net {
@@ -135,12 +137,21 @@ impl Net {
             force_head: nn::linear(root / "force_head", f, 7, Default::default()),
             class_head: nn::linear(root / "class_head", f, classes as i64, Default::default()),
             point_head: nn::linear(root / "point_head", f, 2, Default::default()),
+            batch_norm_frozen: false,
         }
     }
 
-    /// The heads' outputs for an NCHW batch; `train` switches batch norm to batch statistics.
+    /// Batch norm normalises with the running statistics it has, in training too, and no longer
+    /// updates them (fine-tuning on a small set from a trained model, whose heads were fitted
+    /// to features normalised with them).
+    pub fn freeze_batch_norm(&mut self) {
+        self.batch_norm_frozen = true;
+    }
+
+    /// The heads' outputs for an NCHW batch; `train` switches batch norm to batch statistics
+    /// (unless it is frozen).
     pub fn forward(&self, x: &Tensor, train: bool) -> Outputs {
-        let map = forward(&self.body, x, train);
+        let map = forward(&self.body, x, train && !self.batch_norm_frozen);
         let pooled = map.adaptive_avg_pool2d([1, 1]).flatten(1, -1);
         let features = match &self.keypoints {
             Some(k) => Tensor::cat(&[pooled, keypoints(&map.apply(k))], 1),

@@ -8,6 +8,7 @@
 //! aborted scan from the runs already recorded.
 
 mod certify;
+mod fine_tune;
 pub(crate) mod host;
 mod last_block;
 mod rounds;
@@ -49,6 +50,8 @@ pub(crate) struct NewCommissioning {
     pub round_presses: usize,
     pub acceptance_presses: usize,
     pub last_block: bool,
+    /// Also fine-tune every layer with libtorch (`torch` builds).
+    pub fine_tune: bool,
     pub seed: u64,
 }
 
@@ -61,6 +64,7 @@ impl Default for NewCommissioning {
             round_presses: DEFAULT_ROUND_PRESSES,
             acceptance_presses: DEFAULT_ACCEPTANCE_PRESSES,
             last_block: false,
+            fine_tune: false,
             seed: DEFAULT_SEED,
         }
     }
@@ -69,10 +73,12 @@ impl Default for NewCommissioning {
 /// A commissioning to start or to go on with.
 pub(crate) enum Request {
     New(NewCommissioning),
-    /// The commissioning in this directory, with a new budget when given.
+    /// The commissioning in this directory, with a new budget when given, and full
+    /// fine-tuning turned on when asked.
     Resume {
         dir: PathBuf,
         budget_min: Option<f64>,
+        fine_tune: bool,
     },
 }
 
@@ -112,7 +118,11 @@ impl Prepared {
 pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared> {
     let sensor = config.sensor_id()?;
     let (dir, journal) = match request {
-        Request::Resume { dir, budget_min } => resumed(dir, &sensor, *budget_min)?,
+        Request::Resume {
+            dir,
+            budget_min,
+            fine_tune,
+        } => resumed(dir, &sensor, *budget_min, *fine_tune)?,
         Request::New(n) => started(n, config, &sensor)?,
     };
     let spec = match &journal.options.spec {
@@ -173,6 +183,12 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         None => fringe_sensor_models::builtin::commissioning_base(variant)?,
     };
     let opened = rounds::open_base(&given.display().to_string(), variant)?;
+    if n.fine_tune {
+        fine_tune::available()?;
+        if n.last_block {
+            bail!("--last-block and --fine-tune: choose one (full fine-tuning trains every layer, the last block included)");
+        }
+    }
     if n.last_block && opened.arch != Some(Architecture::Custom) {
         bail!(
             "--last-block trains the custom CNN's last convolution block, and the base {} is {}: give a custom CNN as --base (builtin:layered) or leave --last-block out",
@@ -195,6 +211,7 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         round_presses: n.round_presses,
         acceptance_presses: n.acceptance_presses,
         last_block: n.last_block,
+        fine_tune: n.fine_tune,
     });
     let dir = config
         .profile_dir()
@@ -216,8 +233,14 @@ fn checked_budget(minutes: f64) -> Result<f64> {
     Ok(minutes)
 }
 
-/// A commissioning to go on with: its journal, for the same unit; `budget` replaces its budget.
-fn resumed(dir: &Path, sensor: &str, budget: Option<f64>) -> Result<(PathBuf, Journal)> {
+/// A commissioning to go on with: its journal, for the same unit; `budget` replaces its budget,
+/// `fine_tune` turns full fine-tuning on.
+fn resumed(
+    dir: &Path,
+    sensor: &str,
+    budget: Option<f64>,
+    fine_tune: bool,
+) -> Result<(PathBuf, Journal)> {
     let mut journal = Journal::read(dir)?;
     if journal.options.sensor != sensor {
         bail!(
@@ -228,6 +251,15 @@ fn resumed(dir: &Path, sensor: &str, budget: Option<f64>) -> Result<(PathBuf, Jo
     }
     if let Some(b) = budget {
         journal.options.budget_min = checked_budget(b)?;
+    }
+    if fine_tune {
+        fine_tune::available()?;
+        if journal.options.last_block {
+            bail!("{}: this commissioning trains the last block (--last-block); full fine-tuning trains every layer, the last block included: start a new commissioning with --fine-tune alone", dir.display());
+        }
+        journal.options.fine_tune = true;
+    }
+    if budget.is_some() || fine_tune {
         journal.write(dir)?;
     }
     Ok((dir.to_path_buf(), journal))

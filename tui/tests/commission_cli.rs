@@ -167,7 +167,65 @@ fn a_unit_is_commissioned_through_a_kill_recomputed_by_eval_and_checked_over_its
         "weights differ"
     );
 
+    #[cfg(feature = "torch")]
+    fine_tuning_asked_of_too_few_presses_keeps_the_heads(&dir, &rig, &cut, &first);
+
     checks_of_the_commissioned_unit(&dir, &rig);
+}
+
+/// `--resume DIR --fine-tune` on the commissioned unit, whose budget gave too few presses to
+/// judge a fine-tuning: it says why and what would give more, nothing is trained or pressed, the
+/// heads alone are kept and the card records why (the fine-tuning itself, stopped and resumed,
+/// is `train_cli`'s).
+#[cfg(feature = "torch")]
+fn fine_tuning_asked_of_too_few_presses_keeps_the_heads(
+    dir: &Path,
+    rig: &Path,
+    cut: &Path,
+    heads_model: &[u8],
+) {
+    let o = fringe_command()
+        .args([
+            "commission",
+            "--rig",
+            arg(rig),
+            "--yes",
+            "--resume",
+            arg(cut),
+        ])
+        .arg("--fine-tune")
+        .current_dir(dir)
+        .output()
+        .expect("fine-tune");
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("no full fine-tuning:")
+            && t.contains("--budget")
+            && t.contains("heads alone are kept"),
+        "{t}"
+    );
+    assert!(!cut.join("fine-tune").exists());
+    let journal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cut.join("journal.json")).expect("journal"))
+            .expect("journal json");
+    assert_eq!(journal["options"]["fine_tune"], true, "{journal}");
+    let card: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cut.join("model.json")).expect("card"))
+            .expect("card json");
+    assert_eq!(card["adaptation"]["method"], "heads", "{card}");
+    assert!(
+        card["adaptation"]["fine_tune"]["skipped"].is_string(),
+        "{card}"
+    );
+    // The file holds the card too: the tensors are the heads'.
+    let heads_copy = dir.join("heads.safetensors");
+    std::fs::write(&heads_copy, heads_model).expect("heads copy");
+    let tensors = |p: &Path| fringe_sensor_models::read_safetensors(p).expect("weights");
+    assert_eq!(
+        tensors(&cut.join("model.safetensors")),
+        tensors(&heads_copy)
+    );
 }
 
 /// The bench time a check said it would take, s.
@@ -267,6 +325,22 @@ fn bad_input_is_refused_before_anything_moves() {
         t.contains("--last-block") && t.contains("builtin:layered-keypoint"),
         "{t}"
     );
+    // Full fine-tuning needs libtorch; with it, it trains every layer and excludes the last
+    // block's training.
+    #[cfg(not(feature = "torch"))]
+    {
+        let t = run(&["--fine-tune"]);
+        assert!(
+            t.contains("--fine-tune") && t.contains("--features torch"),
+            "{t}"
+        );
+    }
+    #[cfg(feature = "torch")]
+    {
+        let custom = ["--base", "builtin:layered", "--last-block", "--fine-tune"];
+        let t = run(&custom);
+        assert!(t.contains("--last-block and --fine-tune"), "{t}");
+    }
     let t = run(&["--resume", arg(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // A resumed commissioning keeps its options; only the budget may be given again.

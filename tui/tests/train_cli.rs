@@ -368,3 +368,87 @@ fn bad_settings_are_refused_naming_the_flag() {
         text(&o)
     );
 }
+
+/// Full fine-tuning (commissioning's `--fine-tune`) of the shipped layered keypoint CNN on the
+/// dataset with a fold of presses held out: stopped by the operator after its first batch it
+/// leaves a checkpoint, resumed from it it finishes; both candidates are scored on the held-out
+/// presses, the fine-tuned one is kept only when it did better, the held-out presses never
+/// trained, and the finished outcome is found again in its directory.
+#[test]
+fn fine_tuning_stops_resumes_and_keeps_the_better_candidate() {
+    use fringe_sensor_models::adapt::fine_tune::{
+        fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
+    };
+    use fringe_sensor_models::adapt::held_out_presses;
+    use fringe_sensor_models::train::TrainEvent;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let dir = scratch("fine-tune");
+    let out = dir.join("fine-tune");
+    let base = fringe_sensor_models::builtin::open(Path::new("builtin:layered-keypoint"))
+        .expect("the shipped base");
+    let source = fringe_sensor_models::dataset::read(data()).expect("dataset");
+    let held = held_out_presses(&source.samples, 5, 42);
+    let config = FineTuneConfig {
+        epochs: 2,
+        batch: 8,
+        threads: 1,
+        ..FineTuneConfig::default()
+    };
+    let sources = [source];
+    // `stop_at_batch`: the operator stops it once a batch has trained (as Ctrl-C is heard).
+    let run = |resume: Option<&Path>, stop_at_batch: bool| {
+        let stop = AtomicBool::new(false);
+        let mut events = |e: FineTuneEvent| {
+            if stop_at_batch && matches!(e, FineTuneEvent::Train(TrainEvent::Batch { .. })) {
+                stop.store(true, Ordering::Relaxed);
+            }
+        };
+        fine_tune(
+            &base,
+            &sources,
+            &held,
+            &config,
+            &out,
+            resume,
+            &stop,
+            &mut events,
+        )
+        .expect("fine-tune")
+    };
+    let checkpoint = match run(None, true) {
+        FineTuneOutcome::Interrupted { checkpoint } => checkpoint,
+        FineTuneOutcome::Finished(_) => panic!("the stop was not heard"),
+    };
+    assert!(checkpoint.is_file(), "{}", checkpoint.display());
+    assert!(
+        finished(&out).is_none(),
+        "an interrupted fine-tuning counts as finished"
+    );
+    let done = match run(Some(&checkpoint), false) {
+        FineTuneOutcome::Finished(done) => done,
+        FineTuneOutcome::Interrupted { .. } => panic!("stopped again"),
+    };
+    assert_eq!(
+        done.kept,
+        done.fine_tuned.spec_units < done.heads_only.spec_units,
+        "{done:?}"
+    );
+    assert_eq!(done.held_out_presses, held.len());
+    assert_eq!(done.history.len(), 2, "{done:?}");
+    assert!(!done.augmented && done.frozen_batch_norm, "{done:?}");
+    // The held-out presses are on neither training side of the split it trained with.
+    let split: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("split.json")).expect("split"))
+            .expect("split json");
+    let train: Vec<&str> = split["train"]
+        .as_array()
+        .expect("train")
+        .iter()
+        .filter_map(|p| p.as_str())
+        .collect();
+    assert!(held.iter().all(|p| !train.contains(&p.as_str())), "{split}");
+    let again = finished(&out).expect("the finished outcome");
+    assert_eq!(again.fine_tuned, done.fine_tuned);
+    assert!(again.model.is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -10,6 +10,7 @@
 //! least held-out error, and epoch 0 (the heads alone, fitted on the other presses) is a
 //! candidate, so the block is used only where it does better on presses it never saw.
 
+use super::held_out::{HeldOut, CONTACT_UNIT, FZ_UNIT};
 use super::{run_cut_graph, AdaptError, Features};
 use crate::backend::InferenceError;
 use crate::dataset::{Sample, Source};
@@ -23,9 +24,6 @@ use nalgebra::DMatrix;
 
 /// The last block's convolution in the custom CNN's state dict.
 pub const BLOCK: &str = "cnn.3.block.0";
-/// The spec's units of the loss (the paper's row): Fz N, contact mm.
-const FZ_UNIT: f64 = 0.49;
-const CONTACT_UNIT: f64 = 1.47;
 /// Weight of the other force components (Fx, Fy, moments, Ft) against Fz in the loss.
 const OTHER_FORCE: f64 = 0.1;
 
@@ -129,16 +127,6 @@ impl Default for BlockConfig {
             threads: 2,
         }
     }
-}
-
-/// Held-out figures of one candidate.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct HeldOut {
-    pub fz_rmse_n: f64,
-    pub contact_rmse_mm: f64,
-    pub shape_accuracy: f64,
-    /// The worst of the three in the spec's units (1 = at the paper's row).
-    pub spec_units: f64,
 }
 
 /// The outcome: the weights to use and the evidence for them.
@@ -422,20 +410,7 @@ fn held_out(p: &Params, data: &BlockInputs, frames: &[usize], d: Dims) -> HeldOu
             contact_pred: [f64::from(f.outputs[2][0]), f64::from(f.outputs[2][1])],
         });
     }
-    let (fz, contact, acc) = (e.fz_rmse(), e.contact_rmse(), e.accuracy());
-    let contact_units = if e.n_contact > 0 {
-        contact / CONTACT_UNIT
-    } else {
-        0.0
-    };
-    HeldOut {
-        fz_rmse_n: fz,
-        contact_rmse_mm: contact,
-        shape_accuracy: acc,
-        spec_units: (fz / FZ_UNIT)
-            .max(contact_units)
-            .max((1.0 - acc) / (1.0 - 0.953)),
-    }
+    HeldOut::of(&e)
 }
 
 /// The summed gradient of `batch` (frames of `data`), over `threads` threads.

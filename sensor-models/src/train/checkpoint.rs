@@ -37,6 +37,13 @@ pub struct TrainingRecord {
     /// The split file (beside the checkpoint).
     pub split: PathBuf,
     pub pipeline: crate::augment::Pipeline,
+    /// The training inputs were the pipeline's augmented copies (absent in records before
+    /// fine-tuning: they always were); else each frame once, as recorded.
+    #[serde(default = "augmented_before")]
+    pub augmented: bool,
+    /// Batch norm kept the running statistics the training started with.
+    #[serde(default)]
+    pub batch_norm_frozen: bool,
     pub epochs: usize,
     pub batch: usize,
     pub lr: f64,
@@ -66,6 +73,11 @@ pub struct TrainingRecord {
     /// The weights the training started from (`--init`), when not a random initialisation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init: Option<PathBuf>,
+}
+
+/// Records before fine-tuning trained on augmented copies.
+fn augmented_before() -> bool {
+    true
 }
 
 /// The three files of a checkpoint.

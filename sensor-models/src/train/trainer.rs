@@ -45,6 +45,14 @@ pub struct TrainConfig {
     /// Weights to start from instead of a random initialisation (fine-tuning a trained model:
     /// any weights file `fringe model` reads, of the same architecture and classes).
     pub init: Option<PathBuf>,
+    /// The split to train with, by press, instead of a new one from `seed` (a fine-tuning that
+    /// must keep a fold of presses out of training). A resumed training keeps its own.
+    pub split: Option<Split>,
+    /// Training inputs are the pipeline's augmented copies of each frame; else each frame once
+    /// as recorded (fine-tuning to one unit, whose fixed optical pattern turning would blur).
+    pub augment: bool,
+    /// Batch norm keeps the running statistics of `init` (fine-tuning on a small set).
+    pub freeze_batch_norm: bool,
 }
 
 /// What the loop tells its caller, for progress and messages.
@@ -331,7 +339,13 @@ pub fn train(
     let split = match &resumed {
         // A resumed training keeps its split.
         Some((_, _, record, _)) => resumed_split(resume, record)?,
-        None => new_split(&samples, config.seed, &split_path)?,
+        None => match &config.split {
+            Some(given) => {
+                given.save(&split_path)?;
+                given.clone()
+            }
+            None => new_split(&samples, config.seed, &split_path)?,
+        },
     };
     let sides = Sides::of(&split, &samples)?;
     events(TrainEvent::Split {
@@ -349,7 +363,12 @@ pub fn train(
         };
         prepare_side(config, &classes, side, stop, events)
     };
-    let train_set = prepare(&sides.train, Some(config.pipeline), "training", events)?;
+    let train_set = prepare(
+        &sides.train,
+        config.augment.then_some(config.pipeline),
+        "training",
+        events,
+    )?;
     let val_set = prepare(&sides.val, None, "validation", events)?;
 
     let record = first_record(config, sources, &sides, train_set.len(), &f);
@@ -420,6 +439,8 @@ fn first_record(
         data: sources.iter().map(|s| s.path.clone()).collect(),
         split: PathBuf::from("split.json"),
         pipeline: config.pipeline,
+        augmented: config.augment,
+        batch_norm_frozen: config.freeze_batch_norm,
         epochs: config.epochs,
         batch: config.batch,
         lr: config.lr,
@@ -463,7 +484,10 @@ impl<'a> Run<'a> {
         record: TrainingRecord,
     ) -> Run<'a> {
         let vs = tch::nn::VarStore::new(Device::cuda_if_available());
-        let net = Net::new(&vs.root(), config.arch, classes.len());
+        let mut net = Net::new(&vs.root(), config.arch, classes.len());
+        if config.freeze_batch_norm {
+            net.freeze_batch_norm();
+        }
         let adam = Adam::new(&vs, config.lr);
         Run {
             config,
@@ -841,6 +865,9 @@ mod tests {
             threads: 1,
             out: PathBuf::from("out"),
             init: None,
+            split: None,
+            augment: true,
+            freeze_batch_norm: false,
         };
         let sources = [
             source("runs/a", Some("layered")),

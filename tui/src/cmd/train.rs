@@ -134,6 +134,9 @@ mod with_torch {
             threads: a.threads,
             out: a.out.clone(),
             init: a.init.clone(),
+            split: None,
+            augment: true,
+            freeze_batch_norm: false,
         };
         let mut data = a.data.clone();
         if let Some(cp) = &a.resume {
@@ -194,6 +197,8 @@ mod with_torch {
         }
         // Settings come from the checkpoint; --epochs may extend the training.
         config.pipeline = record.pipeline;
+        config.augment = record.augmented;
+        config.freeze_batch_norm = record.batch_norm_frozen;
         config.batch = record.batch;
         config.lr = record.lr;
         config.schedule = record.schedule;

@@ -104,7 +104,17 @@ fn write_model(c: &mut Commissioning<'_>, base: &Model, a: &Adaptation) -> Resul
         Some(&c.journal.options.sensor),
     );
     if let Some(serde_json::Value::Object(adaptation)) = card.other.get_mut("adaptation") {
-        adaptation.insert("method".into(), a.method().into());
+        adaptation.insert("method".into(), a.method().name().into());
+        if let Some(f) = &a.fine_tune {
+            let mut record = f.record.clone();
+            if let serde_json::Value::Object(m) = &mut record {
+                m.insert(
+                    "about".into(),
+                    "every layer trained again with libtorch from the heads fitted on the training presses (Adam, cosine rate), one fold of presses held out; kept only when it beat those heads on the fold".into(),
+                );
+            }
+            adaptation.insert("fine_tune".into(), record);
+        }
         if let Some(b) = &a.block {
             adaptation.insert(
                 "last_block".into(),
@@ -223,10 +233,7 @@ fn certificate(
         spec_origin: c.journal.options.spec_origin.clone(),
         base_model: ModelRef::of(Path::new(&c.journal.options.base), base.describe())?,
         model: MODEL.to_string(),
-        adaptation: match a.method() {
-            "last block" => "last block: the custom CNN's last convolution block and its heads trained again on the unit's frames in pure Rust, kept because it beat the heads alone on held-out presses (model.json has both figures)".into(),
-            _ => "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses".into(),
-        },
+        adaptation: a.method().about().into(),
         profile: PROFILE.to_string(),
         runs: UsedRuns {
             calibration: c

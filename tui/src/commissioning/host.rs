@@ -36,6 +36,11 @@ pub(crate) trait Host {
     /// `done` of `total` frames of `what` (features read, frames evaluated); `done == total` ends it.
     fn frames(&mut self, what: &'static str, done: usize, total: usize);
 
+    /// Whether the operator asked to stop (Ctrl-C, the screen's `s`): asked between batches of
+    /// a computation that can stop with a checkpoint (only full fine-tuning, in `torch` builds).
+    #[cfg_attr(not(feature = "torch"), allow(dead_code))]
+    fn stop_requested(&mut self) -> bool;
+
     /// A round was scored and learnt from: the learning curve and every press so far with its
     /// error, on the usable disc.
     fn learnt(&mut self, _curve: &[CurvePoint], _pressed: &[PressedPoint], _disc: &UsableDisc) {}

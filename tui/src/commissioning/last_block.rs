@@ -75,23 +75,15 @@ pub(crate) fn train(
         },
     )?;
     c.compute_s += started.elapsed().as_secs_f64();
-    let show = |h: &fringe_sensor_models::adapt::last_block::HeldOut| {
-        format!(
-            "Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %",
-            h.fz_rmse_n,
-            h.contact_rmse_mm,
-            100.0 * h.shape_accuracy
-        )
-    };
     c.say(format!(
         "  on the held-out presses: heads alone {}",
-        show(&fit.heads_only)
+        fit.heads_only.describe()
     ));
     if fit.epoch > 0 {
         c.say(format!(
             "  last block, epoch {}: {} (kept)",
             fit.epoch,
-            show(&fit.kept)
+            fit.kept.describe()
         ));
     } else {
         c.say("  the last block did no better on them: the heads alone are kept".into());

@@ -2,6 +2,7 @@
 //! by the model as adapted on every press before it (an honest held-out learning curve), then
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
+use super::fine_tune::FineTune;
 use super::session::{estimate_s, scan, Commissioning};
 use crate::cmd::model::open_model;
 use anyhow::{bail, Result};
@@ -34,6 +35,8 @@ pub(crate) struct Adaptation {
     pub adapted: Adapted,
     /// The last block trained with the heads (the custom CNN), when it ran.
     pub block: Option<BlockFit>,
+    /// Every layer fine-tuned with libtorch, when it ran.
+    pub fine_tune: Option<FineTune>,
     pub runs: Vec<PathBuf>,
     pub curve: Vec<CurvePoint>,
     pub pressed: Vec<PressedPoint>,
@@ -41,9 +44,41 @@ pub(crate) struct Adaptation {
     pub disc: UsableDisc,
 }
 
+/// Which adaptation a commissioned model's weights come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Method {
+    Heads,
+    LastBlock,
+    FineTuning,
+}
+
+impl Method {
+    /// Its name, as the model's card records it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Heads => "heads",
+            Method::LastBlock => "last block",
+            Method::FineTuning => "full fine-tuning",
+        }
+    }
+
+    /// What it did, for the certificate.
+    pub fn about(self) -> &'static str {
+        match self {
+            Method::Heads => "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses",
+            Method::LastBlock => "last block: the custom CNN's last convolution block and its heads trained again on the unit's frames in pure Rust, kept because it beat the heads alone on held-out presses (model.json has both figures)",
+            Method::FineTuning => "full fine-tuning: every layer trained again on the unit's frames with libtorch from the heads fitted on them, one fold of presses held out, kept because it beat the heads alone on that fold (model.json has both figures)",
+        }
+    }
+}
+
 impl Adaptation {
-    /// The weights to use: the last block's when it beat the heads alone on held-out presses.
+    /// The weights to use: the last block's or the fine-tuned network's when it beat the heads
+    /// alone on held-out presses.
     pub fn weights(&self) -> &StateDict {
+        if let Some(w) = self.fine_tune.as_ref().and_then(|f| f.kept.as_ref()) {
+            return w;
+        }
         match &self.block {
             Some(b) if b.epoch > 0 => &b.weights,
             _ => &self.adapted.weights,
@@ -51,10 +86,13 @@ impl Adaptation {
     }
 
     /// Which adaptation the weights come from.
-    pub fn method(&self) -> &'static str {
+    pub fn method(&self) -> Method {
+        if self.fine_tune.as_ref().is_some_and(|f| f.kept.is_some()) {
+            return Method::FineTuning;
+        }
         match &self.block {
-            Some(b) if b.epoch > 0 => "last block",
-            _ => "heads",
+            Some(b) if b.epoch > 0 => Method::LastBlock,
+            _ => Method::Heads,
         }
     }
 }
@@ -146,9 +184,15 @@ pub(crate) fn adapt(
     } else {
         None
     };
+    let fine_tune = if c.journal.options.fine_tune {
+        super::fine_tune::run(c, base, &state.runs)?
+    } else {
+        None
+    };
     Ok(Adaptation {
         adapted,
         block,
+        fine_tune,
         runs: state.runs,
         curve: state.curve,
         pressed: state.pressed,

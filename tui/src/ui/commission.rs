@@ -13,6 +13,8 @@ use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;
 use fringe_sensor_models::acceptance::Spec;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// Inference threads of the commissioning's computation.
 const THREADS: usize = 2;
@@ -96,18 +98,23 @@ pub struct Worker {
     pub events: Receiver<FromWorker>,
     /// How each scan the thread asked for ended (an error: it could not run).
     pub ends: Sender<Result<ScanEnded, String>>,
+    /// The operator's stop, for the computation between scans that can stop with a checkpoint
+    /// (full fine-tuning).
+    pub stop: Arc<AtomicBool>,
 }
 
 /// Starts `request` on the rig on its own thread.
 pub fn start(request: Request, config: RigConfig) -> Worker {
     let (tx, events) = unbounded();
     let (ends, ends_rx) = unbounded();
+    let stop = Arc::new(AtomicBool::new(false));
     std::thread::Builder::new()
         .name("commission".into())
         .spawn({
             let tx = tx.clone();
+            let stop = stop.clone();
             move || {
-                let outcome = work(&request, config, &tx, ends_rx);
+                let outcome = work(&request, config, &tx, ends_rx, stop);
                 let _ = tx.send(FromWorker::Finished(outcome.map_err(|e| format!("{e:#}"))));
             }
         })
@@ -119,7 +126,7 @@ pub fn start(request: Request, config: RigConfig) -> Worker {
             },
             |_| (),
         );
-    Worker { events, ends }
+    Worker { events, ends, stop }
 }
 
 fn work(
@@ -127,6 +134,7 @@ fn work(
     config: RigConfig,
     tx: &Sender<FromWorker>,
     ends: Receiver<Result<ScanEnded, String>>,
+    stop: Arc<AtomicBool>,
 ) -> anyhow::Result<Accepted> {
     let prepared = commissioning::prepare(request, &config)?;
     let _ = tx.send(FromWorker::Started {
@@ -140,6 +148,7 @@ fn work(
         tx: tx.clone(),
         ends,
         shown: None,
+        stop,
     };
     commissioning::run(prepared, config, THREADS, &mut host)
 }
@@ -150,6 +159,9 @@ struct UiHost {
     ends: Receiver<Result<ScanEnded, String>>,
     /// The progress last sent (what, per cent): a line a per cent, not a frame.
     shown: Option<(&'static str, usize)>,
+    /// Set by the screen's stop (read by full fine-tuning, in `torch` builds).
+    #[cfg_attr(not(feature = "torch"), allow(dead_code))]
+    stop: Arc<AtomicBool>,
 }
 
 impl Host for UiHost {
@@ -190,6 +202,10 @@ impl Host for UiHost {
         self.shown = (done < total).then_some((what, pct));
         let line = (done < total).then(|| format!("{what}: {done} of {total} frames ({pct} %)"));
         let _ = self.tx.send(FromWorker::Progress(line));
+    }
+
+    fn stop_requested(&mut self) -> bool {
+        self.stop.load(Ordering::SeqCst)
     }
 
     fn learnt(&mut self, curve: &[CurvePoint], pressed: &[PressedPoint], disc: &UsableDisc) {

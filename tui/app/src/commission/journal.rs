@@ -35,6 +35,10 @@ pub struct Options {
     /// Also train the custom CNN's last block (kept when it beats the heads alone).
     #[serde(default)]
     pub last_block: bool,
+    /// Also fine-tune every layer with libtorch (`torch` builds; kept when it beats the heads
+    /// alone).
+    #[serde(default)]
+    pub fine_tune: bool,
 }
 
 /// One scan of the commissioning.
@@ -67,6 +71,10 @@ pub struct Journal {
     pub rounds: Vec<ScanEntry>,
     #[serde(default)]
     pub acceptance: Option<ScanEntry>,
+    /// The fine-tuning's checkpoint to go on from (relative to the directory), when it was
+    /// stopped.
+    #[serde(default)]
+    pub fine_tune_checkpoint: Option<String>,
 }
 
 /// A journal that cannot be used.
@@ -96,6 +104,7 @@ impl Journal {
             calibration: None,
             rounds: Vec::new(),
             acceptance: None,
+            fine_tune_checkpoint: None,
         }
     }
 
@@ -198,6 +207,7 @@ mod tests {
             round_presses: 6,
             acceptance_presses: 8,
             last_block: false,
+            fine_tune: false,
         }
     }
 

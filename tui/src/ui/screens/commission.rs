@@ -113,6 +113,7 @@ impl Commissioner {
             Request::Resume {
                 dir,
                 budget_min: None,
+                fine_tune: false,
             },
         );
     }
@@ -123,6 +124,9 @@ impl Commissioner {
             return;
         }
         self.stop = true;
+        if let Some(w) = &self.worker {
+            w.stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
         if self.scanning.is_some() {
             app.interrupt();
         }
