@@ -3,8 +3,8 @@
 //! profile; rounds of presses chosen where the model errs most or has not pressed, each round
 //! predicted by the model as adapted so far before it is adapted on (the learning curve); the
 //! model's heads adapted to the unit in pure Rust (and, asked in a `torch` build, every layer
-//! fine-tuned, kept when it beats the heads on held-out presses); an acceptance scan at held-out positions
-//! judged against the spec; everything kept in one directory beside the unit's profile with
+//! fine-tuned, kept when it beats the heads on held-out presses); an acceptance scan at held-out
+//! positions judged against the spec; everything kept in one directory beside the unit's profile with
 //! `certificate.json` and `report.md`. A commissioning goes on after Ctrl-C, a crash or an
 //! aborted scan from the runs already recorded.
 
