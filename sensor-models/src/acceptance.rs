@@ -130,14 +130,21 @@ fn percent(v: f64) -> f64 {
     (v * 1e6).round() / 1e4
 }
 
+/// The paper's custom-CNN row (Table 2, sensor 1): Fz RMSE, N.
+pub const PAPER_FZ_RMSE_N: f64 = 0.49;
+/// The paper's custom-CNN row: contact RMSE, mm.
+pub const PAPER_CONTACT_RMSE_MM: f64 = 1.47;
+/// The paper's custom-CNN row: shape accuracy, 0-1.
+pub const PAPER_SHAPE_ACCURACY: f64 = 0.953;
+
 impl Spec {
     /// The paper's custom-CNN row (Table 2, sensor 1).
     pub fn paper() -> Spec {
         Spec {
             all: Thresholds {
-                fz_rmse_n: Some(0.49),
-                contact_rmse_mm: Some(1.47),
-                shape_accuracy: Some(0.953),
+                fz_rmse_n: Some(PAPER_FZ_RMSE_N),
+                contact_rmse_mm: Some(PAPER_CONTACT_RMSE_MM),
+                shape_accuracy: Some(PAPER_SHAPE_ACCURACY),
                 macro_f1: None,
             },
             force_range: Vec::new(),

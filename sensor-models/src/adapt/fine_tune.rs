@@ -11,9 +11,10 @@ use crate::dataset::Source;
 use crate::eval::{evaluate, EvalError};
 use crate::lr_schedule::Schedule;
 use crate::model::{Model, ModelError};
+use crate::model_card::ModelCard;
 use crate::preprocess::Colour;
 use crate::split::{Split, SplitSpec};
-use crate::train::{train, EpochRecord, Outcome, TrainConfig, TrainError, TrainEvent};
+use crate::train::{train, Checkpoint, EpochRecord, Outcome, TrainConfig, TrainError, TrainEvent};
 use crate::weights::safetensors_file::write_safetensors_with_card;
 use fringe_rig::reference_layout::NO_CONTACT;
 use std::collections::BTreeSet;
@@ -121,6 +122,8 @@ pub enum FineTuneError {
     Eval(#[from] EvalError),
     #[error(transparent)]
     Model(#[from] ModelError),
+    #[error(transparent)]
+    Card(#[from] crate::model_card::CardError),
     #[error("{0}: only the paper's networks by their weights can be fine-tuned; this one is not recognised as one")]
     NotTrainable(String),
     #[error("the base model's classes {base:?} are not the data's {data:?}: fine-tune on presses of every indenter the base knows")]
@@ -366,12 +369,13 @@ fn pipeline_of(base: &Model) -> Pipeline {
         })
 }
 
-/// The epochs' validation figures from the final model's card.
+/// The epochs' validation figures from the final model's card (read alone: the model is opened
+/// once, to be scored).
 fn trained_history(model: &Path) -> Result<Vec<EpochRecord>, FineTuneError> {
-    let m = Model::open(model)?;
-    Ok(m.card
-        .as_ref()
-        .and_then(|c| c.other.get("training"))
+    let card = ModelCard::read(&Checkpoint::at(model).card())?;
+    Ok(card
+        .other
+        .get("training")
         .and_then(|t| t.get("history"))
         .cloned()
         .and_then(|h| serde_json::from_value(h).ok())

@@ -3,14 +3,13 @@
 //! that train more than the heads (the last block, full fine-tuning) are kept only when this
 //! figure beats the heads alone on the same held-out presses.
 
+use crate::acceptance::{PAPER_CONTACT_RMSE_MM, PAPER_FZ_RMSE_N, PAPER_SHAPE_ACCURACY};
 use crate::metrics::Errors;
 
-/// The paper's custom-CNN row (Table 2): Fz RMSE, N.
-pub(crate) const FZ_UNIT: f64 = 0.49;
-/// The paper's custom-CNN row: contact RMSE, mm.
-pub(crate) const CONTACT_UNIT: f64 = 1.47;
-/// The paper's custom-CNN row: shape accuracy.
-const SHAPE_UNIT: f64 = 0.953;
+/// The spec's units: the paper's custom-CNN row.
+pub(crate) const FZ_UNIT: f64 = PAPER_FZ_RMSE_N;
+pub(crate) const CONTACT_UNIT: f64 = PAPER_CONTACT_RMSE_MM;
+const SHAPE_UNIT: f64 = PAPER_SHAPE_ACCURACY;
 
 /// Held-out figures of one candidate.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -106,17 +106,7 @@ fn write_model(c: &mut Commissioning<'_>, base: &Model, a: &Adaptation) -> Resul
     if let Some(serde_json::Value::Object(adaptation)) = card.other.get_mut("adaptation") {
         adaptation.insert("method".into(), a.method().name().into());
         if let Some(f) = &a.fine_tune {
-            let mut record = f.record.clone();
-            if let serde_json::Value::Object(m) = &mut record {
-                // A skipped fine-tuning says why instead.
-                if !m.contains_key("skipped") {
-                    m.insert(
-                    "about".into(),
-                    "every layer trained again with libtorch from the heads fitted on the training presses (Adam, cosine rate), one fold of presses held out; kept only when it beat those heads on the fold".into(),
-                    );
-                }
-            }
-            adaptation.insert("fine_tune".into(), record);
+            adaptation.insert("fine_tune".into(), f.record.clone());
         }
         if let Some(b) = &a.block {
             adaptation.insert(

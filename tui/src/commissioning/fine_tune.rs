@@ -13,6 +13,10 @@ use std::path::PathBuf;
 #[cfg(feature = "torch")]
 const DIR: &str = "fine-tune";
 
+/// What a fine-tuning that ran did, for the model's card.
+#[cfg(feature = "torch")]
+const ABOUT: &str = "every layer trained again with libtorch from the heads fitted on the training presses (Adam, cosine rate, frames as recorded), one fold of presses held out; kept only when it beat those heads on the fold";
+
 /// What the fine-tuning found.
 pub(crate) struct FineTune {
     /// The fine-tuned weights, when they beat the heads alone on the held-out presses.
@@ -85,14 +89,14 @@ pub(crate) fn run(
                 .flat_map(|s| s.samples.iter().cloned())
                 .collect();
             let held_out = held_out_presses(&samples, 5, config.seed);
+            let presses = samples
+                .iter()
+                .map(|s| s.press.as_str())
+                .collect::<std::collections::BTreeSet<_>>()
+                .len();
             if held_out.len() < MIN_HELD_OUT {
                 let why = format!(
-                    "{} presses, {} held out: at least {MIN_HELD_OUT} held out are needed to tell whether fine-tuning beats the heads alone (about {} presses; a larger --budget gives more)",
-                    samples
-                        .iter()
-                        .map(|s| s.press.as_str())
-                        .collect::<std::collections::BTreeSet<_>>()
-                        .len(),
+                    "{presses} presses, {} held out: at least {MIN_HELD_OUT} held out are needed to tell whether fine-tuning beats the heads alone (about {} presses; a larger --budget gives more)",
                     held_out.len(),
                     5 * MIN_HELD_OUT
                 );
@@ -116,7 +120,7 @@ pub(crate) fn run(
                     1 => "every frame".to_string(),
                     n => format!("1 frame in {n}"),
                 },
-                samples.iter().map(|s| s.press.as_str()).collect::<std::collections::BTreeSet<_>>().len(),
+                presses,
                 held_out.len(),
                 config.epochs,
                 config.lr,
@@ -235,10 +239,11 @@ pub(crate) fn run(
     } else {
         None
     };
-    Ok(Some(FineTune {
-        kept,
-        record: serde_json::to_value(&outcome)?,
-    }))
+    let mut record = serde_json::to_value(&outcome)?;
+    if let serde_json::Value::Object(m) = &mut record {
+        m.insert("about".into(), ABOUT.into());
+    }
+    Ok(Some(FineTune { kept, record }))
 }
 
 /// Whether the checkpoint `path` was trained on `runs`.
