@@ -6,7 +6,8 @@
 //!   frames.jsonl      one record per frame (appended, one line each)
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
-//!   frames/NNNNNNNN.png  lossless frames, stored as start.json's `frames` says (frame_file)
+//!   frames/NNNNNNNN.fgl  lossless frames (.png in older runs), stored as start.json's `frames`
+//!                     says (frame_file)
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
@@ -19,6 +20,7 @@
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
 //! - [`frame_file`]: how the frames are stored (pixel format, region, encoding), written and read.
+//! - [`grey_codec`]: FGL, the lossless codec of one-channel frames (pure encode/decode).
 //! - [`stored_part`]: `[recording]` of a rig file or a plan: whole frames or the disc's square.
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
@@ -37,6 +39,7 @@ pub mod error;
 pub mod export;
 pub mod force_log;
 pub mod frame_file;
+pub mod grey_codec;
 pub mod layout;
 pub mod manifest;
 pub mod own_file;

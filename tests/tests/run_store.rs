@@ -475,12 +475,26 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         ..start("run-old")
     };
     // Layout 2: the storage recorded, the mosaic as colour planes.
-    let new = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+    let planes = StartDocument {
+        layout_version: 2,
         frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
-        ..start("run-new")
+        ..start("run-planes")
     };
-    for (start, encoding) in [(old, Encoding::Png), (new, Encoding::PngBayerPlanes)] {
+    // Layout 3: the mosaic in FGL (`[recording] codec = "fgl"`).
+    let fgl = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        frames: Some(
+            FrameStorage::new(PixelFormat::BayerRg8, None)
+                .and_then(|s| s.with_codec(fringe_rig::store::frame_file::FrameCodec::Fgl))
+                .expect("storage"),
+        ),
+        ..start("run-fgl")
+    };
+    for (start, encoding) in [
+        (old, Encoding::Png),
+        (planes, Encoding::PngBayerPlanes),
+        (fgl, Encoding::Fgl),
+    ] {
         let dir = bayer_run(&root, &start);
         let report = verify(&dir).expect("verify");
         assert!(report.ok(), "{:?}", report.problems);

@@ -13,6 +13,7 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
+use fringe_rig::store::frame_file::FrameCodec;
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::verify::verify;
 use fringe_rig::store::{START, STOP};
@@ -85,6 +86,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         profile: None,
         camera: CameraSettings::default(),
         cutout: None,
+        codec: FrameCodec::Png,
         press: PressSettings::default(),
         watch: WatchSettings::default(),
         sidecars: Vec::new(),
@@ -1117,15 +1119,21 @@ impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
 }
 
 #[test]
-fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square() {
+fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_in_each_codec() {
     use fringe_rig::camera::PixelFormat;
     use fringe_rig::store::frame_file::{Encoding, FrameStorage};
-    for disc in [false, true] {
-        let name = if disc { "bits-disc" } else { "bits-whole" };
+    // Whole frames in the default PNG planes; the disc's square in FGL.
+    for (disc, codec) in [(false, FrameCodec::Png), (true, FrameCodec::Fgl)] {
+        let name = if disc {
+            "bits-disc-fgl"
+        } else {
+            "bits-whole-png"
+        };
         let dir = tempfile_dir(name);
         let (rig, devices, _truth) = bench(31);
         let text = plan("[12.0]", "[25.0]", "force_targets = [3.0]", 0.2);
         let mut setup = setup(&rig, &text);
+        setup.codec = codec;
         let g = &rig.config.sensor.geometry;
         if disc {
             setup.cutout = Some(
@@ -1160,15 +1168,21 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square(
         assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
         let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start");
         let storage = start.frames.expect("the run records how it stores frames");
-        // The simulated camera delivers its native format by default, stored as colour planes.
+        // The simulated camera delivers its native format by default, stored as colour planes
+        // or in FGL.
         assert_eq!(storage.pixel_format, PixelFormat::BayerRg8);
-        assert_eq!(storage.encoding, Encoding::PngBayerPlanes);
+        let (encoding, extension) = match codec {
+            FrameCodec::Png => (Encoding::PngBayerPlanes, ".png"),
+            FrameCodec::Fgl => (Encoding::Fgl, ".fgl"),
+        };
+        assert_eq!(storage.encoding, encoding);
         assert_eq!(storage.cutout, setup.cutout);
         let records = records(&out.run_dir);
         let delivered = delivered.0.lock().unwrap_or_else(|p| p.into_inner());
         assert_eq!(delivered.len(), records.len());
         assert!(records.len() > 20, "{} records", records.len());
         for r in &records {
+            assert!(r.file.ends_with(extension), "{}", r.file);
             let camera = &delivered[&r.index];
             let stored = storage
                 .read(&r.file_in(&out.run_dir).expect("file"))

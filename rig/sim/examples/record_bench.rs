@@ -1,10 +1,11 @@
 //! Acquisition throughput: full 1920x1200 frames at 50 Hz plus the 5 kHz force stream recorded
 //! into a run, with the simulated camera rendering in the same process.
 //!
-//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--rgb] [--disc] [--keep-frames] [--keep-run]`
+//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--rgb] [--disc] [--fgl] [--keep-frames] [--keep-run]`
 //! (default 600 s; the camera delivers its native BayerRG8 mosaic, one byte per pixel, stored as
 //! colour planes in PNG; `--rgb`: on-camera interpolated RGB8 instead, in an RGB PNG; `--disc`:
-//! only the square around the disc is stored, with the rig file's default margin). The simulated bench presses the layered sensor with the pentagon at about
+//! only the square around the disc is stored, with the rig file's default margin; `--fgl`: the
+//! frames in FGL, as `[recording] codec = "fgl"` stores them). The simulated bench presses the layered sensor with the pentagon at about
 //! 4 N (so every frame has fringes to render and to compress); the force stream, the camera
 //! stream and the recorder (strobe labels, lossless PNG frames, the raw force log, frame records)
 //! run on their own threads as in a scan, filming all the time. Every 10 s it prints the counts;
@@ -23,7 +24,7 @@ use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::camera::{CameraSettings, PixelFormat};
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
-use fringe_rig::store::frame_file::{FrameStorage, DISC_MARGIN_PX};
+use fringe_rig::store::frame_file::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;
@@ -59,14 +60,14 @@ fn bytes_in(dir: &Path) -> u64 {
         .sum()
 }
 
-/// Deletes finished frame PNGs, adding their sizes to `bytes`.
+/// Deletes finished frame files, adding their sizes to `bytes`.
 fn reap_frames(dir: &Path, bytes: &mut u64) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
     for e in entries.filter_map(Result::ok) {
         let path = e.path();
-        if path.extension().is_some_and(|x| x == "png") {
+        if path.extension().is_some_and(|x| x == "png" || x == "fgl") {
             if let Ok(m) = e.metadata() {
                 if std::fs::remove_file(&path).is_ok() {
                     *bytes += m.len();
@@ -81,6 +82,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let keep = args.iter().any(|a| a == "--keep-frames");
     let rgb = args.iter().any(|a| a == "--rgb");
     let disc = args.iter().any(|a| a == "--disc");
+    let codec = if args.iter().any(|a| a == "--fgl") {
+        FrameCodec::Fgl
+    } else {
+        FrameCodec::Png
+    };
     let seconds: f64 = match args.iter().find(|a| !a.starts_with("--")) {
         Some(a) => a.parse()?,
         None => 600.0,
@@ -143,7 +149,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         calibration_profile: None,
         seed: Some(config.seed),
         sync_method: "strobe".into(),
-        frames: Some(FrameStorage::new(pixel_format, cutout)?),
+        frames: Some(FrameStorage::new(pixel_format, cutout)?.with_codec(codec)?),
     };
     let writer = RunWriter::create(&root, &start)?;
     let run_dir = writer.dir().to_path_buf();

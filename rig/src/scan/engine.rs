@@ -36,7 +36,7 @@ use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
 use crate::store::error::StoreError;
-use crate::store::frame_file::FrameStorage;
+use crate::store::frame_file::{FrameCodec, FrameStorage};
 use crate::store::run_writer::RunWriter;
 use crate::sync::method::SyncMethod;
 use crate::units::{Millimetres, Newtons};
@@ -65,6 +65,8 @@ pub struct ScanSetup {
     /// The part of each frame a new run stores (the square around the disc); `None`: whole
     /// frames. A resumed run stores what it stored before.
     pub cutout: Option<Cutout>,
+    /// The codec a new run stores frames in. A resumed run stores as it stored before.
+    pub codec: FrameCodec,
     /// Press tuning; the contact threshold, ceiling and approach limit are set from the plan and
     /// the bench.
     pub press: PressSettings,
@@ -512,6 +514,7 @@ fn open_run(
                 sync_method: setup.sync.name().into(),
                 frames: Some(
                     FrameStorage::new(setup.camera.pixel_format, setup.cutout)
+                        .and_then(|s| s.with_codec(setup.codec))
                         .map_err(|e| ScanError::Setup(format!("storing frames: {e}")))?,
                 ),
             };

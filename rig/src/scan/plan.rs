@@ -299,6 +299,7 @@ impl Plan {
         self.check_pressing(&targets).map_err(err)?;
         if let Some(r) = &self.recording {
             r.stored_part().map_err(err)?;
+            r.codec().map_err(err)?;
         }
         // The size check comes before anything is allocated for the points.
         self.check_count(&lateral).map_err(err)?;

@@ -10,8 +10,9 @@ use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Version of the run layout written by this build. 2: the start document records how the
-/// frames are stored ([`StartDocument::frames`]); runs of layout 1 are still read.
-pub const LAYOUT_VERSION: u32 = 2;
+/// frames are stored ([`StartDocument::frames`]); 3: one-channel frames may be FGL files
+/// (`frames/*.fgl`, `Encoding::Fgl`). Runs of every earlier layout are still read.
+pub const LAYOUT_VERSION: u32 = 3;
 
 /// Written once when a run starts.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

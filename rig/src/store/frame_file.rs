@@ -1,16 +1,22 @@
-//! How a run stores its frames (`frames/NNNNNNNN.png`): the one place that writes and reads them.
+//! How a run stores its frames (`frames/NNNNNNNN.fgl`, `.png` in older runs): the one place that
+//! writes and reads them.
 //!
 //! A run records in its start document how its frames are stored ([`FrameStorage`]): the pixel
 //! format the camera delivered, the part of the frame kept (all of it, or the square around the
 //! sensor's disc), and the encoding. Readers take all three from the run, never from today's
-//! defaults. Encodings, both lossless and both ordinary PNG files:
+//! defaults. Encodings, all lossless:
 //!
-//! - [`Encoding::Png`]: the pixels as delivered: RGB8 in an RGB PNG, Mono8 in a grey PNG.
+//! - [`Encoding::Fgl`] (one-channel frames, BayerRG8 and Mono8, since layout 3, when
+//!   `[recording] codec = "fgl"` asks for it): the pixels as delivered in fringe's own codec
+//!   ([`super::grey_codec`]), which predicts each pixel from four neighbours of its own colour:
+//!   about 12 % fewer bytes than the planes PNG below, at more CPU (BENCHMARKS.md, "Recording:
+//!   bytes and CPU per frame").
+//! - [`Encoding::Png`]: the pixels as delivered: RGB8 in an RGB PNG (RGB8 frames of every
+//!   layout), Mono8 in a grey PNG (the default).
 //! - [`Encoding::PngBayerPlanes`]: a BayerRG8 mosaic in a grey PNG of the same size holding its
 //!   four colour planes side by side: red (even rows, even columns) top left, the green of the red
 //!   rows top right, the green of the blue rows bottom left, blue bottom right. PNG's filters then
-//!   predict each pixel from neighbours of its own colour: a third of the bytes of the RGB8 PNG
-//!   and less than half the CPU to write (BENCHMARKS.md, "Recording: bytes and CPU per frame").
+//!   predict each pixel from neighbours of its own colour (the default for BayerRG8).
 //!
 //! PNGs are written with fast deflate (fdeflate) and the Avg filter (the mean of the left and
 //! upper neighbours), chosen by that measurement.
@@ -19,6 +25,7 @@
 //! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
 //! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
 
+use super::grey_codec::{self, Pattern};
 use crate::camera::writer::{format_name, open_image, read_pixels, FrameFileError};
 use crate::camera::{Cutout, Frame, PixelFormat, Roi};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
@@ -31,6 +38,9 @@ use std::path::Path;
 /// the disc to move a little in the image (a knocked camera) before the profile is redone.
 pub const DISC_MARGIN_PX: f64 = 40.0;
 
+const RGB8_FGL: &str = "the run says its RGB8 frames are FGL files, which hold one channel: its \
+     start document is damaged";
+
 /// How the pixels of a stored frame are encoded in its file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -39,6 +49,30 @@ pub enum Encoding {
     Png,
     /// A BayerRG8 mosaic's four colour planes side by side in a grey PNG.
     PngBayerPlanes,
+    /// A one-channel frame (BayerRG8 or Mono8) in fringe's lossless codec, FGL.
+    Fgl,
+}
+
+impl Encoding {
+    /// The frame files' extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Encoding::Png | Encoding::PngBayerPlanes => "png",
+            Encoding::Fgl => "fgl",
+        }
+    }
+}
+
+/// The codec a scan stores frames in (`[recording] codec`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FrameCodec {
+    /// PNG (BayerRG8 as its colour planes): read by any tool.
+    #[default]
+    Png,
+    /// FGL: about 12 % fewer bytes than PNG for one-channel frames, at about a third more CPU
+    /// to write and two thirds more to read (BENCHMARKS.md, "Recording: bytes and CPU per
+    /// frame").
+    Fgl,
 }
 
 /// How a run stores its frames; recorded in its start document.
@@ -100,6 +134,24 @@ impl FrameStorage {
                 PixelFormat::Mono8 | PixelFormat::Rgb8 => Encoding::Png,
             },
         })
+    }
+
+    /// The same storage with the frames in `codec`: [`FrameCodec::Fgl`] takes one-channel
+    /// frames only (Mono8, BayerRG8).
+    pub fn with_codec(self, codec: FrameCodec) -> Result<FrameStorage, CutoutError> {
+        let encoding = match (codec, self.pixel_format) {
+            (FrameCodec::Png, _) => return Ok(self),
+            (FrameCodec::Fgl, PixelFormat::Mono8 | PixelFormat::BayerRg8) => Encoding::Fgl,
+            (FrameCodec::Fgl, PixelFormat::Rgb8) => {
+                return Err(CutoutError(
+                    "key `recording.codec` = \"fgl\" stores one-channel frames (mono8, \
+                     bayerrg8) but the camera delivers rgb8: set `camera.pixel_format` to \
+                     bayerrg8 or mono8, or use codec = \"png\""
+                        .into(),
+                ))
+            }
+        };
+        Ok(FrameStorage { encoding, ..self })
     }
 
     /// The square around a disc of `radius_px` centred at `centre_px` (full-frame px), widened by
@@ -200,32 +252,74 @@ impl FrameStorage {
                 )
             }
         };
-        let pixels = match self.encoding {
-            Encoding::Png => pixels,
-            Encoding::PngBayerPlanes => std::borrow::Cow::Owned(to_planes(&pixels, width, height)),
-        };
         let io = |source: io::Error| FrameFileError::Io {
             path: path.to_path_buf(),
             source,
         };
         let file = File::create(path).map_err(io)?;
         let mut out = BufWriter::with_capacity(1 << 20, file);
-        let colour = match self.pixel_format {
-            PixelFormat::Rgb8 => image::ExtendedColorType::Rgb8,
-            PixelFormat::Mono8 | PixelFormat::BayerRg8 => image::ExtendedColorType::L8,
+        let png = |pixels: &[u8], out: &mut BufWriter<File>| {
+            let colour = match self.pixel_format {
+                PixelFormat::Rgb8 => image::ExtendedColorType::Rgb8,
+                PixelFormat::Mono8 | PixelFormat::BayerRg8 => image::ExtendedColorType::L8,
+            };
+            PngEncoder::new_with_quality(out, CompressionType::Fast, FilterType::Avg)
+                .write_image(pixels, width, height, colour)
+                .map_err(|source| FrameFileError::Image {
+                    path: path.to_path_buf(),
+                    source,
+                })
         };
-        PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Avg)
-            .write_image(&pixels, width, height, colour)
-            .map_err(|source| FrameFileError::Image {
-                path: path.to_path_buf(),
-                source,
-            })?;
+        match self.encoding {
+            Encoding::Png => png(&pixels, &mut out)?,
+            Encoding::PngBayerPlanes => png(&to_planes(&pixels, width, height), &mut out)?,
+            Encoding::Fgl => {
+                let pattern = self.pattern().ok_or_else(|| content(RGB8_FGL.into()))?;
+                let bytes = grey_codec::encode(&pixels, width, height, pattern)
+                    .map_err(|e| content(format!("frame {}: {e}", frame.id)))?;
+                out.write_all(&bytes).map_err(io)?;
+            }
+        }
         out.flush().map_err(io)
+    }
+
+    /// How the colours of a one-channel frame lie, for FGL; `None` for RGB8, which FGL does
+    /// not store.
+    fn pattern(&self) -> Option<Pattern> {
+        match self.pixel_format {
+            PixelFormat::Mono8 => Some(Pattern::Mono),
+            PixelFormat::BayerRg8 => Some(Pattern::Mosaic2x2),
+            PixelFormat::Rgb8 => None,
+        }
     }
 
     /// Reads a frame file written by [`FrameStorage::write`].
     pub fn read(&self, path: &Path) -> Result<StoredFrame, FrameFileError> {
-        let (width, height, data) = read_pixels(path, self.pixel_format, "the run stores")?;
+        let (width, height, data) = match self.encoding {
+            Encoding::Png | Encoding::PngBayerPlanes => {
+                read_pixels(path, self.pixel_format, "the run stores")?
+            }
+            Encoding::Fgl => {
+                let bytes = std::fs::read(path).map_err(|source| FrameFileError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+                let content = |message: String| FrameFileError::Content {
+                    path: path.to_path_buf(),
+                    message,
+                };
+                let image = grey_codec::decode(&bytes).map_err(|e| content(e.to_string()))?;
+                let want = self.pattern().ok_or_else(|| content(RGB8_FGL.into()))?;
+                if image.pattern != want {
+                    return Err(content(format!(
+                        "the image's colour pattern is {:?} but the run stores {}",
+                        image.pattern,
+                        format_name(self.pixel_format)
+                    )));
+                }
+                (image.width, image.height, image.pixels)
+            }
+        };
         if let Some(c) = self.cutout {
             if (width, height) != (c.roi.width, c.roi.height) {
                 return Err(FrameFileError::Content {
@@ -238,7 +332,7 @@ impl FrameStorage {
             }
         }
         let data = match self.encoding {
-            Encoding::Png => data,
+            Encoding::Png | Encoding::Fgl => data,
             Encoding::PngBayerPlanes => {
                 if width % 2 == 1 || height % 2 == 1 {
                     return Err(FrameFileError::Content {
@@ -271,7 +365,13 @@ impl FrameStorage {
         // Measured (frame_codec_bench): BayerRG8 planes 0.48 B/px over whole frames, 0.60 B/px
         // over the disc square (where the fringes are); Mono8 0.41 and 0.51 B/px; RGB8 1.49 and
         // 1.85 B/px.
+        // FGL: BayerRG8 0.42 and 0.53 B/px, Mono8 0.35 and 0.44 B/px.
+        let fgl = self.encoding == Encoding::Fgl;
         let per_px = match (self.pixel_format, self.cutout.is_some()) {
+            (PixelFormat::BayerRg8, false) if fgl => 0.42,
+            (PixelFormat::BayerRg8, true) if fgl => 0.53,
+            (PixelFormat::Mono8, false) if fgl => 0.35,
+            (PixelFormat::Mono8, true) if fgl => 0.44,
             (PixelFormat::BayerRg8, false) => 0.48,
             (PixelFormat::BayerRg8, true) => 0.60,
             (PixelFormat::Mono8, false) => 0.41,
@@ -281,6 +381,24 @@ impl FrameStorage {
         };
         (px as f64 * per_px * 1.25).ceil() as u64
     }
+}
+
+/// Width and height of a stored frame file (FGL or an ordinary image), from its header; `None`
+/// when it cannot be read.
+pub fn stored_dimensions(path: &Path) -> Option<(u32, u32)> {
+    let mut head = [0u8; grey_codec::HEADER_BYTES];
+    let mut file = File::open(path).ok()?;
+    if io::Read::read_exact(&mut file, &mut head).is_ok() {
+        if let Ok((width, height, _)) = grey_codec::header(&head) {
+            return Some((width, height));
+        }
+    }
+    image::ImageReader::open(path)
+        .ok()?
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
 }
 
 /// Reads an ordinary image file as a whole camera frame: RGB as RGB8, grey as Mono8 (image
@@ -406,6 +524,48 @@ mod tests {
                 assert_eq!(row, &f.data[start..start + 6 * bpp], "{format:?} row {y}");
             }
         }
+    }
+
+    #[test]
+    fn fgl_frames_come_back_bit_for_bit_and_rgb8_is_refused() {
+        for format in [PixelFormat::Mono8, PixelFormat::BayerRg8] {
+            let f = frame(format, 12, 8);
+            let storage = FrameStorage::new(format, None)
+                .and_then(|s| s.with_codec(FrameCodec::Fgl))
+                .expect("storage");
+            assert_eq!(storage.encoding, Encoding::Fgl);
+            let path = temp(&format!("{}.fgl", format_name(format)));
+            storage.write(&f, &path).expect("write");
+            assert_eq!(stored_dimensions(&path), Some((12, 8)));
+            let back = storage.read(&path).expect("read");
+            assert_eq!(
+                (back.width, back.height, back.data),
+                (12, 8, f.data.clone())
+            );
+            // A run that says Mono8 does not take a mosaic's file, nor the reverse.
+            let other = if format == PixelFormat::Mono8 {
+                PixelFormat::BayerRg8
+            } else {
+                PixelFormat::Mono8
+            };
+            let wrong = FrameStorage::new(other, None)
+                .and_then(|s| s.with_codec(FrameCodec::Fgl))
+                .expect("storage");
+            let e = wrong.read(&path).expect_err("another pattern");
+            assert!(e.to_string().contains("colour pattern"), "{e}");
+        }
+        let e = FrameStorage::new(PixelFormat::Rgb8, None)
+            .expect("storage")
+            .with_codec(FrameCodec::Fgl)
+            .expect_err("rgb8 in fgl");
+        assert!(e.to_string().contains("recording.codec"), "{e}");
+        let damaged = temp("damaged.fgl");
+        std::fs::write(&damaged, b"FGL1\x05").expect("write");
+        let storage = FrameStorage::new(PixelFormat::Mono8, None)
+            .and_then(|s| s.with_codec(FrameCodec::Fgl))
+            .expect("storage");
+        let e = storage.read(&damaged).expect_err("cut short");
+        assert!(e.to_string().contains("damaged.fgl"), "{e}");
     }
 
     #[test]

@@ -244,9 +244,12 @@ impl RunWriter {
     /// returns its path relative to the run directory. Named by record index, not camera frame
     /// id: ids start again when a run is resumed.
     pub fn save_frame_image(&self, frame: &Frame, index: u64) -> Result<String, StoreError> {
-        let rel = format!("{FRAME_DIR}/{index:08}.png");
+        let rel = format!(
+            "{FRAME_DIR}/{index:08}.{}",
+            self.storage.encoding.extension()
+        );
         let path = self.dir.join(&rel);
-        let tmp = self.dir.join(format!("{FRAME_DIR}/{index:08}.png.tmp"));
+        let tmp = self.dir.join(format!("{rel}.tmp"));
         self.storage.write(frame, &tmp).map_err(|e| match e {
             FrameFileError::Io { path, source }
             | FrameFileError::Image {

@@ -3,7 +3,7 @@
 //! ask for only the disc's square (a long commissioning or dataset scan) on a rig that stores
 //! whole frames, and the run's start document keeps the plan that said so.
 
-use super::frame_file::DISC_MARGIN_PX;
+use super::frame_file::{FrameCodec, DISC_MARGIN_PX};
 
 /// `[recording]` as written in a rig file or a plan.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
@@ -18,6 +18,10 @@ pub struct RecordingSection {
     /// (a knocked camera) before the profile is redone.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub disc_margin_px: Option<f64>,
+    /// `png` (default): frames in PNG files, read by any tool; `fgl`: one-channel frames
+    /// (bayerrg8, mono8) in fringe's own lossless codec, about 12 % fewer bytes at more CPU.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub codec: Option<String>,
 }
 
 /// The part of each frame a scan stores.
@@ -33,6 +37,19 @@ impl RecordingSection {
         RecordingSection {
             store: self.store.clone().or_else(|| base.store.clone()),
             disc_margin_px: self.disc_margin_px.or(base.disc_margin_px),
+            codec: self.codec.clone().or_else(|| base.codec.clone()),
+        }
+    }
+
+    /// The codec the keys ask for; the error names the key and what to write instead.
+    pub fn codec(&self) -> Result<FrameCodec, String> {
+        match self.codec.as_deref() {
+            None | Some("png") => Ok(FrameCodec::Png),
+            Some("fgl") => Ok(FrameCodec::Fgl),
+            Some(other) => Err(format!(
+                "key `recording.codec` = {other:?}: use \"png\" (PNG files, the default) or \
+                 \"fgl\" (fringe's own codec: fewer bytes, more CPU)"
+            )),
         }
     }
 
@@ -63,6 +80,7 @@ mod tests {
         RecordingSection {
             store: store.map(str::to_string),
             disc_margin_px: margin,
+            codec: None,
         }
     }
 
@@ -100,6 +118,22 @@ mod tests {
             e.contains("recording.store") && e.contains("\"disc\""),
             "{e}"
         );
+        let e = RecordingSection {
+            codec: Some("jpeg".into()),
+            ..RecordingSection::default()
+        }
+        .codec()
+        .expect_err("codec");
+        assert!(
+            e.contains("recording.codec") && e.contains("\"fgl\""),
+            "{e}"
+        );
+        let fgl = RecordingSection {
+            codec: Some("fgl".into()),
+            ..RecordingSection::default()
+        };
+        assert_eq!(section(None, None).over(&fgl).codec(), Ok(FrameCodec::Fgl));
+        assert_eq!(section(None, None).codec(), Ok(FrameCodec::Png));
         for m in [-1.0, 1e4, f64::NAN] {
             let e = section(Some("disc"), Some(m))
                 .stored_part()

@@ -4,6 +4,7 @@
 
 use super::documents::{FrameRecord, StartDocument, StopDocument};
 use super::error::StoreError;
+use super::frame_file::stored_dimensions;
 use super::layout::{CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use super::run_writer::{
     check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
@@ -122,7 +123,7 @@ fn check_frames(
 fn frame_size(dir: &Path, f: &FrameRecord) -> Option<(u32, u32)> {
     let own = own_file::check_in(dir, Path::new(&f.file)).is_ok();
     match (f.file_in(dir), own) {
-        (Ok(path), true) => image_size(&path),
+        (Ok(path), true) => stored_dimensions(&path),
         _ => None,
     }
 }
@@ -239,15 +240,4 @@ fn check_against_checkpoint(dir: &Path, lines: &FrameLines, problems: &mut Vec<S
         }
         Err(e) => problems.push(e.to_string()),
     }
-}
-
-/// Width and height of an image file, from its header; `None` when it cannot be read (a missing
-/// or damaged frame is reported by the other checks).
-fn image_size(path: &Path) -> Option<(u32, u32)> {
-    image::ImageReader::open(path)
-        .ok()?
-        .with_guessed_format()
-        .ok()?
-        .into_dimensions()
-        .ok()
 }

@@ -115,7 +115,9 @@ impl Recording {
                 config,
             )?),
         };
+        let codec = config.frame_codec(plan)?;
         let storage = FrameStorage::new(camera.pixel_format, cutout)
+            .and_then(|s| s.with_codec(codec))
             .map_err(|e| RecordingError::Disc(format!("storing frames: {e}")))?;
         Ok(Recording {
             storage,
@@ -276,7 +278,9 @@ fn planned_run(
     let rate = setup.camera.frame_rate;
     match target {
         RunTarget::New { root, .. } => {
-            let storage = FrameStorage::new(setup.camera.pixel_format, setup.cutout).ok()?;
+            let storage = FrameStorage::new(setup.camera.pixel_format, setup.cutout)
+                .and_then(|s| s.with_codec(setup.codec))
+                .ok()?;
             let recording = Recording {
                 storage,
                 frame,
@@ -451,6 +455,7 @@ mod tests {
             profile: None,
             camera: CameraSettings::default(),
             cutout: None,
+            codec: Default::default(),
             press: Default::default(),
             watch: Default::default(),
             sidecars: Vec::new(),

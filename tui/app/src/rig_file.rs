@@ -15,6 +15,7 @@ use fringe_rig::apt::Actuator;
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
 use fringe_rig::scan::plan::Plan;
+use fringe_rig::store::frame_file::FrameCodec;
 use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::{
@@ -359,6 +360,7 @@ impl RigConfig {
         // the camera opens.
         config.camera_settings()?;
         config.stored_part(None)?;
+        config.frame_codec(None)?;
         Ok(config)
     }
 
@@ -413,6 +415,17 @@ impl RigConfig {
         match plan.and_then(|p| p.recording.as_ref()) {
             Some(over) => over.over(rig).stored_part(),
             None => rig.stored_part(),
+        }
+        .map_err(|m| self.err(m))
+    }
+
+    /// The codec a scan of `plan` stores frames in: the plan's `recording.codec` over the rig
+    /// file's.
+    pub fn frame_codec(&self, plan: Option<&Plan>) -> Result<FrameCodec, ConfigError> {
+        let rig = &self.file.recording;
+        match plan.and_then(|p| p.recording.as_ref()) {
+            Some(over) => over.over(rig).codec(),
+            None => rig.codec(),
         }
         .map_err(|m| self.err(m))
     }
@@ -669,6 +682,7 @@ mod tests {
         );
         for (text, key) in [
             ("[recording]\nstore = \"crop\"\n", "recording.store"),
+            ("[recording]\ncodec = \"jpeg\"\n", "recording.codec"),
             (
                 "[recording]\ndisc_margin_px = -3.0\n",
                 "recording.disc_margin_px",

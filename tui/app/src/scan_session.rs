@@ -172,6 +172,9 @@ impl ScanSession {
                 config,
             )?),
         };
+        let codec = config
+            .frame_codec(Some(&program.plan))
+            .map_err(RigError::from)?;
         let camera_frame = camera_frame(parsed(profile.as_ref()).as_ref(), config);
         let setup = ScanSetup {
             program,
@@ -186,6 +189,7 @@ impl ScanSession {
             profile,
             camera: rig.camera_settings.clone(),
             cutout,
+            codec,
             press: PressSettings::default(),
             watch: WatchSettings::default(),
             sidecars,
