@@ -254,7 +254,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if keep {
             ""
         } else {
-            " (frame PNGs deleted after writing)"
+            " (frame files deleted after writing)"
         }
     );
     println!(
