@@ -94,7 +94,17 @@ def force_log(records):
     return head + body
 
 
+def fgl(width, height, pattern, payload):
+    """A small FGL image (rig/src/store/grey_codec.rs): one context whose symbols 0 and 1 have
+    1-bit codes, so every payload bit is a pixel's residual of 0 or -1."""
+    lengths = bytes([0x11]) + bytes(127)
+    return (b"FGL1" + struct.pack("<II", width, height) + bytes([pattern, 1]) + lengths
+            + payload)
+
+
 def seeds_binary():
+    put("fgl", "mono_4x4", fgl(4, 4, 0, b"\xa5\x3c"))
+    put("fgl", "mosaic_6x2", fgl(6, 2, 1, b"\x0f\xf0"))
     put("force_log", "three_records", force_log(3))
     put("force_log", "header_only", force_log(0))
     put("force_log", "torn_record", force_log(2)[:-17])

@@ -31,6 +31,10 @@ pub static TARGETS: &[Target] = &[
         run: binary::modbus,
     },
     Target {
+        name: "fgl",
+        run: binary::fgl,
+    },
+    Target {
         name: "force_log",
         run: binary::force_log,
     },

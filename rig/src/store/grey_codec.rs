@@ -305,6 +305,11 @@ pub fn decode(bytes: &[u8]) -> Result<GreyImage, CodecError> {
         fill_decode_table(&l, &mut table[k * table_size..(k + 1) * table_size], k)?;
     }
     let lut = context_lut(&thresholds);
+    // Every pixel takes at least one bit: a payload too short for the size is refused before
+    // the image is allocated.
+    if (bytes.len() - at) as u64 * 8 < u64::from(width) * u64::from(height) {
+        return Err(CodecError::Truncated("pixels"));
+    }
     let mut reader = BitReader::new(&bytes[at..]);
     let (w, h) = (width as usize, height as usize);
     let mut pixels = vec![0u8; w * h];
@@ -825,8 +830,9 @@ mod tests {
         let at = 14 + 2 * (usize::from(bytes[13]) - 1);
         lengths[at..at + 128].fill(0x11);
         assert!(matches!(decode(&lengths), Err(CodecError::Damaged(_))));
-        // Flipped payload bits decode to other pixels or fail; never panic.
-        for k in (at + 128 * usize::from(bytes[13])..bytes.len()).step_by(97) {
+        // Flipped bits anywhere (header, thresholds, code lengths, payload) decode to other
+        // pixels or fail; never panic.
+        for k in (0..bytes.len()).step_by(7) {
             let mut flipped = bytes.clone();
             flipped[k] ^= 0x5a;
             let _ = decode(&flipped);
