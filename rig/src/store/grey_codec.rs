@@ -352,24 +352,13 @@ fn decode_rows<const S: usize>(
         let cur = &mut rest[..w];
         let above = &done[(y - S) * w..(y - S + 1) * w];
         let mut decode_at = |n: i32, wv: i32, nw: i32, ne: i32| -> u8 {
-            let pred = ((wv + n + nw + ne + 2) >> 2) as u8;
-            let a = (n - nw).abs() + (ne - n).abs() + (wv - nw).abs();
-            let base = usize::from(lut[a as usize & (ACTIVITIES - 1)]) << MAX_CODE_BITS;
+            let (pred, a) = predict([wv, n, nw, ne]);
+            let base = usize::from(lut[a & (ACTIVITIES - 1)]) << MAX_CODE_BITS;
             pred.wrapping_add(unfold(reader.symbol(table, base)))
         };
         if w <= 2 * S {
             for x in 0..w {
-                let n = i32::from(above[x]);
-                let (wv, nw) = if x >= S {
-                    (i32::from(cur[x - S]), i32::from(above[x - S]))
-                } else {
-                    (n, n)
-                };
-                let ne = if x + S < w {
-                    i32::from(above[x + S])
-                } else {
-                    n
-                };
+                let [wv, n, nw, ne] = neighbours(cur, above, x, S);
                 cur[x] = decode_at(n, wv, nw, ne);
             }
             reader.check()?;
@@ -415,24 +404,39 @@ fn first_rows(cur: &[u8], s: usize, sym: &mut [u8]) {
     }
 }
 
+/// The same-colour neighbours (W, N, NW, NE) of pixel `x` of `cur`, `s` pixels apart, with
+/// `above` the row `s` above: past the left or right edge, N stands in.
+#[inline(always)]
+fn neighbours(cur: &[u8], above: &[u8], x: usize, s: usize) -> [i32; 4] {
+    let n = i32::from(above[x]);
+    let (wv, nw) = if x >= s {
+        (i32::from(cur[x - s]), i32::from(above[x - s]))
+    } else {
+        (n, n)
+    };
+    let ne = if x + s < cur.len() {
+        i32::from(above[x + s])
+    } else {
+        n
+    };
+    [wv, n, nw, ne]
+}
+
+/// The prediction and the activity from the neighbours W, N, NW, NE (the vectorised interior of
+/// [`predict_row`] computes the same in 16 bits).
+#[inline(always)]
+fn predict([wv, n, nw, ne]: [i32; 4]) -> (u8, usize) {
+    let pred = ((wv + n + nw + ne + 2) >> 2) as u8;
+    let a = (n - nw).abs() + (ne - n).abs() + (wv - nw).abs();
+    (pred, a as usize)
+}
+
 /// The symbols and activities of a row with the row `s` above it (written so that the
 /// compiler can vectorise the interior).
 fn predict_row(cur: &[u8], above: &[u8], s: usize, sym: &mut [u8], act: &mut [u16]) {
     let w = cur.len();
     let one = |x: usize| -> (u8, u16) {
-        let n = i32::from(above[x]);
-        let (wv, nw) = if x >= s {
-            (i32::from(cur[x - s]), i32::from(above[x - s]))
-        } else {
-            (n, n)
-        };
-        let ne = if x + s < w {
-            i32::from(above[x + s])
-        } else {
-            n
-        };
-        let pred = ((wv + n + nw + ne + 2) >> 2) as u8;
-        let a = (n - nw).abs() + (ne - n).abs() + (wv - nw).abs();
+        let (pred, a) = predict(neighbours(cur, above, x, s));
         (fold(cur[x].wrapping_sub(pred)), a as u16)
     };
     if w <= 2 * s {
