@@ -1,5 +1,5 @@
-//! How a run stores its frames (`frames/NNNNNNNN.fgl`, `.png` in older runs): the one place that
-//! writes and reads them.
+//! How a run stores its frames (`frames/NNNNNNNN.png`, or `.fgl` with `[recording] codec =
+//! "fgl"`): the one place that writes and reads them.
 //!
 //! A run records in its start document how its frames are stored ([`FrameStorage`]): the pixel
 //! format the camera delivered, the part of the frame kept (all of it, or the square around the
