@@ -407,27 +407,23 @@ impl RigConfig {
             .unwrap_or_else(|| PathBuf::from("profiles"))
     }
 
-    /// The part of each frame a scan of `plan` stores: the plan's `[recording]` keys over
-    /// the rig file's (`None`: the rig file's alone). A plan's keys were checked when it was
-    /// expanded; an error names the rig file's key.
-    pub fn stored_part(&self, plan: Option<&Plan>) -> Result<StoredPart, ConfigError> {
+    /// `[recording]` for a scan of `plan`: the plan's keys over the rig file's (`None`: the
+    /// rig file's alone).
+    fn recording(&self, plan: Option<&Plan>) -> RecordingSection {
         let rig = &self.file.recording;
-        match plan.and_then(|p| p.recording.as_ref()) {
-            Some(over) => over.over(rig).stored_part(),
-            None => rig.stored_part(),
-        }
-        .map_err(|m| self.err(m))
+        plan.and_then(|p| p.recording.as_ref())
+            .map_or_else(|| rig.clone(), |over| over.over(rig))
     }
 
-    /// The codec a scan of `plan` stores frames in: the plan's `recording.codec` over the rig
-    /// file's.
+    /// The part of each frame a scan of `plan` stores. A plan's keys were checked when it was
+    /// expanded; an error names the rig file's key.
+    pub fn stored_part(&self, plan: Option<&Plan>) -> Result<StoredPart, ConfigError> {
+        self.recording(plan).stored_part().map_err(|m| self.err(m))
+    }
+
+    /// The codec a scan of `plan` stores frames in.
     pub fn frame_codec(&self, plan: Option<&Plan>) -> Result<FrameCodec, ConfigError> {
-        let rig = &self.file.recording;
-        match plan.and_then(|p| p.recording.as_ref()) {
-            Some(over) => over.over(rig).codec(),
-            None => rig.codec(),
-        }
-        .map_err(|m| self.err(m))
+        self.recording(plan).codec().map_err(|m| self.err(m))
     }
 
     /// Camera settings from [camera].
