@@ -136,31 +136,26 @@ pub fn encode(
     let thresholds = thresholds_for(&histogram, sampled_px);
     let contexts = thresholds.len() + 1;
     let lut = context_lut(&thresholds);
-    // Counted in four quarters by the pixel's column modulo 4, so that a run of one symbol
-    // does not wait on its own count.
-    let (mut q0, mut q1, mut q2, mut q3) =
-        ([0u32; CODED], [0u32; CODED], [0u32; CODED], [0u32; CODED]);
+    // Counted in two halves, even and odd columns, so that a run of one symbol does not wait on
+    // its own count (one array: 10-11 ms a whole frame; two: 8.8 ms; four: no faster).
+    let mut counts = [0u32; CODED];
+    let mut odd = [0u32; CODED];
     for y in 0..h {
         row_symbols(pixels, w, y, s, &mut sym, &mut act);
         let index = |v: u8, a: u16| {
             (usize::from(lut[usize::from(a) & (ACTIVITIES - 1)]) << 8 | usize::from(v))
                 & (CODED - 1)
         };
-        for (v, a) in sym.chunks_exact(4).zip(act.chunks_exact(4)) {
-            q0[index(v[0], a[0])] += 1;
-            q1[index(v[1], a[1])] += 1;
-            q2[index(v[2], a[2])] += 1;
-            q3[index(v[3], a[3])] += 1;
+        for (v, a) in sym.chunks_exact(2).zip(act.chunks_exact(2)) {
+            counts[index(v[0], a[0])] += 1;
+            odd[index(v[1], a[1])] += 1;
         }
-        for x in w - w % 4..w {
-            q0[index(sym[x], act[x])] += 1;
+        if w % 2 == 1 {
+            counts[index(sym[w - 1], act[w - 1])] += 1;
         }
     }
-    let mut counts = [0u32; CODED];
-    for q in [&q0, &q1, &q2, &q3] {
-        for (c, n) in counts.iter_mut().zip(q) {
-            *c += n;
-        }
+    for (c, o) in counts.iter_mut().zip(odd) {
+        *c += o;
     }
     let lengths: Vec<[u8; SYMBOLS]> = counts[..contexts * SYMBOLS]
         .chunks_exact(SYMBOLS)
