@@ -474,20 +474,21 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         rig: "[camera]\npixel_format = \"bayerrg8\"\n".into(),
         ..start("run-old")
     };
-    // Layout 2: the storage recorded, the mosaic as colour planes.
+    // Layout 2: the storage recorded, the mosaic as colour planes (what `[recording] codec =
+    // "png"` still writes).
     let planes = StartDocument {
         layout_version: 2,
-        frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
-        ..start("run-planes")
-    };
-    // Layout 3: the mosaic in FGL (`[recording] codec = "fgl"`).
-    let fgl = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
         frames: Some(
             FrameStorage::new(PixelFormat::BayerRg8, None)
-                .and_then(|s| s.with_codec(fringe_rig::store::frame_file::FrameCodec::Fgl))
+                .and_then(|s| s.with_codec(Some(fringe_rig::store::frame_file::FrameCodec::Png)))
                 .expect("storage"),
         ),
+        ..start("run-planes")
+    };
+    // Layout 3: the mosaic in FGL, the default.
+    let fgl = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
         ..start("run-fgl")
     };
     for (start, encoding) in [

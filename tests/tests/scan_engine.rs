@@ -86,7 +86,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         profile: None,
         camera: CameraSettings::default(),
         cutout: None,
-        codec: FrameCodec::Png,
+        codec: None,
         press: PressSettings::default(),
         watch: WatchSettings::default(),
         sidecars: Vec::new(),
@@ -1122,8 +1122,8 @@ impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
 fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_in_each_codec() {
     use fringe_rig::camera::PixelFormat;
     use fringe_rig::store::frame_file::{Encoding, FrameStorage};
-    // Whole frames in the default PNG planes; the disc's square in FGL.
-    for (disc, codec) in [(false, FrameCodec::Png), (true, FrameCodec::Fgl)] {
+    // Whole frames in PNG planes (asked for); the disc's square in the default FGL.
+    for (disc, codec) in [(false, Some(FrameCodec::Png)), (true, None)] {
         let name = if disc {
             "bits-disc-fgl"
         } else {
@@ -1172,8 +1172,8 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_
         // or in FGL.
         assert_eq!(storage.pixel_format, PixelFormat::BayerRg8);
         let (encoding, extension) = match codec {
-            FrameCodec::Png => (Encoding::PngBayerPlanes, ".png"),
-            FrameCodec::Fgl => (Encoding::Fgl, ".fgl"),
+            Some(FrameCodec::Png) => (Encoding::PngBayerPlanes, ".png"),
+            _ => (Encoding::Fgl, ".fgl"),
         };
         assert_eq!(storage.encoding, encoding);
         assert_eq!(storage.cutout, setup.cutout);

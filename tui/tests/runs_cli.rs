@@ -40,12 +40,12 @@ fn runs_lists_and_verify_judges_runs() {
     assert!(out.status.success(), "{}", text(&out));
     assert!(text(&out).contains("3 frames"));
 
-    std::fs::write(done.join("frames/00000001.png"), b"not a png").expect("damage");
+    std::fs::write(done.join("frames/00000001.fgl"), b"not a frame").expect("damage");
     let out = fringe(&["verify", done.to_str().expect("utf-8")]);
     let report = text(&out);
     assert!(!out.status.success(), "{report}");
     assert!(
-        report.contains("frames/00000001.png: checksum differs"),
+        report.contains("frames/00000001.fgl: checksum differs"),
         "{report}"
     );
 
@@ -69,7 +69,7 @@ fn runs_shows_each_runs_size_on_disk() {
     write_run(&root, "run-small", true);
     let big = write_run(&root, "run-big", false);
     // 4.2 MB more in the unfinished run, as the frames of a point it was recording.
-    std::fs::write(big.join("frames/00000099.png"), vec![7u8; 4_200_000]).expect("frame");
+    std::fs::write(big.join("frames/00000099.fgl"), vec![7u8; 4_200_000]).expect("frame");
     let out = fringe(&["runs", "--root", path(&root)]);
     let listing = text(&out);
     assert!(out.status.success(), "{listing}");
@@ -270,7 +270,7 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
     let before = snapshot(&run);
     let out = root.join("dataset");
     // A corrupt frame late in the run (record 10, the eighth image exported).
-    std::fs::write(run.join("frames/00000010.png"), b"not a png").expect("damage");
+    std::fs::write(run.join("frames/00000010.fgl"), b"not a frame").expect("damage");
     let result = fringe(&[
         "export",
         path(&run),
@@ -280,7 +280,7 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
     ]);
     let t = text(&result);
     assert!(!result.status.success(), "{t}");
-    assert!(t.contains("00000010.png"), "{t}");
+    assert!(t.contains("00000010.fgl"), "{t}");
     let left: Vec<String> = std::fs::read_dir(&root)
         .expect("root")
         .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
@@ -291,8 +291,8 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
         "nothing left beside the runs"
     );
     std::fs::write(
-        run.join("frames/00000010.png"),
-        &before["frames/00000010.png"],
+        run.join("frames/00000010.fgl"),
+        &before["frames/00000010.fgl"],
     )
     .expect("repair");
 
@@ -341,10 +341,10 @@ fn records_naming_files_outside_the_run_fail_verify_and_are_never_exported() {
     let run = write_run(&root, "run-a", true);
     let frames = run.join("frames.jsonl");
     edit_line(&frames, 0, |l| {
-        Some(l.replace("frames/00000000.png", "../../../../etc/hostname"))
+        Some(l.replace("frames/00000000.fgl", "../../../../etc/hostname"))
     });
     edit_line(&frames, 1, |l| {
-        Some(l.replace("frames/00000001.png", "/etc/hostname"))
+        Some(l.replace("frames/00000001.fgl", "/etc/hostname"))
     });
     // The manifest rewritten to match, as a careless or hostile edit would.
     fringe_rig::store::manifest::write(&run).expect("manifest");

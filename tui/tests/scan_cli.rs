@@ -263,7 +263,7 @@ fn a_resume_with_a_different_plan_changes_nothing() {
     let other = dir.join("other.toml");
     std::fs::write(&other, plan("[11.0, 12.5]")).expect("plan");
     let before = snapshot(&run);
-    assert!(before.contains_key("frames/00000008.png"));
+    assert!(before.contains_key("frames/00000008.fgl"));
     let out = fringe(&[
         "scan",
         other.to_str().expect("path"),

@@ -1,19 +1,20 @@
 //! Acquisition throughput: full 1920x1200 frames at 50 Hz plus the 5 kHz force stream recorded
 //! into a run, with the simulated camera rendering in the same process.
 //!
-//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--rgb] [--disc] [--fgl] [--keep-frames] [--keep-run]`
-//! (default 600 s; the camera delivers its native BayerRG8 mosaic, one byte per pixel, stored as
-//! colour planes in PNG; `--rgb`: on-camera interpolated RGB8 instead, in an RGB PNG; `--disc`:
-//! only the square around the disc is stored, with the rig file's default margin; `--fgl`: the
-//! frames in FGL, as `[recording] codec = "fgl"` stores them). The simulated bench presses the layered sensor with the pentagon at about
+//! `cargo run --release -p fringe-sim --example record_bench -- [SECONDS] [--rgb] [--disc] [--png] [--keep-frames] [--keep-run]`
+//! (default 600 s; the camera delivers its native BayerRG8 mosaic, one byte per pixel, stored in
+//! FGL as a scan stores it; `--rgb`: on-camera interpolated RGB8 instead, in an RGB PNG;
+//! `--disc`: only the square around the disc is stored, with the rig file's default margin;
+//! `--png`: the mosaic as colour planes in PNG, as `[recording] codec = "png"` stores it). The
+//! simulated bench presses the layered sensor with the pentagon at about
 //! 4 N (so every frame has fringes to render and to compress); the force stream, the camera
-//! stream and the recorder (strobe labels, lossless PNG frames, the raw force log, frame records)
+//! stream and the recorder (strobe labels, lossless frames, the raw force log, frame records)
 //! run on their own threads as in a scan, filming all the time. Every 10 s it prints the counts;
 //! at the end: frames rendered, recorded and dropped, force samples received and lost, bytes
 //! stored and the storage rate, and the process's CPU time as a share of the two cores.
 //!
-//! 50 frames/s of 3.3 MB PNGs is about 165 MB/s, 100 GB in 10 minutes: more than the build
-//! machine's free disk. Unless `--keep-frames` is given, a frame's PNG is deleted once it has
+//! 50 frames/s of 1 MB frames is about 50 MB/s, 30 GB in 10 minutes: more than the build
+//! machine's free disk. Unless `--keep-frames` is given, a frame's file is deleted once it has
 //! been written and counted (everything else of the run is kept); the encoding, writing and
 //! fsync work is all done.
 //! Exits non-zero if a frame is dropped or a force sample lost.
@@ -82,11 +83,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let keep = args.iter().any(|a| a == "--keep-frames");
     let rgb = args.iter().any(|a| a == "--rgb");
     let disc = args.iter().any(|a| a == "--disc");
-    let codec = if args.iter().any(|a| a == "--fgl") {
-        FrameCodec::Fgl
-    } else {
-        FrameCodec::Png
-    };
+    let codec = args.iter().any(|a| a == "--png").then_some(FrameCodec::Png);
     let seconds: f64 = match args.iter().find(|a| !a.starts_with("--")) {
         Some(a) => a.parse()?,
         None => 600.0,

@@ -65,8 +65,9 @@ pub struct ScanSetup {
     /// The part of each frame a new run stores (the square around the disc); `None`: whole
     /// frames. A resumed run stores what it stored before.
     pub cutout: Option<Cutout>,
-    /// The codec a new run stores frames in. A resumed run stores as it stored before.
-    pub codec: FrameCodec,
+    /// The codec a new run stores frames in (`None`: the default for the camera's pixel
+    /// format). A resumed run stores as it stored before.
+    pub codec: Option<FrameCodec>,
     /// Press tuning; the contact threshold, ceiling and approach limit are set from the plan and
     /// the bench.
     pub press: PressSettings,

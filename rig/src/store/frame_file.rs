@@ -1,22 +1,24 @@
-//! How a run stores its frames (`frames/NNNNNNNN.png`, or `.fgl` with `[recording] codec =
-//! "fgl"`): the one place that writes and reads them.
+//! How a run stores its frames (`frames/NNNNNNNN.fgl`, or `.png`): the one place that writes
+//! and reads them.
 //!
 //! A run records in its start document how its frames are stored ([`FrameStorage`]): the pixel
 //! format the camera delivered, the part of the frame kept (all of it, or the square around the
 //! sensor's disc), and the encoding. Readers take all three from the run, never from today's
 //! defaults. Encodings, all lossless:
 //!
-//! - [`Encoding::Fgl`] (one-channel frames, BayerRG8 and Mono8, since layout 3, when
-//!   `[recording] codec = "fgl"` asks for it): the pixels as delivered in fringe's own codec
-//!   ([`super::grey_codec`]), which predicts each pixel from four neighbours of its own colour:
-//!   about 12 % fewer bytes than the planes PNG below, at more CPU (BENCHMARKS.md, "Recording:
-//!   bytes and CPU per frame").
+//! - [`Encoding::Fgl`] (the default for one-channel frames, BayerRG8 and Mono8, since layout
+//!   3): the pixels as delivered in fringe's own codec ([`super::grey_codec`]), which predicts
+//!   each pixel from four neighbours of its own colour: about 11 % fewer bytes than the planes
+//!   PNG below and less CPU to write, more to read (BENCHMARKS.md, "A context-modelling codec
+//!   of our own").
 //! - [`Encoding::Png`]: the pixels as delivered: RGB8 in an RGB PNG (RGB8 frames of every
-//!   layout), Mono8 in a grey PNG (the default).
+//!   layout, the default for them), Mono8 in a grey PNG (with `[recording] codec = "png"`, and
+//!   Mono8 runs of layout 2).
 //! - [`Encoding::PngBayerPlanes`]: a BayerRG8 mosaic in a grey PNG of the same size holding its
 //!   four colour planes side by side: red (even rows, even columns) top left, the green of the red
 //!   rows top right, the green of the blue rows bottom left, blue bottom right. PNG's filters then
-//!   predict each pixel from neighbours of its own colour (the default for BayerRG8).
+//!   predict each pixel from neighbours of its own colour (with `[recording] codec = "png"`, and
+//!   BayerRG8 runs of layout 2).
 //!
 //! PNGs are written with fast deflate (fdeflate) and the Avg filter (the mean of the left and
 //! upper neighbours), chosen by that measurement.
@@ -63,15 +65,15 @@ impl Encoding {
     }
 }
 
-/// The codec a scan stores frames in (`[recording] codec`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The codec a scan stores frames in (`[recording] codec`; without it, FGL for one-channel
+/// frames and PNG for RGB8: [`FrameStorage::new`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FrameCodec {
     /// PNG (BayerRG8 as its colour planes): read by any tool.
-    #[default]
     Png,
-    /// FGL: about 12 % fewer bytes than PNG for one-channel frames, at about a third more CPU
-    /// to write and two thirds more to read (BENCHMARKS.md, "Recording: bytes and CPU per
-    /// frame").
+    /// FGL, one-channel frames only: about 11 % fewer bytes than PNG and a quarter less CPU to
+    /// write, about half again as much to read (BENCHMARKS.md, "A context-modelling codec of
+    /// our own").
     Fgl,
 }
 
@@ -102,9 +104,10 @@ pub struct StoredFrame {
 pub struct CutoutError(pub String);
 
 impl FrameStorage {
-    /// How frames of `format` are stored, whole or as `cutout`. A Bayer cutout must start on
-    /// even coordinates and have an even size (the mosaic's pattern stays RG), and a cutout must
-    /// lie inside the frame.
+    /// How frames of `format` are stored, whole or as `cutout`, in the default codec: FGL for
+    /// one-channel frames (BayerRG8, Mono8), PNG for RGB8 ([`FrameStorage::with_codec`] asks for
+    /// another). A Bayer cutout must start on even coordinates and have an even size (the
+    /// mosaic's pattern stays RG), and a cutout must lie inside the frame.
     pub fn new(format: PixelFormat, cutout: Option<Cutout>) -> Result<FrameStorage, CutoutError> {
         if let Some(c) = cutout {
             let r = c.roi;
@@ -130,19 +133,22 @@ impl FrameStorage {
             pixel_format: format,
             cutout,
             encoding: match format {
-                PixelFormat::BayerRg8 => Encoding::PngBayerPlanes,
-                PixelFormat::Mono8 | PixelFormat::Rgb8 => Encoding::Png,
+                PixelFormat::BayerRg8 | PixelFormat::Mono8 => Encoding::Fgl,
+                PixelFormat::Rgb8 => Encoding::Png,
             },
         })
     }
 
-    /// The same storage with the frames in `codec`: [`FrameCodec::Fgl`] takes one-channel
-    /// frames only (Mono8, BayerRG8).
-    pub fn with_codec(self, codec: FrameCodec) -> Result<FrameStorage, CutoutError> {
+    /// The same storage with the frames in `codec` (`None`: the default of
+    /// [`FrameStorage::new`]): [`FrameCodec::Fgl`] takes one-channel frames only (Mono8,
+    /// BayerRG8).
+    pub fn with_codec(self, codec: Option<FrameCodec>) -> Result<FrameStorage, CutoutError> {
         let encoding = match (codec, self.pixel_format) {
-            (FrameCodec::Png, _) => return Ok(self),
-            (FrameCodec::Fgl, PixelFormat::Mono8 | PixelFormat::BayerRg8) => Encoding::Fgl,
-            (FrameCodec::Fgl, PixelFormat::Rgb8) => {
+            (None, _) => return Ok(self),
+            (Some(FrameCodec::Png), PixelFormat::BayerRg8) => Encoding::PngBayerPlanes,
+            (Some(FrameCodec::Png), PixelFormat::Mono8 | PixelFormat::Rgb8) => Encoding::Png,
+            (Some(FrameCodec::Fgl), PixelFormat::Mono8 | PixelFormat::BayerRg8) => Encoding::Fgl,
+            (Some(FrameCodec::Fgl), PixelFormat::Rgb8) => {
                 return Err(CutoutError(
                     "key `recording.codec` = \"fgl\" stores one-channel frames (mono8, \
                      bayerrg8) but the camera delivers rgb8: set `camera.pixel_format` to \
@@ -531,7 +537,7 @@ mod tests {
         for format in [PixelFormat::Mono8, PixelFormat::BayerRg8] {
             let f = frame(format, 12, 8);
             let storage = FrameStorage::new(format, None)
-                .and_then(|s| s.with_codec(FrameCodec::Fgl))
+                .and_then(|s| s.with_codec(Some(FrameCodec::Fgl)))
                 .expect("storage");
             assert_eq!(storage.encoding, Encoding::Fgl);
             let path = temp(&format!("{}.fgl", format_name(format)));
@@ -549,20 +555,20 @@ mod tests {
                 PixelFormat::Mono8
             };
             let wrong = FrameStorage::new(other, None)
-                .and_then(|s| s.with_codec(FrameCodec::Fgl))
+                .and_then(|s| s.with_codec(Some(FrameCodec::Fgl)))
                 .expect("storage");
             let e = wrong.read(&path).expect_err("another pattern");
             assert!(e.to_string().contains("colour pattern"), "{e}");
         }
         let e = FrameStorage::new(PixelFormat::Rgb8, None)
             .expect("storage")
-            .with_codec(FrameCodec::Fgl)
+            .with_codec(Some(FrameCodec::Fgl))
             .expect_err("rgb8 in fgl");
         assert!(e.to_string().contains("recording.codec"), "{e}");
         let damaged = temp("damaged.fgl");
         std::fs::write(&damaged, b"FGL1\x05").expect("write");
         let storage = FrameStorage::new(PixelFormat::Mono8, None)
-            .and_then(|s| s.with_codec(FrameCodec::Fgl))
+            .and_then(|s| s.with_codec(Some(FrameCodec::Fgl)))
             .expect("storage");
         let e = storage.read(&damaged).expect_err("cut short");
         assert!(e.to_string().contains("damaged.fgl"), "{e}");

@@ -117,42 +117,47 @@ pub fn encode(
         });
     }
     let s = pattern.step();
-    let mut sym = vec![0u8; w];
-    let mut act = vec![0u16; w];
+    let mut row = vec![0u16; w];
 
-    // The activity thresholds, from a quarter of the rows (two of every eight, so that both
-    // rows of a mosaic count); then each context's symbol counts over the whole image (counts
-    // from a sample would have to give every unseen symbol a code, which costs 3 % of the
-    // bytes at 12 bits a code at most).
-    let sampled = |y: usize| y % 8 < 2;
+    // The activity thresholds, from an eighth of the rows (two of every sixteen, so that both
+    // rows of a mosaic count: no more bytes than from a quarter, measured); then each context's
+    // symbol counts over the whole image (counts from a sample would have to give every unseen
+    // symbol a code, which costs 3 % of the bytes at 12 bits a code at most).
+    let sampled = |y: usize| y % 16 < 2;
     let mut histogram = [0u64; ACTIVITIES];
     let mut sampled_px = 0u64;
     for y in (s..h).filter(|&y| sampled(y)) {
-        row_symbols(pixels, w, y, s, &mut sym, &mut act);
-        for &a in &act {
+        map_row(pixels, w, y, s, &mut row, |_, a| a);
+        for &a in &row {
             histogram[usize::from(a) & (ACTIVITIES - 1)] += 1;
         }
         sampled_px += w as u64;
     }
     let thresholds = thresholds_for(&histogram, sampled_px);
     let contexts = thresholds.len() + 1;
-    let lut = context_lut(&thresholds);
+    let bounds = bounds_of(&thresholds);
+    // Each pixel as its context and symbol, context << 8 | symbol: the index of its code.
+    let coded = move |v: u8, a: u16| context_of(a, &bounds) << 8 | u16::from(v);
     // Counted in two halves, even and odd columns, so that a run of one symbol does not wait on
     // its own count (one array: 10-11 ms a whole frame; two: 8.8 ms; four: no faster).
     let mut counts = [0u32; CODED];
     let mut odd = [0u32; CODED];
-    for y in 0..h {
-        row_symbols(pixels, w, y, s, &mut sym, &mut act);
-        let index = |v: u8, a: u16| {
-            (usize::from(lut[usize::from(a) & (ACTIVITIES - 1)]) << 8 | usize::from(v))
-                & (CODED - 1)
-        };
-        for (v, a) in sym.chunks_exact(2).zip(act.chunks_exact(2)) {
-            counts[index(v[0], a[0])] += 1;
-            odd[index(v[1], a[1])] += 1;
+    // The buffers of the last image encoded on this thread, reused: a recording encodes one
+    // frame after another, and fresh buffers cost their pages again each time (measured: 1 ms
+    // of 6 a whole frame).
+    let Scratch {
+        coded: mut all,
+        bits: mut payload,
+    } = SCRATCH.with(|s| s.take());
+    all.resize(w * h, 0);
+    for (y, row) in all.chunks_exact_mut(w.max(1)).enumerate() {
+        map_row(pixels, w, y, s, row, coded);
+        for pair in row.chunks_exact(2) {
+            counts[usize::from(pair[0]) & (CODED - 1)] += 1;
+            odd[usize::from(pair[1]) & (CODED - 1)] += 1;
         }
         if w % 2 == 1 {
-            counts[index(sym[w - 1], act[w - 1])] += 1;
+            counts[usize::from(row[w - 1]) & (CODED - 1)] += 1;
         }
     }
     for (c, o) in counts.iter_mut().zip(odd) {
@@ -169,7 +174,47 @@ pub fn encode(
         }
     }
 
-    let mut out = Vec::with_capacity(w * h / 2 + 1024);
+    // The codes, pixel by pixel, least significant bit first, four at a time (at most 7 + 4 x 12
+    // bits held): each group's bits are stored as a whole word and the position moves on by
+    // the full bytes. Four codes are joined before they meet the accumulator, so that each
+    // group waits on the previous one only once.
+    let most = (w * h * MAX_CODE_BITS as usize).div_ceil(8) + 8;
+    if payload.len() < most {
+        payload.resize(most, 0);
+    }
+    let stream = &mut payload;
+    let mut at = 0;
+    let mut acc: u64 = 0;
+    let mut bits: u32 = 0;
+    let code = |c: u16| -> (u64, u32) {
+        let entry = codes[usize::from(c) & (CODED - 1)];
+        (u64::from(entry & 0xffff), entry >> 16)
+    };
+    for c in all.chunks_exact(4) {
+        let ((c0, l0), (c1, l1)) = (code(c[0]), code(c[1]));
+        let ((c2, l2), (c3, l3)) = (code(c[2]), code(c[3]));
+        let low = c0 | c1 << l0;
+        let high = c2 | c3 << l2;
+        acc |= (low | high << (l0 + l1)) << bits;
+        bits += l0 + l1 + l2 + l3;
+        stream[at..at + 8].copy_from_slice(&acc.to_le_bytes());
+        let whole = bits >> 3;
+        at += whole as usize;
+        // At most 55 bits were held: `whole` is at most 6.
+        acc >>= 8 * whole;
+        bits &= 7;
+    }
+    for &c in all.chunks_exact(4).remainder() {
+        let (c, l) = code(c);
+        acc |= c << bits;
+        bits += l;
+    }
+    // At most 7 + 3 x 12 bits are held.
+    stream[at..at + 8].copy_from_slice(&acc.to_le_bytes());
+    let used = at + bits.div_ceil(8) as usize;
+
+    let mut out =
+        Vec::with_capacity(HEADER_BYTES + 1 + 2 * MAX_CONTEXTS + contexts * SYMBOLS / 2 + used);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&width.to_le_bytes());
     out.extend_from_slice(&height.to_le_bytes());
@@ -187,51 +232,27 @@ pub fn encode(
         }
     }
 
-    // The codes, row by row, least significant bit first, four at a time (at most 7 + 4 x 12
-    // bits held): each group's bits are stored as a whole word and the position moves on by
-    // the full bytes. Four codes are joined before they meet the accumulator, so that each
-    // group waits on the previous one only once.
-    let start = out.len();
-    out.resize(start + (w * h * MAX_CODE_BITS as usize).div_ceil(8) + 8, 0);
-    let mut at = start;
-    let mut acc: u64 = 0;
-    let mut bits: u32 = 0;
-    let code = |v: u8, a: u16| -> (u64, u32) {
-        let c = usize::from(lut[usize::from(a) & (ACTIVITIES - 1)]) << 8 | usize::from(v);
-        let entry = codes[c & (CODED - 1)];
-        (u64::from(entry & 0xffff), entry >> 16)
-    };
-    for y in 0..h {
-        row_symbols(pixels, w, y, s, &mut sym, &mut act);
-        let groups = sym.chunks_exact(4).zip(act.chunks_exact(4));
-        for (v, a) in groups {
-            let ((c0, l0), (c1, l1)) = (code(v[0], a[0]), code(v[1], a[1]));
-            let ((c2, l2), (c3, l3)) = (code(v[2], a[2]), code(v[3], a[3]));
-            let low = c0 | c1 << l0;
-            let high = c2 | c3 << l2;
-            acc |= (low | high << (l0 + l1)) << bits;
-            bits += l0 + l1 + l2 + l3;
-            out[at..at + 8].copy_from_slice(&acc.to_le_bytes());
-            let whole = bits >> 3;
-            at += whole as usize;
-            // At most 55 bits were held: `whole` is at most 6.
-            acc >>= 8 * whole;
-            bits &= 7;
-        }
-        let tail = w - w % 4;
-        for (&v, &a) in sym[tail..].iter().zip(&act[tail..]) {
-            let (c, l) = code(v, a);
-            acc |= c << bits;
-            bits += l;
-        }
-        out[at..at + 8].copy_from_slice(&acc.to_le_bytes());
-        let whole = bits >> 3;
-        at += whole as usize;
-        acc >>= 8 * whole;
-        bits &= 7;
-    }
-    out.truncate(at + bits.div_ceil(8) as usize);
+    out.extend_from_slice(&payload[..used]);
+    SCRATCH.with(|s| {
+        s.set(Scratch {
+            coded: all,
+            bits: payload,
+        })
+    });
     Ok(out)
+}
+
+/// An encoder's buffers, kept from one image to the next on each thread.
+#[derive(Default)]
+struct Scratch {
+    /// Each pixel's code index, context << 8 | symbol.
+    coded: Vec<u16>,
+    /// The payload's bits (as long as the longest possible payload).
+    bits: Vec<u8>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
 }
 
 /// The width, height and pattern an FGL file's first [`HEADER_BYTES`] bytes name.
@@ -392,14 +413,6 @@ fn decode_rows<const S: usize>(
     Ok(())
 }
 
-/// The symbols of the first `s` rows: predicted from the left neighbour of the same colour.
-fn first_rows(cur: &[u8], s: usize, sym: &mut [u8]) {
-    for x in 0..cur.len() {
-        let pred = if x < s { 128 } else { cur[x - s] };
-        sym[x] = fold(cur[x].wrapping_sub(pred));
-    }
-}
-
 /// The same-colour neighbours (W, N, NW, NE) of pixel `x` of `cur`, `s` pixels apart, with
 /// `above` the row `s` above: past the left or right edge, N stands in.
 #[inline(always)]
@@ -419,7 +432,7 @@ fn neighbours(cur: &[u8], above: &[u8], x: usize, s: usize) -> [i32; 4] {
 }
 
 /// The prediction and the activity from the neighbours W, N, NW, NE (the vectorised interior of
-/// [`predict_row`] computes the same in 16 bits).
+/// [`map_row`] computes the same in 16 bits).
 #[inline(always)]
 fn predict([wv, n, nw, ne]: [i32; 4]) -> (u8, usize) {
     let pred = ((wv + n + nw + ne + 2) >> 2) as u8;
@@ -427,22 +440,39 @@ fn predict([wv, n, nw, ne]: [i32; 4]) -> (u8, usize) {
     (pred, a as usize)
 }
 
-/// The symbols and activities of a row with the row `s` above it (written so that the
-/// compiler can vectorise the interior).
-fn predict_row(cur: &[u8], above: &[u8], s: usize, sym: &mut [u8], act: &mut [u16]) {
-    let w = cur.len();
-    let one = |x: usize| -> (u8, u16) {
+/// Row `y`'s pixels, each mapped by `f` from its symbol and its activity into `out`: the
+/// interior of the row is written so that the compiler can vectorise it, `f` with it. The first
+/// `s` rows are predicted from the left neighbour of the same colour, with the highest activity.
+#[inline(always)]
+fn map_row<F: Fn(u8, u16) -> u16>(
+    pixels: &[u8],
+    w: usize,
+    y: usize,
+    s: usize,
+    out: &mut [u16],
+    f: F,
+) {
+    let cur = &pixels[y * w..(y + 1) * w];
+    if y < s {
+        for x in 0..w {
+            let pred = if x < s { 128 } else { cur[x - s] };
+            out[x] = f(fold(cur[x].wrapping_sub(pred)), MAX_ACTIVITY as u16);
+        }
+        return;
+    }
+    let above = &pixels[(y - s) * w..(y - s + 1) * w];
+    let one = |x: usize| -> u16 {
         let (pred, a) = predict(neighbours(cur, above, x, s));
-        (fold(cur[x].wrapping_sub(pred)), a as u16)
+        f(fold(cur[x].wrapping_sub(pred)), a as u16)
     };
     if w <= 2 * s {
-        for x in 0..w {
-            (sym[x], act[x]) = one(x);
+        for (x, o) in out.iter_mut().enumerate() {
+            *o = one(x);
         }
         return;
     }
     for x in (0..s).chain(w - s..w) {
-        (sym[x], act[x]) = one(x);
+        out[x] = one(x);
     }
     let inner = w - 2 * s;
     let left = &cur[..inner];
@@ -450,8 +480,7 @@ fn predict_row(cur: &[u8], above: &[u8], s: usize, sym: &mut [u8], act: &mut [u1
     let up_left = &above[..inner];
     let up = &above[s..s + inner];
     let up_right = &above[2 * s..2 * s + inner];
-    let sym = &mut sym[s..s + inner];
-    let act = &mut act[s..s + inner];
+    let out = &mut out[s..s + inner];
     for i in 0..inner {
         let (wv, n, nw, ne) = (
             i16::from(left[i]),
@@ -460,8 +489,8 @@ fn predict_row(cur: &[u8], above: &[u8], s: usize, sym: &mut [u8], act: &mut [u1
             i16::from(up_right[i]),
         );
         let pred = ((wv + n + nw + ne + 2) >> 2) as u8;
-        act[i] = ((n - nw).abs() + (ne - n).abs() + (wv - nw).abs()) as u16;
-        sym[i] = fold(centre[i].wrapping_sub(pred));
+        let a = ((n - nw).abs() + (ne - n).abs() + (wv - nw).abs()) as u16;
+        out[i] = f(fold(centre[i].wrapping_sub(pred)), a);
     }
 }
 
@@ -473,18 +502,6 @@ fn fold(r: u8) -> u8 {
 
 fn unfold(s: u8) -> u8 {
     (s >> 1) ^ (s & 1).wrapping_neg()
-}
-
-/// The symbols and activities of row `y` (the first `s` rows: predicted from the left, in the
-/// last context).
-fn row_symbols(pixels: &[u8], w: usize, y: usize, s: usize, sym: &mut [u8], act: &mut [u16]) {
-    let cur = &pixels[y * w..(y + 1) * w];
-    if y < s {
-        first_rows(cur, s, sym);
-        act.fill(MAX_ACTIVITY as u16);
-    } else {
-        predict_row(cur, &pixels[(y - s) * w..(y - s + 1) * w], s, sym, act);
-    }
 }
 
 /// Activity thresholds that split `total` pixels whose activities are counted in `histogram`
@@ -506,9 +523,32 @@ fn thresholds_for(histogram: &[u64], total: u64) -> Vec<u16> {
     thresholds
 }
 
+/// The thresholds padded to [`MAX_CONTEXTS`] - 1 with one that no activity reaches (as `i16`,
+/// which compare in one instruction when vectorised: thresholds above [`MAX_ACTIVITY`] count
+/// as unreachable).
+fn bounds_of(thresholds: &[u16]) -> [i16; MAX_CONTEXTS - 1] {
+    std::array::from_fn(|k| {
+        thresholds
+            .get(k)
+            .map_or(i16::MAX, |&t| t.min(MAX_ACTIVITY as u16 + 1) as i16)
+    })
+}
+
+/// The context of activity `a`: how many of the thresholds it reaches.
+#[inline(always)]
+fn context_of(a: u16, bounds: &[i16; MAX_CONTEXTS - 1]) -> u16 {
+    let a = a as i16;
+    let mut context = 0;
+    for &t in bounds {
+        context += u16::from(a >= t);
+    }
+    context
+}
+
 /// The context of each activity.
 fn context_lut(thresholds: &[u16]) -> [u8; ACTIVITIES] {
-    std::array::from_fn(|a| thresholds.iter().filter(|&&t| a >= usize::from(t)).count() as u8)
+    let bounds = bounds_of(thresholds);
+    std::array::from_fn(|a| context_of(a as u16, &bounds) as u8)
 }
 
 /// Huffman code lengths of at most `limit` bits for symbols counted `counts` (0: absent): the

@@ -421,8 +421,9 @@ impl RigConfig {
         self.recording(plan).stored_part().map_err(|m| self.err(m))
     }
 
-    /// The codec a scan of `plan` stores frames in.
-    pub fn frame_codec(&self, plan: Option<&Plan>) -> Result<FrameCodec, ConfigError> {
+    /// The codec a scan of `plan` stores frames in (`None`: the default for the camera's pixel
+    /// format).
+    pub fn frame_codec(&self, plan: Option<&Plan>) -> Result<Option<FrameCodec>, ConfigError> {
         self.recording(plan).codec().map_err(|m| self.err(m))
     }
 
