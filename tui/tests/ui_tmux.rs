@@ -153,20 +153,13 @@ fn runs(dir: &Path) -> Vec<(PathBuf, serde_json::Value)> {
         .collect()
 }
 
-/// The default bench with its camera at 25 fps and its axes at the quick bench's speed.
-const QUICK_AXES_25_FPS: &str = "[camera]\nframe_rate = 25.0\n\
-    [x]\nvelocity = 8.0\nacceleration = 40.0\n\
-    [y]\nvelocity = 8.0\nacceleration = 40.0\n\
-    [z]\nvelocity = 8.0\nacceleration = 40.0\n";
-
 #[test]
 fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored() {
     let dir = scratch("scan");
-    // The default bench (full-size frames), its camera at 25 fps: a debug build films at 50 fps
-    // on 2 cores only with nothing else running, and a point that drops frames three times is
-    // given up (the UI flow under test is the same at either rate). The axes move at the quick
-    // bench's 8 mm/s: the flow under test does not depend on how long a move takes.
-    std::fs::write(dir.join("rig.toml"), QUICK_AXES_25_FPS).expect("rig file");
+    // The quick bench: frames at a quarter of the full size and axes at 8 mm/s (the UI flow
+    // under test is the same at any frame size and speed; the full-size bench's scan is
+    // demo_cli's and default_model's, and the Bench screen's test opens the default bench).
+    std::fs::write(dir.join("rig.toml"), common::QUICK_RIG).expect("rig file");
     let pane = Pane::start("scan", &dir, &fringe());
     let screen = pane.wait_for("ready: press r to run", Duration::from_secs(30));
     assert!(screen.contains("short-grid: 6 points"), "{screen}");
@@ -300,8 +293,9 @@ fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
 #[test]
 fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
     let dir = scratch("calibrate");
-    // The default bench at 25 fps, its axes quick (see the scan test).
-    std::fs::write(dir.join("rig.toml"), QUICK_AXES_25_FPS).expect("rig file");
+    // The quick bench at half the frame size (at a quarter the optical fit finds no disc:
+    // commission_cli's last test; the full-size calibration is calibrate_rig_cli's).
+    std::fs::write(dir.join("rig.toml"), common::quick_rig_at(0.5)).expect("rig file");
     let pane = Pane::start("calibrate", &dir, &fringe());
     pane.wait_for("ready: press r to run", Duration::from_secs(30));
     pane.keys("5");
@@ -346,8 +340,9 @@ fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
 #[test]
 fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     let dir = scratch("validate");
-    // The default bench at 25 fps (see the scan test).
-    std::fs::write(dir.join("rig.toml"), "[camera]\nframe_rate = 25.0\n").expect("rig file");
+    // The quick bench at half the frame size (the full-size bench's live validation is
+    // validate_cli's headless one).
+    std::fs::write(dir.join("rig.toml"), common::quick_rig_at(0.5)).expect("rig file");
     let plan = dir.join("plan.toml");
     std::fs::write(&plan, common::VALIDATE_PLAN).expect("plan");
     // No --model: the model that ships with fringe.

@@ -375,6 +375,11 @@ seed = 5
 image_scale = 0.25
 "#;
 
+/// [`QUICK_RIG`] with its simulated camera at `scale` of the full frame size.
+pub fn quick_rig_at(scale: f64) -> String {
+    QUICK_RIG.replace("image_scale = 0.25", &format!("image_scale = {scale}"))
+}
+
 /// `p` as a command-line argument.
 pub fn arg(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
