@@ -124,6 +124,20 @@ pub struct Batch<'a> {
     pub shapes: Vec<usize>,
 }
 
+/// Reads `samples`' frames and preprocesses them into `out`, one network input after another.
+fn prepare(samples: &[Sample], out: &mut [f32], pre: &mut Preprocessor) -> Result<(), EvalError> {
+    let per = pre.config.tensor_len();
+    for (s, out) in samples.iter().zip(out.chunks_exact_mut(per)) {
+        let frame = read_frame(s)?;
+        pre.run_into(frame_ref(&frame), 0.0, out)
+            .map_err(|source| EvalError::Frame {
+                path: s.image.display().to_string(),
+                source,
+            })?;
+    }
+    Ok(())
+}
+
 /// Preprocesses the frames of `sources` in batches of up to `BATCH` and hands each batch to
 /// `each`; each source's frames are preprocessed with its run's profile, else `profile`, else
 /// the reference geometry `reference` (the one preparation for evaluation and adaptation).
@@ -140,29 +154,44 @@ pub fn for_each_batch(
         } else {
             source.profile.as_ref().or(profile)
         };
-        let mut pre = Preprocessor::new(model.preprocessing(chosen, reference)?);
-        let per = pre.config.tensor_len();
+        let config = model.preprocessing(chosen, reference)?;
+        let per = config.tensor_len();
+        // Each batch's frames are read and preprocessed on as many threads as there are cores
+        // (up to 4): decoding the frame files is most of an evaluation's time.
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get().min(4));
+        let mut pres: Vec<Preprocessor> = (0..workers)
+            .map(|_| Preprocessor::new(config.clone()))
+            .collect();
         for chunk in source.samples.chunks(BATCH) {
             let mut input = vec![0f32; per * chunk.len()];
-            let mut shapes = Vec::with_capacity(chunk.len());
-            for (s, out) in chunk.iter().zip(input.chunks_exact_mut(per)) {
-                let shape = model
-                    .classes
-                    .iter()
-                    .position(|c| *c == s.shape)
-                    .ok_or_else(|| EvalError::Shape {
-                        source_path: source.path.display().to_string(),
-                        shape: s.shape.clone(),
-                        classes: model.classes.join(", "),
-                    })?;
-                let frame = read_frame(s)?;
-                pre.run_into(frame_ref(&frame), 0.0, out)
-                    .map_err(|source| EvalError::Frame {
-                        path: s.image.display().to_string(),
-                        source,
-                    })?;
-                shapes.push(shape);
-            }
+            let shapes = chunk
+                .iter()
+                .map(|s| {
+                    model
+                        .classes
+                        .iter()
+                        .position(|c| *c == s.shape)
+                        .ok_or_else(|| EvalError::Shape {
+                            source_path: source.path.display().to_string(),
+                            shape: s.shape.clone(),
+                            classes: model.classes.join(", "),
+                        })
+                })
+                .collect::<Result<Vec<usize>, EvalError>>()?;
+            let share = chunk.len().div_ceil(workers);
+            std::thread::scope(|scope| {
+                let running: Vec<_> = chunk
+                    .chunks(share)
+                    .zip(input.chunks_mut((per * share).max(1)))
+                    .zip(pres.iter_mut())
+                    .map(|((samples, out), pre)| scope.spawn(move || prepare(samples, out, pre)))
+                    .collect();
+                // The first error in the batch's order.
+                running
+                    .into_iter()
+                    .map(|r| r.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+                    .collect::<Result<Vec<()>, EvalError>>()
+            })?;
             each(Batch {
                 input,
                 samples: chunk,
