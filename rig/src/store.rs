@@ -6,8 +6,8 @@
 //!   frames.jsonl      one record per frame (appended, one line each)
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
-//!   frames/NNNNNNNN.png  lossless frames (.fgl with `[recording] codec = "fgl"`), stored as
-//!                     start.json's `frames` says (frame_file)
+//!   frames/NNNNNNNN.fgl  lossless frames (.png for RGB8 and with `[recording] codec = "png"`),
+//!                     stored as start.json's `frames` says (frame_file)
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop

@@ -8,8 +8,8 @@
 //! TIFF, zstd; BENCHMARKS.md, "Recording: bytes and CPU per frame") are no smaller at the same
 //! CPU. FGL predicts each pixel as the mean of four neighbours of its own colour and codes the
 //! residual with one of up to [`MAX_CONTEXTS`] Huffman tables, chosen by the activity around
-//! the pixel: about 11 % fewer bytes than the planes PNG, at about 28 % more CPU to encode and
-//! 60 % more to decode (which is why PNG stays the default).
+//! the pixel: about 11 % fewer bytes than the planes PNG, at about a quarter less CPU to encode
+//! and half again as much to decode (BENCHMARKS.md, "A faster encoder, and FGL the default").
 //!
 //! The file (all integers little-endian):
 //!
@@ -233,14 +233,20 @@ pub fn encode(
     }
 
     out.extend_from_slice(&payload[..used]);
-    SCRATCH.with(|s| {
-        s.set(Scratch {
-            coded: all,
-            bits: payload,
-        })
-    });
+    // Kept for camera frames; an unusually large image's buffers go.
+    if all.len() <= KEEP_PIXELS {
+        SCRATCH.with(|s| {
+            s.set(Scratch {
+                coded: all,
+                bits: payload,
+            })
+        });
+    }
     Ok(out)
 }
+
+/// Largest image whose buffers an encoding thread keeps for the next (about 60 MB of them).
+const KEEP_PIXELS: usize = 16 << 20;
 
 /// An encoder's buffers, kept from one image to the next on each thread.
 #[derive(Default)]
