@@ -139,7 +139,8 @@ pub fn encode(
     // Each pixel as its context and symbol, context << 8 | symbol: the index of its code.
     let coded = move |v: u8, a: u16| context_of(a, &bounds) << 8 | u16::from(v);
     // Counted in two halves, even and odd columns, so that a run of one symbol does not wait on
-    // its own count (one array: 10-11 ms a whole frame; two: 8.8 ms; four: no faster).
+    // its own count (measured on an earlier version of this encoder: one array 10-11 ms a whole
+    // frame, two 8.8 ms, four no faster).
     let mut counts = [0u32; CODED];
     let mut odd = [0u32; CODED];
     // The buffers of the last image encoded on this thread, reused: a recording encodes one

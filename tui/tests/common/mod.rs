@@ -400,7 +400,7 @@ pub fn refused_in(dir: &Path, args: &[&str]) -> String {
 /// `scale` of the full frame size, its profiles in `dir/profiles`, written to `dir/rig.toml`.
 pub fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
     let sensor = Path::new(env!("CARGO_MANIFEST_DIR")).join("../rig/sim/sensors/layered-3.toml");
-    let rig = QUICK_RIG
+    let rig = quick_rig_at(scale)
         .replace(
             "name = \"quick simulated bench\"",
             &format!(
@@ -411,8 +411,7 @@ pub fn unit_rig_at(dir: &Path, scale: f64) -> PathBuf {
         .replace(
             "[sim]\n",
             &format!("[sim]\nsensor = \"{}\"\n", sensor.display()),
-        )
-        .replace("image_scale = 0.25", &format!("image_scale = {scale}"));
+        );
     let path = dir.join("rig.toml");
     std::fs::write(&path, rig).expect("rig file");
     path
