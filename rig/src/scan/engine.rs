@@ -26,7 +26,7 @@ use crate::acquire::recorder::{
     Filming, FrameContext, PendingCheckpoint, Recorder, RecorderFailure, RecorderStats,
 };
 use crate::acquire::strobe_labeler::StrobeLabeler;
-use crate::axis::{Axis, AxisError, StopMode};
+use crate::axis::{Axis, AxisError, AxisStatus, StopMode};
 use crate::camera::{Camera, CameraSettings, Cutout};
 use crate::clock::HostTime;
 use crate::devices::Devices;
@@ -551,13 +551,23 @@ fn open_run(
     }
 }
 
-/// Waits up to one poll period for `axis` to finish its move: true when it has.
-fn settled(axis: &mut dyn Axis) -> Result<bool, AxisError> {
+/// Waits up to one poll period for `axis` to finish its move: its status when it has.
+fn settled(axis: &mut dyn Axis) -> Result<Option<AxisStatus>, AxisError> {
     match axis.wait_idle(POLL) {
-        Ok(_) => Ok(true),
-        Err(AxisError::Timeout { .. }) => Ok(false),
+        Ok(status) => Ok(Some(status)),
+        Err(AxisError::Timeout { .. }) => Ok(None),
         Err(e) => Err(e),
     }
+}
+
+/// How the lateral move before a point ended.
+enum Lateral {
+    /// Both axes at rest, at these positions.
+    AtRest {
+        x: Millimetres,
+        y: Millimetres,
+    },
+    Interrupted(Alarm),
 }
 
 struct Axes {
@@ -995,18 +1005,6 @@ impl Runner<'_> {
         Some(self.watchers.alarm().unwrap_or(Alarm::Requested))
     }
 
-    fn position(&mut self) -> Result<Position, ScanError> {
-        Ok(Position {
-            x: self.axes.x.status()?.position,
-            // By hand: where the operator confirmed the row.
-            y: match (self.setup.limits.manual_y, self.manual_y_at) {
-                (true, Some(y)) => y,
-                _ => self.axes.y.status()?.position,
-            },
-            z: self.axes.z.status()?.position,
-        })
-    }
-
     /// Measures the no-contact offset at the safe height (every point: drift is tracked).
     fn tare(&mut self, point: u64) -> Result<[f64; 6], ScanError> {
         if let Some(after) = self.tare_not_before {
@@ -1089,12 +1087,26 @@ impl Runner<'_> {
         }
     }
 
-    /// Waits for the x and y moves; stops them on an interruption.
-    fn wait_lateral(&mut self) -> Result<Option<Alarm>, ScanError> {
+    /// Waits for the x and y moves; stops them on an interruption. Where they came to rest is
+    /// read from the status that showed the move ended: the lateral axes do not move while the
+    /// point is pressed, so they are not asked again (each ask of a Modbus y stage is two
+    /// transactions on its serial line, about 13 ms at 38400 baud).
+    fn wait_lateral(&mut self) -> Result<Lateral, ScanError> {
         let started = Instant::now();
-        let mut x_done = false;
-        let mut y_done = self.setup.limits.manual_y;
-        while !(x_done && y_done) {
+        let mut x_rest = None;
+        let mut y_rest = if self.setup.limits.manual_y {
+            // By hand: where the operator confirmed the row.
+            Some(match self.manual_y_at {
+                Some(y) => y,
+                None => self.axes.y.status()?.position,
+            })
+        } else {
+            None
+        };
+        loop {
+            if let (Some(x), Some(y)) = (x_rest, y_rest) {
+                return Ok(Lateral::AtRest { x, y });
+            }
             if let Some(alarm) = self.interrupted() {
                 let _ = self.axes.x.stop(StopMode::Immediate);
                 let _ = self.axes.x.wait_idle(MOVE_TIMEOUT);
@@ -1103,7 +1115,7 @@ impl Runner<'_> {
                     let _ = self.axes.y.stop(StopMode::Immediate);
                     let _ = self.axes.y.wait_idle(MOVE_TIMEOUT);
                 }
-                return Ok(Some(alarm));
+                return Ok(Lateral::Interrupted(alarm));
             }
             if started.elapsed() > MOVE_TIMEOUT {
                 return Err(ScanError::Setup(format!(
@@ -1112,15 +1124,14 @@ impl Runner<'_> {
                     self.axes.y.endpoint()
                 )));
             }
-            if !x_done {
-                x_done = settled(self.axes.x.as_mut())?;
+            if x_rest.is_none() {
+                x_rest = settled(self.axes.x.as_mut())?.map(|s| s.position);
             }
-            if !y_done {
-                y_done = settled(self.axes.y.as_mut())?;
+            if y_rest.is_none() {
+                y_rest = settled(self.axes.y.as_mut())?.map(|s| s.position);
             }
             self.status(false);
         }
-        Ok(None)
     }
 
     /// Holds for `dwell`, filming; ends early on an interruption.
@@ -1160,10 +1171,14 @@ impl Runner<'_> {
         if let Some(pending) = self.pending_checkpoint.take() {
             pending.wait(CHECKPOINT_TIMEOUT)?;
         }
-        if let Some(alarm) = lateral {
-            return Ok(PointEnd::Interrupted(alarm));
-        }
-        let measured = self.position()?;
+        let measured = match lateral {
+            Lateral::AtRest { x, y } => Position {
+                x,
+                y,
+                z: self.axes.z.status()?.position,
+            },
+            Lateral::Interrupted(alarm) => return Ok(PointEnd::Interrupted(alarm)),
+        };
         let contact = self.setup.origin.contact_mm(measured.x, measured.y);
         let mut filming = Filming {
             point: i,
@@ -1292,7 +1307,8 @@ impl Runner<'_> {
         filming: &mut Filming,
     ) -> Result<Option<Alarm>, ScanError> {
         filming.commanded.z = reached_z;
-        filming.measured = self.position()?;
+        // x and y stay where the lateral move left them.
+        filming.measured.z = self.axes.z.status()?.position;
         self.context.set(Some(filming.clone()));
         self.phase(i, Phase::Dwell(k));
         let dwelling = Instant::now();
@@ -1310,7 +1326,7 @@ impl Runner<'_> {
             if let Some(alarm) = self.interrupted() {
                 return Ok(PointEnd::Interrupted(alarm));
             }
-            if settled(self.axes.z.as_mut())? {
+            if settled(self.axes.z.as_mut())?.is_some() {
                 break;
             }
             self.status(false);
