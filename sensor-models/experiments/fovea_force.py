@@ -1,0 +1,61 @@
+"""Feasibility experiment for issue 30 (BENCHMARKS.md, "A window about the contact"): does a
+window about the contact point read the force better than the whole disc, at the same 112 px
+input and with the same network? Force only, frames in contact only, the layered design's
+default geometry (optical centre 990, 600 px; crop radius 490 px; 18.3 px/mm; mirrored view).
+
+    python fovea_force.py TRAIN_DATASET TEST_DATASET [WINDOW_MM=24] [EPOCHS=20]
+
+Both datasets come from `fringe sim dataset --sensor layered`. The window's centre is the
+labelled contact point plus Gaussian jitter of 0.7 mm (about the keypoint CNN's contact error,
+standing in for a first network that finds the contact). Needs torch, numpy and Pillow.
+"""
+import csv, sys, math, time, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
+from PIL import Image
+torch.set_num_threads(2); torch.manual_seed(0); rng = np.random.default_rng(0)
+CX, CY, R, PXMM = 990.0, 600.0, 490.0, 18.3
+WIN_MM = float(sys.argv[3]) if len(sys.argv) > 3 else 24.0
+JIT_MM = 0.7
+
+def load(d):
+    rows = list(csv.DictReader(open(d + '/0.labels.csv')))
+    full, zoom, fz = [], [], []
+    for r in rows:
+        if r['Indentor_Shape'].lower() in ('none', 'no contact', ''):
+            continue
+        x, y = float(r['X_Position_mm']), float(r['Y_Position_mm'])
+        im = Image.open(d + '/0.images/' + r['New_Image_Name']).convert('L')
+        full.append(np.asarray(im.crop((round(CX-R), round(CY-R), round(CX+R), round(CY+R))).resize((112, 112), Image.BILINEAR), np.uint8))
+        jx, jy = rng.normal(0, JIT_MM, 2)
+        px, py = CX - (x + jx) * PXMM, CY - (y + jy) * PXMM
+        h = WIN_MM * PXMM / 2
+        zoom.append(np.asarray(im.crop((round(px-h), round(py-h), round(px+h), round(py+h))).resize((112, 112), Image.BILINEAR), np.uint8))
+        fz.append(abs(float(r['Fz'])))
+    return np.stack(full), np.stack(zoom), np.array(fz, np.float32)
+
+def net():
+    def blk(i, o): return nn.Sequential(nn.Conv2d(i, o, 3, padding=1), nn.BatchNorm2d(o), nn.ReLU(), nn.MaxPool2d(2))
+    return nn.Sequential(blk(1, 16), blk(16, 32), blk(32, 64), blk(64, 128), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Linear(128, 64), nn.ReLU(), nn.Linear(64, 1))
+
+def run(name, xtr, ytr, xte, yte, epochs):
+    m = net(); opt = torch.optim.Adam(m.parameters(), 1e-3)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
+    Xtr = torch.tensor(xtr, dtype=torch.float32).unsqueeze(1) / 255; Ytr = torch.tensor(ytr)
+    Xte = torch.tensor(xte, dtype=torch.float32).unsqueeze(1) / 255
+    for e in range(epochs):
+        m.train(); perm = torch.randperm(len(Xtr)); t = time.time()
+        for i in range(0, len(perm), 32):
+            b = perm[i:i+32]; xb = Xtr[b]
+            if torch.rand(1).item() < 0.5: xb = xb.flip(3)
+            loss = F.mse_loss(m(xb).squeeze(1), Ytr[b]); opt.zero_grad(); loss.backward(); opt.step()
+        sched.step(); m.eval()
+        with torch.no_grad(): p = torch.cat([m(Xte[i:i+64]).squeeze(1) for i in range(0, len(Xte), 64)]).numpy()
+        err = p - yte
+        bins = [math.sqrt(np.mean(err[(yte >= a) & (yte < a + 2)] ** 2)) for a in (0, 2, 4, 6)]
+        print(f"{name} epoch {e+1} {time.time()-t:.0f}s test Fz RMSE {math.sqrt(np.mean(err**2)):.3f} N  by 0-2/2-4/4-6/6-8 N: " + " ".join(f"{b:.3f}" for b in bins), flush=True)
+
+tr, te = sys.argv[1], sys.argv[2]
+t = time.time(); ftr, ztr, ytr = load(tr); fte, zte, yte = load(te)
+print(f"loaded {len(ytr)} train / {len(yte)} test contact frames in {time.time()-t:.0f} s; window {WIN_MM} mm, jitter {JIT_MM} mm", flush=True)
+E = int(sys.argv[4]) if len(sys.argv) > 4 else 20
+run('zoom', ztr, ytr, zte, yte, E)
+run('full', ftr, ytr, fte, yte, E)
