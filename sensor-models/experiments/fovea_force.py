@@ -9,12 +9,14 @@ Both datasets come from `fringe sim dataset --sensor layered`. The window's cent
 labelled contact point plus Gaussian jitter of 0.7 mm (about the keypoint CNN's contact error,
 standing in for a first network that finds the contact). Needs torch, numpy and Pillow.
 """
-import csv, sys, math, time, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
+import csv, os, sys, math, time, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
 from PIL import Image
 torch.set_num_threads(2); torch.manual_seed(0); rng = np.random.default_rng(0)
 CX, CY, R, PXMM = 990.0, 600.0, 490.0, 18.3
 WIN_MM = float(sys.argv[3]) if len(sys.argv) > 3 else 24.0
 JIT_MM = 0.7
+# FULL_PX=224: the whole disc at that input size instead (the control at the window's px per mm)
+FULL_PX = int(os.environ.get('FULL_PX', '112'))
 
 def load(d):
     rows = list(csv.DictReader(open(d + '/0.labels.csv')))
@@ -24,7 +26,8 @@ def load(d):
             continue
         x, y = float(r['X_Position_mm']), float(r['Y_Position_mm'])
         im = Image.open(d + '/0.images/' + r['New_Image_Name']).convert('L')
-        full.append(np.asarray(im.crop((round(CX-R), round(CY-R), round(CX+R), round(CY+R))).resize((112, 112), Image.BILINEAR), np.uint8))
+        full.append(np.asarray(im.crop((round(CX-R), round(CY-R), round(CX+R), round(CY+R)))
+            .resize((FULL_PX, FULL_PX), Image.BILINEAR), np.uint8))
         jx, jy = rng.normal(0, JIT_MM, 2)
         px, py = CX - (x + jx) * PXMM, CY - (y + jy) * PXMM
         h = WIN_MM * PXMM / 2
@@ -57,5 +60,6 @@ tr, te = sys.argv[1], sys.argv[2]
 t = time.time(); ftr, ztr, ytr = load(tr); fte, zte, yte = load(te)
 print(f"loaded {len(ytr)} train / {len(yte)} test contact frames in {time.time()-t:.0f} s; window {WIN_MM} mm, jitter {JIT_MM} mm", flush=True)
 E = int(sys.argv[4]) if len(sys.argv) > 4 else 20
-run('zoom', ztr, ytr, zte, yte, E)
-run('full', ftr, ytr, fte, yte, E)
+if FULL_PX == 112:
+    run('zoom', ztr, ytr, zte, yte, E)
+run(f'full {FULL_PX} px', ftr, ytr, fte, yte, E)
