@@ -1,7 +1,7 @@
 """Feasibility experiment for issue 30 (BENCHMARKS.md, "A window about the contact"): does a
 window about the contact point read the force better than the whole disc, at the same 112 px
-input and with the same network? Force only, frames in contact only, the layered design's
-default geometry (optical centre 990, 600 px; crop radius 490 px; 18.3 px/mm; mirrored view).
+input and with the same network? Force only, frames in contact only, with the geometry of each
+dataset's own profile.toml (optical centre, crop radius, registration).
 
     python fovea_force.py TRAIN_DATASET TEST_DATASET [WINDOW_MM=24] [EPOCHS=20]
 
@@ -9,16 +9,28 @@ Both datasets come from `fringe sim dataset --sensor layered`. The window's cent
 labelled contact point plus Gaussian jitter of 0.7 mm (about the keypoint CNN's contact error,
 standing in for a first network that finds the contact). Needs torch, numpy and Pillow.
 """
-import csv, os, sys, math, time, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
+import csv, os, sys, math, time, tomllib, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
 from PIL import Image
 torch.set_num_threads(2); torch.manual_seed(0); rng = np.random.default_rng(0)
-CX, CY, R, PXMM = 990.0, 600.0, 490.0, 18.3
 WIN_MM = float(sys.argv[3]) if len(sys.argv) > 3 else 24.0
 JIT_MM = 0.7
 # FULL_PX=224: the whole disc at that input size instead (the control at the window's px per mm)
 FULL_PX = int(os.environ.get('FULL_PX', '112'))
 
+def geometry(d):
+    """The crop circle and the map from contact mm to image px, from the dataset's profile.toml."""
+    with open(d + '/profile.toml', 'rb') as f:
+        p = tomllib.load(f)
+    o, reg = p['optical'], p['registration']
+    # Only the view the layered design has (mirrored, not turned), where a contact at (x, y) mm
+    # lies at origin - (x, y) * px/mm: other views need the registration's turn, not done here.
+    if not reg['mirror'] or abs(reg['rotation_deg']) > 1e-9:
+        sys.exit(f"{d}/profile.toml: registration mirror={reg['mirror']} rotation_deg={reg['rotation_deg']}; "
+                 "this experiment handles only the mirrored, unturned view (--sensor layered)")
+    return o['centre_x_px'], o['centre_y_px'], o['crop_radius_px'], reg['px_per_mm'], reg['offset_px']
+
 def load(d):
+    CX, CY, R, PXMM, (OX, OY) = geometry(d)
     rows = list(csv.DictReader(open(d + '/0.labels.csv')))
     full, zoom, fz = [], [], []
     for r in rows:
@@ -29,7 +41,7 @@ def load(d):
         full.append(np.asarray(im.crop((round(CX-R), round(CY-R), round(CX+R), round(CY+R)))
             .resize((FULL_PX, FULL_PX), Image.BILINEAR), np.uint8))
         jx, jy = rng.normal(0, JIT_MM, 2)
-        px, py = CX - (x + jx) * PXMM, CY - (y + jy) * PXMM
+        px, py = OX - (x + jx) * PXMM, OY - (y + jy) * PXMM
         h = WIN_MM * PXMM / 2
         zoom.append(np.asarray(im.crop((round(px-h), round(py-h), round(px+h), round(py+h))).resize((112, 112), Image.BILINEAR), np.uint8))
         fz.append(abs(float(r['Fz'])))
