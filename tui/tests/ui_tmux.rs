@@ -462,10 +462,14 @@ fn a_commissioning_from_the_ui_stops_resumable_and_goes_on_without_pressing_agai
     // Stopped mid-calibration: the scan is closed resumable and the commissioning says how to
     // go on.
     pane.keys("s");
-    let stopped = pane.wait_answering("stopped: ", Duration::from_secs(60));
-    assert!(
-        stopped.contains("c go on with the unfinished one"),
-        "{stopped}"
+    pane.wait_answering("stopped: ", Duration::from_secs(60));
+    // The stop and the way on, on one screen within seconds of the stop showing. (Once, on a
+    // clean-clone CI run, the first screen with the stop had no hint under it; the cause was not
+    // found, so the hint is waited for rather than read off that first screen.)
+    let stopped = pane.wait_until(
+        "the stop with the key that goes on",
+        Duration::from_secs(10),
+        |s| s.contains("stopped: ") && s.contains("c go on with the unfinished one"),
     );
     let profiles = dir.join("profiles");
     let commissioning = std::fs::read_dir(&profiles)
