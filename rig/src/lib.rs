@@ -9,7 +9,7 @@
 //!   y stages, the ATI Net F/T box, DAQ strain gauges through an ATI `.cal` matrix, a y stage moved
 //!   by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
 //! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
-//!   the recording threads.
+//!   the recording threads; [`realtime`]: real-time scheduling for the threads that keep its time.
 //! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes;
 //!   [`reference_layout`]: the reference pipeline's dataset layout (`0.images/`, `0.labels.csv`).
 //! - [`config_file`], [`seeded`]: the one TOML loader and the one seeded generator.
@@ -37,6 +37,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod realtime;
 pub mod reference_layout;
 pub mod scan;
 pub mod seeded;

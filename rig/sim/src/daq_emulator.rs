@@ -14,6 +14,8 @@
 //!   is exposing, `strobe_low_v` otherwise.
 //! - A consumer that stops reading for longer than `buffer_s` overflows the buffer: the next read
 //!   fails, as a real DAQ's does.
+//! - The acquisition thread runs real-time when the process may ([`fringe_rig::realtime`]): a
+//!   DAQ's clock is not held back by the host's other work.
 
 use crate::camera_emulator::ExposureSchedule;
 use crate::ground_truth::{TruthRecord, TruthSink};
@@ -210,6 +212,9 @@ impl Acquisition {
         mut reading: Box<dyn ForceReading>,
         out: crossbeam_channel::Sender<GaugeReading>,
     ) -> Box<dyn ForceReading> {
+        // A DAQ samples on its own clock whatever the host runs: the emulator's thread is
+        // real-time when allowed (the F/T reader says so when it is not).
+        let _ = fringe_rig::realtime::raise_current_thread("simulated DAQ");
         let lsb = 2.0 * self.config.range_v / 2f64.powi(self.config.bits as i32);
         let block = self.config.block_size as u64;
         let mut n = 0u64;

@@ -3,11 +3,13 @@
 //! The thread owns the sensor and never waits on anyone: every sample is sent on an unbounded
 //! channel (the recorder drains it) and kept in a short ring that control loops and watchers read
 //! through a [`ForceMonitor`] without blocking the stream. Errors end the stream and are kept for
-//! the monitor to report.
+//! the monitor to report. The thread asks for real-time scheduling ([`crate::realtime`]): late
+//! F/T data stop the scan (the watchers' silence limit).
 
 use crate::clock::HostTime;
 use crate::force::{ForceError, ForceSample, ForceSensor, StreamStats};
-use crossbeam_channel::{unbounded, Receiver, Sender};
+use crate::realtime::RealtimeRefused;
+use crossbeam_channel::{bounded, unbounded, Receiver, Sender};
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -131,6 +133,8 @@ pub struct ForceStream {
     samples: Receiver<ForceSample>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<Box<dyn ForceSensor>>>,
+    /// Whether the reading thread got real-time scheduling.
+    priority: Result<(), RealtimeRefused>,
 }
 
 impl ForceStream {
@@ -141,23 +145,37 @@ impl ForceStream {
         let shared = Arc::new(Mutex::new(Shared::default()));
         let (tx, rx) = unbounded();
         let stop = Arc::new(AtomicBool::new(false));
+        let (raised_tx, raised_rx) = bounded(1);
         let thread = {
             let shared = shared.clone();
             let stop = stop.clone();
             std::thread::Builder::new()
                 .name("force-stream".into())
-                .spawn(move || read_loop(sensor, shared, tx, stop))
+                .spawn(move || {
+                    let _ = raised_tx.send(crate::realtime::raise_current_thread("F/T reader"));
+                    read_loop(sensor, shared, tx, stop)
+                })
                 .map_err(|source| ForceError::Io {
                     device: device.clone(),
                     source,
                 })?
         };
+        // The thread answers before it reads anything; a thread that died at once (it cannot
+        // have) is the reader's concern, not the priority's.
+        let priority = raised_rx.recv().unwrap_or(Ok(()));
         Ok(ForceStream {
             monitor: ForceMonitor { shared, device },
             samples: rx,
             stop,
             thread: Some(thread),
+            priority,
         })
+    }
+
+    /// Why the reading thread runs at normal priority, if real-time scheduling was refused
+    /// ([`crate::realtime`]).
+    pub fn priority_refused(&self) -> Option<&RealtimeRefused> {
+        self.priority.as_ref().err()
     }
 
     /// A monitor of this stream.
@@ -211,6 +229,7 @@ fn read_loop(
 ) -> Box<dyn ForceSensor> {
     let lock = || shared.lock().unwrap_or_else(|e| e.into_inner());
     while !stop.load(Ordering::SeqCst) {
+        let asked = std::time::Instant::now();
         match sensor.next_sample(Duration::from_millis(20)) {
             Ok(Some(sample)) => {
                 let stats = sensor.stats();
@@ -225,7 +244,14 @@ fn read_loop(
                 // The recorder may have gone; the monitor still serves control loops.
                 let _ = tx.send(sample);
             }
-            Ok(None) => lock().stats = sensor.stats(),
+            Ok(None) => {
+                lock().stats = sensor.stats();
+                // A sensor that answers "nothing yet" without waiting would make this
+                // (possibly real-time) thread spin and hold a core: wait a little instead.
+                if asked.elapsed() < Duration::from_millis(1) {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            }
             Err(e) => {
                 let mut s = lock();
                 s.error = Some(e.to_string());

@@ -352,6 +352,11 @@ fn start_recording(
         context.clone(),
         setup.taps.clone(),
     )?;
+    if let Some(refused) = stream.priority_refused() {
+        // Not an error: most machines keep the pace without it. The run says so, for when
+        // the watchers stop it for F/T silence.
+        recorder.event("priority", None, &refused.to_string());
+    }
     let streams = Streams {
         force: stream,
         cameras,

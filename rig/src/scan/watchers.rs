@@ -1,4 +1,5 @@
-//! Watchers: a thread that checks the bench every 2 ms and stops the scan on its own.
+//! Watchers: a thread that checks the bench every 2 ms and stops the scan on its own (real-time
+//! when allowed, as the F/T reader: [`crate::realtime`]).
 //!
 //! - force above the ceiling: trips at once (the press loop stops z and backs off; the scan
 //!   retracts);
@@ -142,6 +143,9 @@ impl Watchers {
             std::thread::Builder::new()
                 .name("watchers".into())
                 .spawn(move || {
+                    // Refused with the F/T reader's refusal (the same permission), which the
+                    // run records.
+                    let _ = crate::realtime::raise_current_thread("watchers");
                     let mut drops: VecDeque<(Instant, u64)> = VecDeque::new();
                     while !shared.stop.load(Ordering::SeqCst) {
                         let filming = shared.filming.load(Ordering::SeqCst);

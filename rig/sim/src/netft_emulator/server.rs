@@ -132,6 +132,9 @@ fn serve<T: Port>(
     stop: Arc<AtomicBool>,
     power: PowerSwitch,
 ) -> io::Result<NetFtReport> {
+    // The box keeps its own time, whatever else the host runs: real-time when allowed (the
+    // driver's reader says so when it is not).
+    let _ = fringe_rig::realtime::raise_current_thread("emulated Net F/T");
     let mut out = Vec::new();
     let mut buf = [0u8; 512];
     while !stop.load(Ordering::Relaxed) {
