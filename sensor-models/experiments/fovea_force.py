@@ -5,7 +5,10 @@ dataset's own profile.toml (optical centre, crop radius, registration).
 
     python fovea_force.py TRAIN_DATASET TEST_DATASET [WINDOW_MM=24] [EPOCHS=20]
 
-Both datasets come from `fringe sim dataset --sensor layered`. The window's centre is the
+Both datasets come from `fringe sim dataset --sensor layered`. MULTI=1 trains the whole-disc
+network with fringe's three heads and loss instead (MSE on Fz + cross-entropy on the shape + MSE
+on the contact in mm, equal weights, as `fringe train`), FZ_WEIGHT scaling the force's term:
+does sharing the network with the contact and shape cost the force? The window's centre is the
 labelled contact point plus Gaussian jitter of 0.7 mm (about the keypoint CNN's contact error,
 standing in for a first network that finds the contact). Needs torch, numpy and Pillow.
 """
@@ -16,6 +19,8 @@ WIN_MM = float(sys.argv[3]) if len(sys.argv) > 3 else 24.0
 JIT_MM = 0.7
 # FULL_PX=224: the whole disc at that input size instead (the control at the window's px per mm)
 FULL_PX = int(os.environ.get('FULL_PX', '112'))
+MULTI = os.environ.get('MULTI') == '1'
+FZ_WEIGHT = float(os.environ.get('FZ_WEIGHT', '1'))
 
 def geometry(d):
     """The crop circle and the map from contact mm to image px, from the dataset's profile.toml."""
@@ -32,7 +37,7 @@ def geometry(d):
 def load(d):
     CX, CY, R, PXMM, (OX, OY) = geometry(d)
     rows = list(csv.DictReader(open(d + '/0.labels.csv')))
-    full, zoom, fz = [], [], []
+    full, zoom, fz, aux = [], [], [], []
     for r in rows:
         if r['Indentor_Shape'].lower() in ('none', 'no contact', ''):
             continue
@@ -45,11 +50,34 @@ def load(d):
         h = WIN_MM * PXMM / 2
         zoom.append(np.asarray(im.crop((round(px-h), round(py-h), round(px+h), round(py+h))).resize((112, 112), Image.BILINEAR), np.uint8))
         fz.append(abs(float(r['Fz'])))
-    return np.stack(full), np.stack(zoom), np.array(fz, np.float32)
+        aux.append((0 if r['Indentor_Shape'].lower() == 'pentagon' else 1, x, y))
+    return np.stack(full), np.stack(zoom), np.array(fz, np.float32), np.array(aux, np.float32)
 
-def net():
+def net(outputs=1):
     def blk(i, o): return nn.Sequential(nn.Conv2d(i, o, 3, padding=1), nn.BatchNorm2d(o), nn.ReLU(), nn.MaxPool2d(2))
-    return nn.Sequential(blk(1, 16), blk(16, 32), blk(32, 64), blk(64, 128), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Linear(128, 64), nn.ReLU(), nn.Linear(64, 1))
+    return nn.Sequential(blk(1, 16), blk(16, 32), blk(32, 64), blk(64, 128), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Linear(128, 64), nn.ReLU(), nn.Linear(64, outputs))
+
+def multi_run(xtr, ytr, atr, xte, yte, ate, epochs):
+    """Outputs: Fz, two shape logits (pentagon, rectangle), contact x, y mm."""
+    m = net(5); opt = torch.optim.Adam(m.parameters(), 1e-3)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
+    Xtr = torch.tensor(xtr, dtype=torch.float32).unsqueeze(1) / 255; Ytr = torch.tensor(ytr); Atr = torch.tensor(atr)
+    Xte = torch.tensor(xte, dtype=torch.float32).unsqueeze(1) / 255
+    for e in range(epochs):
+        m.train(); perm = torch.randperm(len(Xtr)); t = time.time()
+        for i in range(0, len(perm), 32):
+            b = perm[i:i+32]; o = m(Xtr[b]); a = Atr[b]
+            loss = (FZ_WEIGHT * F.mse_loss(o[:, 0], Ytr[b]) + F.cross_entropy(o[:, 1:3], a[:, 0].long())
+                    + F.mse_loss(o[:, 3:5], a[:, 1:3]))
+            opt.zero_grad(); loss.backward(); opt.step()
+        sched.step(); m.eval()
+        with torch.no_grad(): o = torch.cat([m(Xte[i:i+64]) for i in range(0, len(Xte), 64)]).numpy()
+        err = o[:, 0] - yte
+        bins = [math.sqrt(np.mean(err[(yte >= a) & (yte < a + 2)] ** 2)) for a in (0, 2, 4, 6)]
+        c = math.sqrt(np.mean(np.sum((o[:, 3:5] - ate[:, 1:3]) ** 2, 1)))
+        acc = np.mean(o[:, 1:3].argmax(1) == ate[:, 0])
+        print(f"multi (Fz weight {FZ_WEIGHT}) epoch {e+1} {time.time()-t:.0f}s test Fz RMSE {math.sqrt(np.mean(err**2)):.3f} N  by 0-2/2-4/4-6/6-8 N: "
+              + " ".join(f"{b:.3f}" for b in bins) + f"  contact {c:.3f} mm  shape {acc:.3f}", flush=True)
 
 def run(name, xtr, ytr, xte, yte, epochs):
     m = net(); opt = torch.optim.Adam(m.parameters(), 1e-3)
@@ -69,9 +97,12 @@ def run(name, xtr, ytr, xte, yte, epochs):
         print(f"{name} epoch {e+1} {time.time()-t:.0f}s test Fz RMSE {math.sqrt(np.mean(err**2)):.3f} N  by 0-2/2-4/4-6/6-8 N: " + " ".join(f"{b:.3f}" for b in bins), flush=True)
 
 tr, te = sys.argv[1], sys.argv[2]
-t = time.time(); ftr, ztr, ytr = load(tr); fte, zte, yte = load(te)
+t = time.time(); ftr, ztr, ytr, atr = load(tr); fte, zte, yte, ate = load(te)
 print(f"loaded {len(ytr)} train / {len(yte)} test contact frames in {time.time()-t:.0f} s; window {WIN_MM} mm, jitter {JIT_MM} mm", flush=True)
 E = int(sys.argv[4]) if len(sys.argv) > 4 else 20
+if MULTI:
+    multi_run(ftr, ytr, atr, fte, yte, ate, E)
+    sys.exit(0)
 if FULL_PX == 112:
     run('zoom', ztr, ytr, zte, yte, E)
 run(f'full {FULL_PX} px', ftr, ytr, fte, yte, E)
