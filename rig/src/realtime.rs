@@ -4,9 +4,11 @@
 //! At normal priority such a thread waits behind whatever else the machine runs. Other
 //! processes' system calls (writing files, reading `/dev/urandom`) are the worst: measured on
 //! the 2-core bench machine with a debug `fringe check` (BENCHMARKS.md, "F/T data under load"),
-//! two processes copying to files held the simulated DAQ's 10 ms blocks back by up to 150 ms
-//! and the 50 ms F/T watchdog stopped the scan 6-10 times a minute; with the DAQ, F/T reader and
-//! watcher threads real-time (`SCHED_FIFO`) the longest gap was 29 ms and nothing stopped.
+//! two processes copying to files on a tmpfs held the simulated DAQ's 10 ms blocks back by up to
+//! 150 ms and the 50 ms F/T watchdog stopped the scan 8 times a minute; with the DAQ, F/T reader
+//! and watcher threads real-time (this module) the longest gap was 23 ms and nothing stopped.
+//! It does not help against the disk's own writeback: the same copies to a disk still delayed
+//! the real-time threads by up to 71 ms.
 //!
 //! A thread asks with [`raise_current_thread`]. Linux grants it to root, to a process with
 //! `CAP_SYS_NICE`, or within the `RLIMIT_RTPRIO` limit (`ulimit -r`, `rtprio` in
