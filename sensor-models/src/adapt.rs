@@ -358,7 +358,7 @@ pub(crate) fn run_cut_graph(
     let (mut samples, mut shapes) = (Vec::with_capacity(total), Vec::with_capacity(total));
     let mut per_frame = 0;
     let mut failed = None;
-    for_each_batch(model, sources, profile, None, |batch| {
+    for_each_batch(model, sources, profile, None, false, |batch| {
         let n = batch.samples.len();
         let read = graph
             .run(&batch.input, n, model.input_size)

@@ -151,12 +151,41 @@ fn listed(what: impl Fn(&Builtin) -> &'static str) -> String {
     seen.join(", ")
 }
 
-/// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file.
+/// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file; a
+/// two-stage model with its force network (its card's `force_model`: `builtin:NAME`, or a file
+/// beside the model) attached.
 pub fn open(spec: &Path) -> Result<Model, ModelError> {
-    match named(spec) {
-        Some(b) => b?.model(),
-        None => Model::open(spec),
+    let mut model = match named(spec) {
+        Some(b) => b?.model()?,
+        None => Model::open(spec)?,
+    };
+    let Some(name) = model.card.as_ref().and_then(|c| c.force_model.clone()) else {
+        return Ok(model);
+    };
+    let named_path = Path::new(&name);
+    let force = match named(named_path) {
+        Some(b) => b?.model()?,
+        None => {
+            let beside = match model.path.parent() {
+                Some(dir) => dir.join(named_path),
+                None => named_path.to_path_buf(),
+            };
+            Model::open(&beside)?
+        }
+    };
+    let of = model.path.display().to_string();
+    let not_force = || ModelError::NotAForceNetwork {
+        path: force.path.display().to_string(),
+        of: of.clone(),
+    };
+    if force.force_window_mm().is_none() || force.force.is_some() {
+        return Err(not_force());
     }
+    // Both networks read one sensor design.
+    let design = model.card.as_ref().and_then(|c| c.variant.clone());
+    force.check_design(design.as_deref(), &format!("the two-stage model {of}"))?;
+    model.force = Some(Box::new(force));
+    Ok(model)
 }
 
 #[cfg(test)]

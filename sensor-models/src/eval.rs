@@ -1,12 +1,12 @@
 //! A model evaluated on labelled frames: the Table-2 metrics, their breakdown by grid position
 //! and force level, and every row kept for plots.
 
-use crate::backend::Backend;
 use crate::dataset::{Sample, Source};
 use crate::metrics::{Metrics, Scored};
 use crate::model::{Model, ModelError};
-use crate::prediction::{predictions, Prediction};
-use crate::preprocess::{FrameRef, PreprocessError, Preprocessor, ReferenceSensor};
+use crate::prediction::Prediction;
+use crate::predictor::{PredictError, Predictor};
+use crate::preprocess::{FrameRef, PreprocessError, Preprocessing, Preprocessor, ReferenceSensor};
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::CONTACT_THRESHOLD;
 use fringe_rig::store::frame_file::{read_plain, StoredFrame};
@@ -58,6 +58,8 @@ pub enum EvalError {
         path: String,
         source: crate::backend::InferenceError,
     },
+    #[error("{path}: {source}")]
+    Predict { path: String, source: PredictError },
 }
 
 /// A prediction against its sample's label; `shape_true` is the label's index in `classes`
@@ -117,16 +119,27 @@ pub(crate) fn frame_ref(f: &StoredFrame) -> FrameRef<'_> {
 }
 
 /// A batch of frames ready for the network: their inputs (CHW, concatenated), their samples,
-/// and each label's shape as an index into the model's classes.
+/// each label's shape as an index into the model's classes, the preprocessing and profile that
+/// made the inputs, and the frames themselves when asked for (a two-stage model reads them).
 pub struct Batch<'a> {
     pub input: Vec<f32>,
     pub samples: &'a [Sample],
     pub shapes: Vec<usize>,
+    pub preprocessing: &'a Preprocessing,
+    pub profile: Option<&'a Profile>,
+    pub frames: Vec<StoredFrame>,
 }
 
-/// Reads `samples`' frames and preprocesses them into `out`, one network input after another.
-fn prepare(samples: &[Sample], out: &mut [f32], pre: &mut Preprocessor) -> Result<(), EvalError> {
+/// Reads `samples`' frames and preprocesses them into `out`, one network input after another;
+/// the frames, when `keep`.
+fn prepare(
+    samples: &[Sample],
+    out: &mut [f32],
+    pre: &mut Preprocessor,
+    keep: bool,
+) -> Result<Vec<StoredFrame>, EvalError> {
     let per = pre.config.tensor_len();
+    let mut kept = Vec::new();
     for (s, out) in samples.iter().zip(out.chunks_exact_mut(per)) {
         let frame = read_frame(s)?;
         pre.run_into(frame_ref(&frame), 0.0, out)
@@ -134,18 +147,23 @@ fn prepare(samples: &[Sample], out: &mut [f32], pre: &mut Preprocessor) -> Resul
                 path: s.image.display().to_string(),
                 source,
             })?;
+        if keep {
+            kept.push(frame);
+        }
     }
-    Ok(())
+    Ok(kept)
 }
 
 /// Preprocesses the frames of `sources` in batches of up to `BATCH` and hands each batch to
-/// `each`; each source's frames are preprocessed with its run's profile, else `profile`, else
-/// the reference geometry `reference` (the one preparation for evaluation and adaptation).
+/// `each` (with its decoded frames when `keep_frames`); each source's frames are preprocessed
+/// with its run's profile, else `profile`, else the reference geometry `reference` (the one
+/// preparation for evaluation and adaptation).
 pub fn for_each_batch(
     model: &Model,
     sources: &[Source],
     profile: Option<&Profile>,
     reference: Option<ReferenceSensor>,
+    keep_frames: bool,
     mut each: impl FnMut(Batch<'_>) -> Result<(), EvalError>,
 ) -> Result<(), EvalError> {
     for source in sources {
@@ -179,35 +197,40 @@ pub fn for_each_batch(
                 })
                 .collect::<Result<Vec<usize>, EvalError>>()?;
             let share = chunk.len().div_ceil(workers);
-            std::thread::scope(|scope| {
+            let frames = std::thread::scope(|scope| {
                 let running: Vec<_> = chunk
                     .chunks(share)
                     .zip(input.chunks_mut((per * share).max(1)))
                     .zip(pres.iter_mut())
-                    .map(|((samples, out), pre)| scope.spawn(move || prepare(samples, out, pre)))
+                    .map(|((samples, out), pre)| {
+                        scope.spawn(move || prepare(samples, out, pre, keep_frames))
+                    })
                     .collect();
                 // The first error in the batch's order.
                 running
                     .into_iter()
                     .map(|r| r.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-                    .collect::<Result<Vec<()>, EvalError>>()
+                    .collect::<Result<Vec<Vec<StoredFrame>>, EvalError>>()
             })?;
             each(Batch {
                 input,
                 samples: chunk,
                 shapes,
+                preprocessing: &config,
+                profile: chosen,
+                frames: frames.into_iter().flatten().collect(),
             })?;
         }
     }
     Ok(())
 }
 
-/// Evaluates `model` on `backend` over `sources`; each source's frames are preprocessed with
-/// its run's profile, else `profile`, else the reference geometry `reference`. `progress`
-/// hears (frames done, frames in all).
+/// Evaluates `model` through `predictor` (its networks on a backend) over `sources`; each
+/// source's frames are preprocessed with its run's profile, else `profile`, else the reference
+/// geometry `reference`. `progress` hears (frames done, frames in all).
 pub fn evaluate(
     model: &Model,
-    backend: &mut dyn Backend,
+    predictor: &mut Predictor,
     sources: &[Source],
     profile: Option<&Profile>,
     reference: Option<ReferenceSensor>,
@@ -222,21 +245,23 @@ pub fn evaluate(
     let total: usize = sources.iter().map(|s| s.samples.len()).sum();
     let mut metrics = Metrics::new(model.classes.clone());
     let mut rows = Vec::with_capacity(total);
-    let size = model.input_size;
     let mut done = 0;
-    for_each_batch(model, sources, profile, reference, |batch| {
-        let raw = backend
-            .run(&batch.input, batch.samples.len(), size)
-            .map_err(|source| EvalError::Inference {
+    let keep = predictor.needs_frames();
+    for_each_batch(model, sources, profile, reference, keep, |batch| {
+        let frames: Vec<FrameRef<'_>> = batch.frames.iter().map(frame_ref).collect();
+        let predicted = predictor
+            .predict(
+                &batch.input,
+                batch.samples.len(),
+                &frames,
+                batch.preprocessing,
+                batch.profile,
+            )
+            .map_err(|source| EvalError::Predict {
                 path: batch.samples[0].image.display().to_string(),
                 source,
             })?;
-        for ((s, p), shape_true) in batch
-            .samples
-            .iter()
-            .zip(predictions(&raw, &model.classes))
-            .zip(batch.shapes)
-        {
+        for ((s, p), shape_true) in batch.samples.iter().zip(predicted).zip(batch.shapes) {
             let scored = score(&model.classes, shape_true, s, &p);
             metrics.add(&scored, &keys(s));
             rows.push(Row {

@@ -6,10 +6,12 @@
 //!   weight keys.
 //! - [`builtin`]: the models that ship inside fringe (`default`), and [`builtin::open`] for a
 //!   model argument that names one of them or a file.
+//! - [`contact_window`]: the window about the contact a two-stage model reads the force from.
 //! - [`model`]: a model file with its card, ready to run; [`model_card`]: the JSON sidecar.
 //! - [`onnx_graph`]: a network's ONNX graph built from its weights.
 //! - [`backend`]: inference backends behind one trait (tract by default); [`prediction`]: their
-//!   outputs in units.
+//!   outputs in units; [`predictor`]: frames to predictions, the one path (two-stage models
+//!   included).
 //! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
 //! - [`split`]: train / validation / test by physical indentation; [`augment`]: the paper's
 //!   augmentation pipelines; [`training_set`]: a split side's network inputs and targets.
@@ -29,6 +31,7 @@ pub mod arch;
 pub mod augment;
 pub mod backend;
 pub mod builtin;
+pub mod contact_window;
 pub mod dataset;
 pub mod eval;
 pub mod lr_schedule;
@@ -37,6 +40,7 @@ pub mod model;
 pub mod model_card;
 pub mod onnx_graph;
 pub mod prediction;
+pub mod predictor;
 pub mod preprocess;
 pub mod report;
 pub mod smoothing;

@@ -70,6 +70,17 @@ pub enum ModelError {
     )]
     NoneShipped { design: String, known: String },
     #[error(
+        "{path}: a force network of a two-stage model (its card has force_window_mm): it reads \
+         the force about a contact another network finds; run the model whose card names it as \
+         force_model (`fringe model pair` makes one)"
+    )]
+    ForceNetworkAlone { path: String },
+    #[error(
+        "{path}: named as the force network (force_model) of {of}, but its card gives no \
+         force_window_mm: name a network trained with `fringe train --force-window`"
+    )]
+    NotAForceNetwork { path: String, of: String },
+    #[error(
         "{path}: the model is for the {design} sensor design and {what} is {variant}: its \
          figures there mean nothing; give a model of the {variant} design"
     )]
@@ -122,6 +133,9 @@ pub struct Model {
     graph: Graph,
     /// The weights, when the model was read from a weights file (what adaptation starts from).
     weights: Option<std::sync::Arc<StateDict>>,
+    /// A two-stage model's force network (its card's `force_model`), attached by
+    /// [`crate::builtin::open`].
+    pub force: Option<Box<Model>>,
 }
 
 impl Model {
@@ -233,6 +247,12 @@ impl Model {
         Ok(model)
     }
 
+    /// The window side (mm) a force network reads about the contact (its card's
+    /// `force_window_mm`); `None` for a whole-disc network.
+    pub fn force_window_mm(&self) -> Option<f64> {
+        self.card.as_ref().and_then(|c| c.force_window_mm)
+    }
+
     /// The weights by name, when the model is one of the paper's networks: a weights file, or
     /// an ONNX graph that holds them under their state-dict names (as `fringe model export`
     /// writes it); not another graph, not a TorchScript module.
@@ -313,6 +333,7 @@ impl Model {
             card_source,
             graph,
             weights: None,
+            force: None,
         })
     }
 

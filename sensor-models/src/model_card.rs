@@ -69,6 +69,16 @@ pub struct ModelCard {
     /// The size of the frames the model was trained on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_size: Option<[u32; 2]>,
+    /// The network is the force network of a two-stage model: it reads the force from a window
+    /// of this side (mm) about the contact, not the whole disc, and is run only through the
+    /// model whose card names it as `force_model`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_window_mm: Option<f64>,
+    /// A two-stage model: this network finds the contact and the shape, and the force network
+    /// in this file (beside the card, or `builtin:NAME`) reads the force from a window about
+    /// that contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_model: Option<String>,
     /// Everything else (training runs, split, losses, figures).
     #[serde(flatten)]
     pub other: serde_json::Map<String, serde_json::Value>,

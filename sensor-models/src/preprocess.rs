@@ -163,7 +163,7 @@ impl Preprocessing {
         Ok(p)
     }
 
-    fn check(&self) -> Result<(), PreprocessError> {
+    pub(crate) fn check(&self) -> Result<(), PreprocessError> {
         if !(self.crop_radius_px.is_finite() && self.crop_radius_px >= 1.0) {
             return Err(PreprocessError::Radius(self.crop_radius_px));
         }

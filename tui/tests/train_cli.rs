@@ -452,3 +452,103 @@ fn fine_tuning_stops_resumes_and_keeps_the_better_candidate() {
     assert!(again.model.is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A force network (`--force-window`) trains on the presses alone, reads Fz from a window about
+/// the contact, and is refused on its own; `fringe model pair` joins it to the shipped keypoint
+/// CNN, and the two-stage model keeps the keypoint CNN's shape and contact while its force is
+/// the force network's, in `fringe model run` and in `fringe eval` alike.
+#[test]
+fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() {
+    let dir = scratch("force-window");
+    let out = dir.join("force");
+    let o = train(&out, &["--epochs", "2", "--force-window", "12"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let said = text(&o);
+    assert!(said.contains("fringe model pair"), "{said}");
+    let force = out.join("model.safetensors");
+    let card: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{}.json", force.display())).expect("card"),
+    )
+    .expect("card json");
+    assert_eq!(card["force_window_mm"], 12.0, "{card}");
+    let r = &card["training"];
+    assert_eq!(r["force_window_mm"], 12.0);
+    assert_eq!(
+        r["evaluation"]["window_centre"], "the labelled contact",
+        "{r}"
+    );
+    // Only frames in contact train a force network: fewer than the whole data's.
+    let frames = |k: &str| r[k].as_u64().expect(k);
+    assert!(
+        frames("train_frames") + frames("val_frames") + frames("test_frames") < 60,
+        "{r}"
+    );
+
+    // Alone it is refused, saying what to do.
+    let o = fringe(&["eval", arg(data()), "--model", arg(&force)]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("fringe model pair"), "{}", text(&o));
+
+    let pair = dir.join("pair");
+    let o = fringe(&[
+        "model",
+        "pair",
+        "builtin:layered-keypoint",
+        arg(&force),
+        "--out",
+        arg(&pair),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let two = pair.join("model.safetensors");
+
+    // One frame in contact, read by both models.
+    let labels = std::fs::read_to_string(data().join("0.labels.csv")).expect("labels");
+    let pressed = labels
+        .lines()
+        .skip(1)
+        .find(|l| l.contains("pentagon") || l.contains("rectangle"))
+        .and_then(|l| l.split(',').find(|f| f.ends_with(".png")))
+        .expect("a frame in contact");
+    let image = data().join("0.images").join(pressed);
+    let profile = data().join("profile.toml");
+    let run = |model: &Path| -> serde_json::Value {
+        let o = fringe(&[
+            "model",
+            "run",
+            arg(model),
+            arg(&image),
+            "--profile",
+            arg(&profile),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        serde_json::from_slice(&o.stdout).expect("json line")
+    };
+    let (alone, both) = (run(Path::new("builtin:layered-keypoint")), run(&two));
+    assert_eq!(alone["shape"], both["shape"]);
+    assert_eq!(alone["contact_mm"], both["contact_mm"]);
+    assert!(both["contact_mm"].is_array(), "{both}");
+    assert_ne!(alone["force"]["fz"], both["force"]["fz"], "{alone} {both}");
+
+    // Evaluation takes the same path: the keypoint CNN's contact and shape figures, the force
+    // network's Fz.
+    let figures = |model: &Path| -> String {
+        let o = fringe(&["eval", arg(data()), "--model", arg(model)]);
+        assert!(o.status.success(), "{}", text(&o));
+        text(&o)
+    };
+    let line = |t: &str, k: &str| -> String {
+        t.lines()
+            .find(|l| l.contains(k))
+            .unwrap_or_else(|| panic!("no {k} in {t}"))
+            .to_string()
+    };
+    let (a, b) = (
+        figures(Path::new("builtin:layered-keypoint")),
+        figures(&two),
+    );
+    assert_eq!(line(&a, "contact RMSE"), line(&b, "contact RMSE"));
+    assert_eq!(line(&a, "shape accuracy"), line(&b, "shape accuracy"));
+    assert_ne!(line(&a, "Fz RMSE"), line(&b, "Fz RMSE"), "{b}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

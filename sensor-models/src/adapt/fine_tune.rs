@@ -7,11 +7,13 @@
 use super::held_out::HeldOut;
 use super::{fit_heads, AdaptConfig, AdaptError, Features};
 use crate::augment::Pipeline;
+use crate::backend::BackendKind;
 use crate::dataset::Source;
 use crate::eval::{evaluate, EvalError};
 use crate::lr_schedule::Schedule;
 use crate::model::{Model, ModelError};
 use crate::model_card::ModelCard;
+use crate::predictor::Predictor;
 use crate::preprocess::Colour;
 use crate::split::{Split, SplitSpec};
 use crate::train::{train, Checkpoint, EpochRecord, Outcome, TrainConfig, TrainError, TrainEvent};
@@ -199,6 +201,7 @@ pub fn fine_tune(
         // The heads it starts from were fitted to features normalised with the base's
         // statistics; a few hundred batches of one unit would replace them.
         freeze_batch_norm: true,
+        force_window_mm: None,
     };
     let (model, history) = match train(&train_config, &sources, None, resume, stop, &mut |e| {
         events(FineTuneEvent::Train(e))
@@ -206,7 +209,7 @@ pub fn fine_tune(
         Outcome::Interrupted { checkpoint } => {
             return Ok(FineTuneOutcome::Interrupted { checkpoint })
         }
-        Outcome::Finished { model, .. } => {
+        Outcome::Finished { model, .. } | Outcome::ForceNetwork { model, .. } => {
             let history = trained_history(&model)?;
             (model, history)
         }
@@ -391,8 +394,8 @@ fn held_out_figures(
     events: &mut dyn FnMut(FineTuneEvent),
 ) -> Result<HeldOut, FineTuneError> {
     let model = Model::open(weights)?;
-    let mut backend = model.tract(threads.max(1))?;
-    let e = evaluate(&model, backend.as_mut(), held, None, None, |done, total| {
+    let mut predictor = Predictor::new(&model, BackendKind::Tract, threads.max(1))?;
+    let e = evaluate(&model, &mut predictor, held, None, None, |done, total| {
         events(FineTuneEvent::Evaluating {
             candidate,
             done,

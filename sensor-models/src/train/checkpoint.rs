@@ -73,6 +73,10 @@ pub struct TrainingRecord {
     /// The weights the training started from (`--init`), when not a random initialisation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init: Option<PathBuf>,
+    /// The network reads the force from a window of this side (mm) about the contact, not the
+    /// whole disc (`--force-window`; absent in records before force windows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_window_mm: Option<f64>,
 }
 
 /// Records before fine-tuning trained on augmented copies.

@@ -10,6 +10,11 @@ pub enum TrainError {
         path: String,
         source: crate::preprocess::PreprocessError,
     },
+    #[error("{path}: {source}")]
+    Window {
+        path: String,
+        source: crate::contact_window::WindowError,
+    },
     #[error(
         "{first} is of the {design} sensor design and {other} of the {other_design}: a model \
          reads one design; train one model per design"
@@ -22,7 +27,7 @@ pub enum TrainError {
     },
     #[error("no labelled frames in {0}")]
     NoFrames(String),
-    #[error("the split left no {0} frames: give more data (each side needs at least one press)")]
+    #[error("the split left no {0} frames (in contact, for a force network): give more data (each side needs at least one press)")]
     EmptySide(&'static str),
     #[error(transparent)]
     Split(#[from] crate::split::SplitError),

@@ -9,6 +9,7 @@ use super::checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
 use super::error::TrainError;
 use crate::arch::Architecture;
 use crate::augment::Pipeline;
+use crate::contact_window::ContactWindow;
 use crate::dataset::Source;
 use crate::metrics::{Errors, Scored};
 use crate::model_card::ModelCard;
@@ -53,6 +54,11 @@ pub struct TrainConfig {
     pub augment: bool,
     /// Batch norm keeps the running statistics of `init` (fine-tuning on a small set).
     pub freeze_batch_norm: bool,
+    /// Train the force network of a two-stage model: it reads the force alone from a window of
+    /// this side (mm) about the contact, on the frames in contact (the training side's windows
+    /// centred on the labelled contact moved by
+    /// [`crate::training_set::WINDOW_JITTER_MM`], as the first network finds it).
+    pub force_window_mm: Option<f64>,
 }
 
 /// What the loop tells its caller, for progress and messages.
@@ -96,6 +102,13 @@ pub enum Outcome {
         model: PathBuf,
         evaluation: crate::eval::Evaluation,
     },
+    /// All epochs of a force network trained (`force_window_mm`): the model and its Fz RMSE
+    /// on the test side's windows about the labelled contact.
+    ForceNetwork {
+        model: PathBuf,
+        test_frames: usize,
+        fz_rmse_n: f64,
+    },
     /// Stopped (Ctrl-C): the checkpoint to resume from.
     Interrupted { checkpoint: PathBuf },
 }
@@ -105,6 +118,8 @@ struct Frames<'a> {
     items: Vec<(usize, usize)>,
     preprocessing: Vec<Preprocessing>,
     mirror: Vec<bool>,
+    /// Each source's force window (`force_window_mm` trainings).
+    windows: Vec<Option<ContactWindow>>,
     profiles: Vec<String>,
     /// The sensor design every source that says one names (they must agree).
     design: Option<String>,
@@ -123,6 +138,7 @@ impl Frames<'_> {
             sample: self.sample(i),
             preprocessing: &self.preprocessing[s],
             mirror: self.mirror[s],
+            window: self.windows[s],
         }
     }
 }
@@ -136,6 +152,7 @@ fn frames<'a>(
         items: Vec::new(),
         preprocessing: Vec::new(),
         mirror: Vec::new(),
+        windows: Vec::new(),
         profiles: Vec::new(),
         design: None,
         sources,
@@ -173,6 +190,15 @@ fn frames<'a>(
                 source,
             })?;
         f.preprocessing.push(pre);
+        let window = config
+            .force_window_mm
+            .map(|mm| ContactWindow::from_profile(profile, mm))
+            .transpose()
+            .map_err(|source| TrainError::Window {
+                path: path.clone(),
+                source,
+            })?;
+        f.windows.push(window);
         f.mirror
             .push(profile.registration.as_ref().is_some_and(|r| r.mirror));
         f.profiles.push(format!(
@@ -204,13 +230,14 @@ fn classes(f: &Frames<'_>) -> Vec<String> {
         .collect()
 }
 
-/// The three losses of a batch, summed.
+/// The three losses of a batch, summed; the force's alone for a force network (`force_only`).
 fn loss(
     net: &Net,
     set: &TrainingSet,
     idx: &[usize],
     buf: &mut Vec<f32>,
     train: bool,
+    force_only: bool,
 ) -> (Tensor, Vec<Scored>) {
     set.batch(idx, buf);
     let s = set.input_size as i64;
@@ -220,12 +247,14 @@ fn loss(
     let fz: Vec<f32> = targets.iter().map(|t| t.fz).collect();
     let class: Vec<i64> = targets.iter().map(|t| t.class).collect();
     let fz_pred = out.force.select(1, 2);
-    let mut l = fz_pred.mse_loss(&Tensor::from_slice(&fz), Reduction::Mean)
-        + out
+    let mut l = fz_pred.mse_loss(&Tensor::from_slice(&fz), Reduction::Mean);
+    if !force_only {
+        l += out
             .logits
             .cross_entropy_for_logits(&Tensor::from_slice(&class));
+    }
     let rows: Vec<i64> = (0..targets.len() as i64)
-        .filter(|&r| targets[r as usize].contact.is_some())
+        .filter(|&r| targets[r as usize].contact.is_some() && !force_only)
         .collect();
     if !rows.is_empty() {
         let xy: Vec<f32> = targets.iter().filter_map(|t| t.contact).flatten().collect();
@@ -257,7 +286,7 @@ fn loss(
 }
 
 /// The validation side's loss and Table-2 errors, in evaluation mode.
-fn validate(net: &Net, set: &TrainingSet) -> (f64, Errors) {
+fn validate(net: &Net, set: &TrainingSet, force_only: bool) -> (f64, Errors) {
     let mut errors = Errors::default();
     let mut sum = 0.0;
     let mut n = 0;
@@ -265,7 +294,7 @@ fn validate(net: &Net, set: &TrainingSet) -> (f64, Errors) {
     let all: Vec<usize> = (0..set.len()).collect();
     tch::no_grad(|| {
         for chunk in all.chunks(64) {
-            let (l, scored) = loss(net, set, chunk, &mut buf, false);
+            let (l, scored) = loss(net, set, chunk, &mut buf, false, force_only);
             sum += l.double_value(&[]) * chunk.len() as f64;
             n += chunk.len();
             for s in &scored {
@@ -307,6 +336,8 @@ fn card_for(
             .first()
             .and_then(|p| p.frame_size)
             .map(|(w, h)| [w, h]),
+        force_window_mm: config.force_window_mm,
+        force_model: None,
         other: serde_json::Map::new(),
     };
     if let Ok(v) = serde_json::to_value(record) {
@@ -347,7 +378,11 @@ pub fn train(
             None => new_split(&samples, config.seed, &split_path)?,
         },
     };
-    let sides = Sides::of(&split, &samples)?;
+    let mut sides = Sides::of(&split, &samples)?;
+    if config.force_window_mm.is_some() {
+        // A force network reads presses: the frames without contact have no window.
+        sides = sides.in_contact(&samples)?;
+    }
     events(TrainEvent::Split {
         train: sides.train.len(),
         val: sides.val.len(),
@@ -377,7 +412,7 @@ pub fn train(
     if let Some(checkpoint) = run.epochs(&train_set, &val_set, stop, events)? {
         return Ok(Outcome::Interrupted { checkpoint });
     }
-    run.finish(sources, &split, fallback, events)
+    run.finish(sources, &split, &sides.test, fallback, events)
 }
 
 /// libtorch's threads and seed set, and the output directory made.
@@ -399,6 +434,7 @@ fn resumed_split(resume: Option<&Path>, record: &TrainingRecord) -> Result<Split
 }
 
 /// The frame indices of the split's three sides.
+#[derive(Debug)]
 struct Sides {
     train: Vec<usize>,
     val: Vec<usize>,
@@ -406,6 +442,22 @@ struct Sides {
 }
 
 impl Sides {
+    /// The frames of each side whose label has a contact, each side checked to keep one.
+    fn in_contact(self, samples: &[crate::dataset::Sample]) -> Result<Sides, TrainError> {
+        let keep = |v: Vec<usize>| -> Vec<usize> {
+            v.into_iter()
+                .filter(|&i| samples[i].contact.is_some())
+                .collect()
+        };
+        let sides = Sides {
+            train: keep(self.train),
+            val: keep(self.val),
+            test: keep(self.test),
+        };
+        sides.check()?;
+        Ok(sides)
+    }
+
     /// The sides of `split` over `samples`, each checked to hold a frame.
     fn of(split: &Split, samples: &[crate::dataset::Sample]) -> Result<Sides, TrainError> {
         let side = |s: Side| split.indices(samples, s);
@@ -414,16 +466,22 @@ impl Sides {
             val: side(Side::Val),
             test: side(Side::Test),
         };
+        sides.check()?;
+        Ok(sides)
+    }
+
+    /// Refuses a side without a frame, naming it.
+    fn check(&self) -> Result<(), TrainError> {
         for (name, v) in [
-            ("training", &sides.train),
-            ("validation", &sides.val),
-            ("test", &sides.test),
+            ("training", &self.train),
+            ("validation", &self.val),
+            ("test", &self.test),
         ] {
             if v.is_empty() {
                 return Err(TrainError::EmptySide(name));
             }
         }
-        Ok(sides)
+        Ok(())
     }
 }
 
@@ -458,6 +516,7 @@ fn first_record(
         history: Vec::new(),
         evaluation: None,
         init: None,
+        force_window_mm: config.force_window_mm,
     }
 }
 
@@ -602,7 +661,8 @@ impl<'a> Run<'a> {
     /// One optimiser step on the inputs `chunk`; the batch's loss.
     fn step(&mut self, train_set: &TrainingSet, chunk: &[usize], buf: &mut Vec<f32>) -> f64 {
         self.adam.zero_grad();
-        let (l, _) = loss(&self.net, train_set, chunk, buf, true);
+        let force_only = self.config.force_window_mm.is_some();
+        let (l, _) = loss(&self.net, train_set, chunk, buf, true, force_only);
         l.backward();
         self.adam.step();
         l.double_value(&[])
@@ -617,7 +677,8 @@ impl<'a> Run<'a> {
         started: Instant,
         events: &mut dyn FnMut(TrainEvent),
     ) -> Result<(), TrainError> {
-        let (val_loss, errors) = validate(&self.net, val_set);
+        let (val_loss, errors) =
+            validate(&self.net, val_set, self.config.force_window_mm.is_some());
         let seconds = started.elapsed().as_secs_f64();
         let er = EpochRecord {
             epoch: self.record.epoch + 1,
@@ -675,9 +736,13 @@ impl<'a> Run<'a> {
         mut self,
         sources: &[Source],
         split: &Split,
+        test: &[usize],
         fallback: Option<&Profile>,
         events: &mut dyn FnMut(TrainEvent),
     ) -> Result<Outcome, TrainError> {
+        if self.config.force_window_mm.is_some() {
+            return self.finish_force(test, events);
+        }
         let final_cp = Checkpoint::new(&self.config.out, "model");
         let card = card_for(self.config, self.classes, self.frames, &self.record);
         let weights = state_dict(&self.vs, self.record.batches_trained)?;
@@ -696,6 +761,42 @@ impl<'a> Run<'a> {
         Ok(Outcome::Finished {
             model: final_cp.weights,
             evaluation,
+        })
+    }
+}
+
+impl Run<'_> {
+    /// The final force network, with its test figures: Fz on the test side's windows centred
+    /// on the labelled contact (the network alone; `fringe eval` of the two-stage model gives
+    /// the figures with the contact the first network finds).
+    fn finish_force(
+        mut self,
+        test: &[usize],
+        events: &mut dyn FnMut(TrainEvent),
+    ) -> Result<Outcome, TrainError> {
+        let final_cp = Checkpoint::new(&self.config.out, "model");
+        let weights = state_dict(&self.vs, self.record.batches_trained)?;
+        let stop = AtomicBool::new(false);
+        let items: Vec<Item<'_>> = test.iter().map(|&i| self.frames.item(i)).collect();
+        let side = SideToPrepare {
+            items: &items,
+            pipeline: None,
+            name: "test",
+        };
+        let test_set = prepare_side(self.config, self.classes, side, &stop, events)?;
+        let (_, errors) = validate(&self.net, &test_set, true);
+        self.record.evaluation = Some(serde_json::json!({
+            "side": "test",
+            "frames": errors.n,
+            "fz_rmse_n": errors.fz_rmse(),
+            "window_centre": "the labelled contact",
+        }));
+        let card = card_for(self.config, self.classes, self.frames, &self.record);
+        final_cp.write(&weights, &card, Some(&self.adam.state()?))?;
+        Ok(Outcome::ForceNetwork {
+            model: final_cp.weights,
+            test_frames: errors.n as usize,
+            fz_rmse_n: errors.fz_rmse(),
         })
     }
 }
@@ -788,7 +889,11 @@ fn evaluate_on_test(
     events: &mut dyn FnMut(TrainEvent),
 ) -> Result<crate::eval::Evaluation, TrainError> {
     let model = crate::model::Model::open(weights)?;
-    let mut backend = model.tract(config.threads.max(1))?;
+    let mut predictor = crate::predictor::Predictor::new(
+        &model,
+        crate::backend::BackendKind::Tract,
+        config.threads.max(1),
+    )?;
     let test_sources: Vec<Source> = sources
         .iter()
         .map(|s| Source {
@@ -803,7 +908,7 @@ fn evaluate_on_test(
         .collect();
     Ok(crate::eval::evaluate(
         &model,
-        backend.as_mut(),
+        &mut predictor,
         &test_sources,
         fallback,
         None,
@@ -868,6 +973,7 @@ mod tests {
             split: None,
             augment: true,
             freeze_batch_norm: false,
+            force_window_mm: None,
         };
         let sources = [
             source("runs/a", Some("layered")),

@@ -17,12 +17,12 @@ use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
 use fringe_rig::camera::Frame;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_sensor_models::backend::{Backend, InferenceError, RawOutputs};
 use fringe_sensor_models::dataset::{from_record, Sample};
 use fringe_sensor_models::eval::{keys, score, Evaluation, Row};
 use fringe_sensor_models::metrics::{Errors, Metrics};
 use fringe_sensor_models::model::{Model, ModelError};
-use fringe_sensor_models::prediction::{predictions, Prediction};
+use fringe_sensor_models::prediction::Prediction;
+use fringe_sensor_models::predictor::{PredictError, Predictor};
 use fringe_sensor_models::preprocess::{
     tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor,
 };
@@ -125,11 +125,10 @@ pub enum ValidationError {
         #[source]
         source: PreprocessError,
     },
-    #[error("{}: {source}", .model.display())]
+    #[error("{source}")]
     Inference {
-        model: PathBuf,
         #[source]
-        source: InferenceError,
+        source: PredictError,
     },
     #[error("{}: the network gave no prediction", .model.display())]
     NoPrediction { model: PathBuf },
@@ -288,16 +287,17 @@ pub struct FrameSource {
 }
 
 impl LiveValidation {
-    /// Starts the worker for `model` on `backend`; the tap goes into the scan's setup.
+    /// Starts the worker for `model` on `predictor` (its networks on a backend); the tap goes
+    /// into the scan's setup.
     pub fn start(
         model: Model,
-        backend: Box<dyn Backend>,
+        predictor: Predictor,
         source: FrameSource,
     ) -> Result<(LiveValidation, Arc<dyn RecordTap>), ModelError> {
         let preprocessing = model.preprocessing(Some(&source.profile), None)?;
         let state = ValidationState {
             model: format!("{} ({})", model.path.display(), model.describe()),
-            backend: backend.name(),
+            backend: predictor.backend_name(),
             offered: 0,
             ran: 0,
             skipped: 0,
@@ -325,7 +325,7 @@ impl LiveValidation {
         let worker = Worker {
             shared: shared.clone(),
             model,
-            backend,
+            predictor,
             pre: Preprocessor::new(preprocessing),
             source,
             started: Instant::now(),
@@ -337,7 +337,7 @@ impl LiveValidation {
             .spawn(move || worker.run())
             .map_err(|e| ModelError::Backend {
                 path: "live validation".into(),
-                source: fringe_sensor_models::backend::InferenceError::Run {
+                source: fringe_sensor_models::InferenceError::Run {
                     backend: "thread",
                     detail: e.to_string(),
                 },
@@ -410,7 +410,7 @@ impl Drop for LiveValidation {
 struct Worker {
     shared: Arc<Shared>,
     model: Model,
-    backend: Box<dyn Backend>,
+    predictor: Predictor,
     pre: Preprocessor,
     source: FrameSource,
     started: Instant,
@@ -472,13 +472,12 @@ impl Worker {
             data: &frame.data,
             cutout: None,
         };
-        let raw = self.infer(fref, frame.id, input)?;
-        let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let Some(prediction) = predictions(&raw, &self.model.classes).into_iter().next() else {
+        let Some(prediction) = self.infer(fref, frame.id, input)?.into_iter().next() else {
             return Err(ValidationError::NoPrediction {
                 model: self.model.path.clone(),
             });
         };
+        let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let now = Instant::now();
         self.count_rate(now);
         let pictures = self.pictures(now, fref, frame.id, input)?;
@@ -492,26 +491,28 @@ impl Worker {
         Ok(())
     }
 
-    /// Preprocesses frame `frame_id` into `input` and runs the network on it.
+    /// Preprocesses frame `frame_id` into `input` and runs the model's networks on it.
     fn infer(
         &mut self,
         fref: FrameRef,
         frame_id: u64,
         input: &mut [f32],
-    ) -> Result<RawOutputs, ValidationError> {
+    ) -> Result<Vec<Prediction>, ValidationError> {
         self.pre
             .run_into(fref, 0.0, input)
             .map_err(|source| ValidationError::Frame {
                 frame: frame_id,
                 source,
             })?;
-        let size = self.pre.config.input_size;
-        self.backend
-            .run(input, 1, size)
-            .map_err(|source| ValidationError::Inference {
-                model: self.model.path.clone(),
-                source,
-            })
+        self.predictor
+            .predict(
+                input,
+                1,
+                &[fref],
+                &self.pre.config,
+                Some(&self.source.profile),
+            )
+            .map_err(|source| ValidationError::Inference { source })
     }
 
     /// Counts a prediction made at `now` in the rate over the last second.
@@ -703,12 +704,12 @@ mod tests {
         let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../sensor-models/tests/fixtures/custom/model.safetensors");
         let model = Model::open(&weights).expect("fixture model");
-        let backend = model.backend(BackendKind::Tract, 1).expect("tract");
+        let predictor = Predictor::new(&model, BackendKind::Tract, 1).expect("tract");
         let source = FrameSource {
             run_id: "run".into(),
             profile: profile(),
         };
-        let (live, tap) = LiveValidation::start(model, backend, source).expect("start");
+        let (live, tap) = LiveValidation::start(model, predictor, source).expect("start");
         // Records 0..4 are kept; 4..8 belong to a point that is interrupted, cut and done again
         // with other labels under the same indices.
         for i in 0..8 {

@@ -34,8 +34,8 @@ use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
-use fringe_sensor_models::backend::Backend;
 use fringe_sensor_models::model::{Model, ModelError};
+use fringe_sensor_models::predictor::Predictor;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::SystemTime;
@@ -244,7 +244,7 @@ impl ScanSession {
     pub fn attach_validation(
         &mut self,
         model: Model,
-        backend: Box<dyn Backend>,
+        predictor: Predictor,
         run_id: &str,
     ) -> Result<(LiveValidation, Vec<Note>), SessionError> {
         // A model of another sensor design reads these frames wrongly, with no error.
@@ -288,7 +288,7 @@ impl ScanSession {
             run_id: run_id.to_string(),
             profile,
         };
-        let (validation, tap) = LiveValidation::start(model, backend, source)?;
+        let (validation, tap) = LiveValidation::start(model, predictor, source)?;
         self.setup.taps.push(tap);
         Ok((validation, notes))
     }

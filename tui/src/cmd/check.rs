@@ -30,6 +30,7 @@ use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::{evaluate, Row};
 use fringe_sensor_models::model::Model;
+use fringe_sensor_models::predictor::Predictor;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -361,9 +362,9 @@ fn evaluated(
         }
     }
     source.samples = thinned(std::mem::take(&mut source.samples), EVAL_FRAMES);
-    let mut backend = model.backend(BackendKind::Tract, threads)?;
+    let mut predictor = Predictor::new(model, BackendKind::Tract, threads)?;
     let mut progress = FramesProgress::new(what);
-    let eval = evaluate(model, backend.as_mut(), &[source], None, None, |d, t| {
+    let eval = evaluate(model, &mut predictor, &[source], None, None, |d, t| {
         progress.show(d, t)
     })
     .with_context(|| format!("evaluating the model on {}", run.display()))?;

@@ -12,6 +12,7 @@ use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset::{self, Source};
 use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
+use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::preprocess::ReferenceSensor;
 use fringe_sensor_models::report;
 use fringe_sensor_models::smoothing::Smoothing;
@@ -88,11 +89,15 @@ pub fn run(a: EvalArgs) -> Result<()> {
     )?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     warn_scale(&model, &sources, profile.as_ref(), reference);
-    let mut backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
+    let mut predictor = Predictor::new(
+        &model,
+        a.backend,
+        crate::cmd::arg_values::cap_threads(a.threads),
+    )?;
     let mut progress = FramesProgress::new("evaluating");
     let eval = evaluate(
         &model,
-        backend.as_mut(),
+        &mut predictor,
         &sources,
         profile.as_ref(),
         reference,

@@ -4,13 +4,15 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_calibration::profile::Profile;
+use fringe_rig::store::frame_file::read_plain;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::model_card::{CardSource, ModelCard};
 use fringe_sensor_models::onnx_graph;
-use fringe_sensor_models::prediction::{predictions, Prediction};
-use fringe_sensor_models::preprocess::{PreprocessError, ReferenceSensor};
+use fringe_sensor_models::prediction::Prediction;
+use fringe_sensor_models::predictor::Predictor;
+use fringe_sensor_models::preprocess::{FrameRef, ReferenceSensor};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -28,6 +30,22 @@ enum ModelCommand {
     Run(RunArgs),
     /// Write a model's ONNX graph (runs in onnxruntime and any ONNX runtime).
     Export(ExportArgs),
+    /// Join a model that finds the contact (the keypoint CNN) and a force network trained with
+    /// `fringe train --force-window` into a two-stage model: both files copied into --out, the
+    /// first's card naming the second as its force network.
+    Pair(PairArgs),
+}
+
+#[derive(Args)]
+struct PairArgs {
+    /// The model that finds the contact and the shape (a file or `builtin:NAME`).
+    contact_model: PathBuf,
+    /// The force network (`fringe train --force-window`'s model.safetensors).
+    force_model: PathBuf,
+    /// The directory to write the two-stage model into (model.safetensors, force.safetensors
+    /// and their cards).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -92,7 +110,81 @@ pub fn run(args: ModelArgs) -> Result<()> {
         ModelCommand::Info(a) => info(&a.model),
         ModelCommand::Run(a) => run_images(a),
         ModelCommand::Export(a) => export(&a.model, &a.onnx),
+        ModelCommand::Pair(a) => pair(&a),
     }
+}
+
+/// The file names of a two-stage model in its directory.
+const PAIR_CONTACT: &str = "model.safetensors";
+const PAIR_FORCE: &str = "force.safetensors";
+
+/// Writes the two-stage model of `a`: both networks' weights and cards into `a.out`, the contact
+/// model's card naming the force network, then opens it to check the pair runs together.
+fn pair(a: &PairArgs) -> Result<()> {
+    let contact = open_model(&a.contact_model)?;
+    let force = open_model(&a.force_model)?;
+    let (Some(window), Some(weights_c), Some(weights_f)) =
+        (force.force_window_mm(), contact.weights(), force.weights())
+    else {
+        if force.force_window_mm().is_none() {
+            bail!(
+                "{}: not a force network (its card has no force_window_mm): train one with \
+                 `fringe train --force-window MM`",
+                a.force_model.display()
+            );
+        }
+        bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
+    };
+    if contact.force_window_mm().is_some() {
+        bail!(
+            "{}: a force network cannot find the contact: give the model that finds it first \
+             (the keypoint CNN)",
+            a.contact_model.display()
+        );
+    }
+    if contact.force.is_some() {
+        bail!("{}: already a two-stage model", a.contact_model.display());
+    }
+    let design = contact.card.as_ref().and_then(|c| c.variant.clone());
+    force.check_design(
+        design.as_deref(),
+        &format!("the contact model {}", a.contact_model.display()),
+    )?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("{}: cannot create", a.out.display()))?;
+    let mut card = contact.travelling_card();
+    card.force_model = Some(PAIR_FORCE.to_string());
+    let out_c = a.out.join(PAIR_CONTACT);
+    let out_f = a.out.join(PAIR_FORCE);
+    fringe_sensor_models::write_safetensors_with_card(
+        &out_f,
+        weights_f,
+        Some(&force.travelling_card()),
+    )
+    .with_context(|| format!("{}: cannot write", out_f.display()))?;
+    write_card(&out_f, &force.travelling_card())?;
+    fringe_sensor_models::write_safetensors_with_card(&out_c, weights_c, Some(&card))
+        .with_context(|| format!("{}: cannot write", out_c.display()))?;
+    write_card(&out_c, &card)?;
+    let joined = builtin::open(&out_c)?;
+    let f = joined
+        .force
+        .as_ref()
+        .map(|f| f.path.display().to_string())
+        .unwrap_or_default();
+    println!(
+        "two-stage model: {} (contact and shape: {}; force: {f}, a {window} mm window about the contact)",
+        out_c.display(),
+        contact.describe()
+    );
+    Ok(())
+}
+
+/// The card beside a model file (`<file>.json`), as training writes it.
+fn write_card(model: &Path, card: &ModelCard) -> Result<()> {
+    let [path, _] = ModelCard::candidates(model);
+    let text = serde_json::to_string_pretty(card)?;
+    std::fs::write(&path, text + "\n").with_context(|| format!("{}: cannot write", path.display()))
 }
 
 /// Opens a model argument: a built-in model (`default`, `builtin:NAME`) or a model file,
@@ -218,21 +310,28 @@ fn run_images(a: RunArgs) -> Result<()> {
     if let Some(w) = m.scale_warning(&config) {
         eprintln!("warning: {w}");
     }
-    let mut backend = m.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
-    let size = m.input_size;
+    let mut predictor = Predictor::new(
+        &m,
+        a.backend,
+        crate::cmd::arg_values::cap_threads(a.threads),
+    )?;
     for image in &a.images {
-        if let Ok((w, h)) = image::image_dimensions(image) {
-            if let Some(warning) = config.coverage_warning(w, h) {
-                eprintln!("warning: {}: {warning}", image.display());
-            }
+        let frame = read_plain(image)?;
+        if let Some(warning) = config.coverage_warning(frame.width, frame.height) {
+            eprintln!("warning: {}: {warning}", image.display());
         }
-        // A read error names the file already; the others do not.
-        let tensor = config.run_file(image).map_err(|e| match e {
-            PreprocessError::File(_) => anyhow::Error::from(e),
-            other => anyhow::anyhow!("{}: {other}", image.display()),
-        })?;
-        let raw = backend.run(&tensor, 1, size)?;
-        let Some(p) = predictions(&raw, &m.classes).into_iter().next() else {
+        let fref = FrameRef {
+            width: frame.width,
+            height: frame.height,
+            format: frame.format,
+            data: &frame.data,
+            cutout: None,
+        };
+        let tensor = config
+            .run(fref)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", image.display()))?;
+        let predicted = predictor.predict(&tensor, 1, &[fref], &config, profile.as_ref())?;
+        let Some(p) = predicted.into_iter().next() else {
             bail!("{}: the model gave no output", image.display());
         };
         if a.json {

@@ -54,6 +54,11 @@ pub struct TrainArgs {
     /// a few epochs at a lower --lr on the same data and --seed, so the split is the same).
     #[arg(long, value_name = "WEIGHTS", conflicts_with = "resume")]
     init: Option<PathBuf>,
+    /// Train the force network of a two-stage model: it reads Fz alone from a window of this
+    /// side (mm) about the contact, on the frames in contact. `fringe model pair` joins it to a
+    /// model that finds the contact (the keypoint CNN).
+    #[arg(long, value_name = "MM")]
+    force_window: Option<f64>,
 }
 
 fn parse_arch(s: &str) -> Result<Architecture, String> {
@@ -112,6 +117,11 @@ mod with_torch {
         if !(1..=256).contains(&a.threads) {
             bail!("--threads {}: use 1 to 256", a.threads);
         }
+        if let Some(w) = a.force_window {
+            if !(w.is_finite() && (2.0..=100.0).contains(&w)) {
+                bail!("--force-window {w}: use a window of 2 to 100 mm (24 mm holds a press of the 8 N range)");
+            }
+        }
         Ok(())
     }
 
@@ -137,6 +147,7 @@ mod with_torch {
             split: None,
             augment: true,
             freeze_batch_norm: false,
+            force_window_mm: a.force_window,
         };
         let mut data = a.data.clone();
         if let Some(cp) = &a.resume {
@@ -203,6 +214,7 @@ mod with_torch {
         config.lr = record.lr;
         config.schedule = record.schedule;
         config.seed = record.seed;
+        config.force_window_mm = record.force_window_mm;
         if let Some(arch) = card.architecture.as_deref() {
             config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;
         }
@@ -315,6 +327,22 @@ mod with_torch {
                 println!("contact RMSE:   {:.4} mm", m.all.contact_rmse());
                 println!("shape accuracy: {:.4}", m.all.accuracy());
                 println!("loss curves:    {}", config.out.join("loss.png").display());
+            }
+            Outcome::ForceNetwork {
+                model,
+                test_frames,
+                fz_rmse_n,
+            } => {
+                println!("force network:  {}", model.display());
+                println!(
+                    "test frames:    {test_frames} in contact, windows about the labelled contact"
+                );
+                println!("Fz RMSE:        {fz_rmse_n:.4} N (the network alone)");
+                println!("loss curves:    {}", config.out.join("loss.png").display());
+                println!(
+                    "join it to a model that finds the contact: fringe model pair CONTACT_MODEL {} --out DIR",
+                    model.display()
+                );
             }
             Outcome::Interrupted { checkpoint } => {
                 eprintln!(

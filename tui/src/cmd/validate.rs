@@ -74,7 +74,11 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     if !a.no_tui && std::io::stdout().is_terminal() {
         return run_ui(&a, &model.path, config, &source, text, origin);
     }
-    let backend = model.backend(a.backend, crate::cmd::arg_values::cap_threads(a.threads))?;
+    let backend = fringe_sensor_models::predictor::Predictor::new(
+        &model,
+        a.backend,
+        crate::cmd::arg_values::cap_threads(a.threads),
+    )?;
     println!(
         "fringe {}: rig: {}",
         env!("CARGO_PKG_VERSION"),

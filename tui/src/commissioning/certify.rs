@@ -21,6 +21,7 @@ use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
+use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::report;
 use fringe_sensor_models::write_safetensors_with_card;
 use std::fmt::Write as _;
@@ -67,9 +68,9 @@ pub(crate) fn accept(
         p.dedup();
         p.len()
     };
-    let mut backend = model.backend(BackendKind::Tract, c.threads)?;
+    let mut predictor = Predictor::new(&model, BackendKind::Tract, c.threads)?;
     let host = &mut *c.host;
-    let eval = evaluate(&model, backend.as_mut(), &[source], None, None, |d, t| {
+    let eval = evaluate(&model, &mut predictor, &[source], None, None, |d, t| {
         host.frames("evaluating the acceptance scan", d, t)
     })?;
     c.compute_s += started.elapsed().as_secs_f64();

@@ -78,12 +78,12 @@ pub fn evaluate_run(
 ) -> Result<String, String> {
     let model = fringe_sensor_models::builtin::open(&choice.path).map_err(|e| e.to_string())?;
     let source = fringe_sensor_models::dataset::read(dir).map_err(|e| e.to_string())?;
-    let mut backend = model
-        .backend(choice.backend, choice.threads)
-        .map_err(|e| e.to_string())?;
+    let mut predictor =
+        fringe_sensor_models::predictor::Predictor::new(&model, choice.backend, choice.threads)
+            .map_err(|e| e.to_string())?;
     let eval = fringe_sensor_models::eval::evaluate(
         &model,
-        backend.as_mut(),
+        &mut predictor,
         std::slice::from_ref(&source),
         None,
         None,
@@ -251,11 +251,10 @@ fn attach_model(
     if let Some(w) = model.missing_card_warning() {
         let _ = events.send(Event::Note(Note::Warning(w)));
     }
-    let backend = model
-        .backend(m.backend, m.threads)
+    let predictor = fringe_sensor_models::predictor::Predictor::new(&model, m.backend, m.threads)
         .map_err(|e| e.to_string())?;
     let (v, notes) = session
-        .attach_validation(model, backend, run_id)
+        .attach_validation(model, predictor, run_id)
         .map_err(|e| e.to_string())?;
     for note in notes {
         let _ = events.send(Event::Note(note));

@@ -1,0 +1,200 @@
+//! A window about the contact point: what the force network of a two-stage model reads. The
+//! first network finds the contact (and the shape) on the whole disc; the second reads the
+//! force from a square of `window_mm` about that contact, resampled to its input, so the dense
+//! fringes of a hard press fill the input instead of a corner of it (BENCHMARKS.md, "A window
+//! about the contact").
+//!
+//! The window is the one preprocessing with its crop centred on the contact's pixel instead of
+//! the optical centre and a crop radius of half the window: the contact label (mm from the
+//! optical centre, +x right, +y up in the camera view after the registration's mirror and turn)
+//! is mapped to pixels by the sensor's registration (px per mm, mirror, rotation).
+
+use crate::preprocess::{Centre, PreprocessError, Preprocessing};
+use fringe_calibration::profile::Profile;
+
+/// Why a contact window cannot be made for a sensor.
+#[derive(Debug, thiserror::Error)]
+pub enum WindowError {
+    #[error(
+        "the profile of sensor {sensor} has no registration (image <-> stage geometry): a force \
+         window about the contact needs its px per mm; calibrate the registration \
+         (`fringe calibrate`) or use a whole-disc model"
+    )]
+    NoRegistration { sensor: String },
+    #[error("the force window of {0} mm is not a positive size")]
+    Size(f64),
+    #[error(
+        "the preprocessing of {sensor} is the reference pipeline's (image centre, no \
+         registration): a force window about the contact needs the sensor's calibration profile \
+         (--profile)"
+    )]
+    Reference { sensor: String },
+    #[error(transparent)]
+    Preprocess(#[from] PreprocessError),
+}
+
+/// The map from a contact label to the window about it, for one sensor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactWindow {
+    /// Side of the window, mm.
+    pub window_mm: f64,
+    px_per_mm: f64,
+    rotation_deg: f64,
+    mirror: bool,
+}
+
+impl ContactWindow {
+    /// The window of `window_mm` for the sensor of `profile` (its registration's scale, turn
+    /// and mirror).
+    pub fn from_profile(profile: &Profile, window_mm: f64) -> Result<ContactWindow, WindowError> {
+        let reg = profile
+            .registration
+            .as_ref()
+            .ok_or_else(|| WindowError::NoRegistration {
+                sensor: profile.sensor_id.clone(),
+            })?;
+        if !(window_mm.is_finite() && window_mm > 0.0) {
+            return Err(WindowError::Size(window_mm));
+        }
+        Ok(ContactWindow {
+            window_mm,
+            px_per_mm: reg.px_per_mm,
+            rotation_deg: reg.rotation_deg,
+            mirror: reg.mirror,
+        })
+    }
+
+    /// The image offset (px, x right, y down) of a contact `contact_mm` from the optical centre.
+    pub fn offset_px(&self, contact_mm: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.rotation_deg.to_radians().sin_cos();
+        let m = if self.mirror { -1.0 } else { 1.0 };
+        let [x, y] = contact_mm;
+        let k = self.px_per_mm;
+        [k * (c * m * x - s * y), -k * (s * m * x + c * y)]
+    }
+
+    /// The preprocessing of the window about `contact_mm`: `disc`'s (the sensor's whole-disc
+    /// preprocessing, centred on its optical centre) with the crop moved onto the contact and
+    /// narrowed to the window, at the force network's `input_size` and `colour`.
+    pub fn preprocessing(
+        &self,
+        disc: &Preprocessing,
+        contact_mm: [f64; 2],
+        input_size: u32,
+        colour: crate::preprocess::Colour,
+    ) -> Result<Preprocessing, WindowError> {
+        let Centre::At(centre) = disc.centre else {
+            return Err(WindowError::Reference {
+                sensor: disc.sensor.clone(),
+            });
+        };
+        if disc.reference {
+            return Err(WindowError::Reference {
+                sensor: disc.sensor.clone(),
+            });
+        }
+        let [dx, dy] = self.offset_px(contact_mm);
+        let p = Preprocessing {
+            centre: Centre::At([centre[0] + dx, centre[1] + dy]),
+            crop_radius_px: self.window_mm / 2.0 * self.px_per_mm,
+            input_size,
+            colour,
+            ..disc.clone()
+        };
+        p.check()?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::preprocess::{Colour, FrameRef};
+    use fringe_rig::camera::PixelFormat;
+
+    fn window(rotation_deg: f64, mirror: bool) -> ContactWindow {
+        ContactWindow {
+            window_mm: 4.0,
+            px_per_mm: 5.0,
+            rotation_deg,
+            mirror,
+        }
+    }
+
+    fn disc() -> Preprocessing {
+        Preprocessing {
+            centre: Centre::At([100.0, 80.0]),
+            crop_radius_px: 70.0,
+            frame_size: Some((200, 160)),
+            sensor: "test".into(),
+            input_size: 32,
+            colour: Colour::Grey,
+            reference: false,
+        }
+    }
+
+    /// Under every registration (as the layered design's mirrored view and the integrated
+    /// design's mirrored and turned one), a bright spot drawn where the registration puts a
+    /// contact sits at the centre of the window about that contact: the force network sees the
+    /// press, not the disc beside it.
+    #[test]
+    fn the_window_about_a_contact_is_centred_on_its_press() {
+        let contact = [4.0, 5.0];
+        for (rotation, mirror) in [(90.0, true), (0.0, true), (0.0, false), (37.0, false)] {
+            let w = window(rotation, mirror);
+            let [dx, dy] = w.offset_px(contact);
+            let (u, v) = (100.0 + dx, 80.0 + dy);
+            let mut data = vec![20u8; 200 * 160];
+            for y in (v as usize - 2)..(v as usize + 2) {
+                for x in (u as usize - 2)..(u as usize + 2) {
+                    data[y * 200 + x] = 250;
+                }
+            }
+            let frame = FrameRef {
+                width: 200,
+                height: 160,
+                format: PixelFormat::Mono8,
+                data: &data,
+                cutout: None,
+            };
+            let pre = w
+                .preprocessing(&disc(), contact, 16, Colour::Grey)
+                .expect("window");
+            assert_eq!(pre.crop_radius_px, 10.0, "4 mm at 5 px/mm");
+            let input = pre.run(frame).expect("run");
+            let plane = &input[..16 * 16];
+            // The spot's 4 px fill the middle 6 or so of the 20 px window: the brightest input
+            // pixels are about the centre.
+            let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+            for (i, &val) in plane.iter().enumerate() {
+                if val > 0.5 {
+                    sx += (i % 16) as f64 - 7.5;
+                    sy += (i / 16) as f64 - 7.5;
+                    n += 1.0;
+                }
+            }
+            assert!(
+                n > 0.0,
+                "turn {rotation}, mirror {mirror}: no spot in the window"
+            );
+            let miss = ((sx / n).powi(2) + (sy / n).powi(2)).sqrt();
+            assert!(
+                miss < 1.0,
+                "turn {rotation}, mirror {mirror}: the spot sits {miss:.1} px from the window's centre"
+            );
+        }
+    }
+
+    #[test]
+    fn a_reference_geometry_has_no_window() {
+        let reference = Preprocessing {
+            centre: Centre::Image,
+            reference: true,
+            ..disc()
+        };
+        let e = window(0.0, false)
+            .preprocessing(&reference, [0.0, 0.0], 16, Colour::Grey)
+            .expect_err("refused");
+        assert!(e.to_string().contains("--profile"), "{e}");
+    }
+}
