@@ -21,6 +21,8 @@ pub struct EpochRecord {
     /// The same loss on the validation side.
     pub val_loss: f64,
     pub val_fz_rmse_n: f64,
+    /// Contact and shape figures: of untrained heads in a force network's record
+    /// (`force_window_mm`), which trains Fz alone.
     pub val_contact_rmse_mm: f64,
     pub val_shape_accuracy: f64,
     /// The learning rate of the epoch (absent in records before schedules).

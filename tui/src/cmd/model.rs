@@ -287,6 +287,22 @@ fn info(path: &Path) -> Result<()> {
     println!(
         "outputs:       force [Fx Fy Fz Mx My Mz Ft] (magnitudes), shape probabilities, contact x y (mm)"
     );
+    if let Some(window) = m.force_window_mm() {
+        println!(
+            "two-stage:     this is a force network: it reads Fz from a {window} mm window about \
+             the contact; run it paired (`fringe model pair`)"
+        );
+    }
+    if let Some(f) = &m.force {
+        println!(
+            "two-stage:     the force is read by {} ({}, 3 x {2} x {2}) from a {3} mm window about \
+             the contact this network finds",
+            f.path.display(),
+            f.describe(),
+            f.input_size,
+            f.force_window_mm().unwrap_or_default()
+        );
+    }
     let pre = m
         .card
         .as_ref()

@@ -168,6 +168,7 @@ mod with_torch {
             started: Instant::now(),
             last_pct: usize::MAX,
             batch: config.batch,
+            force_only: config.force_window_mm.is_some(),
         };
         let outcome = train(
             &config,
@@ -253,6 +254,8 @@ mod with_torch {
         last_pct: usize,
         /// Images per batch, for the epoch's ETA.
         batch: usize,
+        /// A force network: its contact and shape heads are not trained, their figures not shown.
+        force_only: bool,
     }
 
     impl Progress {
@@ -293,9 +296,17 @@ mod with_torch {
                     if tty {
                         eprintln!();
                     }
+                    let heads = if self.force_only {
+                        String::new()
+                    } else {
+                        format!(
+                            ", contact RMSE {:.2} mm, shape accuracy {:.3}",
+                            r.val_contact_rmse_mm, r.val_shape_accuracy
+                        )
+                    };
                     eprintln!(
-                        "epoch {}: loss {:.4} (validation {:.4}); validation Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.3}; {:.0} s, {:.0} img/s; {} so far",
-                        r.epoch, r.train_loss, r.val_loss, r.val_fz_rmse_n, r.val_contact_rmse_mm, r.val_shape_accuracy, r.seconds, r.images_per_second,
+                        "epoch {}: loss {:.4} (validation {:.4}); validation Fz RMSE {:.3} N{heads}; {:.0} s, {:.0} img/s; {} so far",
+                        r.epoch, r.train_loss, r.val_loss, r.val_fz_rmse_n, r.seconds, r.images_per_second,
                         duration(self.started.elapsed().as_secs_f64())
                     );
                 }
