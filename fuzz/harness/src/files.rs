@@ -15,6 +15,7 @@ fn scratch() -> &'static Path {
         } else {
             std::env::temp_dir()
         };
+        remove_left_behind(&base);
         let dir = base.join(format!("fringe-fuzz-{}", std::process::id()));
         if let Err(e) = std::fs::create_dir_all(&dir) {
             panic!(
@@ -24,6 +25,31 @@ fn scratch() -> &'static Path {
         }
         dir
     })
+}
+
+/// Removes the scratch directories of fuzz processes that have ended: a process's directory
+/// lives as long as the process (a static is never dropped), so each new one clears those left
+/// behind (on Linux, where `/proc` says which processes run).
+fn remove_left_behind(base: &Path) {
+    if !Path::new("/proc/self").is_dir() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(base) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("fringe-fuzz-"))
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
 }
 
 fn write(path: &Path, bytes: &[u8]) {
