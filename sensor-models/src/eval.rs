@@ -108,7 +108,7 @@ pub(crate) fn read_frame(s: &Sample) -> Result<StoredFrame, EvalError> {
 }
 
 /// The preprocessing's view of a stored frame.
-pub(crate) fn frame_ref(f: &StoredFrame) -> FrameRef<'_> {
+pub fn frame_ref(f: &StoredFrame) -> FrameRef<'_> {
     FrameRef {
         width: f.width,
         height: f.height,

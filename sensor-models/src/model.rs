@@ -247,6 +247,19 @@ impl Model {
         Ok(model)
     }
 
+    /// When this is a two-stage model, what a copy of it (export, adaptation) leaves behind.
+    pub fn copy_warning(&self) -> Option<String> {
+        self.force.as_ref().map(|f| {
+            format!(
+                "{} is a two-stage model: the copy is of its first network alone (contact and \
+                 shape, and its own force head); its force network {} stays where it is (join \
+                 them again with `fringe model pair`)",
+                self.path.display(),
+                f.path.display()
+            )
+        })
+    }
+
     /// The window side (mm) a force network reads about the contact (its card's
     /// `force_window_mm`); `None` for a whole-disc network.
     pub fn force_window_mm(&self) -> Option<f64> {
@@ -467,9 +480,12 @@ impl Model {
     }
 
     /// The card a copy of this model carries: its own card with what inference needs (network,
-    /// classes, input size, colour) as this model runs.
+    /// classes, input size, colour) as this model runs. A copy is of this network alone: a
+    /// two-stage model's `force_model` names a file beside the original, so it is left out
+    /// (`fringe model pair` joins a copy to its force network again).
     pub fn travelling_card(&self) -> ModelCard {
         let mut card = self.card.clone().unwrap_or_default();
+        card.force_model = None;
         if card.architecture.is_none() {
             card.architecture = self.arch.map(|a| a.name().to_string());
         }

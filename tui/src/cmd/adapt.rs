@@ -52,6 +52,9 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         );
     }
     let model = open_model(&a.model)?;
+    if let Some(w) = model.copy_warning() {
+        eprintln!("warning: {w}");
+    }
     let profile = match &a.profile {
         Some(p) => Some(Profile::load(p)?),
         None => None,

@@ -7,12 +7,13 @@ use fringe_calibration::profile::Profile;
 use fringe_rig::store::frame_file::read_plain;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
+use fringe_sensor_models::eval::frame_ref;
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::model_card::{CardSource, ModelCard};
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::Prediction;
 use fringe_sensor_models::predictor::Predictor;
-use fringe_sensor_models::preprocess::{FrameRef, ReferenceSensor};
+use fringe_sensor_models::preprocess::ReferenceSensor;
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -336,13 +337,7 @@ fn run_images(a: RunArgs) -> Result<()> {
         if let Some(warning) = config.coverage_warning(frame.width, frame.height) {
             eprintln!("warning: {}: {warning}", image.display());
         }
-        let fref = FrameRef {
-            width: frame.width,
-            height: frame.height,
-            format: frame.format,
-            data: &frame.data,
-            cutout: None,
-        };
+        let fref = frame_ref(&frame);
         let tensor = config
             .run(fref)
             .map_err(|e| anyhow::anyhow!("{}: {e}", image.display()))?;
@@ -399,6 +394,9 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 fn export(path: &Path, out: &Path) -> Result<()> {
     let m = open_model(path)?;
     refuse_model_file(&m.path, out)?;
+    if let Some(w) = m.copy_warning() {
+        eprintln!("warning: {w}");
+    }
     // The graph carries the model's card, so that `model info`, `model run` and eval read it
     // with the input size, colour and classes it was trained with.
     let bytes = onnx_graph::encode(&m.onnx_with_card()?);
