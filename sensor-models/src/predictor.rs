@@ -3,8 +3,8 @@
 //!
 //! A model is one network, or two (a two-stage model, its card naming a `force_model`): the
 //! first finds the contact and the shape on the whole disc, the second reads the force from a
-//! window about the contact the first found ([`crate::contact_window`]). Both run on the same
-//! backend.
+//! window about the contact the first found ([`crate::contact_window`]); a frame the first finds
+//! without contact reads no force. Both run on the same backend.
 
 use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::contact_window::{ContactWindow, WindowError};
@@ -160,7 +160,11 @@ impl Predictor {
 
 impl ForceStage {
     /// Replaces the force of every prediction in contact by the force network's reading of the
-    /// window about its contact, all windows of the batch in one run.
+    /// window about its contact, all windows of the batch in one run. A frame the first network
+    /// finds without contact reads no force: by the label rules its force is below the contact
+    /// threshold, the force network reads presses only, and the first network's own force head
+    /// (trained beside its contact and shape heads) reads about 0.25 N at rest on the layered
+    /// sensor (BENCHMARKS.md, "Two-stage models").
     fn read_force(
         &mut self,
         out: &mut [Prediction],
@@ -168,6 +172,9 @@ impl ForceStage {
         disc: &Preprocessing,
         profile: Option<&Profile>,
     ) -> Result<(), PredictError> {
+        for p in out.iter_mut().filter(|p| p.contact.is_none()) {
+            p.force = ForceVector::from_array([0.0; 7]);
+        }
         let pressed: Vec<usize> = (0..out.len())
             .filter(|&i| out[i].contact.is_some())
             .collect();

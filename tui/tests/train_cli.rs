@@ -511,12 +511,12 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
         .expect("a frame in contact");
     let image = data().join("0.images").join(pressed);
     let profile = data().join("profile.toml");
-    let run = |model: &Path| -> serde_json::Value {
+    let run = |model: &Path, image: &Path| -> serde_json::Value {
         let o = fringe(&[
             "model",
             "run",
             arg(model),
-            arg(&image),
+            arg(image),
             "--profile",
             arg(&profile),
             "--json",
@@ -524,11 +524,24 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
         assert!(o.status.success(), "{}", text(&o));
         serde_json::from_slice(&o.stdout).expect("json line")
     };
-    let (alone, both) = (run(Path::new("builtin:layered-keypoint")), run(&two));
+    let (alone, both) = (
+        run(Path::new("builtin:layered-keypoint"), &image),
+        run(&two, &image),
+    );
     assert_eq!(alone["shape"], both["shape"]);
     assert_eq!(alone["contact_mm"], both["contact_mm"]);
     assert!(both["contact_mm"].is_array(), "{both}");
     assert_ne!(alone["force"]["fz"], both["force"]["fz"], "{alone} {both}");
+    // A frame the first network finds without contact reads no force.
+    let at_rest = labels
+        .lines()
+        .skip(1)
+        .find(|l| l.contains(",None"))
+        .and_then(|l| l.split(',').find(|f| f.ends_with(".png")))
+        .expect("a frame without contact");
+    let rest = run(&two, &data().join("0.images").join(at_rest));
+    assert_eq!(rest["shape"], "None", "{rest}");
+    assert_eq!(rest["force"]["fz"], 0.0, "{rest}");
 
     // Evaluation takes the same path: the keypoint CNN's contact and shape figures, the force
     // network's Fz.
