@@ -3,7 +3,9 @@
 //!
 //! - force above the ceiling: trips at once (the press loop stops z and backs off; the scan
 //!   retracts);
-//! - no F/T data for longer than the silence limit (50 ms): trips, motion stops;
+//! - no F/T data for longer than the silence limit (50 ms): trips, motion stops. The silence
+//!   counts only while the watcher itself ran: after a pause of its own thread (the host held
+//!   every thread, the F/T path with it), it counts from when it runs again ([`SilenceClock`]);
 //! - camera drops above a threshold while filming: trips, the scan pauses;
 //! - a pause-now or abort request: trips (so every wait in the scan ends within a poll).
 //!
@@ -13,6 +15,7 @@
 use super::control::ScanControl;
 use crate::acquire::force_stream::ForceMonitor;
 use crate::acquire::recorder::RecorderStats;
+use crate::clock::HostTime;
 use crate::units::Newtons;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -83,6 +86,46 @@ impl std::fmt::Display for Alarm {
     }
 }
 
+/// How often the watcher thread looks.
+const POLL: Duration = Duration::from_millis(2);
+
+/// A pause of the watcher's own thread longer than this (ten polls) is the host's: the machine
+/// ran none of the bench's threads for that long.
+const OWN_PAUSE: Duration = Duration::from_millis(20);
+
+/// The F/T silence the watcher can vouch for.
+///
+/// A host that stops running the process for a while (measured on the 2-core CI machine, a
+/// virtual machine: 70 ms with every thread of the scan held, camera and F/T alike) leaves the
+/// newest F/T sample as old as the pause when the threads run again. Whichever runs first, the
+/// watcher or the F/T reader, decides whether that reads as silence. The sensor did not go quiet
+/// while anyone watched, and the reader delivers what came in within a poll. So the watcher
+/// counts silence only from when it last ran without a pause of its own: a stream that really
+/// stopped trips the silence limit after the watcher runs again, and a host's pause alone does
+/// not.
+#[derive(Debug, Clone, Copy, Default)]
+struct SilenceClock {
+    last_look: Option<HostTime>,
+    /// When the watcher ran again after a pause of its own.
+    resumed: Option<HostTime>,
+}
+
+impl SilenceClock {
+    /// Notes a look at `now`.
+    fn look(&mut self, now: HostTime) {
+        if self.last_look.is_some_and(|l| now.since(l) > OWN_PAUSE) {
+            self.resumed = Some(now);
+        }
+        self.last_look = Some(now);
+    }
+
+    /// The silence at `now` of a stream whose newest sample arrived at `newest`.
+    fn silence(&self, now: HostTime, newest: HostTime) -> Duration {
+        let from = self.resumed.map_or(newest, |r| r.max(newest));
+        now.since(from)
+    }
+}
+
 /// The pressing force's zero (the tared no-contact Fz, N), shared with the watchers.
 #[derive(Debug, Clone, Default)]
 pub struct SharedTare(Arc<AtomicU64>);
@@ -147,7 +190,9 @@ impl Watchers {
                     // run records.
                     let _ = crate::realtime::raise_current_thread("watchers");
                     let mut drops: VecDeque<(Instant, u64)> = VecDeque::new();
+                    let mut clock = SilenceClock::default();
                     while !shared.stop.load(Ordering::SeqCst) {
+                        clock.look(HostTime::now());
                         let filming = shared.filming.load(Ordering::SeqCst);
                         let dropped = recorder().dropped_frames;
                         let now = Instant::now();
@@ -163,7 +208,7 @@ impl Watchers {
                             drops.push_back((now, dropped));
                         }
                         let recent = dropped - drops.front().map_or(dropped, |d| d.1);
-                        let alarm = condition_of(&monitor, tare.get(), &settings)
+                        let alarm = condition_of(&monitor, tare.get(), &settings, &clock)
                             .or_else(|| {
                                 (filming && recent > settings.max_drops).then_some(
                                     Alarm::CameraDrops {
@@ -180,7 +225,7 @@ impl Watchers {
                             }
                             cancel.store(true, Ordering::SeqCst);
                         }
-                        std::thread::sleep(Duration::from_millis(2));
+                        std::thread::sleep(POLL);
                     }
                 })
                 .ok()
@@ -206,7 +251,12 @@ impl Watchers {
 
     /// The force and stream conditions as they are now (None: all clear).
     pub fn condition(&self) -> Option<Alarm> {
-        condition_of(&self.monitor, self.tare.get(), &self.settings)
+        condition_of(
+            &self.monitor,
+            self.tare.get(),
+            &self.settings,
+            &SilenceClock::default(),
+        )
     }
 
     /// Tells the watchers whether frames are being filmed (camera drops count only then).
@@ -235,14 +285,19 @@ impl Drop for Watchers {
     }
 }
 
-/// Force ceiling and F/T silence, as they are now.
-fn condition_of(monitor: &ForceMonitor, tare_fz: f64, settings: &WatchSettings) -> Option<Alarm> {
-    match monitor.silence() {
-        Some(s) if s > settings.force_silence => {
-            return Some(Alarm::ForceSilent { silence: s });
+/// Force ceiling and F/T silence (as `clock` counts it), as they are now.
+fn condition_of(
+    monitor: &ForceMonitor,
+    tare_fz: f64,
+    settings: &WatchSettings,
+    clock: &SilenceClock,
+) -> Option<Alarm> {
+    // No sample yet: the scan waits for the stream before it moves.
+    if let Some(newest) = monitor.latest() {
+        let silence = clock.silence(HostTime::now(), newest.host_time);
+        if silence > settings.force_silence {
+            return Some(Alarm::ForceSilent { silence });
         }
-        // No sample yet: the scan waits for the stream before it moves.
-        _ => {}
     }
     let (_, mean) = monitor.mean_of_last(5)?;
     let force = Newtons(tare_fz - mean[2]);
@@ -250,4 +305,65 @@ fn condition_of(monitor: &ForceMonitor, tare_fz: f64, settings: &WatchSettings) 
         force,
         ceiling: settings.ceiling,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(ms: u64) -> HostTime {
+        HostTime(ms * 1_000_000)
+    }
+
+    /// Looks every poll from `from` to `to` (ms).
+    fn polls(clock: &mut SilenceClock, from: u64, to: u64) {
+        let mut t = from;
+        while t <= to {
+            clock.look(at(t));
+            t += 2;
+        }
+    }
+
+    #[test]
+    fn a_stream_that_stops_while_the_watcher_runs_trips_after_the_limit() {
+        let mut clock = SilenceClock::default();
+        polls(&mut clock, 0, 100);
+        // The newest sample came at 40 ms; the watcher looked all along.
+        assert_eq!(clock.silence(at(100), at(40)), Duration::from_millis(60));
+        assert_eq!(clock.silence(at(100), at(98)), Duration::from_millis(2));
+    }
+
+    #[test]
+    fn a_pause_of_the_host_alone_is_not_silence() {
+        let mut clock = SilenceClock::default();
+        polls(&mut clock, 0, 100);
+        // Nothing ran from 100 to 170 ms: the newest sample is from 98 ms when the watcher runs
+        // again, before the reader has delivered what came in meanwhile.
+        clock.look(at(170));
+        assert_eq!(clock.silence(at(170), at(98)), Duration::ZERO);
+        // The reader catches up: the stream's own gaps count again.
+        polls(&mut clock, 172, 200);
+        assert_eq!(clock.silence(at(200), at(196)), Duration::from_millis(4));
+    }
+
+    #[test]
+    fn a_stream_dead_across_a_host_pause_trips_once_the_watcher_has_watched_the_limit() {
+        let mut clock = SilenceClock::default();
+        polls(&mut clock, 0, 100);
+        clock.look(at(170));
+        polls(&mut clock, 172, 222);
+        let limit = WatchSettings::default().force_silence;
+        // The stream's newest sample stays at 98 ms.
+        assert!(clock.silence(at(218), at(98)) <= limit);
+        assert!(clock.silence(at(222), at(98)) > limit);
+    }
+
+    #[test]
+    fn polls_late_by_less_than_ten_periods_are_the_watcher_running() {
+        let mut clock = SilenceClock::default();
+        polls(&mut clock, 0, 100);
+        // A busy machine holds the watcher 15 ms: it still vouches for the silence.
+        clock.look(at(115));
+        assert_eq!(clock.silence(at(115), at(40)), Duration::from_millis(75));
+    }
 }
