@@ -532,7 +532,9 @@ mod tests {
         };
         let mut bench = BenchConfig::default();
         soft.apply_to_bench(&mut bench);
-        let tip = IndenterTip::standard("pentagon").expect("pentagon");
+        let tip = SensorConfig::layered()
+            .indenter_tip("pentagon")
+            .expect("pentagon");
         let depth = Millimetres(0.8);
         let before = elastic_force(&BenchConfig::default().material, tip.geometry(), depth).0;
         let after = elastic_force(&bench.material, tip.geometry(), depth).0;

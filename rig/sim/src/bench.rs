@@ -114,24 +114,6 @@ pub enum IndenterTip {
 }
 
 impl IndenterTip {
-    /// The simulated bench's tip of a class name, in its standard size (what the operator
-    /// mounts when a plan asks for it): pentagon 5 mm circumradius, rectangle 8 x 4 mm, circle
-    /// 4 mm radius, sphere 5 mm radius.
-    pub fn standard(name: &str) -> Option<IndenterTip> {
-        Some(match name {
-            "pentagon" => IndenterTip::Pentagon {
-                circumradius_mm: 5.0,
-            },
-            "rectangle" => IndenterTip::Rectangle {
-                width_mm: 8.0,
-                height_mm: 4.0,
-            },
-            "circle" => IndenterTip::Circle { radius_mm: 4.0 },
-            "sphere" => IndenterTip::Sphere { radius_mm: 5.0 },
-            _ => return None,
-        })
-    }
-
     /// Class name ("pentagon", "rectangle", "circle", "sphere").
     pub fn name(&self) -> &'static str {
         match self {

@@ -10,6 +10,7 @@
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+use crate::bench::IndenterTip;
 use crate::indenter::Shape;
 use crate::scratch::Scratch;
 use crate::stress::Layer;
@@ -156,6 +157,9 @@ pub struct NoiseConfig {
     /// Frame-to-frame LED flicker, standard deviation as a fraction (default 0.01).
     pub flicker: f64,
 }
+
+/// Radius of the simulated bench's circular punch, mm (no sensor definition names a circle).
+pub const CIRCLE_RADIUS_MM: f64 = 4.0;
 
 /// Indenter sizes for the shape names of `fringe sim render --shape`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -578,6 +582,30 @@ impl SensorConfig {
             rotation_deg: g.rotation_deg,
             mirror: g.mirror,
         }
+    }
+
+    /// The indenter of class `name` in this build's sizes: what the operator mounts on the
+    /// simulated bench when a plan asks for it, the tip `fringe sim dataset` renders. Pentagon,
+    /// rectangle and sphere are the build's [`IndenterConfig`]; the circle, which no sensor
+    /// definition names, has a radius of [`CIRCLE_RADIUS_MM`].
+    pub fn indenter_tip(&self, name: &str) -> Option<IndenterTip> {
+        let sizes = &self.indenters;
+        Some(match name {
+            "pentagon" => IndenterTip::Pentagon {
+                circumradius_mm: sizes.pentagon_circumradius_mm,
+            },
+            "rectangle" => IndenterTip::Rectangle {
+                width_mm: sizes.rectangle_width_mm,
+                height_mm: sizes.rectangle_height_mm,
+            },
+            "circle" => IndenterTip::Circle {
+                radius_mm: CIRCLE_RADIUS_MM,
+            },
+            "sphere" => IndenterTip::Sphere {
+                radius_mm: sizes.sphere_radius_mm,
+            },
+            _ => return None,
+        })
     }
 
     /// Pentagon punch of the configured size.

@@ -318,7 +318,10 @@ impl ScanSession {
             self.profile_use == ProfileUse::Consume,
         )?;
         #[cfg(feature = "sim")]
-        let bench = self.sim.as_ref().map(|s| s.bench().clone());
+        let bench = self
+            .sim
+            .as_ref()
+            .map(|s| (s.bench().clone(), s.config().sensor.clone()));
         // What the bench filmed before this scan (the Bench screen, an earlier run's end) is no
         // part of this run's truth.
         #[cfg(feature = "sim")]
@@ -398,11 +401,15 @@ fn sim_record(sim: Option<&SimBench>) -> (Option<u64>, Vec<Arc<dyn RunSidecar>>)
     }
 }
 
-/// On the simulated bench the indenter a plan asks for is mounted at once; every other prompt
-/// goes to the caller's operator.
+/// On the simulated bench the indenter a plan asks for is mounted at once, in the sizes of the
+/// sensor build under its camera (those its training frames show); every other prompt goes to
+/// the caller's operator.
 #[cfg(feature = "sim")]
 struct BenchOperator<'a> {
-    bench: Option<Arc<fringe_sim::bench::Bench>>,
+    bench: Option<(
+        Arc<fringe_sim::bench::Bench>,
+        fringe_sim::sensor::SensorConfig,
+    )>,
     inner: &'a mut dyn Operator,
     progress: &'a (dyn Fn(ScanProgress) + Sync),
 }
@@ -410,9 +417,9 @@ struct BenchOperator<'a> {
 #[cfg(feature = "sim")]
 impl Operator for BenchOperator<'_> {
     fn ask(&mut self, prompt: &Prompt) -> Reply {
-        use fringe_sim::bench::{IndenterTip, MountedIndenter};
-        if let (Some(bench), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
-            return match IndenterTip::standard(shape) {
+        use fringe_sim::bench::MountedIndenter;
+        if let (Some((bench, sensor)), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
+            return match sensor.indenter_tip(shape) {
                 Some(tip) => {
                     bench.set_indenter(MountedIndenter {
                         tip,
@@ -504,4 +511,94 @@ fn calibration_profile(
         }),
         check,
     )
+}
+
+#[cfg(all(test, feature = "sim"))]
+mod tests {
+    use super::*;
+    use fringe_rig::scan::control::{Prompt, Reply};
+    use fringe_sim::bench::{Bench, BenchConfig, IndenterTip};
+    use fringe_sim::sensor::SensorConfig;
+
+    /// Nobody at the bench: a prompt that reaches the operator aborts.
+    struct Nobody;
+
+    impl Operator for Nobody {
+        fn ask(&mut self, _prompt: &Prompt) -> Reply {
+            Reply::Abort
+        }
+    }
+
+    /// The reply, the tip mounted afterwards and what the bench said.
+    fn mount_saying(sensor: SensorConfig, shape: &str) -> (Reply, IndenterTip, Vec<String>) {
+        let bench = Bench::new(BenchConfig::default());
+        let said = std::sync::Mutex::new(Vec::new());
+        let progress = |p: ScanProgress| {
+            if let ScanProgress::Message(m) = p {
+                said.lock().expect("messages").push(m);
+            }
+        };
+        let mut nobody = Nobody;
+        let mut operator = BenchOperator {
+            bench: Some((bench.clone(), sensor)),
+            inner: &mut nobody,
+            progress: &progress,
+        };
+        let reply = operator.ask(&Prompt::ChangeIndenter {
+            shape: shape.into(),
+        });
+        let said = said.into_inner().expect("messages");
+        (reply, bench.indenter().tip, said)
+    }
+
+    fn mount(sensor: SensorConfig, shape: &str) -> (Reply, IndenterTip) {
+        let (reply, tip, _) = mount_saying(sensor, shape);
+        (reply, tip)
+    }
+
+    #[test]
+    fn the_simulated_bench_mounts_the_indenters_its_sensor_build_was_trained_on() {
+        for sensor in [SensorConfig::layered(), SensorConfig::integrated()] {
+            for shape in ["pentagon", "rectangle", "sphere"] {
+                let (reply, tip) = mount(sensor.clone(), shape);
+                assert_eq!(reply, Reply::Continue, "{shape}");
+                // The tip `fringe sim dataset` renders for this build.
+                let rendered = match shape {
+                    "pentagon" => sensor.pentagon(),
+                    "rectangle" => sensor.rectangle(),
+                    _ => sensor.sphere(3.0),
+                };
+                let mounted = tip.shape_at(fringe_rig::units::Millimetres(0.5));
+                match (mounted, rendered) {
+                    (
+                        fringe_sim::indenter::Shape::Sphere { radius_mm: a, .. },
+                        fringe_sim::indenter::Shape::Sphere { radius_mm: b, .. },
+                    ) => assert_eq!(a, b),
+                    (a, b) => assert_eq!(a, b, "{shape}"),
+                }
+            }
+        }
+        let mut sensor = SensorConfig::layered();
+        sensor.indenters.rectangle_width_mm = 12.0;
+        let (_, tip) = mount(sensor, "rectangle");
+        assert_eq!(
+            tip,
+            IndenterTip::Rectangle {
+                width_mm: 12.0,
+                height_mm: 6.0
+            }
+        );
+    }
+
+    #[test]
+    fn an_indenter_the_simulated_bench_lacks_ends_the_scan_naming_those_it_has() {
+        let (reply, tip, said) = mount_saying(SensorConfig::layered(), "cone");
+        assert_eq!(reply, Reply::Abort);
+        assert_eq!(tip, BenchConfig::default().indenter.tip, "nothing mounted");
+        let said = said.join("\n");
+        assert!(
+            said.contains("\"cone\"") && said.contains("pentagon, rectangle, circle, sphere"),
+            "{said}"
+        );
+    }
 }
