@@ -253,7 +253,6 @@ impl Ageing {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::IndenterTip;
     use crate::contact::elastic_force;
     use crate::render::Renderer;
     use crate::scene::FrameRenderer;
