@@ -10,7 +10,11 @@ network with fringe's three heads and loss instead (MSE on Fz + cross-entropy on
 on the contact in mm, equal weights, as `fringe train`), FZ_WEIGHT scaling the force's term:
 does sharing the network with the contact and shape cost the force? The window's centre is the
 labelled contact point plus Gaussian jitter of 0.7 mm (about the keypoint CNN's contact error,
-standing in for a first network that finds the contact). Needs torch, numpy and Pillow.
+standing in for a first network that finds the contact). OFFSET=1 trains the window network to
+read, beside Fz, where the press lies from the window's centre (the jitter undone, mm), its term
+weighted by OFFSET_WEIGHT; KP=1 gives it the keypoint CNN's soft-argmax maps beside the pooled
+features (BENCHMARKS.md, "The force network reads the contact too"). Needs torch, numpy and
+Pillow.
 """
 import csv, os, sys, math, time, tomllib, numpy as np, torch, torch.nn as nn, torch.nn.functional as F
 from PIL import Image
@@ -37,7 +41,7 @@ def geometry(d):
 def load(d):
     CX, CY, R, PXMM, (OX, OY) = geometry(d)
     rows = list(csv.DictReader(open(d + '/0.labels.csv')))
-    full, zoom, fz, aux = [], [], [], []
+    full, zoom, fz, aux, jit = [], [], [], [], []
     for r in rows:
         if r['Indentor_Shape'].lower() in ('none', 'no contact', ''):
             continue
@@ -46,16 +50,63 @@ def load(d):
         full.append(np.asarray(im.crop((round(CX-R), round(CY-R), round(CX+R), round(CY+R)))
             .resize((FULL_PX, FULL_PX), Image.BILINEAR), np.uint8))
         jx, jy = rng.normal(0, JIT_MM, 2)
+        jit.append((jx, jy))
         px, py = OX - (x + jx) * PXMM, OY - (y + jy) * PXMM
         h = WIN_MM * PXMM / 2
         zoom.append(np.asarray(im.crop((round(px-h), round(py-h), round(px+h), round(py+h))).resize((112, 112), Image.BILINEAR), np.uint8))
         fz.append(abs(float(r['Fz'])))
         aux.append((0 if r['Indentor_Shape'].lower() == 'pentagon' else 1, x, y))
+    global JITTER
+    JITTER = JITTER + [np.array(jit, np.float32)]
     return np.stack(full), np.stack(zoom), np.array(fz, np.float32), np.array(aux, np.float32)
+JITTER = []
 
 def net(outputs=1):
     def blk(i, o): return nn.Sequential(nn.Conv2d(i, o, 3, padding=1), nn.BatchNorm2d(o), nn.ReLU(), nn.MaxPool2d(2))
     return nn.Sequential(blk(1, 16), blk(16, 32), blk(32, 64), blk(64, 128), nn.AdaptiveAvgPool2d(1), nn.Flatten(), nn.Linear(128, 64), nn.ReLU(), nn.Linear(64, outputs))
+
+class KeypointNet(nn.Module):
+    """The same four convolutions, without the last pool, with 16 soft-argmax keypoint maps read
+    beside the pooled features (fringe's keypoint CNN)."""
+    def __init__(self, outputs):
+        super().__init__()
+        def blk(i, o, pool=True): return nn.Sequential(nn.Conv2d(i, o, 3, padding=1), nn.BatchNorm2d(o), nn.ReLU(), *( [nn.MaxPool2d(2)] if pool else []))
+        self.body = nn.Sequential(blk(1, 16), blk(16, 32), blk(32, 64), blk(64, 128, False))
+        self.key = nn.Conv2d(128, 16, 1)
+        self.head = nn.Sequential(nn.Linear(128 + 32, 64), nn.ReLU(), nn.Linear(64, outputs))
+    def forward(self, x):
+        f = self.body(x); n, _, h, w = f.shape
+        k = self.key(f).flatten(2).softmax(2)
+        ys = torch.linspace(-1, 1, h).repeat_interleave(w); xs = torch.linspace(-1, 1, w).repeat(h)
+        kx, ky = (k * xs).sum(2), (k * ys).sum(2)
+        return self.head(torch.cat([f.mean((2, 3)), kx, ky], 1))
+
+def offset_run(xtr, ytr, jtr, xte, yte, jte, epochs):
+    """Outputs: Fz and the contact's offset from the window's centre (mm, the label's axes):
+    the window network refines the contact the first network found."""
+    m = KeypointNet(3) if os.environ.get('KP') == '1' else net(3)
+    opt = torch.optim.Adam(m.parameters(), 1e-3)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, epochs)
+    Xtr = torch.tensor(xtr, dtype=torch.float32).unsqueeze(1) / 255; Ytr = torch.tensor(ytr); Otr = -torch.tensor(jtr)
+    Xte = torch.tensor(xte, dtype=torch.float32).unsqueeze(1) / 255; ote = -jte
+    W = float(os.environ.get('OFFSET_WEIGHT', '1'))
+    for e in range(epochs):
+        m.train(); perm = torch.randperm(len(Xtr)); t = time.time()
+        for i in range(0, len(perm), 32):
+            b = perm[i:i+32]; xb = Xtr[b]; ob = Otr[b].clone()
+            if torch.rand(1).item() < 0.5: xb = xb.flip(3); ob[:, 0] = -ob[:, 0]
+            o = m(xb)
+            loss = F.mse_loss(o[:, 0], Ytr[b]) + W * F.mse_loss(o[:, 1:3], ob)
+            opt.zero_grad(); loss.backward(); opt.step()
+        sched.step(); m.eval()
+        with torch.no_grad(): o = torch.cat([m(Xte[i:i+64]) for i in range(0, len(Xte), 64)]).numpy()
+        err = o[:, 0] - yte
+        bins = [math.sqrt(np.mean(err[(yte >= a) & (yte < a + 2)] ** 2)) for a in (0, 2, 4, 6)]
+        c = math.sqrt(np.mean(np.sum((o[:, 1:3] - ote) ** 2, 1)))
+        c0 = math.sqrt(np.mean(np.sum(ote ** 2, 1)))
+        cb = [math.sqrt(np.mean(np.sum((o[:, 1:3] - ote)[(yte >= a) & (yte < a + 2)] ** 2, 1))) for a in (0, 2, 4, 6)]
+        print(f"offset ({'keypoint' if os.environ.get('KP') == '1' else 'pooled'}, weight {W}) epoch {e+1} {time.time()-t:.0f}s test Fz RMSE {math.sqrt(np.mean(err**2)):.3f} N  by 0-2/2-4/4-6/6-8 N: "
+              + " ".join(f"{b:.3f}" for b in bins) + f"  contact {c:.3f} mm (window centre {c0:.3f} mm) by force: " + " ".join(f"{b:.3f}" for b in cb), flush=True)
 
 def multi_run(xtr, ytr, atr, xte, yte, ate, epochs):
     """Outputs: Fz, two shape logits (pentagon, rectangle), contact x, y mm."""
@@ -100,6 +151,9 @@ tr, te = sys.argv[1], sys.argv[2]
 t = time.time(); ftr, ztr, ytr, atr = load(tr); fte, zte, yte, ate = load(te)
 print(f"loaded {len(ytr)} train / {len(yte)} test contact frames in {time.time()-t:.0f} s; window {WIN_MM} mm, jitter {JIT_MM} mm", flush=True)
 E = int(sys.argv[4]) if len(sys.argv) > 4 else 20
+if os.environ.get('OFFSET') == '1':
+    offset_run(ztr, ytr, JITTER[0], zte, yte, JITTER[1], E)
+    sys.exit(0)
 if MULTI:
     multi_run(ftr, ytr, atr, fte, yte, ate, E)
     sys.exit(0)

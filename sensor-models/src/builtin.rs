@@ -21,6 +21,9 @@ pub struct Builtin {
     pub design: &'static str,
     /// The model `fringe commission` adapts to a unit of its design (one per design).
     pub commissioning_base: bool,
+    /// A window network of a two-stage model (its force or contact network): run only through
+    /// the built-in model whose card names it, never chosen for a design.
+    pub window_network: bool,
     weights: &'static [u8],
     card: &'static str,
 }
@@ -32,6 +35,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
         design: "layered",
         commissioning_base: false,
+        window_network: false,
         weights: include_bytes!("../models/layered-custom.safetensors"),
         card: include_str!("../models/layered-custom.json"),
     },
@@ -41,8 +45,42 @@ pub const BUILTIN: &[Builtin] = &[
                 layered unit (its features keep where the contact is)",
         design: "layered",
         commissioning_base: true,
+        window_network: false,
         weights: include_bytes!("../models/layered-keypoint.safetensors"),
         card: include_str!("../models/layered-keypoint.json"),
+    },
+    Builtin {
+        name: "layered-two-stage",
+        about: "two-stage model for the simulated layered sensor: the keypoint CNN finds the \
+                contact and the shape, builtin:layered-contact places the contact in a 24 mm \
+                window about it, builtin:layered-force reads the force in a 24 mm window about \
+                that",
+        design: "layered",
+        commissioning_base: false,
+        window_network: false,
+        // The first network is the keypoint CNN above, its weights shared; the card differs.
+        weights: include_bytes!("../models/layered-keypoint.safetensors"),
+        card: include_str!("../models/layered-two-stage.json"),
+    },
+    Builtin {
+        name: "layered-contact",
+        about: "the contact network of builtin:layered-two-stage (a keypoint CNN on a 24 mm \
+                window about the contact, reading where the press lies in it): not run alone",
+        design: "layered",
+        commissioning_base: false,
+        window_network: true,
+        weights: include_bytes!("../models/layered-contact.safetensors"),
+        card: include_str!("../models/layered-contact.json"),
+    },
+    Builtin {
+        name: "layered-force",
+        about: "the force network of builtin:layered-two-stage (a custom CNN on a 24 mm window \
+                about the contact): not run alone",
+        design: "layered",
+        commissioning_base: false,
+        window_network: true,
+        weights: include_bytes!("../models/layered-force.safetensors"),
+        card: include_str!("../models/layered-force.json"),
     },
     Builtin {
         name: "integrated",
@@ -50,6 +88,7 @@ pub const BUILTIN: &[Builtin] = &[
                 frames)",
         design: "integrated",
         commissioning_base: true,
+        window_network: false,
         weights: include_bytes!("../models/integrated-keypoint.safetensors"),
         card: include_str!("../models/integrated-keypoint.json"),
     },
@@ -114,7 +153,7 @@ pub fn for_design(design: Option<&str>) -> Result<PathBuf, ModelError> {
     };
     BUILTIN
         .iter()
-        .find(|b| b.design == design)
+        .find(|b| b.design == design && !b.window_network)
         .map(Builtin::path)
         .ok_or_else(|| ModelError::NoneShipped {
             design: design.to_string(),
@@ -152,18 +191,36 @@ fn listed(what: impl Fn(&Builtin) -> &'static str) -> String {
 }
 
 /// A model argument: a built-in model's name (`default`, `builtin:NAME`) or a model file; a
-/// two-stage model with its force network (its card's `force_model`: `builtin:NAME`, or a file
-/// beside the model) attached.
+/// two-stage model with its window networks (its card's `force_model` and `contact_model`:
+/// `builtin:NAME`, or a file beside the model) attached.
 pub fn open(spec: &Path) -> Result<Model, ModelError> {
     let mut model = match named(spec) {
         Some(b) => b?.model()?,
         None => Model::open(spec)?,
     };
-    let Some(name) = model.card.as_ref().and_then(|c| c.force_model.clone()) else {
-        return Ok(model);
-    };
-    let named_path = Path::new(&name);
-    let force = match named(named_path) {
+    let card = model.card.clone().unwrap_or_default();
+    if let Some(name) = &card.force_model {
+        model.force = Some(Box::new(window_network(&model, name)?));
+    }
+    if let Some(name) = &card.contact_model {
+        let net = window_network(&model, name)?;
+        if !net.card.as_ref().is_some_and(|c| c.refines_contact) {
+            return Err(ModelError::NotAContactNetwork {
+                path: net.path.display().to_string(),
+                of: model.path.display().to_string(),
+            });
+        }
+        model.contact_refiner = Some(Box::new(net));
+    }
+    Ok(model)
+}
+
+/// The window network `name` of the two-stage model `model`: a built-in one or a file beside the
+/// model, trained on a window about the contact (`fringe train --force-window`), of the model's
+/// sensor design.
+fn window_network(model: &Model, name: &str) -> Result<Model, ModelError> {
+    let named_path = Path::new(name);
+    let net = match named(named_path) {
         Some(b) => b?.model()?,
         None => {
             let beside = match model.path.parent() {
@@ -174,18 +231,16 @@ pub fn open(spec: &Path) -> Result<Model, ModelError> {
         }
     };
     let of = model.path.display().to_string();
-    let not_force = || ModelError::NotAForceNetwork {
-        path: force.path.display().to_string(),
-        of: of.clone(),
-    };
-    if force.force_window_mm().is_none() || force.force.is_some() {
-        return Err(not_force());
+    if net.force_window_mm().is_none() || net.force.is_some() || net.contact_refiner.is_some() {
+        return Err(ModelError::NotAForceNetwork {
+            path: net.path.display().to_string(),
+            of,
+        });
     }
-    // Both networks read one sensor design.
+    // Every network reads one sensor design.
     let design = model.card.as_ref().and_then(|c| c.variant.clone());
-    force.check_design(design.as_deref(), &format!("the two-stage model {of}"))?;
-    model.force = Some(Box::new(force));
-    Ok(model)
+    net.check_design(design.as_deref(), &format!("the two-stage model {of}"))?;
+    Ok(net)
 }
 
 #[cfg(test)]
@@ -215,7 +270,7 @@ mod tests {
             let shipped = for_design(Some(b.design)).expect("a model ships for its design");
             let first = BUILTIN
                 .iter()
-                .find(|o| o.design == b.design)
+                .find(|o| o.design == b.design && !o.window_network)
                 .map(Builtin::path);
             assert_eq!(Some(shipped), first, "the first of {}'s models", b.design);
             let bases = BUILTIN
@@ -223,6 +278,29 @@ mod tests {
                 .filter(|o| o.design == b.design && o.commissioning_base)
                 .count();
             assert_eq!(bases, 1, "one commissioning base for {}", b.design);
+        }
+    }
+
+    /// The two-stage model opens with its built-in window networks attached; a window network
+    /// is never what a design gets, and alone it is refused, saying how to run it.
+    #[test]
+    fn the_two_stage_model_brings_its_window_networks_which_are_never_run_alone() {
+        let two = open(Path::new("builtin:layered-two-stage")).expect("opens");
+        assert_eq!(two.arch.map(Architecture::name), Some("keypoint"));
+        let force = two.force.as_ref().expect("its force network attached");
+        assert_eq!(force.path, Path::new("builtin:layered-force"));
+        assert_eq!(force.force_window_mm(), Some(24.0));
+        let contact = two.contact_refiner.as_ref().expect("its contact network attached");
+        assert_eq!(contact.path, Path::new("builtin:layered-contact"));
+        assert!(contact.card.as_ref().is_some_and(|c| c.refines_contact));
+        assert_eq!(contact.arch.map(Architecture::name), Some("keypoint"));
+        for b in BUILTIN.iter().filter(|b| b.window_network) {
+            assert_ne!(for_design(Some(b.design)).ok(), Some(b.path()), "{}", b.name);
+            let alone = open(&b.path()).expect("opens as a file would");
+            let e = crate::predictor::Predictor::new(&alone, crate::backend::BackendKind::Tract, 1)
+                .err()
+                .expect("refused alone");
+            assert!(e.to_string().contains("fringe model pair"), "{e}");
         }
     }
 

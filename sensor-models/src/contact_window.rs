@@ -56,12 +56,23 @@ impl ContactWindow {
         if !(window_mm.is_finite() && window_mm > 0.0) {
             return Err(WindowError::Size(window_mm));
         }
-        Ok(ContactWindow {
+        Ok(ContactWindow::new(
             window_mm,
-            px_per_mm: reg.px_per_mm,
-            rotation_deg: reg.rotation_deg,
-            mirror: reg.mirror,
-        })
+            reg.px_per_mm,
+            reg.rotation_deg,
+            reg.mirror,
+        ))
+    }
+
+    /// The window of `window_mm` under a registration of `px_per_mm`, turned `rotation_deg`
+    /// counter-clockwise and mirror-reversed or not (a profile's registration's fields).
+    pub fn new(window_mm: f64, px_per_mm: f64, rotation_deg: f64, mirror: bool) -> ContactWindow {
+        ContactWindow {
+            window_mm,
+            px_per_mm,
+            rotation_deg,
+            mirror,
+        }
     }
 
     /// The image offset (px, x right, y down) of a contact `contact_mm` from the optical centre.

@@ -76,10 +76,16 @@ pub enum ModelError {
     )]
     ForceNetworkAlone { path: String },
     #[error(
-        "{path}: named as the force network (force_model) of {of}, but its card gives no \
-         force_window_mm: name a network trained with `fringe train --force-window`"
+        "{path}: named as a window network (force_model, contact_model) of {of}, but its card \
+         gives no force_window_mm: name a network trained with `fringe train --force-window`"
     )]
     NotAForceNetwork { path: String, of: String },
+    #[error(
+        "{path}: named as the contact network (contact_model) of {of}, but its card does not \
+         say refines_contact: name a network trained with `fringe train --arch keypoint \
+         --force-window MM`"
+    )]
+    NotAContactNetwork { path: String, of: String },
     #[error(
         "{path}: the model is for the {design} sensor design and {what} is {variant}: its \
          figures there mean nothing; give a model of the {variant} design"
@@ -136,6 +142,9 @@ pub struct Model {
     /// A two-stage model's force network (its card's `force_model`), attached by
     /// [`crate::builtin::open`].
     pub force: Option<Box<Model>>,
+    /// A two-stage model's window network that places the contact (its card's
+    /// `contact_model`), attached by [`crate::builtin::open`].
+    pub contact_refiner: Option<Box<Model>>,
 }
 
 impl Model {
@@ -249,13 +258,18 @@ impl Model {
 
     /// When this is a two-stage model, what a copy of it (export, adaptation) leaves behind.
     pub fn copy_warning(&self) -> Option<String> {
-        self.force.as_ref().map(|f| {
+        let windows: Vec<String> = [&self.force, &self.contact_refiner]
+            .into_iter()
+            .flatten()
+            .map(|w| w.path.display().to_string())
+            .collect();
+        (!windows.is_empty()).then(|| {
             format!(
                 "{} is a two-stage model: the copy is of its first network alone (contact and \
-                 shape, and its own force head); its force network {} stays where it is (join \
-                 them again with `fringe model pair`)",
+                 shape, and its own force head); its window networks ({}) stay where they are \
+                 (join them again with `fringe model pair`)",
                 self.path.display(),
-                f.path.display()
+                windows.join(", ")
             )
         })
     }
@@ -347,6 +361,7 @@ impl Model {
             graph,
             weights: None,
             force: None,
+            contact_refiner: None,
         })
     }
 
@@ -486,6 +501,7 @@ impl Model {
     pub fn travelling_card(&self) -> ModelCard {
         let mut card = self.card.clone().unwrap_or_default();
         card.force_model = None;
+        card.contact_model = None;
         if card.architecture.is_none() {
             card.architecture = self.arch.map(|a| a.name().to_string());
         }

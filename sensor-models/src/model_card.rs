@@ -74,11 +74,23 @@ pub struct ModelCard {
     /// model whose card names it as `force_model`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub force_window_mm: Option<f64>,
+    /// A force network whose contact head reads where the press lies from its window's centre
+    /// (mm, the label's axes): the two-stage model's contact is the first network's moved by
+    /// this offset. Without it (force networks trained before 2026-11-29's second half) the
+    /// first network's contact stands.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub refines_contact: bool,
     /// A two-stage model: this network finds the contact and the shape, and the force network
     /// in this file (beside the card, or `builtin:NAME`) reads the force from a window about
     /// that contact.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub force_model: Option<String>,
+    /// A two-stage model whose contact a window network of its own places (the file beside the
+    /// card, or `builtin:NAME`): one trained with `fringe train --force-window` as the keypoint
+    /// CNN, its card saying `refines_contact`. Its window is centred on this network's contact,
+    /// the force network's on the contact it places.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_model: Option<String>,
     /// Everything else (training runs, split, losses, figures).
     #[serde(flatten)]
     pub other: serde_json::Map<String, serde_json::Value>,

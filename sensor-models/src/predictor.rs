@@ -1,10 +1,14 @@
 //! From frames to predictions: the one path `fringe model run`, `fringe eval` (and everything
 //! that evaluates: training's test figures, unit checks, certificates) and live validation take.
 //!
-//! A model is one network, or two (a two-stage model, its card naming a `force_model`): the
-//! first finds the contact and the shape on the whole disc, the second reads the force from a
-//! window about the contact the first found ([`crate::contact_window`]); a frame the first finds
-//! without contact reads no force. Both run on the same backend.
+//! A model is one network, or a two-stage model: its card names a `force_model`, a
+//! `contact_model` or both. The first network finds the contact and the shape on the whole
+//! disc; the window networks read a window about that contact ([`crate::contact_window`]). A
+//! contact network (its card saying `refines_contact`) reads where the press lies from its
+//! window's centre, which moves the contact; then the force network reads the force in a window
+//! about the contact so placed (and, without a contact network, moves the contact itself when
+//! its card says `refines_contact`). A frame the first network finds without contact reads no
+//! force. Every network runs on the same backend.
 
 use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::contact_window::{ContactWindow, WindowError};
@@ -12,6 +16,7 @@ use crate::model::{Model, ModelError};
 use crate::prediction::{predictions, ForceVector, Prediction};
 use crate::preprocess::{Colour, FrameRef, PreprocessError, Preprocessing, Preprocessor};
 use fringe_calibration::profile::Profile;
+use fringe_rig::units::Millimetres;
 
 /// Why frames could not be turned into predictions.
 #[derive(Debug, thiserror::Error)]
@@ -46,11 +51,16 @@ pub enum PredictError {
     },
 }
 
-/// The force network of a two-stage model, on its backend.
-struct ForceStage {
+/// A window network of a two-stage model, on its backend.
+struct WindowStage {
     backend: Box<dyn Backend>,
     path: String,
     window_mm: f64,
+    /// Its force head gives the model's force (the force network's).
+    reads_force: bool,
+    /// Its contact head reads the press's offset from the window's centre (a card saying
+    /// `refines_contact`): the model's contact is moved by it.
+    reads_contact: bool,
     input_size: u32,
     colour: Colour,
     /// The window's preprocessing, its centre moved for each frame (its buffers kept).
@@ -64,7 +74,9 @@ pub struct Predictor {
     path: String,
     classes: Vec<String>,
     input_size: u32,
-    force: Option<ForceStage>,
+    /// The window networks in the order they run: the contact network (placing the contact the
+    /// force network's window is then centred on), then the force network.
+    windows: Vec<WindowStage>,
 }
 
 impl Predictor {
@@ -80,29 +92,39 @@ impl Predictor {
                 path: model.path.display().to_string(),
             });
         }
-        let force = match &model.force {
-            Some(f) => Some(ForceStage {
-                backend: f.backend(kind, threads)?,
-                path: f.path.display().to_string(),
-                window_mm: f
+        let stage = |net: &Model, reads_force: bool, reads_contact: bool| {
+            Ok::<_, ModelError>(WindowStage {
+                backend: net.backend(kind, threads)?,
+                path: net.path.display().to_string(),
+                window_mm: net
                     .force_window_mm()
                     .ok_or_else(|| ModelError::NotAForceNetwork {
-                        path: f.path.display().to_string(),
+                        path: net.path.display().to_string(),
                         of: model.path.display().to_string(),
                     })?,
-                input_size: f.input_size,
-                colour: f.colour,
+                reads_force,
+                reads_contact,
+                input_size: net.input_size,
+                colour: net.colour,
                 pre: None,
                 input: Vec::new(),
-            }),
-            None => None,
+            })
         };
+        let refines = |net: &Model| net.card.as_ref().is_some_and(|c| c.refines_contact);
+        let mut windows = Vec::new();
+        if let Some(c) = &model.contact_refiner {
+            windows.push(stage(c, false, refines(c))?);
+        }
+        if let Some(f) = &model.force {
+            let reads_contact = model.contact_refiner.is_none() && refines(f);
+            windows.push(stage(f, true, reads_contact)?);
+        }
         Ok(Predictor {
             disc: model.backend(kind, threads)?,
             path: model.path.display().to_string(),
             classes: model.classes.clone(),
             input_size: model.input_size,
-            force,
+            windows,
         })
     }
 
@@ -111,10 +133,10 @@ impl Predictor {
         self.disc.name()
     }
 
-    /// Whether [`Predictor::predict`] needs the frames themselves (a two-stage model's force
-    /// network reads them), not only their whole-disc inputs.
+    /// Whether [`Predictor::predict`] needs the frames themselves (a two-stage model's window
+    /// networks read them), not only their whole-disc inputs.
     pub fn needs_frames(&self) -> bool {
-        self.force.is_some()
+        !self.windows.is_empty()
     }
 
     /// The predictions of `n` frames whose whole-disc inputs (preprocessed by `disc`, one after
@@ -144,36 +166,40 @@ impl Predictor {
                 want: n,
             });
         }
-        if let Some(stage) = &mut self.force {
-            if frames.len() != n {
-                return Err(PredictError::Frames {
-                    model: self.path.clone(),
-                    frames: frames.len(),
-                    inputs: n,
-                });
-            }
-            stage.read_force(&mut out, frames, disc, profile)?;
+        if !self.windows.is_empty() && frames.len() != n {
+            return Err(PredictError::Frames {
+                model: self.path.clone(),
+                frames: frames.len(),
+                inputs: n,
+            });
+        }
+        for stage in &mut self.windows {
+            stage.read(&mut out, frames, disc, profile)?;
         }
         Ok(out)
     }
 }
 
-impl ForceStage {
-    /// Replaces the force of every prediction in contact by the force network's reading of the
-    /// window about its contact, all windows of the batch in one run. A frame the first network
+impl WindowStage {
+    /// Runs the network on the window about each prediction's contact, all windows of the batch
+    /// in one run: a force network's reading replaces the force of every prediction in
+    /// contact, and a network that reads it moves the contact by the press's offset from the
+    /// window's centre. A frame the first network
     /// finds without contact reads no force: by the label rules its force is below the contact
     /// threshold, the force network reads presses only, and the first network's own force head
     /// (trained beside its contact and shape heads) reads about 0.25 N at rest on the layered
     /// sensor (BENCHMARKS.md, "Two-stage models").
-    fn read_force(
+    fn read(
         &mut self,
         out: &mut [Prediction],
         frames: &[FrameRef<'_>],
         disc: &Preprocessing,
         profile: Option<&Profile>,
     ) -> Result<(), PredictError> {
-        for p in out.iter_mut().filter(|p| p.contact.is_none()) {
-            p.force = ForceVector::from_array([0.0; 7]);
+        if self.reads_force {
+            for p in out.iter_mut().filter(|p| p.contact.is_none()) {
+                p.force = ForceVector::from_array([0.0; 7]);
+            }
         }
         let pressed: Vec<usize> = (0..out.len())
             .filter(|&i| out[i].contact.is_some())
@@ -228,8 +254,26 @@ impl ForceStage {
                 want: pressed.len(),
             });
         }
-        for (&i, force) in pressed.iter().zip(&raw.force) {
-            out[i].force = ForceVector::from_array(*force);
+        if raw.contact.len() != pressed.len() {
+            return Err(PredictError::Outputs {
+                model: self.path.clone(),
+                got: raw.contact.len(),
+                want: pressed.len(),
+            });
+        }
+        for ((&i, force), offset) in pressed.iter().zip(&raw.force).zip(&raw.contact) {
+            let p = &mut out[i];
+            if self.reads_force {
+                p.force = ForceVector::from_array(*force);
+            }
+            if self.reads_contact {
+                let [x, y] = p.contact_raw;
+                p.contact_raw = [
+                    Millimetres(x.value() + f64::from(offset[0])),
+                    Millimetres(y.value() + f64::from(offset[1])),
+                ];
+                p.contact = Some(p.contact_raw);
+            }
         }
         Ok(())
     }

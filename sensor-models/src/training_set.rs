@@ -23,14 +23,14 @@ pub struct Item<'a> {
     pub preprocessing: &'a Preprocessing,
     pub mirror: bool,
     /// For a force network: the window about the contact its inputs are cut from (the frame's
-    /// labelled contact; on an augmented side moved by [`WINDOW_JITTER_MM`] per copy).
+    /// labelled contact, moved by [`WINDOW_JITTER_MM`] per copy).
     pub window: Option<ContactWindow>,
 }
 
-/// Standard deviation of an augmented force window's centre about the labelled contact, per
-/// axis, mm: about the contact error of the keypoint CNN that finds the contact for the force
-/// network (0.54 mm on the layered sensor, 0.80 mm on the integrated one), so that network
-/// learns to read a press that is not exactly at its window's centre.
+/// Standard deviation of a force window's centre about the labelled contact, per axis, mm:
+/// about the contact error of the keypoint CNN that finds the contact for the force network
+/// (0.50 mm on the layered sensor, 0.71 mm on the integrated one), so that network learns to
+/// read a press that is not exactly at its window's centre, and where it lies from that centre.
 pub const WINDOW_JITTER_MM: f64 = 0.7;
 
 /// The targets of one network input.
@@ -40,7 +40,9 @@ pub struct Target {
     pub fz: f32,
     /// Shape class index ("None" = 0).
     pub class: i64,
-    /// Contact x, y rounded to 0.1 mm, turned with the image; `None` without contact.
+    /// Contact x, y rounded to 0.1 mm, turned with the image; `None` without contact. For a
+    /// force network's window: the labelled contact's offset from the window's centre (mm, the
+    /// label's axes, turned with the image), what its contact head learns to read.
     pub contact: Option<[f32; 2]>,
     /// The item it was made from.
     pub item: usize,
@@ -299,13 +301,23 @@ impl Job<'_, '_> {
                 tensor,
                 &mut px[copy * self.stride..(copy + 1) * self.stride],
             );
-            tg[copy] = Target {
-                fz: round1(s.fz()),
-                class: self.class_of[index],
-                contact: s.contact.map(|c| {
+            let contact = match it.window {
+                // A force network's contact target: where the labelled contact lies from its
+                // window's centre (the copy's jitter undone), turned with the image, unrounded.
+                Some(_) => {
+                    let [jx, jy] = self.jitter(index, copy);
+                    let [x, y] = rotate_label([-jx, -jy], angle, it.mirror);
+                    Some([x as f32, y as f32])
+                }
+                None => s.contact.map(|c| {
                     let [x, y] = rotate_label(c, angle, it.mirror);
                     [round1(x), round1(y)]
                 }),
+            };
+            tg[copy] = Target {
+                fz: round1(s.fz()),
+                class: self.class_of[index],
+                contact,
                 item: index,
             };
         }
@@ -335,10 +347,7 @@ impl Job<'_, '_> {
             .sample
             .contact
             .ok_or_else(|| TrainingSetError::NoContact { path: path() })?;
-        let [jx, jy] = match self.pipeline {
-            Some(_) => jitter(self.seed, index, copy),
-            None => [0.0, 0.0],
-        };
+        let [jx, jy] = self.jitter(index, copy);
         window
             .preprocessing(
                 it.preprocessing,
@@ -350,6 +359,15 @@ impl Job<'_, '_> {
                 path: path(),
                 source,
             })
+    }
+}
+
+impl Job<'_, '_> {
+    /// How far copy `copy` of item `index`'s force window is moved from the labelled contact,
+    /// mm: on every side, so that the validation and test figures are those of windows a first
+    /// network misplaces as much as training assumes.
+    fn jitter(&self, index: usize, copy: usize) -> [f64; 2] {
+        jitter(self.seed, index, copy)
     }
 }
 
@@ -411,13 +429,23 @@ mod tests {
         pipeline: Option<Pipeline>,
         mirror: bool,
     ) -> TrainingSet {
+        prepare_window(s, pre, pipeline, mirror, None)
+    }
+
+    fn prepare_window(
+        s: &Sample,
+        pre: &Preprocessing,
+        pipeline: Option<Pipeline>,
+        mirror: bool,
+        window: Option<ContactWindow>,
+    ) -> TrainingSet {
         let classes = vec!["None".to_string(), "pentagon".to_string()];
         TrainingSet::prepare(
             &[Item {
                 sample: s,
                 preprocessing: pre,
                 mirror,
-                window: None,
+                window,
             }],
             &classes,
             pipeline,
@@ -533,6 +561,79 @@ mod tests {
                      the label {label:?} mm says {want:?} px"
                 );
             }
+        }
+    }
+
+    /// A force network's copies: each window is moved from the labelled contact by its jitter,
+    /// and its contact target is where the press then lies from the window's centre, under every
+    /// registration and turn of the image (the offset the two-stage model adds to the first
+    /// network's contact). Without the target following the jitter and the turn, the network
+    /// would learn to move the contact the wrong way.
+    #[test]
+    fn a_force_windows_contact_target_is_where_its_press_lies_from_the_centre() {
+        let dir = tempfile::tempdir().expect("dir");
+        let (k, centre) = (5.0, [100.0, 80.0]);
+        let contact = [4.0, 5.0];
+        for (mirror, rotation_deg) in [(true, 90.0), (true, 0.0), (false, 0.0), (false, 37.0)] {
+            let window = ContactWindow::new(8.0, k, rotation_deg, mirror);
+            let [du, dv] = window.offset_px(contact);
+            let (u, v) = (centre[0] + du, centre[1] + dv);
+            let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
+            for y in (v.round() as u32 - 3)..(v.round() as u32 + 3) {
+                for x in (u.round() as u32 - 3)..(u.round() as u32 + 3) {
+                    img.put_pixel(x, y, image::Rgb([250, 250, 250]));
+                }
+            }
+            let path = dir.path().join(format!("{mirror}-{rotation_deg}.png"));
+            img.save(&path).expect("png");
+            let sample = Sample {
+                image: path,
+                storage: None,
+                force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
+                shape: "pentagon".into(),
+                contact: Some(contact),
+                press: "p".into(),
+                stage_mm: None,
+            };
+            let set = prepare_window(
+                &sample,
+                &preprocessing(),
+                Some(Pipeline::Gray10),
+                mirror,
+                Some(window),
+            );
+            // The 8 mm window is 40 frame px across, 32 input px: 4 input px per mm.
+            let per_mm = 32.0 / 8.0;
+            let mut batch = Vec::new();
+            let mut moved = 0.0f64;
+            for copy in 0..set.len() {
+                set.batch(&[copy], &mut batch);
+                // The spot's centroid, input px from the centre (x right, y down).
+                let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+                for (i, &val) in batch[..32 * 32].iter().enumerate() {
+                    if val > 0.0 {
+                        sx += (i % 32) as f64 - 15.5;
+                        sy += (i / 32) as f64 - 15.5;
+                        n += 1.0;
+                    }
+                }
+                assert!(n > 0.0, "copy {copy}: no spot in the window");
+                let spot = [sx / n, sy / n];
+                let target = set.targets[copy].contact.expect("an offset");
+                let [ox, oy] = window.offset_px([f64::from(target[0]), f64::from(target[1])]);
+                let want = [ox / k * per_mm, oy / k * per_mm];
+                let miss = ((spot[0] - want[0]).powi(2) + (spot[1] - want[1]).powi(2)).sqrt();
+                assert!(
+                    miss < 1.0,
+                    "mirror {mirror}, turn {rotation_deg} deg, copy {copy}: spot at {spot:?} \
+                     input px, the offset {target:?} mm says {want:?}"
+                );
+                moved = moved.max(f64::from(target[0]).hypot(f64::from(target[1])));
+            }
+            assert!(
+                moved > 0.3,
+                "mirror {mirror}, turn {rotation_deg} deg: no copy's window was moved ({moved} mm)"
+            );
         }
     }
 }

@@ -454,9 +454,11 @@ fn fine_tuning_stops_resumes_and_keeps_the_better_candidate() {
 }
 
 /// A force network (`--force-window`) trains on the presses alone, reads Fz from a window about
-/// the contact, and is refused on its own; `fringe model pair` joins it to the shipped keypoint
-/// CNN, and the two-stage model keeps the keypoint CNN's shape and contact while its force is
-/// the force network's, in `fringe model run` and in `fringe eval` alike.
+/// the contact, and is refused on its own; trained as the keypoint CNN it also reads where the
+/// press lies in its window (a contact network). `fringe model pair` joins both to the shipped
+/// keypoint CNN, and the two-stage model keeps the keypoint CNN's shape while its force is the
+/// force network's and its contact the keypoint CNN's moved within the window, in `fringe model
+/// run` and in `fringe eval` alike.
 #[test]
 fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() {
     let dir = scratch("force-window");
@@ -471,11 +473,34 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     )
     .expect("card json");
     assert_eq!(card["force_window_mm"], 12.0, "{card}");
+    // The custom CNN's global average keeps no position: it reads the force alone.
+    assert!(card.get("refines_contact").is_none(), "{card}");
+    assert!(!said.contains("contact RMSE:"), "{said}");
     let r = &card["training"];
     assert_eq!(r["force_window_mm"], 12.0);
-    assert_eq!(
-        r["evaluation"]["window_centre"], "the labelled contact",
+    let centre = r["evaluation"]["window_centre"].as_str().unwrap_or_default();
+    assert!(
+        centre.starts_with("the labelled contact moved by 0.7 mm"),
         "{r}"
+    );
+
+    // The keypoint CNN on the same windows reads the press's offset too: a contact network.
+    let placer = dir.join("contact");
+    let o = train(
+        &placer,
+        &["--epochs", "2", "--force-window", "12", "--arch", "keypoint"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("contact RMSE:"), "{}", text(&o));
+    let placer = placer.join("model.safetensors");
+    let placer_card: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{}.json", placer.display())).expect("card"),
+    )
+    .expect("card json");
+    assert_eq!(placer_card["refines_contact"], true, "{placer_card}");
+    assert!(
+        placer_card["training"]["evaluation"]["contact_rmse_mm"].is_f64(),
+        "{placer_card}"
     );
     // Only frames in contact train a force network: fewer than the whole data's.
     let frames = |k: &str| r[k].as_u64().expect(k);
@@ -489,12 +514,28 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     assert!(!o.status.success());
     assert!(text(&o).contains("fringe model pair"), "{}", text(&o));
 
+    // A network that reads no offset is no contact network.
+    let o = fringe(&[
+        "model",
+        "pair",
+        "builtin:layered-keypoint",
+        arg(&force),
+        "--contact",
+        arg(&force),
+        "--out",
+        arg(&dir.join("refused")),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("refines_contact"), "{}", text(&o));
+
     let pair = dir.join("pair");
     let o = fringe(&[
         "model",
         "pair",
         "builtin:layered-keypoint",
         arg(&force),
+        "--contact",
+        arg(&placer),
         "--out",
         arg(&pair),
     ]);
@@ -529,8 +570,17 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
         run(&two, &image),
     );
     assert_eq!(alone["shape"], both["shape"]);
-    assert_eq!(alone["contact_mm"], both["contact_mm"]);
-    assert!(both["contact_mm"].is_array(), "{both}");
+    // The contact is moved within the 12 mm window about the keypoint CNN's.
+    let xy = |v: &serde_json::Value| -> [f64; 2] {
+        let c = v["contact_mm"].as_array().expect("a contact");
+        [0, 1].map(|i| c[i].as_f64().expect("mm"))
+    };
+    let (a, b) = (xy(&alone), xy(&both));
+    assert_ne!(a, b, "{alone} {both}");
+    assert!(
+        (a[0] - b[0]).abs() < 6.0 && (a[1] - b[1]).abs() < 6.0,
+        "{alone} {both}"
+    );
     assert_ne!(alone["force"]["fz"], both["force"]["fz"], "{alone} {both}");
     // A frame the first network finds without contact reads no force.
     let at_rest = labels
@@ -543,8 +593,8 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     assert_eq!(rest["shape"], "None", "{rest}");
     assert_eq!(rest["force"]["fz"], 0.0, "{rest}");
 
-    // Evaluation takes the same path: the keypoint CNN's contact and shape figures, the force
-    // network's Fz.
+    // Evaluation takes the same path: the keypoint CNN's shape figures, the force network's Fz
+    // and its contact.
     let figures = |model: &Path| -> String {
         let o = fringe(&["eval", arg(data()), "--model", arg(model)]);
         assert!(o.status.success(), "{}", text(&o));
@@ -560,7 +610,7 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
         figures(Path::new("builtin:layered-keypoint")),
         figures(&two),
     );
-    assert_eq!(line(&a, "contact RMSE"), line(&b, "contact RMSE"));
+    assert_ne!(line(&a, "contact RMSE"), line(&b, "contact RMSE"), "{b}");
     assert_eq!(line(&a, "shape accuracy"), line(&b, "shape accuracy"));
     assert_ne!(line(&a, "Fz RMSE"), line(&b, "Fz RMSE"), "{b}");
     let _ = std::fs::remove_dir_all(&dir);

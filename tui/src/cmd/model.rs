@@ -43,6 +43,11 @@ struct PairArgs {
     contact_model: PathBuf,
     /// The force network (`fringe train --force-window`'s model.safetensors).
     force_model: PathBuf,
+    /// A contact network: a window network that places the contact (`fringe train --arch
+    /// keypoint --force-window`; its card says refines_contact). It runs before the force
+    /// network, whose window is then centred on the contact it places.
+    #[arg(long, value_name = "WEIGHTS")]
+    contact: Option<PathBuf>,
     /// The directory to write the two-stage model into (model.safetensors, force.safetensors
     /// and their cards).
     #[arg(long, value_name = "DIR")]
@@ -118,6 +123,7 @@ pub fn run(args: ModelArgs) -> Result<()> {
 /// The file names of a two-stage model in its directory.
 const PAIR_CONTACT: &str = "model.safetensors";
 const PAIR_FORCE: &str = "force.safetensors";
+const PAIR_CONTACT_NET: &str = "contact.safetensors";
 
 /// Writes the two-stage model of `a`: both networks' weights and cards into `a.out`, the contact
 /// model's card naming the force network, then opens it to check the pair runs together.
@@ -143,7 +149,7 @@ fn pair(a: &PairArgs) -> Result<()> {
             a.contact_model.display()
         );
     }
-    if contact.force.is_some() {
+    if contact.force.is_some() || contact.contact_refiner.is_some() {
         bail!("{}: already a two-stage model", a.contact_model.display());
     }
     let design = contact.card.as_ref().and_then(|c| c.variant.clone());
@@ -153,8 +159,40 @@ fn pair(a: &PairArgs) -> Result<()> {
     )?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create", a.out.display()))?;
+    let refiner = match &a.contact {
+        Some(path) => {
+            let net = open_model(path)?;
+            if !net.card.as_ref().is_some_and(|c| c.refines_contact) || net.force.is_some() {
+                bail!(
+                    "{}: not a contact network (its card does not say refines_contact): train \
+                     one with `fringe train --arch keypoint --force-window MM`",
+                    path.display()
+                );
+            }
+            net.check_design(
+                design.as_deref(),
+                &format!("the contact model {}", a.contact_model.display()),
+            )?;
+            let Some(weights) = net.weights() else {
+                bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
+            };
+            let out_r = a.out.join(PAIR_CONTACT_NET);
+            std::fs::create_dir_all(&a.out)
+                .with_context(|| format!("{}: cannot create", a.out.display()))?;
+            fringe_sensor_models::write_safetensors_with_card(
+                &out_r,
+                weights,
+                Some(&net.travelling_card()),
+            )
+            .with_context(|| format!("{}: cannot write", out_r.display()))?;
+            write_card(&out_r, &net.travelling_card())?;
+            Some(PAIR_CONTACT_NET.to_string())
+        }
+        None => None,
+    };
     let mut card = contact.travelling_card();
     card.force_model = Some(PAIR_FORCE.to_string());
+    card.contact_model = refiner;
     let out_c = a.out.join(PAIR_CONTACT);
     let out_f = a.out.join(PAIR_FORCE);
     fringe_sensor_models::write_safetensors_with_card(
@@ -173,8 +211,13 @@ fn pair(a: &PairArgs) -> Result<()> {
         .as_ref()
         .map(|f| f.path.display().to_string())
         .unwrap_or_default();
+    let placed = joined
+        .contact_refiner
+        .as_ref()
+        .map(|r| format!("; the contact placed by {} in a window about it", r.path.display()))
+        .unwrap_or_default();
     println!(
-        "two-stage model: {} (contact and shape: {}; force: {f}, a {window} mm window about the contact)",
+        "two-stage model: {} (contact and shape: {}{placed}; force: {f}, a {window} mm window about the contact)",
         out_c.display(),
         contact.describe()
     );
@@ -288,16 +331,35 @@ fn info(path: &Path) -> Result<()> {
     println!(
         "outputs:       force [Fx Fy Fz Mx My Mz Ft] (magnitudes), shape probabilities, contact x y (mm)"
     );
+    let refines = |m: &fringe_sensor_models::model::Model| {
+        if m.card.as_ref().is_some_and(|c| c.refines_contact) {
+            ", and where the press lies from the window's centre"
+        } else {
+            ""
+        }
+    };
     if let Some(window) = m.force_window_mm() {
         println!(
-            "two-stage:     this is a force network: it reads Fz from a {window} mm window about \
-             the contact; run it paired (`fringe model pair`)"
+            "two-stage:     this is a force network: it reads Fz{} from a {window} mm window about \
+             the contact; run it paired (`fringe model pair`)",
+            refines(&m)
+        );
+    }
+    if let Some(r) = &m.contact_refiner {
+        println!(
+            "two-stage:     the contact is placed by {} ({}, 3 x {2} x {2}) in a {3} mm window \
+             about the contact this network finds",
+            r.path.display(),
+            r.describe(),
+            r.input_size,
+            r.force_window_mm().unwrap_or_default()
         );
     }
     if let Some(f) = &m.force {
         println!(
-            "two-stage:     the force is read by {} ({}, 3 x {2} x {2}) from a {3} mm window about \
-             the contact this network finds",
+            "two-stage:     the force{} is read by {} ({}, 3 x {3} x {3}) from a {4} mm window \
+             about the contact this network finds",
+            refines(f),
             f.path.display(),
             f.describe(),
             f.input_size,

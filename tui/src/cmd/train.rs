@@ -54,8 +54,9 @@ pub struct TrainArgs {
     /// a few epochs at a lower --lr on the same data and --seed, so the split is the same).
     #[arg(long, value_name = "WEIGHTS", conflicts_with = "resume")]
     init: Option<PathBuf>,
-    /// Train the force network of a two-stage model: it reads Fz alone from a window of this
-    /// side (mm) about the contact, on the frames in contact. `fringe model pair` joins it to a
+    /// Train the force network of a two-stage model: it reads Fz, and where the press lies from
+    /// the window's centre, from a window of this side (mm) about the contact, on the frames in
+    /// contact. `fringe model pair` joins it to a
     /// model that finds the contact (the keypoint CNN).
     #[arg(long, value_name = "MM")]
     force_window: Option<f64>,
@@ -169,6 +170,7 @@ mod with_torch {
             last_pct: usize::MAX,
             batch: config.batch,
             force_only: config.force_window_mm.is_some(),
+            offset: config.reads_contact_offset(),
         };
         let outcome = train(
             &config,
@@ -254,8 +256,10 @@ mod with_torch {
         last_pct: usize,
         /// Images per batch, for the epoch's ETA.
         batch: usize,
-        /// A force network: its contact and shape heads are not trained, their figures not shown.
+        /// A force network: its shape head is not trained.
         force_only: bool,
+        /// A force network whose contact head reads the press's offset from the window's centre.
+        offset: bool,
     }
 
     impl Progress {
@@ -296,7 +300,9 @@ mod with_torch {
                     if tty {
                         eprintln!();
                     }
-                    let heads = if self.force_only {
+                    let heads = if self.offset {
+                        format!(", contact RMSE {:.2} mm (from the window's centre)", r.val_contact_rmse_mm)
+                    } else if self.force_only {
                         String::new()
                     } else {
                         format!(
@@ -343,12 +349,19 @@ mod with_torch {
                 model,
                 test_frames,
                 fz_rmse_n,
+                contact_rmse_mm,
+                centre_rmse_mm,
             } => {
                 println!("force network:  {}", model.display());
                 println!(
-                    "test frames:    {test_frames} in contact, windows about the labelled contact"
+                    "test frames:    {test_frames} in contact, windows about the labelled contact moved as a first network misses it ({centre_rmse_mm:.3} mm RMS)"
                 );
                 println!("Fz RMSE:        {fz_rmse_n:.4} N (the network alone)");
+                if let Some(c) = contact_rmse_mm {
+                    println!(
+                        "contact RMSE:   {c:.3} mm (the window's centre moved by the offset the network reads)"
+                    );
+                }
                 println!("loss curves:    {}", config.out.join("loss.png").display());
                 println!(
                     "join it to a model that finds the contact: fringe model pair CONTACT_MODEL {} --out DIR",
