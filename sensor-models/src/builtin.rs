@@ -290,12 +290,20 @@ mod tests {
         let force = two.force.as_ref().expect("its force network attached");
         assert_eq!(force.path, Path::new("builtin:layered-force"));
         assert_eq!(force.force_window_mm(), Some(24.0));
-        let contact = two.contact_refiner.as_ref().expect("its contact network attached");
+        let contact = two
+            .contact_refiner
+            .as_ref()
+            .expect("its contact network attached");
         assert_eq!(contact.path, Path::new("builtin:layered-contact"));
         assert!(contact.card.as_ref().is_some_and(|c| c.refines_contact));
         assert_eq!(contact.arch.map(Architecture::name), Some("keypoint"));
         for b in BUILTIN.iter().filter(|b| b.window_network) {
-            assert_ne!(for_design(Some(b.design)).ok(), Some(b.path()), "{}", b.name);
+            assert_ne!(
+                for_design(Some(b.design)).ok(),
+                Some(b.path()),
+                "{}",
+                b.name
+            );
             let alone = open(&b.path()).expect("opens as a file would");
             let e = crate::predictor::Predictor::new(&alone, crate::backend::BackendKind::Tract, 1)
                 .err()

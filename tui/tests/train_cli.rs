@@ -478,7 +478,9 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     assert!(!said.contains("contact RMSE:"), "{said}");
     let r = &card["training"];
     assert_eq!(r["force_window_mm"], 12.0);
-    let centre = r["evaluation"]["window_centre"].as_str().unwrap_or_default();
+    let centre = r["evaluation"]["window_centre"]
+        .as_str()
+        .unwrap_or_default();
     assert!(
         centre.starts_with("the labelled contact moved by 0.7 mm"),
         "{r}"
@@ -488,7 +490,14 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     let placer = dir.join("contact");
     let o = train(
         &placer,
-        &["--epochs", "2", "--force-window", "12", "--arch", "keypoint"],
+        &[
+            "--epochs",
+            "2",
+            "--force-window",
+            "12",
+            "--arch",
+            "keypoint",
+        ],
     );
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("contact RMSE:"), "{}", text(&o));

@@ -715,7 +715,14 @@ impl<'a> Run<'a> {
     /// One optimiser step on the inputs `chunk`; the batch's loss.
     fn step(&mut self, train_set: &TrainingSet, chunk: &[usize], buf: &mut Vec<f32>) -> f64 {
         self.adam.zero_grad();
-        let (l, _) = loss(&self.net, train_set, chunk, buf, true, Heads::of(self.config));
+        let (l, _) = loss(
+            &self.net,
+            train_set,
+            chunk,
+            buf,
+            true,
+            Heads::of(self.config),
+        );
         l.backward();
         self.adam.step();
         l.double_value(&[])
@@ -730,8 +737,7 @@ impl<'a> Run<'a> {
         started: Instant,
         events: &mut dyn FnMut(TrainEvent),
     ) -> Result<(), TrainError> {
-        let (val_loss, errors) =
-            validate(&self.net, val_set, Heads::of(self.config));
+        let (val_loss, errors) = validate(&self.net, val_set, Heads::of(self.config));
         let seconds = started.elapsed().as_secs_f64();
         let er = EpochRecord {
             epoch: self.record.epoch + 1,

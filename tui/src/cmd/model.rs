@@ -214,7 +214,12 @@ fn pair(a: &PairArgs) -> Result<()> {
     let placed = joined
         .contact_refiner
         .as_ref()
-        .map(|r| format!("; the contact placed by {} in a window about it", r.path.display()))
+        .map(|r| {
+            format!(
+                "; the contact placed by {} in a window about it",
+                r.path.display()
+            )
+        })
         .unwrap_or_default();
     println!(
         "two-stage model: {} (contact and shape: {}{placed}; force: {f}, a {window} mm window about the contact)",
