@@ -500,6 +500,32 @@ mod tests {
         }
     }
 
+    /// A 3 N pentagon press labelled at `contact`: a 200 x 160 frame, dark but for a bright spot
+    /// over the pixels `xs` x `ys`, written as a PNG at `path`.
+    fn spot_sample(
+        path: &std::path::Path,
+        xs: std::ops::Range<u32>,
+        ys: std::ops::Range<u32>,
+        contact: [f64; 2],
+    ) -> Sample {
+        let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
+        for y in ys {
+            for x in xs.clone() {
+                img.put_pixel(x, y, image::Rgb([250, 250, 250]));
+            }
+        }
+        img.save(path).expect("png");
+        Sample {
+            image: path.to_path_buf(),
+            storage: None,
+            force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
+            shape: "pentagon".into(),
+            contact: Some(contact),
+            press: "p".into(),
+            stage_mm: None,
+        }
+    }
+
     /// The input pixel (x right, y up, from the input's centre) of the brightest spot.
     fn brightest(batch: &[f32], size: usize) -> [f64; 2] {
         let (best, _) = batch[..size * size]
@@ -527,23 +553,12 @@ mod tests {
             let to_input = |[x, y]: [f64; 2]| [k * (c * m * x - s * y), k * (s * m * x + c * y)];
             let [du, dv_up] = to_input(contact);
             let (u, v) = (centre[0] + du, centre[1] - dv_up);
-            let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
-            for y in (v as u32 - 4)..(v as u32 + 4) {
-                for x in (u as u32 - 4)..(u as u32 + 4) {
-                    img.put_pixel(x, y, image::Rgb([250, 250, 250]));
-                }
-            }
-            let path = dir.path().join(format!("{mirror}-{rotation_deg}.png"));
-            img.save(&path).expect("png");
-            let sample = Sample {
-                image: path,
-                storage: None,
-                force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
-                shape: "pentagon".into(),
-                contact: Some(contact),
-                press: "p".into(),
-                stage_mm: None,
-            };
+            let sample = spot_sample(
+                &dir.path().join(format!("{mirror}-{rotation_deg}.png")),
+                (u as u32 - 4)..(u as u32 + 4),
+                (v as u32 - 4)..(v as u32 + 4),
+                contact,
+            );
             let set = prepare_mirrored(&sample, &preprocessing(), Some(Pipeline::Gray10), mirror);
             // Input pixels per frame pixel: 32 px for the 140 px crop.
             let scale = 32.0 / 140.0;
@@ -578,23 +593,12 @@ mod tests {
             let window = ContactWindow::new(8.0, k, rotation_deg, mirror);
             let [du, dv] = window.offset_px(contact);
             let (u, v) = (centre[0] + du, centre[1] + dv);
-            let mut img = image::RgbImage::from_pixel(200, 160, image::Rgb([20, 20, 20]));
-            for y in (v.round() as u32 - 3)..(v.round() as u32 + 3) {
-                for x in (u.round() as u32 - 3)..(u.round() as u32 + 3) {
-                    img.put_pixel(x, y, image::Rgb([250, 250, 250]));
-                }
-            }
-            let path = dir.path().join(format!("{mirror}-{rotation_deg}.png"));
-            img.save(&path).expect("png");
-            let sample = Sample {
-                image: path,
-                storage: None,
-                force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
-                shape: "pentagon".into(),
-                contact: Some(contact),
-                press: "p".into(),
-                stage_mm: None,
-            };
+            let sample = spot_sample(
+                &dir.path().join(format!("{mirror}-{rotation_deg}.png")),
+                (u.round() as u32 - 3)..(u.round() as u32 + 3),
+                (v.round() as u32 - 3)..(v.round() as u32 + 3),
+                contact,
+            );
             let set = prepare_window(
                 &sample,
                 &preprocessing(),

@@ -536,6 +536,10 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     ]);
     assert!(!o.status.success());
     assert!(text(&o).contains("refines_contact"), "{}", text(&o));
+    assert!(
+        !dir.join("refused").exists(),
+        "a refused pair writes nothing"
+    );
 
     let pair = dir.join("pair");
     let o = fringe(&[

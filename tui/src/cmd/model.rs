@@ -14,6 +14,7 @@ use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::prediction::Prediction;
 use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::preprocess::ReferenceSensor;
+use fringe_sensor_models::StateDict;
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -157,8 +158,6 @@ fn pair(a: &PairArgs) -> Result<()> {
         design.as_deref(),
         &format!("the contact model {}", a.contact_model.display()),
     )?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create", a.out.display()))?;
     let refiner = match &a.contact {
         Some(path) => {
             let net = open_model(path)?;
@@ -173,38 +172,29 @@ fn pair(a: &PairArgs) -> Result<()> {
                 design.as_deref(),
                 &format!("the contact model {}", a.contact_model.display()),
             )?;
-            let Some(weights) = net.weights() else {
-                bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
-            };
-            let out_r = a.out.join(PAIR_CONTACT_NET);
-            std::fs::create_dir_all(&a.out)
-                .with_context(|| format!("{}: cannot create", a.out.display()))?;
-            fringe_sensor_models::write_safetensors_with_card(
-                &out_r,
-                weights,
-                Some(&net.travelling_card()),
-            )
-            .with_context(|| format!("{}: cannot write", out_r.display()))?;
-            write_card(&out_r, &net.travelling_card())?;
-            Some(PAIR_CONTACT_NET.to_string())
+            Some(net)
         }
         None => None,
     };
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("{}: cannot create", a.out.display()))?;
     let mut card = contact.travelling_card();
     card.force_model = Some(PAIR_FORCE.to_string());
-    card.contact_model = refiner;
+    if let Some(net) = &refiner {
+        let Some(weights) = net.weights() else {
+            bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
+        };
+        write_network(
+            &a.out.join(PAIR_CONTACT_NET),
+            weights,
+            &net.travelling_card(),
+        )?;
+        card.contact_model = Some(PAIR_CONTACT_NET.to_string());
+    }
     let out_c = a.out.join(PAIR_CONTACT);
     let out_f = a.out.join(PAIR_FORCE);
-    fringe_sensor_models::write_safetensors_with_card(
-        &out_f,
-        weights_f,
-        Some(&force.travelling_card()),
-    )
-    .with_context(|| format!("{}: cannot write", out_f.display()))?;
-    write_card(&out_f, &force.travelling_card())?;
-    fringe_sensor_models::write_safetensors_with_card(&out_c, weights_c, Some(&card))
-        .with_context(|| format!("{}: cannot write", out_c.display()))?;
-    write_card(&out_c, &card)?;
+    write_network(&out_f, weights_f, &force.travelling_card())?;
+    write_network(&out_c, weights_c, &card)?;
     let joined = builtin::open(&out_c)?;
     let f = joined
         .force
@@ -229,11 +219,14 @@ fn pair(a: &PairArgs) -> Result<()> {
     Ok(())
 }
 
-/// The card beside a model file (`<file>.json`), as training writes it.
-fn write_card(model: &Path, card: &ModelCard) -> Result<()> {
-    let [path, _] = ModelCard::candidates(model);
+/// One network of a two-stage model into `path`: its weights with the card embedded, and the
+/// card beside it (`<file>.json`), as training writes them.
+fn write_network(path: &Path, weights: &StateDict, card: &ModelCard) -> Result<()> {
+    fringe_sensor_models::write_safetensors_with_card(path, weights, Some(card))
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    let [json, _] = ModelCard::candidates(path);
     let text = serde_json::to_string_pretty(card)?;
-    std::fs::write(&path, text + "\n").with_context(|| format!("{}: cannot write", path.display()))
+    std::fs::write(&json, text + "\n").with_context(|| format!("{}: cannot write", json.display()))
 }
 
 /// Opens a model argument: a built-in model (`default`, `builtin:NAME`) or a model file,
