@@ -92,6 +92,28 @@ pub const BUILTIN: &[Builtin] = &[
         weights: include_bytes!("../models/integrated-keypoint.safetensors"),
         card: include_str!("../models/integrated-keypoint.json"),
     },
+    Builtin {
+        name: "integrated-two-stage",
+        about: "two-stage model for the simulated integrated sensor: the keypoint CNN finds the \
+                contact, the shape and the force on the whole disc, builtin:integrated-contact \
+                places the contact in a 24 mm window about it",
+        design: "integrated",
+        commissioning_base: false,
+        window_network: false,
+        // The first network is builtin:integrated, its weights shared; the card differs.
+        weights: include_bytes!("../models/integrated-keypoint.safetensors"),
+        card: include_str!("../models/integrated-two-stage.json"),
+    },
+    Builtin {
+        name: "integrated-contact",
+        about: "the contact network of builtin:integrated-two-stage (a keypoint CNN on a 24 mm \
+                window about the contact, reading where the press lies in it): not run alone",
+        design: "integrated",
+        commissioning_base: false,
+        window_network: true,
+        weights: include_bytes!("../models/integrated-contact.safetensors"),
+        card: include_str!("../models/integrated-contact.json"),
+    },
 ];
 
 /// The name that stands for the first built-in model.
@@ -297,6 +319,15 @@ mod tests {
         assert_eq!(contact.path, Path::new("builtin:layered-contact"));
         assert!(contact.card.as_ref().is_some_and(|c| c.refines_contact));
         assert_eq!(contact.arch.map(Architecture::name), Some("keypoint"));
+        // The integrated design's keeps the whole disc's force: a contact network alone.
+        let two = open(Path::new("builtin:integrated-two-stage")).expect("opens");
+        assert!(two.force.is_none());
+        let contact = two.contact_refiner.as_ref().expect("its contact network");
+        assert_eq!(contact.path, Path::new("builtin:integrated-contact"));
+        assert_eq!(
+            contact.card.as_ref().and_then(|c| c.variant.as_deref()),
+            Some("integrated")
+        );
         for b in BUILTIN.iter().filter(|b| b.window_network) {
             assert_ne!(
                 for_design(Some(b.design)).ok(),

@@ -1,5 +1,5 @@
 //! The models that ship inside fringe (one per simulated sensor design, the layered design's
-//! commissioning base and its two-stage model) against the figures their cards claim: a held-out scan of the simulated
+//! commissioning base and both designs' two-stage models) against the figures their cards claim: a held-out scan of the simulated
 //! bench with that design's sensor (`tui/tests/plans/model-check.toml`: grid points that neither
 //! the training frames nor the model-eval plan use), labelled by the F/T through the
 //! synchronisation, then `fringe eval` (which takes the shipped model of the run's design unless
@@ -20,6 +20,8 @@ const LAYERED_KEYPOINT_CARD: &str =
     include_str!("../../sensor-models/models/layered-keypoint.json");
 const LAYERED_TWO_STAGE_CARD: &str =
     include_str!("../../sensor-models/models/layered-two-stage.json");
+const INTEGRATED_TWO_STAGE_CARD: &str =
+    include_str!("../../sensor-models/models/integrated-two-stage.json");
 
 /// The paper's custom CNN row (Sensor 1, gray, 10 augmentations): Fz RMSE, contact RMSE, shape
 /// accuracy.
@@ -65,6 +67,15 @@ fn the_shipped_models_meet_the_figures_their_cards_claim_on_held_out_scans() {
         "keypoint CNN",
         &runs[0],
         Some("builtin:layered-two-stage"),
+    );
+    // The integrated two-stage model (builtin:integrated, then the contact network on a window
+    // about the contact it finds; the force stays the whole disc's), on the integrated scan.
+    evaluation_gives_the_cards_figures(
+        "integrated",
+        INTEGRATED_TWO_STAGE_CARD,
+        "keypoint CNN",
+        &runs[1],
+        Some("builtin:integrated-two-stage"),
     );
 }
 

@@ -626,5 +626,37 @@ fn a_force_window_network_pairs_with_a_contact_model_into_one_two_stage_model() 
     assert_ne!(line(&a, "contact RMSE"), line(&b, "contact RMSE"), "{b}");
     assert_eq!(line(&a, "shape accuracy"), line(&b, "shape accuracy"));
     assert_ne!(line(&a, "Fz RMSE"), line(&b, "Fz RMSE"), "{b}");
+
+    // A contact network alone moves the contact and keeps the first network's force (the
+    // integrated sensor's force lives in rings across the whole disc).
+    let placed = dir.join("placed");
+    let o = fringe(&[
+        "model",
+        "pair",
+        "builtin:layered-keypoint",
+        "--contact",
+        arg(&placer),
+        "--out",
+        arg(&placed),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("the first network's, on the whole disc"),
+        "{}",
+        text(&o)
+    );
+    assert!(!placed.join("force.safetensors").exists());
+    let moved = run(&placed.join("model.safetensors"), &image);
+    assert_eq!(moved["contact_mm"], both["contact_mm"], "{moved} {both}");
+    assert_eq!(moved["force"], alone["force"], "{moved} {alone}");
+    let o = fringe(&[
+        "model",
+        "pair",
+        "builtin:layered-keypoint",
+        "--out",
+        arg(&placed),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("--contact"), "{}", text(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }

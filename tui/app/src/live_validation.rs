@@ -32,6 +32,11 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+/// Inference threads per network in live validation by default: on 2 cores beside the camera and
+/// the recorder, one thread tended to skip fewer frames than two (BENCHMARKS.md, "Live
+/// validation").
+pub const THREADS_PER_NETWORK: usize = 1;
+
 /// Predicted and measured Fz kept for the chart.
 pub const HISTORY: usize = 600;
 /// Side of the raw-frame picture published with each prediction, px.
@@ -738,5 +743,145 @@ mod tests {
             .iter()
             .all(|r| (r.scored.fz_true - 7.0).abs() > 1.0));
         assert_eq!(v.state.errors.n, 10);
+    }
+
+    /// The frame as the preprocessing reads it.
+    fn frame_ref(frame: &Frame) -> FrameRef<'_> {
+        FrameRef {
+            width: frame.width,
+            height: frame.height,
+            format: frame.format,
+            data: &frame.data,
+            cutout: None,
+        }
+    }
+
+    /// A two-stage model's window networks run live on the frame the first network read: its
+    /// live predictions are those it makes of the same frames one by one, offline.
+    #[cfg(feature = "sim")]
+    #[test]
+    fn a_two_stage_models_live_predictions_are_those_it_makes_frame_by_frame() {
+        use fringe_sim::dataset::{pressed_frame, shape_named};
+        use fringe_sim::render::Renderer;
+        use fringe_sim::scene::{Contact, FrameRenderer};
+        use fringe_sim::sensor::SensorConfig;
+
+        let sensor = SensorConfig::layered();
+        let profile = crate::sim_bench::sensor_profile(
+            &sensor,
+            &sensor.id,
+            "the simulated layered sensor's design geometry".into(),
+            [0.0, 0.0],
+        );
+        let mut renderer = Renderer::new(sensor.clone()).expect("renderer");
+        let tip = shape_named(&sensor, "pentagon").expect("pentagon");
+        // Presses at several places and forces, and one frame without contact.
+        let presses = [
+            Some((3.0, [0.0, 0.0])),
+            Some((6.5, [4.0, -3.0])),
+            None,
+            Some((1.5, [-6.0, 2.0])),
+            Some((8.0, [2.0, 7.0])),
+        ];
+        let frames: Vec<Frame> = presses
+            .iter()
+            .enumerate()
+            .map(|(i, press)| {
+                let contact = press.map(|(f, [x, y])| {
+                    (
+                        "pentagon",
+                        Contact {
+                            shape: tip,
+                            force: Newtons(f),
+                            x: Millimetres(x),
+                            y: Millimetres(y),
+                            angle_deg: 0.0,
+                        },
+                    )
+                });
+                let f = pressed_frame(3, i as u64, contact);
+                let mut data = Vec::new();
+                renderer.render_as(&f.scene, f.render_index, PixelFormat::Mono8, &mut data);
+                Frame {
+                    id: i as u64,
+                    device_timestamp: i as u64,
+                    host_arrival: HostTime::now(),
+                    width: renderer.width(),
+                    height: renderer.height(),
+                    format: PixelFormat::Mono8,
+                    data,
+                }
+            })
+            .collect();
+
+        let spec = Path::new("builtin:layered-two-stage");
+        let model = fringe_sensor_models::builtin::open(spec).expect("two-stage model");
+        let config = model
+            .preprocessing(Some(&profile), None)
+            .expect("preprocessing");
+        let mut pre = Preprocessor::new(config.clone());
+        let mut offline = Predictor::new(&model, BackendKind::Tract, 1).expect("tract");
+        // Its first network alone (the same weights).
+        let keypoint = fringe_sensor_models::builtin::open(Path::new("builtin:layered-keypoint"))
+            .expect("keypoint CNN");
+        let mut first_alone = Predictor::new(&keypoint, BackendKind::Tract, 1).expect("tract");
+        let mut input = vec![0f32; config.tensor_len()];
+        let mut expected = Vec::new();
+        let mut moved_by_windows = 0;
+        for frame in &frames {
+            pre.run_into(frame_ref(frame), 0.0, &mut input)
+                .expect("input");
+            let at = |p: &mut Predictor| {
+                p.predict(&input, 1, &[frame_ref(frame)], &config, Some(&profile))
+                    .expect("prediction")
+                    .remove(0)
+            };
+            let whole = at(&mut offline);
+            let first = at(&mut first_alone);
+            if (whole.force.fz.value() - first.force.fz.value()).abs() > 0.01 {
+                moved_by_windows += 1;
+            }
+            expected.push(whole);
+        }
+        // The window networks change what the first network alone says.
+        assert!(
+            moved_by_windows >= 3,
+            "{moved_by_windows} of {}",
+            frames.len()
+        );
+
+        let predictor = Predictor::new(&model, BackendKind::Tract, 1).expect("tract");
+        let source = FrameSource {
+            run_id: "run".into(),
+            profile: profile.clone(),
+        };
+        let (live, tap) = LiveValidation::start(model, predictor, source).expect("start");
+        for (i, frame) in frames.iter().enumerate() {
+            tap.recorded(frame, &record(i as u64, 2.0));
+            let t0 = Instant::now();
+            while t0.elapsed() < Duration::from_secs(60) {
+                let m = lock(&live.shared.mailbox);
+                if m.next.is_none() && !m.busy {
+                    break;
+                }
+                drop(m);
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        let v = live.finish(Duration::from_secs(60));
+        assert_eq!(v.state.failure, None);
+        assert_eq!((v.state.ran, v.state.skipped), (5, 0));
+        for f in &v.frames {
+            let want = &expected[f.record_index as usize];
+            let got = &f.prediction;
+            assert!(
+                (got.force.fz.value() - want.force.fz.value()).abs() < 1e-4,
+                "frame {}: Fz {} live, {} frame by frame",
+                f.record_index,
+                got.force.fz.value(),
+                want.force.fz.value()
+            );
+            assert_eq!(got.contact, want.contact, "frame {}", f.record_index);
+        }
     }
 }

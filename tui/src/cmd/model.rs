@@ -32,9 +32,9 @@ enum ModelCommand {
     Run(RunArgs),
     /// Write a model's ONNX graph (runs in onnxruntime and any ONNX runtime).
     Export(ExportArgs),
-    /// Join a model that finds the contact (the keypoint CNN) and a force network trained with
-    /// `fringe train --force-window` into a two-stage model: both files copied into --out, the
-    /// first's card naming the second as its force network.
+    /// Join a model that finds the contact (the keypoint CNN) and window networks trained with
+    /// `fringe train --force-window` into a two-stage model: a force network, a contact network
+    /// (--contact) or both, copied into --out with the first's card naming them.
     Pair(PairArgs),
 }
 
@@ -42,8 +42,9 @@ enum ModelCommand {
 struct PairArgs {
     /// The model that finds the contact and the shape (a file or `builtin:NAME`).
     contact_model: PathBuf,
-    /// The force network (`fringe train --force-window`'s model.safetensors).
-    force_model: PathBuf,
+    /// The force network (`fringe train --force-window`'s model.safetensors). Without one the
+    /// first network's force is kept (give --contact then).
+    force_model: Option<PathBuf>,
     /// A contact network: a window network that places the contact (`fringe train --arch
     /// keypoint --force-window`; its card says refines_contact). It runs before the force
     /// network, whose window is then centred on the contact it places.
@@ -126,21 +127,17 @@ const PAIR_CONTACT: &str = "model.safetensors";
 const PAIR_FORCE: &str = "force.safetensors";
 const PAIR_CONTACT_NET: &str = "contact.safetensors";
 
-/// Writes the two-stage model of `a`: both networks' weights and cards into `a.out`, the contact
-/// model's card naming the force network, then opens it to check the pair runs together.
+/// Writes the two-stage model of `a`: the networks' weights and cards into `a.out`, the contact
+/// model's card naming its window networks, then opens it to check they run together.
 fn pair(a: &PairArgs) -> Result<()> {
     let contact = open_model(&a.contact_model)?;
-    let force = open_model(&a.force_model)?;
-    let (Some(window), Some(weights_c), Some(weights_f)) =
-        (force.force_window_mm(), contact.weights(), force.weights())
-    else {
-        if force.force_window_mm().is_none() {
-            bail!(
-                "{}: not a force network (its card has no force_window_mm): train one with \
-                 `fringe train --force-window MM`",
-                a.force_model.display()
-            );
-        }
+    if a.force_model.is_none() && a.contact.is_none() {
+        bail!(
+            "give a force network (FORCE_MODEL), a contact network (--contact) or both: a \
+             two-stage model reads a window about the contact with at least one"
+        );
+    }
+    let Some(weights_c) = contact.weights() else {
         bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
     };
     if contact.force_window_mm().is_some() {
@@ -154,10 +151,22 @@ fn pair(a: &PairArgs) -> Result<()> {
         bail!("{}: already a two-stage model", a.contact_model.display());
     }
     let design = contact.card.as_ref().and_then(|c| c.variant.clone());
-    force.check_design(
-        design.as_deref(),
-        &format!("the contact model {}", a.contact_model.display()),
-    )?;
+    let of = format!("the contact model {}", a.contact_model.display());
+    let force = match &a.force_model {
+        Some(path) => {
+            let net = open_model(path)?;
+            if net.force_window_mm().is_none() {
+                bail!(
+                    "{}: not a force network (its card has no force_window_mm): train one with \
+                     `fringe train --force-window MM`",
+                    path.display()
+                );
+            }
+            net.check_design(design.as_deref(), &of)?;
+            Some(net)
+        }
+        None => None,
+    };
     let refiner = match &a.contact {
         Some(path) => {
             let net = open_model(path)?;
@@ -168,55 +177,66 @@ fn pair(a: &PairArgs) -> Result<()> {
                     path.display()
                 );
             }
-            net.check_design(
-                design.as_deref(),
-                &format!("the contact model {}", a.contact_model.display()),
-            )?;
+            net.check_design(design.as_deref(), &of)?;
             Some(net)
         }
         None => None,
     };
+    // Every network is checked before anything is written.
+    for net in force.iter().chain(&refiner) {
+        weights_of(net)?;
+    }
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("{}: cannot create", a.out.display()))?;
     let mut card = contact.travelling_card();
-    card.force_model = Some(PAIR_FORCE.to_string());
-    if let Some(net) = &refiner {
-        let Some(weights) = net.weights() else {
-            bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
-        };
-        write_network(
-            &a.out.join(PAIR_CONTACT_NET),
-            weights,
-            &net.travelling_card(),
-        )?;
-        card.contact_model = Some(PAIR_CONTACT_NET.to_string());
+    for (net, file, slot) in [
+        (&refiner, PAIR_CONTACT_NET, &mut card.contact_model),
+        (&force, PAIR_FORCE, &mut card.force_model),
+    ] {
+        if let Some(net) = net {
+            write_network(&a.out.join(file), weights_of(net)?, &net.travelling_card())?;
+            *slot = Some(file.to_string());
+        }
     }
     let out_c = a.out.join(PAIR_CONTACT);
-    let out_f = a.out.join(PAIR_FORCE);
-    write_network(&out_f, weights_f, &force.travelling_card())?;
     write_network(&out_c, weights_c, &card)?;
     let joined = builtin::open(&out_c)?;
-    let f = joined
-        .force
-        .as_ref()
-        .map(|f| f.path.display().to_string())
-        .unwrap_or_default();
     let placed = joined
         .contact_refiner
         .as_ref()
         .map(|r| {
             format!(
-                "; the contact placed by {} in a window about it",
-                r.path.display()
+                "; the contact placed by {} in a {} mm window about it",
+                r.path.display(),
+                r.force_window_mm().unwrap_or_default()
             )
         })
         .unwrap_or_default();
+    let read = match &joined.force {
+        Some(f) => format!(
+            "force: {}, a {} mm window about the contact",
+            f.path.display(),
+            f.force_window_mm().unwrap_or_default()
+        ),
+        None => "force: the first network's, on the whole disc".to_string(),
+    };
     println!(
-        "two-stage model: {} (contact and shape: {}{placed}; force: {f}, a {window} mm window about the contact)",
+        "two-stage model: {} (contact and shape: {}{placed}; {read})",
         out_c.display(),
         contact.describe()
     );
     Ok(())
+}
+
+/// The weights of a network joined into a two-stage model.
+fn weights_of(net: &Model) -> Result<&StateDict> {
+    net.weights().ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: a two-stage model is made of weights files (.safetensors, .pth): export ONNX \
+             afterwards",
+            net.path.display()
+        )
+    })
 }
 
 /// One network of a two-stage model into `path`: its weights with the card embedded, and the

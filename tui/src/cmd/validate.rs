@@ -43,8 +43,12 @@ pub struct ValidateArgs {
     /// (cargo feature `torch`; also runs TorchScript modules).
     #[arg(long, default_value = "tract")]
     backend: BackendKind,
-    /// Inference threads (at most the machine's cores are used).
-    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
+    /// Inference threads of each network (at most the machine's cores are used).
+    #[arg(
+        long,
+        default_value_t = fringe_app::live_validation::THREADS_PER_NETWORK,
+        value_parser = crate::cmd::arg_values::threads
+    )]
     threads: usize,
     /// Run headless (the default when stdout is not a terminal).
     #[arg(long)]

@@ -64,7 +64,7 @@ impl ModelChoice {
                 })
                 .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
             backend: BackendKind::Tract,
-            threads: 2,
+            threads: fringe_app::live_validation::THREADS_PER_NETWORK,
         }
     }
 }
