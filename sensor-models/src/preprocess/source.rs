@@ -20,6 +20,19 @@ pub struct FrameRef<'a> {
     pub cutout: Option<Cutout>,
 }
 
+impl<'a> From<&'a fringe_rig::camera::Frame> for FrameRef<'a> {
+    /// A whole frame as the camera delivered it.
+    fn from(frame: &'a fringe_rig::camera::Frame) -> FrameRef<'a> {
+        FrameRef {
+            width: frame.width,
+            height: frame.height,
+            format: frame.format,
+            data: &frame.data,
+            cutout: None,
+        }
+    }
+}
+
 impl FrameRef<'_> {
     /// The camera frame's size: the cutout's frame, or this image's own.
     pub fn frame_size(&self) -> (u32, u32) {

@@ -452,17 +452,7 @@ impl<'a> Worker<'a> {
         if due {
             if let Some(frame) = self.newest.take() {
                 self.last_picture = Some(Instant::now());
-                let picture = thumbnail(
-                    FrameRef {
-                        width: frame.width,
-                        height: frame.height,
-                        format: frame.format,
-                        data: &frame.data,
-                        cutout: None,
-                    },
-                    self.picture_px,
-                )
-                .ok();
+                let picture = thumbnail(FrameRef::from(&frame), self.picture_px).ok();
                 let mut s = lock(self.state);
                 s.picture = picture;
                 s.camera.frame_id = frame.id;

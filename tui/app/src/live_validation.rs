@@ -470,13 +470,7 @@ impl Worker {
         ) else {
             return Ok(());
         };
-        let fref = FrameRef {
-            width: frame.width,
-            height: frame.height,
-            format: frame.format,
-            data: &frame.data,
-            cutout: None,
-        };
+        let fref = FrameRef::from(frame);
         let Some(prediction) = self.infer(fref, frame.id, input)?.into_iter().next() else {
             return Err(ValidationError::NoPrediction {
                 model: self.model.path.clone(),
@@ -745,17 +739,6 @@ mod tests {
         assert_eq!(v.state.errors.n, 10);
     }
 
-    /// The frame as the preprocessing reads it.
-    fn frame_ref(frame: &Frame) -> FrameRef<'_> {
-        FrameRef {
-            width: frame.width,
-            height: frame.height,
-            format: frame.format,
-            data: &frame.data,
-            cutout: None,
-        }
-    }
-
     /// A two-stage model's window networks run live on the frame the first network read: its
     /// live predictions are those it makes of the same frames one by one, offline.
     #[cfg(feature = "sim")]
@@ -829,10 +812,10 @@ mod tests {
         let mut expected = Vec::new();
         let mut moved_by_windows = 0;
         for frame in &frames {
-            pre.run_into(frame_ref(frame), 0.0, &mut input)
+            pre.run_into(FrameRef::from(frame), 0.0, &mut input)
                 .expect("input");
             let at = |p: &mut Predictor| {
-                p.predict(&input, 1, &[frame_ref(frame)], &config, Some(&profile))
+                p.predict(&input, 1, &[FrameRef::from(frame)], &config, Some(&profile))
                     .expect("prediction")
                     .remove(0)
             };

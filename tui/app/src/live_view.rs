@@ -145,13 +145,7 @@ fn picture_worker(shared: &Shared) {
                 m = shared.wake.wait(m).unwrap_or_else(|p| p.into_inner());
             }
         };
-        let fref = FrameRef {
-            width: frame.width,
-            height: frame.height,
-            format: frame.format,
-            data: &frame.data,
-            cutout: None,
-        };
+        let fref = FrameRef::from(&frame);
         // A frame of the wrong size for its format is skipped; the recorder reports it.
         if let Ok(picture) = thumbnail(fref, shared.side) {
             let mut s = lock(&shared.state);
