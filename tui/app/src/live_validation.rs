@@ -683,11 +683,12 @@ mod tests {
         }
     }
 
-    /// Offers a frame and waits until the worker has taken it (none is skipped).
-    fn offer(tap: &Arc<dyn RecordTap>, live: &LiveValidation, index: u64, fz: f64) {
-        tap.recorded(&frame(index), &record(index, fz));
+    /// Offers `frame` as record `index` and waits until the worker has taken it (none is
+    /// skipped).
+    fn offer(tap: &Arc<dyn RecordTap>, live: &LiveValidation, frame: &Frame, index: u64, fz: f64) {
+        tap.recorded(frame, &record(index, fz));
         let t0 = Instant::now();
-        while t0.elapsed() < Duration::from_secs(30) {
+        while t0.elapsed() < Duration::from_secs(60) {
             let m = lock(&live.shared.mailbox);
             if m.next.is_none() && !m.busy {
                 return;
@@ -712,14 +713,14 @@ mod tests {
         // Records 0..4 are kept; 4..8 belong to a point that is interrupted, cut and done again
         // with other labels under the same indices.
         for i in 0..8 {
-            offer(&tap, &live, i, if i < 4 { 1.0 } else { 7.0 });
+            offer(&tap, &live, &frame(i), i, if i < 4 { 1.0 } else { 7.0 });
         }
         assert_eq!(live.state().ran, 8);
         tap.cut(4);
         let s = live.state();
         assert_eq!((s.offered, s.ran, s.cut), (4, 4, 4));
         for i in 4..10 {
-            offer(&tap, &live, i, 2.0);
+            offer(&tap, &live, &frame(i), i, 2.0);
         }
         let v = live.finish(Duration::from_secs(30));
         assert_eq!(v.state.offered, 10);
@@ -840,16 +841,7 @@ mod tests {
         };
         let (live, tap) = LiveValidation::start(model, predictor, source).expect("start");
         for (i, frame) in frames.iter().enumerate() {
-            tap.recorded(frame, &record(i as u64, 2.0));
-            let t0 = Instant::now();
-            while t0.elapsed() < Duration::from_secs(60) {
-                let m = lock(&live.shared.mailbox);
-                if m.next.is_none() && !m.busy {
-                    break;
-                }
-                drop(m);
-                std::thread::sleep(Duration::from_millis(2));
-            }
+            offer(&tap, &live, frame, i as u64, 2.0);
         }
         let v = live.finish(Duration::from_secs(60));
         assert_eq!(v.state.failure, None);
