@@ -254,7 +254,7 @@ fn window_network(model: &Model, name: &str) -> Result<Model, ModelError> {
     };
     let of = model.path.display().to_string();
     if net.force_window_mm().is_none() || net.force.is_some() || net.contact_refiner.is_some() {
-        return Err(ModelError::NotAForceNetwork {
+        return Err(ModelError::NotAWindowNetwork {
             path: net.path.display().to_string(),
             of,
         });
@@ -327,6 +327,11 @@ mod tests {
         assert_eq!(
             contact.card.as_ref().and_then(|c| c.variant.as_deref()),
             Some("integrated")
+        );
+        // What eval, validate and the UI name it: each network, in the order they run.
+        assert_eq!(
+            two.describe(),
+            "keypoint CNN, then keypoint CNN on a 24 mm window placing the contact"
         );
         for b in BUILTIN.iter().filter(|b| b.window_network) {
             assert_ne!(

@@ -70,16 +70,16 @@ pub enum ModelError {
     )]
     NoneShipped { design: String, known: String },
     #[error(
-        "{path}: a force network of a two-stage model (its card has force_window_mm): it reads \
-         the force about a contact another network finds; run the model whose card names it as \
-         force_model (`fringe model pair` makes one)"
+        "{path}: a window network of a two-stage model (its card has force_window_mm): it reads \
+         a window about a contact another network finds; run the model whose card names it as \
+         force_model or contact_model (`fringe model pair` makes one)"
     )]
-    ForceNetworkAlone { path: String },
+    WindowNetworkAlone { path: String },
     #[error(
         "{path}: named as a window network (force_model, contact_model) of {of}, but its card \
          gives no force_window_mm: name a network trained with `fringe train --force-window`"
     )]
-    NotAForceNetwork { path: String, of: String },
+    NotAWindowNetwork { path: String, of: String },
     #[error(
         "{path}: named as the contact network (contact_model) of {of}, but its card does not \
          say refines_contact: name a network trained with `fringe train --arch keypoint \
@@ -595,11 +595,30 @@ impl Model {
 
     /// What the model is, in a few words ("custom CNN", "ONNX graph").
     pub fn describe(&self) -> String {
-        match (&self.arch, &self.source) {
+        let network = match (&self.arch, &self.source) {
             (Some(a), Source::Weights) => a.to_string(),
             (Some(a), Source::Onnx) => format!("{a} (ONNX graph)"),
             (_, Source::TorchScript) => "TorchScript module".to_string(),
             (None, _) => "ONNX graph".to_string(),
+        };
+        // A two-stage model: its window networks, in the order they run.
+        let stages: Vec<String> = [
+            (&self.contact_refiner, "placing the contact"),
+            (&self.force, "reading the force"),
+        ]
+        .into_iter()
+        .filter_map(|(net, does)| {
+            let net = net.as_ref()?;
+            let window = net
+                .force_window_mm()
+                .map_or(String::new(), |mm| format!(" on a {mm} mm window"));
+            Some(format!("{}{window} {does}", net.describe()))
+        })
+        .collect();
+        if stages.is_empty() {
+            network
+        } else {
+            format!("{network}, then {}", stages.join(", then "))
         }
     }
 }

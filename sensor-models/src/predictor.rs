@@ -88,7 +88,7 @@ impl Predictor {
             .as_ref()
             .is_some_and(|c| c.force_window_mm.is_some())
         {
-            return Err(ModelError::ForceNetworkAlone {
+            return Err(ModelError::WindowNetworkAlone {
                 path: model.path.display().to_string(),
             });
         }
@@ -98,7 +98,7 @@ impl Predictor {
                 path: net.path.display().to_string(),
                 window_mm: net
                     .force_window_mm()
-                    .ok_or_else(|| ModelError::NotAForceNetwork {
+                    .ok_or_else(|| ModelError::NotAWindowNetwork {
                         path: net.path.display().to_string(),
                         of: model.path.display().to_string(),
                     })?,

@@ -64,7 +64,8 @@ fn the_shipped_models_meet_the_figures_their_cards_claim_on_held_out_scans() {
     evaluation_gives_the_cards_figures(
         "layered",
         LAYERED_TWO_STAGE_CARD,
-        "keypoint CNN",
+        "keypoint CNN, then keypoint CNN on a 24 mm window placing the contact, then custom CNN \
+         on a 24 mm window reading the force",
         &runs[0],
         Some("builtin:layered-two-stage"),
     );
@@ -73,7 +74,7 @@ fn the_shipped_models_meet_the_figures_their_cards_claim_on_held_out_scans() {
     evaluation_gives_the_cards_figures(
         "integrated",
         INTEGRATED_TWO_STAGE_CARD,
-        "keypoint CNN",
+        "keypoint CNN, then keypoint CNN on a 24 mm window placing the contact",
         &runs[1],
         Some("builtin:integrated-two-stage"),
     );
