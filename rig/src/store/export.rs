@@ -7,7 +7,7 @@
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
 use super::error::StoreError;
-use super::frame_file::{FrameStorage, StoredFrame};
+use super::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
 use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
 use super::run_writer::{read_lines, read_start};
@@ -460,16 +460,11 @@ pub fn reference_image(stored: StoredFrame) -> Option<image::DynamicImage> {
     };
     let (fw, fh, pixels) = match stored.cutout {
         None => (w, h, pixels),
-        Some(c) => {
-            let mut full = vec![0u8; c.frame_width as usize * c.frame_height as usize * channels];
-            let row = w as usize * channels;
-            for (y, line) in pixels.chunks_exact(row).enumerate() {
-                let at =
-                    ((c.roi.y as usize + y) * c.frame_width as usize + c.roi.x as usize) * channels;
-                full.get_mut(at..at + row)?.copy_from_slice(line);
-            }
-            (c.frame_width, c.frame_height, full)
-        }
+        Some(c) => (
+            c.frame_width,
+            c.frame_height,
+            in_whole_frame(&pixels, w, channels, c)?,
+        ),
     };
     if channels == 1 {
         image::GrayImage::from_raw(fw, fh, pixels).map(Into::into)

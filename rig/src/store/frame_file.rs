@@ -98,6 +98,35 @@ pub struct StoredFrame {
     pub cutout: Option<Cutout>,
 }
 
+/// The pixels of a stored cutout placed back in a frame of the camera's size, black elsewhere
+/// (nothing was recorded there): `pixels` is `width` columns of `bytes_per_pixel` bytes each,
+/// in any pixel format, as stored or after demosaicing. `None` when the cutout does not fit the
+/// frame it names.
+pub fn in_whole_frame(
+    pixels: &[u8],
+    width: u32,
+    bytes_per_pixel: usize,
+    cutout: Cutout,
+) -> Option<Vec<u8>> {
+    let frame_row = cutout.frame_width as usize * bytes_per_pixel;
+    let mut full = vec![0u8; frame_row * cutout.frame_height as usize];
+    let row = width as usize * bytes_per_pixel;
+    if row == 0 {
+        return Some(full);
+    }
+    let rows = pixels.len() / row;
+    let fits = cutout.roi.x as usize + width as usize <= cutout.frame_width as usize
+        && cutout.roi.y as usize + rows <= cutout.frame_height as usize;
+    if !fits {
+        return None;
+    }
+    for (y, line) in pixels.chunks_exact(row).enumerate() {
+        let at = (cutout.roi.y as usize + y) * frame_row + cutout.roi.x as usize * bytes_per_pixel;
+        full.get_mut(at..at + row)?.copy_from_slice(line);
+    }
+    Some(full)
+}
+
 /// A cutout that cannot be stored, with what to do.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{0}")]
@@ -478,6 +507,32 @@ pub fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stored cutout goes back where the camera saw it, in a frame black elsewhere; one that
+    /// does not fit the frame it names is refused.
+    #[test]
+    fn a_cutout_is_placed_back_in_the_whole_frame() {
+        let cutout = Cutout {
+            roi: Roi {
+                x: 1,
+                y: 1,
+                width: 2,
+                height: 1,
+            },
+            frame_width: 4,
+            frame_height: 3,
+        };
+        // Two RGB pixels.
+        let full = in_whole_frame(&[1, 2, 3, 4, 5, 6], 2, 3, cutout).expect("fits");
+        let mut want = vec![0u8; 4 * 3 * 3];
+        want[(4 + 1) * 3..(4 + 3) * 3].copy_from_slice(&[1, 2, 3, 4, 5, 6]);
+        assert_eq!(full, want);
+        let outside = Cutout {
+            roi: Roi { x: 3, ..cutout.roi },
+            ..cutout
+        };
+        assert_eq!(in_whole_frame(&[1, 2], 2, 1, outside), None);
+    }
 
     fn frame(format: PixelFormat, w: u32, h: u32) -> Frame {
         crate::camera::test_frame(format, w, h)

@@ -24,7 +24,7 @@ use fringe_app::live_validation::{FrameSource, LiveValidation, THREADS_PER_NETWO
 use fringe_rig::camera::Frame;
 use fringe_rig::clock::HostTime;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frame_file::{FrameStorage, StoredFrame};
+use fringe_rig::store::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
 use fringe_rig::store::run_writer::{read_lines, read_start};
 use fringe_rig::store::FRAMES;
 use fringe_sensor_models::backend::BackendKind;
@@ -80,23 +80,25 @@ fn parse() -> Result<Args, String> {
 }
 
 /// The camera's frame as it was delivered: a stored cutout goes back to its place in a frame of
-/// the camera's size (zero outside it, where no crop of the run's profile reads).
-fn as_delivered(stored: StoredFrame, record: &FrameRecord, arrival: HostTime) -> Frame {
+/// the camera's size (black outside it, where no crop of the run's profile reads).
+fn as_delivered(
+    stored: StoredFrame,
+    record: &FrameRecord,
+    arrival: HostTime,
+    path: &std::path::Path,
+) -> Result<Frame, String> {
     let (width, height, data) = match stored.cutout {
         None => (stored.width, stored.height, stored.data),
         Some(c) => {
             let bpp = stored.format.bytes_per_pixel();
-            let row = c.frame_width as usize * bpp;
-            let mut full = vec![0u8; row * c.frame_height as usize];
-            let cut_row = stored.width as usize * bpp;
-            for (y, src) in stored.data.chunks_exact(cut_row).enumerate() {
-                let at = (c.roi.y as usize + y) * row + c.roi.x as usize * bpp;
-                full[at..at + cut_row].copy_from_slice(src);
-            }
+            let full = in_whole_frame(&stored.data, stored.width, bpp, c).ok_or(format!(
+                "{}: its cutout does not fit the frame the run names",
+                path.display()
+            ))?;
             (c.frame_width, c.frame_height, full)
         }
     };
-    Frame {
+    Ok(Frame {
         id: record.frame_id,
         device_timestamp: record.device_timestamp,
         host_arrival: arrival,
@@ -104,7 +106,7 @@ fn as_delivered(stored: StoredFrame, record: &FrameRecord, arrival: HostTime) ->
         height,
         format: stored.format,
         data,
-    }
+    })
 }
 
 /// Every frame of the run decoded before the replay starts (on every core), so that the replay
@@ -125,10 +127,9 @@ fn decode_all(
                 s.spawn(move || {
                     part.iter()
                         .map(|r| {
-                            let stored = storage
-                                .read(&run.join(&r.file))
-                                .map_err(|e| e.to_string())?;
-                            Ok(as_delivered(stored, r, HostTime::now()))
+                            let path = run.join(&r.file);
+                            let stored = storage.read(&path).map_err(|e| e.to_string())?;
+                            as_delivered(stored, r, HostTime::now(), &path)
                         })
                         .collect()
                 })

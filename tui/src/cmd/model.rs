@@ -137,9 +137,7 @@ fn pair(a: &PairArgs) -> Result<()> {
              two-stage model reads a window about the contact with at least one"
         );
     }
-    let Some(weights_c) = contact.weights() else {
-        bail!("a two-stage model is made of weights files (.safetensors, .pth): export ONNX afterwards");
-    };
+    let weights_c = weights_of(&contact)?;
     if contact.force_window_mm().is_some() {
         bail!(
             "{}: a force network cannot find the contact: give the model that finds it first \
