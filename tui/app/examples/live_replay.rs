@@ -7,20 +7,23 @@
 //! writes it as the run stores it (the recorder's work on a real bench; to a scratch file in the
 //! temporary directory, replaced frame after frame) and hands it with its record to the same
 //! [`LiveValidation`] worker at the run's own frame times (`--fps` instead sets the rate), never
-//! waiting for the worker: a frame that comes while the worker is busy replaces the one waiting,
-//! which is counted as skipped, exactly as in a scan.
+//! waiting for the worker: a frame that comes while the worker is busy waits in its queue, and
+//! when the queue is full the oldest waiting frame is counted as skipped, exactly as in a scan
+//! (`--backlog` sets the queue's length, [`BACKLOG_FRAMES`] by default; 1 keeps only the newest).
 //!
 //! ```sh
 //! cargo build --release -p fringe-app --example live_replay
 //! fringe validate --no-tui --yes --out vruns                 # a run of the main job at 50 fps
-//! target/release/examples/live_replay vruns/<id> builtin:layered-two-stage [--threads N] [--fps F]
+//! target/release/examples/live_replay vruns/<id> builtin:layered-two-stage [--threads N] [--fps F] [--backlog N]
 //! ```
 //!
 //! Prints frames offered, run and skipped, the latency of a frame (preprocessing and inference:
-//! median, 95th percentile, largest), how late the offering thread fell behind the frame times,
+//! median, 95th percentile, largest), how long frames waited in the queue, how late the offering thread fell behind the frame times,
 //! and the share of one core the offering thread used.
 
-use fringe_app::live_validation::{FrameSource, LiveValidation, THREADS_PER_NETWORK};
+use fringe_app::live_validation::{
+    FrameSource, LiveValidation, BACKLOG_FRAMES, THREADS_PER_NETWORK,
+};
 use fringe_rig::camera::Frame;
 use fringe_rig::clock::HostTime;
 use fringe_rig::store::documents::FrameRecord;
@@ -39,12 +42,14 @@ struct Args {
     model: PathBuf,
     threads: usize,
     fps: Option<f64>,
+    backlog: usize,
 }
 
 fn parse() -> Result<Args, String> {
     let mut positional = Vec::new();
     let mut threads = THREADS_PER_NETWORK;
     let mut fps = None;
+    let mut backlog = BACKLOG_FRAMES;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
@@ -65,17 +70,25 @@ fn parse() -> Result<Args, String> {
                 }
                 fps = Some(f);
             }
+            "--backlog" => {
+                let v = value("--backlog")?;
+                backlog = v.parse().ok().filter(|&n: &usize| n >= 1).ok_or(format!(
+                    "--backlog {v}: give a whole number of frames, 1 or more"
+                ))?;
+            }
             _ if a.starts_with("--") => return Err(format!("unknown option {a}")),
             _ => positional.push(PathBuf::from(a)),
         }
     }
-    let [run, model] = <[PathBuf; 2]>::try_from(positional)
-        .map_err(|_| "usage: live_replay RUN_DIR MODEL [--threads N] [--fps F]".to_string())?;
+    let [run, model] = <[PathBuf; 2]>::try_from(positional).map_err(|_| {
+        "usage: live_replay RUN_DIR MODEL [--threads N] [--fps F] [--backlog N]".to_string()
+    })?;
     Ok(Args {
         run,
         model,
         threads,
         fps,
+        backlog,
     })
 }
 
@@ -193,12 +206,13 @@ fn run(a: Args) -> Result<(), String> {
     let predictor =
         Predictor::new(&model, BackendKind::Tract, a.threads).map_err(|e| e.to_string())?;
     println!(
-        "run {}: {} frames; model {} ({}), tract, {} thread(s) per network",
+        "run {}: {} frames; model {} ({}), tract, {} thread(s) per network, at most {} frame(s) waiting",
         a.run.display(),
         records.len(),
         model.path.display(),
         model.describe(),
-        a.threads
+        a.threads,
+        a.backlog
     );
     let (live, tap) = LiveValidation::start(
         model,
@@ -207,6 +221,7 @@ fn run(a: Args) -> Result<(), String> {
             run_id: start.run_id.clone(),
             profile,
         },
+        a.backlog,
     )
     .map_err(|e| e.to_string())?;
     let frames = decode_all(&a.run, &storage, &records)?;
@@ -240,6 +255,8 @@ fn run(a: Args) -> Result<(), String> {
     let s = &v.state;
     let mut lat: Vec<f64> = v.frames.iter().map(|f| f.latency_ms).collect();
     lat.sort_by(f64::total_cmp);
+    let mut waited: Vec<f64> = v.frames.iter().map(|f| f.waited_ms).collect();
+    waited.sort_by(f64::total_cmp);
     late.sort_by(f64::total_cmp);
     println!(
         "offered {}, run {}, skipped {} ({:.1} %), {:.1} predictions/s over {:.1} s",
@@ -255,6 +272,12 @@ fn run(a: Args) -> Result<(), String> {
         percentile(&lat, 0.5),
         percentile(&lat, 0.95),
         lat.last().copied().unwrap_or(f64::NAN)
+    );
+    println!(
+        "waited for the worker, ms: median {:.1}, 95th percentile {:.1}, largest {:.1}",
+        percentile(&waited, 0.5),
+        percentile(&waited, 0.95),
+        waited.last().copied().unwrap_or(f64::NAN)
     );
     println!(
         "offering thread: {:.0} % of a core; behind the frame times {} times (largest {:.1} ms)",

@@ -4,10 +4,13 @@
 //! metrics kept as it goes. The terminal UI shows the state; `fringe validate --no-tui` writes
 //! the same evaluation as a report.
 //!
-//! Threads: the recorder hands each labelled frame to a one-frame mailbox ([`ValidationTap`]) and
-//! returns at once; one worker takes the newest frame, preprocesses it, runs the network and
-//! publishes a [`ValidationState`]. When the network is slower than the camera the frames it
-//! could not take are counted as skipped, never queued.
+//! Threads: the recorder hands each labelled frame to a short queue ([`ValidationTap`]) and
+//! returns at once; one worker takes the frames in order, preprocesses each, runs the network and
+//! publishes a [`ValidationState`]. The queue holds at most [`BACKLOG_FRAMES`]: a frame that took
+//! the worker longer than the camera's period (a slow frame now and then, on 2 cores shared with
+//! the camera and the recorder) leaves the next ones waiting, and the worker catches up; only when
+//! the network is slower than the camera for longer than the queue lasts is the oldest waiting
+//! frame counted as skipped (the newest frames are kept). How long each frame waited is kept.
 //!
 //! The figures are over the frames the run keeps: when the scan cuts the records of an
 //! interrupted point (to press it again), the frames of those records are taken out of the
@@ -36,6 +39,11 @@ use std::time::{Duration, Instant};
 /// the recorder, one thread tended to skip fewer frames than two (BENCHMARKS.md, "Live
 /// validation").
 pub const THREADS_PER_NETWORK: usize = 1;
+
+/// Labelled frames that may wait for the worker by default: at 50 fps, 100 ms of frames. With one
+/// frame (the newest only) a model needing 6-12 ms of the 20 ms a frame allows still skipped 1-3
+/// frames of 1546, each after a rare slow frame (BENCHMARKS.md, "Live validation").
+pub const BACKLOG_FRAMES: usize = 5;
 
 /// Predicted and measured Fz kept for the chart.
 pub const HISTORY: usize = 600;
@@ -74,6 +82,8 @@ pub struct ValidatedFrame {
     pub prediction: Prediction,
     /// Preprocessing plus inference, ms.
     pub latency_ms: f64,
+    /// From the recorder's offer to the worker taking it, ms.
+    pub waited_ms: f64,
 }
 
 /// What a finished live validation leaves.
@@ -111,6 +121,10 @@ pub struct ValidationState {
     pub loop_hz: f64,
     /// Preprocessing plus inference of the newest frame, ms.
     pub latency_ms: f64,
+    /// How long the newest frame waited for the worker, ms.
+    pub waited_ms: f64,
+    /// Frames waiting for the worker now.
+    pub waiting: usize,
     pub history: VecDeque<FzPoint>,
     pub latest: Option<Latest>,
     /// Running errors over every frame.
@@ -144,11 +158,14 @@ struct Offer {
     frame: Frame,
     record: FrameRecord,
     generation: u64,
+    offered_at: Instant,
 }
 
 #[derive(Default)]
 struct Mailbox {
-    next: Option<Offer>,
+    /// Frames waiting for the worker, oldest first; at most `backlog`.
+    waiting: VecDeque<Offer>,
+    backlog: usize,
     /// Record indices of the frames offered, and of those skipped, that the run still holds.
     offered: Vec<u64>,
     skipped: Vec<u64>,
@@ -157,6 +174,24 @@ struct Mailbox {
     generation: u64,
     closed: bool,
     busy: bool,
+}
+
+impl Mailbox {
+    /// Queues `offer`; when `backlog` frames already wait, the oldest of them is skipped.
+    fn put(&mut self, offer: Offer) {
+        self.offered.push(offer.record.index);
+        self.waiting.push_back(offer);
+        while self.waiting.len() > self.backlog.max(1) {
+            if let Some(old) = self.waiting.pop_front() {
+                self.skipped.push(old.record.index);
+            }
+        }
+    }
+
+    /// True when no frame waits and the worker is idle.
+    fn idle(&self) -> bool {
+        self.waiting.is_empty() && !self.busy
+    }
 }
 
 /// Lock order: `mailbox`, then `state`, `evaluation`, `frames`.
@@ -249,15 +284,13 @@ impl RecordTap for ValidationTap {
         if m.closed {
             return;
         }
-        m.offered.push(record.index);
         let offer = Offer {
             frame: frame.clone(),
             record: record.clone(),
             generation: m.generation,
+            offered_at: Instant::now(),
         };
-        if let Some(old) = m.next.replace(offer) {
-            m.skipped.push(old.record.index);
-        }
+        m.put(offer);
         drop(m);
         self.0.wake.notify_one();
     }
@@ -268,9 +301,7 @@ impl RecordTap for ValidationTap {
         m.offered.retain(|&i| i < first);
         m.skipped.retain(|&i| i < first);
         m.cut += (before - m.offered.len()) as u64;
-        if m.next.as_ref().is_some_and(|o| o.record.index >= first) {
-            m.next = None;
-        }
+        m.waiting.retain(|o| o.record.index < first);
         m.generation += 1;
         self.0.forget_from(first);
     }
@@ -292,12 +323,14 @@ pub struct FrameSource {
 }
 
 impl LiveValidation {
-    /// Starts the worker for `model` on `predictor` (its networks on a backend); the tap goes
-    /// into the scan's setup.
+    /// Starts the worker for `model` on `predictor` (its networks on a backend), with at most
+    /// `backlog` frames waiting for it ([`BACKLOG_FRAMES`]; 1 keeps only the newest); the tap
+    /// goes into the scan's setup.
     pub fn start(
         model: Model,
         predictor: Predictor,
         source: FrameSource,
+        backlog: usize,
     ) -> Result<(LiveValidation, Arc<dyn RecordTap>), ModelError> {
         let preprocessing = model.preprocessing(Some(&source.profile), None)?;
         let state = ValidationState {
@@ -309,6 +342,8 @@ impl LiveValidation {
             cut: 0,
             loop_hz: 0.0,
             latency_ms: 0.0,
+            waited_ms: 0.0,
+            waiting: 0,
             history: VecDeque::with_capacity(HISTORY),
             latest: None,
             errors: Errors::default(),
@@ -316,7 +351,10 @@ impl LiveValidation {
             failure: None,
         };
         let shared = Arc::new(Shared {
-            mailbox: Mutex::new(Mailbox::default()),
+            mailbox: Mutex::new(Mailbox {
+                backlog,
+                ..Mailbox::default()
+            }),
             wake: Condvar::new(),
             state: Mutex::new(state),
             evaluation: Mutex::new(Evaluation {
@@ -364,16 +402,17 @@ impl LiveValidation {
         s.offered = m.offered.len() as u64;
         s.skipped = m.skipped.len() as u64;
         s.cut = m.cut;
+        s.waiting = m.waiting.len();
         s
     }
 
-    /// Finishes the frame in hand (up to `timeout`), stops the worker and returns the
+    /// Finishes the frames in hand and waiting (up to `timeout`), stops the worker and returns the
     /// evaluation of every frame it ran on, with the frames it skipped counted.
     pub fn finish(mut self, timeout: Duration) -> Validation {
         let deadline = Instant::now() + timeout;
         loop {
             let m = lock(&self.shared.mailbox);
-            if (m.next.is_none() && !m.busy) || Instant::now() >= deadline {
+            if m.idle() || Instant::now() >= deadline {
                 break;
             }
             drop(m);
@@ -395,9 +434,8 @@ impl LiveValidation {
         {
             let mut m = lock(&self.shared.mailbox);
             m.closed = true;
-            if let Some(old) = m.next.take() {
-                m.skipped.push(old.record.index);
-            }
+            let left: Vec<u64> = m.waiting.drain(..).map(|o| o.record.index).collect();
+            m.skipped.extend(left);
         }
         self.shared.wake.notify_all();
         if let Some(h) = self.worker.take() {
@@ -410,6 +448,13 @@ impl Drop for LiveValidation {
     fn drop(&mut self) {
         self.close();
     }
+}
+
+/// How long one frame took: waiting for the worker, then preprocessing and inference.
+#[derive(Debug, Clone, Copy)]
+struct Timing {
+    latency_ms: f64,
+    waited_ms: f64,
 }
 
 struct Worker {
@@ -436,7 +481,7 @@ impl Worker {
                 let mut m = lock(&self.shared.mailbox);
                 m.busy = false;
                 loop {
-                    if let Some(next) = m.next.take() {
+                    if let Some(next) = m.waiting.pop_front() {
                         m.busy = true;
                         break next;
                     }
@@ -461,6 +506,7 @@ impl Worker {
     fn one(&mut self, offer: &Offer, input: &mut [f32]) -> Result<(), ValidationError> {
         let (frame, record) = (&offer.frame, &offer.record);
         let t0 = Instant::now();
+        let waited_ms = t0.duration_since(offer.offered_at).as_secs_f64() * 1e3;
         // The frame is at hand: the label's sample needs no file storage to read it from.
         let Some(label) = from_record(
             record,
@@ -486,7 +532,16 @@ impl Worker {
             // Its record was cut from the run while the network ran.
             return Ok(());
         }
-        self.publish(offer, label, prediction, latency_ms, pictures);
+        self.publish(
+            offer,
+            label,
+            prediction,
+            Timing {
+                latency_ms,
+                waited_ms,
+            },
+            pictures,
+        );
         Ok(())
     }
 
@@ -557,13 +612,14 @@ impl Worker {
         offer: &Offer,
         label: Sample,
         prediction: Prediction,
-        latency_ms: f64,
+        timing: Timing,
         pictures: Option<(image::RgbImage, image::RgbImage)>,
     ) {
         let mut state = lock(&self.shared.state);
         state.ran += 1;
         state.loop_hz = self.recent.len() as f64;
-        state.latency_ms = latency_ms;
+        state.latency_ms = timing.latency_ms;
+        state.waited_ms = timing.waited_ms;
         if state.history.len() == HISTORY {
             state.history.pop_front();
         }
@@ -584,7 +640,8 @@ impl Worker {
             t_s: self.started.elapsed().as_secs_f64(),
             label: label.clone(),
             prediction: prediction.clone(),
-            latency_ms,
+            latency_ms: timing.latency_ms,
+            waited_ms: timing.waited_ms,
         });
         // Between pictures the newest prediction is shown with the last pictures.
         let (frame_picture, input_picture) = match (pictures, state.latest.take()) {
@@ -690,7 +747,7 @@ mod tests {
         let t0 = Instant::now();
         while t0.elapsed() < Duration::from_secs(60) {
             let m = lock(&live.shared.mailbox);
-            if m.next.is_none() && !m.busy {
+            if m.idle() {
                 return;
             }
             drop(m);
@@ -709,7 +766,8 @@ mod tests {
             run_id: "run".into(),
             profile: profile(),
         };
-        let (live, tap) = LiveValidation::start(model, predictor, source).expect("start");
+        let (live, tap) =
+            LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start");
         // Records 0..4 are kept; 4..8 belong to a point that is interrupted, cut and done again
         // with other labels under the same indices.
         for i in 0..8 {
@@ -738,6 +796,63 @@ mod tests {
             .iter()
             .all(|r| (r.scored.fz_true - 7.0).abs() > 1.0));
         assert_eq!(v.state.errors.n, 10);
+    }
+
+    /// With the queue full, a new frame pushes out the oldest waiting one, which is counted as
+    /// skipped: the frames kept are the newest, in the order they came.
+    #[test]
+    fn a_full_queue_skips_its_oldest_frame_and_keeps_the_newest() {
+        let mut m = Mailbox {
+            backlog: 3,
+            ..Mailbox::default()
+        };
+        for i in 0..5 {
+            m.put(Offer {
+                frame: frame(i),
+                record: record(i, 1.0),
+                generation: 0,
+                offered_at: Instant::now(),
+            });
+        }
+        let waiting: Vec<u64> = m.waiting.iter().map(|o| o.record.index).collect();
+        assert_eq!(waiting, [2, 3, 4]);
+        assert_eq!(m.skipped, [0, 1]);
+        assert_eq!(m.offered, [0, 1, 2, 3, 4]);
+    }
+
+    /// Frames that come faster than the network runs (a burst after a slow frame) wait for the
+    /// worker instead of being skipped, and are all run in the order they came.
+    #[test]
+    fn a_burst_the_queue_holds_is_run_in_full_and_in_order() {
+        let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../sensor-models/tests/fixtures/custom/model.safetensors");
+        let model = Model::open(&weights).expect("fixture model");
+        let predictor = Predictor::new(&model, BackendKind::Tract, 1).expect("tract");
+        let source = FrameSource {
+            run_id: "run".into(),
+            profile: profile(),
+        };
+        let (live, tap) =
+            LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start");
+        let n = BACKLOG_FRAMES as u64;
+        // Offered back to back, without waiting for the worker.
+        for i in 0..n {
+            tap.recorded(&frame(i), &record(i, 1.0 + i as f64));
+        }
+        let v = live.finish(Duration::from_secs(30));
+        assert_eq!(v.state.failure, None);
+        assert_eq!((v.state.offered, v.state.ran, v.state.skipped), (n, n, 0));
+        let order: Vec<u64> = v.frames.iter().map(|f| f.record_index).collect();
+        assert_eq!(order, (0..n).collect::<Vec<_>>());
+        // The last frame waited while the worker ran every frame before it (all were offered
+        // within a fraction of a millisecond).
+        let (last, before) = v.frames.split_last().expect("frames");
+        let ran_before: f64 = before.iter().map(|f| f.latency_ms).sum();
+        assert!(
+            last.waited_ms >= ran_before - 1.0,
+            "waited {} ms; the frames before it ran for {ran_before} ms",
+            last.waited_ms
+        );
     }
 
     /// A two-stage model's window networks run live on the frame the first network read: its
@@ -839,7 +954,8 @@ mod tests {
             run_id: "run".into(),
             profile: profile.clone(),
         };
-        let (live, tap) = LiveValidation::start(model, predictor, source).expect("start");
+        let (live, tap) =
+            LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start");
         for (i, frame) in frames.iter().enumerate() {
             offer(&tap, &live, frame, i as u64, 2.0);
         }

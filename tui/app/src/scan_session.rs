@@ -4,7 +4,7 @@
 //! bar and the terminal UI drive the same session.
 
 use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
-use crate::live_validation::{FrameSource, LiveValidation};
+use crate::live_validation::{FrameSource, LiveValidation, BACKLOG_FRAMES};
 use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_error::RigError;
 use crate::rig_file::RigConfig;
@@ -288,7 +288,7 @@ impl ScanSession {
             run_id: run_id.to_string(),
             profile,
         };
-        let (validation, tap) = LiveValidation::start(model, predictor, source)?;
+        let (validation, tap) = LiveValidation::start(model, predictor, source, BACKLOG_FRAMES)?;
         self.setup.taps.push(tap);
         Ok((validation, notes))
     }

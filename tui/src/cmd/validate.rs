@@ -9,7 +9,7 @@ use crate::cmd::model::{choose_model, ForSensor};
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::live_validation::{LiveValidation, Validation};
+use fringe_app::live_validation::{LiveValidation, Validation, BACKLOG_FRAMES};
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -191,6 +191,11 @@ fn print_summary(v: &Validation) {
         "live validation ({} backend): {} labelled frames offered, {} run, {} skipped; {:.1} predictions/s, {:.1} ms per frame",
         s.backend, s.offered, s.ran, s.skipped, s.loop_hz, s.latency_ms
     );
+    if let Some(longest) = v.frames.iter().map(|f| f.waited_ms).max_by(f64::total_cmp) {
+        println!(
+            "frames waited for the network up to {longest:.0} ms (at most {BACKLOG_FRAMES} wait; then the oldest is skipped)"
+        );
+    }
     if s.cut > 0 {
         println!(
             "{} frames validated during interrupted points were cut from the run with those points' records: they are not in these figures",
@@ -235,6 +240,7 @@ fn write_frames(dir: &Path, v: &Validation) -> Result<PathBuf> {
                 "contact_mm": p.contact_raw.map(|v| v.value()),
             },
             "latency_ms": f.latency_ms,
+            "waited_ms": f.waited_ms,
         });
         writeln!(out, "{line}").with_context(|| format!("{}: cannot write", path.display()))?;
     }

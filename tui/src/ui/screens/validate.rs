@@ -118,11 +118,12 @@ fn draw_metrics(f: &mut Frame, area: Rect, v: &ValidationState) {
         )),
         Line::from(format!("over {} frames ({} in contact)", e.n, e.n_contact)),
         shape,
+        Line::from(format!(
+            "{:.1} predictions/s · {:.1} ms/frame · waited {:.0} ms ({} waiting)",
+            v.loop_hz, v.latency_ms, v.waited_ms, v.waiting
+        )),
         Line::from(vec![
-            Span::raw(format!(
-                "{:.1} predictions/s · {:.1} ms/frame · {} of {} run · ",
-                v.loop_hz, v.latency_ms, v.ran, v.offered
-            )),
+            Span::raw(format!("{} of {} run · ", v.ran, v.offered)),
             Span::styled(format!("{} skipped", v.skipped), skipped_style),
             Span::raw(if v.cut > 0 {
                 format!(" · {} cut with interrupted points", v.cut)

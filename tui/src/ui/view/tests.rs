@@ -263,6 +263,8 @@ fn validating() -> UiState {
         cut: 0,
         loop_hz: 46.5,
         latency_ms: 18.2,
+        waited_ms: 31.0,
+        waiting: 2,
         history: (0..40)
             .map(|i| FzPoint {
                 t_s: i as f64 * 0.1,
@@ -338,7 +340,12 @@ fn validate_screen_compares_prediction_and_measurement() {
     insta::assert_snapshot!("validate_running", t.backend());
     let b = t.backend().buffer();
     assert!(find(b, "Fz RMSE  0.420 N").is_some());
-    assert!(find(b, "46.5 predictions/s · 18.2 ms/frame · 280 of 300 run").is_some());
+    assert!(find(
+        b,
+        "46.5 predictions/s · 18.2 ms/frame · waited 31 ms (2 waiting)"
+    )
+    .is_some());
+    assert!(find(b, "280 of 300 run · 20 skipped").is_some());
     // Measured (x) and predicted (+) contact on the disc, in their colours.
     let (x, y) = find(b, "×").expect("measured contact");
     assert_eq!(b[(x, y)].fg, widgets::MEASURED);
