@@ -40,10 +40,11 @@ use std::time::{Duration, Instant};
 /// validation").
 pub const THREADS_PER_NETWORK: usize = 1;
 
-/// Labelled frames that may wait for the worker by default: at 50 fps, 100 ms of frames. With one
-/// frame (the newest only) a model needing 6-12 ms of the 20 ms a frame allows still skipped 1-3
-/// frames of 1546, each after a rare slow frame (BENCHMARKS.md, "Live validation").
-pub const BACKLOG_FRAMES: usize = 5;
+/// Labelled frames that may wait for the worker by default: at 50 fps, 200 ms of frames. With one
+/// frame (the newest only) a model needing 6-16 ms of the 20 ms a frame allows still skipped 1-9
+/// frames of 1546, each after a rare slow frame, and with 5 one stall of 96 ms still cost a
+/// frame (BENCHMARKS.md, "Live validation").
+pub const BACKLOG_FRAMES: usize = 10;
 
 /// Predicted and measured Fz kept for the chart.
 pub const HISTORY: usize = 600;
