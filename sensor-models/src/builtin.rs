@@ -3,8 +3,9 @@
 //! of `fringe sim dataset`, one per simulated sensor design, with their cards
 //! (`sensor-models/models/`, README.md "The default models" gives the commands that made them).
 //!
-//! A model is named where a model file is expected: `default` (the layered sensor's) or
-//! `builtin:NAME`. [`open`] is the one place that resolves a name or a path.
+//! A model is named where a model file is expected: `default` (`builtin:layered`, the layered
+//! design's one-network custom CNN) or `builtin:NAME`. A sensor of a known design gets its
+//! design's two-stage model ([`for_design`]). [`open`] is the one place that resolves a name or a path.
 
 use crate::model::{Model, ModelError};
 use crate::model_card::{CardError, CardSource, ModelCard};
@@ -19,6 +20,9 @@ pub struct Builtin {
     pub about: &'static str,
     /// The sensor design it is for (its card's `variant`).
     pub design: &'static str,
+    /// The model eval, validate and the UI take for a sensor of its design not commissioned (one
+    /// per design): its most accurate that runs at the camera's rate.
+    pub chosen_for_design: bool,
     /// The model `fringe commission` adapts to a unit of its design (one per design).
     pub commissioning_base: bool,
     /// A window network of a two-stage model (its force or contact network): run only through
@@ -34,6 +38,7 @@ pub const BUILTIN: &[Builtin] = &[
         name: "layered",
         about: "custom CNN for the simulated layered sensor (trained on fringe sim dataset frames)",
         design: "layered",
+        chosen_for_design: false,
         commissioning_base: false,
         window_network: false,
         weights: include_bytes!("../models/layered-custom.safetensors"),
@@ -44,6 +49,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "keypoint CNN for the simulated layered sensor: the base commissioning adapts to a \
                 layered unit (its features keep where the contact is)",
         design: "layered",
+        chosen_for_design: false,
         commissioning_base: true,
         window_network: false,
         weights: include_bytes!("../models/layered-keypoint.safetensors"),
@@ -56,6 +62,7 @@ pub const BUILTIN: &[Builtin] = &[
                 window about it, builtin:layered-force reads the force in a 24 mm window about \
                 that",
         design: "layered",
+        chosen_for_design: true,
         commissioning_base: false,
         window_network: false,
         // The first network is the keypoint CNN above, its weights shared; the card differs.
@@ -67,6 +74,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "the contact network of builtin:layered-two-stage (a keypoint CNN on a 24 mm \
                 window about the contact, reading where the press lies in it): not run alone",
         design: "layered",
+        chosen_for_design: false,
         commissioning_base: false,
         window_network: true,
         weights: include_bytes!("../models/layered-contact.safetensors"),
@@ -77,6 +85,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "the force network of builtin:layered-two-stage (a custom CNN on a 24 mm window \
                 about the contact): not run alone",
         design: "layered",
+        chosen_for_design: false,
         commissioning_base: false,
         window_network: true,
         weights: include_bytes!("../models/layered-force.safetensors"),
@@ -87,6 +96,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "keypoint CNN for the simulated integrated sensor (trained on fringe sim dataset \
                 frames)",
         design: "integrated",
+        chosen_for_design: false,
         commissioning_base: true,
         window_network: false,
         weights: include_bytes!("../models/integrated-keypoint.safetensors"),
@@ -98,6 +108,7 @@ pub const BUILTIN: &[Builtin] = &[
                 contact, the shape and the force on the whole disc, builtin:integrated-contact \
                 places the contact in a 24 mm window about it",
         design: "integrated",
+        chosen_for_design: true,
         commissioning_base: false,
         window_network: false,
         // The first network is builtin:integrated, its weights shared; the card differs.
@@ -109,6 +120,7 @@ pub const BUILTIN: &[Builtin] = &[
         about: "the contact network of builtin:integrated-two-stage (a keypoint CNN on a 24 mm \
                 window about the contact, reading where the press lies in it): not run alone",
         design: "integrated",
+        chosen_for_design: false,
         commissioning_base: false,
         window_network: true,
         weights: include_bytes!("../models/integrated-contact.safetensors"),
@@ -167,15 +179,16 @@ impl Builtin {
     }
 }
 
-/// The model that ships for a sensor design, as a model argument (`builtin:NAME`); `default`
-/// when the design is not known. A design no model ships for is refused, naming those that do.
+/// The model that ships for a sensor design (the one [`Builtin::chosen_for_design`]), as a model
+/// argument (`builtin:NAME`); `default` when the design is not known. A design no model ships
+/// for is refused, naming those that do.
 pub fn for_design(design: Option<&str>) -> Result<PathBuf, ModelError> {
     let Some(design) = design else {
         return Ok(PathBuf::from(DEFAULT));
     };
     BUILTIN
         .iter()
-        .find(|b| b.design == design && !b.window_network)
+        .find(|b| b.design == design && b.chosen_for_design)
         .map(Builtin::path)
         .ok_or_else(|| ModelError::NoneShipped {
             design: design.to_string(),
@@ -290,11 +303,13 @@ mod tests {
                 b.name
             );
             let shipped = for_design(Some(b.design)).expect("a model ships for its design");
-            let first = BUILTIN
+            let chosen: Vec<_> = BUILTIN
                 .iter()
-                .find(|o| o.design == b.design && !o.window_network)
-                .map(Builtin::path);
-            assert_eq!(Some(shipped), first, "the first of {}'s models", b.design);
+                .filter(|o| o.design == b.design && o.chosen_for_design)
+                .collect();
+            assert_eq!(chosen.len(), 1, "one model chosen for {}", b.design);
+            assert_eq!(shipped, chosen[0].path(), "{}", b.design);
+            assert!(!chosen[0].window_network, "{}", b.design);
             let bases = BUILTIN
                 .iter()
                 .filter(|o| o.design == b.design && o.commissioning_base)
@@ -349,10 +364,10 @@ mod tests {
     }
 
     /// Commissioning adapts the keypoint CNN on both designs (the custom CNN's pooled features
-    /// do not carry where another unit's contact is), while eval and validate keep the layered
-    /// design's custom CNN for units not commissioned.
+    /// do not carry where another unit's contact is), while eval and validate take each design's
+    /// two-stage model for units not commissioned.
     #[test]
-    fn commissioning_adapts_each_design_s_base_and_eval_keeps_its_default() {
+    fn commissioning_adapts_each_design_s_base_and_eval_takes_its_two_stage_model() {
         let base = |d| commissioning_base(d).ok().map(|p| p.display().to_string());
         assert_eq!(
             base(Some("layered")).as_deref(),
@@ -365,7 +380,7 @@ mod tests {
         );
         assert_eq!(
             for_design(Some("layered")).ok(),
-            Some(PathBuf::from("builtin:layered"))
+            Some(PathBuf::from("builtin:layered-two-stage"))
         );
         let b = open(Path::new("builtin:layered-keypoint")).expect("opens");
         assert_eq!(b.arch.map(Architecture::name), Some("keypoint"));
@@ -405,7 +420,7 @@ mod tests {
     fn a_design_nothing_ships_for_is_refused_naming_those_that_ship() {
         assert_eq!(
             for_design(Some("integrated")).ok(),
-            Some(PathBuf::from("builtin:integrated"))
+            Some(PathBuf::from("builtin:integrated-two-stage"))
         );
         assert_eq!(for_design(None).ok(), Some(PathBuf::from(DEFAULT)));
         let e = for_design(Some("thick")).expect_err("nothing ships for it");

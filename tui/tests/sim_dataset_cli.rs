@@ -324,7 +324,12 @@ fn eval_takes_the_model_of_the_datasets_sensor_design() {
     let o = fringe(&["eval", arg(&data)]);
     let t = text(&o);
     assert!(o.status.success(), "{t}");
-    assert!(t.contains("builtin:integrated (keypoint CNN)"), "{t}");
+    assert!(
+        t.contains(
+            "builtin:integrated-two-stage (keypoint CNN, then keypoint CNN on a 24 mm window placing the contact)"
+        ),
+        "{t}"
+    );
     let o = fringe(&["eval", "--model", "default", arg(&data)]);
     let t = text(&o);
     assert!(!o.status.success(), "{t}");

@@ -15,7 +15,8 @@ use std::path::{Path, PathBuf};
 #[derive(Args)]
 pub struct AdaptArgs {
     /// The model to start from: a weights file (.pth / .pt / .safetensors) of the paper's
-    /// networks, or `default` (the model that ships with fringe).
+    /// networks, `builtin:NAME`, or `default` (`builtin:layered`, the layered design's custom
+    /// CNN).
     #[arg(long, default_value = "default")]
     model: PathBuf,
     /// The unit's labelled frames: run directories or reference-layout datasets.

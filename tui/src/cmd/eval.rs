@@ -20,11 +20,11 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct EvalArgs {
-    /// The model: .pth / .pt, .safetensors or .onnx, or `builtin:layered` / `builtin:integrated`
-    /// (the models that ship with fringe; `default` is the layered one). Default: the
+    /// The model: .pth / .pt, .safetensors or .onnx, or `builtin:NAME` (the models that ship
+    /// with fringe, README.md "The default models"; `default` is `builtin:layered`). Default: the
     /// commissioned model of the data's sensor (`fringe commission`, under the rig file's
-    /// profiles), else the model that ships for its design. A model of another design than the
-    /// data's is refused.
+    /// profiles), else its design's two-stage model (`builtin:layered-two-stage`,
+    /// `builtin:integrated-two-stage`). A model of another design than the data's is refused.
     #[arg(long)]
     model: Option<PathBuf>,
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).

@@ -22,9 +22,10 @@ use std::time::Duration;
 #[derive(clap::Args)]
 pub struct ValidateArgs {
     /// The model: a .pth / .pt, .safetensors or .onnx file that `fringe model info` reads, or
-    /// `builtin:layered` / `builtin:integrated` (the models that ship with fringe; `default` is
-    /// the layered one). Default: the rig's sensor's commissioned model (`fringe commission`),
-    /// else the model that ships for its design. A model of another design is refused.
+    /// `builtin:NAME` (the models that ship with fringe, README.md "The default models"; `default` is
+    /// `builtin:layered`). Default: the rig's sensor's commissioned model (`fringe commission`),
+    /// else its design's two-stage model (`builtin:layered-two-stage`,
+    /// `builtin:integrated-two-stage`). A model of another design is refused.
     #[arg(long, value_name = "FILE")]
     model: Option<PathBuf>,
     /// The scan plan that presses the sensor (default: the built-in short grid).
