@@ -757,8 +757,9 @@ mod tests {
         panic!("the worker did not take frame {index}");
     }
 
-    #[test]
-    fn frames_of_records_cut_from_the_run_leave_the_counts_and_the_metrics() {
+    /// Live validation of the committed custom-CNN fixture on 64 px frames, with the default
+    /// queue.
+    fn fixture_validation() -> (LiveValidation, Arc<dyn RecordTap>) {
         let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../sensor-models/tests/fixtures/custom/model.safetensors");
         let model = Model::open(&weights).expect("fixture model");
@@ -767,8 +768,12 @@ mod tests {
             run_id: "run".into(),
             profile: profile(),
         };
-        let (live, tap) =
-            LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start");
+        LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start")
+    }
+
+    #[test]
+    fn frames_of_records_cut_from_the_run_leave_the_counts_and_the_metrics() {
+        let (live, tap) = fixture_validation();
         // Records 0..4 are kept; 4..8 belong to a point that is interrupted, cut and done again
         // with other labels under the same indices.
         for i in 0..8 {
@@ -825,16 +830,7 @@ mod tests {
     /// worker instead of being skipped, and are all run in the order they came.
     #[test]
     fn a_burst_the_queue_holds_is_run_in_full_and_in_order() {
-        let weights = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../sensor-models/tests/fixtures/custom/model.safetensors");
-        let model = Model::open(&weights).expect("fixture model");
-        let predictor = Predictor::new(&model, BackendKind::Tract, 1).expect("tract");
-        let source = FrameSource {
-            run_id: "run".into(),
-            profile: profile(),
-        };
-        let (live, tap) =
-            LiveValidation::start(model, predictor, source, BACKLOG_FRAMES).expect("start");
+        let (live, tap) = fixture_validation();
         let n = BACKLOG_FRAMES as u64;
         // Offered back to back, without waiting for the worker.
         for i in 0..n {
