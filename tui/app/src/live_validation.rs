@@ -126,6 +126,8 @@ pub struct ValidationState {
     pub waited_ms: f64,
     /// Frames waiting for the worker now.
     pub waiting: usize,
+    /// Frames that may wait before the oldest is skipped (as started).
+    pub backlog: usize,
     pub history: VecDeque<FzPoint>,
     pub latest: Option<Latest>,
     /// Running errors over every frame.
@@ -345,6 +347,7 @@ impl LiveValidation {
             latency_ms: 0.0,
             waited_ms: 0.0,
             waiting: 0,
+            backlog: backlog.max(1),
             history: VecDeque::with_capacity(HISTORY),
             latest: None,
             errors: Errors::default(),

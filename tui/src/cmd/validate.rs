@@ -9,7 +9,7 @@ use crate::cmd::model::{choose_model, ForSensor};
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::live_validation::{LiveValidation, Validation, BACKLOG_FRAMES};
+use fringe_app::live_validation::{LiveValidation, Validation};
 use fringe_app::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -194,7 +194,8 @@ fn print_summary(v: &Validation) {
     );
     if let Some(longest) = v.frames.iter().map(|f| f.waited_ms).max_by(f64::total_cmp) {
         println!(
-            "frames waited for the network up to {longest:.0} ms (at most {BACKLOG_FRAMES} wait; then the oldest is skipped)"
+            "frames waited for the network up to {longest:.0} ms (at most {} wait; then the oldest is skipped)",
+            s.backlog
         );
     }
     if s.cut > 0 {

@@ -265,6 +265,7 @@ fn validating() -> UiState {
         latency_ms: 18.2,
         waited_ms: 31.0,
         waiting: 2,
+        backlog: 10,
         history: (0..40)
             .map(|i| FzPoint {
                 t_s: i as f64 * 0.1,
