@@ -3,6 +3,9 @@
 //!
 //!     cargo run --release -p fringe-sensor-models --example model_bench [-- ITERATIONS]
 //!     cargo run --release -p fringe-sensor-models --example model_bench --features onnxruntime [-- ITERATIONS]
+//!     model_bench --export DIR                 the seeded graphs as DIR/<arch>.onnx, for other tools
+//!     model_bench --profile [FILE.onnx ...]    where tract's time goes, per kind of operation, at
+//!                                              224 px on 1 and 2 threads (default: the seeded graphs)
 //!
 //! Batch 1 at 224 x 224 (the custom and keypoint CNNs at 112 x 112 too); the default backend (tract) on 1 and 2 threads, and with
 //! `--features onnxruntime` ONNX Runtime on 1 and 2 intra-op threads (`ORT_DYLIB_PATH` names the
@@ -12,7 +15,7 @@
 
 use fringe_rig::camera::PixelFormat;
 use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::backend::tract::TractBackend;
+use fringe_sensor_models::backend::tract::{self, TractBackend};
 use fringe_sensor_models::backend::Backend;
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::preprocess::{Centre, Colour, FrameRef, Preprocessing, Preprocessor};
@@ -58,11 +61,83 @@ fn time(n: usize, mut f: impl FnMut()) -> (f64, f64) {
     (t[n / 2], mean)
 }
 
+/// The seeded graph of every architecture, by name.
+fn seeded_graphs() -> Vec<(String, tract_onnx::pb::ModelProto)> {
+    Architecture::ALL
+        .iter()
+        .map(|&arch| {
+            (
+                arch.name().to_string(),
+                onnx_graph::build(arch, 3, &seeded(arch)),
+            )
+        })
+        .collect()
+}
+
+fn export(dir: &str) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {dir}: {e}"))?;
+    for (name, proto) in seeded_graphs() {
+        let path = format!("{dir}/{name}.onnx");
+        std::fs::write(&path, onnx_graph::encode(&proto))
+            .map_err(|e| format!("cannot write {path}: {e}"))?;
+        println!("wrote {path}");
+    }
+    Ok(())
+}
+
+fn profile(files: &[String], runs: usize) -> Result<(), String> {
+    let graphs = if files.is_empty() {
+        seeded_graphs()
+    } else {
+        let mut graphs = Vec::new();
+        for f in files {
+            let bytes = std::fs::read(f).map_err(|e| format!("cannot read {f}: {e}"))?;
+            let proto = prost::Message::decode(bytes.as_slice())
+                .map_err(|e| format!("{f} is not an ONNX model: {e}"))?;
+            graphs.push((f.clone(), proto));
+        }
+        graphs
+    };
+    for (name, proto) in graphs {
+        for threads in [1, 2] {
+            let p = tract::profile(proto.clone(), 224, threads, runs)
+                .map_err(|e| format!("{name}: {e}"))?;
+            println!(
+                "{name} @224, {threads} thread(s): {:.2} ms a run (mean of {runs})",
+                p.run_ms
+            );
+            for o in p.ops.iter().filter(|o| o.ms >= 0.05) {
+                println!(
+                    "  {:8.2} ms  {:5.1} %  {:3} x {}",
+                    o.ms,
+                    100.0 * o.ms / p.run_ms,
+                    o.nodes,
+                    o.op
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 fn main() {
-    let n: usize = std::env::args()
-        .nth(1)
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(50);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let done = match args.first().map(String::as_str) {
+        Some("--export") => Some(match args.get(1) {
+            Some(dir) => export(dir),
+            None => Err("--export needs a directory".into()),
+        }),
+        Some("--profile") => Some(profile(&args[1..], 20)),
+        _ => None,
+    };
+    if let Some(result) = done {
+        if let Err(e) = result {
+            eprintln!("model_bench: {e}");
+            std::process::exit(2);
+        }
+        return;
+    }
+    let n: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(50);
     println!("{n} iterations per figure; median / mean in ms");
     let (w, h) = (1920u32, 1200u32);
     let rgb: Vec<u8> = (0..w * h * 3)

@@ -6,6 +6,7 @@ use super::{Backend, InferenceError, RawOutputs};
 use crate::onnx_graph::OUTPUTS;
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::time::Instant;
 use tract_onnx::pb;
 use tract_onnx::prelude::*;
 use tract_onnx::tract_core::tract_linalg::multithread::{multithread_tract_scope, Executor};
@@ -85,6 +86,94 @@ impl TractGraph {
             })
             .collect()
     }
+}
+
+/// One kind of operation in an optimised plan and the time it took.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpTime {
+    /// tract's name of the operation (`OptMatMul`, `Im2col`, `OptMaxPool`, ...).
+    pub op: String,
+    /// How many nodes of the plan run it.
+    pub nodes: usize,
+    /// Their time together, mean of the runs, ms.
+    pub ms: f64,
+}
+
+/// Where a graph's time goes on tract: its optimised plan for one `size` px image, run `runs`
+/// times on `threads` threads after two warm-up runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpProfile {
+    /// A whole run, mean, ms.
+    pub run_ms: f64,
+    /// Per kind of operation, the slowest first.
+    pub ops: Vec<OpTime>,
+}
+
+/// The time per kind of operation of `proto` on tract (examples/model_bench `--profile`): what
+/// an inference-speed change has to beat. The input is a fixed pattern; a plan's time does not
+/// depend on the values.
+pub fn profile(
+    proto: pb::ModelProto,
+    size: u32,
+    threads: usize,
+    runs: usize,
+) -> Result<OpProfile, InferenceError> {
+    use tract_onnx::tract_core::plan::{eval, SimpleState};
+    let mut graph = TractGraph::new(proto, threads)?;
+    let plan = graph.plan(1, size)?;
+    let s = size as usize;
+    let input: Vec<f32> = (0..3 * s * s).map(|i| (i % 251) as f32 / 251.0).collect();
+    let tensor = Tensor::from_shape(&[1, 3, s, s], &input).map_err(run_err)?;
+    let mut per_op: Vec<OpTime> = Vec::new();
+    let mut run_ms = 0.0;
+    let warm_up = 2;
+    multithread_tract_scope(graph.executor.clone(), || -> Result<(), InferenceError> {
+        let mut state = SimpleState::new(&plan).map_err(run_err)?;
+        for i in 0..warm_up + runs {
+            let counted = i >= warm_up;
+            let start = Instant::now();
+            state
+                .run_plan_with_eval(
+                    tvec!(tensor.clone().into_tvalue()),
+                    |ctx, op_state, node, inputs| {
+                        let t = Instant::now();
+                        let out = eval(ctx, op_state, node, inputs);
+                        if counted {
+                            let name = node.op().name();
+                            let ms = t.elapsed().as_secs_f64() * 1e3;
+                            match per_op.iter_mut().find(|o| o.op == name) {
+                                Some(o) => o.ms += ms,
+                                None => per_op.push(OpTime {
+                                    op: name.to_string(),
+                                    nodes: 0,
+                                    ms,
+                                }),
+                            }
+                        }
+                        out
+                    },
+                )
+                .map_err(run_err)?;
+            if counted {
+                run_ms += start.elapsed().as_secs_f64() * 1e3;
+            }
+        }
+        Ok(())
+    })?;
+    for o in &mut per_op {
+        o.nodes = plan
+            .model()
+            .nodes()
+            .iter()
+            .filter(|n| n.op().name() == o.op)
+            .count();
+        o.ms /= runs.max(1) as f64;
+    }
+    per_op.sort_by(|a, b| b.ms.total_cmp(&a.ms));
+    Ok(OpProfile {
+        run_ms: run_ms / runs.max(1) as f64,
+        ops: per_op,
+    })
 }
 
 fn load_err(e: impl std::fmt::Display) -> InferenceError {
