@@ -7,7 +7,7 @@
 //!     model_bench --profile [FILE.onnx ...]    where tract's time goes, per kind of operation, at
 //!                                              224 px on 1 and 2 threads (default: the seeded graphs)
 //!
-//! Batch 1 at 224 x 224 (the custom and keypoint CNNs at 112 x 112 too); the default backend (tract) on 1 and 2 threads, and with
+//! Batch 1 at 224 x 224 (the custom and keypoint CNNs at 112 x 112 too, ResNet-18 at 112 and 160); the default backend (tract) on 1 and 2 threads, and with
 //! `--features onnxruntime` ONNX Runtime on 1 and 2 intra-op threads (`ORT_DYLIB_PATH` names the
 //! library; README.md); a 1920x1200 frame through the
 //! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
@@ -176,9 +176,10 @@ fn main() {
     for arch in Architecture::ALL {
         let sd = seeded(arch);
         let proto = onnx_graph::build(arch, 3, &sd);
-        // The small networks also at 112 px, the shipped models' input size.
+        // The small networks also at 112 px, the shipped models' input size; ResNet-18 at the
+        // two smaller input sizes `fringe train --input-size` offers too (fewer multiply-adds).
         let sizes: &[usize] = if arch == Architecture::Resnet18 {
-            &[224]
+            &[112, 160, 224]
         } else {
             &[112, 224]
         };
