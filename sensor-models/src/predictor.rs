@@ -17,6 +17,7 @@ use crate::prediction::{predictions, ForceVector, Prediction};
 use crate::preprocess::{Colour, FrameRef, PreprocessError, Preprocessing, Preprocessor};
 use fringe_calibration::profile::Profile;
 use fringe_rig::units::Millimetres;
+use std::time::{Duration, Instant};
 
 /// Why frames could not be turned into predictions.
 #[derive(Debug, thiserror::Error)]
@@ -74,6 +75,8 @@ pub struct Predictor {
     path: String,
     classes: Vec<String>,
     input_size: u32,
+    /// Inference threads of each network.
+    threads: usize,
     /// The window networks in the order they run: the contact network (placing the contact the
     /// force network's window is then centred on), then the force network.
     windows: Vec<WindowStage>,
@@ -124,8 +127,52 @@ impl Predictor {
             path: model.path.display().to_string(),
             classes: model.classes.clone(),
             input_size: model.input_size,
+            threads,
             windows,
         })
+    }
+
+    /// Inference threads of each network.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// How long this machine takes to run the model on one frame, networks alone: the median
+    /// of `runs` runs (after one to warm up) of every network it has on a blank input, the whole
+    /// disc's and each window network's, as a frame in contact runs them. Preprocessing is not
+    /// in it.
+    pub fn time_per_frame(&mut self, runs: usize) -> Result<Duration, PredictError> {
+        fn once(
+            backend: &mut dyn Backend,
+            path: &str,
+            input: &[f32],
+            size: u32,
+        ) -> Result<(), PredictError> {
+            backend
+                .run(input, 1, size)
+                .map(|_| ())
+                .map_err(|source| PredictError::Inference {
+                    model: path.to_string(),
+                    source,
+                })
+        }
+        let blank = |size: u32| vec![0f32; 3 * (size as usize).pow(2)];
+        let disc = blank(self.input_size);
+        let windows: Vec<Vec<f32>> = self.windows.iter().map(|w| blank(w.input_size)).collect();
+        let runs = runs.max(1);
+        let mut times = Vec::with_capacity(runs);
+        for i in 0..=runs {
+            let start = Instant::now();
+            once(&mut *self.disc, &self.path, &disc, self.input_size)?;
+            for (w, input) in self.windows.iter_mut().zip(&windows) {
+                once(&mut *w.backend, &w.path, input, w.input_size)?;
+            }
+            if i > 0 {
+                times.push(start.elapsed());
+            }
+        }
+        times.sort();
+        Ok(times[times.len() / 2])
     }
 
     /// The backend's name (`tract`, `onnxruntime`, `torch`).

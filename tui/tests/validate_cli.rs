@@ -58,6 +58,10 @@ fn headless_validation_scores_the_model_against_the_synchronised_labels() {
     let all = text(&out);
     assert!(out.status.success(), "{all}");
     assert!(all.contains("design geometry"), "{all}");
+    // Before the bench moved: the model's time per frame here against the camera's period.
+    let per_frame_ms = number_after(&all, "the model's networks take about");
+    assert!(per_frame_ms > 0.0, "{all}");
+    assert!(all.contains("a frame every 40.0 ms at 25 fps"), "{all}");
 
     // The run the plan recorded, its labels and the simulator's truth per frame.
     let run = only_run(&runs);

@@ -22,6 +22,7 @@
 //!   expected size, and the refusal (by the session, before anything moves) of a run that will
 //!   not fit.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels.
+//! - [`keeping_up`]: whether a model keeps up with the camera, said before the bench moves.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
@@ -44,6 +45,7 @@ pub mod disk_room;
 pub mod health;
 pub mod host_port;
 pub mod jog_guard;
+pub mod keeping_up;
 pub mod live_validation;
 pub mod live_view;
 mod open_rig;

@@ -4,6 +4,7 @@
 //! bar and the terminal UI drive the same session.
 
 use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
+use crate::keeping_up::{keeping_up, Pace, Setting, TIMING_RUNS};
 use crate::live_validation::{FrameSource, LiveValidation, BACKLOG_FRAMES};
 use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_error::RigError;
@@ -35,7 +36,7 @@ use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::model::{Model, ModelError};
-use fringe_sensor_models::predictor::Predictor;
+use fringe_sensor_models::predictor::{PredictError, Predictor};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::SystemTime;
@@ -85,6 +86,8 @@ pub enum SessionError {
     DesignProfile { sensor_id: String, message: String },
     #[error(transparent)]
     Model(#[from] ModelError),
+    #[error("the model could not be timed before the scan: {0}")]
+    Predict(#[from] PredictError),
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
@@ -244,7 +247,7 @@ impl ScanSession {
     pub fn attach_validation(
         &mut self,
         model: Model,
-        predictor: Predictor,
+        mut predictor: Predictor,
         run_id: &str,
     ) -> Result<(LiveValidation, Vec<Note>), SessionError> {
         // A model of another sensor design reads these frames wrongly, with no error.
@@ -284,6 +287,22 @@ impl ScanSession {
         {
             notes.push(Note::Warning(w));
         }
+        // Whether the model keeps up with the camera, before anything moves.
+        let per_frame = predictor.time_per_frame(TIMING_RUNS)?;
+        notes.push(
+            match keeping_up(
+                per_frame,
+                self.setup.camera.frame_rate,
+                Setting {
+                    threads: predictor.threads(),
+                    cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+                    input_size: model.input_size,
+                },
+            ) {
+                Pace::KeepsUp(line) => Note::Info(line),
+                Pace::Behind(line) => Note::Warning(line),
+            },
+        );
         let source = FrameSource {
             run_id: run_id.to_string(),
             profile,
