@@ -32,8 +32,8 @@ pub enum Pace {
     /// The networks take at most [`MARGIN`] of the frame period: the figures.
     KeepsUp(String),
     /// They take more: the figures, the share of frames that will be skipped and what would
-    /// keep up.
-    Behind(String),
+    /// keep up (`full`), and the figures in one short line for a status display (`short`).
+    Behind { full: String, short: String },
 }
 
 /// What `per_frame` (the networks' time for one frame) means at `frame_rate`: the figures when
@@ -88,10 +88,26 @@ pub fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> P
          about {:.0} fps)",
         (1e3 * MARGIN / ms).floor()
     ));
-    Pace::Behind(format!(
-        "live validation: {timed}: {outcome}. To keep up: {}",
-        faster.join("; ")
-    ))
+    // One line a status panel shows whole (the Validate screen's, 90 columns at 180).
+    let short = if ms > period_ms {
+        format!(
+            "slower than the camera: {ms:.1} ms a frame, {period_ms:.1} ms allowed, at least {:.0} % \
+             of frames skipped",
+            100.0 * (1.0 - period_ms / ms)
+        )
+    } else {
+        format!(
+            "near the camera's pace: {ms:.1} ms a frame, {period_ms:.1} ms allowed, frames skipped \
+             when busy"
+        )
+    };
+    Pace::Behind {
+        full: format!(
+            "live validation: {timed}: {outcome}. To keep up: {}",
+            faster.join("; ")
+        ),
+        short,
+    }
 }
 
 #[cfg(test)]
@@ -124,9 +140,14 @@ mod tests {
     #[test]
     fn a_model_slower_than_the_camera_is_warned_about_with_the_share_skipped_and_the_remedies() {
         // ResNet-18 at 224 px on one thread here: about 48 ms a frame against 20 ms.
-        let Pace::Behind(t) = note(48.0, 50.0, 1, 224) else {
+        let Pace::Behind { full: t, short } = note(48.0, 50.0, 1, 224) else {
             panic!("a 48 ms model at 50 fps was not warned about");
         };
+        assert_eq!(
+            short,
+            "slower than the camera: 48.0 ms a frame, 20.0 ms allowed, at least 58 % of frames \
+             skipped"
+        );
         assert!(
             t.contains("at least 58 % of the frames will be skipped"),
             "{t}"
@@ -138,7 +159,7 @@ mod tests {
 
     #[test]
     fn a_model_inside_the_period_but_past_the_margin_is_warned_about_without_a_share() {
-        let Pace::Behind(t) = note(18.0, 50.0, 2, 112) else {
+        let Pace::Behind { full: t, .. } = note(18.0, 50.0, 2, 112) else {
             panic!("an 18 ms model at 50 fps was not warned about");
         };
         assert!(t.contains("leaves 2.0 ms of each frame"), "{t}");
@@ -154,6 +175,6 @@ mod tests {
     #[test]
     fn the_same_model_keeps_up_with_a_slower_camera() {
         assert!(matches!(note(30.0, 25.0, 1, 160), Pace::KeepsUp(_)));
-        assert!(matches!(note(30.0, 50.0, 1, 160), Pace::Behind(_)));
+        assert!(matches!(note(30.0, 50.0, 1, 160), Pace::Behind { .. }));
     }
 }

@@ -136,6 +136,9 @@ pub struct ValidationState {
     pub cells: Vec<CellErrors>,
     /// Why the worker stopped, if it failed.
     pub failure: Option<String>,
+    /// Set before the scan when the model is slower than the camera allows: its time per frame
+    /// against the frame period, in one line ([`crate::keeping_up`]).
+    pub behind: Option<String>,
 }
 
 /// Why the validation worker stopped.
@@ -353,6 +356,7 @@ impl LiveValidation {
             errors: Errors::default(),
             cells: Vec::new(),
             failure: None,
+            behind: None,
         };
         let shared = Arc::new(Shared {
             mailbox: Mutex::new(Mailbox {
@@ -397,6 +401,11 @@ impl LiveValidation {
             },
             tap,
         ))
+    }
+
+    /// Records that the model is slower than the camera allows (`line`, shown while it runs).
+    pub fn set_behind(&self, line: String) {
+        lock(&self.shared.state).behind = Some(line);
     }
 
     /// The state now (a copy: the worker goes on).

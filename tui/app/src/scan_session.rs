@@ -289,18 +289,13 @@ impl ScanSession {
         }
         // Whether the model keeps up with the camera, before anything moves.
         let per_frame = predictor.time_per_frame(TIMING_RUNS)?;
-        notes.push(
-            match keeping_up(
-                per_frame,
-                self.setup.camera.frame_rate,
-                Setting {
-                    threads: predictor.threads(),
-                    cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
-                    input_size: model.input_size,
-                },
-            ) {
-                Pace::KeepsUp(line) => Note::Info(line),
-                Pace::Behind(line) => Note::Warning(line),
+        let pace = keeping_up(
+            per_frame,
+            self.setup.camera.frame_rate,
+            Setting {
+                threads: predictor.threads(),
+                cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+                input_size: model.input_size,
             },
         );
         let source = FrameSource {
@@ -308,6 +303,13 @@ impl ScanSession {
             profile,
         };
         let (validation, tap) = LiveValidation::start(model, predictor, source, BACKLOG_FRAMES)?;
+        notes.push(match pace {
+            Pace::KeepsUp(line) => Note::Info(line),
+            Pace::Behind { full, short } => {
+                validation.set_behind(short);
+                Note::Warning(full)
+            }
+        });
         self.setup.taps.push(tap);
         Ok((validation, notes))
     }

@@ -131,9 +131,10 @@ fn draw_metrics(f: &mut Frame, area: Rect, v: &ValidationState) {
                 String::new()
             }),
         ]),
-        match &v.failure {
-            Some(why) => Line::styled(why.clone(), Style::new().fg(BAD)),
-            None => Line::from(""),
+        match (&v.failure, &v.behind) {
+            (Some(why), _) => Line::styled(why.clone(), Style::new().fg(BAD)),
+            (None, Some(behind)) => Line::styled(behind.clone(), Style::new().fg(WARN)),
+            (None, None) => Line::from(""),
         },
     ];
     f.render_widget(

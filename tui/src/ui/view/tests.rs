@@ -295,6 +295,7 @@ fn validating() -> UiState {
             },
         ],
         failure: None,
+        behind: None,
     });
     s
 }
@@ -367,6 +368,28 @@ fn validate_screen_compares_prediction_and_measurement() {
         let (x, y) = find(b, text).unwrap_or_else(|| panic!("cell {text}"));
         assert_eq!(b[(x, y)].bg, colour, "cell {text}");
     }
+}
+
+#[test]
+fn validate_screen_says_when_the_model_is_slower_than_the_camera() {
+    let mut s = validating();
+    let line =
+        "slower than the camera: 48.0 ms a frame, 20.0 ms allowed, at least 58 % of frames skipped";
+    if let Some(v) = s.validation.as_mut() {
+        v.behind = Some(line.to_string());
+    }
+    let t = render(&s, 180, 44);
+    let b = t.backend().buffer();
+    let (x, y) = find(b, line).expect("the pace line");
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
+    // A failure says more and takes its place.
+    if let Some(v) = s.validation.as_mut() {
+        v.failure = Some("live validation stopped: the backend failed".into());
+    }
+    let t = render(&s, 180, 44);
+    let b = t.backend().buffer();
+    assert!(find(b, "live validation stopped").is_some());
+    assert!(find(b, line).is_none());
 }
 
 #[test]
