@@ -24,6 +24,10 @@ pub struct Setting {
     pub cores: usize,
     /// The model's input size, px.
     pub input_size: u32,
+    /// The simulated bench, whose renderer draws every frame on the same cores: there a second
+    /// inference thread was measured slower than one (BENCHMARKS.md, "ResNet-18 on a Zen 4
+    /// machine"), so it is not advised.
+    pub simulated: bool,
 }
 
 /// What the operator is told.
@@ -69,7 +73,7 @@ pub fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> P
         )
     };
     let mut faster = Vec::new();
-    if setting.threads < setting.cores {
+    if setting.threads < setting.cores && !setting.simulated {
         faster.push(format!(
             "more inference threads (--threads {})",
             setting.cores
@@ -115,6 +119,10 @@ mod tests {
     use super::*;
 
     fn note(ms: f64, fps: f64, threads: usize, input_size: u32) -> Pace {
+        pace_of(ms, fps, threads, input_size, false)
+    }
+
+    fn pace_of(ms: f64, fps: f64, threads: usize, input_size: u32, simulated: bool) -> Pace {
         keeping_up(
             Duration::from_secs_f64(ms / 1e3),
             Hertz(fps),
@@ -122,8 +130,21 @@ mod tests {
                 threads,
                 cores: 2,
                 input_size,
+                simulated,
             },
         )
+    }
+
+    #[test]
+    fn on_the_simulated_bench_a_second_inference_thread_is_not_advised() {
+        let Pace::Behind { full, .. } = pace_of(48.0, 50.0, 1, 224, true) else {
+            panic!("a 48 ms model at 50 fps was not warned about");
+        };
+        assert!(!full.contains("--threads"), "{full}");
+        assert!(
+            full.contains("--input-size") && full.contains("frame_rate"),
+            "{full}"
+        );
     }
 
     #[test]

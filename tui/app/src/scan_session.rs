@@ -296,6 +296,7 @@ impl ScanSession {
                 threads: predictor.threads(),
                 cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
                 input_size: model.input_size,
+                simulated: self.simulated(),
             },
         );
         let source = FrameSource {
