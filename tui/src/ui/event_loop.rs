@@ -72,8 +72,7 @@ fn run_loop(
         if signals::stop_requested() {
             break;
         }
-        let wait = FRAME.saturating_sub(last_draw.elapsed());
-        match input.recv_timeout(wait) {
+        match input.recv_timeout(wait(dirty, last_draw.elapsed())) {
             Ok(Ok(TermEvent::Key(k))) if k.kind != KeyEventKind::Release => {
                 keys::dispatch(app, screens, k.code, k.modifiers);
                 dirty = true;
@@ -101,6 +100,18 @@ fn run_loop(
     Ok(())
 }
 
+/// How long the loop waits for a key before it looks at what the scan and the screens'
+/// threads published: until the next redraw is due while something changed, else one
+/// [`FRAME`]. Never zero with nothing to draw: a loop that polled without waiting between
+/// redraws kept a core busy (the camera beside it dropped frames and paused the scan).
+fn wait(dirty: bool, since_draw: Duration) -> Duration {
+    if dirty {
+        FRAME.saturating_sub(since_draw)
+    } else {
+        FRAME
+    }
+}
+
 /// The screens take what their threads published (the Bench screen first opens or closes the
 /// bench as it is shown or not).
 fn tick(app: &mut App, screens: &mut [Box<dyn Screen>]) -> bool {
@@ -110,4 +121,25 @@ fn tick(app: &mut App, screens: &mut [Box<dyn Screen>]) -> bool {
         changed |= s.tick(app, i == shown);
     }
     changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn with_nothing_to_draw_the_loop_waits_a_frame_however_long_since_the_last_redraw() {
+        for since in [0, 10, 33, 50, 100, 1000] {
+            assert_eq!(wait(false, Duration::from_millis(since)), FRAME);
+        }
+    }
+
+    #[test]
+    fn with_something_to_draw_the_loop_waits_until_the_next_redraw_is_due() {
+        assert_eq!(
+            wait(true, Duration::from_millis(13)),
+            Duration::from_millis(20)
+        );
+        assert_eq!(wait(true, Duration::from_millis(40)), Duration::ZERO);
+    }
 }
