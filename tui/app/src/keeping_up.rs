@@ -59,11 +59,12 @@ pub fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> P
     if ms <= MARGIN * period_ms {
         return Pace::KeepsUp(format!("live validation: {timed}"));
     }
-    let outcome = if ms > period_ms {
+    // The share of frames skipped when the networks alone take longer than a frame.
+    let skipped_pct = (ms > period_ms).then(|| 100.0 * (1.0 - period_ms / ms));
+    let outcome = if let Some(pct) = skipped_pct {
         format!(
-            "at least {:.0} % of the frames will be skipped (validation takes the newest; the \
-             run records them all)",
-            100.0 * (1.0 - period_ms / ms)
+            "at least {pct:.0} % of the frames will be skipped (validation takes the newest; the \
+             run records them all)"
         )
     } else {
         format!(
@@ -93,11 +94,10 @@ pub fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> P
         (1e3 * MARGIN / ms).floor()
     ));
     // One line a status panel shows whole (the Validate screen's, 90 columns at 180).
-    let short = if ms > period_ms {
+    let short = if let Some(pct) = skipped_pct {
         format!(
-            "slower than the camera: {ms:.1} ms a frame, {period_ms:.1} ms allowed, at least {:.0} % \
-             of frames skipped",
-            100.0 * (1.0 - period_ms / ms)
+            "slower than the camera: {ms:.1} ms a frame, {period_ms:.1} ms allowed, at least \
+             {pct:.0} % of frames skipped"
         )
     } else {
         format!(
