@@ -168,6 +168,8 @@ mod with_torch {
             tty: std::io::stderr().is_terminal(),
             started: Instant::now(),
             last_pct: usize::MAX,
+            last_line: Instant::now(),
+            last_tenth: 0,
             batch: config.batch,
             force_only: config.force_window_mm.is_some(),
             offset: config.reads_contact_offset(),
@@ -254,6 +256,10 @@ mod with_torch {
         started: Instant,
         /// The last preparation percentage shown.
         last_pct: usize,
+        /// When the last line about the epoch under way was written to a log.
+        last_line: Instant,
+        /// The last tenth of the epoch under way shown in a log.
+        last_tenth: usize,
         /// Images per batch, for the epoch's ETA.
         batch: usize,
         /// A force network: its shape head is not trained.
@@ -284,22 +290,34 @@ mod with_torch {
                     self.last_pct = pct;
                 }
                 TrainEvent::Batch { epoch, epochs, batch, batches, loss, images_per_second } => {
+                    let left = batches.saturating_sub(batch) as f64 * (images_per_second.recip() * self.batch as f64);
                     if tty {
                         let width = 24;
                         let filled = width * batch / batches.max(1);
-                        let left = (batches - batch) as f64 * (images_per_second.recip() * self.batch as f64);
                         eprint!(
                             "\repoch {epoch}/{epochs} [{}{}] {batch}/{batches} loss {loss:.4} {images_per_second:.0} img/s, epoch ETA {}   ",
                             "#".repeat(filled),
                             ".".repeat(width - filled),
                             duration(left)
                         );
+                    } else if let Some(tenth) =
+                        log_line_due(batch, batches, self.last_tenth, self.last_line.elapsed())
+                    {
+                        eprintln!(
+                            "epoch {epoch}/{epochs}: {batch} of {batches} batches ({} %), loss {loss:.4}, {images_per_second:.0} img/s, epoch ETA {}",
+                            10 * tenth,
+                            duration(left)
+                        );
+                        self.last_tenth = tenth;
+                        self.last_line = Instant::now();
                     }
                 }
                 TrainEvent::Epoch(r) => {
                     if tty {
                         eprintln!();
                     }
+                    self.last_tenth = 0;
+                    self.last_line = Instant::now();
                     let heads = if self.offset {
                         format!(", contact RMSE {:.2} mm (from the window's centre)", r.val_contact_rmse_mm)
                     } else if self.force_only {
@@ -318,12 +336,16 @@ mod with_torch {
                 }
                 TrainEvent::Checkpoint(p) => eprintln!("checkpoint: {}", p.display()),
                 TrainEvent::Evaluating { done, total } => {
+                    let pct = 100 * done / total.max(1);
                     if tty {
                         eprint!("\revaluating on the test side: {done} of {total} frames");
                         if done == total {
                             eprintln!();
                         }
+                    } else if pct / 25 != self.last_pct / 25 || done == total {
+                        eprintln!("evaluating on the test side: {done} of {total} frames ({pct} %)");
                     }
+                    self.last_pct = pct;
                 }
             }
         }
@@ -379,6 +401,20 @@ mod with_torch {
         }
     }
 
+    /// In a log, where a bar cannot be redrawn, the epoch under way gets a line at a tenth of it
+    /// when a minute has passed since the last line: none for short epochs, a few for long ones
+    /// (a ResNet-18 epoch at 224 px takes many minutes on 2 cores). The tenth to show, if one is due.
+    fn log_line_due(
+        batch: usize,
+        batches: usize,
+        last_tenth: usize,
+        since_last: std::time::Duration,
+    ) -> Option<usize> {
+        let tenth = 10 * batch / batches.max(1);
+        (tenth > last_tenth && tenth < 10 && since_last >= std::time::Duration::from_secs(60))
+            .then_some(tenth)
+    }
+
     fn duration(s: f64) -> String {
         if !s.is_finite() {
             return "-".into();
@@ -388,6 +424,46 @@ mod with_torch {
             format!("{}h{:02}m", s / 3600, s % 3600 / 60)
         } else {
             format!("{}m{:02}s", s / 60, s % 60)
+        }
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::log_line_due;
+        use std::time::Duration;
+
+        const MINUTE: Duration = Duration::from_secs(60);
+
+        #[test]
+        fn a_long_epoch_in_a_log_gets_a_line_at_each_tenth_a_minute_apart() {
+            // 200 batches; the 20th ends the first tenth.
+            assert_eq!(
+                log_line_due(19, 200, 0, MINUTE),
+                None,
+                "before the first tenth"
+            );
+            assert_eq!(log_line_due(20, 200, 0, MINUTE), Some(1));
+            assert_eq!(
+                log_line_due(21, 200, 1, MINUTE),
+                None,
+                "the same tenth again"
+            );
+            // Tenths passed while a minute had not: the line comes at the tenth then reached.
+            assert_eq!(log_line_due(90, 200, 1, MINUTE * 2), Some(4));
+        }
+
+        #[test]
+        fn a_short_epoch_or_its_end_gets_no_line_of_its_own() {
+            assert_eq!(
+                log_line_due(100, 200, 0, Duration::from_secs(59)),
+                None,
+                "under a minute since the last line"
+            );
+            assert_eq!(
+                log_line_due(200, 200, 9, MINUTE * 5),
+                None,
+                "the epoch's own line follows its last batch"
+            );
         }
     }
 }
