@@ -284,7 +284,7 @@ mod with_torch {
                         if done == total {
                             eprintln!();
                         }
-                    } else if pct / 25 != self.last_pct / 25 || done == total {
+                    } else if quarter_line_due(pct, self.last_pct, done, total) {
                         eprintln!("preparing the {side} inputs: {done} of {total} frames ({pct} %)");
                     }
                     self.last_pct = pct;
@@ -305,7 +305,7 @@ mod with_torch {
                     {
                         eprintln!(
                             "epoch {epoch}/{epochs}: {batch} of {batches} batches ({} %), loss {loss:.4}, {images_per_second:.0} img/s, epoch ETA {}",
-                            10 * tenth,
+                            100 * batch / batches.max(1),
                             duration(left)
                         );
                         self.last_tenth = tenth;
@@ -342,7 +342,7 @@ mod with_torch {
                         if done == total {
                             eprintln!();
                         }
-                    } else if pct / 25 != self.last_pct / 25 || done == total {
+                    } else if quarter_line_due(pct, self.last_pct, done, total) {
                         eprintln!("evaluating on the test side: {done} of {total} frames ({pct} %)");
                     }
                     self.last_pct = pct;
@@ -401,6 +401,12 @@ mod with_torch {
         }
     }
 
+    /// In a log, where a counter cannot be redrawn, work counted in frames (preparing the inputs,
+    /// evaluating the test side) gets a line as it enters each quarter and one at its end.
+    fn quarter_line_due(pct: usize, last_pct: usize, done: usize, total: usize) -> bool {
+        pct / 25 != last_pct / 25 || done == total
+    }
+
     /// In a log, where a bar cannot be redrawn, the epoch under way gets a line at a tenth of it
     /// when a minute has passed since the last line: none for short epochs, a few for long ones
     /// (a ResNet-18 epoch at 224 px takes many minutes on 2 cores). The tenth to show, if one is due.
@@ -429,7 +435,7 @@ mod with_torch {
 
     #[cfg(test)]
     mod tests {
-        use super::log_line_due;
+        use super::{log_line_due, quarter_line_due};
         use std::time::Duration;
 
         const MINUTE: Duration = Duration::from_secs(60);
@@ -450,6 +456,15 @@ mod with_torch {
             );
             // Tenths passed while a minute had not: the line comes at the tenth then reached.
             assert_eq!(log_line_due(90, 200, 1, MINUTE * 2), Some(4));
+        }
+
+        #[test]
+        fn counted_work_in_a_log_gets_a_line_per_quarter_and_at_its_end() {
+            // The first frame after another phase (which ended at 100 %).
+            assert!(quarter_line_due(0, 100, 1, 640));
+            assert!(!quarter_line_due(24, 0, 154, 640), "the same quarter");
+            assert!(quarter_line_due(25, 24, 160, 640));
+            assert!(quarter_line_due(99, 99, 640, 640), "the last frame");
         }
 
         #[test]
