@@ -11,7 +11,9 @@
 //! - [`app`]: what every screen acts on: the state, the scan, the bench session, the plans.
 //! - [`state`]: what is on screen, as plain data; [`view`] draws it (pure; snapshot-tested)
 //!   with [`widgets`] and [`picture`] (frames as 24-bit half blocks).
-//! - [`workers`]: the threads the screens start (verify, evaluate, export, fit, write).
+//! - [`workers`]: the threads the screens start (verify, evaluate, export, fit, write);
+//!   [`worker_panics`]: a worker's panic shown in the UI (and the scan stopped), not printed
+//!   over it.
 //! - [`session`]: the scan thread, its operator dialogs and events ([`scan_events`]: what they
 //!   change on screen); [`plan_choice`]: the plans
 //!   to choose from; [`calibration`]: the built-in calibration plan and its fitted view;
@@ -34,6 +36,7 @@ mod stage_operator;
 mod state;
 mod view;
 mod widgets;
+mod worker_panics;
 mod workers;
 
 pub use app::UiOptions;

@@ -518,3 +518,91 @@ fn a_commissioning_from_the_ui_stops_resumable_and_goes_on_without_pressing_agai
     pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The pane's terminal settings, as `stty -a` prints them.
+fn terminal_modes(pane: &Pane) -> String {
+    let tty = pane.flag("pane_tty");
+    let out = Command::new("stty")
+        .args(["-F", &tty, "-a"])
+        .output()
+        .expect("stty");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// A worker thread's panic during a scan (the live validation's, as a card with a window of
+/// 1e300 mm once made it: injected here by `FRINGE_INJECT_PANIC`, once): the UI says so on its
+/// screen, stops the scan (z retracts, the run closed resumable), keeps the terminal raw and
+/// its keys: a second scan is aborted with `a` alone (no Enter), `q` quits, the terminal is
+/// back in line mode and the panic is said again on the normal screen. Before, ratatui's hook
+/// restored the terminal from the worker's thread and printed over the UI; `a` did nothing
+/// until Enter while the scan pressed on, and `q` never quit.
+#[test]
+fn a_workers_panic_is_shown_in_the_ui_the_scan_stops_and_the_keys_still_work() {
+    let dir = scratch("worker-panic");
+    std::fs::write(dir.join("rig.toml"), common::quick_rig_at(1.0)).expect("rig file");
+    let plan = dir.join("plan.toml");
+    // Two points: the second scan is still pressing when `a` comes.
+    let two_points = common::VALIDATE_PLAN.replace("x = [12.5]", "x = [12.5, 14.5]");
+    assert_ne!(two_points, common::VALIDATE_PLAN);
+    std::fs::write(&plan, two_points).expect("plan");
+    let command = format!(
+        "FRINGE_INJECT_PANIC=live-validation {} validate --plan {}",
+        fringe(),
+        plan.display()
+    );
+    let pane = Pane::start("worker-panic", &dir, &command);
+    pane.wait_for(
+        "press r to run the scan plan with live",
+        Duration::from_secs(30),
+    );
+    pane.keys("r");
+    // The failure on the Validate screen, in the UI's own lines.
+    let failed = pane.wait_for(
+        "the live validation thread failed: a panic injected",
+        Duration::from_secs(120),
+    );
+    assert!(!failed.contains("RUST_BACKTRACE"), "printed over:\n{failed}");
+    assert_eq!(pane.flag("alternate_on"), "1", "the UI left its screen");
+    let modes = terminal_modes(&pane);
+    assert!(
+        modes.contains("-icanon") && modes.contains("-echo"),
+        "the terminal is back in line mode under the UI: {modes}"
+    );
+    // The scan stops by itself, resumable.
+    pane.keys("1");
+    let stopped = pane.wait_answering("stopped: ", Duration::from_secs(60));
+    assert!(stopped.contains("panicked"), "{stopped}");
+    let first = runs(&dir);
+    assert_eq!(first.len(), 1, "{stopped}");
+    assert_eq!(first[0].1["exit_status"], "failed", "{:?}", first[0]);
+    let reason = first[0].1["reason"].as_str().unwrap_or_default();
+    assert!(reason.contains("interrupted"), "closed resumable: {reason}");
+    // The keys work without Enter: a second scan, aborted with `a`.
+    pane.keys("r");
+    pane.wait_answering("point 1 of 2", Duration::from_secs(60));
+    pane.keys("a");
+    pane.wait_answering("stopped: ", Duration::from_secs(60));
+    let both = runs(&dir);
+    assert_eq!(both.len(), 2);
+    let aborted = both
+        .iter()
+        .find(|(run, _)| *run != first[0].0)
+        .expect("the second run");
+    assert_eq!(aborted.1["exit_status"], "aborted", "{:?}", aborted);
+    // `q` quits; the terminal is back, and the panic is said on the normal screen.
+    pane.keys("q");
+    let end = pane.wait_for("fringe exited", Duration::from_secs(30));
+    assert!(end.contains("fringe exited 1"), "{end}");
+    assert!(
+        end.contains("while the UI ran, thread 'live-validation' panicked"),
+        "{end}"
+    );
+    assert_eq!(pane.flag("alternate_on"), "0", "alternate screen left on");
+    assert_eq!(pane.flag("cursor_flag"), "1", "cursor left hidden");
+    let modes = terminal_modes(&pane);
+    assert!(
+        modes.contains(" icanon") && modes.contains(" echo"),
+        "line mode after the UI: {modes}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

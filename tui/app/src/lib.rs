@@ -30,6 +30,7 @@
 //!   certificate (and the unit's commissioned model).
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
+//! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
 //! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
 //!   default).
 //!
@@ -62,6 +63,7 @@ pub mod sim_bench;
 #[path = "no_sim_bench.rs"]
 mod sim_bench;
 mod truth_score;
+pub mod worker_failure;
 
 pub use open_rig::OpenRig;
 pub use rig_error::RigError;

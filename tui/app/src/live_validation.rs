@@ -29,6 +29,7 @@ use fringe_sensor_models::predictor::{PredictError, Predictor};
 use fringe_sensor_models::preprocess::{
     tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor,
 };
+use crate::worker_failure::{guarded, inject};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -45,6 +46,10 @@ pub const THREADS_PER_NETWORK: usize = 1;
 /// frames of 1546, each after a rare slow frame, and with 5 one stall of 96 ms still cost a
 /// frame (BENCHMARKS.md, "Live validation").
 pub const BACKLOG_FRAMES: usize = 10;
+
+/// The worker thread's name (and the name that injects a panic into it,
+/// [`crate::worker_failure`]).
+pub const WORKER_NAME: &str = "live-validation";
 
 /// Predicted and measured Fz kept for the chart.
 pub const HISTORY: usize = 600;
@@ -384,7 +389,7 @@ impl LiveValidation {
             pictured: None,
         };
         let handle = std::thread::Builder::new()
-            .name("live-validation".into())
+            .name(WORKER_NAME.into())
             .spawn(move || worker.run())
             .map_err(|e| ModelError::Backend {
                 path: "live validation".into(),
@@ -504,8 +509,16 @@ impl Worker {
                     m = self.shared.wake.wait(m).unwrap_or_else(|p| p.into_inner());
                 }
             };
-            if let Err(why) = self.one(&offer, &mut input) {
-                lock(&self.shared.state).failure = Some(why.to_string());
+            // A panic (a defect, not a frame's error) stops the worker as an error does: its
+            // owner sees the failure, and the frames waiting are not left to wait for a worker
+            // that is gone.
+            let outcome = guarded("live validation", || {
+                inject(WORKER_NAME);
+                self.one(&offer, &mut input).map_err(|e| e.to_string())
+            })
+            .and_then(|r| r);
+            if let Err(why) = outcome {
+                lock(&self.shared.state).failure = Some(why);
                 let mut m = lock(&self.shared.mailbox);
                 m.closed = true;
                 m.busy = false;

@@ -48,6 +48,9 @@ pub struct App {
     /// The bench, open while the Bench screen is shown and no scan holds the devices.
     pub bench: Option<BenchSession>,
     pub quit: bool,
+    /// The worker threads' panics while the UI ran ([`App::worker_failed`]), said again when it
+    /// ends.
+    pub worker_failures: Vec<String>,
 }
 
 impl App {
@@ -106,6 +109,7 @@ impl App {
             running: None,
             bench: None,
             quit: false,
+            worker_failures: Vec::new(),
         }
     }
 
@@ -133,11 +137,19 @@ impl App {
             self.state.validation = Some(v.state());
         }
         let moving = matches!(self.state.scan.phase, Phase::Running | Phase::Stopping(_));
+        // A scan thread gone without a word (its end told before it returns, its panic caught
+        // and told): never a scan shown as running that nothing runs.
+        let gone = running.thread.as_ref().is_none_or(|t| t.is_finished())
+            && running.events.is_empty();
         let changed = !events.is_empty();
-        let ends: Vec<ScanEnd> = events
+        let mut ends: Vec<ScanEnd> = events
             .into_iter()
             .filter_map(|e| scan_events::apply(&mut self.state, e))
             .collect();
+        if gone && self.scan_active() {
+            let why = "the scan thread ended without telling how the scan ended".to_string();
+            ends.extend(scan_events::apply(&mut self.state, Event::Failed(why)));
+        }
         if !ends.is_empty() {
             self.refresh_runs();
         }
@@ -282,6 +294,26 @@ impl App {
                     Phase::Stopping("stopping: z retracts, the run is closed resumable".into());
             }
         }
+    }
+
+    /// A worker thread failed (`what`: its panic): said on screen, and a running scan is
+    /// stopped as an interruption (z retracts, the run is closed resumable), as nothing says
+    /// the scan can go on without it. The keys go on working.
+    pub fn worker_failed(&mut self, what: String) {
+        self.state.scan.log(format!("failed: {what}"));
+        let mut error = what.clone();
+        if let Some(r) = &self.running {
+            if self.scan_active() {
+                r.control.interrupt();
+                self.state.scan.phase = Phase::Stopping(
+                    "a worker thread failed: stopping, z retracts, the run is closed resumable"
+                        .into(),
+                );
+                error.push_str("; the scan is stopped (z retracts, the run is closed resumable)");
+            }
+        }
+        self.state.error = Some(format!("{error}: a defect in fringe, please report it"));
+        self.worker_failures.push(what);
     }
 
     /// Aborts a running scan (z retracts, the run is closed).

@@ -8,6 +8,7 @@ use crate::commissioning::{self, Accepted, Request, DEFAULT_BUDGET_MIN};
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::commission::certificate::{unfinished, CurvePoint};
 use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
+use fringe_app::worker_failure::guarded;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;
@@ -114,8 +115,12 @@ pub fn start(request: Request, config: RigConfig) -> Worker {
             let tx = tx.clone();
             let stop = stop.clone();
             move || {
-                let outcome = work(&request, config, &tx, ends_rx, stop);
-                let _ = tx.send(FromWorker::Finished(outcome.map_err(|e| format!("{e:#}"))));
+                // A panic ends the commissioning as an error does: the screen hears why.
+                let outcome = guarded("commissioning", || {
+                    work(&request, config, &tx, ends_rx, stop).map_err(|e| format!("{e:#}"))
+                })
+                .and_then(|r| r);
+                let _ = tx.send(FromWorker::Finished(outcome));
             }
         })
         .map_or_else(

@@ -1,17 +1,20 @@
 //! The event loop: keys from the terminal, what the scan and the screens' threads published, a
-//! redraw at most every [`FRAME`]. The terminal is restored on quit, on error, on panic
-//! (ratatui's hook) and on SIGTERM / SIGHUP.
+//! redraw at most every [`FRAME`]. The terminal is restored on quit, on error, on the UI
+//! thread's panic (ratatui's hook) and on SIGTERM / SIGHUP; a worker thread's panic is shown in
+//! the UI and stops the scan, the terminal kept raw ([`worker_panics`]).
 
 use super::app::{App, UiOptions};
 use super::keys;
 use super::screen::Screen;
 use super::screens;
 use super::view;
+use super::worker_panics;
 use crate::signals::{self, Again, Signal};
 use crossbeam_channel::{Receiver, RecvTimeoutError};
 use fringe_rig::scan::plan::Plan;
 use ratatui::crossterm::event::{self, Event as TermEvent, KeyEventKind};
 use ratatui::DefaultTerminal;
+use std::io::Write;
 use std::time::{Duration, Instant};
 
 /// The longest time between redraws while something moves (30 fps).
@@ -27,17 +30,33 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
     let mut app = App::new(opts, &program, &limits);
     let mut screens: Vec<Box<dyn Screen>> = screens::ALL.iter().map(|s| (s.open)(&app)).collect();
     let mut terminal = ratatui::init();
+    // After ratatui's hook, which it keeps for the UI thread's own panics.
+    let panics = worker_panics::install();
     let result = run_loop(&mut app, &mut screens, &mut terminal);
     // A terminal that hung up cannot be restored; nothing is printed about it (stderr is that
     // terminal too).
     let _ = ratatui::try_restore();
+    drop(panics);
     // A scan still running is stopped and waited for, so z retracts and the run is closed:
     // as aborted when the operator quit, as interrupted (resumable) when the terminal hung up
     // or the process was told to end.
     let interrupted = signals::stop_requested() || result.is_err();
     app.stop_scan(interrupted);
     app.close_bench();
-    result
+    // A worker that failed while the UI ran is said again on the normal screen, and the exit
+    // status says it.
+    app.worker_failures.extend(worker_panics::take());
+    for failure in &app.worker_failures {
+        let _ = writeln!(std::io::stderr(), "fringe: while the UI ran, {failure}");
+    }
+    result?;
+    if !app.worker_failures.is_empty() {
+        anyhow::bail!(
+            "a worker thread of the UI failed: a defect in fringe; please report it with the \
+             lines above"
+        );
+    }
+    Ok(())
 }
 
 /// Terminal events read on their own thread: the loop below never blocks in a read, so it sees
@@ -82,6 +101,10 @@ fn run_loop(
             // The terminal is gone (hung up) or unreadable: stop, aborting any scan.
             Ok(Err(e)) => return Err(anyhow::anyhow!("reading the terminal: {e}")),
             Err(RecvTimeoutError::Disconnected) => break,
+        }
+        for failure in worker_panics::take() {
+            app.worker_failed(failure);
+            dirty = true;
         }
         dirty |= tick(app, screens);
         let (changed, ends) = app.pump();

@@ -7,6 +7,7 @@ use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::live_validation::LiveValidation;
 use fringe_app::live_view::LiveView;
+use fringe_app::worker_failure::guarded;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{Operator, Prompt, Reply, ScanControl, ScanProgress};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -151,7 +152,12 @@ pub fn start(req: ScanRequest) -> Running {
             .name("scan".into())
             .spawn(move || {
                 let tx = events.clone();
-                if let Err(why) = run(req, events, replies_rx, &control, &view, &validation) {
+                // A panic ends the scan as an error does: the UI hears why.
+                let outcome = guarded("scan", || {
+                    run(req, events, replies_rx, &control, &view, &validation)
+                })
+                .and_then(|r| r);
+                if let Err(why) = outcome {
                     let _ = tx.send(Event::Failed(why));
                 }
             })

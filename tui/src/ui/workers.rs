@@ -1,6 +1,7 @@
 //! The background work the screens start: verifying, evaluating and exporting a run (Runs),
 //! fitting and writing a calibration profile (Calibrate). Each runs on its own thread and sends
-//! its progress and outcome on a channel the screen drains once a frame.
+//! its progress and outcome on a channel the screen drains once a frame; a panic is sent as its
+//! failure (never a screen left waiting on a thread that is gone).
 
 use super::calibration;
 use super::session::{self, ModelChoice};
@@ -9,6 +10,7 @@ use crossbeam_channel::Sender;
 use fringe_app::calibration_scan::{
     calibrate_run, spot_settings, CalibrationResult, DEFAULT_MAX_FRAMES,
 };
+use fringe_app::worker_failure::guarded;
 use fringe_app::RigConfig;
 use std::path::{Path, PathBuf};
 
@@ -18,13 +20,14 @@ pub type Verdict = (String, String);
 /// Verifies the run `dir` (named `name`); the verdict is sent on `tx`.
 pub fn verify(name: String, dir: PathBuf, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
-        let verdict = match fringe_rig::store::verify::verify(&dir) {
+        let verdict = guarded("verify", || match fringe_rig::store::verify::verify(&dir) {
             Ok(r) if r.ok() => {
                 format!("ok: {} frames, {} force samples", r.frames, r.force_samples)
             }
             Ok(r) => format!("{} problem(s): {}", r.problems.len(), r.problems.join("; ")),
             Err(e) => format!("cannot verify: {e}"),
-        };
+        })
+        .unwrap_or_else(|why| format!("cannot verify: {why}"));
         let _ = tx.send((name, verdict));
     });
 }
@@ -43,11 +46,15 @@ pub fn export_dir(runs: &Path, name: &str) -> PathBuf {
 pub fn export(name: String, dir: PathBuf, out: PathBuf, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
         let options = fringe_rig::store::export::ExportOptions::default();
-        let outcome = fringe_rig::store::export::export_reference(&[dir], &out, &options, |k| {
-            if k % 250 == 0 {
-                let _ = tx.send((name.clone(), format!("exporting: {k} images")));
-            }
-        });
+        let outcome = guarded("export", || {
+            fringe_rig::store::export::export_reference(&[dir], &out, &options, |k| {
+                if k % 250 == 0 {
+                    let _ = tx.send((name.clone(), format!("exporting: {k} images")));
+                }
+            })
+            .map_err(|e| e.to_string())
+        })
+        .and_then(|r| r);
         let text = match outcome {
             Ok(s) => format!("exported {} images to {}", s.images, out.display()),
             Err(e) => format!("cannot export: {e}"),
@@ -59,14 +66,18 @@ pub fn export(name: String, dir: PathBuf, out: PathBuf, tx: Sender<Verdict>) {
 /// Evaluates the run `dir` with `choice`: progress, then the Table-2 figures, are sent on `tx`.
 pub fn evaluate(name: String, dir: PathBuf, choice: ModelChoice, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
-        let figures = match session::evaluate_run(&dir, &choice, &|done, total| {
-            if done % 100 == 0 {
-                let _ = tx.send((
-                    name.clone(),
-                    format!("evaluating: {done} of {total} frames"),
-                ));
-            }
-        }) {
+        let figures = match guarded("evaluate", || {
+            session::evaluate_run(&dir, &choice, &|done, total| {
+                if done % 100 == 0 {
+                    let _ = tx.send((
+                        name.clone(),
+                        format!("evaluating: {done} of {total} frames"),
+                    ));
+                }
+            })
+        })
+        .and_then(|r| r)
+        {
             Ok(f) => f,
             Err(e) => format!("cannot evaluate: {e}"),
         };
@@ -91,12 +102,15 @@ pub fn fit_calibration(
     tx: Sender<Calibrated>,
 ) {
     std::thread::spawn(move || {
-        let outcome = spot_settings(None, &config)
-            .map_err(|e| e.to_string())
-            .and_then(|(spot, _)| {
-                calibrate_run(&run_dir, &view.sensor, DEFAULT_MAX_FRAMES, spot)
-                    .map_err(|e| e.to_string())
-            });
+        let outcome = guarded("calibration fit", || {
+            spot_settings(None, &config)
+                .map_err(|e| e.to_string())
+                .and_then(|(spot, _)| {
+                    calibrate_run(&run_dir, &view.sensor, DEFAULT_MAX_FRAMES, spot)
+                        .map_err(|e| e.to_string())
+                })
+        })
+        .and_then(|r| r);
         let _ = tx.send(match outcome {
             Ok(result) => {
                 calibration::show(&mut view, &result);
@@ -110,7 +124,9 @@ pub fn fit_calibration(
 /// Writes the fitted profile (and its report images) into `dir`.
 pub fn write_profile(result: Box<CalibrationResult>, dir: PathBuf, tx: Sender<Calibrated>) {
     std::thread::spawn(move || {
-        let _ = tx.send(match result.write(&dir) {
+        let written = guarded("profile writer", || result.write(&dir).map_err(|e| e.to_string()))
+            .and_then(|r| r);
+        let _ = tx.send(match written {
             Ok(w) => {
                 let mut files = vec![
                     w.profile.display().to_string(),
@@ -124,7 +140,7 @@ pub fn write_profile(result: Box<CalibrationResult>, dir: PathBuf, tx: Sender<Ca
                 );
                 Calibrated::Written(files.join(", "))
             }
-            Err(e) => Calibrated::Failed(e.to_string()),
+            Err(e) => Calibrated::Failed(e),
         });
     });
 }
