@@ -8,7 +8,7 @@
 //! design's two-stage model ([`for_design`]). [`open`] is the one place that resolves a name or a path.
 
 use crate::model::{Model, ModelError};
-use crate::model_card::{CardError, CardSource, ModelCard};
+use crate::model_card::{CardSource, ModelCard};
 use crate::weights::safetensors_file::read_safetensors_bytes;
 use std::path::{Path, PathBuf};
 
@@ -161,14 +161,12 @@ impl Builtin {
         self.weights
     }
 
-    /// Its card, as shipped.
+    /// Its card, as shipped (checked as every card is).
     pub fn card(&self) -> Result<ModelCard, ModelError> {
-        serde_json::from_str(self.card).map_err(|source| {
-            ModelError::Card(CardError::Parse {
-                path: format!("{} (card)", self.path().display()),
-                source,
-            })
-        })
+        Ok(ModelCard::parse(
+            &format!("{} (card)", self.path().display()),
+            self.card,
+        )?)
     }
 
     /// The model, ready to run.

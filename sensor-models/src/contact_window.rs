@@ -11,6 +11,11 @@
 
 use crate::preprocess::{Centre, PreprocessError, Preprocessing};
 use fringe_calibration::profile::Profile;
+use std::ops::RangeInclusive;
+
+/// The sides a force window may have, mm (what `fringe train --force-window` and a model card's
+/// `force_window_mm` accept): from a press's few millimetres to a whole disc and more.
+pub const FORCE_WINDOW_MM: RangeInclusive<f64> = 2.0..=100.0;
 
 /// Why a contact window cannot be made for a sensor.
 #[derive(Debug, thiserror::Error)]
@@ -21,7 +26,11 @@ pub enum WindowError {
          (`fringe calibrate`) or use a whole-disc model"
     )]
     NoRegistration { sensor: String },
-    #[error("the force window of {0} mm is not a positive size")]
+    #[error(
+        "a force window of {0} mm: a window is {min} to {max} mm across",
+        min = FORCE_WINDOW_MM.start(),
+        max = FORCE_WINDOW_MM.end()
+    )]
     Size(f64),
     #[error(
         "the preprocessing of {sensor} is the reference pipeline's (image centre, no \
@@ -53,7 +62,7 @@ impl ContactWindow {
             .ok_or_else(|| WindowError::NoRegistration {
                 sensor: profile.sensor_id.clone(),
             })?;
-        if !(window_mm.is_finite() && window_mm > 0.0) {
+        if !FORCE_WINDOW_MM.contains(&window_mm) {
             return Err(WindowError::Size(window_mm));
         }
         Ok(ContactWindow::new(
@@ -207,5 +216,38 @@ mod tests {
             .preprocessing(&reference, [0.0, 0.0], 16, Colour::Grey)
             .expect_err("refused");
         assert!(e.to_string().contains("--profile"), "{e}");
+    }
+
+    /// A window of 1e300 mm (a card's `force_window_mm` once let through) is refused with the
+    /// crop it would make, where its resampling asked for more memory than there is and the
+    /// live validation's thread panicked (capacity overflow); so is any crop wider than
+    /// [`crate::preprocess::MAX_CROP_RADIUS_PX`] run on a frame.
+    #[test]
+    fn a_window_too_wide_for_any_frame_is_refused_not_resampled() {
+        for mm in [1e300, 1e6, f64::MAX] {
+            let w = ContactWindow::new(mm, 5.0, 0.0, false);
+            let e = w
+                .preprocessing(&disc(), [0.0, 0.0], 16, Colour::Grey)
+                .expect_err("refused");
+            assert!(
+                matches!(e, WindowError::Preprocess(PreprocessError::Radius(_))),
+                "{mm} mm: {e}"
+            );
+            assert!(e.to_string().contains("from 1 to 10000 px"), "{e}");
+        }
+        let data = vec![20u8; 200 * 160];
+        let frame = FrameRef {
+            width: 200,
+            height: 160,
+            format: PixelFormat::Mono8,
+            data: &data,
+            cutout: None,
+        };
+        let mut pre = disc();
+        pre.crop_radius_px = 1e300;
+        let e = pre.run(frame).expect_err("refused");
+        assert!(matches!(e, PreprocessError::Radius(_)), "{e}");
+        pre.crop_radius_px = crate::preprocess::MAX_CROP_RADIUS_PX;
+        assert!(pre.run(frame).is_ok(), "the widest crop allowed runs");
     }
 }

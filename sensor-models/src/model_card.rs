@@ -3,7 +3,9 @@
 //! colour, the preprocessing and sensor it was trained for. Training writes it; every field is
 //! optional, and fields this version does not know are kept.
 
-use crate::preprocess::Colour;
+use crate::arch::Architecture;
+use crate::contact_window::FORCE_WINDOW_MM;
+use crate::preprocess::{Colour, INPUT_SIZES, MAX_CROP_RADIUS_PX};
 use std::path::{Path, PathBuf};
 
 /// The key under which a model file carries its card: in a safetensors header's `__metadata__`
@@ -38,7 +40,24 @@ pub enum CardError {
         path: String,
         source: serde_json::Error,
     },
+    #[error(
+        "{path}: the model card's {field} is {value}, but {allowed}: correct it in the card \
+         (it describes the model beside it)"
+    )]
+    Field {
+        path: String,
+        field: &'static str,
+        value: String,
+        allowed: String,
+    },
 }
+
+/// The preprocessing names a card may give.
+pub const PREPROCESSING_NAMES: [&str; 3] = ["profile", "reference-layered", "reference-integrated"];
+/// The sensor designs a card may name.
+pub const VARIANTS: [&str; 2] = ["layered", "integrated"];
+/// The largest frame side a card may give, px.
+const MAX_FRAME_SIDE_PX: u32 = 100_000;
 
 /// The card's fields.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
@@ -114,23 +133,161 @@ impl ModelCard {
         Ok(None)
     }
 
-    /// A card carried in a model file's metadata (`path` names the file in messages).
+    /// A card carried in a model file's metadata (`path` names the file in messages), its
+    /// fields checked ([`ModelCard::parse`]).
     pub fn embedded(path: &Path, text: &str) -> Result<ModelCard, CardError> {
-        serde_json::from_str(text).map_err(|source| CardError::Parse {
-            path: format!("{} (the card in its metadata)", path.display()),
-            source,
-        })
+        ModelCard::parse(
+            &format!("{} (the card in its metadata)", path.display()),
+            text,
+        )
     }
 
+    /// The card in the file `path`, its fields checked ([`ModelCard::parse`]).
     pub fn read(path: &Path) -> Result<ModelCard, CardError> {
         let shown = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| CardError::Read {
             path: shown.clone(),
             source,
         })?;
-        serde_json::from_str(&text).map_err(|source| CardError::Parse {
-            path: shown,
+        ModelCard::parse(&shown, &text)
+    }
+
+    /// A card from its JSON text (`shown` names it in messages), every field checked
+    /// ([`ModelCard::check`]): a card is refused when it is read, never half-used.
+    pub fn parse(shown: &str, text: &str) -> Result<ModelCard, CardError> {
+        let card: ModelCard = serde_json::from_str(text).map_err(|source| CardError::Parse {
+            path: shown.to_string(),
             source,
-        })
+        })?;
+        card.check(shown)?;
+        Ok(card)
+    }
+
+    /// Refuses a field outside what it can mean (`shown` names the card): a known network,
+    /// shape classes named once each, an input size the preprocessing makes, a known
+    /// preprocessing and sensor design, a crop and frame size a camera can have, a force
+    /// window of [`FORCE_WINDOW_MM`], and names that name something.
+    pub fn check(&self, shown: &str) -> Result<(), CardError> {
+        let refuse = |field: &'static str, value: String, allowed: String| {
+            Err(CardError::Field {
+                path: shown.to_string(),
+                field,
+                value,
+                allowed,
+            })
+        };
+        let one_of = |names: &[&str]| {
+            let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+            format!("it is one of {}", quoted.join(", "))
+        };
+        if let Some(a) = &self.architecture {
+            if Architecture::from_name(a).is_none() {
+                let names: Vec<&str> = Architecture::ALL.iter().map(|a| a.name()).collect();
+                return refuse("architecture", format!("{a:?}"), one_of(&names));
+            }
+        }
+        if let Some(classes) = &self.classes {
+            if classes.is_empty() {
+                return refuse(
+                    "classes",
+                    "[]".into(),
+                    "it names the network's shape classes (\"None\" first)".into(),
+                );
+            }
+            for (i, c) in classes.iter().enumerate() {
+                if c.trim().is_empty() || c.chars().any(char::is_control) {
+                    return refuse(
+                        "classes",
+                        format!("{c:?} at {i}"),
+                        "each class has a printable name".into(),
+                    );
+                }
+                if classes[..i].contains(c) {
+                    return refuse(
+                        "classes",
+                        format!("{c:?} twice"),
+                        "each class is named once".into(),
+                    );
+                }
+            }
+        }
+        if let Some(n) = self.input_size {
+            if !INPUT_SIZES.contains(&n) {
+                return refuse(
+                    "input_size",
+                    n.to_string(),
+                    format!(
+                        "it is {} to {} px",
+                        INPUT_SIZES.start(),
+                        INPUT_SIZES.end()
+                    ),
+                );
+            }
+        }
+        if let Some(p) = &self.preprocessing {
+            if !PREPROCESSING_NAMES.contains(&p.as_str()) {
+                return refuse("preprocessing", format!("{p:?}"), one_of(&PREPROCESSING_NAMES));
+            }
+        }
+        for (field, name) in [("sensor_id", &self.sensor_id), ("force_model", &self.force_model), ("contact_model", &self.contact_model)] {
+            if let Some(n) = name {
+                if n.trim().is_empty() || n.chars().any(char::is_control) {
+                    return refuse(field, format!("{n:?}"), "it is a printable name".into());
+                }
+            }
+        }
+        if let Some(v) = &self.variant {
+            if !VARIANTS.contains(&v.as_str()) {
+                return refuse("variant", format!("{v:?}"), one_of(&VARIANTS));
+            }
+        }
+        if let Some(d) = self.crop_diameter_px {
+            let max = 2.0 * MAX_CROP_RADIUS_PX;
+            if !(2.0..=max).contains(&d) {
+                return refuse(
+                    "crop_diameter_px",
+                    number(d),
+                    format!("it is 2 to {max} px"),
+                );
+            }
+        }
+        if let Some([w, h]) = self.frame_size {
+            if !(1..=MAX_FRAME_SIDE_PX).contains(&w) || !(1..=MAX_FRAME_SIDE_PX).contains(&h) {
+                return refuse(
+                    "frame_size",
+                    format!("[{w}, {h}]"),
+                    format!("each side is 1 to {MAX_FRAME_SIDE_PX} px"),
+                );
+            }
+        }
+        if let Some(mm) = self.force_window_mm {
+            if !FORCE_WINDOW_MM.contains(&mm) {
+                return refuse(
+                    "force_window_mm",
+                    number(mm),
+                    format!(
+                        "a window is {} to {} mm across (24 mm holds a press of the 8 N range)",
+                        FORCE_WINDOW_MM.start(),
+                        FORCE_WINDOW_MM.end()
+                    ),
+                );
+            }
+        } else if self.refines_contact {
+            return refuse(
+                "refines_contact",
+                "true".into(),
+                "only a window network (with force_window_mm) places the contact".into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A number as a card's reader would write it: 1e300, not three hundred digits.
+fn number(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
     }
 }

@@ -31,6 +31,15 @@ use std::path::Path;
 /// The network input's default side, pixels.
 pub const DEFAULT_INPUT_SIZE: u32 = 224;
 
+/// The network input sides the preprocessing makes, pixels.
+pub const INPUT_SIZES: std::ops::RangeInclusive<u32> = 8..=1024;
+
+/// The largest crop radius, full-frame px: a crop 20 000 px across, twice the side of a 65 MP
+/// camera's frame. The resampling's buffers grow with the crop (a window of 1e300 mm once asked
+/// for more memory than there is, and the live validation's thread panicked); at this radius
+/// they stay within about 120 MB at the largest input.
+pub const MAX_CROP_RADIUS_PX: f64 = 10_000.0;
+
 /// Colour of the network input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -98,11 +107,14 @@ pub enum PreprocessError {
         h: u32,
         format: PixelFormat,
     },
-    #[error("the crop radius {0} px is not a positive number: recalibrate the sensor")]
+    #[error(
+        "the crop radius {0} px is not a number from 1 to {max} px: recalibrate the sensor",
+        max = MAX_CROP_RADIUS_PX
+    )]
     Radius(f64),
     #[error("the optical centre ({0}, {1}) px is not a number: recalibrate the sensor")]
     Centre(f64, f64),
-    #[error("input size {0} px is outside 8..=1024")]
+    #[error("input size {0} px is outside 8..=1024 px")]
     InputSize(u32),
     #[error("{0}")]
     File(String),
@@ -164,7 +176,7 @@ impl Preprocessing {
     }
 
     pub(crate) fn check(&self) -> Result<(), PreprocessError> {
-        if !(self.crop_radius_px.is_finite() && self.crop_radius_px >= 1.0) {
+        if !(1.0..=MAX_CROP_RADIUS_PX).contains(&self.crop_radius_px) {
             return Err(PreprocessError::Radius(self.crop_radius_px));
         }
         if let Centre::At([x, y]) = self.centre {
@@ -172,7 +184,7 @@ impl Preprocessing {
                 return Err(PreprocessError::Centre(x, y));
             }
         }
-        if !(8..=1024).contains(&self.input_size) {
+        if !INPUT_SIZES.contains(&self.input_size) {
             return Err(PreprocessError::InputSize(self.input_size));
         }
         Ok(())
@@ -376,7 +388,7 @@ fn normalise_into_planes(resized: &[f32], c: usize, colour: Colour, out: &mut [f
 /// holds all of it (letterboxed in black), resampled as the network input is, without the mask.
 pub fn thumbnail(frame: FrameRef, side: u32) -> Result<image::RgbImage, PreprocessError> {
     check_bytes(frame)?;
-    if !(8..=1024).contains(&side) {
+    if !INPUT_SIZES.contains(&side) {
         return Err(PreprocessError::InputSize(side));
     }
     let n = side as usize;

@@ -685,3 +685,105 @@ fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
     assert!(!o.status.success(), "{t}");
     assert!(t.contains("too few to adapt on"), "{t}");
 }
+
+/// A card's `force_window_mm` of -5, 0 or 1e300 mm (once accepted by `model info` and `model
+/// pair`, and 1e300 made eval and live validation panic with a capacity overflow) is refused
+/// when the card is read, by every command that opens the model, naming the card, the field
+/// and the range; so is any other field outside what it can mean.
+#[test]
+fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_and_field() {
+    let dir = scratch("card-fields");
+    let window = dir.join("window.safetensors");
+    std::fs::copy(fixture("model.safetensors"), &window).expect("copy the model");
+    let card = dir.join("window.safetensors.json");
+    // A two-stage model whose force network is that window network.
+    let first = dir.join("first.safetensors");
+    std::fs::copy(fixture("model.safetensors"), &first).expect("copy the model");
+    std::fs::write(
+        dir.join("first.safetensors.json"),
+        r#"{"force_model": "window.safetensors"}"#,
+    )
+    .expect("card");
+    // A dataset for eval: one labelled frame.
+    let data = dir.join("data");
+    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
+    frame(&data.join("0.images/image_0.tiff"), 1.0);
+    std::fs::write(
+        data.join("0.labels.csv"),
+        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n\
+         image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
+    )
+    .expect("labels");
+    for bad in ["-5", "0", "1e300", "1.5", "101"] {
+        std::fs::write(&card, format!(r#"{{"force_window_mm": {bad}}}"#)).expect("card");
+        let commands: [Vec<&str>; 4] = [
+            vec!["model", "info", arg(&window)],
+            vec!["model", "info", arg(&first)],
+            vec![
+                "model",
+                "pair",
+                "builtin:layered-keypoint",
+                arg(&window),
+                "--out",
+                arg(&dir.join("pair")),
+            ],
+            vec![
+                "eval",
+                arg(&data),
+                "--model",
+                arg(&first),
+                "--reference-preprocessing",
+                "layered",
+            ],
+        ];
+        for args in commands {
+            let out = fringe(&args);
+            let t = text(&out);
+            assert!(!out.status.success(), "{bad}: {args:?} accepted: {t}");
+            assert!(
+                t.contains("window.safetensors.json: the model card's force_window_mm is")
+                    && t.contains("a window is 2 to 100 mm across"),
+                "{bad}: {args:?}: {t}"
+            );
+            assert!(!t.contains("panicked"), "{t}");
+        }
+        assert!(!dir.join("pair").exists(), "{bad}: nothing paired");
+    }
+    // The value as written, not three hundred digits.
+    std::fs::write(&card, r#"{"force_window_mm": 1e300}"#).expect("card");
+    let t = text(&fringe(&["model", "info", arg(&window)]));
+    assert!(t.contains("force_window_mm is 1e300,"), "{t}");
+    // Every other field, one bad value each.
+    for (field, json) in [
+        ("architecture", r#""architecture": "lenet""#),
+        ("classes", r#""classes": []"#),
+        ("classes", r#""classes": ["None", "pentagon", "None"]"#),
+        ("input_size", r#""input_size": 0"#),
+        ("input_size", r#""input_size": 100000"#),
+        ("preprocessing", r#""preprocessing": "whatever""#),
+        ("sensor_id", r#""sensor_id": "  ""#),
+        ("variant", r#""variant": "round""#),
+        ("crop_diameter_px", r#""crop_diameter_px": -980"#),
+        ("crop_diameter_px", r#""crop_diameter_px": 1e300"#),
+        ("frame_size", r#""frame_size": [0, 1200]"#),
+        ("refines_contact", r#""refines_contact": true"#),
+        ("force_model", r#""force_model": """#),
+        ("contact_model", r#""contact_model": "\n""#),
+    ] {
+        std::fs::write(&card, format!("{{{json}}}")).expect("card");
+        let out = fringe(&["model", "info", arg(&window)]);
+        let t = text(&out);
+        assert!(!out.status.success(), "{json} accepted: {t}");
+        assert!(
+            t.contains(&format!(
+                "window.safetensors.json: the model card's {field} is"
+            )),
+            "{json}: {t}"
+        );
+    }
+    // A card in range opens.
+    std::fs::write(&card, r#"{"force_window_mm": 24.0, "input_size": 112}"#).expect("card");
+    let out = fringe(&["model", "info", arg(&window)]);
+    assert!(out.status.success(), "{}", text(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -119,8 +119,13 @@ mod with_torch {
             bail!("--threads {}: use 1 to 256", a.threads);
         }
         if let Some(w) = a.force_window {
-            if !(w.is_finite() && (2.0..=100.0).contains(&w)) {
-                bail!("--force-window {w}: use a window of 2 to 100 mm (24 mm holds a press of the 8 N range)");
+            let range = fringe_sensor_models::contact_window::FORCE_WINDOW_MM;
+            if !range.contains(&w) {
+                bail!(
+                    "--force-window {w}: use a window of {} to {} mm (24 mm holds a press of the 8 N range)",
+                    range.start(),
+                    range.end()
+                );
             }
         }
         Ok(())
