@@ -36,6 +36,8 @@ pub enum ModelError {
     Card(#[from] CardError),
     #[error("{path}: {detail}")]
     Classes { path: String, detail: String },
+    #[error("{path}: {detail}")]
+    InputSize { path: String, detail: String },
     #[error(
         "no calibration profile for {path}: pass --profile profiles/ID.toml (the sensor's \
          calibration), or --reference-preprocessing for a model the reference code trained"
@@ -212,6 +214,8 @@ impl Model {
                          the model card (\"classes\": [...])"
                 .into(),
         })?;
+        let card_size = card.as_ref().and_then(|c| c.input_size);
+        let declared = declared_input(&proto);
         let mut model = Model::assemble(
             path,
             Source::Onnx,
@@ -222,6 +226,31 @@ impl Model {
             card,
             card_source,
         )?;
+        // The input side the graph declares, when it fixes one: without a card it is the size
+        // to run it at (not the 224 px guess), and a card must agree with it.
+        match (card_size, declared) {
+            (_, None) => {}
+            (Some(c), Some([h, w])) if (h, w) != (c, c) => {
+                return Err(ModelError::InputSize {
+                    path: shown,
+                    detail: format!(
+                        "the model card says input_size {c} px but the graph's input is {h} x \
+                         {w} px: correct the card"
+                    ),
+                })
+            }
+            (Some(_), Some(_)) => {}
+            (None, Some([h, w])) if h != w => {
+                return Err(ModelError::InputSize {
+                    path: shown,
+                    detail: format!(
+                        "the graph's input is {h} x {w} px, but fringe's inputs are square: \
+                         export the network with a square input"
+                    ),
+                })
+            }
+            (None, Some([side, _])) => model.input_size = side,
+        }
         // A graph of one of the paper's networks holds every weight under its state-dict name.
         if recognised.is_some() {
             model.weights = Some(std::sync::Arc::new(sd));
@@ -644,6 +673,30 @@ fn initializers(proto: &pb::ModelProto) -> StateDict {
         }
     }
     sd
+}
+
+/// The height and width a graph's image input declares ([N, 3, H, W], H and W fixed), when it
+/// does (fringe's own graphs take any size; `torch.onnx.export` fixes the size it was given).
+fn declared_input(proto: &pb::ModelProto) -> Option<[u32; 2]> {
+    use pb::tensor_shape_proto::dimension::Value;
+    let graph = proto.graph.as_ref()?;
+    // Older exporters list the weights among the inputs too.
+    let weights: std::collections::HashSet<&str> =
+        graph.initializer.iter().map(|t| t.name.as_str()).collect();
+    let input = graph
+        .input
+        .iter()
+        .find(|i| !weights.contains(i.name.as_str()))?;
+    let pb::type_proto::Value::TensorType(t) = input.r#type.as_ref()?.value.as_ref()?;
+    let dims = &t.shape.as_ref()?.dim;
+    if dims.len() != 4 {
+        return None;
+    }
+    let side = |k: usize| match dims[k].value.as_ref()? {
+        Value::DimValue(v) if *v > 0 => u32::try_from(*v).ok(),
+        _ => None,
+    };
+    Some([side(2)?, side(3)?])
 }
 
 /// The fixed width of the shape-logits output, when the graph states it.

@@ -544,3 +544,64 @@ proptest! {
         read_any(&bytes);
     }
 }
+
+/// An ONNX graph whose image input is declared [1, 3, 112, 112], as `torch.onnx.export` writes a
+/// network exported at 112 px, and the custom CNN's weights.
+fn graph_declaring(side: [i64; 2]) -> tract_onnx::pb::ModelProto {
+    use tract_onnx::pb;
+    use tract_onnx::pb::tensor_shape_proto::dimension::Value;
+    let sd = read(&fixture_dir().join("model.safetensors"));
+    let mut proto = fringe_sensor_models::onnx_graph::build(
+        fringe_sensor_models::arch::Architecture::Custom,
+        3,
+        &sd,
+    );
+    let graph = proto.graph.as_mut().expect("graph");
+    let input = graph.input.first_mut().expect("input");
+    let Some(pb::type_proto::Value::TensorType(t)) =
+        input.r#type.as_mut().and_then(|t| t.value.as_mut())
+    else {
+        panic!("the image input is a tensor");
+    };
+    let dims = &mut t.shape.as_mut().expect("shape").dim;
+    for (k, v) in [(0, 1), (2, side[0]), (3, side[1])] {
+        dims[k].value = Some(Value::DimValue(v));
+    }
+    proto.metadata_props.clear();
+    proto
+}
+
+/// An ONNX file without a card whose graph declares a 112 px input runs at 112 px (before, at
+/// the 224 px guess); a card that says otherwise, or a graph that is not square, is refused.
+#[test]
+fn an_onnx_graph_without_a_card_runs_at_the_input_size_it_declares() {
+    use fringe_sensor_models::model::Model;
+    use fringe_sensor_models::onnx_graph::encode;
+    let dir = tempfile::tempdir().expect("dir");
+    let path = dir.path().join("exported.onnx");
+    std::fs::write(&path, encode(&graph_declaring([112, 112]))).expect("write");
+    let model = Model::open(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(model.input_size, 112);
+    let warning = model.missing_card_warning().expect("no card: warned");
+    assert!(warning.contains("running it as 112 px"), "{warning}");
+    // It runs at that size.
+    let mut backend = model.tract(1).expect("backend");
+    let input = vec![0.1f32; 3 * 112 * 112];
+    let out = backend.run(&input, 1, 112).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.force.len(), 1);
+    // A card beside it that says another size is refused, naming the file and both sizes.
+    std::fs::write(dir.path().join("exported.onnx.json"), r#"{"input_size": 224}"#)
+        .expect("card");
+    let e = Model::open(&path).expect_err("refused").to_string();
+    assert!(
+        e.contains("exported.onnx") && e.contains("input_size 224 px") && e.contains("112 x 112"),
+        "{e}"
+    );
+    std::fs::write(dir.path().join("exported.onnx.json"), r#"{"input_size": 112}"#)
+        .expect("card");
+    assert_eq!(Model::open(&path).expect("agrees").input_size, 112);
+    std::fs::remove_file(dir.path().join("exported.onnx.json")).expect("rm");
+    std::fs::write(&path, encode(&graph_declaring([112, 96]))).expect("write");
+    let e = Model::open(&path).expect_err("refused").to_string();
+    assert!(e.contains("112 x 96 px") && e.contains("square"), "{e}");
+}

@@ -22,8 +22,9 @@ struct Cli {
     #[arg(long, global = true, value_name = "DIR")]
     record_trace: Option<PathBuf>,
 
-    /// Plain output instead of the terminal UI (the default when stdout is not a terminal).
-    #[arg(long)]
+    /// Plain output instead of the terminal UI (the default when stdout is not a terminal);
+    /// before or after the command.
+    #[arg(long, global = true)]
     no_tui: bool,
 
     #[command(subcommand)]
@@ -110,9 +111,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let global = Global {
         record_trace: cli.record_trace,
+        no_tui: cli.no_tui,
     };
     let result = match cli.command {
-        None if !cli.no_tui && std::io::stdout().is_terminal() => cmd::scan::run_ui(),
+        None if !global.no_tui && std::io::stdout().is_terminal() => cmd::scan::run_ui(),
         None => cmd::scan::run(cmd::scan::ScanArgs::main_job(), &global),
         Some(Command::Scan(args)) => cmd::scan::run(args, &global),
         #[cfg(feature = "sim")]

@@ -29,6 +29,34 @@ fn a_dry_run_prints_points_path_and_duration_and_moves_nothing() {
     assert!(!dir.join("runs").exists(), "a dry run writes no run");
 }
 
+/// `--no-tui` is taken after the command as before it (`fringe scan --no-tui` was refused as
+/// an unexpected argument: the flag was the top level's only).
+#[test]
+fn no_tui_is_taken_before_or_after_the_command() {
+    let dir = scratch("no-tui");
+    for args in [
+        ["scan", "--no-tui", "--dry-run"],
+        ["--no-tui", "scan", "--dry-run"],
+        ["scan", "--dry-run", "--no-tui"],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+            .current_dir(&dir)
+            .args(args)
+            .output()
+            .expect("run");
+        let t = text(&out);
+        assert!(out.status.success(), "{args:?}: {t}");
+        assert!(t.contains("6 points"), "{args:?}: {t}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+        .current_dir(&dir)
+        .args(["model", "info", "builtin:default", "--no-tui"])
+        .output()
+        .expect("run");
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(!dir.join("runs").exists(), "a dry run writes no run");
+}
+
 #[test]
 fn a_dry_run_states_the_runs_size_on_disk_and_the_free_space() {
     let dir = scratch("dry-size");

@@ -51,9 +51,6 @@ pub struct ValidateArgs {
         value_parser = crate::cmd::arg_values::threads
     )]
     threads: usize,
-    /// Run headless (the default when stdout is not a terminal).
-    #[arg(long)]
-    no_tui: bool,
     /// Answer every operator prompt with "continue".
     #[arg(long)]
     yes: bool,
@@ -76,7 +73,8 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
             whose: "this sensor",
         },
     )?;
-    if !a.no_tui && std::io::stdout().is_terminal() {
+    // `--no-tui` (the command line's global flag): headless, as when stdout is no terminal.
+    if !global.no_tui && std::io::stdout().is_terminal() {
         return run_ui(&a, &model.path, config, &source, text, origin);
     }
     let backend = fringe_sensor_models::predictor::Predictor::new(
