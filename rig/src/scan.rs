@@ -8,6 +8,8 @@
 //! - [`offset_check`]: the zero-load check against the sensor's profile, called at every offset
 //!   measurement.
 //! - [`origin`]: the stage position of the sensor centre, origin of contact labels.
+//! - [`panic_stop`]: axes stopped when the thread that moves them panics (the scan's, the
+//!   bench's).
 //! - [`resume_check`]: what a resume may not change (plan, sync, sensor, camera, geometry).
 //! - [`sidecar`]: files a caller adds to a run (the engine never names where they come from).
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
@@ -18,6 +20,7 @@ pub mod engine;
 pub mod failure;
 pub mod offset_check;
 pub mod origin;
+pub mod panic_stop;
 pub mod plan;
 pub mod press;
 pub mod resume_check;

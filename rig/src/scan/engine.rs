@@ -581,6 +581,17 @@ struct Axes {
     z: Box<dyn Axis>,
 }
 
+impl Drop for Axes {
+    /// A panic while the scan holds the axes stops them where they are.
+    fn drop(&mut self) {
+        super::panic_stop::stop_if_panicking([
+            self.z.as_mut(),
+            self.x.as_mut(),
+            self.y.as_mut(),
+        ]);
+    }
+}
+
 /// A point the watchers interrupt this many times in a row ends the scan (a condition that
 /// resuming does not clear, such as a camera that cannot keep up, would otherwise repeat it for
 /// ever under `--yes`).

@@ -308,8 +308,15 @@ struct Worker<'a> {
     newest: Option<Frame>,
 }
 
+impl Drop for Worker<'_> {
+    /// A panic on the bench's thread stops the axes where they are (a jog under way included).
+    fn drop(&mut self) {
+        let [x, y, z] = &mut self.axes;
+        fringe_rig::scan::panic_stop::stop_if_panicking([z.as_mut(), x.as_mut(), y.as_mut()]);
+    }
+}
+
 /// The force samples of one tick, checked against the ceiling.
-struct ForceBatch {
     /// The highest |F|, N.
     peak: f64,
     /// Axes stopped for force.
