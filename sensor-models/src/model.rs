@@ -7,7 +7,7 @@ use crate::backend::{Backend, BackendKind, InferenceError};
 use crate::model_card::{CardError, CardSource, ModelCard, CARD_METADATA_KEY};
 use crate::onnx_graph;
 use crate::preprocess::{
-    Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE,
+    Colour, PreprocessError, Preprocessing, ReferenceSensor, DEFAULT_INPUT_SIZE, INPUT_SIZES,
 };
 use crate::weights::error::ModelFileError;
 use crate::weights::format::read_weights;
@@ -246,6 +246,17 @@ impl Model {
                     detail: format!(
                         "the graph's input is {h} x {w} px, but fringe's inputs are square: \
                          export the network with a square input"
+                    ),
+                })
+            }
+            (None, Some([side, _])) if !INPUT_SIZES.contains(&side) => {
+                return Err(ModelError::InputSize {
+                    path: shown,
+                    detail: format!(
+                        "the graph's input is {side} x {side} px, outside the {} to {} px \
+                         fringe's preprocessing makes",
+                        INPUT_SIZES.start(),
+                        INPUT_SIZES.end()
                     ),
                 })
             }

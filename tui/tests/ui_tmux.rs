@@ -579,7 +579,9 @@ fn a_workers_panic_is_shown_in_the_ui_the_scan_stops_and_the_keys_still_work() {
     assert!(reason.contains("interrupted"), "closed resumable: {reason}");
     // The keys work without Enter: a second scan, aborted with `a`.
     pane.keys("r");
-    pane.wait_answering("point 1 of 2", Duration::from_secs(60));
+    pane.wait_until("the second scan pressing", Duration::from_secs(60), |s| {
+        s.contains("point 1 of 2: ") && !s.contains("stopped: ")
+    });
     pane.keys("a");
     pane.wait_answering("stopped: ", Duration::from_secs(60));
     let both = runs(&dir);

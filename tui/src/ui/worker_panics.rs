@@ -8,7 +8,7 @@
 
 use std::panic::PanicHookInfo;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use std::thread::ThreadId;
 
 /// The workers' panics not yet taken by the event loop, as text.
@@ -25,7 +25,7 @@ pub struct Guard(());
 /// Installs the hook for the UI on the calling thread (the UI thread), over the one there now
 /// (ratatui's, which restores the terminal: call this after `ratatui::init`).
 pub fn install() -> Guard {
-    let previous: Arc<Hook> = Arc::new(std::panic::take_hook());
+    let previous: Hook = std::panic::take_hook();
     let ui = std::thread::current().id();
     ACTIVE.store(true, Ordering::SeqCst);
     std::panic::set_hook(Box::new(move |info| hook(ui, &previous, info)));
@@ -69,6 +69,7 @@ pub fn take() -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::Arc;
 
     /// A worker's panic under the UI is recorded with its thread's name and message, not
     /// handed to the hook before (ratatui's, which would restore the terminal and print over
