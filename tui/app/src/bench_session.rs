@@ -292,7 +292,7 @@ fn run(
 /// The open bench as the worker holds it between ticks.
 struct Worker<'a> {
     state: &'a Mutex<BenchState>,
-    axes: [Box<dyn Axis>; 3],
+    axes: HeldAxes,
     /// None only while a tare restarts the stream, or after a tare failed to restart it.
     force: Option<ForceStream>,
     camera: CameraStream,
@@ -308,15 +308,32 @@ struct Worker<'a> {
     newest: Option<Frame>,
 }
 
-impl Drop for Worker<'_> {
-    /// A panic on the bench's thread stops the axes where they are (a jog under way included).
+/// The bench's axes (x, y, z), stopped where they are when the bench's thread panics (a jog
+/// under way included).
+struct HeldAxes([Box<dyn Axis>; 3]);
+
+impl std::ops::Deref for HeldAxes {
+    type Target = [Box<dyn Axis>; 3];
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for HeldAxes {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl Drop for HeldAxes {
     fn drop(&mut self) {
-        let [x, y, z] = &mut self.axes;
+        let [x, y, z] = &mut self.0;
         fringe_rig::scan::panic_stop::stop_if_panicking([z.as_mut(), x.as_mut(), y.as_mut()]);
     }
 }
 
 /// The force samples of one tick, checked against the ceiling.
+struct ForceBatch {
     /// The highest |F|, N.
     peak: f64,
     /// Axes stopped for force.
@@ -351,7 +368,7 @@ impl<'a> Worker<'a> {
         let started = Instant::now();
         Ok(Worker {
             state,
-            axes,
+            axes: HeldAxes(axes),
             force: Some(force),
             camera,
             max_force_n: limits.max_force.0,
