@@ -714,6 +714,7 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
          image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
     )
     .expect("labels");
+    let paired = dir.join("pair");
     for bad in ["-5", "0", "1e300", "1.5", "101"] {
         std::fs::write(&card, format!(r#"{{"force_window_mm": {bad}}}"#)).expect("card");
         let commands: [Vec<&str>; 4] = [
@@ -725,7 +726,7 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
                 "builtin:layered-keypoint",
                 arg(&window),
                 "--out",
-                arg(&dir.join("pair")),
+                arg(&paired),
             ],
             vec![
                 "eval",
@@ -747,7 +748,7 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
             );
             assert!(!t.contains("panicked"), "{t}");
         }
-        assert!(!dir.join("pair").exists(), "{bad}: nothing paired");
+        assert!(!paired.exists(), "{bad}: nothing paired");
     }
     // The value as written, not three hundred digits.
     std::fs::write(&card, r#"{"force_window_mm": 1e300}"#).expect("card");

@@ -50,7 +50,7 @@ fn no_tui_is_taken_before_or_after_the_command() {
     }
     let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
         .current_dir(&dir)
-        .args(["model", "info", "builtin:default", "--no-tui"])
+        .args(["model", "info", "builtin:layered", "--no-tui"])
         .output()
         .expect("run");
     assert!(out.status.success(), "{}", text(&out));
