@@ -216,20 +216,24 @@ impl ModelCard {
                 return refuse(
                     "input_size",
                     n.to_string(),
-                    format!(
-                        "it is {} to {} px",
-                        INPUT_SIZES.start(),
-                        INPUT_SIZES.end()
-                    ),
+                    format!("it is {} to {} px", INPUT_SIZES.start(), INPUT_SIZES.end()),
                 );
             }
         }
         if let Some(p) = &self.preprocessing {
             if !PREPROCESSING_NAMES.contains(&p.as_str()) {
-                return refuse("preprocessing", format!("{p:?}"), one_of(&PREPROCESSING_NAMES));
+                return refuse(
+                    "preprocessing",
+                    format!("{p:?}"),
+                    one_of(&PREPROCESSING_NAMES),
+                );
             }
         }
-        for (field, name) in [("sensor_id", &self.sensor_id), ("force_model", &self.force_model), ("contact_model", &self.contact_model)] {
+        for (field, name) in [
+            ("sensor_id", &self.sensor_id),
+            ("force_model", &self.force_model),
+            ("contact_model", &self.contact_model),
+        ] {
             if let Some(n) = name {
                 if n.trim().is_empty() || n.chars().any(char::is_control) {
                     return refuse(field, format!("{n:?}"), "it is a printable name".into());

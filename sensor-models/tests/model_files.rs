@@ -587,18 +587,26 @@ fn an_onnx_graph_without_a_card_runs_at_the_input_size_it_declares() {
     // It runs at that size.
     let mut backend = model.tract(1).expect("backend");
     let input = vec![0.1f32; 3 * 112 * 112];
-    let out = backend.run(&input, 1, 112).unwrap_or_else(|e| panic!("{e}"));
+    let out = backend
+        .run(&input, 1, 112)
+        .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.force.len(), 1);
     // A card beside it that says another size is refused, naming the file and both sizes.
-    std::fs::write(dir.path().join("exported.onnx.json"), r#"{"input_size": 224}"#)
-        .expect("card");
+    std::fs::write(
+        dir.path().join("exported.onnx.json"),
+        r#"{"input_size": 224}"#,
+    )
+    .expect("card");
     let e = Model::open(&path).expect_err("refused").to_string();
     assert!(
         e.contains("exported.onnx") && e.contains("input_size 224 px") && e.contains("112 x 112"),
         "{e}"
     );
-    std::fs::write(dir.path().join("exported.onnx.json"), r#"{"input_size": 112}"#)
-        .expect("card");
+    std::fs::write(
+        dir.path().join("exported.onnx.json"),
+        r#"{"input_size": 112}"#,
+    )
+    .expect("card");
     assert_eq!(Model::open(&path).expect("agrees").input_size, 112);
     std::fs::remove_file(dir.path().join("exported.onnx.json")).expect("rm");
     std::fs::write(&path, encode(&graph_declaring([112, 96]))).expect("write");

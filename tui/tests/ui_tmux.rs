@@ -561,7 +561,10 @@ fn a_workers_panic_is_shown_in_the_ui_the_scan_stops_and_the_keys_still_work() {
         "the live validation thread failed: a panic injected",
         Duration::from_secs(120),
     );
-    assert!(!failed.contains("RUST_BACKTRACE"), "printed over:\n{failed}");
+    assert!(
+        !failed.contains("RUST_BACKTRACE"),
+        "printed over:\n{failed}"
+    );
     assert_eq!(pane.flag("alternate_on"), "1", "the UI left its screen");
     let modes = terminal_modes(&pane);
     assert!(

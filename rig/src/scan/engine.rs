@@ -584,11 +584,7 @@ struct Axes {
 impl Drop for Axes {
     /// A panic while the scan holds the axes stops them where they are.
     fn drop(&mut self) {
-        super::panic_stop::stop_if_panicking([
-            self.z.as_mut(),
-            self.x.as_mut(),
-            self.y.as_mut(),
-        ]);
+        super::panic_stop::stop_if_panicking([self.z.as_mut(), self.x.as_mut(), self.y.as_mut()]);
     }
 }
 

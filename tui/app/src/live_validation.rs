@@ -16,6 +16,7 @@
 //! interrupted point (to press it again), the frames of those records are taken out of the
 //! counts and the metrics ([`RecordTap::cut`]), and their number is reported as `cut`.
 
+use crate::worker_failure::{guarded, inject};
 use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
 use fringe_rig::camera::Frame;
@@ -29,7 +30,6 @@ use fringe_sensor_models::predictor::{PredictError, Predictor};
 use fringe_sensor_models::preprocess::{
     tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor,
 };
-use crate::worker_failure::{guarded, inject};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};

@@ -139,8 +139,8 @@ impl App {
         let moving = matches!(self.state.scan.phase, Phase::Running | Phase::Stopping(_));
         // A scan thread gone without a word (its end told before it returns, its panic caught
         // and told): never a scan shown as running that nothing runs.
-        let gone = running.thread.as_ref().is_none_or(|t| t.is_finished())
-            && running.events.is_empty();
+        let gone =
+            running.thread.as_ref().is_none_or(|t| t.is_finished()) && running.events.is_empty();
         let changed = !events.is_empty();
         let mut ends: Vec<ScanEnd> = events
             .into_iter()

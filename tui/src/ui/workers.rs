@@ -124,8 +124,10 @@ pub fn fit_calibration(
 /// Writes the fitted profile (and its report images) into `dir`.
 pub fn write_profile(result: Box<CalibrationResult>, dir: PathBuf, tx: Sender<Calibrated>) {
     std::thread::spawn(move || {
-        let written = guarded("profile writer", || result.write(&dir).map_err(|e| e.to_string()))
-            .and_then(|r| r);
+        let written = guarded("profile writer", || {
+            result.write(&dir).map_err(|e| e.to_string())
+        })
+        .and_then(|r| r);
         let _ = tx.send(match written {
             Ok(w) => {
                 let mut files = vec![
