@@ -50,8 +50,6 @@ pub const HEADER_BYTES: usize = 13;
 const MAGIC_PREFIX: &[u8; 3] = b"FGL";
 const MAGIC_V1: &[u8; 4] = b"FGL1";
 const MAGIC_V2: &[u8; 4] = b"FGL2";
-/// The version [`encode`] writes.
-pub const VERSION: u8 = 2;
 /// Bytes of version 2's checksum, at the end of the file.
 const CHECKSUM_BYTES: usize = 4;
 /// Entries of all contexts' code tables: context << 8 | symbol.

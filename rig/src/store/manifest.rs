@@ -24,13 +24,9 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
 }
 
 /// Every entry under `dir` (the lock file included) that is neither a regular file nor a
-/// directory, one line each naming it and what it is.
-pub fn strangers(dir: &Path) -> Result<Vec<String>, StoreError> {
-    Ok(walk(dir)?
-        .1
-        .into_iter()
-        .map(|(rel, why)| format!("{rel}: {why}"))
-        .collect())
+/// directory: its path relative to `dir` and what is wrong with it.
+pub fn strangers(dir: &Path) -> Result<Vec<(String, &'static str)>, StoreError> {
+    Ok(walk(dir)?.1)
 }
 
 /// The regular files of [`files`], and the entries that are neither regular files nor

@@ -73,14 +73,22 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
         // No manifest vouches for the frames: each is checked on its own.
         problems.extend(damaged_frames(dir, &start.frame_storage(), &frames));
     }
-    for stranger in manifest::strangers(dir)? {
-        problems.push(if stranger.starts_with(&format!("{LOCK}: ")) {
+    for (rel, why) in manifest::strangers(dir)? {
+        problems.push(if rel == LOCK {
+            let link = std::fs::symlink_metadata(dir.join(LOCK))
+                .is_ok_and(|m| m.file_type().is_symlink());
             format!(
-                "{stranger}; the lock file is fringe's own: remove it (what it points to is not \
-                 touched), nothing writes the run through it"
+                "{LOCK}: is {}, not the regular file fringe makes: nothing opens the run through \
+                 it (writers and exports are refused); remove it (what it points to is not \
+                 touched)",
+                if link {
+                    "a symbolic link"
+                } else {
+                    "a FIFO, a socket or a device"
+                }
             )
         } else {
-            stranger
+            format!("{rel}: {why}")
         });
     }
     Ok(VerifyReport {
