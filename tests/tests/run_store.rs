@@ -658,7 +658,11 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
     let dir = bayer_run(&root, &fgl);
     let manifest = dir.join("MANIFEST.sha256");
     std::fs::remove_file(&manifest).expect("killed before the manifest");
-    assert_eq!(verify(&dir).expect("verify").problems.len(), 1, "only the manifest");
+    assert_eq!(
+        verify(&dir).expect("verify").problems.len(),
+        1,
+        "only the manifest"
+    );
     let frame = dir.join("frames/00000002.fgl");
     let whole = std::fs::read(&frame).expect("frame");
     let mut flipped = whole.clone();
@@ -666,9 +670,12 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
     std::fs::write(&frame, &flipped).expect("flip");
     let report = verify(&dir).expect("verify");
     assert!(
-        report.problems.iter().any(|p| p.starts_with("frames/00000002.fgl: ")
-            && p.contains("checksum does not match")
-            && p.contains("record 2")),
+        report
+            .problems
+            .iter()
+            .any(|p| p.starts_with("frames/00000002.fgl: ")
+                && p.contains("checksum does not match")
+                && p.contains("record 2")),
         "{:?}",
         report.problems
     );
@@ -677,7 +684,10 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
         e.to_string().contains("frames/00000002.fgl") && e.to_string().contains("restore"),
         "{e}"
     );
-    assert!(!manifest.exists(), "no manifest vouches for the damaged frame");
+    assert!(
+        !manifest.exists(),
+        "no manifest vouches for the damaged frame"
+    );
     std::fs::write(&frame, &whole).expect("restored");
     finish_cut_close(&dir)
         .expect("the frames are whole")

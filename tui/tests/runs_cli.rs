@@ -492,7 +492,10 @@ fn a_lock_that_is_a_link_is_reported_and_never_written_through() {
     let t = text(&resumed);
     assert!(!resumed.status.success(), "{t}");
     assert!(t.contains(".lock") && t.contains("symbolic link"), "{t}");
-    assert!(snapshot(&killed) == before, "a refused resume changed the run");
+    assert!(
+        snapshot(&killed) == before,
+        "a refused resume changed the run"
+    );
     assert_eq!(
         std::fs::read(&victim).expect("victim"),
         b"the lab's notes\n",
@@ -506,8 +509,8 @@ fn verify_of_a_run_being_written_names_its_writer() {
     use fringe_rig::store::run_writer::RunWriter;
     let root = scratch("being-written");
     // The test process writes the run (a scan would), while fringe verify looks at it.
-    let start = fringe_rig::store::read_start(&write_run(&root, "run-template", false))
-        .expect("start");
+    let start =
+        fringe_rig::store::read_start(&write_run(&root, "run-template", false)).expect("start");
     let writer = RunWriter::create(
         &root,
         &fringe_rig::store::documents::StartDocument {
@@ -523,11 +526,17 @@ fn verify_of_a_run_being_written_names_its_writer() {
         t.contains("being written") && t.contains(&format!("pid {}", std::process::id())),
         "{t}"
     );
-    assert!(!t.contains("did not finish") && !t.contains("resume it"), "{t}");
+    assert!(
+        !t.contains("did not finish") && !t.contains("resume it"),
+        "{t}"
+    );
     let dir = writer.dir().to_path_buf();
     drop(writer);
     let t = text(&fringe(&["verify", path(&dir)]));
-    assert!(t.contains("did not finish") && t.contains("--resume"), "{t}");
+    assert!(
+        t.contains("did not finish") && t.contains("--resume"),
+        "{t}"
+    );
 }
 
 /// Every command that writes an output refuses one inside a run before doing any work (one
@@ -603,7 +612,10 @@ fn outputs_inside_a_run_are_refused_by_every_command() {
             t.contains(&format!("{flag}: ")) && t.contains("is inside the run"),
             "{args:?}: {t}"
         );
-        assert!(!t.contains("no-model-needed"), "refused before any work: {t}");
+        assert!(
+            !t.contains("no-model-needed"),
+            "refused before any work: {t}"
+        );
     }
     assert!(snapshot(&run) == before, "the run was changed");
     let verify = fringe(&["verify", path(&run)]);

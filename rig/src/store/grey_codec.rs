@@ -294,9 +294,7 @@ fn version(bytes: &[u8]) -> Result<u8, CodecError> {
             Err(CodecError::Newer(char::from(m[3])))
         }
         Some(_) => Err(CodecError::NotFgl),
-        None if !MAGIC_PREFIX.starts_with(&bytes[..bytes.len().min(3)]) => {
-            Err(CodecError::NotFgl)
-        }
+        None if !MAGIC_PREFIX.starts_with(&bytes[..bytes.len().min(3)]) => Err(CodecError::NotFgl),
         None => Err(CodecError::Truncated("header")),
     }
 }
@@ -1025,7 +1023,10 @@ mod tests {
         // all, as a faulty encoder would).
         let at = 14 + 2 * (usize::from(bytes[13]) - 1);
         lengths[at..at + 128].fill(0x11);
-        assert!(matches!(decode(&resealed(lengths)), Err(CodecError::Damaged(_))));
+        assert!(matches!(
+            decode(&resealed(lengths)),
+            Err(CodecError::Damaged(_))
+        ));
         // Flipped bits anywhere (header, thresholds, code lengths, payload) decode to other
         // pixels or fail; never panic.
         for k in (0..bytes.len()).step_by(7) {

@@ -74,7 +74,11 @@ mod tests {
             assert_eq!(e.run, std::fs::canonicalize(&run).expect("real"));
             assert!(e.to_string().contains("is inside the run"), "{e}");
         }
-        for outside in [root.clone(), root.join("out/model.onnx"), root.join("run-b")] {
+        for outside in [
+            root.clone(),
+            root.join("out/model.onnx"),
+            root.join("run-b"),
+        ] {
             assert_eq!(outside_runs(&outside), Ok(()), "{}", outside.display());
         }
         let _ = std::fs::remove_dir_all(&root);

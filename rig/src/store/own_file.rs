@@ -147,7 +147,10 @@ mod tests {
         assert!(e.to_string().contains("symbolic link"), "{e}");
         let e = append(&dir.join("linked.json")).expect_err("a link");
         assert!(e.to_string().contains("symbolic link"), "{e}");
-        assert_eq!(std::fs::read(dir.join("plain.json")).expect("target"), b"{}");
+        assert_eq!(
+            std::fs::read(dir.join("plain.json")).expect("target"),
+            b"{}"
+        );
         let e = append(&fifo).expect_err("a FIFO");
         assert!(e.to_string().contains("not a regular file"), "{e}");
         assert!(stranger(&dir.join("linked.json")).is_some());

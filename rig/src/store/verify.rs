@@ -75,8 +75,8 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     }
     for (rel, why) in manifest::strangers(dir)? {
         problems.push(if rel == LOCK {
-            let link = std::fs::symlink_metadata(dir.join(LOCK))
-                .is_ok_and(|m| m.file_type().is_symlink());
+            let link =
+                std::fs::symlink_metadata(dir.join(LOCK)).is_ok_and(|m| m.file_type().is_symlink());
             format!(
                 "{LOCK}: is {}, not the regular file fringe makes: nothing opens the run through \
                  it (writers and exports are refused); remove it (what it points to is not \
