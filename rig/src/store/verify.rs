@@ -124,7 +124,8 @@ fn read_frames(dir: &Path, problems: &mut Vec<String>) -> Vec<FrameRecord> {
 }
 
 /// Checks each record in turn: its frame's size (the stored region's, when the run stores only
-/// a part of each frame), its index and that its frame exists inside the run.
+/// a part of each frame), its index, that no other record names its frame and that its frame
+/// exists inside the run.
 fn check_frames(
     dir: &Path,
     start: &StartDocument,
@@ -148,14 +149,6 @@ fn check_frames(
                 _ => None,
             })
             .collect();
-        let (first_at, first) = *named.entry(key).or_insert((k, f.index));
-        if first_at != k {
-            problems.push(format!(
-                "{}: named by record {} and again by record {}: each frame file belongs to one \
-                 record (an edited {FRAMES}; an export would give both records the same image)",
-                f.file, first, f.index
-            ));
-        }
         if let Some(dims) = frame_size(dir, f) {
             sizes.note(&f.file, dims, problems);
         }
@@ -164,6 +157,15 @@ fn check_frames(
                 "{FRAMES}: record {} has index {}, expected {k}",
                 k + 1,
                 f.index
+            ));
+        }
+        // A line repeated whole is the index's problem, above.
+        let (first_at, first) = *named.entry(key).or_insert((k, f.index));
+        if first_at != k && first != f.index {
+            problems.push(format!(
+                "{}: named by record {} and again by record {}: each frame file belongs to one \
+                 record (an edited {FRAMES}; an export would give both records the same image)",
+                f.file, first, f.index
             ));
         }
         check_frame_file(dir, f, problems);
