@@ -23,15 +23,19 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
     Ok(files)
 }
 
+/// An entry of a run that is neither a regular file nor a directory: its path relative to the
+/// run and what is wrong with it.
+pub type Stranger = (String, &'static str);
+
 /// Every entry under `dir` (the lock file included) that is neither a regular file nor a
 /// directory: its path relative to `dir` and what is wrong with it.
-pub fn strangers(dir: &Path) -> Result<Vec<(String, &'static str)>, StoreError> {
+pub fn strangers(dir: &Path) -> Result<Vec<Stranger>, StoreError> {
     Ok(walk(dir)?.1)
 }
 
 /// The regular files of [`files`], and the entries that are neither regular files nor
 /// directories, with what is wrong with each. Links are never followed.
-fn walk(dir: &Path) -> Result<(Vec<String>, Vec<(String, &'static str)>), StoreError> {
+fn walk(dir: &Path) -> Result<(Vec<String>, Vec<Stranger>), StoreError> {
     let mut out = Vec::new();
     let mut strangers = Vec::new();
     let mut stack = vec![PathBuf::new()];
