@@ -621,3 +621,40 @@ fn outputs_inside_a_run_are_refused_by_every_command() {
     let verify = fringe(&["verify", path(&run)]);
     assert!(verify.status.success(), "{}", text(&verify));
 }
+
+/// A run killed while writing its manifest, then a bit flipped in a frame: verify names the
+/// frame and does not advise the resume that would write a manifest over it; the resume refuses.
+#[test]
+fn a_run_without_its_manifest_and_a_damaged_frame_is_not_blessed() {
+    let root = scratch("no-manifest");
+    let (rig, _) = common::scan_files(&root);
+    let plan = common::scan_plan("[11.0, 12.5, 14.0]");
+    let run = TestRun {
+        plan: &plan,
+        ..TestRun::finished("run-a")
+    }
+    .write(&root);
+    std::fs::remove_file(run.join("MANIFEST.sha256")).expect("killed before the manifest");
+    let frame = run.join("frames/00000001.fgl");
+    let mut bytes = std::fs::read(&frame).expect("frame");
+    let last = bytes.len() - 6;
+    bytes[last] ^= 0x01;
+    std::fs::write(&frame, bytes).expect("flip");
+    let verify = fringe(&["verify", path(&run)]);
+    let t = text(&verify);
+    assert!(!verify.status.success(), "{t}");
+    assert!(
+        t.contains("frames/00000001.fgl: ") && t.contains("checksum does not match"),
+        "{t}"
+    );
+    assert!(!t.contains("resume it to write the manifest"), "{t}");
+    assert!(t.contains("mend the problems above first"), "{t}");
+    let resumed = common::resume(&rig, &run);
+    let t = text(&resumed);
+    assert!(!resumed.status.success(), "{t}");
+    assert!(t.contains("frames/00000001.fgl"), "{t}");
+    assert!(
+        !run.join("MANIFEST.sha256").exists(),
+        "no manifest vouches for the damaged frame"
+    );
+}
