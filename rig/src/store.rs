@@ -52,6 +52,7 @@ pub mod verify;
 
 pub use error::StoreError;
 pub use layout::{
-    run_holding, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP,
+    outside_runs, run_holding, InsideRun, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST,
+    START, STOP,
 };
 pub use run_writer::read_start;

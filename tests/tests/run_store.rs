@@ -587,3 +587,216 @@ fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
     }
     std::fs::remove_dir_all(&root).ok();
 }
+
+/// A `.lock` planted as a link to a file outside the run: verify reports it, a writer (a resume)
+/// and a reader (an export) are refused without writing through it, and the file it points to
+/// keeps its bytes.
+#[test]
+fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
+    use fringe_rig::store::export::{export_reference, ExportOptions};
+    let root = scratch("linked-lock");
+    let finished = finished_run(&root, "run-done");
+    let mut open = RunWriter::create(&root, &start("run-open")).expect("create");
+    write_frames(&mut open, 0..2);
+    open.checkpoint().expect("checkpoint");
+    let unfinished = open.dir().to_path_buf();
+    drop(open);
+    let victim = root.join("victim.txt");
+    std::fs::write(&victim, b"the lab's notes").expect("victim");
+    for run in [&finished, &unfinished] {
+        std::os::unix::fs::symlink("../victim.txt", run.join(".lock")).expect("link");
+        let report = verify(run).expect("verify");
+        assert!(
+            report
+                .problems
+                .iter()
+                .any(|p| p.starts_with(".lock: is a symbolic link")),
+            "{:?}",
+            report.problems
+        );
+    }
+    let e = export_reference(
+        std::slice::from_ref(&finished),
+        &root.join("dataset"),
+        &ExportOptions {
+            allow_unverified: true,
+            ..ExportOptions::default()
+        },
+        |_| {},
+    )
+    .expect_err("an export through the link");
+    assert!(e.to_string().contains(".lock"), "{e}");
+    assert!(!root.join("dataset").exists());
+    let e = RunWriter::reopen(&unfinished)
+        .err()
+        .expect("a resume through the link");
+    assert!(
+        e.to_string().contains(".lock") && e.to_string().contains("symbolic link"),
+        "{e}"
+    );
+    assert!(finish_cut_close(&finished).expect("whole").is_none());
+    assert_eq!(
+        std::fs::read(&victim).expect("victim"),
+        b"the lab's notes",
+        "the file the lock points to keeps its bytes"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A run of FGL frames (the default) stopped before its manifest: a bit flipped in a frame is
+/// found by the frame's own checksum; verify names the file and the manifest is not written over
+/// it until the frame is whole again.
+#[test]
+fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
+    use fringe_rig::store::frame_file::FrameStorage;
+    let root = scratch("flipped-frame");
+    let fgl = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
+        ..start("run-fgl")
+    };
+    let dir = bayer_run(&root, &fgl);
+    let manifest = dir.join("MANIFEST.sha256");
+    std::fs::remove_file(&manifest).expect("killed before the manifest");
+    assert_eq!(
+        verify(&dir).expect("verify").problems.len(),
+        1,
+        "only the manifest"
+    );
+    let frame = dir.join("frames/00000002.fgl");
+    let whole = std::fs::read(&frame).expect("frame");
+    let mut flipped = whole.clone();
+    flipped[whole.len() - 9] ^= 0x20;
+    std::fs::write(&frame, &flipped).expect("flip");
+    let report = verify(&dir).expect("verify");
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.starts_with("frames/00000002.fgl: ")
+                && p.contains("checksum does not match")
+                && p.contains("record 2")),
+        "{:?}",
+        report.problems
+    );
+    let e = finish_cut_close(&dir).expect_err("a manifest over a damaged frame");
+    assert!(
+        e.to_string().contains("frames/00000002.fgl") && e.to_string().contains("restore"),
+        "{e}"
+    );
+    assert!(
+        !manifest.exists(),
+        "no manifest vouches for the damaged frame"
+    );
+    std::fs::write(&frame, &whole).expect("restored");
+    finish_cut_close(&dir)
+        .expect("the frames are whole")
+        .expect("the cut close");
+    assert!(verify(&dir).expect("verify").ok());
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// A resume would write the run's manifest at its end: a damaged frame of an unfinished run is
+/// refused before anything is changed.
+#[test]
+fn a_resume_over_a_damaged_frame_is_refused_and_changes_nothing() {
+    use fringe_rig::store::frame_file::FrameStorage;
+    let root = scratch("resume-damaged");
+    let fgl = StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        frames: Some(FrameStorage::new(PixelFormat::Mono8, None).expect("storage")),
+        ..start("run-fgl")
+    };
+    let mut w = RunWriter::create(&root, &fgl).expect("create");
+    for id in 0..3 {
+        let index = w.next_index();
+        let mono = Frame {
+            format: PixelFormat::Mono8,
+            data: (0..32).map(|k| (k * 3 + id) as u8).collect(),
+            ..frame(id)
+        };
+        let file = w.save_frame_image(&mono, index).expect("frame image");
+        w.append_frame(&record(index, file, -1.0)).expect("record");
+    }
+    w.checkpoint_at(1).expect("checkpoint");
+    let dir = w.dir().to_path_buf();
+    drop(w);
+    let frame_path = dir.join("frames/00000001.fgl");
+    let mut bytes = std::fs::read(&frame_path).expect("frame");
+    bytes[20] ^= 0x01;
+    std::fs::write(&frame_path, &bytes).expect("flip");
+    let report = verify(&dir).expect("verify");
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.starts_with("frames/00000001.fgl: ") && p.contains("checksum")),
+        "{:?}",
+        report.problems
+    );
+    let before = snapshot(&dir);
+    let e = RunWriter::reopen(&dir).err().expect("refused");
+    assert!(e.to_string().contains("frames/00000001.fgl"), "{e}");
+    assert!(snapshot(&dir) == before, "a refused resume changed the run");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Two records naming one frame file (an edit, the manifest rewritten to match): verify says so.
+#[test]
+fn two_records_naming_one_frame_file_fail_verify() {
+    let root = scratch("shared-frame");
+    let dir = finished_run(&root, "run-shared");
+    let frames = dir.join(FRAMES);
+    let text = std::fs::read_to_string(&frames).expect("frames");
+    let edited = text.replacen("frames/00000004.png", "frames/00000003.png", 1);
+    assert_ne!(edited, text);
+    std::fs::write(&frames, edited).expect("edit");
+    std::fs::remove_file(dir.join("frames/00000004.png")).expect("remove");
+    fringe_rig::store::manifest::write(&dir).expect("manifest rewritten");
+    let report = verify(&dir).expect("verify");
+    assert_eq!(
+        report.problems,
+        vec![
+            "frames/00000003.png: named by record 3 and again by record 4: each frame file \
+             belongs to one record (an edited frames.jsonl; an export would give both records \
+             the same image)"
+                .to_string()
+        ]
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Verify of a run that a process is writing names the writer, and says "did not finish" only
+/// once no process writes it.
+#[test]
+fn verify_names_the_process_writing_the_run() {
+    let root = scratch("being-written");
+    let mut w = RunWriter::create(&root, &start("run-live")).expect("create");
+    write_frames(&mut w, 0..2);
+    w.checkpoint().expect("checkpoint");
+    let dir = w.dir().to_path_buf();
+    let report = verify(&dir).expect("verify");
+    let pid = format!("pid {}", std::process::id());
+    assert!(
+        report.writer.as_deref().is_some_and(|h| h.contains(&pid)),
+        "{report:?}"
+    );
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.contains("being written") && p.contains(&pid)),
+        "{:?}",
+        report.problems
+    );
+    assert!(!report.problems.iter().any(|p| p.contains("did not finish")));
+    drop(w);
+    let report = verify(&dir).expect("verify");
+    assert_eq!(report.writer, None);
+    assert!(
+        report.problems.iter().any(|p| p.contains("did not finish")),
+        "{:?}",
+        report.problems
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

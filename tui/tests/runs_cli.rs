@@ -269,8 +269,11 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
     .write(&root.join("runs"));
     let before = snapshot(&run);
     let out = root.join("dataset");
-    // A corrupt frame late in the run (record 10, the eighth image exported).
-    std::fs::write(run.join("frames/00000010.fgl"), b"not a frame").expect("damage");
+    // A record late in the run (record 10, the eighth image exported) naming a file outside
+    // it, which no export reads even when asked to export an unverified run.
+    edit_line(&run.join("frames.jsonl"), 10, |l| {
+        Some(l.replace("frames/00000010.fgl", "../../00000010.fgl"))
+    });
     let result = fringe(&[
         "export",
         path(&run),
@@ -290,11 +293,7 @@ fn a_failed_export_leaves_nothing_and_an_export_never_mixes_with_other_files() {
         vec!["runs".to_string()],
         "nothing left beside the runs"
     );
-    std::fs::write(
-        run.join("frames/00000010.fgl"),
-        &before["frames/00000010.fgl"],
-    )
-    .expect("repair");
+    std::fs::write(run.join("frames.jsonl"), &before["frames.jsonl"]).expect("repair");
 
     // Stale images of an earlier export: refused, nothing added, nothing removed.
     std::fs::create_dir_all(out.join("0.images")).expect("stale dir");
@@ -391,4 +390,271 @@ fn export_progress_off_a_terminal_is_one_line_per_report() {
     let reports: Vec<&str> = err.lines().filter(|l| l.contains(" images")).collect();
     assert_eq!(reports, vec!["250 images", "500 images"], "{err:?}");
     let _ = std::fs::remove_dir_all(root);
+}
+
+/// `--allow-unverified` exports every record whose frame can be read: a frame with a flipped
+/// bit (found by its checksum) and a missing one are left out, each recorded in 0.export.json
+/// and named once.
+#[test]
+fn an_unverified_export_goes_on_past_damaged_frames_and_records_them() {
+    let root = scratch("damaged-frames");
+    let run = TestRun {
+        points: 4,
+        ..TestRun::finished("run-a")
+    }
+    .write(&root.join("runs"));
+    // Records 4 and 7 carry labels (exported images 2 and 4 of 8).
+    let flipped = run.join("frames/00000004.fgl");
+    let mut bytes = std::fs::read(&flipped).expect("frame");
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x08;
+    std::fs::write(&flipped, bytes).expect("flip");
+    std::fs::remove_file(run.join("frames/00000007.fgl")).expect("remove");
+    let out = root.join("dataset");
+    let refused = fringe(&["export", path(&run), "--out", path(&out)]);
+    assert!(!refused.status.success(), "{}", text(&refused));
+    assert!(!out.exists());
+    let result = fringe(&[
+        "export",
+        path(&run),
+        "--out",
+        path(&out),
+        "--allow-unverified",
+    ]);
+    let t = text(&result);
+    assert!(result.status.success(), "{t}");
+    assert!(t.contains("2 records left out"), "{t}");
+    let csv = std::fs::read_to_string(out.join("0.labels.csv")).expect("labels");
+    assert_eq!(csv.lines().count(), 1 + 6, "{csv}");
+    assert_eq!(snapshot(&out.join("0.images")).len(), 6);
+    let prov: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("0.export.json")).expect("provenance"),
+    )
+    .expect("json");
+    assert_eq!(prov["runs"][0]["images"].as_u64(), Some(6));
+    let problems: Vec<String> = prov["runs"][0]["problems"]
+        .as_array()
+        .expect("problems")
+        .iter()
+        .map(|p| p.as_str().expect("text").to_string())
+        .collect();
+    let left_out = |file: &str| {
+        problems
+            .iter()
+            .find(|p| p.starts_with(&format!("{file}: ")) && p.ends_with("left out of the export"))
+            .unwrap_or_else(|| panic!("{file} in {problems:?}"))
+            .clone()
+    };
+    let damaged = left_out("frames/00000004.fgl");
+    assert!(damaged.contains("checksum does not match"), "{damaged}");
+    assert_eq!(damaged.matches("00000004.fgl").count(), 1, "{damaged}");
+    assert!(left_out("frames/00000007.fgl").contains("missing"));
+    for line in t.lines() {
+        assert!(line.matches("00000004.fgl").count() <= 1, "{line}");
+    }
+}
+
+/// `ln -s ../victim.txt RUN/.lock`: verify reports it, export and resume refuse it, and the
+/// file it points to keeps its bytes.
+#[test]
+fn a_lock_that_is_a_link_is_reported_and_never_written_through() {
+    let root = scratch("linked-lock");
+    let (rig, _) = common::scan_files(&root);
+    let plan = common::scan_plan("[11.0, 12.5, 14.0]");
+    let done = write_run(&root, "run-done", true);
+    let killed = TestRun {
+        finish: false,
+        plan: &plan,
+        ..TestRun::finished("run-killed")
+    }
+    .write(&root);
+    let victim = root.join("victim.txt");
+    std::fs::write(&victim, b"the lab's notes\n").expect("victim");
+    for run in [&done, &killed] {
+        std::os::unix::fs::symlink("../victim.txt", run.join(".lock")).expect("link");
+        let verify = fringe(&["verify", path(run)]);
+        let t = text(&verify);
+        assert!(!verify.status.success(), "{t}");
+        assert!(t.contains(".lock: is a symbolic link"), "{t}");
+    }
+    let out = root.join("dataset");
+    for more in [&[][..], &["--allow-unverified"][..]] {
+        let mut args = vec!["export", path(&done), "--out", path(&out)];
+        args.extend(more);
+        let result = fringe(&args);
+        let t = text(&result);
+        assert!(!result.status.success(), "{t}");
+        assert!(t.contains(".lock"), "{t}");
+        assert!(!out.exists());
+    }
+    let before = snapshot(&killed);
+    let resumed = common::resume(&rig, &killed);
+    let t = text(&resumed);
+    assert!(!resumed.status.success(), "{t}");
+    assert!(t.contains(".lock") && t.contains("symbolic link"), "{t}");
+    assert!(
+        snapshot(&killed) == before,
+        "a refused resume changed the run"
+    );
+    assert_eq!(
+        std::fs::read(&victim).expect("victim"),
+        b"the lab's notes\n",
+        "the file the lock points to keeps its bytes"
+    );
+}
+
+/// Verify of a run a process is writing names that process, not "did not finish".
+#[test]
+fn verify_of_a_run_being_written_names_its_writer() {
+    use fringe_rig::store::run_writer::RunWriter;
+    let root = scratch("being-written");
+    // The test process writes the run (a scan would), while fringe verify looks at it.
+    let start =
+        fringe_rig::store::read_start(&write_run(&root, "run-template", false)).expect("start");
+    let writer = RunWriter::create(
+        &root,
+        &fringe_rig::store::documents::StartDocument {
+            run_id: "run-live".into(),
+            ..start
+        },
+    )
+    .expect("create");
+    let verify = fringe(&["verify", path(writer.dir())]);
+    let t = text(&verify);
+    assert!(!verify.status.success(), "{t}");
+    assert!(
+        t.contains("being written") && t.contains(&format!("pid {}", std::process::id())),
+        "{t}"
+    );
+    assert!(
+        !t.contains("did not finish") && !t.contains("resume it"),
+        "{t}"
+    );
+    let dir = writer.dir().to_path_buf();
+    drop(writer);
+    let t = text(&fringe(&["verify", path(&dir)]));
+    assert!(
+        t.contains("did not finish") && t.contains("--resume"),
+        "{t}"
+    );
+}
+
+/// Every command that writes an output refuses one inside a run before doing any work (one
+/// check, `fringe_rig::store::outside_runs`): the run stays intact.
+#[test]
+fn outputs_inside_a_run_are_refused_by_every_command() {
+    let root = scratch("outputs-inside");
+    let run = write_run(&root, "run-a", true);
+    let before = snapshot(&run);
+    let inside = |rel: &str| run.join(rel).to_str().expect("utf-8").to_string();
+    let model = root.join("no-model-needed.safetensors");
+    let m = path(&model);
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "adapt".into(),
+                "--model".into(),
+                m.into(),
+                "--out".into(),
+                inside("adapted.safetensors"),
+                path(&run).into(),
+            ],
+            "--out",
+        ),
+        (
+            vec![
+                "model".into(),
+                "export".into(),
+                m.into(),
+                "--onnx".into(),
+                inside("frames/model.onnx"),
+            ],
+            "--onnx",
+        ),
+        (
+            vec![
+                "model".into(),
+                "pair".into(),
+                m.into(),
+                m.into(),
+                "--out".into(),
+                inside("pair"),
+            ],
+            "--out",
+        ),
+        (
+            vec![
+                "eval".into(),
+                "--model".into(),
+                m.into(),
+                path(&run).into(),
+                "--report".into(),
+                inside("report"),
+            ],
+            "--report",
+        ),
+        (
+            vec![
+                "sim".into(),
+                "render".into(),
+                "--out".into(),
+                inside("render.png"),
+            ],
+            "--out",
+        ),
+    ];
+    for (args, flag) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let result = fringe(&args);
+        let t = text(&result);
+        assert!(!result.status.success(), "{args:?}: {t}");
+        assert!(
+            t.contains(&format!("{flag}: ")) && t.contains("is inside the run"),
+            "{args:?}: {t}"
+        );
+        assert!(
+            !t.contains("no-model-needed"),
+            "refused before any work: {t}"
+        );
+    }
+    assert!(snapshot(&run) == before, "the run was changed");
+    let verify = fringe(&["verify", path(&run)]);
+    assert!(verify.status.success(), "{}", text(&verify));
+}
+
+/// A run killed while writing its manifest, then a bit flipped in a frame: verify names the
+/// frame and does not advise the resume that would write a manifest over it; the resume refuses.
+#[test]
+fn a_run_without_its_manifest_and_a_damaged_frame_is_not_blessed() {
+    let root = scratch("no-manifest");
+    let (rig, _) = common::scan_files(&root);
+    let plan = common::scan_plan("[11.0, 12.5, 14.0]");
+    let run = TestRun {
+        plan: &plan,
+        ..TestRun::finished("run-a")
+    }
+    .write(&root);
+    std::fs::remove_file(run.join("MANIFEST.sha256")).expect("killed before the manifest");
+    let frame = run.join("frames/00000001.fgl");
+    let mut bytes = std::fs::read(&frame).expect("frame");
+    let last = bytes.len() - 6;
+    bytes[last] ^= 0x01;
+    std::fs::write(&frame, bytes).expect("flip");
+    let verify = fringe(&["verify", path(&run)]);
+    let t = text(&verify);
+    assert!(!verify.status.success(), "{t}");
+    assert!(
+        t.contains("frames/00000001.fgl: ") && t.contains("checksum does not match"),
+        "{t}"
+    );
+    assert!(!t.contains("resume it to write the manifest"), "{t}");
+    assert!(t.contains("mend the problems above first"), "{t}");
+    let resumed = common::resume(&rig, &run);
+    let t = text(&resumed);
+    assert!(!resumed.status.success(), "{t}");
+    assert!(t.contains("frames/00000001.fgl"), "{t}");
+    assert!(
+        !run.join("MANIFEST.sha256").exists(),
+        "no manifest vouches for the damaged frame"
+    );
 }

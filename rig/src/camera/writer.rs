@@ -30,6 +30,17 @@ pub enum FrameFileError {
     Content { path: PathBuf, message: String },
 }
 
+impl FrameFileError {
+    /// What is wrong, without the file's path (for a caller that names the file itself).
+    pub fn reason(&self) -> String {
+        match self {
+            FrameFileError::Io { source, .. } => source.to_string(),
+            FrameFileError::Image { source, .. } => source.to_string(),
+            FrameFileError::Content { message, .. } => message.clone(),
+        }
+    }
+}
+
 /// Name used in CSV files and camera traces for a pixel format.
 pub fn format_name(format: PixelFormat) -> &'static str {
     match format {

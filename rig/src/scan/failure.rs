@@ -125,6 +125,8 @@ fn force_advice(f: &ForceError) -> String {
 fn store_advice(s: &StoreError) -> String {
     if let StoreError::Busy { .. } = s {
         "let the process that holds the run end (or stop it)".into()
+    } else if let StoreError::InsideRun(_) = s {
+        "choose a directory for the runs outside every run".into()
     } else if is_disk_full(s) {
         "free space on the disk that holds the runs".into()
     } else {
@@ -143,6 +145,7 @@ pub fn is_disk_full(s: &StoreError) -> bool {
         StoreError::Parse { .. }
         | StoreError::NotARun { .. }
         | StoreError::Busy { .. }
+        | StoreError::InsideRun(_)
         | StoreError::Unverified { .. } => false,
     }
 }

@@ -11,8 +11,10 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Version of the run layout written by this build. 2: the start document records how the
 /// frames are stored ([`StartDocument::frames`]); 3: one-channel frames may be FGL files
-/// (`frames/*.fgl`, `Encoding::Fgl`). Runs of every earlier layout are still read.
-pub const LAYOUT_VERSION: u32 = 3;
+/// (`frames/*.fgl`, `Encoding::Fgl`); 4: FGL files carry a checksum (FGL version 2,
+/// `grey_codec`), which a fringe reading up to layout 3 could not decode. Runs of every earlier
+/// layout are still read.
+pub const LAYOUT_VERSION: u32 = 4;
 
 /// Written once when a run starts.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -21,8 +21,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
 /// Creates (or replaces) `path` with `bytes` and fsyncs its content, not atomically: for files
 /// inside a directory that is itself renamed into place when complete (the export), and for
 /// [`write_atomic`]'s temporary file. The directory entry is made durable by [`sync_dir`].
+/// Never written through a symbolic link ([`super::own_file::create`]).
 pub fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
-    let mut f = File::create(path).map_err(|e| StoreError::io(path, e))?;
+    let mut f = super::own_file::create(path).map_err(|e| StoreError::io(path, e))?;
     f.write_all(bytes).map_err(|e| StoreError::io(path, e))?;
     f.sync_all().map_err(|e| StoreError::io(path, e))
 }

@@ -1,6 +1,6 @@
 //! Errors of the run store.
 
-use super::layout::START;
+use super::layout::{InsideRun, START};
 use std::path::PathBuf;
 
 /// Errors of the run store, naming the file.
@@ -24,6 +24,9 @@ pub enum StoreError {
     Busy { dir: PathBuf, holder: String },
     #[error("{} is not a run (there is no {START} in it)", dir.display())]
     NotARun { dir: PathBuf },
+    /// An output (an export, a new run) asked for inside a run.
+    #[error(transparent)]
+    InsideRun(#[from] InsideRun),
     /// An export of a run that fails verification, not allowed to go on.
     #[error("{}: fails verify with {count} problem(s), the first: {first}", run.display())]
     Unverified {

@@ -27,8 +27,9 @@ pub struct ExportOptions {
     pub cancel: Option<&'static AtomicBool>,
     /// Round forces, torques and positions to this step (the reference trained on 0.1).
     pub round: Option<f64>,
-    /// Export runs that fail verify too (their problems are recorded in `0.export.json`).
-    /// Records that name a file outside their run are refused even so.
+    /// Export runs that fail verify too (their problems are recorded in `0.export.json`): a
+    /// record whose frame is missing or damaged is left out, the others exported. Records that
+    /// name a file outside their run (or a link, a FIFO) are refused even so.
     pub allow_unverified: bool,
 }
 
@@ -41,6 +42,9 @@ pub struct ExportSummary {
     /// Records left out because a record of the same index or frame file was exported already
     /// (a duplicated line; only in runs exported with `allow_unverified`).
     pub skipped_duplicates: u64,
+    /// Records left out because their frame is missing or damaged (only in runs exported with
+    /// `allow_unverified`; each is listed in its run's problems).
+    pub skipped_damaged: u64,
     pub labels: PathBuf,
     /// `0.export.json`: where every row came from.
     pub provenance: PathBuf,
@@ -60,7 +64,8 @@ pub struct ExportedRun {
     /// Rows of `0.labels.csv` from this run: `image_<first>` to `image_<first + images - 1>`.
     pub first_image: u64,
     pub images: u64,
-    /// What verify found wrong with the run (exported only with `allow_unverified`).
+    /// What verify found wrong with the run, and the frames the export left out as missing or
+    /// damaged (exported only with `allow_unverified`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub problems: Vec<String>,
 }
@@ -196,19 +201,14 @@ fn check_destination(runs: &[PathBuf], out: &Path) -> Result<(PathBuf, PathBuf),
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let out_real = real_path(out)?;
+    // Into a run (one exported or any other): refused, the run would no longer verify.
+    super::layout::outside_runs(out)?;
     let mut seen: Vec<PathBuf> = Vec::with_capacity(runs.len());
     for run in runs {
         let run_real = std::fs::canonicalize(run).map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => StoreError::NotARun { dir: run.clone() },
             _ => StoreError::io(run, e),
         })?;
-        if out_real.starts_with(&run_real) {
-            return Err(refuse(format!(
-                "is inside the run {} (an export never writes into a run: choose --out outside it)",
-                run.display()
-            )));
-        }
         if seen.contains(&run_real) {
             return Err(StoreError::Content {
                 path: run.clone(),
@@ -240,45 +240,6 @@ fn check_destination(runs: &[PathBuf], out: &Path) -> Result<(PathBuf, PathBuf),
     Ok((parent, staging))
 }
 
-/// `path` with every symbolic link and `..` resolved, also when its last components do not
-/// exist yet (the deepest existing ancestor is canonicalised, the rest appended).
-fn real_path(path: &Path) -> Result<PathBuf, StoreError> {
-    let absolute = if path.is_absolute() {
-        path.to_path_buf()
-    } else {
-        std::env::current_dir()
-            .map_err(|e| StoreError::io(path, e))?
-            .join(path)
-    };
-    let mut existing = absolute.as_path();
-    let mut rest = Vec::new();
-    loop {
-        match std::fs::canonicalize(existing) {
-            Ok(real) => {
-                let mut out = real;
-                for part in rest.iter().rev() {
-                    match part {
-                        Component::ParentDir => {
-                            out.pop();
-                        }
-                        Component::Normal(n) => out.push(n),
-                        _ => {}
-                    }
-                }
-                return Ok(out);
-            }
-            Err(e) => {
-                let (Some(up), Some(last)) = (existing.parent(), existing.components().next_back())
-                else {
-                    return Err(StoreError::io(path, e));
-                };
-                rest.push(last);
-                existing = up;
-            }
-        }
-    }
-}
-
 /// Writes the images, labels and provenance of `runs` into `dir`.
 fn write_export(
     runs: &[PathBuf],
@@ -301,10 +262,10 @@ fn write_export(
         counts: ExportCounts::default(),
     };
     let mut exported = Vec::with_capacity(runs.len());
-    for (run, problems) in runs.iter().zip(problems) {
+    for (run, mut problems) in runs.iter().zip(problems) {
         let start: StartDocument = super::run_writer::read_start(run)?;
         let first_image = writer.counts.images;
-        writer.export_run(run, &mut progress)?;
+        problems.extend(writer.export_run(run, &mut progress)?);
         exported.push(ExportedRun {
             dir: run.display().to_string(),
             run_id: start.run_id,
@@ -331,6 +292,7 @@ fn write_export(
         without_contact: counts.without_contact,
         skipped_invalid: counts.skipped_invalid,
         skipped_duplicates: counts.skipped_duplicates,
+        skipped_damaged: counts.skipped_damaged,
         labels,
         provenance,
         runs: exported,
@@ -348,6 +310,8 @@ struct ExportCounts {
     skipped_invalid: u64,
     /// Records left out for repeating an index or a file of their run.
     skipped_duplicates: u64,
+    /// Records left out because their frame is missing or damaged.
+    skipped_damaged: u64,
 }
 
 /// An export under way: where it writes, the label rows so far and the counts.
@@ -364,8 +328,15 @@ struct ExportWriter<'a> {
 }
 
 impl ExportWriter<'_> {
-    /// Exports the valid frames of the run in `run`, in record order, skipping repeated ones.
-    fn export_run(&mut self, run: &Path, progress: &mut impl FnMut(u64)) -> Result<(), StoreError> {
+    /// Exports the valid frames of the run in `run`, in record order, skipping repeated ones and,
+    /// when unverified runs are allowed, those whose frame is missing or damaged: returns a line
+    /// for each of these.
+    fn export_run(
+        &mut self,
+        run: &Path,
+        progress: &mut impl FnMut(u64),
+    ) -> Result<Vec<String>, StoreError> {
+        let mut left_out = Vec::new();
         let storage = read_start(run)?.frame_storage();
         let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
         let mut indices = HashSet::new();
@@ -381,8 +352,25 @@ impl ExportWriter<'_> {
                 self.counts.skipped_invalid += 1;
                 continue;
             }
+            let image = match read_frame(run, &storage, &source, &record)? {
+                Ok(image) => image,
+                Err(reason) if self.options.allow_unverified => {
+                    left_out.push(format!(
+                        "{}: {reason} (frame of record {}): left out of the export",
+                        record.file, record.index
+                    ));
+                    self.counts.skipped_damaged += 1;
+                    continue;
+                }
+                Err(reason) => {
+                    return Err(StoreError::Content {
+                        path: source,
+                        message: format!("{reason} (frame of record {})", record.index),
+                    })
+                }
+            };
             let name = format!("image_{}.tiff", self.counts.images);
-            self.write_image(run, &storage, &source, &record, &name)?;
+            self.write_image(&image, &name)?;
             if let Some(row) = label_row(&name, &record) {
                 self.csv
                     .write(&row)
@@ -394,7 +382,7 @@ impl ExportWriter<'_> {
             self.counts.images += 1;
             progress(self.counts.images);
         }
-        Ok(())
+        Ok(left_out)
     }
 
     /// Fails when the export was cancelled (by a signal).
@@ -413,29 +401,8 @@ impl ExportWriter<'_> {
         Ok(())
     }
 
-    /// Writes the frame of `record` (at `source`, inside `run`, stored as `storage` says) as
-    /// TIFF image `name`.
-    fn write_image(
-        &self,
-        run: &Path,
-        storage: &FrameStorage,
-        source: &Path,
-        record: &FrameRecord,
-        name: &str,
-    ) -> Result<(), StoreError> {
-        super::own_file::check_in(run, Path::new(&record.file))
-            .map_err(|e| StoreError::io(source, e))?;
-        let stored = storage.read(source).map_err(|e| StoreError::Content {
-            path: source.to_path_buf(),
-            message: format!("{e} (frame of record {})", record.index),
-        })?;
-        let image = reference_image(stored).ok_or_else(|| StoreError::Content {
-            path: source.to_path_buf(),
-            message: format!(
-                "frame of record {}: its pixels do not fill it",
-                record.index
-            ),
-        })?;
+    /// Writes `image` as TIFF image `name`.
+    fn write_image(&self, image: &image::DynamicImage, name: &str) -> Result<(), StoreError> {
         let target = self.images.join(name);
         let mut tiff = Vec::new();
         image
@@ -446,6 +413,28 @@ impl ExportWriter<'_> {
             })?;
         write_synced(&target, &tiff)
     }
+}
+
+/// The frame of `record` (at `source`, inside `run`, stored as `storage` says) as the reference
+/// code reads images; `Ok(Err(reason))` when it is missing or damaged (the reason without the
+/// file's path), an error when the record names what is not the run's own regular file (a link,
+/// a FIFO), which no export reads.
+fn read_frame(
+    run: &Path,
+    storage: &FrameStorage,
+    source: &Path,
+    record: &FrameRecord,
+) -> Result<Result<image::DynamicImage, String>, StoreError> {
+    match super::own_file::check_in(run, Path::new(&record.file)) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Err("missing".into())),
+        Err(e) => return Err(StoreError::io(source, e)),
+    }
+    let stored = match storage.read(source) {
+        Ok(stored) => stored,
+        Err(e) => return Ok(Err(e.reason())),
+    };
+    Ok(reference_image(stored).ok_or_else(|| "its pixels do not fill it".to_string()))
 }
 
 /// A stored frame as the reference code reads images: RGB (a BayerRG8 mosaic demosaiced by

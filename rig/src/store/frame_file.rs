@@ -291,7 +291,7 @@ impl FrameStorage {
             path: path.to_path_buf(),
             source,
         };
-        let file = File::create(path).map_err(io)?;
+        let file = super::own_file::create(path).map_err(io)?;
         let mut out = BufWriter::with_capacity(1 << 20, file);
         let png = |pixels: &[u8], out: &mut BufWriter<File>| {
             let colour = match self.pixel_format {
@@ -387,6 +387,25 @@ impl FrameStorage {
             data,
             cutout: self.cutout,
         })
+    }
+
+    /// Checks that the frame file at `path` is whole, without keeping its pixels: an FGL file by
+    /// its checksum (version 2; a file of version 1, which has none, is decoded whole), a PNG by
+    /// decoding it (its chunks' CRCs and its stream's checksum). The error names the file.
+    pub fn check_file(&self, path: &Path) -> Result<(), FrameFileError> {
+        match self.encoding {
+            Encoding::Png | Encoding::PngBayerPlanes => self.read(path).map(|_| ()),
+            Encoding::Fgl => {
+                let bytes = super::own_file::read(path).map_err(|source| FrameFileError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+                grey_codec::check(&bytes).map_err(|e| FrameFileError::Content {
+                    path: path.to_path_buf(),
+                    message: e.to_string(),
+                })
+            }
+        }
     }
 
     /// Expected bytes of one stored frame: its pixels times the bytes per pixel measured on
@@ -627,6 +646,31 @@ mod tests {
             .expect("storage");
         let e = storage.read(&damaged).expect_err("cut short");
         assert!(e.to_string().contains("damaged.fgl"), "{e}");
+    }
+
+    #[test]
+    fn one_bit_flipped_in_an_fgl_frame_is_an_error_naming_the_file() {
+        let storage = FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage");
+        assert_eq!(storage.encoding, Encoding::Fgl);
+        let path = temp("flipped.fgl");
+        storage
+            .write(&frame(PixelFormat::BayerRg8, 16, 10), &path)
+            .expect("write");
+        storage.check_file(&path).expect("whole");
+        let mut bytes = std::fs::read(&path).expect("read");
+        let at = bytes.len() * 2 / 3;
+        bytes[at] ^= 0x04;
+        std::fs::write(&path, &bytes).expect("flip");
+        for e in [
+            storage.read(&path).expect_err("read"),
+            storage.check_file(&path).expect_err("check"),
+        ] {
+            let text = e.to_string();
+            assert!(
+                text.contains("flipped.fgl") && text.contains("checksum does not match"),
+                "{text}"
+            );
+        }
     }
 
     #[test]

@@ -15,13 +15,18 @@
 //!
 //! | bytes | content |
 //! |---|---|
-//! | 4 | `FGL1` |
+//! | 4 | `FGL2` (version 2; `FGL1` in files of version 1) |
 //! | 4, 4 | width, height (px) |
 //! | 1 | pattern: 0 one colour ([`Pattern::Mono`]), 1 a 2x2 colour mosaic ([`Pattern::Mosaic2x2`]) |
 //! | 1 | K, the number of contexts (1 to [`MAX_CONTEXTS`]) |
 //! | 2 (K - 1) | the activity thresholds, ascending: a pixel's context is how many it reaches |
 //! | 128 K | per context, the code length of each of the 256 residual symbols, 4 bits each (low nibble first; 0: the symbol does not occur) |
 //! | rest | the residuals' codes, rows top to bottom, least significant bit first |
+//! | 4 | version 2 only: the CRC-32 (IEEE, as PNG and zlib) of every byte before it |
+//!
+//! Version 2 (written since runs of layout 4) adds the checksum: a bit changed on the disk is
+//! found when the file is read, instead of decoding to other pixels. Files of version 1 (runs of
+//! layout 3) have none and are still read; a later version is refused, naming it.
 //!
 //! Prediction, with `s` the distance to the nearest pixel of the same colour (1 for one colour,
 //! 2 in a mosaic) and W, N, NW, NE the same-colour neighbours left, above, above-left and
@@ -41,7 +46,12 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// Bytes of the header that [`header`] reads: magic, width, height, pattern.
 pub const HEADER_BYTES: usize = 13;
 
-const MAGIC: &[u8; 4] = b"FGL1";
+/// The first bytes of a file of each version: `FGL` and the version's digit.
+const MAGIC_PREFIX: &[u8; 3] = b"FGL";
+const MAGIC_V1: &[u8; 4] = b"FGL1";
+const MAGIC_V2: &[u8; 4] = b"FGL2";
+/// Bytes of version 2's checksum, at the end of the file.
+const CHECKSUM_BYTES: usize = 4;
 /// Entries of all contexts' code tables: context << 8 | symbol.
 const CODED: usize = MAX_CONTEXTS * SYMBOLS;
 /// Entries of all contexts' decoding tables: context << MAX_CODE_BITS | next bits.
@@ -82,8 +92,18 @@ pub struct GreyImage {
 /// Why bytes are not an FGL image.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CodecError {
-    #[error("not an FGL image (it does not start with \"FGL1\")")]
+    #[error("not an FGL image (it does not start with \"FGL1\" or \"FGL2\")")]
     NotFgl,
+    #[error(
+        "an FGL image of version {0}, written by a newer fringe (this one reads versions 1 and \
+         2): read it with a newer fringe"
+    )]
+    Newer(char),
+    #[error(
+        "the FGL image is damaged: its checksum does not match its bytes (changed or cut short \
+         on the disk or in a copy since it was written); restore it from a backup"
+    )]
+    Checksum,
     #[error("the FGL image is cut short ({0})")]
     Truncated(&'static str),
     #[error("the FGL image is damaged: {0}")]
@@ -214,9 +234,10 @@ pub fn encode(
     stream[at..at + 8].copy_from_slice(&acc.to_le_bytes());
     let used = at + bits.div_ceil(8) as usize;
 
-    let mut out =
-        Vec::with_capacity(HEADER_BYTES + 1 + 2 * MAX_CONTEXTS + contexts * SYMBOLS / 2 + used);
-    out.extend_from_slice(MAGIC);
+    let mut out = Vec::with_capacity(
+        HEADER_BYTES + 1 + 2 * MAX_CONTEXTS + contexts * SYMBOLS / 2 + used + CHECKSUM_BYTES,
+    );
+    out.extend_from_slice(MAGIC_V2);
     out.extend_from_slice(&width.to_le_bytes());
     out.extend_from_slice(&height.to_le_bytes());
     out.push(match pattern {
@@ -234,6 +255,8 @@ pub fn encode(
     }
 
     out.extend_from_slice(&payload[..used]);
+    let checksum = crc32fast::hash(&out);
+    out.extend_from_slice(&checksum.to_le_bytes());
     // Kept for camera frames; an unusually large image's buffers go.
     if all.len() <= KEEP_PIXELS {
         SCRATCH.with(|s| {
@@ -262,14 +285,27 @@ thread_local! {
     static SCRATCH: std::cell::Cell<Scratch> = std::cell::Cell::new(Scratch::default());
 }
 
-/// The width, height and pattern an FGL file's first [`HEADER_BYTES`] bytes name.
+/// The version an FGL file's first bytes name (1 or 2).
+fn version(bytes: &[u8]) -> Result<u8, CodecError> {
+    match bytes.get(..4) {
+        Some(m) if m == MAGIC_V1 => Ok(1),
+        Some(m) if m == MAGIC_V2 => Ok(2),
+        Some(m) if &m[..3] == MAGIC_PREFIX && (b'3'..=b'9').contains(&m[3]) => {
+            Err(CodecError::Newer(char::from(m[3])))
+        }
+        Some(_) => Err(CodecError::NotFgl),
+        None if !MAGIC_PREFIX.starts_with(&bytes[..bytes.len().min(3)]) => Err(CodecError::NotFgl),
+        None => Err(CodecError::Truncated("header")),
+    }
+}
+
+/// The width, height and pattern an FGL file's first [`HEADER_BYTES`] bytes name (the header
+/// is the same in every version).
 pub fn header(bytes: &[u8]) -> Result<(u32, u32, Pattern), CodecError> {
+    version(bytes)?;
     let head = bytes
         .get(..HEADER_BYTES)
         .ok_or(CodecError::Truncated("header"))?;
-    if &head[..4] != MAGIC {
-        return Err(CodecError::NotFgl);
-    }
     let width = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
     let height = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
     if u64::from(width) * u64::from(height) > MAX_PIXELS {
@@ -287,11 +323,47 @@ pub fn header(bytes: &[u8]) -> Result<(u32, u32, Pattern), CodecError> {
     Ok((width, height, pattern))
 }
 
-/// Decodes an image written by [`encode`].
-pub fn decode(bytes: &[u8]) -> Result<GreyImage, CodecError> {
-    if bytes.len() >= 4 && &bytes[..4] != MAGIC {
-        return Err(CodecError::NotFgl);
+/// The bytes before a version-2 file's checksum, once the checksum matches them (a version-1
+/// file, which has none, as it is). A cut-short file is said to be cut short.
+fn checked_body(bytes: &[u8]) -> Result<&[u8], CodecError> {
+    if version(bytes)? == 1 {
+        return Ok(bytes);
     }
+    header(bytes)?;
+    let Some(at) = bytes.len().checked_sub(CHECKSUM_BYTES) else {
+        return Err(CodecError::Truncated("checksum"));
+    };
+    let (body, stored) = bytes.split_at(at);
+    let stored = u32::from_le_bytes([stored[0], stored[1], stored[2], stored[3]]);
+    if crc32fast::hash(body) == stored {
+        return Ok(body);
+    }
+    // The checksum tells that the file changed, not how: one too short to hold its own tables
+    // is cut short; past them, a cut and a changed bit look alike.
+    match decode_body(body) {
+        Err(e @ CodecError::Truncated(what)) if what != "pixels" => Err(e),
+        _ => Err(CodecError::Checksum),
+    }
+}
+
+/// Checks an FGL file without keeping its pixels: a file of version 2 by its checksum (fast),
+/// one of version 1, which has none, by decoding it whole.
+pub fn check(bytes: &[u8]) -> Result<(), CodecError> {
+    let body = checked_body(bytes)?;
+    if version(bytes)? == 1 {
+        decode_body(body)?;
+    }
+    Ok(())
+}
+
+/// Decodes an image written by [`encode`] (version 2), or by the encoder of version 1.
+pub fn decode(bytes: &[u8]) -> Result<GreyImage, CodecError> {
+    decode_body(checked_body(bytes)?)
+}
+
+/// Decodes the header, tables and pixels of a file, of either version (its checksum, if any,
+/// checked and cut off).
+fn decode_body(bytes: &[u8]) -> Result<GreyImage, CodecError> {
     let (width, height, pattern) = header(bytes)?;
     let mut at = HEADER_BYTES;
     let mut take = |n: usize, what: &'static str| -> Result<&[u8], CodecError> {
@@ -783,6 +855,70 @@ mod tests {
             .collect()
     }
 
+    /// `bytes` (a version-2 file changed) with its checksum made to match again.
+    fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
+        let at = bytes.len() - CHECKSUM_BYTES;
+        let crc = crc32fast::hash(&bytes[..at]);
+        bytes[at..].copy_from_slice(&crc.to_le_bytes());
+        bytes
+    }
+
+    /// The same image in version 1: its magic, no checksum (the old encoder's bytes, as the
+    /// fixture shows).
+    fn version_1(bytes: &[u8]) -> Vec<u8> {
+        let mut old = bytes[..bytes.len() - CHECKSUM_BYTES].to_vec();
+        old[..4].copy_from_slice(MAGIC_V1);
+        old
+    }
+
+    #[test]
+    fn every_bit_flipped_in_a_new_file_is_found_and_called_damage() {
+        let pixels = fringes(24, 16, 9);
+        let bytes = encode(&pixels, 24, 16, Pattern::Mosaic2x2).expect("encode");
+        assert_eq!(&bytes[..4], b"FGL2");
+        // Past the header (whose damage is refused as such: another size, not an FGL file).
+        for bit in HEADER_BYTES * 8..bytes.len() * 8 {
+            let mut flipped = bytes.clone();
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            let e = decode(&flipped).expect_err("a flipped bit");
+            assert!(
+                matches!(e, CodecError::Checksum | CodecError::Truncated(_)),
+                "bit {bit}: {e}"
+            );
+            assert!(check(&flipped).is_err(), "bit {bit}");
+        }
+        let mut flipped = bytes.clone();
+        flipped[bytes.len() / 2] ^= 0x10;
+        assert_eq!(decode(&flipped), Err(CodecError::Checksum));
+        assert!(CodecError::Checksum.to_string().contains("checksum"));
+        assert_eq!(check(&bytes), Ok(()));
+    }
+
+    #[test]
+    fn files_of_version_1_written_by_the_old_encoder_still_decode() {
+        // Written by the encoder before version 2 (rig/fixtures/README.md).
+        let old = include_bytes!("../../fixtures/fgl1-12x8-mosaic.fgl");
+        let want = include_bytes!("../../fixtures/fgl1-12x8-mosaic.pixels");
+        assert_eq!(&old[..4], b"FGL1");
+        assert_eq!(header(old), Ok((12, 8, Pattern::Mosaic2x2)));
+        let back = decode(old).expect("a version-1 file");
+        assert_eq!((back.width, back.height), (12, 8));
+        assert_eq!(back.pixels, want.to_vec());
+        assert_eq!(check(old), Ok(()));
+        // Today's encoder writes the same image as the old one did, with a checksum added.
+        let new = encode(want, 12, 8, Pattern::Mosaic2x2).expect("encode");
+        assert_eq!(version_1(&new), old.to_vec());
+        let pixels = fringes(33, 21, 4);
+        let v1 = version_1(&encode(&pixels, 33, 21, Pattern::Mono).expect("encode"));
+        assert_eq!(decode(&v1).expect("version 1").pixels, pixels);
+        // A later version is refused by name.
+        let mut later = encode(want, 12, 8, Pattern::Mosaic2x2).expect("encode");
+        later[3] = b'3';
+        let e = decode(&later).expect_err("version 3");
+        assert_eq!(e, CodecError::Newer('3'));
+        assert!(e.to_string().contains("newer fringe"), "{e}");
+    }
+
     fn round_trip(pixels: &[u8], w: u32, h: u32, pattern: Pattern) -> usize {
         let bytes = encode(pixels, w, h, pattern).expect("encode");
         let back = decode(&bytes).expect("decode");
@@ -862,21 +998,35 @@ mod tests {
         let pixels = fringes(40, 30, 5);
         let bytes = encode(&pixels, 40, 30, Pattern::Mosaic2x2).expect("encode");
         assert_eq!(decode(b"\x89PNG\r\n\x1a\n"), Err(CodecError::NotFgl));
-        for cut in [3, 10, 13, 20, 200, bytes.len() - 40] {
+        for cut in [3, 10, 13, 20, 200] {
             assert!(
                 matches!(decode(&bytes[..cut]), Err(CodecError::Truncated(_))),
                 "cut at {cut}: {:?}",
                 decode(&bytes[..cut]).map(|_| ())
             );
         }
+        // Cut in the pixels: the checksum finds it (version 1 has none: the pixels run out).
+        assert_eq!(
+            decode(&bytes[..bytes.len() - 40]),
+            Err(CodecError::Checksum)
+        );
+        let old = version_1(&bytes);
+        assert!(matches!(
+            decode(&old[..old.len() - 40]),
+            Err(CodecError::Truncated(_))
+        ));
         let mut big = bytes.clone();
         big[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(matches!(decode(&big), Err(CodecError::TooLarge { .. })));
         let mut lengths = bytes.clone();
-        // Every symbol of context 0 one bit long: no prefix code.
+        // Every symbol of context 0 one bit long: no prefix code (written so, checksum and
+        // all, as a faulty encoder would).
         let at = 14 + 2 * (usize::from(bytes[13]) - 1);
         lengths[at..at + 128].fill(0x11);
-        assert!(matches!(decode(&lengths), Err(CodecError::Damaged(_))));
+        assert!(matches!(
+            decode(&resealed(lengths)),
+            Err(CodecError::Damaged(_))
+        ));
         // Flipped bits anywhere (header, thresholds, code lengths, payload) decode to other
         // pixels or fail; never panic.
         for k in (0..bytes.len()).step_by(7) {

@@ -9,10 +9,35 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// Every regular file under `dir` except the manifest and the writer's lock, as paths relative to `dir` with `/`,
-/// sorted.
+/// Every regular file under `dir` except the manifest and the writer's lock, as paths relative
+/// to `dir` with `/`, sorted. A run holding anything that is neither a regular file nor a
+/// directory (a symbolic link, a FIFO: [`strangers`]) is refused: no manifest vouches for it.
 pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
+    let (files, strangers) = walk(dir)?;
+    if let Some((rel, why)) = strangers.first() {
+        return Err(StoreError::Content {
+            path: dir.join(rel),
+            message: format!("{why}; remove it from the run"),
+        });
+    }
+    Ok(files)
+}
+
+/// An entry of a run that is neither a regular file nor a directory: its path relative to the
+/// run and what is wrong with it.
+pub type Stranger = (String, &'static str);
+
+/// Every entry under `dir` (the lock file included) that is neither a regular file nor a
+/// directory: its path relative to `dir` and what is wrong with it.
+pub fn strangers(dir: &Path) -> Result<Vec<Stranger>, StoreError> {
+    Ok(walk(dir)?.1)
+}
+
+/// The regular files of [`files`], and the entries that are neither regular files nor
+/// directories, with what is wrong with each. Links are never followed.
+fn walk(dir: &Path) -> Result<(Vec<String>, Vec<Stranger>), StoreError> {
     let mut out = Vec::new();
+    let mut strangers = Vec::new();
     let mut stack = vec![PathBuf::new()];
     while let Some(rel) = stack.pop() {
         let here = dir.join(&rel);
@@ -24,19 +49,24 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
                 .file_type()
                 .map_err(|e| StoreError::io(entry.path(), e))?;
             let child = rel.join(&name);
+            let text = child.to_string_lossy().replace('\\', "/");
             if kind.is_dir() {
                 stack.push(child);
-            } else if kind.is_file()
-                && child != Path::new(MANIFEST)
+            } else if !kind.is_file() {
+                if let Some(why) = super::own_file::stranger(&entry.path()) {
+                    strangers.push((text, why));
+                }
+            } else if child != Path::new(MANIFEST)
                 && child != Path::new(LOCK)
                 && !name.ends_with(".tmp")
             {
-                out.push(child.to_string_lossy().replace('\\', "/"));
+                out.push(text);
             }
         }
     }
     out.sort();
-    Ok(out)
+    strangers.sort();
+    Ok((out, strangers))
 }
 
 /// SHA-256 of a file, lower-case hex.
@@ -109,7 +139,8 @@ pub fn check(dir: &Path) -> Result<Vec<String>, StoreError> {
             ));
         }
     }
-    for rel in files(dir)? {
+    // Links and FIFOs are reported by `strangers`.
+    for rel in walk(dir)?.0 {
         if !listed.contains(&rel) {
             problems.push(format!(
                 "{rel}: not listed in {MANIFEST} (added after the run ended)"

@@ -3,8 +3,14 @@
 //! block a reader for ever (`runs`, `verify`, `export` read every file of a run): both are
 //! refused with an error naming the file, before anything is opened.
 
+use std::fs::{File, OpenOptions};
 use std::io;
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Component, Path};
+
+const LINK: &str =
+    "is a symbolic link: a run holds its own files, not links to others (copy the file into the run)";
+const NOT_REGULAR: &str = "is not a regular file (a FIFO, a socket, a device or a directory): a run's files are regular files";
 
 /// Checks that `rel` (a path relative to the run directory `dir`) names a regular file with no
 /// symbolic link on the way from `dir`. A missing file is `NotFound`, as `File::open` says it.
@@ -16,17 +22,11 @@ pub fn check_in(dir: &Path, rel: &Path) -> io::Result<()> {
         let meta = std::fs::symlink_metadata(&here)?;
         let kind = meta.file_type();
         if kind.is_symlink() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "is a symbolic link: a run holds its own files, not links to others (copy the file into the run)",
-            ));
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, LINK));
         }
         let last = k + 1 == parts.len();
         if last && !kind.is_file() {
-            return Err(io::Error::new(
-                io::ErrorKind::InvalidInput,
-                "is not a regular file (a FIFO, a socket, a device or a directory): a run's files are regular files",
-            ));
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, NOT_REGULAR));
         }
     }
     Ok(())
@@ -53,6 +53,62 @@ pub fn read(path: &Path) -> io::Result<Vec<u8>> {
 pub fn read_to_string(path: &Path) -> io::Result<String> {
     check(path)?;
     std::fs::read_to_string(path)
+}
+
+/// Opens a file of a run for writing with `options` (create, append, truncate as the caller
+/// asks), never through a symbolic link (`O_NOFOLLOW`: the kernel refuses one at the last
+/// component, so a link put in the file's place is never written through) and never blocking on
+/// a FIFO; anything but a regular file is refused before a byte is written.
+pub fn open_with(options: &mut OpenOptions, path: &Path) -> io::Result<File> {
+    match std::fs::symlink_metadata(path) {
+        Ok(meta) if meta.file_type().is_symlink() => {
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, LINK))
+        }
+        Ok(meta) if !meta.file_type().is_file() => {
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, NOT_REGULAR))
+        }
+        Ok(_) => {}
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+        Err(e) => return Err(e),
+    }
+    // A link or FIFO put in its place between the look and the open is refused too.
+    let file = options
+        .custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| match e.raw_os_error() {
+            Some(libc::ELOOP) => io::Error::new(io::ErrorKind::InvalidInput, LINK),
+            _ => e,
+        })?;
+    if !file.metadata()?.file_type().is_file() {
+        return Err(io::Error::new(io::ErrorKind::InvalidInput, NOT_REGULAR));
+    }
+    Ok(file)
+}
+
+/// Creates (or truncates) a file of a run for writing: [`open_with`] `create` + `truncate`.
+pub fn create(path: &Path) -> io::Result<File> {
+    open_with(
+        OpenOptions::new().write(true).create(true).truncate(true),
+        path,
+    )
+}
+
+/// Opens a file of a run for appending, creating it: [`open_with`] `create` + `append`.
+pub fn append(path: &Path) -> io::Result<File> {
+    open_with(OpenOptions::new().create(true).append(true), path)
+}
+
+/// What is wrong with the entry `path` when it is not a regular file or a directory (`None`
+/// when it is one, or is absent).
+pub fn stranger(path: &Path) -> Option<&'static str> {
+    let kind = std::fs::symlink_metadata(path).ok()?.file_type();
+    if kind.is_symlink() {
+        Some(LINK)
+    } else if kind.is_file() || kind.is_dir() {
+        None
+    } else {
+        Some(NOT_REGULAR)
+    }
 }
 
 #[cfg(test)]
@@ -85,6 +141,21 @@ mod tests {
             check(&dir.join("absent.json")).expect_err("absent").kind(),
             io::ErrorKind::NotFound
         );
+        // Written: never through the link (the file it points to keeps its bytes), never into
+        // the FIFO (no blocking).
+        let e = create(&dir.join("linked.json")).expect_err("a link");
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        let e = append(&dir.join("linked.json")).expect_err("a link");
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+        assert_eq!(
+            std::fs::read(dir.join("plain.json")).expect("target"),
+            b"{}"
+        );
+        let e = append(&fifo).expect_err("a FIFO");
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        assert!(stranger(&dir.join("linked.json")).is_some());
+        assert!(stranger(&fifo).is_some());
+        assert!(stranger(&dir.join("plain.json")).is_none());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -7,9 +7,14 @@
 //! writer takes it over without asking anyone to delete anything. The file holds the writer's
 //! pid, command line and start time, so a refusal names the holder. It is not part of the run:
 //! the manifest and `fringe verify` pass it over, and a writer removes it when it is done.
+//!
+//! The lock file is fringe's own regular file: one that is a symbolic link (or a FIFO, a device)
+//! is refused, never opened through, so a link planted as `RUN/.lock` cannot make a writer
+//! write its pid into (or a reader empty) the file it points to.
 
 use super::documents::now_utc;
 use super::error::StoreError;
+use super::own_file;
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};
 use std::os::fd::AsRawFd;
@@ -78,13 +83,15 @@ impl RunLock {
         // The file may be removed by a writer finishing between our open and our lock: the
         // lock then sits on a file nobody else will open. Check and take the new one.
         for _ in 0..8 {
-            let mut file = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(|e| StoreError::io(&path, e))?;
+            let mut file = own_file::open_with(
+                OpenOptions::new()
+                    .read(true)
+                    .write(true)
+                    .create(true)
+                    .truncate(false),
+                &path,
+            )
+            .map_err(|e| refused(&path, e))?;
             let op = match mode {
                 Mode::Write => libc::LOCK_EX,
                 Mode::Read => libc::LOCK_SH,
@@ -103,7 +110,7 @@ impl RunLock {
                     holder: holder_text(&holder, mode),
                 });
             }
-            let same = match (file.metadata(), std::fs::metadata(&path)) {
+            let same = match (file.metadata(), std::fs::symlink_metadata(&path)) {
                 (Ok(held), Ok(now)) => held.ino() == now.ino() && held.dev() == now.dev(),
                 _ => false,
             };
@@ -120,6 +127,47 @@ impl RunLock {
             message: "the lock file keeps being replaced: another process is opening and closing this run; try again".into(),
         })
     }
+}
+
+/// The error of a lock file that cannot be opened; one that is not fringe's own regular file (a
+/// link, a FIFO) says what to do.
+fn refused(path: &Path, e: std::io::Error) -> StoreError {
+    if e.kind() == std::io::ErrorKind::InvalidInput {
+        StoreError::Content {
+            path: path.to_path_buf(),
+            message: format!(
+                "{e}; a run's lock file is a regular file fringe makes and removes: nothing was \
+                 written through it; remove it (what it points to is not touched by removing \
+                 it) and try again"
+            ),
+        }
+    } else {
+        StoreError::io(path, e)
+    }
+}
+
+/// Who is writing the run in `dir` now: the holder named in its lock file (`pid N: command
+/// (since ...)`) while a process holds the run for writing; `None` when none does (a lock file
+/// left by a killed writer, one held by readers only, or none at all). The lock is only looked
+/// at: a shared lock taken and dropped at once, on a lock file that is a regular file.
+pub fn writer(dir: &Path) -> Option<String> {
+    let mut file = own_file::open_with(OpenOptions::new().read(true), &dir.join(LOCK)).ok()?;
+    // SAFETY: flock on a file descriptor this function owns; no memory is passed.
+    let rc = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_SH | libc::LOCK_NB) };
+    if rc == 0 {
+        return None;
+    }
+    if std::io::Error::last_os_error().kind() != std::io::ErrorKind::WouldBlock {
+        return None;
+    }
+    let mut holder = String::new();
+    let _ = file.read_to_string(&mut holder);
+    let holder = holder.trim();
+    Some(if holder.is_empty() {
+        "another process".into()
+    } else {
+        holder.to_string()
+    })
 }
 
 impl Drop for RunLock {
@@ -197,6 +245,55 @@ mod tests {
         drop(first);
         assert!(!dir.join(LOCK).exists(), "the writer removes its lock file");
         let _again = RunLock::write(&dir).expect("free again");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_lock_file_that_is_a_link_or_a_fifo_is_refused_and_what_it_points_to_kept() {
+        let dir = scratch("linked");
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, b"precious").expect("victim");
+        let run = dir.join("run");
+        std::fs::create_dir(&run).expect("run");
+        std::os::unix::fs::symlink("../victim.txt", run.join(LOCK)).expect("link");
+        for e in [
+            RunLock::write(&run).expect_err("a writer through a link"),
+            RunLock::read(&run).expect_err("a reader through a link"),
+        ] {
+            let text = e.to_string();
+            assert!(
+                text.contains(".lock") && text.contains("symbolic link"),
+                "{text}"
+            );
+        }
+        assert_eq!(std::fs::read(&victim).expect("victim"), b"precious");
+        assert!(writer(&run).is_none());
+        std::fs::remove_file(run.join(LOCK)).expect("unlink");
+        let made = std::process::Command::new("mkfifo")
+            .arg(run.join(LOCK))
+            .status()
+            .expect("mkfifo");
+        assert!(made.success());
+        let e = RunLock::write(&run).expect_err("a FIFO");
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_writer_is_named_while_it_writes_and_not_after() {
+        let dir = scratch("writer");
+        assert_eq!(writer(&dir), None, "no lock file");
+        let lock = RunLock::write(&dir).expect("writer");
+        let holder = writer(&dir).expect("a writer");
+        assert!(
+            holder.contains(&format!("pid {}", std::process::id())),
+            "{holder}"
+        );
+        // Looking did not take the lock from it.
+        assert!(RunLock::read(&dir).is_err());
+        drop(lock);
+        let _reader = RunLock::read(&dir).expect("reader").expect("lock");
+        assert_eq!(writer(&dir), None, "a reader is no writer");
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -93,11 +93,7 @@ pub fn read_lines<T: serde::de::DeserializeOwned>(
 }
 
 fn open_append(path: &Path) -> Result<File, StoreError> {
-    OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .map_err(|e| StoreError::io(path, e))
+    own_file::append(path).map_err(|e| StoreError::io(path, e))
 }
 
 /// Written at every checkpoint (before each grid point): where the scan goes on after a crash,
@@ -149,7 +145,9 @@ pub struct RunWriter {
 
 impl RunWriter {
     /// Creates `root/<run_id>` and writes the start document; refuses an existing directory.
+    /// A `root` inside a run is refused: the new run would be a stray directory of that one.
     pub fn create(root: &Path, start: &StartDocument) -> Result<RunWriter, StoreError> {
+        super::layout::outside_runs(root)?;
         std::fs::create_dir_all(root).map_err(|e| StoreError::Content {
             path: root.to_path_buf(),
             message: format!(
@@ -178,7 +176,8 @@ impl RunWriter {
         })?;
         write_atomic(&start_path, text.as_bytes())?;
         let force_path = dir.join(FORCE);
-        let mut force = File::create(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
+        let mut force =
+            own_file::create(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
         force
             .write_all(&force_log::header())
             .map_err(|e| StoreError::io(&force_path, e))?;
@@ -218,6 +217,8 @@ impl RunWriter {
         let lock = RunLock::write(dir)?;
         let survey = survey(dir)?;
         accept(&survey.existing)?;
+        // The run's manifest, written when it ends, will vouch for the frames it holds now.
+        refuse_damaged_frames(dir, &survey.existing.frames)?;
         Ok(survey.apply(dir, lock)?)
     }
     /// The run directory.
@@ -421,7 +422,8 @@ impl RunWriter {
 /// Finishes the close of a run that was stopped (killed, power lost) after its stop document
 /// and before its manifest: hashing a large run takes seconds, so that window is real. A run
 /// that ended completed or aborted gets its manifest and the stop document is returned; any
-/// other run (unfinished, failed, or closed whole) is left alone and `None` returned.
+/// other run (unfinished, failed, or closed whole) is left alone and `None` returned. The frames
+/// sat without a manifest: a damaged one is refused, and no manifest is written over it.
 pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> {
     let stop = dir.join(STOP);
     if !stop.is_file() || dir.join(MANIFEST).is_file() {
@@ -432,8 +434,53 @@ pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> 
     if document.exit_status == ExitStatus::Failed {
         return Ok(None);
     }
+    // The frames sat without a manifest: each is checked before one vouches for them.
+    refuse_damaged_frames(dir, &read_frame_lines(&dir.join(FRAMES))?.records)?;
     manifest::write(dir)?;
     Ok(Some(document))
+}
+
+/// The frames of `records` whose files are not whole ([`FrameStorage::check_file`]: an FGL
+/// frame by its checksum, others decoded), one line each naming the file and its record. A
+/// record whose file is missing, outside the run or not the run's own is passed over here
+/// (verify reports it).
+pub(crate) fn damaged_frames(
+    dir: &Path,
+    storage: &FrameStorage,
+    records: &[FrameRecord],
+) -> Vec<String> {
+    records
+        .iter()
+        .filter_map(|r| {
+            let path = r.file_in(dir).ok()?;
+            own_file::check_in(dir, Path::new(&r.file)).ok()?;
+            let e = storage.check_file(&path).err()?;
+            Some(format!(
+                "{}: {} (frame of record {})",
+                r.file,
+                e.reason(),
+                r.index
+            ))
+        })
+        .collect()
+}
+
+/// Refuses to go on with a run (resume it, write its manifest) while a frame it holds is
+/// damaged: what is written next would vouch for it.
+fn refuse_damaged_frames(dir: &Path, records: &[FrameRecord]) -> Result<(), StoreError> {
+    let storage = read_start(dir)?.frame_storage();
+    let damaged = damaged_frames(dir, &storage, records);
+    match damaged.first() {
+        None => Ok(()),
+        Some(first) => Err(StoreError::Content {
+            path: dir.to_path_buf(),
+            message: format!(
+                "{} frame file(s) are damaged, the first: {first}; nothing is written over \
+                 them (no manifest vouches for a damaged frame): restore them from a backup",
+                damaged.len()
+            ),
+        }),
+    }
 }
 
 /// The frame records of a run, with the byte offset at which each complete line ends.
@@ -639,9 +686,7 @@ impl Survey {
 }
 
 fn set_length(path: &Path, bytes: u64) -> Result<(), StoreError> {
-    let f = OpenOptions::new()
-        .write(true)
-        .open(path)
+    let f = own_file::open_with(OpenOptions::new().write(true), path)
         .map_err(|e| StoreError::io(path, e))?;
     f.set_len(bytes)
         .and_then(|_| f.sync_all())
@@ -649,9 +694,7 @@ fn set_length(path: &Path, bytes: u64) -> Result<(), StoreError> {
 }
 
 fn truncate_by(path: &Path, bytes: u64) -> Result<(), StoreError> {
-    let f = OpenOptions::new()
-        .write(true)
-        .open(path)
+    let f = own_file::open_with(OpenOptions::new().write(true), path)
         .map_err(|e| StoreError::io(path, e))?;
     let len = f.metadata().map_err(|e| StoreError::io(path, e))?.len();
     f.set_len(len.saturating_sub(bytes))

@@ -1,16 +1,20 @@
 //! Checking a run directory: documents parse, records are consecutive, hold everything the last
-//! checkpoint counts and point at existing frames inside the run, the force log is whole, counts agree with the stop document and every file matches the
-//! manifest.
+//! checkpoint counts and point at existing frames inside the run, each frame named by one
+//! record, the force log is whole, counts agree with the stop document, every file matches the
+//! manifest (without one, each frame is checked by its own checksum or decoded), and the run
+//! holds only regular files (its lock file too).
 
 use super::documents::{FrameRecord, StartDocument, StopDocument};
 use super::error::StoreError;
 use super::frame_file::stored_dimensions;
 use super::layout::{CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
+use super::run_lock::{self, LOCK};
 use super::run_writer::{
-    check_checkpoint, read_document, read_frame_lines, Checkpoint, FrameLines,
+    check_checkpoint, damaged_frames, read_document, read_frame_lines, Checkpoint, FrameLines,
 };
 use super::{force_log, manifest, own_file};
-use std::path::Path;
+use std::collections::HashMap;
+use std::path::{Component, Path};
 
 /// What checking a run found.
 #[derive(Debug, Clone, PartialEq)]
@@ -22,6 +26,9 @@ pub struct VerifyReport {
     pub ended: bool,
     /// It ended but was stopped while writing its manifest (resuming it writes the manifest).
     pub manifest_missing: bool,
+    /// The process writing the run now, as its lock names it (`pid N: command (since ...)`);
+    /// `None` when no process writes it.
+    pub writer: Option<String>,
     /// Every problem found, one line each; empty means the run is intact.
     pub problems: Vec<String>,
 }
@@ -42,6 +49,7 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
     let force_samples = count_force_samples(dir, &mut problems);
     let ended = dir.join(STOP).exists();
     let mut manifest_missing = false;
+    let writer = run_lock::writer(dir);
     if ended {
         check_stop_counts(dir, frames.len() as u64, force_samples, &mut problems);
         manifest_missing = !dir.join(MANIFEST).is_file();
@@ -52,10 +60,36 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
                 "{MANIFEST}: missing (the run was stopped while closing; resuming it writes it)"
             ));
         }
+    } else if let Some(holder) = &writer {
+        problems.push(format!(
+            "{STOP}: missing: the run is being written, {holder}; verify it once that process has ended"
+        ));
     } else {
         problems.push(format!(
             "{STOP}: missing: the run did not finish (resume it)"
         ));
+    }
+    if !ended || manifest_missing {
+        // No manifest vouches for the frames: each is checked on its own.
+        problems.extend(damaged_frames(dir, &start.frame_storage(), &frames));
+    }
+    for (rel, why) in manifest::strangers(dir)? {
+        problems.push(if rel == LOCK {
+            let link =
+                std::fs::symlink_metadata(dir.join(LOCK)).is_ok_and(|m| m.file_type().is_symlink());
+            format!(
+                "{LOCK}: is {}, not the regular file fringe makes: nothing opens the run through \
+                 it (writers and exports are refused); remove it (what it points to is not \
+                 touched)",
+                if link {
+                    "a symbolic link"
+                } else {
+                    "a FIFO, a socket or a device"
+                }
+            )
+        } else {
+            format!("{rel}: {why}")
+        });
     }
     Ok(VerifyReport {
         run_id: start.run_id,
@@ -63,6 +97,7 @@ pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
         force_samples,
         ended,
         manifest_missing,
+        writer,
         problems,
     })
 }
@@ -89,7 +124,8 @@ fn read_frames(dir: &Path, problems: &mut Vec<String>) -> Vec<FrameRecord> {
 }
 
 /// Checks each record in turn: its frame's size (the stored region's, when the run stores only
-/// a part of each frame), its index and that its frame exists inside the run.
+/// a part of each frame), its index, that no other record names its frame and that its frame
+/// exists inside the run.
 fn check_frames(
     dir: &Path,
     start: &StartDocument,
@@ -103,7 +139,16 @@ fn check_frames(
             .map(|c| (c.roi.width, c.roi.height)),
         others: 0,
     };
+    // Each frame file's first record, by its path inside the run.
+    let mut named: HashMap<Vec<String>, (usize, u64)> = HashMap::with_capacity(frames.len());
     for (k, f) in frames.iter().enumerate() {
+        let key: Vec<String> = Path::new(&f.file)
+            .components()
+            .filter_map(|c| match c {
+                Component::Normal(n) => Some(n.to_string_lossy().into_owned()),
+                _ => None,
+            })
+            .collect();
         if let Some(dims) = frame_size(dir, f) {
             sizes.note(&f.file, dims, problems);
         }
@@ -112,6 +157,15 @@ fn check_frames(
                 "{FRAMES}: record {} has index {}, expected {k}",
                 k + 1,
                 f.index
+            ));
+        }
+        // A line repeated whole is the index's problem, above.
+        let (first_at, first) = *named.entry(key).or_insert((k, f.index));
+        if first_at != k && first != f.index {
+            problems.push(format!(
+                "{}: named by record {} and again by record {}: each frame file belongs to one \
+                 record (an edited {FRAMES}; an export would give both records the same image)",
+                f.file, first, f.index
             ));
         }
         check_frame_file(dir, f, problems);

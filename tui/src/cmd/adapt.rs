@@ -40,6 +40,7 @@ pub struct AdaptArgs {
 }
 
 pub fn run(a: AdaptArgs) -> Result<()> {
+    fringe_rig::store::outside_runs(&a.out).context("--out")?;
     if a.out.extension().and_then(|e| e.to_str()) != Some("safetensors") {
         bail!(
             "--out {}: the adapted weights are written as safetensors: name the file *.safetensors",

@@ -73,6 +73,9 @@ pub struct CalibrateArgs {
 }
 
 pub fn run(args: CalibrateArgs, global: &Global) -> anyhow::Result<()> {
+    if let Some(out) = &args.out {
+        fringe_rig::store::outside_runs(out).context("--out")?;
+    }
     if args.max_frames == 0 {
         bail!("--max-frames 0: use at least 1");
     }

@@ -4,7 +4,7 @@
 use super::frames_progress::FramesProgress;
 use super::model::{choose_model, ForSensor, ReferenceChoice};
 use super::verdict;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::judge;
@@ -58,12 +58,8 @@ pub struct EvalArgs {
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
-    if let Some(run) = a.report.as_deref().and_then(fringe_rig::store::run_holding) {
-        bail!(
-            "--report {}: that is inside the run {} (a report never goes into a run: the run would no longer verify); choose a directory outside it",
-            a.report.as_deref().unwrap_or(Path::new("")).display(),
-            run.display()
-        );
+    if let Some(report) = &a.report {
+        fringe_rig::store::outside_runs(report).context("--report")?;
     }
     let spec = a.spec.as_deref().map(verdict::load).transpose()?;
     let smoothing = a

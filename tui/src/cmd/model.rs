@@ -130,6 +130,7 @@ const PAIR_CONTACT_NET: &str = "contact.safetensors";
 /// Writes the two-stage model of `a`: the networks' weights and cards into `a.out`, the contact
 /// model's card naming its window networks, then opens it to check they run together.
 fn pair(a: &PairArgs) -> Result<()> {
+    fringe_rig::store::outside_runs(&a.out).context("--out")?;
     let contact = open_model(&a.contact_model)?;
     if a.force_model.is_none() && a.contact.is_none() {
         bail!(
@@ -470,6 +471,7 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 }
 
 fn export(path: &Path, out: &Path) -> Result<()> {
+    fringe_rig::store::outside_runs(out).context("--onnx")?;
     let m = open_model(path)?;
     refuse_model_file(&m.path, out)?;
     if let Some(w) = m.copy_warning() {

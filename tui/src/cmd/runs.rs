@@ -88,10 +88,17 @@ pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
         println!("  problem: {p}");
     }
     let run = args.run.display();
-    if !report.ended {
+    if let Some(holder) = &report.writer {
+        println!("  it is being written ({holder}): let it end, then: fringe verify {run}");
+    } else if !report.ended {
         println!("  resume it: fringe scan PLAN --resume {run}");
-    } else if report.manifest_missing {
+    } else if report.manifest_missing && report.problems.len() == 1 {
         println!("  resume it to write the manifest: fringe scan --resume {run}");
+    } else if report.manifest_missing {
+        // A manifest written now would vouch for what is wrong above.
+        println!(
+            "  mend the problems above first (restore damaged files from a backup); then `fringe scan --resume {run}` writes the manifest"
+        );
     }
     anyhow::bail!(
         "run {} has {} problem(s)",
@@ -160,6 +167,13 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
             r.dir,
             r.problems.len(),
             r.dir
+        );
+    }
+    if summary.skipped_damaged > 0 {
+        eprintln!(
+            "warning: {} records left out, their frames missing or damaged (each listed in {})",
+            summary.skipped_damaged,
+            summary.provenance.display()
         );
     }
     if summary.skipped_duplicates > 0 {

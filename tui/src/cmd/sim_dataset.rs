@@ -96,6 +96,7 @@ fn dataset_document(
 }
 
 pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
+    fringe_rig::store::outside_runs(&args.out).context("--out")?;
     let sensor = load_sensor(&args.sensor)?;
     let spec = DatasetSpec {
         count: args.count,

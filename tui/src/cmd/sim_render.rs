@@ -85,6 +85,7 @@ pub fn load_sensor(name: &str) -> anyhow::Result<SensorConfig> {
 }
 
 pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
+    fringe_rig::store::outside_runs(&args.out).context("--out")?;
     let mut config = load_sensor(&args.sensor)?;
     if let Some(blur) = args.blur {
         if !(blur.is_finite() && (0.0..=40.0).contains(&blur)) {

@@ -132,6 +132,7 @@ mod with_torch {
     }
 
     pub fn run(a: TrainArgs) -> Result<()> {
+        fringe_rig::store::outside_runs(&a.out).context("--out")?;
         check(&a)?;
         if let Some(init) = &a.init {
             // Read before the data is prepared: a wrong file is found in a second, not minutes.

@@ -57,6 +57,9 @@ pub struct ValidateArgs {
 }
 
 pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
+    if let Some(report) = &a.report {
+        fringe_rig::store::outside_runs(report).context("--report")?;
+    }
     let (text, origin) = match &a.plan {
         Some(p) => (fringe_app::plans::read_file(p)?, p.display().to_string()),
         None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
