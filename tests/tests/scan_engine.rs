@@ -1292,7 +1292,9 @@ fn a_safe_height_past_the_sensor_surface_is_refused_before_the_run_exists_and_no
     .expect_err("refused");
     let t = err.to_string();
     assert!(
-        t.contains("approach.safe_z: 16 mm is at or past the sensor surface (first contact at z = 15 mm"),
+        t.contains(
+            "approach.safe_z: 16 mm is at or past the sensor surface (first contact at z = 15 mm"
+        ),
         "{t}"
     );
     assert!(!dir.join("past").exists(), "a run was made: {t}");
@@ -1310,7 +1312,10 @@ fn a_load_on_the_way_to_the_safe_height_stops_z_before_any_tare_or_lateral_move(
     let (rig, devices, _truth) = bench(52);
     let text = plan("[10.5, 14.5]", "[25.0]", "force_targets = [2.0]", 0.3)
         .replace("safe_z = 14.0", "safe_z = 16.0");
-    let mut setup = setup(&rig, &plan("[10.5]", "[25.0]", "force_targets = [2.0]", 0.3));
+    let mut setup = setup(
+        &rig,
+        &plan("[10.5]", "[25.0]", "force_targets = [2.0]", 0.3),
+    );
     setup.limits.contact_z = Millimetres(17.0);
     setup.program = Plan::parse(&text, "plan.toml")
         .expect("plan")
@@ -1337,7 +1342,11 @@ fn a_load_on_the_way_to_the_safe_height_stops_z_before_any_tare_or_lateral_move(
     );
     let run = dir.join("load");
     let events = events(&run);
-    assert_eq!(tares(&events), Vec::<Option<u64>>::new(), "a tare under load");
+    assert_eq!(
+        tares(&events),
+        Vec::<Option<u64>>::new(),
+        "a tare under load"
+    );
     let stop: StopDocument = read_document(&run.join(STOP)).expect("stop");
     assert_eq!(stop.exit_status, ExitStatus::Failed);
     assert_eq!(stop.points_done, 0);

@@ -456,7 +456,9 @@ fn ctrl_c_pauses_after_the_indentation_and_the_operator_resumes() {
 /// What fringe prints once it has opened the simulated bench's devices (their description lines)
 /// or moved anything.
 fn opened_or_moved(t: &str) -> bool {
-    t.contains("force: ") || t.contains("homing") || t.contains("z to the safe height")
+    t.lines().any(|l| l.starts_with("  force: "))
+        || t.contains("homing")
+        || t.contains("z to the safe height")
 }
 
 #[test]
@@ -483,7 +485,10 @@ force_ceiling = 12.0
     let hard = plan("[11.0, 12.5]")
         .replace("force_targets = [1.0, 3.0]", "force_targets = [150.0]")
         .replace("force_ceiling = 10.0", "force_ceiling = 200.0");
-    let unbounded = QUICK_RIG.replace("[force]\ndriver = \"sim\"", "[force]\ndriver = \"sim\"\nmax_force = 1e9");
+    let unbounded = QUICK_RIG.replace(
+        "[force]\ndriver = \"sim\"",
+        "[force]\ndriver = \"sim\"\nmax_force = 1e9",
+    );
     let rgb8_fgl = QUICK_RIG.replace(
         "[camera]\ndriver = \"sim\"",
         "[camera]\ndriver = \"sim\"\npixel_format = \"rgb8\"",
@@ -525,8 +530,14 @@ force_ceiling = 12.0
             let t = text(&out);
             assert!(!out.status.success(), "dry {dry}: accepted: {t}");
             assert!(t.contains(refusal), "dry {dry}: {t}");
-            assert!(!opened_or_moved(&t), "dry {dry}: opened or moved before refusing: {t}");
-            assert!(the_run(&root).is_none(), "dry {dry}: a run was created: {t}");
+            assert!(
+                !opened_or_moved(&t),
+                "dry {dry}: opened or moved before refusing: {t}"
+            );
+            assert!(
+                the_run(&root).is_none(),
+                "dry {dry}: a run was created: {t}"
+            );
         }
     }
 }

@@ -91,10 +91,7 @@ pub enum RunTarget {
     /// Continue an unfinished run after a crash or power loss. `held`: the run taken for
     /// writing before the rig was opened ([`RunTarget::resume`]), so that a second writer
     /// opens no device; `None`: it is taken when the run is reopened.
-    Resume {
-        dir: PathBuf,
-        held: Option<RunLock>,
-    },
+    Resume { dir: PathBuf, held: Option<RunLock> },
 }
 
 impl RunTarget {
@@ -555,8 +552,8 @@ fn open_run(
                 None => RunWriter::lock_for_reopen(&dir)?,
             };
             // Everything is checked before the run is touched: a refused resume changes nothing.
-            let (writer, existing) = RunWriter::reopen_held(&dir, lock, |existing| {
-                match super::resume_check::refusal(
+            let (writer, existing) =
+                RunWriter::reopen_held(&dir, lock, |existing| match super::resume_check::refusal(
                     &dir.display().to_string(),
                     &existing.start,
                     &setup.plan_text,
@@ -566,8 +563,7 @@ fn open_run(
                 ) {
                     Some(why) => Err(ScanError::Setup(why)),
                     None => Ok(()),
-                }
-            })?;
+                })?;
             Ok(OpenedRun {
                 writer,
                 first_point: existing.checkpoint.as_ref().map_or(0, |c| c.next_point),
@@ -719,10 +715,9 @@ impl<'a> Runner<'a> {
             std::thread::sleep(Duration::from_millis(10));
         }
         // z is homed, away from the sensor: what the F/T reads now is no contact.
-        let (_, homed) = parts
-            .monitor
-            .mean_of_last(TARE_SAMPLES)
-            .ok_or_else(|| ScanError::Setup(format!("{}: no force samples", parts.monitor.device())))?;
+        let (_, homed) = parts.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
+            ScanError::Setup(format!("{}: no force samples", parts.monitor.device()))
+        })?;
         tare.set(homed[2]);
         let clearance = Clearance::new(
             homed[2],

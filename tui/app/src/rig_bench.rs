@@ -12,7 +12,7 @@ use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondS
 
 /// The largest force on the bench when the rig file does not say (or the transducer's rated
 /// range, when lower).
-pub const DEFAULT_MAX_FORCE: Newtons = Newtons(20.0);
+pub(crate) const DEFAULT_MAX_FORCE: Newtons = Newtons(20.0);
 
 impl RigConfig {
     /// Soft limits, kinematics, force ceiling and contact height of the bench. A `max_force`

@@ -5,19 +5,19 @@
 use crate::rig_error::RigError;
 use crate::rig_file::{AxisSection, RigConfig, SimForcePath};
 use crate::truth_score::TruthScore;
+use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::atical::Calibration;
 use fringe_rig::scan::plan::{BenchLimits, FtRating};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::bench::{AxisConfig, Bench};
 use fringe_sim::ground_truth::TruthSink;
 use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
-use fringe_sim::NetFtEmulatorConfig;
 use fringe_sim::sensor::SensorConfig;
 use fringe_sim::truth_spool::TruthSpool;
+use fringe_sim::NetFtEmulatorConfig;
 use std::path::Path;
 use std::sync::Arc;
 
