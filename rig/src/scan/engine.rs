@@ -313,7 +313,7 @@ fn scan_opened_run(
     // z goes down to the safe height only once the F/T's no-contact reading is known (z homed),
     // watching for a load on the way.
     let result = run
-        .to_safe_height()
+        .descend_to_safe_height()
         .and_then(|()| run.points(opened.first_point, operator));
     // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
     run.leave_bench_safe();
@@ -1268,7 +1268,7 @@ impl Runner<'_> {
 
     /// Moves z from its home down to the safe height, stopping at once if the F/T reads a load
     /// on the way or once there.
-    fn to_safe_height(&mut self) -> Result<(), ScanError> {
+    fn descend_to_safe_height(&mut self) -> Result<(), ScanError> {
         (self.progress)(ScanProgress::Message(format!(
             "z to the safe height {:.3}",
             self.safe_z
