@@ -5,6 +5,7 @@
 //!   resume, abort, crash recovery).
 //! - [`control`]: pause/resume/abort requests, operator prompts, progress.
 //! - [`watchers`]: force ceiling, F/T silence and camera drops, acted on at once.
+//! - [`clearance`]: no load at the safe height, at a tare or on a lateral move.
 //! - [`offset_check`]: the zero-load check against the sensor's profile, called at every offset
 //!   measurement.
 //! - [`origin`]: the stage position of the sensor centre, origin of contact labels.
@@ -15,6 +16,7 @@
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
 
+pub mod clearance;
 pub mod control;
 pub mod engine;
 pub mod failure;

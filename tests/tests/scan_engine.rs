@@ -65,6 +65,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         z_motion: k(&b.z),
         manual_y: false,
         max_force: Newtons(20.0),
+        ft_rating: None,
         contact_z: Millimetres(b.geometry.z_touch_mm),
     };
     let plan = Plan::parse(plan_text, "plan.toml").expect("plan");
@@ -1208,4 +1209,236 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_
         drop(rig);
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+/// A force sensor that reads `shift_n` more in Fz (compression: a pressing load) from when
+/// `loaded` is set: a load the engine can only tell from the F/T.
+struct Loading {
+    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    loaded: Arc<std::sync::atomic::AtomicBool>,
+    shift_n: f64,
+}
+
+impl fringe_rig::force::ForceSensor for Loading {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.start()
+    }
+    fn next_sample(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+        let loaded = self.loaded.load(std::sync::atomic::Ordering::SeqCst);
+        Ok(self.inner.next_sample(timeout)?.map(|mut s| {
+            if loaded {
+                s.wrench.fz.0 += self.shift_n;
+            }
+            s
+        }))
+    }
+    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.stop()
+    }
+    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+        self.inner.bias()
+    }
+    fn stats(&self) -> fringe_rig::force::StreamStats {
+        self.inner.stats()
+    }
+}
+
+/// The true x and z of the simulated bench now, mm.
+fn true_xz(rig: &SimRig) -> (f64, f64) {
+    let now = fringe_rig::clock::HostTime::now();
+    (
+        rig.bench.motor_x().true_position_at(now).0,
+        rig.bench.motor_z().true_position_at(now).0,
+    )
+}
+
+/// The no-contact offsets (tares) a run took, by point.
+fn tares(events: &[Event]) -> Vec<Option<u64>> {
+    events
+        .iter()
+        .filter(|e| e.kind == "force-offset")
+        .map(|e| e.point)
+        .collect()
+}
+
+#[test]
+fn a_safe_height_past_the_sensor_surface_is_refused_before_the_run_exists_and_nothing_moves() {
+    // The plan: two points 4 mm apart, safe_z 16 with the surface at 15 mm, handed to
+    // the engine past the plan's check: the approach must not turn round and search upwards.
+    let dir = tempfile_dir("past-surface");
+    let (rig, devices, _truth) = bench(51);
+    let text = plan("[10.5, 14.5]", "[25.0]", "force_targets = [2.0]", 0.3);
+    let mut setup = setup(&rig, &text);
+    setup.program.plan.approach.safe_z = 16.0;
+    let before = true_xz(&rig);
+    let (mut operator, _) = scripted(Reply::Continue);
+    let err = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "past".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect_err("refused");
+    let t = err.to_string();
+    assert!(
+        t.contains(
+            "approach.safe_z: 16 mm is at or past the sensor surface (first contact at z = 15 mm"
+        ),
+        "{t}"
+    );
+    assert!(!dir.join("past").exists(), "a run was made: {t}");
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    assert_eq!(true_xz(&rig), before, "something moved");
+    drop(rig);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_load_on_the_way_to_the_safe_height_stops_z_before_any_tare_or_lateral_move() {
+    // The rig's contact height is wrong (17 mm; the surface is at 15): a plan's safe height of
+    // 16 mm passes the plan's check but lies 1 mm inside the sensor.
+    let dir = tempfile_dir("load-at-safe");
+    let (rig, devices, _truth) = bench(52);
+    let text = plan("[10.5, 14.5]", "[25.0]", "force_targets = [2.0]", 0.3)
+        .replace("safe_z = 14.0", "safe_z = 16.0");
+    let mut setup = setup(
+        &rig,
+        &plan("[10.5]", "[25.0]", "force_targets = [2.0]", 0.3),
+    );
+    setup.limits.contact_z = Millimetres(17.0);
+    setup.program = Plan::parse(&text, "plan.toml")
+        .expect("plan")
+        .program(&setup.limits, "plan.toml")
+        .expect("a safe height short of the rig's (wrong) contact height");
+    setup.plan_text = text;
+    let (mut operator, _) = scripted(Reply::Continue);
+    let err = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "load".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect_err("refused under load");
+    let t = err.to_string();
+    assert!(
+        t.contains("of load at z") && t.contains("the move down to the safe height was stopped"),
+        "{t}"
+    );
+    let run = dir.join("load");
+    let events = events(&run);
+    assert_eq!(
+        tares(&events),
+        Vec::<Option<u64>>::new(),
+        "a tare under load"
+    );
+    let stop: StopDocument = read_document(&run.join(STOP)).expect("stop");
+    assert_eq!(stop.exit_status, ExitStatus::Failed);
+    assert_eq!(stop.points_done, 0);
+    // x stayed where homing left it, and z was lifted off the sensor to the top of its travel.
+    let (x, z) = true_xz(&rig);
+    assert!(x.abs() < 1e-6, "x moved to {x}");
+    assert!(z.abs() < 0.01, "z left at {z}");
+    drop(rig);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Runs the 2-point plan with the F/T reading 5 N of load from `phase` of point `point` on
+/// (after a pause of `delay_ms` in its own thread); the error and the run's events.
+fn scan_loaded_from(
+    name: &str,
+    point: u64,
+    phase: Phase,
+    delay_ms: u64,
+) -> (String, Vec<Event>, SimRig) {
+    let dir = tempfile_dir(name);
+    let (rig, mut devices, _truth) = bench(53);
+    let loaded = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    devices.force = Box::new(Loading {
+        inner: devices.force,
+        loaded: loaded.clone(),
+        shift_n: -5.0,
+    });
+    let text = plan("[11.0, 14.0]", "[25.0]", "force_targets = [2.0]", 0.3);
+    let setup = setup(&rig, &text);
+    let (mut operator, _) = scripted(Reply::Continue);
+    let err = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: name.into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &move |p| {
+            if p == (ScanProgress::Phase { point, phase }) {
+                let loaded = loaded.clone();
+                let set = move || {
+                    std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+                    loaded.store(true, std::sync::atomic::Ordering::SeqCst);
+                };
+                if delay_ms == 0 {
+                    set();
+                    // The loaded samples reach the stream before the engine reads it again.
+                    std::thread::sleep(std::time::Duration::from_millis(60));
+                } else {
+                    std::thread::spawn(set);
+                }
+            }
+        },
+    )
+    .expect_err("refused under load");
+    let events = events(&dir.join(name));
+    (err.to_string(), events, rig)
+}
+
+#[test]
+fn a_lateral_move_under_load_is_refused_and_z_lifted() {
+    let (t, events, rig) = scan_loaded_from("lateral-load", 1, Phase::Moving, 0);
+    assert!(
+        t.contains("N of load at z") && t.contains("the lateral move was not started"),
+        "{t}"
+    );
+    // Point 1 was tared before the load came; x never left point 0.
+    assert_eq!(tares(&events), vec![Some(0), Some(1)]);
+    let (x, z) = true_xz(&rig);
+    assert!((x - 11.0).abs() < 1e-6, "x moved to {x}");
+    assert!(z.abs() < 0.01, "z left at {z}");
+}
+
+#[test]
+fn a_load_during_a_lateral_move_stops_it_at_once() {
+    let (t, _events, rig) = scan_loaded_from("lateral-moving", 1, Phase::Moving, 150);
+    assert!(t.contains("the lateral move was stopped at once"), "{t}");
+    let (x, _) = true_xz(&rig);
+    assert!(x > 11.05 && x < 13.95, "x at {x}: not stopped on the way");
+}
+
+#[test]
+fn no_no_contact_offset_is_taken_under_load() {
+    // The load comes while point 0 retracts: the tare of point 1 would take it as the zero.
+    let (t, events, rig) = scan_loaded_from("tare-load", 0, Phase::Retract, 0);
+    assert!(
+        t.contains("the no-contact offset (tare) was not taken"),
+        "{t}"
+    );
+    assert_eq!(tares(&events), vec![Some(0)], "a tare under load");
+    let (x, _) = true_xz(&rig);
+    assert!((x - 11.0).abs() < 1e-6, "x moved to {x}");
 }

@@ -408,3 +408,76 @@ fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
     assert!(t.contains("fringe commission --resume"), "{t}");
     assert!(c.join("runs/calibration-layered-3.stopped-1").is_dir());
 }
+
+/// A commissioning whose calibration run another process writes (this one, as the UI's
+/// commissioning would): `fringe commission --resume` is refused naming the writer, before any
+/// device of the rig is opened.
+#[test]
+fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
+    use fringe_app::commission::journal::{Journal, Options, ScanEntry};
+    let dir = scratch("commission-held");
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, common::QUICK_RIG).expect("rig");
+    let sensor = "layered-1";
+    let base = fringe_sensor_models::builtin::commissioning_base(Some("layered")).expect("base");
+    let mut journal = Journal::new(Options {
+        sensor: sensor.into(),
+        base: base.display().to_string(),
+        budget_min: 1.5,
+        spec: None,
+        spec_origin: "the paper".into(),
+        seed: 1,
+        round_presses: 3,
+        acceptance_presses: 3,
+        last_block: false,
+        fine_tune: false,
+    });
+    let plan = common::scan_plan("[11.0, 12.5]");
+    let run_id = format!("calibration-{sensor}");
+    journal.calibration = Some(ScanEntry {
+        run_id: run_id.clone(),
+        plan: plan.clone(),
+        estimate_s: 10.0,
+        took_s: None,
+        completed: false,
+    });
+    let commissioning = dir.join("unit.commission-test");
+    std::fs::create_dir_all(commissioning.join("runs")).expect("dir");
+    journal.write(&commissioning).expect("journal");
+    let start = fringe_rig::store::documents::StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        run_id,
+        started_utc: fringe_rig::store::documents::now_utc(),
+        software: "test".into(),
+        sensor_id: sensor.into(),
+        variant: None,
+        plan,
+        rig: common::QUICK_RIG.into(),
+        calibration_profile: None,
+        seed: None,
+        sync_method: "strobe".into(),
+        frames: None,
+    };
+    let writer =
+        fringe_rig::store::run_writer::RunWriter::create(&commissioning.join("runs"), &start)
+            .expect("run");
+    let out = fringe(&[
+        "commission",
+        "--rig",
+        arg(&rig),
+        "--yes",
+        "--resume",
+        arg(&commissioning),
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "a second writer ran: {t}");
+    assert!(
+        t.contains("the run is in use") && t.contains(&format!("pid {}", std::process::id())),
+        "{t}"
+    );
+    assert!(
+        !t.lines().any(|l| l.starts_with("  force: ")) && !t.contains("homing"),
+        "opened the rig before refusing: {t}"
+    );
+    drop(writer);
+}

@@ -480,3 +480,126 @@ fn ctrl_c_pauses_after_the_indentation_and_the_operator_resumes() {
     assert!(t.contains("completed: 3 of 3 points"), "{t}");
     assert_eq!(points_in(&run), vec![0, 1, 2]);
 }
+
+/// What fringe prints once it has opened the simulated bench's devices (their description lines)
+/// or moved anything.
+fn opened_or_moved(t: &str) -> bool {
+    t.lines().any(|l| l.starts_with("  force: "))
+        || t.contains("homing")
+        || t.contains("z to the safe height")
+}
+
+#[test]
+fn a_safe_height_in_the_gel_and_forces_past_the_transducer_are_refused_before_anything_moves() {
+    let dir = scratch("issue-59-safety");
+    let (rig, _) = files(&dir);
+    let root = dir.join("runs");
+    // The issue's plan: two points 4 mm apart, safe_z 16 with the surface at 15 mm.
+    let in_gel = r#"
+name = "in-gel"
+[grid]
+points = [[10.5, 25.0], [14.5, 25.0]]
+[indenters]
+shapes = ["pentagon"]
+[approach]
+safe_z = 16.0
+[indentation]
+force_targets = [2.0]
+ramp_rate = 6.0
+dwell = 0.4
+[safety]
+force_ceiling = 12.0
+"#;
+    let hard = plan("[11.0, 12.5]")
+        .replace("force_targets = [1.0, 3.0]", "force_targets = [150.0]")
+        .replace("force_ceiling = 10.0", "force_ceiling = 200.0");
+    let unbounded = QUICK_RIG.replace(
+        "[force]\ndriver = \"sim\"",
+        "[force]\ndriver = \"sim\"\nmax_force = 1e9",
+    );
+    let rgb8_fgl = QUICK_RIG.replace(
+        "[camera]\ndriver = \"sim\"",
+        "[camera]\ndriver = \"sim\"\npixel_format = \"rgb8\"",
+    ) + "[recording]\ncodec = \"fgl\"\n";
+    let cases = [
+        (
+            in_gel.to_string(),
+            QUICK_RIG.to_string(),
+            "key approach.safe_z: 16 mm is at or past the sensor surface (first contact at z = 15 mm",
+        ),
+        (
+            hard.clone(),
+            unbounded,
+            "key force.max_force: 1e9 N is above the rated range of the F/T transducer, the simulated Mini40 (SI-40-2, serial FT90001): 120 N in Fz",
+        ),
+        (
+            hard,
+            QUICK_RIG.to_string(),
+            "key safety.force_ceiling: 200 N is above the rated range of the F/T transducer, the simulated Mini40 (SI-40-2, serial FT90001): 120 N in Fz",
+        ),
+        (
+            plan("[11.0, 12.5]"),
+            rgb8_fgl,
+            "`recording.codec` = \"fgl\" stores one-channel frames",
+        ),
+    ];
+    for (plan_text, rig_text, refusal) in cases {
+        let plan_path = dir.join("plan.toml");
+        std::fs::write(&plan_path, &plan_text).expect("plan");
+        std::fs::write(&rig, &rig_text).expect("rig");
+        for dry in [true, false] {
+            let mut args = vec!["scan", "--yes", "--out", root.to_str().expect("path")];
+            args.extend(["--rig", rig.to_str().expect("path")]);
+            args.push(plan_path.to_str().expect("path"));
+            if dry {
+                args.push("--dry-run");
+            }
+            let out = fringe(&args);
+            let t = text(&out);
+            assert!(!out.status.success(), "dry {dry}: accepted: {t}");
+            assert!(t.contains(refusal), "dry {dry}: {t}");
+            assert!(
+                !opened_or_moved(&t),
+                "dry {dry}: opened or moved before refusing: {t}"
+            );
+            assert!(
+                the_run(&root).is_none(),
+                "dry {dry}: a run was created: {t}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_resume_of_a_run_another_process_writes_opens_no_device() {
+    let dir = scratch("resume-held");
+    let (rig, plan_path) = files(&dir);
+    let root = dir.join("runs");
+    // A run as a writer holds it (this process): its start document written, its lock taken.
+    let plan_text = std::fs::read_to_string(&plan_path).expect("plan");
+    let start = fringe_rig::store::documents::StartDocument {
+        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        run_id: "held".into(),
+        started_utc: fringe_rig::store::documents::now_utc(),
+        software: "test".into(),
+        sensor_id: "layered-sim".into(),
+        variant: None,
+        plan: plan_text,
+        rig: QUICK_RIG.into(),
+        calibration_profile: None,
+        seed: None,
+        sync_method: "strobe".into(),
+        frames: None,
+    };
+    let writer = fringe_rig::store::run_writer::RunWriter::create(&root, &start).expect("run");
+    let run = writer.dir().to_path_buf();
+    let out = resume(&rig, &run);
+    let t = text(&out);
+    assert!(!out.status.success(), "a second writer ran: {t}");
+    assert!(
+        t.contains("the run is in use") && t.contains(&format!("pid {}", std::process::id())),
+        "{t}"
+    );
+    assert!(!opened_or_moved(&t), "opened the rig before refusing: {t}");
+    drop(writer);
+}

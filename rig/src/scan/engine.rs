@@ -9,6 +9,7 @@
 //! end of the retract. A point interrupted (pause now, watcher) is cut back to its checkpoint and
 //! done again, so no point is lost or recorded twice; the same holds after a crash.
 
+use super::clearance::{Clearance, Motion, UnderLoad};
 use super::control::{Operator, Phase, Prompt, Reply, Request, ScanControl, ScanProgress, Status};
 use super::failure::ScanError;
 use super::offset_check::OffsetCheck;
@@ -37,6 +38,7 @@ use crate::store::documents::{
 };
 use crate::store::error::StoreError;
 use crate::store::frame_file::{FrameCodec, FrameStorage};
+use crate::store::run_lock::RunLock;
 use crate::store::run_writer::RunWriter;
 use crate::sync::method::SyncMethod;
 use crate::units::{Millimetres, Newtons};
@@ -82,20 +84,33 @@ pub struct ScanSetup {
 }
 
 /// Where the run goes.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub enum RunTarget {
     /// A new run directory `root/<run_id>`.
     New { root: PathBuf, run_id: String },
-    /// Continue an unfinished run after a crash or power loss.
-    Resume { dir: PathBuf },
+    /// Continue an unfinished run after a crash or power loss. `held`: the run taken for
+    /// writing before the rig was opened ([`RunTarget::resume`]), so that a second writer
+    /// opens no device; `None`: it is taken when the run is reopened.
+    Resume { dir: PathBuf, held: Option<RunLock> },
 }
 
 impl RunTarget {
+    /// The resume of the run in `dir`, taken for writing now: call it before opening the rig.
+    /// Refused while another process writes the run (the refusal names it) and for a directory
+    /// that is not a run.
+    pub fn resume(dir: &Path) -> Result<RunTarget, StoreError> {
+        let lock = RunWriter::lock_for_reopen(dir)?;
+        Ok(RunTarget::Resume {
+            dir: dir.to_path_buf(),
+            held: Some(lock),
+        })
+    }
+
     /// The run's directory.
     pub fn dir(&self) -> PathBuf {
         match self {
             RunTarget::New { root, run_id } => root.join(run_id),
-            RunTarget::Resume { dir } => dir.clone(),
+            RunTarget::Resume { dir, .. } => dir.clone(),
         }
     }
 
@@ -103,7 +118,7 @@ impl RunTarget {
     pub fn run_id(&self) -> String {
         match self {
             RunTarget::New { run_id, .. } => run_id.clone(),
-            RunTarget::Resume { dir } => dir
+            RunTarget::Resume { dir, .. } => dir
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default(),
@@ -198,8 +213,16 @@ pub fn run_scan(
         camera,
         description,
     } = devices;
+    // A safe height at or past the sensor surface is refused before the run is touched: the
+    // approach would have no way down to search, and every lateral move would drag the indenter
+    // through the sensor.
+    let safe_z = Millimetres(setup.program.plan.approach.safe_z);
+    setup
+        .limits
+        .approach_limit(safe_z)
+        .map_err(|e| ScanError::Setup(format!("the plan: {e}")))?;
     // Open the run first: a bad resume target must fail before anything moves.
-    let opened = open_run(setup, &description, &target)?;
+    let opened = open_run(setup, &description, target)?;
     let run_dir = opened.writer.dir().to_path_buf();
     progress(ScanProgress::Message(format!(
         "run directory {}",
@@ -255,7 +278,7 @@ fn scan_opened_run(
         camera,
     } = bench;
     let safe_z = Millimetres(setup.program.plan.approach.safe_z);
-    home(&mut axes, setup, safe_z, progress)?;
+    home(&mut axes, setup, progress)?;
     let run_dir = opened.writer.dir().to_path_buf();
     let (streams, recorder, context) = start_recording(setup, force, camera, opened.writer)?;
     if opened.discarded > 0 || opened.first_point > 0 || opened.failed.is_some() {
@@ -287,7 +310,11 @@ fn scan_opened_run(
             discarded: opened.discarded,
         },
     )?;
-    let result = run.points(opened.first_point, operator);
+    // z goes down to the safe height only once the F/T's no-contact reading is known (z homed),
+    // watching for a load on the way.
+    let result = run
+        .descend_to_safe_height()
+        .and_then(|()| run.points(opened.first_point, operator));
     // Cleanup whatever happened: z up, everything stopped, streams closed, run closed.
     run.leave_bench_safe();
     run.context.set(None);
@@ -301,17 +328,16 @@ fn scan_opened_run(
     close_run(run, streams, result)
 }
 
-/// Homes z (then lifts it to the safe height), x and, unless it is moved by hand, y.
+/// Homes z (away from the sensor), then x and, unless it is moved by hand, y, with z still at
+/// home: nothing moves laterally before the F/T has shown that nothing touches the indenter.
 fn home(
     axes: &mut Axes,
     setup: &ScanSetup,
-    safe_z: Millimetres,
     progress: &dyn Fn(ScanProgress),
 ) -> Result<(), ScanError> {
     progress(ScanProgress::Message("homing x, y and z".into()));
     axes.z.begin_home()?;
     axes.z.wait_idle(MOVE_TIMEOUT)?;
-    axes.z.move_to(safe_z, MOVE_TIMEOUT)?;
     axes.x.begin_home()?;
     if !setup.limits.manual_y {
         axes.y.begin_home()?;
@@ -484,21 +510,10 @@ fn append_sidecar(dir: &Path, sidecar: &dyn RunSidecar, sync: bool) -> Result<()
         .map_err(|e| StoreError::Io { path, source: e })
 }
 
-/// The z position the approach may reach: 3 mm past the expected contact, inside the limits.
-fn approach_limit(limits: &BenchLimits, safe_z: Millimetres) -> Millimetres {
-    let down = if limits.contact_z.0 >= safe_z.0 {
-        1.0
-    } else {
-        -1.0
-    };
-    let z = limits.contact_z.0 + 3.0 * down;
-    Millimetres(z.clamp(limits.z.min.0, limits.z.max.0))
-}
-
 fn open_run(
     setup: &ScanSetup,
     description: &[String],
-    target: &RunTarget,
+    target: RunTarget,
 ) -> Result<OpenedRun, ScanError> {
     match target {
         RunTarget::New { root, run_id } => {
@@ -525,16 +540,20 @@ fn open_run(
                 ),
             };
             Ok(OpenedRun {
-                writer: RunWriter::create(root, &start)?,
+                writer: RunWriter::create(&root, &start)?,
                 first_point: 0,
                 discarded: 0,
                 failed: None,
             })
         }
-        RunTarget::Resume { dir } => {
+        RunTarget::Resume { dir, held } => {
+            let lock = match held {
+                Some(lock) => lock,
+                None => RunWriter::lock_for_reopen(&dir)?,
+            };
             // Everything is checked before the run is touched: a refused resume changes nothing.
-            let (writer, existing) = RunWriter::reopen_if(dir, |existing| {
-                match super::resume_check::refusal(
+            let (writer, existing) =
+                RunWriter::reopen_held(&dir, lock, |existing| match super::resume_check::refusal(
                     &dir.display().to_string(),
                     &existing.start,
                     &setup.plan_text,
@@ -544,8 +563,7 @@ fn open_run(
                 ) {
                     Some(why) => Err(ScanError::Setup(why)),
                     None => Ok(()),
-                }
-            })?;
+                })?;
             Ok(OpenedRun {
                 writer,
                 first_point: existing.checkpoint.as_ref().map_or(0, |c| c.next_point),
@@ -600,6 +618,8 @@ const CHECKPOINT_TIMEOUT: Duration = Duration::from_secs(10);
 const TARE_SAMPLES: usize = 500;
 /// Longest wait for fresh samples to tare from after an interruption.
 const FRESH_TARE_TIMEOUT: Duration = Duration::from_secs(5);
+/// Force samples averaged to tell a load before and during a lateral move (10 ms at 5 kHz).
+const LOAD_SAMPLES: usize = 50;
 
 enum Ending {
     Completed,
@@ -639,6 +659,8 @@ struct Runner<'a> {
     mounted: Option<String>,
     /// Where the operator last set a y stage moved by hand.
     manual_y_at: Option<Millimetres>,
+    /// The F/T's no-contact reading, which tells a load at the safe height.
+    clearance: Clearance,
     frames_discarded: u64,
     /// Time of the current point spent moving, settling, dwelling or waiting for the operator
     /// (everything that is not software overhead).
@@ -675,7 +697,10 @@ impl<'a> Runner<'a> {
         let mut press = setup.press.clone();
         press.ceiling = Newtons(setup.program.plan.safety.force_ceiling);
         press.contact_threshold = Newtons(setup.program.plan.approach.contact_threshold);
-        press.approach_limit = approach_limit(&setup.limits, parts.safe_z);
+        press.approach_limit = setup
+            .limits
+            .approach_limit(parts.safe_z)
+            .map_err(|e| ScanError::Setup(format!("the plan: {e}")))?;
         let watch = WatchSettings {
             ceiling: press.ceiling,
             ..setup.watch.clone()
@@ -696,6 +721,17 @@ impl<'a> Runner<'a> {
         while parts.monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
             std::thread::sleep(Duration::from_millis(10));
         }
+        // z is homed, away from the sensor: what the F/T reads now is no contact.
+        let (_, homed) = parts.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
+            ScanError::Setup(format!("{}: no force samples", parts.monitor.device()))
+        })?;
+        tare.set(homed[2]);
+        let clearance = Clearance::new(
+            homed[2],
+            parts.monitor.stats().restarts,
+            "with z homed".into(),
+            press.contact_threshold,
+        );
         Ok(Runner {
             setup,
             run_dir: parts.run_dir,
@@ -721,6 +757,7 @@ impl<'a> Runner<'a> {
             last_status: Instant::now(),
             mounted: None,
             manual_y_at: None,
+            clearance,
             frames_discarded: parts.discarded,
             excluded: Duration::ZERO,
             overheads: Vec::new(),
@@ -800,6 +837,9 @@ impl Runner<'_> {
                     k += 1;
                 }
                 PointEnd::NoContact(why) => {
+                    // The approach ended at its limit: back to the safe height before the next
+                    // lateral move.
+                    self.retract()?;
                     self.point_skipped(p, &why);
                     k += 1;
                 }
@@ -1026,8 +1066,21 @@ impl Runner<'_> {
         let (_, mean) = self.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
             ScanError::Setup(format!("{}: no force samples", self.monitor.device()))
         })?;
-        self.tare.set(mean[2]);
         let restarts = self.monitor.stats().restarts;
+        // Never a no-contact offset under load: it would hide the load from every label and
+        // from the ceiling. After a device restart its zero moved: the reading starts again here.
+        let from = if self.clearance.outdated(restarts) {
+            format!(
+                "at the safe height before point {} (the device had restarted)",
+                point + 1
+            )
+        } else if self.clearance.loaded(mean[2]) {
+            return Err(self.under_load(Motion::Tare, mean[2]).into());
+        } else {
+            format!("at the tare before point {}", point + 1)
+        };
+        self.clearance.follow(mean[2], restarts, from);
+        self.tare.set(mean[2]);
         if restarts > self.force_restarts_seen {
             self.force_restarts_seen = restarts;
             let warning = format!(
@@ -1129,6 +1182,17 @@ impl Runner<'_> {
                 }
                 return Ok(Lateral::Interrupted(alarm));
             }
+            if let Some(fz) = self.fz_now().filter(|fz| self.clearance.loaded(*fz)) {
+                let _ = self.axes.x.stop(StopMode::Immediate);
+                if !self.setup.limits.manual_y {
+                    let _ = self.axes.y.stop(StopMode::Immediate);
+                }
+                let _ = self.axes.x.wait_idle(MOVE_TIMEOUT);
+                if !self.setup.limits.manual_y {
+                    let _ = self.axes.y.wait_idle(MOVE_TIMEOUT);
+                }
+                return Err(self.under_load(Motion::LateralMoving, fz).into());
+            }
             if started.elapsed() > MOVE_TIMEOUT {
                 return Err(ScanError::Setup(format!(
                     "the lateral move did not finish within {MOVE_TIMEOUT:?} ({}, {})",
@@ -1168,10 +1232,83 @@ impl Runner<'_> {
         Ok(())
     }
 
+    /// Fz now (N): the mean of the newest [`LOAD_SAMPLES`]; `None` before any sample (the
+    /// watchers stop a silent stream).
+    fn fz_now(&self) -> Option<f64> {
+        self.monitor.mean_of_last(LOAD_SAMPLES).map(|(_, m)| m[2])
+    }
+
+    /// Refuses `motion` when the F/T reads a load now.
+    fn check_clear(&mut self, motion: Motion) -> Result<(), ScanError> {
+        match self.fz_now() {
+            Some(fz) if self.clearance.loaded(fz) => Err(self.under_load(motion, fz).into()),
+            _ => Ok(()),
+        }
+    }
+
+    /// The refusal of `motion` under the load `fz` reads. The safe height proved not to be
+    /// clear: from here on z retracts to the end of its travel away from the sensor, and it is
+    /// taken there now (a move away from the sensor is always allowed).
+    fn under_load(&mut self, motion: Motion, fz: f64) -> UnderLoad {
+        let z = self
+            .axes
+            .z
+            .status()
+            .map_or(Millimetres(f64::NAN), |s| s.position);
+        let safe_z = self.safe_z;
+        self.safe_z = self.setup.limits.z.min;
+        let lifted_to = match self.retract() {
+            Ok(()) => self.safe_z,
+            Err(_) => Millimetres(f64::NAN),
+        };
+        UnderLoad {
+            device: self.monitor.device().to_string(),
+            motion,
+            load: self.clearance.load(fz),
+            threshold: self.clearance.threshold(),
+            z,
+            safe_z,
+            lifted_to,
+            reference_from: self.clearance.from().to_string(),
+        }
+    }
+
+    /// Moves z from its home down to the safe height, stopping at once if the F/T reads a load
+    /// on the way or once there.
+    fn descend_to_safe_height(&mut self) -> Result<(), ScanError> {
+        (self.progress)(ScanProgress::Message(format!(
+            "z to the safe height {:.3}",
+            self.safe_z
+        )));
+        self.axes.z.begin_move_to(self.safe_z)?;
+        let started = Instant::now();
+        loop {
+            if let Some(fz) = self.fz_now() {
+                if self.clearance.loaded(fz) {
+                    let _ = self.axes.z.stop(StopMode::Immediate);
+                    let _ = self.axes.z.wait_idle(MOVE_TIMEOUT);
+                    return Err(self.under_load(Motion::ToSafeHeight, fz).into());
+                }
+            }
+            if settled(self.axes.z.as_mut())?.is_some() {
+                break;
+            }
+            if started.elapsed() > MOVE_TIMEOUT {
+                return Err(ScanError::Setup(format!(
+                    "z did not reach the safe height within {MOVE_TIMEOUT:?} ({})",
+                    self.axes.z.endpoint()
+                )));
+            }
+        }
+        self.check_clear(Motion::ToSafeHeight)
+    }
+
     fn point(&mut self, p: &ScanPoint) -> Result<PointEnd, ScanError> {
         let i = p.index;
         let tare = self.tare(i)?;
         self.phase(i, Phase::Moving);
+        // Never across the sensor under load.
+        self.check_clear(Motion::LateralStart)?;
         self.axes.x.begin_move_to(p.x)?;
         if !self.setup.limits.manual_y {
             self.axes.y.begin_move_to(p.y)?;
@@ -1270,13 +1407,9 @@ impl Runner<'_> {
         let ramp_rate = setup.program.plan.indentation.ramp_rate;
         match &setup.program.targets {
             Targets::Force(t) => self.press_force_ramp(guard, contact, force_now, t[k], ramp_rate),
+            // Past contact is towards the sensor: a larger z.
             Targets::Depth(t) => {
-                let down = if self.press.approach_limit.0 >= self.safe_z.0 {
-                    1.0
-                } else {
-                    -1.0
-                };
-                let target = Millimetres(contact.z.0 + down * t[k].0);
+                let target = Millimetres(contact.z.0 + t[k].0);
                 self.press_depth(guard, target, ramp_rate)
             }
         }

@@ -1,6 +1,7 @@
 //! Why a scan could not run or stopped, and what to do when it stops on a device or disk error:
 //! the advice that ends the one-line message a user sees (`ScanError::Stopped`).
 
+use super::clearance::UnderLoad;
 use super::press::PressError;
 use crate::acquire::recorder::RecorderError;
 use crate::axis::AxisError;
@@ -23,6 +24,9 @@ pub enum ScanError {
     Press(#[from] PressError),
     #[error(transparent)]
     Recorder(#[from] RecorderError),
+    /// A load where there must be none (at the safe height, at a tare, on a lateral move).
+    #[error(transparent)]
+    UnderLoad(#[from] UnderLoad),
     #[error("{0}")]
     Setup(String),
     /// A scan that stopped on an error once its run was open: the run keeps what was recorded.
@@ -72,6 +76,9 @@ pub fn advice(e: &ScanError) -> String {
         ScanError::Store(s) | ScanError::Recorder(RecorderError::Store(s)) => store_advice(s),
         ScanError::Recorder(_) => {
             "check the disk that holds the runs and the machine's load".into()
+        }
+        ScanError::UnderLoad(_) => {
+            "take away what touches the indenter, or give the plan a safe height (approach.safe_z) clear of the sensor surface and check the rig's contact height (a plan that changes is a new run)".into()
         }
         ScanError::Setup(_) | ScanError::Stopped { .. } => "fix the cause above".into(),
     }

@@ -257,8 +257,72 @@ pub struct BenchLimits {
     pub manual_y: bool,
     /// The largest force the F/T sensor and the sensor under test may see.
     pub max_force: Newtons,
-    /// z of first contact, roughly (for the approach time estimate).
+    /// The F/T transducer's rated range in Fz, from its calibration; `None` when unknown.
+    pub ft_rating: Option<FtRating>,
+    /// z of first contact, roughly: the known height of the sensor surface. z grows towards the
+    /// sensor, so every safe height lies below it and the approach goes up from there.
     pub contact_z: Millimetres,
+}
+
+/// The rated range of an F/T transducer in Fz, from its calibration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FtRating {
+    /// The transducer as messages name it ("the simulated Mini40 (SI-40-2, serial FT90001)").
+    pub transducer: String,
+    /// The largest |Fz| it is rated for.
+    pub fz: Newtons,
+}
+
+impl FtRating {
+    /// Refuses `force` (the value of `key`) above the rated range.
+    pub fn check(&self, key: &str, force: Newtons) -> Result<(), String> {
+        if force.0 > self.fz.0 {
+            return Err(format!(
+                "key {key}: {} N is above the rated range of the F/T transducer, {}: {} N in Fz; give at most {} N",
+                shown(force.0),
+                self.transducer,
+                shown(self.fz.0),
+                shown(self.fz.0)
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl BenchLimits {
+    /// Checks a safe height (`key` names where it came from): inside the z soft limits and clear
+    /// of the sensor, short of the known contact height (z grows towards the sensor). A safe
+    /// height at or past the surface would drag the indenter through the sensor on every lateral
+    /// move and take the no-contact offset under load.
+    pub fn check_safe_z(&self, key: &str, safe_z: Millimetres) -> Result<(), String> {
+        if self.z.check("z", safe_z).is_err() {
+            return Err(format!(
+                "key {key}: {} mm is outside the z soft limits {:.3} .. {:.3} mm",
+                shown(safe_z.0),
+                self.z.min.0,
+                self.z.max.0
+            ));
+        }
+        if safe_z.0 >= self.contact_z.0 {
+            let clear = (self.contact_z.0 - 1.0).max(self.z.min.0);
+            return Err(format!(
+                "key {key}: {} mm is at or past the sensor surface (first contact at z = {} mm; z grows towards the sensor): lateral moves there would drag the indenter through the sensor; give a safe height above the surface, such as {key} = {clear:.1}",
+                shown(safe_z.0),
+                shown(self.contact_z.0)
+            ));
+        }
+        Ok(())
+    }
+
+    /// The z the approach may reach: 3 mm past the known contact height (towards the sensor),
+    /// inside the soft limits; refused for a safe height at or past the contact height (an
+    /// approach from there would have no way down to search).
+    pub fn approach_limit(&self, safe_z: Millimetres) -> Result<Millimetres, String> {
+        self.check_safe_z("approach.safe_z", safe_z)?;
+        Ok(Millimetres(
+            (self.contact_z.0 + 3.0).clamp(self.z.min.0, self.z.max.0),
+        ))
+    }
 }
 
 /// A plan checked against the bench, expanded into points.
@@ -359,19 +423,9 @@ impl Plan {
         }
     }
 
-    /// Checks that `approach.safe_z` is within the z soft limits.
+    /// Checks `approach.safe_z` against the bench ([`BenchLimits::check_safe_z`]).
     fn check_safe_z(&self, bench: &BenchLimits) -> Result<(), String> {
-        if bench
-            .z
-            .check("z", Millimetres(self.approach.safe_z))
-            .is_err()
-        {
-            return Err(format!(
-                "key approach.safe_z: {} mm is outside the z soft limits {:.3} .. {:.3} mm",
-                self.approach.safe_z, bench.z.min.0, bench.z.max.0
-            ));
-        }
-        Ok(())
+        bench.check_safe_z("approach.safe_z", Millimetres(self.approach.safe_z))
     }
 
     /// Checks that there is at least one indenter and that each has a name.
@@ -387,9 +441,13 @@ impl Plan {
         Ok(())
     }
 
-    /// Checks the force ceiling against the rig and the contact threshold against the ceiling.
+    /// Checks the force ceiling against the rig and the F/T transducer's rated range, and the
+    /// contact threshold against the ceiling.
     fn check_forces(&self, bench: &BenchLimits) -> Result<(), String> {
         let ceiling = self.safety.force_ceiling;
+        if let Some(rating) = &bench.ft_rating {
+            rating.check("safety.force_ceiling", Newtons(ceiling))?;
+        }
         if !(ceiling.is_finite() && ceiling > 0.0) || ceiling > bench.max_force.0 {
             return Err(format!(
                 "key safety.force_ceiling: {} N must be positive and at most the rig's {:.1} N",
@@ -808,6 +866,7 @@ force_ceiling = 10.0
             z_motion: k,
             manual_y: true,
             max_force: Newtons(20.0),
+            ft_rating: None,
             contact_z: Millimetres(5.0),
         }
     }
@@ -953,6 +1012,59 @@ force_ceiling = 10.0
             "{}",
             refusal(&depth)
         );
+    }
+
+    #[test]
+    fn a_safe_height_at_or_past_the_sensor_surface_is_refused_naming_the_key() {
+        // The bench's surface is at z 5 mm and z grows towards the sensor.
+        for inside in ["5.0", "5.5", "16.0"] {
+            let msg = refusal(&PLAN.replace("safe_z = 1.0", &format!("safe_z = {inside}")));
+            assert!(
+                msg.starts_with("plan.toml: key approach.safe_z:")
+                    && msg.contains("at or past the sensor surface (first contact at z = 5 mm")
+                    && msg.contains("approach.safe_z = 4.0"),
+                "{inside}: {msg}"
+            );
+        }
+        assert!(refusal(&PLAN.replace("safe_z = 1.0", "safe_z = 4.9")).starts_with("accepted"));
+        // The approach goes towards the sensor, 3 mm past the surface; from a safe height past
+        // the surface it has no way down and is refused rather than turned round.
+        let b = bench();
+        assert_eq!(b.approach_limit(Millimetres(1.0)), Ok(Millimetres(8.0)));
+        let refused = b.approach_limit(Millimetres(6.0)).expect_err("past");
+        assert!(refused.contains("approach.safe_z"), "{refused}");
+        let deep = BenchLimits {
+            contact_z: Millimetres(24.0),
+            ..bench()
+        };
+        assert_eq!(deep.approach_limit(Millimetres(1.0)), Ok(Millimetres(25.0)));
+    }
+
+    #[test]
+    fn a_ceiling_above_the_transducers_rated_range_is_refused_naming_it() {
+        let rated = BenchLimits {
+            max_force: Newtons(1e9),
+            ft_rating: Some(FtRating {
+                transducer: "the simulated Mini40 (SI-40-2, serial FT90001)".into(),
+                fz: Newtons(120.0),
+            }),
+            ..bench()
+        };
+        let text = PLAN
+            .replace("[1.0, 4.0]", "[150.0]")
+            .replace("force_ceiling = 10.0", "force_ceiling = 200.0");
+        let plan = Plan::parse(&text, "plan.toml").expect("parse");
+        let msg = plan
+            .program(&rated, "plan.toml")
+            .expect_err("above the rated range")
+            .to_string();
+        assert_eq!(
+            msg,
+            "plan.toml: key safety.force_ceiling: 200 N is above the rated range of the F/T transducer, the simulated Mini40 (SI-40-2, serial FT90001): 120 N in Fz; give at most 120 N"
+        );
+        let within = PLAN.replace("force_ceiling = 10.0", "force_ceiling = 120.0");
+        let plan = Plan::parse(&within, "plan.toml").expect("parse");
+        assert!(plan.program(&rated, "plan.toml").is_ok());
     }
 
     #[test]

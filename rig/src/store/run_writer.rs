@@ -210,11 +210,29 @@ impl RunWriter {
         dir: &Path,
         accept: impl FnOnce(&Existing) -> Result<(), E>,
     ) -> Result<(RunWriter, Existing), E> {
+        let lock = RunWriter::lock_for_reopen(dir)?;
+        RunWriter::reopen_held(dir, lock, accept)
+    }
+
+    /// Takes the run in `dir` for writing, before anything else is opened (the devices of a
+    /// resumed scan): a run another process writes is refused, naming it, and a directory that
+    /// is not a run is refused without a lock file left in it. Hand the lock to
+    /// [`RunWriter::reopen_held`].
+    pub fn lock_for_reopen(dir: &Path) -> Result<RunLock, StoreError> {
         if !dir.join(START).is_file() {
             // Not a run: say so (read_start's error) rather than leave a lock file in it.
             read_start(dir)?;
         }
-        let lock = RunLock::write(dir)?;
+        RunLock::write(dir)
+    }
+
+    /// [`RunWriter::reopen_if`] of the run in `dir`, held already by `lock` (from
+    /// [`RunWriter::lock_for_reopen`] of the same directory).
+    pub fn reopen_held<E: From<StoreError>>(
+        dir: &Path,
+        lock: RunLock,
+        accept: impl FnOnce(&Existing) -> Result<(), E>,
+    ) -> Result<(RunWriter, Existing), E> {
         let survey = survey(dir)?;
         accept(&survey.existing)?;
         // The run's manifest, written when it ends, will vouch for the frames it holds now.

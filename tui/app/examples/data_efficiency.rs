@@ -135,6 +135,7 @@ fn open_limits() -> Result<BenchLimits> {
         z_motion: k,
         manual_y: false,
         max_force: Newtons(20.0),
+        ft_rating: None,
         contact_z: Millimetres(15.0),
     })
 }

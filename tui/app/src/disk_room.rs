@@ -299,7 +299,7 @@ fn planned_run(
                 advice,
             })
         }
-        RunTarget::Resume { dir } => {
+        RunTarget::Resume { dir, .. } => {
             let start = read_start(dir).ok()?;
             let next_point =
                 read_document::<Checkpoint>(&dir.join(CHECKPOINT)).map_or(0, |c| c.next_point);
@@ -535,7 +535,10 @@ mod tests {
         let resumed = planned_run(
             &setup,
             REFERENCE_FRAME,
-            &RunTarget::Resume { dir: dir.clone() },
+            &RunTarget::Resume {
+                dir: dir.clone(),
+                held: None,
+            },
             true,
         )
         .expect("a resumed run");
@@ -553,6 +556,7 @@ mod tests {
         // Not a run: the scan says what is wrong with it.
         let nowhere = RunTarget::Resume {
             dir: root.join("absent"),
+            held: None,
         };
         assert_eq!(planned_run(&setup, REFERENCE_FRAME, &nowhere, true), None);
         let _ = std::fs::remove_dir_all(&root);

@@ -31,7 +31,33 @@ pub struct OpenRig {
     pub sim: Option<SimBench>,
 }
 
+/// What opening the rig takes from its file, read and checked before any device is opened.
+struct Described {
+    limits: BenchLimits,
+    origin: ContactOrigin,
+    sync: SyncMethod,
+    sensor_id: String,
+    camera_settings: CameraSettings,
+}
+
 impl RigConfig {
+    /// Checks what [`RigConfig::open`] reads from the rig file before it opens a device (the
+    /// limits, the origin, the synchronisation, the sensor, the camera settings), opening none:
+    /// a dry run refuses what the scan would.
+    pub fn check_before_open(&self) -> Result<(), RigError> {
+        self.described().map(|_| ())
+    }
+
+    fn described(&self) -> Result<Described, RigError> {
+        Ok(Described {
+            limits: self.limits()?,
+            origin: self.origin()?,
+            sync: self.sync()?,
+            sensor_id: self.sensor_id()?,
+            camera_settings: self.camera_settings()?,
+        })
+    }
+
     /// Opens every device: the simulated bench's when the rig is simulated (its ground truth
     /// recorded), else the real drivers; `record_trace` records every real device link to
     /// DIR/<device>.trace. A y stage moved by hand asks `stage_operator`, the front end's.
@@ -40,11 +66,13 @@ impl RigConfig {
         record_trace: Option<&Path>,
         stage_operator: Box<dyn Operator>,
     ) -> Result<OpenRig, RigError> {
-        let limits = self.limits()?;
-        let origin = self.origin()?;
-        let sync = self.sync()?;
-        let sensor_id = self.sensor_id()?;
-        let camera_settings = self.camera_settings()?;
+        let Described {
+            limits,
+            origin,
+            sync,
+            sensor_id,
+            camera_settings,
+        } = self.described()?;
         let text = self.text.clone();
         if self.simulated {
             #[cfg(feature = "sim")]

@@ -10,10 +10,42 @@ use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 
+/// The largest force on the bench when the rig file does not say (or the transducer's rated
+/// range, when lower).
+pub(crate) const DEFAULT_MAX_FORCE: Newtons = Newtons(20.0);
+
 impl RigConfig {
-    /// Soft limits, kinematics, force ceiling and contact height of the bench.
+    /// Soft limits, kinematics, force ceiling and contact height of the bench. A `max_force`
+    /// above the F/T transducer's rated range (where its calibration is known) is refused.
     pub fn limits(&self) -> Result<BenchLimits, ConfigError> {
-        let max_force = Newtons(self.file.force.max_force.unwrap_or(20.0));
+        let given = self.file.force.max_force.map(Newtons);
+        let mut limits = self.bench_limits(given.unwrap_or(DEFAULT_MAX_FORCE))?;
+        if let Some(rating) = &limits.ft_rating {
+            match given {
+                Some(m) => rating
+                    .check("force.max_force", m)
+                    .map_err(|e| self.err(e))?,
+                None => limits.max_force = Newtons(limits.max_force.0.min(rating.fz.0)),
+            }
+        }
+        Ok(limits)
+    }
+
+    /// A warning when the F/T transducer's rated range is unknown before its device is opened
+    /// (a real Net F/T): the forces of the rig and of every plan are then not checked against it.
+    pub fn ft_rating_warning(&self) -> Option<String> {
+        let limits = self.limits().ok()?;
+        if limits.ft_rating.is_some() {
+            return None;
+        }
+        Some(format!(
+            "{}: the rated range of the F/T transducer is not known before it is opened, so force.max_force ({:.1} N) and the plans' force ceilings are not checked against it: make sure they are within the transducer's rated Fz (its calibration sheet)",
+            self.origin, limits.max_force.0
+        ))
+    }
+
+    /// The bench's limits with `max_force`, from the simulated bench or the rig file's keys.
+    fn bench_limits(&self, max_force: Newtons) -> Result<BenchLimits, ConfigError> {
         if self.simulated {
             return sim_bench::limits(self, max_force);
         }
@@ -43,6 +75,12 @@ impl RigConfig {
                     .into(),
             )
         })?;
+        if z.check("z", Millimetres(contact_z)).is_err() {
+            return Err(self.err(format!(
+                "key `geometry.z_contact` = {contact_z} mm is outside the z soft limits {:.3} .. {:.3} mm: give the z (mm) at which the indenter touches the sensor, within z's travel",
+                z.min.0, z.max.0
+            )));
+        }
         Ok(BenchLimits {
             x,
             y,
@@ -52,6 +90,8 @@ impl RigConfig {
             z_motion,
             manual_y: f.y.driver == AxisDriver::Manual,
             max_force,
+            // A Net F/T's rated range is known to its box only.
+            ft_rating: None,
             contact_z: Millimetres(contact_z),
         })
     }

@@ -139,6 +139,7 @@ impl ScanSession {
             .iter()
             .map(|d| Note::Info(format!("  {d}")))
             .collect();
+        notes.extend(config.ft_rating_warning().map(Note::Warning));
         let (origin, profile, offset_check) = match profile_use {
             ProfileUse::Consume => {
                 calibration_profile(config, &rig.sensor_id, rig.origin.clone(), &mut notes)

@@ -5,17 +5,19 @@
 use crate::rig_error::RigError;
 use crate::rig_file::{AxisSection, RigConfig, SimForcePath};
 use crate::truth_score::TruthScore;
+use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::scan::plan::{BenchLimits, FtRating};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::bench::{AxisConfig, Bench};
 use fringe_sim::ground_truth::TruthSink;
-use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig};
+use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
 use fringe_sim::sensor::SensorConfig;
 use fringe_sim::truth_spool::TruthSpool;
+use fringe_sim::NetFtEmulatorConfig;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -121,8 +123,40 @@ pub fn limits(rig: &RigConfig, max_force: Newtons) -> Result<BenchLimits, Config
         z_motion: k(&b.z),
         manual_y: false,
         max_force,
+        ft_rating: Some(ft_rating(rig, &c)?),
         contact_z: Millimetres(b.geometry.z_touch_mm),
     })
+}
+
+/// The rated range in Fz of the simulated transducer on the configured force path: the Mini40
+/// of the built-in `.cal` (DAQ), or the one the emulated Net F/T box holds.
+fn ft_rating(rig: &RigConfig, c: &SimRigConfig) -> Result<FtRating, ConfigError> {
+    match c.force_path {
+        ForcePath::Daq => {
+            let cal = Calibration::parse(SIM_CAL, "simulated Mini40 (built-in .cal)")
+                .map_err(|e| rig.err(format!("the simulated F/T sensor: {e}")))?;
+            Ok(FtRating {
+                transducer: format!(
+                    "the simulated {} ({}, serial {})",
+                    cal.body_style, cal.part_number, cal.serial
+                ),
+                fz: Newtons(cal.max_loads[2]),
+            })
+        }
+        ForcePath::Netft => {
+            let box_config = NetFtEmulatorConfig::default();
+            let range = box_config.range.ok_or_else(|| {
+                rig.err("the emulated Net F/T box states no sensing range".into())
+            })?;
+            Ok(FtRating {
+                transducer: format!(
+                    "the Mini40 of the emulated {} (serial {})",
+                    box_config.product_name, box_config.serial
+                ),
+                fz: Newtons(range[2]),
+            })
+        }
+    }
 }
 
 /// The contact origin: the rig file's geometry keys, else the simulated bench's own.

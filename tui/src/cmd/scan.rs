@@ -100,9 +100,19 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
     let limits = config.limits()?;
     let program = plan.program(&limits, &origin)?;
     println!("plan: {origin}");
+    if args.resume.is_none() {
+        // Frames a new run could not store are refused before any device opens, by the dry
+        // run as by the scan (a resumed run stores its frames as it did).
+        Recording::from_rig_files(&config, Some(&program.plan))?;
+    }
     if args.dry_run {
+        // What the scan checks before it opens a device is checked here too.
+        config.check_before_open()?;
+        if let Some(w) = config.ft_rating_warning() {
+            eprintln!("warning: {w}");
+        }
         print_dry_run(&program, &limits);
-        // A resumed run is written where it is.
+        // A resumed run is written where it is, and stores its frames as it did.
         print_room(
             &config,
             &program,
@@ -124,7 +134,9 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         }
     }
     let target = match &args.resume {
-        Some(dir) => RunTarget::Resume { dir: dir.clone() },
+        // Taken before the rig is opened: while another process writes the run, no device
+        // opens (a second connection sequence to controllers in the middle of its scan).
+        Some(dir) => RunTarget::resume(dir)?,
         None => RunTarget::New {
             root: args.out.clone(),
             run_id: new_run_id(&plan.name),

@@ -64,21 +64,20 @@ pub(crate) fn scan(
                     return Ok((run_dir, 0.0));
                 }
             }
+            // Taken before the rig is opened: beside another writer, no device opens.
+            let target = RunTarget::resume(&run_dir)?;
             c.say(format!("resuming the run {}", run_dir.display()));
-            RunTarget::Resume {
-                dir: run_dir.clone(),
-            }
+            target
         }
         // Closed failed (interrupted, a device error): resumed from its checkpoint.
         RunState::Ended(stop) if stop.exit_status == ExitStatus::Failed => {
+            let target = RunTarget::resume(&run_dir)?;
             c.say(format!(
                 "resuming the run {} ({})",
                 run_dir.display(),
                 stop.reason
             ));
-            RunTarget::Resume {
-                dir: run_dir.clone(),
-            }
+            target
         }
         // Aborted by the operator: kept aside, pressed again.
         RunState::Ended(stop) => {

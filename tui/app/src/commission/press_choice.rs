@@ -219,6 +219,7 @@ mod tests {
             z_motion: k,
             manual_y: false,
             max_force: Newtons(20.0),
+            ft_rating: None,
             contact_z: Millimetres(15.0),
         }
     }
