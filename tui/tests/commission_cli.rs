@@ -312,6 +312,13 @@ fn bad_input_is_refused_before_anything_moves() {
     std::fs::write(&spec, "fz_rmse_n = 0.0\n").expect("spec");
     let t = run(&["--spec", arg(&spec)]);
     assert!(t.contains("fz_rmse_n"), "{t}");
+    // A spec without a threshold would pass any unit.
+    std::fs::write(&spec, "").expect("spec");
+    let t = run(&["--spec", arg(&spec)]);
+    assert!(
+        t.contains("spec.toml: no threshold") && t.contains("add at least one of"),
+        "{t}"
+    );
     let t = run(&["--budget", "0"]);
     assert!(t.contains("--budget 0"), "{t}");
     let t = run(&["--base", arg(&dir.join("nothing.safetensors"))]);
@@ -341,6 +348,69 @@ fn bad_input_is_refused_before_anything_moves() {
         let t = run(&custom);
         assert!(t.contains("--last-block and --fine-tune"), "{t}");
     }
+    // A window network reads a window about a contact another network finds: refused as a
+    // base, by the rule eval keeps, and on resume of a commissioning that names one.
+    let t = run(&["--base", "builtin:layered-force"]);
+    assert!(
+        t.contains("--base builtin:layered-force")
+            && t.contains("a window network of a two-stage model"),
+        "{t}"
+    );
+    let windowed = dir.join("windowed");
+    std::fs::create_dir_all(windowed.join("runs")).expect("dir");
+    std::fs::write(
+        windowed.join("journal.json"),
+        serde_json::json!({
+            "format": 1, "fringe_version": "0.1.0", "started_utc": "2026-12-01T00:00:00.000Z",
+            "options": {"sensor": "layered-3", "base": "builtin:layered-force", "budget_min": 1.5,
+                        "spec": null, "spec_origin": "paper", "seed": 42, "round_presses": 3,
+                        "acceptance_presses": 3}
+        })
+        .to_string(),
+    )
+    .expect("journal");
+    let t = run(&["--resume", arg(&windowed)]);
+    assert!(
+        t.contains("cannot resume")
+            && t.contains("--base builtin:layered-force")
+            && t.contains("a window network of a two-stage model"),
+        "{t}"
+    );
+    assert_eq!(
+        std::fs::read_dir(windowed.join("runs")).expect("runs").count(),
+        0,
+        "the resume pressed"
+    );
+    // A commissioning started at a quarter of the frame size, resumed on this rig (half): its
+    // profile and rounds fit the other frames, so nothing is pressed.
+    let quarter = dir.join("quarter");
+    std::fs::create_dir_all(quarter.join("runs")).expect("dir");
+    std::fs::write(
+        quarter.join("journal.json"),
+        serde_json::json!({
+            "format": 1, "fringe_version": "0.1.0", "started_utc": "2026-12-01T00:00:00.000Z",
+            "options": {"sensor": "layered-3", "base": "builtin:layered-keypoint",
+                        "budget_min": 1.5, "spec": null, "spec_origin": "paper", "seed": 42,
+                        "round_presses": 3, "acceptance_presses": 3,
+                        "camera": {"pixel_format": "mono8", "size_px": [480, 300],
+                                   "image_scale": 0.25}}
+        })
+        .to_string(),
+    )
+    .expect("journal");
+    let t = run(&["--resume", arg(&quarter)]);
+    assert!(
+        t.contains("the rig's camera gives other frames than this commissioning was started with")
+            && t.contains("frame size 960x600 px, was 480x300 px")
+            && t.contains("sim.image_scale 0.5, was 0.25"),
+        "{t}"
+    );
+    assert!(!t.contains("commissioning directory"), "{t}");
+    assert_eq!(
+        std::fs::read_dir(quarter.join("runs")).expect("runs").count(),
+        0,
+        "the resume pressed"
+    );
     let t = run(&["--resume", arg(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // A resumed commissioning keeps its options; only the budget may be given again.
