@@ -45,11 +45,7 @@ fn bad_input_is_refused_before_anything_moves() {
     // is pressed, naming the run.
     let gone = profiles.join("layered-3.commission-2026-03-01T00-00-00Z");
     std::fs::create_dir_all(gone.join("runs/calibration")).expect("dir");
-    std::fs::write(
-        gone.join("runs/calibration/start.json"),
-        "{}",
-    )
-    .expect("start");
+    std::fs::write(gone.join("runs/calibration/start.json"), "{}").expect("start");
     std::fs::write(gone.join("certificate.json"), certificate_of("layered-3")).expect("cert");
     std::fs::write(gone.join("model.safetensors"), "").expect("model");
     let t = run(&[]);

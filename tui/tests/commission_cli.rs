@@ -13,8 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// The quick bench with the `layered-3` unit at half the frame size (at a quarter the optical fit
-/// finds no disc: see the last test), its profiles in `profiles`.
+/// The quick bench with the `layered-3` unit at half the frame size, its profiles in `profiles`.
 fn unit_rig(dir: &Path) -> PathBuf {
     unit_rig_at(dir, 0.5)
 }
@@ -377,7 +376,9 @@ fn bad_input_is_refused_before_anything_moves() {
         "{t}"
     );
     assert_eq!(
-        std::fs::read_dir(windowed.join("runs")).expect("runs").count(),
+        std::fs::read_dir(windowed.join("runs"))
+            .expect("runs")
+            .count(),
         0,
         "the resume pressed"
     );
@@ -392,7 +393,7 @@ fn bad_input_is_refused_before_anything_moves() {
             "options": {"sensor": "layered-3", "base": "builtin:layered-keypoint",
                         "budget_min": 1.5, "spec": null, "spec_origin": "paper", "seed": 42,
                         "round_presses": 3, "acceptance_presses": 3,
-                        "camera": {"pixel_format": "mono8", "size_px": [480, 300],
+                        "camera": {"pixel_format": "bayerrg8", "size_px": [480, 300],
                                    "image_scale": 0.25}}
         })
         .to_string(),
@@ -407,7 +408,9 @@ fn bad_input_is_refused_before_anything_moves() {
     );
     assert!(!t.contains("commissioning directory"), "{t}");
     assert_eq!(
-        std::fs::read_dir(quarter.join("runs")).expect("runs").count(),
+        std::fs::read_dir(quarter.join("runs"))
+            .expect("runs")
+            .count(),
         0,
         "the resume pressed"
     );
@@ -457,10 +460,13 @@ fn commissioning_count(profiles: &Path) -> usize {
 
 #[test]
 fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
-    // At a quarter of the frame size the disc is 120 px across the optical fit's rays: it finds
-    // no disc, as with a camera out of focus or a unit not under it.
+    // The unit's LEDs give no light: the optical fit finds no disc, as with a camera out of
+    // focus or a unit not under it.
     let dir = scratch("commission-no-disc");
     let rig = unit_rig_at(&dir, 0.25);
+    let unlit =
+        std::fs::read_to_string(&rig).expect("rig") + "[sim.ageing]\nled_dimming_pct = 100.0\n";
+    std::fs::write(&rig, unlit).expect("rig");
     let o = fringe_command()
         .args(["commission", "--rig", arg(&rig), "--yes"])
         .current_dir(&dir)
@@ -474,6 +480,13 @@ fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
     let c = commissioning(&dir.join("profiles"));
     let journal = std::fs::read_to_string(c.join("journal.json")).expect("journal");
     assert!(journal.contains("\"rounds\": []"), "{journal}");
+    // The camera settings it started with are kept, for a resume to check.
+    let kept: serde_json::Value = serde_json::from_str(&journal).expect("journal json");
+    assert_eq!(
+        kept["options"]["camera"],
+        serde_json::json!({"pixel_format": "bayerrg8", "size_px": [480, 300], "image_scale": 0.25}),
+        "{journal}"
+    );
     // Resuming presses the calibration again; the failed scan is kept beside it.
     assert!(t.contains("fringe commission --resume"), "{t}");
     assert!(c.join("runs/calibration-layered-3.stopped-1").is_dir());

@@ -104,9 +104,9 @@ impl Adaptation {
 pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
     let model = open_model(Path::new(spec))?;
     model.check_design(variant, "this unit")?;
-    model
-        .check_runs_alone()
-        .with_context(|| format!("--base {spec}: a commissioning adapts a network that reads the whole disc"))?;
+    model.check_runs_alone().with_context(|| {
+        format!("--base {spec}: a commissioning adapts a network that reads the whole disc")
+    })?;
     if model.weights().is_none() {
         bail!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",

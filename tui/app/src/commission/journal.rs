@@ -3,13 +3,13 @@
 //! cut short (Ctrl-C, a crash, power loss) goes on from its runs with `--resume DIR` and
 //! presses nothing twice.
 
+use crate::disk_room::camera_frame;
+use crate::rig_file::{ConfigError, RigConfig};
+use fringe_rig::camera::writer::format_name;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};
 use fringe_rig::store::durable::write_atomic;
 use fringe_rig::store::layout::{MANIFEST, STOP};
 use fringe_rig::store::run_writer::read_document;
-use crate::disk_room::camera_frame;
-use crate::rig_file::{ConfigError, RigConfig};
-use fringe_rig::camera::writer::format_name;
 use std::path::{Path, PathBuf};
 
 /// The journal's file name in a commissioning directory.
@@ -93,7 +93,9 @@ impl FrameSettings {
             ));
         }
         let size = |s: Option<[u32; 2]>| {
-            s.map_or("the camera's own".to_string(), |[w, h]| format!("{w}x{h} px"))
+            s.map_or("the camera's own".to_string(), |[w, h]| {
+                format!("{w}x{h} px")
+            })
         };
         if self.size_px != now.size_px {
             out.push(format!(
@@ -103,7 +105,8 @@ impl FrameSettings {
             ));
         }
         if self.image_scale != now.image_scale {
-            let scale = |s: Option<f64>| s.map_or("none (a real camera)".to_string(), |k| k.to_string());
+            let scale =
+                |s: Option<f64>| s.map_or("none (a real camera)".to_string(), |k| k.to_string());
             out.push(format!(
                 "sim.image_scale {}, was {}",
                 scale(now.image_scale),
@@ -330,10 +333,9 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("fringe-journal-cam-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let half = RigConfig::parse("[sim]\nimage_scale = 0.5\n", "half.toml").expect("rig");
-        let quarter =
-            RigConfig::parse("[sim]\nimage_scale = 0.25\n", "quarter.toml").expect("rig");
+        let quarter = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "quarter.toml").expect("rig");
         let then = FrameSettings::of(&half).expect("settings");
-        assert_eq!(then.pixel_format, "mono8");
+        assert_eq!(then.pixel_format, "bayerrg8");
         assert_eq!(then.size_px, Some([960, 600]));
         let mut j = Journal::new(Options {
             camera: Some(then.clone()),

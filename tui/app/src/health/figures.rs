@@ -587,7 +587,8 @@ mod tests {
             "{a:?}"
         );
         assert!(
-            finding(&a, "surface_cells").starts_with("the surface is damaged (a scratch): 40 of 1400"),
+            finding(&a, "surface_cells")
+                .starts_with("the surface is damaged (a scratch): 40 of 1400"),
             "{a:?}"
         );
     }

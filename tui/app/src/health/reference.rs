@@ -40,7 +40,7 @@ mod tests {
     use crate::health::figures::{assess, Measured, Thresholds, Verdict};
     use crate::health::model_errors::ModelErrors;
     use fringe_calibration::health::signature::{CELLS, INNER, RIM_BINS, SIDES};
-    use fringe_calibration::optical::DiscFit;
+    use fringe_calibration::DiscFit;
 
     /// The signature of a unit with twelve LEDs (`lit`), its light scaled by `gain`, its disc
     /// centred at `centre` (px) in a 960x600 image: the rim's hot spots where the LEDs are, each
@@ -57,7 +57,9 @@ mod tests {
             .map(|d| {
                 let spots: f64 = (0..12)
                     .filter(|k| lit[*k])
-                    .map(|k| 100.0 * (-0.5 * (angular(d as f64 + 0.5, led_deg(k)) / 3.0).powi(2)).exp())
+                    .map(|k| {
+                        100.0 * (-0.5 * (angular(d as f64 + 0.5, led_deg(k)) / 3.0).powi(2)).exp()
+                    })
                     .sum();
                 gain * (20.0 + spots)
             })
@@ -165,7 +167,10 @@ mod tests {
         assert!(change.brightness_ratio < 0.85, "{change:?}");
         // Compared with the new calibration alone, the fault would have been hidden.
         let hidden = Change::between(&recalibrated, &now).expect("change");
-        assert_eq!(verdict(&hidden, recalibrated.fit.radius).0, Verdict::Recommission);
+        assert_eq!(
+            verdict(&hidden, recalibrated.fit.radius).0,
+            Verdict::Recommission
+        );
     }
 
     #[test]
