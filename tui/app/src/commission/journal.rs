@@ -4,8 +4,9 @@
 //! presses nothing twice.
 
 use crate::disk_room::camera_frame;
-use crate::rig_file::{ConfigError, RigConfig};
+use crate::rig_file::RigConfig;
 use fringe_rig::camera::writer::format_name;
+use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};
 use fringe_rig::store::durable::write_atomic;
 use fringe_rig::store::layout::{MANIFEST, STOP};

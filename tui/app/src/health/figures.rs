@@ -569,7 +569,7 @@ mod tests {
                 "uneven",
                 "are dimming",
                 "is brighter",
-                "changed:",
+                "material changed",
                 "grew",
                 "fell",
                 "turned by",
