@@ -320,6 +320,17 @@ fn bad_input_is_refused_before_anything_moves() {
     );
     let t = run(&["--budget", "0"]);
     assert!(t.contains("--budget 0"), "{t}");
+    // On the simulated bench's own axes a minute holds fewer presses than an adaptation needs:
+    // refused before the calibration presses, saying what the presses take.
+    let bench = scratch("commission-small-budget");
+    let t = refused_in(&bench, &["commission", "--yes", "--budget", "1"]);
+    assert!(
+        t.contains("--budget 1: the adaptation needs at least 5 presses")
+            && t.contains("give a larger --budget"),
+        "{t}"
+    );
+    assert!(!t.contains("step 1"), "{t}");
+    assert!(!bench.join("profiles").exists(), "{t}");
     let t = run(&["--base", arg(&dir.join("nothing.safetensors"))]);
     assert!(
         t.contains("nothing.safetensors") && t.contains("no such model"),
