@@ -177,3 +177,18 @@ fn a_straight_bright_edge_is_not_a_disc() {
     println!("straight edge: {e}");
     assert!(matches!(e, OpticalError::NoSensor(_)), "{e}");
 }
+
+#[test]
+fn a_unit_filmed_at_a_quarter_of_the_frame_size_and_less_is_found() {
+    // `sim.image_scale`: the same unit through a camera of lower resolution. Every length in
+    // px scales with it, the rim ring's and the LED hot spots' widths included (when they kept
+    // their full-size widths, no edge was found from a quarter of the size down).
+    let unit = SensorConfig::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../rig/sim/sensors/layered-3.toml"
+    )))
+    .expect("unit");
+    for k in [0.25, 0.1] {
+        check(&format!("layered-3 at image scale {k}"), unit.scaled(k), 4);
+    }
+}

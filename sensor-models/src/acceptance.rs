@@ -18,7 +18,9 @@
 //! The default ([`Spec::paper`]) is the paper's custom-CNN row (Table 2, sensor 1): Fz RMSE under
 //! 0.49 N, contact RMSE under 1.47 mm, shape accuracy over 95.3 %. Unknown keys and thresholds no
 //! model can meet (an RMSE at or below 0, an accuracy above 1, an empty force range) are refused
-//! naming the file and the key.
+//! naming the file and the key, and so is a spec that holds a model to nothing: one without a
+//! threshold, or a force range without one (either would pass any model). A group of frames
+//! with no frame in it fails its check (nothing shows the model meets it there).
 
 use crate::eval::Evaluation;
 use crate::metrics::{Errors, Metrics};
@@ -98,7 +100,25 @@ pub enum SpecError {
         value: f64,
         why: &'static str,
     },
+    #[error(
+        "spec {path}: no threshold, so any model would pass it: add at least one of {KEYS} \
+         (over all frames, or in a [[force_range]])"
+    )]
+    NoThreshold { path: String },
+    #[error(
+        "spec {path}: `force_range[{index}]` ({from_n}-{to_n} N) has no threshold, so it would \
+         pass any model: add at least one of {KEYS} to it, or remove it"
+    )]
+    RangeWithoutThreshold {
+        path: String,
+        index: usize,
+        from_n: f64,
+        to_n: f64,
+    },
 }
+
+/// The threshold keys, as an error lists them.
+const KEYS: &str = "`fz_rmse_n`, `contact_rmse_mm`, `shape_accuracy`, `macro_f1`";
 
 impl Thresholds {
     /// The thresholds in words, as a spec reads: `Fz < 0.49 N, contact < 1.47 mm, shape > 95.3 %`
@@ -122,6 +142,14 @@ impl Thresholds {
         } else {
             parts.join(", ")
         }
+    }
+
+    /// No threshold is set.
+    pub fn is_empty(&self) -> bool {
+        self.fz_rmse_n.is_none()
+            && self.contact_rmse_mm.is_none()
+            && self.shape_accuracy.is_none()
+            && self.macro_f1.is_none()
     }
 }
 
@@ -238,6 +266,19 @@ impl Spec {
                 return Err(bad(format!("{at}to_n"), r.to_n, "must be above from_n"));
             }
             check(&r.thresholds, &at)?;
+            if r.thresholds.is_empty() {
+                return Err(SpecError::RangeWithoutThreshold {
+                    path: name.to_string(),
+                    index: i,
+                    from_n: r.from_n,
+                    to_n: r.to_n,
+                });
+            }
+        }
+        if self.all.is_empty() && self.force_range.is_empty() {
+            return Err(SpecError::NoThreshold {
+                path: name.to_string(),
+            });
         }
         Ok(())
     }
@@ -256,6 +297,30 @@ pub struct Check {
     pub at_most: bool,
     pub frames: u64,
     pub pass: bool,
+}
+
+impl Check {
+    /// The check in words: `fz_rmse_n over all frames: 0.4100 (at most 0.4900, 812 frames)`, or
+    /// `... : no frames (at most 0.4900)` when the group held none (it fails: nothing shows the
+    /// model meets the threshold there).
+    pub fn describe(&self) -> String {
+        let rule = if self.at_most { "at most" } else { "at least" };
+        if self.frames == 0 {
+            let which = if self.figure == "contact_rmse_mm" {
+                "no frames in contact"
+            } else {
+                "no frames"
+            };
+            return format!(
+                "{} over {}: {which} ({rule} {:.4})",
+                self.figure, self.over, self.limit
+            );
+        }
+        format!(
+            "{} over {}: {:.4} ({rule} {:.4}, {} frames)",
+            self.figure, self.over, self.value, self.limit, self.frames
+        )
+    }
 }
 
 /// A group of frames (a grid cell, a force level, a shape) that misses a threshold the whole
@@ -284,17 +349,7 @@ impl Verdict {
         self.checks
             .iter()
             .filter(|c| !c.pass)
-            .map(|c| {
-                format!(
-                    "{} over {}: {:.4} ({} {:.4}, {} frames)",
-                    c.figure,
-                    c.over,
-                    c.value,
-                    if c.at_most { "limit" } else { "at least" },
-                    c.limit,
-                    c.frames
-                )
-            })
+            .map(Check::describe)
             .collect()
     }
 }
@@ -303,7 +358,8 @@ impl Verdict {
 fn checks(over: &str, t: &Thresholds, errors: &Errors, f1: Option<f64>, out: &mut Vec<Check>) {
     let mut add = |figure, value: f64, limit: Option<f64>, at_most: bool, frames: u64| {
         if let Some(limit) = limit {
-            let pass = value.is_finite()
+            let pass = frames > 0
+                && value.is_finite()
                 && if at_most {
                     value <= limit
                 } else {
@@ -555,6 +611,69 @@ mod tests {
             let e = Spec::parse(text, "s.toml").expect_err(text).to_string();
             assert!(e.contains(key), "{text}: {e}");
         }
-        assert_eq!(Spec::parse("", "s.toml").expect("empty").force_range, []);
+    }
+
+    #[test]
+    fn a_spec_that_holds_a_model_to_nothing_is_refused_naming_the_file_and_what_to_add() {
+        // An empty spec would pass any model.
+        for text in ["", "# nothing yet\n"] {
+            let e = Spec::parse(text, "empty.toml").expect_err(text).to_string();
+            assert!(
+                e.starts_with("spec empty.toml: no threshold")
+                    && e.contains("`fz_rmse_n`")
+                    && e.contains("`shape_accuracy`"),
+                "{e}"
+            );
+        }
+        // So would a force range without a threshold, even beside thresholds of its own.
+        let e = Spec::parse(
+            "fz_rmse_n = 0.5\n[[force_range]]\nfrom_n = 0.0\nto_n = 3.0\n",
+            "r.toml",
+        )
+        .expect_err("range without threshold")
+        .to_string();
+        assert!(
+            e.starts_with("spec r.toml: `force_range[0]` (0-3 N) has no threshold")
+                && e.contains("`contact_rmse_mm`"),
+            "{e}"
+        );
+        // A spec of force ranges alone holds the model to them.
+        let only_ranges = Spec::parse(
+            "[[force_range]]\nfrom_n = 0.0\nto_n = 3.0\nfz_rmse_n = 0.3\n",
+            "s.toml",
+        )
+        .expect("ranges alone");
+        assert!(only_ranges.all.is_empty());
+    }
+
+    #[test]
+    fn a_range_without_frames_fails_saying_so_not_nan() {
+        let spec = Spec::parse(
+            "fz_rmse_n = 5.0\n[[force_range]]\nfrom_n = 20.0\nto_n = 30.0\nfz_rmse_n = 0.5\ncontact_rmse_mm = 1.0\nshape_accuracy = 0.5\n",
+            "s.toml",
+        )
+        .expect("valid");
+        // A perfect model, but no frame in 20-30 N: nothing shows it meets the range.
+        let e = evaluation(&[(2.0, 2.0, 1, 1, 0.0), (8.0, 8.0, 1, 1, 0.0)]);
+        let v = judge(&e, &spec);
+        assert!(!v.pass, "{v:?}");
+        let failures = v.failures();
+        assert_eq!(failures.len(), 3, "{failures:?}");
+        assert_eq!(
+            failures[0],
+            "fz_rmse_n over force 20-30 N: no frames (at most 0.5000)"
+        );
+        assert_eq!(
+            failures[1],
+            "contact_rmse_mm over force 20-30 N: no frames in contact (at most 1.0000)"
+        );
+        assert!(failures.iter().all(|f| !f.contains("NaN")), "{failures:?}");
+        // Frames, none in contact: the contact check fails saying so; the others are judged.
+        let no_contact = evaluation(&[(25.0, 25.0, 0, 0, 0.0), (8.0, 8.0, 1, 1, 0.0)]);
+        let v = judge(&no_contact, &spec);
+        assert_eq!(
+            v.failures(),
+            ["contact_rmse_mm over force 20-30 N: no frames in contact (at most 1.0000)"]
+        );
     }
 }

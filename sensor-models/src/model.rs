@@ -320,6 +320,18 @@ impl Model {
         self.card.as_ref().and_then(|c| c.force_window_mm)
     }
 
+    /// Refuses a window network on its own (its card has `force_window_mm`): it reads a window
+    /// about a contact another network finds, so whole frames given to it mean nothing. The one
+    /// rule for everything that runs or adapts a model on whole frames.
+    pub fn check_runs_alone(&self) -> Result<(), ModelError> {
+        if self.force_window_mm().is_some() {
+            return Err(ModelError::WindowNetworkAlone {
+                path: self.path.display().to_string(),
+            });
+        }
+        Ok(())
+    }
+
     /// The weights by name, when the model is one of the paper's networks: a weights file, or
     /// an ONNX graph that holds them under their state-dict names (as `fringe model export`
     /// writes it); not another graph, not a TorchScript module.

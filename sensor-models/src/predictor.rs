@@ -86,15 +86,7 @@ impl Predictor {
     /// `model`'s networks on the backend `kind`, `threads` threads each. A force network is
     /// refused on its own: it reads a window about a contact some other network finds.
     pub fn new(model: &Model, kind: BackendKind, threads: usize) -> Result<Predictor, ModelError> {
-        if model
-            .card
-            .as_ref()
-            .is_some_and(|c| c.force_window_mm.is_some())
-        {
-            return Err(ModelError::WindowNetworkAlone {
-                path: model.path.display().to_string(),
-            });
-        }
+        model.check_runs_alone()?;
         let stage = |net: &Model, reads_force: bool, reads_contact: bool| {
             Ok::<_, ModelError>(WindowStage {
                 backend: net.backend(kind, threads)?,

@@ -21,11 +21,12 @@ use fringe_app::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::commission::certificate::{directory_name, PROFILE};
-use fringe_app::commission::journal::{Journal, Options, ScanEntry};
+use fringe_app::commission::journal::{FrameSettings, Journal, Options, ScanEntry};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::Spec;
 use fringe_sensor_models::arch::Architecture;
+use fringe_sensor_models::model::Model;
 use host::Host;
 use session::{estimate_s, scan, set_aside, Commissioning};
 use std::path::{Path, PathBuf};
@@ -88,6 +89,8 @@ pub(crate) struct Prepared {
     dir: PathBuf,
     journal: Journal,
     spec: Spec,
+    /// The base model, opened and checked.
+    base: Model,
     resumed: bool,
 }
 
@@ -115,15 +118,20 @@ impl Prepared {
 }
 
 /// Checks `request` on the rig and makes (or reads) the commissioning's directory and journal;
-/// nothing moves yet.
+/// nothing moves yet. A resumed commissioning's base is checked again, as a new one's is.
 pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared> {
     let sensor = config.sensor_id()?;
-    let (dir, journal) = match request {
+    let (dir, journal, base) = match request {
         Request::Resume {
             dir,
             budget_min,
             fine_tune,
-        } => resumed(dir, &sensor, *budget_min, *fine_tune)?,
+        } => {
+            let (dir, journal) = resumed(dir, config, &sensor, *budget_min, *fine_tune)?;
+            let base = rounds::open_base(&journal.options.base, config.sensor_variant()?)
+                .with_context(|| format!("cannot resume {}", dir.display()))?;
+            (dir, journal, base)
+        }
         Request::New(n) => started(n, config, &sensor)?,
     };
     let spec = match &journal.options.spec {
@@ -134,6 +142,7 @@ pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared>
         dir,
         journal,
         spec,
+        base,
         resumed: matches!(request, Request::Resume { .. }),
     })
 }
@@ -147,9 +156,12 @@ pub(crate) fn run(
     host: &mut dyn Host,
 ) -> Result<Accepted> {
     let Prepared {
-        dir, journal, spec, ..
+        dir,
+        journal,
+        spec,
+        base,
+        ..
     } = prepared;
-    let variant = config.sensor_variant()?;
     let mut c = Commissioning {
         dir,
         journal,
@@ -159,15 +171,18 @@ pub(crate) fn run(
         threads,
         compute_s: 0.0,
     };
-    let base = rounds::open_base(&c.journal.options.base, variant)?;
     let profile = calibrate(&mut c)?;
     let adapted = rounds::adapt(&mut c, &base, &profile)?;
     certify::accept(&mut c, &base, &profile, adapted)
 }
 
-/// A new commissioning: its options checked (spec, budget) before anything moves, its directory
-/// and journal made.
-fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(PathBuf, Journal)> {
+/// A new commissioning: its options checked (spec, budget, base) before anything moves, its
+/// directory and journal made; the base model opened.
+fn started(
+    n: &NewCommissioning,
+    config: &RigConfig,
+    sensor: &str,
+) -> Result<(PathBuf, Journal, Model)> {
     let budget = checked_budget(n.budget_min.unwrap_or(DEFAULT_BUDGET_MIN))?;
     let (spec_text, spec_origin) = if n.spec == PAPER_SPEC {
         (None, "the paper's custom-CNN row (Table 2)".to_string())
@@ -184,6 +199,7 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         None => fringe_sensor_models::builtin::commissioning_base(variant)?,
     };
     let opened = rounds::open_base(&given.display().to_string(), variant)?;
+    rounds::check_budget(config, &opened, budget)?;
     if n.fine_tune {
         fine_tune::available()?;
         if n.last_block {
@@ -213,6 +229,7 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         acceptance_presses: n.acceptance_presses,
         last_block: n.last_block,
         fine_tune: n.fine_tune,
+        camera: Some(FrameSettings::of(config)?),
     });
     let dir = config
         .profile_dir()
@@ -224,7 +241,7 @@ fn started(n: &NewCommissioning, config: &RigConfig, sensor: &str) -> Result<(Pa
         )
     })?;
     journal.write(&dir)?;
-    Ok((dir, journal))
+    Ok((dir, journal, opened))
 }
 
 fn checked_budget(minutes: f64) -> Result<f64> {
@@ -234,10 +251,11 @@ fn checked_budget(minutes: f64) -> Result<f64> {
     Ok(minutes)
 }
 
-/// A commissioning to go on with: its journal, for the same unit; `budget` replaces its budget,
-/// `fine_tune` turns full fine-tuning on.
+/// A commissioning to go on with: its journal, for the same unit and the same camera settings;
+/// `budget` replaces its budget, `fine_tune` turns full fine-tuning on.
 fn resumed(
     dir: &Path,
+    config: &RigConfig,
     sensor: &str,
     budget: Option<f64>,
     fine_tune: bool,
@@ -249,6 +267,17 @@ fn resumed(
             dir.display(),
             journal.options.sensor
         );
+    }
+    // A journal of an older fringe does not say; its rounds are read as they are.
+    if let Some(then) = &journal.options.camera {
+        let changed = then.differences(&FrameSettings::of(config)?);
+        if !changed.is_empty() {
+            bail!(
+                "{}: the rig's camera gives other frames than this commissioning was started with ({}): its profile and rounds fit those frames only; resume it with the camera settings it started with (the rig file it started on, --rig)",
+                dir.display(),
+                changed.join("; ")
+            );
+        }
     }
     if let Some(b) = budget {
         journal.options.budget_min = checked_budget(b)?;

@@ -41,6 +41,21 @@ fn bad_input_is_refused_before_anything_moves() {
     );
     assert!(t.contains("certificate format 99 is newer"), "{t}");
     assert!(t.contains("no certificate of sensor layered-3"), "{t}");
+    // A passing certificate of this unit whose acceptance run is gone: found before anything
+    // is pressed, naming the run.
+    let gone = profiles.join("layered-3.commission-2026-03-01T00-00-00Z");
+    std::fs::create_dir_all(gone.join("runs/calibration")).expect("dir");
+    std::fs::write(gone.join("runs/calibration/start.json"), "{}").expect("start");
+    std::fs::write(gone.join("certificate.json"), certificate_of("layered-3")).expect("cert");
+    std::fs::write(gone.join("model.safetensors"), "").expect("model");
+    let t = run(&[]);
+    assert!(
+        t.contains("the commissioning's acceptance scan")
+            && t.contains("runs/acceptance is missing")
+            && t.contains("nothing is pressed"),
+        "{t}"
+    );
+    std::fs::remove_dir_all(&gone).expect("remove");
     // A damaged history is reported, not fatal.
     std::fs::write(
         profiles.join("layered-3.health.jsonl"),

@@ -13,8 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// The quick bench with the `layered-3` unit at half the frame size (at a quarter the optical fit
-/// finds no disc: see the last test), its profiles in `profiles`.
+/// The quick bench with the `layered-3` unit at half the frame size, its profiles in `profiles`.
 fn unit_rig(dir: &Path) -> PathBuf {
     unit_rig_at(dir, 0.5)
 }
@@ -312,8 +311,26 @@ fn bad_input_is_refused_before_anything_moves() {
     std::fs::write(&spec, "fz_rmse_n = 0.0\n").expect("spec");
     let t = run(&["--spec", arg(&spec)]);
     assert!(t.contains("fz_rmse_n"), "{t}");
+    // A spec without a threshold would pass any unit.
+    std::fs::write(&spec, "").expect("spec");
+    let t = run(&["--spec", arg(&spec)]);
+    assert!(
+        t.contains("spec.toml: no threshold") && t.contains("add at least one of"),
+        "{t}"
+    );
     let t = run(&["--budget", "0"]);
     assert!(t.contains("--budget 0"), "{t}");
+    // On the simulated bench's own axes a minute holds fewer presses than an adaptation needs:
+    // refused before the calibration presses, saying what the presses take.
+    let bench = scratch("commission-small-budget");
+    let t = refused_in(&bench, &["commission", "--yes", "--budget", "1"]);
+    assert!(
+        t.contains("--budget 1: the adaptation needs at least 5 presses")
+            && t.contains("give a larger --budget"),
+        "{t}"
+    );
+    assert!(!t.contains("step 1"), "{t}");
+    assert!(!bench.join("profiles").exists(), "{t}");
     let t = run(&["--base", arg(&dir.join("nothing.safetensors"))]);
     assert!(
         t.contains("nothing.safetensors") && t.contains("no such model"),
@@ -341,6 +358,73 @@ fn bad_input_is_refused_before_anything_moves() {
         let t = run(&custom);
         assert!(t.contains("--last-block and --fine-tune"), "{t}");
     }
+    // A window network reads a window about a contact another network finds: refused as a
+    // base, by the rule eval keeps, and on resume of a commissioning that names one.
+    let t = run(&["--base", "builtin:layered-force"]);
+    assert!(
+        t.contains("--base builtin:layered-force")
+            && t.contains("a window network of a two-stage model"),
+        "{t}"
+    );
+    let windowed = dir.join("windowed");
+    std::fs::create_dir_all(windowed.join("runs")).expect("dir");
+    std::fs::write(
+        windowed.join("journal.json"),
+        serde_json::json!({
+            "format": 1, "fringe_version": "0.1.0", "started_utc": "2026-12-01T00:00:00.000Z",
+            "options": {"sensor": "layered-3", "base": "builtin:layered-force", "budget_min": 1.5,
+                        "spec": null, "spec_origin": "paper", "seed": 42, "round_presses": 3,
+                        "acceptance_presses": 3}
+        })
+        .to_string(),
+    )
+    .expect("journal");
+    let t = run(&["--resume", arg(&windowed)]);
+    assert!(
+        t.contains("cannot resume")
+            && t.contains("--base builtin:layered-force")
+            && t.contains("a window network of a two-stage model"),
+        "{t}"
+    );
+    assert_eq!(
+        std::fs::read_dir(windowed.join("runs"))
+            .expect("runs")
+            .count(),
+        0,
+        "the resume pressed"
+    );
+    // A commissioning started at a quarter of the frame size, resumed on this rig (half): its
+    // profile and rounds fit the other frames, so nothing is pressed.
+    let quarter = dir.join("quarter");
+    std::fs::create_dir_all(quarter.join("runs")).expect("dir");
+    std::fs::write(
+        quarter.join("journal.json"),
+        serde_json::json!({
+            "format": 1, "fringe_version": "0.1.0", "started_utc": "2026-12-01T00:00:00.000Z",
+            "options": {"sensor": "layered-3", "base": "builtin:layered-keypoint",
+                        "budget_min": 1.5, "spec": null, "spec_origin": "paper", "seed": 42,
+                        "round_presses": 3, "acceptance_presses": 3,
+                        "camera": {"pixel_format": "bayerrg8", "size_px": [480, 300],
+                                   "image_scale": 0.25}}
+        })
+        .to_string(),
+    )
+    .expect("journal");
+    let t = run(&["--resume", arg(&quarter)]);
+    assert!(
+        t.contains("the rig's camera gives other frames than this commissioning was started with")
+            && t.contains("frame size 960x600 px, was 480x300 px")
+            && t.contains("sim.image_scale 0.5, was 0.25"),
+        "{t}"
+    );
+    assert!(!t.contains("commissioning directory"), "{t}");
+    assert_eq!(
+        std::fs::read_dir(quarter.join("runs"))
+            .expect("runs")
+            .count(),
+        0,
+        "the resume pressed"
+    );
     let t = run(&["--resume", arg(&dir.join("profiles"))]);
     assert!(t.contains("no commissioning journal"), "{t}");
     // A resumed commissioning keeps its options; only the budget may be given again.
@@ -387,10 +471,13 @@ fn commissioning_count(profiles: &Path) -> usize {
 
 #[test]
 fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
-    // At a quarter of the frame size the disc is 120 px across the optical fit's rays: it finds
-    // no disc, as with a camera out of focus or a unit not under it.
+    // The unit's LEDs give no light: the optical fit finds no disc, as with a camera out of
+    // focus or a unit not under it.
     let dir = scratch("commission-no-disc");
     let rig = unit_rig_at(&dir, 0.25);
+    let unlit =
+        std::fs::read_to_string(&rig).expect("rig") + "[sim.ageing]\nled_dimming_pct = 100.0\n";
+    std::fs::write(&rig, unlit).expect("rig");
     let o = fringe_command()
         .args(["commission", "--rig", arg(&rig), "--yes"])
         .current_dir(&dir)
@@ -404,6 +491,13 @@ fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
     let c = commissioning(&dir.join("profiles"));
     let journal = std::fs::read_to_string(c.join("journal.json")).expect("journal");
     assert!(journal.contains("\"rounds\": []"), "{journal}");
+    // The camera settings it started with are kept, for a resume to check.
+    let kept: serde_json::Value = serde_json::from_str(&journal).expect("journal json");
+    assert_eq!(
+        kept["options"]["camera"],
+        serde_json::json!({"pixel_format": "bayerrg8", "size_px": [480, 300], "image_scale": 0.25}),
+        "{journal}"
+    );
     // Resuming presses the calibration again; the failed scan is kept beside it.
     assert!(t.contains("fringe commission --resume"), "{t}");
     assert!(c.join("runs/calibration-layered-3.stopped-1").is_dir());

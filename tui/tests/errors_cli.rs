@@ -87,6 +87,24 @@ fn bad_and_missing_files_name_the_file_and_what_to_do() {
         &["model", "info", "model.pth"],
         &["model.pth: not a PyTorch or safetensors file"],
     );
+    // A spec that holds a model to nothing (it would pass any model): refused before any data
+    // is read, naming the file and what to add.
+    std::fs::write(dir.join("empty.toml"), "").expect("spec");
+    refused(
+        &dir,
+        &["eval", "--spec", "empty.toml", "absent"],
+        &["spec empty.toml: no threshold", "add at least one of"],
+    );
+    std::fs::write(
+        dir.join("range.toml"),
+        "[[force_range]]\nfrom_n = 0.0\nto_n = 3.0\n",
+    )
+    .expect("spec");
+    refused(
+        &dir,
+        &["eval", "--spec", "range.toml", "absent"],
+        &["spec range.toml: `force_range[0]`", "has no threshold"],
+    );
     // A camera trace that is not there.
     refused(
         &dir,

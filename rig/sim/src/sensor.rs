@@ -553,6 +553,24 @@ impl SensorConfig {
         Ok(())
     }
 
+    /// The same unit seen by a camera of `k` times the resolution (a rig file's
+    /// `sim.image_scale`): the image and every length given in px (the disc, the scale, the
+    /// centre's offset, the blur, the rim ring's width, the LED hot spots' width) scaled by `k`,
+    /// so that the picture is the full-size one, sampled more coarsely.
+    pub fn scaled(&self, k: f64) -> SensorConfig {
+        let mut c = self.clone();
+        let g = &mut c.geometry;
+        g.width = (f64::from(g.width) * k).round() as u32;
+        g.height = (f64::from(g.height) * k).round() as u32;
+        g.disc_radius_px *= k;
+        g.px_per_mm *= k;
+        g.centre_offset_px = g.centre_offset_px.map(|v| v * k);
+        c.optics.blur_px *= k;
+        c.optics.rim_width_px *= k;
+        c.leds.width_px *= k;
+        c
+    }
+
     /// The failed LEDs, each once, in ring order.
     pub fn dead_leds(&self) -> Vec<u32> {
         let mut out = self.leds.out.clone();

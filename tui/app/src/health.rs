@@ -7,6 +7,8 @@
 //!   the acceptance scan.
 //! - [`figures`]: every figure compared (optics, light, surface, force zero, the model's errors),
 //!   its threshold and the verdict: ok, calibrate again, commission again, or replace the unit.
+//! - [`reference`]: which calibration each no-contact figure is compared with (the geometry with
+//!   the newest, the light and the surface always with the commissioning's).
 //! - [`history`]: every check appended to `<profiles>/<sensor>.health.jsonl`, read back with
 //!   damaged lines reported and passed over.
 
@@ -14,5 +16,6 @@ pub mod check_plan;
 pub mod figures;
 pub mod history;
 pub mod model_errors;
+pub mod reference;
 #[cfg(test)]
 mod test_change;

@@ -67,14 +67,7 @@ pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
         sensor.id = id.clone();
     }
     if s.image_scale != 1.0 {
-        let g = &mut sensor.geometry;
-        let k = s.image_scale;
-        g.width = (f64::from(g.width) * k).round() as u32;
-        g.height = (f64::from(g.height) * k).round() as u32;
-        g.disc_radius_px *= k;
-        g.px_per_mm *= k;
-        g.centre_offset_px = [g.centre_offset_px[0] * k, g.centre_offset_px[1] * k];
-        sensor.optics.blur_px *= k;
+        sensor = sensor.scaled(s.image_scale);
     }
     let mut c = SimRigConfig {
         seed: s.seed,
@@ -381,6 +374,43 @@ pub fn sensor_profile(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A rig file's `sim.image_scale` films the same unit at a lower resolution: its disc is
+    /// found where the simulator put it (at a quarter of the frame size the rim ring and the LED
+    /// hot spots kept their full-size widths, and a calibration found no disc).
+    #[test]
+    fn a_unit_filmed_at_a_quarter_of_the_frame_size_is_found_where_it_is() {
+        use fringe_calibration::optical::grey::GreyImage;
+        use fringe_sim::render::Renderer;
+        use fringe_sim::scene::{FrameRenderer, Scene};
+        let sensor = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../rig/sim/sensors/layered-3.toml"
+        );
+        let text = format!("[sim]\nsensor = \"{sensor}\"\nimage_scale = 0.25\n");
+        let c = config(&RigConfig::parse(&text, "rig.toml").expect("rig file")).expect("sim");
+        let full = sim_sensor(sensor, "rig.toml").expect("sensor");
+        assert_eq!(c.sensor, full.scaled(0.25));
+        let truth = c.sensor.geometry().centre_px;
+        let radius = c.sensor.geometry.disc_radius_px;
+        let mut renderer = Renderer::new(c.sensor).expect("renderer");
+        let (w, h) = (renderer.width(), renderer.height());
+        assert_eq!((w, h), (480, 300));
+        let frames: Vec<GreyImage> = (0..3)
+            .map(|k| {
+                let mut rgb = Vec::new();
+                renderer.render(&Scene { contact: None }, k, &mut rgb);
+                let img = image::RgbImage::from_raw(w, h, rgb).expect("frame size");
+                GreyImage::from_image(&image::DynamicImage::ImageRgb8(img))
+            })
+            .collect();
+        let fit = fringe_calibration::find_disc(&frames).expect("the disc is found");
+        assert!(
+            (fit.centre_x - truth[0]).hypot(fit.centre_y - truth[1]) < 0.5,
+            "{fit:?} {truth:?}"
+        );
+        assert!((fit.radius - radius).abs() < 1.0, "{fit:?} {radius}");
+    }
 
     /// `[sim]` session and ageing reach the simulated bench: the camera shift scaled with the
     /// image, the rest as written, applied to the sensor and the F/T sensor when it is built.

@@ -18,8 +18,8 @@ use fringe_app::health::check_plan::{acceptance_positions, check_plan, MAX_BENCH
 use fringe_app::health::figures::{assess, Assessment, Measured, Thresholds, Verdict};
 use fringe_app::health::history::{self, history_path, Entry, HISTORY_FORMAT};
 use fringe_app::health::model_errors::{at_any, at_positions, thinned, ModelErrors, EVAL_FRAMES};
+use fringe_app::health::reference::compared;
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_calibration::health::change::Change;
 use fringe_calibration::health::signature::Signature;
 use fringe_calibration::profile::Profile;
 use fringe_calibration::ScanRun;
@@ -71,6 +71,7 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     );
     let accepted = certificate(&profiles, &sensor, &config)?;
     let dir = accepted.dir.clone();
+    commissioning_runs_present(&accepted)?;
     let journal = Journal::read(&dir)?;
     let Some(acceptance) = &journal.acceptance else {
         bail!(
@@ -133,7 +134,10 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     }
     let threads = crate::cmd::arg_values::cap_threads(a.threads);
     let reference = reference_calibration(&accepted, &profiles, &sensor);
-    println!("optics and F/T zero compared with {}", reference.about);
+    println!(
+        "camera geometry and F/T zero compared with {}; light and surface with the commissioning's calibration scan",
+        reference.about
+    );
     let (assessment, model_now, model_then) = compare(
         &accepted,
         &reference,
@@ -227,7 +231,28 @@ fn certificate(profiles: &Path, sensor: &str, config: &RigConfig) -> Result<Comm
     Ok(c)
 }
 
-/// The calibration the optics and the F/T zero are compared with.
+/// The commissioning's runs a check compares with (its calibration scan: light, surface; its
+/// acceptance scan: the model's errors), found before anything moves.
+fn commissioning_runs_present(accepted: &Commissioned) -> Result<()> {
+    let runs = &accepted.certificate.runs;
+    for (what, run) in [
+        ("calibration scan", &runs.calibration),
+        ("acceptance scan", &runs.acceptance),
+    ] {
+        let path = accepted.dir.join(run);
+        if !path.join(fringe_rig::store::layout::START).is_file() {
+            bail!(
+                "{}: the commissioning's {what} {} is missing (not a run): a check compares the unit with it, so nothing is pressed. Put the run back from a backup, or commission the unit again (fringe commission)",
+                accepted.dir.display(),
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The calibration the camera geometry and the F/T zero are compared with (the light and the
+/// surface are compared with the commissioning's: `fringe_app::health::reference`).
 struct Reference {
     /// Its calibration scan.
     run: PathBuf,
@@ -270,9 +295,10 @@ fn reference_calibration(accepted: &Commissioned, profiles: &Path, sensor: &str)
     }
 }
 
-/// Everything compared: the no-contact signatures of the reference calibration scan and of the
-/// check, the F/T zero against the reference calibration's, the model's errors at the check's
-/// positions now and in the acceptance scan.
+/// Everything compared: the no-contact signatures of the check against the commissioning's
+/// calibration scan (light, surface) and the reference calibration scan (geometry), the F/T zero
+/// against the reference calibration's, the model's errors at the check's positions now and in
+/// the acceptance scan.
 fn compare(
     accepted: &Commissioned,
     reference: &Reference,
@@ -285,10 +311,19 @@ fn compare(
     let cert = &accepted.certificate;
     let reference_run = ScanRun::read(&reference.run)?;
     let check_run = ScanRun::read(run_dir)?;
-    println!("measuring the no-contact frames (the commissioning's and the check's)");
+    println!("measuring the no-contact frames (the calibrations' and the check's)");
+    let commissioned_run = dir.join(&cert.runs.calibration);
+    let commissioned = if reference.run == commissioned_run {
+        None
+    } else {
+        Some(Signature::measure(&ScanRun::read(&commissioned_run)?)?)
+    };
     let then = Signature::measure(&reference_run)?;
     let now = Signature::measure(&check_run)?;
-    let change = Change::between(&then, &now)?;
+    let change = match &commissioned {
+        Some(c) => compared(c, Some(&then), &now)?,
+        None => compared(&then, None, &now)?,
+    };
     let force_offset_n = force_zero_moved(&reference_run, &check_run, &reference.profile)?;
     let rows_now = evaluated(model, run_dir, None, threads, "evaluating the check")?;
     let acceptance = dir.join(&cert.runs.acceptance);

@@ -26,14 +26,9 @@ pub fn lines(v: &Verdict) -> Vec<String> {
     )];
     for c in &v.checks {
         out.push(format!(
-            "  {} {} over {}: {:.4} ({} {:.4}, {} frames)",
+            "  {} {}",
             if c.pass { "ok  " } else { "FAIL" },
-            c.figure,
-            c.over,
-            c.value,
-            if c.at_most { "at most" } else { "at least" },
-            c.limit,
-            c.frames
+            c.describe()
         ));
     }
     if !v.pass && !v.weak.is_empty() {

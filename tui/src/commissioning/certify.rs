@@ -3,7 +3,7 @@
 //! on it and judged against the spec, the report and the certificate.
 
 use super::rounds::{shapes, Adaptation};
-use super::session::{estimate_s, scan, Commissioning};
+use super::session::{estimate_s, scan, set_aside, Commissioning};
 use crate::cmd::adapt::adapted_card;
 use crate::cmd::model::open_model;
 use crate::cmd::verdict;
@@ -55,24 +55,28 @@ pub(crate) fn accept(
     c.say(line);
     let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
     if let Some(e) = c.journal.acceptance.as_mut() {
-        e.completed = true;
         e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
     }
     c.journal.write(&c.dir)?;
     let started = Instant::now();
     let model = open_model(&model_path)?;
-    let source = dataset::read(&run_dir)?;
-    let presses = {
-        let mut p: Vec<&str> = source.samples.iter().map(|s| s.press.as_str()).collect();
-        p.sort_unstable();
-        p.dedup();
-        p.len()
+    // The scan is complete when the model was evaluated on it: one whose frames cannot be used
+    // is kept aside and pressed again on resume, never taken as done.
+    let (eval, presses) = match evaluated(c, &model, &run_dir) {
+        Ok(done) => done,
+        Err(e) => {
+            let kept = set_aside(&run_dir)?;
+            return Err(e.context(format!(
+                "the acceptance scan could not be evaluated (it is kept as {} and pressed again when the commissioning is resumed: fringe commission --resume {})",
+                kept.display(),
+                c.dir.display()
+            )));
+        }
     };
-    let mut predictor = Predictor::new(&model, BackendKind::Tract, c.threads)?;
-    let host = &mut *c.host;
-    let eval = evaluate(&model, &mut predictor, &[source], None, None, |d, t| {
-        host.frames("evaluating the acceptance scan", d, t)
-    })?;
+    if let Some(e) = c.journal.acceptance.as_mut() {
+        e.completed = true;
+    }
+    c.journal.write(&c.dir)?;
     c.compute_s += started.elapsed().as_secs_f64();
     let v = judge(&eval, &c.spec);
     let cert = certificate(c, base, &adaptation, &eval, &v, &run_dir, presses)?;
@@ -91,6 +95,27 @@ pub(crate) fn accept(
         certificate: path,
         model: model_path,
     })
+}
+
+/// `model` evaluated on the acceptance run `run_dir`, and the presses it holds.
+fn evaluated(
+    c: &mut Commissioning<'_>,
+    model: &Model,
+    run_dir: &Path,
+) -> Result<(Evaluation, usize)> {
+    let source = dataset::read(run_dir)?;
+    let presses = {
+        let mut p: Vec<&str> = source.samples.iter().map(|s| s.press.as_str()).collect();
+        p.sort_unstable();
+        p.dedup();
+        p.len()
+    };
+    let mut predictor = Predictor::new(model, BackendKind::Tract, c.threads)?;
+    let host = &mut *c.host;
+    let eval = evaluate(model, &mut predictor, &[source], None, None, |d, t| {
+        host.frames("evaluating the acceptance scan", d, t)
+    })?;
+    Ok((eval, presses))
 }
 
 /// The adapted model in the directory, with its card beside it and in it.

@@ -3,9 +3,9 @@
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
 use super::fine_tune::FineTune;
-use super::session::{estimate_s, scan, Commissioning};
+use super::session::{estimate_s, scan, set_aside, Commissioning};
 use crate::cmd::model::open_model;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use fringe_app::commission::certificate::CurvePoint;
 use fringe_app::commission::journal::ScanEntry;
 use fringe_app::commission::press_choice::{
@@ -13,7 +13,7 @@ use fringe_app::commission::press_choice::{
 };
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::commission::press_plan::press_plan;
-use fringe_app::ProfileUse;
+use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::last_block::BlockFit;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
@@ -98,11 +98,15 @@ impl Adaptation {
 }
 
 /// Opens the base model and checks that it can be adapted (the paper's networks, by weights,
-/// with a no-contact class and at least one indenter) and that it is of the sensor's design
+/// with a no-contact class and at least one indenter), that it runs on whole frames (not a
+/// window network, by the rule evaluation keeps) and that it is of the sensor's design
 /// (`variant`, when known).
 pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
     let model = open_model(Path::new(spec))?;
     model.check_design(variant, "this unit")?;
+    model.check_runs_alone().with_context(|| {
+        format!("--base {spec}: a commissioning adapts a network that reads the whole disc")
+    })?;
     if model.weights().is_none() {
         bail!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
@@ -116,6 +120,40 @@ pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
         );
     }
     Ok(model)
+}
+
+/// Refuses a bench budget that cannot hold the fewest presses an adaptation needs
+/// ([`fringe_sensor_models::adapt::MIN_PRESSES`], each position pressed with every indenter of
+/// `base`, the positions a lattice spacing apart about the sensor's centre), before anything
+/// moves: such a commissioning would calibrate, press what fits and fail at the end. Without a
+/// sensor centre known yet (a real rig before its first calibration) the rounds say it.
+pub(crate) fn check_budget(config: &RigConfig, base: &Model, budget_min: f64) -> Result<()> {
+    let Ok(origin) = config.origin() else {
+        return Ok(());
+    };
+    let shapes = shapes(base);
+    let positions = fringe_sensor_models::adapt::MIN_PRESSES.div_ceil(shapes.len().max(1));
+    let points: Vec<[f64; 2]> = (0..positions)
+        .map(|k| [origin.x.0 + LATTICE_MM * k as f64, origin.y.0])
+        .collect();
+    let plan = press_plan(
+        "budget",
+        &points,
+        &shapes,
+        "the fewest presses an adaptation needs",
+    )?;
+    let need_s = estimate_s(&plan, config)?;
+    if need_s > 60.0 * budget_min {
+        bail!(
+            "--budget {budget_min}: the adaptation needs at least {} presses ({positions} positions x {} indenters: {}), about {need_s:.0} s of bench time on this rig at the least, more than {:.0} s: give a larger --budget (minutes; the default is {})",
+            fringe_sensor_models::adapt::MIN_PRESSES,
+            shapes.len(),
+            shapes.join(", "),
+            60.0 * budget_min,
+            super::DEFAULT_BUDGET_MIN
+        );
+    }
+    Ok(())
 }
 
 /// The indenters pressed: the model's classes after "None".
@@ -165,11 +203,24 @@ pub(crate) fn adapt(
         };
         let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
         if let Some(e) = c.journal.rounds.get_mut(round) {
-            e.completed = true;
             e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
         }
+        // A round is complete when its frames were learnt from: one whose frames cannot be used
+        // is kept aside and pressed again on resume, never taken as done.
+        if let Err(e) = state.learn(c, base, base_weights, &run_dir, round) {
+            c.journal.write(&c.dir)?;
+            let kept = set_aside(&run_dir)?;
+            return Err(e.context(format!(
+                "round {} could not be learnt from (it is kept as {} and pressed again when the commissioning is resumed: fringe commission --resume {})",
+                round + 1,
+                kept.display(),
+                c.dir.display()
+            )));
+        }
+        if let Some(e) = c.journal.rounds.get_mut(round) {
+            e.completed = true;
+        }
         c.journal.write(&c.dir)?;
-        state.learn(c, base, base_weights, &run_dir, round)?;
         round += 1;
     }
     let Some(adapted) = state.adapted else {

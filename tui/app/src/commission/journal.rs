@@ -3,6 +3,10 @@
 //! cut short (Ctrl-C, a crash, power loss) goes on from its runs with `--resume DIR` and
 //! presses nothing twice.
 
+use crate::disk_room::camera_frame;
+use crate::rig_file::RigConfig;
+use fringe_rig::camera::writer::format_name;
+use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};
 use fringe_rig::store::durable::write_atomic;
 use fringe_rig::store::layout::{MANIFEST, STOP};
@@ -39,6 +43,79 @@ pub struct Options {
     /// alone).
     #[serde(default)]
     pub fine_tune: bool,
+    /// The camera settings that decide its frames, as the rig gave them when it started (a
+    /// resume on other settings would press frames the unit's profile and rounds do not fit);
+    /// `None` in journals written before they were recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<FrameSettings>,
+}
+
+/// What decides a commissioning's frames, known from the rig file before the camera opens.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameSettings {
+    /// The camera's pixel format (`camera.pixel_format`: mono8, rgb8, bayerrg8).
+    pub pixel_format: String,
+    /// The frame's size, px [width, height], when the rig file decides it (the simulated
+    /// bench's: its sensor and `sim.image_scale`); a real camera gives its own sensor's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size_px: Option<[u32; 2]>,
+    /// The simulated camera's `sim.image_scale`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub image_scale: Option<f64>,
+}
+
+impl FrameSettings {
+    /// The settings `config` gives.
+    pub fn of(config: &RigConfig) -> Result<FrameSettings, ConfigError> {
+        let pixel_format = format_name(config.camera_settings()?.pixel_format).to_string();
+        if !config.is_simulated() {
+            return Ok(FrameSettings {
+                pixel_format,
+                size_px: None,
+                image_scale: None,
+            });
+        }
+        let size = camera_frame(None, config);
+        Ok(FrameSettings {
+            pixel_format,
+            size_px: Some([size.width, size.height]),
+            image_scale: Some(config.file.sim.image_scale),
+        })
+    }
+
+    /// How `now` differs from these settings, one phrase each (`frame size 480x300 px, was
+    /// 960x600 px`); empty when they agree.
+    pub fn differences(&self, now: &FrameSettings) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.pixel_format != now.pixel_format {
+            out.push(format!(
+                "camera.pixel_format {}, was {}",
+                now.pixel_format, self.pixel_format
+            ));
+        }
+        let size = |s: Option<[u32; 2]>| {
+            s.map_or("the camera's own".to_string(), |[w, h]| {
+                format!("{w}x{h} px")
+            })
+        };
+        if self.size_px != now.size_px {
+            out.push(format!(
+                "frame size {}, was {}",
+                size(now.size_px),
+                size(self.size_px)
+            ));
+        }
+        if self.image_scale != now.image_scale {
+            let scale =
+                |s: Option<f64>| s.map_or("none (a real camera)".to_string(), |k| k.to_string());
+            out.push(format!(
+                "sim.image_scale {}, was {}",
+                scale(now.image_scale),
+                scale(self.image_scale)
+            ));
+        }
+        out
+    }
 }
 
 /// One scan of the commissioning.
@@ -208,6 +285,7 @@ mod tests {
             acceptance_presses: 8,
             last_block: false,
             fine_tune: false,
+            camera: None,
         }
     }
 
@@ -248,6 +326,41 @@ mod tests {
             run_state(&dir.join("no-run")).expect("state"),
             RunState::Absent
         );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_camera_settings_are_kept_and_a_journal_without_them_still_reads() {
+        let dir = std::env::temp_dir().join(format!("fringe-journal-cam-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let half = RigConfig::parse("[sim]\nimage_scale = 0.5\n", "half.toml").expect("rig");
+        let quarter = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "quarter.toml").expect("rig");
+        let then = FrameSettings::of(&half).expect("settings");
+        assert_eq!(then.pixel_format, "bayerrg8");
+        assert_eq!(then.size_px, Some([960, 600]));
+        let mut j = Journal::new(Options {
+            camera: Some(then.clone()),
+            ..options()
+        });
+        j.write(&dir).expect("write");
+        let back = Journal::read(&dir).expect("read");
+        assert_eq!(back.options.camera.as_ref(), Some(&then));
+        assert!(then
+            .differences(&FrameSettings::of(&half).expect("same"))
+            .is_empty());
+        assert_eq!(
+            then.differences(&FrameSettings::of(&quarter).expect("other")),
+            [
+                "frame size 480x300 px, was 960x600 px",
+                "sim.image_scale 0.25, was 0.5"
+            ]
+        );
+        // A journal of an older fringe, without the settings, reads as it did.
+        j.options.camera = None;
+        j.write(&dir).expect("write");
+        let text = std::fs::read_to_string(dir.join(JOURNAL)).expect("text");
+        assert!(!text.contains("camera"), "{text}");
+        assert_eq!(Journal::read(&dir).expect("old").options.camera, None);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

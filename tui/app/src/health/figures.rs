@@ -84,8 +84,15 @@ pub struct Figure {
     /// What it calls for when it moved.
     pub action: Verdict,
     pub moved: bool,
-    /// What a move means, with the numbers.
+    /// What the figure says, with the numbers: what its move means when it moved, that the unit
+    /// is fine in that respect when it did not.
     pub finding: String,
+}
+
+/// What a figure says when it moved and when it did not.
+struct Said {
+    moved: String,
+    fine: String,
 }
 
 impl Figure {
@@ -96,7 +103,7 @@ impl Figure {
         threshold: f64,
         unit: &str,
         action: Verdict,
-        finding: String,
+        said: Said,
     ) -> Figure {
         let moved = match rule {
             Rule::AtMost => value > threshold,
@@ -110,7 +117,7 @@ impl Figure {
             unit: unit.to_string(),
             action,
             moved,
-            finding,
+            finding: if moved { said.moved } else { said.fine },
         }
     }
 
@@ -227,10 +234,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         (5.0 * sigma).max(t.centre_share * r),
         "px",
         Verdict::Recalibrate,
-        format!(
-            "the camera moved: the optical centre shifted by ({:+.1}, {:+.1}) px",
-            c.centre_shift_px[0], c.centre_shift_px[1]
-        ),
+        Said {
+            moved: format!(
+                "the camera moved: the optical centre shifted by ({:+.1}, {:+.1}) px",
+                c.centre_shift_px[0], c.centre_shift_px[1]
+            ),
+            fine: format!(
+                "the camera is where it was: the optical centre is within ({:+.1}, {:+.1}) px",
+                c.centre_shift_px[0], c.centre_shift_px[1]
+            ),
+        },
     ));
     figures.push(Figure::new(
         "radius_change_px",
@@ -239,10 +252,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         (5.0 * m.radius_sigma_px).max(t.radius_share * r),
         "px",
         Verdict::Recalibrate,
-        format!(
-            "the disc's radius in the image changed by {:+.1} px (focus or camera distance)",
-            c.radius_change_px
-        ),
+        Said {
+            moved: format!(
+                "the disc's radius in the image changed by {:+.1} px (focus or camera distance)",
+                c.radius_change_px
+            ),
+            fine: format!(
+                "the disc's radius in the image is as it was ({:+.1} px)",
+                c.radius_change_px
+            ),
+        },
     ));
     figures.push(Figure::new(
         "turn_deg",
@@ -251,7 +270,10 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.turn_deg,
         "deg",
         Verdict::Recalibrate,
-        format!("the camera turned by about {:+.0} degrees", c.turn_deg),
+        Said {
+            moved: format!("the camera turned by about {:+.0} degrees", c.turn_deg),
+            fine: format!("the camera has not turned ({:+.0} degrees)", c.turn_deg),
+        },
     ));
     if let Some(o) = m.force_offset_n {
         let moved = o.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -262,10 +284,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
             t.force_offset_n,
             "N",
             Verdict::Recalibrate,
-            format!(
-                "the F/T zero moved by ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the unit was calibrated",
-                o[0], o[1], o[2]
-            ),
+            Said {
+                moved: format!(
+                    "the F/T zero moved by ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the unit was calibrated",
+                    o[0], o[1], o[2]
+                ),
+                fine: format!(
+                    "the F/T zero is where it was: ({:+.3}, {:+.3}, {:+.3}) N (Fx, Fy, Fz) since the unit was calibrated",
+                    o[0], o[1], o[2]
+                ),
+            },
         ));
     }
     figures.push(Figure::new(
@@ -275,12 +303,21 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.rim_ratio,
         "x",
         Verdict::Replace,
-        format!(
-            "an LED is out: the rim at {:.0}-{:.0} degrees gives {:.0} % of its light",
-            c.darkest_rim_deg,
-            c.darkest_rim_deg + fringe_calibration::health::change::RIM_SECTOR_DEG as f64,
-            100.0 * c.darkest_rim_ratio
-        ),
+        {
+            let (from, to) = (
+                c.darkest_rim_deg,
+                c.darkest_rim_deg + fringe_calibration::health::change::RIM_SECTOR_DEG as f64,
+            );
+            let light = 100.0 * c.darkest_rim_ratio;
+            Said {
+                moved: format!(
+                    "an LED is out: the rim at {from:.0}-{to:.0} degrees gives {light:.0} % of its light"
+                ),
+                fine: format!(
+                    "every LED is lit: the darkest part of the rim, at {from:.0}-{to:.0} degrees, gives {light:.0} % of its light"
+                ),
+            }
+        },
     ));
     figures.push(Figure::new(
         "surface_cells",
@@ -289,10 +326,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.surface_cells as f64,
         "",
         Verdict::Replace,
-        format!(
-            "the surface is damaged (a scratch): {} of {} places of the disc changed sharply, by up to {:.1} DN",
-            c.surface_cells, c.cells_compared, c.surface_peak_dn
-        ),
+        Said {
+            moved: format!(
+                "the surface is damaged (a scratch): {} of {} places of the disc changed sharply, by up to {:.1} DN",
+                c.surface_cells, c.cells_compared, c.surface_peak_dn
+            ),
+            fine: format!(
+                "the surface is unchanged: {} of {} places of the disc changed sharply (at most {} may), by up to {:.1} DN",
+                c.surface_cells, c.cells_compared, t.surface_cells, c.surface_peak_dn
+            ),
+        },
     ));
     figures.push(Figure::new(
         "darkest_side",
@@ -301,11 +344,18 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.side_ratio,
         "x",
         Verdict::Replace,
-        format!(
-            "the light is uneven: the disc's side at {:.0} degrees gives {:.0} % of its light",
-            c.darkest_side_deg,
-            100.0 * c.darkest_side_ratio
-        ),
+        Said {
+            moved: format!(
+                "the light is uneven: the disc's side at {:.0} degrees gives {:.0} % of its light",
+                c.darkest_side_deg,
+                100.0 * c.darkest_side_ratio
+            ),
+            fine: format!(
+                "the light is even: the darkest side of the disc, at {:.0} degrees, gives {:.0} % of its light",
+                c.darkest_side_deg,
+                100.0 * c.darkest_side_ratio
+            ),
+        },
     ));
     figures.push(Figure::new(
         "dimming",
@@ -314,10 +364,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.dimmer,
         "x",
         Verdict::Replace,
-        format!(
-            "the LEDs are dimming: the disc gives {:.0} % of its light",
-            100.0 * c.brightness_ratio
-        ),
+        Said {
+            moved: format!(
+                "the LEDs are dimming: the disc gives {:.0} % of its light",
+                100.0 * c.brightness_ratio
+            ),
+            fine: format!(
+                "the LEDs are not dimming: the disc gives {:.0} % of its light",
+                100.0 * c.brightness_ratio
+            ),
+        },
     ));
     figures.push(Figure::new(
         "brightening",
@@ -326,10 +382,16 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         t.brighter,
         "x",
         Verdict::Recommission,
-        format!(
-            "the disc is brighter: {:.0} % of its light",
-            100.0 * c.brightness_ratio
-        ),
+        Said {
+            moved: format!(
+                "the disc is brighter: {:.0} % of its light",
+                100.0 * c.brightness_ratio
+            ),
+            fine: format!(
+                "the disc is no brighter than it was: {:.0} % of its light",
+                100.0 * c.brightness_ratio
+            ),
+        },
     ));
     if let (Some(now), Some(then)) = (m.model_now, m.model_then) {
         model_figures(&mut figures, now, then, t);
@@ -362,11 +424,17 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
         t.gain_change,
         "x",
         Verdict::Recommission,
-        format!(
-            "the material changed: the model reads {:.0} % {} force than at acceptance",
-            100.0 * gain.abs(),
-            if gain < 0.0 { "less" } else { "more" }
-        ),
+        {
+            let by = format!(
+                "the model reads {:.0} % {} force than at acceptance",
+                100.0 * gain.abs(),
+                if gain < 0.0 { "less" } else { "more" }
+            );
+            Said {
+                moved: format!("the material changed: {by}"),
+                fine: format!("the material is unchanged: {by}"),
+            }
+        },
     ));
     let grown = |now: f64, then: f64, margin: f64| {
         if now > then + margin {
@@ -382,10 +450,16 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
         t.rmse_ratio,
         "x",
         Verdict::Recommission,
-        format!(
-            "the model's force error grew: Fz RMSE {:.3} N, {:.3} N at acceptance",
-            now.fz_rmse_n, then.fz_rmse_n
-        ),
+        {
+            let figures = format!(
+                "Fz RMSE {:.3} N, {:.3} N at acceptance",
+                now.fz_rmse_n, then.fz_rmse_n
+            );
+            Said {
+                moved: format!("the model's force error grew: {figures}"),
+                fine: format!("the model's force error is as it was: {figures}"),
+            }
+        },
     ));
     figures.push(Figure::new(
         "contact_rmse_growth",
@@ -398,10 +472,16 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
         t.rmse_ratio,
         "x",
         Verdict::Recommission,
-        format!(
-            "the model's contact error grew: contact RMSE {:.2} mm, {:.2} mm at acceptance",
-            now.contact_rmse_mm, then.contact_rmse_mm
-        ),
+        {
+            let figures = format!(
+                "contact RMSE {:.2} mm, {:.2} mm at acceptance",
+                now.contact_rmse_mm, then.contact_rmse_mm
+            );
+            Said {
+                moved: format!("the model's contact error grew: {figures}"),
+                fine: format!("the model's contact error is as it was: {figures}"),
+            }
+        },
     ));
     figures.push(Figure::new(
         "shape_accuracy_drop",
@@ -410,11 +490,17 @@ fn model_figures(figures: &mut Vec<Figure>, now: &ModelErrors, then: &ModelError
         t.accuracy_drop,
         "",
         Verdict::Recommission,
-        format!(
-            "the model's shape accuracy fell: {:.1} %, {:.1} % at acceptance",
-            100.0 * now.shape_accuracy,
-            100.0 * then.shape_accuracy
-        ),
+        {
+            let figures = format!(
+                "{:.1} %, {:.1} % at acceptance",
+                100.0 * now.shape_accuracy,
+                100.0 * then.shape_accuracy
+            );
+            Said {
+                moved: format!("the model's shape accuracy fell: {figures}"),
+                fine: format!("the model's shape accuracy is as it was: {figures}"),
+            }
+        },
     ));
 }
 
@@ -454,6 +540,57 @@ mod tests {
         assert_eq!(a.verdict, Verdict::Ok);
         assert_eq!(a.moved().count(), 0, "{a:?}");
         assert!(a.cause.is_empty() && a.diagnosis.is_empty());
+    }
+
+    #[test]
+    fn figures_that_did_not_move_are_worded_as_fine_and_moved_ones_as_faults() {
+        let a = assessed(&unchanged(), [0.01, -0.02, 0.015], &errors(1.01, 0.32));
+        let finding = |a: &Assessment, key: &str| {
+            a.figures
+                .iter()
+                .find(|f| f.key == key)
+                .map(|f| f.finding.clone())
+                .unwrap_or_else(|| panic!("no figure {key}"))
+        };
+        assert_eq!(
+            finding(&a, "darkest_rim"),
+            "every LED is lit: the darkest part of the rim, at 40-50 degrees, gives 97 % of its light"
+        );
+        assert_eq!(
+            finding(&a, "surface_cells"),
+            "the surface is unchanged: 0 of 1400 places of the disc changed sharply (at most 6 may), by up to 0.9 DN"
+        );
+        // Nothing moved: no finding speaks of a fault.
+        for f in &a.figures {
+            for fault in [
+                "is out",
+                "damaged",
+                "moved",
+                "uneven",
+                "are dimming",
+                "is brighter",
+                "material changed",
+                "grew",
+                "fell",
+                "turned by",
+            ] {
+                assert!(!f.finding.contains(fault), "{}: {}", f.key, f.finding);
+            }
+        }
+        // The same figures moved say what is wrong.
+        let mut led = unchanged();
+        led.darkest_rim_ratio = 0.3;
+        led.surface_cells = 40;
+        let a = assessed(&led, [0.0; 3], &errors(1.0, 0.3));
+        assert!(
+            finding(&a, "darkest_rim").starts_with("an LED is out: the rim at 40-50 degrees"),
+            "{a:?}"
+        );
+        assert!(
+            finding(&a, "surface_cells")
+                .starts_with("the surface is damaged (a scratch): 40 of 1400"),
+            "{a:?}"
+        );
     }
 
     #[test]

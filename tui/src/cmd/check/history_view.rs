@@ -33,11 +33,7 @@ pub(super) fn show(profiles: &Path, sensor: &str) -> Result<()> {
             path.display()
         );
     }
-    println!(
-        "{} checks of sensor {sensor} ({})",
-        h.entries.len(),
-        path.display()
-    );
+    println!("{}", heading(h.entries.len(), sensor, &path));
     println!(
         "{:>3}  {:<20}  {:<12}  {:>8}  {:>7}  {:>6}  {:>6}  {:>5}  {:>7}  diagnosis",
         "#", "checked (UTC)", "verdict", "centre px", "zero N", "rim", "side", "cells", "gain"
@@ -68,6 +64,15 @@ pub(super) fn show(profiles: &Path, sensor: &str) -> Result<()> {
         out.display()
     );
     Ok(())
+}
+
+/// The table's heading: `2 checks of sensor S (PATH)`, `1 check of ...`.
+fn heading(checks: usize, sensor: &str, path: &Path) -> String {
+    format!(
+        "{checks} {} of sensor {sensor} ({})",
+        if checks == 1 { "check" } else { "checks" },
+        path.display()
+    )
 }
 
 /// One panel per figure: its value at each check (blue) and its threshold (red), three panels
@@ -107,4 +112,22 @@ fn plot(entries: &[Entry]) -> RgbImage {
         image::imageops::overlay(&mut out, p, i64::from(c * w), i64::from(r * h));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_heading_counts_checks_in_words() {
+        let path = Path::new("profiles/layered-3.health.jsonl");
+        assert_eq!(
+            heading(1, "layered-3", path),
+            "1 check of sensor layered-3 (profiles/layered-3.health.jsonl)"
+        );
+        assert_eq!(
+            heading(2, "layered-3", path),
+            "2 checks of sensor layered-3 (profiles/layered-3.health.jsonl)"
+        );
+    }
 }
