@@ -31,8 +31,7 @@ use host::Host;
 use session::{estimate_s, scan, set_aside, Commissioning};
 use std::path::{Path, PathBuf};
 
-/// Bench time for the presses when no budget is given, minutes.
-pub(crate) const DEFAULT_BUDGET_MIN: f64 = 10.0;
+pub(crate) use rounds::DEFAULT_BUDGET_MIN;
 /// Positions pressed per adaptive round when not given.
 pub(crate) const DEFAULT_ROUND_PRESSES: usize = 6;
 /// Held-out positions of the acceptance scan when not given.

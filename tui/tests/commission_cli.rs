@@ -525,6 +525,7 @@ fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
         acceptance_presses: 3,
         last_block: false,
         fine_tune: false,
+        camera: None,
     });
     let plan = common::scan_plan("[11.0, 12.5]");
     let run_id = format!("calibration-{sensor}");

@@ -23,6 +23,9 @@ use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Bench time for the presses when no budget is given, minutes.
+pub(crate) const DEFAULT_BUDGET_MIN: f64 = 10.0;
+
 /// A round stops the presses early when its unseen presses are within this share of every
 /// threshold of the spec.
 const EARLY_MARGIN: f64 = 0.8;
@@ -150,7 +153,7 @@ pub(crate) fn check_budget(config: &RigConfig, base: &Model, budget_min: f64) ->
             shapes.len(),
             shapes.join(", "),
             60.0 * budget_min,
-            super::DEFAULT_BUDGET_MIN
+            DEFAULT_BUDGET_MIN
         );
     }
     Ok(())
