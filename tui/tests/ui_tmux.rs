@@ -293,8 +293,8 @@ fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
 #[test]
 fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
     let dir = scratch("calibrate");
-    // The quick bench at half the frame size (at a quarter the optical fit finds no disc:
-    // commission_cli's last test; the full-size calibration is calibrate_rig_cli's).
+    // The quick bench at half the frame size (the full-size calibration is calibrate_rig_cli's;
+    // a quarter, where the disc is found too, is optical_accuracy's).
     std::fs::write(dir.join("rig.toml"), common::quick_rig_at(0.5)).expect("rig file");
     let pane = Pane::start("calibrate", &dir, &fringe());
     pane.wait_for("ready: press r to run", Duration::from_secs(30));
