@@ -5,9 +5,9 @@
 //! - [`trace`]: recording what crosses a link and replaying it against a driver.
 //! - [`axis`], [`force`], [`camera`]: the device traits every real, simulated or replayed device
 //!   implements; [`devices`] holds one bench's set of them.
-//! - [`apt`], [`modbus`], [`netft`], [`atical`], [`manual`]: the drivers (Thorlabs APT axes, Modbus
-//!   y stages, the ATI Net F/T box, DAQ strain gauges through an ATI `.cal` matrix, a y stage moved
-//!   by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
+//! - [`apt`], [`modbus`], [`netft`], [`atical`], [`nidaqmx`], [`manual`]: the drivers (Thorlabs APT
+//!   axes, Modbus y stages, the ATI Net F/T box, strain gauges through an ATI `.cal` matrix read by
+//!   an NI-DAQmx device, a y stage moved by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
 //! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
 //!   the recording threads; [`realtime`]: real-time scheduling for the threads that keep its time.
 //! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes;
@@ -37,6 +37,7 @@ pub mod ft_units;
 pub mod manual;
 pub mod modbus;
 pub mod netft;
+pub mod nidaqmx;
 pub mod realtime;
 pub mod reference_layout;
 pub mod scan;

@@ -171,6 +171,7 @@ fn scan(index: u64, gauges: [f64; 6], strobe: f64) -> GaugeReading {
         host_time: HostTime(index * 200_000),
         gauges: gauges.map(Volts),
         strobe: Some(Volts(strobe)),
+        lost_before: 0,
     }
 }
 

@@ -262,6 +262,7 @@ impl Acquisition {
                     host_time: arrival,
                     gauges,
                     strobe,
+                    lost_before: 0,
                 };
                 match out.try_send(r) {
                     Ok(()) => {}

@@ -17,6 +17,9 @@ pub struct GaugeReading {
     pub gauges: [Volts; 6],
     /// Extra channel sampled with the gauges (camera ExposureActive).
     pub strobe: Option<Volts>,
+    /// Scans lost just before this one (the reader fell behind and acquisition restarted); the
+    /// index skips them.
+    pub lost_before: u64,
 }
 
 /// Something that delivers gauge voltages: a DAQ driver, a replay, a simulation.
@@ -90,6 +93,8 @@ impl<S: GaugeSource> CalibratedSensor<S> {
                     continue;
                 }
                 self.stats.lost += r.index - last - 1;
+            } else {
+                self.stats.lost += r.lost_before;
             }
             self.last_index = Some(r.index);
             self.stats.received += 1;
