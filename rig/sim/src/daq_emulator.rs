@@ -1,36 +1,34 @@
-//! A simulated DAQ (NI USB-6218-like) sampling the six strain gauges of an ATI sensor and the
-//! camera's ExposureActive line, in real time on its own thread.
+//! The simulated bench's DAQ: an NI USB-6218 of the simulated NI-DAQmx library
+//! ([`crate::daqmx_library`]) sampling the six strain gauges of an ATI sensor and the camera's
+//! ExposureActive line, read by the real NI-DAQmx driver ([`fringe_rig::nidaqmx::NiDaq`]).
 //!
-//! - Gauge volts = C^-1 w, where C is the `.cal` file's volts-to-wrench matrix and w the
+//! - Gauge volts (ai0:5) = C^-1 w, where C is the `.cal` file's volts-to-wrench matrix and w the
 //!   [`ForceReading`] (true load + noise, drift, bias) at the sample instant; so a
-//!   [`fringe_rig::atical::CalibratedSensor`] over this source gives back w within the quantisation.
-//! - Quantisation: `bits` over +-`range_v` (16 bits over +-10 V: 305 uV per step), clipped at the
-//!   range.
+//!   [`fringe_rig::atical::CalibratedSensor`] over this source gives back w within the
+//!   quantisation (`bits` over +-`range_v`: 16 bits over +-10 V is 305 uV a step, clipped).
 //! - Sample n is taken at host time start + n / (rate (1 + drift_ppm 1e-6)): the DAQ's sample clock
-//!   has its own rate error. Scans arrive in blocks of `block_size` (10 ms at 5 kHz by default),
-//!   all stamped with the block's host arrival time, like a driver callback. A block is handed
-//!   over `U(0, arrival_jitter_ms)` after its last scan was taken (a busy host; default 0).
-//! - The strobe channel reads `strobe_high_v` while the shared [`ExposureSchedule`] says the camera
-//!   is exposing, `strobe_low_v` otherwise.
-//! - A consumer that stops reading for longer than `buffer_s` overflows the buffer: the next read
-//!   fails, as a real DAQ's does.
-//! - The acquisition thread runs real-time when the process may ([`fringe_rig::realtime`]): a
-//!   DAQ's clock is not held back by the host's other work.
+//!   has its own rate error. Scans reach the driver's buffer in transfers of `block_size` scans
+//!   (10 ms at 5 kHz by default), each `U(0, arrival_jitter_ms)` after its last scan was taken (a
+//!   busy host; default 0); the driver reads them in 10 ms blocks, stamped with their arrival.
+//! - The strobe channel (ai7) reads `strobe_high_v` while the shared [`ExposureSchedule`] says the
+//!   camera is exposing, `strobe_low_v` otherwise.
+//! - A reader that falls `buffer_s` behind overflows the driver's buffer: NI's -200279, which the
+//!   driver recovers from by restarting the task.
+//! - Each [`SimDaq`] is its own device on the simulated bus (`SimDAQ<n>`), so benches in one
+//!   process do not share one.
 
-use crate::camera_emulator::ExposureSchedule;
+use crate::camera_emulator::{ExposureSchedule, ExposureWindow};
+use crate::daqmx_library::{c_api, DaqSignals, DeviceModel, DeviceTiming, SimDevice};
 use crate::ground_truth::{TruthRecord, TruthSink};
 use crate::scene::ForceReading;
-use crossbeam_channel::{bounded, Receiver, RecvTimeoutError, TrySendError};
 use fringe_rig::atical::{Calibration, GaugeReading, GaugeSource};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::ForceError;
-use fringe_rig::units::{Volts, Wrench};
+use fringe_rig::nidaqmx::{DaqSettings, Library, NiDaq, Terminal};
+use fringe_rig::units::{Hertz, Volts, Wrench};
 use nalgebra::{Matrix6, Vector6};
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 /// The simulated DAQ's settings.
@@ -106,22 +104,96 @@ impl DaqClockHandle {
     }
 }
 
-struct Running {
-    stop: Arc<AtomicBool>,
-    overflow: Arc<AtomicBool>,
-    scans: Receiver<GaugeReading>,
-    thread: JoinHandle<Box<dyn ForceReading>>,
+/// The analogue inputs the simulated bench wires: the gauges on ai0:5 (differential), the
+/// exposure strobe on ai7.
+const GAUGE_CHANNELS: &str = "ai0:5";
+const STROBE_CHANNEL: &str = "ai7";
+
+/// The simulated library, shared by every simulated DAQ of the process.
+fn library() -> Result<Arc<Library>, ForceError> {
+    static LIBRARY: std::sync::OnceLock<Arc<Library>> = std::sync::OnceLock::new();
+    if let Some(l) = LIBRARY.get() {
+        return Ok(l.clone());
+    }
+    // SAFETY: `c_api::lookup` gives the simulated library's functions, declared with NI's C
+    // signatures, for the life of the program.
+    let l = unsafe { Library::in_process("the simulated NI-DAQmx library", c_api::lookup) }
+        .map_err(|e| ForceError::Config {
+            origin: "simulated NI-DAQmx".into(),
+            message: e.to_string(),
+        })?;
+    Ok(LIBRARY.get_or_init(|| l).clone())
 }
 
-/// The simulated DAQ, a [`GaugeSource`].
+/// What the simulated bench wires to the DAQ's inputs.
+struct BenchSignals {
+    to_volts: Matrix6<f64>,
+    reading: Box<dyn ForceReading>,
+    schedule: Option<Arc<ExposureSchedule>>,
+    strobe_v: (f64, f64),
+    windows: Vec<ExposureWindow>,
+    windows_at: Option<HostTime>,
+    truth: Option<Arc<dyn TruthSink>>,
+    clock: DaqClockHandle,
+}
+
+impl DaqSignals for BenchSignals {
+    fn scan(&mut self, _index: u64, t: HostTime, channels: &[u32], out: &mut [f64]) {
+        let w = self.reading.reading_at(t);
+        let v = self.to_volts * Vector6::from_row_slice(&w.to_array());
+        let exposing = match &self.schedule {
+            Some(schedule) => {
+                // The camera publishes its windows ahead: a copy a millisecond old will do.
+                if self.windows_at.is_none_or(|at| t.0 > at.0 + 1_000_000) {
+                    self.windows = schedule.snapshot().1;
+                    self.windows_at = Some(t);
+                }
+                ExposureSchedule::exposing(&self.windows, t)
+            }
+            None => false,
+        };
+        for (o, &ch) in out.iter_mut().zip(channels) {
+            *o = match ch {
+                0..=5 => v[ch as usize],
+                7 if self.schedule.is_some() => {
+                    if exposing {
+                        self.strobe_v.0
+                    } else {
+                        self.strobe_v.1
+                    }
+                }
+                _ => 0.0,
+            };
+        }
+    }
+
+    fn started(&mut self, start: HostTime, rate_hz: f64, drift_ppm: f64) {
+        let clock = DaqClock {
+            start,
+            rate_hz,
+            drift_ppm,
+        };
+        *self.clock.0.lock().unwrap_or_else(|e| e.into_inner()) = Some(clock);
+        self.windows_at = None;
+        if let Some(sink) = &self.truth {
+            sink.record(TruthRecord::DaqClock {
+                start,
+                rate_hz,
+                drift_ppm,
+            });
+        }
+    }
+}
+
+/// The simulated DAQ, a [`GaugeSource`]: the real driver over a simulated device.
 pub struct SimDaq {
     config: SimDaqConfig,
     to_volts: Matrix6<f64>,
-    reading: Option<Box<dyn ForceReading>>,
-    schedule: Option<Arc<ExposureSchedule>>,
-    truth: Option<Arc<dyn TruthSink>>,
+    /// The signals, until the device is put on the bus at the first start.
+    signals: Option<BenchSignals>,
+    device: Option<String>,
+    driver: Option<NiDaq>,
     clock: DaqClockHandle,
-    running: Option<Running>,
 }
 
 impl SimDaq {
@@ -153,26 +225,39 @@ impl SimDaq {
                 ),
             });
         }
+        let clock = DaqClockHandle::default();
         Ok(SimDaq {
+            signals: Some(BenchSignals {
+                to_volts,
+                reading,
+                schedule: None,
+                strobe_v: (config.strobe_high_v, config.strobe_low_v),
+                windows: Vec::new(),
+                windows_at: None,
+                truth: None,
+                clock: clock.clone(),
+            }),
             config,
             to_volts,
-            reading: Some(reading),
-            schedule: None,
-            truth: None,
-            clock: DaqClockHandle::default(),
-            running: None,
+            device: None,
+            driver: None,
+            clock,
         })
     }
 
     /// Samples the camera's exposure-active line from `schedule` as the strobe channel.
     pub fn with_strobe(mut self, schedule: Arc<ExposureSchedule>) -> SimDaq {
-        self.schedule = Some(schedule);
+        if let Some(s) = &mut self.signals {
+            s.schedule = Some(schedule);
+        }
         self
     }
 
     /// Records the sample clock into `sink` at each start.
     pub fn with_truth(mut self, sink: Arc<dyn TruthSink>) -> SimDaq {
-        self.truth = Some(sink);
+        if let Some(s) = &mut self.signals {
+            s.truth = Some(sink);
+        }
         self
     }
 
@@ -188,201 +273,110 @@ impl SimDaq {
 
     /// The quantised gauge voltages that carry wrench `w`.
     pub fn gauge_volts(&self, w: &Wrench) -> [f64; 6] {
-        gauge_volts(&self.to_volts, w, self.lsb_volts(), self.config.range_v)
+        let v = self.to_volts * Vector6::from_row_slice(&w.to_array());
+        let model = self.model();
+        std::array::from_fn(|i| model.quantise(v[i], self.config.range_v))
     }
-}
 
-fn gauge_volts(to_volts: &Matrix6<f64>, w: &Wrench, lsb: f64, range: f64) -> [f64; 6] {
-    let v = to_volts * Vector6::from_row_slice(&w.to_array());
-    std::array::from_fn(|i| ((v[i] / lsb).round() * lsb).clamp(-range, range))
-}
+    /// The device on the simulated bus, once started (to unplug it).
+    pub fn device(&self) -> Option<Arc<SimDevice>> {
+        self.device.as_deref().and_then(c_api::device)
+    }
 
-struct Acquisition {
-    config: SimDaqConfig,
-    to_volts: Matrix6<f64>,
-    clock: DaqClock,
-    schedule: Option<Arc<ExposureSchedule>>,
-    stop: Arc<AtomicBool>,
-    overflow: Arc<AtomicBool>,
-}
-
-impl Acquisition {
-    fn run(
-        self,
-        mut reading: Box<dyn ForceReading>,
-        out: crossbeam_channel::Sender<GaugeReading>,
-    ) -> Box<dyn ForceReading> {
-        // A DAQ samples on its own clock whatever the host runs: the emulator's thread is
-        // real-time when allowed (the F/T reader says so when it is not).
-        let _ = fringe_rig::realtime::raise_current_thread("simulated DAQ");
-        let lsb = 2.0 * self.config.range_v / 2f64.powi(self.config.bits as i32);
-        let block = self.config.block_size as u64;
-        let mut n = 0u64;
-        let mut scans = Vec::with_capacity(block as usize);
-        let mut jitter = StdRng::seed_from_u64(self.config.seed ^ 0xda0_1177);
-        let jitter_ns = self.config.arrival_jitter_ms.max(0.0) * 1e6;
-        loop {
-            let taken = self.clock.sample_time(n + block - 1);
-            let extra = if jitter_ns > 0.0 {
-                (jitter.gen::<f64>() * jitter_ns) as u64
-            } else {
-                0
-            };
-            let due = HostTime(taken.0 + extra);
-            loop {
-                if self.stop.load(Ordering::Relaxed) {
-                    return reading;
-                }
-                let now = HostTime::now();
-                if now >= due {
-                    break;
-                }
-                std::thread::sleep(due.since(now).min(Duration::from_millis(5)));
-            }
-            let windows = self.schedule.as_ref().map(|s| s.snapshot().1);
-            scans.clear();
-            for index in n..n + block {
-                let t = self.clock.sample_time(index);
-                let w = reading.reading_at(t);
-                let v = gauge_volts(&self.to_volts, &w, lsb, self.config.range_v);
-                let strobe = windows.as_ref().map(|ws| {
-                    Volts(if ExposureSchedule::exposing(ws, t) {
-                        self.config.strobe_high_v
-                    } else {
-                        self.config.strobe_low_v
-                    })
-                });
-                scans.push((index, v.map(Volts), strobe));
-            }
-            n += block;
-            let arrival = HostTime::now();
-            for &(index, gauges, strobe) in &scans {
-                let r = GaugeReading {
-                    index,
-                    host_time: arrival,
-                    gauges,
-                    strobe,
-                    lost_before: 0,
-                };
-                match out.try_send(r) {
-                    Ok(()) => {}
-                    Err(TrySendError::Full(_)) => {
-                        self.overflow.store(true, Ordering::Relaxed);
-                    }
-                    Err(TrySendError::Disconnected(_)) => return reading,
-                }
-            }
+    fn model(&self) -> DeviceModel {
+        DeviceModel {
+            bits: self.config.bits,
+            ranges_v: vec![self.config.range_v],
+            ..DeviceModel::usb_6218()
         }
+    }
+
+    /// Puts the device on the bus and opens the real driver on it.
+    fn open(&mut self) -> Result<&mut NiDaq, ForceError> {
+        if self.driver.is_none() {
+            let Some(signals) = self.signals.take() else {
+                return Err(ForceError::Device {
+                    device: self.config.device.clone(),
+                    message: "the simulated DAQ could not be opened before; create it again".into(),
+                });
+            };
+            static NEXT: AtomicU64 = AtomicU64::new(1);
+            let name = format!("SimDAQ{}", NEXT.fetch_add(1, Ordering::Relaxed));
+            let strobe = signals.schedule.is_some();
+            let device = SimDevice::new(
+                &name,
+                self.model(),
+                DeviceTiming {
+                    clock_drift_ppm: self.config.clock_drift_ppm,
+                    transfer_scans: self.config.block_size,
+                    transfer_jitter_ms: self.config.arrival_jitter_ms,
+                    seed: self.config.seed,
+                },
+                Box::new(signals),
+            );
+            c_api::install(device);
+            self.device = Some(name.clone());
+            let settings = DaqSettings {
+                device: name,
+                gauges: GAUGE_CHANNELS.into(),
+                strobe: strobe.then(|| STROBE_CHANNEL.into()),
+                terminal: Terminal::Differential,
+                range: Volts(self.config.range_v),
+                rate: Hertz(self.config.rate_hz),
+                buffer_scans: Some(
+                    ((self.config.rate_hz * self.config.buffer_s) as u32)
+                        .max(self.config.block_size as u32 * 2),
+                ),
+            };
+            let driver = NiDaq::open(&library()?, settings).map_err(|e| ForceError::Device {
+                device: self.config.device.clone(),
+                message: e.to_string(),
+            })?;
+            self.driver = Some(driver);
+        }
+        self.driver.as_mut().ok_or_else(|| ForceError::Device {
+            device: String::new(),
+            message: "unreachable: the driver was just opened".into(),
+        })
     }
 }
 
 impl GaugeSource for SimDaq {
     fn describe(&self) -> String {
-        self.config.device.clone()
+        match &self.driver {
+            Some(d) => format!("{} (simulated)", d.describe()),
+            None => self.config.device.clone(),
+        }
     }
 
     fn start(&mut self) -> Result<(), ForceError> {
-        if self.running.is_some() {
-            return Ok(());
-        }
-        let Some(reading) = self.reading.take() else {
-            return Err(ForceError::Device {
-                device: self.config.device.clone(),
-                message:
-                    "the force source was lost when acquisition panicked; create the DAQ again"
-                        .into(),
-            });
-        };
-        let clock = DaqClock {
-            start: HostTime(HostTime::now().0 + 1_000_000),
-            rate_hz: self.config.rate_hz,
-            drift_ppm: self.config.clock_drift_ppm,
-        };
-        *self.clock.0.lock().unwrap_or_else(|e| e.into_inner()) = Some(clock);
-        if let Some(sink) = &self.truth {
-            sink.record(TruthRecord::DaqClock {
-                start: clock.start,
-                rate_hz: clock.rate_hz,
-                drift_ppm: clock.drift_ppm,
-            });
-        }
-        let capacity =
-            ((self.config.rate_hz * self.config.buffer_s) as usize).max(self.config.block_size * 2);
-        let (tx, rx) = bounded(capacity);
-        let stop = Arc::new(AtomicBool::new(false));
-        let overflow = Arc::new(AtomicBool::new(false));
-        let acq = Acquisition {
-            config: self.config.clone(),
-            to_volts: self.to_volts,
-            clock,
-            schedule: self.schedule.clone(),
-            stop: stop.clone(),
-            overflow: overflow.clone(),
-        };
-        let thread = std::thread::Builder::new()
-            .name("sim-daq".into())
-            .spawn(move || acq.run(reading, tx))
-            .map_err(|source| ForceError::Io {
-                device: self.config.device.clone(),
-                source,
-            })?;
-        self.running = Some(Running {
-            stop,
-            overflow,
-            scans: rx,
-            thread,
-        });
-        Ok(())
+        self.open()?.start()
     }
 
     fn next_reading(&mut self, timeout: Duration) -> Result<Option<GaugeReading>, ForceError> {
-        let device = self.config.device.clone();
-        let Some(run) = &self.running else {
-            return Err(ForceError::Device {
-                device,
+        match &mut self.driver {
+            Some(d) => d.next_reading(timeout),
+            None => Err(ForceError::Device {
+                device: self.config.device.clone(),
                 message: "acquisition is not running; call start first".into(),
-            });
-        };
-        if run.overflow.load(Ordering::Relaxed) {
-            return Err(ForceError::Device {
-                device,
-                message: format!(
-                    "acquisition buffer overflowed (scans not read for {} s); stop and start again, and read continuously",
-                    self.config.buffer_s
-                ),
-            });
-        }
-        match run.scans.recv_timeout(timeout) {
-            Ok(r) => Ok(Some(r)),
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(ForceError::Device {
-                device,
-                message: "the acquisition thread ended; stop and start again".into(),
             }),
         }
     }
 
     fn stop(&mut self) -> Result<(), ForceError> {
-        let Some(run) = self.running.take() else {
-            return Ok(());
-        };
-        run.stop.store(true, Ordering::Relaxed);
-        drop(run.scans);
-        match run.thread.join() {
-            Ok(reading) => {
-                self.reading = Some(reading);
-                Ok(())
-            }
-            Err(_) => Err(ForceError::Device {
-                device: self.config.device.clone(),
-                message: "the acquisition thread panicked".into(),
-            }),
+        match &mut self.driver {
+            Some(d) => d.stop(),
+            None => Ok(()),
         }
     }
 }
 
 impl Drop for SimDaq {
     fn drop(&mut self) {
-        let _ = GaugeSource::stop(self);
+        // The driver's tasks are cleared first, then the device leaves the bus.
+        self.driver = None;
+        if let Some(name) = &self.device {
+            c_api::remove(name);
+        }
     }
 }

@@ -62,6 +62,7 @@ pub mod camera_emulator;
 pub mod colour;
 pub mod contact;
 pub mod daq_emulator;
+pub mod daqmx_library;
 pub mod dataset;
 pub mod faults;
 pub mod fringe_field;
