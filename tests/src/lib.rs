@@ -57,3 +57,20 @@ pub fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
     }
     out
 }
+
+/// The fake `libnidaqmx.so` of `tests/fake-nidaqmx` (a workspace member, so `cargo test` and
+/// `cargo nextest run --workspace` build it beside the test binaries).
+pub fn fake_nidaqmx() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let mut dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
+    if dir.ends_with("deps") {
+        dir.pop();
+    }
+    let lib = dir.join("libnidaqmx.so");
+    assert!(
+        lib.exists(),
+        "{} is missing: build it with `cargo build -p fringe-fake-nidaqmx` (cargo test --workspace builds it)",
+        lib.display()
+    );
+    lib
+}

@@ -311,6 +311,7 @@ impl SimDaq {
                     transfer_scans: self.config.block_size,
                     transfer_jitter_ms: self.config.arrival_jitter_ms,
                     seed: self.config.seed,
+                    unplug_after: None,
                 },
                 Box::new(signals),
             );

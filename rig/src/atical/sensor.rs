@@ -76,6 +76,11 @@ impl<S: GaugeSource> CalibratedSensor<S> {
         self.bias
     }
 
+    /// The gauge source (for its own counters).
+    pub fn source(&self) -> &S {
+        &self.source
+    }
+
     pub fn calibration(&self) -> &Calibration {
         &self.calibration
     }

@@ -82,6 +82,23 @@ pub enum DaqError {
 impl DaqError {
     /// Sorts a status from configuring `setting` into what the user must change.
     pub fn sort(device: &str, setting: Setting, call: &'static str, s: DaqmxStatus) -> DaqError {
+        // NI names the property a refused value belongs to ("Property: DAQmx_AI_Max").
+        let property = [
+            ("DAQmx_AI_Max", Setting::Range),
+            ("DAQmx_AI_Min", Setting::Range),
+            ("DAQmx_AI_TermCfg", Setting::Terminal),
+            ("DAQmx_SampClk_Rate", Setting::Rate),
+            ("DAQmx_Buf_Input_BufSize", Setting::Buffer),
+        ]
+        .into_iter()
+        .find(|(p, _)| s.text.contains(&format!("Property: {p}")))
+        .map(|(_, setting)| setting);
+        if let (Some(setting), true) = (property, s.code < 0) {
+            return DaqError::Setting {
+                setting,
+                message: format!("{device} refused it: {s}"),
+            };
+        }
         match s.code {
             status::INVALID_DEVICE_ID => DaqError::Setting {
                 setting: Setting::Device,

@@ -3,7 +3,8 @@
 
 use fringe_rig::clock::HostTime;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
 
 /// What the device's analogue inputs carry.
 pub trait DaqSignals: Send {
@@ -78,6 +79,8 @@ pub struct DeviceTiming {
     /// Extra delay of each transfer, uniform in [0, this] ms (a busy bus or host).
     pub transfer_jitter_ms: f64,
     pub seed: u64,
+    /// The cable is pulled this long after the first analogue start, if set.
+    pub unplug_after: Option<std::time::Duration>,
 }
 
 impl Default for DeviceTiming {
@@ -87,6 +90,7 @@ impl Default for DeviceTiming {
             transfer_scans: 10,
             transfer_jitter_ms: 0.0,
             seed: 1,
+            unplug_after: None,
         }
     }
 }
@@ -116,6 +120,8 @@ pub struct SimDevice {
     pub timing: DeviceTiming,
     pub(crate) signals: Mutex<Box<dyn DaqSignals>>,
     unplugged: AtomicBool,
+    /// When the cable is pulled ([`DeviceTiming::unplug_after`] from the first start).
+    unplug_at: OnceLock<Instant>,
     /// Whether an analogue input task is running (one at a time: a second is "reserved").
     pub(crate) ai_busy: AtomicBool,
     pulses: Mutex<Option<PulseTrain>>,
@@ -136,6 +142,7 @@ impl SimDevice {
             timing,
             signals: Mutex::new(signals),
             unplugged: AtomicBool::new(false),
+            unplug_at: OnceLock::new(),
             ai_busy: AtomicBool::new(false),
             pulses: Mutex::new(None),
             armed: Mutex::new(None),
@@ -149,6 +156,14 @@ impl SimDevice {
 
     pub fn unplugged(&self) -> bool {
         self.unplugged.load(Ordering::SeqCst)
+            || self.unplug_at.get().is_some_and(|at| Instant::now() >= *at)
+    }
+
+    /// An analogue acquisition started: the timed unplug counts from the first.
+    pub(crate) fn note_start(&self) {
+        if let Some(after) = self.timing.unplug_after {
+            let _ = self.unplug_at.set(Instant::now() + after);
+        }
     }
 
     /// The camera trigger's pulses, once a counter armed on the analogue start has started.

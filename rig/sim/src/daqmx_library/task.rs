@@ -183,6 +183,7 @@ impl SimTask {
                 &[format!("Device: {}", device.name)],
             ));
         }
+        device.note_start();
         let rate = self.rate_hz.unwrap_or(1000.0);
         let capacity = self
             .input_buffer
