@@ -528,3 +528,108 @@ pub fn lookup(symbol: &str) -> Option<*const c_void> {
     };
     Some(f)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::daqmx_library::{DaqSignals, DeviceModel, DeviceTiming};
+    use fringe_rig::atical::GaugeSource;
+    use fringe_rig::clock::HostTime;
+    use fringe_rig::nidaqmx::{CameraTrigger, DaqSettings, Library, NiDaq};
+    use fringe_rig::units::Hertz;
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    /// Reports the sample clock's start.
+    struct Started(mpsc::Sender<HostTime>);
+
+    impl DaqSignals for Started {
+        fn scan(&mut self, _: u64, _: HostTime, _: &[u32], out: &mut [f64]) {
+            out.fill(0.0);
+        }
+        fn started(&mut self, start: HostTime, _: f64, _: f64) {
+            let _ = self.0.send(start);
+        }
+    }
+
+    fn library() -> Arc<Library> {
+        // SAFETY: `lookup` gives this module's functions, with NI's signatures.
+        unsafe { Library::in_process("simulated", lookup) }.expect("the simulated library")
+    }
+
+    #[test]
+    fn the_camera_trigger_starts_on_the_analogue_start_edge() {
+        let (tx, rx) = mpsc::channel();
+        let device = SimDevice::new(
+            "TrigTest1",
+            DeviceModel::usb_6218(),
+            DeviceTiming {
+                clock_drift_ppm: 30.0,
+                ..DeviceTiming::default()
+            },
+            Box::new(Started(tx)),
+        );
+        install(device.clone());
+        let lib = library();
+        let settings = DaqSettings {
+            device: "TrigTest1".into(),
+            ..DaqSettings::default()
+        };
+        let trigger = CameraTrigger {
+            counter: "ctr0".into(),
+            terminal: Some("PFI12".into()),
+            frame_rate: Hertz(50.0),
+            duty: 0.5,
+        };
+        let mut daq = NiDaq::open(&lib, settings)
+            .and_then(|d| d.with_camera_trigger(&lib, trigger.clone()))
+            .expect("open with the trigger");
+        assert_eq!(
+            device.pulses(),
+            None,
+            "armed, not running, before the start"
+        );
+        daq.start().expect("start");
+        let start = rx
+            .recv_timeout(Duration::from_secs(1))
+            .expect("the clock's start");
+        let pulses = device.pulses().expect("pulsing after the analogue start");
+        assert_eq!(pulses.first, start, "pulse 0 on scan 0");
+        // Pulse 50 is one second of the DAQ's (drifting) clock later: scan 5000.
+        let period = 1e9 / (5000.0 * (1.0 + 30e-6));
+        let scan_5000 = start.0 as f64 + 5000.0 * period;
+        assert!((pulses.edge(50).0 as f64 - scan_5000).abs() < 1.0);
+        assert_eq!(trigger.pulse_scan(50, Hertz(5000.0)), 5000.0);
+        daq.stop().expect("stop");
+        assert_eq!(
+            device.pulses(),
+            None,
+            "the counter stops with the acquisition"
+        );
+        drop(daq);
+        remove("TrigTest1");
+    }
+
+    #[test]
+    fn a_second_acquisition_on_a_busy_device_is_refused_as_reserved() {
+        install(SimDevice::new(
+            "Busy1",
+            DeviceModel::usb_6218(),
+            DeviceTiming::default(),
+            Box::new(|_: u64, _: HostTime, _: &[u32], out: &mut [f64]| out.fill(0.0)),
+        ));
+        let lib = library();
+        let settings = DaqSettings {
+            device: "Busy1".into(),
+            ..DaqSettings::default()
+        };
+        let mut first = NiDaq::open(&lib, settings.clone()).expect("first");
+        first.start().expect("start the first");
+        let mut second = NiDaq::open(&lib, settings).expect("configuring is allowed");
+        let e = second.start().expect_err("the device is busy");
+        assert!(e.to_string().contains("in use by another task"), "{e}");
+        first.stop().expect("stop");
+        second.start().expect("free again");
+        remove("Busy1");
+    }
+}

@@ -17,6 +17,13 @@ pub trait DaqSignals: Send {
     fn started(&mut self, _start: HostTime, _rate_hz: f64, _drift_ppm: f64) {}
 }
 
+/// A function of the scan is a device's signals (nothing happens at a start).
+impl<F: FnMut(u64, HostTime, &[u32], &mut [f64]) + Send> DaqSignals for F {
+    fn scan(&mut self, index: u64, t: HostTime, channels: &[u32], out: &mut [f64]) {
+        self(index, t, channels, out)
+    }
+}
+
 /// The device's fixed properties.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DeviceModel {
