@@ -6,7 +6,8 @@
 //!   TICSync).
 //! - [`latch`]: fitting it from timestamp-latch exchanges (host before, device value, host after).
 //! - [`strobe`]: exposure windows found in a sampled exposure-active channel, in sample index.
-//! - [`method`]: the synchronisation methods (strobe, clock-fit, host).
+//! - [`trigger`]: exposure windows of a camera triggered by the DAQ's counter, in sample index.
+//! - [`method`]: the synchronisation methods (strobe, trigger, clock-fit, host).
 //! - [`window`]: the force averaged over an exposure window (interpolated at the edges).
 //!
 //! Methods and facts: docs of the shared project, hardware.md section E.
@@ -16,4 +17,5 @@ pub mod latch;
 pub mod method;
 pub mod one_way;
 pub mod strobe;
+pub mod trigger;
 pub mod window;

@@ -80,6 +80,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
             source: "simulated bench".into(),
         },
         sync: SyncMethod::Strobe,
+        trigger: None,
         sensor_id: rig.config.sensor.id.clone(),
         variant: Some(rig.config.sensor.variant.name().into()),
         rig_text: "simulated bench".into(),

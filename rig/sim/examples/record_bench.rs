@@ -176,7 +176,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         writer,
         stream.samples().clone(),
         cameras.frames().clone(),
-        labeler_for(SyncMethod::Strobe, &settings, tick_hz, &cameras),
+        labeler_for(SyncMethod::Strobe, None, &settings, tick_hz, &cameras)?,
         context.clone(),
         Vec::new(),
     )?;

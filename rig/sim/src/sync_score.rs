@@ -210,13 +210,18 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
         ForceStream::spawn(Box::new(sensor)).map_err(|e| SyncBenchError::new("force stream", e))?;
     let cameras = CameraStream::spawn_with_latches(Box::new(camera), &settings, LATCH_PERIOD)
         .map_err(|e| SyncBenchError::new("camera stream", e))?;
+    // Every method the bench's wiring allows (`trigger` needs the camera triggered by the DAQ).
     let mut lanes: Vec<Lane> = SyncMethod::ALL
         .iter()
-        .map(|&m| Lane {
-            labeler: labeler_for(m, &settings, tick_hz, &cameras),
-            pending: VecDeque::new(),
-            unlabelled: 0,
-            why: None,
+        .filter_map(|&m| {
+            labeler_for(m, None, &settings, tick_hz, &cameras)
+                .ok()
+                .map(|labeler| Lane {
+                    labeler,
+                    pending: VecDeque::new(),
+                    unlabelled: 0,
+                    why: None,
+                })
         })
         .collect();
     let samples: Receiver<_> = stream.samples().clone();

@@ -21,6 +21,7 @@ use crate::camera::{Frame, TimestampLatch};
 use crate::force::ForceSample;
 use crate::sync::method::SyncMethod;
 use crate::sync::strobe::{StrobeDetector, StrobeWindow};
+use crate::sync::trigger::{PulseSchedule, TriggerTiming};
 use crossbeam_channel::Receiver;
 use std::collections::VecDeque;
 
@@ -34,8 +35,28 @@ struct Seen {
     window: StrobeWindow,
 }
 
-/// Matches frames to strobe windows and averages the force over them.
+/// With the camera triggered by the DAQ, a strobe window further than this many samples from the
+/// trigger's window says the trigger's wiring or delay is wrong (the strobe's edges are placed
+/// within a sample).
+pub const TRIGGER_CHECK_SAMPLES: f64 = 2.0;
+
+/// Where the exposure windows come from.
+enum Source {
+    /// The strobe channel's edges (`strobe`).
+    Strobe,
+    /// The DAQ's trigger pulses (`trigger`); strobe windows, when the strobe is wired, check
+    /// them.
+    Trigger {
+        schedule: PulseSchedule,
+        strobe: VecDeque<StrobeWindow>,
+        found: Vec<StrobeWindow>,
+    },
+}
+
+/// Matches frames to exposure windows in the force stream (from the strobe channel, or from the
+/// DAQ's trigger pulses) and averages the force over them.
 pub struct StrobeLabeler {
+    source: Source,
     detector: StrobeDetector,
     windows: VecDeque<Seen>,
     next_seq: u64,
@@ -56,6 +77,7 @@ impl StrobeLabeler {
         latches: Option<Receiver<TimestampLatch>>,
     ) -> StrobeLabeler {
         StrobeLabeler {
+            source: Source::Strobe,
             detector: StrobeDetector::new(threshold),
             windows: VecDeque::new(),
             next_seq: 0,
@@ -64,23 +86,86 @@ impl StrobeLabeler {
         }
     }
 
+    /// Labels frames of a camera triggered by the DAQ with `timing` (method `trigger`): the
+    /// windows are the trigger's; a strobe channel at `threshold`, when wired, checks them.
+    pub fn triggered(
+        timing: TriggerTiming,
+        threshold: f64,
+        clock: ClockFitOptions,
+        latches: Option<Receiver<TimestampLatch>>,
+    ) -> StrobeLabeler {
+        StrobeLabeler {
+            source: Source::Trigger {
+                schedule: PulseSchedule::new(timing),
+                strobe: VecDeque::new(),
+                found: Vec::new(),
+            },
+            ..StrobeLabeler::new(threshold, clock, latches)
+        }
+    }
+
+    fn add_window(&mut self, window: StrobeWindow) {
+        self.windows.push_back(Seen {
+            seq: self.next_seq,
+            window,
+        });
+        self.next_seq += 1;
+        if self.windows.len() > 500 {
+            self.windows.pop_front();
+        }
+    }
+
     /// Feeds one force sample (in stream order). Samples without a strobe value count for
-    /// averaging but find no windows.
+    /// averaging but find no strobe windows.
     pub fn push_sample(&mut self, s: &ForceSample) {
         self.clock.push_sample(s);
         let tick = s.device_tick;
-        if let Some(volts) = s.strobe {
-            if let Some(window) = self.detector.push(tick, volts.0) {
-                self.windows.push_back(Seen {
-                    seq: self.next_seq,
-                    window,
-                });
-                self.next_seq += 1;
-                if self.windows.len() > 500 {
-                    self.windows.pop_front();
+        let strobe = s.strobe.and_then(|volts| self.detector.push(tick, volts.0));
+        match &mut self.source {
+            Source::Strobe => {
+                if let Some(window) = strobe {
+                    self.add_window(window);
+                }
+            }
+            Source::Trigger {
+                schedule,
+                strobe: seen,
+                found,
+            } => {
+                if let Some(window) = strobe {
+                    seen.push_back(window);
+                    if seen.len() > 500 {
+                        seen.pop_front();
+                    }
+                }
+                schedule.push(tick, found);
+                let mut new = std::mem::take(found);
+                for window in new.drain(..) {
+                    self.add_window(window);
+                }
+                if let Source::Trigger { found, .. } = &mut self.source {
+                    *found = new;
                 }
             }
         }
+    }
+
+    /// With the trigger's windows: the strobe window of `window`'s exposure, when the strobe is
+    /// wired, if it disagrees by more than [`TRIGGER_CHECK_SAMPLES`].
+    fn strobe_disagrees(&self, window: &StrobeWindow) -> Option<f64> {
+        let Source::Trigger {
+            schedule, strobe, ..
+        } = &self.source
+        else {
+            return None;
+        };
+        let half = 0.5 * schedule.spacing();
+        strobe
+            .iter()
+            .map(|s| s.start - window.start)
+            .filter(|d| d.abs() < half)
+            .min_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .filter(|d| d.abs() > TRIGGER_CHECK_SAMPLES)
     }
 
     /// Notes a delivered frame for the camera clock fit.
@@ -93,8 +178,12 @@ impl StrobeLabeler {
         self.clock.force_map().map(|m| m.ns_per_tick)
     }
 
-    /// Samples between consecutive exposure starts (median over the windows kept).
+    /// Samples between consecutive exposure starts (the trigger's, or the median over the strobe
+    /// windows kept).
     fn spacing(&self) -> Option<f64> {
+        if let Source::Trigger { schedule, .. } = &self.source {
+            return Some(schedule.spacing());
+        }
         let mut gaps: Vec<f64> = self
             .windows
             .iter()
@@ -114,6 +203,14 @@ impl StrobeLabeler {
     }
 
     fn label_of(&self, seen: &Seen) -> LabelOutcome {
+        if let Some(off) = self.strobe_disagrees(&seen.window) {
+            let ms = self.sample_period_ns().unwrap_or(f64::NAN) * 1e-6;
+            return LabelOutcome::Unmatched(format!(
+                "the strobe puts this exposure {:+.2} ms from where the trigger does: check the trigger's wiring and the camera's trigger delay",
+                off * ms
+            ));
+        }
+        let triggered = matches!(self.source, Source::Trigger { .. });
         match self
             .clock
             .mean_of_window(seen.window.start, seen.window.end)
@@ -122,12 +219,17 @@ impl StrobeLabeler {
             Some(Ok(mean)) => LabelOutcome::Ready(ExposureLabel {
                 window_ticks: [seen.window.start, seen.window.end],
                 window_host_ns: None,
-                // An edge placed by interpolation between two samples: uniform over at most
-                // one sample period.
-                error_ns: self.sample_period_ns().unwrap_or(f64::NAN) / 12f64.sqrt(),
+                // The trigger's window is on the sample clock itself (the camera's delay taken as
+                // its manual gives it); an edge placed by interpolation between two samples is
+                // uniform over at most one sample period.
+                error_ns: if triggered {
+                    0.0
+                } else {
+                    self.sample_period_ns().unwrap_or(f64::NAN) / 12f64.sqrt()
+                },
                 mean,
             }),
-            Some(Err(e)) => LabelOutcome::Unmatched(format!("strobe window: {e}")),
+            Some(Err(e)) => LabelOutcome::Unmatched(format!("{} window: {e}", self.method())),
         }
     }
 
@@ -137,7 +239,10 @@ impl StrobeLabeler {
             Placement::Window(w) => w,
             Placement::NotYet => return LabelOutcome::NotYet,
             Placement::Unavailable(why) => {
-                return LabelOutcome::Unmatched(format!("strobe: cannot place the frame: {why}"))
+                return LabelOutcome::Unmatched(format!(
+                    "{}: cannot place the frame: {why}",
+                    self.method()
+                ))
             }
         };
         let Some(spacing) = self.spacing() else {
@@ -198,7 +303,11 @@ impl StrobeLabeler {
                     "; the camera gave no timestamp latches, so its readout time was assumed"
                 };
                 LabelOutcome::Unmatched(format!(
-                    "no strobe window within {:.1} ms of where the clock fits place the exposure{nearest}{readout}",
+                    "no {} window within {:.1} ms of where the clock fits place the exposure{nearest}{readout}",
+                    match self.source {
+                        Source::Strobe => "strobe",
+                        Source::Trigger { .. } => "trigger",
+                    },
                     accept * ms
                 ))
             }
@@ -206,9 +315,18 @@ impl StrobeLabeler {
     }
 }
 
+impl StrobeLabeler {
+    fn method(&self) -> SyncMethod {
+        match self.source {
+            Source::Strobe => SyncMethod::Strobe,
+            Source::Trigger { .. } => SyncMethod::Trigger,
+        }
+    }
+}
+
 impl FrameLabeler for StrobeLabeler {
     fn method(&self) -> SyncMethod {
-        SyncMethod::Strobe
+        StrobeLabeler::method(self)
     }
 
     fn push_sample(&mut self, sample: &ForceSample) {
@@ -224,7 +342,10 @@ impl FrameLabeler for StrobeLabeler {
     }
 
     fn estimated_error_ns(&self) -> Option<f64> {
-        self.sample_period_ns().map(|p| p / 12f64.sqrt())
+        match self.source {
+            Source::Strobe => self.sample_period_ns().map(|p| p / 12f64.sqrt()),
+            Source::Trigger { .. } => Some(0.0),
+        }
     }
 }
 

@@ -41,6 +41,7 @@ use crate::store::frame_file::{FrameCodec, FrameStorage};
 use crate::store::run_lock::RunLock;
 use crate::store::run_writer::RunWriter;
 use crate::sync::method::SyncMethod;
+use crate::sync::trigger::TriggerTiming;
 use crate::units::{Millimetres, Newtons};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -56,6 +57,8 @@ pub struct ScanSetup {
     pub limits: BenchLimits,
     pub origin: ContactOrigin,
     pub sync: SyncMethod,
+    /// The DAQ-triggered camera's timing, for `trigger`.
+    pub trigger: Option<TriggerTiming>,
     pub sensor_id: String,
     /// The sensor's design (`layered`, `integrated`), when the rig names or simulates it.
     pub variant: Option<String>,
@@ -171,14 +174,16 @@ pub const STROBE_THRESHOLD_V: f64 = 1.65;
 
 /// The labeler of synchronisation method `sync` for a camera with `settings` whose timestamps
 /// tick at `tick_hz`, taking latches from `cameras` (started with
-/// [`CameraStream::spawn_with_latches`]) for `strobe` and `clock-fit`.
+/// [`CameraStream::spawn_with_latches`]) for `strobe`, `trigger` and `clock-fit`; `trigger`
+/// needs the DAQ-triggered camera's timing.
 pub fn labeler_for(
     sync: SyncMethod,
+    trigger: Option<TriggerTiming>,
     settings: &CameraSettings,
     tick_hz: f64,
     cameras: &CameraStream,
-) -> Box<dyn FrameLabeler> {
-    match sync {
+) -> Result<Box<dyn FrameLabeler>, ScanError> {
+    Ok(match sync {
         SyncMethod::Strobe => {
             let mut options = ClockFitOptions::new(settings.exposure, tick_hz);
             options.assumed_readout = ASSUMED_READOUT;
@@ -192,8 +197,24 @@ pub fn labeler_for(
             ClockFitOptions::new(settings.exposure, tick_hz),
             Some(cameras.subscribe_latches()),
         )),
+        SyncMethod::Trigger => {
+            let timing = trigger.ok_or_else(|| {
+                ScanError::Setup(
+                    "sync \"trigger\" needs the camera triggered by the DAQ ([camera] trigger = \"daq\")"
+                        .into(),
+                )
+            })?;
+            let mut options = ClockFitOptions::new(settings.exposure, tick_hz);
+            options.assumed_readout = ASSUMED_READOUT;
+            Box::new(StrobeLabeler::triggered(
+                timing,
+                STROBE_THRESHOLD_V,
+                options,
+                Some(cameras.subscribe_latches()),
+            ))
+        }
         SyncMethod::Host => Box::new(HostLabeler::new(settings.exposure)),
-    }
+    })
 }
 
 /// Runs `setup.program` on `devices`.
@@ -363,13 +384,13 @@ fn start_recording(
     let stream = ForceStream::spawn(force)?;
     let tick_hz = camera.info().tick_frequency as f64;
     let cameras = match setup.sync {
-        SyncMethod::ClockFit | SyncMethod::Strobe => {
+        SyncMethod::ClockFit | SyncMethod::Strobe | SyncMethod::Trigger => {
             CameraStream::spawn_with_latches(camera, &settings, LATCH_PERIOD)?
         }
         SyncMethod::Host => CameraStream::spawn(camera, &settings)?,
     };
     let context = FrameContext::default();
-    let labeler = labeler_for(setup.sync, &settings, tick_hz, &cameras);
+    let labeler = labeler_for(setup.sync, setup.trigger, &settings, tick_hz, &cameras)?;
     let recorder = Recorder::spawn(
         writer,
         stream.samples().clone(),

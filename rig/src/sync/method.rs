@@ -10,6 +10,9 @@ pub enum SyncMethod {
     /// The camera's exposure-active signal sampled beside the force gauges: windows in the force
     /// stream's own sample index.
     Strobe,
+    /// The camera triggered by a counter of the DAQ on the force stream's sample clock: frame n's
+    /// exposure starts a known delay after scan n x (scan rate / frame rate).
+    Trigger,
     /// Device clocks (camera ticks, F/T sample counter) mapped to host time by one-way
     /// lower-hull fits with drift, plus timestamp-latch exchanges where the camera offers them.
     ClockFit,
@@ -18,12 +21,18 @@ pub enum SyncMethod {
 }
 
 impl SyncMethod {
-    pub const ALL: [SyncMethod; 3] = [SyncMethod::Strobe, SyncMethod::ClockFit, SyncMethod::Host];
+    pub const ALL: [SyncMethod; 4] = [
+        SyncMethod::Strobe,
+        SyncMethod::Trigger,
+        SyncMethod::ClockFit,
+        SyncMethod::Host,
+    ];
 
     /// The name used in rig.toml, run documents and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             SyncMethod::Strobe => "strobe",
+            SyncMethod::Trigger => "trigger",
             SyncMethod::ClockFit => "clock-fit",
             SyncMethod::Host => "host",
         }
@@ -43,7 +52,7 @@ impl FromStr for SyncMethod {
         SyncMethod::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown sync method {s:?}: use strobe, clock-fit or host"))
+            .ok_or_else(|| format!("unknown sync method {s:?}: use strobe, trigger, clock-fit or host"))
     }
 }
 
@@ -57,6 +66,6 @@ mod tests {
             assert_eq!(m.name().parse::<SyncMethod>(), Ok(m));
         }
         let e = "clockfit".parse::<SyncMethod>().unwrap_err();
-        assert!(e.contains("strobe, clock-fit or host"), "{e}");
+        assert!(e.contains("strobe, trigger, clock-fit or host"), "{e}");
     }
 }

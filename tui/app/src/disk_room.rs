@@ -448,6 +448,7 @@ mod tests {
                 source: "test".into(),
             },
             sync: fringe_rig::sync::method::SyncMethod::Host,
+            trigger: None,
             sensor_id: "s1".into(),
             variant: None,
             rig_text: String::new(),
