@@ -76,3 +76,54 @@ fn strobe_and_clock_fit_place_windows_within_their_bounds_and_host_lags() {
         "clock-fit estimate {fit_estimate}"
     );
 }
+
+/// The camera triggered by the DAQ's counter (its pulses on the DAQ's sample clock, the camera's
+/// exposure start delay after each): the `trigger` windows are the true exposures to within
+/// 10 us, and no frame takes a neighbour's window; the strobe, wired too, agrees.
+#[test]
+fn trigger_puts_every_frame_on_its_own_exposure_within_10_us() {
+    let config = SyncBenchConfig {
+        seconds: 16.0,
+        warm_up_s: 3.0,
+        daq_trigger: true,
+        ..SyncBenchConfig::default()
+    };
+    let report = sync_score::run(&config).expect("sync bench");
+    let of = |m: SyncMethod| {
+        report
+            .scores
+            .iter()
+            .find(|s| s.method == m)
+            .unwrap_or_else(|| panic!("no score for {m}"))
+    };
+    let (trigger, strobe) = (of(SyncMethod::Trigger), of(SyncMethod::Strobe));
+    for s in [trigger, strobe] {
+        println!(
+            "{:9}: {} frames ({} unlabelled: {:?}), label time RMS {:.2} us, max {:.2} us; Fz RMS {:.4} N over {} pressed frames",
+            s.method.name(),
+            s.frames,
+            s.unlabelled,
+            s.first_unlabelled,
+            s.time_rms_ns / 1e3,
+            s.time_max_ns / 1e3,
+            s.fz_rms_n,
+            s.fz_frames
+        );
+    }
+    assert!(
+        trigger.frames + 3 >= report.frames_delivered && trigger.frames > 600,
+        "{} of {} frames labelled: {:?}",
+        trigger.frames,
+        report.frames_delivered,
+        trigger.first_unlabelled
+    );
+    assert_eq!(trigger.unlabelled, 0, "{:?}", trigger.first_unlabelled);
+    assert!(trigger.time_max_ns < 10_000.0, "trigger {trigger:?}");
+    // The strobe sees the same exposures (a triggered camera still raises ExposureActive).
+    assert!(strobe.time_rms_ns < 100_000.0, "strobe {strobe:?}");
+    assert!(
+        trigger.fz_frames > 100,
+        "{} pressed frames",
+        trigger.fz_frames
+    );
+}

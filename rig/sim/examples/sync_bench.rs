@@ -1,9 +1,10 @@
 //! The three synchronisation methods scored against the simulator's ground truth over a longer
 //! run: label-time RMS and max error, frames scored, and the labelled Fz error during presses.
 //!
-//! `cargo run --release -p fringe-sim --example sync_bench -- [SECONDS] [JITTER_MS] [DRIFT_PPM]`
+//! `cargo run --release -p fringe-sim --example sync_bench -- [SECONDS] [JITTER_MS] [DRIFT_PPM] [trigger]`
 //! (defaults 120 s, 3 ms, 100 ppm: camera clock slow and DAQ clock fast by DRIFT_PPM, frames and
-//! force blocks arriving 0-JITTER_MS late, 5 ms camera readout, 1 mm presses every 2 s).
+//! force blocks arriving 0-JITTER_MS late, 5 ms camera readout, 1 mm presses every 2 s; `trigger`:
+//! the camera triggered by the DAQ's counter, and the `trigger` method scored too).
 
 use fringe_sim::sync_score::{self, SyncBenchConfig};
 
@@ -20,6 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         arrival_jitter_ms: arg(1, 3.0)?,
         camera_drift_ppm: arg(2, 100.0)?,
         force_drift_ppm: -arg(2, 100.0)?,
+        daq_trigger: args.get(3).is_some_and(|a| a == "trigger"),
         ..SyncBenchConfig::default()
     };
     println!(

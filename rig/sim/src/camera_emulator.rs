@@ -6,7 +6,10 @@
 //! - **Free run**: exposure k starts at device time t0 + k / frame_rate (exactly 20 000 000 ticks
 //!   apart at 50 Hz) and lasts the exposure time in device ticks. **Software trigger**: exposure
 //!   starts `trigger_latency_us` after [`Camera::trigger`]; triggers faster than
-//!   `max_frame_rate_hz` are ignored (counted).
+//!   `max_frame_rate_hz` are ignored (counted). **Hardware trigger** (`Line1`, wired with
+//!   [`SimCamera::with_trigger_input`]): exposure starts `trigger_latency_us` plus
+//!   `line_response_us` after each rising edge (Basler's total start delay: the exposure start
+//!   delay plus the input line's response time).
 //! - Every exposure gets the next frame id (from 0 at each start) and is written to the shared
 //!   [`ExposureSchedule`] before it starts (free run: two periods ahead), which the DAQ emulator
 //!   samples as the ExposureActive strobe.
@@ -40,4 +43,4 @@ mod frame;
 pub mod timing;
 
 pub use self::camera::{SimCamera, SimCameraConfig, SimCameraStats, FRAME_MEMORY};
-pub use self::timing::{DeviceClock, ExposureSchedule, ExposureWindow};
+pub use self::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};

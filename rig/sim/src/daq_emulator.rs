@@ -17,14 +17,14 @@
 //! - Each [`SimDaq`] is its own device on the simulated bus (`SimDAQ<n>`), so benches in one
 //!   process do not share one.
 
-use crate::camera_emulator::{ExposureSchedule, ExposureWindow};
+use crate::camera_emulator::{ExposureSchedule, ExposureWindow, TriggerInput};
 use crate::daqmx_library::{c_api, DaqSignals, DeviceModel, DeviceTiming, SimDevice};
 use crate::ground_truth::{TruthRecord, TruthSink};
 use crate::scene::ForceReading;
 use fringe_rig::atical::{Calibration, GaugeReading, GaugeSource};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::ForceError;
-use fringe_rig::nidaqmx::{DaqSettings, Library, NiDaq, Terminal};
+use fringe_rig::nidaqmx::{CameraTrigger, DaqSettings, Library, NiDaq, Terminal};
 use fringe_rig::units::{Hertz, Volts, Wrench};
 use nalgebra::{Matrix6, Vector6};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -185,12 +185,39 @@ impl DaqSignals for BenchSignals {
     }
 }
 
+/// The camera's trigger line wired to the DAQ's counter output (PFI12 to Line1): the pulses of
+/// the device named `device`, while its counter runs.
+struct CounterOutput {
+    device: String,
+}
+
+impl TriggerInput for CounterOutput {
+    fn next_edge(&self, t: HostTime) -> Option<HostTime> {
+        let pulses = c_api::device(&self.device)?.pulses()?;
+        let period_ns = 1e9 / (pulses.frequency_hz * (1.0 + pulses.drift_ppm * 1e-6));
+        let n = if t <= pulses.first {
+            0
+        } else {
+            ((t.0 - pulses.first.0) as f64 / period_ns).ceil() as u64
+        };
+        Some(pulses.edge(n))
+    }
+}
+
+/// The counter pulsing the camera's trigger and the terminal it leaves on.
+const TRIGGER_COUNTER: &str = "ctr0";
+const TRIGGER_TERMINAL: &str = "PFI12";
+
 /// The simulated DAQ, a [`GaugeSource`]: the real driver over a simulated device.
 pub struct SimDaq {
     config: SimDaqConfig,
     to_volts: Matrix6<f64>,
     /// The signals, until the device is put on the bus at the first start.
     signals: Option<BenchSignals>,
+    /// The device's name on the simulated bus (`SimDAQ<n>`).
+    name: String,
+    /// Frame rate of the camera trigger pulses, when the DAQ triggers the camera.
+    camera_trigger: Option<Hertz>,
     device: Option<String>,
     driver: Option<NiDaq>,
     clock: DaqClockHandle,
@@ -226,7 +253,10 @@ impl SimDaq {
             });
         }
         let clock = DaqClockHandle::default();
+        static NEXT: AtomicU64 = AtomicU64::new(1);
         Ok(SimDaq {
+            name: format!("SimDAQ{}", NEXT.fetch_add(1, Ordering::Relaxed)),
+            camera_trigger: None,
             signals: Some(BenchSignals {
                 to_volts,
                 reading,
@@ -259,6 +289,25 @@ impl SimDaq {
             s.truth = Some(sink);
         }
         self
+    }
+
+    /// Pulses the camera's trigger at `frame_rate` from a counter started with the acquisition
+    /// (the driver's camera trigger); wire [`SimDaq::trigger_line`] to the camera.
+    pub fn with_camera_trigger(mut self, frame_rate: Hertz) -> SimDaq {
+        self.camera_trigger = Some(frame_rate);
+        self
+    }
+
+    /// The counter's output, for the camera's trigger input.
+    pub fn trigger_line(&self) -> Arc<dyn TriggerInput> {
+        Arc::new(CounterOutput {
+            device: self.name.clone(),
+        })
+    }
+
+    /// The camera trigger's pulse timing, for the `trigger` labels: scan rate and frame rate.
+    pub fn camera_trigger(&self) -> Option<(Hertz, Hertz)> {
+        self.camera_trigger.map(|f| (Hertz(self.config.rate_hz), f))
     }
 
     /// A handle on the sample clock (ground truth).
@@ -300,8 +349,7 @@ impl SimDaq {
                     message: "the simulated DAQ could not be opened before; create it again".into(),
                 });
             };
-            static NEXT: AtomicU64 = AtomicU64::new(1);
-            let name = format!("SimDAQ{}", NEXT.fetch_add(1, Ordering::Relaxed));
+            let name = self.name.clone();
             let strobe = signals.schedule.is_some();
             let device = SimDevice::new(
                 &name,
@@ -329,7 +377,22 @@ impl SimDaq {
                         .max(self.config.block_size as u32 * 2),
                 ),
             };
-            let driver = NiDaq::open(&library()?, settings).map_err(|e| ForceError::Device {
+            let library = library()?;
+            let mut driver = NiDaq::open(&library, settings);
+            if let Some(frame_rate) = self.camera_trigger {
+                driver = driver.and_then(|d| {
+                    d.with_camera_trigger(
+                        &library,
+                        CameraTrigger {
+                            counter: TRIGGER_COUNTER.into(),
+                            terminal: Some(TRIGGER_TERMINAL.into()),
+                            frame_rate,
+                            duty: 0.5,
+                        },
+                    )
+                });
+            }
+            let driver = driver.map_err(|e| ForceError::Device {
                 device: self.config.device.clone(),
                 message: e.to_string(),
             })?;

@@ -30,14 +30,17 @@ use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
-use fringe_rig::camera::{Camera, CameraSettings, Frame};
+use fringe_rig::camera::{Camera, CameraSettings, Frame, TriggerMode};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::ForceSample;
 use fringe_rig::reference_layout::in_contact;
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::sync::window::mean_over;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
+use fringe_rig::units::{
+    Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons,
+};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -63,6 +66,9 @@ pub struct SyncBenchConfig {
     pub press_depth_mm: f64,
     /// One press (down, hold, up, wait), s.
     pub press_period_s: f64,
+    /// The camera triggered by the DAQ's counter (Line1) instead of free running; adds the
+    /// `trigger` method to those scored.
+    pub daq_trigger: bool,
 }
 
 impl Default for SyncBenchConfig {
@@ -79,6 +85,7 @@ impl Default for SyncBenchConfig {
             readout_ms: 5.0,
             press_depth_mm: 1.0,
             press_period_s: 2.0,
+            daq_trigger: false,
         }
     }
 }
@@ -199,10 +206,29 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
     std::thread::sleep(Duration::from_millis(1500));
 
     let schedule = ExposureSchedule::new();
-    let sensor = force_sensor(config, &bench, &bench_config, &schedule, &sink)?;
-    let camera = camera(config, &bench, schedule, &sink);
+    let mut settings = CameraSettings::default();
+    let mut sensor = force_sensor(config, &bench, &bench_config, &schedule, &sink)?;
+    let mut camera = camera(config, &bench, schedule, &sink);
+    let mut trigger = None;
+    if config.daq_trigger {
+        let line = "Line1";
+        settings.trigger = TriggerMode::Hardware(line.into());
+        let daq_config = SimDaqConfig::default();
+        let camera_config = SimCameraConfig::default();
+        trigger = Some(TriggerTiming {
+            scan_rate: Hertz(daq_config.rate_hz),
+            frame_rate: settings.frame_rate,
+            delay: Microseconds(camera_config.trigger_latency_us + camera_config.line_response_us),
+            exposure: settings.exposure,
+        });
+        let cal = sensor.calibration().clone();
+        let daq = sensor
+            .into_source()
+            .with_camera_trigger(settings.frame_rate);
+        camera = camera.with_trigger_input(line, daq.trigger_line());
+        sensor = CalibratedSensor::new(daq, cal);
+    }
     let tick_hz = camera.info().tick_frequency as f64;
-    let settings = CameraSettings::default();
     let recorder = BenchRecorder::spawn(bench.clone(), sink.clone(), Duration::from_millis(1))
         .map_err(|e| SyncBenchError::new("bench truth recorder", e))?;
 
@@ -214,7 +240,7 @@ pub fn run(config: &SyncBenchConfig) -> Result<SyncBenchReport, SyncBenchError> 
     let mut lanes: Vec<Lane> = SyncMethod::ALL
         .iter()
         .filter_map(|&m| {
-            labeler_for(m, None, &settings, tick_hz, &cameras)
+            labeler_for(m, trigger, &settings, tick_hz, &cameras)
                 .ok()
                 .map(|labeler| Lane {
                     labeler,

@@ -81,6 +81,11 @@ impl<S: GaugeSource> CalibratedSensor<S> {
         &self.source
     }
 
+    /// The gauge source, taken back (before it is started).
+    pub fn into_source(self) -> S {
+        self.source
+    }
+
     pub fn calibration(&self) -> &Calibration {
         &self.calibration
     }

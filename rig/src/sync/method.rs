@@ -52,7 +52,9 @@ impl FromStr for SyncMethod {
         SyncMethod::ALL
             .into_iter()
             .find(|m| m.name() == s)
-            .ok_or_else(|| format!("unknown sync method {s:?}: use strobe, trigger, clock-fit or host"))
+            .ok_or_else(|| {
+                format!("unknown sync method {s:?}: use strobe, trigger, clock-fit or host")
+            })
     }
 }
 

@@ -4,7 +4,7 @@
 //! readout and jitter. See [`super`] for the model.
 
 use super::frame::{finish_frame, render_format};
-use super::timing::{DeviceClock, ExposureSchedule, ExposureWindow};
+use super::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};
 use crate::ft_sensor::mix_seed;
 use crate::ground_truth::{FrameFate, FrameTruth, TruthRecord, TruthSink};
 use crate::scene::{FrameRenderer, SceneSource};
@@ -46,8 +46,10 @@ pub struct SimCameraConfig {
     pub drop_probability: f64,
     /// Fastest frame rate the camera can run, Hz.
     pub max_frame_rate_hz: f64,
-    /// Software trigger to exposure start, us.
+    /// Trigger to exposure start (Basler's exposure start delay), us.
     pub trigger_latency_us: f64,
+    /// A hardware trigger line's response time, added to the delay for a line trigger, us.
+    pub line_response_us: f64,
     /// Round trip of a timestamp latch exchange, us.
     pub latch_round_trip_us: f64,
     /// Frames the host side buffers before dropping.
@@ -66,6 +68,8 @@ impl Default for SimCameraConfig {
             drop_probability: 0.0,
             max_frame_rate_hz: 160.0,
             trigger_latency_us: 20.0,
+            // Basler ace manuals give 1.5 us as an input line's response time in their example.
+            line_response_us: 1.5,
             latch_round_trip_us: 150.0,
             host_buffers: 16,
         }
@@ -187,6 +191,8 @@ pub struct SimCamera {
     running: Option<Running>,
     /// Frames delivered before the last stop and not fetched yet.
     leftover: Option<Receiver<Frame>>,
+    /// What is wired to a trigger line ("Line1").
+    trigger_input: Option<(String, Arc<dyn TriggerInput>)>,
 }
 
 impl SimCamera {
@@ -216,7 +222,15 @@ impl SimCamera {
             stats: Arc::new(Mutex::new(SimCameraStats::default())),
             running: None,
             leftover: None,
+            trigger_input: None,
         }
+    }
+
+    /// Wires `input` to the camera's trigger line `line` ("Line1"): with the trigger mode set to
+    /// that line, each rising edge starts an exposure.
+    pub fn with_trigger_input(mut self, line: &str, input: Arc<dyn TriggerInput>) -> SimCamera {
+        self.trigger_input = Some((line.to_string(), input));
+        self
     }
 
     /// Shares an exposure schedule (give the same one to the DAQ emulator for the strobe).
@@ -317,6 +331,14 @@ impl SimCamera {
                 timing_free_run(shared, render, next_id)
             })?;
             Ok((None, timing))
+        } else if let (TriggerMode::Hardware(_), Some((_, input))) =
+            (&self.settings.trigger, &self.trigger_input)
+        {
+            let input = input.clone();
+            let timing = self.spawn("sim-camera-timing", move || {
+                timing_hardware(shared, render, next_id, input)
+            })?;
+            Ok((None, timing))
         } else {
             let (trig_tx, trig_rx) = unbounded::<Job>();
             let timing = self.spawn("sim-camera-timing", move || {
@@ -363,6 +385,53 @@ fn timing_free_run(
         }
         dispatch(&shared, &render, job, &mut rng);
         k += 1;
+    }
+}
+
+/// Exposes on the rising edges of the trigger line: each window is published 2 ms before its
+/// edge (the edges are known ahead), then handed to the renderer when it ends.
+fn timing_hardware(
+    shared: Arc<Shared>,
+    render: Sender<Job>,
+    next_id: Arc<Mutex<(u64, Option<HostTime>)>>,
+    input: Arc<dyn TriggerInput>,
+) {
+    let mut rng = StdRng::seed_from_u64(mix_seed(shared.config.seed, 0xd40b));
+    let delay_ns =
+        ((shared.config.trigger_latency_us + shared.config.line_response_us).max(0.0) * 1e3) as u64;
+    let min_gap_ns = (1e9 / shared.config.max_frame_rate_hz.max(1e-3)) as u64;
+    let mut after = HostTime::now();
+    let mut id = 0;
+    let mut last_start: Option<HostTime> = None;
+    loop {
+        if shared.stop.load(Ordering::Relaxed) {
+            return;
+        }
+        let Some(edge) = input.next_edge(after) else {
+            std::thread::sleep(Duration::from_millis(1));
+            after = HostTime::now();
+            continue;
+        };
+        if !sleep_until(HostTime(edge.0.saturating_sub(2_000_000)), &shared.stop) {
+            return;
+        }
+        after = HostTime(edge.0 + 1);
+        let start = HostTime(edge.0 + delay_ns);
+        if last_start.is_some_and(|last| start.0 < last.0 + min_gap_ns) {
+            shared.stats().triggers_ignored += 1;
+            continue;
+        }
+        last_start = Some(start);
+        let job = shared.job(id, shared.clock.ticks_at(start));
+        shared.schedule.push(job.window);
+        id += 1;
+        if let Ok(mut n) = next_id.lock() {
+            *n = (id, Some(job.window.start));
+        }
+        if !sleep_until(job.window.end, &shared.stop) {
+            return;
+        }
+        dispatch(&shared, &render, job, &mut rng);
     }
 }
 
@@ -518,10 +587,21 @@ impl Camera for SimCamera {
             ));
         }
         if let TriggerMode::Hardware(line) = &settings.trigger {
-            return Err(self.feature(
-                "TriggerSource",
-                format!("{line}: the simulated camera has no trigger input; use free run or software trigger"),
-            ));
+            match &self.trigger_input {
+                Some((wired, _)) if wired == line => {}
+                Some((wired, _)) => {
+                    return Err(self.feature(
+                        "TriggerSource",
+                        format!("{line}: nothing is wired to it (the trigger is on {wired})"),
+                    ))
+                }
+                None => {
+                    return Err(self.feature(
+                        "TriggerSource",
+                        format!("{line}: nothing is wired to the simulated camera's trigger input; use free run or software trigger"),
+                    ))
+                }
+            }
         }
         if let Some(roi) = settings.roi {
             if roi.width == 0

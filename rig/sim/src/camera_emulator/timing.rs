@@ -35,6 +35,12 @@ impl DeviceClock {
     }
 }
 
+/// A hardware trigger input: the rising edges of the signal wired to one of the camera's lines.
+pub trait TriggerInput: Send + Sync {
+    /// The first rising edge at or after `t`, while the source is pulsing.
+    fn next_edge(&self, t: HostTime) -> Option<HostTime>;
+}
+
 /// One exposure, in host time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ExposureWindow {
