@@ -3,7 +3,7 @@
 //! force ceiling watcher.
 
 use fringe_rig::axis::SoftLimits;
-use fringe_rig::camera::CameraSettings;
+use fringe_rig::camera::{CameraSettings, TriggerMode};
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::control::{Operator, Phase, Prompt, Reply, ScanControl, ScanProgress};
 use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
@@ -18,7 +18,8 @@ use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::verify::verify;
 use fringe_rig::store::{START, STOP};
 use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::units::{Millimetres, Newtons};
+use fringe_rig::sync::trigger::TriggerTiming;
+use fringe_rig::units::{Hertz, Microseconds, Millimetres, Newtons};
 use fringe_sim::bench::AxisConfig;
 use fringe_sim::ground_truth::{TruthLog, TruthSink};
 use fringe_sim::rig::{SimRig, SimRigConfig};
@@ -29,10 +30,12 @@ use std::sync::{Arc, Mutex};
 /// The simulated bench with quick axes and a small image (the engine, not the renderer, is
 /// under test).
 fn bench(seed: u64) -> (SimRig, Devices, Arc<TruthLog>) {
-    let mut config = SimRigConfig {
-        seed,
-        ..SimRigConfig::default()
-    };
+    bench_with(seed, SimRigConfig::default())
+}
+
+/// [`bench`] from `config` (its seed replaced by `seed`).
+fn bench_with(seed: u64, config: SimRigConfig) -> (SimRig, Devices, Arc<TruthLog>) {
+    let mut config = SimRigConfig { seed, ..config };
     let quick = |a: AxisConfig| AxisConfig {
         velocity_mm_s: 8.0,
         acceleration_mm_s2: 40.0,
@@ -262,6 +265,59 @@ fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
     assert!(records
         .iter()
         .any(|r| r.wrench.is_some_and(|w| (-w.fz.0 - 4.0).abs() < 0.3)));
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The camera triggered by the DAQ's counter (`[camera] trigger = "daq"`): every frame of the scan
+/// is labelled by its trigger window, and the labels match the ground truth as the strobe's do.
+#[test]
+fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger() {
+    let dir = tempfile_dir("trigger");
+    let (rig, devices, truth) = bench_with(
+        12,
+        SimRigConfig {
+            camera_trigger: Some(50.0),
+            ..SimRigConfig::default()
+        },
+    );
+    let text = plan("[12.0]", "[25.0]", "force_targets = [2.0, 4.0]", 0.3);
+    let mut setup = setup(&rig, &text);
+    let camera = fringe_sim::camera_emulator::SimCameraConfig::default();
+    setup.sync = SyncMethod::Trigger;
+    setup.camera.trigger = TriggerMode::Hardware("Line1".into());
+    setup.trigger = Some(TriggerTiming {
+        scan_rate: Hertz(5000.0),
+        frame_rate: setup.camera.frame_rate,
+        delay: Microseconds(camera.trigger_latency_us + camera.line_response_us),
+        exposure: setup.camera.exposure,
+    });
+    let (mut operator, _) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "trigger".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    assert_eq!(out.lost_force_samples, 0);
+    let records = records(&out.run_dir);
+    assert!(records.len() > 50, "{} frames", records.len());
+    assert!(
+        records.iter().all(|r| r.wrench.is_some()),
+        "every frame labelled: {:?}",
+        records.iter().find(|r| r.wrench.is_none())
+    );
+    let score = fringe_sim::label_score::score(&records, &truth.frames()).expect("score");
+    assert!(score.force_rms_n < 0.15, "{score:?}");
+    let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start document");
+    assert_eq!(start.sync_method, "trigger");
     drop(rig);
     let _ = std::fs::remove_dir_all(&dir);
 }

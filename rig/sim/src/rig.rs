@@ -18,7 +18,7 @@
 use crate::ageing::Ageing;
 use crate::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
 use crate::bench::{AxisConfig, Bench, BenchConfig};
-use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
+use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig, TriggerInput};
 use crate::daq_emulator::{SimDaq, SimDaqConfig};
 use crate::faults::{
     FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyCamera, FaultyDatagrams,
@@ -43,11 +43,14 @@ use fringe_rig::force::ForceSensor;
 use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::netft::{NetFt, NetFtOptions};
 use fringe_rig::transport::memory::byte_pair;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::units::{Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::net::SocketAddr;
 use std::sync::Arc;
 
 /// The `.cal` file of the simulated Mini40 (a constructed calibration, not a real sensor's).
+/// The simulated camera's trigger input wired to the DAQ's counter output.
+pub const CAMERA_TRIGGER_LINE: &str = "Line1";
+
 pub const SIM_CAL: &str = include_str!("../sim-data/sim-mini40.cal");
 
 /// Which path the force takes.
@@ -76,6 +79,9 @@ pub struct SimRigConfig {
     pub camera: SimCameraConfig,
     pub force_path: ForcePath,
     pub daq: SimDaqConfig,
+    /// The camera triggered by the DAQ's counter at this frame rate (Hz), its trigger input
+    /// ([`CAMERA_TRIGGER_LINE`]) wired to the counter's output; free run when `None`.
+    pub camera_trigger: Option<f64>,
     /// Register map of the emulated y drive (built-in name or file).
     pub y_map: String,
     /// Faults to inject (none on a normal bench): see [`crate::faults`].
@@ -113,6 +119,7 @@ impl Default for SimRigConfig {
             camera: SimCameraConfig::default(),
             force_path: ForcePath::Daq,
             daq: SimDaqConfig::default(),
+            camera_trigger: None,
             y_map: "leadshine-pr".into(),
             faults: Vec::new(),
             session: 0,
@@ -221,8 +228,11 @@ impl SimRig {
         let (apt_z, z) = wiring.apt_axis("z", bench.motor_z(), FaultDevice::Z, &mut description)?;
         let (modbus, y) = wiring.y_stage(&mut description)?;
         let schedule = ExposureSchedule::new();
-        let (force, netft) = wiring.force(&schedule, &mut description)?;
-        let camera = wiring.camera(schedule, &mut description)?;
+        let (force, netft, trigger) = wiring.force(&schedule, &mut description)?;
+        let mut camera = wiring.camera(schedule, &mut description)?;
+        if let Some(line) = trigger {
+            camera = camera.with_trigger_input(CAMERA_TRIGGER_LINE, line);
+        }
         let force = wiring.force_with_faults(force);
         let camera = wiring.camera_with_faults(camera);
         description.extend(config.faults.iter().map(fault_description));
@@ -373,13 +383,22 @@ impl Wiring<'_> {
     }
 
     /// The force sensor on the configured path: the simulated Mini40 through the DAQ (strobed
-    /// by `schedule`) and the `.cal` math, or through an emulated Net F/T box (returned too, to
-    /// keep it running) and its driver, with the force faults on its UDP link.
+    /// by `schedule`, its counter triggering the camera when asked: its output is returned) and
+    /// the `.cal` math, or through an emulated Net F/T box (returned too, to keep it running) and
+    /// its driver, with the force faults on its UDP link.
+    #[allow(clippy::type_complexity)]
     fn force(
         &self,
         schedule: &Arc<ExposureSchedule>,
         description: &mut Vec<String>,
-    ) -> Result<(Box<dyn ForceSensor>, Option<NetFtEmulator>), SimRigError> {
+    ) -> Result<
+        (
+            Box<dyn ForceSensor>,
+            Option<NetFtEmulator>,
+            Option<Arc<dyn TriggerInput>>,
+        ),
+        SimRigError,
+    > {
         let load: Arc<dyn LoadSource> = self.bench.clone();
         let mut ft = SimFtSensor::new(load, self.config.bench.ft_noise);
         if let Some(t) = self.truth {
@@ -396,9 +415,17 @@ impl Wiring<'_> {
                     daq = daq.with_truth(t.clone());
                 }
                 description.push(
-                    "force: Mini40 through a 5 kHz DAQ with the exposure strobe (simulated)".into(),
+                    "force: Mini40 through a 5 kHz NI-DAQmx DAQ with the exposure strobe (simulated USB-6218, the real driver)".into(),
                 );
-                Ok((Box::new(CalibratedSensor::new(daq, cal)), None))
+                let mut trigger = None;
+                if let Some(rate) = self.config.camera_trigger {
+                    daq = daq.with_camera_trigger(Hertz(rate));
+                    trigger = Some(daq.trigger_line());
+                    description.push(format!(
+                        "camera trigger: the DAQ's ctr0 at {rate} Hz on PFI12, wired to the camera's {CAMERA_TRIGGER_LINE}"
+                    ));
+                }
+                Ok((Box::new(CalibratedSensor::new(daq, cal)), None, trigger))
             }
             ForcePath::Netft => {
                 let emulator_config = NetFtEmulatorConfig::default();
@@ -412,7 +439,13 @@ impl Wiring<'_> {
                     .with_power_switch(emulator.power_switch());
                 description.push("force: Net F/T (emulated, in process)".into());
                 let driver = NetFt::new(link, driver_config, NetFtOptions::default());
-                Ok((Box::new(driver), Some(emulator)))
+                if self.config.camera_trigger.is_some() {
+                    return Err(device_error(
+                        "camera trigger",
+                        "a Net F/T has no counter to trigger the camera: use the DAQ force path",
+                    ));
+                }
+                Ok((Box::new(driver), Some(emulator), None))
             }
         }
     }
