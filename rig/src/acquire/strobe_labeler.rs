@@ -65,6 +65,10 @@ pub struct StrobeLabeler {
     /// Places frames in the force stream by clock, to pick their window; keeps the samples the
     /// windows are averaged over.
     clock: ClockFitLabeler,
+    /// Spans of sample indices that never arrived (the force reader fell behind and the device
+    /// restarted, or the link lost them), newest last.
+    gaps: VecDeque<(u64, u64)>,
+    last_tick: Option<u64>,
 }
 
 impl StrobeLabeler {
@@ -83,6 +87,8 @@ impl StrobeLabeler {
             next_seq: 0,
             offset: None,
             clock: ClockFitLabeler::new(clock, latches),
+            gaps: VecDeque::new(),
+            last_tick: None,
         }
     }
 
@@ -120,6 +126,14 @@ impl StrobeLabeler {
     pub fn push_sample(&mut self, s: &ForceSample) {
         self.clock.push_sample(s);
         let tick = s.device_tick;
+        if let Some(last) = self.last_tick.replace(tick) {
+            if tick > last + 1 {
+                self.gaps.push_back((last + 1, tick));
+                if self.gaps.len() > 100 {
+                    self.gaps.pop_front();
+                }
+            }
+        }
         let strobe = s.strobe.and_then(|volts| self.detector.push(tick, volts.0));
         match &mut self.source {
             Source::Strobe => {
@@ -233,6 +247,18 @@ impl StrobeLabeler {
         }
     }
 
+    /// The lost span overlapping `ticks` (within a frame period), if any.
+    fn lost_over(&self, ticks: [f64; 2]) -> Option<(u64, u64)> {
+        let margin = self.spacing().unwrap_or(0.0);
+        self.gaps
+            .iter()
+            .rev()
+            .find(|(from, to)| {
+                (*from as f64) < ticks[1] + margin && (*to as f64) > ticks[0] - margin
+            })
+            .copied()
+    }
+
     /// The label of `frame`.
     pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
         let placed = match self.clock.place(frame) {
@@ -289,6 +315,12 @@ impl StrobeLabeler {
                 self.label_of(&seen)
             }
             _ if may_come => LabelOutcome::NotYet,
+            _ if self.lost_over(placed.ticks).is_some() => {
+                let (from, to) = self.lost_over(placed.ticks).unwrap_or_default();
+                LabelOutcome::Unmatched(format!(
+                    "force samples {from}..{to} were lost over this exposure (the force reader fell behind and the device restarted, or its link lost them)"
+                ))
+            }
             best => {
                 let ms = self.sample_period_ns().unwrap_or(f64::NAN) * 1e-6;
                 let nearest = best.map_or(String::new(), |b| {
@@ -461,6 +493,36 @@ mod tests {
                 assert_own_window(f);
             }
         }
+    }
+
+    /// Force samples lost over three exposures (the reader fell behind and the DAQ restarted):
+    /// those frames say so, every other frame keeps its own window.
+    #[test]
+    fn frames_over_lost_force_samples_say_the_samples_were_lost() {
+        let mut bench = Bench::new();
+        let from = sample_at(bench.exposure_start(500)).floor() as u64 - 5;
+        let to = sample_at(bench.exposure_start(503)).floor() as u64 - 5;
+        bench.samples_lost = from..to;
+        let labelled = label(&bench, true, 8);
+        let mut lost = 0;
+        for f in labelled.iter().filter(|f| f.true_start > 5e9) {
+            if (1500..1503).contains(&f.id) {
+                let LabelOutcome::Unmatched(why) = &f.outcome else {
+                    panic!(
+                        "frame {} has no force samples but got {:?}",
+                        f.id, f.outcome
+                    );
+                };
+                assert!(
+                    why.contains(&format!("force samples {from}..{to} were lost")),
+                    "{why}"
+                );
+                lost += 1;
+            } else {
+                assert_own_window(f);
+            }
+        }
+        assert_eq!(lost, 3);
     }
 
     /// No strobe in the force stream: a clear error naming the wiring, not a label.

@@ -59,6 +59,8 @@ pub(crate) struct Bench {
     pub strobe_lost: std::ops::Range<u64>,
     /// Frames the camera drops (never delivered).
     pub dropped: Vec<u64>,
+    /// Force samples that never arrive (k in this range: a reader that fell behind).
+    pub samples_lost: std::ops::Range<u64>,
 }
 
 impl Bench {
@@ -75,10 +77,11 @@ impl Bench {
             strobe: true,
             strobe_lost: 0..0,
             dropped: Vec::new(),
+            samples_lost: 0..0,
         }
     }
 
-    fn exposure_start(&self, n: u64) -> f64 {
+    pub(crate) fn exposure_start(&self, n: u64) -> f64 {
         FIRST_EXPOSURE_NS + n as f64 * self.frame_period_ns
     }
 
@@ -112,6 +115,7 @@ pub(crate) fn events(bench: &Bench, seed: u64) -> Vec<Event> {
     while sample_host(k + 49) < end {
         let arrival = sample_host(k + 49) + (bench.block_delay_ns)(&mut rng);
         let block = (k..k + 50)
+            .filter(|j| !bench.samples_lost.contains(j))
             .map(|j| ForceSample {
                 device_tick: j,
                 transport_seq: None,
