@@ -2,16 +2,25 @@
 //! descriptions ([`crate::device_spec`]), checked and naming the file and key in errors; the
 //! rig opens them with the one opener (`device_open`), as the bring-up commands do theirs.
 
-use crate::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec, NetFtScaling, NetFtSpec};
+use crate::device_spec::{
+    AxisSpec, CameraSpec, DaqNames, DaqSpec, ForceSpec, ModbusLink, ModbusSpec, NetFtScaling,
+    NetFtSpec,
+};
 use crate::host_port::HostPort;
-use crate::rig_file::{AxisDriver, AxisSection, CameraDriver, ForceDriver, RigConfig};
+use crate::rig_file::{
+    AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
+};
 use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
 use fringe_rig::apt::status::LimitPolarity;
 use fringe_rig::apt::Actuator;
+use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::netft::{self, Command, NetFtConfig};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::nidaqmx::{DaqError, DaqSettings, Terminal};
+use fringe_rig::units::{
+    Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Volts,
+};
 
 impl RigConfig {
     /// The axis `name` (`x`, `y` or `z`) of a real rig as a device description, with its soft
@@ -149,13 +158,53 @@ impl RigConfig {
     }
 
     /// The `[force]` section of a real rig as a device description.
-    pub fn force_spec(&self) -> Result<NetFtSpec, ConfigError> {
+    pub fn force_spec(&self) -> Result<ForceSpec, ConfigError> {
         let f = &self.file.force;
-        if f.driver != ForceDriver::Netft {
-            return Err(self.err(
-                "key `force.driver` = \"sim\" on a real rig: a rig is wholly simulated or wholly real (use driver = \"netft\")".into(),
-            ));
+        match f.driver {
+            ForceDriver::Sim => Err(self.err(
+                "key `force.driver` = \"sim\" on a real rig: a rig is wholly simulated or wholly real (use driver = \"netft\" or \"nidaqmx\")".into(),
+            )),
+            ForceDriver::Netft => Ok(ForceSpec::NetFt(self.netft_spec(f)?)),
+            ForceDriver::Nidaqmx => Ok(ForceSpec::NiDaqmx(self.daq_spec(f)?)),
         }
+    }
+
+    /// `[force]` with driver "nidaqmx".
+    fn daq_spec(&self, f: &ForceSection) -> Result<DaqSpec, ConfigError> {
+        let settings =
+            daq_settings(f).map_err(|(key, message)| self.err(format!("{key}: {message}")))?;
+        let cal_file = f.cal_file.clone().ok_or_else(|| {
+            self.err(
+                "key `force.cal_file` (the transducer's ATI .cal file) is required for driver \"nidaqmx\"".into(),
+            )
+        })?;
+        let tool = match (f.tool_translation_m, f.tool_rotation_deg) {
+            (None, None) => None,
+            (d, r) => {
+                let d = d.unwrap_or([0.0; 3]);
+                let r = r.unwrap_or([0.0; 3]);
+                if let Some((key, _)) = [("tool_translation_m", d), ("tool_rotation_deg", r)]
+                    .into_iter()
+                    .find(|(_, v)| v.iter().any(|x| !x.is_finite()))
+                {
+                    return Err(self.err(format!(
+                        "key `force.{key}`: three finite numbers (metres; degrees)"
+                    )));
+                }
+                Some(ToolTransform::from_ati(d, r.map(f64::to_radians)))
+            }
+        };
+        Ok(DaqSpec {
+            settings,
+            cal_file,
+            library: f.library.clone(),
+            tool,
+            named_by: DaqNames::RigFile,
+        })
+    }
+
+    /// `[force]` with driver "netft".
+    fn netft_spec(&self, f: &ForceSection) -> Result<NetFtSpec, ConfigError> {
         let text = f.address.as_deref().ok_or_else(|| {
             self.err("key `force.address` (the Net F/T's host or host:port) is required".into())
         })?;
@@ -192,4 +241,28 @@ impl RigConfig {
             )),
         }
     }
+}
+
+/// The DAQ's settings from `[force]`, checked as far as they can be without the device; an
+/// error names the key.
+pub(crate) fn daq_settings(f: &ForceSection) -> Result<DaqSettings, (String, String)> {
+    let named = |e: DaqError| match (&e, e.setting()) {
+        (DaqError::Setting { message, .. }, Some(s)) => (DaqNames::RigFile.of(s), message.clone()),
+        _ => ("[force]".to_string(), e.to_string()),
+    };
+    let d = DaqSettings::default();
+    let settings = DaqSettings {
+        device: f.device.clone().unwrap_or(d.device),
+        gauges: f.gauges.clone().unwrap_or(d.gauges),
+        strobe: f.strobe.clone(),
+        terminal: match &f.terminal {
+            Some(t) => Terminal::parse(t).map_err(named)?,
+            None => d.terminal,
+        },
+        range: f.range_v.map_or(d.range, Volts),
+        rate: f.rate_hz.map_or(d.rate, Hertz),
+        buffer_scans: f.buffer_scans,
+    };
+    settings.check().map_err(named)?;
+    Ok(settings)
 }
