@@ -188,7 +188,7 @@ impl RigConfig {
                     .find(|(_, v)| v.iter().any(|x| !x.is_finite()))
                 {
                     return Err(self.err(format!(
-                        "key `force.{key}`: three finite numbers (metres; degrees)"
+                        "key `force.{key}`: must be three finite numbers (tool_translation_m in metres, tool_rotation_deg in degrees)"
                     )));
                 }
                 Some(ToolTransform::from_ati(d, r.map(f64::to_radians)))
@@ -265,4 +265,248 @@ pub(crate) fn daq_settings(f: &ForceSection) -> Result<DaqSettings, (String, Str
     };
     settings.check().map_err(named)?;
     Ok(settings)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::device_open::{open_force, DeviceError};
+    use crate::device_spec::{DaqNames, DaqSpec, ForceSpec};
+    use crate::RigConfig;
+    use fringe_rig::nidaqmx::{DaqSettings, Terminal};
+    use fringe_rig::sync::method::SyncMethod;
+    use fringe_rig::units::{Hertz, Volts};
+    use std::path::{Path, PathBuf};
+
+    /// A real rig whose `[force]` section is `force`.
+    fn rig(force: &str, extra: &str) -> String {
+        format!(
+            "{extra}[x]\ndriver = \"thorlabs\"\n[y]\ndriver = \"manual\"\n[z]\ndriver = \"thorlabs\"\n[force]\n{force}\n[camera]\ndriver = \"aravis\"\n"
+        )
+    }
+
+    fn parse(force: &str) -> Result<RigConfig, String> {
+        RigConfig::parse(&rig(force, ""), "rig.toml").map_err(|e| e.to_string())
+    }
+
+    fn cal_file() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/mini40-v1.1.cal")
+    }
+
+    #[test]
+    fn a_daq_rig_file_gives_its_settings_and_the_defaults() {
+        let c = parse(
+            "driver = \"nidaqmx\"\ndevice = \"Dev2\"\ngauges = \"ai8:13\"\nstrobe = \"ai15\"\nterminal = \"rse\"\nrange_v = 5.0\nrate_hz = 2000.0\nbuffer_scans = 20000\ncal_file = \"FT1234.cal\"\nlibrary = \"/opt/ni/libnidaqmx.so.1\"\ntool_translation_m = [0.0, 0.0, 0.05]",
+        )
+        .expect("parses");
+        let ForceSpec::NiDaqmx(spec) = c.force_spec().expect("spec") else {
+            panic!("not a DAQ");
+        };
+        assert_eq!(
+            spec.settings,
+            DaqSettings {
+                device: "Dev2".into(),
+                gauges: "ai8:13".into(),
+                strobe: Some("ai15".into()),
+                terminal: Terminal::Rse,
+                range: Volts(5.0),
+                rate: Hertz(2000.0),
+                buffer_scans: Some(20000),
+            }
+        );
+        assert_eq!(spec.cal_file, PathBuf::from("FT1234.cal"));
+        assert_eq!(
+            spec.library.as_deref(),
+            Some(Path::new("/opt/ni/libnidaqmx.so.1"))
+        );
+        let tool = spec.tool.expect("tool transform");
+        let w = tool.apply([0.0, 10.0, 0.0, 0.0, 0.0, 0.0]);
+        assert!((w[3] - 0.5).abs() < 1e-12, "Tx' = Tx + Dz*Fy: {w:?}");
+        assert_eq!(spec.named_by, DaqNames::RigFile);
+        assert_eq!(
+            c.sync().expect("sync"),
+            SyncMethod::Strobe,
+            "a strobe is wired"
+        );
+
+        let c = parse("driver = \"nidaqmx\"\ncal_file = \"FT1234.cal\"").expect("parses");
+        let ForceSpec::NiDaqmx(spec) = c.force_spec().expect("spec") else {
+            panic!("not a DAQ");
+        };
+        assert_eq!(spec.settings, DaqSettings::default());
+        assert_eq!((spec.library, spec.tool), (None, None));
+        assert_eq!(c.sync().expect("sync"), SyncMethod::ClockFit, "no strobe");
+        let strobe = RigConfig::parse(
+            &rig(
+                "driver = \"nidaqmx\"\ncal_file = \"FT1234.cal\"",
+                "sync = \"strobe\"\n",
+            ),
+            "rig.toml",
+        )
+        .expect("parses")
+        .sync()
+        .expect_err("no strobe channel")
+        .to_string();
+        assert!(
+            strobe.starts_with("rig.toml: key `sync` = \"strobe\"")
+                && strobe.contains("`force.strobe`"),
+            "{strobe}"
+        );
+    }
+
+    #[test]
+    fn each_bad_force_key_is_refused_naming_it() {
+        let daq = "driver = \"nidaqmx\"\ncal_file = \"FT1234.cal\"\n";
+        for (section, key, words) in [
+            (
+                format!("{daq}terminal = \"floating\""),
+                "force.terminal",
+                "diff, rse",
+            ),
+            (format!("{daq}range_v = -10.0"), "force.range_v", "positive"),
+            (format!("{daq}rate_hz = 0.0"), "force.rate_hz", "positive"),
+            (
+                format!("{daq}buffer_scans = 0"),
+                "force.buffer_scans",
+                "default",
+            ),
+            (
+                format!("{daq}gauges = \"ai0:4\""),
+                "force.gauges",
+                "names 5",
+            ),
+            (
+                format!("{daq}gauges = \"six\""),
+                "force.gauges",
+                "channel name",
+            ),
+            (
+                format!("{daq}strobe = \"ai6:7\""),
+                "force.strobe",
+                "one channel",
+            ),
+            (
+                format!("{daq}device = \"Dev1/ai0\""),
+                "force.device",
+                "device name",
+            ),
+            (
+                format!("{daq}tool_rotation_deg = [0.0, nan, 0.0]"),
+                "force.tool_rotation_deg",
+                "finite",
+            ),
+            ("driver = \"nidaqmx\"".into(), "force.cal_file", "required"),
+            (
+                format!("{daq}address = \"10.0.0.2\""),
+                "force.address",
+                "Net F/T",
+            ),
+            (format!("{daq}cpf = 1000000.0"), "force.cpf", "Net F/T"),
+            (
+                "driver = \"netft\"\naddress = \"10.0.0.2\"\ncal_file = \"x.cal\"".into(),
+                "force.cal_file",
+                "NI-DAQmx",
+            ),
+            (
+                "driver = \"netft\"\naddress = \"10.0.0.2\"\nstrobe = \"ai7\"".into(),
+                "force.strobe",
+                "NI-DAQmx",
+            ),
+        ] {
+            let e = match parse(&section) {
+                Err(e) => e,
+                Ok(c) => c
+                    .force_spec()
+                    .map(|s| format!("accepted {s:?}"))
+                    .unwrap_or_else(|e| e.to_string()),
+            };
+            assert!(
+                e.starts_with("rig.toml: key `")
+                    && e.contains(&format!("`{key}`"))
+                    && e.contains(words),
+                "{section}: {e}"
+            );
+        }
+        // The simulated bench takes no DAQ key either.
+        let e = RigConfig::parse("[force]\nrate_hz = 1000.0\n", "rig.toml")
+            .expect_err("sim with a DAQ key")
+            .to_string();
+        assert!(
+            e.contains("key `force.rate_hz`") && e.contains("sim.force_path"),
+            "{e}"
+        );
+    }
+
+    fn daq_spec(cal_file: PathBuf, library: &str, named_by: DaqNames) -> ForceSpec {
+        ForceSpec::NiDaqmx(DaqSpec {
+            settings: DaqSettings::default(),
+            cal_file,
+            library: Some(PathBuf::from(library)),
+            tool: None,
+            named_by,
+        })
+    }
+
+    fn open_error(spec: &ForceSpec) -> String {
+        match open_force(spec, None) {
+            Ok(s) => panic!("opened {}", s.describe()),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn a_missing_library_is_one_line_naming_the_library_the_install_and_the_key() {
+        let lib = "/nonexistent/ni/libnidaqmx.so.1";
+        let e = open_error(&daq_spec(cal_file(), lib, DaqNames::RigFile));
+        assert!(!e.contains('\n'), "one line: {e}");
+        for part in [
+            lib,
+            "install NI-DAQmx for Linux",
+            "ni-daqmx",
+            "`force.library`",
+            "--library",
+        ] {
+            assert!(e.contains(part), "{e} lacks {part}");
+        }
+        let e = open_error(&daq_spec(cal_file(), lib, DaqNames::Flags));
+        assert!(e.contains("--library PATH") && e.contains(lib), "{e}");
+    }
+
+    #[test]
+    fn the_rig_files_force_spec_opens_its_own_driver_through_the_one_door() {
+        // A DAQ rig reaches the DAQ opener: its .cal file is read first, named by its key.
+        let c = parse("driver = \"nidaqmx\"\ncal_file = \"/nonexistent/FT1234.cal\"\nlibrary = \"/nonexistent/libnidaqmx.so\"")
+            .expect("parses");
+        let spec = c.force_spec().expect("spec");
+        assert_eq!(spec.trace_name(), "force");
+        let e = open_error(&spec);
+        assert!(
+            e.starts_with("force: key `force.cal_file`") && e.contains("/nonexistent/FT1234.cal"),
+            "{e}"
+        );
+        match open_force(
+            &daq_spec(cal_file(), "/nonexistent/l.so", DaqNames::RigFile),
+            None,
+        ) {
+            Err(DeviceError::Daq { source, .. }) => {
+                assert_eq!(
+                    source.setting(),
+                    Some(fringe_rig::nidaqmx::Setting::Library)
+                )
+            }
+            Err(e) => panic!("not the DAQ opener's error: {e}"),
+            Ok(_) => panic!("opened without a library"),
+        }
+        // A Net F/T rig reaches the Net F/T opener (with its counts given, opening is a socket).
+        let c = parse("driver = \"netft\"\naddress = \"127.0.0.1:49152\"\ncpf = 1.0\ncpt = 1.0")
+            .expect("parses");
+        let spec = c.force_spec().expect("spec");
+        assert!(!spec.records_strobe());
+        assert_eq!(spec.trace_name(), "netft", "existing trace names are kept");
+        let sensor = open_force(&spec, None).expect("a UDP socket opens");
+        assert!(
+            sensor.describe().contains("127.0.0.1:49152"),
+            "{}",
+            sensor.describe()
+        );
+    }
 }
