@@ -86,8 +86,8 @@ pub enum DeviceError {
     #[error("{line}")]
     Daq {
         line: String,
-        #[source]
-        source: Box<DaqError>,
+        /// The driver's error (its text is in `line`, said in the user's terms).
+        error: Box<DaqError>,
     },
     /// The `.cal` file cannot be read or parsed.
     #[error("{line}")]
@@ -364,17 +364,27 @@ pub fn daq_error(spec: &DaqSpec, e: DaqError) -> DeviceError {
         (DaqError::LibraryIncomplete { .. }, _) => {
             format!("force: {}: {e}", names.of(Setting::Library))
         }
+        // NI's refusals get what to do; the driver's own checks already say it.
+        (DaqError::Setting { message, .. }, Some(setting))
+            if message.contains("NI-DAQmx status") =>
+        {
+            format!(
+                "force ({}): {}: {message}; {}",
+                spec.settings.describe(),
+                names.of(setting),
+                daq_advice(setting)
+            )
+        }
         (DaqError::Setting { message, .. }, Some(setting)) => format!(
-            "force ({}): {}: {message}; {}",
+            "force ({}): {}: {message}",
             spec.settings.describe(),
             names.of(setting),
-            daq_advice(setting)
         ),
         _ => format!("force ({}): {e}", spec.settings.describe()),
     };
     DeviceError::Daq {
         line,
-        source: Box::new(e),
+        error: Box::new(e),
     }
 }
 

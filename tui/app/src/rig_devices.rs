@@ -487,11 +487,8 @@ mod tests {
             &daq_spec(cal_file(), "/nonexistent/l.so", DaqNames::RigFile),
             None,
         ) {
-            Err(DeviceError::Daq { source, .. }) => {
-                assert_eq!(
-                    source.setting(),
-                    Some(fringe_rig::nidaqmx::Setting::Library)
-                )
+            Err(DeviceError::Daq { error, .. }) => {
+                assert_eq!(error.setting(), Some(fringe_rig::nidaqmx::Setting::Library))
             }
             Err(e) => panic!("not the DAQ opener's error: {e}"),
             Ok(_) => panic!("opened without a library"),
