@@ -506,4 +506,53 @@ mod tests {
             sensor.describe()
         );
     }
+
+    #[test]
+    fn a_daq_rigs_cal_file_gives_the_transducers_rating_before_anything_opens() {
+        let reference = include_str!("../rigs/reference-bench.toml");
+        let line = reference
+            .lines()
+            .find(|l| l.starts_with("address = "))
+            .expect("the reference bench's address");
+        let daq = |cal: &Path, max_force: &str| {
+            reference
+                .replace(
+                    &format!("driver = \"netft\"\n{line}"),
+                    &format!(
+                        "driver = \"nidaqmx\"\ncal_file = {:?}\nstrobe = \"ai7\"",
+                        cal.display().to_string()
+                    ),
+                )
+                .replace("max_force = 20.0", max_force)
+        };
+        let c = RigConfig::parse(&daq(&cal_file(), "max_force = 20.0"), "r.toml").expect("parses");
+        let rated = fringe_rig::atical::Calibration::load(&cal_file())
+            .expect("cal")
+            .max_loads[2];
+        let limits = c.limits().expect("limits");
+        assert_eq!(limits.ft_rating.as_ref().map(|r| r.fz.0), Some(rated));
+        assert_eq!(c.ft_rating_warning(), None, "the rating is known");
+        let too_much = format!("max_force = {}", (rated + 50.0).round());
+        let e = RigConfig::parse(&daq(&cal_file(), &too_much), "r.toml")
+            .expect("parses")
+            .limits()
+            .expect_err("above the rating")
+            .to_string();
+        assert!(
+            e.contains("force.max_force") && e.contains("rated range"),
+            "{e}"
+        );
+        let e = RigConfig::parse(
+            &daq(Path::new("/nonexistent/FT9.cal"), "max_force = 20.0"),
+            "r.toml",
+        )
+        .expect("parses")
+        .check_before_open()
+        .expect_err("no .cal file")
+        .to_string();
+        assert!(
+            e.starts_with("r.toml: key `force.cal_file`") && e.contains("/nonexistent/FT9.cal"),
+            "{e}"
+        );
+    }
 }
