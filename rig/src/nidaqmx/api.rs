@@ -188,47 +188,51 @@ impl Functions {
         mut lookup: impl FnMut(&str) -> Option<*const c_void>,
     ) -> Result<Functions, &'static str> {
         macro_rules! required {
-            ($name:literal) => {
+            ($name:literal, $ty:ty) => {
                 match lookup($name) {
                     // SAFETY: the caller promises the address is this documented function.
                     Some(p) if !p.is_null() => unsafe {
-                        std::mem::transmute::<*const c_void, _>(p)
+                        std::mem::transmute::<*const c_void, $ty>(p)
                     },
                     _ => return Err($name),
                 }
             };
         }
         macro_rules! optional {
-            ($name:literal) => {
+            ($name:literal, $ty:ty) => {
                 match lookup($name) {
                     // SAFETY: as above.
                     Some(p) if !p.is_null() => {
-                        Some(unsafe { std::mem::transmute::<*const c_void, _>(p) })
+                        Some(unsafe { std::mem::transmute::<*const c_void, $ty>(p) })
                     }
                     _ => None,
                 }
             };
         }
         Ok(Functions {
-            create_task: required!("DAQmxCreateTask"),
-            start_task: required!("DAQmxStartTask"),
-            stop_task: required!("DAQmxStopTask"),
-            clear_task: required!("DAQmxClearTask"),
-            create_ai_voltage_chan: required!("DAQmxCreateAIVoltageChan"),
-            cfg_samp_clk_timing: required!("DAQmxCfgSampClkTiming"),
-            read_analog_f64: required!("DAQmxReadAnalogF64"),
-            get_extended_error_info: required!("DAQmxGetExtendedErrorInfo"),
-            task_control: optional!("DAQmxTaskControl"),
-            cfg_input_buffer: optional!("DAQmxCfgInputBuffer"),
+            create_task: required!("DAQmxCreateTask", CreateTask),
+            start_task: required!("DAQmxStartTask", TaskFn),
+            stop_task: required!("DAQmxStopTask", TaskFn),
+            clear_task: required!("DAQmxClearTask", TaskFn),
+            create_ai_voltage_chan: required!("DAQmxCreateAIVoltageChan", CreateAiVoltageChan),
+            cfg_samp_clk_timing: required!("DAQmxCfgSampClkTiming", CfgSampClkTiming),
+            read_analog_f64: required!("DAQmxReadAnalogF64", ReadAnalogF64),
+            get_extended_error_info: required!("DAQmxGetExtendedErrorInfo", GetExtendedErrorInfo),
+            task_control: optional!("DAQmxTaskControl", TaskControl),
+            cfg_input_buffer: optional!("DAQmxCfgInputBuffer", CfgInputBuffer),
             get_read_total_samp_per_chan_acquired: optional!(
-                "DAQmxGetReadTotalSampPerChanAcquired"
+                "DAQmxGetReadTotalSampPerChanAcquired",
+                GetU64
             ),
-            get_error_string: optional!("DAQmxGetErrorString"),
-            get_dev_product_type: optional!("DAQmxGetDevProductType"),
-            create_co_pulse_chan_freq: optional!("DAQmxCreateCOPulseChanFreq"),
-            cfg_implicit_timing: optional!("DAQmxCfgImplicitTiming"),
-            cfg_dig_edge_start_trig: optional!("DAQmxCfgDigEdgeStartTrig"),
-            set_co_pulse_term: optional!("DAQmxSetCOPulseTerm"),
+            get_error_string: optional!("DAQmxGetErrorString", GetErrorString),
+            get_dev_product_type: optional!("DAQmxGetDevProductType", GetDevProductType),
+            create_co_pulse_chan_freq: optional!(
+                "DAQmxCreateCOPulseChanFreq",
+                CreateCoPulseChanFreq
+            ),
+            cfg_implicit_timing: optional!("DAQmxCfgImplicitTiming", CfgImplicitTiming),
+            cfg_dig_edge_start_trig: optional!("DAQmxCfgDigEdgeStartTrig", CfgDigEdgeStartTrig),
+            set_co_pulse_term: optional!("DAQmxSetCOPulseTerm", SetCoPulseTerm),
         })
     }
 }

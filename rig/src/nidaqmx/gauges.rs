@@ -126,11 +126,11 @@ impl NiDaq {
             let device = device.clone();
             move |s: DaqmxStatus| DaqError::sort(&device, Setting::Counter, call, s)
         };
-        if !(trigger.frame_rate.0.is_finite()
+        let frame_rate_ok = trigger.frame_rate.0.is_finite()
             && trigger.frame_rate.0 > 0.0
-            && trigger.frame_rate.0 < self.settings.rate.0)
-            || !(trigger.duty > 0.0 && trigger.duty < 1.0)
-        {
+            && trigger.frame_rate.0 < self.settings.rate.0;
+        let duty_ok = trigger.duty > 0.0 && trigger.duty < 1.0;
+        if !(frame_rate_ok && duty_ok) {
             return Err(DaqError::Setting {
                 setting: Setting::Counter,
                 message: format!(

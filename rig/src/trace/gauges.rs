@@ -330,7 +330,7 @@ mod tests {
                     gauges: std::array::from_fn(|g| {
                         Volts(0.1 * g as f64 + (x * (g + 1) as f64).sin() / 3.0)
                     }),
-                    strobe: strobe.then(|| Volts(if k % 10 < 3 { 4.9 } else { 0.01 })),
+                    strobe: strobe.then_some(Volts(if k % 10 < 3 { 4.9 } else { 0.01 })),
                     lost_before: if k == 0 { lost } else { 0 },
                 });
                 index += 1;
