@@ -171,7 +171,9 @@ pub fn stream_to_csv<G: GaugeSource>(
         }
         match sensor.next_sample(Duration::from_millis(50)) {
             Ok(Some(s)) => {
-                out.row(&s).map_err(write_err)?;
+                if let Err(e) = out.row(&s) {
+                    break Err(write_err(e));
+                }
                 samples += 1;
                 last_arrival = Instant::now();
             }
@@ -187,8 +189,9 @@ pub fn stream_to_csv<G: GaugeSource>(
     };
     let elapsed = begun.elapsed();
     let stopped = sensor.stop();
-    out.flush().map_err(write_err)?;
+    let flushed = out.flush().map_err(write_err);
     drop(out);
+    let ended = ended.and(flushed);
     let ended = match ended {
         Ok(()) if samples == 0 => Err(BringupError::NoSamples {
             device: sensor.describe(),
