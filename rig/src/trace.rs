@@ -16,7 +16,7 @@ pub mod record;
 pub mod replay;
 
 pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
-pub use gauges::{record_gauges, RecordingGauges, ReplayGauges};
+pub use gauges::{RecordingGauges, ReplayGauges};
 pub use record::{
     record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter,
 };

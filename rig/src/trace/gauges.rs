@@ -166,22 +166,6 @@ impl<S: GaugeSource> GaugeSource for RecordingGauges<S> {
     }
 }
 
-/// Wraps `source` in a recorder writing `DIR/<device>.trace` when `dir` is given.
-pub fn record_gauges(
-    source: Box<dyn GaugeSource>,
-    dir: Option<&Path>,
-    device: &str,
-) -> io::Result<Box<dyn GaugeSource>> {
-    match dir {
-        Some(dir) => Ok(Box::new(RecordingGauges::new(
-            source,
-            &dir.join(format!("{device}.trace")),
-            device,
-        )?)),
-        None => Ok(source),
-    }
-}
-
 /// A gauge source playing a recorded gauge trace: the readings as recorded (host times shifted
 /// to the replay's start), paced as recorded unless the speed says otherwise; starting and
 /// stopping must come in the recorded order ([`ReplayHandle::finish`] checks).
