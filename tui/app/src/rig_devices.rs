@@ -555,4 +555,88 @@ mod tests {
             "{e}"
         );
     }
+
+    #[test]
+    fn nis_refusals_at_open_name_the_key_or_flag_and_what_to_do() {
+        use crate::device_open::daq_error;
+        use fringe_rig::nidaqmx::api::status;
+        use fringe_rig::nidaqmx::{DaqError, DaqmxStatus, Setting};
+        let ni = |code, text: &str| DaqmxStatus {
+            code,
+            text: text.into(),
+        };
+        let spec = |named_by| DaqSpec {
+            settings: DaqSettings::default(),
+            cal_file: cal_file(),
+            library: None,
+            tool: None,
+            named_by,
+        };
+        for (setting, code, text, key, flag, advice) in [
+            (
+                Setting::Device,
+                status::INVALID_DEVICE_ID,
+                "Device identifier is invalid.",
+                "key `force.device`",
+                "--device",
+                "NI MAX",
+            ),
+            (
+                Setting::Gauges,
+                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                "Physical channel specified does not exist on this device.",
+                "key `force.gauges`",
+                "--channels",
+                "six gauge channels",
+            ),
+            (
+                Setting::Strobe,
+                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                "Physical channel specified does not exist on this device.",
+                "key `force.strobe`",
+                "--strobe",
+                "exposure signal",
+            ),
+            (
+                Setting::Rate,
+                -200077,
+                "Requested value is not a supported value for this property.",
+                "key `force.rate_hz`",
+                "--rate",
+                "scan rate",
+            ),
+            (
+                Setting::Range,
+                -200077,
+                "Requested value is not a supported value for this property.",
+                "key `force.range_v`",
+                "--range",
+                "input range",
+            ),
+        ] {
+            for (named_by, name) in [(DaqNames::RigFile, key), (DaqNames::Flags, flag)] {
+                let e = DaqError::sort("Dev1", setting, "DAQmxCreateAIVoltageChan", ni(code, text));
+                let line = daq_error(&spec(named_by), e).to_string();
+                assert!(
+                    !line.contains('\n')
+                        && line.contains(name)
+                        && line.contains(text)
+                        && line.contains(advice),
+                    "{line}"
+                );
+            }
+        }
+        // A device that went away names no setting: the driver's own advice is the line.
+        let e = DaqError::sort(
+            "Dev1",
+            Setting::Device,
+            "DAQmxReadAnalogF64",
+            ni(status::DEV_CANNOT_BE_ACCESSED, "Device cannot be accessed."),
+        );
+        let line = daq_error(&spec(DaqNames::RigFile), e).to_string();
+        assert!(
+            line.contains("plug it in again") && !line.contains("key `"),
+            "{line}"
+        );
+    }
 }
