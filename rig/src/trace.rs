@@ -5,12 +5,18 @@
 //! [`ReplayLink`] / [`ReplayDatagramLink`] that feeds the recorded replies to a driver and checks
 //! that the driver sends exactly the recorded bytes. The format is documented in
 //! `docs/trace-format.md` and in [`format`].
+//!
+//! A DAQ's gauge scans are recorded in the same format, one datagram per scan ([`gauges`]): a
+//! [`RecordingGauges`] wraps any [`crate::atical::GaugeSource`], and a [`ReplayGauges`] plays the
+//! trace back as a gauge source.
 
 pub mod format;
+pub mod gauges;
 pub mod record;
 pub mod replay;
 
 pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
+pub use gauges::{RecordingGauges, ReplayGauges};
 pub use record::{
     record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter,
 };

@@ -8,6 +8,7 @@ pub mod calibrate;
 pub mod camera;
 pub mod check;
 pub mod commission;
+pub mod daq;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod devices;

@@ -37,6 +37,8 @@ enum Command {
     Devices(cmd::devices::DevicesArgs),
     /// ATI Net F/T / Ethernet Axia force/torque sensor: stream to CSV, software bias.
     Ft(cmd::ft::FtArgs),
+    /// ATI transducer through an NI-DAQmx device and its .cal file: stream to CSV, bias.
+    Daq(cmd::daq::DaqArgs),
     /// Home, query or move the y stage (Modbus TCP, Modbus RTU, manual or a Thorlabs axis).
     Ystage(cmd::ystage::YstageArgs),
     /// Drive one Thorlabs stepper axis (KST101/KST201/BSC20x): home, status, move, stop.
@@ -123,6 +125,7 @@ fn main() -> ExitCode {
         Some(Command::Selfcheck) => cmd::selfcheck::run(&global),
         Some(Command::Devices(args)) => cmd::devices::run(args, &global),
         Some(Command::Ft(args)) => cmd::ft::run(args, &global),
+        Some(Command::Daq(args)) => cmd::daq::run(args, &global),
         Some(Command::Ystage(args)) => cmd::ystage::run(args, &global),
         Some(Command::Axis(args)) => cmd::axis::run(args, &global),
         Some(Command::Camera(args)) => cmd::camera::run(args, &global),

@@ -34,6 +34,21 @@ pub trait GaugeSource: Send {
     fn stop(&mut self) -> Result<(), ForceError>;
 }
 
+impl<S: GaugeSource + ?Sized> GaugeSource for Box<S> {
+    fn describe(&self) -> String {
+        (**self).describe()
+    }
+    fn start(&mut self) -> Result<(), ForceError> {
+        (**self).start()
+    }
+    fn next_reading(&mut self, timeout: Duration) -> Result<Option<GaugeReading>, ForceError> {
+        (**self).next_reading(timeout)
+    }
+    fn stop(&mut self) -> Result<(), ForceError> {
+        (**self).stop()
+    }
+}
+
 /// A force/torque sensor made of a gauge source and its `.cal` calibration.
 pub struct CalibratedSensor<S: GaugeSource> {
     source: S,

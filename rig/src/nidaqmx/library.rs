@@ -46,7 +46,11 @@ impl Library {
             // standing in for it) is what the user pointed at.
             match unsafe { libloading::Library::new(name) } {
                 Ok(lib) => return Library::from_loaded(lib, name),
-                Err(e) => reasons.push(e.to_string()),
+                // libloading's own text is only "dlopen failed": the system's reason is its source.
+                Err(e) => reasons.push(match std::error::Error::source(&e) {
+                    Some(cause) => cause.to_string(),
+                    None => e.to_string(),
+                }),
             }
         }
         Err(DaqError::LibraryMissing {

@@ -53,6 +53,14 @@ impl TraceWriter {
             .write_all(Trace::data_line(time, direction, bytes).as_bytes())
     }
 
+    /// Appends a comment line (`# text`), for readers of the file.
+    pub fn comment(&mut self, text: &str) -> io::Result<()> {
+        for line in text.lines() {
+            writeln!(self.out, "# {line}")?;
+        }
+        Ok(())
+    }
+
     /// The file being written.
     pub fn path(&self) -> &Path {
         &self.path

@@ -5,8 +5,11 @@
 
 use crate::host_port::HostPort;
 use fringe_rig::apt::driver::AptConfig;
+use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::netft::{Command, NetFtConfig, NetFtOptions};
+use fringe_rig::nidaqmx::{DaqSettings, Setting};
+use std::path::PathBuf;
 
 /// A motion axis.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,6 +82,105 @@ pub enum ModbusLink {
     Rtu {
         port: String,
     },
+}
+
+/// A force/torque sensor: one variant per interface, all opened by
+/// [`open_force`](crate::device_open::open_force).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ForceSpec {
+    /// An ATI Net F/T or Ethernet Axia over RDT/UDP.
+    NetFt(NetFtSpec),
+    /// An ATI transducer's gauges read by an NI-DAQmx device, converted by its `.cal` file.
+    NiDaqmx(DaqSpec),
+}
+
+impl ForceSpec {
+    /// One line for the rig's device list.
+    pub fn describe(&self) -> String {
+        match self {
+            ForceSpec::NetFt(n) => n.describe(),
+            ForceSpec::NiDaqmx(d) => d.describe(),
+        }
+    }
+
+    /// Whether the force stream carries the camera's exposure strobe (strobe sync possible).
+    pub fn records_strobe(&self) -> bool {
+        match self {
+            ForceSpec::NetFt(_) => false,
+            ForceSpec::NiDaqmx(d) => d.settings.strobe.is_some(),
+        }
+    }
+
+    /// The name of its trace under `--record-trace DIR` (`DIR/<name>.trace`).
+    pub fn trace_name(&self) -> &'static str {
+        match self {
+            ForceSpec::NetFt(_) => "netft",
+            ForceSpec::NiDaqmx(_) => "force",
+        }
+    }
+}
+
+/// An NI-DAQmx device reading an ATI transducer's gauges (and the camera strobe), with the
+/// transducer's `.cal` file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DaqSpec {
+    pub settings: DaqSettings,
+    /// The transducer's ATI calibration file.
+    pub cal_file: PathBuf,
+    /// NI-DAQmx's library, when not on the system's search path.
+    pub library: Option<PathBuf>,
+    /// Wrenches expressed in this tool frame, when given.
+    pub tool: Option<ToolTransform>,
+    /// Who described it: errors name the rig file's key or the command's flag.
+    pub named_by: DaqNames,
+}
+
+impl DaqSpec {
+    /// One line for the rig's device list.
+    pub fn describe(&self) -> String {
+        format!(
+            "force: {}, calibration {}",
+            self.settings.describe(),
+            self.cal_file.display()
+        )
+    }
+}
+
+/// Where a DAQ's settings were given, so that an error names what the user wrote.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DaqNames {
+    /// A rig file's `[force]` keys.
+    RigFile,
+    /// `fringe daq`'s flags.
+    Flags,
+}
+
+impl DaqNames {
+    /// The key or flag of `setting`, as a user would write it in a message ("key
+    /// `force.device`", "--device").
+    pub fn of(self, setting: Setting) -> String {
+        let (key, flag) = match setting {
+            Setting::Library => ("library", "--library"),
+            Setting::Device => ("device", "--device"),
+            Setting::Gauges => ("gauges", "--channels"),
+            Setting::Strobe => ("strobe", "--strobe"),
+            Setting::Terminal => ("terminal", "--terminal"),
+            Setting::Range => ("range_v", "--range"),
+            Setting::Rate => ("rate_hz", "--rate"),
+            Setting::Buffer => ("buffer_scans", "--buffer-scans"),
+            Setting::CalFile => ("cal_file", "--cal"),
+            Setting::Counter => {
+                return match self {
+                    DaqNames::RigFile => "key `camera.trigger`".into(),
+                    DaqNames::Flags => "the camera trigger's counter".into(),
+                }
+            }
+        };
+        match self {
+            DaqNames::RigFile => format!("key `force.{key}`"),
+            DaqNames::Flags => flag.into(),
+        }
+    }
 }
 
 /// An ATI Net F/T or Ethernet Axia over RDT/UDP.

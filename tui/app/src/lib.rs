@@ -40,6 +40,7 @@
 pub mod bench_session;
 pub mod calibration_scan;
 pub mod commission;
+pub mod daq_bringup;
 pub mod device_open;
 pub mod device_spec;
 pub mod disk_room;

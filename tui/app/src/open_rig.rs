@@ -2,7 +2,7 @@
 //! (`rig_devices`) that the one opener (`device_open`) opens, as the bring-up commands do with
 //! their flags; or the simulated bench (`sim_bench`) when the rig is simulated.
 
-use crate::device_open::{open_axis, open_camera, open_netft, TraceTo};
+use crate::device_open::{open_axis, open_camera, open_force, TraceTo};
 use crate::rig_error::RigError;
 use crate::rig_file::RigConfig;
 #[cfg(feature = "sim")]
@@ -109,10 +109,7 @@ impl RigConfig {
         let y = axis("y", &limits.y)?;
         let z = axis("z", &limits.z)?;
         let force_spec = self.force_spec()?;
-        let force = Box::new(open_netft(
-            &force_spec,
-            TraceTo::new(record_trace, "netft"),
-        )?);
+        let force = open_force(&force_spec, record_trace)?;
         description.push(force_spec.describe());
         let camera_spec = self.camera_spec()?;
         let camera = open_camera(&camera_spec)?;

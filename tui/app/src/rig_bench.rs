@@ -2,12 +2,13 @@
 //! height and origin, and the sensor's id; from the file's keys on real hardware, from the
 //! simulated bench (`sim_bench`) when the rig is simulated.
 
-use crate::rig_file::{AxisDriver, AxisSection, RigConfig};
+use crate::rig_file::{AxisDriver, AxisSection, ForceDriver, RigConfig};
 use crate::sim_bench;
+use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::scan::plan::{BenchLimits, FtRating};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 
 /// The largest force on the bench when the rig file does not say (or the transducer's rated
@@ -90,10 +91,34 @@ impl RigConfig {
             z_motion,
             manual_y: f.y.driver == AxisDriver::Manual,
             max_force,
-            // A Net F/T's rated range is known to its box only.
-            ft_rating: None,
+            // A Net F/T's rated range is known to its box only; a DAQ's is in its .cal file.
+            ft_rating: self.daq_rating()?,
             contact_z: Millimetres(contact_z),
         })
+    }
+
+    /// The rated range of a DAQ rig's transducer, from its `.cal` file (read here, before any
+    /// device opens, so that a file that cannot be read is named first).
+    fn daq_rating(&self) -> Result<Option<FtRating>, ConfigError> {
+        let f = &self.file.force;
+        let (ForceDriver::Nidaqmx, Some(path)) = (f.driver, &f.cal_file) else {
+            return Ok(None);
+        };
+        let cal = Calibration::load(path).map_err(|e| {
+            self.err(format!(
+                "key `force.cal_file`: {e}; give the transducer's ATI calibration file (FT*.cal, from the CD or ATI's site by serial number)"
+            ))
+        })?;
+        Ok(Some(FtRating {
+            transducer: format!(
+                "{} ({}, serial {}, {})",
+                cal.body_style,
+                cal.part_number,
+                cal.serial,
+                path.display()
+            ),
+            fz: Newtons(cal.max_loads[2]),
+        }))
     }
 
     /// The contact origin given by the rig file (or the simulated bench's geometry).

@@ -107,6 +107,18 @@ pub enum ForceDriver {
     Sim,
     /// ATI Net F/T or Ethernet Axia over RDT/UDP.
     Netft,
+    /// An ATI transducer's gauges through an NI-DAQmx device and its `.cal` file.
+    Nidaqmx,
+}
+
+impl ForceDriver {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            ForceDriver::Sim => "sim",
+            ForceDriver::Netft => "netft",
+            ForceDriver::Nidaqmx => "nidaqmx",
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
@@ -122,6 +134,63 @@ pub struct ForceSection {
     pub torque_unit: Option<String>,
     /// Largest force the F/T sensor and the sensor under test may see, N (default 20).
     pub max_force: Option<f64>,
+    /// NI-DAQmx device name (default Dev1).
+    pub device: Option<String>,
+    /// The six gauge channels in the .cal file's order (default ai0:5).
+    pub gauges: Option<String>,
+    /// The analogue input carrying the camera's exposure signal (e.g. ai7), if wired.
+    pub strobe: Option<String>,
+    /// diff (default), rse, nrse, pseudo-diff or default.
+    pub terminal: Option<String>,
+    /// Input range, +- volts (default 10).
+    pub range_v: Option<f64>,
+    /// Scans per second (default 5000).
+    pub rate_hz: Option<f64>,
+    /// Scans the input buffer holds per channel (NI's default when absent).
+    pub buffer_scans: Option<u32>,
+    /// The transducer's ATI calibration file (required for nidaqmx).
+    pub cal_file: Option<PathBuf>,
+    /// NI-DAQmx's library, when not on the system's search path.
+    pub library: Option<PathBuf>,
+    /// Tool frame: displacement (m) and ATI's rotation angles (degrees) of the `.cal` path.
+    pub tool_translation_m: Option<[f64; 3]>,
+    pub tool_rotation_deg: Option<[f64; 3]>,
+}
+
+impl ForceSection {
+    /// The Net F/T's keys given.
+    fn netft_keys(&self) -> Vec<&'static str> {
+        [
+            ("address", self.address.is_some()),
+            ("cpf", self.cpf.is_some()),
+            ("cpt", self.cpt.is_some()),
+            ("force_unit", self.force_unit.is_some()),
+            ("torque_unit", self.torque_unit.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
+    }
+
+    /// The NI-DAQmx keys given.
+    fn daq_keys(&self) -> Vec<&'static str> {
+        [
+            ("device", self.device.is_some()),
+            ("gauges", self.gauges.is_some()),
+            ("strobe", self.strobe.is_some()),
+            ("terminal", self.terminal.is_some()),
+            ("range_v", self.range_v.is_some()),
+            ("rate_hz", self.rate_hz.is_some()),
+            ("buffer_scans", self.buffer_scans.is_some()),
+            ("cal_file", self.cal_file.is_some()),
+            ("library", self.library.is_some()),
+            ("tool_translation_m", self.tool_translation_m.is_some()),
+            ("tool_rotation_deg", self.tool_rotation_deg.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
+    }
 }
 
 /// What films the sensor.
@@ -378,10 +447,11 @@ impl RigConfig {
     /// The sync method: as written, or strobe where the force path records the strobe and
     /// clock-fit otherwise.
     pub fn sync(&self) -> Result<SyncMethod, ConfigError> {
+        let daq = !self.simulated && self.file.force.driver == ForceDriver::Nidaqmx;
         let strobe_wired = if self.simulated {
             self.file.sim.force_path == SimForcePath::Daq
         } else {
-            false
+            daq && self.file.force.strobe.is_some()
         };
         let method = match &self.file.sync {
             Some(s) => s
@@ -390,6 +460,12 @@ impl RigConfig {
             None if strobe_wired => SyncMethod::Strobe,
             None => SyncMethod::ClockFit,
         };
+        if method == SyncMethod::Strobe && !strobe_wired && daq {
+            return Err(self.err(
+                "key `sync` = \"strobe\": the DAQ records no exposure strobe without key `force.strobe` (the analogue input wired to the camera's exposure-active output, e.g. \"ai7\"); give it, or use sync = \"clock-fit\""
+                    .into(),
+            ));
+        }
         if method == SyncMethod::Strobe && !strobe_wired {
             return Err(self.err(
                 "key `sync` = \"strobe\": this force path records no exposure strobe (a Net F/T has no spare channel); use sync = \"clock-fit\""
@@ -488,6 +564,7 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
             }
         }
     }
+    check_force_keys(&f.force, origin)?;
     check_sim(&f.sim, origin)?;
     if let Some(m) = f.force.max_force {
         if !(m.is_finite() && m > 0.0) {
@@ -504,6 +581,51 @@ fn check(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
     }
     Ok(simulated)
 }
+
+/// Refuses keys of another force driver than the one chosen, and a DAQ without its `.cal` file.
+fn check_force_keys(force: &ForceSection, origin: &str) -> Result<(), ConfigError> {
+    let driver = force.driver;
+    // A simulated force sensor predates the DAQ's keys and has always ignored the Net F/T's.
+    let foreign = match driver {
+        ForceDriver::Netft | ForceDriver::Sim => force.daq_keys(),
+        ForceDriver::Nidaqmx => force.netft_keys(),
+    };
+    if let Some(key) = foreign.first() {
+        let owner = if driver == ForceDriver::Nidaqmx {
+            "a Net F/T's (driver \"netft\")"
+        } else {
+            "an NI-DAQmx device's (driver \"nidaqmx\")"
+        };
+        let allowed = match driver {
+            ForceDriver::Nidaqmx => DAQ_KEYS,
+            ForceDriver::Netft => NETFT_KEYS,
+            ForceDriver::Sim => "max_force; the simulated force path is chosen by `sim.force_path`",
+        };
+        return Err(bad(
+            origin,
+            format!(
+                "key `force.{key}` is {owner}, but `force.driver` = \"{}\": remove it, or change the driver (driver \"{}\" takes {allowed})",
+                driver.name(),
+                driver.name(),
+            ),
+        ));
+    }
+    if driver == ForceDriver::Nidaqmx && force.cal_file.is_none() {
+        return Err(bad(
+            origin,
+            "key `force.cal_file` (the transducer's ATI .cal file) is required for driver \"nidaqmx\"".into(),
+        ));
+    }
+    if driver == ForceDriver::Nidaqmx {
+        crate::rig_devices::daq_settings(force)
+            .map_err(|(key, message)| bad(origin, format!("{key}: {message}")))?;
+    }
+    Ok(())
+}
+
+/// The `[force]` keys each driver takes, for messages.
+const NETFT_KEYS: &str = "address, cpf, cpt, force_unit, torque_unit, max_force";
+const DAQ_KEYS: &str = "device, gauges, strobe, terminal, range_v, rate_hz, buffer_scans, cal_file, library, tool_translation_m, tool_rotation_deg, max_force";
 
 /// An error in the rig file `origin`.
 fn bad(origin: &str, message: String) -> ConfigError {

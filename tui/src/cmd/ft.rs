@@ -307,6 +307,7 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
+    use fringe_app::device_spec::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]
@@ -325,10 +326,14 @@ mod tests {
         let text = format!(
             "[x]\ndriver = \"thorlabs\"\n[y]\ndriver = \"manual\"\n[z]\ndriver = \"thorlabs\"\n[force]\ndriver = \"netft\"\n{force}\n[camera]\ndriver = \"aravis\"\n"
         );
-        RigConfig::parse(&text, "rig.toml")
+        match RigConfig::parse(&text, "rig.toml")
             .expect("rig file")
             .force_spec()
             .expect("spec from the rig file")
+        {
+            ForceSpec::NetFt(spec) => spec,
+            other => panic!("a Net F/T rig file gave {other:?}"),
+        }
     }
 
     #[test]
