@@ -311,7 +311,12 @@ pub fn open_daq_with(
     spec: &DaqSpec,
     trace: TraceTo,
 ) -> Result<DaqForce, DeviceError> {
-    let daq = NiDaq::open(library, spec.settings.clone()).map_err(|e| daq_error(spec, e))?;
+    let mut daq = NiDaq::open(library, spec.settings.clone()).map_err(|e| daq_error(spec, e))?;
+    if let Some(trigger) = &spec.camera_trigger {
+        daq = daq
+            .with_camera_trigger(library, trigger.clone())
+            .map_err(|e| daq_error(spec, e))?;
+    }
     let gauges = match trace.dir {
         None => DaqGauges::Live(daq),
         Some(dir) => DaqGauges::Recorded(

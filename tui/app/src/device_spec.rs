@@ -8,7 +8,7 @@ use fringe_rig::apt::driver::AptConfig;
 use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::netft::{Command, NetFtConfig, NetFtOptions};
-use fringe_rig::nidaqmx::{DaqSettings, Setting};
+use fringe_rig::nidaqmx::{CameraTrigger, DaqSettings, Setting};
 use std::path::PathBuf;
 
 /// A motion axis.
@@ -131,6 +131,8 @@ pub struct DaqSpec {
     pub library: Option<PathBuf>,
     /// Wrenches expressed in this tool frame, when given.
     pub tool: Option<ToolTransform>,
+    /// The camera trigger the DAQ's counter generates, when it triggers the camera.
+    pub camera_trigger: Option<CameraTrigger>,
     /// Who described it: errors name the rig file's key or the command's flag.
     pub named_by: DaqNames,
 }
@@ -171,7 +173,7 @@ impl DaqNames {
             Setting::CalFile => ("cal_file", "--cal"),
             Setting::Counter => {
                 return match self {
-                    DaqNames::RigFile => "key `camera.trigger`".into(),
+                    DaqNames::RigFile => "keys `force.trigger_counter` and `camera.trigger`".into(),
                     DaqNames::Flags => "the camera trigger's counter".into(),
                 }
             }

@@ -13,6 +13,7 @@ use fringe_rig::scan::control::Operator;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::sync::trigger::TriggerTiming;
 use std::path::Path;
 
 /// The rig, opened.
@@ -22,6 +23,8 @@ pub struct OpenRig {
     /// Contact origin from the rig file or the simulated bench (a profile may replace it).
     pub origin: ContactOrigin,
     pub sync: SyncMethod,
+    /// The DAQ-triggered camera's timing, when the DAQ triggers the camera (sync `trigger`).
+    pub trigger: Option<TriggerTiming>,
     pub sensor_id: String,
     pub camera_settings: CameraSettings,
     /// The rig file's text (or a description of the default simulated bench).
@@ -36,6 +39,7 @@ struct Described {
     limits: BenchLimits,
     origin: ContactOrigin,
     sync: SyncMethod,
+    trigger: Option<TriggerTiming>,
     sensor_id: String,
     camera_settings: CameraSettings,
 }
@@ -53,6 +57,7 @@ impl RigConfig {
             limits: self.limits()?,
             origin: self.origin()?,
             sync: self.sync()?,
+            trigger: self.trigger_timing()?,
             sensor_id: self.sensor_id()?,
             camera_settings: self.camera_settings()?,
         })
@@ -70,6 +75,7 @@ impl RigConfig {
             limits,
             origin,
             sync,
+            trigger,
             sensor_id,
             camera_settings,
         } = self.described()?;
@@ -83,6 +89,7 @@ impl RigConfig {
                     limits,
                     origin,
                     sync,
+                    trigger,
                     sensor_id,
                     camera_settings,
                     text,
@@ -126,6 +133,7 @@ impl RigConfig {
             limits,
             origin,
             sync,
+            trigger,
             sensor_id,
             camera_settings,
             text,

@@ -17,7 +17,7 @@ use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::netft::{self, Command, NetFtConfig};
-use fringe_rig::nidaqmx::{DaqError, DaqSettings, Terminal};
+use fringe_rig::nidaqmx::{CameraTrigger, DaqError, DaqSettings, Terminal};
 use fringe_rig::units::{
     Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Volts,
 };
@@ -194,11 +194,21 @@ impl RigConfig {
                 Some(ToolTransform::from_ati(d, r.map(f64::to_radians)))
             }
         };
+        let camera_trigger = match self.daq_triggers_camera()? {
+            true => Some(CameraTrigger {
+                counter: f.trigger_counter.clone().unwrap_or_else(|| "ctr0".into()),
+                terminal: f.trigger_terminal.clone(),
+                frame_rate: self.camera_settings()?.frame_rate,
+                duty: 0.5,
+            }),
+            false => None,
+        };
         Ok(DaqSpec {
             settings,
             cal_file,
             library: f.library.clone(),
             tool,
+            camera_trigger,
             named_by: DaqNames::RigFile,
         })
     }
@@ -442,6 +452,7 @@ mod tests {
             cal_file,
             library: Some(PathBuf::from(library)),
             tool: None,
+            camera_trigger: None,
             named_by,
         })
     }
@@ -570,6 +581,7 @@ mod tests {
             cal_file: cal_file(),
             library: None,
             tool: None,
+            camera_trigger: None,
             named_by,
         };
         for (setting, code, text, key, flag, advice) in [

@@ -17,7 +17,9 @@ use fringe_rig::config_file::{parse_toml, ConfigError};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::frame_file::FrameCodec;
 use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
+use fringe_rig::nidaqmx::DaqSettings;
 use fringe_rig::sync::method::SyncMethod;
+use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::units::{
     Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared,
 };
@@ -155,6 +157,10 @@ pub struct ForceSection {
     /// Tool frame: displacement (m) and ATI's rotation angles (degrees) of the `.cal` path.
     pub tool_translation_m: Option<[f64; 3]>,
     pub tool_rotation_deg: Option<[f64; 3]>,
+    /// With `[camera] trigger = "daq"`: the counter pulsing the camera (default ctr0) and the
+    /// terminal its pulses leave on (the counter's default output when absent).
+    pub trigger_counter: Option<String>,
+    pub trigger_terminal: Option<String>,
 }
 
 impl ForceSection {
@@ -186,6 +192,8 @@ impl ForceSection {
             ("library", self.library.is_some()),
             ("tool_translation_m", self.tool_translation_m.is_some()),
             ("tool_rotation_deg", self.tool_rotation_deg.is_some()),
+            ("trigger_counter", self.trigger_counter.is_some()),
+            ("trigger_terminal", self.trigger_terminal.is_some()),
         ]
         .into_iter()
         .filter_map(|(k, given)| given.then_some(k))
@@ -214,8 +222,14 @@ pub struct CameraSection {
     pub gain_db: Option<f64>,
     /// mono8, rgb8 or bayerrg8.
     pub pixel_format: Option<String>,
-    /// free-run (default), software, or a hardware line name such as Line1.
+    /// free-run (default), software, a hardware line name such as Line1, or daq (the DAQ's
+    /// counter on `trigger_line`, on the gauges' sample clock: sync `trigger`).
     pub trigger: Option<String>,
+    /// With trigger = "daq": the camera's input line the counter is wired to (default Line1).
+    pub trigger_line: Option<String>,
+    /// With trigger = "daq": rising edge to exposure start, us (the camera's exposure start
+    /// delay plus its line's response time; default Basler's example, 17.62 + 1.5 us).
+    pub trigger_delay_us: Option<f64>,
     /// Output line carrying ExposureActive to the DAQ (strobe sync), e.g. Line2.
     pub exposure_active_line: Option<String>,
 }
@@ -224,6 +238,27 @@ pub struct CameraSection {
 /// The simulated camera renders every frame in the same process; a whole scan at 50 fps on an
 /// idle 2-core machine drops none (BENCHMARKS.md, "Recording").
 pub(crate) const SIM_FRAME_RATE_HZ: f64 = 50.0;
+
+/// The camera's input line the DAQ's counter is wired to, unless the rig file says.
+pub(crate) const DAQ_TRIGGER_LINE: &str = "Line1";
+
+/// Rising edge to exposure start when the rig file does not say, us: Basler's documented example
+/// (an exposure start delay of 17.62 us plus the input line's response time, 1.5 us).
+pub(crate) const BASLER_EXAMPLE_TRIGGER_DELAY_US: f64 = 19.12;
+
+/// The simulated DAQ's scan rate, Hz (`SimDaqConfig`'s, which a rig file does not change).
+const SIM_DAQ_RATE_HZ: f64 = 5000.0;
+
+/// The simulated camera's delay from a trigger line's edge to the exposure, us.
+fn sim_trigger_delay_us() -> f64 {
+    #[cfg(feature = "sim")]
+    {
+        let c = fringe_sim::camera_emulator::SimCameraConfig::default();
+        c.trigger_latency_us + c.line_response_us
+    }
+    #[cfg(not(feature = "sim"))]
+    BASLER_EXAMPLE_TRIGGER_DELAY_US
+}
 
 /// Where the sensor sits on the stage (used until a calibration profile gives the origin).
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
@@ -444,9 +479,73 @@ impl RigConfig {
         }
     }
 
-    /// The sync method: as written, or strobe where the force path records the strobe and
-    /// clock-fit otherwise.
+    /// Whether the DAQ triggers the camera (`[camera] trigger = "daq"`); refused where the force
+    /// path has no DAQ counter.
+    pub fn daq_triggers_camera(&self) -> Result<bool, ConfigError> {
+        if self.file.camera.trigger.as_deref() != Some("daq") {
+            for (key, given) in [
+                ("camera.trigger_line", self.file.camera.trigger_line.is_some()),
+                ("camera.trigger_delay_us", self.file.camera.trigger_delay_us.is_some()),
+                ("force.trigger_counter", self.file.force.trigger_counter.is_some()),
+                ("force.trigger_terminal", self.file.force.trigger_terminal.is_some()),
+            ] {
+                if given {
+                    return Err(self.err(format!(
+                        "key `{key}` is for a camera triggered by the DAQ: set `camera.trigger` = \"daq\" or remove it"
+                    )));
+                }
+            }
+            return Ok(false);
+        }
+        let daq = if self.simulated {
+            self.file.sim.force_path == SimForcePath::Daq
+        } else {
+            self.file.force.driver == ForceDriver::Nidaqmx
+        };
+        if !daq {
+            return Err(self.err(
+                "key `camera.trigger` = \"daq\": the camera is triggered by a counter of the DAQ that reads the gauges; it needs [force] driver = \"nidaqmx\" (or, simulated, [sim] force_path = \"daq\")"
+                    .into(),
+            ));
+        }
+        if let Some(d) = self.file.camera.trigger_delay_us {
+            if !(d.is_finite() && (0.0..1e6).contains(&d)) {
+                return Err(self.err(format!(
+                    "key `camera.trigger_delay_us` = {d}: must be the camera's delay from the trigger's edge to the exposure, in us (0 or more; Basler's example is 19.12)"
+                )));
+            }
+        }
+        Ok(true)
+    }
+
+    /// The DAQ-triggered camera's timing for sync `trigger`, when the DAQ triggers the camera.
+    pub fn trigger_timing(&self) -> Result<Option<TriggerTiming>, ConfigError> {
+        if !self.daq_triggers_camera()? {
+            return Ok(None);
+        }
+        let camera = self.camera_settings()?;
+        let scan_rate = if self.simulated {
+            SIM_DAQ_RATE_HZ
+        } else {
+            self.file.force.rate_hz.unwrap_or(DaqSettings::default().rate.0)
+        };
+        let delay = self.file.camera.trigger_delay_us.unwrap_or(if self.simulated {
+            sim_trigger_delay_us()
+        } else {
+            BASLER_EXAMPLE_TRIGGER_DELAY_US
+        });
+        Ok(Some(TriggerTiming {
+            scan_rate: Hertz(scan_rate),
+            frame_rate: camera.frame_rate,
+            delay: Microseconds(delay),
+            exposure: camera.exposure,
+        }))
+    }
+
+    /// The sync method: as written, or `trigger` where the DAQ triggers the camera, `strobe`
+    /// where the force path records the strobe, and clock-fit otherwise.
     pub fn sync(&self) -> Result<SyncMethod, ConfigError> {
+        let triggered = self.daq_triggers_camera()?;
         let daq = !self.simulated && self.file.force.driver == ForceDriver::Nidaqmx;
         let strobe_wired = if self.simulated {
             self.file.sim.force_path == SimForcePath::Daq
@@ -457,9 +556,16 @@ impl RigConfig {
             Some(s) => s
                 .parse::<SyncMethod>()
                 .map_err(|e| self.err(format!("key `sync`: {e}")))?,
+            None if triggered => SyncMethod::Trigger,
             None if strobe_wired => SyncMethod::Strobe,
             None => SyncMethod::ClockFit,
         };
+        if method == SyncMethod::Trigger && !triggered {
+            return Err(self.err(
+                "key `sync` = \"trigger\": the camera is not triggered by the DAQ; set `camera.trigger` = \"daq\" (and wire the DAQ's counter to the camera's trigger line), or use another sync"
+                    .into(),
+            ));
+        }
         if method == SyncMethod::Strobe && !strobe_wired && daq {
             return Err(self.err(
                 "key `sync` = \"strobe\": the DAQ records no exposure strobe without key `force.strobe` (the analogue input wired to the camera's exposure-active output, e.g. \"ai7\"); give it, or use sync = \"clock-fit\""
@@ -521,10 +627,19 @@ impl RigConfig {
         let trigger = match c.trigger.as_deref() {
             None | Some("free-run") => TriggerMode::FreeRun,
             Some("software") => TriggerMode::Software,
+            Some("daq") => {
+                let line = c.trigger_line.as_deref().unwrap_or(DAQ_TRIGGER_LINE);
+                if !line.starts_with("Line") {
+                    return Err(self.err(format!(
+                        "key `camera.trigger_line` = {line:?}: give the camera's input line the DAQ's counter is wired to, such as Line1"
+                    )));
+                }
+                TriggerMode::Hardware(line.to_string())
+            }
             Some(line) if line.starts_with("Line") => TriggerMode::Hardware(line.to_string()),
             Some(other) => {
                 return Err(self.err(format!(
-                    "key `camera.trigger` = {other:?}: use free-run, software or a line name such as Line1"
+                    "key `camera.trigger` = {other:?}: use free-run, software, daq or a line name such as Line1"
                 )))
             }
         };

@@ -186,7 +186,7 @@ impl ScanSession {
             limits: rig.limits.clone(),
             origin,
             sync: rig.sync,
-            trigger: None,
+            trigger: rig.trigger,
             sensor_id: rig.sensor_id.clone(),
             variant: config.sensor_variant().ok().flatten().map(str::to_string),
             rig_text: rig.text.clone(),

@@ -77,6 +77,10 @@ pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
             SimForcePath::Netft => ForcePath::Netft,
         },
         faults: s.faults.clone(),
+        camera_trigger: match rig.daq_triggers_camera()? {
+            true => Some(rig.camera_settings()?.frame_rate.0),
+            false => None,
+        },
         session: s.session,
         // The camera shift is given in px of the full frame, like the sensor's geometry.
         ageing: s.ageing.scaled(s.image_scale),

@@ -108,6 +108,7 @@ impl DaqArgs {
             cal_file: self.cal.clone(),
             library: self.library.clone(),
             tool: None,
+            camera_trigger: None,
             named_by: DaqNames::Flags,
         };
         if let Err(e) = spec.settings.check() {
