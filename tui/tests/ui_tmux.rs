@@ -247,7 +247,10 @@ fn bench_said(screen: &str) -> String {
                 .to_string()
         })
         .collect();
-    text.join(" ").split_whitespace().collect::<Vec<_>>().join(" ")
+    text.join(" ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Waits until z, chosen, was homed and rests at its home (0 mm), then a second more: the bench
@@ -256,7 +259,10 @@ fn bench_said(screen: &str) -> String {
 fn z_homed(pane: &Pane) -> String {
     let screen = pane.wait_until("z homed, idle at 0 mm", Duration::from_secs(60), |s| {
         s.lines().any(|l| {
-            l.contains("▶ z") && l.contains("homed") && !l.contains("not homed") && l.contains("idle")
+            l.contains("▶ z")
+                && l.contains("homed")
+                && !l.contains("not homed")
+                && l.contains("idle")
         }) && z_position(s).is_some_and(|p| p.abs() < 0.01)
     });
     std::thread::sleep(Duration::from_secs(1));
@@ -266,8 +272,7 @@ fn z_homed(pane: &Pane) -> String {
 /// Waits until z, chosen, rests at `mm`.
 fn z_rests_at(pane: &Pane, mm: f64) -> String {
     pane.wait_until(&format!("z at {mm} mm"), Duration::from_secs(30), |s| {
-        s.lines()
-            .any(|l| l.contains("▶ z") && l.contains("idle"))
+        s.lines().any(|l| l.contains("▶ z") && l.contains("idle"))
             && z_position(s).is_some_and(|p| (p - mm).abs() < 0.01)
     })
 }
@@ -338,8 +343,9 @@ fn the_bench_screen_refuses_moves_across_the_sensor_and_the_tare_in_contact() {
     let unknown = pane.wait_for("is refused", Duration::from_secs(10));
     let said = bench_said(&unknown);
     assert!(
-        said.contains("x: a move across the sensor is refused: the F/T's no-contact reading is not known yet")
-            && said.contains("home z first (z, then h)"),
+        said.contains(
+            "x: a move across the sensor is refused: the F/T's no-contact reading is not known yet"
+        ) && said.contains("home z first (z, then h)"),
         "{unknown}"
     );
     // Home z (its no-contact reading is taken there), then press it 5, 5, 5 mm down to the
@@ -401,7 +407,9 @@ fn the_bench_screen_refuses_moves_across_the_sensor_and_the_tare_in_contact() {
     // The tare is refused too: it would hide the load.
     pane.keys("t");
     let tare = pane.wait_until("the tare refused", Duration::from_secs(10), |s| {
-        bench_said(s).contains("the tare (the F/T's no-contact offset) is refused while the F/T reads a load")
+        bench_said(s).contains(
+            "the tare (the F/T's no-contact offset) is refused while the F/T reads a load",
+        )
     });
     assert!(
         bench_said(&tare).contains("a tare would hide that load"),

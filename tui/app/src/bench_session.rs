@@ -381,7 +381,10 @@ impl<'a> Worker<'a> {
             picture_px,
             started,
             // A load is told as the scan's approach tells first contact, by default.
-            guard: JogGuard::new(limits.max_force.0, PressSettings::default().contact_threshold),
+            guard: JogGuard::new(
+                limits.max_force.0,
+                PressSettings::default().contact_threshold,
+            ),
             polled_at: None,
             meter: Meters::new(started),
             last_picture: None,

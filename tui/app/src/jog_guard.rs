@@ -550,8 +550,9 @@ mod tests {
         let refused = g.admit(AxisId::X, Heading::Across).unwrap_err();
         let said = refused.to_string();
         assert!(
-            said.starts_with("x: a move across the sensor is refused while the F/T reads a load: 2.00 N")
-                && said.contains("taken with z at its home")
+            said.starts_with(
+                "x: a move across the sensor is refused while the F/T reads a load: 2.00 N"
+            ) && said.contains("taken with z at its home")
                 && said.contains("lift it with z first (z, then ←, or h to home z)"),
             "{said}"
         );
@@ -588,7 +589,8 @@ mod tests {
         assert_eq!(stop.axes, vec![AxisId::X]);
         assert!((stop.load_n - 1.0).abs() < 1e-9);
         assert!(
-            stop.to_string().starts_with("x stopped: the F/T reads a load, 1.00 N"),
+            stop.to_string()
+                .starts_with("x stopped: the F/T reads a load, 1.00 N"),
             "{stop}"
         );
         assert!(g.reading(-0.6, 0).is_none(), "stopped once");

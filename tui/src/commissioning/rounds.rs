@@ -507,8 +507,7 @@ mod tests {
     /// complete in the journal, and the resume presses it again.
     #[test]
     fn a_round_that_could_not_be_learnt_from_is_not_complete_and_is_pressed_again() {
-        let dir =
-            std::env::temp_dir().join(format!("fringe-round-failed-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("fringe-round-failed-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("dir");
         let config = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "rig.toml").expect("rig");
@@ -519,8 +518,8 @@ mod tests {
             fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");
         let base = open_base(&base_path.display().to_string(), variant).expect("base");
         let disc = UsableDisc::from_profile(&profile).expect("disc");
-        let plan = press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round")
-            .expect("plan");
+        let plan =
+            press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round").expect("plan");
         let mut journal = Journal::new(Options {
             sensor: "unit-1".into(),
             base: base_path.display().to_string(),
@@ -545,7 +544,7 @@ mod tests {
         let mut host = UnusableFrames {
             pressed: Vec::new(),
         };
-        let mut attempt = |host: &mut UnusableFrames| {
+        let attempt = |host: &mut UnusableFrames| {
             let mut c = Commissioning {
                 dir: dir.clone(),
                 journal: Journal::read(&dir).expect("journal"),
