@@ -108,7 +108,7 @@ const KEYS: &[Binding<Action>] = &[
         scope: Scope::Shown,
         action: Action::Tare,
         label: "t",
-        help: "tare the F/T sensor (refused while it reads a load, or before z was homed)",
+        help: "tare the F/T (z homed first; refused in contact)",
     },
 ];
 
