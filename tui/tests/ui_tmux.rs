@@ -216,9 +216,65 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
 
 /// The z row of the Bench screen's device table: its position, mm.
 fn z_position(screen: &str) -> Option<f64> {
-    let line = screen.lines().find(|l| l.contains("▶ z"))?;
-    let after = line.split("▶ z").nth(1)?;
+    chosen_position(screen, "z")
+}
+
+/// The position of the chosen `axis` (marked ▶) in the Bench screen's device table, mm.
+fn chosen_position(screen: &str, axis: &str) -> Option<f64> {
+    let mark = format!("▶ {axis}");
+    let line = screen.lines().find(|l| l.contains(&mark))?;
+    let after = line.split(&mark).nth(1)?;
     after.split_whitespace().next()?.parse().ok()
+}
+
+/// The Bench screen's F/T Fz, N.
+fn bench_fz(screen: &str) -> Option<f64> {
+    let line = screen.lines().find(|l| l.contains("F/T  Fz"))?;
+    let after = line.split("F/T  Fz").nth(1)?;
+    after.split_whitespace().next()?.parse().ok()
+}
+
+/// The right-hand column of the Bench screen (the frame, then the messages, newest first) as
+/// one line: a message wrapped over several lines of the pane reads whole.
+fn bench_said(screen: &str) -> String {
+    let text: Vec<String> = screen
+        .lines()
+        .map(|l| {
+            l.chars()
+                .skip(96)
+                .collect::<String>()
+                .trim_matches(|c: char| c == '│' || c.is_whitespace())
+                .to_string()
+        })
+        .collect();
+    text.join(" ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Waits until z, chosen, was homed and rests at its home (0 mm), then a second more: the bench
+/// takes a motion as finished only from a status polled 0.3 s after it began, and z as at its
+/// home (where the F/T's no-contact reading is taken) from then.
+fn z_homed(pane: &Pane) -> String {
+    let screen = pane.wait_until("z homed, idle at 0 mm", Duration::from_secs(60), |s| {
+        s.lines().any(|l| {
+            l.contains("▶ z")
+                && l.contains("homed")
+                && !l.contains("not homed")
+                && l.contains("idle")
+        }) && z_position(s).is_some_and(|p| p.abs() < 0.01)
+    });
+    std::thread::sleep(Duration::from_secs(1));
+    screen
+}
+
+/// Waits until z, chosen, rests at `mm`.
+fn z_rests_at(pane: &Pane, mm: f64) -> String {
+    pane.wait_until(&format!("z at {mm} mm"), Duration::from_secs(30), |s| {
+        s.lines().any(|l| l.contains("▶ z") && l.contains("idle"))
+            && z_position(s).is_some_and(|p| (p - mm).abs() < 0.01)
+    })
 }
 
 #[test]
@@ -265,6 +321,120 @@ fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Issue 59: on the Bench screen x and y were refused only over the force ceiling, so with the
+/// indenter pressed into the gel under the ceiling `x` `→` dragged it across, and `t` tared the
+/// load away. Now both are refused in contact, saying why and to lift with z; lifting (homing
+/// z) always goes, and then both work. Before z was homed the F/T's no-contact reading is not
+/// known (the simulated F/T is not tared), so both wait, saying to home z.
+#[test]
+fn the_bench_screen_refuses_moves_across_the_sensor_and_the_tare_in_contact() {
+    let dir = scratch("bench-contact");
+    // The quick bench: axes at 8 mm/s; the gel's surface at z 15 mm, the ceiling 20 N.
+    std::fs::write(dir.join("rig.toml"), common::QUICK_RIG).expect("rig file");
+    let pane = Pane::start("bench-contact", &dir, &fringe());
+    pane.wait_for("ready: press r to run", Duration::from_secs(30));
+    pane.keys("4");
+    pane.wait_until("the bench open", Duration::from_secs(30), |s| {
+        s.contains("bench open") && z_position(s).is_some() && bench_fz(s).is_some()
+    });
+    // Before z was homed: nothing tells a load from the F/T's zero.
+    pane.keys("x");
+    pane.keys("Right");
+    let unknown = pane.wait_for("is refused", Duration::from_secs(10));
+    let said = bench_said(&unknown);
+    assert!(
+        said.contains(
+            "x: a move across the sensor is refused: the F/T's no-contact reading is not known yet"
+        ) && said.contains("home z first (z, then h)"),
+        "{unknown}"
+    );
+    // Home z (its no-contact reading is taken there), then press it 5, 5, 5 mm down to the
+    // gel's surface and on by 1 mm steps until the F/T reads a load.
+    pane.keys("z");
+    pane.keys("h");
+    pane.wait_for("z: homing", Duration::from_secs(10));
+    z_homed(&pane);
+    let fz_clear = bench_fz(&pane.screen()).expect("Fz");
+    pane.keys("s");
+    pane.keys("s");
+    pane.wait_for("jog step 5 mm", Duration::from_secs(5));
+    for k in 1..=3 {
+        pane.keys("Right");
+        z_rests_at(&pane, 5.0 * k as f64);
+    }
+    pane.keys("s");
+    pane.keys("s");
+    pane.keys("s");
+    pane.wait_for("jog step 1 mm", Duration::from_secs(5));
+    let mut pressed = None;
+    for k in 1..=4 {
+        pane.keys("Right");
+        z_rests_at(&pane, 15.0 + k as f64);
+        std::thread::sleep(Duration::from_millis(500));
+        let screen = pane.screen();
+        let fz = bench_fz(&screen).expect("Fz");
+        if (fz - fz_clear).abs() > 1.0 {
+            pressed = Some(screen);
+            break;
+        }
+    }
+    let pressed = pressed.unwrap_or_else(|| panic!("no load 4 mm past the gel's surface"));
+    assert!(!pressed.contains("over the ceiling"), "{pressed}");
+    let z_pressed = z_position(&pressed).expect("z");
+    // In contact, under the ceiling: x is not moved, and says why and what to do.
+    pane.keys("x");
+    let chosen = pane.wait_until("x chosen", Duration::from_secs(5), |s| {
+        chosen_position(s, "x").is_some()
+    });
+    let x_before = chosen_position(&chosen, "x").expect("x position");
+    pane.keys("Right");
+    let refused = pane.wait_until("the move across refused", Duration::from_secs(10), |s| {
+        bench_said(s).contains("x: a move across the sensor is refused while the F/T reads a load")
+    });
+    let said = bench_said(&refused);
+    assert!(
+        said.contains("the indenter is in contact and a move across would drag it through the gel")
+            && said.contains("lift it with z first (z, then ←, or h to home z)"),
+        "{refused}"
+    );
+    assert!(!said.contains("x: moving by"), "{refused}");
+    std::thread::sleep(Duration::from_millis(1000));
+    let x_after = chosen_position(&pane.screen(), "x").expect("x position");
+    assert!(
+        (x_after - x_before).abs() < 1e-3,
+        "x moved from {x_before} to {x_after} mm in contact"
+    );
+    // The tare is refused too: it would hide the load.
+    pane.keys("t");
+    let tare = pane.wait_until("the tare refused", Duration::from_secs(10), |s| {
+        bench_said(s).contains(
+            "the tare (the F/T's no-contact offset) is refused while the F/T reads a load",
+        )
+    });
+    assert!(
+        bench_said(&tare).contains("a tare would hide that load"),
+        "{tare}"
+    );
+    assert!(!tare.contains("F/T sensor tared"), "{tare}");
+    // Lifting always goes: z homed from the gel; then x moves and the F/T tares.
+    pane.keys("z");
+    pane.keys("h");
+    let lifted = z_homed(&pane);
+    assert!(z_pressed > 15.0, "{lifted}");
+    pane.keys("x");
+    pane.keys("Right");
+    pane.wait_for("x: moving by +1.000 mm", Duration::from_secs(10));
+    pane.wait_until("x 1 mm further", Duration::from_secs(30), |s| {
+        chosen_position(s, "x").is_some_and(|p| (p - x_before - 1.0).abs() < 0.01)
+    });
+    pane.keys("t");
+    pane.wait_for("F/T sensor tared", Duration::from_secs(10));
+    pane.keys("1");
+    pane.wait_for("ready: press r to run", Duration::from_secs(10));
+    pane.quit_cleanly();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
     let dir = scratch("bench-reboot");
@@ -283,6 +453,11 @@ fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
         !s.contains(" 0 Hz") && s.contains("Hz")
     });
     assert!(back.contains("bias is gone"), "{back}");
+    // Its zero moved: the tare waits for the no-contact reading, taken with z at its home.
+    pane.keys("z");
+    pane.keys("h");
+    pane.wait_for("z: homing", Duration::from_secs(10));
+    z_homed(&pane);
     pane.keys("t");
     pane.wait_for("F/T sensor tared", Duration::from_secs(10));
     pane.keys("1");

@@ -9,7 +9,7 @@
 //! end of the retract. A point interrupted (pause now, watcher) is cut back to its checkpoint and
 //! done again, so no point is lost or recorded twice; the same holds after a crash.
 
-use super::clearance::{Clearance, Motion, UnderLoad};
+use super::clearance::{Clearance, Motion, UnderLoad, LOAD_SAMPLES};
 use super::control::{Operator, Phase, Prompt, Reply, Request, ScanControl, ScanProgress, Status};
 use super::failure::ScanError;
 use super::offset_check::OffsetCheck;
@@ -639,8 +639,6 @@ const CHECKPOINT_TIMEOUT: Duration = Duration::from_secs(10);
 const TARE_SAMPLES: usize = 500;
 /// Longest wait for fresh samples to tare from after an interruption.
 const FRESH_TARE_TIMEOUT: Duration = Duration::from_secs(5);
-/// Force samples averaged to tell a load before and during a lateral move (10 ms at 5 kHz).
-const LOAD_SAMPLES: usize = 50;
 
 enum Ending {
     Completed,

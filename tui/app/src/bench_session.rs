@@ -7,11 +7,13 @@
 //! limits. While a motion into or across the sensor runs, every force sample is checked (not
 //! every poll): the first one over the bench's ceiling stops it at once. Over the ceiling, moves
 //! into or across the sensor are refused and moves away from it (z up, homing z) are allowed
-//! and never stopped for force ([`crate::jog_guard`]). Closing the session stops any motion
-//! before the devices are released.
+//! and never stopped for force ([`crate::jog_guard`]). While the F/T reads a load (against its
+//! no-contact reading, taken with z at its home), moves across the sensor and the tare are
+//! refused, and a move across is stopped at the first reading of one. Closing the session stops
+//! any motion before the devices are released.
 
 pub use crate::jog_guard::AxisId;
-use crate::jog_guard::{Heading, JogGuard, OverCeiling};
+use crate::jog_guard::{Heading, JogGuard, Polled, Refused};
 use crate::rig_error::RigError;
 use crate::rig_file::RigConfig;
 use fringe_rig::acquire::camera_stream::CameraStream;
@@ -21,8 +23,10 @@ use fringe_rig::axis::{Axis, AxisError, StopMode};
 use fringe_rig::camera::{CameraError, CameraSettings, Frame};
 use fringe_rig::devices::Devices;
 use fringe_rig::force::{ForceError, StreamStats};
+use fringe_rig::scan::clearance::LOAD_SAMPLES;
 use fringe_rig::scan::control::Operator;
 use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::scan::press::PressSettings;
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
 use std::collections::VecDeque;
@@ -55,7 +59,8 @@ pub enum BenchCommand {
     Home(AxisId),
     /// Stop every axis at once.
     Stop,
-    /// Re-zero the F/T sensor (nothing may touch the indenter).
+    /// Re-zero the F/T sensor: refused while it reads a load, or before its no-contact reading
+    /// is known (z homed).
     Tare,
 }
 
@@ -169,7 +174,7 @@ pub enum BenchError {
     #[error("{}", .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("; "))]
     Stop(Vec<AxisError>),
     #[error(transparent)]
-    OverCeiling(#[from] OverCeiling),
+    Refused(#[from] Refused),
     #[error("axis {axis}: moved by hand on this bench; {what}")]
     MovedByHand {
         axis: &'static str,
@@ -375,7 +380,11 @@ impl<'a> Worker<'a> {
             manual_y: limits.manual_y,
             picture_px,
             started,
-            guard: JogGuard::new(limits.max_force.0),
+            // A load is told as the scan's approach tells first contact, by default.
+            guard: JogGuard::new(
+                limits.max_force.0,
+                PressSettings::default().contact_threshold,
+            ),
             polled_at: None,
             meter: Meters::new(started),
             last_picture: None,
@@ -431,6 +440,20 @@ impl<'a> Worker<'a> {
             ));
         }
         let stats = f.monitor().stats();
+        // Contact: Fz against the no-contact reading, averaged as the scan averages it, once
+        // the stream (new after a tare) has sent that many samples.
+        let reading = f
+            .monitor()
+            .mean_of_last(LOAD_SAMPLES)
+            .filter(|_| stats.received >= LOAD_SAMPLES as u64);
+        if let Some((_, mean)) = reading {
+            if let Some(stop) = self.guard.reading(mean[2], stats.restarts) {
+                for id in &stop.axes {
+                    let _ = self.axes[id.index()].stop(StopMode::Immediate);
+                }
+                lock(self.state).say(stop.to_string());
+            }
+        }
         show_force(&mut lock(self.state), f, stats, batch, self.started);
     }
 
@@ -450,7 +473,14 @@ impl<'a> Worker<'a> {
                     a.homed = st.homed;
                     a.moving = st.moving;
                     a.faults = st.faults.iter().map(|f| f.to_string()).collect();
-                    self.guard.polled(AxisId::ALL[i], st.moving);
+                    self.guard.polled(
+                        AxisId::ALL[i],
+                        Polled {
+                            moving: st.moving,
+                            homed: st.homed,
+                            position_mm: st.position.0,
+                        },
+                    );
                 }
                 Err(e) => {
                     s.axes[i].position_mm = None;
@@ -576,7 +606,7 @@ fn show_force(
     if stats.restarts > s.force.restarts {
         let device = f.monitor().device().to_string();
         s.say(format!(
-            "{device}: the F/T sensor restarted (its sample counter began again): its bias is gone; press t to tare again"
+            "{device}: the F/T sensor restarted (its sample counter began again): its bias is gone, and moves across the sensor wait for its no-contact reading: home z (z, then h), then press t to tare again"
         ));
     }
     s.force.restarts = stats.restarts;
@@ -653,10 +683,9 @@ fn obey(
                     what: "nothing to home",
                 });
             }
-            let heading = Heading::of_home(axis);
-            guard.admit(axis, heading)?;
+            guard.admit(axis, Heading::of_home(axis))?;
             axes[axis.index()].begin_home()?;
-            guard.begun(axis, heading);
+            guard.homing_begun(axis);
             lock(state).say(format!("{}: homing", axis.name()));
         }
         BenchCommand::Stop => {
@@ -673,6 +702,11 @@ fn obey(
             lock(state).say("every axis stopped");
         }
         BenchCommand::Tare => {
+            if force.is_none() {
+                return Err(BenchError::NotStreaming);
+            }
+            // Never a no-contact offset under load: it would hide the load from the ceiling.
+            guard.admit_tare()?;
             let Some(stream) = force.take() else {
                 return Err(BenchError::NotStreaming);
             };
@@ -684,6 +718,8 @@ fn obey(
                 .start()
                 .and_then(|()| sensor.bias())
                 .and_then(|()| sensor.stop());
+            // The zero may have moved: the no-contact reading is read again from the new stream.
+            guard.tared();
             *force = Some(ForceStream::spawn(sensor)?);
             biased?;
             lock(state).force.peak_n = 0.0;

@@ -88,6 +88,21 @@ fn jog_z(bench: &BenchSession, by: f64) -> BenchState {
     }
 }
 
+/// Tares the F/T and waits for it to be done (not refused).
+fn tare(bench: &BenchSession) {
+    bench.send(BenchCommand::Tare);
+    let s = wait_for(bench, "the tare", Duration::from_secs(10), |s| {
+        s.messages
+            .iter()
+            .any(|m| m.contains("tared") || m.contains(" is refused"))
+    });
+    assert!(
+        s.messages.iter().any(|m| m.contains("F/T sensor tared")),
+        "{:?}",
+        s.messages
+    );
+}
+
 #[test]
 fn jogs_into_the_gel_stop_at_the_ceiling_and_a_retract_always_goes() {
     let config = RigConfig::parse(RIG, "bench ceiling test").expect("rig");
@@ -95,15 +110,13 @@ fn jogs_into_the_gel_stop_at_the_ceiling_and_a_retract_always_goes() {
     wait_for(&bench, "the bench open", Duration::from_secs(60), |s| {
         s.phase == BenchPhase::Ready
     });
-    bench.send(BenchCommand::Tare);
-    wait_for(&bench, "the tare", Duration::from_secs(10), |s| {
-        s.messages.iter().any(|m| m.contains("tared"))
-    });
+    // z homed first: the tare waits for the F/T's no-contact reading, taken with z at home.
     bench.send(BenchCommand::Home(AxisId::Z));
     wait_for(&bench, "z homed", Duration::from_secs(60), |s| {
         let a = &s.axes[AxisId::Z.index()];
         a.homed && !a.moving
     });
+    tare(&bench);
     let ceiling = bench.state().force.max_n;
     assert_eq!(ceiling, 12.0);
 

@@ -436,3 +436,149 @@ fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: 
         && t.shape_accuracy
             .is_none_or(|v| 1.0 - p.shape_accuracy <= margin * (1.0 - v))
 }
+
+#[cfg(all(test, feature = "sim"))]
+mod tests {
+    use super::*;
+    use crate::commissioning::host::{Host, ScanEnded};
+    use fringe_app::commission::journal::{Journal, Options};
+    use fringe_rig::scan::engine::RunTarget;
+    use fringe_rig::scan::plan::ScanProgram;
+    use fringe_rig::store::documents::{now_utc, ExitStatus, StopDocument};
+    use fringe_rig::store::layout::{MANIFEST, START, STOP};
+    use fringe_sensor_models::acceptance::Spec;
+
+    /// A bench whose every scan completes with frames that cannot be learnt from (as a round
+    /// pressed on a camera of another frame size): the run is written ended completed, with
+    /// no frame in it. Counts the scans it was asked for, by run id.
+    struct UnusableFrames {
+        pressed: Vec<String>,
+    }
+
+    impl Host for UnusableFrames {
+        fn scan(
+            &mut self,
+            _config: &RigConfig,
+            _program: ScanProgram,
+            _plan_text: String,
+            target: RunTarget,
+            _profile_use: ProfileUse,
+        ) -> Result<ScanEnded> {
+            let RunTarget::New { root, run_id } = target else {
+                bail!("a resume was asked for, not a new scan");
+            };
+            self.pressed.push(run_id.clone());
+            let run_dir = root.join(&run_id);
+            std::fs::create_dir_all(&run_dir)?;
+            std::fs::write(run_dir.join(START), "{}")?;
+            std::fs::write(run_dir.join(MANIFEST), "")?;
+            let stop = StopDocument {
+                exit_status: ExitStatus::Completed,
+                reason: "all points done".into(),
+                stopped_utc: now_utc(),
+                frames: 0,
+                dropped_frames: 0,
+                force_samples: 0,
+                lost_force_samples: 0,
+                points_done: 1,
+                sync_method: None,
+                sync_error_ns: None,
+            };
+            std::fs::write(run_dir.join(STOP), serde_json::to_string(&stop)?)?;
+            Ok(ScanEnded {
+                completed: true,
+                reason: stop.reason,
+                run_dir,
+            })
+        }
+
+        fn say(&mut self, _line: String) {}
+
+        fn frames(&mut self, _what: &'static str, _done: usize, _total: usize) {}
+
+        fn stop_requested(&mut self) -> bool {
+            false
+        }
+    }
+
+    /// Issue 59, item 9: a round pressed on the wrong rig (another camera size) and failed was
+    /// recorded complete, its run kept as done, so a resume on the right rig took it as pressed
+    /// and failed on it again, for ever. A round whose frames cannot be learnt from is not
+    /// complete in the journal, and the resume presses it again.
+    #[test]
+    fn a_round_that_could_not_be_learnt_from_is_not_complete_and_is_pressed_again() {
+        let dir = std::env::temp_dir().join(format!("fringe-round-failed-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let config = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "rig.toml").expect("rig");
+        let sim = fringe_app::sim_bench::config(&config).expect("simulated bench");
+        let profile = fringe_app::sim_bench::design_profile(&sim, "unit-1");
+        let variant = config.sensor_variant().expect("variant");
+        let base_path =
+            fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");
+        let base = open_base(&base_path.display().to_string(), variant).expect("base");
+        let disc = UsableDisc::from_profile(&profile).expect("disc");
+        let plan =
+            press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round").expect("plan");
+        let mut journal = Journal::new(Options {
+            sensor: "unit-1".into(),
+            base: base_path.display().to_string(),
+            budget_min: 10.0,
+            spec: None,
+            spec_origin: "paper".into(),
+            seed: 42,
+            round_presses: 1,
+            acceptance_presses: 1,
+            last_block: false,
+            fine_tune: false,
+            camera: None,
+        });
+        journal.rounds.push(ScanEntry {
+            run_id: "round-1".into(),
+            plan,
+            estimate_s: 10.0,
+            took_s: None,
+            completed: false,
+        });
+        journal.write(&dir).expect("journal");
+        let mut host = UnusableFrames {
+            pressed: Vec::new(),
+        };
+        let attempt = |host: &mut UnusableFrames| {
+            let mut c = Commissioning {
+                dir: dir.clone(),
+                journal: Journal::read(&dir).expect("journal"),
+                config: config.clone(),
+                spec: Spec::paper(),
+                host,
+                threads: 1,
+                compute_s: 0.0,
+            };
+            match adapt(&mut c, &base, &profile) {
+                Ok(_) => panic!("adapted on a round without frames"),
+                Err(e) => format!("{e:#}"),
+            }
+        };
+        let failed = attempt(&mut host);
+        assert_eq!(host.pressed, ["round-1"], "{failed}");
+        let journal = Journal::read(&dir).expect("journal");
+        assert!(
+            !journal.rounds[0].completed,
+            "the failed round is recorded complete: {:?}\n{failed}",
+            journal.rounds[0]
+        );
+        // Resumed: the round is pressed again, not taken as done.
+        let again = attempt(&mut host);
+        assert_eq!(host.pressed, ["round-1", "round-1"], "{again}");
+        assert!(
+            failed.contains("round 1 could not be learnt from")
+                && failed.contains("pressed again when the commissioning is resumed"),
+            "{failed}"
+        );
+        assert!(
+            dir.join("runs/round-1.stopped-1").is_dir(),
+            "the failed round's run is kept aside"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -268,7 +268,10 @@ mod tests {
             ("s (Bench)", "next jog step: 0.01, 0.1, 1, 5 mm"),
             ("h (Bench)", "home the chosen axis"),
             ("Space (Bench)", "stop every axis at once"),
-            ("t (Bench)", "tare the F/T sensor (nothing touching)"),
+            (
+                "t (Bench)",
+                "tare the F/T (z homed first; refused in contact)",
+            ),
             (
                 "r (Calibrate)",
                 "run the calibration scan, then fit the profile",

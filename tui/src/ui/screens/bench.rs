@@ -108,7 +108,7 @@ const KEYS: &[Binding<Action>] = &[
         scope: Scope::Shown,
         action: Action::Tare,
         label: "t",
-        help: "tare the F/T sensor (nothing touching)",
+        help: "tare the F/T (z homed first; refused in contact)",
     },
 ];
 
@@ -222,7 +222,9 @@ fn draw(f: &mut Frame, area: Rect, v: &BenchView) {
         .map(|m| {
             let bad = m.contains("over the ceiling")
                 || m.contains("outside the soft limits")
-                || m.contains("axis ");
+                || m.contains("axis ")
+                || m.contains(" is refused")
+                || m.contains("reads a load");
             let style = if bad {
                 Style::new().fg(BAD)
             } else {
