@@ -904,6 +904,7 @@ mod tests {
 
     const REFERENCE: &str = include_str!("../rigs/reference-bench.toml");
     const SIMULATED: &str = include_str!("../rigs/simulated.toml");
+    const PAPER: &str = include_str!("../rigs/paper-bench.toml");
 
     #[test]
     fn recording_keys_are_checked_when_the_file_is_read() {
@@ -961,6 +962,50 @@ mod tests {
         assert_eq!(real.origin().expect("origin").x, Millimetres(12.5));
     }
 
+    /// The paper's bench: the DAQ reads the gauges and the strobe and triggers the camera, so
+    /// frames are labelled by the trigger with the camera's delay.
+    #[test]
+    fn the_paper_bench_example_triggers_the_camera_from_the_daq() {
+        let cal = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/mini40-v1.0.cal");
+        let paper = RigConfig::parse(&PAPER.replace("FT12345.cal", cal), "paper-bench.toml")
+            .expect("paper example");
+        assert!(!paper.is_simulated());
+        assert_eq!(paper.sync().expect("sync"), SyncMethod::Trigger);
+        let camera = paper.camera_settings().expect("camera");
+        assert_eq!(camera.trigger, TriggerMode::Hardware("Line1".into()));
+        let timing = paper.trigger_timing().expect("timing").expect("triggered");
+        assert_eq!(timing.scan_rate, Hertz(5000.0));
+        assert_eq!(timing.frame_rate, Hertz(50.0));
+        assert_eq!(timing.delay, Microseconds(19.12));
+        assert!(!paper.limits().expect("limits").manual_y, "a Modbus y stage");
+        // The camera trigger's keys without the trigger, and the trigger without a DAQ: refused,
+        // naming the key.
+        let e = RigConfig::parse(&PAPER.replace("trigger = \"daq\"", "trigger = \"free-run\""), "r.toml")
+            .expect("parses")
+            .sync()
+            .expect_err("trigger keys without the trigger");
+        assert!(e.to_string().contains("camera.trigger_line"), "{e}");
+        let sim = RigConfig::parse("sync = \"trigger\"\n", "r.toml")
+            .expect("parses")
+            .sync()
+            .expect_err("a free-running camera");
+        assert!(sim.to_string().contains("`camera.trigger` = \"daq\""), "{sim}");
+        let netft = RigConfig::parse(
+            "[sim]\nforce_path = \"netft\"\n[camera]\ntrigger = \"daq\"\n",
+            "r.toml",
+        )
+        .expect("parses")
+        .sync()
+        .expect_err("no DAQ to trigger from");
+        assert!(netft.to_string().contains("force_path = \"daq\""), "{netft}");
+        let sim = RigConfig::parse("[camera]\ntrigger = \"daq\"\n", "r.toml").expect("sim");
+        assert_eq!(sim.sync().expect("sync"), SyncMethod::Trigger);
+        assert_eq!(
+            sim.trigger_timing().expect("timing").expect("triggered").delay,
+            Microseconds(sim_trigger_delay_us())
+        );
+    }
+
     #[test]
     fn errors_name_the_file_the_key_and_what_is_allowed() {
         let e = RigConfig::parse("[z]\nvelocity = 2000\n", "rig.toml").expect_err("too fast");
@@ -981,7 +1026,10 @@ mod tests {
         let e = RigConfig::parse("[x]\nspeed = 3\n", "rig.toml").expect_err("unknown key");
         assert!(e.to_string().contains("speed"), "{e}");
         let e = RigConfig::parse("sync = \"nearest\"\n", "rig.toml").expect_err("sync");
-        assert!(e.to_string().contains("strobe, clock-fit or host"), "{e}");
+        assert!(
+            e.to_string().contains("strobe, trigger, clock-fit or host"),
+            "{e}"
+        );
         let e = RigConfig::parse("[camera]\ndriver = \"aravis\"\n", "rig.toml").expect_err("mixed");
         assert!(
             e.to_string().contains("x, y, z, force are simulated"),
