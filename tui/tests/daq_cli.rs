@@ -65,7 +65,15 @@ fn a_stream_writes_every_sample_with_the_cal_conversion_and_counts_them_against_
     let out = daq(
         &dir,
         "",
-        &["--strobe", "ai7", "stream", "--seconds", "2", "--csv", csv.to_str().expect("utf8")],
+        &[
+            "--strobe",
+            "ai7",
+            "stream",
+            "--seconds",
+            "2",
+            "--csv",
+            csv.to_str().expect("utf8"),
+        ],
     );
     let printed = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(
@@ -103,14 +111,23 @@ fn a_stream_writes_every_sample_with_the_cal_conversion_and_counts_them_against_
         }
     }
     let high = rows.iter().filter(|r| r[8] > 1.5).count() as f64 / rows.len() as f64;
-    assert!((high - 0.3).abs() < 0.02, "strobe high {high:.3} of the time");
+    assert!(
+        (high - 0.3).abs() < 0.02,
+        "strobe high {high:.3} of the time"
+    );
 }
 
 #[test]
 fn a_wrong_device_and_a_missing_library_are_one_line_naming_the_flag() {
     let dir = scratch("daq-refused");
     let csv = dir.join("x.csv");
-    let args = ["stream", "--seconds", "1", "--csv", csv.to_str().expect("utf8")];
+    let args = [
+        "stream",
+        "--seconds",
+        "1",
+        "--csv",
+        csv.to_str().expect("utf8"),
+    ];
     let out = daq(&dir, "", &[&["--device", "Dev7"][..], &args[..]].concat());
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
@@ -127,7 +144,11 @@ fn a_wrong_device_and_a_missing_library_are_one_line_naming_the_flag() {
     let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
     assert!(!out.status.success());
     assert_eq!(err.lines().count(), 1, "one line: {err}");
-    for part in ["/nonexistent/libnidaqmx.so.1", "install NI-DAQmx for Linux", "--library"] {
+    for part in [
+        "/nonexistent/libnidaqmx.so.1",
+        "install NI-DAQmx for Linux",
+        "--library",
+    ] {
         assert!(err.contains(part), "{part:?} in {err}");
     }
 }
@@ -140,15 +161,30 @@ fn a_pulled_cable_ends_the_stream_with_one_line_within_a_second() {
     let out = daq(
         &dir,
         "unplug_after_s = 1.0",
-        &["stream", "--seconds", "10", "--csv", csv.to_str().expect("utf8")],
+        &[
+            "stream",
+            "--seconds",
+            "10",
+            "--csv",
+            csv.to_str().expect("utf8"),
+        ],
     );
     let took = started.elapsed();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr).trim().to_string();
     assert_eq!(err.lines().count(), 1, "one line: {err}");
-    assert!(err.contains("Dev1 is gone (unplugged or powered off?)"), "{err}");
+    assert!(
+        err.contains("Dev1 is gone (unplugged or powered off?)"),
+        "{err}"
+    );
     // Pulled 1 s after the start: the error within a second of it, not at the end of the 10 s.
     assert!(took < Duration::from_secs(5), "took {took:?}");
-    let rows = std::fs::read_to_string(&csv).expect("the samples before the pull").lines().count();
-    assert!(rows > 4000, "{rows} rows kept from the second before the pull");
+    let rows = std::fs::read_to_string(&csv)
+        .expect("the samples before the pull")
+        .lines()
+        .count();
+    assert!(
+        rows > 4000,
+        "{rows} rows kept from the second before the pull"
+    );
 }

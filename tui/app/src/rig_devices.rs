@@ -8,7 +8,7 @@ use crate::device_spec::{
 };
 use crate::host_port::HostPort;
 use crate::rig_file::{
-    AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
+    daq_settings, AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
 };
 use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
 use fringe_rig::apt::status::LimitPolarity;
@@ -17,10 +17,8 @@ use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::netft::{self, Command, NetFtConfig};
-use fringe_rig::nidaqmx::{CameraTrigger, DaqError, DaqSettings, Terminal};
-use fringe_rig::units::{
-    Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Volts,
-};
+use fringe_rig::nidaqmx::CameraTrigger;
+use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 
 impl RigConfig {
     /// The axis `name` (`x`, `y` or `z`) of a real rig as a device description, with its soft
@@ -253,35 +251,11 @@ impl RigConfig {
     }
 }
 
-/// The DAQ's settings from `[force]`, checked as far as they can be without the device; an
-/// error names the key.
-pub(crate) fn daq_settings(f: &ForceSection) -> Result<DaqSettings, (String, String)> {
-    let named = |e: DaqError| match (&e, e.setting()) {
-        (DaqError::Setting { message, .. }, Some(s)) => (DaqNames::RigFile.of(s), message.clone()),
-        _ => ("[force]".to_string(), e.to_string()),
-    };
-    let d = DaqSettings::default();
-    let settings = DaqSettings {
-        device: f.device.clone().unwrap_or(d.device),
-        gauges: f.gauges.clone().unwrap_or(d.gauges),
-        strobe: f.strobe.clone(),
-        terminal: match &f.terminal {
-            Some(t) => Terminal::parse(t).map_err(named)?,
-            None => d.terminal,
-        },
-        range: f.range_v.map_or(d.range, Volts),
-        rate: f.rate_hz.map_or(d.rate, Hertz),
-        buffer_scans: f.buffer_scans,
-    };
-    settings.check().map_err(named)?;
-    Ok(settings)
-}
-
 #[cfg(test)]
 mod tests {
     use crate::device_open::{open_force, DeviceError};
     use crate::device_spec::{DaqNames, DaqSpec, ForceSpec};
-    use crate::RigConfig;
+    use crate::rig_file::RigConfig;
     use fringe_rig::nidaqmx::{DaqSettings, Terminal};
     use fringe_rig::sync::method::SyncMethod;
     use fringe_rig::units::{Hertz, Volts};

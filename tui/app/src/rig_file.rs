@@ -11,17 +11,18 @@
 //! ``rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)``. Commented examples:
 //! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
 
+use crate::device_spec::DaqNames;
 use fringe_rig::apt::Actuator;
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
+use fringe_rig::nidaqmx::{DaqError, DaqSettings, Terminal};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::frame_file::FrameCodec;
 use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
-use fringe_rig::nidaqmx::DaqSettings;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::units::{
-    Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared,
+    Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared, Volts,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -484,10 +485,22 @@ impl RigConfig {
     pub fn daq_triggers_camera(&self) -> Result<bool, ConfigError> {
         if self.file.camera.trigger.as_deref() != Some("daq") {
             for (key, given) in [
-                ("camera.trigger_line", self.file.camera.trigger_line.is_some()),
-                ("camera.trigger_delay_us", self.file.camera.trigger_delay_us.is_some()),
-                ("force.trigger_counter", self.file.force.trigger_counter.is_some()),
-                ("force.trigger_terminal", self.file.force.trigger_terminal.is_some()),
+                (
+                    "camera.trigger_line",
+                    self.file.camera.trigger_line.is_some(),
+                ),
+                (
+                    "camera.trigger_delay_us",
+                    self.file.camera.trigger_delay_us.is_some(),
+                ),
+                (
+                    "force.trigger_counter",
+                    self.file.force.trigger_counter.is_some(),
+                ),
+                (
+                    "force.trigger_terminal",
+                    self.file.force.trigger_terminal.is_some(),
+                ),
             ] {
                 if given {
                     return Err(self.err(format!(
@@ -527,13 +540,20 @@ impl RigConfig {
         let scan_rate = if self.simulated {
             SIM_DAQ_RATE_HZ
         } else {
-            self.file.force.rate_hz.unwrap_or(DaqSettings::default().rate.0)
+            self.file
+                .force
+                .rate_hz
+                .unwrap_or(DaqSettings::default().rate.0)
         };
-        let delay = self.file.camera.trigger_delay_us.unwrap_or(if self.simulated {
-            sim_trigger_delay_us()
-        } else {
-            BASLER_EXAMPLE_TRIGGER_DELAY_US
-        });
+        let delay = self
+            .file
+            .camera
+            .trigger_delay_us
+            .unwrap_or(if self.simulated {
+                sim_trigger_delay_us()
+            } else {
+                BASLER_EXAMPLE_TRIGGER_DELAY_US
+            });
         Ok(Some(TriggerTiming {
             scan_rate: Hertz(scan_rate),
             frame_rate: camera.frame_rate,
@@ -732,10 +752,33 @@ fn check_force_keys(force: &ForceSection, origin: &str) -> Result<(), ConfigErro
         ));
     }
     if driver == ForceDriver::Nidaqmx {
-        crate::rig_devices::daq_settings(force)
-            .map_err(|(key, message)| bad(origin, format!("{key}: {message}")))?;
+        daq_settings(force).map_err(|(key, message)| bad(origin, format!("{key}: {message}")))?;
     }
     Ok(())
+}
+
+/// The DAQ's settings from `[force]`, checked as far as they can be without the device; an
+/// error names the key.
+pub(crate) fn daq_settings(f: &ForceSection) -> Result<DaqSettings, (String, String)> {
+    let named = |e: DaqError| match (&e, e.setting()) {
+        (DaqError::Setting { message, .. }, Some(s)) => (DaqNames::RigFile.of(s), message.clone()),
+        _ => ("[force]".to_string(), e.to_string()),
+    };
+    let d = DaqSettings::default();
+    let settings = DaqSettings {
+        device: f.device.clone().unwrap_or(d.device),
+        gauges: f.gauges.clone().unwrap_or(d.gauges),
+        strobe: f.strobe.clone(),
+        terminal: match &f.terminal {
+            Some(t) => Terminal::parse(t).map_err(named)?,
+            None => d.terminal,
+        },
+        range: f.range_v.map_or(d.range, Volts),
+        rate: f.rate_hz.map_or(d.rate, Hertz),
+        buffer_scans: f.buffer_scans,
+    };
+    settings.check().map_err(named)?;
+    Ok(settings)
 }
 
 /// The `[force]` keys each driver takes, for messages.
@@ -966,7 +1009,10 @@ mod tests {
     /// frames are labelled by the trigger with the camera's delay.
     #[test]
     fn the_paper_bench_example_triggers_the_camera_from_the_daq() {
-        let cal = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/mini40-v1.0.cal");
+        let cal = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/mini40-v1.0.cal"
+        );
         let paper = RigConfig::parse(&PAPER.replace("FT12345.cal", cal), "paper-bench.toml")
             .expect("paper example");
         assert!(!paper.is_simulated());
@@ -977,19 +1023,28 @@ mod tests {
         assert_eq!(timing.scan_rate, Hertz(5000.0));
         assert_eq!(timing.frame_rate, Hertz(50.0));
         assert_eq!(timing.delay, Microseconds(19.12));
-        assert!(!paper.limits().expect("limits").manual_y, "a Modbus y stage");
+        assert!(
+            !paper.limits().expect("limits").manual_y,
+            "a Modbus y stage"
+        );
         // The camera trigger's keys without the trigger, and the trigger without a DAQ: refused,
         // naming the key.
-        let e = RigConfig::parse(&PAPER.replace("trigger = \"daq\"", "trigger = \"free-run\""), "r.toml")
-            .expect("parses")
-            .sync()
-            .expect_err("trigger keys without the trigger");
+        let e = RigConfig::parse(
+            &PAPER.replace("trigger = \"daq\"", "trigger = \"free-run\""),
+            "r.toml",
+        )
+        .expect("parses")
+        .sync()
+        .expect_err("trigger keys without the trigger");
         assert!(e.to_string().contains("camera.trigger_line"), "{e}");
         let sim = RigConfig::parse("sync = \"trigger\"\n", "r.toml")
             .expect("parses")
             .sync()
             .expect_err("a free-running camera");
-        assert!(sim.to_string().contains("`camera.trigger` = \"daq\""), "{sim}");
+        assert!(
+            sim.to_string().contains("`camera.trigger` = \"daq\""),
+            "{sim}"
+        );
         let netft = RigConfig::parse(
             "[sim]\nforce_path = \"netft\"\n[camera]\ntrigger = \"daq\"\n",
             "r.toml",
@@ -997,11 +1052,17 @@ mod tests {
         .expect("parses")
         .sync()
         .expect_err("no DAQ to trigger from");
-        assert!(netft.to_string().contains("force_path = \"daq\""), "{netft}");
+        assert!(
+            netft.to_string().contains("force_path = \"daq\""),
+            "{netft}"
+        );
         let sim = RigConfig::parse("[camera]\ntrigger = \"daq\"\n", "r.toml").expect("sim");
         assert_eq!(sim.sync().expect("sync"), SyncMethod::Trigger);
         assert_eq!(
-            sim.trigger_timing().expect("timing").expect("triggered").delay,
+            sim.trigger_timing()
+                .expect("timing")
+                .expect("triggered")
+                .delay,
             Microseconds(sim_trigger_delay_us())
         );
     }
