@@ -69,7 +69,7 @@ pub fn fake_nidaqmx() -> PathBuf {
     let lib = dir.join("libnidaqmx.so");
     assert!(
         lib.exists(),
-        "{} is missing: build it with `cargo build -p fringe-fake-nidaqmx` (cargo test --workspace builds it)",
+        "{} is missing: build it with `cargo build -p fringe-fake-nidaqmx` (scripts/test builds it before the tests)",
         lib.display()
     );
     lib

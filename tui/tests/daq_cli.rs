@@ -16,7 +16,7 @@ fn fake_library() -> PathBuf {
     let lib = Path::new(env!("CARGO_BIN_EXE_fringe")).with_file_name("libnidaqmx.so");
     assert!(
         lib.exists(),
-        "{} is missing: build it with `cargo build -p fringe-fake-nidaqmx` (cargo test --workspace builds it)",
+        "{} is missing: build it with `cargo build -p fringe-fake-nidaqmx` (scripts/test builds it before the tests)",
         lib.display()
     );
     lib
