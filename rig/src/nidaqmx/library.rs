@@ -68,15 +68,24 @@ impl Library {
                     .ok()
                     .map(|s| *s)
             })
-        }
-        .map_err(|missing| DaqError::LibraryIncomplete {
+        };
+        Library::assemble(name, functions, Some(lib))
+    }
+
+    /// The library named `name` from its resolved table, keeping `loaded` mapped beside it.
+    fn assemble(
+        name: &str,
+        functions: Result<Functions, &'static str>,
+        loaded: Option<libloading::Library>,
+    ) -> Result<Arc<Library>, DaqError> {
+        let functions = functions.map_err(|missing| DaqError::LibraryIncomplete {
             library: name.to_string(),
             missing: missing.to_string(),
         })?;
         Ok(Arc::new(Library {
             functions,
             name: name.to_string(),
-            _loaded: Some(lib),
+            _loaded: loaded,
         }))
     }
 
@@ -91,17 +100,8 @@ impl Library {
         lookup: impl FnMut(&str) -> Option<*const std::ffi::c_void>,
     ) -> Result<Arc<Library>, DaqError> {
         // SAFETY: passed on from the caller.
-        let functions = unsafe { Functions::resolve(lookup) }.map_err(|missing| {
-            DaqError::LibraryIncomplete {
-                library: name.to_string(),
-                missing: missing.to_string(),
-            }
-        })?;
-        Ok(Arc::new(Library {
-            functions,
-            name: name.to_string(),
-            _loaded: None,
-        }))
+        let functions = unsafe { Functions::resolve(lookup) };
+        Library::assemble(name, functions, None)
     }
 
     /// The file or name it was loaded from.
