@@ -8,7 +8,7 @@
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::calibration_scan::{
+use fringe_app::session::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
@@ -193,7 +193,7 @@ fn calibration_scan(
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
-            fringe_app::plans::read_file(path)?,
+            fringe_app::session::plans::read_file(path)?,
             path.display().to_string(),
         ),
         None => (
@@ -360,7 +360,7 @@ fn print_offsets(cal: &ScanCalibration) {
 
 /// On the simulated bench: the calibration against the simulator's truth.
 #[cfg(feature = "sim")]
-fn print_truth(t: &fringe_app::sim_bench::CalibrationTruth) {
+fn print_truth(t: &fringe_app::rig::simulated::CalibrationTruth) {
     println!(
         "against the simulator's truth: centre off by {:.3} px, radius by {:+.3} px",
         t.centre_off_px, t.radius_off_px

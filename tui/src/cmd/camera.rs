@@ -2,8 +2,8 @@
 
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::device_open::open_camera;
-use fringe_app::device_spec::CameraSpec;
+use fringe_app::rig::device_open::open_camera;
+use fringe_app::rig::device_spec::CameraSpec;
 use fringe_rig::acquire::frame_gaps::FrameGaps;
 use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
 use fringe_rig::camera::writer::FrameWriter;

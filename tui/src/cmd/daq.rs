@@ -9,9 +9,9 @@
 
 use super::arg_values;
 use crate::global::Global;
-use fringe_app::daq_bringup::{self, StreamReport};
-use fringe_app::device_open::{open_daq, DaqForce, TraceTo};
-use fringe_app::device_spec::{DaqNames, DaqSpec};
+use fringe_app::bringup::daq::{self, StreamReport};
+use fringe_app::rig::device_open::TraceTo;
+use fringe_app::rig::force::nidaqmx::{open_daq, DaqForce, DaqNames, DaqSpec};
 use fringe_rig::force::ForceSensor;
 use fringe_rig::nidaqmx::{DaqSettings, Terminal};
 use fringe_rig::units::{Hertz, Volts};
@@ -112,7 +112,7 @@ impl DaqArgs {
             named_by: DaqNames::Flags,
         };
         if let Err(e) = spec.settings.check() {
-            return Err(fringe_app::device_open::daq_error(&spec, e).into());
+            return Err(fringe_app::rig::force::nidaqmx::daq_error(&spec, e).into());
         }
         Ok(spec)
     }
@@ -129,7 +129,7 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
     println!("{}", sensor.describe());
     match &args.action {
         DaqAction::Stream { seconds, csv, bias } => {
-            let report = daq_bringup::stream_to_csv(
+            let report = daq::stream_to_csv(
                 &mut sensor,
                 spec.settings.rate,
                 *seconds,
@@ -148,7 +148,7 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
             Ok(())
         }
         DaqAction::Bias => {
-            let b = daq_bringup::bias(&mut sensor)?;
+            let b = daq::bias(&mut sensor)?;
             let v = b.volts;
             println!(
                 "bias (V): {:.5} {:.5} {:.5} {:.5} {:.5} {:.5}; it holds for this command only (a scan takes its own bias)",
@@ -182,7 +182,7 @@ fn print_report(report: &StreamReport, sensor: &DaqForce) {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::device_spec::ForceSpec;
+    use fringe_app::rig::force::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

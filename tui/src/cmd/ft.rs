@@ -8,9 +8,9 @@
 use super::arg_values;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::device_open::{open_netft, TraceTo};
-use fringe_app::device_spec::{NetFtScaling, NetFtSpec};
-use fringe_app::host_port::HostPort;
+use fringe_app::rig::device_open::TraceTo;
+use fringe_app::rig::force::netft::{open_netft, NetFtScaling, NetFtSpec};
+use fringe_app::rig::host_port::HostPort;
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::{ForceSample, ForceSensor, StreamStats};
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, DEFAULT_PORT};
@@ -307,7 +307,7 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::device_spec::ForceSpec;
+    use fringe_app::rig::force::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

@@ -7,8 +7,8 @@ use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
 use crate::global::Global;
 use anyhow::bail;
-use fringe_app::disk_room::{free_bytes, needed_bytes, Recording, STORE_DISC_ADVICE};
-use fringe_app::plans::SHORT_GRID;
+use fringe_app::session::disk_space::{free_bytes, needed_bytes, Recording, STORE_DISC_ADVICE};
+use fringe_app::session::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
@@ -59,7 +59,7 @@ impl ScanArgs {
 /// The plan text and a name for messages.
 fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
     if let Some(path) = &args.plan {
-        let text = fringe_app::plans::read_file(path)?;
+        let text = fringe_app::session::plans::read_file(path)?;
         return Ok((text, path.display().to_string()));
     }
     if let Some(run) = &args.resume {

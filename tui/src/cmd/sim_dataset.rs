@@ -124,7 +124,7 @@ pub fn run(args: SimDatasetArgs) -> anyhow::Result<()> {
     let json = serde_json::to_string_pretty(&document).context("cannot encode dataset.json")?;
     write_atomic(&out.join(SIM_DATASET_DOC), json.as_bytes())?;
     let profile_path = out.join(SIM_DATASET_PROFILE);
-    fringe_app::sim_bench::sensor_profile(
+    fringe_app::rig::simulated::sensor_profile(
         &sensor,
         &sensor.id,
         format!(

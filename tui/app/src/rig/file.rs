@@ -11,7 +11,7 @@
 //! ``rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)``. Commented examples:
 //! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
 
-use crate::device_spec::DaqNames;
+use crate::rig::force::nidaqmx::DaqNames;
 use fringe_rig::apt::Actuator;
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
@@ -945,9 +945,9 @@ mod tests {
     use fringe_rig::apt::driver::Controller;
     use fringe_rig::units::Millimetres;
 
-    const REFERENCE: &str = include_str!("../rigs/reference-bench.toml");
-    const SIMULATED: &str = include_str!("../rigs/simulated.toml");
-    const PAPER: &str = include_str!("../rigs/paper-bench.toml");
+    const REFERENCE: &str = include_str!("../../rigs/reference-bench.toml");
+    const SIMULATED: &str = include_str!("../../rigs/simulated.toml");
+    const PAPER: &str = include_str!("../../rigs/paper-bench.toml");
 
     #[test]
     fn recording_keys_are_checked_when_the_file_is_read() {

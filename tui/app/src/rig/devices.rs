@@ -1,15 +1,15 @@
 //! The rig file's device sections (`[x]`, `[y]`, `[z]`, `[force]`, `[camera]`) as device
-//! descriptions ([`crate::device_spec`]), checked and naming the file and key in errors; the
+//! descriptions ([`crate::rig::device_spec`]), checked and naming the file and key in errors; the
 //! rig opens them with the one opener (`device_open`), as the bring-up commands do theirs.
 
-use crate::device_spec::{
-    AxisSpec, CameraSpec, DaqNames, DaqSpec, ForceSpec, ModbusLink, ModbusSpec, NetFtScaling,
-    NetFtSpec,
-};
-use crate::host_port::HostPort;
-use crate::rig_file::{
+use crate::rig::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
+use crate::rig::file::{
     daq_settings, AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
 };
+use crate::rig::force::netft::{NetFtScaling, NetFtSpec};
+use crate::rig::force::nidaqmx::{DaqNames, DaqSpec};
+use crate::rig::force::ForceSpec;
+use crate::rig::host_port::HostPort;
 use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
 use fringe_rig::apt::status::LimitPolarity;
 use fringe_rig::apt::Actuator;
@@ -253,9 +253,10 @@ impl RigConfig {
 
 #[cfg(test)]
 mod tests {
-    use crate::device_open::{open_force, DeviceError};
-    use crate::device_spec::{DaqNames, DaqSpec, ForceSpec};
-    use crate::rig_file::RigConfig;
+    use crate::rig::device_open::DeviceError;
+    use crate::rig::file::RigConfig;
+    use crate::rig::force::nidaqmx::{DaqNames, DaqSpec};
+    use crate::rig::force::{open_force, ForceSpec};
     use fringe_rig::nidaqmx::{DaqSettings, Terminal};
     use fringe_rig::sync::method::SyncMethod;
     use fringe_rig::units::{Hertz, Volts};
@@ -494,7 +495,7 @@ mod tests {
 
     #[test]
     fn a_daq_rigs_cal_file_gives_the_transducers_rating_before_anything_opens() {
-        let reference = include_str!("../rigs/reference-bench.toml");
+        let reference = include_str!("../../rigs/reference-bench.toml");
         let line = reference
             .lines()
             .find(|l| l.starts_with("address = "))
@@ -543,7 +544,7 @@ mod tests {
 
     #[test]
     fn nis_refusals_at_open_name_the_key_or_flag_and_what_to_do() {
-        use crate::device_open::daq_error;
+        use crate::rig::force::nidaqmx::daq_error;
         use fringe_rig::nidaqmx::api::status;
         use fringe_rig::nidaqmx::{DaqError, DaqmxStatus, Setting};
         let ni = |code, text: &str| DaqmxStatus {

@@ -6,8 +6,8 @@
 //! a real camera tells only once it is opened: the estimate takes it from [`camera_frame`], the
 //! one place that chooses it.
 
-use crate::recording_part::{disc_cutout, RecordingError};
-use crate::rig_file::RigConfig;
+use crate::rig::file::RigConfig;
+use crate::session::disc_cutout::{disc_cutout, RecordingError};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
@@ -66,7 +66,7 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
     }
     #[cfg(feature = "sim")]
     if config.is_simulated() {
-        if let Ok(sim) = crate::sim_bench::config(config) {
+        if let Ok(sim) = crate::rig::simulated::config(config) {
             let g = &sim.sensor.geometry;
             return FrameSize {
                 width: g.width,
@@ -186,8 +186,10 @@ fn profile_on_file(config: &RigConfig, sensor_id: &str) -> Option<ProfileRef> {
     }
     #[cfg(feature = "sim")]
     if config.is_simulated() {
-        let design =
-            crate::sim_bench::design_profile(&crate::sim_bench::config(config).ok()?, sensor_id);
+        let design = crate::rig::simulated::design_profile(
+            &crate::rig::simulated::config(config).ok()?,
+            sensor_id,
+        );
         return Some(ProfileRef {
             path: format!("(no file: {})", design.source),
             content: toml::to_string_pretty(&design).ok()?,
@@ -387,8 +389,10 @@ mod tests {
             ..sim.clone()
         };
         assert_eq!(camera_frame(None, &real), REFERENCE_FRAME);
-        let design =
-            crate::sim_bench::design_profile(&crate::sim_bench::config(&sim).expect("sim"), "s1");
+        let design = crate::rig::simulated::design_profile(
+            &crate::rig::simulated::config(&sim).expect("sim"),
+            "s1",
+        );
         assert_eq!(camera_frame(Some(&design), &real), quarter);
         let mut other = design.clone();
         other.image.width = 640;
@@ -433,7 +437,7 @@ mod tests {
         use fringe_rig::scan::plan::Plan;
         use fringe_rig::units::Millimetres;
         let limits = RigConfig::simulated().limits().expect("limits");
-        let grid = crate::plans::SHORT_GRID;
+        let grid = crate::session::plans::SHORT_GRID;
         let program = Plan::parse(grid.text, "short-grid")
             .expect("plan")
             .program(&limits, "short-grid")

@@ -22,21 +22,21 @@ impl BuiltinPlan {
 pub const SHORT_GRID: BuiltinPlan = BuiltinPlan {
     name: "short-grid",
     path: "tui/app/plans/short-grid.toml",
-    text: include_str!("../plans/short-grid.toml"),
+    text: include_str!("../../plans/short-grid.toml"),
 };
 
 /// The calibration scan of `fringe calibrate`.
 pub const CALIBRATION: BuiltinPlan = BuiltinPlan {
     name: "calibration",
     path: "tui/app/plans/calibration.toml",
-    text: include_str!("../plans/calibration.toml"),
+    text: include_str!("../../plans/calibration.toml"),
 };
 
 /// The demonstration of `fringe demo` on the simulated bench.
 pub const DEMO: BuiltinPlan = BuiltinPlan {
     name: "demo",
     path: "tui/app/plans/demo.toml",
-    text: include_str!("../plans/demo.toml"),
+    text: include_str!("../../plans/demo.toml"),
 };
 
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
@@ -44,7 +44,7 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
 pub const COMMISSION: BuiltinPlan = BuiltinPlan {
     name: "commission",
     path: "tui/app/plans/commission.toml",
-    text: include_str!("../plans/commission.toml"),
+    text: include_str!("../../plans/commission.toml"),
 };
 
 /// Every built-in plan offered to run.
@@ -89,7 +89,7 @@ mod tests {
 
     #[test]
     fn every_built_in_plan_is_valid_on_the_simulated_bench() {
-        let limits = crate::rig_file::RigConfig::simulated()
+        let limits = crate::rig::file::RigConfig::simulated()
             .limits()
             .expect("limits");
         for plan in ALL.into_iter().chain([COMMISSION]) {

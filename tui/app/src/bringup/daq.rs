@@ -1,7 +1,7 @@
 //! Bringing up an NI-DAQmx force path (`fringe daq`): streaming calibrated samples into a CSV
 //! file, counting what arrived against what the elapsed time gives, and taking a bias. The
-//! command parses its flags into a [`DaqSpec`](crate::device_spec::DaqSpec), opens it with
-//! [`open_daq`](crate::device_open::open_daq) and prints what these return.
+//! command parses its flags into a [`DaqSpec`](crate::rig::force::nidaqmx::DaqSpec), opens it with
+//! [`open_daq`](crate::rig::force::nidaqmx::open_daq) and prints what these return.
 
 use fringe_rig::atical::{CalibratedSensor, GaugeSource};
 use fringe_rig::clock::HostTime;
@@ -349,7 +349,7 @@ mod tests {
 
     fn calibration() -> Calibration {
         Calibration::parse(
-            include_str!("../../../tests/data/mini40-v1.1.cal"),
+            include_str!("../../../../tests/data/mini40-v1.1.cal"),
             "mini40-v1.1.cal",
         )
         .expect("the Mini40 .cal parses")
