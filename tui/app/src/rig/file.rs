@@ -1,7 +1,7 @@
 //! The rig file (`rig.toml`): which device is which, how each is reached and set up, the soft
 //! limits, the sync method and the bench geometry, read and checked. The bench it describes
-//! (limits, origin, sensor) is module `rig_bench`; its devices as descriptions `rig_devices`;
-//! opening them `open_rig`; the simulated bench's part `sim_bench`.
+//! (limits, origin, sensor) is module `rig::setup`; its devices as descriptions `rig::devices`;
+//! opening them `rig::open`; the simulated rig's part `rig::simulated`.
 //!
 //! A missing file means the simulated bench ([`RigConfig::resolve`]): every device `driver =
 //! "sim"`. A rig is either wholly simulated (one shared virtual bench) or wholly real; mixing the
@@ -11,7 +11,7 @@
 //! ``rig.toml: key `x.velocity` = -1: must be a number > 0 (mm/s)``. Commented examples:
 //! `tui/app/rigs/simulated.toml` and `tui/app/rigs/reference-bench.toml`.
 
-use crate::rig::force::nidaqmx::DaqNames;
+use crate::rig::force::nidaqmx::names::DaqNames;
 use fringe_rig::apt::Actuator;
 use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};

@@ -1,6 +1,7 @@
 //! Opening the rig a rig file describes: each real device's section becomes a description
-//! (`rig_devices`) that the one opener (`device_open`) opens, as the bring-up commands do with
-//! their flags; or the simulated bench (`sim_bench`) when the rig is simulated.
+//! (`rig::devices`) that the one opener (`device_open`, `force::open_force`) opens, as the
+//! bring-up commands do with their flags; or the simulated rig (`rig::simulated`) when the rig is
+//! simulated.
 
 use crate::rig::device_open::{open_axis, open_camera, TraceTo};
 use crate::rig::error::RigError;

@@ -1,7 +1,9 @@
 //! An ATI Net F/T or Ethernet Axia over RDT/UDP: its description and its opener.
 
 use crate::rig::device_open::{DeviceError, TraceTo, CONNECT_TIMEOUT};
+use crate::rig::file::{ForceSection, RigConfig};
 use crate::rig::host_port::HostPort;
+use fringe_rig::config_file::ConfigError;
 use fringe_rig::netft::{self, Command, NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::trace::record::record_datagrams;
 use fringe_rig::transport::udp::UdpLink;
@@ -83,4 +85,33 @@ pub fn open_netft(
             source,
         })?;
     Ok(NetFt::new(link, config, spec.options))
+}
+
+impl RigConfig {
+    /// `[force]` with driver "netft".
+    pub(crate) fn netft_spec(&self, f: &ForceSection) -> Result<NetFtSpec, ConfigError> {
+        let text = f.address.as_deref().ok_or_else(|| {
+            self.err("key `force.address` (the Net F/T's host or host:port) is required".into())
+        })?;
+        let address = HostPort::parse(text, Some(netft::DEFAULT_PORT))
+            .map_err(|e| self.err(format!("key `force.address`: {e}")))?;
+        let scaling = match (f.cpf, f.cpt) {
+            (Some(cpf), Some(cpt)) => NetFtScaling::Given(
+                NetFtConfig::new(
+                    cpf,
+                    cpt,
+                    f.force_unit.as_deref().unwrap_or("N"),
+                    f.torque_unit.as_deref().unwrap_or("Nm"),
+                    "[force] cpf/cpt",
+                )
+                .map_err(|e| self.err(e.to_string()))?,
+            ),
+            (None, None) => NetFtScaling::FromBox { url: None },
+            _ => return Err(self.err(
+                "[force]: give both `cpf` and `cpt`, or neither (then they are read from the box)"
+                    .into(),
+            )),
+        };
+        Ok(NetFtSpec::new(address, scaling, Command::RealTime))
+    }
 }

@@ -2,13 +2,18 @@
 //! file: its description, its opener, and its errors said in the terms of who described it (the
 //! rig file's keys or `fringe daq`'s flags).
 
+pub mod names;
+
 use crate::rig::device_open::{DeviceError, TraceTo};
+use crate::rig::file::{daq_settings, ForceSection, RigConfig};
 use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource, ToolTransform};
+use fringe_rig::config_file::ConfigError;
 use fringe_rig::force::ForceError;
 use fringe_rig::nidaqmx::{
     CameraTrigger, DaqError, DaqSettings, DaqStats, Library, NiDaq, Setting,
 };
 use fringe_rig::trace::RecordingGauges;
+use names::DaqNames;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -38,43 +43,6 @@ impl DaqSpec {
             self.settings.describe(),
             self.cal_file.display()
         )
-    }
-}
-
-/// Where a DAQ's settings were given, so that an error names what the user wrote.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DaqNames {
-    /// A rig file's `[force]` keys.
-    RigFile,
-    /// `fringe daq`'s flags.
-    Flags,
-}
-
-impl DaqNames {
-    /// The key or flag of `setting`, as a user would write it in a message ("key
-    /// `force.device`", "--device").
-    pub fn of(self, setting: Setting) -> String {
-        let (key, flag) = match setting {
-            Setting::Library => ("library", "--library"),
-            Setting::Device => ("device", "--device"),
-            Setting::Gauges => ("gauges", "--channels"),
-            Setting::Strobe => ("strobe", "--strobe"),
-            Setting::Terminal => ("terminal", "--terminal"),
-            Setting::Range => ("range_v", "--range"),
-            Setting::Rate => ("rate_hz", "--rate"),
-            Setting::Buffer => ("buffer_scans", "--buffer-scans"),
-            Setting::CalFile => ("cal_file", "--cal"),
-            Setting::Counter => {
-                return match self {
-                    DaqNames::RigFile => "keys `force.trigger_counter` and `camera.trigger`".into(),
-                    DaqNames::Flags => "the camera trigger's counter".into(),
-                }
-            }
-        };
-        match self {
-            DaqNames::RigFile => format!("key `force.{key}`"),
-            DaqNames::Flags => flag.into(),
-        }
     }
 }
 
@@ -234,5 +202,51 @@ fn daq_advice(setting: Setting) -> String {
         Setting::Buffer => "leave it out for NI's default, or give more scans".into(),
         Setting::Counter => "use a counter the device has (ctr0) and a frame rate below the scan rate".into(),
         Setting::CalFile => "give the transducer's ATI calibration file".into(),
+    }
+}
+
+impl RigConfig {
+    /// `[force]` with driver "nidaqmx".
+    pub(crate) fn daq_spec(&self, f: &ForceSection) -> Result<DaqSpec, ConfigError> {
+        let settings =
+            daq_settings(f).map_err(|(key, message)| self.err(format!("{key}: {message}")))?;
+        let cal_file = f.cal_file.clone().ok_or_else(|| {
+            self.err(
+                "key `force.cal_file` (the transducer's ATI .cal file) is required for driver \"nidaqmx\"".into(),
+            )
+        })?;
+        let tool = match (f.tool_translation_m, f.tool_rotation_deg) {
+            (None, None) => None,
+            (d, r) => {
+                let d = d.unwrap_or([0.0; 3]);
+                let r = r.unwrap_or([0.0; 3]);
+                if let Some((key, _)) = [("tool_translation_m", d), ("tool_rotation_deg", r)]
+                    .into_iter()
+                    .find(|(_, v)| v.iter().any(|x| !x.is_finite()))
+                {
+                    return Err(self.err(format!(
+                        "key `force.{key}`: must be three finite numbers (tool_translation_m in metres, tool_rotation_deg in degrees)"
+                    )));
+                }
+                Some(ToolTransform::from_ati(d, r.map(f64::to_radians)))
+            }
+        };
+        let camera_trigger = match self.daq_triggers_camera()? {
+            true => Some(CameraTrigger {
+                counter: f.trigger_counter.clone().unwrap_or_else(|| "ctr0".into()),
+                terminal: f.trigger_terminal.clone(),
+                frame_rate: self.camera_settings()?.frame_rate,
+                duty: 0.5,
+            }),
+            false => None,
+        };
+        Ok(DaqSpec {
+            settings,
+            cal_file,
+            library: f.library.clone(),
+            tool,
+            camera_trigger,
+            named_by: DaqNames::RigFile,
+        })
     }
 }
