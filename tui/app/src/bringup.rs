@@ -2,6 +2,14 @@
 //! into a device description, opens it with the one opener (`crate::rig`) and prints what these
 //! return.
 //!
-//! - [`daq`]: an NI-DAQmx force path (`fringe daq`): streaming, counting and a bias.
+//! - [`force_stream`]: an F/T sensor streamed into a CSV file (`fringe ft stream`, `fringe daq
+//!   stream`): one writer and one loop, the [`interface`] choosing the columns and the words.
+//! - [`netft`]: a Net F/T's software bias (`fringe ft bias`).
+//! - [`daq`]: an NI-DAQmx force path's bias (`fringe daq bias`).
+//! - [`error`]: why a stream or a bias failed.
 
 pub mod daq;
+pub mod error;
+pub mod force_stream;
+pub mod interface;
+pub mod netft;

@@ -9,7 +9,9 @@
 
 use super::arg_values;
 use crate::global::Global;
-use fringe_app::bringup::daq::{self, StreamReport};
+use fringe_app::bringup::daq;
+use fringe_app::bringup::force_stream::{stream_to_csv, StreamReport};
+use fringe_app::bringup::interface::Interface;
 use fringe_app::rig::device_open::TraceTo;
 use fringe_app::rig::force::nidaqmx::names::DaqNames;
 use fringe_app::rig::force::nidaqmx::{open_daq, DaqForce, DaqSpec};
@@ -130,18 +132,18 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
     println!("{}", sensor.describe());
     match &args.action {
         DaqAction::Stream { seconds, csv, bias } => {
-            let report = daq::stream_to_csv(
+            let strobe = spec.settings.strobe.is_some();
+            let report = stream_to_csv(
                 &mut sensor,
-                spec.settings.rate,
+                Interface::Daq { strobe },
                 *seconds,
                 csv,
                 *bias,
-                spec.settings.strobe.is_some(),
                 &mut |samples, elapsed| {
                     println!("{:5.1} s: {samples} samples", elapsed.as_secs_f64())
                 },
             )?;
-            print_report(&report, &sensor);
+            print_report(&report, spec.settings.rate, &sensor);
             if report.samples > 0 {
                 println!("csv: {}", csv.display());
             }
@@ -166,14 +168,14 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
 }
 
 /// Prints the samples received against those the elapsed time gives, and the losses.
-fn print_report(report: &StreamReport, sensor: &DaqForce) {
+fn print_report(report: &StreamReport, rate: Hertz, sensor: &DaqForce) {
     let daq = sensor.source().stats();
     println!("samples: {}", report.samples);
     println!(
         "expected: {} ({:.3} s at {} Hz)",
-        report.expected(),
+        report.expected(rate),
         report.elapsed.as_secs_f64(),
-        report.rate.0
+        rate.0
     );
     println!("lost samples: {}", report.stats.lost);
     println!("overruns: {} ({} scans lost)", daq.overruns, daq.lost);
