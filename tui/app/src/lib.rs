@@ -9,6 +9,8 @@
 //!   the rig controlled by hand outside a scan, live view and live validation, room on disk.
 //! - [`commission`]: commissioning a unit: where to press, its plans, its journal and its
 //!   certificate (and the unit's commissioned model).
+//! - `simulation`: the simulator's own jobs outside a rig (`fringe sim dataset`; cargo feature
+//!   `sim`).
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
 //!
@@ -25,6 +27,8 @@ pub mod commission;
 pub mod health;
 pub mod rig;
 pub mod session;
+#[cfg(feature = "sim")]
+pub mod simulation;
 
 pub use rig::error::RigError;
 pub use rig::file::{RigConfig, RigSource, SensorVariant};
