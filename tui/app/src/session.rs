@@ -2,7 +2,8 @@
 //!
 //! - `scan`: a scan session (profile -> contact origin, operator, progress, truth scoring);
 //!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth.
-//! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
+//! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning;
+//!   [`calibration_images`]: the optical part of a profile from a folder of no-contact images.
 //! - [`plans`]: the built-in scan plans.
 //! - [`disk_space`]: room on disk for a scan: the camera frame a size estimate assumes, a run's
 //!   expected size, and the refusal (by the session, before anything moves) of a run that will
@@ -14,6 +15,7 @@
 //!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
 
+pub mod calibration_images;
 pub mod calibration_scan;
 pub(crate) mod disc_cutout;
 pub mod disk_space;
