@@ -11,7 +11,7 @@ use crate::session::disc_cutout::{disc_cutout, RecordingError};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
-use fringe_rig::scan::plan::Plan;
+use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::frame_file::FrameStorage;
@@ -83,6 +83,51 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
 /// only the disc's square.
 pub const STORE_DISC_ADVICE: &str = ", or store only the square around the sensor's disc \
      ([recording] store = \"disc\" in the rig file or the plan)";
+
+/// What a run of a plan will take on disk and what the disk it goes to has free, told before a
+/// scan (its dry run), from the rig file and the profile directory only (the devices stay
+/// closed).
+#[derive(Debug)]
+pub struct RoomForecast {
+    pub recording: Recording,
+    pub size: RunSize,
+    /// Free bytes on the filesystem holding the run's directory.
+    pub free: Result<u64, RoomError>,
+}
+
+impl RoomForecast {
+    /// The forecast of a run of `program` (within `limits`) on the rig `config` describes,
+    /// written under `out`.
+    pub fn new(
+        config: &RigConfig,
+        program: &ScanProgram,
+        limits: &BenchLimits,
+        out: &Path,
+    ) -> Result<RoomForecast, RecordingError> {
+        let recording = Recording::from_rig_files(config, Some(&program.plan))?;
+        let size = recording.expected(program.estimate(limits).recording_time());
+        Ok(RoomForecast {
+            recording,
+            size,
+            free: free_bytes(out),
+        })
+    }
+
+    /// When the scan would be refused: the bytes it needs free (with the margin) and the
+    /// advice to store only the disc when it stores whole frames ("" otherwise).
+    pub fn refusal(&self) -> Option<(u64, &'static str)> {
+        let free = *self.free.as_ref().ok()?;
+        let need = needed_bytes(self.size.total_bytes());
+        (need > free).then_some((
+            need,
+            if self.recording.storage.cutout.is_none() {
+                STORE_DISC_ADVICE
+            } else {
+                ""
+            },
+        ))
+    }
+}
 
 /// How a scan records its frames: all its expected size needs besides its duration.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -82,6 +82,32 @@ pub fn read_file(path: &std::path::Path) -> Result<String, PlanFileError> {
     })
 }
 
+/// Why the plan of a scan could not be had.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanPlanError {
+    #[error("{0}")]
+    File(#[source] PlanFileError),
+    #[error("{0}")]
+    Run(#[source] fringe_rig::store::StoreError),
+}
+
+/// The plan a scan runs and a name for messages: the plan file given, else the plan stored in
+/// the run it resumes, else the built-in short grid.
+pub fn scan_plan(
+    file: Option<&std::path::Path>,
+    resume: Option<&std::path::Path>,
+) -> Result<(String, String), ScanPlanError> {
+    if let Some(path) = file {
+        let text = read_file(path).map_err(ScanPlanError::File)?;
+        return Ok((text, path.display().to_string()));
+    }
+    if let Some(run) = resume {
+        let start = fringe_rig::store::read_start(run).map_err(ScanPlanError::Run)?;
+        return Ok((start.plan, format!("the plan stored in {}", run.display())));
+    }
+    Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
+}
+
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
