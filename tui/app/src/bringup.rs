@@ -7,7 +7,9 @@
 //! - [`netft`]: a Net F/T's software bias (`fringe ft bias`).
 //! - [`daq`]: an NI-DAQmx force path's bias (`fringe daq bias`).
 //! - [`error`]: why a stream or a bias failed.
+//! - [`camera`]: frames grabbed into a folder (`fringe camera grab`).
 
+pub mod camera;
 pub mod daq;
 pub mod error;
 pub mod force_stream;
