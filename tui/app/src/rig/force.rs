@@ -3,18 +3,23 @@
 //! its own, its description and its opener: [`netft`] (an ATI Net F/T over RDT/UDP) and
 //! [`nidaqmx`] (an ATI transducer's gauges read by an NI-DAQmx device).
 //!
-//! A new interface: its module here, a variant of [`ForceSpec`] with its arms, an arm of
-//! [`open_force`], and its `driver` in the rig file's `[force]` section.
+//! The rig file's `[force]` section is [`section`]'s: the `driver`, the keys each interface
+//! takes and their checks.
+//!
+//! A new interface: its module here; a variant of [`ForceSpec`] with its arms, and its arms in
+//! [`open_force`] and `RigConfig::force_spec`; its `driver` and keys in [`section`].
 
 pub mod netft;
 pub mod nidaqmx;
+pub mod section;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
-use crate::rig::file::{ForceDriver, RigConfig};
+use crate::rig::file::RigConfig;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::force::ForceSensor;
 use netft::{open_netft, NetFtSpec};
 use nidaqmx::{open_daq, DaqSpec};
+use section::ForceDriver;
 use std::path::Path;
 
 /// A force/torque sensor: one variant per interface, all opened by [`open_force`].

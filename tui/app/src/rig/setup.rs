@@ -2,7 +2,8 @@
 //! height and origin, and the sensor's id; from the file's keys on real hardware, from the
 //! simulated rig (`rig::simulated`) when the rig is simulated.
 
-use crate::rig::file::{AxisDriver, AxisSection, ForceDriver, RigConfig};
+use crate::rig::file::{AxisDriver, AxisSection, RigConfig};
+use crate::rig::force::section::ForceDriver;
 use crate::rig::simulated;
 use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};

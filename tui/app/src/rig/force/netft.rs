@@ -1,7 +1,8 @@
 //! An ATI Net F/T or Ethernet Axia over RDT/UDP: its description and its opener.
 
 use crate::rig::device_open::{DeviceError, TraceTo, CONNECT_TIMEOUT};
-use crate::rig::file::{ForceSection, RigConfig};
+use crate::rig::file::RigConfig;
+use crate::rig::force::section::ForceSection;
 use crate::rig::host_port::HostPort;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::netft::{self, Command, NetFt, NetFtConfig, NetFtOptions};

@@ -5,7 +5,8 @@
 pub mod names;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
-use crate::rig::file::{daq_settings, ForceSection, RigConfig};
+use crate::rig::file::RigConfig;
+use crate::rig::force::section::{daq_settings, ForceSection};
 use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource, ToolTransform};
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::force::ForceError;
