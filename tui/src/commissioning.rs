@@ -17,11 +17,11 @@ pub(crate) mod session;
 
 use anyhow::{bail, Context, Result};
 pub(crate) use certify::Accepted;
-use fringe_app::calibration_scan::{
-    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
-};
 use fringe_app::commission::certificate::{directory_name, PROFILE};
 use fringe_app::commission::journal::{FrameSettings, Journal, Options, ScanEntry};
+use fringe_app::session::calibration_scan::{
+    calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
+};
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::Spec;

@@ -30,7 +30,7 @@ use fringe_app::commission::press_choice::{
     choose, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
 };
 use fringe_app::commission::press_errors::round_errors;
-use fringe_app::sim_bench::sensor_profile;
+use fringe_app::rig::simulated::sensor_profile;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::camera::writer::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};

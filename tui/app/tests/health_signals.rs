@@ -32,7 +32,7 @@ fn rig(session: u64, ageing: &str) -> RigConfig {
 /// The signature of no-contact frames of the unit as `rig` builds it, frames spread over a
 /// minute of the session.
 fn signature(rig: &RigConfig, session: u64) -> Signature {
-    let built = fringe_app::sim_bench::config(rig)
+    let built = fringe_app::rig::simulated::config(rig)
         .expect("sim config")
         .as_built()
         .expect("as built");

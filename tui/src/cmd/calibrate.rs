@@ -3,26 +3,26 @@
 //! image-to-stage registration, force offsets, with report images beside the profile.
 //!
 //! `fringe calibrate --images DIR --sensor ID`: the optical part from existing image files (PNG or
-//! TIFF): centre, shift from the image centre, radius and crop radius.
+//! TIFF): centre, shift from the image centre, radius and crop radius
+//! (`fringe_app::session::calibration_images`).
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::calibration_scan::{
+use fringe_app::session::calibration_images::{
+    choose_no_contact, fit_disc, image_files, write_profile,
+};
+use fringe_app::session::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
-use fringe_calibration::frames;
 use fringe_calibration::from_scan::ScanCalibration;
 use fringe_calibration::offsets::CHANNELS;
-use fringe_calibration::optical::overlay::overlay;
-use fringe_calibration::optical::{self, grey::GreyImage, DiscFit};
-use fringe_calibration::profile::{profile_path, Profile};
-use fringe_rig::reference_layout::{in_contact, read_labels, CONTACT_THRESHOLD, LABELS};
+use fringe_calibration::optical::DiscFit;
+use fringe_calibration::profile::profile_path;
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::documents::ExitStatus;
-use fringe_rig::units::Newtons;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -92,34 +92,15 @@ fn from_images(args: &CalibrateArgs, dir: &Path) -> anyhow::Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("profiles"));
     let profile_file = profile_path(&out, &args.sensor)?;
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot read image folder {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| is_image(p))
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        bail!(
-            "image folder {} holds no PNG or TIFF files (.png, .tif, .tiff)",
-            dir.display()
-        );
-    }
+    let files = image_files(dir)?;
     let (chosen, how) = choose_no_contact(dir, &files)?;
     if chosen.is_empty() {
         bail!("{how}: no frame to use in {}", dir.display());
     }
     println!("{how}");
-    let used = frames::spread(&chosen, args.max_frames);
-    let average = frames::grey_average(&used, None).with_context(|| dir.display().to_string())?;
-    let fit = optical::find_disc_in(&average)
-        .with_context(|| format!("{} ({} frames averaged)", dir.display(), used.len()))?;
+    let (average, fit) = fit_disc(dir, &chosen, args.max_frames)?;
     print_fit(&fit);
-    std::fs::create_dir_all(&out)
-        .with_context(|| format!("cannot create profile folder {}", out.display()))?;
-    let profile = Profile::from_fit(&args.sensor, &dir.display().to_string(), &fit);
-    profile.save(&profile_file)?;
-    let report = profile_file.with_extension("png");
-    write_report(&average, &fit, &report)?;
+    let report = write_profile(&args.sensor, dir, &average, &fit, &out, &profile_file)?;
     println!("wrote {}", profile_file.display());
     println!(
         "wrote {} (fitted disc green, crop circle yellow, centre red)",
@@ -193,7 +174,7 @@ fn calibration_scan(
     let limits = config.limits()?;
     let (text, plan_name) = match &args.plan {
         Some(path) => (
-            fringe_app::plans::read_file(path)?,
+            fringe_app::session::plans::read_file(path)?,
             path.display().to_string(),
         ),
         None => (
@@ -360,7 +341,7 @@ fn print_offsets(cal: &ScanCalibration) {
 
 /// On the simulated bench: the calibration against the simulator's truth.
 #[cfg(feature = "sim")]
-fn print_truth(t: &fringe_app::sim_bench::CalibrationTruth) {
+fn print_truth(t: &fringe_app::rig::simulated::CalibrationTruth) {
     println!(
         "against the simulator's truth: centre off by {:.3} px, radius by {:+.3} px",
         t.centre_off_px, t.radius_off_px
@@ -383,55 +364,6 @@ fn print_truth(t: &fringe_app::sim_bench::CalibrationTruth) {
     }
 }
 
-fn is_image(p: &Path) -> bool {
-    p.is_file()
-        && p.extension()
-            .and_then(|e| e.to_str())
-            .map(|e| matches!(e.to_ascii_lowercase().as_str(), "png" | "tif" | "tiff"))
-            .unwrap_or(false)
-}
-
-/// The no-contact frames: from a `0.labels.csv` in DIR or beside it (the layout's no-contact
-/// rule) when there is one, else all of them. Also a line saying which.
-fn choose_no_contact(dir: &Path, files: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, String)> {
-    let candidates = [
-        dir.join(LABELS),
-        dir.parent().map(|p| p.join(LABELS)).unwrap_or_default(),
-    ];
-    let Some(labels) = candidates.iter().find(|p| p.is_file()) else {
-        return Ok((
-            files.to_vec(),
-            format!(
-                "no {LABELS} in or beside {}: using all {} frames, assumed free of contact",
-                dir.display(),
-                files.len()
-            ),
-        ));
-    };
-    let quiet: std::collections::HashSet<String> = read_labels(labels)?
-        .into_iter()
-        .filter(|(_, row)| !in_contact(Newtons(row.wrench[2])))
-        .map(|(_, row)| row.image)
-        .collect();
-    let chosen: Vec<PathBuf> = files
-        .iter()
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| quiet.contains(n))
-        })
-        .cloned()
-        .collect();
-    let how = format!(
-        "{}: {} of {} frames have |Fz| < {} N (no contact)",
-        labels.display(),
-        chosen.len(),
-        files.len(),
-        CONTACT_THRESHOLD.0
-    );
-    Ok((chosen, how))
-}
-
 fn print_fit(f: &DiscFit) {
     let [sx, sy] = f.shift();
     println!(
@@ -449,12 +381,4 @@ fn print_fit(f: &DiscFit) {
         "fit residual {:.3} px RMS over {} of {} edge rays",
         f.residual_rms_px, f.inliers, f.rays
     );
-}
-
-/// The averaged frame with the fitted disc (green), the crop circle (yellow) and the centre (red
-/// cross) drawn on it.
-fn write_report(g: &GreyImage, f: &DiscFit, path: &Path) -> anyhow::Result<()> {
-    overlay(g, f)
-        .save(path)
-        .with_context(|| format!("cannot write report {}", path.display()))
 }

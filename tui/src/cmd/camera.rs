@@ -2,11 +2,10 @@
 
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::device_open::open_camera;
-use fringe_app::device_spec::CameraSpec;
-use fringe_rig::acquire::frame_gaps::FrameGaps;
+use fringe_app::bringup::camera::{grab, Boxed};
+use fringe_app::rig::device_open::open_camera;
+use fringe_app::rig::device_spec::CameraSpec;
 use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
-use fringe_rig::camera::writer::FrameWriter;
 use fringe_rig::camera::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
 use fringe_rig::units::{Decibels, Hertz, Microseconds};
 use std::path::PathBuf;
@@ -103,38 +102,6 @@ fn open_aravis(id: &str) -> anyhow::Result<Box<dyn Camera>> {
     })?)
 }
 
-/// Boxed cameras are cameras, so a recorder can wrap whichever source was opened.
-struct Boxed(Box<dyn Camera>);
-
-impl Camera for Boxed {
-    fn info(&self) -> fringe_rig::camera::CameraInfo {
-        self.0.info()
-    }
-    fn configure(&mut self, s: &CameraSettings) -> Result<(), fringe_rig::camera::CameraError> {
-        self.0.configure(s)
-    }
-    fn start(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
-        self.0.start()
-    }
-    fn trigger(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
-        self.0.trigger()
-    }
-    fn next_frame(
-        &mut self,
-        timeout: Duration,
-    ) -> Result<Option<fringe_rig::camera::Frame>, fringe_rig::camera::CameraError> {
-        self.0.next_frame(timeout)
-    }
-    fn stop(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
-        self.0.stop()
-    }
-    fn latch_timestamp(
-        &mut self,
-    ) -> Result<fringe_rig::camera::TimestampLatch, fringe_rig::camera::CameraError> {
-        self.0.latch_timestamp()
-    }
-}
-
 pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
     // Without --pixel-format: the camera's native format, or what a replayed trace holds.
     let mut native = CameraSettings::default().pixel_format;
@@ -187,44 +154,24 @@ fn run_grab(camera: &mut dyn Camera, args: &GrabArgs, native: PixelFormat) -> an
         trigger: trigger.clone(),
         exposure_active_line: None,
     };
-    let info = camera.info();
-    camera.configure(&settings)?;
-    let mut writer = FrameWriter::create(&args.out)?;
-    camera.start()?;
-    let timeout = Duration::from_millis(args.timeout_ms);
-    let result = (|| -> anyhow::Result<()> {
-        let mut gaps = FrameGaps::default();
-        while writer.count() < args.count {
-            if trigger == TriggerMode::Software {
-                camera.trigger()?;
-            }
-            let Some(frame) = camera.next_frame(timeout)? else {
-                bail!(
-                    "camera {}: no frame within {} ms after {} of {} frames (check the trigger mode, cable and frame rate)",
-                    info.id,
-                    args.timeout_ms,
-                    writer.count(),
-                    args.count
-                );
-            };
-            gaps.observe(frame.id);
-            writer.write(&frame)?;
+    let g = grab(
+        camera,
+        &settings,
+        &args.out,
+        args.count,
+        Duration::from_millis(args.timeout_ms),
+    )?;
+    println!(
+        "camera {}: {} frames written to {} (frames.csv){}",
+        g.camera,
+        g.frames,
+        args.out.display(),
+        if g.dropped > 0 {
+            format!("; {} frame ids missing (dropped frames)", g.dropped)
+        } else {
+            String::new()
         }
-        println!(
-            "camera {}: {} frames written to {} (frames.csv){}",
-            info.id,
-            writer.count(),
-            args.out.display(),
-            if gaps.dropped() > 0 {
-                format!("; {} frame ids missing (dropped frames)", gaps.dropped())
-            } else {
-                String::new()
-            }
-        );
-        Ok(())
-    })();
-    let stopped = camera.stop();
-    result?;
-    stopped?;
+    );
+    g.stopped?;
     Ok(())
 }

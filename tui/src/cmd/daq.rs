@@ -9,9 +9,12 @@
 
 use super::arg_values;
 use crate::global::Global;
-use fringe_app::daq_bringup::{self, StreamReport};
-use fringe_app::device_open::{open_daq, DaqForce, TraceTo};
-use fringe_app::device_spec::{DaqNames, DaqSpec};
+use fringe_app::bringup::daq;
+use fringe_app::bringup::force_stream::{stream_to_csv, StreamReport};
+use fringe_app::bringup::interface::Interface;
+use fringe_app::rig::device_open::TraceTo;
+use fringe_app::rig::force::nidaqmx::names::DaqNames;
+use fringe_app::rig::force::nidaqmx::{open_daq, DaqForce, DaqSpec};
 use fringe_rig::force::ForceSensor;
 use fringe_rig::nidaqmx::{DaqSettings, Terminal};
 use fringe_rig::units::{Hertz, Volts};
@@ -112,7 +115,7 @@ impl DaqArgs {
             named_by: DaqNames::Flags,
         };
         if let Err(e) = spec.settings.check() {
-            return Err(fringe_app::device_open::daq_error(&spec, e).into());
+            return Err(fringe_app::rig::force::nidaqmx::daq_error(&spec, e).into());
         }
         Ok(spec)
     }
@@ -129,18 +132,18 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
     println!("{}", sensor.describe());
     match &args.action {
         DaqAction::Stream { seconds, csv, bias } => {
-            let report = daq_bringup::stream_to_csv(
+            let strobe = spec.settings.strobe.is_some();
+            let report = stream_to_csv(
                 &mut sensor,
-                spec.settings.rate,
+                Interface::Daq { strobe },
                 *seconds,
                 csv,
                 *bias,
-                spec.settings.strobe.is_some(),
                 &mut |samples, elapsed| {
                     println!("{:5.1} s: {samples} samples", elapsed.as_secs_f64())
                 },
             )?;
-            print_report(&report, &sensor);
+            print_report(&report, spec.settings.rate, &sensor);
             if report.samples > 0 {
                 println!("csv: {}", csv.display());
             }
@@ -148,7 +151,7 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
             Ok(())
         }
         DaqAction::Bias => {
-            let b = daq_bringup::bias(&mut sensor)?;
+            let b = daq::bias(&mut sensor)?;
             let v = b.volts;
             println!(
                 "bias (V): {:.5} {:.5} {:.5} {:.5} {:.5} {:.5}; it holds for this command only (a scan takes its own bias)",
@@ -165,14 +168,14 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
 }
 
 /// Prints the samples received against those the elapsed time gives, and the losses.
-fn print_report(report: &StreamReport, sensor: &DaqForce) {
+fn print_report(report: &StreamReport, rate: Hertz, sensor: &DaqForce) {
     let daq = sensor.source().stats();
     println!("samples: {}", report.samples);
     println!(
         "expected: {} ({:.3} s at {} Hz)",
-        report.expected(),
+        report.expected(rate),
         report.elapsed.as_secs_f64(),
-        report.rate.0
+        rate.0
     );
     println!("lost samples: {}", report.stats.lost);
     println!("overruns: {} ({} scans lost)", daq.overruns, daq.lost);
@@ -182,7 +185,7 @@ fn print_report(report: &StreamReport, sensor: &DaqForce) {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::device_spec::ForceSpec;
+    use fringe_app::rig::force::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

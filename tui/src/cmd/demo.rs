@@ -6,7 +6,7 @@
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::plans::DEMO;
+use fringe_app::session::plans::DEMO;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{Axis1d, Plan};

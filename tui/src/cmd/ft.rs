@@ -7,18 +7,18 @@
 
 use super::arg_values;
 use crate::global::Global;
-use anyhow::{bail, Context};
-use fringe_app::device_open::{open_netft, TraceTo};
-use fringe_app::device_spec::{NetFtScaling, NetFtSpec};
-use fringe_app::host_port::HostPort;
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceSample, ForceSensor, StreamStats};
+use anyhow::Context;
+use fringe_app::bringup::force_stream::stream_to_csv;
+use fringe_app::bringup::interface::Interface;
+use fringe_app::bringup::netft;
+use fringe_app::rig::device_open::TraceTo;
+use fringe_app::rig::force::netft::{open_netft, NetFtScaling, NetFtSpec};
+use fringe_app::rig::host_port::HostPort;
+use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, DEFAULT_PORT};
 use fringe_rig::transport::DatagramLink;
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct FtArgs {
@@ -119,181 +119,34 @@ pub fn run(args: FtArgs, global: &Global) -> anyhow::Result<()> {
     }
 }
 
-fn csv_row(out: &mut impl Write, s: &ForceSample) -> std::io::Result<()> {
-    let w = s.wrench.to_array();
-    writeln!(
-        out,
-        "{:.6},{},{},{},{},{},{},{},{}",
-        s.host_time.seconds(),
-        s.transport_seq.unwrap_or(0),
-        s.device_tick,
-        w[0],
-        w[1],
-        w[2],
-        w[3],
-        w[4],
-        w[5]
-    )
-}
-
-/// Streams samples into the CSV file `csv` for `duration` and reports their rate and losses; a
-/// file that would hold only the header is removed.
+/// Streams samples into the CSV file `csv` for `duration` and prints their rate and losses.
 fn stream(
     mut sensor: NetFt<Box<dyn DatagramLink>>,
     duration: Duration,
-    csv: &PathBuf,
+    csv: &Path,
 ) -> anyhow::Result<()> {
-    // A file this command created and filled with nothing is removed again (never a device
-    // such as /dev/null, nor a file that was there before).
-    let created = !csv.exists();
-    let discard_empty = || {
-        if created && csv.metadata().is_ok_and(|m| m.is_file()) {
-            let _ = std::fs::remove_file(csv);
-        }
-    };
-    let file = File::create(csv).with_context(|| {
-        format!(
-            "cannot create {} (check the directory exists and is writable)",
-            csv.display()
-        )
-    })?;
-    let mut out = BufWriter::new(file);
-    let write_err = |e: std::io::Error| anyhow::anyhow!("cannot write {}: {e}", csv.display());
-    writeln!(
-        out,
-        "host_time_s,rdt_sequence,ft_sequence,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm"
-    )
-    .map_err(write_err)?;
-    if let Err(e) = sensor.start() {
-        drop(out);
-        discard_empty();
-        return Err(e.into());
+    let report = stream_to_csv(
+        &mut sensor,
+        Interface::NetFt,
+        duration,
+        csv,
+        false,
+        &mut |_, _| {},
+    )?;
+    println!("samples: {}", report.samples);
+    println!("rate: {:.1} Hz", report.rate());
+    println!("lost packets: {}", report.stats.lost);
+    println!("out of order: {}", report.stats.out_of_order);
+    if report.samples > 0 {
+        println!("csv: {}", csv.display());
     }
-    let recording = record(&mut sensor, &mut out, duration, &write_err)?;
-    let stopped = sensor.stop();
-    out.flush().map_err(write_err)?;
-    recording.print(&sensor.stats());
-    if recording.count == 0 {
-        // A CSV of only the header would pass for a recording; leave nothing instead.
-        drop(out);
-        discard_empty();
-        recording.ended?;
-        bail!(
-            "{}: no sample arrived in {:.1} s; nothing written to {} (check the address and that the sensor streams)",
-            sensor.describe(),
-            duration.as_secs_f64(),
-            csv.display()
-        );
-    }
-    println!("csv: {}", csv.display());
-    recording.ended?;
-    stopped?;
+    report.ended?;
     Ok(())
 }
 
-/// What a stream recorded.
-struct Recording {
-    /// How the stream ended: the duration over, or why it stopped early.
-    ended: anyhow::Result<()>,
-    count: u64,
-    first: Option<HostTime>,
-    last: Option<HostTime>,
-}
-
-impl Recording {
-    /// Prints the samples counted, their rate and the stream's losses.
-    fn print(&self, stats: &StreamStats) {
-        let span = match (self.first, self.last) {
-            (Some(a), Some(b)) => b.since(a).as_secs_f64(),
-            _ => 0.0,
-        };
-        let count = self.count;
-        let rate = if count > 1 && span > 0.0 {
-            (count - 1) as f64 / span
-        } else {
-            0.0
-        };
-        println!("samples: {count}");
-        println!("rate: {rate:.1} Hz");
-        println!("lost packets: {}", stats.lost);
-        println!("out of order: {}", stats.out_of_order);
-    }
-}
-
-/// Writes every sample to `out` for `duration`, or until the stream stalls for a second or
-/// fails; an error only when a row cannot be written.
-fn record(
-    sensor: &mut NetFt<Box<dyn DatagramLink>>,
-    out: &mut impl Write,
-    duration: Duration,
-    write_err: &dyn Fn(std::io::Error) -> anyhow::Error,
-) -> anyhow::Result<Recording> {
-    let started = Instant::now();
-    let mut count = 0u64;
-    let mut first = None;
-    let mut last = None;
-    let mut last_arrival = Instant::now();
-    let stall = Duration::from_secs(1);
-    let ended = loop {
-        if started.elapsed() >= duration {
-            break Ok(());
-        }
-        match sensor.next_sample(Duration::from_millis(50)) {
-            Ok(Some(s)) => {
-                csv_row(out, &s).map_err(write_err)?;
-                count += 1;
-                first.get_or_insert(s.host_time);
-                last = Some(s.host_time);
-                last_arrival = Instant::now();
-            }
-            Ok(None) if last_arrival.elapsed() >= stall => {
-                break Err(anyhow::anyhow!(
-                    "{}: the stream stopped (no record for {} s); check the cable and that nothing else restarted the sensor",
-                    sensor.describe(),
-                    stall.as_secs()
-                ))
-            }
-            Ok(None) => {}
-            Err(e) => break Err(e.into()),
-        }
-    };
-    Ok(Recording {
-        ended,
-        count,
-        first,
-        last,
-    })
-}
-
 fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
-    sensor.start()?;
-    sensor.bias()?;
-    // Skip records already in flight when the bias was applied, then average 100 ms.
-    let wait = Duration::from_millis(500);
-    let settle = Instant::now() + Duration::from_millis(50);
-    let end = settle + Duration::from_millis(100);
-    let mut sum = [0.0; 6];
-    let mut n = 0u32;
-    loop {
-        let Some(s) = sensor.next_sample(wait)? else {
-            bail!(
-                "{}: no record after the bias command; check the stream",
-                sensor.describe()
-            );
-        };
-        let now = Instant::now();
-        if now >= settle {
-            for (a, v) in sum.iter_mut().zip(s.wrench.to_array()) {
-                *a += v;
-            }
-            n += 1;
-        }
-        if now >= end && n > 0 {
-            break;
-        }
-    }
-    sensor.stop()?;
-    let m = sum.map(|v| v / f64::from(n));
+    let b = netft::bias(&mut sensor)?;
+    let (m, n) = (b.mean_after, b.records);
     println!("software bias sent to {}", sensor.describe());
     println!(
         "reading after bias (mean of {n}): Fx {:.4} N  Fy {:.4} N  Fz {:.4} N  Tx {:.5} N m  Ty {:.5} N m  Tz {:.5} N m",
@@ -307,7 +160,7 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::device_spec::ForceSpec;
+    use fringe_app::rig::force::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

@@ -7,8 +7,8 @@ use super::terminal_prompt::TerminalPrompt;
 use crate::clock_text::clock;
 use crate::global::Global;
 use anyhow::bail;
-use fringe_app::disk_room::{free_bytes, needed_bytes, Recording, STORE_DISC_ADVICE};
-use fringe_app::plans::SHORT_GRID;
+use fringe_app::session::disk_space::{Recording, RoomForecast};
+use fringe_app::session::plans::{scan_plan, SHORT_GRID};
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{
     Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
@@ -16,7 +16,7 @@ use fringe_rig::scan::control::{
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::store::disk_space::human;
-use fringe_rig::store::documents::{ExitStatus, StartDocument};
+use fringe_rig::store::documents::ExitStatus;
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -56,19 +56,6 @@ impl ScanArgs {
     }
 }
 
-/// The plan text and a name for messages.
-fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
-    if let Some(path) = &args.plan {
-        let text = fringe_app::plans::read_file(path)?;
-        return Ok((text, path.display().to_string()));
-    }
-    if let Some(run) = &args.resume {
-        let start: StartDocument = fringe_rig::store::read_start(run)?;
-        return Ok((start.plan, format!("the plan stored in {}", run.display())));
-    }
-    Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
-}
-
 /// `fringe` on a terminal: the UI on the Scan screen with the built-in plan, ready to run (r);
 /// the Validate screen runs the rig's sensor's commissioned model, else the one that ships with
 /// fringe.
@@ -89,7 +76,7 @@ pub fn run_ui() -> anyhow::Result<()> {
 }
 
 pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
-    let (text, origin) = plan_text(&args)?;
+    let (text, origin) = scan_plan(args.plan.as_deref(), args.resume.as_deref())?;
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(args.rig.as_deref())?;
     println!(
@@ -297,29 +284,25 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
 /// rig file and the profile directory only (the devices stay closed); says so when the scan
 /// would be refused.
 fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, out: &Path) {
-    let recording = match Recording::from_rig_files(config, Some(&program.plan)) {
-        Ok(r) => r,
+    let forecast = match RoomForecast::new(config, program, limits, out) {
+        Ok(f) => f,
         Err(e) => {
             println!("expected on disk: cannot be estimated: {e}");
             return;
         }
     };
-    let size = recording.expected(program.estimate(limits).recording_time());
-    println!("expected on disk: {}", recording.describe(&size));
-    match free_bytes(out) {
+    println!(
+        "expected on disk: {}",
+        forecast.recording.describe(&forecast.size)
+    );
+    match &forecast.free {
         Ok(free) => {
             println!(
                 "free on the filesystem holding {}: {}",
                 out.display(),
-                human(free)
+                human(*free)
             );
-            let need = needed_bytes(size.total_bytes());
-            if need > free {
-                let disc = if recording.storage.cutout.is_none() {
-                    STORE_DISC_ADVICE
-                } else {
-                    ""
-                };
+            if let Some((need, disc)) = forecast.refusal() {
                 eprintln!(
                     "warning: the scan would be refused: with a margin it needs {} free; free space there, write the run elsewhere (--out DIR), or run a smaller plan{disc}",
                     human(need)

@@ -9,8 +9,8 @@ use crate::cmd::model::{choose_model, ForSensor};
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::live_validation::{LiveValidation, Validation};
-use fringe_app::plans::SHORT_GRID;
+use fringe_app::session::live_validation::{LiveValidation, Validation};
+use fringe_app::session::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
@@ -47,7 +47,7 @@ pub struct ValidateArgs {
     /// Inference threads of each network (at most the machine's cores are used).
     #[arg(
         long,
-        default_value_t = fringe_app::live_validation::THREADS_PER_NETWORK,
+        default_value_t = fringe_app::session::live_validation::THREADS_PER_NETWORK,
         value_parser = crate::cmd::arg_values::threads
     )]
     threads: usize,
@@ -61,7 +61,10 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
         fringe_rig::store::outside_runs(report).context("--report")?;
     }
     let (text, origin) = match &a.plan {
-        Some(p) => (fringe_app::plans::read_file(p)?, p.display().to_string()),
+        Some(p) => (
+            fringe_app::session::plans::read_file(p)?,
+            p.display().to_string(),
+        ),
         None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
     };
     let plan = Plan::parse(&text, &origin)?;

@@ -511,8 +511,8 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("dir");
         let config = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "rig.toml").expect("rig");
-        let sim = fringe_app::sim_bench::config(&config).expect("simulated bench");
-        let profile = fringe_app::sim_bench::design_profile(&sim, "unit-1");
+        let sim = fringe_app::rig::simulated::config(&config).expect("simulated bench");
+        let profile = fringe_app::rig::simulated::design_profile(&sim, "unit-1");
         let variant = config.sensor_variant().expect("variant");
         let base_path =
             fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");

@@ -8,7 +8,7 @@ use crate::commissioning::{self, Accepted, Request, DEFAULT_BUDGET_MIN};
 use crossbeam_channel::{unbounded, Receiver, Sender};
 use fringe_app::commission::certificate::{unfinished, CurvePoint};
 use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
-use fringe_app::worker_failure::guarded;
+use fringe_app::session::worker_failure::guarded;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;

@@ -5,9 +5,9 @@
 use super::stage_operator::UiStageOperator;
 use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_app::live_validation::LiveValidation;
-use fringe_app::live_view::LiveView;
-use fringe_app::worker_failure::guarded;
+use fringe_app::session::live_validation::LiveValidation;
+use fringe_app::session::live_view::LiveView;
+use fringe_app::session::worker_failure::guarded;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::scan::control::{Operator, Prompt, Reply, ScanControl, ScanProgress};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -65,7 +65,7 @@ impl ModelChoice {
                 })
                 .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
             backend: BackendKind::Tract,
-            threads: fringe_app::live_validation::THREADS_PER_NETWORK,
+            threads: fringe_app::session::live_validation::THREADS_PER_NETWORK,
         }
     }
 }

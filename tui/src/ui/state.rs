@@ -1,9 +1,9 @@
 //! What the terminal UI shows, as plain data: the event loop fills it from what the scan and
 //! validation threads publish, the views draw it, and the snapshot tests build it by hand.
 
-use fringe_app::bench_session::{AxisId, BenchState};
-use fringe_app::live_validation::ValidationState;
-use fringe_app::live_view::ViewState;
+use fringe_app::session::live_validation::ValidationState;
+use fringe_app::session::live_view::ViewState;
+use fringe_app::session::rig_control::{AxisId, BenchState};
 use std::collections::VecDeque;
 use std::time::Duration;
 

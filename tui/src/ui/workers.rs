@@ -7,10 +7,10 @@ use super::calibration;
 use super::session::{self, ModelChoice};
 use super::state::CalibrateView;
 use crossbeam_channel::Sender;
-use fringe_app::calibration_scan::{
+use fringe_app::session::calibration_scan::{
     calibrate_run, spot_settings, CalibrationResult, DEFAULT_MAX_FRAMES,
 };
-use fringe_app::worker_failure::guarded;
+use fringe_app::session::worker_failure::guarded;
 use fringe_app::RigConfig;
 use std::path::{Path, PathBuf};
 

@@ -3,8 +3,8 @@
 //! cut short (Ctrl-C, a crash, power loss) goes on from its runs with `--resume DIR` and
 //! presses nothing twice.
 
-use crate::disk_room::camera_frame;
-use crate::rig_file::RigConfig;
+use crate::rig::file::RigConfig;
+use crate::session::disk_space::camera_frame;
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};

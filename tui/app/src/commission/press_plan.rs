@@ -1,7 +1,7 @@
 //! The scan plan of a commissioning round or acceptance scan: the built-in `commission` plan
 //! with its points and indenters replaced.
 
-use crate::plans::COMMISSION;
+use crate::session::plans::COMMISSION;
 
 /// The built-in plan could not be rewritten (a broken build).
 #[derive(Debug, thiserror::Error)]

@@ -8,11 +8,11 @@ use crate::ui::state::{
     HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, Tab, UiState,
 };
 use crate::ui::widgets;
-use fringe_app::bench_session::{
+use fringe_app::session::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
+use fringe_app::session::live_view::{LabelPoint, ViewState};
+use fringe_app::session::rig_control::{
     AxisId, AxisState, BenchPhase, BenchState, CameraState, ForcePoint, ForceState,
 };
-use fringe_app::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
-use fringe_app::live_view::{LabelPoint, ViewState};
 use fringe_rig::units::Millimetres;
 use fringe_sensor_models::dataset::Sample;
 use fringe_sensor_models::metrics::Errors;

@@ -1,160 +1,76 @@
-//! The rig file's device sections (`[x]`, `[y]`, `[z]`, `[force]`, `[camera]`) as device
-//! descriptions ([`crate::device_spec`]), checked and naming the file and key in errors; the
-//! rig opens them with the one opener (`device_open`), as the bring-up commands do theirs.
+//! The F/T door: every force/torque interface described by one [`ForceSpec`] and opened by one
+//! [`open_force`], for the rig and for the bring-up commands alike. Each interface is a module of
+//! its own, its description and its opener: [`netft`] (an ATI Net F/T over RDT/UDP) and
+//! [`nidaqmx`] (an ATI transducer's gauges read by an NI-DAQmx device).
+//!
+//! The rig file's `[force]` section is [`section`]'s: the `driver`, the keys each interface
+//! takes and their checks.
+//!
+//! A new interface: its module here; a variant of [`ForceSpec`] with its arms, and its arms in
+//! [`open_force`] and `RigConfig::force_spec`; its `driver` and keys in [`section`].
 
-use crate::device_spec::{
-    AxisSpec, CameraSpec, DaqNames, DaqSpec, ForceSpec, ModbusLink, ModbusSpec, NetFtScaling,
-    NetFtSpec,
-};
-use crate::host_port::HostPort;
-use crate::rig_file::{
-    daq_settings, AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
-};
-use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
-use fringe_rig::apt::status::LimitPolarity;
-use fringe_rig::apt::Actuator;
-use fringe_rig::atical::ToolTransform;
-use fringe_rig::axis::SoftLimits;
+pub mod netft;
+pub mod nidaqmx;
+pub mod section;
+
+use crate::rig::device_open::{DeviceError, TraceTo};
+use crate::rig::file::RigConfig;
 use fringe_rig::config_file::ConfigError;
-use fringe_rig::netft::{self, Command, NetFtConfig};
-use fringe_rig::nidaqmx::CameraTrigger;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::force::ForceSensor;
+use netft::{open_netft, NetFtSpec};
+use nidaqmx::{open_daq, DaqSpec};
+use section::ForceDriver;
+use std::path::Path;
+
+/// A force/torque sensor: one variant per interface, all opened by [`open_force`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum ForceSpec {
+    /// An ATI Net F/T or Ethernet Axia over RDT/UDP.
+    NetFt(NetFtSpec),
+    /// An ATI transducer's gauges read by an NI-DAQmx device, converted by its `.cal` file.
+    NiDaqmx(DaqSpec),
+}
+
+impl ForceSpec {
+    /// One line for the rig's device list.
+    pub fn describe(&self) -> String {
+        match self {
+            ForceSpec::NetFt(n) => n.describe(),
+            ForceSpec::NiDaqmx(d) => d.describe(),
+        }
+    }
+
+    /// Whether the force stream carries the camera's exposure strobe (strobe sync possible).
+    pub fn records_strobe(&self) -> bool {
+        match self {
+            ForceSpec::NetFt(_) => false,
+            ForceSpec::NiDaqmx(d) => d.settings.strobe.is_some(),
+        }
+    }
+
+    /// The name of its trace under `--record-trace DIR` (`DIR/<name>.trace`).
+    pub fn trace_name(&self) -> &'static str {
+        match self {
+            ForceSpec::NetFt(_) => "netft",
+            ForceSpec::NiDaqmx(_) => "force",
+        }
+    }
+}
+
+/// The force sensor `spec` describes, whatever its interface; `record_trace` records its
+/// traffic to `DIR/<name>.trace` ([`ForceSpec::trace_name`]).
+pub fn open_force(
+    spec: &ForceSpec,
+    record_trace: Option<&Path>,
+) -> Result<Box<dyn ForceSensor>, DeviceError> {
+    let trace = TraceTo::new(record_trace, spec.trace_name());
+    Ok(match spec {
+        ForceSpec::NetFt(n) => Box::new(open_netft(n, trace)?),
+        ForceSpec::NiDaqmx(d) => Box::new(open_daq(d, trace)?),
+    })
+}
 
 impl RigConfig {
-    /// The axis `name` (`x`, `y` or `z`) of a real rig as a device description, with its soft
-    /// limits.
-    pub fn axis_spec(&self, name: &str, limits: &SoftLimits) -> Result<AxisSpec, ConfigError> {
-        let a = match name {
-            "x" => &self.file.x,
-            "y" => &self.file.y,
-            "z" => &self.file.z,
-            other => {
-                return Err(self.err(format!(
-                    "no axis [{other}] in a rig file (the axes are x, y and z)"
-                )))
-            }
-        };
-        let port = || {
-            a.port.clone().ok_or_else(|| {
-                self.err(format!(
-                    "[{name}]: key `{name}.port` (the serial port, e.g. /dev/ttyUSB0) is required for driver {:?}",
-                    a.driver
-                ))
-            })
-        };
-        match a.driver {
-            AxisDriver::Sim => Err(self.err(format!(
-                "key `{name}.driver` = \"sim\" on a real rig: a rig is wholly simulated or wholly real"
-            ))),
-            AxisDriver::Thorlabs => Ok(AxisSpec::Thorlabs {
-                config: self.apt_config(name, a, limits)?,
-                port: port()?,
-            }),
-            AxisDriver::ModbusRtu | AxisDriver::ModbusTcp => {
-                let map = a.map.clone().ok_or_else(|| {
-                    self.err(format!(
-                        "[{name}]: key `{name}.map` (oriental-az, leadshine-pr or a register map file) is required for a Modbus stage"
-                    ))
-                })?;
-                let link = if a.driver == AxisDriver::ModbusRtu {
-                    ModbusLink::Rtu { port: port()? }
-                } else {
-                    let text = a.address.as_deref().ok_or_else(|| {
-                        self.err(format!(
-                            "[{name}]: key `{name}.address` (host:port) is required for a Modbus TCP stage"
-                        ))
-                    })?;
-                    ModbusLink::Tcp(
-                        HostPort::parse(text, None)
-                            .map_err(|e| self.err(format!("key `{name}.address`: {e}")))?,
-                    )
-                };
-                Ok(AxisSpec::Modbus(ModbusSpec {
-                    name: name.to_string(),
-                    link,
-                    map,
-                    slave: a.slave,
-                    baud: a.baud,
-                    limits: Some(*limits),
-                }))
-            }
-            AxisDriver::Manual => Ok(AxisSpec::Manual {
-                name: name.to_string(),
-                limits: Some(*limits),
-            }),
-        }
-    }
-
-    /// The Thorlabs settings of axis `name` from its section.
-    pub(crate) fn apt_config(
-        &self,
-        name: &str,
-        a: &AxisSection,
-        limits: &SoftLimits,
-    ) -> Result<AptConfig, ConfigError> {
-        let actuator_name = a.actuator.as_deref().ok_or_else(|| {
-            self.err(format!(
-                "[{name}]: key `{name}.actuator` is required for a Thorlabs axis (known: {})",
-                Actuator::known_names()
-            ))
-        })?;
-        let actuator = Actuator::by_name(actuator_name).ok_or_else(|| {
-            self.err(format!(
-                "key `{name}.actuator` = {actuator_name:?}: unknown (known: {})",
-                Actuator::known_names()
-            ))
-        })?;
-        let controller = match a.controller.as_deref() {
-            None => Controller::Kst101,
-            Some(c) => c
-                .parse::<Controller>()
-                .map_err(|e| self.err(format!("key `{name}.controller`: {e}")))?,
-        };
-        let mut c = AptConfig::new(name, controller, actuator);
-        c.bay = a.bay;
-        if let Some(ch) = a.channel {
-            c.channel = ch;
-        }
-        c.velocity = MillimetresPerSecond(a.velocity.unwrap_or(1.0));
-        c.acceleration = MillimetresPerSecondSquared(a.acceleration.unwrap_or(1.0));
-        c.soft_limits = Some(*limits);
-        if let Some(h) = &a.home {
-            let side = |key: &str, v: &str| match v {
-                "reverse" => Ok(false),
-                "forward" => Ok(true),
-                other => Err(self.err(format!(
-                    "key `{name}.home.{key}` = {other:?}: use reverse or forward"
-                ))),
-            };
-            c.home = HomeConfig {
-                direction: if side("direction", &h.direction)? {
-                    HomeDirection::Forward
-                } else {
-                    HomeDirection::Reverse
-                },
-                limit_switch: if side("limit_switch", &h.limit_switch)? {
-                    HomeLimitSwitch::Forward
-                } else {
-                    HomeLimitSwitch::Reverse
-                },
-                velocity: MillimetresPerSecond(h.velocity.unwrap_or(c.velocity.0.min(1.0))),
-                offset: Millimetres(h.offset),
-            };
-        } else {
-            c.home.velocity = MillimetresPerSecond(c.velocity.0.min(1.0));
-        }
-        c.limit_polarity = match a.limit_polarity.as_deref() {
-            None | Some("bit0-forward") => LimitPolarity::Bit0Forward,
-            Some("bit0-reverse") => LimitPolarity::Bit0Reverse,
-            Some(other) => {
-                return Err(self.err(format!(
-                    "key `{name}.limit_polarity` = {other:?}: use bit0-forward or bit0-reverse"
-                )))
-            }
-        };
-        Ok(c)
-    }
-
     /// The `[force]` section of a real rig as a device description.
     pub fn force_spec(&self) -> Result<ForceSpec, ConfigError> {
         let f = &self.file.force;
@@ -166,96 +82,15 @@ impl RigConfig {
             ForceDriver::Nidaqmx => Ok(ForceSpec::NiDaqmx(self.daq_spec(f)?)),
         }
     }
-
-    /// `[force]` with driver "nidaqmx".
-    fn daq_spec(&self, f: &ForceSection) -> Result<DaqSpec, ConfigError> {
-        let settings =
-            daq_settings(f).map_err(|(key, message)| self.err(format!("{key}: {message}")))?;
-        let cal_file = f.cal_file.clone().ok_or_else(|| {
-            self.err(
-                "key `force.cal_file` (the transducer's ATI .cal file) is required for driver \"nidaqmx\"".into(),
-            )
-        })?;
-        let tool = match (f.tool_translation_m, f.tool_rotation_deg) {
-            (None, None) => None,
-            (d, r) => {
-                let d = d.unwrap_or([0.0; 3]);
-                let r = r.unwrap_or([0.0; 3]);
-                if let Some((key, _)) = [("tool_translation_m", d), ("tool_rotation_deg", r)]
-                    .into_iter()
-                    .find(|(_, v)| v.iter().any(|x| !x.is_finite()))
-                {
-                    return Err(self.err(format!(
-                        "key `force.{key}`: must be three finite numbers (tool_translation_m in metres, tool_rotation_deg in degrees)"
-                    )));
-                }
-                Some(ToolTransform::from_ati(d, r.map(f64::to_radians)))
-            }
-        };
-        let camera_trigger = match self.daq_triggers_camera()? {
-            true => Some(CameraTrigger {
-                counter: f.trigger_counter.clone().unwrap_or_else(|| "ctr0".into()),
-                terminal: f.trigger_terminal.clone(),
-                frame_rate: self.camera_settings()?.frame_rate,
-                duty: 0.5,
-            }),
-            false => None,
-        };
-        Ok(DaqSpec {
-            settings,
-            cal_file,
-            library: f.library.clone(),
-            tool,
-            camera_trigger,
-            named_by: DaqNames::RigFile,
-        })
-    }
-
-    /// `[force]` with driver "netft".
-    fn netft_spec(&self, f: &ForceSection) -> Result<NetFtSpec, ConfigError> {
-        let text = f.address.as_deref().ok_or_else(|| {
-            self.err("key `force.address` (the Net F/T's host or host:port) is required".into())
-        })?;
-        let address = HostPort::parse(text, Some(netft::DEFAULT_PORT))
-            .map_err(|e| self.err(format!("key `force.address`: {e}")))?;
-        let scaling = match (f.cpf, f.cpt) {
-            (Some(cpf), Some(cpt)) => NetFtScaling::Given(
-                NetFtConfig::new(
-                    cpf,
-                    cpt,
-                    f.force_unit.as_deref().unwrap_or("N"),
-                    f.torque_unit.as_deref().unwrap_or("Nm"),
-                    "[force] cpf/cpt",
-                )
-                .map_err(|e| self.err(e.to_string()))?,
-            ),
-            (None, None) => NetFtScaling::FromBox { url: None },
-            _ => return Err(self.err(
-                "[force]: give both `cpf` and `cpt`, or neither (then they are read from the box)"
-                    .into(),
-            )),
-        };
-        Ok(NetFtSpec::new(address, scaling, Command::RealTime))
-    }
-
-    /// The `[camera]` section of a real rig as a device description.
-    pub fn camera_spec(&self) -> Result<CameraSpec, ConfigError> {
-        match self.file.camera.driver {
-            CameraDriver::Aravis => Ok(CameraSpec::Aravis {
-                id: self.file.camera.id.clone(),
-            }),
-            CameraDriver::Sim => Err(self.err(
-                "key `camera.driver` = \"sim\" on a real rig: a rig is wholly simulated or wholly real (use driver = \"aravis\")".into(),
-            )),
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::device_open::{open_force, DeviceError};
-    use crate::device_spec::{DaqNames, DaqSpec, ForceSpec};
-    use crate::rig_file::RigConfig;
+    use crate::rig::device_open::DeviceError;
+    use crate::rig::file::RigConfig;
+    use crate::rig::force::nidaqmx::names::DaqNames;
+    use crate::rig::force::nidaqmx::DaqSpec;
+    use crate::rig::force::{open_force, ForceSpec};
     use fringe_rig::nidaqmx::{DaqSettings, Terminal};
     use fringe_rig::sync::method::SyncMethod;
     use fringe_rig::units::{Hertz, Volts};
@@ -494,7 +329,7 @@ mod tests {
 
     #[test]
     fn a_daq_rigs_cal_file_gives_the_transducers_rating_before_anything_opens() {
-        let reference = include_str!("../rigs/reference-bench.toml");
+        let reference = include_str!("../../rigs/reference-bench.toml");
         let line = reference
             .lines()
             .find(|l| l.starts_with("address = "))
@@ -543,7 +378,7 @@ mod tests {
 
     #[test]
     fn nis_refusals_at_open_name_the_key_or_flag_and_what_to_do() {
-        use crate::device_open::daq_error;
+        use crate::rig::force::nidaqmx::daq_error;
         use fringe_rig::nidaqmx::api::status;
         use fringe_rig::nidaqmx::{DaqError, DaqmxStatus, Setting};
         let ni = |code, text: &str| DaqmxStatus {

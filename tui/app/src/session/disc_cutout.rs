@@ -1,7 +1,7 @@
 //! The part of each frame a scan stores when only the disc's square is kept (`[recording] store =
 //! "disc"`): the square of the sensor's calibration profile, and why it cannot be had.
 
-use crate::rig_file::RigConfig;
+use crate::rig::file::RigConfig;
 use fringe_calibration::profile::Profile;
 use fringe_rig::camera::Cutout;
 use fringe_rig::config_file::ConfigError;

@@ -22,21 +22,21 @@ impl BuiltinPlan {
 pub const SHORT_GRID: BuiltinPlan = BuiltinPlan {
     name: "short-grid",
     path: "tui/app/plans/short-grid.toml",
-    text: include_str!("../plans/short-grid.toml"),
+    text: include_str!("../../plans/short-grid.toml"),
 };
 
 /// The calibration scan of `fringe calibrate`.
 pub const CALIBRATION: BuiltinPlan = BuiltinPlan {
     name: "calibration",
     path: "tui/app/plans/calibration.toml",
-    text: include_str!("../plans/calibration.toml"),
+    text: include_str!("../../plans/calibration.toml"),
 };
 
 /// The demonstration of `fringe demo` on the simulated bench.
 pub const DEMO: BuiltinPlan = BuiltinPlan {
     name: "demo",
     path: "tui/app/plans/demo.toml",
-    text: include_str!("../plans/demo.toml"),
+    text: include_str!("../../plans/demo.toml"),
 };
 
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
@@ -44,7 +44,7 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
 pub const COMMISSION: BuiltinPlan = BuiltinPlan {
     name: "commission",
     path: "tui/app/plans/commission.toml",
-    text: include_str!("../plans/commission.toml"),
+    text: include_str!("../../plans/commission.toml"),
 };
 
 /// Every built-in plan offered to run.
@@ -82,6 +82,32 @@ pub fn read_file(path: &std::path::Path) -> Result<String, PlanFileError> {
     })
 }
 
+/// Why the plan of a scan could not be had.
+#[derive(Debug, thiserror::Error)]
+pub enum ScanPlanError {
+    #[error("{0}")]
+    File(#[source] PlanFileError),
+    #[error("{0}")]
+    Run(#[source] fringe_rig::store::StoreError),
+}
+
+/// The plan a scan runs and a name for messages: the plan file given, else the plan stored in
+/// the run it resumes, else the built-in short grid.
+pub fn scan_plan(
+    file: Option<&std::path::Path>,
+    resume: Option<&std::path::Path>,
+) -> Result<(String, String), ScanPlanError> {
+    if let Some(path) = file {
+        let text = read_file(path).map_err(ScanPlanError::File)?;
+        return Ok((text, path.display().to_string()));
+    }
+    if let Some(run) = resume {
+        let start = fringe_rig::store::read_start(run).map_err(ScanPlanError::Run)?;
+        return Ok((start.plan, format!("the plan stored in {}", run.display())));
+    }
+    Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
+}
+
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
@@ -89,7 +115,7 @@ mod tests {
 
     #[test]
     fn every_built_in_plan_is_valid_on_the_simulated_bench() {
-        let limits = crate::rig_file::RigConfig::simulated()
+        let limits = crate::rig::file::RigConfig::simulated()
             .limits()
             .expect("limits");
         for plan in ALL.into_iter().chain([COMMISSION]) {

@@ -1,6 +1,6 @@
 //! Whether a model keeps up with the camera, said before the bench moves: the model's time per
 //! frame on this machine against the camera's frame period. Live validation runs the frames in
-//! order while a few wait ([`crate::live_validation::BACKLOG_FRAMES`]) and skips the oldest
+//! order while a few wait ([`crate::session::live_validation::BACKLOG_FRAMES`]) and skips the oldest
 //! when more come: a model slower than the camera skips a share of the frames however long the
 //! scan, which the operator should know, with what would keep up, before pressing.
 

@@ -3,8 +3,8 @@
 //! scan session and builds the profile from the run ([`calibrate_run`], over
 //! `fringe-calibration`), which the command line and the terminal UI write alike.
 
-use crate::plans::CALIBRATION;
-use crate::rig_file::RigConfig;
+use crate::rig::file::RigConfig;
+use crate::session::plans::CALIBRATION;
 use fringe_calibration::from_scan::{self, FromScanError, ScanCalibration};
 use fringe_calibration::optical::overlay::{overlay, overlay_scaled};
 use fringe_calibration::profile::{profile_path, Profile, ProfileError};
@@ -85,7 +85,7 @@ pub fn spot_settings(
         None => {
             #[cfg(feature = "sim")]
             if config.is_simulated() {
-                return Ok((crate::sim_bench::spot_settings(config)?, None));
+                return Ok((crate::rig::simulated::spot_settings(config)?, None));
             }
             #[cfg(not(feature = "sim"))]
             let _ = config;

@@ -1,7 +1,7 @@
 //! A build without the simulated bench (cargo feature `sim` off): rig files whose devices are all
 //! simulated are refused when they are read, so these answer only if that check is bypassed.
 
-use crate::rig_file::{RigConfig, NO_SIM};
+use crate::rig::file::{RigConfig, NO_SIM};
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;

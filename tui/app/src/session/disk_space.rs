@@ -6,12 +6,12 @@
 //! a real camera tells only once it is opened: the estimate takes it from [`camera_frame`], the
 //! one place that chooses it.
 
-use crate::recording_part::{disc_cutout, RecordingError};
-use crate::rig_file::RigConfig;
+use crate::rig::file::RigConfig;
+use crate::session::disc_cutout::{disc_cutout, RecordingError};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
-use fringe_rig::scan::plan::Plan;
+use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::frame_file::FrameStorage;
@@ -66,7 +66,7 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
     }
     #[cfg(feature = "sim")]
     if config.is_simulated() {
-        if let Ok(sim) = crate::sim_bench::config(config) {
+        if let Ok(sim) = crate::rig::simulated::config(config) {
             let g = &sim.sensor.geometry;
             return FrameSize {
                 width: g.width,
@@ -83,6 +83,51 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
 /// only the disc's square.
 pub const STORE_DISC_ADVICE: &str = ", or store only the square around the sensor's disc \
      ([recording] store = \"disc\" in the rig file or the plan)";
+
+/// What a run of a plan will take on disk and what the disk it goes to has free, told before a
+/// scan (its dry run), from the rig file and the profile directory only (the devices stay
+/// closed).
+#[derive(Debug)]
+pub struct RoomForecast {
+    pub recording: Recording,
+    pub size: RunSize,
+    /// Free bytes on the filesystem holding the run's directory.
+    pub free: Result<u64, RoomError>,
+}
+
+impl RoomForecast {
+    /// The forecast of a run of `program` (within `limits`) on the rig `config` describes,
+    /// written under `out`.
+    pub fn new(
+        config: &RigConfig,
+        program: &ScanProgram,
+        limits: &BenchLimits,
+        out: &Path,
+    ) -> Result<RoomForecast, RecordingError> {
+        let recording = Recording::from_rig_files(config, Some(&program.plan))?;
+        let size = recording.expected(program.estimate(limits).recording_time());
+        Ok(RoomForecast {
+            recording,
+            size,
+            free: free_bytes(out),
+        })
+    }
+
+    /// When the scan would be refused: the bytes it needs free (with the margin) and the
+    /// advice to store only the disc when it stores whole frames ("" otherwise).
+    pub fn refusal(&self) -> Option<(u64, &'static str)> {
+        let free = *self.free.as_ref().ok()?;
+        let need = needed_bytes(self.size.total_bytes());
+        (need > free).then_some((
+            need,
+            if self.recording.storage.cutout.is_none() {
+                STORE_DISC_ADVICE
+            } else {
+                ""
+            },
+        ))
+    }
+}
 
 /// How a scan records its frames: all its expected size needs besides its duration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -186,8 +231,10 @@ fn profile_on_file(config: &RigConfig, sensor_id: &str) -> Option<ProfileRef> {
     }
     #[cfg(feature = "sim")]
     if config.is_simulated() {
-        let design =
-            crate::sim_bench::design_profile(&crate::sim_bench::config(config).ok()?, sensor_id);
+        let design = crate::rig::simulated::design_profile(
+            &crate::rig::simulated::config(config).ok()?,
+            sensor_id,
+        );
         return Some(ProfileRef {
             path: format!("(no file: {})", design.source),
             content: toml::to_string_pretty(&design).ok()?,
@@ -387,8 +434,10 @@ mod tests {
             ..sim.clone()
         };
         assert_eq!(camera_frame(None, &real), REFERENCE_FRAME);
-        let design =
-            crate::sim_bench::design_profile(&crate::sim_bench::config(&sim).expect("sim"), "s1");
+        let design = crate::rig::simulated::design_profile(
+            &crate::rig::simulated::config(&sim).expect("sim"),
+            "s1",
+        );
         assert_eq!(camera_frame(Some(&design), &real), quarter);
         let mut other = design.clone();
         other.image.width = 640;
@@ -433,7 +482,7 @@ mod tests {
         use fringe_rig::scan::plan::Plan;
         use fringe_rig::units::Millimetres;
         let limits = RigConfig::simulated().limits().expect("limits");
-        let grid = crate::plans::SHORT_GRID;
+        let grid = crate::session::plans::SHORT_GRID;
         let program = Plan::parse(grid.text, "short-grid")
             .expect("plan")
             .program(&limits, "short-grid")

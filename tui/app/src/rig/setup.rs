@@ -1,9 +1,10 @@
-//! The bench a rig file describes: soft limits and kinematics, the force ceiling, the contact
+//! The rig's setup a rig file describes: soft limits and kinematics, the force ceiling, the contact
 //! height and origin, and the sensor's id; from the file's keys on real hardware, from the
-//! simulated bench (`sim_bench`) when the rig is simulated.
+//! simulated rig (`rig::simulated`) when the rig is simulated.
 
-use crate::rig_file::{AxisDriver, AxisSection, ForceDriver, RigConfig};
-use crate::sim_bench;
+use crate::rig::file::{AxisDriver, AxisSection, RigConfig};
+use crate::rig::force::section::ForceDriver;
+use crate::rig::simulated;
 use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::config_file::ConfigError;
@@ -48,7 +49,7 @@ impl RigConfig {
     /// The bench's limits with `max_force`, from the simulated bench or the rig file's keys.
     fn bench_limits(&self, max_force: Newtons) -> Result<BenchLimits, ConfigError> {
         if self.simulated {
-            return sim_bench::limits(self, max_force);
+            return simulated::limits(self, max_force);
         }
         let f = &self.file;
         let axis = |name: &str, a: &AxisSection| -> Result<(SoftLimits, Kinematics), ConfigError> {
@@ -125,7 +126,7 @@ impl RigConfig {
     pub fn origin(&self) -> Result<ContactOrigin, ConfigError> {
         let g = &self.file.geometry;
         if self.simulated {
-            return sim_bench::origin(self);
+            return simulated::origin(self);
         }
         match (g.x_centre, g.y_centre) {
             (Some(x), Some(y)) => Ok(ContactOrigin {
@@ -147,7 +148,7 @@ impl RigConfig {
             return Ok(Some(v.name()));
         }
         if self.simulated {
-            return sim_bench::sensor_variant(self).map(Some);
+            return simulated::sensor_variant(self).map(Some);
         }
         Ok(None)
     }
@@ -158,7 +159,7 @@ impl RigConfig {
             return Ok(id.clone());
         }
         if self.simulated {
-            return sim_bench::sensor_id(self);
+            return simulated::sensor_id(self);
         }
         Err(self.err(
             "key `sensor` (the sensor build id, e.g. \"layered-01\") is required on real hardware"

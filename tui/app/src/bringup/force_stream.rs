@@ -1,58 +1,65 @@
-//! Bringing up an NI-DAQmx force path (`fringe daq`): streaming calibrated samples into a CSV
-//! file, counting what arrived against what the elapsed time gives, and taking a bias. The
-//! command parses its flags into a [`DaqSpec`](crate::device_spec::DaqSpec), opens it with
-//! [`open_daq`](crate::device_open::open_daq) and prints what these return.
+//! Streaming an F/T sensor into a CSV file, for the bring-up commands (`fringe ft stream`,
+//! `fringe daq stream`): one writer of the rows and one loop, whatever the interface; the
+//! [`Interface`] chooses the columns and the words of the errors.
 
-use fringe_rig::atical::{CalibratedSensor, GaugeSource};
+use crate::bringup::error::BringupError;
+use crate::bringup::interface::Interface;
 use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
+use fringe_rig::force::{ForceSample, ForceSensor, StreamStats};
 use fringe_rig::units::Hertz;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// How long the stream may stay silent before the command stops.
 pub const STALL: Duration = Duration::from_secs(1);
 
-/// The CSV columns: `fringe ft stream`'s host time and force columns, the DAQ's sample index
-/// in place of the Net F/T's sequences, and the strobe when one is read.
-pub const CSV_COLUMNS: &str = "host_time_s,sample_index,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
+/// The CSV columns of a Net F/T: host time, the RDT and F/T sequences, the force and torque.
+pub const NETFT_COLUMNS: &str =
+    "host_time_s,rdt_sequence,ft_sequence,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
 
-/// Writes a DAQ's samples as CSV rows under a header.
-pub struct DaqCsv<W: Write> {
+/// The CSV columns of a DAQ: `fringe ft stream`'s host time and force columns, the DAQ's sample
+/// index in place of the Net F/T's sequences (and the strobe when one is read).
+pub const DAQ_COLUMNS: &str = "host_time_s,sample_index,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
+
+/// Writes an F/T sensor's samples as CSV rows under a header.
+pub struct ForceCsv<W: Write> {
     out: W,
-    strobe: bool,
+    interface: Interface,
 }
 
-impl<W: Write> DaqCsv<W> {
-    /// Writes the header; `strobe` adds the `strobe_v` column.
-    pub fn new(mut out: W, strobe: bool) -> io::Result<DaqCsv<W>> {
-        writeln!(
-            out,
-            "{CSV_COLUMNS}{}",
-            if strobe { ",strobe_v" } else { "" }
-        )?;
-        Ok(DaqCsv { out, strobe })
+impl<W: Write> ForceCsv<W> {
+    /// Writes the header of `interface`'s columns (a DAQ's with `strobe` adds `strobe_v`).
+    pub fn new(mut out: W, interface: Interface) -> io::Result<ForceCsv<W>> {
+        match interface {
+            Interface::NetFt => writeln!(out, "{NETFT_COLUMNS}")?,
+            Interface::Daq { strobe } => writeln!(
+                out,
+                "{DAQ_COLUMNS}{}",
+                if strobe { ",strobe_v" } else { "" }
+            )?,
+        }
+        Ok(ForceCsv { out, interface })
     }
 
-    /// One sample: host time (s, as `fringe ft stream` writes it), sample index, Fx Fy Fz (N),
-    /// Tx Ty Tz (N m) and the strobe (V).
+    /// One sample: host time (s), the sequence columns (a Net F/T's RDT and F/T sequences, a
+    /// DAQ's sample index), Fx Fy Fz (N), Tx Ty Tz (N m) and a DAQ's strobe (V).
     pub fn row(&mut self, s: &ForceSample) -> io::Result<()> {
-        let w = s.wrench.to_array();
-        write!(
-            self.out,
-            "{:.6},{},{},{},{},{},{},{}",
-            s.host_time.seconds(),
-            s.device_tick,
-            w[0],
-            w[1],
-            w[2],
-            w[3],
-            w[4],
-            w[5]
-        )?;
-        if self.strobe {
+        write!(self.out, "{:.6},", s.host_time.seconds())?;
+        match self.interface {
+            Interface::NetFt => write!(
+                self.out,
+                "{},{}",
+                s.transport_seq.unwrap_or(0),
+                s.device_tick
+            )?,
+            Interface::Daq { .. } => write!(self.out, "{}", s.device_tick)?,
+        }
+        for v in s.wrench.to_array() {
+            write!(self.out, ",{v}")?;
+        }
+        if let Interface::Daq { strobe: true } = self.interface {
             match s.strobe {
                 Some(v) => write!(self.out, ",{}", v.0)?,
                 None => write!(self.out, ",")?,
@@ -70,33 +77,6 @@ impl<W: Write> DaqCsv<W> {
     }
 }
 
-/// Why a bring-up stream or bias failed.
-#[derive(Debug, thiserror::Error)]
-pub enum BringupError {
-    #[error("cannot create {} ({source}); check the directory exists and is writable", path.display())]
-    Create {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: io::Error,
-    },
-    #[error(transparent)]
-    Force(#[from] ForceError),
-    #[error("{device}: no sample for {} s: the acquisition stopped; check the USB cable and power, and that no other program (NI MAX's test panel) uses the device", waited.as_secs_f64())]
-    Stalled { device: String, waited: Duration },
-    #[error("{device}: no sample arrived in {:.1} s; nothing written to {} (check the device's name and that its sample clock runs)", waited.as_secs_f64(), path.display())]
-    NoSamples {
-        device: String,
-        waited: Duration,
-        path: PathBuf,
-    },
-}
-
 /// What a stream recorded.
 #[derive(Debug)]
 pub struct StreamReport {
@@ -104,32 +84,45 @@ pub struct StreamReport {
     pub samples: u64,
     /// From the first sample asked for to the end of the stream.
     pub elapsed: Duration,
-    /// The DAQ's scan rate.
-    pub rate: Hertz,
-    /// The sensor's counters (lost samples from gaps in the sample index).
+    /// The host times of the first and the last sample.
+    pub first: Option<HostTime>,
+    pub last: Option<HostTime>,
+    /// The sensor's counters (lost packets or samples, records out of order).
     pub stats: StreamStats,
     /// How the stream ended: the duration over, or why it stopped early.
     pub ended: Result<(), BringupError>,
 }
 
 impl StreamReport {
-    /// Samples the elapsed time gives at the scan rate.
-    pub fn expected(&self) -> u64 {
-        (self.elapsed.as_secs_f64() * self.rate.0).round() as u64
+    /// Samples the elapsed time gives at the scan rate `rate`.
+    pub fn expected(&self, rate: Hertz) -> u64 {
+        (self.elapsed.as_secs_f64() * rate.0).round() as u64
+    }
+
+    /// The samples' rate from the first to the last, Hz (0 with fewer than two).
+    pub fn rate(&self) -> f64 {
+        let span = match (self.first, self.last) {
+            (Some(a), Some(b)) => b.since(a).as_secs_f64(),
+            _ => 0.0,
+        };
+        if self.samples > 1 && span > 0.0 {
+            (self.samples - 1) as f64 / span
+        } else {
+            0.0
+        }
     }
 }
 
-/// Streams `sensor` at `rate` into the CSV file `csv` for `duration` (after taking a bias when
-/// `bias`), calling `progress` about once a second with the samples so far and the time; a
-/// silence of [`STALL`] ends it with an error. A file this call created and would leave with
-/// only its header is removed again.
-pub fn stream_to_csv<G: GaugeSource>(
-    sensor: &mut CalibratedSensor<G>,
-    rate: Hertz,
+/// Streams `sensor` into the CSV file `csv` for `duration` (after taking a bias when `bias`),
+/// calling `progress` about once a second with the samples so far and the time; a silence of
+/// [`STALL`] ends it with an error. A file this call created and would leave with only its
+/// header is removed again (never a device such as /dev/null, nor a file that was there before).
+pub fn stream_to_csv<S: ForceSensor + ?Sized>(
+    sensor: &mut S,
+    interface: Interface,
     duration: Duration,
     csv: &Path,
     bias: bool,
-    strobe: bool,
     progress: &mut dyn FnMut(u64, Duration),
 ) -> Result<StreamReport, BringupError> {
     let created = !csv.exists();
@@ -143,10 +136,11 @@ pub fn stream_to_csv<G: GaugeSource>(
         source,
     };
     let file = File::create(csv).map_err(|source| BringupError::Create {
+        interface,
         path: csv.to_path_buf(),
         source,
     })?;
-    let mut out = DaqCsv::new(BufWriter::new(file), strobe).map_err(write_err)?;
+    let mut out = ForceCsv::new(BufWriter::new(file), interface).map_err(write_err)?;
     let started = sensor
         .start()
         .and_then(|()| if bias { sensor.bias() } else { Ok(()) });
@@ -158,6 +152,7 @@ pub fn stream_to_csv<G: GaugeSource>(
     }
     let begun = Instant::now();
     let mut samples = 0u64;
+    let (mut first, mut last) = (None, None);
     let mut last_arrival = Instant::now();
     let mut next_progress = Duration::from_secs(1);
     let ended = loop {
@@ -175,10 +170,13 @@ pub fn stream_to_csv<G: GaugeSource>(
                     break Err(write_err(e));
                 }
                 samples += 1;
+                first.get_or_insert(s.host_time);
+                last = Some(s.host_time);
                 last_arrival = Instant::now();
             }
             Ok(None) if last_arrival.elapsed() >= STALL => {
                 break Err(BringupError::Stalled {
+                    interface,
                     device: sensor.describe(),
                     waited: STALL,
                 })
@@ -194,8 +192,13 @@ pub fn stream_to_csv<G: GaugeSource>(
     let ended = ended.and(flushed);
     let ended = match ended {
         Ok(()) if samples == 0 => Err(BringupError::NoSamples {
+            interface,
             device: sensor.describe(),
-            waited: elapsed,
+            // `fringe ft` has always said the time it was asked to stream.
+            waited: match interface {
+                Interface::NetFt => duration,
+                Interface::Daq { .. } => elapsed,
+            },
             path: csv.to_path_buf(),
         }),
         Ok(()) => stopped.map_err(BringupError::from),
@@ -208,67 +211,18 @@ pub fn stream_to_csv<G: GaugeSource>(
     Ok(StreamReport {
         samples,
         elapsed,
-        rate,
+        first,
+        last,
         stats: sensor.stats(),
         ended,
-    })
-}
-
-/// What a bias left: the bias voltages and the mean reading after it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct BiasReport {
-    /// The gauge voltages subtracted from now on, V.
-    pub volts: [f64; 6],
-    /// Mean of the samples in the 100 ms after the bias: Fx Fy Fz (N), Tx Ty Tz (N m).
-    pub mean_after: [f64; 6],
-    /// Samples averaged.
-    pub samples: u64,
-}
-
-/// Takes a bias at the current load and reads 100 ms after it.
-pub fn bias<G: GaugeSource>(sensor: &mut CalibratedSensor<G>) -> Result<BiasReport, BringupError> {
-    sensor.start()?;
-    let result = bias_started(sensor);
-    let stopped = sensor.stop();
-    let report = result?;
-    stopped?;
-    Ok(report)
-}
-
-fn bias_started<G: GaugeSource>(
-    sensor: &mut CalibratedSensor<G>,
-) -> Result<BiasReport, BringupError> {
-    sensor.bias()?;
-    let mut sum = [0.0; 6];
-    let mut n = 0u64;
-    let mut first: Option<HostTime> = None;
-    loop {
-        let Some(s) = sensor.next_sample(STALL)? else {
-            return Err(BringupError::Stalled {
-                device: sensor.describe(),
-                waited: STALL,
-            });
-        };
-        let t0 = *first.get_or_insert(s.host_time);
-        for (a, v) in sum.iter_mut().zip(s.wrench.to_array()) {
-            *a += v;
-        }
-        n += 1;
-        if s.host_time.since(t0) >= Duration::from_millis(100) {
-            break;
-        }
-    }
-    Ok(BiasReport {
-        volts: sensor.bias_volts(),
-        mean_after: sum.map(|v| v / n as f64),
-        samples: n,
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::atical::{Calibration, GaugeReading};
+    use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource};
+    use fringe_rig::force::ForceError;
     use fringe_rig::units::{Volts, Wrench};
 
     fn sample(tick: u64, strobe: Option<f64>) -> ForceSample {
@@ -284,7 +238,7 @@ mod tests {
 
     #[test]
     fn the_csv_has_ft_streams_force_columns_the_sample_index_and_the_strobe() {
-        let mut csv = DaqCsv::new(Vec::new(), true).expect("header");
+        let mut csv = ForceCsv::new(Vec::new(), Interface::Daq { strobe: true }).expect("header");
         csv.row(&sample(41, Some(4.75))).expect("row");
         csv.row(&sample(42, None)).expect("row");
         let text = String::from_utf8(csv.into_inner()).expect("utf-8");
@@ -294,7 +248,7 @@ mod tests {
              1.500000,41,1.5,-2,10.25,0.125,0,-0.5,4.75\n\
              1.500000,42,1.5,-2,10.25,0.125,0,-0.5,\n"
         );
-        let mut csv = DaqCsv::new(Vec::new(), false).expect("header");
+        let mut csv = ForceCsv::new(Vec::new(), Interface::Daq { strobe: false }).expect("header");
         csv.row(&sample(7, Some(1.0))).expect("row");
         let text = String::from_utf8(csv.into_inner()).expect("utf-8");
         assert_eq!(
@@ -349,7 +303,7 @@ mod tests {
 
     fn calibration() -> Calibration {
         Calibration::parse(
-            include_str!("../../../tests/data/mini40-v1.1.cal"),
+            include_str!("../../../../tests/data/mini40-v1.1.cal"),
             "mini40-v1.1.cal",
         )
         .expect("the Mini40 .cal parses")
@@ -369,17 +323,16 @@ mod tests {
         let mut ticks = 0;
         let report = stream_to_csv(
             &mut sensor,
-            Hertz(1000.0),
+            Interface::Daq { strobe: false },
             Duration::from_millis(1500),
             &csv,
             true,
-            false,
             &mut |_, _| ticks += 1,
         )
         .expect("streams");
         report.ended.as_ref().expect("ran its time");
         assert_eq!(ticks, 1, "progress once a second");
-        let expected = report.expected() as f64;
+        let expected = report.expected(Hertz(1000.0)) as f64;
         assert!(
             (report.samples as f64 - expected).abs() <= 0.03 * expected,
             "{} samples, {expected} expected",
@@ -403,10 +356,9 @@ mod tests {
         let t0 = Instant::now();
         let report = stream_to_csv(
             &mut silent,
-            Hertz(1000.0),
+            Interface::Daq { strobe: false },
             Duration::from_secs(10),
             &csv,
-            false,
             false,
             &mut |_, _| {},
         )

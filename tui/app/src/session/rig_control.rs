@@ -7,15 +7,15 @@
 //! limits. While a motion into or across the sensor runs, every force sample is checked (not
 //! every poll): the first one over the bench's ceiling stops it at once. Over the ceiling, moves
 //! into or across the sensor are refused and moves away from it (z up, homing z) are allowed
-//! and never stopped for force ([`crate::jog_guard`]). While the F/T reads a load (against its
+//! and never stopped for force ([`crate::session::jog_guard`]). While the F/T reads a load (against its
 //! no-contact reading, taken with z at its home), moves across the sensor and the tare are
 //! refused, and a move across is stopped at the first reading of one. Closing the session stops
 //! any motion before the devices are released.
 
-pub use crate::jog_guard::AxisId;
-use crate::jog_guard::{Heading, JogGuard, Polled, Refused};
-use crate::rig_error::RigError;
-use crate::rig_file::RigConfig;
+use crate::rig::error::RigError;
+use crate::rig::file::RigConfig;
+pub use crate::session::jog_guard::AxisId;
+use crate::session::jog_guard::{Heading, JogGuard, Polled, Refused};
 use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::frame_gaps::FrameGaps;

@@ -3,15 +3,15 @@
 //! the simulated bench) the labels scored against the ground truth. The command line's progress
 //! bar and the terminal UI drive the same session.
 
-use crate::disk_room::{camera_frame, check_room, parsed, FrameSize, RoomError};
-use crate::keeping_up::{keeping_up, Pace, Setting, TIMING_RUNS};
-use crate::live_validation::{FrameSource, LiveValidation, BACKLOG_FRAMES};
-use crate::recording_part::{disc_cutout, RecordingError};
-use crate::rig_error::RigError;
-use crate::rig_file::RigConfig;
+use crate::rig::error::RigError;
+use crate::rig::file::RigConfig;
 #[cfg(feature = "sim")]
-use crate::sim_bench::{score_run, SimBench};
-use crate::truth_score::TruthScore;
+use crate::rig::simulated::{score_run, SimBench};
+use crate::session::disc_cutout::{disc_cutout, RecordingError};
+use crate::session::disk_space::{camera_frame, check_room, parsed, FrameSize, RoomError};
+use crate::session::live_validation::{FrameSource, LiveValidation, BACKLOG_FRAMES};
+use crate::session::model_pace::{keeping_up, Pace, Setting, TIMING_RUNS};
+use crate::session::truth_score::TruthScore;
 use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_calibration::profile::{
     load_checked, profile_path, Expectation, Profile, ProfileWarning, MAX_AGE_DAYS,

@@ -2,9 +2,9 @@
 //! from the `[sim]` section and the axis settings, its soft limits, geometry and sensor, and
 //! starting it with every device's real driver talking to its emulators.
 
-use crate::rig_error::RigError;
-use crate::rig_file::{AxisSection, RigConfig, SimForcePath};
-use crate::truth_score::TruthScore;
+use crate::rig::error::RigError;
+use crate::rig::file::{AxisSection, RigConfig, SimForcePath};
+use crate::session::truth_score::TruthScore;
 use fringe_rig::atical::Calibration;
 use fringe_rig::axis::{Kinematics, SoftLimits};
 use fringe_rig::config_file::ConfigError;

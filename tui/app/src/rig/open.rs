@@ -1,12 +1,14 @@
 //! Opening the rig a rig file describes: each real device's section becomes a description
-//! (`rig_devices`) that the one opener (`device_open`) opens, as the bring-up commands do with
-//! their flags; or the simulated bench (`sim_bench`) when the rig is simulated.
+//! (`rig::devices`) that the one opener (`device_open`, `force::open_force`) opens, as the
+//! bring-up commands do with their flags; or the simulated rig (`rig::simulated`) when the rig is
+//! simulated.
 
-use crate::device_open::{open_axis, open_camera, open_force, TraceTo};
-use crate::rig_error::RigError;
-use crate::rig_file::RigConfig;
+use crate::rig::device_open::{open_axis, open_camera, TraceTo};
+use crate::rig::error::RigError;
+use crate::rig::file::RigConfig;
+use crate::rig::force::open_force;
 #[cfg(feature = "sim")]
-use crate::sim_bench::SimBench;
+use crate::rig::simulated::SimBench;
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
 use fringe_rig::scan::control::Operator;
@@ -83,7 +85,7 @@ impl RigConfig {
         if self.simulated {
             #[cfg(feature = "sim")]
             {
-                let (sim, devices) = crate::sim_bench::start(self)?;
+                let (sim, devices) = crate::rig::simulated::start(self)?;
                 return Ok(OpenRig {
                     devices,
                     limits,
@@ -97,7 +99,7 @@ impl RigConfig {
                 });
             }
             #[cfg(not(feature = "sim"))]
-            return Err(RigError::Config(crate::sim_bench::refused(self)));
+            return Err(RigError::Config(crate::rig::simulated::refused(self)));
         }
         let mut description = Vec::new();
         let mut stage_operator = Some(stage_operator);

@@ -1,7 +1,7 @@
 //! Why a rig could not be opened: its file says something that cannot work, a device did not
 //! open, or the simulated bench did not start.
 
-use crate::device_open::DeviceError;
+use crate::rig::device_open::DeviceError;
 use fringe_rig::config_file::ConfigError;
 
 /// A rig that could not be opened.

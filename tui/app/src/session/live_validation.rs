@@ -16,7 +16,7 @@
 //! interrupted point (to press it again), the frames of those records are taken out of the
 //! counts and the metrics ([`RecordTap::cut`]), and their number is reported as `cut`.
 
-use crate::worker_failure::{guarded, inject};
+use crate::session::worker_failure::{guarded, inject};
 use fringe_calibration::profile::Profile;
 use fringe_rig::acquire::record_tap::RecordTap;
 use fringe_rig::camera::Frame;
@@ -48,7 +48,7 @@ pub const THREADS_PER_NETWORK: usize = 1;
 pub const BACKLOG_FRAMES: usize = 10;
 
 /// The worker thread's name (and the name that injects a panic into it,
-/// [`crate::worker_failure`]).
+/// [`crate::session::worker_failure`]).
 pub const WORKER_NAME: &str = "live-validation";
 
 /// Predicted and measured Fz kept for the chart.
@@ -142,7 +142,7 @@ pub struct ValidationState {
     /// Why the worker stopped, if it failed.
     pub failure: Option<String>,
     /// Set before the scan when the model is slower than the camera allows: its time per frame
-    /// against the frame period, in one line ([`crate::keeping_up`]).
+    /// against the frame period, in one line ([`crate::session::model_pace`]).
     pub behind: Option<String>,
 }
 
@@ -888,7 +888,7 @@ mod tests {
         use fringe_sim::sensor::SensorConfig;
 
         let sensor = SensorConfig::layered();
-        let profile = crate::sim_bench::sensor_profile(
+        let profile = crate::rig::simulated::sensor_profile(
             &sensor,
             &sensor.id,
             "the simulated layered sensor's design geometry".into(),

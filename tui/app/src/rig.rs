@@ -1,0 +1,29 @@
+//! The device door: the rig file read and checked, the rig it describes opened, and the one
+//! opener of real devices, which the rig and the bring-up commands share.
+//!
+//! - `file`: the rig file (`rig.toml`), read and checked; re-exported as `RigConfig`.
+//! - `setup`: the rig it describes: soft limits and kinematics, the force ceiling, the contact
+//!   height and origin, the sensor's id.
+//! - `devices`: its device sections as device descriptions.
+//! - `open` and `error`: opening every device of the rig, real or simulated, and why it failed.
+//! - [`device_spec`]: what a device is and how it is reached, from a rig file section or a
+//!   command's flags; [`device_open`]: opening it; [`host_port`]: `HOST[:PORT]`, IPv6 included.
+//! - [`force`]: the F/T door, one module per interface (`force::netft`, `force::nidaqmx`) and
+//!   the rig file's `[force]` section (`force::section`).
+//! - `simulated`: the simulated rig behind a rig file (public with the cargo feature `sim`, a
+//!   default).
+
+pub mod device_open;
+pub mod device_spec;
+pub(crate) mod devices;
+pub(crate) mod error;
+pub(crate) mod file;
+pub mod force;
+pub mod host_port;
+pub(crate) mod open;
+pub(crate) mod setup;
+#[cfg(feature = "sim")]
+pub mod simulated;
+#[cfg(not(feature = "sim"))]
+#[path = "rig/no_simulated.rs"]
+pub(crate) mod simulated;

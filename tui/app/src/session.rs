@@ -1,0 +1,30 @@
+//! Work on the opened rig: scans, the rig controlled by hand, and what is shown live.
+//!
+//! - `scan`: a scan session (profile -> contact origin, operator, progress, truth scoring);
+//!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth.
+//! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning;
+//!   [`calibration_images`]: the optical part of a profile from a folder of no-contact images.
+//! - [`plans`]: the built-in scan plans.
+//! - [`disk_space`]: room on disk for a scan: the camera frame a size estimate assumes, a run's
+//!   expected size, and the refusal (by the session, before anything moves) of a run that will
+//!   not fit. `disc_cutout`: the part of each frame stored when only the disc's square is kept.
+//! - [`rig_control`]: the rig outside a scan: device states, jog, home, stop, tare, the force and
+//!   the newest frame; [`jog_guard`]: which of those motions the force allows.
+//! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
+//! - [`live_validation`]: a trained model run on the frames a scan records, against their labels;
+//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves.
+//! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
+
+pub mod calibration_images;
+pub mod calibration_scan;
+pub(crate) mod disc_cutout;
+pub mod disk_space;
+pub mod jog_guard;
+pub mod live_validation;
+pub mod live_view;
+pub mod model_pace;
+pub mod plans;
+pub mod rig_control;
+pub(crate) mod scan;
+pub(crate) mod truth_score;
+pub mod worker_failure;
