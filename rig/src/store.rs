@@ -7,7 +7,7 @@
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
 //!   frames/NNNNNNNN.fgl  lossless frames (.png for RGB8 and with `[recording] codec = "png"`),
-//!                     stored as start.json's `frames` says (frame_file)
+//!                     stored as start.json's `frames` says (frames)
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
@@ -19,8 +19,10 @@
 //! - [`disk_space`]: room left on the disk, checked before long writes.
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
-//! - [`frame_file`]: how the frames are stored (pixel format, region, encoding), written and read.
-//! - [`grey_codec`]: FGL, the lossless codec of one-channel frames (pure encode/decode).
+//! - [`frames`]: the frame files: how the frames are stored (pixel format, region, encoding),
+//!   written and read; its codecs ([`frames::fgl`], FGL, fringe's lossless codec of one-channel
+//!   frames, pure encode/decode; [`frames::png`], PNG files and image files read back), the
+//!   demosaicing of stored mosaics ([`frames::debayer`]) and their errors.
 //! - [`stored_part`]: `[recording]` of a rig file or a plan: whole frames or the disc's square.
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
@@ -38,8 +40,7 @@ pub mod durable;
 pub mod error;
 pub mod export;
 pub mod force_log;
-pub mod frame_file;
-pub mod grey_codec;
+pub mod frames;
 pub mod layout;
 pub mod manifest;
 pub mod own_file;

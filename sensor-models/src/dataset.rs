@@ -9,7 +9,7 @@ use fringe_rig::reference_layout::{
     SIM_DATASET_PROFILE,
 };
 use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::store::frames::FrameStorage;
 use fringe_rig::store::run_writer::{read_lines, read_start};
 use fringe_rig::store::{FRAMES, START};
 use fringe_rig::units::Newtons;

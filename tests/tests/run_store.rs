@@ -464,9 +464,9 @@ fn mosaic_of(id: u64) -> Vec<u8> {
 
 #[test]
 fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
-    use fringe_rig::camera::debayer;
+    use fringe_rig::store::frames::debayer;
     use fringe_rig::store::export::{export_reference, ExportOptions};
-    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
+    use fringe_rig::store::frames::{Encoding, FrameStorage};
     use fringe_rig::store::read_start;
     let root = scratch("bayer-layouts");
     // Layout 1: the mosaic as it is in a grey PNG, known as Bayer from the rig text only.
@@ -480,7 +480,7 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         layout_version: 2,
         frames: Some(
             FrameStorage::new(PixelFormat::BayerRg8, None)
-                .and_then(|s| s.with_codec(Some(fringe_rig::store::frame_file::FrameCodec::Png)))
+                .and_then(|s| s.with_codec(Some(fringe_rig::store::frames::FrameCodec::Png)))
                 .expect("storage"),
         ),
         ..start("run-planes")
@@ -648,7 +648,7 @@ fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
 /// it until the frame is whole again.
 #[test]
 fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
-    use fringe_rig::store::frame_file::FrameStorage;
+    use fringe_rig::store::frames::FrameStorage;
     let root = scratch("flipped-frame");
     let fgl = StartDocument {
         layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
@@ -700,7 +700,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
 /// refused before anything is changed.
 #[test]
 fn a_resume_over_a_damaged_frame_is_refused_and_changes_nothing() {
-    use fringe_rig::store::frame_file::FrameStorage;
+    use fringe_rig::store::frames::FrameStorage;
     let root = scratch("resume-damaged");
     let fgl = StartDocument {
         layout_version: fringe_rig::store::documents::LAYOUT_VERSION,

@@ -13,7 +13,7 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
-use fringe_rig::store::frame_file::FrameCodec;
+use fringe_rig::store::frames::FrameCodec;
 use fringe_rig::store::run_writer::{read_document, read_lines};
 use fringe_rig::store::verify::verify;
 use fringe_rig::store::{START, STOP};
@@ -1179,7 +1179,7 @@ impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
 #[test]
 fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_in_each_codec() {
     use fringe_rig::camera::PixelFormat;
-    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
+    use fringe_rig::store::frames::{Encoding, FrameStorage};
     // Whole frames in PNG planes (asked for); the disc's square in the default FGL.
     for (disc, codec) in [(false, Some(FrameCodec::Png)), (true, None)] {
         let name = if disc {

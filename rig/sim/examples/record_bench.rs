@@ -25,7 +25,7 @@ use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::camera::{CameraSettings, PixelFormat};
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
-use fringe_rig::store::frame_file::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
+use fringe_rig::store::frames::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;

@@ -14,8 +14,7 @@
 //! so they are used by one thread at a time; it is `Send` (moving it to another thread is fine)
 //! but deliberately not `Sync`.
 
-use super::writer::format_name;
-use super::{
+use super::{format_name, 
     Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
     TriggerMode,
 };

@@ -1,10 +1,9 @@
 //! What a run directory holds: the start and stop documents, frame records and events.
 
 use super::error::StoreError;
-use super::frame_file::{Encoding, FrameStorage};
+use super::frames::{Encoding, FrameStorage};
 use super::layout::FRAMES;
-use crate::camera::writer::parse_format_name;
-use crate::camera::PixelFormat;
+use crate::camera::{parse_format_name, PixelFormat};
 use crate::units::{Millimetres, Wrench};
 use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -12,7 +11,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 /// Version of the run layout written by this build. 2: the start document records how the
 /// frames are stored ([`StartDocument::frames`]); 3: one-channel frames may be FGL files
 /// (`frames/*.fgl`, `Encoding::Fgl`); 4: FGL files carry a checksum (FGL version 2,
-/// `grey_codec`), which a fringe reading up to layout 3 could not decode. Runs of every earlier
+/// `frames::fgl`), which a fringe reading up to layout 3 could not decode. Runs of every earlier
 /// layout are still read.
 pub const LAYOUT_VERSION: u32 = 4;
 

@@ -7,12 +7,13 @@
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
 use super::error::StoreError;
-use super::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
+use super::frames::debayer;
+use super::frames::{in_whole_frame, FrameStorage, StoredFrame};
 use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
 use super::run_writer::{read_lines, read_start};
 use super::verify::verify;
-use crate::camera::{debayer, PixelFormat};
+use crate::camera::PixelFormat;
 use crate::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS, NO_CONTACT};
 use std::collections::HashSet;
 use std::io::Cursor;

@@ -12,12 +12,12 @@ use super::documents::{
 };
 use super::durable::{sync_dir, write_atomic};
 use super::error::StoreError;
-use super::frame_file::FrameStorage;
+use super::frames::FrameStorage;
 use super::layout::{CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP};
 use super::own_file;
 use super::run_lock::RunLock;
 use super::{force_log, manifest};
-use crate::camera::writer::FrameFileError;
+use super::frames::error::FrameFileError;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;

@@ -6,7 +6,7 @@
 
 use super::documents::{FrameRecord, StartDocument, StopDocument};
 use super::error::StoreError;
-use super::frame_file::stored_dimensions;
+use super::frames::stored_dimensions;
 use super::layout::{CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use super::run_lock::{self, LOCK};
 use super::run_writer::{

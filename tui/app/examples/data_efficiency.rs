@@ -32,7 +32,7 @@ use fringe_app::commission::press_choice::{
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::sim_bench::sensor_profile;
 use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::camera::writer::save_png;
+use fringe_rig::store::frames::png::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{

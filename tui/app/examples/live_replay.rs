@@ -27,7 +27,7 @@ use fringe_app::live_validation::{
 use fringe_rig::camera::Frame;
 use fringe_rig::clock::HostTime;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
+use fringe_rig::store::frames::{in_whole_frame, FrameStorage, StoredFrame};
 use fringe_rig::store::run_writer::{read_lines, read_start};
 use fringe_rig::store::FRAMES;
 use fringe_sensor_models::backend::BackendKind;

@@ -9,12 +9,12 @@
 use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_file::RigConfig;
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
-use fringe_rig::camera::writer::format_name;
+use fringe_rig::camera::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::store::frames::FrameStorage;
 use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSize};
 use fringe_rig::store::run_writer::{read_document, read_start, Checkpoint};
 use fringe_rig::store::stored_part::StoredPart;

@@ -10,7 +10,7 @@
 
 use super::sim_render::load_sensor;
 use anyhow::{anyhow, bail, Context};
-use fringe_rig::camera::writer::save_png;
+use fringe_rig::store::frames::png::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS};

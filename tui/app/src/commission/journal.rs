@@ -5,7 +5,7 @@
 
 use crate::disk_room::camera_frame;
 use crate::rig_file::RigConfig;
-use fringe_rig::camera::writer::format_name;
+use fringe_rig::camera::format_name;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};
 use fringe_rig::store::durable::write_atomic;
