@@ -14,7 +14,8 @@
 //!   .lock             held by the process writing the run (not part of the run)
 //! ```
 //!
-//! - [`layout`]: the names of a run's files; which run a path is in.
+//! - `layout`: the names of a run's files (the store's own: others name them by what they hold,
+//!   [`RunFile`]); which run a path is in.
 //! - [`error`]: the store's errors, naming the file.
 //! - [`disk_space`]: room left on the disk, checked before long writes.
 //! - [`documents`]: the documents and records, serde types.
@@ -27,7 +28,9 @@
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
 //! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
-//! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
+//! - [`run_reader`]: reading a run, the one door every reader goes through ([`RunReader`]).
+//! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run
+//!   ([`RunWriter`]).
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
 //! - [`run_list`]: the runs under a directory, newest first.
@@ -41,19 +44,18 @@ pub mod error;
 pub mod export;
 pub mod force_log;
 pub mod frames;
-pub mod layout;
+pub(crate) mod layout;
 pub mod manifest;
 pub mod own_file;
 pub mod run_list;
 pub mod run_lock;
+pub mod run_reader;
 pub mod run_size;
 pub mod run_writer;
 pub mod stored_part;
 pub mod verify;
 
 pub use error::StoreError;
-pub use layout::{
-    outside_runs, run_holding, InsideRun, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST,
-    START, STOP,
-};
-pub use run_writer::read_start;
+pub use layout::{outside_runs, run_holding, InsideRun, RunFile};
+pub use run_reader::RunReader;
+pub use run_writer::RunWriter;

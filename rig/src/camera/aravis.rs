@@ -14,9 +14,9 @@
 //! so they are used by one thread at a time; it is `Send` (moving it to another thread is fine)
 //! but deliberately not `Sync`.
 
-use super::{format_name, 
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
-    TriggerMode,
+use super::{
+    format_name, Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi,
+    TimestampLatch, TriggerMode,
 };
 use crate::clock::HostTime;
 use ::aravis::prelude::*;

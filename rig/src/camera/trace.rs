@@ -21,8 +21,8 @@
 //! is `latch HOST_BEFORE DEVICE_TICKS HOST_AFTER`.
 
 use super::{
-    format_name, parse_format_name, Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch,
-    TriggerMode,
+    format_name, parse_format_name, Camera, CameraError, CameraInfo, CameraSettings, Frame,
+    PixelFormat, TimestampLatch, TriggerMode,
 };
 use crate::clock::HostTime;
 use crate::store::frames::error::FrameFileError;

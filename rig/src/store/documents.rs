@@ -203,6 +203,20 @@ pub struct StopDocument {
     pub sync_error_ns: Option<f64>,
 }
 
+/// Written at every checkpoint (before each grid point): where the scan goes on after a crash,
+/// and how far the frame records went then. Everything recorded after it belongs to a point
+/// that did not finish and is cut when the run is resumed.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    /// Index (in the scan program) of the next point to do.
+    pub next_point: u64,
+    /// Frame records before the checkpoint.
+    pub next_index: u64,
+    /// Length of frames.jsonl at the checkpoint, bytes.
+    pub frames_bytes: u64,
+    pub utc: String,
+}
+
 /// `t` as an RFC 3339 UTC timestamp with milliseconds ("2026-11-22T03:45:12.345Z").
 pub fn rfc3339_utc(t: SystemTime) -> String {
     let d = t.duration_since(UNIX_EPOCH).unwrap_or_default();

@@ -11,7 +11,7 @@ use super::frames::debayer;
 use super::frames::{in_whole_frame, FrameStorage, StoredFrame};
 use super::layout::{FRAMES, START};
 use super::run_lock::RunLock;
-use super::run_writer::{read_lines, read_start};
+use super::run_reader::{read_lines, read_start};
 use super::verify::verify;
 use crate::camera::PixelFormat;
 use crate::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS, NO_CONTACT};
@@ -264,7 +264,7 @@ fn write_export(
     };
     let mut exported = Vec::with_capacity(runs.len());
     for (run, mut problems) in runs.iter().zip(problems) {
-        let start: StartDocument = super::run_writer::read_start(run)?;
+        let start: StartDocument = super::run_reader::read_start(run)?;
         let first_image = writer.counts.images;
         problems.extend(writer.export_run(run, &mut progress)?);
         exported.push(ExportedRun {

@@ -16,9 +16,8 @@ use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::frames::FrameStorage;
 use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSize};
-use fringe_rig::store::run_writer::{read_document, read_start, Checkpoint};
 use fringe_rig::store::stored_part::StoredPart;
-use fringe_rig::store::CHECKPOINT;
+use fringe_rig::store::RunReader;
 use fringe_rig::units::Hertz;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -300,9 +299,9 @@ fn planned_run(
             })
         }
         RunTarget::Resume { dir, .. } => {
-            let start = read_start(dir).ok()?;
-            let next_point =
-                read_document::<Checkpoint>(&dir.join(CHECKPOINT)).map_or(0, |c| c.next_point);
+            let run = RunReader::at(dir);
+            let start = run.start().ok()?;
+            let next_point = run.checkpoint().ok().flatten().map_or(0, |c| c.next_point);
             let first = usize::try_from(next_point).unwrap_or(usize::MAX);
             let left = setup.program.points.len().saturating_sub(first);
             let recording = Recording {

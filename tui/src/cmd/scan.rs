@@ -63,7 +63,7 @@ fn plan_text(args: &ScanArgs) -> anyhow::Result<(String, String)> {
         return Ok((text, path.display().to_string()));
     }
     if let Some(run) = &args.resume {
-        let start: StartDocument = fringe_rig::store::read_start(run)?;
+        let start: StartDocument = fringe_rig::store::RunReader::at(run).start()?;
         return Ok((start.plan, format!("the plan stored in {}", run.display())));
     }
     Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))
@@ -122,7 +122,7 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         return Ok(());
     }
     if let Some(dir) = &args.resume {
-        if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(dir)? {
+        if let Some(stop) = fringe_rig::store::RunWriter::finish_cut_close(dir)? {
             println!(
                 "{} had ended ({}: {}) but was stopped while writing its manifest; the manifest is now written and the run is whole: fringe verify {}",
                 dir.display(),

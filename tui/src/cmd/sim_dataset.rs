@@ -10,11 +10,11 @@
 
 use super::sim_render::load_sensor;
 use anyhow::{anyhow, bail, Context};
-use fringe_rig::store::frames::png::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS};
 use fringe_rig::store::durable::write_atomic;
+use fringe_rig::store::frames::png::save_png;
 use fringe_rig::units::Newtons;
 use fringe_sim::dataset::{frame, DatasetSpec, SyntheticFrame, NO_CONTACT_FRACTION};
 use fringe_sim::render::Renderer;
