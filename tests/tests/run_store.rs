@@ -157,7 +157,7 @@ fn a_finished_run_verifies_and_is_listed() {
 fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
     let root = scratch("cut-close");
     let dir = finished_run(&root, "run-cut");
-    let manifest = dir.join("MANIFEST.sha256");
+    let manifest = RunReader::at(&dir).path(RunFile::Manifest);
     let whole = std::fs::read(&manifest).expect("manifest");
     // Killed after the stop document, while the manifest was being hashed.
     std::fs::remove_file(&manifest).expect("remove manifest");
@@ -653,7 +653,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
         ..start("run-fgl")
     };
     let dir = bayer_run(&root, &fgl);
-    let manifest = dir.join("MANIFEST.sha256");
+    let manifest = RunReader::at(&dir).path(RunFile::Manifest);
     std::fs::remove_file(&manifest).expect("killed before the manifest");
     assert_eq!(
         verify(&dir).expect("verify").problems.len(),
