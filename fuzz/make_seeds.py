@@ -95,7 +95,7 @@ def force_log(records):
 
 
 def fgl(width, height, pattern, payload):
-    """A small FGL image (rig/src/store/grey_codec.rs): one context whose symbols 0 and 1 have
+    """A small FGL image (rig/src/store/frames/fgl.rs): one context whose symbols 0 and 1 have
     1-bit codes, so every payload bit is a pixel's residual of 0 or -1."""
     lengths = bytes([0x11]) + bytes(127)
     return (b"FGL1" + struct.pack("<II", width, height) + bytes([pattern, 1]) + lengths

@@ -2,8 +2,9 @@
 //! `fringe calibrate --images` and the frames of a calibration scan's run.
 
 use crate::optical::grey::{self, GreyImage};
-use fringe_rig::camera::{debayer, PixelFormat};
-use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::camera::PixelFormat;
+use fringe_rig::store::frames::debayer;
+use fringe_rig::store::frames::FrameStorage;
 use std::path::{Path, PathBuf};
 
 /// A frame file that could not be used, naming it.

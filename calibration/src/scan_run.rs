@@ -14,8 +14,7 @@
 use crate::offsets::{self, Bias};
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::store::documents::{Event, FrameRecord, StartDocument};
-use fringe_rig::store::run_writer::read_lines;
-use fringe_rig::store::{self, force_log, StoreError};
+use fringe_rig::store::{RunFile, RunReader, StoreError};
 use fringe_rig::units::Wrench;
 use std::path::{Path, PathBuf};
 
@@ -65,32 +64,23 @@ pub enum ScanRunError {
 impl ScanRun {
     /// Reads the run at `dir`.
     pub fn read(dir: &Path) -> Result<ScanRun, ScanRunError> {
-        let start: StartDocument = store::read_start(dir)?;
-        let frames_path = dir.join(store::FRAMES);
-        let (records, _torn) = read_lines::<FrameRecord>(&frames_path)?;
+        let run = RunReader::at(dir);
+        let start: StartDocument = run.start()?;
+        let records = run.frames()?;
         if records.is_empty() {
             return Err(ScanRunError::Content {
-                path: frames_path,
+                path: run.path(RunFile::Frames),
                 message: "no frames recorded".into(),
             });
         }
         let background = records
             .iter()
             .filter(|r| r.valid && r.shape == NO_CONTACT)
-            .map(|r| r.file_in(dir))
+            .map(|r| run.frame_file(r))
             .collect::<Result<_, _>>()?;
-        let presses = presses(dir, &records)?;
-        let (events, _) = read_lines::<Event>(&dir.join(store::EVENTS))?;
-        let force_path = dir.join(store::FORCE);
-        let bytes = std::fs::read(&force_path).map_err(|e| StoreError::Io {
-            path: force_path.clone(),
-            source: e,
-        })?;
-        let (samples, _partial) =
-            force_log::decode_all(&bytes).map_err(|e| ScanRunError::Content {
-                path: force_path.clone(),
-                message: e.to_string(),
-            })?;
+        let presses = presses(&run, &records)?;
+        let events = run.events()?;
+        let (samples, _partial) = run.force()?;
         let series: Vec<(u64, Wrench)> = samples
             .iter()
             .map(|s| (s.host_time.nanos(), s.wrench))
@@ -107,7 +97,7 @@ impl ScanRun {
 }
 
 /// The dwell frames of every point that pressed.
-fn presses(dir: &Path, records: &[FrameRecord]) -> Result<Vec<Press>, StoreError> {
+fn presses(run: &RunReader, records: &[FrameRecord]) -> Result<Vec<Press>, StoreError> {
     let mut points: Vec<u64> = records.iter().map(|r| r.point).collect();
     points.sort_unstable();
     points.dedup();
@@ -143,7 +133,7 @@ fn presses(dir: &Path, records: &[FrameRecord]) -> Result<Vec<Press>, StoreError
             force_n: chosen.iter().map(|(_, f)| f).sum::<f64>() / n,
             files: chosen
                 .iter()
-                .map(|(r, _)| r.file_in(dir))
+                .map(|(r, _)| run.frame_file(r))
                 .collect::<Result<_, _>>()?,
         });
     }

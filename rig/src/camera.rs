@@ -3,7 +3,6 @@
 
 #[cfg(feature = "aravis")]
 pub mod aravis;
-pub mod debayer;
 pub mod trace;
 pub mod writer;
 
@@ -30,6 +29,25 @@ impl PixelFormat {
             PixelFormat::Mono8 | PixelFormat::BayerRg8 => 1,
             PixelFormat::Rgb8 => 3,
         }
+    }
+}
+
+/// Name used in CSV files and camera traces for a pixel format.
+pub fn format_name(format: PixelFormat) -> &'static str {
+    match format {
+        PixelFormat::Mono8 => "mono8",
+        PixelFormat::Rgb8 => "rgb8",
+        PixelFormat::BayerRg8 => "bayerrg8",
+    }
+}
+
+/// Parses a name written by [`format_name`].
+pub fn parse_format_name(name: &str) -> Option<PixelFormat> {
+    match name {
+        "mono8" => Some(PixelFormat::Mono8),
+        "rgb8" => Some(PixelFormat::Rgb8),
+        "bayerrg8" => Some(PixelFormat::BayerRg8),
+        _ => None,
     }
 }
 

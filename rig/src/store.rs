@@ -7,25 +7,30 @@
 //!   events.jsonl      checkpoints, pauses, watcher actions, operator prompts
 //!   force.bin         the complete raw force stream at full rate (fixed-size records)
 //!   frames/NNNNNNNN.fgl  lossless frames (.png for RGB8 and with `[recording] codec = "png"`),
-//!                     stored as start.json's `frames` says (frame_file)
+//!                     stored as start.json's `frames` says (frames)
 //!   checkpoint.json   the last checkpoint: the next point and how far the records went
 //!   stop.json         stop document: exit status and counts (absent after a crash)
 //!   MANIFEST.sha256   checksums of every file (sha256sum format), written at stop
 //!   .lock             held by the process writing the run (not part of the run)
 //! ```
 //!
-//! - [`layout`]: the names of a run's files; which run a path is in.
+//! - `layout`: the names of a run's files (the store's own: others name them by what they hold,
+//!   [`RunFile`]); which run a path is in.
 //! - [`error`]: the store's errors, naming the file.
 //! - [`disk_space`]: room left on the disk, checked before long writes.
 //! - [`documents`]: the documents and records, serde types.
 //! - [`force_log`]: the binary force stream format (pure encode/decode).
-//! - [`frame_file`]: how the frames are stored (pixel format, region, encoding), written and read.
-//! - [`grey_codec`]: FGL, the lossless codec of one-channel frames (pure encode/decode).
+//! - [`frames`]: the frame files: how the frames are stored (pixel format, region, encoding),
+//!   written and read; its codecs ([`frames::fgl`], FGL, fringe's lossless codec of one-channel
+//!   frames, pure encode/decode; [`frames::png`], PNG files and image files read back), the
+//!   demosaicing of stored mosaics ([`frames::debayer`]) and their errors.
 //! - [`stored_part`]: `[recording]` of a rig file or a plan: whole frames or the disc's square.
 //! - [`durable`]: atomic file replacement and durable directory entries.
 //! - [`own_file`]: a run's files are its own regular files (no links, FIFOs or devices).
 //! - [`run_lock`]: one writer per run (a lock that names its holder and dies with it).
-//! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run.
+//! - [`run_reader`]: reading a run, the one door every reader goes through ([`RunReader`]).
+//! - [`run_writer`]: creating, appending to, reopening (after a crash) and closing a run
+//!   ([`RunWriter`]).
 //! - [`manifest`]: the checksum manifest.
 //! - [`verify`]: checking a run directory.
 //! - [`run_list`]: the runs under a directory, newest first.
@@ -38,21 +43,19 @@ pub mod durable;
 pub mod error;
 pub mod export;
 pub mod force_log;
-pub mod frame_file;
-pub mod grey_codec;
-pub mod layout;
+pub mod frames;
+pub(crate) mod layout;
 pub mod manifest;
 pub mod own_file;
 pub mod run_list;
 pub mod run_lock;
+pub mod run_reader;
 pub mod run_size;
 pub mod run_writer;
 pub mod stored_part;
 pub mod verify;
 
 pub use error::StoreError;
-pub use layout::{
-    outside_runs, run_holding, InsideRun, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST,
-    START, STOP,
-};
-pub use run_writer::read_start;
+pub use layout::{outside_runs, run_holding, InsideRun, RunFile};
+pub use run_reader::RunReader;
+pub use run_writer::RunWriter;

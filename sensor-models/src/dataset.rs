@@ -9,9 +9,8 @@ use fringe_rig::reference_layout::{
     SIM_DATASET_PROFILE,
 };
 use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frame_file::FrameStorage;
-use fringe_rig::store::run_writer::{read_lines, read_start};
-use fringe_rig::store::{FRAMES, START};
+use fringe_rig::store::frames::FrameStorage;
+use fringe_rig::store::{RunFile, RunReader};
 use fringe_rig::units::Newtons;
 use std::path::{Path, PathBuf};
 
@@ -112,10 +111,11 @@ pub fn from_record(
 
 /// Reads a run directory or a reference-layout dataset.
 pub fn read(path: &Path) -> Result<Source, DatasetError> {
+    let run = RunReader::at(path);
     if !path.exists() {
         Err(DatasetError::Missing(path.display().to_string()))
-    } else if path.join(START).is_file() && path.join(FRAMES).is_file() {
-        read_run(path)
+    } else if run.is_run() && run.has(RunFile::Frames) {
+        read_run(&run)
     } else if path.join(LABELS).is_file() {
         read_reference(path)
     } else {
@@ -123,14 +123,14 @@ pub fn read(path: &Path) -> Result<Source, DatasetError> {
     }
 }
 
-fn read_run(dir: &Path) -> Result<Source, DatasetError> {
-    let start = read_start(dir)?;
-    let (records, _) = read_lines::<FrameRecord>(&dir.join(FRAMES))?;
+fn read_run(run: &RunReader) -> Result<Source, DatasetError> {
+    let start = run.start()?;
+    let records = run.frames()?;
     let profile = match &start.calibration_profile {
         Some(p) => {
             Some(
                 toml::from_str::<Profile>(&p.content).map_err(|e| DatasetError::Profile {
-                    path: dir.join(START).display().to_string(),
+                    path: run.path(RunFile::Start).display().to_string(),
                     message: e.to_string(),
                 })?,
             )
@@ -141,13 +141,13 @@ fn read_run(dir: &Path) -> Result<Source, DatasetError> {
     let mut samples = Vec::with_capacity(records.len());
     let mut skipped = 0;
     for r in &records {
-        match from_record(r, &start.run_id, dir.join(&r.file), storage) {
+        match from_record(r, &start.run_id, run.frame_path(r), storage) {
             Some(s) => samples.push(s),
             None => skipped += 1,
         }
     }
     Ok(Source {
-        path: dir.to_path_buf(),
+        path: run.dir().to_path_buf(),
         samples,
         profile,
         variant: start.sensor_variant(),

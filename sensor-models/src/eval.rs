@@ -9,7 +9,7 @@ use crate::predictor::{PredictError, Predictor};
 use crate::preprocess::{FrameRef, PreprocessError, Preprocessing, Preprocessor, ReferenceSensor};
 use fringe_calibration::profile::Profile;
 use fringe_rig::reference_layout::CONTACT_THRESHOLD;
-use fringe_rig::store::frame_file::{read_plain, StoredFrame};
+use fringe_rig::store::frames::{read_plain, StoredFrame};
 
 /// Frames run through the network at once.
 const BATCH: usize = 8;

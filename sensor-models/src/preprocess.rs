@@ -23,7 +23,7 @@ pub use source::FrameRef;
 
 use fringe_calibration::profile::Profile;
 use fringe_rig::camera::PixelFormat;
-use fringe_rig::store::frame_file::read_plain;
+use fringe_rig::store::frames::read_plain;
 use resample::{resample, Scratch, Window};
 use source::{pixels, Channels, Pixels, Rotated};
 use std::path::Path;

@@ -8,9 +8,8 @@ use fringe_rig::store::documents::{
     ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
 };
 use fringe_rig::store::run_list::list;
-use fringe_rig::store::run_writer::{finish_cut_close, RunWriter};
 use fringe_rig::store::verify::verify;
-use fringe_rig::store::{StoreError, FORCE, FRAMES};
+use fringe_rig::store::{RunFile, RunReader, RunWriter, StoreError};
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
 use fringe_tests::snapshot;
 use std::io::Write;
@@ -158,7 +157,7 @@ fn a_finished_run_verifies_and_is_listed() {
 fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
     let root = scratch("cut-close");
     let dir = finished_run(&root, "run-cut");
-    let manifest = dir.join("MANIFEST.sha256");
+    let manifest = RunReader::at(&dir).path(RunFile::Manifest);
     let whole = std::fs::read(&manifest).expect("manifest");
     // Killed after the stop document, while the manifest was being hashed.
     std::fs::remove_file(&manifest).expect("remove manifest");
@@ -172,7 +171,7 @@ fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
                 .any(|p| p.contains("MANIFEST.sha256: missing") && p.contains("resuming it")),
         "{report:?}"
     );
-    let stop = finish_cut_close(&dir)
+    let stop = RunWriter::finish_cut_close(&dir)
         .expect("finish")
         .expect("the cut close");
     assert_eq!(stop.exit_status, ExitStatus::Completed);
@@ -180,14 +179,16 @@ fn a_close_cut_before_the_manifest_is_finished_and_other_runs_are_left_alone() {
     assert!(verify(&dir).expect("verify").ok());
     // A whole run, or one still open (no stop document), is not touched.
     let before = snapshot(&dir);
-    assert!(finish_cut_close(&dir).expect("whole").is_none());
+    assert!(RunWriter::finish_cut_close(&dir).expect("whole").is_none());
     assert_eq!(snapshot(&dir), before);
     let mut open = RunWriter::create(&root, &start("run-open")).expect("create");
     write_frames(&mut open, 0..2);
     open.checkpoint().expect("checkpoint");
     let open_dir = open.dir().to_path_buf();
     let before = snapshot(&open_dir);
-    assert!(finish_cut_close(&open_dir).expect("open run").is_none());
+    assert!(RunWriter::finish_cut_close(&open_dir)
+        .expect("open run")
+        .is_none());
     assert_eq!(snapshot(&open_dir), before);
 }
 
@@ -202,13 +203,13 @@ fn a_crash_mid_write_is_reopened_without_loss_or_duplicates() {
              // ...in the middle of a record and of a force sample.
     let mut f = std::fs::OpenOptions::new()
         .append(true)
-        .open(dir.join(FRAMES))
+        .open(RunReader::at(&dir).path(RunFile::Frames))
         .expect("frames");
     f.write_all(b"{\"index\":4,\"frame_id\":4,\"fi")
         .expect("torn");
     let mut f = std::fs::OpenOptions::new()
         .append(true)
-        .open(dir.join(FORCE))
+        .open(RunReader::at(&dir).path(RunFile::Force))
         .expect("force");
     f.write_all(&[1, 2, 3, 4, 5]).expect("torn");
     let before = verify(&dir).expect("verify");
@@ -228,8 +229,7 @@ fn a_crash_mid_write_is_reopened_without_loss_or_duplicates() {
     w.finish(&stop(7, 700)).expect("finish");
     let after = verify(&dir).expect("verify");
     assert!(after.ok(), "{:?}", after.problems);
-    let (frames, _) =
-        fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES)).expect("read");
+    let frames = RunReader::at(&dir).frames().expect("read");
     let ids: Vec<u64> = frames.iter().map(|f| f.frame_id).collect();
     assert_eq!(ids, (0..7).collect::<Vec<_>>());
     let err = RunWriter::reopen(&dir)
@@ -270,8 +270,7 @@ fn records_after_the_last_checkpoint_are_cut_on_rollback_and_on_resume() {
     );
     write_frames(&mut w, 10..12);
     w.finish(&stop(8, 1200)).expect("finish");
-    let (frames, _) =
-        fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES)).expect("read");
+    let frames = RunReader::at(&dir).frames().expect("read");
     // Each record carries Fz = -(frame written); the cut ones are gone, nothing twice.
     let written: Vec<f64> = frames
         .iter()
@@ -297,7 +296,7 @@ fn damage_of_every_kind_is_reported() {
     std::fs::write(&png, bytes).expect("write");
     std::fs::remove_file(dir.join("frames/00000003.png")).expect("remove");
     std::fs::write(dir.join("notes.txt"), "added later").expect("stray");
-    let force = dir.join(FORCE);
+    let force = RunReader::at(&dir).path(RunFile::Force);
     let len = std::fs::metadata(&force).expect("meta").len();
     std::fs::OpenOptions::new()
         .write(true)
@@ -390,7 +389,7 @@ fn a_refused_or_damaged_resume_leaves_the_run_as_it_was() {
     drop(w);
     let mut f = std::fs::OpenOptions::new()
         .append(true)
-        .open(dir.join(FRAMES))
+        .open(RunReader::at(&dir).path(RunFile::Frames))
         .expect("frames");
     f.write_all(b"{\"index\":5,").expect("torn");
 
@@ -408,7 +407,7 @@ fn a_refused_or_damaged_resume_leaves_the_run_as_it_was() {
 
     // frames.jsonl cut inside the records the checkpoint counts: refused, nothing changed,
     // and verify says so.
-    let frames = dir.join(FRAMES);
+    let frames = RunReader::at(&dir).path(RunFile::Frames);
     let text = std::fs::read_to_string(&frames).expect("frames");
     let first = text.find('\n').expect("a line") + 1;
     std::fs::write(&frames, &text[..first + 30]).expect("cut");
@@ -464,10 +463,9 @@ fn mosaic_of(id: u64) -> Vec<u8> {
 
 #[test]
 fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
-    use fringe_rig::camera::debayer;
     use fringe_rig::store::export::{export_reference, ExportOptions};
-    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
-    use fringe_rig::store::read_start;
+    use fringe_rig::store::frames::debayer;
+    use fringe_rig::store::frames::{Encoding, FrameStorage};
     let root = scratch("bayer-layouts");
     // Layout 1: the mosaic as it is in a grey PNG, known as Bayer from the rig text only.
     let old = StartDocument {
@@ -480,7 +478,7 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         layout_version: 2,
         frames: Some(
             FrameStorage::new(PixelFormat::BayerRg8, None)
-                .and_then(|s| s.with_codec(Some(fringe_rig::store::frame_file::FrameCodec::Png)))
+                .and_then(|s| s.with_codec(Some(fringe_rig::store::frames::FrameCodec::Png)))
                 .expect("storage"),
         ),
         ..start("run-planes")
@@ -499,14 +497,12 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         let dir = bayer_run(&root, &start);
         let report = verify(&dir).expect("verify");
         assert!(report.ok(), "{:?}", report.problems);
-        let storage = read_start(&dir).expect("start").frame_storage();
+        let storage = RunReader::at(&dir).start().expect("start").frame_storage();
         assert_eq!(
             (storage.pixel_format, storage.encoding),
             (PixelFormat::BayerRg8, encoding)
         );
-        let (records, _) =
-            fringe_rig::store::run_writer::read_lines::<FrameRecord>(&dir.join(FRAMES))
-                .expect("records");
+        let records = RunReader::at(&dir).frames().expect("records");
         for r in &records {
             let stored = storage.read(&r.file_in(&dir).expect("file")).expect("read");
             assert_eq!(stored.data, mosaic_of(r.frame_id), "{}", r.file);
@@ -538,12 +534,12 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
 fn a_run_of_a_newer_layout_is_refused_naming_the_versions() {
     let root = scratch("newer-layout");
     let dir = finished_run(&root, "run-future");
-    let start_path = dir.join(fringe_rig::store::START);
+    let start_path = RunReader::at(&dir).path(RunFile::Start);
     let text = std::fs::read_to_string(&start_path).expect("start");
     let future = text.replace("\"layout_version\": 1", "\"layout_version\": 99");
     assert_ne!(future, text, "the start document names its layout version");
     std::fs::write(&start_path, future).expect("write");
-    let e = fringe_rig::store::read_start(&dir).expect_err("newer layout");
+    let e = RunReader::at(&dir).start().expect_err("newer layout");
     assert!(
         e.to_string().contains("layout version 99") && e.to_string().contains("newer fringe"),
         "{e}"
@@ -555,7 +551,6 @@ fn a_run_of_a_newer_layout_is_refused_naming_the_versions() {
 /// since layout 2 gained `variant`; older runs still say it, through their rig text.
 #[test]
 fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
-    use fringe_rig::store::read_start;
     let root = scratch("design");
     // Written before the design was recorded: the simulated camera's line in the rig text.
     let old_simulated = StartDocument {
@@ -582,7 +577,7 @@ fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
         let mut w = RunWriter::create(&root, &doc).expect("create");
         write_frames(&mut w, 0..2);
         let dir = w.finish(&stop(2, 0)).expect("finish");
-        let back = read_start(&dir).expect("start");
+        let back = RunReader::at(&dir).start().expect("start");
         assert_eq!(back.sensor_variant().as_deref(), want, "{}", doc.run_id);
     }
     std::fs::remove_dir_all(&root).ok();
@@ -634,7 +629,9 @@ fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
         e.to_string().contains(".lock") && e.to_string().contains("symbolic link"),
         "{e}"
     );
-    assert!(finish_cut_close(&finished).expect("whole").is_none());
+    assert!(RunWriter::finish_cut_close(&finished)
+        .expect("whole")
+        .is_none());
     assert_eq!(
         std::fs::read(&victim).expect("victim"),
         b"the lab's notes",
@@ -648,7 +645,7 @@ fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
 /// it until the frame is whole again.
 #[test]
 fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
-    use fringe_rig::store::frame_file::FrameStorage;
+    use fringe_rig::store::frames::FrameStorage;
     let root = scratch("flipped-frame");
     let fgl = StartDocument {
         layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
@@ -656,7 +653,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
         ..start("run-fgl")
     };
     let dir = bayer_run(&root, &fgl);
-    let manifest = dir.join("MANIFEST.sha256");
+    let manifest = RunReader::at(&dir).path(RunFile::Manifest);
     std::fs::remove_file(&manifest).expect("killed before the manifest");
     assert_eq!(
         verify(&dir).expect("verify").problems.len(),
@@ -679,7 +676,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
         "{:?}",
         report.problems
     );
-    let e = finish_cut_close(&dir).expect_err("a manifest over a damaged frame");
+    let e = RunWriter::finish_cut_close(&dir).expect_err("a manifest over a damaged frame");
     assert!(
         e.to_string().contains("frames/00000002.fgl") && e.to_string().contains("restore"),
         "{e}"
@@ -689,7 +686,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
         "no manifest vouches for the damaged frame"
     );
     std::fs::write(&frame, &whole).expect("restored");
-    finish_cut_close(&dir)
+    RunWriter::finish_cut_close(&dir)
         .expect("the frames are whole")
         .expect("the cut close");
     assert!(verify(&dir).expect("verify").ok());
@@ -700,7 +697,7 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
 /// refused before anything is changed.
 #[test]
 fn a_resume_over_a_damaged_frame_is_refused_and_changes_nothing() {
-    use fringe_rig::store::frame_file::FrameStorage;
+    use fringe_rig::store::frames::FrameStorage;
     let root = scratch("resume-damaged");
     let fgl = StartDocument {
         layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
@@ -746,7 +743,7 @@ fn a_resume_over_a_damaged_frame_is_refused_and_changes_nothing() {
 fn two_records_naming_one_frame_file_fail_verify() {
     let root = scratch("shared-frame");
     let dir = finished_run(&root, "run-shared");
-    let frames = dir.join(FRAMES);
+    let frames = RunReader::at(&dir).path(RunFile::Frames);
     let text = std::fs::read_to_string(&frames).expect("frames");
     let edited = text.replacen("frames/00000004.png", "frames/00000003.png", 1);
     assert_ne!(edited, text);

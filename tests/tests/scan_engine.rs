@@ -13,10 +13,9 @@ use fringe_rig::scan::press::PressSettings;
 use fringe_rig::scan::sidecar::RunSidecar;
 use fringe_rig::scan::watchers::WatchSettings;
 use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
-use fringe_rig::store::frame_file::FrameCodec;
-use fringe_rig::store::run_writer::{read_document, read_lines};
+use fringe_rig::store::frames::FrameCodec;
 use fringe_rig::store::verify::verify;
-use fringe_rig::store::{START, STOP};
+use fringe_rig::store::RunReader;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::units::{Hertz, Microseconds, Millimetres, Newtons};
@@ -154,15 +153,11 @@ fn scripted(reply: Reply) -> (Scripted, Arc<Mutex<Vec<Prompt>>>) {
 }
 
 fn records(dir: &Path) -> Vec<FrameRecord> {
-    read_lines::<FrameRecord>(&dir.join("frames.jsonl"))
-        .expect("frames.jsonl")
-        .0
+    RunReader::at(dir).frames().expect("frames.jsonl")
 }
 
 fn events(dir: &Path) -> Vec<Event> {
-    read_lines::<Event>(&dir.join("events.jsonl"))
-        .expect("events.jsonl")
-        .0
+    RunReader::at(dir).events().expect("events.jsonl")
 }
 
 /// Every point's records are contiguous (one attempt each) and points come in program order.
@@ -316,7 +311,7 @@ fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger
     );
     let score = fringe_sim::label_score::score(&records, &truth.frames()).expect("score");
     assert!(score.force_rms_n < 0.15, "{score:?}");
-    let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start document");
+    let start: StartDocument = RunReader::at(&out.run_dir).start().expect("start document");
     assert_eq!(start.sync_method, "trigger");
     drop(rig);
     let _ = std::fs::remove_dir_all(&dir);
@@ -1109,8 +1104,11 @@ fn scan_with_sync(sync: SyncMethod) -> (Vec<FrameRecord>, StopDocument, StartDoc
     assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
     assert!(verify(&out.run_dir).expect("verify").ok());
     let records = records(&out.run_dir);
-    let stop: StopDocument = read_document(&out.run_dir.join(STOP)).expect("stop document");
-    let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start document");
+    let stop: StopDocument = RunReader::at(&out.run_dir)
+        .stop()
+        .expect("stop document")
+        .expect("the run ended");
+    let start: StartDocument = RunReader::at(&out.run_dir).start().expect("start document");
     let truths: BTreeMap<u64, _> = truth.frames().into_iter().map(|t| (t.id, t)).collect();
     for r in &records {
         assert!(r.wrench.is_some(), "{r:?}");
@@ -1179,7 +1177,7 @@ impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
 #[test]
 fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_in_each_codec() {
     use fringe_rig::camera::PixelFormat;
-    use fringe_rig::store::frame_file::{Encoding, FrameStorage};
+    use fringe_rig::store::frames::{Encoding, FrameStorage};
     // Whole frames in PNG planes (asked for); the disc's square in the default FGL.
     for (disc, codec) in [(false, Some(FrameCodec::Png)), (true, None)] {
         let name = if disc {
@@ -1224,7 +1222,7 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_
         )
         .expect("scan");
         assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
-        let start: StartDocument = read_document(&out.run_dir.join(START)).expect("start");
+        let start: StartDocument = RunReader::at(&out.run_dir).start().expect("start");
         let storage = start.frames.expect("the run records how it stores frames");
         // The simulated camera delivers its native format by default, stored as colour planes
         // or in FGL.
@@ -1404,7 +1402,10 @@ fn a_load_on_the_way_to_the_safe_height_stops_z_before_any_tare_or_lateral_move(
         Vec::<Option<u64>>::new(),
         "a tare under load"
     );
-    let stop: StopDocument = read_document(&run.join(STOP)).expect("stop");
+    let stop: StopDocument = RunReader::at(&run)
+        .stop()
+        .expect("stop")
+        .expect("the run ended");
     assert_eq!(stop.exit_status, ExitStatus::Failed);
     assert_eq!(stop.points_done, 0);
     // x stayed where homing left it, and z was lifted off the sensor to the top of its travel.

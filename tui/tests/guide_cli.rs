@@ -402,10 +402,8 @@ fn every_file_the_guide_names_exists() {
             named += 1;
             // From the top of the repository, or (design notes name files inside a crate, such as
             // the application crate's `rig/force.rs`) from a crate's `src/`.
-            let found = root.join(&path).exists()
-                || crate_sources(&root)
-                    .iter()
-                    .any(|src| src.join(&path).exists());
+            let found =
+                root.join(&path).exists() || sources.iter().any(|src| src.join(&path).exists());
             if !found {
                 missing.push_str(&format!(
                     "{}:{line}: {path}\n",

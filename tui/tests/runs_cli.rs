@@ -509,8 +509,9 @@ fn verify_of_a_run_being_written_names_its_writer() {
     use fringe_rig::store::run_writer::RunWriter;
     let root = scratch("being-written");
     // The test process writes the run (a scan would), while fringe verify looks at it.
-    let start =
-        fringe_rig::store::read_start(&write_run(&root, "run-template", false)).expect("start");
+    let start = fringe_rig::store::RunReader::at(&write_run(&root, "run-template", false))
+        .start()
+        .expect("start");
     let writer = RunWriter::create(
         &root,
         &fringe_rig::store::documents::StartDocument {

@@ -105,8 +105,8 @@ fn frame_response<H>(parsed: modbus_codec::Parsed<H>) -> Option<modbus_codec::Re
 
 /// The FGL frame codec, on a stored frame file's bytes.
 pub fn fgl(data: &[u8]) {
-    let _ = fringe_rig::store::grey_codec::header(data);
-    let _ = fringe_rig::store::grey_codec::decode(data);
+    let _ = fringe_rig::store::frames::fgl::header(data);
+    let _ = fringe_rig::store::frames::fgl::decode(data);
 }
 
 /// A run's force log (`force.bin`), header and records.

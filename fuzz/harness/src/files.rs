@@ -82,16 +82,17 @@ pub fn run_dir(data: &[u8]) {
     if let Err(e) = std::fs::create_dir_all(&dir) {
         panic!("cannot create {}: {e}", dir.display());
     }
-    let names = [
-        store::START,
-        store::FRAMES,
-        store::STOP,
-        store::CHECKPOINT,
-        store::FORCE,
+    let run = store::RunReader::at(&dir);
+    let files = [
+        store::RunFile::Start,
+        store::RunFile::Frames,
+        store::RunFile::Stop,
+        store::RunFile::Checkpoint,
+        store::RunFile::Force,
     ];
-    let mut parts = data.splitn(names.len(), |b| *b == 0xFF);
-    for name in names {
-        let path = dir.join(name);
+    let mut parts = data.splitn(files.len(), |b| *b == 0xFF);
+    for file in files {
+        let path = run.path(file);
         match parts.next() {
             Some(bytes) if !bytes.is_empty() => write(&path, bytes),
             _ => {

@@ -25,8 +25,8 @@ use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::camera::{CameraSettings, PixelFormat};
 use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
-use fringe_rig::store::frame_file::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
-use fringe_rig::store::run_writer::RunWriter;
+use fringe_rig::store::frames::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
+use fringe_rig::store::{RunFile, RunReader, RunWriter};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;
 use fringe_sim::ground_truth::{FrameFate, TruthLog, TruthSink};
@@ -185,7 +185,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t0 = Instant::now();
     let mut reaped = 0u64;
     let mut next_report = 10.0;
-    let frame_dir = run_dir.join("frames");
+    let frame_dir = RunReader::at(&run_dir).path(RunFile::FrameDir);
     while t0.elapsed().as_secs_f64() < seconds {
         std::thread::sleep(Duration::from_millis(500));
         if !keep {

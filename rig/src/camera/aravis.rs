@@ -14,10 +14,9 @@
 //! so they are used by one thread at a time; it is `Send` (moving it to another thread is fine)
 //! but deliberately not `Sync`.
 
-use super::writer::format_name;
 use super::{
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
-    TriggerMode,
+    format_name, Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi,
+    TimestampLatch, TriggerMode,
 };
 use crate::clock::HostTime;
 use ::aravis::prelude::*;

@@ -20,12 +20,13 @@
 //! `HOST_SECONDS` is the host arrival time in seconds since the recording started. A latch line
 //! is `latch HOST_BEFORE DEVICE_TICKS HOST_AFTER`.
 
-use super::writer::{format_name, load_png, parse_format_name, save_png, FrameFileError};
 use super::{
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch,
-    TriggerMode,
+    format_name, parse_format_name, Camera, CameraError, CameraInfo, CameraSettings, Frame,
+    PixelFormat, TimestampLatch, TriggerMode,
 };
 use crate::clock::HostTime;
+use crate::store::frames::error::FrameFileError;
+use crate::store::frames::png::{load_png, save_png};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};

@@ -37,7 +37,7 @@ use crate::store::documents::{
     now_utc, ExitStatus, Position, ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
 use crate::store::error::StoreError;
-use crate::store::frame_file::{FrameCodec, FrameStorage};
+use crate::store::frames::{FrameCodec, FrameStorage};
 use crate::store::run_lock::RunLock;
 use crate::store::run_writer::RunWriter;
 use crate::sync::method::SyncMethod;

@@ -1,10 +1,9 @@
 //! What a run directory holds: the start and stop documents, frame records and events.
 
 use super::error::StoreError;
-use super::frame_file::{Encoding, FrameStorage};
+use super::frames::{Encoding, FrameStorage};
 use super::layout::FRAMES;
-use crate::camera::writer::parse_format_name;
-use crate::camera::PixelFormat;
+use crate::camera::{parse_format_name, PixelFormat};
 use crate::units::{Millimetres, Wrench};
 use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -12,7 +11,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 /// Version of the run layout written by this build. 2: the start document records how the
 /// frames are stored ([`StartDocument::frames`]); 3: one-channel frames may be FGL files
 /// (`frames/*.fgl`, `Encoding::Fgl`); 4: FGL files carry a checksum (FGL version 2,
-/// `grey_codec`), which a fringe reading up to layout 3 could not decode. Runs of every earlier
+/// `frames::fgl`), which a fringe reading up to layout 3 could not decode. Runs of every earlier
 /// layout are still read.
 pub const LAYOUT_VERSION: u32 = 4;
 
@@ -202,6 +201,20 @@ pub struct StopDocument {
     /// The method's own estimate of its label-time error at the end of the run (1 sigma), ns.
     #[serde(default)]
     pub sync_error_ns: Option<f64>,
+}
+
+/// Written at every checkpoint (before each grid point): where the scan goes on after a crash,
+/// and how far the frame records went then. Everything recorded after it belongs to a point
+/// that did not finish and is cut when the run is resumed.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    /// Index (in the scan program) of the next point to do.
+    pub next_point: u64,
+    /// Frame records before the checkpoint.
+    pub next_index: u64,
+    /// Length of frames.jsonl at the checkpoint, bytes.
+    pub frames_bytes: u64,
+    pub utc: String,
 }
 
 /// `t` as an RFC 3339 UTC timestamp with milliseconds ("2026-11-22T03:45:12.345Z").

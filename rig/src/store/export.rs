@@ -7,12 +7,12 @@
 use super::documents::{now_utc, FrameRecord, StartDocument};
 use super::durable::{sync_dir, write_atomic, write_synced};
 use super::error::StoreError;
-use super::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
-use super::layout::{FRAMES, START};
+use super::frames::debayer;
+use super::frames::{in_whole_frame, FrameStorage, StoredFrame};
 use super::run_lock::RunLock;
-use super::run_writer::{read_lines, read_start};
+use super::run_reader::RunReader;
 use super::verify::verify;
-use crate::camera::{debayer, PixelFormat};
+use crate::camera::PixelFormat;
 use crate::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS, NO_CONTACT};
 use std::collections::HashSet;
 use std::io::Cursor;
@@ -116,7 +116,7 @@ pub fn export_reference(
     // and an export of a run being written is refused.
     let mut _locks = Vec::with_capacity(runs.len());
     for run in runs {
-        if run.join(START).is_file() {
+        if RunReader::at(run).is_run() {
             _locks.push(RunLock::read(run)?);
         }
         let report = verify(run)?;
@@ -263,7 +263,7 @@ fn write_export(
     };
     let mut exported = Vec::with_capacity(runs.len());
     for (run, mut problems) in runs.iter().zip(problems) {
-        let start: StartDocument = super::run_writer::read_start(run)?;
+        let start: StartDocument = RunReader::at(run).start()?;
         let first_image = writer.counts.images;
         problems.extend(writer.export_run(run, &mut progress)?);
         exported.push(ExportedRun {
@@ -337,13 +337,14 @@ impl ExportWriter<'_> {
         progress: &mut impl FnMut(u64),
     ) -> Result<Vec<String>, StoreError> {
         let mut left_out = Vec::new();
-        let storage = read_start(run)?.frame_storage();
-        let (records, _) = read_lines::<FrameRecord>(&run.join(FRAMES))?;
+        let reader = RunReader::at(run);
+        let storage = reader.start()?.frame_storage();
+        let records = reader.frames()?;
         let mut indices = HashSet::new();
         let mut files = HashSet::new();
         for record in records {
             self.check_cancel()?;
-            let source = record.file_in(run)?;
+            let source = reader.frame_file(&record)?;
             if !indices.insert(record.index) || !files.insert(record.file.clone()) {
                 self.counts.skipped_duplicates += 1;
                 continue;

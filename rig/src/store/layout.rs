@@ -2,15 +2,53 @@
 
 use std::path::{Path, PathBuf};
 
-/// File names inside a run directory.
-pub const START: &str = "start.json";
-pub const FRAMES: &str = "frames.jsonl";
-pub const EVENTS: &str = "events.jsonl";
-pub const FORCE: &str = "force.bin";
-pub const FRAME_DIR: &str = "frames";
-pub const STOP: &str = "stop.json";
-pub const CHECKPOINT: &str = "checkpoint.json";
-pub const MANIFEST: &str = "MANIFEST.sha256";
+/// File names inside a run directory: the store's own; everything outside the store names a
+/// run's files by what they hold ([`RunFile`], through `RunReader::path`).
+pub(crate) const START: &str = "start.json";
+pub(crate) const FRAMES: &str = "frames.jsonl";
+pub(crate) const EVENTS: &str = "events.jsonl";
+pub(crate) const FORCE: &str = "force.bin";
+pub(crate) const FRAME_DIR: &str = "frames";
+pub(crate) const STOP: &str = "stop.json";
+pub(crate) const CHECKPOINT: &str = "checkpoint.json";
+pub(crate) const MANIFEST: &str = "MANIFEST.sha256";
+
+/// A file (or, [`RunFile::FrameDir`], the directory of frame files) of a run, by what it holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunFile {
+    /// The start document.
+    Start,
+    /// The frame records.
+    Frames,
+    /// The events.
+    Events,
+    /// The raw force stream.
+    Force,
+    /// The directory of frame files.
+    FrameDir,
+    /// The last checkpoint.
+    Checkpoint,
+    /// The stop document.
+    Stop,
+    /// The checksum manifest.
+    Manifest,
+}
+
+impl RunFile {
+    /// Its name in the run directory.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            RunFile::Start => START,
+            RunFile::Frames => FRAMES,
+            RunFile::Events => EVENTS,
+            RunFile::Force => FORCE,
+            RunFile::FrameDir => FRAME_DIR,
+            RunFile::Checkpoint => CHECKPOINT,
+            RunFile::Stop => STOP,
+            RunFile::Manifest => MANIFEST,
+        }
+    }
+}
 
 /// An output path that is a run or lies inside one ([`outside_runs`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

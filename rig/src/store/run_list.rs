@@ -3,7 +3,7 @@
 use super::documents::{StartDocument, StopDocument};
 use super::error::StoreError;
 use super::layout::{FRAMES, START, STOP};
-use super::run_writer::{read_document, read_lines};
+use super::run_reader::{read_document, read_lines};
 use std::path::{Path, PathBuf};
 
 /// One line of `fringe runs`.

@@ -10,7 +10,7 @@
 //! kilobytes, and the simulated bench's truth.jsonl about a kilobyte a frame: not counted.
 
 use super::force_log::{HEADER_LEN, RECORD_LEN};
-use super::frame_file::FrameStorage;
+use super::frames::FrameStorage;
 use super::layout::FRAME_DIR;
 use crate::units::Hertz;
 use std::io;

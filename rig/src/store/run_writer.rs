@@ -8,16 +8,17 @@
 //! [`RunWriter::reopen`] cuts off.
 
 use super::documents::{
-    now_utc, Event, ExitStatus, FrameRecord, StartDocument, StopDocument, LAYOUT_VERSION,
+    now_utc, Checkpoint, Event, ExitStatus, FrameRecord, StartDocument, StopDocument,
 };
 use super::durable::{sync_dir, write_atomic};
 use super::error::StoreError;
-use super::frame_file::FrameStorage;
-use super::layout::{CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP};
+use super::frames::error::FrameFileError;
+use super::frames::FrameStorage;
+use super::layout::{RunFile, CHECKPOINT, EVENTS, FORCE, FRAMES, FRAME_DIR, MANIFEST, START, STOP};
 use super::own_file;
 use super::run_lock::RunLock;
+use super::run_reader::{read_frame_lines, read_lines, read_start, FrameLines, RunReader};
 use super::{force_log, manifest};
-use crate::camera::writer::FrameFileError;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
@@ -32,82 +33,8 @@ fn json<T: serde::Serialize>(path: &Path, value: &T) -> Result<String, StoreErro
     })
 }
 
-/// The start document of the run in `dir`; [`StoreError::NotARun`] when `dir` has none (a
-/// missing directory, a typo, the runs root instead of one run).
-pub fn read_start(dir: &Path) -> Result<StartDocument, StoreError> {
-    let path = dir.join(START);
-    if !path.exists() {
-        return Err(StoreError::NotARun {
-            dir: dir.to_path_buf(),
-        });
-    }
-    let start: StartDocument = read_document(&path)?;
-    if start.layout_version > LAYOUT_VERSION {
-        return Err(StoreError::Content {
-            path,
-            message: format!(
-                "the run has layout version {} but this fringe ({}) reads up to {LAYOUT_VERSION}: \
-                 read it with a newer fringe",
-                start.layout_version,
-                env!("CARGO_PKG_VERSION")
-            ),
-        });
-    }
-    Ok(start)
-}
-
-/// Reads a JSON document.
-pub fn read_document<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StoreError> {
-    let text = own_file::read_to_string(path).map_err(|e| StoreError::io(path, e))?;
-    serde_json::from_str(&text).map_err(|e| StoreError::Parse {
-        path: path.to_path_buf(),
-        line: e.line(),
-        message: e.to_string(),
-    })
-}
-
-/// Reads a JSON-lines file; a torn last line (no newline) is returned separately, not parsed.
-pub fn read_lines<T: serde::de::DeserializeOwned>(
-    path: &Path,
-) -> Result<(Vec<T>, Option<String>), StoreError> {
-    let text = match own_file::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok((Vec::new(), None)),
-        Err(e) => return Err(StoreError::io(path, e)),
-    };
-    let (complete, torn) = match text.rfind('\n') {
-        Some(i) if i + 1 < text.len() => (&text[..=i], Some(text[i + 1..].to_string())),
-        Some(_) => (text.as_str(), None),
-        None if text.is_empty() => ("", None),
-        None => ("", Some(text.clone())),
-    };
-    let mut out = Vec::new();
-    for (k, line) in complete.lines().enumerate() {
-        out.push(serde_json::from_str(line).map_err(|e| StoreError::Parse {
-            path: path.to_path_buf(),
-            line: k + 1,
-            message: e.to_string(),
-        })?);
-    }
-    Ok((out, torn))
-}
-
 fn open_append(path: &Path) -> Result<File, StoreError> {
     own_file::append(path).map_err(|e| StoreError::io(path, e))
-}
-
-/// Written at every checkpoint (before each grid point): where the scan goes on after a crash,
-/// and how far the frame records went then. Everything recorded after it belongs to a point
-/// that did not finish and is cut when the run is resumed.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Checkpoint {
-    /// Index (in the scan program) of the next point to do.
-    pub next_point: u64,
-    /// Frame records before the checkpoint.
-    pub next_index: u64,
-    /// Length of frames.jsonl at the checkpoint, bytes.
-    pub frames_bytes: u64,
-    pub utc: String,
 }
 
 /// What a reopened run already holds.
@@ -219,7 +146,7 @@ impl RunWriter {
     /// is not a run is refused without a lock file left in it. Hand the lock to
     /// [`RunWriter::reopen_held`].
     pub fn lock_for_reopen(dir: &Path) -> Result<RunLock, StoreError> {
-        if !dir.join(START).is_file() {
+        if !RunReader::at(dir).is_run() {
             // Not a run: say so (read_start's error) rather than leave a lock file in it.
             read_start(dir)?;
         }
@@ -435,27 +362,30 @@ impl RunWriter {
         manifest::write(&self.dir)?;
         Ok(self.dir)
     }
-}
 
-/// Finishes the close of a run that was stopped (killed, power lost) after its stop document
-/// and before its manifest: hashing a large run takes seconds, so that window is real. A run
-/// that ended completed or aborted gets its manifest and the stop document is returned; any
-/// other run (unfinished, failed, or closed whole) is left alone and `None` returned. The frames
-/// sat without a manifest: a damaged one is refused, and no manifest is written over it.
-pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> {
-    let stop = dir.join(STOP);
-    if !stop.is_file() || dir.join(MANIFEST).is_file() {
-        return Ok(None);
+    /// Finishes the close of a run that was stopped (killed, power lost) after its stop
+    /// document and before its manifest: hashing a large run takes seconds, so that window is
+    /// real. A run that ended completed or aborted gets its manifest and the stop document is
+    /// returned; any other run (unfinished, failed, or closed whole) is left alone and `None`
+    /// returned. The frames sat without a manifest: a damaged one is refused, and no manifest is
+    /// written over it.
+    pub fn finish_cut_close(dir: &Path) -> Result<Option<StopDocument>, StoreError> {
+        let run = RunReader::at(dir);
+        if !run.has(RunFile::Stop) || run.has(RunFile::Manifest) {
+            return Ok(None);
+        }
+        let _lock = RunLock::write(dir)?;
+        let Some(document) = run.stop()? else {
+            return Ok(None);
+        };
+        if document.exit_status == ExitStatus::Failed {
+            return Ok(None);
+        }
+        // The frames sat without a manifest: each is checked before one vouches for them.
+        refuse_damaged_frames(dir, &read_frame_lines(&run.path(RunFile::Frames))?.records)?;
+        manifest::write(dir)?;
+        Ok(Some(document))
     }
-    let _lock = RunLock::write(dir)?;
-    let document: StopDocument = read_document(&stop)?;
-    if document.exit_status == ExitStatus::Failed {
-        return Ok(None);
-    }
-    // The frames sat without a manifest: each is checked before one vouches for them.
-    refuse_damaged_frames(dir, &read_frame_lines(&dir.join(FRAMES))?.records)?;
-    manifest::write(dir)?;
-    Ok(Some(document))
 }
 
 /// The frames of `records` whose files are not whole ([`FrameStorage::check_file`]: an FGL
@@ -501,46 +431,6 @@ fn refuse_damaged_frames(dir: &Path, records: &[FrameRecord]) -> Result<(), Stor
     }
 }
 
-/// The frame records of a run, with the byte offset at which each complete line ends.
-pub(crate) struct FrameLines {
-    pub records: Vec<FrameRecord>,
-    /// `ends[k]`: length of the file up to and including the newline of record `k`.
-    pub ends: Vec<u64>,
-    /// A torn last line (no newline), not parsed.
-    pub torn: Option<String>,
-}
-
-/// Reads `frames.jsonl` (a missing file holds no records).
-pub(crate) fn read_frame_lines(path: &Path) -> Result<FrameLines, StoreError> {
-    let (records, torn) = read_lines::<FrameRecord>(path)?;
-    let text = match own_file::read(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
-        Err(e) => return Err(StoreError::io(path, e)),
-    };
-    let ends: Vec<u64> = text
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| **b == b'\n')
-        .map(|(i, _)| i as u64 + 1)
-        .collect();
-    if ends.len() != records.len() {
-        return Err(StoreError::Content {
-            path: path.to_path_buf(),
-            message: format!(
-                "{} lines but {} records (the file changed while it was read)",
-                ends.len(),
-                records.len()
-            ),
-        });
-    }
-    Ok(FrameLines {
-        records,
-        ends,
-        torn,
-    })
-}
-
 /// Checks the frame records against the last checkpoint: every record the checkpoint counts must
 /// be there, byte for byte as far as the checkpoint went. Returns the length of `frames.jsonl`
 /// at the checkpoint (where the records of the unfinished point begin); the message says what is
@@ -579,31 +469,23 @@ struct Survey {
 }
 
 fn survey(dir: &Path) -> Result<Survey, StoreError> {
-    let stop = dir.join(STOP);
-    let failed_stop = if stop.exists() {
-        let document: StopDocument = read_document(&stop)?;
-        if document.exit_status != ExitStatus::Failed {
+    let run = RunReader::at(dir);
+    let failed_stop = match run.stop()? {
+        Some(document) if document.exit_status != ExitStatus::Failed => {
             return Err(StoreError::Content {
-                path: stop,
+                path: run.path(RunFile::Stop),
                 message: format!(
                     "the run has ended ({:?}: {}); start a new run instead of resuming",
                     document.exit_status, document.reason
                 ),
             });
         }
-        Some(document)
-    } else {
-        None
+        failed => failed,
     };
-    let start: StartDocument = read_start(dir)?;
-    let frames_path = dir.join(FRAMES);
+    let start: StartDocument = run.start()?;
+    let frames_path = run.path(RunFile::Frames);
     let lines = read_frame_lines(&frames_path)?;
-    let checkpoint_path = dir.join(CHECKPOINT);
-    let checkpoint: Option<Checkpoint> = if checkpoint_path.is_file() {
-        Some(read_document(&checkpoint_path)?)
-    } else {
-        None
-    };
+    let checkpoint = run.checkpoint()?;
     // Without a checkpoint (a run written by something other than the scan engine) every
     // complete record is kept.
     let (keep, keep_bytes) = match &checkpoint {
@@ -634,12 +516,7 @@ fn survey(dir: &Path) -> Result<Survey, StoreError> {
     }
     let (events, torn) = read_lines::<Event>(&dir.join(EVENTS))?;
     let events_torn = torn.map_or(0, |t| t.len() as u64);
-    let force_path = dir.join(FORCE);
-    let bytes = own_file::read(&force_path).map_err(|e| StoreError::io(&force_path, e))?;
-    let (samples, force_torn) = force_log::decode_all(&bytes).map_err(|e| StoreError::Content {
-        path: force_path.clone(),
-        message: e.to_string(),
-    })?;
+    let (samples, force_torn) = run.force()?;
     let frames_length = (frames_torn > 0 || discarded_frames > 0).then_some(keep_bytes);
     Ok(Survey {
         existing: Existing {

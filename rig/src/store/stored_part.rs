@@ -3,7 +3,7 @@
 //! ask for only the disc's square (a long commissioning or dataset scan) on a rig that stores
 //! whole frames, and the run's start document keeps the plan that said so.
 
-use super::frame_file::{FrameCodec, DISC_MARGIN_PX};
+use super::frames::{FrameCodec, DISC_MARGIN_PX};
 
 /// `[recording]` as written in a rig file or a plan.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]

@@ -4,14 +4,13 @@
 //! manifest (without one, each frame is checked by its own checksum or decoded), and the run
 //! holds only regular files (its lock file too).
 
-use super::documents::{FrameRecord, StartDocument, StopDocument};
+use super::documents::{Checkpoint, FrameRecord, StartDocument, StopDocument};
 use super::error::StoreError;
-use super::frame_file::stored_dimensions;
+use super::frames::stored_dimensions;
 use super::layout::{CHECKPOINT, FORCE, FRAMES, MANIFEST, STOP};
 use super::run_lock::{self, LOCK};
-use super::run_writer::{
-    check_checkpoint, damaged_frames, read_document, read_frame_lines, Checkpoint, FrameLines,
-};
+use super::run_reader::{read_document, read_frame_lines, FrameLines};
+use super::run_writer::{check_checkpoint, damaged_frames};
 use super::{force_log, manifest, own_file};
 use std::collections::HashMap;
 use std::path::{Component, Path};
@@ -42,7 +41,7 @@ impl VerifyReport {
 /// Checks the run in `dir`. Fails only when `dir` is not a run at all (no readable start
 /// document); everything else is reported as a problem.
 pub fn verify(dir: &Path) -> Result<VerifyReport, StoreError> {
-    let start: StartDocument = super::run_writer::read_start(dir)?;
+    let start: StartDocument = super::run_reader::read_start(dir)?;
     let mut problems = Vec::new();
     let frames = read_frames(dir, &mut problems);
     check_frames(dir, &start, &frames, &mut problems);

@@ -6,7 +6,8 @@
 //! the output is at least 2x smaller than the crop: no full-size demosaic is made. Otherwise it
 //! is demosaiced bilinearly, pixel by pixel, as rows are asked for.
 
-use fringe_rig::camera::{debayer, Cutout, PixelFormat};
+use fringe_rig::camera::{Cutout, PixelFormat};
+use fringe_rig::store::frames::debayer;
 
 /// A frame's bytes as the camera delivered them.
 #[derive(Debug, Clone, Copy)]

@@ -32,7 +32,6 @@ use fringe_app::commission::press_choice::{
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::rig::simulated::sensor_profile;
 use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::camera::writer::save_png;
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{
@@ -40,6 +39,7 @@ use fringe_rig::reference_layout::{
     SIM_DATASET_PROFILE,
 };
 use fringe_rig::scan::plan::BenchLimits;
+use fringe_rig::store::frames::png::save_png;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sensor_models::acceptance::Spec;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Features};

@@ -27,9 +27,8 @@ use fringe_app::session::live_validation::{
 use fringe_rig::camera::Frame;
 use fringe_rig::clock::HostTime;
 use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frame_file::{in_whole_frame, FrameStorage, StoredFrame};
-use fringe_rig::store::run_writer::{read_lines, read_start};
-use fringe_rig::store::FRAMES;
+use fringe_rig::store::frames::{in_whole_frame, FrameStorage, StoredFrame};
+use fringe_rig::store::RunReader;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::predictor::Predictor;
@@ -126,7 +125,7 @@ fn as_delivered(
 /// costs what a bench costs: decoding is 2.6 times the encoder's work (BENCHMARKS.md, "A faster
 /// encoder"), which the replay does instead.
 fn decode_all(
-    run: &std::path::Path,
+    run: &RunReader,
     storage: &FrameStorage,
     records: &[FrameRecord],
 ) -> Result<Vec<Frame>, String> {
@@ -140,7 +139,7 @@ fn decode_all(
                 s.spawn(move || {
                     part.iter()
                         .map(|r| {
-                            let path = run.join(&r.file);
+                            let path = run.frame_path(r);
                             let stored = storage.read(&path).map_err(|e| e.to_string())?;
                             as_delivered(stored, r, HostTime::now(), &path)
                         })
@@ -194,14 +193,15 @@ fn thread_cpu() -> Duration {
 }
 
 fn run(a: Args) -> Result<(), String> {
-    let start = read_start(&a.run).map_err(|e| e.to_string())?;
+    let run = RunReader::at(&a.run);
+    let start = run.start().map_err(|e| e.to_string())?;
     let storage = start.frame_storage();
     let source = fringe_sensor_models::dataset::read(&a.run).map_err(|e| e.to_string())?;
     let profile = source.profile.ok_or(format!(
         "{}: the run names no calibration profile to crop its frames with",
         a.run.display()
     ))?;
-    let (records, _) = read_lines::<FrameRecord>(&a.run.join(FRAMES)).map_err(|e| e.to_string())?;
+    let records = run.frames().map_err(|e| e.to_string())?;
     let model = builtin::open(&a.model).map_err(|e| e.to_string())?;
     let predictor =
         Predictor::new(&model, BackendKind::Tract, a.threads).map_err(|e| e.to_string())?;
@@ -224,7 +224,7 @@ fn run(a: Args) -> Result<(), String> {
         a.backlog,
     )
     .map_err(|e| e.to_string())?;
-    let frames = decode_all(&a.run, &storage, &records)?;
+    let frames = decode_all(&run, &storage, &records)?;
     let scratch = std::env::temp_dir().join(format!("fringe-live-replay-{}", std::process::id()));
     std::fs::create_dir_all(&scratch).map_err(|e| format!("{}: {e}", scratch.display()))?;
     let first_ns = records.first().map_or(0, |r| r.host_arrival_ns);

@@ -240,7 +240,7 @@ fn commissioning_runs_present(accepted: &Commissioned) -> Result<()> {
         ("acceptance scan", &runs.acceptance),
     ] {
         let path = accepted.dir.join(run);
-        if !path.join(fringe_rig::store::layout::START).is_file() {
+        if !fringe_rig::store::RunReader::at(&path).is_run() {
             bail!(
                 "{}: the commissioning's {what} {} is missing (not a run): a check compares the unit with it, so nothing is pressed. Put the run back from a backup, or commission the unit again (fringe commission)",
                 accepted.dir.display(),
@@ -280,7 +280,7 @@ fn reference_calibration(accepted: &Commissioned, profiles: &Path, sensor: &str)
     };
     let run = PathBuf::from(&p.source);
     let later = p.created_utc.as_str() > cert.issued_utc.as_str();
-    if later && run.join(fringe_rig::store::layout::START).is_file() && run != commissioned.run {
+    if later && fringe_rig::store::RunReader::at(&run).is_run() && run != commissioned.run {
         Reference {
             about: format!(
                 "the unit's calibration of {} ({}, made after its commissioning)",
@@ -476,7 +476,9 @@ mod tests {
         // Calibrated again later, from a scan of its own: that scan is the reference.
         let later_run = root.join("runs/calibration-layered-3-later");
         std::fs::create_dir_all(&later_run).expect("run");
-        std::fs::write(later_run.join(fringe_rig::store::layout::START), "{}").expect("start");
+        let start =
+            fringe_rig::store::RunReader::at(&later_run).path(fringe_rig::store::RunFile::Start);
+        std::fs::write(start, "{}").expect("start");
         std::fs::write(
             &unit_profile,
             profile("2026-11-27T08:00:00.000Z", &later_run),

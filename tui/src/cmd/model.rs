@@ -4,7 +4,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_calibration::profile::Profile;
-use fringe_rig::store::frame_file::read_plain;
+use fringe_rig::store::frames::read_plain;
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::eval::frame_ref;

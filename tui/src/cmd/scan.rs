@@ -109,7 +109,7 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         return Ok(());
     }
     if let Some(dir) = &args.resume {
-        if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(dir)? {
+        if let Some(stop) = fringe_rig::store::RunWriter::finish_cut_close(dir)? {
             println!(
                 "{} had ended ({}: {}) but was stopped while writing its manifest; the manifest is now written and the run is whole: fringe verify {}",
                 dir.display(),

@@ -445,7 +445,7 @@ mod tests {
     use fringe_rig::scan::engine::RunTarget;
     use fringe_rig::scan::plan::ScanProgram;
     use fringe_rig::store::documents::{now_utc, ExitStatus, StopDocument};
-    use fringe_rig::store::layout::{MANIFEST, START, STOP};
+    use fringe_rig::store::{RunFile, RunReader};
     use fringe_sensor_models::acceptance::Spec;
 
     /// A bench whose every scan completes with frames that cannot be learnt from (as a round
@@ -470,8 +470,9 @@ mod tests {
             self.pressed.push(run_id.clone());
             let run_dir = root.join(&run_id);
             std::fs::create_dir_all(&run_dir)?;
-            std::fs::write(run_dir.join(START), "{}")?;
-            std::fs::write(run_dir.join(MANIFEST), "")?;
+            let run = RunReader::at(&run_dir);
+            std::fs::write(run.path(RunFile::Start), "{}")?;
+            std::fs::write(run.path(RunFile::Manifest), "")?;
             let stop = StopDocument {
                 exit_status: ExitStatus::Completed,
                 reason: "all points done".into(),
@@ -484,7 +485,7 @@ mod tests {
                 sync_method: None,
                 sync_error_ns: None,
             };
-            std::fs::write(run_dir.join(STOP), serde_json::to_string(&stop)?)?;
+            std::fs::write(run.path(RunFile::Stop), serde_json::to_string(&stop)?)?;
             Ok(ScanEnded {
                 completed: true,
                 reason: stop.reason,

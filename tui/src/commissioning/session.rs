@@ -59,7 +59,7 @@ pub(crate) fn scan(
             run_id: entry.run_id.clone(),
         },
         RunState::Unfinished => {
-            if let Some(stop) = fringe_rig::store::run_writer::finish_cut_close(&run_dir)? {
+            if let Some(stop) = fringe_rig::store::RunWriter::finish_cut_close(&run_dir)? {
                 if stop.exit_status == ExitStatus::Completed {
                     return Ok((run_dir, 0.0));
                 }

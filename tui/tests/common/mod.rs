@@ -190,7 +190,7 @@ impl<'a> TestRun<'a> {
             seed: None,
             sync_method: self.sync.into(),
             frames: Some(
-                fringe_rig::store::frame_file::FrameStorage::new(PixelFormat::Mono8, None)
+                fringe_rig::store::frames::FrameStorage::new(PixelFormat::Mono8, None)
                     .expect("storage"),
             ),
         };

@@ -3,10 +3,11 @@
 //! camera wrapped by the trace recorder.
 
 use fringe_rig::acquire::frame_gaps::FrameGaps;
-use fringe_rig::camera::writer::{FrameFileError, FrameWriter};
+use fringe_rig::camera::writer::FrameWriter;
 use fringe_rig::camera::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch, TriggerMode,
 };
+use fringe_rig::store::frames::error::FrameFileError;
 use std::path::Path;
 use std::time::Duration;
 

@@ -5,12 +5,11 @@
 
 use crate::rig::file::RigConfig;
 use crate::session::disk_space::camera_frame;
-use fringe_rig::camera::writer::format_name;
+use fringe_rig::camera::format_name;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::{ExitStatus, StopDocument};
 use fringe_rig::store::durable::write_atomic;
-use fringe_rig::store::layout::{MANIFEST, STOP};
-use fringe_rig::store::run_writer::read_document;
+use fringe_rig::store::{RunFile, RunReader};
 use std::path::{Path, PathBuf};
 
 /// The journal's file name in a commissioning directory.
@@ -250,18 +249,18 @@ pub enum RunState {
 
 /// The state of the run `dir`.
 pub fn run_state(dir: &Path) -> Result<RunState, JournalError> {
-    if !dir.join(fringe_rig::store::layout::START).is_file() {
+    let run = RunReader::at(dir);
+    if !run.is_run() {
         return Ok(RunState::Absent);
     }
-    let stop = dir.join(STOP);
-    if !stop.is_file() || !dir.join(MANIFEST).is_file() {
+    if !run.is_closed() {
         return Ok(RunState::Unfinished);
     }
-    let document: StopDocument = read_document(&stop).map_err(|e| JournalError::Read {
-        path: stop.clone(),
+    let document = run.stop().map_err(|e| JournalError::Read {
+        path: run.path(RunFile::Stop),
         message: e.to_string(),
     })?;
-    Ok(RunState::Ended(document))
+    Ok(document.map_or(RunState::Unfinished, RunState::Ended))
 }
 
 /// A run that ended completed.

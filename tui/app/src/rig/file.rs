@@ -18,7 +18,7 @@ use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
 use fringe_rig::config_file::{parse_toml, ConfigError};
 use fringe_rig::nidaqmx::DaqSettings;
 use fringe_rig::scan::plan::Plan;
-use fringe_rig::store::frame_file::FrameCodec;
+use fringe_rig::store::frames::FrameCodec;
 use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::trigger::TriggerTiming;
@@ -779,7 +779,7 @@ mod tests {
         assert_eq!(
             disc.stored_part(None).expect("stored part"),
             StoredPart::Disc {
-                margin_px: fringe_rig::store::frame_file::DISC_MARGIN_PX
+                margin_px: fringe_rig::store::frames::DISC_MARGIN_PX
             }
         );
         for (text, key) in [

@@ -199,9 +199,7 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
 /// Scores the labels of the simulated run in `run_dir` against the ground truth it keeps
 /// (`truth.jsonl`); `None` when no labelled frame has a truth record.
 pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
-    let (records, _) = fringe_rig::store::run_writer::read_lines::<
-        fringe_rig::store::documents::FrameRecord,
-    >(&run_dir.join(fringe_rig::store::FRAMES))?;
+    let records = fringe_rig::store::RunReader::at(run_dir).frames()?;
     let path = run_dir.join(fringe_sim::ground_truth::TRUTH_FILE);
     let truth = fringe_sim::ground_truth::read_frames(&path).map_err(|e| match e {
         fringe_sim::ground_truth::TruthError::Io { path, source } => {

@@ -6,7 +6,7 @@ use fringe_calibration::profile::Profile;
 use fringe_rig::camera::Cutout;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::store::frames::FrameStorage;
 
 /// Why a scan's recording cannot be set up.
 #[derive(Debug, thiserror::Error)]

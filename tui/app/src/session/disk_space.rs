@@ -9,16 +9,15 @@
 use crate::rig::file::RigConfig;
 use crate::session::disc_cutout::{disc_cutout, RecordingError};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
-use fringe_rig::camera::writer::format_name;
+use fringe_rig::camera::format_name;
 use fringe_rig::scan::engine::{RunTarget, ScanSetup};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frame_file::FrameStorage;
+use fringe_rig::store::frames::FrameStorage;
 use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSize};
-use fringe_rig::store::run_writer::{read_document, read_start, Checkpoint};
 use fringe_rig::store::stored_part::StoredPart;
-use fringe_rig::store::CHECKPOINT;
+use fringe_rig::store::RunReader;
 use fringe_rig::units::Hertz;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -347,9 +346,9 @@ fn planned_run(
             })
         }
         RunTarget::Resume { dir, .. } => {
-            let start = read_start(dir).ok()?;
-            let next_point =
-                read_document::<Checkpoint>(&dir.join(CHECKPOINT)).map_or(0, |c| c.next_point);
+            let run = RunReader::at(dir);
+            let start = run.start().ok()?;
+            let next_point = run.checkpoint().ok().flatten().map_or(0, |c| c.next_point);
             let first = usize::try_from(next_point).unwrap_or(usize::MAX);
             let left = setup.program.points.len().saturating_sub(first);
             let recording = Recording {

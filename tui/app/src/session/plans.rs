@@ -102,7 +102,9 @@ pub fn scan_plan(
         return Ok((text, path.display().to_string()));
     }
     if let Some(run) = resume {
-        let start = fringe_rig::store::read_start(run).map_err(ScanPlanError::Run)?;
+        let start = fringe_rig::store::RunReader::at(run)
+            .start()
+            .map_err(ScanPlanError::Run)?;
         return Ok((start.plan, format!("the plan stored in {}", run.display())));
     }
     Ok((SHORT_GRID.text.to_string(), SHORT_GRID.origin()))

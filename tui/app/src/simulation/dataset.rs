@@ -11,13 +11,14 @@
 
 use crate::rig::simulated::sensor_profile;
 use fringe_calibration::profile::ProfileError;
-use fringe_rig::camera::writer::{save_png, FrameFileError};
 use fringe_rig::camera::{Frame, PixelFormat};
 use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS};
 use fringe_rig::reference_layout::{SIM_DATASET_DOC, SIM_DATASET_PROFILE};
 use fringe_rig::store::disk_space::available_bytes;
 use fringe_rig::store::durable::write_atomic;
+use fringe_rig::store::frames::error::FrameFileError;
+use fringe_rig::store::frames::png::save_png;
 use fringe_rig::store::StoreError;
 use fringe_sim::dataset::{frame, DatasetSpec, SyntheticFrame};
 use fringe_sim::render::Renderer;

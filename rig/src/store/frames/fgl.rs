@@ -897,8 +897,8 @@ mod tests {
     #[test]
     fn files_of_version_1_written_by_the_old_encoder_still_decode() {
         // Written by the encoder before version 2 (rig/fixtures/README.md).
-        let old = include_bytes!("../../fixtures/fgl1-12x8-mosaic.fgl");
-        let want = include_bytes!("../../fixtures/fgl1-12x8-mosaic.pixels");
+        let old = include_bytes!("../../../fixtures/fgl1-12x8-mosaic.fgl");
+        let want = include_bytes!("../../../fixtures/fgl1-12x8-mosaic.pixels");
         assert_eq!(&old[..4], b"FGL1");
         assert_eq!(header(old), Ok((12, 8, Pattern::Mosaic2x2)));
         let back = decode(old).expect("a version-1 file");

@@ -7,7 +7,7 @@
 //! defaults. Encodings, all lossless:
 //!
 //! - [`Encoding::Fgl`] (the default for one-channel frames, BayerRG8 and Mono8, since layout
-//!   3): the pixels as delivered in fringe's own codec ([`super::grey_codec`]), which predicts
+//!   3): the pixels as delivered in fringe's own codec ([`fgl`]), which predicts
 //!   each pixel from four neighbours of its own colour: about 11 % fewer bytes than the planes
 //!   PNG below and less CPU to write, more to read (BENCHMARKS.md, "A context-modelling codec
 //!   of our own").
@@ -27,9 +27,15 @@
 //! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
 //! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
 
-use super::grey_codec::{self, Pattern};
-use crate::camera::writer::{format_name, open_image, read_pixels, FrameFileError};
-use crate::camera::{Cutout, Frame, PixelFormat, Roi};
+pub mod debayer;
+pub mod error;
+pub mod fgl;
+pub mod png;
+
+use self::error::FrameFileError;
+use self::fgl::Pattern;
+use self::png::{open_image, read_pixels};
+use crate::camera::{format_name, Cutout, Frame, PixelFormat, Roi};
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::ImageEncoder;
 use std::fs::File;
@@ -310,7 +316,7 @@ impl FrameStorage {
             Encoding::PngBayerPlanes => png(&to_planes(&pixels, width, height), &mut out)?,
             Encoding::Fgl => {
                 let pattern = self.pattern().ok_or_else(|| content(RGB8_FGL.into()))?;
-                let bytes = grey_codec::encode(&pixels, width, height, pattern)
+                let bytes = fgl::encode(&pixels, width, height, pattern)
                     .map_err(|e| content(format!("frame {}: {e}", frame.id)))?;
                 out.write_all(&bytes).map_err(io)?;
             }
@@ -343,7 +349,7 @@ impl FrameStorage {
                     path: path.to_path_buf(),
                     message,
                 };
-                let image = grey_codec::decode(&bytes).map_err(|e| content(e.to_string()))?;
+                let image = fgl::decode(&bytes).map_err(|e| content(e.to_string()))?;
                 let want = self.pattern().ok_or_else(|| content(RGB8_FGL.into()))?;
                 if image.pattern != want {
                     return Err(content(format!(
@@ -400,7 +406,7 @@ impl FrameStorage {
                     path: path.to_path_buf(),
                     source,
                 })?;
-                grey_codec::check(&bytes).map_err(|e| FrameFileError::Content {
+                fgl::check(&bytes).map_err(|e| FrameFileError::Content {
                     path: path.to_path_buf(),
                     message: e.to_string(),
                 })
@@ -440,10 +446,10 @@ impl FrameStorage {
 /// Width and height of a stored frame file (FGL or an ordinary image), from its header; `None`
 /// when it cannot be read.
 pub fn stored_dimensions(path: &Path) -> Option<(u32, u32)> {
-    let mut head = [0u8; grey_codec::HEADER_BYTES];
+    let mut head = [0u8; fgl::HEADER_BYTES];
     let mut file = File::open(path).ok()?;
     if io::Read::read_exact(&mut file, &mut head).is_ok() {
-        if let Ok((width, height, _)) = grey_codec::header(&head) {
+        if let Ok((width, height, _)) = fgl::header(&head) {
             return Some((width, height));
         }
     }
