@@ -26,8 +26,11 @@
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`plans`]: the built-in scan plans.
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning.
-//! - [`commission`]: commissioning a unit: where to press, its plans, its journal and its
-//!   certificate (and the unit's commissioned model).
+//! - [`commission`]: commissioning a unit, the whole job (calibration, rounds of presses, the
+//!   adaptation, acceptance) with where to press, its plans, its journal and its certificate (and
+//!   the unit's commissioned model).
+//! - [`models`]: the policies that pick, open and judge models (which model runs, an adapted
+//!   model's card, a spec and the verdict against it).
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
@@ -50,6 +53,7 @@ pub mod jog_guard;
 pub mod keeping_up;
 pub mod live_validation;
 pub mod live_view;
+pub mod models;
 mod open_rig;
 pub mod plans;
 mod recording_part;

@@ -2,19 +2,19 @@
 //! at held-out positions (between the lattice the rounds press on), the whole network evaluated
 //! on it and judged against the spec, the report and the certificate.
 
-use super::rounds::{shapes, Adaptation};
-use super::session::{estimate_s, scan, set_aside, Commissioning};
-use crate::cmd::adapt::adapted_card;
-use crate::cmd::model::open_model;
-use crate::cmd::verdict;
-use anyhow::{Context, Result};
-use fringe_app::commission::certificate::{
+use super::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
-use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
-use fringe_app::commission::press_plan::press_plan;
-use fringe_app::ProfileUse;
+use super::error::{CommissionError, Context};
+use super::journal::ScanEntry;
+use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
+use super::press_plan::press_plan;
+use super::rounds::{shapes, Adaptation};
+use super::scans::{estimate_s, scan, set_aside, Commissioning};
+use crate::models::adapted_card::adapted_card;
+use crate::models::choice::open_model;
+use crate::models::verdict;
+use crate::scan_session::ProfileUse;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::{judge, Verdict};
 use fringe_sensor_models::backend::BackendKind;
@@ -28,8 +28,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+type Result<T> = std::result::Result<T, CommissionError>;
+
 /// How the acceptance ended: the verdict and where the certificate and the model are.
-pub(crate) struct Accepted {
+pub struct Accepted {
     pub sensor: String,
     pub pass: bool,
     /// The checks the unit failed, in words (empty when it passed).
@@ -60,6 +62,9 @@ pub(crate) fn accept(
     c.journal.write(&c.dir)?;
     let started = Instant::now();
     let model = open_model(&model_path)?;
+    if let Some(w) = model.missing_card_warning() {
+        c.host.warn(w);
+    }
     // The scan is complete when the model was evaluated on it: one whose frames cannot be used
     // is kept aside and pressed again on resume, never taken as done.
     let (eval, presses) = match evaluated(c, &model, &run_dir) {

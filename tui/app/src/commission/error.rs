@@ -1,0 +1,101 @@
+//! How a commissioning fails: refused before anything moves or stopped with what to do, a step
+//! that failed (what it was, what to do, then why), or a library's error as it said it. The
+//! chain of causes is kept whole, so a front end joins it into one line and finds the command
+//! that helps in it.
+
+/// Any error, boxed: a cause, or what a [`super::host::Host`] could not do.
+pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
+
+/// A commissioning that could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum CommissionError {
+    /// Refused (an option, a base, a budget) or stopped, and what to do.
+    #[error("{0}")]
+    Refused(String),
+    /// A step failed: what it was and what to do; its cause follows.
+    #[error("{what}")]
+    Step {
+        what: String,
+        #[source]
+        source: BoxError,
+    },
+    /// A library's error, as it said it.
+    #[error("{0}")]
+    Failed(#[source] BoxError),
+}
+
+impl CommissionError {
+    /// This error as the cause of a step described by `what`.
+    pub(crate) fn context(self, what: String) -> CommissionError {
+        CommissionError::Step {
+            what,
+            source: Box::new(self),
+        }
+    }
+}
+
+impl From<BoxError> for CommissionError {
+    fn from(e: BoxError) -> CommissionError {
+        CommissionError::Failed(e)
+    }
+}
+
+/// The libraries' errors a commissioning passes on as they are.
+macro_rules! failed_from {
+    ($($t:ty),* $(,)?) => {
+        $(impl From<$t> for CommissionError {
+            fn from(e: $t) -> CommissionError {
+                CommissionError::Failed(Box::new(e))
+            }
+        })*
+    };
+}
+
+failed_from!(
+    std::io::Error,
+    serde_json::Error,
+    fringe_rig::config_file::ConfigError,
+    crate::commission::journal::JournalError,
+    crate::commission::certificate::CertificateError,
+    crate::commission::press_choice::DiscError,
+    crate::commission::press_plan::PressPlanError,
+    crate::models::choice::ChoiceError,
+    fringe_sensor_models::model::ModelError,
+    fringe_sensor_models::acceptance::SpecError,
+    fringe_sensor_models::adapt::AdaptError,
+    fringe_sensor_models::dataset::DatasetError,
+    fringe_sensor_models::eval::EvalError,
+    fringe_sensor_models::report::ReportError,
+    fringe_sensor_models::ModelFileError,
+    fringe_calibration::profile::ProfileError,
+    fringe_rig::store::StoreError,
+    crate::calibration_scan::CalibrationPlanError,
+    crate::calibration_scan::CalibrationRunError,
+);
+
+/// A step's description put before an error (as `anyhow::Context` does, with the same text).
+pub(crate) trait Context<T> {
+    fn context(self, what: &str) -> Result<T, CommissionError>;
+    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, CommissionError>;
+}
+
+impl<T, E: Into<BoxError>> Context<T> for Result<T, E> {
+    fn context(self, what: &str) -> Result<T, CommissionError> {
+        self.with_context(|| what.to_string())
+    }
+
+    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, CommissionError> {
+        self.map_err(|e| CommissionError::Step {
+            what: what(),
+            source: e.into(),
+        })
+    }
+}
+
+/// Refuses with `format!`'s text (as `anyhow::bail!` did).
+macro_rules! refuse {
+    ($($arg:tt)*) => {
+        return Err($crate::commission::error::CommissionError::Refused(format!($($arg)*)))
+    };
+}
+pub(crate) use refuse;

@@ -1,0 +1,12 @@
+//! The policies that pick, open and judge models, one for every command and the commissioning:
+//!
+//! - [`choice`]: a model argument opened (a built-in name or a file), and the model a command
+//!   runs when none is given (the unit's commissioned model, else the one that ships for its
+//!   design).
+//! - [`adapted_card`]: the card of weights adapted to a unit: the unit, and how they were adapted.
+//! - [`verdict`]: a spec given by name (`paper`) or file, and an evaluation's verdict against it
+//!   in lines.
+
+pub mod adapted_card;
+pub mod choice;
+pub mod verdict;
