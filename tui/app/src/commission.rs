@@ -14,7 +14,7 @@
 //! - [`acceptance`]: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
 //! - [`host`]: what a commissioning needs from whoever runs it (scans, lines, progress).
-//! - [`error`]: how a commissioning fails.
+//! How they fail: [`crate::workflow_error`].
 //!
 //! What they use:
 //! - [`press_choice`]: the usable disc in stage mm and where to press next.
@@ -25,7 +25,6 @@
 
 pub mod acceptance;
 pub mod certificate;
-pub mod error;
 mod fine_tune;
 pub mod host;
 pub mod job;
@@ -35,4 +34,4 @@ pub mod press_choice;
 pub mod press_errors;
 pub mod press_plan;
 pub mod rounds;
-mod scans;
+pub(crate) mod scans;

@@ -34,6 +34,7 @@
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
+//! - [`workflow_error`]: how a workflow (commissioning, a health check) fails, its causes kept.
 //! - `sim_bench`: the simulated bench behind a rig file (public with the cargo feature `sim`, a
 //!   default).
 //!
@@ -69,6 +70,7 @@ pub mod sim_bench;
 mod sim_bench;
 mod truth_score;
 pub mod worker_failure;
+pub mod workflow_error;
 
 pub use open_rig::OpenRig;
 pub use rig_error::RigError;

@@ -6,11 +6,11 @@ use super::frames_progress::FramesProgress;
 use super::model::open_model;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use fringe_app::models::adapted_card::adapted_card;
 use fringe_calibration::profile::Profile;
-use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig, Adapted};
-use fringe_sensor_models::model_card::ModelCard;
-use fringe_sensor_models::{write_safetensors_with_card, Model};
-use std::path::{Path, PathBuf};
+use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
+use fringe_sensor_models::write_safetensors_with_card;
+use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct AdaptArgs {

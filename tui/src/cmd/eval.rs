@@ -2,10 +2,11 @@
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
-use super::model::{choose_model, ForSensor, ReferenceChoice};
-use super::verdict;
+use super::model::{choose_model, ReferenceChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use fringe_app::models::choice::ForSensor;
+use fringe_app::models::verdict;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::judge;
 use fringe_sensor_models::backend::BackendKind;

@@ -5,7 +5,6 @@
 use super::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
-use super::error::{CommissionError, Context};
 use super::journal::ScanEntry;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
 use super::press_plan::press_plan;
@@ -15,6 +14,7 @@ use crate::models::adapted_card::adapted_card;
 use crate::models::choice::open_model;
 use crate::models::verdict;
 use crate::scan_session::ProfileUse;
+use crate::workflow_error::{Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::{judge, Verdict};
 use fringe_sensor_models::backend::BackendKind;
@@ -28,7 +28,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// How the acceptance ended: the verdict and where the certificate and the model are.
 pub struct Accepted {
@@ -63,7 +63,7 @@ pub(crate) fn accept(
     let started = Instant::now();
     let model = open_model(&model_path)?;
     if let Some(w) = model.missing_card_warning() {
-        c.host.warn(w);
+        c.host.notice(format!("warning: {w}"));
     }
     // The scan is complete when the model was evaluated on it: one whose frames cannot be used
     // is kept aside and pressed again on resume, never taken as done.

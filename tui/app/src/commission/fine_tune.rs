@@ -3,13 +3,13 @@
 //! only when it beats the heads alone on that fold. Stopped (Ctrl-C, the screen's `s`), it goes
 //! on from its checkpoint when the commissioning is resumed; finished, a resume reuses it.
 
-use super::error::{refuse, CommissionError};
 use super::scans::Commissioning;
+use crate::workflow_error::{refuse, WorkflowError};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::PathBuf;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// The fine-tuning's directory in the commissioning's.
 #[cfg(feature = "torch")]

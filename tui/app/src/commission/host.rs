@@ -1,12 +1,12 @@
-//! What a commissioning needs from whoever runs it, the terminal (`fringe commission`) or the
-//! Commission screen: its scans run on the bench, its lines and progress shown, each round's
-//! learning shown as it comes.
+//! What a commissioning (and a health check) needs from whoever runs it, the terminal (`fringe
+//! commission`, `fringe check`) or the Commission screen: its scans run on the bench, its lines
+//! and progress shown, each round's learning shown as it comes.
 
 use super::certificate::CurvePoint;
-use super::error::BoxError;
 use super::press_choice::{PressedPoint, UsableDisc};
 use crate::rig_file::RigConfig;
 use crate::scan_session::ProfileUse;
+use crate::workflow_error::BoxError;
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;
 use std::path::PathBuf;
@@ -35,11 +35,15 @@ pub trait Host {
     /// A line of what the commissioning does or found.
     fn say(&mut self, line: String);
 
-    /// A warning (a model without its card), without the `warning: ` before it.
-    fn warn(&mut self, line: String);
+    /// A warning or a note beside the lines (on the terminal: stderr), as shown
+    /// (`warning: ...`, `note: ...`).
+    fn notice(&mut self, line: String);
 
     /// `done` of `total` frames of `what` (features read, frames evaluated); `done == total` ends it.
     fn frames(&mut self, what: &'static str, done: usize, total: usize);
+
+    /// The frames shown last are done with (a computation ended): their progress ends.
+    fn frames_end(&mut self) {}
 
     /// Whether the operator asked to stop (Ctrl-C, the screen's `s`): asked between batches of
     /// a computation that can stop with a checkpoint (only full fine-tuning, in `torch` builds).

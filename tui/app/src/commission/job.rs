@@ -10,7 +10,6 @@
 
 use super::acceptance::{accept, Accepted};
 use super::certificate::{directory_name, PROFILE};
-use super::error::{refuse, CommissionError, Context};
 use super::fine_tune;
 use super::host::Host;
 use super::journal::{FrameSettings, Journal, Options, ScanEntry};
@@ -20,6 +19,7 @@ use crate::calibration_scan::{calibrate_run, spot_settings, CalibrationGrid, DEF
 use crate::models::verdict::PAPER;
 use crate::rig_file::RigConfig;
 use crate::scan_session::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::Spec;
 use fringe_sensor_models::arch::Architecture;
@@ -33,7 +33,7 @@ pub const DEFAULT_ACCEPTANCE_PRESSES: usize = 10;
 /// Seed of the adaptation's folds when not given.
 pub const DEFAULT_SEED: u64 = 42;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// What a new commissioning is asked.
 pub struct NewCommissioning {

@@ -1,8 +1,8 @@
 //! Step 3's second candidate: the custom CNN's last block trained again with its heads on the
 //! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
 
-use super::error::CommissionError;
 use super::scans::Commissioning;
+use crate::workflow_error::WorkflowError;
 use fringe_sensor_models::adapt::last_block::{
     train_last_block, BlockConfig, BlockFit, BlockInputs,
 };
@@ -12,7 +12,7 @@ use fringe_sensor_models::model::Model;
 use std::path::PathBuf;
 use std::time::Instant;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// Every how many frames of a press the block trains on (neighbours are nearly the same
 /// picture).

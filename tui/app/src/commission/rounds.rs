@@ -3,7 +3,6 @@
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
 use super::certificate::CurvePoint;
-use super::error::{refuse, CommissionError, Context};
 use super::fine_tune::{self, FineTune};
 use super::journal::ScanEntry;
 use super::last_block;
@@ -14,6 +13,7 @@ use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::choice::open_model;
 use crate::rig_file::RigConfig;
 use crate::scan_session::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::last_block::BlockFit;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
@@ -23,7 +23,7 @@ use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// Bench time for the presses when no budget is given, minutes.
 pub const DEFAULT_BUDGET_MIN: f64 = 10.0;
@@ -443,9 +443,9 @@ fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: 
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use crate::commission::error::BoxError;
     use crate::commission::host::{Host, ScanEnded};
     use crate::commission::journal::{Journal, Options};
+    use crate::workflow_error::BoxError;
     use fringe_rig::scan::engine::RunTarget;
     use fringe_rig::scan::plan::ScanProgram;
     use fringe_rig::store::documents::{now_utc, ExitStatus, StopDocument};
@@ -498,7 +498,7 @@ mod tests {
 
         fn say(&mut self, _line: String) {}
 
-        fn warn(&mut self, _line: String) {}
+        fn notice(&mut self, _line: String) {}
 
         fn frames(&mut self, _what: &'static str, _done: usize, _total: usize) {}
 

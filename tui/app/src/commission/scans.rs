@@ -1,11 +1,11 @@
 //! A commissioning under way ([`Commissioning`]) and the one way its scans run: started,
 //! resumed from a checkpoint, taken as done, or set aside and pressed again.
 
-use super::error::{refuse, CommissionError, Context};
 use super::host::Host;
 use super::journal::{completed, run_state, Journal, RunState, ScanEntry};
 use crate::rig_file::RigConfig;
 use crate::scan_session::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::documents::ExitStatus;
@@ -13,7 +13,7 @@ use fringe_sensor_models::acceptance::Spec;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-type Result<T> = std::result::Result<T, CommissionError>;
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// A commissioning under way: where it lives and what it was asked.
 pub(crate) struct Commissioning<'a> {

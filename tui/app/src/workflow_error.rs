@@ -1,14 +1,14 @@
-//! How a commissioning fails: refused before anything moves or stopped with what to do, a step
-//! that failed (what it was, what to do, then why), or a library's error as it said it. The
-//! chain of causes is kept whole, so a front end joins it into one line and finds the command
-//! that helps in it.
+//! How a workflow (a commissioning, a health check) fails: refused before anything moves or
+//! stopped with what to do, a step that failed (what it was, what to do, then why), or a
+//! library's error as it said it. The chain of causes is kept whole, so a front end joins it
+//! into one line and finds the command that helps in it.
 
-/// Any error, boxed: a cause, or what a [`super::host::Host`] could not do.
+/// Any error, boxed: a cause, or what a front end could not do for a workflow (a scan).
 pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
-/// A commissioning that could not go on.
+/// A workflow that could not go on.
 #[derive(Debug, thiserror::Error)]
-pub enum CommissionError {
+pub enum WorkflowError {
     /// Refused (an option, a base, a budget) or stopped, and what to do.
     #[error("{0}")]
     Refused(String),
@@ -24,28 +24,28 @@ pub enum CommissionError {
     Failed(#[source] BoxError),
 }
 
-impl CommissionError {
+impl WorkflowError {
     /// This error as the cause of a step described by `what`.
-    pub(crate) fn context(self, what: String) -> CommissionError {
-        CommissionError::Step {
+    pub(crate) fn context(self, what: String) -> WorkflowError {
+        WorkflowError::Step {
             what,
             source: Box::new(self),
         }
     }
 }
 
-impl From<BoxError> for CommissionError {
-    fn from(e: BoxError) -> CommissionError {
-        CommissionError::Failed(e)
+impl From<BoxError> for WorkflowError {
+    fn from(e: BoxError) -> WorkflowError {
+        WorkflowError::Failed(e)
     }
 }
 
-/// The libraries' errors a commissioning passes on as they are.
+/// The libraries' errors a workflow passes on as they are.
 macro_rules! failed_from {
     ($($t:ty),* $(,)?) => {
-        $(impl From<$t> for CommissionError {
-            fn from(e: $t) -> CommissionError {
-                CommissionError::Failed(Box::new(e))
+        $(impl From<$t> for WorkflowError {
+            fn from(e: $t) -> WorkflowError {
+                WorkflowError::Failed(Box::new(e))
             }
         })*
     };
@@ -71,21 +71,26 @@ failed_from!(
     fringe_rig::store::StoreError,
     crate::calibration_scan::CalibrationPlanError,
     crate::calibration_scan::CalibrationRunError,
+    crate::health::check_plan::CheckPlanError,
+    crate::health::history::HistoryError,
+    fringe_calibration::ScanRunError,
+    fringe_calibration::health::signature::SignatureError,
+    fringe_calibration::health::change::ChangeError,
 );
 
 /// A step's description put before an error (as `anyhow::Context` does, with the same text).
 pub(crate) trait Context<T> {
-    fn context(self, what: &str) -> Result<T, CommissionError>;
-    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, CommissionError>;
+    fn context(self, what: &str) -> Result<T, WorkflowError>;
+    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, WorkflowError>;
 }
 
 impl<T, E: Into<BoxError>> Context<T> for Result<T, E> {
-    fn context(self, what: &str) -> Result<T, CommissionError> {
+    fn context(self, what: &str) -> Result<T, WorkflowError> {
         self.with_context(|| what.to_string())
     }
 
-    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, CommissionError> {
-        self.map_err(|e| CommissionError::Step {
+    fn with_context(self, what: impl FnOnce() -> String) -> Result<T, WorkflowError> {
+        self.map_err(|e| WorkflowError::Step {
             what: what(),
             source: e.into(),
         })
@@ -95,7 +100,7 @@ impl<T, E: Into<BoxError>> Context<T> for Result<T, E> {
 /// Refuses with `format!`'s text (as `anyhow::bail!` did).
 macro_rules! refuse {
     ($($arg:tt)*) => {
-        return Err($crate::commission::error::CommissionError::Refused(format!($($arg)*)))
+        return Err($crate::workflow_error::WorkflowError::Refused(format!($($arg)*)))
     };
 }
 pub(crate) use refuse;
