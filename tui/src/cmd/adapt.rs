@@ -1,12 +1,12 @@
 //! `fringe adapt --model BASE DATA... --out FILE.safetensors`: a model adapted to one sensor
 //! unit in pure Rust (no libtorch): its heads fitted again on the unit's labelled frames.
 
-use super::eval::read_sources;
 use super::frames_progress::FramesProgress;
 use super::model::open_model;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use fringe_app::models::adapted_card::adapted_card;
+use fringe_app::models::labelled_data::read_sources;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
 use fringe_sensor_models::write_safetensors_with_card;
