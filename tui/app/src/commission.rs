@@ -14,7 +14,8 @@
 //! - [`acceptance`]: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
 //! - [`host`]: what a commissioning needs from whoever runs it (scans, lines, progress).
-//! How they fail: [`crate::workflow_error`].
+//!
+//! How they fail: `workflow_error`, beside this module.
 //!
 //! What they use:
 //! - [`press_choice`]: the usable disc in stage mm and where to press next.

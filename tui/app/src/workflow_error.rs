@@ -78,6 +78,9 @@ failed_from!(
     fringe_calibration::health::change::ChangeError,
 );
 
+#[cfg(feature = "torch")]
+failed_from!(fringe_sensor_models::adapt::fine_tune::FineTuneError);
+
 /// A step's description put before an error (as `anyhow::Context` does, with the same text).
 pub(crate) trait Context<T> {
     fn context(self, what: &str) -> Result<T, WorkflowError>;
