@@ -60,6 +60,7 @@ failed_from!(
     crate::commission::press_choice::DiscError,
     crate::commission::press_plan::PressPlanError,
     crate::models::choice::ChoiceError,
+    crate::models::adapted_card::AdaptedWriteError,
     fringe_sensor_models::model::ModelError,
     fringe_sensor_models::acceptance::SpecError,
     fringe_sensor_models::adapt::AdaptError,

@@ -5,11 +5,10 @@ use super::frames_progress::FramesProgress;
 use super::model::open_model;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use fringe_app::models::adapted_card::adapted_card;
+use fringe_app::models::adapted_card::{adapted_card, write_adapted};
 use fringe_app::models::labelled_data::read_sources;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
-use fringe_sensor_models::write_safetensors_with_card;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -81,11 +80,7 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         .find_map(|s| s.sensor_id.clone())
         .or_else(|| profile.as_ref().map(|p| p.sensor_id.clone()));
     let card = adapted_card(&model, &adapted, &a.data, a.folds, a.seed, unit.as_deref());
-    write_safetensors_with_card(&a.out, &adapted.weights, Some(&card))?;
-    let card_path = a.out.with_extension("json");
-    let text = serde_json::to_string_pretty(&card).context("the model card")?;
-    std::fs::write(&card_path, text + "\n")
-        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    let card_path = write_adapted(&a.out, &adapted.weights, &card)?;
     println!(
         "adapted {} ({}) on {} frames of {} presses",
         model.path.display(),

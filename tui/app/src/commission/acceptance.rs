@@ -10,7 +10,7 @@ use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
 use super::press_plan::press_plan;
 use super::rounds::{shapes, Adaptation};
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
-use crate::models::adapted_card::adapted_card;
+use crate::models::adapted_card::{adapted_card, write_adapted};
 use crate::models::choice::open_model;
 use crate::models::verdict;
 use crate::scan_session::ProfileUse;
@@ -23,7 +23,6 @@ use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::report;
-use fringe_sensor_models::write_safetensors_with_card;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -154,11 +153,7 @@ fn write_model(c: &mut Commissioning<'_>, base: &Model, a: &Adaptation) -> Resul
             );
         }
     }
-    write_safetensors_with_card(&path, a.weights(), Some(&card))?;
-    let card_path = path.with_extension("json");
-    let text = serde_json::to_string_pretty(&card).context("the model card")?;
-    std::fs::write(&card_path, text + "\n")
-        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    write_adapted(&path, a.weights(), &card)?;
     c.say(format!(
         "step 3: adapted {} on {} frames of {} presses: wrote {}",
         base.path.display(),

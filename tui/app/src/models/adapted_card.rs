@@ -1,10 +1,43 @@
 //! The card of weights adapted to a unit (`fringe adapt`, commissioning): the base model's card
-//! with the unit they were adapted to, and how.
+//! with the unit they were adapted to, and how; the weights written with it.
 
 use fringe_sensor_models::adapt::Adapted;
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::model_card::ModelCard;
+use fringe_sensor_models::{write_safetensors_with_card, ModelFileError, StateDict};
 use std::path::{Path, PathBuf};
+
+/// Adapted weights that could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum AdaptedWriteError {
+    #[error("{0}")]
+    Weights(#[from] ModelFileError),
+    #[error("the model card")]
+    Card(#[source] serde_json::Error),
+    #[error("cannot write {}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Adapted `weights` written to `path` (safetensors) with `card` in them and beside them
+/// (`<path>.json`, as `fringe adapt` and commissioning write them); the card's path.
+pub fn write_adapted(
+    path: &Path,
+    weights: &StateDict,
+    card: &ModelCard,
+) -> Result<PathBuf, AdaptedWriteError> {
+    write_safetensors_with_card(path, weights, Some(card))?;
+    let card_path = path.with_extension("json");
+    let text = serde_json::to_string_pretty(card).map_err(AdaptedWriteError::Card)?;
+    std::fs::write(&card_path, text + "\n").map_err(|source| AdaptedWriteError::Write {
+        path: card_path.clone(),
+        source,
+    })?;
+    Ok(card_path)
+}
 
 /// The base model's card for the adapted weights: the unit they were adapted to, and how
 /// (adapted on `data`, `folds` folds over presses seeded with `seed`).
