@@ -19,9 +19,10 @@ pub enum WorkflowError {
         #[source]
         source: BoxError,
     },
-    /// A library's error, as it said it.
-    #[error("{0}")]
-    Failed(#[source] BoxError),
+    /// A library's error, as it said it (its causes follow it; a front end that looks for a
+    /// cause of a kind looks inside this one too).
+    #[error(transparent)]
+    Failed(BoxError),
 }
 
 impl WorkflowError {

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// Adapted weights that could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum AdaptedWriteError {
-    #[error("{0}")]
+    #[error(transparent)]
     Weights(#[from] ModelFileError),
     #[error("the model card")]
     Card(#[source] serde_json::Error),

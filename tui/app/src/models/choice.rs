@@ -12,7 +12,7 @@ pub enum ChoiceError {
     /// The file does not exist (and is no built-in name).
     #[error("{}: no such model file (`default` is the model that ships with fringe)", .0.display())]
     NoSuchFile(PathBuf),
-    #[error("{0}")]
+    #[error(transparent)]
     Model(#[from] ModelError),
 }
 

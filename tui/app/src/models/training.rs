@@ -27,9 +27,9 @@ mod with_torch {
     pub enum ResumeError {
         #[error("--resume {}: no such checkpoint", .0.display())]
         NoCheckpoint(PathBuf),
-        #[error("{0}")]
+        #[error(transparent)]
         Card(#[from] CardError),
-        #[error("{0}")]
+        #[error(transparent)]
         Record(#[from] serde_json::Error),
         #[error("{}: not a checkpoint written by fringe train (its card has no training record)", .0.display())]
         NoRecord(PathBuf),
