@@ -152,6 +152,16 @@ impl Architecture {
         }
     }
 
+    /// Whether its last convolution block can be trained again with the heads when a unit is
+    /// adapted (commissioning's `--last-block`, `adapt/last_block.rs`): the custom CNN's
+    /// only, whose block that training knows.
+    pub fn trains_last_block(self) -> bool {
+        match self {
+            Architecture::Custom => true,
+            Architecture::Resnet18 | Architecture::Keypoint => false,
+        }
+    }
+
     /// Features the heads read: the body's output channels (pooled), then each keypoint's x
     /// and y.
     pub fn features(self) -> usize {

@@ -27,8 +27,8 @@ pub mod sim_dataset;
 pub mod sim_render;
 #[cfg(feature = "sim")]
 pub mod sim_serve;
+pub mod terminal_host;
 pub mod terminal_prompt;
 pub mod train;
 pub mod validate;
-pub mod verdict;
 pub mod ystage;

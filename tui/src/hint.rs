@@ -2,6 +2,7 @@
 //! device; only the front end knows its commands, so it adds them here, for the command line and
 //! the terminal UI alike.
 
+use fringe_app::workflow_error::WorkflowError;
 use fringe_rig::camera::CameraError;
 use fringe_rig::store::StoreError;
 use fringe_rig::transport::serial::PortOpenError;
@@ -29,6 +30,10 @@ pub fn describe(e: impl Into<anyhow::Error>) -> String {
 }
 
 fn for_cause(e: &(dyn Error + 'static)) -> Option<String> {
+    // A workflow passes a library's error on as it is: that error is the one that helps.
+    if let Some(WorkflowError::Failed(inner)) = e.downcast_ref::<WorkflowError>() {
+        return for_cause(inner.as_ref());
+    }
     if let Some(s) = e.downcast_ref::<ScanError>() {
         return scan(s);
     }

@@ -2,7 +2,6 @@
 
 mod clock_text;
 mod cmd;
-mod commissioning;
 mod global;
 mod hint;
 mod signals;

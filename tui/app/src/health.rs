@@ -11,10 +11,19 @@
 //!   the newest, the light and the surface always with the commissioning's).
 //! - [`history`]: every check appended to `<profiles>/<sensor>.health.jsonl`, read back with
 //!   damaged lines reported and passed over.
+//! - [`check`]: the check itself (`fringe check`): the unit's certificate found, its presses
+//!   run through a [`crate::commission::host::Host`], every figure compared, the verdict
+//!   appended to the history.
+//! - [`history_plot`]: the history as one picture, each figure over the checks.
+//!
+//! The measurements compared (a frame set's optics, light and surface signature) belong to
+//! calibration: `fringe_calibration::health`.
 
+pub mod check;
 pub mod check_plan;
 pub mod figures;
 pub mod history;
+pub mod history_plot;
 pub mod model_errors;
 pub mod reference;
 #[cfg(test)]

@@ -7,12 +7,16 @@
 //! - [`bringup`]: the bring-up commands' workflows on one device (`fringe ft`, `daq`, ...).
 //! - [`session`]: work on the opened rig: scan sessions, the calibration scan, the built-in plans,
 //!   the rig controlled by hand outside a scan, live view and live validation, room on disk.
-//! - [`commission`]: commissioning a unit: where to press, its plans, its journal and its
-//!   certificate (and the unit's commissioned model).
+//! - [`commission`]: commissioning a unit, the whole job (calibration, rounds of presses, the
+//!   adaptation, acceptance), with where to press, its plans, its journal and its certificate
+//!   (and the unit's commissioned model).
 //! - `simulation`: the simulator's own jobs outside a rig (`fringe sim dataset`; cargo feature
 //!   `sim`).
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
+//! - [`models`]: the policies that pick, open and judge models (which model runs, an adapted
+//!   model's card, the data a model is judged on, a spec and the verdict against it).
+//! - [`workflow_error`]: how a workflow (commissioning, a health check) fails, its causes kept.
 //!
 //! The surface, re-exported here: [`RigConfig`], [`RigSource`], [`SensorVariant`] (the rig file,
 //! `rig::file`), [`OpenRig`] (`rig::open`), [`RigError`] (`rig::error`), [`ScanSession`] and its
@@ -25,10 +29,12 @@
 pub mod bringup;
 pub mod commission;
 pub mod health;
+pub mod models;
 pub mod rig;
 pub mod session;
 #[cfg(feature = "sim")]
 pub mod simulation;
+pub mod workflow_error;
 
 pub use rig::error::RigError;
 pub use rig::file::{RigConfig, RigSource, SensorVariant};

@@ -1,16 +1,15 @@
 //! `fringe adapt --model BASE DATA... --out FILE.safetensors`: a model adapted to one sensor
 //! unit in pure Rust (no libtorch): its heads fitted again on the unit's labelled frames.
 
-use super::eval::read_sources;
 use super::frames_progress::FramesProgress;
 use super::model::open_model;
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use fringe_app::models::adapted_card::{adapted_card, write_adapted};
+use fringe_app::models::labelled_data::read_sources;
 use fringe_calibration::profile::Profile;
-use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig, Adapted};
-use fringe_sensor_models::model_card::ModelCard;
-use fringe_sensor_models::{write_safetensors_with_card, Model};
-use std::path::{Path, PathBuf};
+use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
+use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct AdaptArgs {
@@ -81,11 +80,7 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         .find_map(|s| s.sensor_id.clone())
         .or_else(|| profile.as_ref().map(|p| p.sensor_id.clone()));
     let card = adapted_card(&model, &adapted, &a.data, a.folds, a.seed, unit.as_deref());
-    write_safetensors_with_card(&a.out, &adapted.weights, Some(&card))?;
-    let card_path = a.out.with_extension("json");
-    let text = serde_json::to_string_pretty(&card).context("the model card")?;
-    std::fs::write(&card_path, text + "\n")
-        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    let card_path = write_adapted(&a.out, &adapted.weights, &card)?;
     println!(
         "adapted {} ({}) on {} frames of {} presses",
         model.path.display(),
@@ -101,45 +96,4 @@ pub fn run(a: AdaptArgs) -> Result<()> {
     }
     println!("wrote {} and {}", a.out.display(), card_path.display());
     Ok(())
-}
-
-/// The base model's card for the adapted weights: the unit they were adapted to, and how
-/// (adapted on `data`, `folds` folds over presses seeded with `seed`).
-pub(crate) fn adapted_card(
-    model: &Model,
-    adapted: &Adapted,
-    data: &[PathBuf],
-    folds: u64,
-    seed: u64,
-    unit: Option<&str>,
-) -> ModelCard {
-    let mut card = model.travelling_card();
-    if let Some(unit) = unit {
-        card.sensor_id = Some(unit.to_string());
-    }
-    if let Some(training) = card.other.remove("training") {
-        card.other.insert("base_training".into(), training);
-    }
-    let data: Vec<String> = data.iter().map(|d| shown(d)).collect();
-    card.other.insert(
-        "adaptation".into(),
-        serde_json::json!({
-            "method": "heads",
-            "about": "the network's heads fitted again on the unit's frames (pure Rust), each \
-                      pulled towards the base model's by cross-validation over presses",
-            "base": shown(&model.path),
-            "data": data,
-            "frames": adapted.frames,
-            "presses": adapted.presses,
-            "folds": folds,
-            "seed": seed,
-            "heads": adapted.heads,
-            "fringe_version": env!("CARGO_PKG_VERSION"),
-        }),
-    );
-    card
-}
-
-fn shown(p: &Path) -> String {
-    p.display().to_string()
 }

@@ -7,19 +7,15 @@
 //! `certificate.json` and `report.md`. `--resume DIR` goes on after Ctrl-C or a crash from the
 //! runs already recorded.
 
-use crate::cmd::frames_progress::FramesProgress;
-use crate::cmd::scan::execute;
-use crate::commissioning::host::{Host, ScanEnded};
-use crate::commissioning::{
-    self, NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES,
-    DEFAULT_SEED, PAPER_SPEC,
-};
+use crate::cmd::terminal_host::Terminal;
 use crate::global::Global;
 use anyhow::{bail, Result};
-use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::ScanProgram;
-use fringe_rig::store::documents::ExitStatus;
+use fringe_app::commission::job::{
+    self, NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES,
+    DEFAULT_SEED,
+};
+use fringe_app::models::verdict::PAPER;
+use fringe_app::RigConfig;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -43,7 +39,7 @@ pub struct CommissionArgs {
         long,
         conflicts_with = "resume",
         value_name = "FILE",
-        default_value = PAPER_SPEC
+        default_value = PAPER
     )]
     spec: String,
     /// Positions pressed per adaptive round (each with every indenter of the model).
@@ -103,7 +99,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
             seed: a.seed,
         }),
     };
-    let prepared = commissioning::prepare(&request, &config)?;
+    let prepared = job::prepare(&request, &config, &mut |w| eprintln!("warning: {w}"))?;
     if let Some(line) = prepared.resumed() {
         println!("{line}");
     }
@@ -112,13 +108,9 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         "  (after Ctrl-C or a crash: fringe commission --resume {})",
         prepared.dir().display()
     );
-    let mut host = Terminal {
-        global,
-        yes: a.yes,
-        progress: None,
-    };
+    let mut host = Terminal::new(global, a.yes);
     let threads = crate::cmd::arg_values::cap_threads(a.threads);
-    let accepted = commissioning::run(prepared, config, threads, &mut host)?;
+    let accepted = job::run(prepared, config, threads, &mut host)?;
     if !accepted.pass {
         bail!(
             "sensor {} fails the spec ({}): {}; the certificate says where ({})",
@@ -134,76 +126,4 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         accepted.model.display()
     );
     Ok(())
-}
-
-/// The terminal's side of a commissioning: scans run as `fringe scan` runs them (Ctrl-C
-/// closes a run resumable, prompts on the terminal unless `--yes`), lines on stdout, progress
-/// on stderr.
-struct Terminal<'a> {
-    global: &'a Global,
-    yes: bool,
-    progress: Option<(&'static str, FramesProgress)>,
-}
-
-impl Terminal<'_> {
-    fn end_progress(&mut self) {
-        if let Some((_, p)) = self.progress.take() {
-            p.finish();
-        }
-    }
-}
-
-impl Host for Terminal<'_> {
-    fn scan(
-        &mut self,
-        config: &RigConfig,
-        program: ScanProgram,
-        plan_text: String,
-        target: RunTarget,
-        profile_use: ProfileUse,
-    ) -> Result<ScanEnded> {
-        self.end_progress();
-        let end = execute(
-            config,
-            program,
-            plan_text,
-            target,
-            self.yes,
-            profile_use,
-            self.global,
-            &mut |_| Ok(()),
-        )?;
-        let o = end.outcome;
-        Ok(ScanEnded {
-            completed: o.status == ExitStatus::Completed,
-            reason: o.reason,
-            run_dir: o.run_dir,
-        })
-    }
-
-    fn say(&mut self, line: String) {
-        self.end_progress();
-        println!("{line}");
-    }
-
-    fn stop_requested(&mut self) -> bool {
-        crate::signals::catch(
-            &[crate::signals::Signal::Interrupt],
-            crate::signals::Again::Ends,
-        )
-        .load(std::sync::atomic::Ordering::SeqCst)
-    }
-
-    fn frames(&mut self, what: &'static str, done: usize, total: usize) {
-        if self.progress.as_ref().is_some_and(|(w, _)| *w != what) {
-            self.end_progress();
-        }
-        let (_, p) = self
-            .progress
-            .get_or_insert_with(|| (what, FramesProgress::new(what)));
-        p.show(done, total);
-        if done >= total {
-            self.end_progress();
-        }
-    }
 }

@@ -2,18 +2,18 @@
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
-use super::model::{choose_model, ForSensor, ReferenceChoice};
-use super::verdict;
+use super::model::{choose_model, ReferenceChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use fringe_app::models::choice::ForSensor;
+use fringe_app::models::labelled_data::{agreed, read_sources, scale_warnings};
+use fringe_app::models::verdict;
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::judge;
 use fringe_sensor_models::backend::BackendKind;
-use fringe_sensor_models::dataset::{self, Source};
 use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::predictor::Predictor;
-use fringe_sensor_models::preprocess::ReferenceSensor;
 use fringe_sensor_models::report;
 use fringe_sensor_models::smoothing::Smoothing;
 use std::path::{Path, PathBuf};
@@ -84,7 +84,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
         },
     )?;
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
-    warn_scale(&model, &sources, profile.as_ref(), reference);
+    for w in scale_warnings(&model, &sources, profile.as_ref(), reference) {
+        eprintln!("warning: {w}");
+    }
     let mut predictor = Predictor::new(
         &model,
         a.backend,
@@ -133,57 +135,6 @@ fn profiles_dir() -> PathBuf {
         Err(e) => {
             eprintln!("warning: {e}; looking for commissioned models in profiles/");
             PathBuf::from("profiles")
-        }
-    }
-}
-
-/// What every source says of its sensor (`of`: its id, its design), when they agree.
-fn agreed(sources: &[Source], of: impl Fn(&Source) -> Option<&str>) -> Option<&str> {
-    let first = of(sources.first()?)?;
-    sources
-        .iter()
-        .all(|s| of(s) == Some(first))
-        .then_some(first)
-}
-
-/// Reads every dataset; one without a labelled frame is refused, saying what it was wanted for
-/// (`evaluate`, `adapt on`).
-pub(crate) fn read_sources(data: &[PathBuf], purpose: &str) -> Result<Vec<Source>> {
-    let mut sources = Vec::with_capacity(data.len());
-    for d in data {
-        let source = dataset::read(d)?;
-        if source.samples.is_empty() {
-            bail!(
-                "{}: no labelled frame to {purpose} ({} left out for want of a trustworthy label): give a run that recorded presses, or a dataset with label rows",
-                d.display(),
-                source.skipped
-            );
-        }
-        sources.push(source);
-    }
-    Ok(sources)
-}
-
-/// Warns of each source whose frames the model would see at another scale than it was
-/// trained on.
-fn warn_scale(
-    model: &Model,
-    sources: &[Source],
-    profile: Option<&Profile>,
-    reference: Option<ReferenceSensor>,
-) {
-    for source in sources {
-        let chosen = if reference.is_some() {
-            None
-        } else {
-            source.profile.as_ref().or(profile)
-        };
-        if let Some(w) = model
-            .preprocessing(chosen, reference)
-            .ok()
-            .and_then(|pre| model.scale_warning(&pre))
-        {
-            eprintln!("warning: {}: {w}", source.path.display());
         }
     }
 }

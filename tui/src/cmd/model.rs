@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
+use fringe_app::models::choice::{self, ChoiceNote, ForSensor};
 use fringe_calibration::profile::Profile;
 use fringe_rig::store::frames::read_plain;
 use fringe_sensor_models::backend::BackendKind;
@@ -248,76 +249,27 @@ fn write_network(path: &Path, weights: &StateDict, card: &ModelCard) -> Result<(
     std::fs::write(&json, text + "\n").with_context(|| format!("{}: cannot write", json.display()))
 }
 
-/// Opens a model argument: a built-in model (`default`, `builtin:NAME`) or a model file,
-/// naming the file when it is missing.
-pub fn open_model(path: &Path) -> Result<Model> {
-    if builtin::named(path).is_none() && !path.exists() {
-        bail!(
-            "{}: no such model file (`default` is the model that ships with fringe)",
-            path.display()
-        );
-    }
-    let m = builtin::open(path)?;
+/// Opens a model argument ([`choice::open_model`]), warning on stderr of a model without its
+/// card.
+pub(crate) fn open_model(path: &Path) -> Result<Model> {
+    let m = choice::open_model(path)?;
     if let Some(w) = m.missing_card_warning() {
         eprintln!("warning: {w}");
     }
     Ok(m)
 }
 
-/// The sensor a model is chosen for: where its profiles live, its unit and its design, as far as
-/// they are known.
-pub struct ForSensor<'a> {
-    pub profiles: &'a Path,
-    pub unit: Option<&'a str>,
-    pub variant: Option<&'a str>,
-    /// Whose design `variant` is, in messages ("this sensor", "the data's sensor").
-    pub whose: &'a str,
-}
-
-/// The model a command runs when `given` is `None`: the newest passing commissioning's model of
-/// the unit under `profiles`, else the model that ships for the sensor's design. A model whose
-/// card names another design than the sensor's is refused; one adapted to another unit is run
-/// with a warning.
-pub fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
-    let (profiles, unit) = (sensor.profiles, sensor.unit);
-    let path = match (given, unit) {
-        (Some(p), _) => p.to_path_buf(),
-        (None, Some(unit)) => {
-            let (found, notes) =
-                fringe_app::commission::certificate::commissioned_model(profiles, unit);
-            for n in notes {
-                eprintln!("warning: {n}");
-            }
-            match found {
-                Some(c) => {
-                    println!(
-                        "model: sensor {unit}'s commissioned model {} (certificate of {}; give --model to run another)",
-                        c.model.display(),
-                        c.certificate.issued_utc
-                    );
-                    c.model
-                }
-                None => builtin::for_design(sensor.variant)?,
-            }
-        }
-        (None, None) => builtin::for_design(sensor.variant)?,
-    };
-    let model = open_model(&path)?;
-    model.check_design(sensor.variant, sensor.whose)?;
-    let adapted_to = model
-        .card
-        .as_ref()
-        .filter(|c| c.other.contains_key("adaptation"))
-        .and_then(|c| c.sensor_id.clone());
-    if let (Some(for_unit), Some(unit)) = (adapted_to, unit) {
-        if for_unit != unit {
-            eprintln!(
-                "warning: {} was adapted to sensor {for_unit}, and this is sensor {unit}: its figures here are not the ones it was accepted with",
-                model.path.display()
-            );
-        }
-    }
-    Ok(model)
+/// The model a command runs ([`choice::choose_model`]): the commissioned model taken said on
+/// stdout, warnings on stderr.
+pub(crate) fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
+    Ok(choice::choose_model(
+        given,
+        sensor,
+        &mut |note| match note {
+            ChoiceNote::Commissioned(line) => println!("{line}"),
+            ChoiceNote::Warning(w) => eprintln!("warning: {w}"),
+        },
+    )?)
 }
 
 fn info(path: &Path) -> Result<()> {

@@ -16,7 +16,7 @@ pub struct TrainArgs {
     data: Vec<PathBuf>,
     /// Network: custom (the paper's custom CNN), resnet18, or keypoint (the custom CNN's
     /// convolutions with 16 soft-argmax keypoints that keep where the fringes are).
-    #[arg(long, value_parser = parse_arch, default_value = "custom")]
+    #[arg(long, value_parser = fringe_app::models::training::architecture, default_value = "custom")]
     arch: Architecture,
     /// Augmentation: gray10 (grey + noise, 10 copies), rgb3 (RGB + noise, 3), rgb3-clean.
     #[arg(long, default_value = "gray10")]
@@ -62,13 +62,6 @@ pub struct TrainArgs {
     force_window: Option<f64>,
 }
 
-fn parse_arch(s: &str) -> Result<Architecture, String> {
-    Architecture::from_name(s).ok_or_else(|| {
-        let names: Vec<&str> = Architecture::ALL.iter().map(|a| a.name()).collect();
-        format!("unknown architecture `{s}`: use {}", names.join(", "))
-    })
-}
-
 #[cfg(not(feature = "torch"))]
 pub fn run(_: TrainArgs) -> Result<()> {
     anyhow::bail!(
@@ -87,11 +80,8 @@ mod with_torch {
     use anyhow::{bail, Context};
     use fringe_calibration::profile::Profile;
     use fringe_sensor_models::dataset;
-    use fringe_sensor_models::train::{
-        train, Checkpoint, Outcome, TrainConfig, TrainEvent, TrainingRecord,
-    };
+    use fringe_sensor_models::train::{train, Outcome, TrainConfig, TrainEvent};
     use std::io::{IsTerminal, Write};
-    use std::path::Path;
     use std::time::Instant;
 
     fn check(a: &TrainArgs) -> Result<()> {
@@ -158,7 +148,7 @@ mod with_torch {
         };
         let mut data = a.data.clone();
         if let Some(cp) = &a.resume {
-            resume_settings(cp, a.epochs, &mut config, &mut data)?;
+            fringe_app::models::training::resume_settings(cp, a.epochs, &mut config, &mut data)?;
         }
         if data.is_empty() {
             bail!("no data: name one or more run directories or reference-layout datasets");
@@ -190,53 +180,6 @@ mod with_torch {
         )?;
         let _ = std::io::stderr().flush();
         report(outcome, &config);
-        Ok(())
-    }
-
-    /// Takes the data (when none is named) and the settings from checkpoint `cp`'s card;
-    /// `epochs` (--epochs) may extend the training.
-    fn resume_settings(
-        cp: &Path,
-        epochs: Option<usize>,
-        config: &mut TrainConfig,
-        data: &mut Vec<PathBuf>,
-    ) -> Result<()> {
-        if !cp.is_file() {
-            bail!("--resume {}: no such checkpoint", cp.display());
-        }
-        let card = fringe_sensor_models::model_card::ModelCard::read(&Checkpoint::at(cp).card())?;
-        let record: TrainingRecord = card
-            .other
-            .get("training")
-            .cloned()
-            .map(serde_json::from_value)
-            .transpose()?
-            .with_context(|| format!("{}: not a checkpoint written by fringe train (its card has no training record)", cp.display()))?;
-        if data.is_empty() {
-            *data = record.data.clone();
-        } else if *data != record.data {
-            bail!("--resume {}: the checkpoint was trained on {:?}, not {:?}: resume with the same data (or none, to take it from the checkpoint)", cp.display(), record.data, data);
-        }
-        // Settings come from the checkpoint; --epochs may extend the training.
-        config.pipeline = record.pipeline;
-        config.augment = record.augmented;
-        config.freeze_batch_norm = record.batch_norm_frozen;
-        config.batch = record.batch;
-        config.lr = record.lr;
-        config.schedule = record.schedule;
-        config.seed = record.seed;
-        config.force_window_mm = record.force_window_mm;
-        if let Some(arch) = card.architecture.as_deref() {
-            config.arch = parse_arch(arch).map_err(anyhow::Error::msg)?;
-        }
-        if let Some(size) = card.input_size {
-            config.input_size = size;
-        }
-        config.out = cp
-            .parent()
-            .map(PathBuf::from)
-            .unwrap_or_else(|| PathBuf::from("."));
-        config.epochs = epochs.unwrap_or(record.epochs);
         Ok(())
     }
 

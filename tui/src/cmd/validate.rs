@@ -5,10 +5,11 @@
 //! frames skipped; with `--report DIR` the evaluation report (report.md, plots) and every frame
 //! validated (validation.jsonl).
 
-use crate::cmd::model::{choose_model, ForSensor};
+use crate::cmd::model::choose_model;
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
+use fringe_app::models::choice::ForSensor;
 use fringe_app::session::live_validation::{LiveValidation, Validation};
 use fringe_app::session::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};

@@ -3,12 +3,15 @@
 //! for any scan); its lines, progress and rounds are sent to the screen.
 
 use super::state::CommissionView;
-use crate::commissioning::host::{Host, ScanEnded};
-use crate::commissioning::{self, Accepted, Request, DEFAULT_BUDGET_MIN};
 use crossbeam_channel::{unbounded, Receiver, Sender};
+use fringe_app::commission::acceptance::Accepted;
 use fringe_app::commission::certificate::{unfinished, CurvePoint};
+use fringe_app::commission::host::{Host, ScanEnded};
+use fringe_app::commission::job::{self, Request};
 use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
+use fringe_app::commission::rounds::DEFAULT_BUDGET_MIN;
 use fringe_app::session::worker_failure::guarded;
+use fringe_app::workflow_error::BoxError;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;
@@ -141,7 +144,7 @@ fn work(
     ends: Receiver<Result<ScanEnded, String>>,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<Accepted> {
-    let prepared = commissioning::prepare(request, &config)?;
+    let prepared = job::prepare(request, &config, &mut |w| eprintln!("warning: {w}"))?;
     let _ = tx.send(FromWorker::Started {
         dir: prepared.dir().to_path_buf(),
         thresholds: thresholds(prepared.spec()),
@@ -155,7 +158,7 @@ fn work(
         shown: None,
         stop,
     };
-    commissioning::run(prepared, config, THREADS, &mut host)
+    Ok(job::run(prepared, config, THREADS, &mut host)?)
 }
 
 /// The UI's side of a commissioning, on its thread.
@@ -177,7 +180,7 @@ impl Host for UiHost {
         plan_text: String,
         target: RunTarget,
         profile: ProfileUse,
-    ) -> anyhow::Result<ScanEnded> {
+    ) -> Result<ScanEnded, BoxError> {
         let _ = self.tx.send(FromWorker::Progress(None));
         let order = ScanOrder {
             program,
@@ -186,17 +189,21 @@ impl Host for UiHost {
             profile,
         };
         if self.tx.send(FromWorker::Scan(Box::new(order))).is_err() {
-            anyhow::bail!("the terminal UI closed before the scan");
+            return Err("the terminal UI closed before the scan".into());
         }
         match self.ends.recv() {
             Ok(Ok(end)) => Ok(end),
-            Ok(Err(why)) => Err(anyhow::anyhow!(why)),
-            Err(_) => anyhow::bail!("the terminal UI closed during the scan"),
+            Ok(Err(why)) => Err(why.into()),
+            Err(_) => Err("the terminal UI closed during the scan".into()),
         }
     }
 
     fn say(&mut self, line: String) {
         let _ = self.tx.send(FromWorker::Line(line));
+    }
+
+    fn notice(&mut self, line: String) {
+        eprintln!("{line}");
     }
 
     fn frames(&mut self, what: &'static str, done: usize, total: usize) {

@@ -5,8 +5,6 @@
 //! against the spec. `s` stops at the scan (closed resumable), `c` goes on with the newest
 //! unfinished commissioning.
 
-use crate::commissioning::host::ScanEnded;
-use crate::commissioning::{NewCommissioning, Request};
 use crate::ui::app::App;
 use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::commission::{self as work, FromWorker, Worker};
@@ -17,6 +15,8 @@ use crate::ui::state::{CommissionPhase, CommissionView, Phase, ScanView, Tab};
 use crate::ui::widgets::disc::{self, Glyph, Layer};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, WARN};
 use fringe_app::commission::certificate::unfinished;
+use fringe_app::commission::host::ScanEnded;
+use fringe_app::commission::job::{NewCommissioning, Request};
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};

@@ -1,18 +1,18 @@
 //! A spec given on the command line (`--spec FILE`, or `paper` for the paper's custom-CNN row)
 //! and the verdict of an evaluation against it, as printed.
 
-use fringe_sensor_models::acceptance::{Spec, Verdict};
+use fringe_sensor_models::acceptance::{Spec, SpecError, Verdict};
 use std::path::Path;
 
 /// The name that stands for the paper's row instead of a file.
 pub const PAPER: &str = "paper";
 
 /// `paper` or a spec file.
-pub fn load(spec: &Path) -> anyhow::Result<Spec> {
+pub fn load(spec: &Path) -> Result<Spec, SpecError> {
     if spec == Path::new(PAPER) {
         return Ok(Spec::paper());
     }
-    Ok(Spec::load(spec)?)
+    Spec::load(spec)
 }
 
 /// Groups that miss a threshold shown under a failing verdict.

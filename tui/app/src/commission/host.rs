@@ -1,16 +1,18 @@
-//! What a commissioning needs from whoever runs it, the terminal (`fringe commission`) or the
-//! Commission screen: its scans run on the bench, its lines and progress shown, each round's
-//! learning shown as it comes.
+//! What a commissioning (and a health check) needs from whoever runs it, the terminal (`fringe
+//! commission`, `fringe check`) or the Commission screen: its scans run on the bench, its lines
+//! and progress shown, each round's learning shown as it comes.
 
-use fringe_app::commission::certificate::CurvePoint;
-use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
-use fringe_app::{ProfileUse, RigConfig};
+use super::certificate::CurvePoint;
+use super::press_choice::{PressedPoint, UsableDisc};
+use crate::rig::file::RigConfig;
+use crate::session::scan::ProfileUse;
+use crate::workflow_error::BoxError;
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::ScanProgram;
 use std::path::PathBuf;
 
 /// How a scan the host ran ended.
-pub(crate) struct ScanEnded {
+pub struct ScanEnded {
     pub completed: bool,
     /// Why it stopped, when it did not complete.
     pub reason: String,
@@ -18,7 +20,7 @@ pub(crate) struct ScanEnded {
 }
 
 /// The side of a commissioning that meets the operator.
-pub(crate) trait Host {
+pub trait Host {
     /// Runs `program` on the rig into `target` (a new run or one resumed from its checkpoint)
     /// and waits for its end. An error when it could not run at all.
     fn scan(
@@ -28,17 +30,23 @@ pub(crate) trait Host {
         plan_text: String,
         target: RunTarget,
         profile_use: ProfileUse,
-    ) -> anyhow::Result<ScanEnded>;
+    ) -> Result<ScanEnded, BoxError>;
 
     /// A line of what the commissioning does or found.
     fn say(&mut self, line: String);
 
+    /// A warning or a note beside the lines (on the terminal: stderr), as shown
+    /// (`warning: ...`, `note: ...`).
+    fn notice(&mut self, line: String);
+
     /// `done` of `total` frames of `what` (features read, frames evaluated); `done == total` ends it.
     fn frames(&mut self, what: &'static str, done: usize, total: usize);
 
+    /// The frames shown last are done with (a computation ended): their progress ends.
+    fn frames_end(&mut self) {}
+
     /// Whether the operator asked to stop (Ctrl-C, the screen's `s`): asked between batches of
     /// a computation that can stop with a checkpoint (only full fine-tuning, in `torch` builds).
-    #[cfg_attr(not(feature = "torch"), allow(dead_code))]
     fn stop_requested(&mut self) -> bool;
 
     /// A round was scored and learnt from: the learning curve and every press so far with its

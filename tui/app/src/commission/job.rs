@@ -1,4 +1,4 @@
-//! A sensor unit taken from first light to a verdict in one job, whoever runs it (`fringe
+//! A commissioning asked, prepared and run: a sensor unit taken from first light to a verdict in one job, whoever runs it (`fringe
 //! commission` in a terminal, the Commission screen): the calibration scan and the unit's
 //! profile; rounds of presses chosen where the model errs most or has not pressed, each round
 //! predicted by the model as adapted so far before it is adapted on (the learning curve); the
@@ -8,45 +8,41 @@
 //! `certificate.json` and `report.md`. A commissioning goes on after Ctrl-C, a crash or an
 //! aborted scan from the runs already recorded.
 
-mod certify;
-mod fine_tune;
-pub(crate) mod host;
-mod last_block;
-mod rounds;
-pub(crate) mod session;
-
-use anyhow::{bail, Context, Result};
-pub(crate) use certify::Accepted;
-use fringe_app::commission::certificate::{directory_name, PROFILE};
-use fringe_app::commission::journal::{FrameSettings, Journal, Options, ScanEntry};
-use fringe_app::session::calibration_scan::{
+use super::acceptance::{accept, Accepted};
+use super::certificate::{directory_name, PROFILE};
+use super::fine_tune;
+use super::host::Host;
+use super::journal::{FrameSettings, Journal, Options, ScanEntry};
+use super::rounds::{self, DEFAULT_BUDGET_MIN};
+use super::scans::{estimate_s, scan, set_aside, Commissioning};
+use crate::models::verdict::PAPER;
+use crate::rig::file::RigConfig;
+use crate::session::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, DEFAULT_MAX_FRAMES,
 };
-use fringe_app::{ProfileUse, RigConfig};
+use crate::session::scan::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::Spec;
 use fringe_sensor_models::arch::Architecture;
 use fringe_sensor_models::model::Model;
-use host::Host;
-use session::{estimate_s, scan, set_aside, Commissioning};
 use std::path::{Path, PathBuf};
 
-pub(crate) use rounds::DEFAULT_BUDGET_MIN;
 /// Positions pressed per adaptive round when not given.
-pub(crate) const DEFAULT_ROUND_PRESSES: usize = 6;
+pub const DEFAULT_ROUND_PRESSES: usize = 6;
 /// Held-out positions of the acceptance scan when not given.
-pub(crate) const DEFAULT_ACCEPTANCE_PRESSES: usize = 10;
+pub const DEFAULT_ACCEPTANCE_PRESSES: usize = 10;
 /// Seed of the adaptation's folds when not given.
-pub(crate) const DEFAULT_SEED: u64 = 42;
-/// The spec that stands for the paper's custom-CNN row instead of a file.
-pub(crate) const PAPER_SPEC: &str = "paper";
+pub const DEFAULT_SEED: u64 = 42;
+
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// What a new commissioning is asked.
-pub(crate) struct NewCommissioning {
+pub struct NewCommissioning {
     /// The model to adapt; the one that ships for the sensor's design when `None`.
     pub base: Option<PathBuf>,
     pub budget_min: Option<f64>,
-    /// A spec file, or [`PAPER_SPEC`].
+    /// A spec file, or [`PAPER`] (the paper's custom-CNN row).
     pub spec: String,
     pub round_presses: usize,
     pub acceptance_presses: usize,
@@ -61,7 +57,7 @@ impl Default for NewCommissioning {
         NewCommissioning {
             base: None,
             budget_min: None,
-            spec: PAPER_SPEC.into(),
+            spec: PAPER.into(),
             round_presses: DEFAULT_ROUND_PRESSES,
             acceptance_presses: DEFAULT_ACCEPTANCE_PRESSES,
             last_block: false,
@@ -72,7 +68,7 @@ impl Default for NewCommissioning {
 }
 
 /// A commissioning to start or to go on with.
-pub(crate) enum Request {
+pub enum Request {
     New(NewCommissioning),
     /// The commissioning in this directory, with a new budget when given, and full
     /// fine-tuning turned on when asked.
@@ -84,7 +80,7 @@ pub(crate) enum Request {
 }
 
 /// Where a commissioning lives, once it has a directory (before anything moves).
-pub(crate) struct Prepared {
+pub struct Prepared {
     dir: PathBuf,
     journal: Journal,
     spec: Spec,
@@ -118,7 +114,12 @@ impl Prepared {
 
 /// Checks `request` on the rig and makes (or reads) the commissioning's directory and journal;
 /// nothing moves yet. A resumed commissioning's base is checked again, as a new one's is.
-pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared> {
+/// `warn` hears a warning about the base model (one without its card), as it comes.
+pub fn prepare(
+    request: &Request,
+    config: &RigConfig,
+    warn: &mut dyn FnMut(String),
+) -> Result<Prepared> {
     let sensor = config.sensor_id()?;
     let (dir, journal, base) = match request {
         Request::Resume {
@@ -127,11 +128,13 @@ pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared>
             fine_tune,
         } => {
             let (dir, journal) = resumed(dir, config, &sensor, *budget_min, *fine_tune)?;
-            let base = rounds::open_base(&journal.options.base, config.sensor_variant()?)
-                .with_context(|| format!("cannot resume {}", dir.display()))?;
+            let (base, warning) =
+                rounds::open_base(&journal.options.base, config.sensor_variant()?)
+                    .with_context(|| format!("cannot resume {}", dir.display()))?;
+            warning.into_iter().for_each(&mut *warn);
             (dir, journal, base)
         }
-        Request::New(n) => started(n, config, &sensor)?,
+        Request::New(n) => started(n, config, &sensor, warn)?,
     };
     let spec = match &journal.options.spec {
         Some(text) => Spec::parse(text, &journal.options.spec_origin)?,
@@ -148,7 +151,7 @@ pub(crate) fn prepare(request: &Request, config: &RigConfig) -> Result<Prepared>
 
 /// Runs the commissioning `prepared` on the rig to its verdict (a failing unit is an `Ok` whose
 /// certificate says fail).
-pub(crate) fn run(
+pub fn run(
     prepared: Prepared,
     config: RigConfig,
     threads: usize,
@@ -172,7 +175,7 @@ pub(crate) fn run(
     };
     let profile = calibrate(&mut c)?;
     let adapted = rounds::adapt(&mut c, &base, &profile)?;
-    certify::accept(&mut c, &base, &profile, adapted)
+    accept(&mut c, &base, &profile, adapted)
 }
 
 /// A new commissioning: its options checked (spec, budget, base) before anything moves, its
@@ -181,9 +184,10 @@ fn started(
     n: &NewCommissioning,
     config: &RigConfig,
     sensor: &str,
+    warn: &mut dyn FnMut(String),
 ) -> Result<(PathBuf, Journal, Model)> {
     let budget = checked_budget(n.budget_min.unwrap_or(DEFAULT_BUDGET_MIN))?;
-    let (spec_text, spec_origin) = if n.spec == PAPER_SPEC {
+    let (spec_text, spec_origin) = if n.spec == PAPER {
         (None, "the paper's custom-CNN row (Table 2)".to_string())
     } else {
         let path = Path::new(&n.spec);
@@ -197,16 +201,17 @@ fn started(
         Some(b) => b.clone(),
         None => fringe_sensor_models::builtin::commissioning_base(variant)?,
     };
-    let opened = rounds::open_base(&given.display().to_string(), variant)?;
+    let (opened, warning) = rounds::open_base(&given.display().to_string(), variant)?;
+    warning.into_iter().for_each(warn);
     rounds::check_budget(config, &opened, budget)?;
     if n.fine_tune {
         fine_tune::available()?;
         if n.last_block {
-            bail!("--last-block and --fine-tune: choose one (full fine-tuning trains every layer, the last block included)");
+            refuse!("--last-block and --fine-tune: choose one (full fine-tuning trains every layer, the last block included)");
         }
     }
-    if n.last_block && opened.arch != Some(Architecture::Custom) {
-        bail!(
+    if n.last_block && !opened.arch.is_some_and(Architecture::trains_last_block) {
+        refuse!(
             "--last-block trains the custom CNN's last convolution block, and the base {} is {}: give a custom CNN as --base (builtin:layered) or leave --last-block out",
             given.display(),
             opened.describe()
@@ -245,7 +250,7 @@ fn started(
 
 fn checked_budget(minutes: f64) -> Result<f64> {
     if !(minutes.is_finite() && minutes > 0.0) {
-        bail!("--budget {minutes}: give the bench time for the presses in minutes, above 0");
+        refuse!("--budget {minutes}: give the bench time for the presses in minutes, above 0");
     }
     Ok(minutes)
 }
@@ -261,7 +266,7 @@ fn resumed(
 ) -> Result<(PathBuf, Journal)> {
     let mut journal = Journal::read(dir)?;
     if journal.options.sensor != sensor {
-        bail!(
+        refuse!(
             "{}: this commissioning is of sensor {}, and the rig's sensor is {sensor}: resume it on the rig it started on (--rig)",
             dir.display(),
             journal.options.sensor
@@ -271,7 +276,7 @@ fn resumed(
     if let Some(then) = &journal.options.camera {
         let changed = then.differences(&FrameSettings::of(config)?);
         if !changed.is_empty() {
-            bail!(
+            refuse!(
                 "{}: the rig's camera gives other frames than this commissioning was started with ({}): its profile and rounds fit those frames only; resume it with the camera settings it started with (the rig file it started on, --rig)",
                 dir.display(),
                 changed.join("; ")
@@ -284,7 +289,7 @@ fn resumed(
     if fine_tune {
         fine_tune::available()?;
         if journal.options.last_block {
-            bail!("{}: this commissioning trains the last block (--last-block); full fine-tuning trains every layer, the last block included: start a new commissioning with --fine-tune alone", dir.display());
+            refuse!("{}: this commissioning trains the last block (--last-block); full fine-tuning trains every layer, the last block included: start a new commissioning with --fine-tune alone", dir.display());
         }
         journal.options.fine_tune = true;
     }
@@ -331,7 +336,7 @@ fn calibrate(c: &mut Commissioning<'_>) -> Result<Profile> {
     };
     if let Some(why) = failure {
         let kept = set_aside(&run_dir)?;
-        bail!(
+        refuse!(
             "the calibration of {sensor} failed: {why}. Check that the unit sits under the indenter, lit and in focus, then resume (the calibration is pressed again; this scan is kept as {}): fringe commission --resume {}",
             kept.display(),
             c.dir.display()

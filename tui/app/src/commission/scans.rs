@@ -2,9 +2,10 @@
 //! resumed from a checkpoint, taken as done, or set aside and pressed again.
 
 use super::host::Host;
-use anyhow::{bail, Context, Result};
-use fringe_app::commission::journal::{completed, run_state, Journal, RunState, ScanEntry};
-use fringe_app::{ProfileUse, RigConfig};
+use super::journal::{completed, run_state, Journal, RunState, ScanEntry};
+use crate::rig::file::RigConfig;
+use crate::session::scan::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::documents::ExitStatus;
@@ -12,22 +13,24 @@ use fringe_sensor_models::acceptance::Spec;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+type Result<T> = std::result::Result<T, WorkflowError>;
+
 /// A commissioning under way: where it lives and what it was asked.
 pub(crate) struct Commissioning<'a> {
-    pub dir: PathBuf,
-    pub journal: Journal,
-    pub config: RigConfig,
-    pub spec: Spec,
+    pub(crate) dir: PathBuf,
+    pub(crate) journal: Journal,
+    pub(crate) config: RigConfig,
+    pub(crate) spec: Spec,
     /// Who runs the scans and hears what happens.
-    pub host: &'a mut dyn Host,
-    pub threads: usize,
+    pub(crate) host: &'a mut dyn Host,
+    pub(crate) threads: usize,
     /// Computation time so far (features, fits, evaluation), s.
-    pub compute_s: f64,
+    pub(crate) compute_s: f64,
 }
 
 impl Commissioning<'_> {
     /// Tells the operator `line`.
-    pub fn say(&mut self, line: String) {
+    pub(crate) fn say(&mut self, line: String) {
         self.host.say(line);
     }
 }
@@ -102,7 +105,7 @@ pub(crate) fn scan(
         .host
         .scan(&c.config, program, entry.plan.clone(), target, profile_use)?;
     if !end.completed {
-        bail!(
+        refuse!(
             "the scan {} stopped ({}); resume the commissioning to finish it: fringe commission --resume {}",
             end.run_dir.display(),
             end.reason,
@@ -122,5 +125,5 @@ pub(crate) fn set_aside(run_dir: &Path) -> Result<PathBuf> {
             return Ok(to);
         }
     }
-    bail!("{}: too many stopped runs beside it", run_dir.display())
+    refuse!("{}: too many stopped runs beside it", run_dir.display())
 }

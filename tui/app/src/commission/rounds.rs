@@ -2,18 +2,18 @@
 //! by the model as adapted on every press before it (an honest held-out learning curve), then
 //! adapted on; until the bench budget is spent or a round's unseen presses meet the spec.
 
-use super::fine_tune::FineTune;
-use super::session::{estimate_s, scan, set_aside, Commissioning};
-use crate::cmd::model::open_model;
-use anyhow::{bail, Context, Result};
-use fringe_app::commission::certificate::CurvePoint;
-use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{
-    choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM,
-};
-use fringe_app::commission::press_errors::round_errors;
-use fringe_app::commission::press_plan::press_plan;
-use fringe_app::{ProfileUse, RigConfig};
+use super::certificate::CurvePoint;
+use super::fine_tune::{self, FineTune};
+use super::journal::ScanEntry;
+use super::last_block;
+use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
+use super::press_errors::round_errors;
+use super::press_plan::press_plan;
+use super::scans::{estimate_s, scan, set_aside, Commissioning};
+use crate::models::choice::open_model;
+use crate::rig::file::RigConfig;
+use crate::session::scan::ProfileUse;
+use crate::workflow_error::{refuse, Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::adapt::last_block::BlockFit;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
@@ -23,8 +23,10 @@ use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+type Result<T> = std::result::Result<T, WorkflowError>;
+
 /// Bench time for the presses when no budget is given, minutes.
-pub(crate) const DEFAULT_BUDGET_MIN: f64 = 10.0;
+pub const DEFAULT_BUDGET_MIN: f64 = 10.0;
 
 /// A round stops the presses early when its unseen presses are within this share of every
 /// threshold of the spec.
@@ -57,7 +59,7 @@ pub(crate) enum Method {
 
 impl Method {
     /// Its name, as the model's card records it.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Method::Heads => "heads",
             Method::LastBlock => "last block",
@@ -66,7 +68,7 @@ impl Method {
     }
 
     /// What it did, for the certificate.
-    pub fn about(self) -> &'static str {
+    pub(crate) fn about(self) -> &'static str {
         match self {
             Method::Heads => "heads: the network's force, shape and contact heads fitted again on the unit's frames in pure Rust, each pulled towards the base model's by cross-validation over presses",
             Method::LastBlock => "last block: the custom CNN's last convolution block and its heads trained again on the unit's frames in pure Rust, kept because it beat the heads alone on held-out presses (model.json has both figures)",
@@ -78,7 +80,7 @@ impl Method {
 impl Adaptation {
     /// The weights to use: the last block's or the fine-tuned network's when it beat the heads
     /// alone on held-out presses.
-    pub fn weights(&self) -> &StateDict {
+    pub(crate) fn weights(&self) -> &StateDict {
         if let Some(w) = self.fine_tune.as_ref().and_then(|f| f.kept.as_ref()) {
             return w;
         }
@@ -89,7 +91,7 @@ impl Adaptation {
     }
 
     /// Which adaptation the weights come from.
-    pub fn method(&self) -> Method {
+    pub(crate) fn method(&self) -> Method {
         if self.fine_tune.as_ref().is_some_and(|f| f.kept.is_some()) {
             return Method::FineTuning;
         }
@@ -104,25 +106,26 @@ impl Adaptation {
 /// with a no-contact class and at least one indenter), that it runs on whole frames (not a
 /// window network, by the rule evaluation keeps) and that it is of the sensor's design
 /// (`variant`, when known).
-pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<Model> {
+pub(crate) fn open_base(spec: &str, variant: Option<&str>) -> Result<(Model, Option<String>)> {
     let model = open_model(Path::new(spec))?;
+    let warning = model.missing_card_warning();
     model.check_design(variant, "this unit")?;
     model.check_runs_alone().with_context(|| {
         format!("--base {spec}: a commissioning adapts a network that reads the whole disc")
     })?;
     if model.weights().is_none() {
-        bail!(
+        refuse!(
             "--base {spec}: only the paper's networks can be adapted, from a weights file (.pth, .pt, .safetensors) or an ONNX graph that holds their weights by name; this is {}",
             model.describe()
         );
     }
     if model.classes.first().map(String::as_str) != Some("None") || model.classes.len() < 2 {
-        bail!(
+        refuse!(
             "--base {spec}: its shape classes ({}) must be \"None\" followed by the indenters it knows; commissioning presses each of them",
             model.classes.join(", ")
         );
     }
-    Ok(model)
+    Ok((model, warning))
 }
 
 /// Refuses a bench budget that cannot hold the fewest presses an adaptation needs
@@ -147,7 +150,7 @@ pub(crate) fn check_budget(config: &RigConfig, base: &Model, budget_min: f64) ->
     )?;
     let need_s = estimate_s(&plan, config)?;
     if need_s > 60.0 * budget_min {
-        bail!(
+        refuse!(
             "--budget {budget_min}: the adaptation needs at least {} presses ({positions} positions x {} indenters: {}), about {need_s:.0} s of bench time on this rig at the least, more than {:.0} s: give a larger --budget (minutes; the default is {})",
             fringe_sensor_models::adapt::MIN_PRESSES,
             shapes.len(),
@@ -172,7 +175,7 @@ pub(crate) fn adapt(
     profile: &Profile,
 ) -> Result<Adaptation> {
     let Some(base_weights) = base.weights() else {
-        bail!("{}: the base model holds no weights", base.path.display());
+        refuse!("{}: the base model holds no weights", base.path.display());
     };
     let limits = c.config.limits()?;
     let disc = UsableDisc::from_profile(profile)?;
@@ -227,19 +230,19 @@ pub(crate) fn adapt(
         round += 1;
     }
     let Some(adapted) = state.adapted else {
-        bail!(
+        refuse!(
             "the budget of {} min allowed too few presses to adapt on (at least {} positions); give a larger --budget",
             c.journal.options.budget_min,
             fringe_sensor_models::adapt::MIN_PRESSES
         );
     };
     let block = if c.journal.options.last_block {
-        super::last_block::train(c, base, &state.runs)?
+        last_block::train(c, base, &state.runs)?
     } else {
         None
     };
     let fine_tune = if c.journal.options.fine_tune {
-        super::fine_tune::run(c, base, &state.runs)?
+        fine_tune::run(c, base, &state.runs)?
     } else {
         None
     };
@@ -440,8 +443,9 @@ fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: 
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use crate::commissioning::host::{Host, ScanEnded};
-    use fringe_app::commission::journal::{Journal, Options};
+    use crate::commission::host::{Host, ScanEnded};
+    use crate::commission::journal::{Journal, Options};
+    use crate::workflow_error::BoxError;
     use fringe_rig::scan::engine::RunTarget;
     use fringe_rig::scan::plan::ScanProgram;
     use fringe_rig::store::documents::{now_utc, ExitStatus, StopDocument};
@@ -463,9 +467,9 @@ mod tests {
             _plan_text: String,
             target: RunTarget,
             _profile_use: ProfileUse,
-        ) -> Result<ScanEnded> {
+        ) -> std::result::Result<ScanEnded, BoxError> {
             let RunTarget::New { root, run_id } = target else {
-                bail!("a resume was asked for, not a new scan");
+                return Err("a resume was asked for, not a new scan".into());
             };
             self.pressed.push(run_id.clone());
             let run_dir = root.join(&run_id);
@@ -495,6 +499,8 @@ mod tests {
 
         fn say(&mut self, _line: String) {}
 
+        fn notice(&mut self, _line: String) {}
+
         fn frames(&mut self, _what: &'static str, _done: usize, _total: usize) {}
 
         fn stop_requested(&mut self) -> bool {
@@ -512,12 +518,12 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("dir");
         let config = RigConfig::parse("[sim]\nimage_scale = 0.25\n", "rig.toml").expect("rig");
-        let sim = fringe_app::rig::simulated::config(&config).expect("simulated bench");
-        let profile = fringe_app::rig::simulated::design_profile(&sim, "unit-1");
+        let sim = crate::rig::simulated::config(&config).expect("simulated bench");
+        let profile = crate::rig::simulated::design_profile(&sim, "unit-1");
         let variant = config.sensor_variant().expect("variant");
         let base_path =
             fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");
-        let base = open_base(&base_path.display().to_string(), variant).expect("base");
+        let (base, _) = open_base(&base_path.display().to_string(), variant).expect("base");
         let disc = UsableDisc::from_profile(&profile).expect("disc");
         let plan =
             press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round").expect("plan");

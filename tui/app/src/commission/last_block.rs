@@ -1,8 +1,8 @@
 //! Step 3's second candidate: the custom CNN's last block trained again with its heads on the
 //! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
 
-use super::session::Commissioning;
-use anyhow::Result;
+use super::scans::Commissioning;
+use crate::workflow_error::WorkflowError;
 use fringe_sensor_models::adapt::last_block::{
     train_last_block, BlockConfig, BlockFit, BlockInputs,
 };
@@ -11,6 +11,8 @@ use fringe_sensor_models::dataset;
 use fringe_sensor_models::model::Model;
 use std::path::PathBuf;
 use std::time::Instant;
+
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// Every how many frames of a press the block trains on (neighbours are nearly the same
 /// picture).
@@ -30,7 +32,7 @@ pub(crate) fn train(
     let sources = runs
         .iter()
         .map(|r| dataset::read(r))
-        .collect::<Result<Vec<_>, _>>()?;
+        .collect::<std::result::Result<Vec<_>, _>>()?;
     let threads = c.threads;
     let host = &mut *c.host;
     let Some(data) = BlockInputs::read(base, &sources, threads, EVERY, |d, t| {

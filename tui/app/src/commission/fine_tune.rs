@@ -3,11 +3,13 @@
 //! only when it beats the heads alone on that fold. Stopped (Ctrl-C, the screen's `s`), it goes
 //! on from its checkpoint when the commissioning is resumed; finished, a resume reuses it.
 
-use super::session::Commissioning;
-use anyhow::Result;
+use super::scans::Commissioning;
+use crate::workflow_error::{refuse, WorkflowError};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::weights::state_dict::StateDict;
 use std::path::PathBuf;
+
+type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// The fine-tuning's directory in the commissioning's.
 #[cfg(feature = "torch")]
@@ -30,7 +32,7 @@ pub(crate) fn available() -> Result<()> {
     if cfg!(feature = "torch") {
         Ok(())
     } else {
-        anyhow::bail!(
+        refuse!(
             "--fine-tune trains with libtorch, and this fringe was built without it: build with `cargo build --release --features torch` (README.md, \"Training\": LIBTORCH from `pip install torch --no-deps`), or leave --fine-tune out to adapt the heads alone"
         )
     }
@@ -54,7 +56,6 @@ pub(crate) fn run(
     base: &Model,
     runs: &[PathBuf],
 ) -> Result<Option<FineTune>> {
-    use anyhow::bail;
     use fringe_sensor_models::adapt::fine_tune::{
         fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome, MIN_HELD_OUT,
     };
@@ -83,7 +84,7 @@ pub(crate) fn run(
             let sources = runs
                 .iter()
                 .map(|r| dataset::read(r))
-                .collect::<Result<Vec<_>, _>>()?;
+                .collect::<std::result::Result<Vec<_>, _>>()?;
             let samples: Vec<_> = sources
                 .iter()
                 .flat_map(|s| s.samples.iter().cloned())
@@ -204,7 +205,7 @@ pub(crate) fn run(
                     c.journal.fine_tune_checkpoint = Some(relative);
                     c.journal.write(&c.dir)?;
                     c.compute_s += started.elapsed().as_secs_f64();
-                    bail!(
+                    refuse!(
                         "stopped during the full fine-tuning (saved {}); go on with: fringe commission --resume {}",
                         checkpoint.display(),
                         c.dir.display()

@@ -2,19 +2,19 @@
 //! at held-out positions (between the lattice the rounds press on), the whole network evaluated
 //! on it and judged against the spec, the report and the certificate.
 
-use super::rounds::{shapes, Adaptation};
-use super::session::{estimate_s, scan, set_aside, Commissioning};
-use crate::cmd::adapt::adapted_card;
-use crate::cmd::model::open_model;
-use crate::cmd::verdict;
-use anyhow::{Context, Result};
-use fringe_app::commission::certificate::{
+use super::certificate::{
     Certificate, CurvePoint, Figures, ModelRef, UsedRuns, CERTIFICATE_FORMAT, MODEL, PROFILE,
 };
-use fringe_app::commission::journal::ScanEntry;
-use fringe_app::commission::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
-use fringe_app::commission::press_plan::press_plan;
-use fringe_app::ProfileUse;
+use super::journal::ScanEntry;
+use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
+use super::press_plan::press_plan;
+use super::rounds::{shapes, Adaptation};
+use super::scans::{estimate_s, scan, set_aside, Commissioning};
+use crate::models::adapted_card::{adapted_card, write_adapted};
+use crate::models::choice::open_model;
+use crate::models::verdict;
+use crate::session::scan::ProfileUse;
+use crate::workflow_error::{Context, WorkflowError};
 use fringe_calibration::profile::Profile;
 use fringe_sensor_models::acceptance::{judge, Verdict};
 use fringe_sensor_models::backend::BackendKind;
@@ -23,13 +23,14 @@ use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::model::Model;
 use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::report;
-use fringe_sensor_models::write_safetensors_with_card;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+type Result<T> = std::result::Result<T, WorkflowError>;
+
 /// How the acceptance ended: the verdict and where the certificate and the model are.
-pub(crate) struct Accepted {
+pub struct Accepted {
     pub sensor: String,
     pub pass: bool,
     /// The checks the unit failed, in words (empty when it passed).
@@ -60,6 +61,9 @@ pub(crate) fn accept(
     c.journal.write(&c.dir)?;
     let started = Instant::now();
     let model = open_model(&model_path)?;
+    if let Some(w) = model.missing_card_warning() {
+        c.host.notice(format!("warning: {w}"));
+    }
     // The scan is complete when the model was evaluated on it: one whose frames cannot be used
     // is kept aside and pressed again on resume, never taken as done.
     let (eval, presses) = match evaluated(c, &model, &run_dir) {
@@ -149,11 +153,7 @@ fn write_model(c: &mut Commissioning<'_>, base: &Model, a: &Adaptation) -> Resul
             );
         }
     }
-    write_safetensors_with_card(&path, a.weights(), Some(&card))?;
-    let card_path = path.with_extension("json");
-    let text = serde_json::to_string_pretty(&card).context("the model card")?;
-    std::fs::write(&card_path, text + "\n")
-        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    write_adapted(&path, a.weights(), &card)?;
     c.say(format!(
         "step 3: adapted {} on {} frames of {} presses: wrote {}",
         base.path.display(),
