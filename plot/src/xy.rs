@@ -401,7 +401,14 @@ impl Chart {
             };
             [lo, hi + pad]
         };
-        (range(&self.x, 0), range(&self.y, 1))
+        let mut y = range(&self.y, 1);
+        // Room at the top for a legend in an upper corner, so that it hides no data.
+        let legend_above = matches!(self.legend_at, Corner::UpperLeft | Corner::UpperRight);
+        if self.y.range.is_none() && legend_above && self.series.iter().any(|s| !s.name.is_empty())
+        {
+            y[1] += 0.25 * (y[1] - y[0]);
+        }
+        (range(&self.x, 0), y)
     }
 
     /// The chart drawn over `area`.
@@ -563,10 +570,35 @@ fn legend_position(c: Corner) -> SeriesLabelPosition {
     }
 }
 
+/// A legend entry only for a series with a name (plotters lists any series given a glyph).
+trait LegendIf<'a, DB: plotters::backend::DrawingBackend + 'a> {
+    fn legend_if<E, F>(&mut self, named: bool, glyph: F) -> &mut Self
+    where
+        E: plotters::element::IntoDynElement<'a, DB, (i32, i32)>,
+        F: Fn((i32, i32)) -> E + 'a;
+}
+
+impl<'a, DB: plotters::backend::DrawingBackend + 'a> LegendIf<'a, DB>
+    for plotters::chart::SeriesAnno<'a, DB>
+{
+    fn legend_if<E, F>(&mut self, named: bool, glyph: F) -> &mut Self
+    where
+        E: plotters::element::IntoDynElement<'a, DB, (i32, i32)>,
+        F: Fn((i32, i32)) -> E + 'a,
+    {
+        if named {
+            self.legend(glyph)
+        } else {
+            self
+        }
+    }
+}
+
 /// Draws `s` and, when it has a name, gives it its legend entry.
 fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), PlotError> {
     let colour = rgb(s.colour);
     let stroke = ShapeStyle::from(colour).stroke_width(2);
+    let named = !s.name.is_empty();
     let anno = match &s.shape {
         Shape::Line {
             points,
@@ -595,7 +627,7 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
             } else {
                 colour.mix(0.0).filled()
             };
-            anno.legend(move |(x, y)| {
+            anno.legend_if(named, move |(x, y)| {
                 EmptyElement::at((x, y))
                     + PathElement::new(vec![(0, 0), (first, 0)], stroke)
                     + PathElement::new(vec![(second, 0), (24, 0)], stroke)
@@ -610,7 +642,9 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
                     .filter(|p| finite(p))
                     .map(|p| Circle::new(to_xy(p), r, colour.filled())),
             )?
-            .legend(move |(x, y)| Circle::new((x + 12, y), r.clamp(3, 6), colour.filled()))
+            .legend_if(named, move |(x, y)| {
+                Circle::new((x + 12, y), r.clamp(3, 6), colour.filled())
+            })
         }
         Shape::ColouredPoints { points, radius } => {
             let r = *radius;
@@ -627,7 +661,9 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
                     .filter(|p| finite(&p[0]) && finite(&p[1]))
                     .map(|p| PathElement::new(vec![to_xy(&p[0]), to_xy(&p[1])], stroke)),
             )?
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], stroke)),
+            .legend_if(named, move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 24, y)], stroke)
+            }),
         Shape::Arrows { pairs } => {
             let heads: Vec<_> = pairs
                 .iter()
@@ -648,7 +684,7 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
                     .iter()
                     .map(|(p, _)| PathElement::new(vec![to_xy(&p[0]), to_xy(&p[1])], stroke)),
             )?
-            .legend(move |(x, y)| {
+            .legend_if(named, move |(x, y)| {
                 EmptyElement::at((x, y))
                     + PathElement::new(vec![(0, 0), (20, 0)], stroke)
                     + Polygon::new(vec![(24, 0), (15, -5), (15, 5)], colour.filled())
@@ -662,7 +698,7 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
                     .filter(|p| finite(p))
                     .map(|p| Circle::new(to_xy(p), r, stroke)),
             )?
-            .legend(move |(x, y)| Circle::new((x + 12, y), 6, stroke))
+            .legend_if(named, move |(x, y)| Circle::new((x + 12, y), 6, stroke))
         }
         Shape::Circle { centre, radius } => {
             let n = 240;
@@ -673,7 +709,9 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
                 })
                 .collect();
             ctx.draw_series(std::iter::once(PathElement::new(pts, stroke)))?
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], stroke))
+                .legend_if(named, move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 24, y)], stroke)
+                })
         }
         Shape::Labels { items } => {
             ctx.draw_series(items.iter().filter(|i| finite(&i.0)).map(|(p, t)| {
@@ -686,7 +724,7 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
             }))?
         }
     };
-    if !s.name.is_empty() {
+    if named {
         anno.label(s.name.as_str());
     }
     Ok(())
