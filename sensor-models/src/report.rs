@@ -217,3 +217,68 @@ pub fn write(dir: &Path, title: &str, eval: &Evaluation) -> Result<PathBuf, Repo
     std::fs::write(&p, markdown(title, eval)).map_err(|e| err(&p, &e))?;
     Ok(p)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::Row;
+    use crate::metrics::Scored;
+
+    /// Forty frames: contacts on a ring, predictions 0.5 mm off (one 3 mm off), Fz 1 to 5 N.
+    fn evaluation() -> Evaluation {
+        let classes = vec!["None".to_string(), "Sphere".to_string()];
+        let mut metrics = Metrics::new(classes);
+        let mut rows = Vec::new();
+        for k in 0..40 {
+            let a = k as f64 * 0.4;
+            let t = [5.0 * a.cos(), 5.0 * a.sin()];
+            let off = if k == 7 { 3.0 } else { 0.5 };
+            let scored = Scored {
+                fz_true: 1.0 + 0.1 * k as f64,
+                fz_pred: 1.05 + 0.1 * k as f64,
+                shape_true: 1,
+                shape_pred: usize::from(k != 3),
+                contact_true: Some(t),
+                contact_pred: [t[0] + off, t[1]],
+            };
+            metrics.add(&scored, &[]);
+            rows.push(Row {
+                scored,
+                stage_mm: None,
+                press: format!("p{k}"),
+            });
+        }
+        Evaluation {
+            metrics,
+            rows,
+            skipped: 0,
+        }
+    }
+
+    fn count(img: &RgbImage, c: [u8; 3]) -> usize {
+        img.pixels().filter(|p| p.0 == c).count()
+    }
+
+    #[test]
+    fn the_report_plots_draw_their_data() {
+        let eval = evaluation();
+        let fz = fz_plot(&eval).expect("fz");
+        assert_eq!(fz.dimensions(), (PX, PX));
+        assert!(count(&fz, BLUE) > 40 * 20, "a dot per frame");
+        assert!(count(&fz, GREY) > 100, "the diagonal");
+        let contact = contact_plot(&eval).expect("contact");
+        assert!(count(&contact, RED) > 30, "the one error over 2 mm");
+        assert!(count(&contact, BLUE) > 39 * 10, "the errors under 2 mm");
+        let confusion = confusion_plot(&eval.metrics).expect("confusion");
+        // Sphere row: 39 of 40 predicted Sphere (deep blue), 1 None (pale red).
+        let shade = (255.0 - 200.0 * 39.0 / 40.0_f64).round() as u8;
+        assert!(count(&confusion, [shade, shade, 255]) > 1000);
+        let dir = tempfile::tempdir().expect("dir");
+        let md = write(dir.path(), "t", &eval).expect("write");
+        for png in ["fz.png", "contact.png", "confusion.png"] {
+            let img = image::open(dir.path().join(png)).expect(png).to_rgb8();
+            assert_eq!(img.dimensions(), (PX, PX), "{png}");
+        }
+        assert!(md.ends_with("report.md"));
+    }
+}
