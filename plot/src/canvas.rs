@@ -1,12 +1,10 @@
-//! A white bitmap to draw on, handed back as an [`RgbImage`]; charts side by side.
+//! A white bitmap to draw on, handed back as an [`RgbImage`].
 
 use crate::error::PlotError;
-use crate::xy::Chart;
 use image::RgbImage;
 use plotters::backend::BitMapBackend;
 use plotters::coord::Shift;
 use plotters::drawing::{DrawingArea, IntoDrawingArea};
-use plotters::style::WHITE;
 
 /// A drawing area over a bitmap.
 pub(crate) type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
@@ -38,17 +36,4 @@ pub(crate) fn render_over(
     }
     RgbImage::from_raw(width, height, buffer)
         .ok_or_else(|| PlotError::Draw("the picture's buffer changed size".to_string()))
-}
-
-/// `charts` as panels of `panel` px (width, height), `columns` a row, in reading order.
-pub fn panels(charts: &[Chart], columns: usize, panel: (u32, u32)) -> Result<RgbImage, PlotError> {
-    let columns = columns.max(1).min(charts.len().max(1));
-    let rows = charts.len().div_ceil(columns).max(1);
-    render(panel.0 * columns as u32, panel.1 * rows as u32, |root| {
-        root.fill(&WHITE)?;
-        for (chart, area) in charts.iter().zip(root.split_evenly((rows, columns))) {
-            chart.draw_on(&area)?;
-        }
-        Ok(())
-    })
 }

@@ -22,7 +22,7 @@ pub(crate) fn ensure() -> Result<(), PlotError> {
 }
 
 /// Text of `size` px in `colour`.
-pub(crate) fn text(size: f64, colour: crate::Colour) -> TextStyle<'static> {
+pub(crate) fn text(size: f64, colour: crate::palette::Colour) -> TextStyle<'static> {
     let [r, g, b] = colour;
     (FAMILY, size)
         .into_font()

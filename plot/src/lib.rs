@@ -16,14 +16,13 @@ mod font;
 mod matrix;
 mod overlay;
 pub mod palette;
+mod panels;
 mod ticks;
 mod xy;
 
-pub use canvas::panels;
 pub use error::PlotError;
 pub use matrix::Matrix;
 pub use overlay::{overlay, Mark};
+pub use palette::Colour;
+pub use panels::panels;
 pub use xy::{Axis, Chart, Corner, Series};
-
-/// A colour, red, green, blue.
-pub type Colour = [u8; 3];

@@ -3,7 +3,7 @@
 use crate::canvas::render_over;
 use crate::error::PlotError;
 use crate::font;
-use crate::Colour;
+use crate::palette::Colour;
 use image::RgbImage;
 use plotters::element::{Circle, PathElement, Rectangle, Text};
 use plotters::style::{Color, RGBColor, ShapeStyle};
@@ -63,7 +63,7 @@ pub fn overlay(picture: &RgbImage, marks: &[Mark]) -> Result<RgbImage, PlotError
                 } => {
                     let style =
                         ShapeStyle::from(RGBColor(colour[0], colour[1], colour[2])).stroke_width(2);
-                    let r = radius.max(0.0).min(1e6).round() as u32;
+                    let r = radius.clamp(0.0, 1e6).round() as u32;
                     root.draw(&Circle::new((px(centre[0]), px(centre[1])), r, style))?;
                 }
                 Mark::Label { at, text, colour } => {

@@ -1,6 +1,7 @@
 //! The colours of fringe's plots: one series each, readable on white and told apart in print.
 
-use crate::Colour;
+/// A colour, red, green, blue.
+pub type Colour = [u8; 3];
 
 pub const BLUE: Colour = [31, 100, 180];
 pub const ORANGE: Colour = [235, 120, 10];

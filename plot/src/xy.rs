@@ -4,9 +4,9 @@
 use crate::canvas::{render, Area};
 use crate::error::PlotError;
 use crate::font;
+use crate::palette::Colour;
 use crate::palette::{BLACK, LIGHT_GREY, WHITE};
 use crate::ticks;
-use crate::Colour;
 use image::RgbImage;
 use plotters::chart::{ChartBuilder, ChartContext, SeriesLabelPosition};
 use plotters::coord::cartesian::Cartesian2d;
@@ -611,7 +611,7 @@ fn draw_series<'a, 'b: 'a>(ctx: &mut Context<'a, 'b>, s: &Series) -> Result<(), 
             }
             let anno = if *dashed {
                 ctx.draw_series(std::iter::once(DashedPathElement::new(
-                    pts.clone().into_iter(),
+                    pts.clone(),
                     8,
                     6,
                     stroke,
