@@ -157,7 +157,7 @@ impl PlotFrame {
     /// A bar of a round number of residual px at `scale`, at most a quarter of the plot, in its
     /// lower left corner, and its label ("0.5 px residual").
     fn scale_bar(&self, fit: &SimilarityFit, scale: f64) -> Option<([[f64; 2]; 2], String)> {
-        if !(fit.px_per_mm > 0.0) {
+        if fit.px_per_mm.is_nan() || fit.px_per_mm <= 0.0 {
             return None;
         }
         let side = 2.0 * self.half;
