@@ -222,10 +222,12 @@ fn run(case: Case) -> Vec<bool> {
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
             .collect();
         residual_plot(f, &stage)
+            .expect("draw plot")
             .save(dir.join(format!("{slug}-residuals.png")))
             .expect("write plot");
         if let Some((frame, spot)) = last_pressed {
             contact_spot::draw_spot(&frame, &spot, [255, 255, 0])
+                .expect("draw press")
                 .save(dir.join(format!("{slug}-press.png")))
                 .expect("write press");
         }

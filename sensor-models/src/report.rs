@@ -1,23 +1,18 @@
 //! An evaluation's report: `report.md` (Table-2 figures beside the paper's, breakdowns by grid
 //! position and force level, the confusion matrix) and its plots, `fz.png` (predicted against
 //! measured Fz), `contact.png` (each labelled contact joined to its prediction, over the disc)
-//! and `confusion.png`. Drawn with the calibration report's primitives (lines, discs, a pixel
-//! font): no font files or plotting stack needed.
+//! and `confusion.png`, drawn by `fringe-plot`.
 
 use crate::eval::Evaluation;
 use crate::metrics::{Errors, Metrics};
-use fringe_calibration::registration::plot::{circle, dot, line, text, text_width};
-use image::{Rgb, RgbImage};
+use fringe_plot::palette::{BLACK, BLUE, GREY, RED};
+use fringe_plot::{Axis, Chart, Corner, Matrix, PlotError, Series};
+use image::RgbImage;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// The plots' size, px.
 const PX: u32 = 720;
-const MARGIN: f64 = 80.0;
-const BLACK: [u8; 3] = [0, 0, 0];
-const GREY: [u8; 3] = [200, 200, 200];
-const BLUE: [u8; 3] = [31, 90, 200];
-const RED: [u8; 3] = [210, 40, 30];
-const GREEN: [u8; 3] = [30, 140, 60];
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -122,90 +117,8 @@ pub fn markdown(title: &str, eval: &Evaluation) -> String {
     out
 }
 
-/// Maps data coordinates into a square plot area.
-struct Axes {
-    lo: [f64; 2],
-    hi: [f64; 2],
-}
-
-impl Axes {
-    fn px(&self, p: [f64; 2]) -> [f64; 2] {
-        let span = PX as f64 - 2.0 * MARGIN;
-        [
-            MARGIN + (p[0] - self.lo[0]) / (self.hi[0] - self.lo[0]) * span,
-            PX as f64 - MARGIN - (p[1] - self.lo[1]) / (self.hi[1] - self.lo[1]) * span,
-        ]
-    }
-
-    /// The box, ticks every `ticks[0]` along x and `ticks[1]` along y, and the axis labels.
-    fn frame(&self, img: &mut RgbImage, ticks: [f64; 2], xlabel: &str, ylabel: &str) {
-        let (a, b) = (MARGIN, PX as f64 - MARGIN);
-        for (p, q) in [
-            ([a, a], [b, a]),
-            ([b, a], [b, b]),
-            ([b, b], [a, b]),
-            ([a, b], [a, a]),
-        ] {
-            line(img, p, q, BLACK);
-        }
-        // As many decimals as the tick step needs (0.02 -> 2).
-        let decimals = |t: f64| (-t.log10()).ceil().max(0.0) as usize;
-        let mut t = (self.lo[0] / ticks[0]).ceil() * ticks[0];
-        while t <= self.hi[0] + 1e-9 {
-            let label = fmt(t, decimals(ticks[0]));
-            let x = self.px([t, self.lo[1]])[0];
-            line(img, [x, b], [x, b + 6.0], BLACK);
-            text(
-                img,
-                x as i64 - text_width(&label, 2) / 2,
-                b as i64 + 12,
-                2,
-                &label,
-                BLACK,
-            );
-            t += ticks[0];
-        }
-        let mut t = (self.lo[1] / ticks[1]).ceil() * ticks[1];
-        while t <= self.hi[1] + 1e-9 {
-            let label = fmt(t, decimals(ticks[1]));
-            let y = self.px([self.lo[0], t])[1];
-            line(img, [a - 6.0, y], [a, y], BLACK);
-            text(
-                img,
-                a as i64 - 10 - text_width(&label, 2),
-                y as i64 - 5,
-                2,
-                &label,
-                BLACK,
-            );
-            t += ticks[1];
-        }
-        text(
-            img,
-            PX as i64 / 2 - text_width(xlabel, 2) / 2,
-            PX as i64 - 30,
-            2,
-            xlabel,
-            BLACK,
-        );
-        text(img, 8, 20, 2, ylabel, BLACK);
-    }
-}
-
-/// A round tick spacing giving about 5 ticks over `span`.
-fn tick(span: f64) -> f64 {
-    let raw = span / 5.0;
-    let e = 10f64.powf(raw.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * e)
-        .find(|v| *v >= raw)
-        .unwrap_or(10.0 * e)
-}
-
 /// Predicted against measured Fz with the diagonal.
-pub fn fz_plot(eval: &Evaluation) -> RgbImage {
-    let mut img = RgbImage::from_pixel(PX, PX, Rgb([255, 255, 255]));
+pub fn fz_plot(eval: &Evaluation) -> Result<RgbImage, PlotError> {
     let top = eval
         .rows
         .iter()
@@ -213,141 +126,74 @@ pub fn fz_plot(eval: &Evaluation) -> RgbImage {
         .filter(|v| v.is_finite())
         .fold(1.0f64, f64::max)
         * 1.05;
-    let ax = Axes {
-        lo: [0.0, 0.0],
-        hi: [top, top],
-    };
-    line(&mut img, ax.px([0.0, 0.0]), ax.px([top, top]), GREY);
-    for r in &eval.rows {
-        let p = [r.scored.fz_true, r.scored.fz_pred.clamp(0.0, top)];
-        dot(&mut img, ax.px(p), 2.0, BLUE);
-    }
-    ax.frame(
-        &mut img,
-        [tick(top), tick(top)],
-        "measured fz (n)",
-        "predicted fz (n)",
-    );
-    let rmse = format!("rmse {} n", fmt(eval.metrics.all.fz_rmse(), 3));
-    text(
-        &mut img,
-        MARGIN as i64 + 12,
-        MARGIN as i64 + 12,
-        2,
-        &rmse,
-        BLACK,
-    );
-    img
+    let frames: Vec<[f64; 2]> = eval
+        .rows
+        .iter()
+        .map(|r| [r.scored.fz_true, r.scored.fz_pred.clamp(0.0, top)])
+        .collect();
+    Chart::new(
+        "Predicted against measured Fz",
+        Axis::new("measured Fz (N)").range(0.0, top),
+        Axis::new("predicted Fz (N)").range(0.0, top),
+    )
+    .equal_aspect()
+    .series(Series::line("predicted = measured", &[[0.0, 0.0], [top, top]], GREY).dashed())
+    .series(Series::points("frame", &frames, 3, BLUE))
+    .note(format!("RMSE {} N", fmt(eval.metrics.all.fz_rmse(), 3)))
+    .note(format!("{} frames", eval.rows.len()))
+    .legend_at(Corner::LowerRight)
+    .render(PX, PX)
 }
 
 /// Each labelled contact (dot) joined to its prediction (line), errors over 2 mm in red.
-pub fn contact_plot(eval: &Evaluation) -> RgbImage {
-    let mut img = RgbImage::from_pixel(PX, PX, Rgb([255, 255, 255]));
-    let reach = eval
+pub fn contact_plot(eval: &Evaluation) -> Result<RgbImage, PlotError> {
+    let farthest = eval
         .rows
         .iter()
         .filter_map(|r| r.scored.contact_true)
         .map(|[x, y]| x.hypot(y))
-        .fold(5.0f64, f64::max)
-        * 1.2;
-    let ax = Axes {
-        lo: [-reach, -reach],
-        hi: [reach, reach],
-    };
-    let centre = ax.px([0.0, 0.0]);
-    let scale = ax.px([reach, 0.0])[0] - centre[0];
-    circle(&mut img, centre, scale / 1.2, GREY);
+        .fold(5.0f64, f64::max);
+    let reach = farthest * 1.2;
+    let (mut near, mut far, mut labelled) = (Vec::new(), Vec::new(), Vec::new());
     for r in &eval.rows {
         if let Some(t) = r.scored.contact_true {
             let p = r.scored.contact_pred;
             let err = (p[0] - t[0]).hypot(p[1] - t[1]);
-            let colour = if err > 2.0 { RED } else { BLUE };
-            line(&mut img, ax.px(t), ax.px(p), colour);
-            dot(&mut img, ax.px(t), 2.0, BLACK);
+            if err > 2.0 { &mut far } else { &mut near }.push([t, p]);
+            labelled.push(t);
         }
     }
-    ax.frame(
-        &mut img,
-        [tick(2.0 * reach), tick(2.0 * reach)],
-        "x (mm)",
-        "y (mm)",
-    );
-    let rmse = format!(
-        "contact rmse {} mm",
-        fmt(eval.metrics.all.contact_rmse(), 3)
-    );
-    text(
-        &mut img,
-        MARGIN as i64 + 12,
-        MARGIN as i64 + 12,
-        2,
-        &rmse,
-        BLACK,
-    );
-    img
+    Chart::new(
+        format!(
+            "Contact: labelled to predicted (RMSE {} mm)",
+            fmt(eval.metrics.all.contact_rmse(), 3)
+        ),
+        Axis::new("contact x (mm)").range(-reach, reach),
+        Axis::new("contact y (mm)").range(-reach, reach),
+    )
+    .equal_aspect()
+    .series(Series::circle(
+        "farthest labelled contact",
+        [0.0, 0.0],
+        farthest,
+        GREY,
+    ))
+    .series(Series::segments("error up to 2 mm", &near, BLUE))
+    .series(Series::segments("error over 2 mm", &far, RED))
+    .series(Series::points("labelled contact", &labelled, 2, BLACK))
+    .render(PX, PX)
 }
 
 /// The confusion matrix, cells shaded by the share of their row.
-pub fn confusion_plot(m: &Metrics) -> RgbImage {
-    let mut img = RgbImage::from_pixel(PX, PX, Rgb([255, 255, 255]));
-    let n = m.classes.len().max(1);
-    let cell = (PX as f64 - 2.0 * MARGIN - 40.0) / n as f64;
-    let x0 = MARGIN + 40.0;
-    for (i, row) in m.confusion.iter().enumerate() {
-        let total = row.iter().sum::<u64>().max(1) as f64;
-        for (j, &v) in row.iter().enumerate() {
-            let share = v as f64 / total;
-            let shade = (255.0 - 200.0 * share) as u8;
-            let colour = if i == j {
-                [shade, shade, 255]
-            } else {
-                [255, shade, shade]
-            };
-            let (cx, cy) = (x0 + j as f64 * cell, MARGIN + i as f64 * cell);
-            for y in cy as u32..(cy + cell) as u32 {
-                for x in cx as u32..(cx + cell) as u32 {
-                    if x < PX && y < PX {
-                        img.put_pixel(x, y, Rgb(colour));
-                    }
-                }
-            }
-            let label = v.to_string();
-            text(
-                &mut img,
-                (cx + cell / 2.0) as i64 - text_width(&label, 3) / 2,
-                (cy + cell / 2.0) as i64 - 7,
-                3,
-                &label,
-                BLACK,
-            );
-        }
-        let name: String = m.classes[i].chars().take(9).collect();
-        text(
-            &mut img,
-            4,
-            (MARGIN + (i as f64 + 0.5) * cell) as i64 - 5,
-            2,
-            &name,
-            BLACK,
-        );
-        text(
-            &mut img,
-            (x0 + (i as f64 + 0.5) * cell) as i64 - text_width(&name, 2) / 2,
-            (MARGIN + n as f64 * cell) as i64 + 12,
-            2,
-            &name,
-            BLACK,
-        );
+pub fn confusion_plot(m: &Metrics) -> Result<RgbImage, PlotError> {
+    Matrix {
+        title: "Shape confusion matrix (shade: share of the row)",
+        rows_label: "labelled shape",
+        columns_label: "predicted shape",
+        names: &m.classes,
+        counts: &m.confusion,
     }
-    text(
-        &mut img,
-        x0 as i64,
-        30,
-        2,
-        "rows: labelled, columns: predicted",
-        BLACK,
-    );
-    img
+    .render(PX)
 }
 
 /// Writes `report.md` and the plots into `dir` (created); returns the report's path.
@@ -363,52 +209,76 @@ pub fn write(dir: &Path, title: &str, eval: &Evaluation) -> Result<PathBuf, Repo
         ("confusion.png", confusion_plot(&eval.metrics)),
     ] {
         let p = dir.join(name);
-        img.save(&p).map_err(|e| err(&p, &e))?;
+        img.map_err(|e| err(&p, &e))?
+            .save(&p)
+            .map_err(|e| err(&p, &e))?;
     }
     let p = dir.join("report.md");
     std::fs::write(&p, markdown(title, eval)).map_err(|e| err(&p, &e))?;
     Ok(p)
 }
 
-/// Series of (x, y) points as lines with a legend (training curves), y from 0.
-pub fn line_plot(ylabel: &str, xlabel: &str, series: &[(&str, &[[f64; 2]])]) -> RgbImage {
-    let mut img = RgbImage::from_pixel(PX, PX, Rgb([255, 255, 255]));
-    let finite = || {
-        series
-            .iter()
-            .flat_map(|(_, pts)| pts.iter())
-            .filter(|p| p[0].is_finite() && p[1].is_finite())
-    };
-    let x_hi = finite().map(|p| p[0]).fold(1.0f64, f64::max);
-    let x_lo = finite().map(|p| p[0]).fold(x_hi, f64::min).min(x_hi - 1.0);
-    let y_hi = finite().map(|p| p[1]).fold(0.0f64, f64::max).max(1e-3) * 1.05;
-    let ax = Axes {
-        lo: [x_lo, 0.0],
-        hi: [x_hi, y_hi],
-    };
-    let colours = [BLUE, RED, BLACK, GREEN];
-    for (k, (name, pts)) in series.iter().enumerate() {
-        let colour = colours[k % colours.len()];
-        let pts: Vec<[f64; 2]> = pts
-            .iter()
-            .filter(|p| p[0].is_finite() && p[1].is_finite())
-            .map(|p| ax.px(*p))
-            .collect();
-        for w in pts.windows(2) {
-            line(&mut img, w[0], w[1], colour);
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::Row;
+    use crate::metrics::Scored;
+
+    /// Forty frames: contacts on a ring, predictions 0.5 mm off (one 3 mm off), Fz 1 to 5 N.
+    fn evaluation() -> Evaluation {
+        let classes = vec!["None".to_string(), "Sphere".to_string()];
+        let mut metrics = Metrics::new(classes);
+        let mut rows = Vec::new();
+        for k in 0..40 {
+            let a = k as f64 * 0.4;
+            let t = [5.0 * a.cos(), 5.0 * a.sin()];
+            let off = if k == 7 { 3.0 } else { 0.5 };
+            let scored = Scored {
+                fz_true: 1.0 + 0.1 * k as f64,
+                fz_pred: 1.05 + 0.1 * k as f64,
+                shape_true: 1,
+                shape_pred: usize::from(k != 3),
+                contact_true: Some(t),
+                contact_pred: [t[0] + off, t[1]],
+            };
+            metrics.add(&scored, &[]);
+            rows.push(Row {
+                scored,
+                stage_mm: None,
+                press: format!("p{k}"),
+            });
         }
-        for p in &pts {
-            dot(&mut img, *p, 3.0, colour);
+        Evaluation {
+            metrics,
+            rows,
+            skipped: 0,
         }
-        let y = MARGIN as i64 + 12 + 22 * k as i64;
-        line(
-            &mut img,
-            [PX as f64 - MARGIN - 150.0, y as f64 + 5.0],
-            [PX as f64 - MARGIN - 120.0, y as f64 + 5.0],
-            colour,
-        );
-        text(&mut img, PX as i64 - MARGIN as i64 - 112, y, 2, name, BLACK);
     }
-    ax.frame(&mut img, [tick(x_hi - x_lo), tick(y_hi)], xlabel, ylabel);
-    img
+
+    fn count(img: &RgbImage, c: [u8; 3]) -> usize {
+        img.pixels().filter(|p| p.0 == c).count()
+    }
+
+    #[test]
+    fn the_report_plots_draw_their_data() {
+        let eval = evaluation();
+        let fz = fz_plot(&eval).expect("fz");
+        assert_eq!(fz.dimensions(), (PX, PX));
+        assert!(count(&fz, BLUE) > 40 * 20, "a dot per frame");
+        assert!(count(&fz, GREY) > 100, "the diagonal");
+        let contact = contact_plot(&eval).expect("contact");
+        assert!(count(&contact, RED) > 30, "the one error over 2 mm");
+        assert!(count(&contact, BLUE) > 39 * 10, "the errors under 2 mm");
+        let confusion = confusion_plot(&eval.metrics).expect("confusion");
+        // Sphere row: 39 of 40 predicted Sphere (deep blue), 1 None (pale red).
+        let shade = (255.0 - 200.0 * 39.0 / 40.0_f64).round() as u8;
+        assert!(count(&confusion, [shade, shade, 255]) > 1000);
+        let dir = tempfile::tempdir().expect("dir");
+        let md = write(dir.path(), "t", &eval).expect("write");
+        for png in ["fz.png", "contact.png", "confusion.png"] {
+            let img = image::open(dir.path().join(png)).expect(png).to_rgb8();
+            assert_eq!(img.dimensions(), (PX, PX), "{png}");
+        }
+        assert!(md.ends_with("report.md"));
+    }
 }

@@ -1246,24 +1246,38 @@ fn radius_holding_within(
 }
 
 /// Draws `spot` on a copy of `frame`: a cross at the contact (arms 3 sigma + 12 px), the
-/// centroid window as a circle; in `colour`.
-pub fn draw_spot(frame: &RgbImage, spot: &ContactSpot, colour: [u8; 3]) -> RgbImage {
-    let mut out = frame.clone();
-    let arm = 12.0 + 3.0 * spot.sigma_px();
-    super::plot::line(
-        &mut out,
-        [spot.u_px - arm, spot.v_px],
-        [spot.u_px + arm, spot.v_px],
-        colour,
+/// centroid window as a circle, in `colour`, and a label with the contact and the window in px.
+pub fn draw_spot(
+    frame: &RgbImage,
+    spot: &ContactSpot,
+    colour: [u8; 3],
+) -> Result<RgbImage, fringe_plot::PlotError> {
+    use fringe_plot::Mark;
+    let centre = [spot.u_px, spot.v_px];
+    let label = format!(
+        "contact at ({:.1}, {:.1}) px, centroid window radius {:.0} px",
+        spot.u_px, spot.v_px, spot.window_px
     );
-    super::plot::line(
-        &mut out,
-        [spot.u_px, spot.v_px - arm],
-        [spot.u_px, spot.v_px + arm],
-        colour,
-    );
-    super::plot::circle(&mut out, [spot.u_px, spot.v_px], spot.window_px, colour);
-    out
+    fringe_plot::overlay(
+        frame,
+        &[
+            Mark::Cross {
+                centre,
+                arm: 12.0 + 3.0 * spot.sigma_px(),
+                colour,
+            },
+            Mark::Circle {
+                centre,
+                radius: spot.window_px,
+                colour,
+            },
+            Mark::Label {
+                at: [16.0, 16.0],
+                text: label,
+                colour,
+            },
+        ],
+    )
 }
 
 #[cfg(test)]

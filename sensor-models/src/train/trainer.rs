@@ -20,6 +20,8 @@ use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet, WINDOW_JITTER_MM};
 use crate::weights::state_dict::StateDict;
 use fringe_calibration::profile::Profile;
+use fringe_plot::palette::{BLUE, ORANGE};
+use fringe_plot::{Axis, Chart, Series};
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::seeded::{mix, SplitMix64};
 use std::ops::ControlFlow;
@@ -1002,16 +1004,22 @@ fn plot_losses(dir: &Path, history: &[EpochRecord]) -> Result<(), TrainError> {
         .iter()
         .map(|h| [h.epoch as f64, h.val_loss])
         .collect();
-    let img = crate::report::line_plot(
-        "loss",
-        "epoch",
-        &[("training", &train), ("validation", &val)],
-    );
+    let img = Chart::new(
+        "Loss by epoch",
+        Axis::new("epoch").integers(),
+        Axis::new("loss (sum of the heads' losses, no unit)").from_zero(),
+    )
+    .series(Series::line("training", &train, BLUE).with_markers())
+    .series(Series::line("validation", &val, ORANGE).with_markers())
+    .render(720, 720);
     let path = dir.join("loss.png");
-    img.save(&path).map_err(|e| TrainError::Write {
+    let failed = |e: &dyn std::fmt::Display| TrainError::Write {
         path: path.display().to_string(),
         source: std::io::Error::other(e.to_string()),
-    })
+    };
+    img.map_err(|e| failed(&e))?
+        .save(&path)
+        .map_err(|e| failed(&e))
 }
 
 #[cfg(test)]

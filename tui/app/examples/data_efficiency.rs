@@ -535,8 +535,14 @@ fn finish(out: &Path, rows: &mut [Row], shapes: usize) -> Result<()> {
             1,
         ),
     ] {
-        let mut series: Vec<(String, Vec<[f64; 2]>)> = Vec::new();
-        for method in [SCRATCH, UNIFORM, ADAPTIVE] {
+        let mut chart = fringe_plot::Chart::new(
+            format!("{label} by positions pressed"),
+            fringe_plot::Axis::new("positions pressed (x2 indenters)")
+                .integers()
+                .from_zero(),
+            fringe_plot::Axis::new(label).from_zero(),
+        );
+        for (k, method) in [SCRATCH, UNIFORM, ADAPTIVE].into_iter().enumerate() {
             let pts: Vec<[f64; 2]> = rows
                 .iter()
                 .filter(|r| r.method == method)
@@ -550,16 +556,19 @@ fn finish(out: &Path, rows: &mut [Row], shapes: usize) -> Result<()> {
                 })
                 .collect();
             if !pts.is_empty() {
-                series.push((method.to_string(), pts));
+                let colour = fringe_plot::palette::SERIES[k % fringe_plot::palette::SERIES.len()];
+                chart =
+                    chart.series(fringe_plot::Series::line(method, &pts, colour).with_markers());
             }
         }
         if let Some(limit) = limit {
-            series.push(("spec (paper)".into(), vec![[0.0, limit], [x_max, limit]]));
+            let spec = [[0.0, limit], [x_max, limit]];
+            chart = chart.series(
+                fringe_plot::Series::line("spec (paper)", &spec, fringe_plot::palette::RED)
+                    .dashed(),
+            );
         }
-        let refs: Vec<(&str, &[[f64; 2]])> =
-            series.iter().map(|(m, p)| (m.as_str(), &p[..])).collect();
-        fringe_sensor_models::report::line_plot(label, "positions pressed (x2 indenters)", &refs)
-            .save(out.join(file))?;
+        chart.render(720, 720)?.save(out.join(file))?;
     }
     print!("{csv}");
     Ok(())

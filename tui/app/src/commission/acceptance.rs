@@ -16,6 +16,8 @@ use crate::models::verdict;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{Context, WorkflowError};
 use fringe_calibration::profile::Profile;
+use fringe_plot::palette::{green_to_red, BLUE, GREY, ORANGE};
+use fringe_plot::{Axis, Chart, Corner, Series};
 use fringe_sensor_models::acceptance::{judge, Verdict};
 use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset;
@@ -289,14 +291,30 @@ fn write_report(
     };
     let fz = curve(|p| p.fz_rmse_n);
     let contact = curve(|p| p.contact_rmse_mm);
-    report::line_plot(
-        "RMSE on unseen presses",
-        "presses adapted on",
-        &[("Fz, N", &fz), ("contact, mm", &contact)],
+    let presses = || Axis::new("presses adapted on").integers().from_zero();
+    fringe_plot::panels(
+        &[
+            Chart::new(
+                "Fz error on unseen presses",
+                presses(),
+                Axis::new("Fz RMSE (N)").from_zero(),
+            )
+            .series(Series::line("", &fz, BLUE).with_markers()),
+            Chart::new(
+                "Contact error on unseen presses",
+                presses(),
+                Axis::new("contact RMSE (mm)").from_zero(),
+            )
+            .series(Series::line("", &contact, ORANGE).with_markers()),
+        ],
+        2,
+        (640, 480),
     )
+    .context("learning.png")?
     .save(c.dir.join("learning.png"))
     .context("learning.png")?;
     press_map(&a.pressed, &a.disc)
+        .context("presses.png")?
         .save(c.dir.join("presses.png"))
         .context("presses.png")?;
     let mut md = format!(
@@ -344,61 +362,36 @@ fn write_report(
 /// The adaptive presses on the stage over the usable disc (grey circle, its centre marked), each
 /// a dot coloured by its error before adaptation (spec units: green at or under the threshold,
 /// red at three times it and over).
-fn press_map(pressed: &[PressedPoint], disc: &UsableDisc) -> image::RgbImage {
-    use fringe_calibration::registration::plot::{circle, dot, line, text};
-    let side = 560u32;
-    let mut img = image::RgbImage::from_pixel(side, side, image::Rgb([255, 255, 255]));
-    let margin = 50.0;
-    let scale = (f64::from(side) - 2.0 * margin) / (2.0 * disc.reach_mm.max(1e-3));
-    let middle = f64::from(side) / 2.0;
-    // Stage x to the right, stage y up.
-    let at = |p: [f64; 2]| {
-        [
-            middle + (p[0] - disc.centre_mm[0]) * scale,
-            middle - (p[1] - disc.centre_mm[1]) * scale,
-        ]
-    };
-    let grey = [170, 170, 170];
-    circle(&mut img, [middle, middle], disc.reach_mm * scale, grey);
-    line(
-        &mut img,
-        [middle - 8.0, middle],
-        [middle + 8.0, middle],
-        grey,
-    );
-    line(
-        &mut img,
-        [middle, middle - 8.0],
-        [middle, middle + 8.0],
-        grey,
-    );
-    for p in pressed {
-        let t = ((p.error - 1.0) / 2.0).clamp(0.0, 1.0);
-        let colour = [(40.0 + 190.0 * t) as u8, (170.0 - 130.0 * t) as u8, 40];
-        let c = at(p.stage_mm);
-        dot(&mut img, c, 8.0, colour);
-        circle(&mut img, c, 8.0, [0, 0, 0]);
-    }
-    let black = [0, 0, 0];
-    text(
-        &mut img,
-        10,
-        10,
-        2,
-        "adaptive presses: error before adaptation",
-        black,
-    );
-    text(&mut img, 10, 30, 2, "green at the spec, red at 3x", black);
-    text(
-        &mut img,
-        10,
-        i64::from(side) - 24,
-        2,
-        &format!(
-            "disc: {:.1} mm about stage x {:.1} y {:.1} mm",
-            disc.reach_mm, disc.centre_mm[0], disc.centre_mm[1]
-        ),
-        black,
-    );
-    img
+fn press_map(
+    pressed: &[PressedPoint],
+    disc: &UsableDisc,
+) -> std::result::Result<image::RgbImage, fringe_plot::PlotError> {
+    let colour = |error: f64| green_to_red((error - 1.0) / 2.0);
+    let dots: Vec<([f64; 2], [u8; 3])> = pressed
+        .iter()
+        .map(|p| (p.stage_mm, colour(p.error)))
+        .collect();
+    let [cx, cy] = disc.centre_mm;
+    let half = 1.1 * disc.reach_mm.max(1e-3);
+    Chart::new(
+        "Adaptive presses: error before adaptation",
+        // Room on the right for the legend, clear of the disc.
+        Axis::new("stage x (mm)").range(cx - half, cx + 2.2 * half),
+        Axis::new("stage y (mm)").range(cy - half, cy + half),
+    )
+    .equal_aspect()
+    .series(Series::circle(
+        format!("usable disc ({:.1} mm reach)", disc.reach_mm),
+        disc.centre_mm,
+        disc.reach_mm,
+        GREY,
+    ))
+    .series(Series::points("disc centre", &[disc.centre_mm], 4, GREY))
+    .series(Series::coloured_points(&dots, 8))
+    .series(Series::key("error at the threshold or under", colour(1.0)))
+    .series(Series::key("error twice the threshold", colour(2.0)))
+    .series(Series::key("error three times it or over", colour(3.0)))
+    .note(format!("disc centre: stage x {cx:.1} mm, y {cy:.1} mm"))
+    .notes_at(Corner::LowerRight)
+    .render(940, 640)
 }

@@ -3,7 +3,8 @@
 
 use crate::health::figures::Rule;
 use crate::health::history::Entry;
-use fringe_sensor_models::report::line_plot;
+use fringe_plot::palette::{BLUE, RED};
+use fringe_plot::{Axis, Chart, PlotError, Series};
 use image::RgbImage;
 use std::path::{Path, PathBuf};
 
@@ -28,59 +29,94 @@ pub fn write(
     entries: &[Entry],
 ) -> Result<PathBuf, HistoryPlotError> {
     let out = profiles.join(format!("{sensor}.health.png"));
-    plot(entries)
+    let picture = plot(entries).map_err(|source| HistoryPlotError::Draw {
+        path: out.clone(),
+        source,
+    })?;
+    picture
         .save(&out)
-        .map_err(|source| HistoryPlotError {
+        .map_err(|source| HistoryPlotError::Write {
             path: out.clone(),
             source,
         })?;
     Ok(out)
 }
 
-/// The picture could not be written.
+/// The picture could not be drawn or written.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {}", path.display())]
-pub struct HistoryPlotError {
-    path: PathBuf,
-    #[source]
-    source: image::ImageError,
+pub enum HistoryPlotError {
+    #[error("cannot draw {}", path.display())]
+    Draw {
+        path: PathBuf,
+        #[source]
+        source: PlotError,
+    },
+    #[error("cannot write {}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: image::ImageError,
+    },
 }
 
-/// One panel per figure: its value at each check (blue) and its threshold (red), three panels
-/// a row.
-fn plot(entries: &[Entry]) -> RgbImage {
-    let panels: Vec<RgbImage> = PLOTTED
+/// One panel per figure: its value at each check (blue) and its threshold (red, dashed), three
+/// panels a row; x is the check's number, y the figure in its unit.
+fn plot(entries: &[Entry]) -> Result<RgbImage, PlotError> {
+    let checks = entries.len().max(1) as f64;
+    let charts: Vec<Chart> = PLOTTED
         .iter()
         .map(|key| {
             let mut values = Vec::new();
             let mut thresholds = Vec::new();
-            let mut label = (*key).to_string();
+            let mut unit = String::new();
+            let mut side = "";
             for (k, e) in entries.iter().enumerate() {
                 if let Some(f) = e.assessment.figures.iter().find(|f| f.key == *key) {
                     let x = (k + 1) as f64;
                     values.push([x, f.value]);
                     thresholds.push([x, f.threshold]);
-                    let side = match f.rule {
+                    side = match f.rule {
                         Rule::AtMost => "at most",
                         Rule::AtLeast => "at least",
                     };
-                    label = format!("{key} {}, {side} red", f.unit);
+                    unit = f.unit.clone();
                 }
             }
-            line_plot(
-                &label,
-                "check",
-                &[("value", &values), ("threshold", &thresholds)],
+            // The threshold reaches across the panel: from the left border to the right one.
+            if let (Some(first), Some(last)) =
+                (thresholds.first().copied(), thresholds.last().copied())
+            {
+                thresholds.insert(0, [0.5, first[1]]);
+                thresholds.push([checks + 0.5, last[1]]);
+            }
+            // The key without its unit ("centre_shift_px" -> "centre shift"), the unit spelled
+            // for a reader ("deg" -> "°", a ratio's "x" -> "ratio", a count's "" -> "count").
+            let name = key
+                .trim_end_matches("_px")
+                .trim_end_matches("_deg")
+                .trim_end_matches("_n")
+                .replace('_', " ")
+                .replace("fz rmse", "Fz RMSE");
+            let unit = match unit.as_str() {
+                "deg" => "°",
+                "x" => "ratio",
+                "" => "count",
+                u => u,
+            };
+            let mut title = name.clone();
+            if let Some(c) = title.get(..1) {
+                title = c.to_uppercase() + &title[1..];
+            }
+            Chart::new(
+                title,
+                Axis::new("check number")
+                    .integers()
+                    .range(0.5, checks + 0.5),
+                Axis::new(format!("{name} ({unit})")).from_zero(),
             )
+            .series(Series::line("value", &values, BLUE).with_markers())
+            .series(Series::line(format!("threshold ({side})"), &thresholds, RED).dashed())
         })
         .collect();
-    let (w, h) = panels.first().map_or((1, 1), |p| (p.width(), p.height()));
-    let columns = 3u32;
-    let rows = (panels.len() as u32).div_ceil(columns);
-    let mut out = RgbImage::from_pixel(w * columns, h * rows, image::Rgb([255, 255, 255]));
-    for (k, p) in panels.iter().enumerate() {
-        let (c, r) = (k as u32 % columns, k as u32 / columns);
-        image::imageops::overlay(&mut out, p, i64::from(c * w), i64::from(r * h));
-    }
-    out
+    fringe_plot::panels(&charts, 3, (640, 480))
 }

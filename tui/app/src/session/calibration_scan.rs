@@ -268,6 +268,7 @@ impl CalibrationResult {
                     .map(|p| p.stage_mm)
                     .collect();
                 residual_plot(&r.fit, &stage)
+                    .map_err(|e| failed(&path, &e))?
                     .save(&path)
                     .map_err(|e| failed(&path, &e))?;
                 Some(path)
@@ -278,6 +279,7 @@ impl CalibrationResult {
             Some((frame, spot)) => {
                 let path = dir.join(format!("{}-contact.png", self.sensor));
                 draw_spot(frame, spot, [255, 255, 0])
+                    .map_err(|e| failed(&path, &e))?
                     .save(&path)
                     .map_err(|e| failed(&path, &e))?;
                 Some(path)
