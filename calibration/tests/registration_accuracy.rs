@@ -21,10 +21,10 @@ use fringe_calibration::registration::plot::residual_plot;
 use fringe_calibration::registration::similarity_fit::{FitSettings, Press};
 use fringe_calibration::registration::{contact_spot, register};
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::indenter::Shape;
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::{SensorConfig, Variant};
+use fringe_sim::physics::indenter::Shape;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_sim::sensor::{SensorConfig, Variant};
 use image::RgbImage;
 
 const BACKGROUND_FRAMES: u64 = 4;

@@ -29,7 +29,7 @@ use fringe_rig::store::frame_file::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::run_writer::RunWriter;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::units::Millimetres;
-use fringe_sim::ground_truth::{FrameFate, TruthLog, TruthSink};
+use fringe_sim::ground_truth::records::{FrameFate, TruthLog, TruthSink};
 use fringe_sim::rig::{SimRig, SimRigConfig};
 use std::path::Path;
 use std::sync::Arc;

@@ -432,7 +432,7 @@ fn sim_record(sim: Option<&SimBench>) -> (Option<u64>, Vec<Arc<dyn RunSidecar>>)
 struct BenchOperator<'a> {
     bench: Option<(
         Arc<fringe_sim::bench::Bench>,
-        fringe_sim::sensor::SensorConfig,
+        fringe_sim::optics::sensor::SensorConfig,
     )>,
     inner: &'a mut dyn Operator,
     progress: &'a (dyn Fn(ScanProgress) + Sync),
@@ -542,7 +542,7 @@ mod tests {
     use super::*;
     use fringe_rig::scan::control::{Prompt, Reply};
     use fringe_sim::bench::{Bench, BenchConfig, IndenterTip};
-    use fringe_sim::sensor::SensorConfig;
+    use fringe_sim::optics::sensor::SensorConfig;
 
     /// Nobody at the bench: a prompt that reaches the operator aborts.
     struct Nobody;
@@ -595,8 +595,8 @@ mod tests {
                 let mounted = tip.shape_at(fringe_rig::units::Millimetres(0.5));
                 match (mounted, rendered) {
                     (
-                        fringe_sim::indenter::Shape::Sphere { radius_mm: a, .. },
-                        fringe_sim::indenter::Shape::Sphere { radius_mm: b, .. },
+                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: a, .. },
+                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: b, .. },
                     ) => assert_eq!(a, b),
                     (a, b) => assert_eq!(a, b, "{shape}"),
                 }

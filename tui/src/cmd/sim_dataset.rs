@@ -17,9 +17,9 @@ use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS}
 use fringe_rig::store::durable::write_atomic;
 use fringe_rig::units::Newtons;
 use fringe_sim::dataset::{frame, DatasetSpec, SyntheticFrame, NO_CONTACT_FRACTION};
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::scene::FrameRenderer;
-use fringe_sim::sensor::SensorConfig;
 use std::io::{IsTerminal, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
