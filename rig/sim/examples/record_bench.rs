@@ -23,7 +23,7 @@ use fringe_rig::acquire::camera_stream::CameraStream;
 use fringe_rig::acquire::force_stream::ForceStream;
 use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
 use fringe_rig::camera::{CameraSettings, PixelFormat};
-use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
+use fringe_rig::scan::engine::recording::{labeler_for, LATCH_PERIOD};
 use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
 use fringe_rig::store::frame_file::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::run_writer::RunWriter;

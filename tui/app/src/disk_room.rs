@@ -10,7 +10,6 @@ use crate::recording_part::{disc_cutout, RecordingError};
 use crate::rig_file::RigConfig;
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::writer::format_name;
-use fringe_rig::scan::engine::{RunTarget, ScanSetup};
 use fringe_rig::scan::plan::Plan;
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
@@ -20,6 +19,7 @@ use fringe_rig::store::run_writer::{read_document, read_start, Checkpoint};
 use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::CHECKPOINT;
 use fringe_rig::units::Hertz;
+use fringe_rig::{RunTarget, ScanSetup};
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 

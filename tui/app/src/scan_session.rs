@@ -23,7 +23,6 @@ use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
 #[cfg(feature = "sim")]
 use fringe_rig::scan::control::{Prompt, Reply};
-use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_rig::scan::failure::ScanError;
 use fringe_rig::scan::offset_check::OffsetCheck;
 use fringe_rig::scan::origin::ContactOrigin;
@@ -35,6 +34,7 @@ use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
+use fringe_rig::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_sensor_models::model::{Model, ModelError};
 use fringe_sensor_models::predictor::{PredictError, Predictor};
 use std::path::{Path, PathBuf};

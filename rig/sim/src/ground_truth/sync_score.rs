@@ -34,7 +34,7 @@ use fringe_rig::camera::{Camera, CameraSettings, Frame, TriggerMode};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::ForceSample;
 use fringe_rig::reference_layout::in_contact;
-use fringe_rig::scan::engine::{labeler_for, LATCH_PERIOD};
+use fringe_rig::scan::engine::recording::{labeler_for, LATCH_PERIOD};
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::sync::window::mean_over;
