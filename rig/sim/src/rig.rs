@@ -35,7 +35,7 @@ use crate::physics::ft_sensor::SimFtSensor;
 use crate::physics::motion::SimMotor;
 use crate::scene::{LoadSource, SceneSource};
 use crate::session::salted;
-use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::config::{AptConfig, Controller};
 use fringe_rig::apt::{Actuator, ThorlabsAxis};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
 use fringe_rig::camera::Camera;

@@ -7,7 +7,8 @@ use crate::device_spec::{
     AxisSpec, CameraSpec, DaqNames, DaqSpec, ForceSpec, ModbusLink, ModbusSpec, NetFtScaling,
     NetFtSpec,
 };
-use fringe_rig::apt::driver::{open_serial, AptConfig};
+use fringe_rig::apt::config::AptConfig;
+use fringe_rig::apt::driver::open_serial;
 use fringe_rig::apt::ThorlabsAxis;
 use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource};
 use fringe_rig::axis::{Axis, AxisError};

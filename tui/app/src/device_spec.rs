@@ -4,7 +4,7 @@
 //! opener, so that the same description opens the same driver with the same settings.
 
 use crate::host_port::HostPort;
-use fringe_rig::apt::driver::AptConfig;
+use fringe_rig::apt::config::AptConfig;
 use fringe_rig::atical::ToolTransform;
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::netft::{Command, NetFtConfig, NetFtOptions};

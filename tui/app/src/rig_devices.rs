@@ -10,7 +10,7 @@ use crate::host_port::HostPort;
 use crate::rig_file::{
     daq_settings, AxisDriver, AxisSection, CameraDriver, ForceDriver, ForceSection, RigConfig,
 };
-use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
+use fringe_rig::apt::config::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
 use fringe_rig::apt::status::LimitPolarity;
 use fringe_rig::apt::Actuator;
 use fringe_rig::atical::ToolTransform;

@@ -942,7 +942,7 @@ fn wholly_simulated(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::apt::driver::Controller;
+    use fringe_rig::apt::config::Controller;
     use fringe_rig::units::Millimetres;
 
     const REFERENCE: &str = include_str!("../rigs/reference-bench.toml");

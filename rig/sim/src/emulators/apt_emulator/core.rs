@@ -3,7 +3,7 @@
 
 use crate::physics::motion::{Kinematics, MotorStatus, SimMotor};
 use fringe_rig::apt::actuator::{Actuator, ACTUATORS};
-use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::config::{AptConfig, Controller};
 use fringe_rig::apt::ids::{bay_address, RACK, USB_UNIT};
 use fringe_rig::apt::message::{
     HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
