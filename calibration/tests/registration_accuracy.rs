@@ -14,9 +14,8 @@
 //! table; `FRINGE_REG_PLOTS=DIR` also writes each case's residual plot and a located press.
 
 use fringe_calibration::optical::{find_disc, grey::GreyImage};
-use fringe_calibration::registration::contact_spot::{
-    ContactBackground, ContactError, SpotSettings,
-};
+use fringe_calibration::registration::contact_spot::spot::ContactError;
+use fringe_calibration::registration::contact_spot::{ContactBackground, SpotSettings};
 use fringe_calibration::registration::plot::residual_plot;
 use fringe_calibration::registration::similarity_fit::{FitSettings, Press};
 use fringe_calibration::registration::{contact_spot, register};
