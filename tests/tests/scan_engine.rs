@@ -5,7 +5,8 @@
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::camera::{CameraSettings, TriggerMode};
 use fringe_rig::devices::Devices;
-use fringe_rig::scan::control::{Operator, Phase, Prompt, Reply, ScanControl, ScanProgress};
+use fringe_rig::operator::{Operator, Prompt, Reply};
+use fringe_rig::scan::control::{Phase, ScanControl, ScanProgress};
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan};
 use fringe_rig::scan::press::PressSettings;

@@ -18,12 +18,13 @@ mod runner;
 
 use self::recording::{append_sidecar, finish_recorder, start_recording, Streams};
 use self::runner::{Axes, Ending, Runner, RunnerParts, MOVE_TIMEOUT};
-use super::control::{Operator, ScanControl, ScanProgress};
+use super::control::{ScanControl, ScanProgress};
 use super::failure::ScanError;
 use super::setup::ScanSetup;
 use crate::camera::Camera;
 use crate::devices::Devices;
 use crate::force::ForceSensor;
+use crate::operator::Operator;
 use crate::store::documents::{now_utc, ExitStatus, StartDocument, StopDocument, LAYOUT_VERSION};
 use crate::store::error::StoreError;
 use crate::store::frame_file::FrameStorage;

@@ -18,7 +18,7 @@ use fringe_rig::manual::ManualStage;
 use fringe_rig::modbus::{Framing, MapError, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::netft::{self, NetFt};
 use fringe_rig::nidaqmx::{DaqError, DaqStats, Library, NiDaq, Setting};
-use fringe_rig::scan::control::Operator;
+use fringe_rig::operator::Operator;
 use fringe_rig::trace::record::{record_datagrams, record_stream};
 use fringe_rig::trace::RecordingGauges;
 use fringe_rig::transport::serial::SerialLink;

@@ -19,10 +19,11 @@ use fringe_calibration::profile::{
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
-use fringe_rig::reference_layout::NO_CONTACT;
-use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
+use fringe_rig::operator::Operator;
 #[cfg(feature = "sim")]
-use fringe_rig::scan::control::{Prompt, Reply};
+use fringe_rig::operator::{Prompt, Reply};
+use fringe_rig::reference_layout::NO_CONTACT;
+use fringe_rig::scan::control::{ScanControl, ScanProgress};
 use fringe_rig::scan::failure::ScanError;
 use fringe_rig::scan::offset_check::OffsetCheck;
 use fringe_rig::scan::origin::ContactOrigin;
@@ -540,7 +541,7 @@ fn calibration_profile(
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::scan::control::{Prompt, Reply};
+    use fringe_rig::operator::{Prompt, Reply};
     use fringe_sim::bench::{Bench, BenchConfig, IndenterTip};
     use fringe_sim::optics::sensor::SensorConfig;
 
