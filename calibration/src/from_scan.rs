@@ -5,9 +5,8 @@
 use crate::frames::{self, FrameError};
 use crate::offsets::{self, Bias, Drift, ForceOffsets};
 use crate::optical::{self, grey::GreyImage, DiscFit, OpticalError};
-use crate::registration::contact_spot::{
-    ContactBackground, ContactError, ContactSpot, SpotSettings,
-};
+use crate::registration::contact_spot::spot::{ContactError, ContactSpot};
+use crate::registration::contact_spot::{ContactBackground, SpotSettings};
 use crate::registration::similarity_fit::{FitError, FitSettings, Press};
 use crate::registration::{register, RegistrationFit};
 use crate::scan_run::ScanRun;

@@ -17,7 +17,7 @@
 //! 6. the crop radius ([`crop`]).
 //!
 //! Coordinates: image px, x right, y down, pixel (i, j) centred at (i + 0.5, j + 0.5) — the
-//! convention of the simulated bench (`fringe_sim::sensor::SensorGeometry`).
+//! convention of the simulated bench (`fringe_sim::optics::sensor::SensorGeometry`).
 //!
 //! No sensor in view is an error, not a circle: fewer than 40 % of the rays show an edge, fewer
 //! than 50 % of them agree on one circle, an RMS residual above 2 px, or a disc contrast under 8

@@ -1,4 +1,4 @@
-//! Force offsets against the simulated F/T sensor (`fringe_sim::ft_sensor`: 0.05 N white
+//! Force offsets against the simulated F/T sensor (`fringe_sim::physics::ft_sensor`: 0.05 N white
 //! noise, random-walk drift, a power-up bias) with a known added linear drift: the bias within
 //! 0.01 N of the truth, the drift slope recovered, the zero-load check warning after a power
 //! cycle.
@@ -8,7 +8,7 @@ use fringe_calibration::offsets::{
 };
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::Wrench;
-use fringe_sim::ft_sensor::{FtNoiseConfig, SimFtSensor};
+use fringe_sim::physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
 use fringe_sim::scene::{ForceReading, LoadSource};
 use std::sync::Arc;
 

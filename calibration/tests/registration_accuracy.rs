@@ -14,17 +14,16 @@
 //! table; `FRINGE_REG_PLOTS=DIR` also writes each case's residual plot and a located press.
 
 use fringe_calibration::optical::{find_disc, grey::GreyImage};
-use fringe_calibration::registration::contact_spot::{
-    ContactBackground, ContactError, SpotSettings,
-};
+use fringe_calibration::registration::contact_spot::spot::ContactError;
+use fringe_calibration::registration::contact_spot::{ContactBackground, SpotSettings};
 use fringe_calibration::registration::plot::residual_plot;
 use fringe_calibration::registration::similarity_fit::{FitSettings, Press};
 use fringe_calibration::registration::{contact_spot, register};
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::indenter::Shape;
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::{SensorConfig, Variant};
+use fringe_sim::physics::indenter::Shape;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_sim::sensor::{SensorConfig, Variant};
 use image::RgbImage;
 
 const BACKGROUND_FRAMES: u64 = 4;

@@ -10,6 +10,8 @@
 //!   an NI-DAQmx device, a y stage moved by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
 //! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
 //!   the recording threads; [`realtime`]: real-time scheduling for the threads that keep its time.
+//! - [`operator`]: the person at the bench ([`Operator`]), asked by the scan and by a stage moved
+//!   by hand.
 //! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes;
 //!   [`reference_layout`]: the reference pipeline's dataset layout (`0.images/`, `0.labels.csv`).
 //! - [`config_file`], [`seeded`]: the one TOML loader and the one seeded generator.
@@ -38,6 +40,7 @@ pub mod manual;
 pub mod modbus;
 pub mod netft;
 pub mod nidaqmx;
+pub mod operator;
 pub mod realtime;
 pub mod reference_layout;
 pub mod scan;
@@ -61,11 +64,13 @@ pub use devices::Devices;
 pub use force::{ForceError, ForceSample, ForceSensor};
 pub use modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 pub use netft::{NetFt, NetFtConfig, NetFtOptions};
-pub use scan::control::{Operator, ScanControl};
-pub use scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
+pub use operator::Operator;
+pub use scan::control::ScanControl;
+pub use scan::engine::{run_scan, RunTarget, ScanOutcome};
 pub use scan::failure::ScanError;
 pub use scan::origin::ContactOrigin;
 pub use scan::plan::{BenchLimits, Plan, ScanProgram};
+pub use scan::setup::ScanSetup;
 pub use sync::method::SyncMethod;
 pub use trace::{ReplayOptions, Trace};
 pub use transport::{ByteLink, DatagramLink};

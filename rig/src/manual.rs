@@ -5,7 +5,7 @@
 //! reads lines from stdin, the UI's answers through the UI, and tests script the answers.
 
 use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
-use crate::scan::control::Operator;
+use crate::operator::Operator;
 use crate::units::Millimetres;
 use std::io;
 use std::time::Duration;
@@ -181,7 +181,7 @@ impl Axis for ManualStage {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scan::control::{Prompt, Reply};
+    use crate::operator::{Prompt, Reply};
 
     /// An operator that takes no typed answers (the trait's default).
     struct Untyped;

@@ -1,8 +1,11 @@
 //! Scans: moving the indenter and pressing under force control.
 //!
 //! - [`plan`]: scan plans (plan.toml), validation against the bench, point order, estimates.
+//! - [`setup`]: what a scan is given besides the devices ([`setup::ScanSetup`]).
 //! - [`engine`]: running a scan program on a bench into a run (threads, checkpoints, pause,
-//!   resume, abort, crash recovery).
+//!   resume, abort, crash recovery): the run's lifecycle in `engine.rs`, the recorder's wiring
+//!   in `engine/recording.rs`, and the runner of the points in `engine/runner.rs` with its work
+//!   in `points.rs`, `no_contact.rs`, `motions.rs` and `indentation.rs` beside it.
 //! - [`control`]: pause/resume/abort requests, operator prompts, progress.
 //! - [`watchers`]: force ceiling, F/T silence and camera drops, acted on at once.
 //! - [`clearance`]: no load at the safe height, at a tare or on a lateral move.
@@ -26,5 +29,6 @@ pub mod panic_stop;
 pub mod plan;
 pub mod press;
 pub mod resume_check;
+pub mod setup;
 pub mod sidecar;
 pub mod watchers;

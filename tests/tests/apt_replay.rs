@@ -1,6 +1,6 @@
 //! Replays hand-built APT traces (tests/traces/apt/*.trace) through `ThorlabsAxis`.
 
-use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};
+use fringe_rig::apt::config::{AptConfig, Controller, Timeouts};
 use fringe_rig::apt::{Actuator, LimitPolarity, ThorlabsAxis};
 use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
 use fringe_rig::trace::{ReplayHandle, ReplayLink, ReplayOptions, Trace};

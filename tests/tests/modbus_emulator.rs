@@ -1,4 +1,4 @@
-//! The emulated Modbus y stage (fringe_sim::modbus_emulator) against the real ModbusStage
+//! The emulated Modbus y stage (fringe_sim::emulators::modbus_emulator) against the real ModbusStage
 //! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
 //! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
 
@@ -10,8 +10,8 @@ use fringe_rig::transport::serial::SerialLink;
 use fringe_rig::transport::tcp::TcpLink;
 use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
-use fringe_sim::modbus_emulator::ModbusEmulator;
-use fringe_sim::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_sim::emulators::modbus_emulator::ModbusEmulator;
+use fringe_sim::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};

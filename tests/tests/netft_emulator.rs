@@ -1,4 +1,4 @@
-//! The emulated Net F/T box (fringe_sim::netft_emulator) against the real NetFt driver, in
+//! The emulated Net F/T box (fringe_sim::emulators::netft_emulator) against the real NetFt driver, in
 //! process and over loopback UDP with the configuration read over HTTP, and against an independent
 //! client from PyPI (pynetft, driven by tests/python/netft_client.py).
 
@@ -10,7 +10,7 @@ use fringe_rig::netft::{fetch_config, Command, NetFt, NetFtOptions};
 use fringe_rig::transport::udp::UdpLink;
 use fringe_rig::transport::DatagramLink;
 use fringe_rig::units::Wrench;
-use fringe_sim::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+use fringe_sim::emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 use fringe_sim::scene::ForceReading;
 use std::process::Command as Process;
 use std::time::{Duration, Instant};

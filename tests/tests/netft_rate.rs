@@ -4,7 +4,7 @@
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::netft_box::{SimNetFt, SimOptions};
+use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
 use std::time::{Duration, Instant};
 
 #[test]

@@ -5,8 +5,8 @@
 use fringe_rig::axis::SoftLimits;
 use fringe_rig::camera::{CameraSettings, TriggerMode};
 use fringe_rig::devices::Devices;
-use fringe_rig::scan::control::{Operator, Phase, Prompt, Reply, ScanControl, ScanProgress};
-use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
+use fringe_rig::operator::{Operator, Prompt, Reply};
+use fringe_rig::scan::control::{Phase, ScanControl, ScanProgress};
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, Plan};
 use fringe_rig::scan::press::PressSettings;
@@ -19,8 +19,9 @@ use fringe_rig::store::RunReader;
 use fringe_rig::sync::method::SyncMethod;
 use fringe_rig::sync::trigger::TriggerTiming;
 use fringe_rig::units::{Hertz, Microseconds, Millimetres, Newtons};
+use fringe_rig::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_sim::bench::AxisConfig;
-use fringe_sim::ground_truth::{TruthLog, TruthSink};
+use fringe_sim::ground_truth::records::{TruthLog, TruthSink};
 use fringe_sim::rig::{SimRig, SimRigConfig};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -246,7 +247,8 @@ fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
         }
     }
     let rms = (force_errors.iter().map(|e| e * e).sum::<f64>() / force_errors.len() as f64).sqrt();
-    let score = fringe_sim::label_score::score(&records, &truth.frames()).expect("score");
+    let score =
+        fringe_sim::ground_truth::label_score::score(&records, &truth.frames()).expect("score");
     assert_eq!(score.frames, records.len());
     assert!((score.force_rms_n - rms).abs() < 1e-9);
     assert!(score.contact_rms_mm < 0.05, "{score:?}");
@@ -278,7 +280,7 @@ fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger
     );
     let text = plan("[12.0]", "[25.0]", "force_targets = [2.0, 4.0]", 0.3);
     let mut setup = setup(&rig, &text);
-    let camera = fringe_sim::camera_emulator::SimCameraConfig::default();
+    let camera = fringe_sim::emulators::camera_emulator::SimCameraConfig::default();
     setup.sync = SyncMethod::Trigger;
     setup.camera.trigger = TriggerMode::Hardware("Line1".into());
     setup.trigger = Some(TriggerTiming {
@@ -309,7 +311,8 @@ fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger
         "every frame labelled: {:?}",
         records.iter().find(|r| r.wrench.is_none())
     );
-    let score = fringe_sim::label_score::score(&records, &truth.frames()).expect("score");
+    let score =
+        fringe_sim::ground_truth::label_score::score(&records, &truth.frames()).expect("score");
     assert!(score.force_rms_n < 0.15, "{score:?}");
     let start: StartDocument = RunReader::at(&out.run_dir).start().expect("start document");
     assert_eq!(start.sync_method, "trigger");

@@ -1,4 +1,4 @@
-//! The emulated APT stepper controller (fringe_sim::apt_emulator) against the real
+//! The emulated APT stepper controller (fringe_sim::emulators::apt_emulator) against the real
 //! ThorlabsAxis driver (in process and over a pseudo-terminal), against raw bytes, and against
 //! two independent clients from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py,
 //! and pyLabLib's KinesisMotor, tests/python/apt_pylablib_client.py), run with FRINGE_PYTHON.
@@ -13,8 +13,8 @@ use fringe_rig::clock::HostTime;
 use fringe_rig::transport::memory::byte_pair;
 use fringe_rig::transport::ByteLink;
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
-use fringe_sim::apt_emulator::{AptEmulator, AptEmulatorConfig, KeepAlive};
-use fringe_sim::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_sim::emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, KeepAlive};
+use fringe_sim::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use fringe_tests::{python, python_script};
 use std::process::Command;
 use std::sync::Arc;

@@ -8,10 +8,12 @@ use fringe_rig::clock::HostTime;
 use fringe_rig::force::{ForceSample, ForceSensor};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
 use fringe_sim::bench::{Bench, BenchConfig};
-use fringe_sim::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY};
-use fringe_sim::daq_emulator::{SimDaq, SimDaqConfig};
-use fringe_sim::ft_sensor::SimFtSensor;
-use fringe_sim::ground_truth::{FrameFate, TruthLog};
+use fringe_sim::emulators::camera_emulator::{
+    ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY,
+};
+use fringe_sim::emulators::daq_emulator::{SimDaq, SimDaqConfig};
+use fringe_sim::ground_truth::records::{FrameFate, TruthLog};
+use fringe_sim::physics::ft_sensor::SimFtSensor;
 use fringe_sim::scene::{FrameRenderer, Scene, SceneSource};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -420,13 +422,13 @@ fn lowering_z_over_the_sensor_reads_growing_force_through_the_daq() {
     config.z.power_up_mm = 14.0; // 1 mm above the surface
     let bench = Bench::new(config.clone());
     let z = bench.motor_z();
-    z.set_kinematics(fringe_sim::motion::Kinematics {
+    z.set_kinematics(fringe_sim::physics::motion::Kinematics {
         velocity: MillimetresPerSecond(2.5),
         acceleration: MillimetresPerSecondSquared(50.0),
     });
     // Put the indenter over (4, -3) mm first (moves in simulated time, instantly done by t0).
     let (x, y) = bench.stage_xy_for(Millimetres(4.0), Millimetres(-3.0));
-    let fast = fringe_sim::motion::Kinematics {
+    let fast = fringe_sim::physics::motion::Kinematics {
         velocity: MillimetresPerSecond(20.0),
         acceleration: MillimetresPerSecondSquared(100.0),
     };
@@ -514,7 +516,7 @@ fn lowering_z_over_the_sensor_reads_growing_force_through_the_daq() {
 #[test]
 fn frames_show_the_scene_at_mid_exposure() {
     use fringe_rig::units::Newtons;
-    use fringe_sim::indenter::Shape;
+    use fringe_sim::physics::indenter::Shape;
     use fringe_sim::scene::Contact;
     /// Force = host milliseconds modulo 20, so the rendered level (10 DN per N) tells the instant.
     struct Clockwork;

@@ -4,7 +4,7 @@
 //! the labelled Fz during presses.
 
 use fringe_rig::sync::method::SyncMethod;
-use fringe_sim::sync_score::{self, SyncBenchConfig};
+use fringe_sim::ground_truth::sync_score::{self, SyncBenchConfig};
 
 #[test]
 fn strobe_and_clock_fit_place_windows_within_their_bounds_and_host_lags() {

@@ -2,7 +2,7 @@
 
 use fringe_rig::axis::{Axis, AxisError, SoftLimits};
 use fringe_rig::manual::ManualStage;
-use fringe_rig::scan::control::{Operator, Prompt, Reply};
+use fringe_rig::operator::{Operator, Prompt, Reply};
 use fringe_rig::units::Millimetres;
 use std::collections::VecDeque;
 use std::io;

@@ -8,7 +8,7 @@ use fringe_rig::modbus::codec as modbus_codec;
 use fringe_rig::netft::rdt;
 use fringe_rig::store::force_log;
 use fringe_rig::{clock::HostTime, modbus::RegisterMap};
-use fringe_sim::modbus_emulator::core::ModbusCore;
+use fringe_sim::emulators::modbus_emulator::core::ModbusCore;
 use fringe_sim::{BenchConfig, SimMotor};
 use std::sync::{Arc, OnceLock};
 
@@ -72,7 +72,7 @@ pub fn modbus(data: &[u8]) {
             let _ = modbus_codec::match_reply(request, response);
         }
     }
-    let _ = fringe_sim::modbus_emulator::core::decode_request_pdu(data);
+    let _ = fringe_sim::emulators::modbus_emulator::core::decode_request_pdu(data);
     for map in builtin_maps() {
         let mut core = ModbusCore::new(
             map.clone(),

@@ -30,9 +30,9 @@
 use fringe_rig::camera::PixelFormat;
 use fringe_rig::store::frames::fgl::{self, Pattern};
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_sim::sensor::SensorConfig;
 use std::io::Cursor;
 use std::time::Instant;
 

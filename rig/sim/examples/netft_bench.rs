@@ -11,7 +11,7 @@
 use fringe_rig::force::ForceSensor;
 use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::netft_box::{SimNetFt, SimOptions};
+use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 

@@ -8,9 +8,9 @@
 //! to the disc and its LED ring and downscaled to 320x320.
 
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_sim::sensor::SensorConfig;
 use image::imageops::FilterType;
 use image::RgbImage;
 

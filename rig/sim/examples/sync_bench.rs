@@ -6,7 +6,7 @@
 //! force blocks arriving 0-JITTER_MS late, 5 ms camera readout, 1 mm presses every 2 s; `trigger`:
 //! the camera triggered by the DAQ's counter, and the `trigger` method scored too).
 
-use fringe_sim::sync_score::{self, SyncBenchConfig};
+use fringe_sim::ground_truth::sync_score::{self, SyncBenchConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

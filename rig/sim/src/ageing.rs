@@ -42,23 +42,23 @@
 //! - `leds_out` (LED indices below the sensor's `leds.count`, default none): added to the sensor
 //!   file's `leds.out`. A dead LED k loses its hot spot and takes
 //!   (1 / count) (1 + clamp((x cos a_k + y sin a_k) / R, -1, 1)) of the illumination at
-//!   sensor-frame point (x, y), a_k its angle, R the disc radius ([`crate::background::LedLoss`]).
+//!   sensor-frame point (x, y), a_k its angle, R the disc radius ([`crate::optics::background::LedLoss`]).
 //! - `camera_shift_px` ([dx, dy], each within +-500 px, default [0, 0]): added to
 //!   `geometry.centre_offset_px`. Given in px of the full 1920x1200 frame: a rig file's
 //!   `image_scale` scales it like the rest of the geometry.
 //! - `camera_rotation_deg` (-180..=180, default 0): added to `geometry.rotation_deg` (about the
 //!   optical centre).
 //! - `ft_offset_n` ([fx, fy, fz], each within +-100 N, default 0): added to the F/T sensor's
-//!   power-up bias at every power cycle ([`crate::ft_sensor`]); the ground truth's `ft_bias`
+//!   power-up bias at every power cycle ([`crate::physics::ft_sensor`]); the ground truth's `ft_bias`
 //!   includes it.
-//! - `[[sim.ageing.scratches]]` (keys as in [`crate::scratch`]): added to the sensor file's
+//! - `[[sim.ageing.scratches]]` (keys as in [`crate::optics::scratch`]): added to the sensor file's
 //!   `[[surface.scratches]]`; rendered into the unloaded background.
 
 use serde::{Deserialize, Serialize};
 
 use crate::bench::BenchConfig;
-use crate::scratch::Scratch;
-use crate::sensor::SensorConfig;
+use crate::optics::scratch::Scratch;
+use crate::optics::sensor::SensorConfig;
 
 /// What changed in a unit since it was accepted. See the module documentation.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -253,8 +253,8 @@ impl Ageing {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::elastic_force;
-    use crate::render::Renderer;
+    use crate::optics::render::Renderer;
+    use crate::physics::contact::elastic_force;
     use crate::scene::FrameRenderer;
     use crate::test_support::{contact, disc_pixels, grey, quiet, render};
     use fringe_rig::units::Millimetres;
@@ -540,7 +540,7 @@ mod tests {
         assert!((after / before - 0.8).abs() < 1e-9, "{before} -> {after}");
         let mut sensor = SensorConfig::layered();
         let radius = |s: &SensorConfig| match s.sphere(9.0) {
-            crate::indenter::Shape::Sphere {
+            crate::physics::indenter::Shape::Sphere {
                 contact_radius_mm, ..
             } => contact_radius_mm,
             other => panic!("not a sphere: {other:?}"),

@@ -16,12 +16,12 @@
 //! slightly in the past (the camera asks for the middle of an exposure that has ended) is
 //! interpolated. Queries before the history return its oldest state.
 
-use crate::contact::{
+use crate::physics::contact::{
     contact_radius, ContactGeometry, ContactMaterial, ContactModel, SurfaceConfig, SurfaceHeight,
 };
-use crate::ft_config::{FtMount, FtNoiseConfig};
-use crate::indenter::Shape;
-use crate::motion::{Kinematics, MotorSpec, SimMotor};
+use crate::physics::ft_config::{FtMount, FtNoiseConfig};
+use crate::physics::indenter::Shape;
+use crate::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use crate::scene::{Contact, LoadSource, Scene, SceneSource};
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::{
@@ -207,7 +207,7 @@ pub struct BenchConfig {
     /// Where the indenter tip sits relative to the F/T origin.
     pub mount: FtMount,
     /// Noise, drift and bias of the F/T sensor built on this bench
-    /// ([`crate::ft_sensor::SimFtSensor`]).
+    /// ([`crate::physics::ft_sensor::SimFtSensor`]).
     pub ft_noise: FtNoiseConfig,
     /// Longest contact-model step while advancing, ms.
     pub max_step_ms: f64,

@@ -19,10 +19,10 @@
 //! ([`FtNoiseConfig`] defaults: 0.05 N per force axis, 1.5 mN m per torque axis; a tared sensor:
 //! no power-up bias or drift). No-contact frames carry that noise alone.
 
-use crate::ft_config::{FtMount, FtNoiseConfig};
-use crate::indenter::Shape;
+use crate::optics::sensor::SensorConfig;
+use crate::physics::ft_config::{FtMount, FtNoiseConfig};
+use crate::physics::indenter::Shape;
 use crate::scene::{Contact, Scene};
-use crate::sensor::SensorConfig;
 use fringe_rig::seeded::{mix, SplitMix64};
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
 

@@ -19,8 +19,8 @@
 //!                       # reboot: how long the box is down (s), required
 //! ```
 
-use crate::motion::SimMotor;
-use crate::netft_emulator::PowerSwitch;
+use crate::emulators::netft_emulator::PowerSwitch;
+use crate::physics::motion::SimMotor;
 use fringe_rig::camera::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
 use fringe_rig::clock::HostTime;
 use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};

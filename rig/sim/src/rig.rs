@@ -16,24 +16,26 @@
 //! third-party software (`fringe sim serve`).
 
 use crate::ageing::Ageing;
-use crate::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
 use crate::bench::{AxisConfig, Bench, BenchConfig};
-use crate::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig, TriggerInput};
-use crate::daq_emulator::{SimDaq, SimDaqConfig};
+use crate::emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
+use crate::emulators::camera_emulator::{
+    ExposureSchedule, SimCamera, SimCameraConfig, TriggerInput,
+};
+use crate::emulators::daq_emulator::{SimDaq, SimDaqConfig};
+use crate::emulators::modbus_emulator::ModbusEmulator;
+use crate::emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 use crate::faults::{
     FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyCamera, FaultyDatagrams,
     FaultyForce, FaultyLink,
 };
-use crate::ft_sensor::SimFtSensor;
-use crate::ground_truth::TruthSink;
-use crate::modbus_emulator::ModbusEmulator;
-use crate::motion::SimMotor;
-use crate::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
-use crate::render::Renderer;
+use crate::ground_truth::records::TruthSink;
+use crate::optics::render::Renderer;
+use crate::optics::sensor::SensorConfig;
+use crate::physics::ft_sensor::SimFtSensor;
+use crate::physics::motion::SimMotor;
 use crate::scene::{LoadSource, SceneSource};
-use crate::sensor::SensorConfig;
 use crate::session::salted;
-use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::config::{AptConfig, Controller};
 use fringe_rig::apt::{Actuator, ThorlabsAxis};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
 use fringe_rig::camera::Camera;
@@ -630,10 +632,10 @@ mod tests {
         s.field.cells = 64;
         s.field.cell_mm = 1.2;
         let bias_of = |config: &SimRigConfig| {
-            let log = crate::ground_truth::TruthLog::new();
+            let log = crate::ground_truth::records::TruthLog::new();
             let (rig, _devices) = SimRig::start(config, Some(log.clone())).expect("sim rig");
             let bias = log.records().into_iter().find_map(|r| match r {
-                crate::ground_truth::TruthRecord::FtBias { bias, .. } => Some(bias),
+                crate::ground_truth::records::TruthRecord::FtBias { bias, .. } => Some(bias),
                 _ => None,
             });
             (rig.config.clone(), bias.expect("an ft_bias record"))

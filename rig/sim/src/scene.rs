@@ -6,8 +6,8 @@
 //! load: noise, drift, bias), the camera emulator renders a [`Scene`] with a [`FrameRenderer`].
 //! These traits keep the emulators, the bench and the renderer independent of each other.
 
-use crate::indenter::Shape;
-use crate::pixel_format;
+use crate::optics::pixel_format;
+use crate::physics::indenter::Shape;
 use fringe_rig::camera::PixelFormat;
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::{Millimetres, Newtons, Wrench};
@@ -72,7 +72,7 @@ pub trait FrameRenderer: Send {
     /// Image height in pixels.
     fn height(&self) -> u32;
     /// Renders `scene` as frame number `frame_index` (drives noise, flicker and drift) into `out`,
-    /// resized to width * height * 3 bytes. The same renderer (for [`crate::render::Renderer`]:
+    /// resized to width * height * 3 bytes. The same renderer (for [`crate::optics::render::Renderer`]:
     /// the same sensor seed and session), scene and frame index give the same bytes.
     fn render(&mut self, scene: &Scene, frame_index: u64, out: &mut Vec<u8>);
 

@@ -1,10 +1,10 @@
 //! Helpers of this crate's unit tests: small sensor builds that render fast, a contact, a
 //! rendered frame and its grey levels.
 
-use crate::indenter::Shape;
-use crate::render::Renderer;
+use crate::optics::render::Renderer;
+use crate::optics::sensor::SensorConfig;
+use crate::physics::indenter::Shape;
 use crate::scene::{Contact, FrameRenderer, Scene};
-use crate::sensor::SensorConfig;
 use fringe_rig::units::{Millimetres, Newtons};
 
 /// A 320x200 sensor at 3 px/mm (disc radius 90 px = 30 mm), coarse field grid.

@@ -9,7 +9,7 @@ use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
 use fringe_rig::scan::press::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
 use fringe_rig::units::{Millimetres, Newtons};
 use fringe_rig::units::{MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
-use fringe_sim::motion::{MotorSpec, SimMotor};
+use fringe_sim::physics::motion::{MotorSpec, SimMotor};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};

@@ -1,179 +1,28 @@
 //! [`ThorlabsAxis`]: a Thorlabs stepper axis (KST101, KST201, BSC20x) over any [`ByteLink`].
 //!
-//! One I/O thread per axis owns the link: it reads continuously, decodes frames, keeps the latest
-//! status, forwards replies and end-of-move messages to the axis, and (K-Cubes) sends the
-//! MOT_ACK_USTATUSUPDATE keep-alive. The [`Axis`] methods send commands to it over a channel.
-//! BSC20x controllers get no update messages; the axis polls MOT_REQ_STATUSUPDATE instead.
+//! One I/O thread per axis owns the link (`io_thread.rs`): it reads continuously, decodes frames,
+//! keeps the latest status, forwards replies and end-of-move messages to the axis, and (K-Cubes)
+//! sends the MOT_ACK_USTATUSUPDATE keep-alive. The [`Axis`] methods send commands to it over a
+//! channel; [`Axis::wait_idle`] waits for the end of the motion (`end_of_move.rs`). BSC20x
+//! controllers get no update messages; the axis polls MOT_REQ_STATUSUPDATE instead.
 
-use super::actuator::Actuator;
 use super::codec::encode;
-use super::ids::{bay_address, id, USB_UNIT};
+use super::config::AptConfig;
+use super::ids::id;
+use super::io_thread::{is_end_of_move, lock, Command, IoThread, Observed, Shared};
 use super::message::{HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode as AptStop};
-use super::status::{LimitPolarity, StatusBits, FAULT_MASK};
-use super::stream::{Flow, StreamDecoder};
-use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
+use super::pending::{Pending, IDLE_STOP};
+use super::status::StatusBits;
+use crate::axis::{Axis, AxisError, AxisStatus, StopMode};
 use crate::transport::serial::{Parity, SerialLink, SerialSettings};
 use crate::transport::ByteLink;
-use crate::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use crate::units::Millimetres;
 use crossbeam_channel::{bounded, unbounded, Receiver, RecvTimeoutError, Sender};
 use std::collections::VecDeque;
-use std::fmt;
 use std::io;
-use std::str::FromStr;
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-
-/// The controller model.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Controller {
-    Kst101,
-    Kst201,
-    Bsc201,
-    Bsc202,
-    Bsc203,
-}
-
-impl Controller {
-    /// K-Cubes run on update messages with a keep-alive; BSC20x are polled.
-    pub fn uses_update_messages(self) -> bool {
-        matches!(self, Controller::Kst101 | Controller::Kst201)
-    }
-
-    /// The address of this controller: K-Cubes and a BSC201 without a bay are the USB unit
-    /// 0x50; a BSC202/203 channel is a rack bay (0x21 + bay, bay 0 by default).
-    pub fn address(self, bay: Option<u8>) -> Option<u8> {
-        match (self, bay) {
-            (Controller::Kst101 | Controller::Kst201, _) => Some(USB_UNIT),
-            (Controller::Bsc201, None) => Some(USB_UNIT),
-            (_, Some(b)) => bay_address(b),
-            (_, None) => bay_address(0),
-        }
-    }
-}
-
-/// A controller name that is not one of the supported models.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown Thorlabs controller `{0}` (use kst101, kst201, bsc201, bsc202 or bsc203)")]
-pub struct UnknownController(pub String);
-
-impl FromStr for Controller {
-    type Err = UnknownController;
-    fn from_str(s: &str) -> Result<Self, UnknownController> {
-        match s.to_ascii_lowercase().as_str() {
-            "kst101" => Ok(Controller::Kst101),
-            "kst201" => Ok(Controller::Kst201),
-            "bsc201" => Ok(Controller::Bsc201),
-            "bsc202" => Ok(Controller::Bsc202),
-            "bsc203" => Ok(Controller::Bsc203),
-            other => Err(UnknownController(other.to_string())),
-        }
-    }
-}
-
-impl fmt::Display for Controller {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Controller::Kst101 => "KST101",
-            Controller::Kst201 => "KST201",
-            Controller::Bsc201 => "BSC201",
-            Controller::Bsc202 => "BSC202",
-            Controller::Bsc203 => "BSC203",
-        })
-    }
-}
-
-/// Direction of the homing run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum HomeDirection {
-    Forward = 1,
-    Reverse = 2,
-}
-
-/// Limit switch the homing run looks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum HomeLimitSwitch {
-    Reverse = 1,
-    Forward = 4,
-}
-
-/// Home parameters, in millimetres.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HomeConfig {
-    pub direction: HomeDirection,
-    pub limit_switch: HomeLimitSwitch,
-    pub velocity: MillimetresPerSecond,
-    pub offset: Millimetres,
-}
-
-/// Timing of the driver.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Timeouts {
-    /// How long to wait for the reply to a request.
-    pub reply: Duration,
-    /// Status poll period while waiting for a BSC20x move.
-    pub poll_period: Duration,
-    /// Period of MOT_ACK_USTATUSUPDATE on K-Cubes (the controller needs one at least every
-    /// second).
-    pub keepalive_period: Duration,
-    /// How long the I/O thread blocks in one read before looking at commands again.
-    pub read_slice: Duration,
-}
-
-impl Default for Timeouts {
-    fn default() -> Self {
-        Timeouts {
-            reply: Duration::from_secs(2),
-            poll_period: Duration::from_millis(100),
-            keepalive_period: Duration::from_millis(900),
-            read_slice: Duration::from_millis(5),
-        }
-    }
-}
-
-/// Configuration of one Thorlabs axis.
-#[derive(Debug, Clone, PartialEq)]
-pub struct AptConfig {
-    /// Axis name ("x", "z", "y").
-    pub axis: String,
-    pub controller: Controller,
-    /// Rack bay (0..=9) of a BSC20x channel; `None` for K-Cubes and a BSC201 as a USB unit.
-    pub bay: Option<u8>,
-    /// Channel ident in messages (1 for single-channel units and bays).
-    pub channel: u8,
-    pub actuator: Actuator,
-    pub velocity: MillimetresPerSecond,
-    pub acceleration: MillimetresPerSecondSquared,
-    pub home: HomeConfig,
-    pub soft_limits: Option<SoftLimits>,
-    pub limit_polarity: LimitPolarity,
-    pub timeouts: Timeouts,
-}
-
-impl AptConfig {
-    /// A configuration with conservative defaults: 1 mm/s, 1 mm/s^2, homing in reverse onto the
-    /// reverse limit at 1 mm/s with no offset, no soft limits.
-    pub fn new(axis: &str, controller: Controller, actuator: Actuator) -> Self {
-        AptConfig {
-            axis: axis.to_string(),
-            controller,
-            bay: None,
-            channel: 1,
-            actuator,
-            velocity: MillimetresPerSecond(1.0),
-            acceleration: MillimetresPerSecondSquared(1.0),
-            home: HomeConfig {
-                direction: HomeDirection::Reverse,
-                limit_switch: HomeLimitSwitch::Reverse,
-                velocity: MillimetresPerSecond(1.0),
-                offset: Millimetres(0.0),
-            },
-            soft_limits: None,
-            limit_polarity: LimitPolarity::Bit0Forward,
-            timeouts: Timeouts::default(),
-        }
-    }
-}
 
 /// Opens a Thorlabs controller's serial port: 115200 8N1 with RTS/CTS, then the open sequence
 /// (wait 50 ms, purge both buffers, wait 50 ms, pulse RTS).
@@ -197,191 +46,27 @@ pub fn open_serial(path: &str) -> io::Result<SerialLink> {
     Ok(link)
 }
 
-/// What the I/O thread last saw of the axis.
-#[derive(Debug, Clone, Copy)]
-struct Observed {
-    position: i32,
-    status: u32,
-}
-
-#[derive(Default)]
-struct Shared {
-    latest: Option<Observed>,
-    /// When `latest` arrived.
-    latest_at: Option<Instant>,
-    /// Status messages seen so far (to tell a fresh status from one older than a motion).
-    updates: u64,
-    /// `updates` when the last end-of-move message came: a status counted after it is from
-    /// after the motion's end.
-    updates_at_end: u64,
-    link_error: Option<String>,
-}
-
-enum Command {
-    Write(Vec<u8>, Sender<io::Result<()>>),
-    KeepAlive(bool),
-}
-
-fn lock(shared: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
-    shared.lock().unwrap_or_else(|p| p.into_inner())
-}
-
-struct IoThread {
-    link: Box<dyn ByteLink>,
-    address: u8,
-    channel: u16,
-    commands: Receiver<Command>,
-    events: Sender<Packet>,
-    shared: Arc<Mutex<Shared>>,
-    timeouts: Timeouts,
-    /// Status requests sent whose replies the axis is waiting for.
-    status_requests: usize,
-}
-
-impl IoThread {
-    fn run(mut self) {
-        let mut decoder = StreamDecoder::new(Flow::FromDevice);
-        let mut buf = [0u8; 512];
-        let mut keepalive: Option<Instant> = None;
-        let ack = encode(&Packet::to_device(self.address, Message::AckUStatusUpdate));
-        loop {
-            loop {
-                match self.commands.try_recv() {
-                    Ok(Command::Write(bytes, reply)) => {
-                        let id = u16::from_le_bytes([bytes[0], bytes[1]]);
-                        if id == id::MOT_REQ_STATUSUPDATE || id == id::MOT_REQ_USTATUSUPDATE {
-                            self.status_requests += 1;
-                        }
-                        let _ = reply.send(self.link.write_all(&bytes));
-                    }
-                    Ok(Command::KeepAlive(on)) => {
-                        keepalive = on.then(|| Instant::now() + self.timeouts.keepalive_period);
-                    }
-                    Err(crossbeam_channel::TryRecvError::Empty) => break,
-                    Err(crossbeam_channel::TryRecvError::Disconnected) => return,
-                }
-            }
-            if let Some(due) = keepalive {
-                if Instant::now() >= due {
-                    if let Err(e) = self.link.write_all(&ack) {
-                        lock(&self.shared).link_error =
-                            Some(format!("sending the keep-alive: {e}"));
-                        return;
-                    }
-                    keepalive = Some(due + self.timeouts.keepalive_period);
-                }
-            }
-            match self.link.read(&mut buf, self.timeouts.read_slice) {
-                Ok(0) => {}
-                Ok(n) => {
-                    decoder.push(&buf[..n]);
-                    while let Some(p) = decoder.next_packet() {
-                        self.handle(p);
-                    }
-                }
-                Err(e) => {
-                    lock(&self.shared).link_error = Some(format!("reading: {e}"));
-                    return;
-                }
-            }
-        }
-    }
-
-    fn handle(&mut self, p: Packet) {
-        if p.source != self.address {
-            return;
-        }
-        let observed = match &p.message {
-            Message::GetStatusUpdate(b)
-            | Message::MoveCompleted {
-                status: Some(b), ..
-            }
-            | Message::MoveStopped {
-                status: Some(b), ..
-            } => Some((
-                b.channel,
-                Observed {
-                    position: b.position,
-                    status: b.status,
-                },
-            )),
-            Message::GetUStatusUpdate(u) => Some((
-                u.channel,
-                Observed {
-                    position: u.position,
-                    status: u.status,
-                },
-            )),
-            _ => None,
-        };
-        if let Some((channel, o)) = observed {
-            if channel == self.channel {
-                let mut shared = lock(&self.shared);
-                shared.latest = Some(o);
-                shared.latest_at = Some(Instant::now());
-                shared.updates += 1;
-            }
-        }
-        if is_end_of_move(&p) {
-            let mut shared = lock(&self.shared);
-            shared.updates_at_end = shared.updates;
-        }
-        let is_update = matches!(
-            p.message,
-            Message::GetStatusUpdate(_) | Message::GetUStatusUpdate(_)
-        );
-        if is_update {
-            if self.status_requests == 0 {
-                return;
-            }
-            self.status_requests -= 1;
-        }
-        let _ = self.events.send(p);
-    }
-}
-
-/// What the axis is doing.
-#[derive(Debug, Clone)]
-enum Pending {
-    Home,
-    Move(String),
-    Stop(String),
-}
-
-impl Pending {
-    fn what(&self) -> String {
-        match self {
-            Pending::Home => "homing".to_string(),
-            Pending::Move(d) => d.clone(),
-            Pending::Stop(d) => format!("stopping ({d})"),
-        }
-    }
-}
-
-/// What a stop sent to a stage at rest is waiting for.
-const IDLE_STOP: &str = "stopping at rest";
-
 /// A Thorlabs stepper axis.
 pub struct ThorlabsAxis {
-    config: AptConfig,
-    address: u8,
-    endpoint: String,
-    info: Option<HwInfo>,
-    commands: Option<Sender<Command>>,
-    events: Receiver<Packet>,
-    backlog: VecDeque<Packet>,
-    shared: Arc<Mutex<Shared>>,
-    thread: Option<JoinHandle<()>>,
-    pending: Option<Pending>,
+    pub(super) config: AptConfig,
+    pub(super) address: u8,
+    pub(super) endpoint: String,
+    pub(super) info: Option<HwInfo>,
+    pub(super) commands: Option<Sender<Command>>,
+    pub(super) events: Receiver<Packet>,
+    pub(super) backlog: VecDeque<Packet>,
+    pub(super) shared: Arc<Mutex<Shared>>,
+    pub(super) thread: Option<JoinHandle<()>>,
+    pub(super) pending: Option<Pending>,
     /// Stops sent whose MOT_MOVE_STOPPED has not arrived yet: a late acknowledgement of an
     /// earlier stop must not be taken for the end of a new move.
-    unacked_stops: u32,
+    pub(super) unacked_stops: u32,
     /// Status messages seen when the current motion was sent.
-    updates_at_start: u64,
+    pub(super) updates_at_start: u64,
     /// When the current motion was sent: a K-Cube's silence is measured from here or from its
     /// last status, whichever is later (its first status may come a whole period after
     /// HW_START_UPDATEMSGS, and then one every 100 ms).
-    motion_sent: Instant,
+    pub(super) motion_sent: Instant,
 }
 
 impl ThorlabsAxis {
@@ -677,7 +362,7 @@ impl ThorlabsAxis {
 
     /// The first event matching `want` before `deadline`; others are kept for later. A
     /// controller error report (HW_RESPONSE / HW_RICHRESPONSE) ends the wait with an error.
-    fn next_event(
+    pub(super) fn next_event(
         &mut self,
         deadline: Instant,
         want: impl Fn(&Packet) -> bool,
@@ -734,7 +419,7 @@ impl ThorlabsAxis {
 
     /// Whether a K-Cube has sent no status for longer than the reply timeout, counted from its
     /// last status or from the start of the current motion, whichever came later.
-    fn silent_since_motion(&self) -> bool {
+    pub(super) fn silent_since_motion(&self) -> bool {
         let heard = lock(&self.shared).latest_at;
         let since = heard.map_or(self.motion_sent, |at| at.max(self.motion_sent));
         since.elapsed() > self.config.timeouts.reply
@@ -743,7 +428,7 @@ impl ThorlabsAxis {
     /// The first status a K-Cube sent after the last end-of-move message (MOT_MOVE_HOMED carries
     /// none, and the update before it may be from during the motion), waiting at most the reply
     /// timeout for it.
-    fn next_status(&self, what: &str) -> Result<Observed, AxisError> {
+    pub(super) fn next_status(&self, what: &str) -> Result<Observed, AxisError> {
         let seen = lock(&self.shared).updates_at_end;
         let deadline = Instant::now() + self.config.timeouts.reply;
         loop {
@@ -767,7 +452,7 @@ impl ThorlabsAxis {
     }
 
     /// The error for a controller that sent nothing of `what` it should have.
-    fn silent(&self, what: &str) -> AxisError {
+    pub(super) fn silent(&self, what: &str) -> AxisError {
         let age = lock(&self.shared).latest_at.map(|at| at.elapsed());
         let what = match age {
             Some(age) => format!(
@@ -787,7 +472,7 @@ impl ThorlabsAxis {
         }
     }
 
-    fn latest_flags(&self) -> Vec<&'static str> {
+    pub(super) fn latest_flags(&self) -> Vec<&'static str> {
         self.latest()
             .map(|o| StatusBits(o.status).names(self.config.limit_polarity))
             .unwrap_or_default()
@@ -795,7 +480,7 @@ impl ThorlabsAxis {
 
     /// Current position and status: the latest update message (K-Cubes), or a
     /// MOT_REQ_STATUSUPDATE poll (BSC20x).
-    fn observe(&mut self) -> Result<Observed, AxisError> {
+    pub(super) fn observe(&mut self) -> Result<Observed, AxisError> {
         if !self.config.controller.uses_update_messages() {
             let reply = self.request(
                 Message::ReqStatusUpdate {
@@ -880,7 +565,7 @@ impl ThorlabsAxis {
         self.unacked_stops = self.unacked_stops.saturating_sub(stop_acks);
     }
 
-    fn fault(&self, what: String, flags: Vec<&'static str>) -> AxisError {
+    pub(super) fn fault(&self, what: String, flags: Vec<&'static str>) -> AxisError {
         AxisError::Fault {
             axis: self.config.axis.clone(),
             endpoint: self.endpoint.clone(),
@@ -888,164 +573,6 @@ impl ThorlabsAxis {
             flags,
         }
     }
-}
-
-/// Waiting for the end of a motion, in [`Axis::wait_idle`].
-impl ThorlabsAxis {
-    /// The end-of-move message of `pending`, waited for until `timeout`; fails on a fault or a
-    /// silent K-Cube. The motion stays pending when the time runs out.
-    fn wait_end_of_move(
-        &mut self,
-        pending: &Pending,
-        timeout: Duration,
-    ) -> Result<Packet, AxisError> {
-        let polled = !self.config.controller.uses_update_messages();
-        let deadline = Instant::now() + timeout;
-        loop {
-            let now = Instant::now();
-            if now >= deadline {
-                // The motion stays pending: a later wait continues it (a scan polls with short
-                // waits while it watches the force); a new command or a stop replaces it.
-                return Err(self.end_of_move_timeout(pending, timeout));
-            }
-            let slice_end = if polled {
-                (now + self.config.timeouts.poll_period).min(deadline)
-            } else {
-                (now + Duration::from_millis(20)).min(deadline)
-            };
-            if let Some(p) = self.next_event(slice_end, is_end_of_move)? {
-                if self.late_stop_ack(&p, pending) {
-                    continue;
-                }
-                return Ok(p);
-            }
-            self.check_during_move(pending, polled)?;
-        }
-    }
-
-    /// The timeout error naming the end-of-move message `pending` waits for.
-    fn end_of_move_timeout(&self, pending: &Pending, timeout: Duration) -> AxisError {
-        let expected = match pending {
-            Pending::Home => "MOT_MOVE_HOMED",
-            Pending::Move(_) => "MOT_MOVE_COMPLETED",
-            Pending::Stop(_) => "MOT_MOVE_STOPPED",
-        };
-        AxisError::Timeout {
-            axis: self.config.axis.clone(),
-            endpoint: self.endpoint.clone(),
-            what: format!("{expected} while {}", pending.what()),
-            timeout,
-            flags: self.latest_flags(),
-        }
-    }
-
-    /// Counts a MOT_MOVE_STOPPED against the stops sent; true when it is the late
-    /// acknowledgement of a stop sent before this motion began, not the end of `pending`.
-    fn late_stop_ack(&mut self, p: &Packet, pending: &Pending) -> bool {
-        let stop_ack = matches!(p.message, Message::MoveStopped { .. });
-        if stop_ack && self.unacked_stops > 0 {
-            self.unacked_stops -= 1;
-            return !matches!(pending, Pending::Stop(_));
-        }
-        false
-    }
-
-    /// Between events: fails when a K-Cube went silent, or when the latest status since the
-    /// motion started shows a fault (which ends the motion).
-    fn check_during_move(&mut self, pending: &Pending, polled: bool) -> Result<(), AxisError> {
-        if !polled && self.silent_since_motion() {
-            return Err(self.silent(&format!("status while {}", pending.what())));
-        }
-        let o = if polled {
-            Some(self.observe()?)
-        } else {
-            // Only a status sent after the motion started says something about it.
-            let shared = lock(&self.shared);
-            shared
-                .latest
-                .filter(|_| shared.updates > self.updates_at_start)
-        };
-        if let Some(o) = o {
-            if o.status & FAULT_MASK != 0 {
-                self.pending = None;
-                let flags = StatusBits(o.status).move_faults(self.config.limit_polarity);
-                return Err(self.fault(pending.what(), flags));
-            }
-        }
-        Ok(())
-    }
-
-    /// Position and status at the end of a motion: carried by the end message, or else asked
-    /// of a polled controller or heard at a K-Cube's next update.
-    fn final_status(&mut self, end: &Packet) -> Result<Observed, AxisError> {
-        let polled = !self.config.controller.uses_update_messages();
-        Ok(match &end.message {
-            Message::MoveCompleted {
-                status: Some(b), ..
-            }
-            | Message::MoveStopped {
-                status: Some(b), ..
-            } => Observed {
-                position: b.position,
-                status: b.status,
-            },
-            // A polled controller is asked; one on update messages is heard at its next update.
-            _ if polled => self.observe()?,
-            _ => self.next_status("status update after the end of the motion")?,
-        })
-    }
-
-    /// Fails when the motion `pending` ended with faults in `bits`, or was stopped by the
-    /// controller (`stopped`) when it was not a stop.
-    fn check_end(
-        &self,
-        pending: Pending,
-        bits: StatusBits,
-        stopped: bool,
-    ) -> Result<(), AxisError> {
-        let polarity = self.config.limit_polarity;
-        match pending {
-            Pending::Home => {
-                let faults = bits.faults(polarity);
-                if stopped || !faults.is_empty() {
-                    let mut flags = faults;
-                    if flags.is_empty() {
-                        flags = bits.names(polarity);
-                    }
-                    return Err(self.fault(
-                        "homing (the controller stopped the homing run)".into(),
-                        flags,
-                    ));
-                }
-            }
-            Pending::Move(what) => {
-                let faults = bits.move_faults(polarity);
-                if !faults.is_empty() {
-                    return Err(self.fault(what, faults));
-                }
-                if stopped {
-                    return Err(self.fault(
-                        format!("{what}: the controller stopped the move (MOT_MOVE_STOPPED)"),
-                        bits.names(polarity),
-                    ));
-                }
-            }
-            Pending::Stop(what) => {
-                let faults = bits.faults(polarity);
-                if !faults.is_empty() {
-                    return Err(self.fault(format!("stopping ({what})"), faults));
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-fn is_end_of_move(p: &Packet) -> bool {
-    matches!(
-        p.message,
-        Message::MoveCompleted { .. } | Message::MoveStopped { .. } | Message::MoveHomed { .. }
-    )
 }
 
 impl Drop for ThorlabsAxis {

@@ -1,9 +1,9 @@
-//! Controlling a running scan from outside (terminal, Ctrl-C, tests) and talking to the operator.
+//! Controlling a running scan from outside (terminal, Ctrl-C, tests) and what it reports.
 //!
 //! - [`ScanControl`]: pause (after the current indentation, or now), resume, abort. Cheap to clone;
 //!   every request is a flag the scan reads at its next check (at most a few ms away).
-//! - [`Operator`]: the person at the bench, asked to change indenters, move a manual stage and
-//!   agree to resume after a watcher stopped the scan.
+//! - The person at the bench is reached through [`crate::operator::Operator`] (its own module, as
+//!   a device moved by hand asks them too).
 //! - [`ScanProgress`]: what the scan reports while it runs.
 
 use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
@@ -95,53 +95,6 @@ impl ScanControl {
     /// True when motion must stop now (pause now or abort).
     pub fn stop_now(&self) -> bool {
         matches!(self.request(), Request::PauseNow | Request::Abort)
-    }
-}
-
-/// The operator's answer to a prompt.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Reply {
-    Continue,
-    Abort,
-}
-
-/// Why the scan asks the operator.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Prompt {
-    /// Mount another indenter.
-    ChangeIndenter { shape: String },
-    /// Move the manual y stage to this position.
-    MoveY { y_mm: f64 },
-    /// The scan is paused (by request or by a watcher whose condition has cleared): resume?
-    Resume { reason: String },
-}
-
-impl Prompt {
-    pub fn message(&self) -> String {
-        match self {
-            Prompt::ChangeIndenter { shape } => {
-                format!("mount the {shape} indenter, then continue")
-            }
-            Prompt::MoveY { y_mm } => format!("move the y stage to {y_mm:.3} mm, then continue"),
-            Prompt::Resume { reason } => format!("scan paused ({reason}): resume?"),
-        }
-    }
-}
-
-/// The person at the bench, reached through the front end (the terminal, the UI, a script).
-pub trait Operator: Send {
-    /// Asks the operator to do something and say when it is done (or to abort).
-    fn ask(&mut self, prompt: &Prompt) -> Reply;
-
-    /// Asks a question the operator answers by typing a line (a stage moved by hand asks for
-    /// its reading, or for Enter once it is in place): the line, or `None` when the operator
-    /// cancelled (end of input). The default, for a front end that takes no typed answers,
-    /// refuses with an error of kind [`std::io::ErrorKind::Unsupported`].
-    fn answer(&mut self, question: &str) -> std::io::Result<Option<String>> {
-        Err(std::io::Error::new(
-            std::io::ErrorKind::Unsupported,
-            format!("this front end takes no typed answers (asked: {question})"),
-        ))
     }
 }
 

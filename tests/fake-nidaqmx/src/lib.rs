@@ -24,7 +24,9 @@
 
 use fringe_rig::clock::HostTime;
 use fringe_rig::nidaqmx::api::{Functions, TaskHandle};
-use fringe_sim::daqmx_library::{c_api, DaqSignals, DeviceModel, DeviceTiming, SimDevice};
+use fringe_sim::emulators::daqmx_library::{
+    c_api, DaqSignals, DeviceModel, DeviceTiming, SimDevice,
+};
 use std::collections::BTreeMap;
 use std::ffi::{c_char, c_double, c_int, c_uint, CStr};
 use std::sync::OnceLock;

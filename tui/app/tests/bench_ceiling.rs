@@ -6,7 +6,7 @@ use fringe_app::session::rig_control::{
     AxisId, BenchCommand, BenchPhase, BenchSession, BenchState,
 };
 use fringe_app::RigConfig;
-use fringe_rig::scan::control::{Operator, Prompt, Reply};
+use fringe_rig::operator::{Operator, Prompt, Reply};
 use fringe_rig::units::Millimetres;
 use std::time::{Duration, Instant};
 

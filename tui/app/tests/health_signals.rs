@@ -12,7 +12,7 @@ use fringe_app::RigConfig;
 use fringe_calibration::health::change::Change;
 use fringe_calibration::health::signature::Signature;
 use fringe_calibration::optical::grey::GreyImage;
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
 use fringe_sim::scene::{FrameRenderer, Scene};
 use std::path::Path;
 

@@ -5,7 +5,7 @@ use super::limits::SoftLimitArgs;
 use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::rig::device_open::{open_thorlabs, TraceTo};
-use fringe_rig::apt::driver::{AptConfig, Controller, Timeouts};
+use fringe_rig::apt::config::{AptConfig, Controller, Timeouts};
 use fringe_rig::apt::Actuator;
 use fringe_rig::axis::{Axis, AxisStatus, StopMode};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};

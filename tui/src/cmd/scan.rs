@@ -10,9 +10,8 @@ use anyhow::bail;
 use fringe_app::session::disk_space::{Recording, RoomForecast};
 use fringe_app::session::plans::{scan_plan, SHORT_GRID};
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
-use fringe_rig::scan::control::{
-    Operator, Prompt, Reply, Request, ScanControl, ScanProgress, Status,
-};
+use fringe_rig::operator::{Operator, Prompt, Reply};
+use fringe_rig::scan::control::{Request, ScanControl, ScanProgress, Status};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
 use fringe_rig::store::disk_space::human;

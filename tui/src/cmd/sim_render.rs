@@ -2,10 +2,10 @@
 
 use anyhow::{bail, Context};
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::indenter::Shape;
-use fringe_sim::render::Renderer;
+use fringe_sim::optics::render::Renderer;
+use fringe_sim::optics::sensor::SensorConfig;
+use fringe_sim::physics::indenter::Shape;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use fringe_sim::sensor::SensorConfig;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]

@@ -8,7 +8,7 @@ use anyhow::{bail, Context};
 use fringe_app::rig::device_open::{open_axis, TraceTo};
 use fringe_app::rig::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
 use fringe_app::rig::host_port::HostPort;
-use fringe_rig::apt::driver::{AptConfig, Controller};
+use fringe_rig::apt::config::{AptConfig, Controller};
 use fringe_rig::apt::Actuator;
 use fringe_rig::units::Millimetres;
 use std::time::Duration;

@@ -12,7 +12,7 @@ use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
 use fringe_app::session::disk_space::Recording;
 use fringe_app::session::rig_control::{BenchCommand, BenchPhase, BenchSession};
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::scan::control::Reply;
+use fringe_rig::operator::Reply;
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;

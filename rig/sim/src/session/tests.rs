@@ -2,11 +2,11 @@
 //! the renderer).
 
 use super::*;
-use crate::ft_sensor::{FtNoiseConfig, SimFtSensor};
-use crate::render::Renderer;
+use crate::optics::render::Renderer;
+use crate::optics::sensor::SensorConfig;
+use crate::physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
 use crate::scene::FrameRenderer;
 use crate::scene::{ForceReading, LoadSource};
-use crate::sensor::SensorConfig;
 use crate::test_support::{disc_pixels, grey, quiet, render, small};
 use fringe_rig::clock::HostTime;
 use fringe_rig::units::Wrench;

@@ -5,7 +5,8 @@
 //! [`open_force`](crate::rig::force::open_force).
 
 use crate::rig::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
-use fringe_rig::apt::driver::{open_serial, AptConfig};
+use fringe_rig::apt::config::AptConfig;
+use fringe_rig::apt::driver::open_serial;
 use fringe_rig::apt::ThorlabsAxis;
 use fringe_rig::axis::{Axis, AxisError};
 use fringe_rig::camera::{Camera, CameraError};
@@ -13,7 +14,7 @@ use fringe_rig::force::ForceError;
 use fringe_rig::manual::ManualStage;
 use fringe_rig::modbus::{Framing, MapError, ModbusStage, RegisterMap, StageOptions};
 use fringe_rig::nidaqmx::DaqError;
-use fringe_rig::scan::control::Operator;
+use fringe_rig::operator::Operator;
 use fringe_rig::trace::record::record_stream;
 use fringe_rig::transport::serial::SerialLink;
 use fringe_rig::transport::tcp::TcpLink;

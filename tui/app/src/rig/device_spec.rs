@@ -4,7 +4,7 @@
 //! opener, so that the same description opens the same driver with the same settings.
 
 use crate::rig::host_port::HostPort;
-use fringe_rig::apt::driver::AptConfig;
+use fringe_rig::apt::config::AptConfig;
 use fringe_rig::axis::SoftLimits;
 
 /// A motion axis.

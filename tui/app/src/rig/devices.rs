@@ -7,7 +7,7 @@
 use crate::rig::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
 use crate::rig::file::{AxisDriver, AxisSection, CameraDriver, RigConfig};
 use crate::rig::host_port::HostPort;
-use fringe_rig::apt::driver::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
+use fringe_rig::apt::config::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
 use fringe_rig::apt::status::LimitPolarity;
 use fringe_rig::apt::Actuator;
 use fringe_rig::axis::SoftLimits;

@@ -155,7 +155,7 @@ const SIM_DAQ_RATE_HZ: f64 = 5000.0;
 fn sim_trigger_delay_us() -> f64 {
     #[cfg(feature = "sim")]
     {
-        let c = fringe_sim::camera_emulator::SimCameraConfig::default();
+        let c = fringe_sim::emulators::camera_emulator::SimCameraConfig::default();
         c.trigger_latency_us + c.line_response_us
     }
     #[cfg(not(feature = "sim"))]
@@ -766,7 +766,7 @@ fn wholly_simulated(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::apt::driver::Controller;
+    use fringe_rig::apt::config::Controller;
     use fringe_rig::units::Millimetres;
 
     const REFERENCE: &str = include_str!("../../rigs/reference-bench.toml");
@@ -1043,7 +1043,7 @@ mod tests {
         assert_eq!(c.sync().expect("sync"), SyncMethod::Strobe);
         assert_eq!(
             c.sensor_id().expect("id"),
-            fringe_sim::sensor::SensorConfig::layered().id
+            fringe_sim::optics::sensor::SensorConfig::layered().id
         );
     }
 }

@@ -11,7 +11,7 @@ use crate::rig::force::open_force;
 use crate::rig::simulated::SimBench;
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::devices::Devices;
-use fringe_rig::scan::control::Operator;
+use fringe_rig::operator::Operator;
 use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::BenchLimits;
 use fringe_rig::sync::method::SyncMethod;

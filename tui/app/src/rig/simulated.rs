@@ -13,10 +13,10 @@ use fringe_rig::scan::origin::ContactOrigin;
 use fringe_rig::scan::plan::{BenchLimits, FtRating};
 use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::bench::{AxisConfig, Bench};
-use fringe_sim::ground_truth::TruthSink;
+use fringe_sim::ground_truth::records::TruthSink;
+use fringe_sim::ground_truth::truth_spool::TruthSpool;
+use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
-use fringe_sim::sensor::SensorConfig;
-use fringe_sim::truth_spool::TruthSpool;
 use fringe_sim::NetFtEmulatorConfig;
 use std::path::Path;
 use std::sync::Arc;
@@ -200,14 +200,14 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
 /// (`truth.jsonl`); `None` when no labelled frame has a truth record.
 pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
     let records = fringe_rig::store::RunReader::at(run_dir).frames()?;
-    let path = run_dir.join(fringe_sim::ground_truth::TRUTH_FILE);
-    let truth = fringe_sim::ground_truth::read_frames(&path).map_err(|e| match e {
-        fringe_sim::ground_truth::TruthError::Io { path, source } => {
+    let path = run_dir.join(fringe_sim::ground_truth::records::TRUTH_FILE);
+    let truth = fringe_sim::ground_truth::records::read_frames(&path).map_err(|e| match e {
+        fringe_sim::ground_truth::records::TruthError::Io { path, source } => {
             fringe_rig::store::StoreError::Io { path, source }
         }
     })?;
     Ok(
-        fringe_sim::label_score::score(&records, &truth).map(|s| TruthScore {
+        fringe_sim::ground_truth::label_score::score(&records, &truth).map(|s| TruthScore {
             frames: s.frames,
             force_rms_n: s.force_rms_n,
             force_max_n: s.force_max_n,
@@ -223,7 +223,7 @@ pub fn spot_settings(
 ) -> Result<fringe_calibration::registration::contact_spot::SpotSettings, ConfigError> {
     use fringe_calibration::registration::contact_spot::SpotSettings;
     Ok(match config(rig)?.sensor.variant {
-        fringe_sim::sensor::Variant::Integrated => SpotSettings::integrated(),
+        fringe_sim::optics::sensor::Variant::Integrated => SpotSettings::integrated(),
         _ => SpotSettings::layered(),
     })
 }
@@ -383,7 +383,7 @@ mod tests {
     #[test]
     fn a_unit_filmed_at_a_quarter_of_the_frame_size_is_found_where_it_is() {
         use fringe_calibration::optical::grey::GreyImage;
-        use fringe_sim::render::Renderer;
+        use fringe_sim::optics::render::Renderer;
         use fringe_sim::scene::{FrameRenderer, Scene};
         let sensor = concat!(
             env!("CARGO_MANIFEST_DIR"),

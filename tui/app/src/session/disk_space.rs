@@ -10,7 +10,6 @@ use crate::rig::file::RigConfig;
 use crate::session::disc_cutout::{disc_cutout, RecordingError};
 use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
 use fringe_rig::camera::format_name;
-use fringe_rig::scan::engine::{RunTarget, ScanSetup};
 use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::store::disk_space::{available_bytes, human};
 use fringe_rig::store::documents::ProfileRef;
@@ -19,6 +18,7 @@ use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSiz
 use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::RunReader;
 use fringe_rig::units::Hertz;
+use fringe_rig::{RunTarget, ScanSetup};
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 

@@ -883,9 +883,9 @@ mod tests {
     #[test]
     fn a_two_stage_models_live_predictions_are_those_it_makes_frame_by_frame() {
         use fringe_sim::dataset::{pressed_frame, shape_named};
-        use fringe_sim::render::Renderer;
+        use fringe_sim::optics::render::Renderer;
+        use fringe_sim::optics::sensor::SensorConfig;
         use fringe_sim::scene::{Contact, FrameRenderer};
-        use fringe_sim::sensor::SensorConfig;
 
         let sensor = SensorConfig::layered();
         let profile = crate::rig::simulated::sensor_profile(

@@ -19,11 +19,11 @@ use fringe_calibration::profile::{
 use fringe_rig::camera::CameraSettings;
 use fringe_rig::config_file::ConfigError;
 use fringe_rig::devices::Devices;
-use fringe_rig::reference_layout::NO_CONTACT;
-use fringe_rig::scan::control::{Operator, ScanControl, ScanProgress};
+use fringe_rig::operator::Operator;
 #[cfg(feature = "sim")]
-use fringe_rig::scan::control::{Prompt, Reply};
-use fringe_rig::scan::engine::{run_scan, RunTarget, ScanOutcome, ScanSetup};
+use fringe_rig::operator::{Prompt, Reply};
+use fringe_rig::reference_layout::NO_CONTACT;
+use fringe_rig::scan::control::{ScanControl, ScanProgress};
 use fringe_rig::scan::failure::ScanError;
 use fringe_rig::scan::offset_check::OffsetCheck;
 use fringe_rig::scan::origin::ContactOrigin;
@@ -35,6 +35,7 @@ use fringe_rig::store::documents::ProfileRef;
 use fringe_rig::store::stored_part::StoredPart;
 use fringe_rig::store::StoreError;
 use fringe_rig::units::Millimetres;
+use fringe_rig::{run_scan, RunTarget, ScanOutcome, ScanSetup};
 use fringe_sensor_models::model::{Model, ModelError};
 use fringe_sensor_models::predictor::{PredictError, Predictor};
 use std::path::{Path, PathBuf};
@@ -432,7 +433,7 @@ fn sim_record(sim: Option<&SimBench>) -> (Option<u64>, Vec<Arc<dyn RunSidecar>>)
 struct BenchOperator<'a> {
     bench: Option<(
         Arc<fringe_sim::bench::Bench>,
-        fringe_sim::sensor::SensorConfig,
+        fringe_sim::optics::sensor::SensorConfig,
     )>,
     inner: &'a mut dyn Operator,
     progress: &'a (dyn Fn(ScanProgress) + Sync),
@@ -540,9 +541,9 @@ fn calibration_profile(
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::scan::control::{Prompt, Reply};
+    use fringe_rig::operator::{Prompt, Reply};
     use fringe_sim::bench::{Bench, BenchConfig, IndenterTip};
-    use fringe_sim::sensor::SensorConfig;
+    use fringe_sim::optics::sensor::SensorConfig;
 
     /// Nobody at the bench: a prompt that reaches the operator aborts.
     struct Nobody;
@@ -595,8 +596,8 @@ mod tests {
                 let mounted = tip.shape_at(fringe_rig::units::Millimetres(0.5));
                 match (mounted, rendered) {
                     (
-                        fringe_sim::indenter::Shape::Sphere { radius_mm: a, .. },
-                        fringe_sim::indenter::Shape::Sphere { radius_mm: b, .. },
+                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: a, .. },
+                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: b, .. },
                     ) => assert_eq!(a, b),
                     (a, b) => assert_eq!(a, b, "{shape}"),
                 }

@@ -6,7 +6,7 @@ use fringe_rig::force::{ForceError, ForceSensor, StreamStats};
 use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
 use fringe_rig::trace::record_datagrams;
 use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::netft_box::{SimNetFt, SimOptions};
+use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
 use std::io;
 use std::path::Path;
 use std::sync::Arc;

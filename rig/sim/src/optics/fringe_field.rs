@@ -1,0 +1,332 @@
+//! Fringe order per newton, N_unit(x, y), seen through the sensor for one indenter.
+//!
+//! By superposition of Boussinesq point loads (Johnson, *Contact Mechanics*, 3.2) and linear
+//! integrated photoelasticity (Aben), a pressure p(x, y) gives the depth-integrated secondary stress
+//! differences
+//!
+//! D1 = p (*) (G cos 2 phi),  D2 = p (*) (G sin 2 phi),
+//!
+//! with G the through-layer kernel of [`crate::physics::stress::layer_kernel`], phi the direction from the load
+//! point and r regularised to sqrt(r^2 + (cell / 2)^2). Light crosses the layer twice after the
+//! mirror, so N = 2 sqrt(D1^2 + D2^2) / f_sigma (docs/photoelastic-sim.md, "Optics").
+//!
+//! Both convolutions are done at once: with K = G e^(2 i phi), p (*) K = D1 + i D2. The convolution is
+//! linear (zero-padded to twice the grid) and computed by FFT. A flat punch keeps its contact area,
+//! so N = F N_unit for every force.
+
+use crate::physics::indenter::PressureMap;
+use crate::physics::stress::Layer;
+use rustfft::num_complex::Complex;
+use rustfft::FftPlanner;
+
+/// Fringe order per newton on the grid of the pressure map it was computed from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FringeField {
+    n: usize,
+    cell_mm: f64,
+    /// Row-major fringe order per newton.
+    values: Vec<f64>,
+    /// Row-major |grad N_unit|, fringe orders per newton per mm.
+    gradient: Vec<f64>,
+}
+
+/// |grad| of a row-major `n` x `n` grid with cell side `cell_mm`, per mm: central differences inside,
+/// one-sided differences on the edges.
+fn gradient_magnitude(values: &[f64], n: usize, cell_mm: f64) -> Vec<f64> {
+    let at = |i: usize, j: usize| values[j * n + i];
+    let diff = |lo: usize, hi: usize, a: f64, b: f64| (b - a) / ((hi - lo) as f64 * cell_mm);
+    let mut out = Vec::with_capacity(n * n);
+    for j in 0..n {
+        let (j0, j1) = (j.saturating_sub(1), (j + 1).min(n - 1));
+        for i in 0..n {
+            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(n - 1));
+            let gx = diff(i0, i1, at(i0, j), at(i1, j));
+            let gy = diff(j0, j1, at(i, j0), at(i, j1));
+            out.push(gx.hypot(gy));
+        }
+    }
+    out
+}
+
+/// In-place 2-D FFT of an `m` x `m` row-major complex array (rows, then columns).
+fn fft_2d(data: &mut [Complex<f64>], m: usize, inverse: bool) {
+    let mut planner = FftPlanner::<f64>::new();
+    let fft = if inverse {
+        planner.plan_fft_inverse(m)
+    } else {
+        planner.plan_fft_forward(m)
+    };
+    fft.process(data); // every row (data.len() is a multiple of m)
+    let mut column = vec![Complex::new(0.0, 0.0); m];
+    for i in 0..m {
+        for (j, c) in column.iter_mut().enumerate() {
+            *c = data[j * m + i];
+        }
+        fft.process(&mut column);
+        for (j, c) in column.iter().enumerate() {
+            data[j * m + i] = *c;
+        }
+    }
+}
+
+/// D1 + i D2 in N/mm per cell for `pressure` (N/mm^2) seen through `layer`.
+pub fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f64>> {
+    let n = pressure.size();
+    let cell = pressure.cell_mm();
+    let m = 2 * n;
+    let area = cell * cell;
+    let reg2 = 0.25 * cell * cell;
+
+    let mut p = vec![Complex::new(0.0, 0.0); m * m];
+    for j in 0..n {
+        for i in 0..n {
+            p[j * m + i] = Complex::new(pressure.at(i, j) * area, 0.0);
+        }
+    }
+    // Kernel at offsets -(n-1)..=(n-1), wrapped into the m x m periodic array.
+    let mut k = vec![Complex::new(0.0, 0.0); m * m];
+    let span = n as isize - 1;
+    for dy in -span..=span {
+        for dx in -span..=span {
+            if dx == 0 && dy == 0 {
+                // e^(2 i phi) averages to zero over the load's own cell.
+                continue;
+            }
+            let (x, y) = (dx as f64 * cell, dy as f64 * cell);
+            let r2 = x * x + y * y;
+            let g = layer.kernel((r2 + reg2).sqrt());
+            // cos 2 phi = (x^2 - y^2) / r^2, sin 2 phi = 2 x y / r^2.
+            let value = Complex::new(g * (x * x - y * y) / r2, g * 2.0 * x * y / r2);
+            let iu = dx.rem_euclid(m as isize) as usize;
+            let ju = dy.rem_euclid(m as isize) as usize;
+            k[ju * m + iu] = value;
+        }
+    }
+    fft_2d(&mut p, m, false);
+    fft_2d(&mut k, m, false);
+    for (a, b) in p.iter_mut().zip(&k) {
+        *a *= *b;
+    }
+    fft_2d(&mut p, m, true);
+    let norm = 1.0 / (m * m) as f64;
+    let mut out = Vec::with_capacity(n * n);
+    for j in 0..n {
+        for i in 0..n {
+            out.push(p[j * m + i] * norm);
+        }
+    }
+    out
+}
+
+impl FringeField {
+    /// N_unit for the pressure map of a 1 N load (use [`PressureMap::new`] with force 1), seen
+    /// through `layer` with material fringe value `f_sigma_n_per_m` (N/m per fringe).
+    pub fn new(unit_pressure: &PressureMap, layer: &Layer, f_sigma_n_per_m: f64) -> FringeField {
+        let d = integrated_stress(unit_pressure, layer);
+        // D is in N/mm = 1000 N/m.
+        let scale = 2.0 * 1000.0 / f_sigma_n_per_m;
+        let values: Vec<f64> = d.iter().map(|c| scale * c.norm()).collect();
+        FringeField::from_values(unit_pressure.size(), unit_pressure.cell_mm(), values)
+    }
+
+    /// Field from row-major values on an `n` x `n` grid (n at least 2), with its gradient.
+    fn from_values(n: usize, cell_mm: f64, values: Vec<f64>) -> FringeField {
+        let gradient = gradient_magnitude(&values, n, cell_mm);
+        FringeField {
+            n,
+            cell_mm,
+            values,
+            gradient,
+        }
+    }
+
+    /// Cells per side.
+    pub fn size(&self) -> usize {
+        self.n
+    }
+
+    /// Cell side, mm.
+    pub fn cell_mm(&self) -> f64 {
+        self.cell_mm
+    }
+
+    /// Fringe order per newton at cell (i, j).
+    pub fn at(&self, i: usize, j: usize) -> f64 {
+        self.values[j * self.n + i]
+    }
+
+    /// Largest fringe order per newton on the grid.
+    pub fn max(&self) -> f64 {
+        self.values.iter().copied().fold(0.0, f64::max)
+    }
+
+    /// |grad N_unit| at cell (i, j), fringe orders per newton per mm.
+    pub fn gradient_at(&self, i: usize, j: usize) -> f64 {
+        self.gradient[j * self.n + i]
+    }
+
+    /// Fringe order per newton at (x_mm, y_mm) in the indenter frame, bilinear between cell centres.
+    /// Points beyond the grid take the value at the nearest grid edge.
+    pub fn sample(&self, x_mm: f64, y_mm: f64) -> f64 {
+        self.bilinear(&self.values, x_mm, y_mm)
+    }
+
+    /// |grad N_unit| (fringe orders per newton per mm) at (x_mm, y_mm), sampled like
+    /// [`FringeField::sample`]. For a force F the blur spread is sigma_N = F |grad N_unit| sigma_blur.
+    pub fn sample_gradient(&self, x_mm: f64, y_mm: f64) -> f64 {
+        self.bilinear(&self.gradient, x_mm, y_mm)
+    }
+
+    fn bilinear(&self, grid: &[f64], x_mm: f64, y_mm: f64) -> f64 {
+        let at = |i: usize, j: usize| grid[j * self.n + i];
+        let half = (self.n / 2) as f64;
+        let last = (self.n - 1) as f64;
+        let u = (x_mm / self.cell_mm + half).clamp(0.0, last);
+        let v = (y_mm / self.cell_mm + half).clamp(0.0, last);
+        let (i0, j0) = (u.floor() as usize, v.floor() as usize);
+        let (i1, j1) = ((i0 + 1).min(self.n - 1), (j0 + 1).min(self.n - 1));
+        let (fu, fv) = (u - i0 as f64, v - j0 as f64);
+        let top = at(i0, j0) * (1.0 - fu) + at(i1, j0) * fu;
+        let bottom = at(i0, j1) * (1.0 - fu) + at(i1, j1) * fu;
+        top * (1.0 - fv) + bottom * fv
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::indenter::Shape;
+    use std::f64::consts::PI;
+
+    const N: usize = 256;
+    const CELL: f64 = 0.4;
+
+    #[test]
+    fn single_cell_load_reproduces_the_point_load_kernel() {
+        let (ci, cj) = (100, 140);
+        let map = PressureMap::point(N, CELL, ci, cj, 1.0);
+        let d = integrated_stress(&map, &Layer::INTEGRATED);
+        let peak = Layer::INTEGRATED.kernel(0.5 * CELL).abs();
+        let mut worst: f64 = 0.0;
+        for j in (0..N).step_by(7) {
+            for i in (0..N).step_by(5) {
+                let (x, y) = ((i as f64 - ci as f64) * CELL, (j as f64 - cj as f64) * CELL);
+                let r2 = x * x + y * y;
+                let expected = if r2 == 0.0 {
+                    Complex::new(0.0, 0.0)
+                } else {
+                    let g = Layer::INTEGRATED.kernel((r2 + 0.25 * CELL * CELL).sqrt());
+                    Complex::new(g * (x * x - y * y) / r2, g * 2.0 * x * y / r2)
+                };
+                worst = worst.max((d[j * N + i] - expected).norm() / peak);
+            }
+        }
+        eprintln!("point-load max error relative to the kernel peak {worst:e}");
+        assert!(worst < 1e-10, "{worst}");
+    }
+
+    #[test]
+    fn circular_punch_field_is_rotationally_symmetric_and_decays() {
+        let map = PressureMap::new(&Shape::Circle { radius_mm: 5.0 }, N, CELL, 1.0);
+        let field = FringeField::new(&map, &Layer::INTEGRATED, 100.0);
+        let peak = field.max();
+        let mut worst: f64 = 0.0;
+        for &radius in &[2.0, 4.0, 6.0, 10.0, 20.0] {
+            let samples: Vec<f64> = (0..72)
+                .map(|k| {
+                    let a = 2.0 * PI * k as f64 / 72.0;
+                    field.sample(radius * a.cos(), radius * a.sin())
+                })
+                .collect();
+            let max = samples.iter().copied().fold(f64::MIN, f64::max);
+            let min = samples.iter().copied().fold(f64::MAX, f64::min);
+            // Spread around the circle relative to the field's peak (inside the punch N is near 0).
+            let spread = (max - min) / peak;
+            worst = worst.max(spread);
+            eprintln!("radius {radius}: N per newton {min}..{max}");
+            assert!(
+                spread < 0.02,
+                "radius {radius}: spread {spread} of peak {peak}"
+            );
+        }
+        eprintln!("circular punch worst angular spread / peak {worst:e}");
+        let near = field.sample(6.0, 0.0);
+        let far = field.sample(40.0, 0.0);
+        eprintln!(
+            "N per newton at 6 mm {near}, at 40 mm {far}, max {}",
+            field.max()
+        );
+        assert!(far < 0.1 * near, "near {near} far {far}");
+    }
+
+    #[test]
+    fn thin_film_fringes_hug_the_outline_more_than_the_thick_gel() {
+        let map = PressureMap::new(&Shape::DEFAULT_RECTANGLE, N, CELL, 1.0);
+        let film = FringeField::new(&map, &Layer::LAYERED, 20.0);
+        let gel = FringeField::new(&map, &Layer::INTEGRATED, 100.0);
+        // Ratio of the value 5 mm beyond the long edge to the value just outside it.
+        let film_fall = film.sample(0.0, 8.0) / film.sample(0.0, 3.2);
+        let gel_fall = gel.sample(0.0, 8.0) / gel.sample(0.0, 3.2);
+        eprintln!(
+            "9 N maxima: film {} gel {}; falls {film_fall} {gel_fall}",
+            9.0 * film.max(),
+            9.0 * gel.max()
+        );
+        assert!(film_fall < gel_fall, "film {film_fall} gel {gel_fall}");
+    }
+
+    #[test]
+    fn sampling_interpolates_between_cell_centres() {
+        let map = PressureMap::new(&Shape::DEFAULT_PENTAGON, 64, 0.5, 1.0);
+        let field = FringeField::new(&map, &Layer::LAYERED, 20.0);
+        // Cell (40, 32) is at x = 4 mm, y = 0; (41, 32) at x = 4.5 mm.
+        assert_eq!(field.sample(4.0, 0.0), field.at(40, 32));
+        let mid = field.sample(4.25, 0.0);
+        assert!((mid - 0.5 * (field.at(40, 32) + field.at(41, 32))).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gradient_of_a_plane_is_its_slope_everywhere() {
+        let (n, cell) = (16, 0.5);
+        // N = 0.3 x + 0.4 y per mm (plus an offset): |grad N| = 0.5 per mm.
+        let values = (0..n * n)
+            .map(|k| 2.0 + 0.3 * (k % n) as f64 * cell + 0.4 * (k / n) as f64 * cell)
+            .collect();
+        let field = FringeField::from_values(n, cell, values);
+        for j in 0..n {
+            for i in 0..n {
+                assert!((field.gradient_at(i, j) - 0.5).abs() < 1e-12);
+            }
+        }
+        assert!((field.sample_gradient(1.23, -2.1) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences_of_the_sampled_field() {
+        use rand::{Rng, SeedableRng};
+        let (n, cell) = (128, 0.5);
+        let map = PressureMap::new(&Shape::Circle { radius_mm: 5.0 }, n, cell, 1.0);
+        let field = FringeField::new(&map, &Layer::INTEGRATED, 100.0);
+        let steepest = field.gradient.iter().copied().fold(0.0, f64::max);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut worst: f64 = 0.0;
+        for _ in 0..200 {
+            // Interior points clear of the punch edge (r = 5 mm) and of the grid edge (32 mm).
+            let r = rng.gen_range(8.0..28.0);
+            let a = rng.gen_range(0.0..2.0 * PI);
+            let (x, y) = (r * a.cos(), r * a.sin());
+            let h = cell;
+            let gx = (field.sample(x + h, y) - field.sample(x - h, y)) / (2.0 * h);
+            let gy = (field.sample(x, y + h) - field.sample(x, y - h)) / (2.0 * h);
+            let err = (field.sample_gradient(x, y) - gx.hypot(gy)).abs() / steepest;
+            worst = worst.max(err);
+        }
+        eprintln!("|grad N_unit| vs finite differences: max error / steepest {worst:e}");
+        assert!(worst < 0.01, "{worst}");
+        let near = field.sample_gradient(6.0, 0.0);
+        let far = field.sample_gradient(28.0, 0.0);
+        eprintln!("steepest {steepest}, at 6 mm {near}, at 28 mm {far} per newton per mm");
+        assert!(far < 0.02 * steepest, "far {far} steepest {steepest}");
+        assert!(near > 10.0 * far, "near {near} far {far}");
+    }
+}

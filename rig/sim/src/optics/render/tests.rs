@@ -1,0 +1,304 @@
+//! Tests of [`super`] (in a file of their own: they use the crate's test helpers, which use
+//! the renderer).
+
+use super::*;
+use crate::optics::background::pixel_light;
+use crate::test_support::{contact, disc_pixels, grey, quiet, render, small};
+
+/// Bilinear grey value at image position (u, v) px (pixel centres at + 0.5).
+fn grey_at(img: &[u8], w: usize, u: f64, v: f64) -> f64 {
+    let (x, y) = (u - 0.5, v - 0.5);
+    let (i, j) = (x.floor() as usize, y.floor() as usize);
+    let (fx, fy) = (x - i as f64, y - j as f64);
+    let top = grey(img, w, i, j) * (1.0 - fx) + grey(img, w, i + 1, j) * fx;
+    let bottom = grey(img, w, i, j + 1) * (1.0 - fx) + grey(img, w, i + 1, j + 1) * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
+#[test]
+fn zero_force_gives_exactly_the_unloaded_background() {
+    let mut r = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+    // Compute every lit pixel (not only those within the contact's reach).
+    r.skip_below = 0.0;
+    let empty = render(&mut r, None, 17);
+    let shape = r.config().rectangle();
+    let zero = render(&mut r, Some(contact(shape, 0.0, 5.0, 3.0, 20.0)), 17);
+    assert!(empty == zero, "a contact with 0 N changed the frame");
+    let loaded = render(&mut r, Some(contact(shape, 4.0, 5.0, 3.0, 20.0)), 17);
+    let changed = empty.iter().zip(&loaded).filter(|(a, b)| a != b).count();
+    assert!(changed > 1000, "4 N changed only {changed} bytes");
+    // Same frame index, same bytes (noise included); another frame has other noise.
+    assert!(render(&mut r, None, 17) == empty);
+    assert!(render(&mut r, None, 18) != empty);
+}
+
+#[test]
+fn bayer_and_mono_frames_are_the_samples_of_the_rgb_frame() {
+    let mut r = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+    let pressed = Some(contact(r.config().pentagon(), 6.0, 4.0, -3.0, 15.0));
+    for (scene, frame) in [(pressed, 5), (None, 6)] {
+        let rgb = render(&mut r, scene, frame);
+        for format in [PixelFormat::BayerRg8, PixelFormat::Mono8] {
+            let mut native = Vec::new();
+            r.render_as(&Scene { contact: scene }, frame, format, &mut native);
+            let mut sampled = Vec::new();
+            crate::optics::pixel_format::from_rgb(&rgb, r.width() as usize, format, &mut sampled);
+            assert_eq!(native.len(), (r.width() * r.height()) as usize);
+            assert!(
+                native == sampled,
+                "{format:?} is not the {format:?} of the RGB frame"
+            );
+        }
+    }
+}
+
+#[test]
+fn fringe_order_is_linear_in_force_for_a_flat_punch() {
+    let mut c = quiet(SensorConfig::integrated());
+    c.optics.blur_px = 0.0;
+    let mut r = Renderer::new(c).expect("renderer");
+    let shape = r.config().pentagon();
+    let one = r.fringe_order_map(&contact(shape, 1.5, -4.0, 6.0, 33.0));
+    let three = r.fringe_order_map(&contact(shape, 4.5, -4.0, 6.0, 33.0));
+    let peak = one.iter().copied().fold(0.0f32, f32::max);
+    assert!(peak > 0.3, "peak order at 1.5 N {peak}");
+    for (a, b) in one.iter().zip(&three) {
+        assert!((3.0 * a - b).abs() <= 1e-5 * b.abs().max(1e-3), "{a} {b}");
+    }
+    // The rendered colours are the colour table at those orders: a pixel's grey level follows
+    // the sharp table at F N_unit + residual (the spread there is small).
+    let img = render(&mut r, Some(contact(shape, 4.5, -4.0, 6.0, 33.0)), 0);
+    let w = r.width() as usize;
+    let mut diffs = Vec::new();
+    for (i, j) in disc_pixels(&r, 0.8) {
+        let k = j * w + i;
+        let order = three[k] + r.background.residual(k);
+        let rgb = r.colours.lookup(order, 0.0);
+        let light = pixel_light(r.background.illumination(k), rgb, r.background.glow(k));
+        let expected = (light[0] + light[1] + light[2]) / 3.0;
+        diffs.push((grey(&img, w, i, j) - f64::from(expected)).abs());
+    }
+    diffs.sort_by(f64::total_cmp);
+    let median = diffs[diffs.len() / 2];
+    eprintln!(
+        "median |rendered - table colour| {median} DN, peak order {}",
+        3.0 * peak
+    );
+    assert!(median < 1.0, "{median}");
+}
+
+#[test]
+fn rotating_the_contact_about_the_optical_centre_rotates_the_image() {
+    for variant in [SensorConfig::layered(), SensorConfig::integrated()] {
+        let mut c = quiet(variant);
+        c.leds.count = 0;
+        c.optics.residual_birefringence = 0.0;
+        let mut r = Renderer::new(c).expect("renderer");
+        let g = r.geometry();
+        let shape = r.config().rectangle();
+        let (x, y, angle, theta) = (8.0f64, 3.0f64, 10.0f64, 40.0f64);
+        let (s, co) = theta.to_radians().sin_cos();
+        let a = render(&mut r, Some(contact(shape, 6.0, x, y, angle)), 0);
+        let (xr, yr) = (co * x - s * y, s * x + co * y);
+        let b = render(&mut r, Some(contact(shape, 6.0, xr, yr, angle + theta)), 0);
+        let w = r.width() as usize;
+        let (mut diff, mut base, mut count) = (0.0, 0.0, 0.0);
+        for (i, j) in disc_pixels(&r, 0.85) {
+            // The point seen at pixel (i, j) in b was, before the rotation, at ...
+            let [sx, sy] = g.to_sensor(i as f64 + 0.5, j as f64 + 0.5);
+            let [u, v] = g.to_pixel(co * sx + s * sy, -s * sx + co * sy);
+            diff += (grey(&b, w, i, j) - grey_at(&a, w, u, v)).abs();
+            base += (grey(&b, w, i, j) - grey(&a, w, i, j)).abs();
+            count += 1.0;
+        }
+        let (diff, base) = (diff / count, base / count);
+        eprintln!(
+            "{}: rotated vs image rotated {diff} DN, unrotated {base} DN",
+            r.config().id
+        );
+        // Half-resolution sampling (2x2 blocks) is not rotation invariant: its error counts
+        // as interpolation error here.
+        assert!(diff < 0.2 * base && diff < 4.0, "{diff} vs {base}");
+    }
+}
+
+#[test]
+fn mirror_flag_mirrors_the_image_about_the_optical_centre() {
+    let mut c = quiet(SensorConfig::layered());
+    c.geometry.mirror = false;
+    let mut plain = Renderer::new(c.clone()).expect("renderer");
+    c.geometry.mirror = true;
+    let mut mirrored = Renderer::new(c).expect("renderer");
+    let scene = Some(contact(plain.config().pentagon(), 7.0, 9.0, -5.0, 12.0));
+    let a = render(&mut plain, scene, 3);
+    let b = render(&mut mirrored, scene, 3);
+    let w = plain.width() as usize;
+    let cu = plain.geometry().centre_px[0];
+    let (mut diff, mut base, mut count) = (0.0, 0.0, 0.0);
+    for (i, j) in disc_pixels(&plain, 1.05) {
+        let im = (2.0 * cu - 1.0 - i as f64).round() as usize;
+        diff += (grey(&b, w, i, j) - grey(&a, w, im, j)).abs();
+        base += (grey(&b, w, i, j) - grey(&a, w, i, j)).abs();
+        count += 1.0;
+    }
+    let (diff, base) = (diff / count, base / count);
+    eprintln!("mirrored vs flipped {diff} DN, vs unflipped {base} DN");
+    assert!(diff < 0.05 && base > 2.0, "{diff} {base}");
+}
+
+#[test]
+fn contact_appears_where_the_geometry_puts_it() {
+    let mut c = quiet(SensorConfig::integrated());
+    c.layer.bottom_mm = 1.0; // fringes close to the contact
+    c.geometry.rotation_deg = 63.0;
+    let mut r = Renderer::new(c).expect("renderer");
+    let empty = render(&mut r, None, 0);
+    let shape = r.config().rectangle();
+    let w = r.width() as usize;
+    for &(x, y) in &[(7.0, -4.0), (-10.0, 7.0)] {
+        let img = render(&mut r, Some(contact(shape, 6.0, x, y, 25.0)), 0);
+        let (mut su, mut sv, mut total) = (0.0, 0.0, 0.0);
+        for j in 0..r.height() as usize {
+            for i in 0..w {
+                // Change per unit of light (vignetting would pull the centroid towards the
+                // centre), squared: the strong fringes near the punch outweigh the far
+                // field that the disc edge cuts off.
+                let light = f64::from(r.background.illumination(j * w + i));
+                if light < 1.0 {
+                    continue;
+                }
+                let e = ((grey(&img, w, i, j) - grey(&empty, w, i, j)) / light).powi(2);
+                su += e * (i as f64 + 0.5);
+                sv += e * (j as f64 + 0.5);
+                total += e;
+            }
+        }
+        let [pu, pv] = r.geometry().to_pixel(x, y);
+        let (cu, cv) = (su / total, sv / total);
+        eprintln!("contact ({x}, {y}) mm: fringe centroid ({cu}, {cv}), predicted ({pu}, {pv})");
+        assert!(
+            (cu - pu).hypot(cv - pv) < 1.5,
+            "({cu}, {cv}) vs ({pu}, {pv})"
+        );
+    }
+}
+
+#[test]
+fn led_hot_spots_lie_just_outside_the_disc() {
+    // Larger than the other tests' images: hot spots sit 2 % of the radius outside the disc.
+    let mut c = quiet(SensorConfig::layered());
+    c.geometry.width = 640;
+    c.geometry.height = 400;
+    c.geometry.disc_radius_px = 180.0;
+    c.geometry.px_per_mm = 6.0;
+    c.leds.width_px = 12.0;
+    c.field.cells = 32;
+    c.field.cell_mm = 2.0;
+    c.optics.residual_birefringence = 0.0;
+    c.leds.count = 10;
+    let mut r = Renderer::new(c).expect("renderer");
+    let img = render(&mut r, None, 0);
+    let w = r.width() as usize;
+    let g = r.geometry();
+    let radius = r.config().geometry.disc_radius_px;
+    let radius_of = |i: usize, j: usize| {
+        (i as f64 + 0.5 - g.centre_px[0]).hypot(j as f64 + 0.5 - g.centre_px[1])
+    };
+    let max = (0..img.len() / 3)
+        .map(|k| grey(&img, w, k % w, k / w))
+        .fold(0.0, f64::max);
+    // The brightest pixel of each of ten sectors (one LED each) lies beyond the disc edge.
+    let mut sector_max = [(0.0f64, 0.0f64); 10];
+    for j in 0..r.height() as usize {
+        for i in 0..w {
+            let (du, dv) = (
+                i as f64 + 0.5 - g.centre_px[0],
+                j as f64 + 0.5 - g.centre_px[1],
+            );
+            let turn = (dv.atan2(du) / std::f64::consts::TAU).rem_euclid(1.0);
+            let sector = ((turn * 10.0) as usize).min(9);
+            let v = grey(&img, w, i, j);
+            if v > sector_max[sector].0 {
+                sector_max[sector] = (v, radius_of(i, j) / radius);
+            }
+        }
+    }
+    eprintln!("sector maxima (DN, radius / R): {sector_max:?}");
+    for (v, at) in sector_max {
+        assert!(v > 0.6 * max && at > 1.0 && at < 1.06, "{v} DN at {at} R");
+    }
+    // Ten separate peaks around the ring at 1.02 R.
+    let ring: Vec<f64> = (0..720)
+        .map(|k| {
+            let a = (k as f64 / 2.0).to_radians();
+            let rr = 1.02 * radius;
+            grey_at(
+                &img,
+                w,
+                g.centre_px[0] + rr * a.cos(),
+                g.centre_px[1] + rr * a.sin(),
+            )
+        })
+        .collect();
+    let mid = 0.5 * (ring.iter().copied().fold(f64::MAX, f64::min) + max);
+    let rises = (0..720)
+        .filter(|&k| ring[k] > mid && ring[(k + 719) % 720] <= mid)
+        .count();
+    assert_eq!(rises, 10);
+}
+
+#[test]
+fn blur_reduces_high_frequency_energy() {
+    let energy = |blur: f64| {
+        let mut c = quiet(SensorConfig::layered());
+        c.optics.residual_birefringence = 0.0;
+        c.optics.blur_px = blur;
+        let mut r = Renderer::new(c).expect("renderer");
+        let shape = r.config().pentagon();
+        let img = render(&mut r, Some(contact(shape, 9.0, 2.0, 1.0, 0.0)), 0);
+        let w = r.width() as usize;
+        let lap = |i: usize, j: usize| {
+            4.0 * grey(&img, w, i, j)
+                - grey(&img, w, i - 1, j)
+                - grey(&img, w, i + 1, j)
+                - grey(&img, w, i, j - 1)
+                - grey(&img, w, i, j + 1)
+        };
+        let inner: f64 = disc_pixels(&r, 0.8)
+            .iter()
+            .map(|&(i, j)| lap(i, j).powi(2))
+            .sum();
+        // The disc edge and hot spots: an annulus 0.9..1.07 R.
+        let all: f64 = disc_pixels(&r, 1.07)
+            .iter()
+            .map(|&(i, j)| lap(i, j).powi(2))
+            .sum();
+        let outer = all
+            - disc_pixels(&r, 0.9)
+                .iter()
+                .map(|&(i, j)| lap(i, j).powi(2))
+                .sum::<f64>();
+        (inner, outer)
+    };
+    let (sharp_in, sharp_rim) = energy(0.0);
+    let (blur_in, blur_rim) = energy(6.0);
+    eprintln!("Laplacian energy: fringes {sharp_in} -> {blur_in}, rim {sharp_rim} -> {blur_rim}");
+    assert!(blur_in < 0.3 * sharp_in, "{blur_in} vs {sharp_in}");
+    assert!(blur_rim < 0.5 * sharp_rim, "{blur_rim} vs {sharp_rim}");
+}
+
+#[test]
+fn spheres_grow_with_force_and_reuse_cached_fields() {
+    let mut r = Renderer::new(quiet(SensorConfig::layered())).expect("renderer");
+    let fields_before = r.fields.len();
+    let area = |r: &mut Renderer, force: f64| {
+        let shape = r.config().sphere(force);
+        let map = r.fringe_order_map(&contact(shape, force, 0.0, 0.0, 0.0));
+        map.iter().filter(|&&n| n > 0.5).count()
+    };
+    let (small, large) = (area(&mut r, 1.0), area(&mut r, 9.0));
+    assert!(large > small, "{small} {large}");
+    assert_eq!(r.fields.len(), fields_before + 2);
+    area(&mut r, 9.0);
+    assert_eq!(r.fields.len(), fields_before + 2);
+}

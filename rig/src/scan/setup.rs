@@ -1,0 +1,54 @@
+//! What a scan is given besides the devices: the program, the bench, the run's documents, the
+//! camera, synchronisation, press and watcher settings, and what the caller adds to the run.
+
+use crate::acquire::record_tap::RecordTap;
+use crate::camera::{CameraSettings, Cutout};
+use crate::scan::offset_check::OffsetCheck;
+use crate::scan::origin::ContactOrigin;
+use crate::scan::plan::{BenchLimits, ScanProgram};
+use crate::scan::press::PressSettings;
+use crate::scan::sidecar::RunSidecar;
+use crate::scan::watchers::WatchSettings;
+use crate::store::documents::ProfileRef;
+use crate::store::frames::FrameCodec;
+use crate::sync::method::SyncMethod;
+use crate::sync::trigger::TriggerTiming;
+use std::sync::Arc;
+
+/// Everything a scan needs besides the devices.
+#[derive(Debug, Clone)]
+pub struct ScanSetup {
+    pub program: ScanProgram,
+    /// The plan file's text, stored in the run (and compared on resume).
+    pub plan_text: String,
+    pub limits: BenchLimits,
+    pub origin: ContactOrigin,
+    pub sync: SyncMethod,
+    /// The DAQ-triggered camera's timing, for `trigger`.
+    pub trigger: Option<TriggerTiming>,
+    pub sensor_id: String,
+    /// The sensor's design (`layered`, `integrated`), when the rig names or simulates it.
+    pub variant: Option<String>,
+    /// The rig configuration as used, for the start document.
+    pub rig_text: String,
+    pub seed: Option<u64>,
+    pub profile: Option<ProfileRef>,
+    pub camera: CameraSettings,
+    /// The part of each frame a new run stores (the square around the disc); `None`: whole
+    /// frames. A resumed run stores what it stored before.
+    pub cutout: Option<Cutout>,
+    /// The codec a new run stores frames in (`None`: the default for the camera's pixel
+    /// format). A resumed run stores as it stored before.
+    pub codec: Option<FrameCodec>,
+    /// Press tuning; the contact threshold, ceiling and approach limit are set from the plan and
+    /// the bench.
+    pub press: PressSettings,
+    pub watch: WatchSettings,
+    /// Files the caller adds to the run when it closes (the simulated bench's ground truth).
+    pub sidecars: Vec<Arc<dyn RunSidecar>>,
+    /// The zero-load check of the sensor's profile, made on the first offset measurement of
+    /// each session (new run or resume).
+    pub offset_check: Option<Arc<dyn OffsetCheck>>,
+    /// What the caller sees of the recording as it happens (live display, live validation).
+    pub taps: Vec<Arc<dyn RecordTap>>,
+}
