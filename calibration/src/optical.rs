@@ -24,9 +24,9 @@
 //! noise sigmas ([`OpticalError::NoSensor`]).
 
 pub mod circle_fit;
-pub mod crop;
-pub mod edge_model;
-pub mod edges;
+pub(crate) mod crop;
+pub(crate) mod edge_model;
+pub(crate) mod edges;
 pub mod grey;
 pub mod overlay;
 

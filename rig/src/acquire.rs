@@ -16,10 +16,10 @@ pub mod camera_stream;
 pub mod clock_fit_labeler;
 pub mod force_stream;
 pub mod frame_gaps;
-pub mod host_labeler;
+pub(crate) mod host_labeler;
 pub mod labeler;
 pub mod record_tap;
 pub mod recorder;
-pub mod strobe_labeler;
+pub(crate) mod strobe_labeler;
 #[cfg(test)]
 pub(crate) mod synthetic;

@@ -6,9 +6,9 @@
 //! - [`sensor`]: the [`GaugeSource`] trait a DAQ implements and [`CalibratedSensor`], a
 //!   [`crate::force::ForceSensor`] over any gauge source.
 
-pub mod calfile;
-pub mod sensor;
-pub mod transform;
+pub(crate) mod calfile;
+pub(crate) mod sensor;
+pub(crate) mod transform;
 
 pub use calfile::{CalError, Calibration};
 pub use sensor::{CalibratedSensor, GaugeReading, GaugeSource};

@@ -3,7 +3,7 @@
 
 pub mod codec;
 pub mod map;
-pub mod stage;
+pub(crate) mod stage;
 
 pub use codec::{ExceptionCode, Framing};
 pub use map::{MapError, RegisterMap, WordOrder};

@@ -7,9 +7,9 @@
 //! - [`driver`]: [`NetFt`], a [`crate::force::ForceSensor`] on any datagram link.
 
 pub mod config;
-pub mod driver;
+pub(crate) mod driver;
 pub mod rdt;
-pub mod stream;
+pub(crate) mod stream;
 
 pub use config::{fetch_config, netftapi2_url, NetFtConfig};
 pub use driver::{BiasMode, NetFt, NetFtOptions};

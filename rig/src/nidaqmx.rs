@@ -12,10 +12,10 @@
 //! `docs/nidaqmx.md`.
 
 pub mod api;
-pub mod error;
-pub mod gauges;
-pub mod library;
-pub mod settings;
+pub(crate) mod error;
+pub(crate) mod gauges;
+pub(crate) mod library;
+pub(crate) mod settings;
 
 pub use error::{DaqError, DaqmxStatus, Setting};
 pub use gauges::{DaqStats, NiDaq};

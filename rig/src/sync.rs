@@ -13,9 +13,9 @@
 //! Methods and facts: docs of the shared project, hardware.md section E.
 
 pub mod clock_map;
-pub mod latch;
+pub(crate) mod latch;
 pub mod method;
-pub mod one_way;
+pub(crate) mod one_way;
 pub mod strobe;
 pub mod trigger;
 pub mod window;

@@ -10,10 +10,10 @@
 //! [`RecordingGauges`] wraps any [`crate::atical::GaugeSource`], and a [`ReplayGauges`] plays the
 //! trace back as a gauge source.
 
-pub mod format;
-pub mod gauges;
+pub(crate) mod format;
+pub(crate) mod gauges;
 pub mod record;
-pub mod replay;
+pub(crate) mod replay;
 
 pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
 pub use gauges::{RecordingGauges, ReplayGauges};

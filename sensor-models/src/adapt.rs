@@ -8,8 +8,8 @@
 
 #[cfg(feature = "torch")]
 pub mod fine_tune;
-pub mod head_fit;
-pub mod held_out;
+pub(crate) mod head_fit;
+pub(crate) mod held_out;
 pub mod last_block;
 
 use crate::backend::tract::TractGraph;

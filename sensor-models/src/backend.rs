@@ -8,7 +8,7 @@
 #[cfg(feature = "onnxruntime")]
 pub mod onnxruntime;
 #[cfg(feature = "torch")]
-pub mod torch;
+pub(crate) mod torch;
 pub mod tract;
 
 /// Which backend runs a model.

@@ -46,7 +46,7 @@ pub mod report;
 pub mod smoothing;
 pub mod split;
 #[cfg(feature = "torch")]
-pub mod torch_net;
+mod torch_net;
 #[cfg(feature = "torch")]
 pub mod train;
 pub mod training_set;

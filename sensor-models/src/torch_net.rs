@@ -5,14 +5,14 @@
 //!
 //! - [`state`]: between libtorch variables and this crate's named tensors.
 
-pub mod state;
+pub(crate) mod state;
 
 use crate::arch::{Architecture, Conv, Layer};
 use tch::nn;
 use tch::Tensor;
 
 /// The three heads' outputs for a batch.
-pub struct Outputs {
+pub(crate) struct Outputs {
     /// [N, 7]: Fx Fy Fz Mx My Mz Ft (magnitudes).
     pub force: Tensor,
     /// [N, classes] shape logits.
@@ -118,7 +118,7 @@ fn forward(steps: &[Step], x: &Tensor, train: bool) -> Tensor {
 
 /// A network on a [`nn::VarStore`].
 #[derive(Debug)]
-pub struct Net {
+pub(crate) struct Net {
     body: Vec<Step>,
     keypoints: Option<nn::Conv2D>,
     force_head: nn::Linear,
@@ -129,7 +129,7 @@ pub struct Net {
 }
 
 impl Net {
-    pub fn new(root: &nn::Path<'_>, arch: Architecture, classes: usize) -> Net {
+    pub(crate) fn new(root: &nn::Path<'_>, arch: Architecture, classes: usize) -> Net {
         let f = arch.features() as i64;
         Net {
             body: steps(root, &arch.body()),
@@ -144,13 +144,13 @@ impl Net {
     /// Batch norm normalises with the running statistics it has, in training too, and no longer
     /// updates them (fine-tuning on a small set from a trained model, whose heads were fitted
     /// to features normalised with them).
-    pub fn freeze_batch_norm(&mut self) {
+    pub(crate) fn freeze_batch_norm(&mut self) {
         self.batch_norm_frozen = true;
     }
 
     /// The heads' outputs for an NCHW batch; `train` switches batch norm to batch statistics
     /// (unless it is frozen).
-    pub fn forward(&self, x: &Tensor, train: bool) -> Outputs {
+    pub(crate) fn forward(&self, x: &Tensor, train: bool) -> Outputs {
         let map = forward(&self.body, x, train && !self.batch_norm_frozen);
         let pooled = map.adaptive_avg_pool2d([1, 1]).flatten(1, -1);
         let features = match &self.keypoints {

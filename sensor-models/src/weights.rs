@@ -11,12 +11,12 @@
 //! - `file_start`: a file's first bytes, read and described for messages.
 
 mod element;
-pub mod error;
+pub(crate) mod error;
 mod file_start;
 pub mod format;
 pub mod pickle;
 pub mod safetensors_file;
 pub mod state_dict;
 pub mod tensor;
-pub mod torch_file;
+pub(crate) mod torch_file;
 mod torch_pickle;

@@ -17,7 +17,13 @@ const RAYS: usize = 720;
 
 /// The crop radius (px, rounded down) about `centre` for a disc of radius `r`, with `contrast`
 /// the inside-minus-outside level and `noise` the per-pixel noise sigma (DN).
-pub fn crop_radius(g: &GreyImage, centre: [f64; 2], r: f64, contrast: f64, noise: f64) -> f64 {
+pub(crate) fn crop_radius(
+    g: &GreyImage,
+    centre: [f64; 2],
+    r: f64,
+    contrast: f64,
+    noise: f64,
+) -> f64 {
     let (a0, a1, start) = (0.55 * r, 0.80 * r, 0.80 * r);
     // 5 rays x 8 samples (4 px) averaged.
     let profile_noise = noise / (5.0f64 * 4.0 / STEP_PX).sqrt();

@@ -37,14 +37,14 @@ fn model(p: &[f64], r: f64) -> f64 {
 
 /// The fitted radius and its 1-sigma uncertainty, px, and the blur sigma of the edge, px.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EdgeModelFit {
+pub(crate) struct EdgeModelFit {
     pub radius: f64,
     pub sigma_radius: f64,
     pub blur_sigma: f64,
 }
 
 /// Fits the model to samples (radius, level) around `r_start`. `None` when it does not converge.
-pub fn fit(
+pub(crate) fn fit(
     samples: &[(f64, f64)],
     r_start: f64,
     inside: f64,

@@ -6,7 +6,7 @@ use super::grey::{median_f32, GreyImage};
 
 /// The first estimate of the disc and the grey levels of the two classes.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Initial {
+pub(crate) struct Initial {
     pub cx: f64,
     pub cy: f64,
     pub r: f64,
@@ -68,7 +68,7 @@ fn otsu(data: &[f32]) -> f32 {
 /// The bright class's centroid and equivalent-area radius. The largest connected part is not
 /// isolated: hot spots are small next to the disc and only nudge the estimate, which the edge
 /// search absorbs.
-pub fn initial_estimate(g: &GreyImage) -> Option<Initial> {
+pub(crate) fn initial_estimate(g: &GreyImage) -> Option<Initial> {
     let t = otsu(&g.data);
     let (mut n, mut su, mut sv) = (0usize, 0.0f64, 0.0f64);
     let mut bright = Vec::new();
@@ -102,12 +102,12 @@ pub fn initial_estimate(g: &GreyImage) -> Option<Initial> {
 }
 
 /// Radial profile sampling step, px.
-pub const STEP_PX: f64 = 0.5;
+pub(crate) const STEP_PX: f64 = 0.5;
 
 /// One ray from a centre: samples at radii `r0 + k STEP_PX`, each the mean over `spread` parallel
 /// angles around `angle` (none when any sample leaves the image).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Ray {
+pub(crate) struct Ray {
     pub angle: f64,
     pub r0: f64,
     pub values: Vec<f64>,
@@ -116,7 +116,7 @@ pub struct Ray {
 impl Ray {
     /// Samples the ray at `angle` (radians, image x right, y down) from `centre` between radii
     /// `r0` and `r1`, averaging `sub` rays spread over `spread_rad`. `None` if it leaves the image.
-    pub fn sample(
+    pub(crate) fn sample(
         g: &GreyImage,
         centre: [f64; 2],
         angle: f64,
@@ -152,12 +152,12 @@ impl Ray {
 
     /// Radius of sample `k`.
     #[inline]
-    pub fn radius(&self, k: usize) -> f64 {
+    pub(crate) fn radius(&self, k: usize) -> f64 {
         self.r0 + k as f64 * STEP_PX
     }
 
     /// Mean of the samples with radius in [a, b].
-    pub fn mean_between(&self, a: f64, b: f64) -> Option<f64> {
+    pub(crate) fn mean_between(&self, a: f64, b: f64) -> Option<f64> {
         let (mut s, mut n) = (0.0, 0usize);
         for (k, v) in self.values.iter().enumerate() {
             let r = self.radius(k);
@@ -171,7 +171,7 @@ impl Ray {
 }
 
 /// Derivative-of-Gaussian filter (sigma in samples) of `v`, edges clamped.
-pub fn gaussian_derivative(v: &[f64], sigma: f64) -> Vec<f64> {
+pub(crate) fn gaussian_derivative(v: &[f64], sigma: f64) -> Vec<f64> {
     let half = (3.0 * sigma).ceil() as isize;
     let kernel: Vec<f64> = (-half..=half)
         .map(|x| {
@@ -198,7 +198,7 @@ pub fn gaussian_derivative(v: &[f64], sigma: f64) -> Vec<f64> {
 
 /// An edge found on one ray.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EdgePoint {
+pub(crate) struct EdgePoint {
     pub angle: f64,
     /// Radius of the edge along the ray, px.
     pub radius: f64,
@@ -211,7 +211,7 @@ pub struct EdgePoint {
 
 /// The steepest bright-to-dark descent on `ray` (sub-pixel by a parabola through the three
 /// filtered samples around the minimum) and its step contrast.
-pub fn edge_on_ray(ray: &Ray, centre: [f64; 2], smoothing_px: f64) -> Option<EdgePoint> {
+pub(crate) fn edge_on_ray(ray: &Ray, centre: [f64; 2], smoothing_px: f64) -> Option<EdgePoint> {
     if ray.values.len() < 8 {
         return None;
     }

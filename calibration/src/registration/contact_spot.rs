@@ -44,11 +44,11 @@
 //! of step 2, the colour difference of step 3), `illumination` (the surface of step 3),
 //! [`centroid`] (step 4), [`outline`] (step 5); [`spot`] holds the result and its errors.
 
-pub mod binning;
-pub mod centroid;
+pub(crate) mod binning;
+pub(crate) mod centroid;
 mod difference;
 mod illumination;
-pub mod outline;
+pub(crate) mod outline;
 pub mod spot;
 
 use binning::{

@@ -8,6 +8,6 @@ pub mod colour;
 pub mod fringe_field;
 pub(crate) mod pixel_format;
 pub mod render;
-pub mod scratch;
+pub(crate) mod scratch;
 mod scratch_canvas;
 pub mod sensor;

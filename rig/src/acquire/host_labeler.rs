@@ -27,7 +27,7 @@ use crate::units::Microseconds;
 use std::collections::VecDeque;
 
 /// Host-time labels: the baseline.
-pub struct HostLabeler {
+pub(crate) struct HostLabeler {
     exposure_ns: f64,
     /// (host ns, six channels, sample index), spread as described, oldest first.
     samples: VecDeque<(f64, [f64; 6], u64)>,
@@ -44,7 +44,7 @@ pub struct HostLabeler {
 
 impl HostLabeler {
     /// A labeler for a camera exposing for `exposure`.
-    pub fn new(exposure: Microseconds) -> HostLabeler {
+    pub(crate) fn new(exposure: Microseconds) -> HostLabeler {
         HostLabeler {
             exposure_ns: exposure.0 * 1e3,
             samples: VecDeque::new(),
@@ -82,7 +82,7 @@ impl HostLabeler {
     }
 
     /// Feeds one force sample, in stream order.
-    pub fn push_sample(&mut self, s: &ForceSample) {
+    pub(crate) fn push_sample(&mut self, s: &ForceSample) {
         self.first_arrival.get_or_insert(s.host_time);
         if self.block_arrival != Some(s.host_time) {
             self.place_block();
@@ -98,7 +98,7 @@ impl HostLabeler {
     }
 
     /// Notes a frame's arrival (for the jitter estimate).
-    pub fn observe_frame(&mut self, frame: &Frame) {
+    pub(crate) fn observe_frame(&mut self, frame: &Frame) {
         self.arrivals.push_back(frame.host_arrival);
         if self.arrivals.len() > 500 {
             self.arrivals.pop_front();
@@ -106,7 +106,7 @@ impl HostLabeler {
     }
 
     /// The label of the frame that arrived at `arrival`.
-    pub fn label(&mut self, arrival: HostTime) -> LabelOutcome {
+    pub(crate) fn label(&mut self, arrival: HostTime) -> LabelOutcome {
         let end = arrival.0 as f64;
         let start = end - self.exposure_ns;
         let newest = self.samples.back().map_or(f64::NEG_INFINITY, |s| s.0);

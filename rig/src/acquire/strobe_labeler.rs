@@ -27,7 +27,7 @@ use std::collections::VecDeque;
 
 /// A strobe window is a frame's only if it starts within this fraction of a frame period of
 /// where the clock fits place the frame's exposure start.
-pub const MATCH_FRACTION: f64 = 0.3;
+pub(crate) const MATCH_FRACTION: f64 = 0.3;
 
 #[derive(Debug, Clone, Copy)]
 struct Seen {
@@ -38,7 +38,7 @@ struct Seen {
 /// With the camera triggered by the DAQ, a strobe window further than this many samples from the
 /// trigger's window says the trigger's wiring or delay is wrong (the strobe's edges are placed
 /// within a sample).
-pub const TRIGGER_CHECK_SAMPLES: f64 = 2.0;
+pub(crate) const TRIGGER_CHECK_SAMPLES: f64 = 2.0;
 
 /// Where the exposure windows come from.
 enum Source {
@@ -55,7 +55,7 @@ enum Source {
 
 /// Matches frames to exposure windows in the force stream (from the strobe channel, or from the
 /// DAQ's trigger pulses) and averages the force over them.
-pub struct StrobeLabeler {
+pub(crate) struct StrobeLabeler {
     source: Source,
     detector: StrobeDetector,
     windows: VecDeque<Seen>,
@@ -75,7 +75,7 @@ impl StrobeLabeler {
     /// `threshold`: strobe level in volts; `clock`: the camera's exposure and tick rate and how
     /// the clock fits run; `latches`: timestamp-latch exchanges of the camera, when it offers
     /// them (without, the readout time is assumed: `clock.assumed_readout`).
-    pub fn new(
+    pub(crate) fn new(
         threshold: f64,
         clock: ClockFitOptions,
         latches: Option<Receiver<TimestampLatch>>,
@@ -94,7 +94,7 @@ impl StrobeLabeler {
 
     /// Labels frames of a camera triggered by the DAQ with `timing` (method `trigger`): the
     /// windows are the trigger's; a strobe channel at `threshold`, when wired, checks them.
-    pub fn triggered(
+    pub(crate) fn triggered(
         timing: TriggerTiming,
         threshold: f64,
         clock: ClockFitOptions,
@@ -123,7 +123,7 @@ impl StrobeLabeler {
 
     /// Feeds one force sample (in stream order). Samples without a strobe value count for
     /// averaging but find no strobe windows.
-    pub fn push_sample(&mut self, s: &ForceSample) {
+    pub(crate) fn push_sample(&mut self, s: &ForceSample) {
         self.clock.push_sample(s);
         let tick = s.device_tick;
         if let Some(last) = self.last_tick.replace(tick) {
@@ -183,7 +183,7 @@ impl StrobeLabeler {
     }
 
     /// Notes a delivered frame for the camera clock fit.
-    pub fn observe_frame(&mut self, frame: &Frame) {
+    pub(crate) fn observe_frame(&mut self, frame: &Frame) {
         self.clock.observe_frame(frame);
     }
 
@@ -260,7 +260,7 @@ impl StrobeLabeler {
     }
 
     /// The label of `frame`.
-    pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
+    pub(crate) fn label(&mut self, frame: &Frame) -> LabelOutcome {
         let placed = match self.clock.place(frame) {
             Placement::Window(w) => w,
             Placement::NotYet => return LabelOutcome::NotYet,

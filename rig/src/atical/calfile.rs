@@ -24,7 +24,7 @@ use nalgebra::{Matrix6, Vector6};
 use std::path::{Path, PathBuf};
 
 /// Axis names in matrix order.
-pub const AXES: [&str; 6] = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
+pub(crate) const AXES: [&str; 6] = ["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"];
 
 /// A `.cal` file that cannot be used, naming the file and the element.
 #[derive(Debug, thiserror::Error)]

@@ -14,7 +14,7 @@ const MAX_REMEMBERED_GAP: u32 = 64;
 
 /// What to do with a record.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Verdict {
+pub(crate) enum Verdict {
     /// Deliver it; `lost_before` records were skipped just before it.
     Deliver { lost_before: u32 },
     /// Drop it: it arrived after a later record (or is a duplicate).
@@ -23,30 +23,30 @@ pub enum Verdict {
 
 /// Tracks `rdt_sequence` over one stream (it restarts at 1 with every start request).
 #[derive(Debug, Clone, Default)]
-pub struct SequenceTracker {
+pub(crate) struct SequenceTracker {
     last: Option<u32>,
     missing: VecDeque<u32>,
     stats: StreamStats,
 }
 
 impl SequenceTracker {
-    pub fn new() -> SequenceTracker {
+    pub(crate) fn new() -> SequenceTracker {
         SequenceTracker::default()
     }
 
     /// Forgets the sequence (a new start request was sent); keeps the counters.
-    pub fn restart(&mut self) {
+    pub(crate) fn restart(&mut self) {
         self.last = None;
         self.missing.clear();
     }
 
     /// Resets counters and sequence.
-    pub fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         *self = SequenceTracker::default();
     }
 
     /// Accounts for a record with this `rdt_sequence` and `status`.
-    pub fn accept(&mut self, seq: u32, status: u32) -> Verdict {
+    pub(crate) fn accept(&mut self, seq: u32, status: u32) -> Verdict {
         // The first record of a stream is number 1; anything before it was lost. A first record
         // far from 1 means the stream was joined midway: nothing is counted lost then.
         let prev = match self.last {
@@ -84,7 +84,7 @@ impl SequenceTracker {
     }
 
     /// Counters so far.
-    pub fn stats(&self) -> StreamStats {
+    pub(crate) fn stats(&self) -> StreamStats {
         self.stats
     }
 }
@@ -94,7 +94,7 @@ impl SequenceTracker {
 /// Bit 31 is the Net F/T summary error flag and bit 30 the Ethernet Axia out-of-range flag; for
 /// the other bits the text points to the sensor manual's status table, which differs between
 /// models and firmware.
-pub fn status_meaning(status: u32) -> String {
+pub(crate) fn status_meaning(status: u32) -> String {
     if status == 0 {
         return "ok".into();
     }

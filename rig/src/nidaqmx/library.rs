@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 /// The names tried on the system's search path when no path is given: the versioned name NI's
 /// packages install, then the development link.
-pub const SEARCH_NAMES: [&str; 2] = ["libnidaqmx.so.1", "libnidaqmx.so"];
+pub(crate) const SEARCH_NAMES: [&str; 2] = ["libnidaqmx.so.1", "libnidaqmx.so"];
 
 /// A loaded NI-DAQmx library.
 pub struct Library {
@@ -187,7 +187,7 @@ fn c_string(s: &str) -> Result<CString, DaqmxStatus> {
 }
 
 /// One NI-DAQmx task, cleared when dropped.
-pub struct Task {
+pub(crate) struct Task {
     library: Arc<Library>,
     handle: TaskHandle,
 }
@@ -204,7 +204,7 @@ impl std::fmt::Debug for Task {
 
 /// Why a read ended early.
 #[derive(Debug)]
-pub struct ReadError {
+pub(crate) struct ReadError {
     /// Scans read before the error (valid at the start of the buffer).
     pub scans: usize,
     pub status: DaqmxStatus,
@@ -212,7 +212,7 @@ pub struct ReadError {
 
 impl Task {
     /// A new unnamed task.
-    pub fn create(library: &Arc<Library>) -> Result<Task, DaqmxStatus> {
+    pub(crate) fn create(library: &Arc<Library>) -> Result<Task, DaqmxStatus> {
         let mut handle: TaskHandle = std::ptr::null_mut();
         let name = c_string("")?;
         // SAFETY: valid string and out pointer.
@@ -229,7 +229,7 @@ impl Task {
     }
 
     /// Adds voltage channels `physical` ("Dev1/ai0:5") measured over `min..max` volts.
-    pub fn add_voltage_channels(
+    pub(crate) fn add_voltage_channels(
         &self,
         physical: &str,
         terminal: c_int,
@@ -257,7 +257,11 @@ impl Task {
 
     /// Continuous sampling on the device's own sample clock at `rate` Hz, rising edge;
     /// `buffer` scans per channel (0: NI's default for the rate).
-    pub fn continuous_sample_clock(&self, rate: f64, buffer: u64) -> Result<(), DaqmxStatus> {
+    pub(crate) fn continuous_sample_clock(
+        &self,
+        rate: f64,
+        buffer: u64,
+    ) -> Result<(), DaqmxStatus> {
         let source = c_string("")?;
         let f = self.library.functions.cfg_samp_clk_timing;
         // SAFETY: live handle; the empty source is the onboard clock.
@@ -274,7 +278,7 @@ impl Task {
     }
 
     /// Sets the input buffer to `scans` per channel, when the library offers it.
-    pub fn input_buffer(&self, scans: u32) -> Result<bool, DaqmxStatus> {
+    pub(crate) fn input_buffer(&self, scans: u32) -> Result<bool, DaqmxStatus> {
         let Some(f) = self.library.functions.cfg_input_buffer else {
             return Ok(false);
         };
@@ -284,7 +288,7 @@ impl Task {
 
     /// Reserves and programs the hardware (so a bad channel or rate fails before anything
     /// runs), when the library offers `DAQmxTaskControl`.
-    pub fn commit(&self) -> Result<(), DaqmxStatus> {
+    pub(crate) fn commit(&self) -> Result<(), DaqmxStatus> {
         let Some(f) = self.library.functions.task_control else {
             return Ok(());
         };
@@ -292,12 +296,12 @@ impl Task {
         self.call(unsafe { f(self.handle, api::VAL_TASK_COMMIT) })
     }
 
-    pub fn start(&self) -> Result<(), DaqmxStatus> {
+    pub(crate) fn start(&self) -> Result<(), DaqmxStatus> {
         // SAFETY: live handle.
         self.call(unsafe { (self.library.functions.start_task)(self.handle) })
     }
 
-    pub fn stop(&self) -> Result<(), DaqmxStatus> {
+    pub(crate) fn stop(&self) -> Result<(), DaqmxStatus> {
         // SAFETY: live handle.
         self.call(unsafe { (self.library.functions.stop_task)(self.handle) })
     }
@@ -305,7 +309,7 @@ impl Task {
     /// Reads up to `scans` scans of `channels` channels, interleaved by scan, into `out`, waiting
     /// at most `timeout_s`. A timeout with some scans read returns them as an error with the
     /// count, as NI documents.
-    pub fn read(
+    pub(crate) fn read(
         &self,
         scans: usize,
         channels: usize,
@@ -340,7 +344,7 @@ impl Task {
 
     /// Scans per channel the device has acquired since the task started, when the library
     /// tells.
-    pub fn total_acquired(&self) -> Option<u64> {
+    pub(crate) fn total_acquired(&self) -> Option<u64> {
         let f = self
             .library
             .functions
@@ -353,7 +357,7 @@ impl Task {
 
     /// A counter output pulsing at `frequency` Hz with `duty` (0..1), idle low, the first pulse
     /// `initial_delay_s` after the task starts, continuously.
-    pub fn add_pulse_train(
+    pub(crate) fn add_pulse_train(
         &self,
         counter: &str,
         frequency: f64,
@@ -389,7 +393,7 @@ impl Task {
     }
 
     /// Routes the pulses of counter channel `counter` to `terminal` ("/Dev1/PFI12").
-    pub fn pulse_terminal(&self, counter: &str, terminal: &str) -> Result<(), DaqmxStatus> {
+    pub(crate) fn pulse_terminal(&self, counter: &str, terminal: &str) -> Result<(), DaqmxStatus> {
         let Some(f) = self.library.functions.set_co_pulse_term else {
             return Err(missing("DAQmxSetCOPulseTerm"));
         };
@@ -399,7 +403,7 @@ impl Task {
     }
 
     /// Starts the task on the rising edge of `source` ("/Dev1/ai/StartTrigger").
-    pub fn start_on_edge(&self, source: &str) -> Result<(), DaqmxStatus> {
+    pub(crate) fn start_on_edge(&self, source: &str) -> Result<(), DaqmxStatus> {
         let Some(f): Option<CfgDigEdgeStartTrig> = self.library.functions.cfg_dig_edge_start_trig
         else {
             return Err(missing("DAQmxCfgDigEdgeStartTrig"));

@@ -96,7 +96,7 @@ impl Default for DaqSettings {
 }
 
 /// Gauges an ATI `.cal` matrix converts.
-pub const GAUGES: usize = 6;
+pub(crate) const GAUGES: usize = 6;
 
 impl DaqSettings {
     /// Checks what can be checked without the device.
@@ -200,7 +200,7 @@ impl DaqSettings {
 
 /// How many channels a channel list names: "ai0:5" (a range, either direction), "ai0,ai3",
 /// "Dev1/ai0:2, ai4".
-pub fn channel_count(list: &str) -> Result<usize, String> {
+pub(crate) fn channel_count(list: &str) -> Result<usize, String> {
     let mut n = 0;
     for part in list.split(',').map(str::trim) {
         let name = part.rsplit('/').next().unwrap_or(part);

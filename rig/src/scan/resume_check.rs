@@ -19,7 +19,7 @@ const KEPT: [(&str, Option<&str>); 7] = [
 
 /// Why the run in `dir_name` cannot be resumed with `plan`, `sync`, `sensor_id` and `rig_text`
 /// (the rig file as given now); `None` when it can.
-pub fn refusal(
+pub(crate) fn refusal(
     dir_name: &str,
     start: &StartDocument,
     plan: &str,

@@ -14,7 +14,7 @@ const NOT_REGULAR: &str = "is not a regular file (a FIFO, a socket, a device or 
 
 /// Checks that `rel` (a path relative to the run directory `dir`) names a regular file with no
 /// symbolic link on the way from `dir`. A missing file is `NotFound`, as `File::open` says it.
-pub fn check_in(dir: &Path, rel: &Path) -> io::Result<()> {
+pub(crate) fn check_in(dir: &Path, rel: &Path) -> io::Result<()> {
     let mut here = dir.to_path_buf();
     let parts: Vec<Component> = rel.components().collect();
     for (k, part) in parts.iter().enumerate() {
@@ -33,7 +33,7 @@ pub fn check_in(dir: &Path, rel: &Path) -> io::Result<()> {
 }
 
 /// Checks that `path`, a file directly in a run directory, is a regular file (see [`check_in`]).
-pub fn check(path: &Path) -> io::Result<()> {
+pub(crate) fn check(path: &Path) -> io::Result<()> {
     match (path.parent(), path.file_name()) {
         (Some(dir), Some(name)) => check_in(dir, Path::new(name)),
         _ => Err(io::Error::new(
@@ -44,13 +44,13 @@ pub fn check(path: &Path) -> io::Result<()> {
 }
 
 /// Reads a file of a run that [`check`] accepts.
-pub fn read(path: &Path) -> io::Result<Vec<u8>> {
+pub(crate) fn read(path: &Path) -> io::Result<Vec<u8>> {
     check(path)?;
     std::fs::read(path)
 }
 
 /// Reads a text file of a run that [`check`] accepts.
-pub fn read_to_string(path: &Path) -> io::Result<String> {
+pub(crate) fn read_to_string(path: &Path) -> io::Result<String> {
     check(path)?;
     std::fs::read_to_string(path)
 }
@@ -59,7 +59,7 @@ pub fn read_to_string(path: &Path) -> io::Result<String> {
 /// asks), never through a symbolic link (`O_NOFOLLOW`: the kernel refuses one at the last
 /// component, so a link put in the file's place is never written through) and never blocking on
 /// a FIFO; anything but a regular file is refused before a byte is written.
-pub fn open_with(options: &mut OpenOptions, path: &Path) -> io::Result<File> {
+pub(crate) fn open_with(options: &mut OpenOptions, path: &Path) -> io::Result<File> {
     match std::fs::symlink_metadata(path) {
         Ok(meta) if meta.file_type().is_symlink() => {
             return Err(io::Error::new(io::ErrorKind::InvalidInput, LINK))
@@ -86,7 +86,7 @@ pub fn open_with(options: &mut OpenOptions, path: &Path) -> io::Result<File> {
 }
 
 /// Creates (or truncates) a file of a run for writing: [`open_with`] `create` + `truncate`.
-pub fn create(path: &Path) -> io::Result<File> {
+pub(crate) fn create(path: &Path) -> io::Result<File> {
     open_with(
         OpenOptions::new().write(true).create(true).truncate(true),
         path,
@@ -94,13 +94,13 @@ pub fn create(path: &Path) -> io::Result<File> {
 }
 
 /// Opens a file of a run for appending, creating it: [`open_with`] `create` + `append`.
-pub fn append(path: &Path) -> io::Result<File> {
+pub(crate) fn append(path: &Path) -> io::Result<File> {
     open_with(OpenOptions::new().create(true).append(true), path)
 }
 
 /// What is wrong with the entry `path` when it is not a regular file or a directory (`None`
 /// when it is one, or is absent).
-pub fn stranger(path: &Path) -> Option<&'static str> {
+pub(crate) fn stranger(path: &Path) -> Option<&'static str> {
     let kind = std::fs::symlink_metadata(path).ok()?.file_type();
     if kind.is_symlink() {
         Some(LINK)

@@ -22,7 +22,7 @@ use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
 /// The lock file's name inside a run directory.
-pub const LOCK: &str = ".lock";
+pub(crate) const LOCK: &str = ".lock";
 
 /// How a lock is held.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -150,7 +150,7 @@ fn refused(path: &Path, e: std::io::Error) -> StoreError {
 /// (since ...)`) while a process holds the run for writing; `None` when none does (a lock file
 /// left by a killed writer, one held by readers only, or none at all). The lock is only looked
 /// at: a shared lock taken and dropped at once, on a lock file that is a regular file.
-pub fn writer(dir: &Path) -> Option<String> {
+pub(crate) fn writer(dir: &Path) -> Option<String> {
     let mut file = own_file::open_with(OpenOptions::new().read(true), &dir.join(LOCK)).ok()?;
     // SAFETY: flock on a file descriptor this function owns; no memory is passed.
     let rc = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_SH | libc::LOCK_NB) };

@@ -12,7 +12,7 @@ use crate::camera::TimestampLatch;
 
 /// A latch fit and its error bound.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LatchFit {
+pub(crate) struct LatchFit {
     pub map: ClockMap,
     /// Exchanges kept (shortest round trips) out of those given.
     pub used: usize,
@@ -24,7 +24,7 @@ pub struct LatchFit {
 
 /// Fits device ticks -> host time; keeps exchanges whose round trip is at most twice the shortest
 /// (at least three, the shortest ones). `clock` names the device for errors.
-pub fn fit(latches: &[TimestampLatch], clock: &str) -> Result<LatchFit, FitError> {
+pub(crate) fn fit(latches: &[TimestampLatch], clock: &str) -> Result<LatchFit, FitError> {
     let need = 3;
     let mut kept: Vec<&TimestampLatch> = latches
         .iter()

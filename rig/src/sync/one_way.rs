@@ -16,7 +16,7 @@ use crate::clock::HostTime;
 
 /// What went wrong with a fit.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FitError {
+pub(crate) enum FitError {
     #[error("clock fit for {clock}: {got} usable timestamp pairs, need at least {need}")]
     TooFewPoints {
         clock: String,
@@ -29,7 +29,7 @@ pub enum FitError {
 
 /// Options of a one-way fit.
 #[derive(Debug, Clone, PartialEq)]
-pub struct OneWayOptions {
+pub(crate) struct OneWayOptions {
     /// Name of the clock for messages ("camera", "netft").
     pub clock: String,
     /// Nominal host nanoseconds per device tick (1.0 for a 1 GHz camera clock, 200_000.0 for a
@@ -42,7 +42,7 @@ pub struct OneWayOptions {
 
 /// A one-way fit and how well the data supported it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct OneWayFit {
+pub(crate) struct OneWayFit {
     pub map: ClockMap,
     /// Points used / rejected as impossibly early.
     pub used: usize,
@@ -60,7 +60,7 @@ fn cross(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> f64 {
 }
 
 /// Indices (into `pts`, sorted by x) of the lower convex hull, left to right.
-pub fn lower_hull(pts: &[(f64, f64)]) -> Vec<usize> {
+pub(crate) fn lower_hull(pts: &[(f64, f64)]) -> Vec<usize> {
     let mut hull: Vec<usize> = Vec::new();
     for (i, &p) in pts.iter().enumerate() {
         while hull.len() >= 2 {
@@ -86,7 +86,10 @@ fn line_at(a: (f64, f64), b: (f64, f64), x: f64) -> f64 {
 }
 
 /// Fits device ticks -> host time from `(device_ticks, host_arrival)` pairs.
-pub fn fit(pairs: &[(u64, HostTime)], options: &OneWayOptions) -> Result<OneWayFit, FitError> {
+pub(crate) fn fit(
+    pairs: &[(u64, HostTime)],
+    options: &OneWayOptions,
+) -> Result<OneWayFit, FitError> {
     let need = 2;
     if pairs.len() < need {
         return Err(FitError::TooFewPoints {

@@ -101,7 +101,7 @@ pub enum TraceError {
 }
 
 /// Formats bytes as space-separated two-digit hex.
-pub fn hex(bytes: &[u8]) -> String {
+pub(crate) fn hex(bytes: &[u8]) -> String {
     let mut s = String::with_capacity(bytes.len() * 3);
     for (i, b) in bytes.iter().enumerate() {
         if i > 0 {
@@ -113,7 +113,7 @@ pub fn hex(bytes: &[u8]) -> String {
 }
 
 /// Parses space-separated two-digit hex (the inverse of [`hex`]).
-pub fn parse_hex(text: &str) -> Result<Vec<u8>, String> {
+pub(crate) fn parse_hex(text: &str) -> Result<Vec<u8>, String> {
     text.split_whitespace()
         .map(|tok| {
             if tok.len() != 2 {

@@ -31,14 +31,14 @@ use std::path::Path;
 use std::time::Duration;
 
 /// Bytes of one reading's datagram.
-pub const READING_BYTES: usize = 82;
+pub(crate) const READING_BYTES: usize = 82;
 const VERSION: u8 = 1;
 /// The host-to-device datagrams marking acquisition started and stopped.
-pub const START: [u8; 1] = [1];
-pub const STOP: [u8; 1] = [0];
+pub(crate) const START: [u8; 1] = [1];
+pub(crate) const STOP: [u8; 1] = [0];
 
 /// A reading as a datagram; `host_offset` is its host time since the trace started.
-pub fn encode_reading(r: &GaugeReading, host_offset: Duration) -> [u8; READING_BYTES] {
+pub(crate) fn encode_reading(r: &GaugeReading, host_offset: Duration) -> [u8; READING_BYTES] {
     let mut b = [0u8; READING_BYTES];
     b[0] = VERSION;
     b[1..9].copy_from_slice(&r.index.to_le_bytes());
@@ -56,7 +56,7 @@ pub fn encode_reading(r: &GaugeReading, host_offset: Duration) -> [u8; READING_B
 }
 
 /// A datagram back as a reading whose host time is `origin` plus the recorded offset.
-pub fn decode_reading(bytes: &[u8], origin: HostTime) -> Result<GaugeReading, String> {
+pub(crate) fn decode_reading(bytes: &[u8], origin: HostTime) -> Result<GaugeReading, String> {
     if bytes.len() != READING_BYTES {
         return Err(format!(
             "a gauge reading is {READING_BYTES} bytes, this datagram has {}",

@@ -7,7 +7,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 /// A linear head as the network stores it: `out = weight * features + bias`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Head {
+pub(crate) struct Head {
     /// outputs x features.
     pub weight: DMatrix<f64>,
     /// One per output.
@@ -16,12 +16,12 @@ pub struct Head {
 
 impl Head {
     /// Outputs.
-    pub fn outputs(&self) -> usize {
+    pub(crate) fn outputs(&self) -> usize {
         self.weight.nrows()
     }
 
     /// The head's outputs for each row of `x` (samples x features): samples x outputs.
-    pub fn apply(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
+    pub(crate) fn apply(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
         let mut out = x * self.weight.transpose();
         for mut row in out.row_iter_mut() {
             row += self.bias.transpose();
@@ -58,7 +58,7 @@ fn with_ones(x: &DMatrix<f64>) -> DMatrix<f64> {
 
 /// The scale of the regularisation for `x`: the mean squared feature, so that `lambda` in
 /// [`ridge`] and [`softmax`] reads as a number of samples' worth of pull towards the prior.
-pub fn feature_scale(x: &DMatrix<f64>) -> f64 {
+pub(crate) fn feature_scale(x: &DMatrix<f64>) -> f64 {
     let (n, f) = x.shape();
     if n == 0 || f == 0 {
         return 1.0;
@@ -70,7 +70,7 @@ pub fn feature_scale(x: &DMatrix<f64>) -> f64 {
 /// `sum_i |W x_i + b - y_i|^2 + lambda * scale * |W - W_prior|^2` (the bias is not pulled), for
 /// `x` samples x features and `y` samples x outputs. `None` when the system is singular (no
 /// samples and no pull).
-pub fn ridge(x: &DMatrix<f64>, y: &DMatrix<f64>, prior: &Head, lambda: f64) -> Option<Head> {
+pub(crate) fn ridge(x: &DMatrix<f64>, y: &DMatrix<f64>, prior: &Head, lambda: f64) -> Option<Head> {
     let a = with_ones(x);
     let f = x.ncols();
     let pull = lambda * feature_scale(x);
@@ -87,7 +87,7 @@ pub fn ridge(x: &DMatrix<f64>, y: &DMatrix<f64>, prior: &Head, lambda: f64) -> O
 }
 
 /// The probabilities of each class for each row of `logits` (samples x classes).
-pub fn softmax_rows(logits: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn softmax_rows(logits: &DMatrix<f64>) -> DMatrix<f64> {
     let mut p = logits.clone();
     for mut row in p.row_iter_mut() {
         let max = row.max();
@@ -99,7 +99,7 @@ pub fn softmax_rows(logits: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// Mean negative log-likelihood of the true classes `y` under `logits`.
-pub fn log_loss(logits: &DMatrix<f64>, y: &[usize]) -> f64 {
+pub(crate) fn log_loss(logits: &DMatrix<f64>, y: &[usize]) -> f64 {
     let p = softmax_rows(logits);
     let n = y.len().max(1) as f64;
     y.iter()
@@ -116,7 +116,7 @@ const NEWTON_STEPS: usize = 30;
 /// classes `y` (indices into the head's outputs) plus `lambda * scale / 2 * |W - W_prior|^2`, by
 /// Newton's method with step halving, starting from the prior. `None` when a Newton system is
 /// singular.
-pub fn softmax(x: &DMatrix<f64>, y: &[usize], prior: &Head, lambda: f64) -> Option<Head> {
+pub(crate) fn softmax(x: &DMatrix<f64>, y: &[usize], prior: &Head, lambda: f64) -> Option<Head> {
     let a = with_ones(x);
     let (n, d) = a.shape();
     let c = prior.outputs();

@@ -35,7 +35,7 @@ enum Network {
 }
 
 /// libtorch running one model.
-pub struct TorchBackend {
+pub(crate) struct TorchBackend {
     network: Network,
     classes: usize,
     threads: usize,
@@ -44,7 +44,7 @@ pub struct TorchBackend {
 impl TorchBackend {
     /// The paper's network `arch` with `classes` shape classes, its weights from `sd` (every
     /// parameter and batch-norm buffer under the reference names).
-    pub fn from_weights(
+    pub(crate) fn from_weights(
         arch: Architecture,
         classes: usize,
         sd: &StateDict,
@@ -65,7 +65,7 @@ impl TorchBackend {
 
     /// A TorchScript archive; its number of shape classes is found by running it once on a
     /// blank image of `size` (and checked against `classes` when that is known).
-    pub fn from_script(
+    pub(crate) fn from_script(
         path: &Path,
         classes: Option<usize>,
         size: u32,
@@ -93,7 +93,7 @@ impl TorchBackend {
     }
 
     /// The number of trainable parameters.
-    pub fn parameters(&self) -> usize {
+    pub(crate) fn parameters(&self) -> usize {
         let tensors = match &self.network {
             Network::Weights { vs, .. } => vs.trainable_variables(),
             Network::Script(m) => m
@@ -105,7 +105,7 @@ impl TorchBackend {
     }
 
     /// The number of shape classes the network gives logits for.
-    pub fn classes(&self) -> usize {
+    pub(crate) fn classes(&self) -> usize {
         self.classes
     }
 

@@ -22,7 +22,7 @@ pub enum StateError {
 }
 
 /// A libtorch tensor as a stored f32 tensor.
-pub fn to_state(t: &Tensor) -> Result<Stored, StateError> {
+pub(crate) fn to_state(t: &Tensor) -> Result<Stored, StateError> {
     let shape: Vec<usize> = t.size().iter().map(|&d| d as usize).collect();
     let flat = t.detach().to_kind(Kind::Float).contiguous().view([-1]);
     let data = Vec::<f32>::try_from(&flat).map_err(|e| StateError::Convert {
@@ -36,7 +36,12 @@ pub fn to_state(t: &Tensor) -> Result<Stored, StateError> {
 }
 
 /// Copies `key` of `sd` into `t` (same shape), without recording gradients.
-pub fn from_state(t: &mut Tensor, sd: &StateDict, key: &str, what: &str) -> Result<(), StateError> {
+pub(crate) fn from_state(
+    t: &mut Tensor,
+    sd: &StateDict,
+    key: &str,
+    what: &str,
+) -> Result<(), StateError> {
     let src = sd.get(key).ok_or_else(|| StateError::Missing {
         what: what.to_string(),
         key: key.to_string(),
@@ -57,7 +62,7 @@ pub fn from_state(t: &mut Tensor, sd: &StateDict, key: &str, what: &str) -> Resu
 
 /// The network's state dict (parameters and batch-norm buffers, reference names), with each
 /// batch norm's `num_batches_tracked` set to `batches`.
-pub fn state_dict(vs: &tch::nn::VarStore, batches: u64) -> Result<StateDict, StateError> {
+pub(crate) fn state_dict(vs: &tch::nn::VarStore, batches: u64) -> Result<StateDict, StateError> {
     let mut vars: Vec<(String, Tensor)> = vs.variables().into_iter().collect();
     vars.sort_by(|a, b| a.0.cmp(&b.0));
     let mut sd = StateDict::new();
@@ -76,7 +81,7 @@ pub fn state_dict(vs: &tch::nn::VarStore, batches: u64) -> Result<StateDict, Sta
 }
 
 /// Loads a state dict into the network's variables (every variable must be there).
-pub fn load_state_dict(
+pub(crate) fn load_state_dict(
     vs: &tch::nn::VarStore,
     sd: &StateDict,
     what: &str,

@@ -11,7 +11,7 @@
 
 pub mod camera;
 pub mod daq;
-pub mod error;
+pub(crate) mod error;
 pub mod force_stream;
 pub mod interface;
 pub mod netft;

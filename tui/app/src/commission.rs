@@ -33,6 +33,6 @@ pub mod journal;
 mod last_block;
 pub mod press_choice;
 pub mod press_errors;
-pub mod press_plan;
+pub(crate) mod press_plan;
 pub mod rounds;
 pub(crate) mod scans;

@@ -20,11 +20,11 @@
 //! calibration: `fringe_calibration::health`.
 
 pub mod check;
-pub mod check_plan;
+pub(crate) mod check_plan;
 pub mod figures;
 pub mod history;
 pub mod history_plot;
 pub mod model_errors;
-pub mod reference;
+pub(crate) mod reference;
 #[cfg(test)]
 mod test_change;

@@ -22,7 +22,7 @@ pub mod disk_space;
 pub mod jog_guard;
 pub mod live_validation;
 pub mod live_view;
-pub mod model_pace;
+pub(crate) mod model_pace;
 pub mod plans;
 pub mod rig_control;
 pub(crate) mod scan;

@@ -5,7 +5,7 @@ use super::spot::ContactError;
 use image::RgbImage;
 
 /// Bin side, px.
-pub const BIN_PX: usize = 4;
+pub(crate) const BIN_PX: usize = 4;
 
 /// Binned per-channel image.
 #[derive(Debug, Clone)]

@@ -5,7 +5,7 @@
 use super::binning::BIN_PX;
 
 /// Window radius over the radius holding 90 % of the weight.
-pub const WINDOW_OVER_R90: f64 = 1.5;
+pub(crate) const WINDOW_OVER_R90: f64 = 1.5;
 
 /// The centroid window: seeded at the densest spot (weight over an 80 px box) with
 /// [`WINDOW_OVER_R90`] times the radius holding 90 % of all the weight, then three times the

@@ -8,7 +8,7 @@ const BOUNDARY_RAYS: usize = 144;
 
 /// Largest fraction of the rays whose outline point is missing or in the outer 10 % of the
 /// window (the pattern cut by the window, i.e. by the crop edge).
-pub const MAX_CUT_RAYS: f64 = 0.1;
+pub(crate) const MAX_CUT_RAYS: f64 = 0.1;
 
 /// The outline refinement's result.
 pub(super) struct Outline {

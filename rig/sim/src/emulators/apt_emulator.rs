@@ -15,7 +15,7 @@
 //! codec's resynchronising stream decoder.
 
 pub mod core;
-pub mod server;
+pub(crate) mod server;
 
 pub use self::core::{AptEmulatorConfig, EmulatorCounters, KeepAlive, UpdateMessage};
 pub use self::server::{AptEmulator, AptEmulatorHandle, EmulatorError};

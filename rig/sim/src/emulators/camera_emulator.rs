@@ -38,9 +38,9 @@
 //! [`SceneSource::scene_at`]: crate::scene::SceneSource::scene_at
 //! [`FrameRenderer::render_as`]: crate::scene::FrameRenderer::render_as
 
-pub mod camera;
+pub(crate) mod camera;
 mod frame;
-pub mod timing;
+pub(crate) mod timing;
 
 pub use self::camera::{SimCamera, SimCameraConfig, SimCameraStats, FRAME_MEMORY};
 pub use self::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};

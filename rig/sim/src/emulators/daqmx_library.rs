@@ -14,8 +14,8 @@
 //! same functions from a shared object.
 
 pub mod c_api;
-pub mod device;
+pub(crate) mod device;
 mod task;
-pub mod texts;
+pub(crate) mod texts;
 
 pub use device::{DaqSignals, DeviceModel, DeviceTiming, PulseTrain, SimDevice};

@@ -29,9 +29,9 @@
 //! answers as soon as the request is in (no drive documents a response time there).
 
 pub mod core;
-pub mod framing;
-pub mod line_timing;
-pub mod server;
+pub(crate) mod framing;
+pub(crate) mod line_timing;
+pub(crate) mod server;
 
 pub use self::core::{
     decode_request_pdu, ModbusCore, ServerRequest, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE,

@@ -18,9 +18,9 @@
 //! - [`server`]: the box on a thread, over UDP or in process.
 //! - [`http_page`]: its `netftapi2.xml` page over HTTP.
 
-pub mod core;
-pub mod http_page;
-pub mod server;
+pub(crate) mod core;
+pub(crate) mod http_page;
+pub(crate) mod server;
 
 pub use self::core::*;
 pub use self::http_page::SimHttp;

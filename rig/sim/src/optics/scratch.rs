@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 pub(crate) const FWHM_PER_SIGMA: f64 = 2.354_82;
 
 /// Farthest a scratch's end may lie from the disc centre, mm.
-pub const MAX_REACH_MM: f64 = 40.0;
+pub(crate) const MAX_REACH_MM: f64 = 40.0;
 
 /// One groove on the contact surface. See the module documentation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -10,7 +10,7 @@ pub struct PressPlanError(String);
 
 /// The plan text that presses `points` (stage mm) with each of `shapes`, named `name`, headed
 /// by a comment saying `why`.
-pub fn press_plan(
+pub(crate) fn press_plan(
     name: &str,
     points: &[[f64; 2]],
     shapes: &[String],

@@ -7,13 +7,13 @@ use crate::commission::press_plan::{press_plan, PressPlanError};
 use fringe_rig::scan::plan::Plan;
 
 /// Positions a check presses at most.
-pub const CHECK_POSITIONS: usize = 3;
+pub(crate) const CHECK_POSITIONS: usize = 3;
 /// Bench time a check may take, s.
-pub const MAX_BENCH_S: f64 = 120.0;
+pub(crate) const MAX_BENCH_S: f64 = 120.0;
 
 /// A check's plan.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CheckPlan {
+pub(crate) struct CheckPlan {
     /// Stage positions, mm, in the order pressed.
     pub positions: Vec<[f64; 2]>,
     pub plan: String,
@@ -39,7 +39,10 @@ pub enum CheckPlanError {
 }
 
 /// The acceptance scan's positions, from its plan text (`origin` names it in errors).
-pub fn acceptance_positions(plan: &str, origin: &str) -> Result<Vec<[f64; 2]>, CheckPlanError> {
+pub(crate) fn acceptance_positions(
+    plan: &str,
+    origin: &str,
+) -> Result<Vec<[f64; 2]>, CheckPlanError> {
     let err = |message: String| CheckPlanError::Acceptance {
         origin: origin.to_string(),
         message,
@@ -54,7 +57,7 @@ pub fn acceptance_positions(plan: &str, origin: &str) -> Result<Vec<[f64; 2]>, C
 /// The check of `sensor` at up to [`CHECK_POSITIONS`] of `acceptance` (the ones farthest
 /// apart, always the same), with each of `shapes`; fewer positions when the bench time
 /// `estimate` gives a plan is over [`MAX_BENCH_S`].
-pub fn check_plan(
+pub(crate) fn check_plan(
     sensor: &str,
     acceptance: &[[f64; 2]],
     shapes: &[String],

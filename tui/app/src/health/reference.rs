@@ -15,7 +15,7 @@ use fringe_calibration::health::signature::Signature;
 /// The changes of a check `now` against the commissioning's calibration `commissioned` and,
 /// when the unit was calibrated again after it, that calibration `recalibrated`: the geometry's
 /// against the newest calibration, the light's and the surface's against the commissioning.
-pub fn compared(
+pub(crate) fn compared(
     commissioned: &Signature,
     recalibrated: Option<&Signature>,
     now: &Signature,

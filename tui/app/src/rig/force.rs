@@ -11,7 +11,7 @@
 
 pub mod netft;
 pub mod nidaqmx;
-pub mod section;
+pub(crate) mod section;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
 use crate::rig::file::RigConfig;

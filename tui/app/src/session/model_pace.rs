@@ -8,16 +8,16 @@ use fringe_rig::units::Hertz;
 use std::time::Duration;
 
 /// Timed runs of the model's networks before the scan (after one to warm up).
-pub const TIMING_RUNS: usize = 5;
+pub(crate) const TIMING_RUNS: usize = 5;
 
 /// The share of the frame period the networks may take before frames are likely skipped: the
 /// preprocessing of each frame (1-4 ms for a full frame, BENCHMARKS.md "Models: preprocessing
 /// and inference") and the rest of the bench need the remainder.
-pub const MARGIN: f64 = 0.8;
+pub(crate) const MARGIN: f64 = 0.8;
 
 /// What the model's machine and settings are, for the advice.
 #[derive(Debug, Clone, Copy)]
-pub struct Setting {
+pub(crate) struct Setting {
     /// Inference threads of each network.
     pub threads: usize,
     /// The machine's cores.
@@ -32,7 +32,7 @@ pub struct Setting {
 
 /// What the operator is told.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Pace {
+pub(crate) enum Pace {
     /// The networks take at most [`MARGIN`] of the frame period: the figures.
     KeepsUp(String),
     /// They take more: the figures, the share of frames that will be skipped and what would
@@ -44,7 +44,7 @@ pub enum Pace {
 /// the networks take at most [`MARGIN`] of the frame period, otherwise the share of frames that
 /// will be skipped (at the least: preprocessing and the rest of the bench come on top) and what
 /// would keep up.
-pub fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> Pace {
+pub(crate) fn keeping_up(per_frame: Duration, frame_rate: Hertz, setting: Setting) -> Pace {
     let ms = per_frame.as_secs_f64() * 1e3;
     let period_ms = 1e3 / frame_rate.0;
     let threads = match setting.threads {

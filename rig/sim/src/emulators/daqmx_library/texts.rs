@@ -5,28 +5,28 @@
 use fringe_rig::nidaqmx::api::status;
 
 /// `DAQmxErrorInvalidAttributeValue`.
-pub const INVALID_ATTRIBUTE_VALUE: i32 = -200077;
+pub(crate) const INVALID_ATTRIBUTE_VALUE: i32 = -200077;
 /// `DAQmxErrorInvalidTask`.
-pub const INVALID_TASK: i32 = -200088;
+pub(crate) const INVALID_TASK: i32 = -200088;
 /// `DAQmxErrorReadBufferTooSmall`.
-pub const BUFFER_TOO_SMALL: i32 = -200229;
+pub(crate) const BUFFER_TOO_SMALL: i32 = -200229;
 
 /// An error the library will report: a code and the lines of its extended description.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Fault {
+pub(crate) struct Fault {
     pub code: i32,
     pub lines: Vec<String>,
 }
 
 impl Fault {
-    pub fn new(code: i32, details: &[String]) -> Fault {
+    pub(crate) fn new(code: i32, details: &[String]) -> Fault {
         let mut lines = vec![description(code).to_string()];
         lines.extend(details.iter().cloned());
         Fault { code, lines }
     }
 
     /// The extended error information for a task named `task`.
-    pub fn extended(&self, task: &str) -> String {
+    pub(crate) fn extended(&self, task: &str) -> String {
         format!(
             "{}\n\nTask Name: {task}\n\nStatus Code: {}",
             self.lines.join("\n"),
@@ -36,7 +36,7 @@ impl Fault {
 }
 
 /// NI's description of `code`.
-pub fn description(code: i32) -> &'static str {
+pub(crate) fn description(code: i32) -> &'static str {
     match code {
         status::SAMPLES_NO_LONGER_AVAILABLE => "The application is not able to keep up with the hardware acquisition. Increasing the buffer size, reading the data more frequently, or specifying a fixed number of samples to read instead of reading all available samples might correct the problem.",
         status::SAMPLES_NOT_YET_AVAILABLE => "Some or all of the samples requested have not yet been acquired. To wait for the samples to become available use a longer read timeout or read later in your program.",

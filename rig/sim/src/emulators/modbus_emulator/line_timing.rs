@@ -61,14 +61,14 @@ impl RtuTiming {
 /// The line as one drive sees it: when it last sent, and whether the frame now arriving broke
 /// the silent interval (and is being dropped up to the next silence).
 #[derive(Debug)]
-pub struct RtuLine {
+pub(crate) struct RtuLine {
     timing: RtuTiming,
     sent_at: Option<Instant>,
     dropping: bool,
 }
 
 impl RtuLine {
-    pub fn new(timing: RtuTiming) -> RtuLine {
+    pub(crate) fn new(timing: RtuTiming) -> RtuLine {
         RtuLine {
             timing,
             sent_at: None,
@@ -76,13 +76,13 @@ impl RtuLine {
         }
     }
 
-    pub fn timing(&self) -> RtuTiming {
+    pub(crate) fn timing(&self) -> RtuTiming {
         self.timing
     }
 
     /// Bytes arrived at `at`: false when they are to be dropped. Returns the first moment of a
     /// new drop through `started_dropping`.
-    pub fn accept(&mut self, at: Instant, started_dropping: &mut bool) -> bool {
+    pub(crate) fn accept(&mut self, at: Instant, started_dropping: &mut bool) -> bool {
         if !self.dropping {
             if let Some(sent) = self.sent_at {
                 if at < sent + self.timing.silent_interval() {
@@ -95,12 +95,12 @@ impl RtuLine {
     }
 
     /// Nothing arrived for longer than a frame gap: the next byte starts a frame.
-    pub fn silence(&mut self) {
+    pub(crate) fn silence(&mut self) {
         self.dropping = false;
     }
 
     /// The drive's reply left the line at `at`.
-    pub fn sent(&mut self, at: Instant) {
+    pub(crate) fn sent(&mut self, at: Instant) {
         self.sent_at = Some(at);
     }
 }
