@@ -24,7 +24,7 @@ pub(crate) mod check_plan;
 pub mod figures;
 pub mod history;
 pub mod history_plot;
-pub mod model_errors;
+pub(crate) mod model_errors;
 pub(crate) mod reference;
 #[cfg(test)]
 mod test_change;

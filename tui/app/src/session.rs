@@ -19,7 +19,7 @@ pub mod calibration_images;
 pub mod calibration_scan;
 pub(crate) mod disc_cutout;
 pub mod disk_space;
-pub mod jog_guard;
+pub(crate) mod jog_guard;
 pub mod live_validation;
 pub mod live_view;
 pub(crate) mod model_pace;

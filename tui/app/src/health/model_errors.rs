@@ -5,16 +5,16 @@ use fringe_sensor_models::eval::Row;
 
 /// Frames whose measured |Fz| is below this, N, do not count for the force gain (their
 /// relative error is noise).
-pub const GAIN_MIN_FZ_N: f64 = 1.0;
+pub(crate) const GAIN_MIN_FZ_N: f64 = 1.0;
 /// Two presses at positions closer than this, mm, are at the same position.
-pub const SAME_POSITION_MM: f64 = 0.5;
+pub(crate) const SAME_POSITION_MM: f64 = 0.5;
 /// Frames of a run the model is evaluated on at most: every k-th, spread evenly over its
 /// presses (a press's neighbouring frames differ by little; a few hundred give the errors to a
 /// few per cent).
-pub const EVAL_FRAMES: usize = 300;
+pub(crate) const EVAL_FRAMES: usize = 300;
 
 /// Every k-th of `items` so that at most `max` remain, the first one kept.
-pub fn thinned<T>(items: Vec<T>, max: usize) -> Vec<T> {
+pub(crate) fn thinned<T>(items: Vec<T>, max: usize) -> Vec<T> {
     let step = items.len().div_ceil(max.max(1)).max(1);
     items.into_iter().step_by(step).collect()
 }
@@ -83,7 +83,7 @@ impl ModelErrors {
 
 /// A press at `stage_mm` (when known) was made at one of `positions` (within
 /// [`SAME_POSITION_MM`]).
-pub fn at_any(stage_mm: Option<[f64; 2]>, positions: &[[f64; 2]]) -> bool {
+pub(crate) fn at_any(stage_mm: Option<[f64; 2]>, positions: &[[f64; 2]]) -> bool {
     stage_mm.is_some_and(|s| {
         positions
             .iter()
@@ -92,16 +92,8 @@ pub fn at_any(stage_mm: Option<[f64; 2]>, positions: &[[f64; 2]]) -> bool {
 }
 
 /// The rows pressed at any of `positions`.
-pub fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&'a Row> {
+pub(crate) fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&'a Row> {
     rows.iter()
         .filter(|r| at_any(r.stage_mm, positions))
-        .collect()
-}
-
-/// The errors at each of `positions`, in their order (`None` where no frame was pressed).
-pub fn by_position(rows: &[Row], positions: &[[f64; 2]]) -> Vec<Option<ModelErrors>> {
-    positions
-        .iter()
-        .map(|p| ModelErrors::of(&at_positions(rows, std::slice::from_ref(p))))
         .collect()
 }

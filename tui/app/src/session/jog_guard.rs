@@ -112,7 +112,7 @@ impl Unknown {
 /// Moves across the sensor stopped because the F/T read a load.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{} stopped: the F/T reads a load, {load_n:.2} N in Fz off its no-contact reading (taken {from}; more than {threshold_n:.2} N is a load): the indenter touched the sensor while moving across it; lift it with z first (z, then ←, or h to home z)", names(axes))]
-pub struct LoadStop {
+pub(crate) struct LoadStop {
     pub axes: Vec<AxisId>,
     pub load_n: f64,
     pub threshold_n: f64,
@@ -149,7 +149,7 @@ impl AxisId {
 
 /// Which way a motion goes relative to the sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Heading {
+pub(crate) enum Heading {
     /// Away from the sensor: z up, or homing z.
     Away,
     /// Into the sensor: z down.
@@ -160,7 +160,7 @@ pub enum Heading {
 
 impl Heading {
     /// A jog of `axis` by `by_mm`.
-    pub fn of_jog(axis: AxisId, by_mm: f64) -> Heading {
+    pub(crate) fn of_jog(axis: AxisId, by_mm: f64) -> Heading {
         match axis {
             AxisId::Z if by_mm > 0.0 => Heading::Into,
             AxisId::Z => Heading::Away,
@@ -169,7 +169,7 @@ impl Heading {
     }
 
     /// Homing `axis` (z homes up, away from the sensor).
-    pub fn of_home(axis: AxisId) -> Heading {
+    pub(crate) fn of_home(axis: AxisId) -> Heading {
         match axis {
             AxisId::Z => Heading::Away,
             AxisId::X | AxisId::Y => Heading::Across,
@@ -194,7 +194,7 @@ struct Motion {
 
 /// An axis as polled.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Polled {
+pub(crate) struct Polled {
     pub moving: bool,
     pub homed: bool,
     pub position_mm: f64,
@@ -202,7 +202,7 @@ pub struct Polled {
 
 /// The motions under way and the force they are checked against.
 #[derive(Debug, Clone)]
-pub struct JogGuard {
+pub(crate) struct JogGuard {
     ceiling_n: f64,
     /// More than this off the no-contact reading is a load.
     contact_threshold: Newtons,
@@ -222,7 +222,7 @@ pub struct JogGuard {
 impl JogGuard {
     /// Moves are stopped over `ceiling_n` (N); a reading more than `contact_threshold` off the
     /// no-contact reading is a load.
-    pub fn new(ceiling_n: f64, contact_threshold: Newtons) -> JogGuard {
+    pub(crate) fn new(ceiling_n: f64, contact_threshold: Newtons) -> JogGuard {
         JogGuard {
             ceiling_n,
             contact_threshold,
@@ -235,13 +235,9 @@ impl JogGuard {
         }
     }
 
-    pub fn ceiling_n(&self) -> f64 {
-        self.ceiling_n
-    }
-
     /// Whether a motion of `axis` going `heading` may start now; the refusal says why and what
     /// to do. A move away from the sensor always may.
-    pub fn admit(&self, axis: AxisId, heading: Heading) -> Result<(), Refused> {
+    pub(crate) fn admit(&self, axis: AxisId, heading: Heading) -> Result<(), Refused> {
         if heading == Heading::Away {
             return Ok(());
         }
@@ -265,7 +261,7 @@ impl JogGuard {
 
     /// Whether the F/T may be tared now (nothing touching the indenter); the refusal says why
     /// and what to do.
-    pub fn admit_tare(&self) -> Result<(), Refused> {
+    pub(crate) fn admit_tare(&self) -> Result<(), Refused> {
         self.clear(Act::Tare)
     }
 
@@ -297,12 +293,12 @@ impl JogGuard {
     }
 
     /// A motion of `axis` going `heading` was started (replacing any before it).
-    pub fn begun(&mut self, axis: AxisId, heading: Heading) {
+    pub(crate) fn begun(&mut self, axis: AxisId, heading: Heading) {
         self.start(axis, heading, false);
     }
 
     /// The homing of `axis` was started.
-    pub fn homing_begun(&mut self, axis: AxisId) {
+    pub(crate) fn homing_begun(&mut self, axis: AxisId) {
         self.start(axis, Heading::of_home(axis), true);
     }
 
@@ -318,13 +314,13 @@ impl JogGuard {
     }
 
     /// Every axis was stopped.
-    pub fn stopped_all(&mut self) {
+    pub(crate) fn stopped_all(&mut self) {
         self.motions = [None; 3];
     }
 
     /// A status poll of `axis`: an idle axis has finished its motion (unless the status may
     /// predate it); z's homing, finished, tells where its home is.
-    pub fn polled(&mut self, axis: AxisId, status: Polled) {
+    pub(crate) fn polled(&mut self, axis: AxisId, status: Polled) {
         let slot = &mut self.motions[axis.index()];
         let finished = !status.moving && slot.is_some_and(|m| m.started.elapsed() >= STATUS_LAG);
         if finished {
@@ -345,7 +341,7 @@ impl JogGuard {
 
     /// Whether a motion that the force can stop is under way (the bench then checks the force
     /// at every sample instead of every poll).
-    pub fn guarding(&self) -> bool {
+    pub(crate) fn guarding(&self) -> bool {
         self.motions
             .iter()
             .flatten()
@@ -354,7 +350,7 @@ impl JogGuard {
 
     /// A force sample (total |F|, N): the axes to stop now, those moving into or across the
     /// sensor while the force is over the ceiling (forgotten here once returned).
-    pub fn sample(&mut self, total_n: f64) -> Vec<AxisId> {
+    pub(crate) fn sample(&mut self, total_n: f64) -> Vec<AxisId> {
         self.force_n = Some(total_n);
         if total_n <= self.ceiling_n {
             return Vec::new();
@@ -364,7 +360,7 @@ impl JogGuard {
 
     /// The F/T was tared: its zero moved, and its no-contact reading is read again from the
     /// samples that follow.
-    pub fn tared(&mut self) {
+    pub(crate) fn tared(&mut self) {
         self.reference = Err(Unknown::Tared);
         self.fz_n = None;
     }
@@ -373,7 +369,7 @@ impl JogGuard {
     /// [`fringe_rig::scan::clearance::LOAD_SAMPLES`], N) after `restarts` restarts of the device:
     /// the no-contact reading taken or followed where it can be, and the moves across the sensor
     /// to stop now when it reads a load (forgotten here once returned).
-    pub fn reading(&mut self, fz_n: f64, restarts: u64) -> Option<LoadStop> {
+    pub(crate) fn reading(&mut self, fz_n: f64, restarts: u64) -> Option<LoadStop> {
         self.fz_n = Some(fz_n);
         let clear_here = if self.z_at_home {
             Some("with z at its home")
