@@ -3,9 +3,11 @@
 
 use fringe_sensor_models::eval::Row;
 
-/// Frames whose measured |Fz| is below this, N, do not count for the force gain (their
-/// relative error is noise).
-pub(crate) const GAIN_MIN_FZ_N: f64 = 1.0;
+/// Frames whose measured |Fz| is below this, N, count for neither the force gain nor the
+/// contact error: at a touch the fringes barely show, so a frame's relative force error and its
+/// contact point are noise, and the few such frames a press has would otherwise decide whether
+/// the contact error grew.
+pub(crate) const PRESSED_MIN_FZ_N: f64 = 1.0;
 /// Two presses at positions closer than this, mm, are at the same position.
 pub(crate) const SAME_POSITION_MM: f64 = 0.5;
 /// Frames of a run the model is evaluated on at most: every k-th, spread evenly over its
@@ -24,10 +26,11 @@ pub(crate) fn thinned<T>(items: Vec<T>, max: usize) -> Vec<T> {
 pub struct ModelErrors {
     pub frames: usize,
     pub fz_rmse_n: f64,
+    /// Over the frames in contact pressed at least [`PRESSED_MIN_FZ_N`].
     pub contact_rmse_mm: f64,
     pub shape_accuracy: f64,
     /// Predicted over measured Fz, least squares through zero, over frames pressed at least
-    /// [`GAIN_MIN_FZ_N`]: a unit whose material changed reads a force too high or too low.
+    /// [`PRESSED_MIN_FZ_N`]: a unit whose material changed reads a force too high or too low.
     pub force_gain: f64,
 }
 
@@ -36,7 +39,7 @@ impl ModelErrors {
     pub fn of(rows: &[&Row]) -> Option<ModelErrors> {
         let pressed: Vec<&&Row> = rows
             .iter()
-            .filter(|r| r.scored.fz_true >= GAIN_MIN_FZ_N)
+            .filter(|r| r.scored.fz_true >= PRESSED_MIN_FZ_N)
             .collect();
         if rows.is_empty() || pressed.is_empty() {
             return None;
@@ -48,7 +51,7 @@ impl ModelErrors {
             .sum::<f64>()
             / n)
             .sqrt();
-        let contact: Vec<f64> = rows
+        let contact: Vec<f64> = pressed
             .iter()
             .filter_map(|r| {
                 let t = r.scored.contact_true?;
@@ -96,4 +99,51 @@ pub(crate) fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&
     rows.iter()
         .filter(|r| at_any(r.stage_mm, positions))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_sensor_models::metrics::Scored;
+
+    fn row(fz_true: f64, contact_true: [f64; 2], contact_pred: [f64; 2]) -> Row {
+        Row {
+            scored: Scored {
+                fz_true,
+                fz_pred: fz_true,
+                shape_true: 1,
+                shape_pred: 1,
+                contact_true: Some(contact_true),
+                contact_pred,
+            },
+            stage_mm: Some([10.0, 20.0]),
+            press: "p".into(),
+        }
+    }
+
+    #[test]
+    fn the_contact_error_leaves_out_the_frames_of_a_touch() {
+        // A press: frames at 1-4 N placed within 0.5 mm, and two frames at the first touch
+        // (0.1 N) whose contact the model cannot see and puts 15 mm away.
+        let mut rows: Vec<Row> = (0..40)
+            .map(|k| row(1.0 + 3.0 * f64::from(k) / 39.0, [5.0, 5.0], [5.5, 5.0]))
+            .collect();
+        let pressed_only = ModelErrors::of(&rows.iter().collect::<Vec<_>>()).expect("errors");
+        rows.push(row(0.1, [5.0, 5.0], [-10.0, 5.0]));
+        rows.push(row(0.1, [5.0, 5.0], [5.0, -10.0]));
+        let with_touch = ModelErrors::of(&rows.iter().collect::<Vec<_>>()).expect("errors");
+        assert!((pressed_only.contact_rmse_mm - 0.5).abs() < 1e-9);
+        assert_eq!(with_touch.contact_rmse_mm, pressed_only.contact_rmse_mm);
+        // The frames still count for the force and the shape.
+        assert_eq!(with_touch.frames, 42);
+    }
+
+    #[test]
+    fn a_contact_error_at_pressed_frames_counts() {
+        let rows: Vec<Row> = (0..10)
+            .map(|k| row(2.0 + f64::from(k) * 0.1, [0.0, 0.0], [3.0, 4.0]))
+            .collect();
+        let e = ModelErrors::of(&rows.iter().collect::<Vec<_>>()).expect("errors");
+        assert!((e.contact_rmse_mm - 5.0).abs() < 1e-9, "{e:?}");
+    }
 }
