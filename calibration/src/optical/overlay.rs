@@ -1,22 +1,22 @@
 //! The fit drawn over the averaged frame, for reports and displays: the fitted disc (green), the
-//! crop circle (yellow) and the centre (red cross).
+//! crop circle (yellow) and the centre (red cross), drawn by [`fringe_plot::overlay`].
 
 use super::grey::GreyImage;
 use super::DiscFit;
+use fringe_plot::{Mark, PlotError};
 use image::{Rgb, RgbImage};
-use std::f64::consts::TAU;
 
 /// Half-length of the centre cross, px.
-const CROSS_PX: i32 = 20;
+const CROSS_PX: f64 = 20.0;
 
 /// `g` as an RGB picture with `f` drawn on it.
-pub fn overlay(g: &GreyImage, f: &DiscFit) -> RgbImage {
+pub fn overlay(g: &GreyImage, f: &DiscFit) -> Result<RgbImage, PlotError> {
     overlay_scaled(g, f, 1.0)
 }
 
 /// As [`overlay`], the picture `scale` times the frame's size (a preview: each pixel samples the
-/// frame, the circles are drawn at the picture's own resolution so they stay one pixel wide).
-pub fn overlay_scaled(g: &GreyImage, f: &DiscFit, scale: f64) -> RgbImage {
+/// frame, the circles are drawn at the picture's own resolution so they stay thin).
+pub fn overlay_scaled(g: &GreyImage, f: &DiscFit, scale: f64) -> Result<RgbImage, PlotError> {
     let scale = if scale.is_finite() && scale > 0.0 {
         scale.min(1.0)
     } else {
@@ -24,7 +24,7 @@ pub fn overlay_scaled(g: &GreyImage, f: &DiscFit, scale: f64) -> RgbImage {
     };
     let w = ((g.width as f64 * scale).round() as u32).max(1);
     let h = ((g.height as f64 * scale).round() as u32).max(1);
-    let mut img = RgbImage::from_fn(w, h, |i, j| {
+    let frame = RgbImage::from_fn(w, h, |i, j| {
         let x = ((i as f64 + 0.5) / scale) as usize;
         let y = ((j as f64 + 0.5) / scale) as usize;
         let v = g
@@ -35,33 +35,27 @@ pub fn overlay_scaled(g: &GreyImage, f: &DiscFit, scale: f64) -> RgbImage {
             .clamp(0.0, 255.0) as u8;
         Rgb([v, v, v])
     });
-    let (cx, cy) = (f.centre_x * scale, f.centre_y * scale);
-    let mut put = |x: f64, y: f64, c: [u8; 3]| {
-        let (i, j) = (x.floor(), y.floor());
-        if i >= 0.0 && j >= 0.0 && (i as u32) < w && (j as u32) < h {
-            img.put_pixel(i as u32, j as u32, Rgb(c));
-        }
-    };
-    for (r, c) in [
-        (f.radius * scale, [0, 255, 0]),
-        (f.crop_radius * scale, [255, 220, 0]),
-    ] {
-        let n = (8.0 * TAU * r).ceil() as usize;
-        for k in 0..n {
-            let a = TAU * k as f64 / n as f64;
-            for dr in [-0.5, 0.5] {
-                put(cx + (r + dr) * a.cos(), cy + (r + dr) * a.sin(), c);
-            }
-        }
-    }
-    let arm = ((CROSS_PX as f64 * scale).round() as i32).max(2);
-    for d in -arm..=arm {
-        for t in [-0.5, 0.5] {
-            put(cx + d as f64, cy + t, [255, 0, 0]);
-            put(cx + t, cy + d as f64, [255, 0, 0]);
-        }
-    }
-    img
+    let centre = [f.centre_x * scale, f.centre_y * scale];
+    fringe_plot::overlay(
+        &frame,
+        &[
+            Mark::Circle {
+                centre,
+                radius: f.radius * scale,
+                colour: [0, 255, 0],
+            },
+            Mark::Circle {
+                centre,
+                radius: f.crop_radius * scale,
+                colour: [255, 220, 0],
+            },
+            Mark::Cross {
+                centre,
+                arm: (CROSS_PX * scale).round().max(2.0),
+                colour: [255, 0, 0],
+            },
+        ],
+    )
 }
 
 #[cfg(test)]
@@ -96,7 +90,7 @@ mod tests {
         let g = GreyImage::from_values(200, 100, vec![40.0; 200 * 100]).expect("image");
         let f = fit((120.0, 50.0), 40.0, 30.0);
         for scale in [1.0, 0.5, 0.25] {
-            let img = overlay_scaled(&g, &f, scale);
+            let img = overlay_scaled(&g, &f, scale).expect("draws");
             assert_eq!(
                 img.dimensions(),
                 ((200.0 * scale) as u32, (100.0 * scale) as u32)

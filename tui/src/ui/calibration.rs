@@ -109,6 +109,6 @@ pub fn show(v: &mut CalibrateView, r: &CalibrationResult) {
         ],
         None => vec!["none: no no-contact window in the force stream".into()],
     };
-    v.picture = Some(r.preview(PICTURE_PX));
+    v.picture = r.preview(PICTURE_PX).ok();
     v.phase = CalibrationPhase::Fitted;
 }

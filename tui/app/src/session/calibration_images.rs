@@ -54,6 +54,13 @@ pub enum CalibrationImagesError {
         #[source]
         source: image::ImageError,
     },
+    /// The report picture could not be drawn.
+    #[error("cannot write report {}", path.display())]
+    Draw {
+        path: PathBuf,
+        #[source]
+        source: fringe_plot::PlotError,
+    },
 }
 
 /// The image files of `dir` (PNG or TIFF), sorted; refused when there is none.
@@ -169,6 +176,10 @@ pub fn write_profile(
         .map_err(CalibrationImagesError::Profile)?;
     let report = profile_file.with_extension("png");
     overlay(average, fit)
+        .map_err(|source| CalibrationImagesError::Draw {
+            path: report.clone(),
+            source,
+        })?
         .save(&report)
         .map_err(|source| CalibrationImagesError::Report {
             path: report.clone(),

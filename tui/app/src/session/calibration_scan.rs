@@ -233,12 +233,12 @@ pub fn calibrate_run(
 
 impl CalibrationResult {
     /// The fit over the averaged frame (see [`overlay`]).
-    pub fn report_image(&self) -> image::RgbImage {
+    pub fn report_image(&self) -> Result<image::RgbImage, fringe_plot::PlotError> {
         overlay(&self.cal.background, &self.cal.fit)
     }
 
     /// The same, at most `side` px on its longer side (for displays).
-    pub fn preview(&self, side: u32) -> image::RgbImage {
+    pub fn preview(&self, side: u32) -> Result<image::RgbImage, fringe_plot::PlotError> {
         let g = &self.cal.background;
         let longer = g.width.max(g.height).max(1) as f64;
         overlay_scaled(g, &self.cal.fit, f64::from(side) / longer)
@@ -255,6 +255,7 @@ impl CalibrationResult {
         std::fs::create_dir_all(dir).map_err(|e| failed(dir, &e))?;
         let report = profile_file.with_extension("png");
         self.report_image()
+            .map_err(|e| failed(&report, &e))?
             .save(&report)
             .map_err(|e| failed(&report, &e))?;
         let residuals = match &self.cal.registration {
