@@ -23,14 +23,26 @@
 //! this crate, files import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
 
-pub mod frames;
-pub mod from_scan;
+mod frames;
+mod from_scan;
 pub mod health;
 pub mod offsets;
-pub mod optical;
-pub mod profile;
-pub mod registration;
-pub mod scan_run;
+mod optical;
+mod profile;
+mod registration;
+mod scan_run;
+
+pub use frames::{grey_average, spread, FrameError};
+pub use from_scan::calibrate;
+pub use optical::find_disc_in;
+pub use optical::grey::GreyImage;
+pub use optical::overlay::{overlay, overlay_scaled};
+pub use profile::{ImageSize, Optical, Registration, MAX_AGE_DAYS};
+pub use registration::contact_spot::spot::ContactError;
+pub use registration::contact_spot::{draw_spot, ContactBackground, SpotSettings};
+pub use registration::plot::residual_plot;
+pub use registration::register;
+pub use registration::similarity_fit::{FitSettings, Press};
 
 pub use from_scan::{FromScanError, ScanCalibration};
 pub use offsets::{ProfileOffsetCheck, ZeroTolerance};

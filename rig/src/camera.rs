@@ -2,9 +2,9 @@
 //! simulated camera.
 
 #[cfg(feature = "aravis")]
-pub mod aravis;
-pub mod trace;
-pub mod writer;
+pub(crate) mod aravis;
+pub(crate) mod trace;
+pub(crate) mod writer;
 
 use crate::clock::HostTime;
 use crate::units::{Decibels, Hertz, Microseconds};

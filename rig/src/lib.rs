@@ -26,30 +26,58 @@
 //! files).
 #![warn(unreachable_pub)]
 
-pub mod acquire;
+mod acquire;
 pub mod apt;
 pub mod atical;
-pub mod axis;
-pub mod camera;
-pub mod clock;
-pub mod config_file;
-pub mod devices;
-pub mod force;
-pub mod ft_units;
-pub mod manual;
+mod axis;
+mod camera;
+mod clock;
+mod config_file;
+mod devices;
+mod force;
+mod ft_units;
+mod manual;
 pub mod modbus;
 pub mod netft;
 pub mod nidaqmx;
-pub mod operator;
-pub mod realtime;
+mod operator;
+mod realtime;
 pub mod reference_layout;
 pub mod scan;
 pub mod seeded;
 pub mod store;
-pub mod sync;
-pub mod trace;
-pub mod transport;
-pub mod units;
+mod sync;
+mod trace;
+mod transport;
+mod units;
+
+pub use acquire::camera_stream::CameraStream;
+pub use acquire::force_stream::ForceStream;
+pub use acquire::frame_gaps::FrameGaps;
+pub use acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
+pub use acquire::recorder::{Filming, FrameContext, Recorder};
+#[cfg(feature = "aravis")]
+pub use camera::aravis::{list_cameras, AravisCamera};
+pub use camera::trace::{
+    CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
+};
+pub use camera::writer::FrameWriter;
+pub use camera::{format_name, Cutout};
+pub use config_file::{load_toml, parse_toml};
+pub use force::StreamStats;
+pub use ft_units::{newton_metres_per, newtons_per};
+pub use manual::ManualStage;
+pub use operator::{Prompt, Reply};
+pub use realtime::raise_current_thread;
+pub use sync::trigger::TriggerTiming;
+pub use sync::window::mean_over;
+pub use trace::record::{record_datagrams, record_stream};
+pub use trace::{RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink, ReplayReport};
+pub use transport::memory::{byte_pair, datagram_pair, MemoryByteLink, MemoryDatagramLink};
+pub use transport::pty::PtyDevice;
+pub use transport::serial::{list_ports, PortOpenError, SerialLink, SerialSettings};
+pub use transport::tcp::TcpLink;
+pub use transport::udp::UdpLink;
 
 pub use acquire::record_tap::RecordTap;
 pub use apt::{AptConfig, Controller, ThorlabsAxis};

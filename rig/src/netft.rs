@@ -6,10 +6,13 @@
 //! - [`stream`]: sequence accounting (lost, out-of-order) and status words.
 //! - [`driver`]: [`NetFt`], a [`crate::force::ForceSensor`] on any datagram link.
 
-pub mod config;
+pub(crate) mod config;
 pub(crate) mod driver;
-pub mod rdt;
+pub(crate) mod rdt;
 pub(crate) mod stream;
+
+pub use config::parse_http_response;
+pub use rdt::{decode_datagram, encode_datagram};
 
 pub use config::{fetch_config, netftapi2_url, NetFtConfig};
 pub use driver::{BiasMode, NetFt, NetFtOptions};

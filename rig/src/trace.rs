@@ -12,7 +12,7 @@
 
 pub(crate) mod format;
 pub(crate) mod gauges;
-pub mod record;
+pub(crate) mod record;
 pub(crate) mod replay;
 
 pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};

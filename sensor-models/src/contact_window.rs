@@ -10,7 +10,7 @@
 //! is mapped to pixels by the sensor's registration (px per mm, mirror, rotation).
 
 use crate::preprocess::{Centre, PreprocessError, Preprocessing};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use std::ops::RangeInclusive;
 
 /// The sides a force window may have, mm (what `fringe train --force-window` and a model card's
@@ -130,7 +130,7 @@ impl ContactWindow {
 mod tests {
     use super::*;
     use crate::preprocess::{Colour, FrameRef};
-    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::PixelFormat;
 
     fn window(rotation_deg: f64, mirror: bool) -> ContactWindow {
         ContactWindow {

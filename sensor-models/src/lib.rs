@@ -25,32 +25,55 @@
 //!   every weights file users have (`torch.save` zip and legacy, safetensors), by content.
 #![warn(unreachable_pub)]
 
-pub mod acceptance;
+mod acceptance;
 pub mod adapt;
-pub mod arch;
-pub mod augment;
-pub mod backend;
+mod arch;
+mod augment;
+mod backend;
 pub mod builtin;
-pub mod contact_window;
+mod contact_window;
 pub mod dataset;
 pub mod eval;
-pub mod lr_schedule;
-pub mod metrics;
-pub mod model;
-pub mod model_card;
+mod lr_schedule;
+mod metrics;
+mod model;
+mod model_card;
 pub mod onnx_graph;
-pub mod prediction;
-pub mod predictor;
-pub mod preprocess;
+mod prediction;
+mod predictor;
+mod preprocess;
 pub mod report;
-pub mod smoothing;
-pub mod split;
+mod smoothing;
+mod split;
 #[cfg(feature = "torch")]
 mod torch_net;
 #[cfg(feature = "torch")]
-pub mod train;
-pub mod training_set;
-pub mod weights;
+mod train;
+mod training_set;
+mod weights;
+
+pub use acceptance::{judge, Spec, SpecError, Verdict};
+pub use augment::Pipeline;
+#[cfg(feature = "onnxruntime")]
+pub use backend::onnxruntime::OrtBackend;
+pub use backend::tract::{profile as profile_tract, TractBackend};
+pub use backend::BackendKind;
+pub use contact_window::FORCE_WINDOW_MM;
+pub use lr_schedule::Schedule;
+pub use metrics::{Errors, Metrics, Scored};
+pub use model::Source as ModelSource;
+pub use model_card::{CardError, CardSource, ModelCard};
+pub use prediction::{ForceVector, Prediction};
+pub use predictor::{PredictError, Predictor};
+pub use preprocess::{
+    rotate_contact, tensor_image, thumbnail, Centre, PreprocessError, ReferenceSensor,
+};
+pub use smoothing::Smoothing;
+#[cfg(feature = "torch")]
+pub use train::{
+    train, Checkpoint, Outcome as TrainOutcome, TrainConfig, TrainEvent, TrainingRecord,
+};
+pub use weights::pickle::{parse as parse_pickle, parse_prefix as parse_pickle_prefix};
 
 pub use arch::{recognise, Architecture};
 pub use backend::{Backend, InferenceError, RawOutputs};

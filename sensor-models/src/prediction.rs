@@ -2,7 +2,7 @@
 //! probabilities, the contact point.
 
 use crate::backend::RawOutputs;
-use fringe_rig::units::{Millimetres, NewtonMetres, Newtons};
+use fringe_rig::{Millimetres, NewtonMetres, Newtons};
 
 /// The force vector the networks predict: magnitudes, as the reference post-processing trains
 /// them (every column replaced by its absolute value). Torques are in the unit of the training

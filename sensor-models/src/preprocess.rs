@@ -21,9 +21,9 @@ mod source;
 
 pub use source::FrameRef;
 
-use fringe_calibration::profile::Profile;
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::store::frames::read_plain;
+use fringe_calibration::Profile;
+use fringe_rig::store::read_plain;
+use fringe_rig::PixelFormat;
 use resample::{resample, Scratch, Window};
 use source::{pixels, Channels, Pixels, Rotated};
 use std::path::Path;

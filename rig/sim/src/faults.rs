@@ -21,10 +21,10 @@
 
 use crate::emulators::netft_emulator::PowerSwitch;
 use crate::physics::motion::SimMotor;
-use fringe_rig::camera::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
-use fringe_rig::transport::{ByteLink, DatagramLink};
+use fringe_rig::HostTime;
+use fringe_rig::{ByteLink, DatagramLink};
+use fringe_rig::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
+use fringe_rig::{ForceError, ForceSample, ForceSensor, StreamStats};
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};

@@ -74,19 +74,36 @@
 //! import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
 
-pub mod ageing;
-pub mod bench;
+mod ageing;
+mod bench;
 pub mod dataset;
-pub mod emulators;
-pub mod faults;
+mod emulators;
+mod faults;
 pub mod ground_truth;
-pub mod optics;
-pub mod physics;
-pub mod rig;
-pub mod scene;
-pub mod session;
+mod optics;
+mod physics;
+mod rig;
+mod scene;
+mod session;
 #[cfg(test)]
 mod test_support;
+
+pub use ageing::Ageing;
+pub use bench::{AxisConfig, IndenterTip, MountedIndenter};
+pub use emulators::apt_emulator::KeepAlive;
+pub use emulators::camera_emulator::FRAME_MEMORY;
+pub use emulators::daqmx_library::c_api::{
+    device as daqmx_device, install as install_daqmx_device, lookup as lookup_daqmx_symbol,
+};
+pub use emulators::daqmx_library::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};
+pub use emulators::modbus_emulator::core::{decode_request_pdu, ModbusCore};
+pub use emulators::netft_box::SimHttp;
+pub use faults::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
+pub use optics::sensor::{SensorConfigError, SensorGeometry, Variant};
+pub use physics::ft_sensor::FtNoiseConfig;
+pub use physics::indenter::Shape;
+pub use rig::{ForcePath, SimRigError, SimServe, SIM_CAL};
+pub use scene::{ForceReading, LoadSource};
 
 pub use bench::{Bench, BenchConfig};
 pub use emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};

@@ -22,7 +22,7 @@ pub fn is_controller_address(a: u8) -> bool {
 pub const MAX_DATA_LEN: usize = 255;
 
 /// Message ids.
-pub mod id {
+pub(crate) mod id {
     pub const HW_REQ_INFO: u16 = 0x0005;
     pub const HW_GET_INFO: u16 = 0x0006;
     pub const HW_START_UPDATEMSGS: u16 = 0x0011;

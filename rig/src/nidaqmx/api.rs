@@ -103,7 +103,7 @@ pub const VAL_LOW: c_int = 10214;
 pub const VAL_TASK_COMMIT: c_int = 3;
 
 /// Status codes the driver acts on (`NIDAQmx.h`; 0 success, negative error, positive warning).
-pub mod status {
+pub(crate) mod status {
     /// `DAQmxErrorSamplesNoLongerAvailable`: the reader fell behind the circular buffer.
     pub const SAMPLES_NO_LONGER_AVAILABLE: i32 = -200279;
     /// `DAQmxErrorSamplesNotYetAvailable`: a read's timeout elapsed (partial data returned).

@@ -13,7 +13,7 @@ mod indentation;
 mod motions;
 mod no_contact;
 mod points;
-pub mod recording;
+pub(crate) mod recording;
 mod runner;
 
 use self::recording::{append_sidecar, finish_recorder, start_recording, Streams};

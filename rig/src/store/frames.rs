@@ -27,10 +27,10 @@
 //! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
 //! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
 
-pub mod debayer;
-pub mod error;
-pub mod fgl;
-pub mod png;
+pub(crate) mod debayer;
+pub(crate) mod error;
+pub(crate) mod fgl;
+pub(crate) mod png;
 
 use self::error::FrameFileError;
 use self::fgl::Pattern;

@@ -19,7 +19,7 @@ use crate::torch_net::state::{load_state_dict, state_dict};
 use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet, WINDOW_JITTER_MM};
 use crate::weights::state_dict::StateDict;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_plot::palette::{BLUE, ORANGE};
 use fringe_plot::{Axis, Chart, Series};
 use fringe_rig::reference_layout::NO_CONTACT;

@@ -23,8 +23,8 @@
 //! - `ft_bias`: `t_ns`, `power_cycle`, `fx_n`..`tz_nm` (power-up bias in effect).
 
 use crate::bench::{Bench, BenchTruth};
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};

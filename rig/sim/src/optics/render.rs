@@ -42,7 +42,7 @@ use crate::optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
 use crate::physics::indenter::{PressureMap, Shape};
 use crate::scene::{Contact, FrameRenderer, Scene};
 use crate::session;
-use fringe_rig::camera::PixelFormat;
+use fringe_rig::PixelFormat;
 
 /// Sphere fields are cached by contact radius rounded to this step, mm.
 pub const SPHERE_RADIUS_STEP_MM: f64 = 0.05;

@@ -33,8 +33,8 @@
 //! smooth cosine modes (wavelengths 15-60 mm) with a chosen RMS (default 20 um); first contact
 //! happens where the surface under the indenter centre is.
 
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::{Millimetres, Newtons};
+use fringe_rig::HostTime;
+use fringe_rig::{Millimetres, Newtons};
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 

@@ -26,8 +26,8 @@
 use crate::ground_truth::records::{TruthRecord, TruthSink};
 use crate::scene::{ForceReading, LoadSource};
 use crate::session::salted;
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

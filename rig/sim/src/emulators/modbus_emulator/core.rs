@@ -3,9 +3,12 @@
 //! threads; [`super::framing`] and [`super::server`] put it on a link.
 
 use crate::physics::motion::{Kinematics, SimMotor};
-use fringe_rig::clock::HostTime;
-use fringe_rig::modbus::map::{Field, RegisterMap, Role};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::HostTime;
+use fringe_rig::{
+    modbus::{Field, Role},
+    RegisterMap,
+};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::collections::HashMap;
 use std::sync::Arc;
 

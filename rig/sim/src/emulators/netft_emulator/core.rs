@@ -2,12 +2,12 @@
 //! sample clock and status word; its configuration and `netftapi2.xml` page text.
 
 use crate::scene::ForceReading;
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceError;
-use fringe_rig::ft_units::{newton_metres_per, newtons_per};
-use fringe_rig::netft::config::NetFtConfig;
-use fringe_rig::netft::rdt::{encode_datagram, Command, Record, Request};
-use fringe_rig::units::Wrench;
+use fringe_rig::netft::{encode_datagram, Command, Record, Request};
+use fringe_rig::ForceError;
+use fringe_rig::HostTime;
+use fringe_rig::NetFtConfig;
+use fringe_rig::Wrench;
+use fringe_rig::{newton_metres_per, newtons_per};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
@@ -429,7 +429,7 @@ impl<P: Clone> NetFtCore<P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::netft::rdt::decode_datagram;
+    use fringe_rig::netft::decode_datagram;
 
     fn at(s: f64) -> HostTime {
         HostTime((1e9 + s * 1e9) as u64)
