@@ -71,8 +71,10 @@ pub use operator::{Prompt, Reply};
 pub use realtime::raise_current_thread;
 pub use sync::trigger::TriggerTiming;
 pub use sync::window::mean_over;
-pub use trace::record::{record_datagrams, record_stream};
-pub use trace::{RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink, ReplayReport};
+pub use trace::{
+    record_datagrams, record_stream, RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink,
+    ReplayReport,
+};
 pub use transport::memory::{byte_pair, datagram_pair, MemoryByteLink, MemoryDatagramLink};
 pub use transport::pty::PtyDevice;
 pub use transport::serial::{list_ports, PortOpenError, SerialLink, SerialSettings};

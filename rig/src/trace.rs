@@ -15,9 +15,7 @@ pub(crate) mod gauges;
 pub(crate) mod record;
 pub(crate) mod replay;
 
-pub use format::{Direction, LinkKind, Trace, TraceEntry, TraceError};
-pub use gauges::{RecordingGauges, ReplayGauges};
-pub use record::{
-    record_datagrams, record_stream, RecordingDatagramLink, RecordingLink, TraceWriter,
-};
+pub use format::Trace;
+pub use gauges::RecordingGauges;
+pub use record::{record_datagrams, record_stream};
 pub use replay::{ReplayDatagramLink, ReplayHandle, ReplayLink, ReplayOptions, ReplayReport};

@@ -71,7 +71,7 @@ pub use preprocess::{
 pub use smoothing::Smoothing;
 #[cfg(feature = "torch")]
 pub use train::{
-    train, Checkpoint, Outcome as TrainOutcome, TrainConfig, TrainEvent, TrainingRecord,
+    train, Checkpoint, Outcome as TrainOutcome, TrainConfig, TrainError, TrainEvent, TrainingRecord,
 };
 pub use weights::pickle::{parse as parse_pickle, parse_prefix as parse_pickle_prefix};
 

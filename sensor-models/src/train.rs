@@ -15,6 +15,7 @@ mod checkpoint;
 mod error;
 mod trainer;
 
-pub use checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
+pub(crate) use checkpoint::EpochRecord;
+pub use checkpoint::{Checkpoint, TrainingRecord};
 pub use error::TrainError;
 pub use trainer::{train, Outcome, TrainConfig, TrainEvent};

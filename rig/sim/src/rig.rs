@@ -51,7 +51,7 @@ use std::sync::Arc;
 
 /// The `.cal` file of the simulated Mini40 (a constructed calibration, not a real sensor's).
 /// The simulated camera's trigger input wired to the DAQ's counter output.
-pub const CAMERA_TRIGGER_LINE: &str = "Line1";
+pub(crate) const CAMERA_TRIGGER_LINE: &str = "Line1";
 
 pub const SIM_CAL: &str = include_str!("../sim-data/sim-mini40.cal");
 

@@ -391,6 +391,6 @@ pub fn new_run_id(plan_name: &str) -> String {
 }
 
 /// The runs root used when none is given.
-pub fn default_root() -> &'static Path {
+pub(crate) fn default_root() -> &'static Path {
     Path::new("runs")
 }

@@ -169,7 +169,7 @@ impl<S: GaugeSource> GaugeSource for RecordingGauges<S> {
 /// A gauge source playing a recorded gauge trace: the readings as recorded (host times shifted
 /// to the replay's start), paced as recorded unless the speed says otherwise; starting and
 /// stopping must come in the recorded order ([`ReplayHandle::finish`] checks).
-pub struct ReplayGauges {
+pub(crate) struct ReplayGauges {
     link: ReplayDatagramLink,
     origin: HostTime,
     name: String,
@@ -178,7 +178,7 @@ pub struct ReplayGauges {
 
 impl ReplayGauges {
     /// Replays `trace` after checking every reading in it decodes (an error names the line).
-    pub fn new(
+    pub(crate) fn new(
         trace: Trace,
         options: ReplayOptions,
     ) -> Result<(ReplayGauges, ReplayHandle), TraceError> {
@@ -225,7 +225,7 @@ impl ReplayGauges {
     }
 
     /// Loads `path` and replays it.
-    pub fn load(
+    pub(crate) fn load(
         path: &Path,
         options: ReplayOptions,
     ) -> Result<(ReplayGauges, ReplayHandle), TraceError> {

@@ -17,5 +17,5 @@
 pub(crate) mod core;
 pub(crate) mod server;
 
-pub use self::core::{AptEmulatorConfig, EmulatorCounters, KeepAlive, UpdateMessage};
-pub use self::server::{AptEmulator, AptEmulatorHandle, EmulatorError};
+pub use self::core::{AptEmulatorConfig, KeepAlive};
+pub use self::server::{AptEmulator, AptEmulatorHandle};

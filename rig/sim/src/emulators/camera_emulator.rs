@@ -42,5 +42,6 @@ pub(crate) mod camera;
 mod frame;
 pub(crate) mod timing;
 
-pub use self::camera::{SimCamera, SimCameraConfig, SimCameraStats, FRAME_MEMORY};
-pub use self::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};
+pub use self::camera::{SimCamera, SimCameraConfig, FRAME_MEMORY};
+pub use self::timing::ExposureSchedule;
+pub(crate) use self::timing::{ExposureWindow, TriggerInput};

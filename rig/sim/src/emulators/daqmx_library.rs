@@ -18,4 +18,4 @@ pub(crate) mod device;
 mod task;
 pub(crate) mod texts;
 
-pub use device::{DaqSignals, DeviceModel, DeviceTiming, PulseTrain, SimDevice};
+pub use device::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};

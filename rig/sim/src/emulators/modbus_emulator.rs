@@ -33,9 +33,4 @@ pub(crate) mod framing;
 pub(crate) mod line_timing;
 pub(crate) mod server;
 
-pub use self::core::{
-    decode_request_pdu, ModbusCore, ServerRequest, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE,
-    ILLEGAL_FUNCTION,
-};
-pub use self::line_timing::RtuTiming;
 pub use self::server::ModbusEmulator;

@@ -13,7 +13,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 /// Counts (Fx..Tz) for a given internal sample number.
-pub type CountsFn = Arc<dyn Fn(u32) -> [i32; 6] + Send + Sync>;
+pub(crate) type CountsFn = Arc<dyn Fn(u32) -> [i32; 6] + Send + Sync>;
 
 /// How the simulated sensor behaves.
 #[derive(Clone)]

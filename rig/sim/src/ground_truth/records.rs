@@ -294,7 +294,7 @@ pub enum TruthError {
 }
 
 /// Ground truth appended to a JSON-lines file, flushed per record.
-pub struct TruthWriter {
+pub(crate) struct TruthWriter {
     path: PathBuf,
     out: Mutex<BufWriter<File>>,
     /// The first write error, kept because [`TruthSink::record`] cannot return it.
@@ -303,7 +303,7 @@ pub struct TruthWriter {
 
 impl TruthWriter {
     /// Opens (creates or appends to) `path`.
-    pub fn create(path: &Path) -> Result<Arc<TruthWriter>, TruthError> {
+    pub(crate) fn create(path: &Path) -> Result<Arc<TruthWriter>, TruthError> {
         let file = OpenOptions::new()
             .create(true)
             .append(true)
@@ -319,12 +319,12 @@ impl TruthWriter {
         }))
     }
 
-    pub fn path(&self) -> &Path {
+    pub(crate) fn path(&self) -> &Path {
         &self.path
     }
 
     /// The first error met while writing, if any (e.g. disk full).
-    pub fn error(&self) -> Option<String> {
+    pub(crate) fn error(&self) -> Option<String> {
         self.error.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 }
@@ -344,7 +344,7 @@ impl TruthSink for TruthWriter {
 }
 
 /// Records the bench's true state at `t` into `sink`.
-pub fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
+pub(crate) fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
     let truth = bench.truth_at(t);
     let wrench = bench
         .config()
@@ -354,14 +354,14 @@ pub fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
 }
 
 /// A thread recording the bench's true state at a fixed period until dropped or stopped.
-pub struct BenchRecorder {
+pub(crate) struct BenchRecorder {
     stop: Arc<std::sync::atomic::AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl BenchRecorder {
     /// Records `bench` into `sink` every `period` (e.g. 1 ms) from now on.
-    pub fn spawn(
+    pub(crate) fn spawn(
         bench: Arc<Bench>,
         sink: Arc<dyn TruthSink>,
         period: std::time::Duration,
@@ -390,7 +390,7 @@ impl BenchRecorder {
     }
 
     /// Stops recording and waits for the thread.
-    pub fn stop(mut self) {
+    pub(crate) fn stop(mut self) {
         self.finish();
     }
 

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 /// Records held at most while no run takes them (the bench idles between scans, filming for the
 /// Bench screen): about 1.4 hours of frames at 50 fps, 30 MB. Past it, the frame and bench
 /// records, which no run filmed, are passed over; the few clock and bias records are kept.
-pub const MAX_PENDING: usize = 250_000;
+pub(crate) const MAX_PENDING: usize = 250_000;
 
 #[derive(Debug, Default)]
 struct Spooled {

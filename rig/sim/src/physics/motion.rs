@@ -14,7 +14,7 @@ use fringe_rig::HostTime;
 use fringe_rig::{Millimetres, MillimetresPerSecond};
 use std::sync::Mutex;
 
-pub use fringe_rig::Kinematics;
+pub(crate) use fringe_rig::Kinematics;
 
 /// Mechanical construction of a simulated axis.
 #[derive(Debug, Clone, PartialEq)]

@@ -186,7 +186,7 @@ struct Updates {
 
 /// The emulated controller state.
 #[derive(Debug)]
-pub struct EmulatorCore {
+pub(crate) struct EmulatorCore {
     config: AptEmulatorConfig,
     motor: Arc<SimMotor>,
     actuator: Actuator,
@@ -221,7 +221,7 @@ fn saturate_i32(x: f64) -> i32 {
 impl EmulatorCore {
     /// A controller at power-up driving `motor`; velocity and home parameters start from the
     /// motor's kinematics in the actuator's device units.
-    pub fn new(config: AptEmulatorConfig, motor: Arc<SimMotor>) -> EmulatorCore {
+    pub(crate) fn new(config: AptEmulatorConfig, motor: Arc<SimMotor>) -> EmulatorCore {
         let a = config.actuator;
         let k = motor.kinematics();
         let channel = config.channel;
@@ -259,23 +259,23 @@ impl EmulatorCore {
     }
 
     /// The configuration.
-    pub fn config(&self) -> &AptEmulatorConfig {
+    pub(crate) fn config(&self) -> &AptEmulatorConfig {
         &self.config
     }
 
     /// The counters so far.
-    pub fn counters(&self) -> EmulatorCounters {
+    pub(crate) fn counters(&self) -> EmulatorCounters {
         self.counters
     }
 
     /// Adds bytes dropped by the stream decoder to the counters.
-    pub fn note_dropped_bytes(&mut self, n: u64) {
+    pub(crate) fn note_dropped_bytes(&mut self, n: u64) {
         self.counters.dropped_bytes += n;
     }
 
     /// Counts a well-formed frame, sent to `dest`, of a message id the controller does not
     /// implement.
-    pub fn note_unknown(&mut self, dest: u8) {
+    pub(crate) fn note_unknown(&mut self, dest: u8) {
         if self.accepts(dest) {
             self.counters.unknown += 1;
         } else {
@@ -284,27 +284,27 @@ impl EmulatorCore {
     }
 
     /// The actuator whose scale is in use.
-    pub fn actuator(&self) -> Actuator {
+    pub(crate) fn actuator(&self) -> Actuator {
         self.actuator
     }
 
     /// The actuator type code last set by MOT_SET_TSTACTUATORTYPE (or the configured one).
-    pub fn actuator_code(&self) -> Option<u8> {
+    pub(crate) fn actuator_code(&self) -> Option<u8> {
         self.actuator_code
     }
 
     /// True while update messages run.
-    pub fn updates_running(&self) -> bool {
+    pub(crate) fn updates_running(&self) -> bool {
         self.updates.is_some()
     }
 
     /// True if the channel is enabled.
-    pub fn enabled(&self) -> bool {
+    pub(crate) fn enabled(&self) -> bool {
         self.enabled
     }
 
     /// How long the server may wait for host bytes before calling [`EmulatorCore::tick`].
-    pub fn poll_interval(&self, now: HostTime) -> Duration {
+    pub(crate) fn poll_interval(&self, now: HostTime) -> Duration {
         let mut wait = Duration::from_millis(20);
         if self.motion.is_some() {
             wait = Duration::from_millis(2);
@@ -343,7 +343,7 @@ impl EmulatorCore {
     }
 
     /// The status word for a motor reading.
-    pub fn status_word(&self, st: &MotorStatus) -> u32 {
+    pub(crate) fn status_word(&self, st: &MotorStatus) -> u32 {
         let (fwd, rev) = match self.config.limit_polarity {
             LimitPolarity::Bit0Forward => (apt::LIMIT_BIT0, apt::LIMIT_BIT1),
             LimitPolarity::Bit0Reverse => (apt::LIMIT_BIT1, apt::LIMIT_BIT0),
@@ -455,7 +455,7 @@ impl EmulatorCore {
     }
 
     /// Handles one host packet arriving at `now`; returns the replies.
-    pub fn handle(&mut self, packet: &Packet, now: HostTime) -> Vec<Packet> {
+    pub(crate) fn handle(&mut self, packet: &Packet, now: HostTime) -> Vec<Packet> {
         if !self.accepts(packet.dest) {
             self.counters.not_for_us += 1;
             return Vec::new();
@@ -614,7 +614,7 @@ impl EmulatorCore {
 
     /// Advances to `now`: end-of-move messages for motions that finished, and the update
     /// message when one is due (or stops them when the keep-alive lapsed).
-    pub fn tick(&mut self, now: HostTime) -> Vec<Packet> {
+    pub(crate) fn tick(&mut self, now: HostTime) -> Vec<Packet> {
         let mut out = Vec::new();
         let st = self.motor.status_at(now);
         if let Some(motion) = self.motion {

@@ -39,7 +39,7 @@ pub fn install(device: Arc<SimDevice>) {
 }
 
 /// Takes the device named `name` off the bus.
-pub fn remove(name: &str) {
+pub(crate) fn remove(name: &str) {
     registry().devices.remove(name);
 }
 

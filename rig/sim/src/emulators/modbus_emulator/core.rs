@@ -13,9 +13,9 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Modbus exception codes the emulated drive answers with.
-pub const ILLEGAL_FUNCTION: u8 = 0x01;
-pub const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
-pub const ILLEGAL_DATA_VALUE: u8 = 0x03;
+pub(crate) const ILLEGAL_FUNCTION: u8 = 0x01;
+pub(crate) const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
+pub(crate) const ILLEGAL_DATA_VALUE: u8 = 0x03;
 
 /// How a register is used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
