@@ -146,6 +146,7 @@ pub fn grey_average(
 }
 
 /// The RGB mean of the frame files `paths` (all the same size), as f32 DN row-major RGB.
+#[cfg(test)]
 pub(crate) fn rgb_average(
     paths: &[PathBuf],
     storage: Option<&FrameStorage>,

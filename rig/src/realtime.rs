@@ -65,7 +65,7 @@ pub fn raise_current_thread(thread: &str) -> Result<(), RealtimeRefused> {
 }
 
 /// Whether the calling thread runs under `SCHED_FIFO` or `SCHED_RR`.
-#[cfg(unix)]
+#[cfg(all(unix, test))]
 pub(crate) fn current_thread_is_realtime() -> bool {
     let mut policy = 0;
     let mut param = libc::sched_param { sched_priority: 0 };
@@ -75,8 +75,8 @@ pub(crate) fn current_thread_is_realtime() -> bool {
 }
 
 /// Whether the calling thread runs under real-time scheduling (never on this platform).
-#[cfg(not(unix))]
-pub fn current_thread_is_realtime() -> bool {
+#[cfg(all(not(unix), test))]
+pub(crate) fn current_thread_is_realtime() -> bool {
     false
 }
 

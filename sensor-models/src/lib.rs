@@ -44,11 +44,13 @@ mod predictor;
 mod preprocess;
 pub mod report;
 mod smoothing;
+#[cfg(feature = "torch")]
 mod split;
 #[cfg(feature = "torch")]
 mod torch_net;
 #[cfg(feature = "torch")]
 mod train;
+#[cfg(feature = "torch")]
 mod training_set;
 mod weights;
 

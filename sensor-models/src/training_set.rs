@@ -100,10 +100,6 @@ impl TrainingSet {
         self.targets.len()
     }
 
-    pub(crate) fn is_empty(&self) -> bool {
-        self.targets.is_empty()
-    }
-
     /// Prepares `items`: with a pipeline, its copies of each (turned, noisy); without, each
     /// once as it is (validation, test). `classes` names the shape classes ("None" first).
     /// Frames are read and preprocessed on `threads` threads; `progress` hears (frames done,

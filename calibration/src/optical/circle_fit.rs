@@ -35,6 +35,7 @@ pub(crate) struct CircleFit {
 
 /// The algebraic least-squares circle (x^2 + y^2 + D x + E y + F = 0); `None` for fewer than
 /// three points or collinear points.
+#[cfg(test)]
 pub(crate) fn algebraic(points: &[[f64; 2]]) -> Option<Circle> {
     if points.len() < 3 {
         return None;

@@ -516,17 +516,6 @@ impl ClockFitLabeler {
     pub(crate) fn force_map(&self) -> Option<ClockMap> {
         self.force_fit.as_ref().map(|f| f.map)
     }
-
-    /// The current camera clock map (ticks -> host ns of the event stamped), if fitted, and
-    /// whether latches calibrated it.
-    pub(crate) fn camera_map(&self) -> Option<(ClockMap, bool)> {
-        self.camera.map(|c| (c.map, c.calibrated))
-    }
-
-    /// Latches received so far (within the fit window).
-    pub(crate) fn latches_used(&self) -> usize {
-        self.latches.len()
-    }
 }
 
 /// The lower-hull vertices of `run` (sorted by tick), as (tick, arrival).

@@ -229,6 +229,7 @@ pub(crate) fn encode_request_pdu(request: &Request) -> Vec<u8> {
 }
 
 /// The protocol data unit of a response (used by simulators and tests).
+#[cfg(test)]
 pub(crate) fn encode_response_pdu(response: &Response) -> Vec<u8> {
     match response {
         Response::ReadHolding(values) => {

@@ -389,8 +389,3 @@ pub fn new_run_id(plan_name: &str) -> String {
         .collect();
     format!("{name}-{}", now_utc().replace([':', '.'], "-"))
 }
-
-/// The runs root used when none is given.
-pub(crate) fn default_root() -> &'static Path {
-    Path::new("runs")
-}

@@ -4,6 +4,7 @@
 //! host time by one of these. The origin keeps the numbers small so that f64 keeps sub-nanosecond
 //! resolution over days of ticks.
 
+#[cfg(test)]
 use crate::clock::HostTime;
 
 /// A linear map from a device's tick counter to host nanoseconds.
@@ -29,6 +30,7 @@ impl ClockMap {
     }
 
     /// Host time of device tick `ticks`, rounded to the nanosecond (clamped at the epoch).
+    #[cfg(test)]
     pub(crate) fn host_time(&self, ticks: u64) -> HostTime {
         HostTime(self.host_ns(ticks).round().max(0.0) as u64)
     }
@@ -40,6 +42,7 @@ impl ClockMap {
 
     /// Drift of the device clock relative to `nominal_ns_per_tick`, in parts per million
     /// (positive: device ticks are longer than nominal, the device clock runs slow).
+    #[cfg(test)]
     pub(crate) fn drift_ppm(&self, nominal_ns_per_tick: f64) -> f64 {
         (self.ns_per_tick / nominal_ns_per_tick - 1.0) * 1e6
     }

@@ -78,6 +78,7 @@ impl StrobeDetector {
 }
 
 /// All complete windows in `values`, the first of which has sample index `first_index`.
+#[cfg(test)]
 pub(crate) fn windows(values: &[f64], first_index: u64, threshold: f64) -> Vec<StrobeWindow> {
     let mut detector = StrobeDetector::new(threshold);
     values

@@ -25,8 +25,11 @@
 use crate::bench::{Bench, BenchTruth};
 use fringe_rig::HostTime;
 use fringe_rig::Wrench;
+#[cfg(test)]
 use std::fs::{File, OpenOptions};
-use std::io::{self, BufWriter, Write};
+use std::io;
+#[cfg(test)]
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -294,6 +297,7 @@ pub enum TruthError {
 }
 
 /// Ground truth appended to a JSON-lines file, flushed per record.
+#[cfg(test)]
 pub(crate) struct TruthWriter {
     path: PathBuf,
     out: Mutex<BufWriter<File>>,
@@ -301,6 +305,7 @@ pub(crate) struct TruthWriter {
     error: Mutex<Option<String>>,
 }
 
+#[cfg(test)]
 impl TruthWriter {
     /// Opens (creates or appends to) `path`.
     pub(crate) fn create(path: &Path) -> Result<Arc<TruthWriter>, TruthError> {
@@ -319,16 +324,13 @@ impl TruthWriter {
         }))
     }
 
-    pub(crate) fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The first error met while writing, if any (e.g. disk full).
     pub(crate) fn error(&self) -> Option<String> {
         self.error.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 }
 
+#[cfg(test)]
 impl TruthSink for TruthWriter {
     fn record(&self, record: TruthRecord) {
         let line = record.to_json();

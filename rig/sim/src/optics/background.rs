@@ -203,12 +203,14 @@ impl Background {
 
     /// Light through the polariser at full fringe brightness at pixel index `k`, DN.
     #[inline]
+    #[cfg(test)]
     pub(crate) fn illumination(&self, k: usize) -> f32 {
         self.illumination[k]
     }
 
     /// Light added after the polariser at pixel index `k`, DN.
     #[inline]
+    #[cfg(test)]
     pub(crate) fn glow(&self, k: usize) -> f32 {
         self.glow[k]
     }

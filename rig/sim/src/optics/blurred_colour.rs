@@ -34,11 +34,6 @@ fn gaussian_weights(sigma_steps: f64, half: usize) -> Vec<f64> {
 }
 
 impl BlurredColourTable {
-    /// Default table: N in 0..=20 (1024 columns), sigma_N in 0..=2 (65 rows), film plate at 560 nm.
-    pub(crate) fn standard() -> BlurredColourTable {
-        BlurredColourTable::new(1024, 20.0, 65, 2.0, Polariser::FILM_560)
-    }
-
     /// `columns` (at least 2) fringe orders evenly over 0..=`max_order`, `rows` (at least 2) spreads
     /// evenly over 0..=`max_sigma`, colours behind `polariser`.
     pub(crate) fn new(

@@ -57,6 +57,7 @@ pub(crate) enum Polariser {
 
 impl Polariser {
     /// Film plate quarter-wave at 560 nm: faint bluish unloaded background.
+    #[cfg(test)]
     pub(crate) const FILM_560: Polariser = Polariser::Film {
         design_wavelength_nm: 560.0,
     };
@@ -74,6 +75,7 @@ impl Polariser {
 
 /// R, G, B intensity (0 = dark, 1 = the channel's full unpolarised-through value) at fringe order N,
 /// computed by the spectral sum with an ideal quarter-wave plate.
+#[cfg(test)]
 pub(crate) fn spectral_colour(fringe_order: f64) -> [f64; 3] {
     spectral_colour_with(fringe_order, Polariser::Ideal)
 }
@@ -102,6 +104,7 @@ pub(crate) fn spectral_colour_with(fringe_order: f64, polariser: Polariser) -> [
 }
 
 /// Colour contrast of an RGB triple: largest minus smallest channel.
+#[cfg(test)]
 pub(crate) fn contrast(rgb: [f64; 3]) -> f64 {
     let max = rgb.iter().copied().fold(f64::MIN, f64::max);
     let min = rgb.iter().copied().fold(f64::MAX, f64::min);
@@ -110,11 +113,13 @@ pub(crate) fn contrast(rgb: [f64; 3]) -> f64 {
 
 /// [`spectral_colour`] baked into a table over 0..=`max_order`.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg(test)]
 pub(crate) struct ColourTable {
     max_order: f64,
     entries: Vec<[f32; 3]>,
 }
 
+#[cfg(test)]
 impl ColourTable {
     /// Default table: 4096 entries up to N = 20.
     pub(crate) fn standard() -> ColourTable {
@@ -141,11 +146,6 @@ impl ColourTable {
             })
             .collect();
         ColourTable { max_order, entries }
-    }
-
-    /// Largest fringe order in the table; larger orders read the last entry.
-    pub(crate) fn max_order(&self) -> f64 {
-        self.max_order
     }
 
     /// R, G, B in 0..=1 at `fringe_order`, interpolated linearly; negative or NaN orders read N = 0.

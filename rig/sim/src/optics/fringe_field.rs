@@ -171,16 +171,19 @@ impl FringeField {
 
     /// Fringe order per newton at (x_mm, y_mm) in the indenter frame, bilinear between cell centres.
     /// Points beyond the grid take the value at the nearest grid edge.
+    #[cfg(test)]
     pub(crate) fn sample(&self, x_mm: f64, y_mm: f64) -> f64 {
         self.bilinear(&self.values, x_mm, y_mm)
     }
 
     /// |grad N_unit| (fringe orders per newton per mm) at (x_mm, y_mm), sampled like
     /// [`FringeField::sample`]. For a force F the blur spread is sigma_N = F |grad N_unit| sigma_blur.
+    #[cfg(test)]
     pub(crate) fn sample_gradient(&self, x_mm: f64, y_mm: f64) -> f64 {
         self.bilinear(&self.gradient, x_mm, y_mm)
     }
 
+    #[cfg(test)]
     fn bilinear(&self, grid: &[f64], x_mm: f64, y_mm: f64) -> f64 {
         let at = |i: usize, j: usize| grid[j * self.n + i];
         let half = (self.n / 2) as f64;

@@ -167,10 +167,7 @@ impl ContactModel {
         }
     }
 
-    pub(crate) fn material(&self) -> &ContactMaterial {
-        &self.material
-    }
-
+    #[cfg(test)]
     pub(crate) fn geometry(&self) -> ContactGeometry {
         self.geometry
     }
@@ -216,11 +213,6 @@ impl ContactModel {
         let f =
             self.material.long_term_fraction() * self.elastic + self.internal.iter().sum::<f64>();
         Newtons(f.max(0.0))
-    }
-
-    /// The depth of the last [`ContactModel::advance`].
-    pub(crate) fn depth(&self) -> Millimetres {
-        Millimetres(self.depth)
     }
 }
 
@@ -278,11 +270,6 @@ impl SurfaceHeight {
             })
             .collect();
         SurfaceHeight { modes }
-    }
-
-    /// A perfectly flat surface.
-    pub(crate) fn flat() -> SurfaceHeight {
-        SurfaceHeight { modes: Vec::new() }
     }
 
     /// Height above nominal at sensor-frame (x, y), mm (positive = the surface is higher, so an

@@ -177,6 +177,7 @@ impl PressureMap {
 
     /// A map whose whole force sits in the single cell (i, j): the discrete point load.
     /// Panics if (i, j) lies outside the `n` x `n` grid.
+    #[cfg(test)]
     pub(crate) fn point(n: usize, cell_mm: f64, i: usize, j: usize, force_n: f64) -> PressureMap {
         let mut values = vec![0.0; n * n];
         values[j * n + i] = force_n / (cell_mm * cell_mm);
@@ -193,17 +194,13 @@ impl PressureMap {
         self.cell_mm
     }
 
-    /// Row-major pressures, N/mm^2.
-    pub(crate) fn values(&self) -> &[f64] {
-        &self.values
-    }
-
     /// Pressure of cell (i, j), N/mm^2.
     pub(crate) fn at(&self, i: usize, j: usize) -> f64 {
         self.values[j * self.n + i]
     }
 
     /// Sum of pressure times cell area, N.
+    #[cfg(test)]
     pub(crate) fn total_force_n(&self) -> f64 {
         self.values.iter().sum::<f64>() * self.cell_mm * self.cell_mm
     }

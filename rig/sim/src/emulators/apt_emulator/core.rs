@@ -283,24 +283,9 @@ impl EmulatorCore {
         }
     }
 
-    /// The actuator whose scale is in use.
-    pub(crate) fn actuator(&self) -> Actuator {
-        self.actuator
-    }
-
-    /// The actuator type code last set by MOT_SET_TSTACTUATORTYPE (or the configured one).
-    pub(crate) fn actuator_code(&self) -> Option<u8> {
-        self.actuator_code
-    }
-
     /// True while update messages run.
     pub(crate) fn updates_running(&self) -> bool {
         self.updates.is_some()
-    }
-
-    /// True if the channel is enabled.
-    pub(crate) fn enabled(&self) -> bool {
-        self.enabled
     }
 
     /// How long the server may wait for host bytes before calling [`EmulatorCore::tick`].

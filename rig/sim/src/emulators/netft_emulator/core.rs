@@ -228,11 +228,6 @@ impl<P: Clone> NetFtCore<P> {
         })
     }
 
-    /// The configuration.
-    pub(crate) fn config(&self) -> &NetFtEmulatorConfig {
-        &self.config
-    }
-
     /// A status word OR-ed into every record from now on (fault injection); 0 clears it.
     pub(crate) fn injected_status(&self) -> Arc<AtomicU32> {
         self.injected.clone()
