@@ -12,13 +12,6 @@ pub(crate) mod head_fit;
 pub(crate) mod held_out;
 pub(crate) mod last_block;
 
-#[cfg(feature = "torch")]
-pub use fine_tune::{
-    fine_tune, finished, FineTuneConfig, FineTuneError, FineTuneEvent, FineTuneOutcome,
-    MIN_HELD_OUT,
-};
-pub use last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
-
 use crate::backend::tract::TractGraph;
 use crate::backend::InferenceError;
 use crate::dataset::{Sample, Source};

@@ -55,6 +55,12 @@ mod training_set;
 mod weights;
 
 pub use acceptance::{judge, Spec, SpecError, Verdict};
+#[cfg(feature = "torch")]
+pub use adapt::fine_tune::{
+    fine_tune, finished as finished_fine_tune, FineTuneConfig, FineTuneError, FineTuneEvent,
+    FineTuneOutcome, MIN_HELD_OUT,
+};
+pub use adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
 pub use augment::Pipeline;
 #[cfg(feature = "onnxruntime")]
 pub use backend::onnxruntime::OrtBackend;

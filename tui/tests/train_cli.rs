@@ -377,10 +377,10 @@ fn bad_settings_are_refused_naming_the_flag() {
 #[test]
 fn fine_tuning_stops_resumes_and_keeps_the_better_candidate() {
     use fringe_sensor_models::adapt::held_out_presses;
-    use fringe_sensor_models::adapt::{
-        fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
-    };
     use fringe_sensor_models::TrainEvent;
+    use fringe_sensor_models::{
+        fine_tune, finished_fine_tune as finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
+    };
     use std::sync::atomic::{AtomicBool, Ordering};
     let dir = scratch("fine-tune");
     let out = dir.join("fine-tune");

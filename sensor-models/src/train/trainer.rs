@@ -624,7 +624,7 @@ impl<'a> Run<'a> {
     ) -> Result<(), TrainError> {
         if let (Some(init), None) = (&self.config.init, resumed) {
             let what = init.display().to_string();
-            let weights = crate::read_weights(init)?;
+            let weights = crate::weights::format::read_weights(init)?;
             load_state_dict(&self.vs, &weights, &what)?;
             self.record.init = Some(init.clone());
         }

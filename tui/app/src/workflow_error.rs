@@ -81,7 +81,7 @@ failed_from!(
 );
 
 #[cfg(feature = "torch")]
-failed_from!(fringe_sensor_models::adapt::FineTuneError);
+failed_from!(fringe_sensor_models::FineTuneError);
 
 /// A step's description put before an error (as `anyhow::Context` does, with the same text).
 pub(crate) trait Context<T> {

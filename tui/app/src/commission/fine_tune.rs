@@ -57,11 +57,12 @@ pub(crate) fn run(
     runs: &[PathBuf],
 ) -> Result<Option<FineTune>> {
     use fringe_sensor_models::adapt::held_out_presses;
-    use fringe_sensor_models::adapt::{
-        fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome, MIN_HELD_OUT,
-    };
     use fringe_sensor_models::dataset;
     use fringe_sensor_models::TrainEvent;
+    use fringe_sensor_models::{
+        fine_tune, finished_fine_tune as finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
+        MIN_HELD_OUT,
+    };
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::Instant;
 
