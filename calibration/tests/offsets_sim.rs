@@ -1,4 +1,4 @@
-//! Force offsets against the simulated F/T sensor (`fringe_sim::physics::ft_sensor`: 0.05 N white
+//! Force offsets against the simulated F/T sensor (`fringe_sim::SimFtSensor`: 0.05 N white
 //! noise, random-walk drift, a power-up bias) with a known added linear drift: the bias within
 //! 0.01 N of the truth, the drift slope recovered, the zero-load check warning after a power
 //! cycle.

@@ -1,29 +1,43 @@
 //! `fringe-rig`: everything that talks to the indentation bench.
 //!
-//! - [`units`], [`clock`]: quantities and the host time base.
-//! - [`transport`]: serial, pseudo-terminal, TCP and UDP links behind two small traits.
-//! - [`trace`]: recording what crosses a link and replaying it against a driver.
-//! - [`axis`], [`force`], [`camera`]: the device traits every real, simulated or replayed device
-//!   implements; [`devices`] holds one bench's set of them.
-//! - [`apt`], [`modbus`], [`netft`], [`atical`], [`nidaqmx`], [`manual`]: the drivers (Thorlabs APT
-//!   axes, Modbus y stages, the ATI Net F/T box, strain gauges through an ATI `.cal` matrix read by
-//!   an NI-DAQmx device, a y stage moved by hand), each a pure codec plus a driver over a link; [`ft_units`] for the F/T unit codes.
-//! - [`sync`], [`acquire`]: matching frames to force samples (strobe, clock fit, host time) and
-//!   the recording threads; [`realtime`]: real-time scheduling for the threads that keep its time.
-//! - [`operator`]: the person at the bench ([`Operator`]), asked by the scan and by a stage moved
+//! Its modules (private unless named public below):
+//! - `units`, `clock`: quantities and the host time base.
+//! - `transport`: serial, pseudo-terminal, TCP and UDP links behind two small traits.
+//! - `trace`: recording what crosses a link and replaying it against a driver.
+//! - `axis`, `force`, `camera`: the device traits every real, simulated or replayed device
+//!   implements; `devices` holds one bench's set of them.
+//! - [`apt`], [`modbus`], [`netft`], [`atical`], [`nidaqmx`], `manual`: the drivers (Thorlabs APT
+//!   axes, Modbus y stages, the ATI Net F/T box, strain gauges through an ATI `.cal` matrix read
+//!   by an NI-DAQmx device, a y stage moved by hand), each a pure codec plus a driver over a
+//!   link; `ft_units` for the F/T unit codes.
+//! - `sync`, `acquire`: matching frames to force samples (strobe, clock fit, host time) and the
+//!   recording threads; `realtime`: real-time scheduling for the threads that keep its time.
+//! - `operator`: the person at the bench ([`Operator`]), asked by the scan and by a stage moved
 //!   by hand.
 //! - [`scan`]: scan plans and the scan engine; [`store`]: the run directory it writes;
 //!   [`reference_layout`]: the reference pipeline's dataset layout (`0.images/`, `0.labels.csv`).
-//! - [`config_file`], [`seeded`]: the one TOML loader and the one seeded generator.
+//! - `config_file`, [`seeded`]: the one TOML loader and the one seeded generator.
 //!
 //! Protocol codecs are pure (bytes <-> messages, no I/O); drivers combine a codec with a link.
 //!
-//! The types most callers need are re-exported here: the units and host time, the device traits
-//! with their errors and settings, the links, the driver configurations a rig file names, and the
-//! scan engine's entry point ([`run_scan`] with [`ScanSetup`], [`ScanProgram`] and
-//! [`ScanControl`]). Everything else is reached through its module. Inside this crate, files
-//! import from the defining module, never through these re-exports (no import circle between
-//! files).
+//! The surface is curated: what other crates use is re-exported here, at the root (the units
+//! and host time, the device traits with their errors and settings, the links and traces, the
+//! drivers a rig file names, the recording threads, the scan engine's entry point [`run_scan`]
+//! with [`ScanSetup`], [`ScanProgram`] and [`ScanControl`]), except where a group of items is a
+//! namespace of its own; those top-level modules stay public, each with its own list:
+//! - the drivers' codecs and tables: [`apt`] (messages, frame codec, stream decoder, status
+//!   bits, actuators), [`modbus`] (frames, PDUs, register maps), [`netft`] (RDT datagrams, the
+//!   box's configuration page), [`nidaqmx`] (the C API's types, constants and status codes),
+//!   [`atical`] (the `.cal` file and the calibrated sensor);
+//! - [`scan`]: the scan's parts a front end drives by itself (control phases and requests, the
+//!   press moves, the plan's targets);
+//! - [`store`]: the run store (its two doors [`store::RunReader`] and [`store::RunWriter`], the
+//!   documents, frame files and their codecs);
+//! - [`reference_layout`] and [`seeded`], whose names (`IMAGES`, `mix`) only read well with
+//!   their module's.
+//!
+//! No other module is public. Inside this crate, files import from the defining module, never
+//! through these re-exports (no import circle between files).
 #![warn(unreachable_pub)]
 
 mod acquire;

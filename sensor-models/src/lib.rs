@@ -1,28 +1,38 @@
 //! `fringe-sensor-models`: the models of the photoelastic sensor.
 //!
-//! - [`preprocess`]: the one preprocessing, from a camera frame or image file to a network
+//! - `preprocess`: the one preprocessing, from a camera frame or image file to a network
 //!   input, driven by the sensor's calibration profile (or the reference pipeline's geometry).
-//! - [`arch`]: the paper's two networks (custom CNN, ResNet-18 multitask), recognised from the
+//! - `arch`: the paper's two networks (custom CNN, ResNet-18 multitask), recognised from the
 //!   weight keys.
 //! - [`builtin`]: the models that ship inside fringe (`default`), and [`builtin::open`] for a
 //!   model argument that names one of them or a file.
-//! - [`contact_window`]: the window about the contact a two-stage model reads the force from.
-//! - [`model`]: a model file with its card, ready to run; [`model_card`]: the JSON sidecar.
+//! - `contact_window`: the window about the contact a two-stage model reads the force from.
+//! - `model`: a model file with its card, ready to run; `model_card`: the JSON sidecar.
 //! - [`onnx_graph`]: a network's ONNX graph built from its weights.
-//! - [`backend`]: inference backends behind one trait (tract by default); [`prediction`]: their
-//!   outputs in units; [`predictor`]: frames to predictions, the one path (two-stage models
+//! - `backend`: inference backends behind one trait (tract by default); `prediction`: their
+//!   outputs in units; `predictor`: frames to predictions, the one path (two-stage models
 //!   included).
 //! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
-//! - [`split`]: train / validation / test by physical indentation; [`augment`]: the paper's
-//!   augmentation pipelines; [`training_set`]: a split side's network inputs and targets.
-//! - `torch_net` (cargo feature `torch`): the networks in libtorch, built from [`arch`]; `train`
+//! - `split` (cargo feature `torch`): train / validation / test by physical indentation;
+//!   `augment`: the paper's augmentation pipelines; `training_set` (feature `torch`): a split
+//!   side's network inputs and targets.
+//! - `torch_net` (cargo feature `torch`): the networks in libtorch, built from `arch`; `train`
 //!   (same feature): the training loop on libtorch, checkpoints, resume.
 //! - [`adapt`]: a model adapted to one sensor unit in pure Rust (its heads fitted again on the
 //!   unit's labelled frames).
-//! - [`metrics`]: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
-//!   markdown and plots; [`acceptance`]: an evaluation against a spec, with a verdict.
-//! - [`weights`]: weights by name as PyTorch's `state_dict()` holds them, and the readers of
+//! - `metrics`: the paper's Table-2 figures; [`eval`]: a model over a dataset; [`report`]: its
+//!   markdown and plots; `acceptance`: an evaluation against a spec, with a verdict.
+//! - `weights`: weights by name as PyTorch's `state_dict()` holds them, and the readers of
 //!   every weights file users have (`torch.save` zip and legacy, safetensors), by content.
+//!
+//! The surface is curated: what other crates use is re-exported here, at the root (the model
+//! and its card, preprocessing, backends, predictions, metrics, acceptance, weight files,
+//! training and fine-tuning), except six modules kept public as namespaces, whose items read
+//! with their module's name: [`adapt`] (`adapt::AdaptConfig`, `adapt::fit_heads`), [`builtin`]
+//! (`builtin::open`, `builtin::DEFAULT`), [`dataset`] (`dataset::read`, `dataset::Sample`),
+//! [`eval`] (`eval::evaluate`, `eval::Row`), [`onnx_graph`] (`onnx_graph::build`) and [`report`]
+//! (`report::write`). Inside this crate, files import from the defining module, never through
+//! these re-exports.
 #![warn(unreachable_pub)]
 
 mod acceptance;

@@ -1,4 +1,4 @@
-//! The emulated Modbus y stage (fringe_sim::emulators::modbus_emulator) against the real ModbusStage
+//! The emulated Modbus y stage (fringe_sim::ModbusEmulator) against the real ModbusStage
 //! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
 //! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
 

@@ -1,4 +1,4 @@
-//! The emulated Net F/T box (fringe_sim::emulators::netft_emulator) against the real NetFt driver, in
+//! The emulated Net F/T box (fringe_sim::NetFtEmulator) against the real NetFt driver, in
 //! process and over loopback UDP with the configuration read over HTTP, and against an independent
 //! client from PyPI (pynetft, driven by tests/python/netft_client.py).
 

@@ -1,4 +1,4 @@
-//! The emulated APT stepper controller (fringe_sim::emulators::apt_emulator) against the real
+//! The emulated APT stepper controller (fringe_sim::AptEmulator) against the real
 //! ThorlabsAxis driver (in process and over a pseudo-terminal), against raw bytes, and against
 //! two independent clients from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py,
 //! and pyLabLib's KinesisMotor, tests/python/apt_pylablib_client.py), run with FRINGE_PYTHON.

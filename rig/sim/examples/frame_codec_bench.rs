@@ -17,7 +17,7 @@
 //! - `webp cells`: lossless WebP (image-webp's encoder) of the same RGBA cells;
 //! - `tiff planes`: TIFF with deflate and the horizontal predictor on the planes;
 //! - `zstd planes N`: the planes after a left-neighbour difference, zstd level N;
-//! - `fgl mosaic`: fringe's own codec (`fringe_rig::store::frames::fgl`, what runs store since
+//! - `fgl mosaic`: fringe's own codec (`fringe_rig::store::encode_fgl`, what runs store since
 //!   layout 3) on the mosaic as it is;
 //! - for a Mono8 camera, `png mono8 avg` and `fgl mono8`: the same scenes rendered grey, in a
 //!   grey PNG as runs of layout 2 stored them, and in FGL.

@@ -195,14 +195,14 @@ pub struct SimSection {
     pub force_path: SimForcePath,
     /// Scale of the simulated camera image (1 = 1920x1200; 0.25 = 480x300 for quick tests).
     pub image_scale: f64,
-    /// Faults injected on purpose (`[[sim.faults]]`, see fringe_sim::faults): what a user sees
+    /// Faults injected on purpose (`[[sim.faults]]`, see fringe_sim::FaultSpec): what a user sees
     /// and what a run keeps when a device fails.
     #[cfg(feature = "sim")]
     pub faults: Vec<fringe_sim::FaultSpec>,
     /// Session of the bench (default 0): repeated checks of the same unchanged bench differ only
-    /// by their noise (see fringe_sim::session).
+    /// by their noise (see rig/sim/src/session.rs).
     pub session: u64,
-    /// What changed in the unit since it was accepted (`[sim.ageing]`, see fringe_sim::ageing;
+    /// What changed in the unit since it was accepted (`[sim.ageing]`, see fringe_sim::Ageing;
     /// default nothing).
     #[cfg(feature = "sim")]
     pub ageing: fringe_sim::Ageing,
