@@ -38,19 +38,18 @@ mod registration;
 mod scan_run;
 
 pub use frames::{grey_average, spread, FrameError};
-pub use from_scan::calibrate;
-pub use optical::find_disc_in;
+pub use from_scan::{calibrate, FromScanError, ScanCalibration};
+pub use offsets::{ProfileOffsetCheck, ZeroTolerance};
 pub use optical::grey::GreyImage;
 pub use optical::overlay::{overlay, overlay_scaled};
-pub use profile::{ImageSize, Optical, Registration, MAX_AGE_DAYS};
+pub use optical::{find_disc, find_disc_in, DiscFit, OpticalError};
+pub use profile::{
+    load_checked, profile_path, Expectation, ImageSize, Optical, Profile, ProfileError,
+    ProfileWarning, Registration, MAX_AGE_DAYS,
+};
 pub use registration::contact_spot::spot::ContactError;
 pub use registration::contact_spot::{draw_spot, ContactBackground, SpotSettings};
 pub use registration::plot::residual_plot;
 pub use registration::register;
 pub use registration::similarity_fit::{FitSettings, Press};
-
-pub use from_scan::{FromScanError, ScanCalibration};
-pub use offsets::{ProfileOffsetCheck, ZeroTolerance};
-pub use optical::{find_disc, DiscFit, OpticalError};
-pub use profile::{load_checked, profile_path, Expectation, Profile, ProfileError, ProfileWarning};
 pub use scan_run::{ScanRun, ScanRunError};

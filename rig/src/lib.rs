@@ -69,46 +69,30 @@ pub use acquire::camera_stream::CameraStream;
 pub use acquire::force_stream::ForceStream;
 pub use acquire::frame_gaps::FrameGaps;
 pub use acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
+pub use acquire::record_tap::RecordTap;
 pub use acquire::recorder::{Filming, FrameContext, Recorder};
+pub use apt::{AptConfig, Controller, ThorlabsAxis};
+pub use axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
 #[cfg(feature = "aravis")]
 pub use camera::aravis::{list_cameras, AravisCamera};
 pub use camera::trace::{
     CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
 };
 pub use camera::writer::FrameWriter;
-pub use camera::{format_name, Cutout};
-pub use config_file::{load_toml, parse_toml};
-pub use force::StreamStats;
-pub use ft_units::{newton_metres_per, newtons_per};
-pub use manual::ManualStage;
-pub use operator::{Prompt, Reply};
-pub use realtime::raise_current_thread;
-pub use sync::trigger::TriggerTiming;
-pub use sync::window::mean_over;
-pub use trace::{
-    record_datagrams, record_stream, RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink,
-    ReplayReport,
-};
-pub use transport::memory::{byte_pair, datagram_pair, MemoryByteLink, MemoryDatagramLink};
-pub use transport::pty::PtyDevice;
-pub use transport::serial::{list_ports, PortOpenError, SerialLink, SerialSettings};
-pub use transport::tcp::TcpLink;
-pub use transport::udp::UdpLink;
-
-pub use acquire::record_tap::RecordTap;
-pub use apt::{AptConfig, Controller, ThorlabsAxis};
-pub use axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
 pub use camera::{
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, Roi, TimestampLatch,
-    TriggerMode,
+    format_name, Camera, CameraError, CameraInfo, CameraSettings, Cutout, Frame, PixelFormat, Roi,
+    TimestampLatch, TriggerMode,
 };
 pub use clock::HostTime;
-pub use config_file::ConfigError;
+pub use config_file::{load_toml, parse_toml, ConfigError};
 pub use devices::Devices;
-pub use force::{ForceError, ForceSample, ForceSensor};
+pub use force::{ForceError, ForceSample, ForceSensor, StreamStats};
+pub use ft_units::{newton_metres_per, newtons_per};
+pub use manual::ManualStage;
 pub use modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 pub use netft::{NetFt, NetFtConfig, NetFtOptions};
-pub use operator::Operator;
+pub use operator::{Operator, Prompt, Reply};
+pub use realtime::raise_current_thread;
 pub use scan::control::ScanControl;
 pub use scan::engine::{run_scan, RunTarget, ScanOutcome};
 pub use scan::failure::ScanError;
@@ -116,7 +100,17 @@ pub use scan::origin::ContactOrigin;
 pub use scan::plan::{BenchLimits, Plan, ScanProgram};
 pub use scan::setup::ScanSetup;
 pub use sync::method::SyncMethod;
-pub use trace::{ReplayOptions, Trace};
+pub use sync::trigger::TriggerTiming;
+pub use sync::window::mean_over;
+pub use trace::{
+    record_datagrams, record_stream, RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink,
+    ReplayOptions, ReplayReport, Trace,
+};
+pub use transport::memory::{byte_pair, datagram_pair, MemoryByteLink, MemoryDatagramLink};
+pub use transport::pty::PtyDevice;
+pub use transport::serial::{list_ports, PortOpenError, SerialLink, SerialSettings};
+pub use transport::tcp::TcpLink;
+pub use transport::udp::UdpLink;
 pub use transport::{ByteLink, DatagramLink};
 pub use units::{
     Decibels, Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared,

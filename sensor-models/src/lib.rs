@@ -71,34 +71,31 @@ pub use adapt::fine_tune::{
     FineTuneOutcome, MIN_HELD_OUT,
 };
 pub use adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
+pub use arch::{recognise, Architecture};
 pub use augment::Pipeline;
 #[cfg(feature = "onnxruntime")]
 pub use backend::onnxruntime::OrtBackend;
 pub use backend::tract::{profile as profile_tract, TractBackend};
-pub use backend::BackendKind;
+pub use backend::{Backend, BackendKind, InferenceError, RawOutputs};
 pub use contact_window::FORCE_WINDOW_MM;
 pub use lr_schedule::Schedule;
 pub use metrics::{Errors, Metrics, Scored};
-pub use model::Source as ModelSource;
+pub use model::{Model, ModelError, Source as ModelSource};
 pub use model_card::{CardError, CardSource, ModelCard};
 pub use prediction::{ForceVector, Prediction};
 pub use predictor::{PredictError, Predictor};
 pub use preprocess::{
-    rotate_contact, tensor_image, thumbnail, Centre, PreprocessError, ReferenceSensor,
+    rotate_contact, tensor_image, thumbnail, Centre, Colour, FrameRef, PreprocessError,
+    Preprocessing, Preprocessor, ReferenceSensor,
 };
 pub use smoothing::Smoothing;
 #[cfg(feature = "torch")]
 pub use train::{
     train, Checkpoint, Outcome as TrainOutcome, TrainConfig, TrainError, TrainEvent, TrainingRecord,
 };
-pub use weights::pickle::{parse as parse_pickle, parse_prefix as parse_pickle_prefix};
-
-pub use arch::{recognise, Architecture};
-pub use backend::{Backend, InferenceError, RawOutputs};
-pub use model::{Model, ModelError};
-pub use preprocess::{Colour, FrameRef, Preprocessing, Preprocessor};
 pub use weights::error::{ModelFileError, ModelFileErrorKind};
 pub use weights::format::{detect_format, read_weights, WeightsFormat};
+pub use weights::pickle::{parse as parse_pickle, parse_prefix as parse_pickle_prefix};
 pub use weights::safetensors_file::{
     card_in_safetensors, read_safetensors, write_safetensors, write_safetensors_with_card,
 };

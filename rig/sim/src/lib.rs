@@ -91,34 +91,25 @@ mod session;
 mod test_support;
 
 pub use ageing::Ageing;
-pub use bench::{AxisConfig, IndenterTip, MountedIndenter};
-pub use emulators::apt_emulator::KeepAlive;
-pub use emulators::camera_emulator::FRAME_MEMORY;
+pub use bench::{AxisConfig, Bench, BenchConfig, IndenterTip, MountedIndenter};
+pub use emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle, KeepAlive};
+pub use emulators::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY};
+pub use emulators::daq_emulator::{SimDaq, SimDaqConfig};
 pub use emulators::daqmx_library::c_api::{
     device as daqmx_device, install as install_daqmx_device, lookup as lookup_daqmx_symbol,
 };
 pub use emulators::daqmx_library::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};
 pub use emulators::modbus_emulator::core::{decode_request_pdu, ModbusCore};
-pub use emulators::netft_box::SimHttp;
-pub use faults::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
-pub use optics::sensor::{SensorConfigError, SensorGeometry, Variant};
-pub use physics::ft_sensor::FtNoiseConfig;
-pub use physics::indenter::Shape;
-pub use rig::{ForcePath, SimRigError, SimServe, SIM_CAL};
-pub use scene::{ForceReading, LoadSource};
-
-pub use bench::{Bench, BenchConfig};
-pub use emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle};
-pub use emulators::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig};
-pub use emulators::daq_emulator::{SimDaq, SimDaqConfig};
 pub use emulators::modbus_emulator::ModbusEmulator;
-pub use emulators::netft_box::{SimNetFt, SimOptions};
+pub use emulators::netft_box::{SimHttp, SimNetFt, SimOptions};
 pub use emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
+pub use faults::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
 pub use ground_truth::records::{TruthLog, TruthSink};
 pub use ground_truth::truth_spool::TruthSpool;
 pub use optics::render::Renderer;
-pub use optics::sensor::SensorConfig;
-pub use physics::ft_sensor::SimFtSensor;
+pub use optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry, Variant};
+pub use physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
+pub use physics::indenter::Shape;
 pub use physics::motion::{MotorSpec, SimMotor};
-pub use rig::{SimRig, SimRigConfig};
-pub use scene::{Contact, FrameRenderer, Scene, SceneSource};
+pub use rig::{ForcePath, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
+pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource};
