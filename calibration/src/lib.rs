@@ -24,9 +24,11 @@
 //! calibration scan's run ([`ScanRun`]). Two modules stay public as namespaces: [`health`] (a
 //! unit's signature and its change: `health::Signature`, `health::Change`, their constants) and
 //! [`offsets`] (`offsets::bias`, `offsets::drift`, `offsets::CHANNELS`: names that need their
-//! module's). Inside this crate, files import from the defining module, never through these
+//! module's). Every type the public API hands out is re-exported too, so all of it can be
+//! named (`unnameable_types` is warned). Inside this crate, files import from the defining module, never through these
 //! re-exports.
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod frames;
 mod from_scan;
@@ -38,18 +40,20 @@ mod registration;
 mod scan_run;
 
 pub use frames::{grey_average, spread, FrameError};
-pub use from_scan::{calibrate, FromScanError, ScanCalibration};
+pub use from_scan::{calibrate, FromScanError, LocatedPress, ScanCalibration};
 pub use offsets::{ProfileOffsetCheck, ZeroTolerance};
-pub use optical::grey::GreyImage;
+pub use optical::grey::{GreyImage, SizeMismatch};
 pub use optical::overlay::{overlay, overlay_scaled};
 pub use optical::{find_disc, find_disc_in, DiscFit, OpticalError};
 pub use profile::{
     load_checked, profile_path, Expectation, ImageSize, Optical, Profile, ProfileError,
     ProfileWarning, Registration, MAX_AGE_DAYS,
 };
-pub use registration::contact_spot::spot::ContactError;
+pub use registration::contact_spot::spot::{ContactError, ContactSpot};
 pub use registration::contact_spot::{draw_spot, ContactBackground, SpotSettings};
 pub use registration::plot::residual_plot;
-pub use registration::register;
-pub use registration::similarity_fit::{FitSettings, Press};
-pub use scan_run::{ScanRun, ScanRunError};
+pub use registration::similarity_fit::{
+    FitError, FitSettings, Press, PressResidual, SimilarityFit,
+};
+pub use registration::{register, RegistrationFit};
+pub use scan_run::{Press as PressFrames, ScanRun, ScanRunError};

@@ -12,6 +12,7 @@
 //! ([`palette`]: `palette::BLUE`, `palette::SERIES`).
 
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod canvas;
 mod error;

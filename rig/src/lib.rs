@@ -36,9 +36,11 @@
 //! - [`reference_layout`] and [`seeded`], whose names (`IMAGES`, `mix`) only read well with
 //!   their module's.
 //!
-//! No other module is public. Inside this crate, files import from the defining module, never
+//! Every type the public API hands out (errors, reports, plan sections) is re-exported too, so
+//! all of it can be named (`unnameable_types` is warned). No other module is public. Inside this crate, files import from the defining module, never
 //! through these re-exports (no import circle between files).
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod acquire;
 pub mod apt;
@@ -66,22 +68,28 @@ mod transport;
 mod units;
 
 pub use acquire::camera_stream::CameraStream;
-pub use acquire::force_stream::ForceStream;
+pub use acquire::force_stream::{ForceMonitor, ForceStream};
 pub use acquire::frame_gaps::FrameGaps;
 pub use acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 pub use acquire::record_tap::RecordTap;
-pub use acquire::recorder::{Filming, FrameContext, Recorder};
+pub use acquire::recorder::{
+    Filming, FrameContext, PendingCheckpoint, Recorder, RecorderError, RecorderFailure,
+    RecorderStats,
+};
 pub use apt::{AptConfig, Controller, ThorlabsAxis};
-pub use axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
+pub use axis::{Axis, AxisError, AxisStatus, InvalidSoftLimits, Kinematics, SoftLimits, StopMode};
+#[cfg(feature = "aravis")]
+pub use camera::aravis::AravisDevice;
 #[cfg(feature = "aravis")]
 pub use camera::aravis::{list_cameras, AravisCamera};
 pub use camera::trace::{
-    CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
+    CameraTrace, CameraTraceError, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
+    TraceFieldError, TraceFrame, TraceLatch,
 };
 pub use camera::writer::FrameWriter;
 pub use camera::{
-    format_name, Camera, CameraError, CameraInfo, CameraSettings, Cutout, Frame, PixelFormat, Roi,
-    TimestampLatch, TriggerMode,
+    format_name, Camera, CameraError, CameraInfo, CameraSettings, Cutout, Frame,
+    InvalidCameraSetting, PixelFormat, Roi, TimestampLatch, TriggerMode,
 };
 pub use clock::HostTime;
 pub use config_file::{load_toml, parse_toml, ConfigError};
@@ -92,7 +100,7 @@ pub use manual::ManualStage;
 pub use modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
 pub use netft::{NetFt, NetFtConfig, NetFtOptions};
 pub use operator::{Operator, Prompt, Reply};
-pub use realtime::raise_current_thread;
+pub use realtime::{raise_current_thread, RealtimeRefused};
 pub use scan::control::ScanControl;
 pub use scan::engine::{run_scan, RunTarget, ScanOutcome};
 pub use scan::failure::ScanError;
@@ -100,15 +108,20 @@ pub use scan::origin::ContactOrigin;
 pub use scan::plan::{BenchLimits, Plan, ScanProgram};
 pub use scan::setup::ScanSetup;
 pub use sync::method::SyncMethod;
+pub use sync::strobe::StrobeWindow;
 pub use sync::trigger::TriggerTiming;
-pub use sync::window::mean_over;
+pub use sync::window::{mean_over, WindowError, WindowMean};
+pub use trace::format::{Direction, LinkKind, TraceEntry, TraceError};
+pub use trace::replay::ReplayError;
 pub use trace::{
     record_datagrams, record_stream, RecordingGauges, ReplayDatagramLink, ReplayHandle, ReplayLink,
     ReplayOptions, ReplayReport, Trace,
 };
 pub use transport::memory::{byte_pair, datagram_pair, MemoryByteLink, MemoryDatagramLink};
 pub use transport::pty::PtyDevice;
-pub use transport::serial::{list_ports, PortOpenError, SerialLink, SerialSettings};
+pub use transport::serial::{
+    list_ports, Parity, PortInfo, PortOpenError, SerialLink, SerialSettings,
+};
 pub use transport::tcp::TcpLink;
 pub use transport::udp::UdpLink;
 pub use transport::{ByteLink, DatagramLink};

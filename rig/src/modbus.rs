@@ -7,10 +7,11 @@ pub(crate) mod stage;
 
 pub use codec::{
     crc16, decode_response_pdu, match_reply, parse_rtu, parse_tcp, rtu_frame, rtu_silent_interval,
-    rtu_wire_time, tcp_frame, Parsed, Request, Response, TcpHeader,
+    rtu_wire_time, tcp_frame, CodecError, ExceptionCode, Framing, Parsed, Reply, Request, Response,
+    TcpHeader,
 };
-pub use map::{Field, Role};
-
-pub use codec::{ExceptionCode, Framing};
-pub use map::{MapError, RegisterMap, WordOrder};
+pub use map::{
+    Field, Homing, MapError, Operation, Profile, RegisterMap, Registers, Role, SerialConfig,
+    Status, StatusBit, Trigger, WordOrder, Write,
+};
 pub use stage::{ModbusStage, StageOptions};

@@ -11,9 +11,8 @@ pub(crate) mod driver;
 pub(crate) mod rdt;
 pub(crate) mod stream;
 
-pub use config::parse_http_response;
-pub use rdt::{decode_datagram, encode_datagram};
-
-pub use config::{fetch_config, netftapi2_url, NetFtConfig};
+pub use config::{fetch_config, netftapi2_url, parse_http_response, HttpError, NetFtConfig};
 pub use driver::{BiasMode, NetFt, NetFtOptions};
-pub use rdt::{Command, Record, Request, DEFAULT_PORT};
+pub use rdt::{
+    decode_datagram, encode_datagram, Command, RdtError, Record, Records, Request, DEFAULT_PORT,
+};

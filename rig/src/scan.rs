@@ -33,13 +33,16 @@ pub(crate) mod setup;
 pub(crate) mod sidecar;
 pub(crate) mod watchers;
 
-pub use clearance::{Clearance, LOAD_SAMPLES};
+pub use clearance::{Clearance, Motion, UnderLoad, LOAD_SAMPLES};
 pub use control::{Phase, Request, ScanProgress, Status};
 pub use engine::new_run_id;
 pub use engine::recording::{labeler_for, LATCH_PERIOD};
 pub use offset_check::OffsetCheck;
 pub use panic_stop::stop_if_panicking;
-pub use plan::{Axis1d, Estimate, FtRating, Targets};
-pub use press::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
+pub use plan::{
+    ApproachSection, Axis1d, Estimate, FtRating, GridSection, IndentationSection, IndenterSection,
+    Order, SafetySection, ScanPoint, Targets,
+};
+pub use press::{approach, press_to, retract, ForceGuard, PressError, PressPoint, PressSettings};
 pub use sidecar::RunSidecar;
 pub use watchers::WatchSettings;

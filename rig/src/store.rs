@@ -57,28 +57,32 @@ pub(crate) mod verify;
 
 pub use disk_space::{available_bytes, human as human_bytes};
 pub use documents::{
-    now_utc, Event, ExitStatus, FrameRecord, Position, ProfileRef, StartDocument, StopDocument,
-    LAYOUT_VERSION,
+    now_utc, Checkpoint, Event, ExitStatus, Exposure, FrameRecord, Position, ProfileRef,
+    StartDocument, StopDocument, LAYOUT_VERSION,
 };
 pub use durable::write_atomic;
-pub use export::{export_reference, ExportOptions};
-pub use force_log::{check_header as check_force_log_header, decode_all as decode_force_log};
+pub use error::StoreError;
+pub use export::{export_reference, ExportOptions, ExportSummary, ExportedRun};
+pub use force_log::{
+    check_header as check_force_log_header, decode_all as decode_force_log, ForceLogError,
+};
 pub use frames::debayer::{rgb_at, to_rgb8};
 pub use frames::error::FrameFileError;
 pub use frames::fgl::{
-    decode as decode_fgl, encode as encode_fgl, header as fgl_header, Pattern as FglPattern,
+    decode as decode_fgl, encode as encode_fgl, header as fgl_header, CodecError, GreyImage,
+    Pattern as FglPattern,
 };
 pub use frames::png::save_png;
 pub use frames::{
-    in_whole_frame, read_plain, Encoding, FrameCodec, FrameStorage, StoredFrame, DISC_MARGIN_PX,
+    in_whole_frame, read_plain, CutoutError, Encoding, FrameCodec, FrameStorage, StoredFrame,
+    DISC_MARGIN_PX,
 };
-pub use manifest::write as write_manifest;
-pub use run_list::list as list_runs;
-pub use run_size::{bytes_on_disk, mean_stored_frame_bytes, RecordingTime, RunSize};
-pub use stored_part::{RecordingSection, StoredPart};
-pub use verify::verify as verify_run;
-
-pub use error::StoreError;
 pub use layout::{outside_runs, run_holding, InsideRun, RunFile};
+pub use manifest::write as write_manifest;
+pub use run_list::{list as list_runs, RunSummary};
+pub use run_lock::RunLock;
 pub use run_reader::RunReader;
-pub use run_writer::RunWriter;
+pub use run_size::{bytes_on_disk, mean_stored_frame_bytes, RecordingTime, RunSize};
+pub use run_writer::{Existing, RunWriter};
+pub use stored_part::{RecordingSection, StoredPart};
+pub use verify::{verify as verify_run, VerifyReport};

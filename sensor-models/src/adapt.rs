@@ -12,6 +12,8 @@ pub(crate) mod head_fit;
 pub(crate) mod held_out;
 pub(crate) mod last_block;
 
+pub use held_out::HeldOut;
+
 use crate::backend::tract::TractGraph;
 use crate::backend::InferenceError;
 use crate::dataset::{Sample, Source};

@@ -31,9 +31,11 @@
 //! with their module's name: [`adapt`] (`adapt::AdaptConfig`, `adapt::fit_heads`), [`builtin`]
 //! (`builtin::open`, `builtin::DEFAULT`), [`dataset`] (`dataset::read`, `dataset::Sample`),
 //! [`eval`] (`eval::evaluate`, `eval::Row`), [`onnx_graph`] (`onnx_graph::build`) and [`report`]
-//! (`report::write`). Inside this crate, files import from the defining module, never through
+//! (`report::write`). Every type the public API hands out is re-exported too, so all of it can
+//! be named (`unnameable_types` is warned). Inside this crate, files import from the defining module, never through
 //! these re-exports.
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod acceptance;
 pub mod adapt;
@@ -64,22 +66,26 @@ mod train;
 mod training_set;
 mod weights;
 
-pub use acceptance::{judge, Spec, SpecError, Verdict};
+pub use acceptance::{
+    judge, Check, ForceRange, Spec, SpecError, Thresholds, Verdict, Weak as WeakGroup,
+};
+#[cfg(feature = "torch")]
+pub use adapt::fine_tune::FineTuned;
 #[cfg(feature = "torch")]
 pub use adapt::fine_tune::{
     fine_tune, finished as finished_fine_tune, FineTuneConfig, FineTuneError, FineTuneEvent,
     FineTuneOutcome, MIN_HELD_OUT,
 };
 pub use adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
-pub use arch::{recognise, Architecture};
-pub use augment::Pipeline;
+pub use arch::{recognise, ArchError, Architecture, Conv, Keypoints, Layer};
+pub use augment::{Pipeline, UnknownPipeline};
 #[cfg(feature = "onnxruntime")]
 pub use backend::onnxruntime::OrtBackend;
-pub use backend::tract::{profile as profile_tract, TractBackend};
-pub use backend::{Backend, BackendKind, InferenceError, RawOutputs};
-pub use contact_window::FORCE_WINDOW_MM;
+pub use backend::tract::{profile as profile_tract, OpProfile, OpTime, TractBackend};
+pub use backend::{Backend, BackendKind, InferenceError, RawOutputs, UnknownBackend};
+pub use contact_window::{WindowError, FORCE_WINDOW_MM};
 pub use lr_schedule::Schedule;
-pub use metrics::{Errors, Metrics, Scored};
+pub use metrics::{Errors, MacroScores, Metrics, Scored};
 pub use model::{Model, ModelError, Source as ModelSource};
 pub use model_card::{CardError, CardSource, ModelCard};
 pub use prediction::{ForceVector, Prediction};
@@ -88,14 +94,24 @@ pub use preprocess::{
     rotate_contact, tensor_image, thumbnail, Centre, Colour, FrameRef, PreprocessError,
     Preprocessing, Preprocessor, ReferenceSensor,
 };
-pub use smoothing::Smoothing;
+pub use smoothing::{Smoothing, SmoothingError};
+#[cfg(feature = "torch")]
+pub use split::{Side, Split, SplitError, SplitSpec};
+#[cfg(feature = "torch")]
+pub use torch_net::state::StateError;
+#[cfg(feature = "torch")]
 #[cfg(feature = "torch")]
 pub use train::{
-    train, Checkpoint, Outcome as TrainOutcome, TrainConfig, TrainError, TrainEvent, TrainingRecord,
+    train, Checkpoint, EpochRecord, Outcome as TrainOutcome, TrainConfig, TrainError, TrainEvent,
+    TrainingRecord,
 };
+#[cfg(feature = "torch")]
+pub use training_set::TrainingSetError;
 pub use weights::error::{ModelFileError, ModelFileErrorKind};
 pub use weights::format::{detect_format, read_weights, WeightsFormat};
-pub use weights::pickle::{parse as parse_pickle, parse_prefix as parse_pickle_prefix};
+pub use weights::pickle::{
+    parse as parse_pickle, parse_prefix as parse_pickle_prefix, PickleError, Value as PickleValue,
+};
 pub use weights::safetensors_file::{
     card_in_safetensors, read_safetensors, write_safetensors, write_safetensors_with_card,
 };

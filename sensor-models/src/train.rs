@@ -15,7 +15,6 @@ mod checkpoint;
 mod error;
 mod trainer;
 
-pub(crate) use checkpoint::EpochRecord;
-pub use checkpoint::{Checkpoint, TrainingRecord};
+pub use checkpoint::{Checkpoint, EpochRecord, TrainingRecord};
 pub use error::TrainError;
 pub use trainer::{train, Outcome, TrainConfig, TrainEvent};

@@ -7,6 +7,8 @@ pub(crate) mod records;
 pub(crate) mod sync_score;
 pub(crate) mod truth_spool;
 
-pub use label_score::score as score_labels;
-pub use records::{read_frames, FrameFate, TruthError, TRUTH_FILE};
-pub use sync_score::{run as run_sync_bench, SyncBenchConfig};
+pub use label_score::{score as score_labels, LabelScore};
+pub use records::{read_frames, FrameFate, FrameTruth, TruthError, TruthRecord, TRUTH_FILE};
+pub use sync_score::{
+    run as run_sync_bench, MethodScore, SyncBenchConfig, SyncBenchError, SyncBenchReport,
+};

@@ -72,9 +72,11 @@
 //! frames of `fringe sim dataset`: `dataset::frame`, `dataset::SHAPES`) and [`ground_truth`]
 //! (the truth file and the scores against it: `ground_truth::read_frames`,
 //! `ground_truth::score_labels`, `ground_truth::run_sync_bench`; its records and spool are at the
-//! root). Inside this crate, files import from the defining module, never through these
+//! root). Every type the public API hands out is re-exported too, so all of it can be named
+//! (`unnameable_types` is warned). Inside this crate, files import from the defining module, never through these
 //! re-exports.
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod ageing;
 mod bench;
@@ -90,26 +92,43 @@ mod session;
 #[cfg(test)]
 mod test_support;
 
-pub use ageing::Ageing;
-pub use bench::{AxisConfig, Bench, BenchConfig, IndenterTip, MountedIndenter};
+pub use ageing::{Ageing, AgeingError};
+pub use bench::{
+    AxisConfig, Bench, BenchConfig, BenchGeometry, BenchTruth, IndenterTip, MountedIndenter,
+};
+pub use emulators::apt_emulator::core::{EmulatorCounters, UpdateMessage};
+pub use emulators::apt_emulator::server::EmulatorError;
 pub use emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, AptEmulatorHandle, KeepAlive};
+pub use emulators::camera_emulator::camera::SimCameraStats;
+pub use emulators::camera_emulator::timing::{DeviceClock, ExposureWindow, TriggerInput};
 pub use emulators::camera_emulator::{ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY};
-pub use emulators::daq_emulator::{SimDaq, SimDaqConfig};
+pub use emulators::daq_emulator::{DaqClock, DaqClockHandle, SimDaq, SimDaqConfig};
 pub use emulators::daqmx_library::c_api::{
     device as daqmx_device, install as install_daqmx_device, lookup as lookup_daqmx_symbol,
 };
+pub use emulators::daqmx_library::device::PulseTrain;
 pub use emulators::daqmx_library::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};
-pub use emulators::modbus_emulator::core::{decode_request_pdu, ModbusCore};
+pub use emulators::modbus_emulator::core::{decode_request_pdu, ModbusCore, ServerRequest};
+pub use emulators::modbus_emulator::line_timing::RtuTiming;
 pub use emulators::modbus_emulator::ModbusEmulator;
-pub use emulators::netft_box::{SimHttp, SimNetFt, SimOptions};
+pub use emulators::netft_box::{SimHttp, SimNetFt, SimOptions, SimReport};
+pub use emulators::netft_emulator::core::NetFtReport;
+pub use emulators::netft_emulator::server::PowerSwitch;
 pub use emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
 pub use faults::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
 pub use ground_truth::records::{TruthLog, TruthSink};
 pub use ground_truth::truth_spool::TruthSpool;
 pub use optics::render::Renderer;
-pub use optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry, Variant};
+pub use optics::scratch::{BadScratch, Scratch};
+pub use optics::sensor::{
+    FieldConfig, GeometryConfig, IndenterConfig, LayerConfig, LedConfig, NoiseConfig, OpticsConfig,
+    SensorConfig, SensorConfigError, SensorGeometry, SurfaceFinish, Variant,
+};
+pub use physics::contact::{ContactGeometry, ContactMaterial, PronyTerm, SurfaceConfig};
+pub use physics::ft_config::FtMount;
 pub use physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
 pub use physics::indenter::Shape;
-pub use physics::motion::{MotorSpec, SimMotor};
-pub use rig::{ForcePath, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
+pub use physics::motion::{MotorSpec, MotorStatus, SimMotor};
+pub use physics::stress::Layer;
+pub use rig::{ForcePath, ServeEndpoints, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
 pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource};
