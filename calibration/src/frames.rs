@@ -2,9 +2,9 @@
 //! `fringe calibrate --images` and the frames of a calibration scan's run.
 
 use crate::optical::grey::{self, GreyImage};
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::store::frames::debayer;
-use fringe_rig::store::frames::FrameStorage;
+use fringe_rig::store;
+use fringe_rig::store::FrameStorage;
+use fringe_rig::PixelFormat;
 use std::path::{Path, PathBuf};
 
 /// A frame file that could not be used, naming it.
@@ -35,7 +35,7 @@ pub enum FrameError {
 /// Reads one frame file: as its run stored it when `storage` is given (a BayerRG8 mosaic
 /// demosaiced by fringe's one demosaicing), else as an ordinary image. Calibration needs whole
 /// frames: a run that stored only the disc's square is refused.
-pub fn read(
+pub(crate) fn read(
     path: &Path,
     storage: Option<&FrameStorage>,
 ) -> Result<image::DynamicImage, FrameError> {
@@ -54,7 +54,7 @@ pub fn read(
 /// Reads one frame file as [`read`] does, but a run's cutout (the square around the disc) is
 /// placed where it lies in the camera's frame, black around it: for measurements inside the
 /// disc and just around it (the health check), which the cutout's margin holds.
-pub fn read_placed(path: &Path, storage: &FrameStorage) -> Result<GreyImage, FrameError> {
+pub(crate) fn read_placed(path: &Path, storage: &FrameStorage) -> Result<GreyImage, FrameError> {
     let (image, cutout) = decode(path, Some(storage))?;
     let grey = GreyImage::from_image(&image);
     let Some(c) = cutout else {
@@ -84,7 +84,7 @@ pub fn read_placed(path: &Path, storage: &FrameStorage) -> Result<GreyImage, Fra
 fn decode(
     path: &Path,
     storage: Option<&FrameStorage>,
-) -> Result<(image::DynamicImage, Option<fringe_rig::camera::Cutout>), FrameError> {
+) -> Result<(image::DynamicImage, Option<fringe_rig::Cutout>), FrameError> {
     let Some(storage) = storage else {
         return image::open(path)
             .map(|i| (i, None))
@@ -102,7 +102,7 @@ fn decode(
         PixelFormat::Mono8 => image::GrayImage::from_raw(w, h, stored.data).map(Into::into),
         PixelFormat::Rgb8 => image::RgbImage::from_raw(w, h, stored.data).map(Into::into),
         PixelFormat::BayerRg8 => {
-            image::RgbImage::from_raw(w, h, debayer::to_rgb8(&stored.data, w as usize, h as usize))
+            image::RgbImage::from_raw(w, h, store::to_rgb8(&stored.data, w as usize, h as usize))
                 .map(Into::into)
         }
     };
@@ -146,7 +146,8 @@ pub fn grey_average(
 }
 
 /// The RGB mean of the frame files `paths` (all the same size), as f32 DN row-major RGB.
-pub fn rgb_average(
+#[cfg(test)]
+pub(crate) fn rgb_average(
     paths: &[PathBuf],
     storage: Option<&FrameStorage>,
 ) -> Result<(usize, usize, Vec<f32>), FrameError> {

@@ -7,5 +7,8 @@
 //! Pure measurement: no thresholds and no verdicts (the health check that uses these figures sets
 //! them from measured noise).
 
-pub mod change;
-pub mod signature;
+pub(crate) mod change;
+pub(crate) mod signature;
+
+pub use change::{Change, ChangeError, RIM_SECTOR_DEG};
+pub use signature::{Signature, SignatureError, CELLS, INNER, RIM_BINS, SIDES};

@@ -1,7 +1,7 @@
 //! Force offsets: the F/T bias from no-contact windows, its drift through a run and the zero-load
 //! check against a profile. Pure functions of samples; no device access.
 
-use fringe_rig::units::{NewtonMetres, Newtons, Wrench};
+use fringe_rig::{NewtonMetres, Newtons, Wrench};
 use serde::{Deserialize, Serialize};
 
 /// Channel names in [`Wrench::to_array`] order.
@@ -244,7 +244,7 @@ pub struct ProfileOffsetCheck {
     pub profile: String,
 }
 
-impl fringe_rig::scan::offset_check::OffsetCheck for ProfileOffsetCheck {
+impl fringe_rig::scan::OffsetCheck for ProfileOffsetCheck {
     fn check(&self, mean: [f64; 6], standard_error: [f64; 6]) -> Vec<String> {
         let now = Bias {
             mean,

@@ -17,33 +17,33 @@
 //! 6. the crop radius ([`crop`]).
 //!
 //! Coordinates: image px, x right, y down, pixel (i, j) centred at (i + 0.5, j + 0.5) — the
-//! convention of the simulated bench (`fringe_sim::optics::sensor::SensorGeometry`).
+//! convention of the simulated bench (`fringe_sim::SensorGeometry`).
 //!
 //! No sensor in view is an error, not a circle: fewer than 40 % of the rays show an edge, fewer
 //! than 50 % of them agree on one circle, an RMS residual above 2 px, or a disc contrast under 8
 //! noise sigmas ([`OpticalError::NoSensor`]).
 
-pub mod circle_fit;
+pub(crate) mod circle_fit;
 pub(crate) mod crop;
 pub(crate) mod edge_model;
 pub(crate) mod edges;
-pub mod grey;
-pub mod overlay;
+pub(crate) mod grey;
+pub(crate) mod overlay;
 
 use circle_fit::CircleFit;
 use edges::{edge_on_ray, initial_estimate, EdgePoint, Initial, Ray};
 use grey::{median_f64, GreyImage};
 
 /// Rays for the edge points.
-pub const EDGE_RAYS: usize = 720;
+pub(crate) const EDGE_RAYS: usize = 720;
 /// Least fraction of in-image rays with a clear edge.
-pub const MIN_EDGE_SUPPORT: f64 = 0.40;
+pub(crate) const MIN_EDGE_SUPPORT: f64 = 0.40;
 /// Least fraction of in-image rays on the fitted circle.
-pub const MIN_INLIER_FRACTION: f64 = 0.50;
+pub(crate) const MIN_INLIER_FRACTION: f64 = 0.50;
 /// Largest RMS distance of the inlier edge points from the circle, px.
-pub const MAX_RESIDUAL_PX: f64 = 2.0;
+pub(crate) const MAX_RESIDUAL_PX: f64 = 2.0;
 /// Least inside-outside contrast of the disc, in noise sigmas.
-pub const MIN_CONTRAST_SIGMAS: f64 = 8.0;
+pub(crate) const MIN_CONTRAST_SIGMAS: f64 = 8.0;
 
 /// The sensor disc as found.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,12 +2,12 @@
 //! `profiles/<sensor-id>.toml`, with the optical centre, radius and crop radius (with
 //! uncertainties and residual), the image size, and optional sections for the image-to-stage
 //! registration and the force offsets. Read with the one config loader
-//! (`fringe_rig::config_file::load_toml`: errors name the file, line and key); written atomically
+//! (`fringe_rig::load_toml`: errors name the file, line and key); written atomically
 //! (a temporary file renamed into place).
 
 use crate::offsets::ForceOffsets;
 use crate::optical::DiscFit;
-use fringe_rig::config_file::{load_toml, ConfigError};
+use fringe_rig::{load_toml, ConfigError};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -143,7 +143,7 @@ impl Profile {
     pub fn from_fit(sensor_id: &str, source: &str, fit: &DiscFit) -> Profile {
         Profile {
             sensor_id: sensor_id.into(),
-            created_utc: fringe_rig::store::documents::now_utc(),
+            created_utc: fringe_rig::store::now_utc(),
             source: source.into(),
             image: ImageSize {
                 width: fit.width as u32,
@@ -286,7 +286,12 @@ pub fn load_checked(
 
 /// Warnings for a stale (older than `max_age_days` or image size differs) or mismatched (sensor
 /// id differs) profile read from `path`.
-pub fn check(p: &Profile, path: &Path, want: &Expectation, now: SystemTime) -> Vec<ProfileWarning> {
+pub(crate) fn check(
+    p: &Profile,
+    path: &Path,
+    want: &Expectation,
+    now: SystemTime,
+) -> Vec<ProfileWarning> {
     let mut w = Vec::new();
     let file = path.display();
     if p.sensor_id != want.sensor_id {

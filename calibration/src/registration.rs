@@ -10,9 +10,9 @@
 //! [`register`] ties the fit to the optical centre: the stage position that presses it is the
 //! contact origin; [`RegistrationFit::to_profile`] gives the profile's `[registration]` section.
 
-pub mod contact_spot;
-pub mod plot;
-pub mod similarity_fit;
+pub(crate) mod contact_spot;
+pub(crate) mod plot;
+pub(crate) mod similarity_fit;
 
 use crate::profile::Registration;
 use similarity_fit::{fit_similarity, FitError, FitSettings, Press, SimilarityFit};

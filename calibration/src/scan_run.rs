@@ -13,13 +13,13 @@
 
 use crate::offsets::{self, Bias};
 use fringe_rig::reference_layout::NO_CONTACT;
-use fringe_rig::store::documents::{Event, FrameRecord, StartDocument};
+use fringe_rig::store::{Event, FrameRecord, StartDocument};
 use fringe_rig::store::{RunFile, RunReader, StoreError};
-use fringe_rig::units::Wrench;
+use fringe_rig::Wrench;
 use std::path::{Path, PathBuf};
 
 /// Frames averaged per press at most.
-pub const PRESS_FRAMES: usize = 8;
+pub(crate) const PRESS_FRAMES: usize = 8;
 /// Length of the no-contact window before each offset event, s.
 const OFFSET_WINDOW_S: f64 = 0.1;
 /// A press frame's Fz must be at least this share of the point's highest.
@@ -166,7 +166,7 @@ fn offset_windows(samples: &[(u64, Wrench)], events: &[Event]) -> Vec<Bias> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::units::Newtons;
+    use fringe_rig::Newtons;
 
     fn event(host_ns: u64) -> Event {
         Event {

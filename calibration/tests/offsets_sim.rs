@@ -1,15 +1,16 @@
-//! Force offsets against the simulated F/T sensor (`fringe_sim::physics::ft_sensor`: 0.05 N white
+//! Force offsets against the simulated F/T sensor (`fringe_sim::SimFtSensor`: 0.05 N white
 //! noise, random-walk drift, a power-up bias) with a known added linear drift: the bias within
 //! 0.01 N of the truth, the drift slope recovered, the zero-load check warning after a power
 //! cycle.
 
-use fringe_calibration::offsets::{
-    bias, drift, zero_load_check, Bias, ForceOffsets, ZeroTolerance,
+use fringe_calibration::{
+    offsets::{bias, drift, zero_load_check, Bias, ForceOffsets},
+    ZeroTolerance,
 };
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
-use fringe_sim::physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
-use fringe_sim::scene::{ForceReading, LoadSource};
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
+use fringe_sim::{ForceReading, LoadSource};
+use fringe_sim::{FtNoiseConfig, SimFtSensor};
 use std::sync::Arc;
 
 struct NoContact;

@@ -5,10 +5,10 @@
 //!
 //! `cargo test -p fringe-calibration --test optical_accuracy -- --nocapture` prints the errors.
 
-use fringe_calibration::optical::{find_disc, grey::GreyImage, OpticalError};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::scene::{FrameRenderer, Scene};
+use fringe_calibration::{find_disc, GreyImage, OpticalError};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::{FrameRenderer, Scene};
 
 fn frames(config: SensorConfig, count: u64) -> Vec<GreyImage> {
     let mut renderer = Renderer::new(config).expect("valid sensor");
@@ -151,7 +151,7 @@ fn no_sensor_in_view_is_an_error() {
     let data: Vec<f32> = (0..w * h)
         .map(|k| {
             let (i, j) = ((k % w) as f64, (k / w) as f64);
-            let n = fringe_sim::optics::background::uniform(&mut s) - 0.5;
+            let n = fringe_rig::seeded::uniform(&mut s) - 0.5;
             (40.0 + 0.05 * i + 0.02 * j + 12.0 * n) as f32
         })
         .collect();
@@ -168,7 +168,7 @@ fn a_straight_bright_edge_is_not_a_disc() {
     let mut s = 9u64;
     let data: Vec<f32> = (0..w * h)
         .map(|k| {
-            let n = fringe_sim::optics::background::uniform(&mut s) - 0.5;
+            let n = fringe_rig::seeded::uniform(&mut s) - 0.5;
             let level = if k % w < 256 { 120.0 } else { 10.0 };
             (level + 4.0 * n) as f32
         })

@@ -13,17 +13,18 @@
 //! `cargo test -p fringe-calibration --test registration_accuracy -- --nocapture` prints the
 //! table; `FRINGE_REG_PLOTS=DIR` also writes each case's residual plot and a located press.
 
-use fringe_calibration::optical::{find_disc, grey::GreyImage};
-use fringe_calibration::registration::contact_spot::spot::ContactError;
-use fringe_calibration::registration::contact_spot::{ContactBackground, SpotSettings};
-use fringe_calibration::registration::plot::residual_plot;
-use fringe_calibration::registration::similarity_fit::{FitSettings, Press};
-use fringe_calibration::registration::{contact_spot, register};
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::{SensorConfig, Variant};
-use fringe_sim::physics::indenter::Shape;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_calibration::draw_spot;
+use fringe_calibration::register;
+use fringe_calibration::residual_plot;
+use fringe_calibration::ContactError;
+use fringe_calibration::{find_disc, GreyImage};
+use fringe_calibration::{ContactBackground, SpotSettings};
+use fringe_calibration::{FitSettings, Press};
+use fringe_rig::{Millimetres, Newtons};
+use fringe_sim::Renderer;
+use fringe_sim::Shape;
+use fringe_sim::{Contact, FrameRenderer, Scene};
+use fringe_sim::{SensorConfig, Variant};
 use image::RgbImage;
 
 const BACKGROUND_FRAMES: u64 = 4;
@@ -225,7 +226,7 @@ fn run(case: Case) -> Vec<bool> {
             .save(dir.join(format!("{slug}-residuals.png")))
             .expect("write plot");
         if let Some((frame, spot)) = last_pressed {
-            contact_spot::draw_spot(&frame, &spot, [255, 255, 0])
+            draw_spot(&frame, &spot, [255, 255, 0])
                 .expect("draw press")
                 .save(dir.join(format!("{slug}-press.png")))
                 .expect("write press");

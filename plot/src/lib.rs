@@ -7,8 +7,12 @@
 //! Every chart has a title, axes labelled with their units, ticks at round values and a legend
 //! when it shows more than one named series. Text is set in DejaVu Sans, embedded in the binary
 //! (`fonts/`, its licence beside it), so no font is looked up on the system.
+//!
+//! Everything is re-exported here except the colours, which keep their module as a namespace
+//! ([`palette`]: `palette::BLUE`, `palette::SERIES`).
 
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 mod canvas;
 mod error;

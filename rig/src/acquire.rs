@@ -12,14 +12,14 @@
 //! - [`strobe_labeler`]: frames matched with their exposure windows found in the strobe channel,
 //!   labelled with the force averaged over the window.
 
-pub mod camera_stream;
-pub mod clock_fit_labeler;
-pub mod force_stream;
-pub mod frame_gaps;
+pub(crate) mod camera_stream;
+pub(crate) mod clock_fit_labeler;
+pub(crate) mod force_stream;
+pub(crate) mod frame_gaps;
 pub(crate) mod host_labeler;
-pub mod labeler;
-pub mod record_tap;
-pub mod recorder;
+pub(crate) mod labeler;
+pub(crate) mod record_tap;
+pub(crate) mod recorder;
 pub(crate) mod strobe_labeler;
 #[cfg(test)]
 pub(crate) mod synthetic;

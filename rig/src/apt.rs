@@ -12,21 +12,34 @@
 //!   [`crate::transport::ByteLink`]; its I/O thread in `io_thread`, the motion it waits for in
 //!   `pending` and the end of that motion in `end_of_move`.
 
-pub mod actuator;
-pub mod codec;
-pub mod config;
-pub mod driver;
+pub(crate) mod actuator;
+pub(crate) mod codec;
+pub(crate) mod config;
+pub(crate) mod driver;
 mod end_of_move;
-pub mod ids;
+pub(crate) mod ids;
 mod io_thread;
-pub mod message;
+pub(crate) mod message;
 mod pending;
-pub mod status;
-pub mod stream;
+pub(crate) mod status;
+pub(crate) mod stream;
 
-pub use actuator::Actuator;
-pub use config::{AptConfig, Controller, Timeouts};
+pub use actuator::{Actuator, OutOfRange, ACCELERATION_SCALE, ACTUATORS, VELOCITY_SCALE};
+pub use codec::{decode, encode, frame_len, DecodeError};
+pub use config::{
+    AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch, Timeouts, UnknownController,
+};
 pub use driver::{open_serial, ThorlabsAxis};
-pub use message::{Message, Packet};
-pub use status::{LimitPolarity, StatusBits};
-pub use stream::StreamDecoder;
+pub use ids::{bay_address, HOST, RACK, USB_UNIT};
+pub use message::{
+    HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
+};
+pub use status::{
+    LimitPolarity, StatusBits, ACTIVE, CHANNEL_ENABLED, COMMUTATION_ERROR, CURRENT_FAULT,
+    CURRENT_LIMIT, DIGITAL_INPUT_1, DIGITAL_INPUT_2, DIGITAL_INPUT_3, DIGITAL_INPUT_4,
+    ENCODER_FAULT, ERROR, FAULT_MASK, HOMED, HOMING, INITIALISING, INSTRUMENT_ERROR, INTERLOCK,
+    JOGGING_FORWARD, JOGGING_REVERSE, LIMIT_BIT0, LIMIT_BIT1, MOTION_ERROR, MOTOR_CONNECTED,
+    MOVING_FORWARD, MOVING_REVERSE, OVERCURRENT, OVER_TEMPERATURE, POWER_OK, SETTLED,
+    SOFT_LIMIT_BIT2, SOFT_LIMIT_BIT3, TRACKING, VOLTAGE_FAULT,
+};
+pub use stream::{Decoded, Flow, StreamDecoder};

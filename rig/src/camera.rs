@@ -2,9 +2,9 @@
 //! simulated camera.
 
 #[cfg(feature = "aravis")]
-pub mod aravis;
-pub mod trace;
-pub mod writer;
+pub(crate) mod aravis;
+pub(crate) mod trace;
+pub(crate) mod writer;
 
 use crate::clock::HostTime;
 use crate::units::{Decibels, Hertz, Microseconds};
@@ -42,7 +42,7 @@ pub fn format_name(format: PixelFormat) -> &'static str {
 }
 
 /// Parses a name written by [`format_name`].
-pub fn parse_format_name(name: &str) -> Option<PixelFormat> {
+pub(crate) fn parse_format_name(name: &str) -> Option<PixelFormat> {
     match name {
         "mono8" => Some(PixelFormat::Mono8),
         "rgb8" => Some(PixelFormat::Rgb8),
@@ -106,9 +106,9 @@ pub struct InvalidCameraSetting {
 }
 
 /// The highest frame rate any camera of the bench is asked for, Hz.
-pub const MAX_FRAME_RATE: Hertz = Hertz(1000.0);
+pub(crate) const MAX_FRAME_RATE: Hertz = Hertz(1000.0);
 /// The gain range accepted before the camera is asked, dB.
-pub const GAIN_RANGE: std::ops::RangeInclusive<f64> = 0.0..=48.0;
+pub(crate) const GAIN_RANGE: std::ops::RangeInclusive<f64> = 0.0..=48.0;
 
 impl CameraSettings {
     /// Checks the numbers before any device is touched: a positive frame rate up to

@@ -34,7 +34,7 @@ pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<(T, String), Config
 }
 
 /// A one-line message for a TOML error: line, section and key, then what was wrong.
-pub fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+pub(crate) fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
     let Some(span) = e.span() else {
         return match e.message().trim() {
             "" => "not valid TOML".to_string(),

@@ -49,7 +49,7 @@ pub fn newton_metres_per(name: &str) -> Option<f64> {
 }
 
 /// Metres per one unit of the named length unit (`m`, `cm`, `mm`, `in`, `ft`).
-pub fn metres_per(name: &str) -> Option<f64> {
+pub(crate) fn metres_per(name: &str) -> Option<f64> {
     Some(match key(name).as_str() {
         "m" => 1.0,
         "cm" => 1e-2,
@@ -61,12 +61,12 @@ pub fn metres_per(name: &str) -> Option<f64> {
 }
 
 /// The force unit names accepted, for error messages.
-pub const FORCE_UNITS: &str = "lbf, klbf, N, kN, mN, gf, kgf";
+pub(crate) const FORCE_UNITS: &str = "lbf, klbf, N, kN, mN, gf, kgf";
 /// The torque unit names accepted, for error messages.
-pub const TORQUE_UNITS: &str =
+pub(crate) const TORQUE_UNITS: &str =
     "lbf-in, lbf-ft, klbf-in, N-m, N-mm, N-cm, kN-m, gf-cm, kgf-cm, kgf-m";
 /// The length unit names accepted, for error messages.
-pub const LENGTH_UNITS: &str = "m, cm, mm, in, ft";
+pub(crate) const LENGTH_UNITS: &str = "m, cm, mm, in, ft";
 
 #[cfg(test)]
 mod tests {

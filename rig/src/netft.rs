@@ -6,11 +6,13 @@
 //! - [`stream`]: sequence accounting (lost, out-of-order) and status words.
 //! - [`driver`]: [`NetFt`], a [`crate::force::ForceSensor`] on any datagram link.
 
-pub mod config;
+pub(crate) mod config;
 pub(crate) mod driver;
-pub mod rdt;
+pub(crate) mod rdt;
 pub(crate) mod stream;
 
-pub use config::{fetch_config, netftapi2_url, NetFtConfig};
+pub use config::{fetch_config, netftapi2_url, parse_http_response, HttpError, NetFtConfig};
 pub use driver::{BiasMode, NetFt, NetFtOptions};
-pub use rdt::{Command, Record, Request, DEFAULT_PORT};
+pub use rdt::{
+    decode_datagram, encode_datagram, Command, RdtError, Record, Records, Request, DEFAULT_PORT,
+};

@@ -18,7 +18,7 @@
 
 /// The `SCHED_FIFO` priority asked for (1-99; above the kernel's threaded interrupts' 50 would
 /// be too much for a reader that only needs to beat normal threads).
-pub const PRIORITY: i32 = 20;
+pub(crate) const PRIORITY: i32 = 20;
 
 /// Real-time scheduling was refused; the thread runs at normal priority.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -65,8 +65,8 @@ pub fn raise_current_thread(thread: &str) -> Result<(), RealtimeRefused> {
 }
 
 /// Whether the calling thread runs under `SCHED_FIFO` or `SCHED_RR`.
-#[cfg(unix)]
-pub fn current_thread_is_realtime() -> bool {
+#[cfg(all(unix, test))]
+pub(crate) fn current_thread_is_realtime() -> bool {
     let mut policy = 0;
     let mut param = libc::sched_param { sched_priority: 0 };
     // SAFETY: pthread_self() is the calling thread; both out-pointers are valid.
@@ -75,8 +75,8 @@ pub fn current_thread_is_realtime() -> bool {
 }
 
 /// Whether the calling thread runs under real-time scheduling (never on this platform).
-#[cfg(not(unix))]
-pub fn current_thread_is_realtime() -> bool {
+#[cfg(all(not(unix), test))]
+pub(crate) fn current_thread_is_realtime() -> bool {
     false
 }
 

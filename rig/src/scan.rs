@@ -19,16 +19,30 @@
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
 
-pub mod clearance;
-pub mod control;
-pub mod engine;
-pub mod failure;
-pub mod offset_check;
-pub mod origin;
-pub mod panic_stop;
-pub mod plan;
-pub mod press;
+pub(crate) mod clearance;
+pub(crate) mod control;
+pub(crate) mod engine;
+pub(crate) mod failure;
+pub(crate) mod offset_check;
+pub(crate) mod origin;
+pub(crate) mod panic_stop;
+pub(crate) mod plan;
+pub(crate) mod press;
 pub(crate) mod resume_check;
 pub(crate) mod setup;
-pub mod sidecar;
-pub mod watchers;
+pub(crate) mod sidecar;
+pub(crate) mod watchers;
+
+pub use clearance::{Clearance, Motion, UnderLoad, LOAD_SAMPLES};
+pub use control::{Phase, Request, ScanProgress, Status};
+pub use engine::new_run_id;
+pub use engine::recording::{labeler_for, LATCH_PERIOD};
+pub use offset_check::OffsetCheck;
+pub use panic_stop::stop_if_panicking;
+pub use plan::{
+    ApproachSection, Axis1d, Estimate, FtRating, GridSection, IndentationSection, IndenterSection,
+    Order, SafetySection, ScanPoint, Targets,
+};
+pub use press::{approach, press_to, retract, ForceGuard, PressError, PressPoint, PressSettings};
+pub use sidecar::RunSidecar;
+pub use watchers::WatchSettings;

@@ -37,25 +37,52 @@
 //! - [`run_size`]: a run's size on disk, expected before a scan starts and measured after.
 //! - [`export`]: the reference pipeline's `0.images/` + `0.labels.csv` layout.
 
-pub mod disk_space;
-pub mod documents;
-pub mod durable;
+pub(crate) mod disk_space;
+pub(crate) mod documents;
+pub(crate) mod durable;
 pub(crate) mod error;
-pub mod export;
-pub mod force_log;
-pub mod frames;
+pub(crate) mod export;
+pub(crate) mod force_log;
+pub(crate) mod frames;
 pub(crate) mod layout;
-pub mod manifest;
+pub(crate) mod manifest;
 pub(crate) mod own_file;
-pub mod run_list;
+pub(crate) mod run_list;
 pub(crate) mod run_lock;
 pub(crate) mod run_reader;
-pub mod run_size;
-pub mod run_writer;
-pub mod stored_part;
-pub mod verify;
+pub(crate) mod run_size;
+pub(crate) mod run_writer;
+pub(crate) mod stored_part;
+pub(crate) mod verify;
 
+pub use disk_space::{available_bytes, human as human_bytes};
+pub use documents::{
+    now_utc, Checkpoint, Event, ExitStatus, Exposure, FrameRecord, Position, ProfileRef,
+    StartDocument, StopDocument, LAYOUT_VERSION,
+};
+pub use durable::write_atomic;
 pub use error::StoreError;
+pub use export::{export_reference, ExportOptions, ExportSummary, ExportedRun};
+pub use force_log::{
+    check_header as check_force_log_header, decode_all as decode_force_log, ForceLogError,
+};
+pub use frames::debayer::{rgb_at, to_rgb8};
+pub use frames::error::FrameFileError;
+pub use frames::fgl::{
+    decode as decode_fgl, encode as encode_fgl, header as fgl_header, CodecError, GreyImage,
+    Pattern as FglPattern,
+};
+pub use frames::png::save_png;
+pub use frames::{
+    in_whole_frame, read_plain, CutoutError, Encoding, FrameCodec, FrameStorage, StoredFrame,
+    DISC_MARGIN_PX,
+};
 pub use layout::{outside_runs, run_holding, InsideRun, RunFile};
+pub use manifest::write as write_manifest;
+pub use run_list::{list as list_runs, RunSummary};
+pub use run_lock::RunLock;
 pub use run_reader::RunReader;
-pub use run_writer::RunWriter;
+pub use run_size::{bytes_on_disk, mean_stored_frame_bytes, RecordingTime, RunSize};
+pub use run_writer::{Existing, RunWriter};
+pub use stored_part::{RecordingSection, StoredPart};
+pub use verify::{verify as verify_run, VerifyReport};

@@ -12,10 +12,10 @@
 //!
 //! Methods and facts: docs of the shared project, hardware.md section E.
 
-pub mod clock_map;
+pub(crate) mod clock_map;
 pub(crate) mod latch;
-pub mod method;
+pub(crate) mod method;
 pub(crate) mod one_way;
-pub mod strobe;
-pub mod trigger;
-pub mod window;
+pub(crate) mod strobe;
+pub(crate) mod trigger;
+pub(crate) mod window;

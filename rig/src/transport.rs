@@ -5,11 +5,11 @@
 //! port, on a simulated device, on a recording wrapper ([`crate::trace::RecordingLink`]) or on a
 //! replayed trace ([`crate::trace::ReplayLink`]).
 
-pub mod memory;
-pub mod pty;
-pub mod serial;
-pub mod tcp;
-pub mod udp;
+pub(crate) mod memory;
+pub(crate) mod pty;
+pub(crate) mod serial;
+pub(crate) mod tcp;
+pub(crate) mod udp;
 
 use std::io;
 use std::time::Duration;

@@ -13,12 +13,13 @@
 //! one preprocessing (RGB8 and BayerRG8). Weights are seeded random values: timing does not
 //! depend on them.
 
-use fringe_rig::camera::PixelFormat;
-use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::backend::tract::{self, TractBackend};
-use fringe_sensor_models::backend::Backend;
+use fringe_rig::PixelFormat;
 use fringe_sensor_models::onnx_graph;
-use fringe_sensor_models::preprocess::{Centre, Colour, FrameRef, Preprocessing, Preprocessor};
+use fringe_sensor_models::profile_tract;
+use fringe_sensor_models::Architecture;
+use fringe_sensor_models::Backend;
+use fringe_sensor_models::TractBackend;
+use fringe_sensor_models::{Centre, Colour, FrameRef, Preprocessing, Preprocessor};
 use fringe_sensor_models::{StateDict, Tensor};
 use std::time::Instant;
 
@@ -100,7 +101,7 @@ fn profile(files: &[String], runs: usize) -> Result<(), String> {
     };
     for (name, proto) in graphs {
         for threads in [1, 2] {
-            let p = tract::profile(proto.clone(), 224, threads, runs)
+            let p = profile_tract(proto.clone(), 224, threads, runs)
                 .map_err(|e| format!("{name}: {e}"))?;
             println!(
                 "{name} @224, {threads} thread(s): {:.2} ms a run (mean of {runs})",
@@ -201,7 +202,7 @@ fn main() {
         }
         #[cfg(feature = "onnxruntime")]
         {
-            use fringe_sensor_models::backend::onnxruntime::OrtBackend;
+            use fringe_sensor_models::OrtBackend;
             let bytes = onnx_graph::encode(&proto);
             for threads in [1, 2] {
                 let mut b = match OrtBackend::new(&bytes, 3, threads) {

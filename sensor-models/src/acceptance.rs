@@ -159,11 +159,11 @@ fn percent(v: f64) -> f64 {
 }
 
 /// The paper's custom-CNN row (Table 2, sensor 1): Fz RMSE, N.
-pub const PAPER_FZ_RMSE_N: f64 = 0.49;
+pub(crate) const PAPER_FZ_RMSE_N: f64 = 0.49;
 /// The paper's custom-CNN row: contact RMSE, mm.
-pub const PAPER_CONTACT_RMSE_MM: f64 = 1.47;
+pub(crate) const PAPER_CONTACT_RMSE_MM: f64 = 1.47;
 /// The paper's custom-CNN row: shape accuracy, 0-1.
-pub const PAPER_SHAPE_ACCURACY: f64 = 0.953;
+pub(crate) const PAPER_SHAPE_ACCURACY: f64 = 0.953;
 
 impl Spec {
     /// The paper's custom-CNN row (Table 2, sensor 1).

@@ -7,10 +7,12 @@
 //! the fitted heads' cross-validated error (each press predicted by heads fitted without it).
 
 #[cfg(feature = "torch")]
-pub mod fine_tune;
+pub(crate) mod fine_tune;
 pub(crate) mod head_fit;
 pub(crate) mod held_out;
-pub mod last_block;
+pub(crate) mod last_block;
+
+pub use held_out::HeldOut;
 
 use crate::backend::tract::TractGraph;
 use crate::backend::InferenceError;
@@ -21,7 +23,7 @@ use crate::model::Model;
 use crate::onnx_graph::features_graph;
 use crate::weights::state_dict::StateDict;
 use crate::weights::tensor::Tensor;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_rig::seeded::SplitMix64;
 use head_fit::{log_loss, ridge, softmax, Head};
 use nalgebra::DMatrix;

@@ -457,7 +457,7 @@ pub fn recognise(sd: &StateDict) -> Result<(Architecture, usize), ArchError> {
 
 /// Shape class names for `n` classes: "None" first, then the shapes in sorted order. Without a
 /// model card, three classes are the paper's (None, pentagon, rectangle).
-pub fn default_class_names(n: usize) -> Vec<String> {
+pub(crate) fn default_class_names(n: usize) -> Vec<String> {
     if n == 3 {
         return [NO_CONTACT, "pentagon", "rectangle"]
             .map(String::from)

@@ -6,10 +6,10 @@
 //! weights, and TorchScript modules).
 
 #[cfg(feature = "onnxruntime")]
-pub mod onnxruntime;
+pub(crate) mod onnxruntime;
 #[cfg(feature = "torch")]
 pub(crate) mod torch;
-pub mod tract;
+pub(crate) mod tract;
 
 /// Which backend runs a model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

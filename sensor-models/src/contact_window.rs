@@ -10,7 +10,7 @@
 //! is mapped to pixels by the sensor's registration (px per mm, mirror, rotation).
 
 use crate::preprocess::{Centre, PreprocessError, Preprocessing};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use std::ops::RangeInclusive;
 
 /// The sides a force window may have, mm (what `fringe train --force-window` and a model card's
@@ -44,7 +44,7 @@ pub enum WindowError {
 
 /// The map from a contact label to the window about it, for one sensor.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ContactWindow {
+pub(crate) struct ContactWindow {
     /// Side of the window, mm.
     pub window_mm: f64,
     px_per_mm: f64,
@@ -55,7 +55,10 @@ pub struct ContactWindow {
 impl ContactWindow {
     /// The window of `window_mm` for the sensor of `profile` (its registration's scale, turn
     /// and mirror).
-    pub fn from_profile(profile: &Profile, window_mm: f64) -> Result<ContactWindow, WindowError> {
+    pub(crate) fn from_profile(
+        profile: &Profile,
+        window_mm: f64,
+    ) -> Result<ContactWindow, WindowError> {
         let reg = profile
             .registration
             .as_ref()
@@ -75,7 +78,12 @@ impl ContactWindow {
 
     /// The window of `window_mm` under a registration of `px_per_mm`, turned `rotation_deg`
     /// counter-clockwise and mirror-reversed or not (a profile's registration's fields).
-    pub fn new(window_mm: f64, px_per_mm: f64, rotation_deg: f64, mirror: bool) -> ContactWindow {
+    pub(crate) fn new(
+        window_mm: f64,
+        px_per_mm: f64,
+        rotation_deg: f64,
+        mirror: bool,
+    ) -> ContactWindow {
         ContactWindow {
             window_mm,
             px_per_mm,
@@ -85,7 +93,7 @@ impl ContactWindow {
     }
 
     /// The image offset (px, x right, y down) of a contact `contact_mm` from the optical centre.
-    pub fn offset_px(&self, contact_mm: [f64; 2]) -> [f64; 2] {
+    pub(crate) fn offset_px(&self, contact_mm: [f64; 2]) -> [f64; 2] {
         let (s, c) = self.rotation_deg.to_radians().sin_cos();
         let m = if self.mirror { -1.0 } else { 1.0 };
         let [x, y] = contact_mm;
@@ -96,7 +104,7 @@ impl ContactWindow {
     /// The preprocessing of the window about `contact_mm`: `disc`'s (the sensor's whole-disc
     /// preprocessing, centred on its optical centre) with the crop moved onto the contact and
     /// narrowed to the window, at the force network's `input_size` and `colour`.
-    pub fn preprocessing(
+    pub(crate) fn preprocessing(
         &self,
         disc: &Preprocessing,
         contact_mm: [f64; 2],
@@ -130,7 +138,7 @@ impl ContactWindow {
 mod tests {
     use super::*;
     use crate::preprocess::{Colour, FrameRef};
-    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::PixelFormat;
 
     fn window(rotation_deg: f64, mirror: bool) -> ContactWindow {
         ContactWindow {

@@ -3,15 +3,15 @@
 //! rules applied once, here: every force and moment as its magnitude, and the layout's no-contact
 //! rule (|Fz| under 0.2 N: shape `None`, no contact point).
 
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_rig::reference_layout::{
     in_contact, read_labels, LabelsError, IMAGES, LABELS, NO_CONTACT, SIM_DATASET_DOC,
     SIM_DATASET_PROFILE,
 };
-use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frames::FrameStorage;
+use fringe_rig::store::FrameRecord;
+use fringe_rig::store::FrameStorage;
 use fringe_rig::store::{RunFile, RunReader};
-use fringe_rig::units::Newtons;
+use fringe_rig::Newtons;
 use std::path::{Path, PathBuf};
 
 /// One labelled frame.

@@ -7,9 +7,9 @@ use crate::model::{Model, ModelError};
 use crate::prediction::Prediction;
 use crate::predictor::{PredictError, Predictor};
 use crate::preprocess::{FrameRef, PreprocessError, Preprocessing, Preprocessor, ReferenceSensor};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_rig::reference_layout::CONTACT_THRESHOLD;
-use fringe_rig::store::frames::{read_plain, StoredFrame};
+use fringe_rig::store::{read_plain, StoredFrame};
 
 /// Frames run through the network at once.
 const BATCH: usize = 8;

@@ -14,7 +14,7 @@ use crate::weights::format::read_weights;
 use crate::weights::safetensors_file::card_in_safetensors;
 use crate::weights::state_dict::StateDict;
 use crate::weights::tensor::Tensor;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use std::path::{Path, PathBuf};
 use tract_onnx::pb;
 use tract_onnx::prelude::Framework;

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 /// The key under which a model file carries its card: in a safetensors header's `__metadata__`
 /// and in an ONNX graph's `metadata_props` (the card as JSON).
-pub const CARD_METADATA_KEY: &str = "fringe.model_card";
+pub(crate) const CARD_METADATA_KEY: &str = "fringe.model_card";
 
 /// Where a model's card came from.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -53,9 +53,10 @@ pub enum CardError {
 }
 
 /// The preprocessing names a card may give.
-pub const PREPROCESSING_NAMES: [&str; 3] = ["profile", "reference-layered", "reference-integrated"];
+pub(crate) const PREPROCESSING_NAMES: [&str; 3] =
+    ["profile", "reference-layered", "reference-integrated"];
 /// The sensor designs a card may name.
-pub const VARIANTS: [&str; 2] = ["layered", "integrated"];
+pub(crate) const VARIANTS: [&str; 2] = ["layered", "integrated"];
 /// The largest frame side a card may give, px.
 const MAX_FRAME_SIDE_PX: u32 = 100_000;
 

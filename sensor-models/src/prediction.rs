@@ -2,7 +2,7 @@
 //! probabilities, the contact point.
 
 use crate::backend::RawOutputs;
-use fringe_rig::units::{Millimetres, NewtonMetres, Newtons};
+use fringe_rig::{Millimetres, NewtonMetres, Newtons};
 
 /// The force vector the networks predict: magnitudes, as the reference post-processing trains
 /// them (every column replaced by its absolute value). Torques are in the unit of the training
@@ -60,7 +60,7 @@ impl Prediction {
 }
 
 /// Softmax, computed stably.
-pub fn softmax(logits: &[f32]) -> Vec<f64> {
+pub(crate) fn softmax(logits: &[f32]) -> Vec<f64> {
     let max = logits.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
     let e: Vec<f64> = logits.iter().map(|&l| (l as f64 - max).exp()).collect();
     let sum: f64 = e.iter().sum();
@@ -68,7 +68,7 @@ pub fn softmax(logits: &[f32]) -> Vec<f64> {
 }
 
 /// The predictions of a batch, with `classes` naming the shape classes in order ("None" first).
-pub fn predictions(raw: &RawOutputs, classes: &[String]) -> Vec<Prediction> {
+pub(crate) fn predictions(raw: &RawOutputs, classes: &[String]) -> Vec<Prediction> {
     raw.force
         .iter()
         .zip(&raw.shape_logits)

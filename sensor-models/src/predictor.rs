@@ -15,8 +15,8 @@ use crate::contact_window::{ContactWindow, WindowError};
 use crate::model::{Model, ModelError};
 use crate::prediction::{predictions, ForceVector, Prediction};
 use crate::preprocess::{Colour, FrameRef, PreprocessError, Preprocessing, Preprocessor};
-use fringe_calibration::profile::Profile;
-use fringe_rig::units::Millimetres;
+use fringe_calibration::Profile;
+use fringe_rig::Millimetres;
 use std::time::{Duration, Instant};
 
 /// Why frames could not be turned into predictions.

@@ -21,24 +21,24 @@ mod source;
 
 pub use source::FrameRef;
 
-use fringe_calibration::profile::Profile;
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::store::frames::read_plain;
+use fringe_calibration::Profile;
+use fringe_rig::store::read_plain;
+use fringe_rig::PixelFormat;
 use resample::{resample, Scratch, Window};
 use source::{pixels, Channels, Pixels, Rotated};
 use std::path::Path;
 
 /// The network input's default side, pixels.
-pub const DEFAULT_INPUT_SIZE: u32 = 224;
+pub(crate) const DEFAULT_INPUT_SIZE: u32 = 224;
 
 /// The network input sides the preprocessing makes, pixels.
-pub const INPUT_SIZES: std::ops::RangeInclusive<u32> = 8..=1024;
+pub(crate) const INPUT_SIZES: std::ops::RangeInclusive<u32> = 8..=1024;
 
 /// The largest crop radius, full-frame px: a crop 20 000 px across, twice the side of a 65 MP
 /// camera's frame. The resampling's buffers grow with the crop (a window of 1e300 mm once asked
 /// for more memory than there is, and the live validation's thread panicked); at this radius
 /// they stay within about 120 MB at the largest input.
-pub const MAX_CROP_RADIUS_PX: f64 = 10_000.0;
+pub(crate) const MAX_CROP_RADIUS_PX: f64 = 10_000.0;
 
 /// Colour of the network input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -11,7 +11,7 @@ use crate::metrics::{Errors, Scored};
 use std::collections::VecDeque;
 
 /// The longest window: a second of frames at the camera's 50 fps.
-pub const MAX_FRAMES: usize = 50;
+pub(crate) const MAX_FRAMES: usize = 50;
 
 /// A causal local-linear fit over the last `frames` frames of a press.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

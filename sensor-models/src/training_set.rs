@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 /// One frame to prepare: its sample, the preprocessing of its source and whether the source's
 /// camera sees the stage frame mirror-reversed (its profile's registration).
 #[derive(Debug, Clone, Copy)]
-pub struct Item<'a> {
+pub(crate) struct Item<'a> {
     pub sample: &'a Sample,
     pub preprocessing: &'a Preprocessing,
     pub mirror: bool,
@@ -31,11 +31,11 @@ pub struct Item<'a> {
 /// about the contact error of the keypoint CNN that finds the contact for the force network
 /// (0.50 mm on the layered sensor, 0.71 mm on the integrated one), so that network learns to
 /// read a press that is not exactly at its window's centre, and where it lies from that centre.
-pub const WINDOW_JITTER_MM: f64 = 0.7;
+pub(crate) const WINDOW_JITTER_MM: f64 = 0.7;
 
 /// The targets of one network input.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Target {
+pub(crate) struct Target {
     /// |Fz| rounded to 0.1 N.
     pub fz: f32,
     /// Shape class index ("None" = 0).
@@ -72,7 +72,7 @@ pub enum TrainingSetError {
 
 /// Network inputs (8-bit) with their targets.
 #[derive(Debug, Clone)]
-pub struct TrainingSet {
+pub(crate) struct TrainingSet {
     pub colour: Colour,
     pub input_size: u32,
     pixels: Vec<u8>,
@@ -96,12 +96,8 @@ impl TrainingSet {
         Self::planes(self.colour) * (self.input_size as usize).pow(2)
     }
 
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.targets.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.targets.is_empty()
     }
 
     /// Prepares `items`: with a pipeline, its copies of each (turned, noisy); without, each
@@ -109,7 +105,7 @@ impl TrainingSet {
     /// Frames are read and preprocessed on `threads` threads; `progress` hears (frames done,
     /// frames in all); `stop` ends the work early with [`TrainingSetError::Stopped`].
     #[allow(clippy::too_many_arguments)]
-    pub fn prepare(
+    pub(crate) fn prepare(
         items: &[Item<'_>],
         classes: &[String],
         pipeline: Option<Pipeline>,
@@ -155,7 +151,7 @@ impl TrainingSet {
     }
 
     /// Inputs `indices` as one normalised NCHW batch (three channels; grey repeated).
-    pub fn batch(&self, indices: &[usize], out: &mut Vec<f32>) {
+    pub(crate) fn batch(&self, indices: &[usize], out: &mut Vec<f32>) {
         let plane = (self.input_size as usize).pow(2);
         let stride = self.stride();
         out.clear();

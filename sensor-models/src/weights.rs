@@ -13,10 +13,10 @@
 mod element;
 pub(crate) mod error;
 mod file_start;
-pub mod format;
-pub mod pickle;
-pub mod safetensors_file;
-pub mod state_dict;
-pub mod tensor;
+pub(crate) mod format;
+pub(crate) mod pickle;
+pub(crate) mod safetensors_file;
+pub(crate) mod state_dict;
+pub(crate) mod tensor;
 pub(crate) mod torch_file;
 mod torch_pickle;

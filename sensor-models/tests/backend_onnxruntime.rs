@@ -6,8 +6,8 @@
 mod common;
 
 use common::{check_backend, keypoint_fixtures, ort_dylib, resnet_fixtures, Expected};
-use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::model::Model;
+use fringe_sensor_models::Architecture;
+use fringe_sensor_models::Model;
 
 #[test]
 fn custom_cnn_matches_pytorch_in_every_format() {

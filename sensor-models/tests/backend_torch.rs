@@ -6,9 +6,9 @@
 mod common;
 
 use common::{check_backend_on, keypoint_fixtures, resnet_fixtures, Expected};
-use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::backend::BackendKind;
-use fringe_sensor_models::model::{Model, ModelError, Source};
+use fringe_sensor_models::Architecture;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::{Model, ModelError, ModelSource as Source};
 use std::path::Path;
 
 fn check_dir(dir: &Path, arch: Architecture) {

@@ -4,7 +4,7 @@
 mod common;
 
 use common::{check_backend, keypoint_fixtures, resnet_fixtures};
-use fringe_sensor_models::arch::Architecture;
+use fringe_sensor_models::Architecture;
 
 #[test]
 fn custom_cnn_matches_pytorch_in_every_format() {
@@ -31,7 +31,7 @@ fn keypoint_cnn_matches_pytorch_in_every_format() {
 /// convolutions show up as the matrix products they are planned as.
 #[test]
 fn a_profile_accounts_for_each_convolution_within_the_run() {
-    use fringe_sensor_models::backend::tract::profile;
+    use fringe_sensor_models::profile_tract as profile;
     use fringe_sensor_models::{onnx_graph, StateDict, Tensor};
     let arch = Architecture::Custom;
     let layout = arch.layout(3);

@@ -5,7 +5,8 @@
 mod common;
 
 use common::{fixture_dir, read_inputs, resnet_fixtures, Expected};
-use fringe_sensor_models::weights::pickle;
+use fringe_sensor_models::parse_pickle;
+use fringe_sensor_models::parse_pickle_prefix;
 use fringe_sensor_models::{
     read_safetensors, read_torch, read_weights, write_safetensors, ModelFileErrorKind, StateDict,
     StoredType,
@@ -496,10 +497,10 @@ proptest! {
 
     #[test]
     fn pickle_never_panics_on_arbitrary_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
-        let _ = pickle::parse(&bytes);
+        let _ = parse_pickle(&bytes);
         let mut framed = b"\x80\x02".to_vec();
         framed.extend(&bytes);
-        let _ = pickle::parse_prefix(&framed);
+        let _ = parse_pickle_prefix(&framed);
     }
 
     #[test]
@@ -512,8 +513,8 @@ proptest! {
             let i = at.index(bytes.len());
             bytes[i] = value;
         }
-        let _ = pickle::parse(&bytes);
-        let _ = pickle::parse(&bytes[..cut.index(bytes.len())]);
+        let _ = parse_pickle(&bytes);
+        let _ = parse_pickle(&bytes[..cut.index(bytes.len())]);
     }
 
     #[test]
@@ -551,11 +552,8 @@ fn graph_declaring(side: [i64; 2]) -> tract_onnx::pb::ModelProto {
     use tract_onnx::pb;
     use tract_onnx::pb::tensor_shape_proto::dimension::Value;
     let sd = read(&fixture_dir().join("model.safetensors"));
-    let mut proto = fringe_sensor_models::onnx_graph::build(
-        fringe_sensor_models::arch::Architecture::Custom,
-        3,
-        &sd,
-    );
+    let mut proto =
+        fringe_sensor_models::onnx_graph::build(fringe_sensor_models::Architecture::Custom, 3, &sd);
     let graph = proto.graph.as_mut().expect("graph");
     let input = graph.input.first_mut().expect("input");
     let Some(pb::type_proto::Value::TensorType(t)) =
@@ -575,8 +573,8 @@ fn graph_declaring(side: [i64; 2]) -> tract_onnx::pb::ModelProto {
 /// the 224 px guess); a card that says otherwise, or a graph that is not square, is refused.
 #[test]
 fn an_onnx_graph_without_a_card_runs_at_the_input_size_it_declares() {
-    use fringe_sensor_models::model::Model;
     use fringe_sensor_models::onnx_graph::encode;
+    use fringe_sensor_models::Model;
     let dir = tempfile::tempdir().expect("dir");
     let path = dir.path().join("exported.onnx");
     std::fs::write(&path, encode(&graph_declaring([112, 112]))).expect("write");

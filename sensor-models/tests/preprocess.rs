@@ -1,7 +1,7 @@
 //! The one preprocessing: geometry from the profile, mask, formats, rotation with its label.
 
-use fringe_rig::camera::PixelFormat;
-use fringe_sensor_models::preprocess::{
+use fringe_rig::PixelFormat;
+use fringe_sensor_models::{
     rotate_contact, Centre, Colour, FrameRef, Preprocessing, Preprocessor, ReferenceSensor,
 };
 use proptest::prelude::*;

@@ -3,8 +3,8 @@
 
 mod common;
 
-use fringe_rig::camera::PixelFormat;
-use fringe_sensor_models::preprocess::{Colour, FrameRef, Preprocessing, ReferenceSensor};
+use fringe_rig::PixelFormat;
+use fringe_sensor_models::{Colour, FrameRef, Preprocessing, ReferenceSensor};
 use std::process::Command;
 
 /// A 1920x1200 frame of fine colour fringes about an off-centre disc, with noise.

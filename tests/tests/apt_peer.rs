@@ -2,9 +2,9 @@
 //! thorlabs-apt-protocol, driven by tests/python/apt_peer.py with the interpreter in
 //! FRINGE_PYTHON (set by scripts/test; falls back to python3).
 
-use fringe_rig::apt::codec::{decode, encode};
-use fringe_rig::apt::ids::USB_UNIT;
-use fringe_rig::apt::message::{
+use fringe_rig::apt::USB_UNIT;
+use fringe_rig::apt::{decode, encode};
+use fringe_rig::apt::{
     HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
 };
 use fringe_tests::{python, python_script};

@@ -1,10 +1,13 @@
 //! Replays hand-built APT traces (tests/traces/apt/*.trace) through `ThorlabsAxis`.
 
-use fringe_rig::apt::config::{AptConfig, Controller, Timeouts};
-use fringe_rig::apt::{Actuator, LimitPolarity, ThorlabsAxis};
-use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
-use fringe_rig::trace::{ReplayHandle, ReplayLink, ReplayOptions, Trace};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{apt::Timeouts, AptConfig, Controller};
+use fringe_rig::{
+    apt::{Actuator, LimitPolarity},
+    ThorlabsAxis,
+};
+use fringe_rig::{Axis, AxisError, SoftLimits, StopMode};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{ReplayHandle, ReplayLink, ReplayOptions, Trace};
 use std::time::{Duration, Instant};
 
 const ZFS: f64 = 24.0 * 2048.0 * 400.0 / 9.0;
@@ -49,7 +52,7 @@ fn connect(name: &str, config: AptConfig, options: ReplayOptions) -> (ThorlabsAx
     }
 }
 
-fn close(axis: ThorlabsAxis, handle: ReplayHandle) -> fringe_rig::trace::ReplayReport {
+fn close(axis: ThorlabsAxis, handle: ReplayHandle) -> fringe_rig::ReplayReport {
     drop(axis);
     handle
         .finish()

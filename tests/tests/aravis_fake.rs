@@ -2,9 +2,9 @@
 //! Debian package aravis-tools) on loopback. Run with `scripts/test aravis`.
 #![cfg(feature = "aravis")]
 
-use fringe_rig::camera::aravis::{list_cameras, AravisCamera};
-use fringe_rig::camera::{Camera, CameraError, CameraSettings, PixelFormat, Roi, TriggerMode};
-use fringe_rig::units::{Decibels, Hertz, Microseconds};
+use fringe_rig::{list_cameras, AravisCamera};
+use fringe_rig::{Camera, CameraError, CameraSettings, PixelFormat, Roi, TriggerMode};
+use fringe_rig::{Decibels, Hertz, Microseconds};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};

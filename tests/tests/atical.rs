@@ -4,9 +4,9 @@
 use fringe_rig::atical::{
     CalError, CalibratedSensor, Calibration, GaugeReading, GaugeSource, ToolTransform,
 };
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSensor};
-use fringe_rig::units::Volts;
+use fringe_rig::HostTime;
+use fringe_rig::Volts;
+use fringe_rig::{ForceError, ForceSensor};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::time::Duration;

@@ -4,14 +4,12 @@
 //! The committed trace was written by `generate_committed_camera_trace` (ignored; run it with
 //! `cargo test -p fringe-tests --test camera_replay -- --ignored` to regenerate).
 
-use fringe_rig::camera::trace::{
-    CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace,
-};
-use fringe_rig::camera::{
+use fringe_rig::HostTime;
+use fringe_rig::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch,
     TriggerMode,
 };
-use fringe_rig::clock::HostTime;
+use fringe_rig::{CameraTrace, CameraTraceWriter, RecordingCamera, ReplayCamera, ReplayPace};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 

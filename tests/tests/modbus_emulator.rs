@@ -1,17 +1,18 @@
-//! The emulated Modbus y stage (fringe_sim::emulators::modbus_emulator) against the real ModbusStage
+//! The emulated Modbus y stage (fringe_sim::ModbusEmulator) against the real ModbusStage
 //! driver over Modbus TCP, Modbus RTU on a pseudo-terminal and in process, and against an
 //! independent client from PyPI (pymodbus, driven by tests/python/modbus_client.py).
 
 use fringe_tests::{loopback, python, python_script, require_python_module};
 
-use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::transport::serial::SerialLink;
-use fringe_rig::transport::tcp::TcpLink;
-use fringe_rig::transport::ByteLink;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
-use fringe_sim::emulators::modbus_emulator::ModbusEmulator;
-use fringe_sim::physics::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_rig::ByteLink;
+use fringe_rig::Kinematics;
+use fringe_rig::SerialLink;
+use fringe_rig::TcpLink;
+use fringe_rig::{Axis, AxisError, SoftLimits, StopMode};
+use fringe_rig::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_sim::ModbusEmulator;
+use fringe_sim::{MotorSpec, SimMotor};
 use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -64,9 +65,7 @@ fn moves_and_limits(y: &mut ModbusStage, emulator: &ModbusEmulator, steps_per_mm
     );
     assert!((s.position.0 - 2.5).abs() <= step, "{s}");
     assert!(!s.moving);
-    let truth = emulator
-        .motor()
-        .status_at(fringe_rig::clock::HostTime::now());
+    let truth = emulator.motor().status_at(fringe_rig::HostTime::now());
     assert!((truth.position.0 - 2.5).abs() < 1e-9, "{truth:?}");
     let s = y
         .move_by(Millimetres(-1.0), Duration::from_secs(5))
@@ -189,7 +188,7 @@ fn the_rtu_drive_keeps_the_documented_timing_and_drops_a_frame_sent_too_soon() {
     let path = emulator.pty_path().expect("pty").to_string();
     let mut link = SerialLink::open(&path, &m.serial_settings(None)).expect("open pty");
     // Read the two feedback registers (0x602A, 0x602B): 8 bytes out, 9 back.
-    let request = fringe_rig::modbus::codec::rtu_frame(1, &[0x03, 0x60, 0x2A, 0x00, 0x02]);
+    let request = fringe_rig::modbus::rtu_frame(1, &[0x03, 0x60, 0x2A, 0x00, 0x02]);
     let exchange = |link: &mut SerialLink| -> (Vec<u8>, Duration) {
         let sent = Instant::now();
         link.write_all(&request).expect("write");
@@ -258,9 +257,7 @@ fn driver_in_process_both_framings_and_overtravel_alarm() {
         .move_to(Millimetres(5.0), Duration::from_secs(5))
         .expect_err("over-travel");
     assert!(matches!(err, AxisError::Fault { .. }), "{err}");
-    let truth = emulator
-        .motor()
-        .status_at(fringe_rig::clock::HostTime::now());
+    let truth = emulator.motor().status_at(fringe_rig::HostTime::now());
     assert!(
         truth.forward_limit && (truth.position.0 - 2.0).abs() < 1e-9,
         "{truth:?}"
@@ -298,6 +295,6 @@ fn pymodbus_from_pypi_moves_the_tcp_emulator() {
         .and_then(|n| n.trim().parse::<u32>().ok())
         .expect("polls_moving");
     assert!(polls >= 5, "the move takes 0.6 s: {polls} polls saw MOVE");
-    let truth = motor.status_at(fringe_rig::clock::HostTime::now());
+    let truth = motor.status_at(fringe_rig::HostTime::now());
     assert!((truth.position.0 - 2.5).abs() < 1e-9, "{truth:?}");
 }

@@ -1,17 +1,20 @@
-//! The emulated Net F/T box (fringe_sim::emulators::netft_emulator) against the real NetFt driver, in
+//! The emulated Net F/T box (fringe_sim::NetFtEmulator) against the real NetFt driver, in
 //! process and over loopback UDP with the configuration read over HTTP, and against an independent
 //! client from PyPI (pynetft, driven by tests/python/netft_client.py).
 
 use fringe_tests::{loopback, python, python_script, require_python_module};
 
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSample, ForceSensor};
-use fringe_rig::netft::{fetch_config, Command, NetFt, NetFtOptions};
-use fringe_rig::transport::udp::UdpLink;
-use fringe_rig::transport::DatagramLink;
-use fringe_rig::units::Wrench;
-use fringe_sim::emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
-use fringe_sim::scene::ForceReading;
+use fringe_rig::DatagramLink;
+use fringe_rig::HostTime;
+use fringe_rig::UdpLink;
+use fringe_rig::Wrench;
+use fringe_rig::{
+    netft::{fetch_config, Command},
+    NetFt, NetFtOptions,
+};
+use fringe_rig::{ForceError, ForceSample, ForceSensor};
+use fringe_sim::ForceReading;
+use fringe_sim::{NetFtEmulator, NetFtEmulatorConfig};
 use std::process::Command as Process;
 use std::time::{Duration, Instant};
 
@@ -170,9 +173,7 @@ fn software_bias_zeroes_the_reading() {
 
 #[test]
 fn start_waits_out_a_burst_of_loss_instead_of_giving_up_at_the_first_lost_datagram() {
-    use fringe_sim::faults::{
-        FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams,
-    };
+    use fringe_sim::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
     let config = NetFtEmulatorConfig::default();
     let (_emulator, link) =
         NetFtEmulator::spawn_in_process(config.clone(), constant(LOAD)).expect("emulator");
@@ -315,9 +316,7 @@ fn a_box_that_reboots_is_asked_to_stream_again_and_its_restart_is_counted() {
 
 #[test]
 fn records_lost_in_a_burst_longer_than_the_restart_interval_are_all_counted() {
-    use fringe_sim::faults::{
-        FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams,
-    };
+    use fringe_sim::{FaultDevice, FaultKind, FaultSpec, FaultTrigger, Faults, FaultyDatagrams};
     // 1000 records/s from a box sampling at 7 kHz: ft_sequence steps by 7 between records.
     let config = NetFtEmulatorConfig {
         rdt_rate_hz: 1000.0,

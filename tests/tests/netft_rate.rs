@@ -1,10 +1,10 @@
 //! The Net F/T driver keeps up with 7 kHz on loopback UDP without losing a record (a one-second
 //! version of `cargo run -p fringe-sim --example netft_bench`, see BENCHMARKS.md).
 
-use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
-use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
+use fringe_rig::ForceSensor;
+use fringe_rig::UdpLink;
+use fringe_rig::{NetFt, NetFtConfig, NetFtOptions};
+use fringe_sim::{SimNetFt, SimOptions};
 use std::time::{Duration, Instant};
 
 #[test]

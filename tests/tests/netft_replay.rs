@@ -5,10 +5,13 @@
 //! [`traces_match_their_generator`]; run it with `FRINGE_REGEN_TRACES=1` to rewrite them after
 //! changing a scenario.
 
-use fringe_rig::force::{ForceError, ForceSensor, StreamStats};
-use fringe_rig::netft::rdt::encode_datagram;
-use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions, Record, Request};
-use fringe_rig::trace::{ReplayDatagramLink, ReplayHandle, ReplayOptions, Trace};
+use fringe_rig::netft::encode_datagram;
+use fringe_rig::{
+    netft::{Command, Record, Request},
+    NetFt, NetFtConfig, NetFtOptions,
+};
+use fringe_rig::{ForceError, ForceSensor, StreamStats};
+use fringe_rig::{ReplayDatagramLink, ReplayHandle, ReplayOptions, Trace};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Duration;

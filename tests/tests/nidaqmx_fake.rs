@@ -3,9 +3,9 @@
 //! error, an unplug). Each test has its own device, so they run side by side in one process.
 
 use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeSource};
-use fringe_rig::force::ForceSensor;
 use fringe_rig::nidaqmx::{DaqError, DaqSettings, Library, NiDaq, Setting};
-use fringe_rig::units::{Hertz, Volts};
+use fringe_rig::ForceSensor;
+use fringe_rig::{Hertz, Volts};
 use fringe_tests::fake_nidaqmx;
 use std::ffi::{c_char, c_int, CString};
 use std::path::{Path, PathBuf};

@@ -1,16 +1,14 @@
 //! The run store: a run written, closed and verified; a crash mid-write reopened without losing
 //! or duplicating anything; damage of every kind reported by verify.
 
-use fringe_rig::camera::{Frame, PixelFormat};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceSample;
-use fringe_rig::store::documents::{
-    ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
-};
-use fringe_rig::store::run_list::list;
-use fringe_rig::store::verify::verify;
+use fringe_rig::store::list_runs as list;
+use fringe_rig::store::verify_run as verify;
+use fringe_rig::store::{ExitStatus, FrameRecord, Position, StartDocument, StopDocument};
 use fringe_rig::store::{RunFile, RunReader, RunWriter, StoreError};
-use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use fringe_rig::ForceSample;
+use fringe_rig::HostTime;
+use fringe_rig::{Frame, PixelFormat};
+use fringe_rig::{Millimetres, Newtons, Wrench};
 use fringe_tests::snapshot;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -25,7 +23,7 @@ fn start(id: &str) -> StartDocument {
     StartDocument {
         layout_version: 1,
         run_id: id.into(),
-        started_utc: fringe_rig::store::documents::now_utc(),
+        started_utc: fringe_rig::store::now_utc(),
         software: "fringe test".into(),
         sensor_id: "layered-01".into(),
         variant: None,
@@ -111,7 +109,7 @@ fn stop(frames: u64, force: u64) -> StopDocument {
     StopDocument {
         exit_status: ExitStatus::Completed,
         reason: "all points done".into(),
-        stopped_utc: fringe_rig::store::documents::now_utc(),
+        stopped_utc: fringe_rig::store::now_utc(),
         frames,
         dropped_frames: 0,
         force_samples: force,
@@ -327,7 +325,7 @@ fn damage_of_every_kind_is_reported() {
 
 #[test]
 fn an_interrupted_export_removes_what_it_wrote() {
-    use fringe_rig::store::export::{export_reference, ExportOptions};
+    use fringe_rig::store::{export_reference, ExportOptions};
     static INTERRUPTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
     let root = scratch("export-interrupted");
     let run = finished_run(&root, "run-x");
@@ -463,9 +461,9 @@ fn mosaic_of(id: u64) -> Vec<u8> {
 
 #[test]
 fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
-    use fringe_rig::store::export::{export_reference, ExportOptions};
-    use fringe_rig::store::frames::debayer;
-    use fringe_rig::store::frames::{Encoding, FrameStorage};
+    use fringe_rig::store;
+    use fringe_rig::store::{export_reference, ExportOptions};
+    use fringe_rig::store::{Encoding, FrameStorage};
     let root = scratch("bayer-layouts");
     // Layout 1: the mosaic as it is in a grey PNG, known as Bayer from the rig text only.
     let old = StartDocument {
@@ -478,14 +476,14 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
         layout_version: 2,
         frames: Some(
             FrameStorage::new(PixelFormat::BayerRg8, None)
-                .and_then(|s| s.with_codec(Some(fringe_rig::store::frames::FrameCodec::Png)))
+                .and_then(|s| s.with_codec(Some(fringe_rig::store::FrameCodec::Png)))
                 .expect("storage"),
         ),
         ..start("run-planes")
     };
     // Layout 3: the mosaic in FGL, the default.
     let fgl = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
         ..start("run-fgl")
     };
@@ -522,7 +520,7 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
             let rgb = tiff.as_rgb8().expect("an RGB image");
             assert_eq!(
                 rgb.as_raw(),
-                &debayer::to_rgb8(&mosaic_of(r.frame_id), 8, 4),
+                &store::to_rgb8(&mosaic_of(r.frame_id), 8, 4),
                 "image_{k}"
             );
         }
@@ -563,7 +561,7 @@ fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
         ..start("old-real")
     };
     let recorded = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         variant: Some("integrated".into()),
         ..start("recorded")
     };
@@ -588,7 +586,7 @@ fn a_runs_sensor_design_is_read_from_new_and_old_runs() {
 /// keeps its bytes.
 #[test]
 fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
-    use fringe_rig::store::export::{export_reference, ExportOptions};
+    use fringe_rig::store::{export_reference, ExportOptions};
     let root = scratch("linked-lock");
     let finished = finished_run(&root, "run-done");
     let mut open = RunWriter::create(&root, &start("run-open")).expect("create");
@@ -645,10 +643,10 @@ fn a_lock_that_is_a_link_is_reported_refused_and_never_written_through() {
 /// it until the frame is whole again.
 #[test]
 fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
-    use fringe_rig::store::frames::FrameStorage;
+    use fringe_rig::store::FrameStorage;
     let root = scratch("flipped-frame");
     let fgl = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
         ..start("run-fgl")
     };
@@ -697,10 +695,10 @@ fn a_flipped_bit_in_a_frame_is_found_and_no_manifest_is_written_over_it() {
 /// refused before anything is changed.
 #[test]
 fn a_resume_over_a_damaged_frame_is_refused_and_changes_nothing() {
-    use fringe_rig::store::frames::FrameStorage;
+    use fringe_rig::store::FrameStorage;
     let root = scratch("resume-damaged");
     let fgl = StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         frames: Some(FrameStorage::new(PixelFormat::Mono8, None).expect("storage")),
         ..start("run-fgl")
     };
@@ -749,7 +747,7 @@ fn two_records_naming_one_frame_file_fail_verify() {
     assert_ne!(edited, text);
     std::fs::write(&frames, edited).expect("edit");
     std::fs::remove_file(dir.join("frames/00000004.png")).expect("remove");
-    fringe_rig::store::manifest::write(&dir).expect("manifest rewritten");
+    fringe_rig::store::write_manifest(&dir).expect("manifest rewritten");
     let report = verify(&dir).expect("verify");
     assert_eq!(
         report.problems,

@@ -2,27 +2,30 @@
 //! the simulator's ground truth, pause/resume and abort at every phase of an indentation, the
 //! force ceiling watcher.
 
-use fringe_rig::axis::SoftLimits;
-use fringe_rig::camera::{CameraSettings, TriggerMode};
-use fringe_rig::devices::Devices;
-use fringe_rig::operator::{Operator, Prompt, Reply};
-use fringe_rig::scan::control::{Phase, ScanControl, ScanProgress};
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::{BenchLimits, Plan};
-use fringe_rig::scan::press::PressSettings;
-use fringe_rig::scan::sidecar::RunSidecar;
-use fringe_rig::scan::watchers::WatchSettings;
-use fringe_rig::store::documents::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
-use fringe_rig::store::frames::FrameCodec;
-use fringe_rig::store::verify::verify;
+use fringe_rig::scan::PressSettings;
+use fringe_rig::scan::RunSidecar;
+use fringe_rig::scan::WatchSettings;
+use fringe_rig::store::verify_run as verify;
+use fringe_rig::store::FrameCodec;
 use fringe_rig::store::RunReader;
-use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::sync::trigger::TriggerTiming;
-use fringe_rig::units::{Hertz, Microseconds, Millimetres, Newtons};
+use fringe_rig::store::{Event, ExitStatus, FrameRecord, StartDocument, StopDocument};
+use fringe_rig::ContactOrigin;
+use fringe_rig::Devices;
+use fringe_rig::SoftLimits;
+use fringe_rig::SyncMethod;
+use fringe_rig::TriggerTiming;
 use fringe_rig::{run_scan, RunTarget, ScanOutcome, ScanSetup};
-use fringe_sim::bench::AxisConfig;
-use fringe_sim::ground_truth::records::{TruthLog, TruthSink};
-use fringe_sim::rig::{SimRig, SimRigConfig};
+use fringe_rig::{
+    scan::{Phase, ScanProgress},
+    ScanControl,
+};
+use fringe_rig::{BenchLimits, Plan};
+use fringe_rig::{CameraSettings, TriggerMode};
+use fringe_rig::{Hertz, Microseconds, Millimetres, Newtons};
+use fringe_rig::{Operator, Prompt, Reply};
+use fringe_sim::AxisConfig;
+use fringe_sim::{SimRig, SimRigConfig};
+use fringe_sim::{TruthLog, TruthSink};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -247,8 +250,7 @@ fn a_small_grid_scan_runs_end_to_end_with_labels_matching_the_ground_truth() {
         }
     }
     let rms = (force_errors.iter().map(|e| e * e).sum::<f64>() / force_errors.len() as f64).sqrt();
-    let score =
-        fringe_sim::ground_truth::label_score::score(&records, &truth.frames()).expect("score");
+    let score = fringe_sim::ground_truth::score_labels(&records, &truth.frames()).expect("score");
     assert_eq!(score.frames, records.len());
     assert!((score.force_rms_n - rms).abs() < 1e-9);
     assert!(score.contact_rms_mm < 0.05, "{score:?}");
@@ -280,7 +282,7 @@ fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger
     );
     let text = plan("[12.0]", "[25.0]", "force_targets = [2.0, 4.0]", 0.3);
     let mut setup = setup(&rig, &text);
-    let camera = fringe_sim::emulators::camera_emulator::SimCameraConfig::default();
+    let camera = fringe_sim::SimCameraConfig::default();
     setup.sync = SyncMethod::Trigger;
     setup.camera.trigger = TriggerMode::Hardware("Line1".into());
     setup.trigger = Some(TriggerTiming {
@@ -311,8 +313,7 @@ fn a_scan_with_the_camera_triggered_by_the_daq_labels_every_frame_by_its_trigger
         "every frame labelled: {:?}",
         records.iter().find(|r| r.wrench.is_none())
     );
-    let score =
-        fringe_sim::ground_truth::label_score::score(&records, &truth.frames()).expect("score");
+    let score = fringe_sim::ground_truth::score_labels(&records, &truth.frames()).expect("score");
     assert!(score.force_rms_n < 0.15, "{score:?}");
     let start: StartDocument = RunReader::at(&out.run_dir).start().expect("start document");
     assert_eq!(start.sync_method, "trigger");
@@ -535,7 +536,7 @@ fn abort_at(k: usize) {
     assert_eq!(out.points_done, 0);
     // Cleanup: z back at the safe height, nothing moving, the run closed and consistent.
     let z = rig.bench.motor_z();
-    let now = fringe_rig::clock::HostTime::now();
+    let now = fringe_rig::HostTime::now();
     assert!(
         (z.true_position_at(now).0 - 14.0).abs() < 0.01,
         "z at {:?}",
@@ -618,7 +619,7 @@ fn the_force_ceiling_watcher_stops_and_retracts_at_once() {
         .filter_map(|t| t.contact.map(|c| c.0))
         .fold(0.0f64, f64::max);
     assert!(peak < 5.0 + 1.5, "true force peaked at {peak:.2} N");
-    let now = fringe_rig::clock::HostTime::now();
+    let now = fringe_rig::HostTime::now();
     assert!((rig.bench.motor_z().true_position_at(now).0 - 14.0).abs() < 0.01);
     drop(rig);
     let _ = std::fs::remove_dir_all(dir);
@@ -626,33 +627,33 @@ fn the_force_ceiling_watcher_stops_and_retracts_at_once() {
 
 /// A force sensor that goes silent for 150 ms once when asked.
 struct Stalling {
-    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    inner: Box<dyn fringe_rig::ForceSensor>,
     stall: Arc<std::sync::atomic::AtomicBool>,
 }
 
-impl fringe_rig::force::ForceSensor for Stalling {
+impl fringe_rig::ForceSensor for Stalling {
     fn describe(&self) -> String {
         self.inner.describe()
     }
-    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn start(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.start()
     }
     fn next_sample(
         &mut self,
         timeout: std::time::Duration,
-    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+    ) -> Result<Option<fringe_rig::ForceSample>, fringe_rig::ForceError> {
         if self.stall.swap(false, std::sync::atomic::Ordering::SeqCst) {
             std::thread::sleep(std::time::Duration::from_millis(150));
         }
         self.inner.next_sample(timeout)
     }
-    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn stop(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.stop()
     }
-    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn bias(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.bias()
     }
-    fn stats(&self) -> fringe_rig::force::StreamStats {
+    fn stats(&self) -> fringe_rig::StreamStats {
         self.inner.stats()
     }
 }
@@ -660,23 +661,23 @@ impl fringe_rig::force::ForceSensor for Stalling {
 /// A force sensor that, when asked, goes silent for 150 ms and comes back as a rebooted device:
 /// counted as a restart, its zero moved by `shift_n` in Fz.
 struct Rebooting {
-    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    inner: Box<dyn fringe_rig::ForceSensor>,
     reboot: Arc<std::sync::atomic::AtomicBool>,
     shift_n: f64,
     rebooted: bool,
 }
 
-impl fringe_rig::force::ForceSensor for Rebooting {
+impl fringe_rig::ForceSensor for Rebooting {
     fn describe(&self) -> String {
         self.inner.describe()
     }
-    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn start(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.start()
     }
     fn next_sample(
         &mut self,
         timeout: std::time::Duration,
-    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+    ) -> Result<Option<fringe_rig::ForceSample>, fringe_rig::ForceError> {
         if self.reboot.swap(false, std::sync::atomic::Ordering::SeqCst) {
             std::thread::sleep(std::time::Duration::from_millis(150));
             // What the box measured while it was down never arrives.
@@ -690,14 +691,14 @@ impl fringe_rig::force::ForceSensor for Rebooting {
             s
         }))
     }
-    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn stop(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.stop()
     }
-    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn bias(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.bias()
     }
-    fn stats(&self) -> fringe_rig::force::StreamStats {
-        fringe_rig::force::StreamStats {
+    fn stats(&self) -> fringe_rig::StreamStats {
+        fringe_rig::StreamStats {
             restarts: u64::from(self.rebooted),
             ..self.inner.stats()
         }
@@ -706,27 +707,27 @@ impl fringe_rig::force::ForceSensor for Rebooting {
 
 /// A camera that loses the next frames when asked.
 struct Dropping {
-    inner: Box<dyn fringe_rig::camera::Camera>,
+    inner: Box<dyn fringe_rig::Camera>,
     drop_next: Arc<std::sync::atomic::AtomicU64>,
 }
 
-impl fringe_rig::camera::Camera for Dropping {
-    fn info(&self) -> fringe_rig::camera::CameraInfo {
+impl fringe_rig::Camera for Dropping {
+    fn info(&self) -> fringe_rig::CameraInfo {
         self.inner.info()
     }
-    fn configure(&mut self, s: &CameraSettings) -> Result<(), fringe_rig::camera::CameraError> {
+    fn configure(&mut self, s: &CameraSettings) -> Result<(), fringe_rig::CameraError> {
         self.inner.configure(s)
     }
-    fn start(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+    fn start(&mut self) -> Result<(), fringe_rig::CameraError> {
         self.inner.start()
     }
-    fn trigger(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+    fn trigger(&mut self) -> Result<(), fringe_rig::CameraError> {
         self.inner.trigger()
     }
     fn next_frame(
         &mut self,
         timeout: std::time::Duration,
-    ) -> Result<Option<fringe_rig::camera::Frame>, fringe_rig::camera::CameraError> {
+    ) -> Result<Option<fringe_rig::Frame>, fringe_rig::CameraError> {
         use std::sync::atomic::Ordering;
         loop {
             let frame = self.inner.next_frame(timeout)?;
@@ -740,12 +741,10 @@ impl fringe_rig::camera::Camera for Dropping {
             }
         }
     }
-    fn stop(&mut self) -> Result<(), fringe_rig::camera::CameraError> {
+    fn stop(&mut self) -> Result<(), fringe_rig::CameraError> {
         self.inner.stop()
     }
-    fn latch_timestamp(
-        &mut self,
-    ) -> Result<fringe_rig::camera::TimestampLatch, fringe_rig::camera::CameraError> {
+    fn latch_timestamp(&mut self) -> Result<fringe_rig::TimestampLatch, fringe_rig::CameraError> {
         self.inner.latch_timestamp()
     }
 }
@@ -893,7 +892,7 @@ struct Moved {
     asked: Mutex<Vec<[f64; 6]>>,
 }
 
-impl fringe_rig::scan::offset_check::OffsetCheck for Moved {
+impl fringe_rig::scan::OffsetCheck for Moved {
     fn check(&self, mean: [f64; 6], standard_error: [f64; 6]) -> Vec<String> {
         assert!(
             standard_error.iter().all(|s| *s > 0.0 && *s < 0.01),
@@ -1026,7 +1025,7 @@ fn a_point_interrupted_three_times_in_a_row_ends_the_scan() {
 /// (through the scan's operator, not the stage's own prompt), and the records carry the row's y.
 #[test]
 fn a_manual_y_stage_is_asked_once_per_row_and_never_prompts_by_itself() {
-    use fringe_rig::manual::ManualStage;
+    use fringe_rig::ManualStage;
     let dir = tempfile_dir("manual-y");
     let (rig, mut devices, _truth) = bench(17);
     // The stage's own operator has no answer: if the engine asked the stage anything, the scan
@@ -1160,10 +1159,10 @@ impl Operator for NoAnswers {
 
 /// Keeps every frame the camera delivered that became a record, by record index.
 #[derive(Debug, Default)]
-struct Delivered(Mutex<BTreeMap<u64, fringe_rig::camera::Frame>>);
+struct Delivered(Mutex<BTreeMap<u64, fringe_rig::Frame>>);
 
-impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
-    fn recorded(&self, frame: &fringe_rig::camera::Frame, record: &FrameRecord) {
+impl fringe_rig::RecordTap for Delivered {
+    fn recorded(&self, frame: &fringe_rig::Frame, record: &FrameRecord) {
         self.0
             .lock()
             .unwrap_or_else(|p| p.into_inner())
@@ -1179,8 +1178,8 @@ impl fringe_rig::acquire::record_tap::RecordTap for Delivered {
 
 #[test]
 fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_in_each_codec() {
-    use fringe_rig::camera::PixelFormat;
-    use fringe_rig::store::frames::{Encoding, FrameStorage};
+    use fringe_rig::store::{Encoding, FrameStorage};
+    use fringe_rig::PixelFormat;
     // Whole frames in PNG planes (asked for); the disc's square in the default FGL.
     for (disc, codec) in [(false, Some(FrameCodec::Png)), (true, None)] {
         let name = if disc {
@@ -1272,22 +1271,22 @@ fn the_run_holds_bit_for_bit_what_the_camera_delivered_whole_or_the_disc_square_
 /// A force sensor that reads `shift_n` more in Fz (compression: a pressing load) from when
 /// `loaded` is set: a load the engine can only tell from the F/T.
 struct Loading {
-    inner: Box<dyn fringe_rig::force::ForceSensor>,
+    inner: Box<dyn fringe_rig::ForceSensor>,
     loaded: Arc<std::sync::atomic::AtomicBool>,
     shift_n: f64,
 }
 
-impl fringe_rig::force::ForceSensor for Loading {
+impl fringe_rig::ForceSensor for Loading {
     fn describe(&self) -> String {
         self.inner.describe()
     }
-    fn start(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn start(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.start()
     }
     fn next_sample(
         &mut self,
         timeout: std::time::Duration,
-    ) -> Result<Option<fringe_rig::force::ForceSample>, fringe_rig::force::ForceError> {
+    ) -> Result<Option<fringe_rig::ForceSample>, fringe_rig::ForceError> {
         let loaded = self.loaded.load(std::sync::atomic::Ordering::SeqCst);
         Ok(self.inner.next_sample(timeout)?.map(|mut s| {
             if loaded {
@@ -1296,20 +1295,20 @@ impl fringe_rig::force::ForceSensor for Loading {
             s
         }))
     }
-    fn stop(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn stop(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.stop()
     }
-    fn bias(&mut self) -> Result<(), fringe_rig::force::ForceError> {
+    fn bias(&mut self) -> Result<(), fringe_rig::ForceError> {
         self.inner.bias()
     }
-    fn stats(&self) -> fringe_rig::force::StreamStats {
+    fn stats(&self) -> fringe_rig::StreamStats {
         self.inner.stats()
     }
 }
 
 /// The true x and z of the simulated bench now, mm.
 fn true_xz(rig: &SimRig) -> (f64, f64) {
-    let now = fringe_rig::clock::HostTime::now();
+    let now = fringe_rig::HostTime::now();
     (
         rig.bench.motor_x().true_position_at(now).0,
         rig.bench.motor_z().true_position_at(now).0,

@@ -1,20 +1,24 @@
-//! The emulated APT stepper controller (fringe_sim::emulators::apt_emulator) against the real
+//! The emulated APT stepper controller (fringe_sim::AptEmulator) against the real
 //! ThorlabsAxis driver (in process and over a pseudo-terminal), against raw bytes, and against
 //! two independent clients from PyPI (thorlabs-apt-device, tests/python/apt_device_client.py,
 //! and pyLabLib's KinesisMotor, tests/python/apt_pylablib_client.py), run with FRINGE_PYTHON.
 
-use fringe_rig::apt::codec::encode;
-use fringe_rig::apt::ids::USB_UNIT;
-use fringe_rig::apt::message::{Message, Packet};
-use fringe_rig::apt::stream::{Flow, StreamDecoder};
-use fringe_rig::apt::{open_serial, Actuator, AptConfig, Controller, ThorlabsAxis};
-use fringe_rig::axis::{Axis, AxisError, SoftLimits, StopMode};
-use fringe_rig::clock::HostTime;
-use fringe_rig::transport::memory::byte_pair;
-use fringe_rig::transport::ByteLink;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
-use fringe_sim::emulators::apt_emulator::{AptEmulator, AptEmulatorConfig, KeepAlive};
-use fringe_sim::physics::motion::{Kinematics, MotorSpec, SimMotor};
+use fringe_rig::apt::encode;
+use fringe_rig::apt::USB_UNIT;
+use fringe_rig::apt::{Flow, StreamDecoder};
+use fringe_rig::apt::{Message, Packet};
+use fringe_rig::byte_pair;
+use fringe_rig::ByteLink;
+use fringe_rig::HostTime;
+use fringe_rig::Kinematics;
+use fringe_rig::{
+    apt::{open_serial, Actuator},
+    AptConfig, Controller, ThorlabsAxis,
+};
+use fringe_rig::{Axis, AxisError, SoftLimits, StopMode};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_sim::{AptEmulator, AptEmulatorConfig, KeepAlive};
+use fringe_sim::{MotorSpec, SimMotor};
 use fringe_tests::{python, python_script};
 use std::process::Command;
 use std::sync::Arc;

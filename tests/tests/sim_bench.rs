@@ -3,18 +3,16 @@
 //! strobe seen by the DAQ, all scored against the ground truth.
 
 use fringe_rig::atical::{CalibratedSensor, Calibration};
-use fringe_rig::camera::{Camera, CameraSettings, Frame, TriggerMode};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceSample, ForceSensor};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
-use fringe_sim::bench::{Bench, BenchConfig};
-use fringe_sim::emulators::camera_emulator::{
-    ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY,
-};
-use fringe_sim::emulators::daq_emulator::{SimDaq, SimDaqConfig};
-use fringe_sim::ground_truth::records::{FrameFate, TruthLog};
-use fringe_sim::physics::ft_sensor::SimFtSensor;
-use fringe_sim::scene::{FrameRenderer, Scene, SceneSource};
+use fringe_rig::HostTime;
+use fringe_rig::{Camera, CameraSettings, Frame, TriggerMode};
+use fringe_rig::{ForceSample, ForceSensor};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
+use fringe_sim::SimFtSensor;
+use fringe_sim::{ground_truth::FrameFate, TruthLog};
+use fringe_sim::{Bench, BenchConfig};
+use fringe_sim::{ExposureSchedule, SimCamera, SimCameraConfig, FRAME_MEMORY};
+use fringe_sim::{FrameRenderer, Scene, SceneSource};
+use fringe_sim::{SimDaq, SimDaqConfig};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -422,13 +420,13 @@ fn lowering_z_over_the_sensor_reads_growing_force_through_the_daq() {
     config.z.power_up_mm = 14.0; // 1 mm above the surface
     let bench = Bench::new(config.clone());
     let z = bench.motor_z();
-    z.set_kinematics(fringe_sim::physics::motion::Kinematics {
+    z.set_kinematics(fringe_rig::Kinematics {
         velocity: MillimetresPerSecond(2.5),
         acceleration: MillimetresPerSecondSquared(50.0),
     });
     // Put the indenter over (4, -3) mm first (moves in simulated time, instantly done by t0).
     let (x, y) = bench.stage_xy_for(Millimetres(4.0), Millimetres(-3.0));
-    let fast = fringe_sim::physics::motion::Kinematics {
+    let fast = fringe_rig::Kinematics {
         velocity: MillimetresPerSecond(20.0),
         acceleration: MillimetresPerSecondSquared(100.0),
     };
@@ -515,9 +513,9 @@ fn lowering_z_over_the_sensor_reads_growing_force_through_the_daq() {
 
 #[test]
 fn frames_show_the_scene_at_mid_exposure() {
-    use fringe_rig::units::Newtons;
-    use fringe_sim::physics::indenter::Shape;
-    use fringe_sim::scene::Contact;
+    use fringe_rig::Newtons;
+    use fringe_sim::Contact;
+    use fringe_sim::Shape;
     /// Force = host milliseconds modulo 20, so the rendered level (10 DN per N) tells the instant.
     struct Clockwork;
     impl SceneSource for Clockwork {
@@ -566,7 +564,7 @@ fn frames_show_the_scene_at_mid_exposure() {
         assert_eq!(t.exposure_start_ticks, f.device_timestamp);
         assert_eq!(t.arrival, Some(f.host_arrival));
         // The camera's native BayerRG8 unless configured otherwise: one byte per pixel.
-        assert_eq!(f.format, fringe_rig::camera::PixelFormat::BayerRg8);
+        assert_eq!(f.format, fringe_rig::PixelFormat::BayerRg8);
         assert_eq!(f.data.len(), 16 * 8);
     }
 }

@@ -1,8 +1,8 @@
 //! The default simulated rig end to end: real drivers over in-process links to the emulators.
 
-use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::units::Millimetres;
-use fringe_sim::rig::{SimRig, SimRigConfig};
+use fringe_rig::ForceStream;
+use fringe_rig::Millimetres;
+use fringe_sim::{SimRig, SimRigConfig};
 use std::time::Duration;
 
 #[test]
@@ -24,7 +24,7 @@ fn lowering_z_over_the_sensor_presses_through_the_real_drivers() {
     z.move_by(Millimetres(1.5), t).expect("z");
     std::thread::sleep(Duration::from_millis(200));
     let (_, after) = monitor.mean_of_last(500).expect("samples");
-    let truth = rig.bench.truth_at(fringe_rig::clock::HostTime::now());
+    let truth = rig.bench.truth_at(fringe_rig::HostTime::now());
     assert!(truth.depth.0 > 0.45 && truth.depth.0 < 0.55, "{truth:?}");
     assert!(
         truth.x.0.abs() < 1e-3 && truth.y.0.abs() < 1e-3,

@@ -3,8 +3,9 @@
 //! ground truth: where in the force stream each label looked (label time, in true host time) and
 //! the labelled Fz during presses.
 
-use fringe_rig::sync::method::SyncMethod;
-use fringe_sim::ground_truth::sync_score::{self, SyncBenchConfig};
+use fringe_rig::SyncMethod;
+use fringe_sim::ground_truth;
+use fringe_sim::ground_truth::SyncBenchConfig;
 
 #[test]
 fn strobe_and_clock_fit_place_windows_within_their_bounds_and_host_lags() {
@@ -13,7 +14,7 @@ fn strobe_and_clock_fit_place_windows_within_their_bounds_and_host_lags() {
         warm_up_s: 3.0,
         ..SyncBenchConfig::default()
     };
-    let report = sync_score::run(&config).expect("sync bench");
+    let report = ground_truth::run_sync_bench(&config).expect("sync bench");
     for s in &report.scores {
         println!(
             "{:9}: {} frames ({} unlabelled), label time RMS {:.1} us, max {:.1} us, mean {:+.1} us; \
@@ -88,7 +89,7 @@ fn trigger_puts_every_frame_on_its_own_exposure_within_10_us() {
         daq_trigger: true,
         ..SyncBenchConfig::default()
     };
-    let report = sync_score::run(&config).expect("sync bench");
+    let report = ground_truth::run_sync_bench(&config).expect("sync bench");
     let of = |m: SyncMethod| {
         report
             .scores

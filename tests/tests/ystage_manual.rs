@@ -1,9 +1,9 @@
 //! The manual y stage with a scripted operator (the engine's `Operator`, typed answers).
 
-use fringe_rig::axis::{Axis, AxisError, SoftLimits};
-use fringe_rig::manual::ManualStage;
-use fringe_rig::operator::{Operator, Prompt, Reply};
-use fringe_rig::units::Millimetres;
+use fringe_rig::ManualStage;
+use fringe_rig::Millimetres;
+use fringe_rig::{Axis, AxisError, SoftLimits};
+use fringe_rig::{Operator, Prompt, Reply};
 use std::collections::VecDeque;
 use std::io;
 use std::sync::{Arc, Mutex};

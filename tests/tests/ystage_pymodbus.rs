@@ -5,11 +5,11 @@
 
 use fringe_tests::{python, require_python_module};
 
-use fringe_rig::axis::{Axis, AxisError, SoftLimits};
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::transport::serial::SerialLink;
-use fringe_rig::transport::tcp::TcpLink;
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
+use fringe_rig::SerialLink;
+use fringe_rig::TcpLink;
+use fringe_rig::{Axis, AxisError, SoftLimits};
+use fringe_rig::{Framing, ModbusStage, RegisterMap, StageOptions};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -274,7 +274,7 @@ fn leadshine_pr_over_modbus_rtu_on_a_pty() {
 
 #[test]
 fn a_recorded_session_replays_through_the_driver() {
-    use fringe_rig::trace::{record_stream, ReplayLink, ReplayOptions, Trace};
+    use fringe_rig::{record_stream, ReplayLink, ReplayOptions, Trace};
     let port = free_port();
     let _server = Server::start(&["--profile", "az", "--tcp", &port.to_string()]);
     let dir = std::env::temp_dir().join(format!("fringe-ystage-record-{}", std::process::id()));

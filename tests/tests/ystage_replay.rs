@@ -2,10 +2,10 @@
 //! tests/python/make_ystage_traces.py): the driver must send exactly the recorded frames and
 //! interpret the recorded replies.
 
-use fringe_rig::axis::{Axis, AxisError, SoftLimits};
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::trace::{ReplayHandle, ReplayLink, ReplayOptions, Trace};
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
+use fringe_rig::{Axis, AxisError, SoftLimits};
+use fringe_rig::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::{ReplayHandle, ReplayLink, ReplayOptions, Trace};
 use std::path::Path;
 use std::time::Duration;
 

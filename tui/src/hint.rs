@@ -3,9 +3,9 @@
 //! the terminal UI alike.
 
 use fringe_app::workflow_error::WorkflowError;
-use fringe_rig::camera::CameraError;
 use fringe_rig::store::StoreError;
-use fringe_rig::transport::serial::PortOpenError;
+use fringe_rig::CameraError;
+use fringe_rig::PortOpenError;
 use fringe_rig::ScanError;
 use fringe_sensor_models::dataset::DatasetError;
 use std::error::Error;
@@ -87,7 +87,7 @@ fn store(e: &StoreError) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::transport::serial::{SerialLink, SerialSettings};
+    use fringe_rig::{SerialLink, SerialSettings};
     use std::path::PathBuf;
 
     #[test]

@@ -1,13 +1,13 @@
 //! `fringe axis` end to end on a pseudo-terminal, with a scripted APT responder on the master
 //! side (it answers requests with fixed replies; it is not a motion simulator).
 
-use fringe_rig::apt::codec::encode;
-use fringe_rig::apt::ids::USB_UNIT;
-use fringe_rig::apt::message::{HwInfo, Message, Packet, StatusBlock};
-use fringe_rig::apt::stream::{Flow, StreamDecoder};
-use fringe_rig::trace::Trace;
-use fringe_rig::transport::pty::PtyDevice;
-use fringe_rig::transport::ByteLink;
+use fringe_rig::apt::encode;
+use fringe_rig::apt::USB_UNIT;
+use fringe_rig::apt::{Flow, StreamDecoder};
+use fringe_rig::apt::{HwInfo, Message, Packet, StatusBlock};
+use fringe_rig::ByteLink;
+use fringe_rig::PtyDevice;
+use fringe_rig::Trace;
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

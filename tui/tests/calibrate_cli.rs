@@ -4,7 +4,7 @@
 
 mod common;
 use common::{coarse_sensor, fringe, scratch, text};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use std::path::PathBuf;
 
 fn render(sensor: &str, shape: &str, force: &str, frame: &str, out: &std::path::Path) {

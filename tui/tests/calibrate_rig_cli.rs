@@ -3,7 +3,7 @@
 
 mod common;
 use common::{fringe, label_rms, scratch, text};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 
 /// `fringe calibrate --sensor ID` on the default simulated bench (its camera at 25 fps: at 50 fps a
 /// debug build on 2 cores drops full-size frames under any load, and a point interrupted three

@@ -539,10 +539,10 @@ fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
     let commissioning = dir.join("unit.commission-test");
     std::fs::create_dir_all(commissioning.join("runs")).expect("dir");
     journal.write(&commissioning).expect("journal");
-    let start = fringe_rig::store::documents::StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+    let start = fringe_rig::store::StartDocument {
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         run_id,
-        started_utc: fringe_rig::store::documents::now_utc(),
+        started_utc: fringe_rig::store::now_utc(),
         software: "test".into(),
         sensor_id: sensor.into(),
         variant: None,
@@ -554,8 +554,7 @@ fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
         frames: None,
     };
     let writer =
-        fringe_rig::store::run_writer::RunWriter::create(&commissioning.join("runs"), &start)
-            .expect("run");
+        fringe_rig::store::RunWriter::create(&commissioning.join("runs"), &start).expect("run");
     let out = fringe(&[
         "commission",
         "--rig",

@@ -4,10 +4,10 @@
 mod common;
 use common::{fringe_command, printed_figure, scratch};
 
-use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
-use fringe_rig::trace::{ReplayDatagramLink, ReplayOptions, Trace};
-use fringe_sim::emulators::netft_box::{SimHttp, SimNetFt, SimOptions};
+use fringe_rig::ForceSensor;
+use fringe_rig::{netft::Command, NetFt, NetFtConfig, NetFtOptions};
+use fringe_rig::{ReplayDatagramLink, ReplayOptions, Trace};
+use fringe_sim::{SimHttp, SimNetFt, SimOptions};
 use std::sync::Arc;
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 mod common;
 
 use common::{arg, fringe, printed_figure, scratch, text};
-use fringe_calibration::profile::{ImageSize, Optical, Profile};
+use fringe_calibration::{ImageSize, Optical, Profile};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {

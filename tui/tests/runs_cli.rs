@@ -346,7 +346,7 @@ fn records_naming_files_outside_the_run_fail_verify_and_are_never_exported() {
         Some(l.replace("frames/00000001.fgl", "/etc/hostname"))
     });
     // The manifest rewritten to match, as a careless or hostile edit would.
-    fringe_rig::store::manifest::write(&run).expect("manifest");
+    fringe_rig::store::write_manifest(&run).expect("manifest");
     let verify = fringe(&["verify", path(&run)]);
     let t = text(&verify);
     assert!(!verify.status.success(), "{t}");
@@ -506,7 +506,7 @@ fn a_lock_that_is_a_link_is_reported_and_never_written_through() {
 /// Verify of a run a process is writing names that process, not "did not finish".
 #[test]
 fn verify_of_a_run_being_written_names_its_writer() {
-    use fringe_rig::store::run_writer::RunWriter;
+    use fringe_rig::store::RunWriter;
     let root = scratch("being-written");
     // The test process writes the run (a scan would), while fringe verify looks at it.
     let start = fringe_rig::store::RunReader::at(&write_run(&root, "run-template", false))
@@ -514,7 +514,7 @@ fn verify_of_a_run_being_written_names_its_writer() {
         .expect("start");
     let writer = RunWriter::create(
         &root,
-        &fringe_rig::store::documents::StartDocument {
+        &fringe_rig::store::StartDocument {
             run_id: "run-live".into(),
             ..start
         },

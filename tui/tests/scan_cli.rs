@@ -577,10 +577,10 @@ fn a_resume_of_a_run_another_process_writes_opens_no_device() {
     let root = dir.join("runs");
     // A run as a writer holds it (this process): its start document written, its lock taken.
     let plan_text = std::fs::read_to_string(&plan_path).expect("plan");
-    let start = fringe_rig::store::documents::StartDocument {
-        layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+    let start = fringe_rig::store::StartDocument {
+        layout_version: fringe_rig::store::LAYOUT_VERSION,
         run_id: "held".into(),
-        started_utc: fringe_rig::store::documents::now_utc(),
+        started_utc: fringe_rig::store::now_utc(),
         software: "test".into(),
         sensor_id: "layered-sim".into(),
         variant: None,
@@ -591,7 +591,7 @@ fn a_resume_of_a_run_another_process_writes_opens_no_device() {
         sync_method: "strobe".into(),
         frames: None,
     };
-    let writer = fringe_rig::store::run_writer::RunWriter::create(&root, &start).expect("run");
+    let writer = fringe_rig::store::RunWriter::create(&root, &start).expect("run");
     let run = writer.dir().to_path_buf();
     let out = resume(&rig, &run);
     let t = text(&out);

@@ -4,9 +4,9 @@
 
 mod common;
 use common::{arg, coarse_sensor, constant_model, fringe, scratch, text};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_rig::reference_layout::COLUMNS;
-use fringe_sim::optics::sensor::SensorGeometry;
+use fringe_sim::SensorGeometry;
 use std::path::Path;
 
 fn dataset(sensor: &Path, out: &Path, count: &str, seed: &str) -> std::process::Output {

@@ -7,8 +7,8 @@
 
 mod common;
 use common::{arg, coarse_sensor, fringe, fringe_command, scratch, shared, text};
-use fringe_sensor_models::model::Model;
 use fringe_sensor_models::read_safetensors;
+use fringe_sensor_models::Model;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -376,11 +376,11 @@ fn bad_settings_are_refused_naming_the_flag() {
 /// trained, and the finished outcome is found again in its directory.
 #[test]
 fn fine_tuning_stops_resumes_and_keeps_the_better_candidate() {
-    use fringe_sensor_models::adapt::fine_tune::{
-        fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
-    };
     use fringe_sensor_models::adapt::held_out_presses;
-    use fringe_sensor_models::train::TrainEvent;
+    use fringe_sensor_models::TrainEvent;
+    use fringe_sensor_models::{
+        fine_tune, finished_fine_tune as finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
+    };
     use std::sync::atomic::{AtomicBool, Ordering};
     let dir = scratch("fine-tune");
     let out = dir.join("fine-tune");

@@ -20,13 +20,13 @@ use super::signature::{Signature, CELLS, RIM_BINS};
 use crate::optical::grey::median_f64;
 
 /// Largest turn of the rim pattern searched, degrees.
-pub const MAX_TURN_DEG: usize = 12;
+pub(crate) const MAX_TURN_DEG: usize = 12;
 /// Width of the rim sectors compared, degrees.
 pub const RIM_SECTOR_DEG: usize = 10;
 /// A cell counts as changed beyond this many robust sigmas ...
-pub const SURFACE_SIGMAS: f64 = 6.0;
+pub(crate) const SURFACE_SIGMAS: f64 = 6.0;
 /// ... and at least this many DN.
-pub const SURFACE_MIN_DN: f64 = 2.0;
+pub(crate) const SURFACE_MIN_DN: f64 = 2.0;
 
 /// The changes of a unit between two signatures.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]

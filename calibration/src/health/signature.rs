@@ -19,13 +19,13 @@ use crate::scan_run::ScanRun;
 use std::path::PathBuf;
 
 /// No-contact frames measured at most.
-pub const SIGNATURE_FRAMES: usize = 24;
+pub(crate) const SIGNATURE_FRAMES: usize = 24;
 /// Share of the radius inside which brightness and cells are measured (clear of the rim).
 pub const INNER: f64 = 0.85;
 /// The band about the rim, shares of the radius, where the rim light is measured.
-pub const RIM_BAND: [f64; 2] = [0.99, 1.07];
+pub(crate) const RIM_BAND: [f64; 2] = [0.99, 1.07];
 /// The annulus whose sectors give the light of each side.
-pub const SIDE_BAND: [f64; 2] = [0.35, INNER];
+pub(crate) const SIDE_BAND: [f64; 2] = [0.35, INNER];
 /// Sectors of the annulus.
 pub const SIDES: usize = 12;
 /// Cells across the grid.
@@ -127,7 +127,12 @@ impl Signature {
 
 /// Mean grey of `bins` equal angular sectors of the annulus `radii` (px) about `centre`; a
 /// sector without pixels reads 0.
-pub fn annulus_mean(g: &GreyImage, centre: [f64; 2], radii: [f64; 2], bins: usize) -> Vec<f64> {
+pub(crate) fn annulus_mean(
+    g: &GreyImage,
+    centre: [f64; 2],
+    radii: [f64; 2],
+    bins: usize,
+) -> Vec<f64> {
     let (mut sum, mut n) = (vec![0.0f64; bins], vec![0usize; bins]);
     let j0 = (centre[1] - radii[1]).floor().max(0.0) as usize;
     let j1 = ((centre[1] + radii[1]).ceil().max(0.0) as usize).min(g.height);

@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 
 /// A circle in image coordinates, px.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Circle {
+pub(crate) struct Circle {
     pub cx: f64,
     pub cy: f64,
     pub r: f64,
@@ -16,7 +16,7 @@ pub struct Circle {
 impl Circle {
     /// Signed distance of (x, y) from the circle (positive outside).
     #[inline]
-    pub fn distance(&self, x: f64, y: f64) -> f64 {
+    pub(crate) fn distance(&self, x: f64, y: f64) -> f64 {
         (x - self.cx).hypot(y - self.cy) - self.r
     }
 }
@@ -24,7 +24,7 @@ impl Circle {
 /// A geometric fit: the circle, the RMS distance of the points used and the 1-sigma
 /// uncertainties of centre x, y and radius from the fit covariance.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CircleFit {
+pub(crate) struct CircleFit {
     pub circle: Circle,
     pub rms_px: f64,
     pub sigma_cx: f64,
@@ -35,7 +35,8 @@ pub struct CircleFit {
 
 /// The algebraic least-squares circle (x^2 + y^2 + D x + E y + F = 0); `None` for fewer than
 /// three points or collinear points.
-pub fn algebraic(points: &[[f64; 2]]) -> Option<Circle> {
+#[cfg(test)]
+pub(crate) fn algebraic(points: &[[f64; 2]]) -> Option<Circle> {
     if points.len() < 3 {
         return None;
     }
@@ -65,7 +66,7 @@ pub fn algebraic(points: &[[f64; 2]]) -> Option<Circle> {
 }
 
 /// The circle through three points; `None` when they are (nearly) collinear.
-pub fn through_three(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<Circle> {
+pub(crate) fn through_three(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<Circle> {
     let d = 2.0 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]));
     if d.abs() < 1e-9 {
         return None;
@@ -82,7 +83,7 @@ pub fn through_three(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> Option<Circle> {
 /// RANSAC: the circle through three of `points` that has the most points within `tolerance_px`
 /// (radius limited to `r_range`). Deterministic (seeded sampling). Returns the circle and its
 /// inlier flags.
-pub fn ransac(
+pub(crate) fn ransac(
     points: &[[f64; 2]],
     tolerance_px: f64,
     r_range: (f64, f64),
@@ -124,7 +125,7 @@ pub fn ransac(
 
 /// Geometric least squares: minimises the sum of squared distances of `points` to the circle by
 /// Gauss-Newton from `start`. The covariance is s^2 (J^T J)^-1 with s^2 = RSS / (n - 3).
-pub fn geometric(points: &[[f64; 2]], start: Circle) -> Option<CircleFit> {
+pub(crate) fn geometric(points: &[[f64; 2]], start: Circle) -> Option<CircleFit> {
     let n = points.len();
     if n < 4 {
         return None;
@@ -172,7 +173,7 @@ pub fn geometric(points: &[[f64; 2]], start: Circle) -> Option<CircleFit> {
 /// Robust fit: RANSAC inliers, then the geometric fit repeated with the inlier band re-set to
 /// three robust sigmas of the residuals (at least `min_band_px`) until the inlier set settles.
 /// Returns the fit and the final inlier flags.
-pub fn robust(
+pub(crate) fn robust(
     points: &[[f64; 2]],
     ransac_tolerance_px: f64,
     min_band_px: f64,
@@ -216,7 +217,7 @@ pub fn robust(
 /// 1 + 2 sum of the lag autocorrelations up to the first that is not positive (at least 1).
 /// Independent residuals give about 1; blurred hot spots, which bias runs of neighbouring edge
 /// points together, give more, so the uncertainties are not understated.
-pub fn correlation_inflation(residuals: &[f64]) -> f64 {
+pub(crate) fn correlation_inflation(residuals: &[f64]) -> f64 {
     let n = residuals.len();
     if n < 8 {
         return 1.0;

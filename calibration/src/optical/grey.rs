@@ -109,7 +109,7 @@ impl GreyImage {
 }
 
 /// Median of `v` (reorders it); NaN-free input expected. 0 for an empty slice.
-pub fn median_f32(v: &mut [f32]) -> f32 {
+pub(crate) fn median_f32(v: &mut [f32]) -> f32 {
     if v.is_empty() {
         return 0.0;
     }
@@ -119,7 +119,7 @@ pub fn median_f32(v: &mut [f32]) -> f32 {
 }
 
 /// Median of `v` (reorders it). 0 for an empty slice.
-pub fn median_f64(v: &mut [f64]) -> f64 {
+pub(crate) fn median_f64(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }
@@ -141,7 +141,7 @@ pub struct SizeMismatch {
 
 /// The pixel-wise mean of `frames` (all the same size); saturation marks are OR-ed. `None` for
 /// no frames.
-pub fn average(frames: &[GreyImage]) -> Result<Option<GreyImage>, SizeMismatch> {
+pub(crate) fn average(frames: &[GreyImage]) -> Result<Option<GreyImage>, SizeMismatch> {
     let Some(first) = frames.first() else {
         return Ok(None);
     };

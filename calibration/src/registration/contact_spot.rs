@@ -49,7 +49,7 @@ pub(crate) mod centroid;
 mod difference;
 mod illumination;
 pub(crate) mod outline;
-pub mod spot;
+pub(crate) mod spot;
 
 use binning::{
     bin_centre, bin_frames, crop_bins, noise_between_frames, noise_between_neighbours, Binned,
@@ -65,10 +65,10 @@ use outline::{boundary_centre, MAX_CUT_RAYS};
 use spot::{ContactError, ContactSpot};
 
 /// A bin is part of the pattern when its colour difference exceeds this many noise sigmas.
-pub const THRESHOLD_SIGMAS: f64 = 5.0;
+pub(crate) const THRESHOLD_SIGMAS: f64 = 5.0;
 
 /// Least number of bins above the threshold in the window for a visible contact.
-pub const MIN_SPOT_BINS: usize = 25;
+pub(crate) const MIN_SPOT_BINS: usize = 25;
 
 /// The unloaded sensor, prepared for locating presses: the mean of no-contact frames, binned,
 /// its noise, the relative illumination and the usable crop circle from the optical fit.

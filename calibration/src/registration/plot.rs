@@ -13,7 +13,7 @@ use fringe_plot::{Axis, Chart, Corner, PlotError, Series};
 use image::RgbImage;
 
 /// Plot size, px.
-pub const PLOT_PX: u32 = 720;
+pub(crate) const PLOT_PX: u32 = 720;
 
 /// The largest of 1, 2, 5 x 10^n not above `x` (x > 0).
 fn round_down_125(x: f64) -> f64 {

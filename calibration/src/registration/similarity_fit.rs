@@ -213,7 +213,7 @@ fn noise_var(rss: f64, n: usize, mean_sigma2: f64, floor_px: f64) -> f64 {
 }
 
 /// Fits the stage-to-image similarity to `presses`: both mirror choices, the better kept.
-pub fn fit_similarity(
+pub(crate) fn fit_similarity(
     presses: &[Press],
     settings: &FitSettings,
 ) -> Result<SimilarityFit, FitError> {

@@ -2,13 +2,13 @@
 //! RTU / TCP frames (the stage driver's responses, the emulated stage's requests), the run's
 //! force log, pickles.
 
-use fringe_rig::apt::codec as apt_codec;
-use fringe_rig::apt::stream::{Flow, StreamDecoder};
-use fringe_rig::modbus::codec as modbus_codec;
-use fringe_rig::netft::rdt;
-use fringe_rig::store::force_log;
-use fringe_rig::{clock::HostTime, modbus::RegisterMap};
-use fringe_sim::emulators::modbus_emulator::core::ModbusCore;
+use fringe_rig::apt;
+use fringe_rig::apt::{Flow, StreamDecoder};
+use fringe_rig::modbus;
+use fringe_rig::netft;
+use fringe_rig::store;
+use fringe_rig::{HostTime, RegisterMap};
+use fringe_sim::ModbusCore;
 use fringe_sim::{BenchConfig, SimMotor};
 use std::sync::{Arc, OnceLock};
 
@@ -31,14 +31,14 @@ pub fn apt(data: &[u8]) {
             "the decoder holds more than it was given"
         );
     }
-    let _ = apt_codec::frame_len(data);
-    let _ = apt_codec::decode(data);
+    let _ = apt::frame_len(data);
+    let _ = apt::decode(data);
 }
 
 /// RDT requests and response datagrams; every record of a decoded datagram is read.
 pub fn rdt(data: &[u8]) {
-    let _ = rdt::Request::decode(data);
-    if let Ok(records) = rdt::decode_datagram(data) {
+    let _ = netft::Request::decode(data);
+    if let Ok(records) = netft::decode_datagram(data) {
         for record in records {
             std::hint::black_box(record);
         }
@@ -49,30 +49,30 @@ pub fn rdt(data: &[u8]) {
 /// it sends; requests as the emulator decodes them.
 pub fn modbus(data: &[u8]) {
     let requests = [
-        modbus_codec::Request::ReadHolding {
+        modbus::Request::ReadHolding {
             start: 0x0100,
             count: 4,
         },
-        modbus_codec::Request::WriteSingle {
+        modbus::Request::WriteSingle {
             address: 0x0200,
             value: 1,
         },
-        modbus_codec::Request::WriteMultiple {
+        modbus::Request::WriteMultiple {
             start: 0x0300,
             values: vec![1, 2],
         },
     ];
     let responses = [
-        modbus_codec::parse_rtu(data).ok().and_then(frame_response),
-        modbus_codec::parse_tcp(data).ok().and_then(frame_response),
-        modbus_codec::decode_response_pdu(data).ok(),
+        modbus::parse_rtu(data).ok().and_then(frame_response),
+        modbus::parse_tcp(data).ok().and_then(frame_response),
+        modbus::decode_response_pdu(data).ok(),
     ];
     for response in responses.iter().flatten() {
         for request in &requests {
-            let _ = modbus_codec::match_reply(request, response);
+            let _ = modbus::match_reply(request, response);
         }
     }
-    let _ = fringe_sim::emulators::modbus_emulator::core::decode_request_pdu(data);
+    let _ = fringe_sim::decode_request_pdu(data);
     for map in builtin_maps() {
         let mut core = ModbusCore::new(
             map.clone(),
@@ -96,27 +96,27 @@ fn builtin_maps() -> &'static [RegisterMap] {
     })
 }
 
-fn frame_response<H>(parsed: modbus_codec::Parsed<H>) -> Option<modbus_codec::Response> {
+fn frame_response<H>(parsed: modbus::Parsed<H>) -> Option<modbus::Response> {
     match parsed {
-        modbus_codec::Parsed::Frame { response, .. } => Some(response),
+        modbus::Parsed::Frame { response, .. } => Some(response),
         _ => None,
     }
 }
 
 /// The FGL frame codec, on a stored frame file's bytes.
 pub fn fgl(data: &[u8]) {
-    let _ = fringe_rig::store::frames::fgl::header(data);
-    let _ = fringe_rig::store::frames::fgl::decode(data);
+    let _ = fringe_rig::store::fgl_header(data);
+    let _ = fringe_rig::store::decode_fgl(data);
 }
 
 /// A run's force log (`force.bin`), header and records.
 pub fn force_log(data: &[u8]) {
-    let _ = force_log::check_header(data);
-    let _ = force_log::decode_all(data);
+    let _ = store::check_force_log_header(data);
+    let _ = store::decode_force_log(data);
 }
 
 /// The pickle reader that `torch.save` files go through.
 pub fn pickle(data: &[u8]) {
-    let _ = fringe_sensor_models::weights::pickle::parse(data);
-    let _ = fringe_sensor_models::weights::pickle::parse_prefix(data);
+    let _ = fringe_sensor_models::parse_pickle(data);
+    let _ = fringe_sensor_models::parse_pickle_prefix(data);
 }

@@ -100,7 +100,7 @@ pub fn run_dir(data: &[u8]) {
             }
         }
     }
-    let _ = store::verify::verify(&dir);
-    let _ = store::run_list::list(&root);
+    let _ = store::verify_run(&dir);
+    let _ = store::list_runs(&root);
     let _ = fringe_calibration::ScanRun::read(&dir);
 }

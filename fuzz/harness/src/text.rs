@@ -8,12 +8,12 @@ use std::path::Path;
 use fringe_app::RigConfig;
 use fringe_calibration::Profile;
 use fringe_rig::atical::Calibration;
-use fringe_rig::config_file::parse_toml;
-use fringe_rig::modbus::RegisterMap;
-use fringe_rig::netft::config::parse_http_response;
-use fringe_rig::netft::NetFtConfig;
-use fringe_rig::scan::plan::Plan;
-use fringe_rig::trace::Trace;
+use fringe_rig::netft::parse_http_response;
+use fringe_rig::parse_toml;
+use fringe_rig::NetFtConfig;
+use fringe_rig::Plan;
+use fringe_rig::RegisterMap;
+use fringe_rig::Trace;
 use fringe_sim::SensorConfig;
 
 const ORIGIN: &str = "fuzz";
@@ -80,5 +80,5 @@ pub fn profile(data: &[u8]) {
 pub fn trace(data: &[u8]) {
     let text = text(data);
     let _ = Trace::parse(&text, ORIGIN);
-    let _ = fringe_rig::camera::trace::CameraTrace::parse(&text, Path::new("/nonexistent/fuzz"));
+    let _ = fringe_rig::CameraTrace::parse(&text, Path::new("/nonexistent/fuzz"));
 }

@@ -17,7 +17,7 @@
 //! - `webp cells`: lossless WebP (image-webp's encoder) of the same RGBA cells;
 //! - `tiff planes`: TIFF with deflate and the horizontal predictor on the planes;
 //! - `zstd planes N`: the planes after a left-neighbour difference, zstd level N;
-//! - `fgl mosaic`: fringe's own codec (`fringe_rig::store::frames::fgl`, what runs store since
+//! - `fgl mosaic`: fringe's own codec (`fringe_rig::store::encode_fgl`, what runs store since
 //!   layout 3) on the mosaic as it is;
 //! - for a Mono8 camera, `png mono8 avg` and `fgl mono8`: the same scenes rendered grey, in a
 //!   grey PNG as runs of layout 2 stored them, and in FGL.
@@ -27,12 +27,13 @@
 //! Times are per frame on one thread (wall clock of the encode or decode call, the fastest of
 //! three calls on each frame, median over the frames; the machine otherwise idle).
 
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::store::frames::fgl::{self, Pattern};
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::store;
+use fringe_rig::store::FglPattern as Pattern;
+use fringe_rig::PixelFormat;
+use fringe_rig::{Millimetres, Newtons};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::{Contact, FrameRenderer, Scene};
 use std::io::Cursor;
 use std::time::Instant;
 
@@ -244,11 +245,11 @@ fn unjxl(bytes: &[u8]) -> Vec<u8> {
 }
 
 fn fgl(data: &[u8], w: u32, h: u32, pattern: Pattern) -> Vec<u8> {
-    fgl::encode(data, w, h, pattern).expect("fgl")
+    store::encode_fgl(data, w, h, pattern).expect("fgl")
 }
 
 fn unfgl(bytes: &[u8], _: u32, _: u32) -> Vec<u8> {
-    fgl::decode(bytes).expect("unfgl").pixels
+    store::decode_fgl(bytes).expect("unfgl").pixels
 }
 
 /// The candidates for the mosaic, by name.

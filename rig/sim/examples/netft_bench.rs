@@ -8,10 +8,10 @@
 //! Prints the records sent and received, lost and out-of-order counts and the achieved rate.
 //! Exits non-zero if any record was lost.
 
-use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::{Command, NetFt, NetFtConfig, NetFtOptions};
-use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
+use fringe_rig::ForceSensor;
+use fringe_rig::UdpLink;
+use fringe_rig::{netft::Command, NetFt, NetFtConfig, NetFtOptions};
+use fringe_sim::{SimNetFt, SimOptions};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 

@@ -19,18 +19,18 @@
 //! fsync work is all done.
 //! Exits non-zero if a frame is dropped or a force sample lost.
 
-use fringe_rig::acquire::camera_stream::CameraStream;
-use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::acquire::recorder::{Filming, FrameContext, Recorder};
-use fringe_rig::camera::{CameraSettings, PixelFormat};
-use fringe_rig::scan::engine::recording::{labeler_for, LATCH_PERIOD};
-use fringe_rig::store::documents::{now_utc, Position, StartDocument, LAYOUT_VERSION};
-use fringe_rig::store::frames::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
+use fringe_rig::scan::{labeler_for, LATCH_PERIOD};
+use fringe_rig::store::{now_utc, Position, StartDocument, LAYOUT_VERSION};
+use fringe_rig::store::{FrameCodec, FrameStorage, DISC_MARGIN_PX};
 use fringe_rig::store::{RunFile, RunReader, RunWriter};
-use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::units::Millimetres;
-use fringe_sim::ground_truth::records::{FrameFate, TruthLog, TruthSink};
-use fringe_sim::rig::{SimRig, SimRigConfig};
+use fringe_rig::CameraStream;
+use fringe_rig::ForceStream;
+use fringe_rig::Millimetres;
+use fringe_rig::SyncMethod;
+use fringe_rig::{CameraSettings, PixelFormat};
+use fringe_rig::{Filming, FrameContext, Recorder};
+use fringe_sim::{ground_truth::FrameFate, TruthLog, TruthSink};
+use fringe_sim::{SimRig, SimRigConfig};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};

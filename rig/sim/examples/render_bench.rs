@@ -8,11 +8,11 @@
 //! competing for the cores, unlike the wall clock). Exits non-zero if a mean exceeds 20 ms (a
 //! 50 Hz camera in real time).
 
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::PixelFormat;
+use fringe_rig::{Millimetres, Newtons};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::{Contact, FrameRenderer, Scene};
 use std::time::Instant;
 
 /// User plus system CPU time of this process so far, ms.

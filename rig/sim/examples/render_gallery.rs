@@ -7,10 +7,10 @@
 //! LED hot spots, drift, seed 1, frame 0) of a contact at (4, 3) mm turned by 15 degrees, cropped
 //! to the disc and its LED ring and downscaled to 320x320.
 
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::{Millimetres, Newtons};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::{Contact, FrameRenderer, Scene};
 use image::imageops::FilterType;
 use image::RgbImage;
 

@@ -6,7 +6,8 @@
 //! force blocks arriving 0-JITTER_MS late, 5 ms camera readout, 1 mm presses every 2 s; `trigger`:
 //! the camera triggered by the DAQ's counter, and the `trigger` method scored too).
 
-use fringe_sim::ground_truth::sync_score::{self, SyncBenchConfig};
+use fringe_sim::ground_truth;
+use fringe_sim::ground_truth::SyncBenchConfig;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -36,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         config.press_depth_mm,
         config.press_period_s
     );
-    let report = sync_score::run(&config)?;
+    let report = ground_truth::run_sync_bench(&config)?;
     println!(
         "{} frames delivered while scoring, {} force samples{}",
         report.frames_delivered,

@@ -257,7 +257,7 @@ mod tests {
     use crate::physics::contact::elastic_force;
     use crate::scene::FrameRenderer;
     use crate::test_support::{contact, disc_pixels, grey, quiet, render};
-    use fringe_rig::units::Millimetres;
+    use fringe_rig::Millimetres;
 
     /// The quiet small layered sensor with `ageing` applied, rendered without contact.
     fn aged_frame(base: &SensorConfig, ageing: &Ageing) -> (Renderer, Vec<u8>) {

@@ -23,10 +23,8 @@ use crate::physics::ft_config::{FtMount, FtNoiseConfig};
 use crate::physics::indenter::Shape;
 use crate::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use crate::scene::{Contact, LoadSource, Scene, SceneSource};
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::{
-    Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench,
-};
+use fringe_rig::HostTime;
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 

@@ -24,7 +24,7 @@ use crate::physics::ft_config::{FtMount, FtNoiseConfig};
 use crate::physics::indenter::Shape;
 use crate::scene::{Contact, Scene};
 use fringe_rig::seeded::{mix, SplitMix64};
-use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use fringe_rig::{Millimetres, Newtons, Wrench};
 
 /// The shapes a dataset can draw (sizes from the sensor file's `[indenters]`).
 pub const SHAPES: [&str; 2] = ["pentagon", "rectangle"];

@@ -21,10 +21,10 @@
 
 use crate::emulators::netft_emulator::PowerSwitch;
 use crate::physics::motion::SimMotor;
-use fringe_rig::camera::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
-use fringe_rig::transport::{ByteLink, DatagramLink};
+use fringe_rig::HostTime;
+use fringe_rig::{ByteLink, DatagramLink};
+use fringe_rig::{Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch};
+use fringe_rig::{ForceError, ForceSample, ForceSensor, StreamStats};
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -263,13 +263,13 @@ fn unplugged(what: &str) -> io::Error {
 }
 
 /// A byte link (serial port, in-process pipe) with a fault between driver and device.
-pub struct FaultyLink<L: ByteLink> {
+pub(crate) struct FaultyLink<L: ByteLink> {
     inner: L,
     faults: Faults,
 }
 
 impl<L: ByteLink> FaultyLink<L> {
-    pub fn new(inner: L, faults: Faults) -> FaultyLink<L> {
+    pub(crate) fn new(inner: L, faults: Faults) -> FaultyLink<L> {
         FaultyLink { inner, faults }
     }
 }
@@ -392,13 +392,13 @@ impl<L: DatagramLink> DatagramLink for FaultyDatagrams<L> {
 }
 
 /// A force sensor whose stream can be cut (unplug) or go quiet (silent).
-pub struct FaultyForce {
+pub(crate) struct FaultyForce {
     inner: Box<dyn ForceSensor>,
     faults: Faults,
 }
 
 impl FaultyForce {
-    pub fn new(inner: Box<dyn ForceSensor>, faults: Faults) -> FaultyForce {
+    pub(crate) fn new(inner: Box<dyn ForceSensor>, faults: Faults) -> FaultyForce {
         FaultyForce { inner, faults }
     }
 
@@ -452,7 +452,7 @@ impl ForceSensor for FaultyForce {
 }
 
 /// A camera that can be unplugged, stall, or deliver frames out of order.
-pub struct FaultyCamera {
+pub(crate) struct FaultyCamera {
     inner: Box<dyn Camera>,
     faults: Faults,
     /// Reordering: the frame waiting for the next one to overtake it.
@@ -462,7 +462,7 @@ pub struct FaultyCamera {
 }
 
 impl FaultyCamera {
-    pub fn new(inner: Box<dyn Camera>, faults: Faults) -> FaultyCamera {
+    pub(crate) fn new(inner: Box<dyn Camera>, faults: Faults) -> FaultyCamera {
         FaultyCamera {
             inner,
             faults,

@@ -2,9 +2,9 @@
 //! its contact with the soft layer, the stress it causes through the layer, and the six-axis
 //! force/torque sensor that measures it.
 
-pub mod contact;
+pub(crate) mod contact;
 pub(crate) mod ft_config;
-pub mod ft_sensor;
-pub mod indenter;
-pub mod motion;
+pub(crate) mod ft_sensor;
+pub(crate) mod indenter;
+pub(crate) mod motion;
 pub(crate) mod stress;

@@ -35,23 +35,23 @@ use crate::physics::ft_sensor::SimFtSensor;
 use crate::physics::motion::SimMotor;
 use crate::scene::{LoadSource, SceneSource};
 use crate::session::salted;
-use fringe_rig::apt::config::{AptConfig, Controller};
-use fringe_rig::apt::{Actuator, ThorlabsAxis};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
-use fringe_rig::camera::Camera;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::devices::Devices;
-use fringe_rig::force::ForceSensor;
-use fringe_rig::modbus::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::netft::{NetFt, NetFtOptions};
-use fringe_rig::transport::memory::byte_pair;
-use fringe_rig::units::{Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::byte_pair;
+use fringe_rig::Camera;
+use fringe_rig::ConfigError;
+use fringe_rig::Devices;
+use fringe_rig::ForceSensor;
+use fringe_rig::{apt::Actuator, ThorlabsAxis};
+use fringe_rig::{AptConfig, Controller};
+use fringe_rig::{Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::{Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{NetFt, NetFtOptions};
 use std::net::SocketAddr;
 use std::sync::Arc;
 
 /// The `.cal` file of the simulated Mini40 (a constructed calibration, not a real sensor's).
 /// The simulated camera's trigger input wired to the DAQ's counter output.
-pub const CAMERA_TRIGGER_LINE: &str = "Line1";
+pub(crate) const CAMERA_TRIGGER_LINE: &str = "Line1";
 
 pub const SIM_CAL: &str = include_str!("../sim-data/sim-mini40.cal");
 
@@ -171,14 +171,13 @@ impl SimRigConfig {
         } else {
             &self.bench.x
         };
-        let actuator =
-            Actuator::by_name("ZFS25").unwrap_or(fringe_rig::apt::actuator::ACTUATORS[0]);
+        let actuator = Actuator::by_name("ZFS25").unwrap_or(fringe_rig::apt::ACTUATORS[0]);
         let mut c = AptConfig::new(axis, Controller::Kst101, actuator);
         c.velocity = MillimetresPerSecond(k.velocity_mm_s);
         c.acceleration = MillimetresPerSecondSquared(k.acceleration_mm_s2);
         c.home.velocity = MillimetresPerSecond(k.velocity_mm_s);
         c.soft_limits =
-            fringe_rig::axis::SoftLimits::new(Millimetres(0.0), Millimetres(k.travel_mm)).ok();
+            fringe_rig::SoftLimits::new(Millimetres(0.0), Millimetres(k.travel_mm)).ok();
         c
     }
 }
@@ -362,11 +361,9 @@ impl Wiring<'_> {
         let (modbus, link) =
             ModbusEmulator::spawn_in_process(map.clone(), self.bench.motor_y(), Framing::Rtu)
                 .map_err(|e| device_error("y", e))?;
-        let y_limits = fringe_rig::axis::SoftLimits::new(
-            Millimetres(0.0),
-            Millimetres(config.bench.y.travel_mm),
-        )
-        .ok();
+        let y_limits =
+            fringe_rig::SoftLimits::new(Millimetres(0.0), Millimetres(config.bench.y.travel_mm))
+                .ok();
         let y = ModbusStage::new(
             "y",
             Box::new(FaultyLink::new(link, self.faults_on(FaultDevice::Y))),

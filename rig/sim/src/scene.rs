@@ -8,9 +8,9 @@
 
 use crate::optics::pixel_format;
 use crate::physics::indenter::Shape;
-use fringe_rig::camera::PixelFormat;
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::{Millimetres, Newtons, Wrench};
+use fringe_rig::HostTime;
+use fringe_rig::PixelFormat;
+use fringe_rig::{Millimetres, Newtons, Wrench};
 
 /// An indenter pressing on the sensor, in the sensor frame: millimetres from the sensor disc's
 /// centre, +x and +y along the stage's x and y axes, angle counter-clockwise about the load axis

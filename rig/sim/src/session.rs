@@ -17,7 +17,7 @@ use fringe_rig::seeded::mix;
 const SESSION_STREAM: u64 = 0x5E55_1015;
 
 /// `seed` for session `session`: `seed` itself for session 0, else an independent seed.
-pub fn salted(seed: u64, session: u64) -> u64 {
+pub(crate) fn salted(seed: u64, session: u64) -> u64 {
     if session == 0 {
         seed
     } else {
@@ -28,7 +28,7 @@ pub fn salted(seed: u64, session: u64) -> u64 {
 /// Frames by which session `session` shifts the renderer's slow gain and offset drift: 0 for
 /// session 0, else up to a million frames (the drift's periods are 300-6000 frames, so another
 /// session sees the drift at an unrelated phase).
-pub fn drift_frames(session: u64) -> u64 {
+pub(crate) fn drift_frames(session: u64) -> u64 {
     if session == 0 {
         0
     } else {

@@ -5,7 +5,7 @@ use crate::optics::render::Renderer;
 use crate::optics::sensor::SensorConfig;
 use crate::physics::indenter::Shape;
 use crate::scene::{Contact, FrameRenderer, Scene};
-use fringe_rig::units::{Millimetres, Newtons};
+use fringe_rig::{Millimetres, Newtons};
 
 /// A 320x200 sensor at 3 px/mm (disc radius 90 px = 30 mm), coarse field grid.
 pub(crate) fn small(mut c: SensorConfig) -> SensorConfig {

@@ -1,15 +1,15 @@
 //! The press controller of the scan engine (approach, closed-loop force targets, the ceiling,
 //! cancel) against a simulated z motor pressing a linear spring.
 
-use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::axis::AxisStatus;
-use fringe_rig::axis::{Axis, AxisError, Kinematics, StopMode};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceError, ForceSample, ForceSensor, StreamStats};
-use fringe_rig::scan::press::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_rig::units::{MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
-use fringe_sim::physics::motion::{MotorSpec, SimMotor};
+use fringe_rig::scan::{approach, press_to, retract, ForceGuard, PressError, PressSettings};
+use fringe_rig::AxisStatus;
+use fringe_rig::ForceStream;
+use fringe_rig::HostTime;
+use fringe_rig::{Axis, AxisError, Kinematics, StopMode};
+use fringe_rig::{ForceError, ForceSample, ForceSensor, StreamStats};
+use fringe_rig::{Millimetres, Newtons};
+use fringe_rig::{MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
+use fringe_sim::{MotorSpec, SimMotor};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};

@@ -40,11 +40,11 @@ use std::collections::VecDeque;
 use std::time::Duration;
 
 /// Force samples per run whose lower-hull vertices are kept for the force clock fit.
-pub const HULL_BIN: usize = 250;
+pub(crate) const HULL_BIN: usize = 250;
 
 /// Settings of a [`ClockFitLabeler`].
 #[derive(Debug, Clone, PartialEq)]
-pub struct ClockFitOptions {
+pub(crate) struct ClockFitOptions {
     /// Exposure time set on the camera.
     pub exposure: Microseconds,
     /// Camera device timestamp ticks per second ([`crate::camera::CameraInfo::tick_frequency`]).
@@ -70,7 +70,7 @@ pub struct ClockFitOptions {
 impl ClockFitOptions {
     /// Defaults for a camera with `exposure` and `camera_tick_hz`: 60 s fits redone every 0.5 s,
     /// 3 s wait for latches, 5 ms uncertainty without them.
-    pub fn new(exposure: Microseconds, camera_tick_hz: f64) -> ClockFitOptions {
+    pub(crate) fn new(exposure: Microseconds, camera_tick_hz: f64) -> ClockFitOptions {
         ClockFitOptions {
             exposure,
             camera_tick_hz,
@@ -86,7 +86,7 @@ impl ClockFitOptions {
 
 /// A frame's exposure as the clock fits place it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlacedWindow {
+pub(crate) struct PlacedWindow {
     /// Exposure start and end in the force stream's fractional sample index.
     pub ticks: [f64; 2],
     /// The same on the host time base, ns.
@@ -99,7 +99,7 @@ pub struct PlacedWindow {
 
 /// What [`ClockFitLabeler::place`] found.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Placement {
+pub(crate) enum Placement {
     Window(PlacedWindow),
     /// The fits need more data (or are waiting for latches): ask again later.
     NotYet,
@@ -118,7 +118,7 @@ struct CameraClock {
 }
 
 /// Maps both clocks to host time and averages the force over each frame's exposure window.
-pub struct ClockFitLabeler {
+pub(crate) struct ClockFitLabeler {
     options: ClockFitOptions,
     /// (sample index, six channels), newest last, for the window means.
     samples: VecDeque<(u64, [f64; 6])>,
@@ -175,7 +175,7 @@ fn one_way_on_latch_line(ow: &OneWayFit, lf: &LatchFit, ticks: &[u64], line: f64
 
 impl ClockFitLabeler {
     /// A labeler; `latches` brings timestamp-latch exchanges when the camera offers them.
-    pub fn new(
+    pub(crate) fn new(
         options: ClockFitOptions,
         latches: Option<Receiver<TimestampLatch>>,
     ) -> ClockFitLabeler {
@@ -205,7 +205,7 @@ impl ClockFitLabeler {
     }
 
     /// Feeds one force sample, in stream order.
-    pub fn push_sample(&mut self, s: &ForceSample) {
+    pub(crate) fn push_sample(&mut self, s: &ForceSample) {
         self.samples.push_back((s.device_tick, s.wrench.to_array()));
         if self.samples.len() > self.keep_samples {
             self.samples.pop_front();
@@ -239,7 +239,7 @@ impl ClockFitLabeler {
     }
 
     /// Notes a frame's device timestamp and arrival for the camera clock fit.
-    pub fn observe_frame(&mut self, frame: &Frame) {
+    pub(crate) fn observe_frame(&mut self, frame: &Frame) {
         self.first_frame.get_or_insert(frame.host_arrival);
         if self
             .frames
@@ -419,7 +419,7 @@ impl ClockFitLabeler {
 
     /// Where `frame`'s exposure lies in the force stream and on the host time base, as the
     /// clock fits place it now.
-    pub fn place(&mut self, frame: &Frame) -> Placement {
+    pub(crate) fn place(&mut self, frame: &Frame) -> Placement {
         if self.frames.is_empty() {
             self.observe_frame(frame);
         }
@@ -455,7 +455,7 @@ impl ClockFitLabeler {
     }
 
     /// The label of `frame`.
-    pub fn label(&mut self, frame: &Frame) -> LabelOutcome {
+    pub(crate) fn label(&mut self, frame: &Frame) -> LabelOutcome {
         let placed = match self.place(frame) {
             Placement::Window(w) => w,
             Placement::NotYet => return LabelOutcome::NotYet,
@@ -478,7 +478,7 @@ impl ClockFitLabeler {
     }
 
     /// Index of the newest force sample kept (-inf before the first).
-    pub fn newest_tick(&self) -> f64 {
+    pub(crate) fn newest_tick(&self) -> f64 {
         self.samples
             .back()
             .map_or(f64::NEG_INFINITY, |s| s.0 as f64)
@@ -486,7 +486,11 @@ impl ClockFitLabeler {
 
     /// The six-axis force averaged over the fractional sample indices [`start`, `end`] of the
     /// force stream (interpolated at the edges); `None` while the stream has not passed `end`.
-    pub fn mean_of_window(&self, start: f64, end: f64) -> Option<Result<WindowMean, WindowError>> {
+    pub(crate) fn mean_of_window(
+        &self,
+        start: f64,
+        end: f64,
+    ) -> Option<Result<WindowMean, WindowError>> {
         if self.newest_tick() < end + 1.0 {
             return None;
         }
@@ -509,19 +513,8 @@ impl ClockFitLabeler {
     }
 
     /// The current force clock map (sample index -> host ns), if fitted.
-    pub fn force_map(&self) -> Option<ClockMap> {
+    pub(crate) fn force_map(&self) -> Option<ClockMap> {
         self.force_fit.as_ref().map(|f| f.map)
-    }
-
-    /// The current camera clock map (ticks -> host ns of the event stamped), if fitted, and
-    /// whether latches calibrated it.
-    pub fn camera_map(&self) -> Option<(ClockMap, bool)> {
-        self.camera.map(|c| (c.map, c.calibrated))
-    }
-
-    /// Latches received so far (within the fit window).
-    pub fn latches_used(&self) -> usize {
-        self.latches.len()
     }
 }
 

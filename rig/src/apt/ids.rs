@@ -14,58 +14,58 @@ pub fn bay_address(bay: u8) -> Option<u8> {
 }
 
 /// True for an address a controller may use as its own.
-pub fn is_controller_address(a: u8) -> bool {
+pub(crate) fn is_controller_address(a: u8) -> bool {
     a == RACK || a == USB_UNIT || (0x21..=0x2A).contains(&a)
 }
 
 /// No APT data packet is longer than this.
-pub const MAX_DATA_LEN: usize = 255;
+pub(crate) const MAX_DATA_LEN: usize = 255;
 
 /// Message ids.
-pub mod id {
-    pub const HW_REQ_INFO: u16 = 0x0005;
-    pub const HW_GET_INFO: u16 = 0x0006;
-    pub const HW_START_UPDATEMSGS: u16 = 0x0011;
-    pub const HW_STOP_UPDATEMSGS: u16 = 0x0012;
-    pub const HW_NO_FLASH_PROGRAMMING: u16 = 0x0018;
-    pub const HW_RESPONSE: u16 = 0x0080;
-    pub const HW_RICHRESPONSE: u16 = 0x0081;
-    pub const MOD_SET_CHANENABLESTATE: u16 = 0x0210;
-    pub const MOD_REQ_CHANENABLESTATE: u16 = 0x0211;
-    pub const MOD_GET_CHANENABLESTATE: u16 = 0x0212;
-    pub const MOD_IDENTIFY: u16 = 0x0223;
-    pub const MOT_SET_POSCOUNTER: u16 = 0x0410;
-    pub const MOT_REQ_POSCOUNTER: u16 = 0x0411;
-    pub const MOT_GET_POSCOUNTER: u16 = 0x0412;
-    pub const MOT_SET_VELPARAMS: u16 = 0x0413;
-    pub const MOT_REQ_VELPARAMS: u16 = 0x0414;
-    pub const MOT_GET_VELPARAMS: u16 = 0x0415;
-    pub const MOT_REQ_STATUSBITS: u16 = 0x0429;
-    pub const MOT_GET_STATUSBITS: u16 = 0x042A;
-    pub const MOT_SET_HOMEPARAMS: u16 = 0x0440;
-    pub const MOT_REQ_HOMEPARAMS: u16 = 0x0441;
-    pub const MOT_GET_HOMEPARAMS: u16 = 0x0442;
-    pub const MOT_SET_MOVERELPARAMS: u16 = 0x0445;
-    pub const MOT_REQ_MOVERELPARAMS: u16 = 0x0446;
-    pub const MOT_GET_MOVERELPARAMS: u16 = 0x0447;
-    pub const MOT_MOVE_HOME: u16 = 0x0443;
-    pub const MOT_MOVE_HOMED: u16 = 0x0444;
-    pub const MOT_MOVE_RELATIVE: u16 = 0x0448;
-    pub const MOT_SET_MOVEABSPARAMS: u16 = 0x0450;
-    pub const MOT_REQ_MOVEABSPARAMS: u16 = 0x0451;
-    pub const MOT_GET_MOVEABSPARAMS: u16 = 0x0452;
-    pub const MOT_MOVE_ABSOLUTE: u16 = 0x0453;
-    pub const MOT_MOVE_COMPLETED: u16 = 0x0464;
-    pub const MOT_MOVE_STOP: u16 = 0x0465;
-    pub const MOT_MOVE_STOPPED: u16 = 0x0466;
-    pub const MOT_SUSPEND_ENDOFMOVEMSGS: u16 = 0x046B;
-    pub const MOT_RESUME_ENDOFMOVEMSGS: u16 = 0x046C;
-    pub const MOT_REQ_STATUSUPDATE: u16 = 0x0480;
-    pub const MOT_GET_STATUSUPDATE: u16 = 0x0481;
-    pub const MOT_REQ_USTATUSUPDATE: u16 = 0x0490;
-    pub const MOT_GET_USTATUSUPDATE: u16 = 0x0491;
-    pub const MOT_ACK_USTATUSUPDATE: u16 = 0x0492;
-    pub const MOT_SET_TSTACTUATORTYPE: u16 = 0x04FE;
+pub(crate) mod id {
+    pub(crate) const HW_REQ_INFO: u16 = 0x0005;
+    pub(crate) const HW_GET_INFO: u16 = 0x0006;
+    pub(crate) const HW_START_UPDATEMSGS: u16 = 0x0011;
+    pub(crate) const HW_STOP_UPDATEMSGS: u16 = 0x0012;
+    pub(crate) const HW_NO_FLASH_PROGRAMMING: u16 = 0x0018;
+    pub(crate) const HW_RESPONSE: u16 = 0x0080;
+    pub(crate) const HW_RICHRESPONSE: u16 = 0x0081;
+    pub(crate) const MOD_SET_CHANENABLESTATE: u16 = 0x0210;
+    pub(crate) const MOD_REQ_CHANENABLESTATE: u16 = 0x0211;
+    pub(crate) const MOD_GET_CHANENABLESTATE: u16 = 0x0212;
+    pub(crate) const MOD_IDENTIFY: u16 = 0x0223;
+    pub(crate) const MOT_SET_POSCOUNTER: u16 = 0x0410;
+    pub(crate) const MOT_REQ_POSCOUNTER: u16 = 0x0411;
+    pub(crate) const MOT_GET_POSCOUNTER: u16 = 0x0412;
+    pub(crate) const MOT_SET_VELPARAMS: u16 = 0x0413;
+    pub(crate) const MOT_REQ_VELPARAMS: u16 = 0x0414;
+    pub(crate) const MOT_GET_VELPARAMS: u16 = 0x0415;
+    pub(crate) const MOT_REQ_STATUSBITS: u16 = 0x0429;
+    pub(crate) const MOT_GET_STATUSBITS: u16 = 0x042A;
+    pub(crate) const MOT_SET_HOMEPARAMS: u16 = 0x0440;
+    pub(crate) const MOT_REQ_HOMEPARAMS: u16 = 0x0441;
+    pub(crate) const MOT_GET_HOMEPARAMS: u16 = 0x0442;
+    pub(crate) const MOT_SET_MOVERELPARAMS: u16 = 0x0445;
+    pub(crate) const MOT_REQ_MOVERELPARAMS: u16 = 0x0446;
+    pub(crate) const MOT_GET_MOVERELPARAMS: u16 = 0x0447;
+    pub(crate) const MOT_MOVE_HOME: u16 = 0x0443;
+    pub(crate) const MOT_MOVE_HOMED: u16 = 0x0444;
+    pub(crate) const MOT_MOVE_RELATIVE: u16 = 0x0448;
+    pub(crate) const MOT_SET_MOVEABSPARAMS: u16 = 0x0450;
+    pub(crate) const MOT_REQ_MOVEABSPARAMS: u16 = 0x0451;
+    pub(crate) const MOT_GET_MOVEABSPARAMS: u16 = 0x0452;
+    pub(crate) const MOT_MOVE_ABSOLUTE: u16 = 0x0453;
+    pub(crate) const MOT_MOVE_COMPLETED: u16 = 0x0464;
+    pub(crate) const MOT_MOVE_STOP: u16 = 0x0465;
+    pub(crate) const MOT_MOVE_STOPPED: u16 = 0x0466;
+    pub(crate) const MOT_SUSPEND_ENDOFMOVEMSGS: u16 = 0x046B;
+    pub(crate) const MOT_RESUME_ENDOFMOVEMSGS: u16 = 0x046C;
+    pub(crate) const MOT_REQ_STATUSUPDATE: u16 = 0x0480;
+    pub(crate) const MOT_GET_STATUSUPDATE: u16 = 0x0481;
+    pub(crate) const MOT_REQ_USTATUSUPDATE: u16 = 0x0490;
+    pub(crate) const MOT_GET_USTATUSUPDATE: u16 = 0x0491;
+    pub(crate) const MOT_ACK_USTATUSUPDATE: u16 = 0x0492;
+    pub(crate) const MOT_SET_TSTACTUATORTYPE: u16 = 0x04FE;
 }
 
 /// How a message id is framed.
@@ -133,6 +133,6 @@ pub(super) fn shape(message_id: u16) -> Option<(Shape, &'static str)> {
 }
 
 /// The protocol name of a message id ("MOT_MOVE_COMPLETED"), if this codec knows it.
-pub fn message_name(message_id: u16) -> Option<&'static str> {
+pub(crate) fn message_name(message_id: u16) -> Option<&'static str> {
     shape(message_id).map(|(_, n)| n)
 }

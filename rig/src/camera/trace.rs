@@ -33,9 +33,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// First line of a camera trace index.
-pub const MAGIC: &str = "# fringe-camera-trace 1";
+pub(crate) const MAGIC: &str = "# fringe-camera-trace 1";
 /// File name of the index inside a camera trace directory.
-pub const INDEX: &str = "index.trace";
+pub(crate) const INDEX: &str = "index.trace";
 
 /// Errors reading a camera trace, naming the file and line.
 #[derive(Debug, thiserror::Error)]
@@ -136,7 +136,7 @@ fn num<T: std::str::FromStr>(field: &str, what: &'static str) -> Result<T, Trace
 }
 
 /// A one-line description of settings, for `# configured:` lines.
-pub fn describe_settings(s: &CameraSettings) -> String {
+pub(crate) fn describe_settings(s: &CameraSettings) -> String {
     let roi = match s.roi {
         Some(r) => format!("{}x{}+{}+{}", r.width, r.height, r.x, r.y),
         None => "full".to_string(),

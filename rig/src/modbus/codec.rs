@@ -9,13 +9,13 @@ use std::fmt;
 use std::time::Duration;
 
 /// Most registers one read may ask for (Modbus application protocol, 6.3).
-pub const MAX_READ: u16 = 125;
+pub(crate) const MAX_READ: u16 = 125;
 /// Most registers one write-multiple may carry (6.12).
-pub const MAX_WRITE: u16 = 123;
+pub(crate) const MAX_WRITE: u16 = 123;
 
 /// Bits per RTU character on the wire: start, 8 data, parity (or a second stop bit) and stop.
 /// The Modbus serial line specification (V1.02, 2.5.1) counts 11 whatever the parity.
-pub const RTU_BITS_PER_CHARACTER: u32 = 11;
+pub(crate) const RTU_BITS_PER_CHARACTER: u32 = 11;
 
 /// How long `bytes` characters take on an RTU line at `baud`.
 pub fn rtu_wire_time(baud: u32, bytes: usize) -> Duration {
@@ -204,7 +204,7 @@ pub fn crc16(bytes: &[u8]) -> u16 {
 }
 
 /// The protocol data unit (function code and data) of a request.
-pub fn encode_request_pdu(request: &Request) -> Vec<u8> {
+pub(crate) fn encode_request_pdu(request: &Request) -> Vec<u8> {
     let mut pdu = vec![request.function()];
     match request {
         Request::ReadHolding { start, count } => {
@@ -229,7 +229,8 @@ pub fn encode_request_pdu(request: &Request) -> Vec<u8> {
 }
 
 /// The protocol data unit of a response (used by simulators and tests).
-pub fn encode_response_pdu(response: &Response) -> Vec<u8> {
+#[cfg(test)]
+pub(crate) fn encode_response_pdu(response: &Response) -> Vec<u8> {
     match response {
         Response::ReadHolding(values) => {
             let n = values.len().min(MAX_READ as usize);
@@ -277,12 +278,12 @@ pub fn tcp_frame(header: TcpHeader, pdu: &[u8]) -> Vec<u8> {
 }
 
 /// An RTU request frame.
-pub fn encode_rtu(slave: u8, request: &Request) -> Vec<u8> {
+pub(crate) fn encode_rtu(slave: u8, request: &Request) -> Vec<u8> {
     rtu_frame(slave, &encode_request_pdu(request))
 }
 
 /// A TCP request frame.
-pub fn encode_tcp(header: TcpHeader, request: &Request) -> Vec<u8> {
+pub(crate) fn encode_tcp(header: TcpHeader, request: &Request) -> Vec<u8> {
     tcp_frame(header, &encode_request_pdu(request))
 }
 

@@ -9,7 +9,7 @@ use serde::Deserialize;
 use std::path::Path;
 
 /// The maps built into fringe: name and TOML text.
-pub const BUILTIN_MAPS: &[(&str, &str)] = &[
+pub(crate) const BUILTIN_MAPS: &[(&str, &str)] = &[
     ("oriental-az", include_str!("../../maps/oriental-az.toml")),
     ("leadshine-pr", include_str!("../../maps/leadshine-pr.toml")),
 ];
@@ -25,7 +25,7 @@ pub struct MapError {
 /// A register map value that cannot work; names the key and what is allowed. [`MapError`] adds
 /// the file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum MapCheckError {
+pub(crate) enum MapCheckError {
     #[error("key steps_per_mm = {0} must be a positive number")]
     StepsPerMm(f64),
     #[error("key {key}.words = {words}: allowed values are 1 (16-bit) and 2 (32-bit)")]

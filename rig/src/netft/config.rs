@@ -161,7 +161,7 @@ pub enum HttpError {
 
 /// A plain `http://` URL split into its parts.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct HttpUrl {
+pub(crate) struct HttpUrl {
     pub host: String,
     pub port: u16,
     pub path: String,
@@ -169,7 +169,7 @@ pub struct HttpUrl {
 
 impl HttpUrl {
     /// Parses `http://HOST[:PORT][/PATH]`.
-    pub fn parse(url: &str) -> Result<HttpUrl, HttpError> {
+    pub(crate) fn parse(url: &str) -> Result<HttpUrl, HttpError> {
         let rest = url
             .strip_prefix("http://")
             .ok_or_else(|| HttpError::NotHttp(url.to_string()))?;
@@ -211,7 +211,7 @@ fn parse_port(p: &str, url: &str) -> Result<u16, HttpError> {
 }
 
 /// GETs `url` over HTTP/1.0 with `std::net::TcpStream` and returns the body of a 200 reply.
-pub fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
+pub(crate) fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
     let err = |message: String| ForceError::Config {
         origin: url.to_string(),
         message,

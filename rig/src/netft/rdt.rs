@@ -8,11 +8,11 @@
 /// UDP port the sensor listens on for RDT requests.
 pub const DEFAULT_PORT: u16 = 49152;
 /// The fixed first field of every request.
-pub const HEADER: u16 = 0x1234;
+pub(crate) const HEADER: u16 = 0x1234;
 /// Size of one request.
-pub const REQUEST_LEN: usize = 8;
+pub(crate) const REQUEST_LEN: usize = 8;
 /// Size of one record.
-pub const RECORD_LEN: usize = 36;
+pub(crate) const RECORD_LEN: usize = 36;
 
 /// An RDT command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

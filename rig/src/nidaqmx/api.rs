@@ -86,11 +86,11 @@ pub const VAL_CFG_DEFAULT: c_int = -1;
 pub const VAL_RSE: c_int = 10083;
 pub const VAL_NRSE: c_int = 10078;
 pub const VAL_DIFF: c_int = 10106;
-pub const VAL_PSEUDO_DIFF: c_int = 12529;
+pub(crate) const VAL_PSEUDO_DIFF: c_int = 12529;
 /// `DAQmx_Val_Volts`.
 pub const VAL_VOLTS: c_int = 10348;
 /// `DAQmx_Val_Rising`.
-pub const VAL_RISING: c_int = 10280;
+pub(crate) const VAL_RISING: c_int = 10280;
 /// `DAQmx_Val_ContSamps`.
 pub const VAL_CONT_SAMPS: c_int = 10123;
 /// `DAQmx_Val_GroupByScanNumber` (interleaved: ch0 ch1 .. chN-1, ch0 ...).
@@ -98,18 +98,18 @@ pub const VAL_GROUP_BY_SCAN_NUMBER: c_uint = 1;
 /// `DAQmx_Val_Hz`.
 pub const VAL_HZ: c_int = 10373;
 /// `DAQmx_Val_Low` (a counter output's idle state).
-pub const VAL_LOW: c_int = 10214;
+pub(crate) const VAL_LOW: c_int = 10214;
 /// `DAQmx_Val_Task_Commit` (a `DAQmxTaskControl` action: reserve and program the hardware).
 pub const VAL_TASK_COMMIT: c_int = 3;
 
 /// Status codes the driver acts on (`NIDAQmx.h`; 0 success, negative error, positive warning).
-pub mod status {
+pub(crate) mod status {
     /// `DAQmxErrorSamplesNoLongerAvailable`: the reader fell behind the circular buffer.
     pub const SAMPLES_NO_LONGER_AVAILABLE: i32 = -200279;
     /// `DAQmxErrorSamplesNotYetAvailable`: a read's timeout elapsed (partial data returned).
     pub const SAMPLES_NOT_YET_AVAILABLE: i32 = -200284;
     /// `DAQmxErrorInputFIFOOverflow2`: the device's own memory overflowed.
-    pub const INPUT_FIFO_OVERFLOW: i32 = -200361;
+    pub(crate) const INPUT_FIFO_OVERFLOW: i32 = -200361;
     /// `DAQmxErrorInvalidDeviceID`.
     pub const INVALID_DEVICE_ID: i32 = -200220;
     /// `DAQmxErrorPhysicalChanDoesNotExist`.
@@ -117,19 +117,19 @@ pub mod status {
     /// `DAQmxErrorDevCannotBeAccessed`.
     pub const DEV_CANNOT_BE_ACCESSED: i32 = -201003;
     /// `DAQmxErrorDriverDeviceGUIDNotFound_Routing`.
-    pub const DEVICE_NOT_FOUND_ROUTING: i32 = -88705;
+    pub(crate) const DEVICE_NOT_FOUND_ROUTING: i32 = -88705;
     /// `DAQmxErrorPALTransferAborted`.
-    pub const TRANSFER_ABORTED: i32 = -50405;
+    pub(crate) const TRANSFER_ABORTED: i32 = -50405;
     /// `DAQmxErrorDevAbsentOrUnavailable`.
-    pub const DEV_ABSENT_OR_UNAVAILABLE: i32 = -200324;
+    pub(crate) const DEV_ABSENT_OR_UNAVAILABLE: i32 = -200324;
     /// `DAQmxErrorDeviceRemoved`.
-    pub const DEVICE_REMOVED: i32 = -200045;
+    pub(crate) const DEVICE_REMOVED: i32 = -200045;
     /// `DAQmxErrorPALResourceReserved`: another task holds the device's resources.
     pub const RESOURCE_RESERVED: i32 = -50103;
 
     /// Whether `code` is one of the codes reported for a device that went away (a pulled USB
     /// cable, power lost): which one a USB-6218 returns is not documented, so all count.
-    pub fn device_lost(code: i32) -> bool {
+    pub(crate) fn device_lost(code: i32) -> bool {
         matches!(
             code,
             DEV_CANNOT_BE_ACCESSED
@@ -166,7 +166,7 @@ pub struct Functions {
 }
 
 /// The symbols [`Functions::resolve`] looks up, required ones first.
-pub const REQUIRED_SYMBOLS: [&str; 8] = [
+pub(crate) const REQUIRED_SYMBOLS: [&str; 8] = [
     "DAQmxCreateTask",
     "DAQmxStartTask",
     "DAQmxStopTask",

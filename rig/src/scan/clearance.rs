@@ -11,7 +11,7 @@
 use crate::units::{Millimetres, Newtons};
 
 /// The smallest load threshold: the F/T's noise over a short mean stays well under it.
-pub const MIN_LOAD: Newtons = Newtons(0.1);
+pub(crate) const MIN_LOAD: Newtons = Newtons(0.1);
 
 /// Force samples averaged to tell a load (10 ms at 5 kHz): before and during a lateral move, and
 /// before a tare.

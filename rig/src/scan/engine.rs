@@ -13,7 +13,7 @@ mod indentation;
 mod motions;
 mod no_contact;
 mod points;
-pub mod recording;
+pub(crate) mod recording;
 mod runner;
 
 use self::recording::{append_sidecar, finish_recorder, start_recording, Streams};
@@ -388,9 +388,4 @@ pub fn new_run_id(plan_name: &str) -> String {
         })
         .collect();
     format!("{name}-{}", now_utc().replace([':', '.'], "-"))
-}
-
-/// The runs root used when none is given.
-pub fn default_root() -> &'static Path {
-    Path::new("runs")
 }

@@ -60,7 +60,7 @@ impl ScanError {
 }
 
 /// What the user should do about `e` before resuming the run.
-pub fn advice(e: &ScanError) -> String {
+pub(crate) fn advice(e: &ScanError) -> String {
     match e.cause() {
         ScanError::Axis(a) => axis_advice(a),
         ScanError::Press(PressError::Axis(a)) => axis_advice(a),
@@ -142,7 +142,7 @@ fn store_advice(s: &StoreError) -> String {
 }
 
 /// Whether a store error is a full disk (or quota).
-pub fn is_disk_full(s: &StoreError) -> bool {
+pub(crate) fn is_disk_full(s: &StoreError) -> bool {
     let full = |e: &std::io::Error| matches!(e.raw_os_error(), Some(libc::ENOSPC | libc::EDQUOT));
     match s {
         StoreError::Io { source, .. } => full(source),

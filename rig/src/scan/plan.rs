@@ -42,20 +42,20 @@ use std::path::Path;
 use std::time::Duration;
 
 /// The most indentations one plan may hold (about 5 s each: roughly a week of bench time).
-pub const MAX_POINTS: usize = 100_000;
+pub(crate) const MAX_POINTS: usize = 100_000;
 /// The longest dwell at one target.
-pub const MAX_DWELL: Duration = Duration::from_secs(600);
+pub(crate) const MAX_DWELL: Duration = Duration::from_secs(600);
 /// The most targets pressed at one point.
-pub const MAX_TARGETS: usize = 100;
+pub(crate) const MAX_TARGETS: usize = 100;
 /// The most repetitions of each point.
-pub const MAX_REPETITIONS: u32 = 1000;
+pub(crate) const MAX_REPETITIONS: u32 = 1000;
 /// The smallest first-contact force: below it the F/T noise alone reads as contact.
-pub const MIN_CONTACT_THRESHOLD: Newtons = Newtons(0.02);
+pub(crate) const MIN_CONTACT_THRESHOLD: Newtons = Newtons(0.02);
 /// Ramp rates allowed for force targets (N/s) and depth targets (mm/s).
-pub const FORCE_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.01..=50.0;
-pub const DEPTH_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.001..=5.0;
+pub(crate) const FORCE_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.01..=50.0;
+pub(crate) const DEPTH_RAMP_RATE: std::ops::RangeInclusive<f64> = 0.001..=5.0;
 /// The deepest depth target, mm past first contact.
-pub const MAX_DEPTH: Millimetres = Millimetres(5.0);
+pub(crate) const MAX_DEPTH: Millimetres = Millimetres(5.0);
 
 /// A list of coordinates, as a range or explicitly.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -694,7 +694,7 @@ fn check_points(points: &[[f64; 2]], bench: &BenchLimits) -> Result<(), String> 
 }
 
 /// Time of a trapezoidal move of `distance` with `k` (rest to rest).
-pub fn move_time(distance: f64, k: &Kinematics) -> Duration {
+pub(crate) fn move_time(distance: f64, k: &Kinematics) -> Duration {
     let d = distance.abs();
     let (v, a) = (
         k.velocity.0.abs().max(1e-9),

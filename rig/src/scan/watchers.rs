@@ -47,7 +47,7 @@ impl Default for WatchSettings {
 
 /// Why the watchers stopped the scan.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Alarm {
+pub(crate) enum Alarm {
     Ceiling {
         force: Newtons,
         ceiling: Newtons,
@@ -146,14 +146,14 @@ impl SilenceClock {
 
 /// The pressing force's zero (the tared no-contact Fz, N), shared with the watchers.
 #[derive(Debug, Clone, Default)]
-pub struct SharedTare(Arc<AtomicU64>);
+pub(crate) struct SharedTare(Arc<AtomicU64>);
 
 impl SharedTare {
-    pub fn set(&self, fz: f64) {
+    pub(crate) fn set(&self, fz: f64) {
         self.0.store(fz.to_bits(), Ordering::SeqCst);
     }
 
-    pub fn get(&self) -> f64 {
+    pub(crate) fn get(&self) -> f64 {
         f64::from_bits(self.0.load(Ordering::SeqCst))
     }
 }
@@ -166,7 +166,7 @@ struct Shared {
 }
 
 /// The watcher thread.
-pub struct Watchers {
+pub(crate) struct Watchers {
     shared: Arc<Shared>,
     cancel: Arc<AtomicBool>,
     monitor: ForceMonitor,
@@ -176,11 +176,11 @@ pub struct Watchers {
 }
 
 /// Source of the recorder's counters (dropped frames).
-pub type StatsSource = Box<dyn Fn() -> RecorderStats + Send>;
+pub(crate) type StatsSource = Box<dyn Fn() -> RecorderStats + Send>;
 
 impl Watchers {
     /// Starts watching; `cancel` is the flag every motion loop of the scan checks.
-    pub fn spawn(
+    pub(crate) fn spawn(
         monitor: ForceMonitor,
         recorder: StatsSource,
         control: ScanControl,
@@ -259,7 +259,7 @@ impl Watchers {
     }
 
     /// The alarm that tripped, if any.
-    pub fn alarm(&self) -> Option<Alarm> {
+    pub(crate) fn alarm(&self) -> Option<Alarm> {
         self.shared
             .alarm
             .lock()
@@ -268,7 +268,7 @@ impl Watchers {
     }
 
     /// The force and stream conditions as they are now (None: all clear).
-    pub fn condition(&self) -> Option<Alarm> {
+    pub(crate) fn condition(&self) -> Option<Alarm> {
         condition_of(
             &self.monitor,
             self.tare.get(),
@@ -278,18 +278,18 @@ impl Watchers {
     }
 
     /// Tells the watchers whether frames are being filmed (camera drops count only then).
-    pub fn set_filming(&self, filming: bool) {
+    pub(crate) fn set_filming(&self, filming: bool) {
         self.shared.filming.store(filming, Ordering::SeqCst);
     }
 
     /// Clears the alarm and the cancel flag (after the operator agreed to resume).
-    pub fn reset(&self) {
+    pub(crate) fn reset(&self) {
         *self.shared.alarm.lock().unwrap_or_else(|p| p.into_inner()) = None;
         self.cancel.store(false, Ordering::SeqCst);
     }
 
     /// True when the watcher thread could be started.
-    pub fn running(&self) -> bool {
+    pub(crate) fn running(&self) -> bool {
         self.handle.is_some()
     }
 }

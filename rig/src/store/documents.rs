@@ -218,7 +218,7 @@ pub struct Checkpoint {
 }
 
 /// `t` as an RFC 3339 UTC timestamp with milliseconds ("2026-11-22T03:45:12.345Z").
-pub fn rfc3339_utc(t: SystemTime) -> String {
+pub(crate) fn rfc3339_utc(t: SystemTime) -> String {
     let d = t.duration_since(UNIX_EPOCH).unwrap_or_default();
     let secs = d.as_secs();
     let (days, rem) = (secs / 86_400, secs % 86_400);

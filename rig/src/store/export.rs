@@ -73,7 +73,7 @@ pub struct ExportedRun {
 /// `0.export.json`: the provenance of an export (beside `0.labels.csv`, outside `0.images/`, so
 /// the reference code never sees it).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ExportProvenance {
+pub(crate) struct ExportProvenance {
     pub software: String,
     pub exported_utc: String,
     pub round: Option<f64>,
@@ -81,10 +81,10 @@ pub struct ExportProvenance {
 }
 
 /// File name of the provenance document.
-pub const PROVENANCE: &str = "0.export.json";
+pub(crate) const PROVENANCE: &str = "0.export.json";
 
 /// The labels row of `record` saved as `image` (none without a force label).
-pub fn label_row(image: &str, record: &FrameRecord) -> Option<LabelRow> {
+pub(crate) fn label_row(image: &str, record: &FrameRecord) -> Option<LabelRow> {
     let wrench = record.wrench?.to_array();
     let contact = record.contact.filter(|_| record.shape != NO_CONTACT);
     let shape = match record.contact {
@@ -441,7 +441,7 @@ fn read_frame(
 /// A stored frame as the reference code reads images: RGB (a BayerRG8 mosaic demosaiced by
 /// [`debayer::to_rgb8`], fringe's one demosaicing) or grey, the whole camera frame (a run that
 /// stored only the disc's square has black around it, where nothing was recorded).
-pub fn reference_image(stored: StoredFrame) -> Option<image::DynamicImage> {
+pub(crate) fn reference_image(stored: StoredFrame) -> Option<image::DynamicImage> {
     let (w, h) = (stored.width, stored.height);
     let (channels, pixels) = match stored.format {
         PixelFormat::Mono8 => (1, stored.data),

@@ -10,12 +10,12 @@ use crate::clock::HostTime;
 use crate::force::ForceSample;
 use crate::units::{Volts, Wrench};
 
-pub const MAGIC: &[u8; 8] = b"FRNGFT01";
-pub const HEADER_LEN: usize = 16;
-pub const RECORD_LEN: usize = 80;
+pub(crate) const MAGIC: &[u8; 8] = b"FRNGFT01";
+pub(crate) const HEADER_LEN: usize = 16;
+pub(crate) const RECORD_LEN: usize = 80;
 
 /// The file header.
-pub fn header() -> [u8; HEADER_LEN] {
+pub(crate) fn header() -> [u8; HEADER_LEN] {
     let mut h = [0u8; HEADER_LEN];
     h[..8].copy_from_slice(MAGIC);
     h[8..12].copy_from_slice(&(RECORD_LEN as u32).to_le_bytes());
@@ -49,7 +49,7 @@ pub fn check_header(bytes: &[u8]) -> Result<(), ForceLogError> {
 }
 
 /// Encodes one sample.
-pub fn encode(sample: &ForceSample) -> [u8; RECORD_LEN] {
+pub(crate) fn encode(sample: &ForceSample) -> [u8; RECORD_LEN] {
     let mut r = [0u8; RECORD_LEN];
     r[0..8].copy_from_slice(&sample.device_tick.to_le_bytes());
     r[8..12].copy_from_slice(&sample.transport_seq.unwrap_or(u32::MAX).to_le_bytes());
@@ -76,7 +76,7 @@ fn u32_at(r: &[u8], at: usize) -> u32 {
 }
 
 /// Decodes one record (`r` must be [`RECORD_LEN`] bytes).
-pub fn decode(r: &[u8; RECORD_LEN]) -> ForceSample {
+pub(crate) fn decode(r: &[u8; RECORD_LEN]) -> ForceSample {
     let seq = u32_at(r, 8);
     let wrench: [f64; 6] = std::array::from_fn(|k| f64::from_bits(u64_at(r, 24 + 8 * k)));
     let strobe = f32::from_bits(u32_at(r, 72));

@@ -27,10 +27,10 @@
 //! were, whole frames, with [`Encoding::Png`] (a BayerRG8 mosaic as it is, in a grey PNG):
 //! `StartDocument::frame_storage` says so for them. Image folders are [`read_plain`].
 
-pub mod debayer;
-pub mod error;
-pub mod fgl;
-pub mod png;
+pub(crate) mod debayer;
+pub(crate) mod error;
+pub(crate) mod fgl;
+pub(crate) mod png;
 
 use self::error::FrameFileError;
 use self::fgl::Pattern;
@@ -445,7 +445,7 @@ impl FrameStorage {
 
 /// Width and height of a stored frame file (FGL or an ordinary image), from its header; `None`
 /// when it cannot be read.
-pub fn stored_dimensions(path: &Path) -> Option<(u32, u32)> {
+pub(crate) fn stored_dimensions(path: &Path) -> Option<(u32, u32)> {
     let mut head = [0u8; fgl::HEADER_BYTES];
     let mut file = File::open(path).ok()?;
     if io::Read::read_exact(&mut file, &mut head).is_ok() {
@@ -496,7 +496,7 @@ fn cut(frame: &Frame, roi: Roi) -> Vec<u8> {
 
 /// A `width` x `height` mosaic (both even) as its colour planes side by side:
 /// [R | G of red rows] over [G of blue rows | B].
-pub fn to_planes(mosaic: &[u8], width: u32, height: u32) -> Vec<u8> {
+pub(crate) fn to_planes(mosaic: &[u8], width: u32, height: u32) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
     let (hw, hh) = (w / 2, h / 2);
     let mut out = vec![0; w * h];
@@ -513,7 +513,7 @@ pub fn to_planes(mosaic: &[u8], width: u32, height: u32) -> Vec<u8> {
 }
 
 /// The mosaic back from [`to_planes`].
-pub fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
+pub(crate) fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
     let (w, h) = (width as usize, height as usize);
     let (hw, hh) = (w / 2, h / 2);
     let mut out = vec![0; w * h];

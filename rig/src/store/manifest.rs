@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 /// Every regular file under `dir` except the manifest and the writer's lock, as paths relative
 /// to `dir` with `/`, sorted. A run holding anything that is neither a regular file nor a
 /// directory (a symbolic link, a FIFO: [`strangers`]) is refused: no manifest vouches for it.
-pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
+pub(crate) fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
     let (files, strangers) = walk(dir)?;
     if let Some((rel, why)) = strangers.first() {
         return Err(StoreError::Content {
@@ -25,11 +25,11 @@ pub fn files(dir: &Path) -> Result<Vec<String>, StoreError> {
 
 /// An entry of a run that is neither a regular file nor a directory: its path relative to the
 /// run and what is wrong with it.
-pub type Stranger = (String, &'static str);
+pub(crate) type Stranger = (String, &'static str);
 
 /// Every entry under `dir` (the lock file included) that is neither a regular file nor a
 /// directory: its path relative to `dir` and what is wrong with it.
-pub fn strangers(dir: &Path) -> Result<Vec<Stranger>, StoreError> {
+pub(crate) fn strangers(dir: &Path) -> Result<Vec<Stranger>, StoreError> {
     Ok(walk(dir)?.1)
 }
 
@@ -70,7 +70,7 @@ fn walk(dir: &Path) -> Result<(Vec<String>, Vec<Stranger>), StoreError> {
 }
 
 /// SHA-256 of a file, lower-case hex.
-pub fn sha256_file(path: &Path) -> Result<String, StoreError> {
+pub(crate) fn sha256_file(path: &Path) -> Result<String, StoreError> {
     if let Ok(meta) = std::fs::symlink_metadata(path) {
         if !meta.file_type().is_file() {
             return Err(StoreError::io(
@@ -110,7 +110,7 @@ pub fn write(dir: &Path) -> Result<(), StoreError> {
 }
 
 /// Compares the files with the manifest; returns one message per difference.
-pub fn check(dir: &Path) -> Result<Vec<String>, StoreError> {
+pub(crate) fn check(dir: &Path) -> Result<Vec<String>, StoreError> {
     let path = dir.join(MANIFEST);
     let text = std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?;
     let mut problems = Vec::new();

@@ -20,12 +20,12 @@ use std::time::Duration;
 /// Force samples a second the estimate assumes: the DAQ's 5 kHz (the reference rig and the
 /// simulated bench). A Net F/T streams at the rate set on its box (up to 7 kHz): its log is then
 /// up to 40 % larger, a few percent of a run whose frames are most of it.
-pub const FORCE_RATE_HZ: f64 = 5000.0;
+pub(crate) const FORCE_RATE_HZ: f64 = 5000.0;
 
 /// Bytes of one frame's line in frames.jsonl. Measured: 550 to 560 on a run of the simulated
 /// bench synchronised by strobe (no host exposure window); a record with every field filled at
 /// full precision takes 737; the notes of an invalid frame add a few dozen.
-pub const RECORD_BYTES_PER_FRAME: u64 = 800;
+pub(crate) const RECORD_BYTES_PER_FRAME: u64 = 800;
 
 /// How long a scan records ([`Estimate::recording_time`](crate::scan::plan::Estimate)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,11 +4,12 @@
 //! host time by one of these. The origin keeps the numbers small so that f64 keeps sub-nanosecond
 //! resolution over days of ticks.
 
+#[cfg(test)]
 use crate::clock::HostTime;
 
 /// A linear map from a device's tick counter to host nanoseconds.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ClockMap {
+pub(crate) struct ClockMap {
     /// A device tick near the data the map was fitted on.
     pub tick_origin: u64,
     /// Host time, in ns, of `tick_origin`.
@@ -19,28 +20,30 @@ pub struct ClockMap {
 
 impl ClockMap {
     /// Host time in ns (fractional) of device tick `ticks`.
-    pub fn host_ns(&self, ticks: u64) -> f64 {
+    pub(crate) fn host_ns(&self, ticks: u64) -> f64 {
         self.host_ns_f(ticks as f64)
     }
 
     /// Host time in ns of a fractional device tick (interpolated sample indices).
-    pub fn host_ns_f(&self, ticks: f64) -> f64 {
+    pub(crate) fn host_ns_f(&self, ticks: f64) -> f64 {
         self.host_at_origin_ns + (ticks - self.tick_origin as f64) * self.ns_per_tick
     }
 
     /// Host time of device tick `ticks`, rounded to the nanosecond (clamped at the epoch).
-    pub fn host_time(&self, ticks: u64) -> HostTime {
+    #[cfg(test)]
+    pub(crate) fn host_time(&self, ticks: u64) -> HostTime {
         HostTime(self.host_ns(ticks).round().max(0.0) as u64)
     }
 
     /// The (fractional) device tick at host time `host_ns`.
-    pub fn ticks_at(&self, host_ns: f64) -> f64 {
+    pub(crate) fn ticks_at(&self, host_ns: f64) -> f64 {
         self.tick_origin as f64 + (host_ns - self.host_at_origin_ns) / self.ns_per_tick
     }
 
     /// Drift of the device clock relative to `nominal_ns_per_tick`, in parts per million
     /// (positive: device ticks are longer than nominal, the device clock runs slow).
-    pub fn drift_ppm(&self, nominal_ns_per_tick: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn drift_ppm(&self, nominal_ns_per_tick: f64) -> f64 {
         (self.ns_per_tick / nominal_ns_per_tick - 1.0) * 1e6
     }
 }

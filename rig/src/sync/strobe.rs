@@ -21,7 +21,7 @@ impl StrobeWindow {
 
 /// Finds exposure windows sample by sample, as the stream arrives.
 #[derive(Debug, Clone, PartialEq)]
-pub struct StrobeDetector {
+pub(crate) struct StrobeDetector {
     threshold: f64,
     last: Option<(u64, f64)>,
     rise: Option<f64>,
@@ -31,7 +31,7 @@ pub struct StrobeDetector {
 
 impl StrobeDetector {
     /// A detector switching at `threshold` (volts; half the logic level is a good choice).
-    pub fn new(threshold: f64) -> StrobeDetector {
+    pub(crate) fn new(threshold: f64) -> StrobeDetector {
         StrobeDetector {
             threshold,
             last: None,
@@ -42,7 +42,7 @@ impl StrobeDetector {
 
     /// Feeds the sample at `index` with value `value`; returns a window when one closes. A gap in
     /// `index` (lost samples) abandons a window that was open across it.
-    pub fn push(&mut self, index: u64, value: f64) -> Option<StrobeWindow> {
+    pub(crate) fn push(&mut self, index: u64, value: f64) -> Option<StrobeWindow> {
         let previous = self.last.replace((index, value));
         let high = value >= self.threshold;
         let Some((i0, v0)) = previous else {
@@ -78,7 +78,8 @@ impl StrobeDetector {
 }
 
 /// All complete windows in `values`, the first of which has sample index `first_index`.
-pub fn windows(values: &[f64], first_index: u64, threshold: f64) -> Vec<StrobeWindow> {
+#[cfg(test)]
+pub(crate) fn windows(values: &[f64], first_index: u64, threshold: f64) -> Vec<StrobeWindow> {
     let mut detector = StrobeDetector::new(threshold);
     values
         .iter()

@@ -44,7 +44,7 @@ impl TriggerTiming {
 
 /// Gives each exposure window once the force stream has passed its end.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PulseSchedule {
+pub(crate) struct PulseSchedule {
     timing: TriggerTiming,
     /// The scan pulse 0 of the current acquisition fell on.
     base: u64,
@@ -54,7 +54,7 @@ pub struct PulseSchedule {
 
 impl PulseSchedule {
     /// The schedule of an acquisition whose scan 0 is sample index 0.
-    pub fn new(timing: TriggerTiming) -> PulseSchedule {
+    pub(crate) fn new(timing: TriggerTiming) -> PulseSchedule {
         PulseSchedule {
             timing,
             base: 0,
@@ -64,13 +64,13 @@ impl PulseSchedule {
     }
 
     /// Scans between pulses.
-    pub fn spacing(&self) -> f64 {
+    pub(crate) fn spacing(&self) -> f64 {
         self.timing.scans_per_frame()
     }
 
     /// Feeds the sample at `tick`; returns the windows that ended at or before it. A gap in the
     /// ticks is a restarted acquisition: its pulse 0 is on `tick`.
-    pub fn push(&mut self, tick: u64, out: &mut Vec<StrobeWindow>) {
+    pub(crate) fn push(&mut self, tick: u64, out: &mut Vec<StrobeWindow>) {
         match self.last_tick {
             Some(last) if tick != last + 1 => {
                 self.base = tick;

@@ -18,13 +18,18 @@
 //!
 //! Voltages are stored as their exact bits, so a replay converts them to the same forces.
 
-use super::format::{hex, Direction, LinkKind, Trace, TraceError};
+#[cfg(test)]
+use super::format::{hex, Trace, TraceError};
+use super::format::{Direction, LinkKind};
 use super::record::TraceWriter;
+#[cfg(test)]
 use super::replay::{ReplayDatagramLink, ReplayHandle, ReplayOptions};
 use crate::atical::{GaugeReading, GaugeSource};
 use crate::clock::HostTime;
 use crate::force::ForceError;
+#[cfg(test)]
 use crate::transport::DatagramLink;
+#[cfg(test)]
 use crate::units::Volts;
 use std::io;
 use std::path::Path;
@@ -56,6 +61,7 @@ pub(crate) fn encode_reading(r: &GaugeReading, host_offset: Duration) -> [u8; RE
 }
 
 /// A datagram back as a reading whose host time is `origin` plus the recorded offset.
+#[cfg(test)]
 pub(crate) fn decode_reading(bytes: &[u8], origin: HostTime) -> Result<GaugeReading, String> {
     if bytes.len() != READING_BYTES {
         return Err(format!(
@@ -169,16 +175,18 @@ impl<S: GaugeSource> GaugeSource for RecordingGauges<S> {
 /// A gauge source playing a recorded gauge trace: the readings as recorded (host times shifted
 /// to the replay's start), paced as recorded unless the speed says otherwise; starting and
 /// stopping must come in the recorded order ([`ReplayHandle::finish`] checks).
-pub struct ReplayGauges {
+#[cfg(test)]
+pub(crate) struct ReplayGauges {
     link: ReplayDatagramLink,
     origin: HostTime,
     name: String,
     buffer: Vec<u8>,
 }
 
+#[cfg(test)]
 impl ReplayGauges {
     /// Replays `trace` after checking every reading in it decodes (an error names the line).
-    pub fn new(
+    pub(crate) fn new(
         trace: Trace,
         options: ReplayOptions,
     ) -> Result<(ReplayGauges, ReplayHandle), TraceError> {
@@ -225,7 +233,7 @@ impl ReplayGauges {
     }
 
     /// Loads `path` and replays it.
-    pub fn load(
+    pub(crate) fn load(
         path: &Path,
         options: ReplayOptions,
     ) -> Result<(ReplayGauges, ReplayHandle), TraceError> {
@@ -240,6 +248,7 @@ impl ReplayGauges {
     }
 }
 
+#[cfg(test)]
 impl GaugeSource for ReplayGauges {
     fn describe(&self) -> String {
         self.name.clone()

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// Appends data lines to a trace file.
-pub struct TraceWriter {
+pub(crate) struct TraceWriter {
     out: LineWriter<File>,
     start: Instant,
     path: PathBuf,
@@ -18,7 +18,7 @@ pub struct TraceWriter {
 
 impl TraceWriter {
     /// Creates `path` (and its directory) and writes the header.
-    pub fn create(
+    pub(crate) fn create(
         path: &Path,
         device: &str,
         endpoint: &str,
@@ -38,12 +38,12 @@ impl TraceWriter {
     }
 
     /// Appends one data line stamped with the time since the trace started.
-    pub fn append(&mut self, direction: Direction, bytes: &[u8]) -> io::Result<()> {
+    pub(crate) fn append(&mut self, direction: Direction, bytes: &[u8]) -> io::Result<()> {
         self.append_at(self.start.elapsed(), direction, bytes)
     }
 
     /// Appends one data line with an explicit time since the trace started.
-    pub fn append_at(
+    pub(crate) fn append_at(
         &mut self,
         time: Duration,
         direction: Direction,
@@ -54,7 +54,7 @@ impl TraceWriter {
     }
 
     /// Appends a comment line (`# text`), for readers of the file.
-    pub fn comment(&mut self, text: &str) -> io::Result<()> {
+    pub(crate) fn comment(&mut self, text: &str) -> io::Result<()> {
         for line in text.lines() {
             writeln!(self.out, "# {line}")?;
         }
@@ -62,7 +62,7 @@ impl TraceWriter {
     }
 
     /// The file being written.
-    pub fn path(&self) -> &Path {
+    pub(crate) fn path(&self) -> &Path {
         &self.path
     }
 }
@@ -75,14 +75,14 @@ fn annotate(e: io::Error, path: &Path) -> io::Error {
 }
 
 /// A byte link that records both directions to a trace.
-pub struct RecordingLink<L> {
+pub(crate) struct RecordingLink<L> {
     inner: L,
     writer: TraceWriter,
 }
 
 impl<L: ByteLink> RecordingLink<L> {
     /// Wraps `inner`, recording to `path` under the device name `device`.
-    pub fn new(inner: L, path: &Path, device: &str) -> io::Result<Self> {
+    pub(crate) fn new(inner: L, path: &Path, device: &str) -> io::Result<Self> {
         let writer = TraceWriter::create(path, device, &inner.describe(), LinkKind::Stream)?;
         Ok(RecordingLink { inner, writer })
     }
@@ -112,14 +112,14 @@ impl<L: ByteLink> ByteLink for RecordingLink<L> {
 }
 
 /// A datagram link that records every datagram to a trace.
-pub struct RecordingDatagramLink<L> {
+pub(crate) struct RecordingDatagramLink<L> {
     inner: L,
     writer: TraceWriter,
 }
 
 impl<L: DatagramLink> RecordingDatagramLink<L> {
     /// Wraps `inner`, recording to `path` under the device name `device`.
-    pub fn new(inner: L, path: &Path, device: &str) -> io::Result<Self> {
+    pub(crate) fn new(inner: L, path: &Path, device: &str) -> io::Result<Self> {
         let writer = TraceWriter::create(path, device, &inner.describe(), LinkKind::Datagram)?;
         Ok(RecordingDatagramLink { inner, writer })
     }

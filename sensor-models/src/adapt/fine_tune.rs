@@ -25,9 +25,9 @@ use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 /// The heads fitted on the training presses, the fine-tuning's start, in its directory.
-pub const HEADS: &str = "heads.safetensors";
+pub(crate) const HEADS: &str = "heads.safetensors";
 /// What a finished fine-tuning found, in its directory.
-pub const OUTCOME: &str = "outcome.json";
+pub(crate) const OUTCOME: &str = "outcome.json";
 /// Held-out presses needed to judge a fine-tuning against the heads alone: on fewer, which
 /// wins is chance (measured: on 2 presses of a small commissioning the fine-tuned network won,
 /// then read contact at twice the acceptance's error at other positions).

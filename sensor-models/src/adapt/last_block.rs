@@ -23,7 +23,7 @@ use fringe_rig::seeded::SplitMix64;
 use nalgebra::DMatrix;
 
 /// The last block's convolution in the custom CNN's state dict.
-pub const BLOCK: &str = "cnn.3.block.0";
+pub(crate) const BLOCK: &str = "cnn.3.block.0";
 /// Weight of the other force components (Fx, Fy, moments, Ft) against Fz in the loss.
 const OTHER_FORCE: f64 = 0.1;
 

@@ -19,13 +19,13 @@ use std::sync::Mutex;
 use tract_onnx::pb;
 
 /// The variable naming the ONNX Runtime library (ort's own).
-pub const DYLIB_VAR: &str = "ORT_DYLIB_PATH";
+pub(crate) const DYLIB_VAR: &str = "ORT_DYLIB_PATH";
 
 /// The ONNX Runtime version this backend is built and tested against (the PyPI wheel's).
-pub const ONNXRUNTIME_VERSION: &str = "1.32.0";
+pub(crate) const ONNXRUNTIME_VERSION: &str = "1.32.0";
 
 /// How to install ONNX Runtime and point `ORT_DYLIB_PATH` at it, in two shell lines.
-pub fn install_hint() -> String {
+pub(crate) fn install_hint() -> String {
     format!(
         "pip install onnxruntime=={ONNXRUNTIME_VERSION}, then \
          export {DYLIB_VAR}=$(python -c \"import onnxruntime, pathlib; \

@@ -244,7 +244,7 @@ fn down_then_across(src: &dyn Pixels, w: &Window, plan: &Plan, s: &mut Scratch, 
 mod tests {
     use super::*;
     use crate::preprocess::source::{pixels, Channels, FrameRef};
-    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::PixelFormat;
 
     /// Rows read once and combined down first give the filter's own value at every output pixel:
     /// the sum over both axes' taps of weight x weight x pixel (inside the circle), computed

@@ -6,8 +6,8 @@
 //! the output is at least 2x smaller than the crop: no full-size demosaic is made. Otherwise it
 //! is demosaiced bilinearly, pixel by pixel, as rows are asked for.
 
-use fringe_rig::camera::{Cutout, PixelFormat};
-use fringe_rig::store::frames::debayer;
+use fringe_rig::store;
+use fringe_rig::{Cutout, PixelFormat};
 
 /// A frame's bytes as the camera delivered them.
 #[derive(Debug, Clone, Copy)]
@@ -21,9 +21,9 @@ pub struct FrameRef<'a> {
     pub cutout: Option<Cutout>,
 }
 
-impl<'a> From<&'a fringe_rig::camera::Frame> for FrameRef<'a> {
+impl<'a> From<&'a fringe_rig::Frame> for FrameRef<'a> {
     /// A whole frame as the camera delivered it.
-    fn from(frame: &'a fringe_rig::camera::Frame) -> FrameRef<'a> {
+    fn from(frame: &'a fringe_rig::Frame) -> FrameRef<'a> {
         FrameRef {
             width: frame.width,
             height: frame.height,
@@ -218,7 +218,7 @@ struct BayerFull<'a> {
 impl BayerFull<'_> {
     fn rgb(&self, x: i64, y: i64) -> [f32; 3] {
         let f = self.frame;
-        debayer::rgb_at(f.data, f.width as usize, f.height as usize, x, y)
+        store::rgb_at(f.data, f.width as usize, f.height as usize, x, y)
     }
 }
 

@@ -19,7 +19,7 @@ use crate::torch_net::state::{load_state_dict, state_dict};
 use crate::torch_net::Net;
 use crate::training_set::{Item, TrainingSet, WINDOW_JITTER_MM};
 use crate::weights::state_dict::StateDict;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_plot::palette::{BLUE, ORANGE};
 use fringe_plot::{Axis, Chart, Series};
 use fringe_rig::reference_layout::NO_CONTACT;
@@ -624,7 +624,7 @@ impl<'a> Run<'a> {
     ) -> Result<(), TrainError> {
         if let (Some(init), None) = (&self.config.init, resumed) {
             let what = init.display().to_string();
-            let weights = crate::read_weights(init)?;
+            let weights = crate::weights::format::read_weights(init)?;
             load_state_dict(&self.vs, &weights, &what)?;
             self.record.init = Some(init.clone());
         }

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use std::fmt;
 
 /// Deepest nesting of containers accepted (a state dict needs fewer than 10 levels).
-pub const MAX_DEPTH: u32 = 100;
+pub(crate) const MAX_DEPTH: u32 = 100;
 
 /// Size units (about one per value, one per 8 bytes of text) any pickle may build, plus
 /// [`COST_PER_INPUT_BYTE`] per byte of input.

@@ -19,7 +19,10 @@ pub fn read_safetensors(path: impl AsRef<Path>) -> Result<StateDict, ModelFileEr
 }
 
 /// Reads every tensor of safetensors bytes held in memory (`name` names them in messages).
-pub fn read_safetensors_bytes(bytes: &[u8], name: &str) -> Result<StateDict, ModelFileError> {
+pub(crate) fn read_safetensors_bytes(
+    bytes: &[u8],
+    name: &str,
+) -> Result<StateDict, ModelFileError> {
     state_dict_of(bytes).map_err(|kind| kind.at(Path::new(name)))
 }
 

@@ -83,7 +83,7 @@ impl StateDict {
 }
 
 /// `key` without any leading wrapper prefixes (`module._orig_mod.x` -> `x`).
-pub fn strip_wrappers(mut key: &str) -> &str {
+pub(crate) fn strip_wrappers(mut key: &str) -> &str {
     loop {
         match WRAPPER_PREFIXES.iter().find_map(|p| key.strip_prefix(p)) {
             Some(rest) => key = rest,

@@ -2,9 +2,9 @@
 //! computed on them (`tests/python/model_fixtures.py` writes both).
 #![allow(dead_code)]
 
-use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::backend::Backend;
-use fringe_sensor_models::model::{Model, ModelError};
+use fringe_sensor_models::Architecture;
+use fringe_sensor_models::Backend;
+use fringe_sensor_models::{Model, ModelError};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -22,11 +22,12 @@
 //!
 //! `fringe_fake_nidaqmx_unplug(name, unplugged)` pulls or plugs a device's cable at once.
 
-use fringe_rig::clock::HostTime;
-use fringe_rig::nidaqmx::api::{Functions, TaskHandle};
-use fringe_sim::emulators::daqmx_library::{
-    c_api, DaqSignals, DeviceModel, DeviceTiming, SimDevice,
-};
+use fringe_rig::nidaqmx::{Functions, TaskHandle};
+use fringe_rig::HostTime;
+use fringe_sim::daqmx_device;
+use fringe_sim::install_daqmx_device;
+use fringe_sim::lookup_daqmx_symbol;
+use fringe_sim::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};
 use std::collections::BTreeMap;
 use std::ffi::{c_char, c_double, c_int, c_uint, CStr};
 use std::sync::OnceLock;
@@ -132,7 +133,7 @@ fn install(config: Config) {
                 .collect(),
             start: HostTime(0),
         };
-        c_api::install(SimDevice::new(
+        install_daqmx_device(SimDevice::new(
             &d.name,
             DeviceModel::usb_6218(),
             DeviceTiming {
@@ -159,8 +160,8 @@ fn fns() -> &'static Functions {
             None => Config::default(),
         };
         install(config);
-        // SAFETY: `c_api::lookup` gives functions with NI's signatures, for the program's life.
-        unsafe { Functions::resolve(c_api::lookup) }
+        // SAFETY: `lookup_daqmx_symbol` gives functions with NI's signatures, for the program's life.
+        unsafe { Functions::resolve(lookup_daqmx_symbol) }
             .unwrap_or_else(|missing| panic!("the simulated library lacks {missing}"))
     })
 }
@@ -402,7 +403,7 @@ pub unsafe extern "C" fn fringe_fake_nidaqmx_unplug(
     fns();
     // SAFETY: the caller promises a NUL-terminated string.
     let name = unsafe { CStr::from_ptr(name) }.to_string_lossy();
-    match c_api::device(&name) {
+    match daqmx_device(&name) {
         Some(d) => {
             d.set_unplugged(unplugged != 0);
             0

@@ -31,26 +31,26 @@ use fringe_app::commission::press_choice::{
 };
 use fringe_app::commission::press_errors::round_errors;
 use fringe_app::rig::simulated::sensor_profile;
-use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::camera::{Frame, PixelFormat};
-use fringe_rig::clock::HostTime;
 use fringe_rig::reference_layout::{
     LabelRow, LabelWriter, Shape as LabelShape, IMAGES, LABELS, SIM_DATASET_DOC,
     SIM_DATASET_PROFILE,
 };
-use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::store::frames::png::save_png;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
-use fringe_sensor_models::acceptance::Spec;
+use fringe_rig::store::save_png;
+use fringe_rig::BenchLimits;
+use fringe_rig::HostTime;
+use fringe_rig::{Frame, PixelFormat};
+use fringe_rig::{Kinematics, SoftLimits};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Features};
 use fringe_sensor_models::dataset::{self, Source};
-use fringe_sensor_models::metrics::Errors;
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::weights::state_dict::StateDict;
+use fringe_sensor_models::Errors;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Spec;
+use fringe_sensor_models::StateDict;
 use fringe_sim::dataset::{disc_radius_mm, pressed_frame, shape_named, SHAPES};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::scene::{Contact, FrameRenderer};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::{Contact, FrameRenderer};
 use std::error::Error;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

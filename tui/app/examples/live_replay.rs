@@ -24,14 +24,14 @@
 use fringe_app::session::live_validation::{
     FrameSource, LiveValidation, BACKLOG_FRAMES, THREADS_PER_NETWORK,
 };
-use fringe_rig::camera::Frame;
-use fringe_rig::clock::HostTime;
-use fringe_rig::store::documents::FrameRecord;
-use fringe_rig::store::frames::{in_whole_frame, FrameStorage, StoredFrame};
+use fringe_rig::store::FrameRecord;
 use fringe_rig::store::RunReader;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_rig::store::{in_whole_frame, FrameStorage, StoredFrame};
+use fringe_rig::Frame;
+use fringe_rig::HostTime;
 use fringe_sensor_models::builtin;
-use fringe_sensor_models::predictor::Predictor;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::Predictor;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};

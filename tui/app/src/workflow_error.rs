@@ -55,33 +55,33 @@ macro_rules! failed_from {
 failed_from!(
     std::io::Error,
     serde_json::Error,
-    fringe_rig::config_file::ConfigError,
+    fringe_rig::ConfigError,
     crate::commission::journal::JournalError,
     crate::commission::certificate::CertificateError,
     crate::commission::press_choice::DiscError,
     crate::commission::press_plan::PressPlanError,
     crate::models::choice::ChoiceError,
     crate::models::adapted_card::AdaptedWriteError,
-    fringe_sensor_models::model::ModelError,
-    fringe_sensor_models::acceptance::SpecError,
+    fringe_sensor_models::ModelError,
+    fringe_sensor_models::SpecError,
     fringe_sensor_models::adapt::AdaptError,
     fringe_sensor_models::dataset::DatasetError,
     fringe_sensor_models::eval::EvalError,
     fringe_sensor_models::report::ReportError,
     fringe_sensor_models::ModelFileError,
-    fringe_calibration::profile::ProfileError,
+    fringe_calibration::ProfileError,
     fringe_rig::store::StoreError,
     crate::session::calibration_scan::CalibrationPlanError,
     crate::session::calibration_scan::CalibrationRunError,
     crate::health::check_plan::CheckPlanError,
     crate::health::history::HistoryError,
     fringe_calibration::ScanRunError,
-    fringe_calibration::health::signature::SignatureError,
-    fringe_calibration::health::change::ChangeError,
+    fringe_calibration::health::SignatureError,
+    fringe_calibration::health::ChangeError,
 );
 
 #[cfg(feature = "torch")]
-failed_from!(fringe_sensor_models::adapt::fine_tune::FineTuneError);
+failed_from!(fringe_sensor_models::FineTuneError);
 
 /// A step's description put before an error (as `anyhow::Context` does, with the same text).
 pub(crate) trait Context<T> {

@@ -6,8 +6,8 @@ use fringe_app::session::rig_control::{
     AxisId, BenchCommand, BenchPhase, BenchSession, BenchState,
 };
 use fringe_app::RigConfig;
-use fringe_rig::operator::{Operator, Prompt, Reply};
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
+use fringe_rig::{Operator, Prompt, Reply};
 use std::time::{Duration, Instant};
 
 /// The default simulated bench with small frames (the camera is not under test).

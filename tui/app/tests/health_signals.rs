@@ -9,11 +9,11 @@
 
 use fringe_app::health::figures::{assess, Measured, Thresholds, Verdict};
 use fringe_app::RigConfig;
-use fringe_calibration::health::change::Change;
-use fringe_calibration::health::signature::Signature;
-use fringe_calibration::optical::grey::GreyImage;
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::scene::{FrameRenderer, Scene};
+use fringe_calibration::health::Change;
+use fringe_calibration::health::Signature;
+use fringe_calibration::GreyImage;
+use fringe_sim::Renderer;
+use fringe_sim::{FrameRenderer, Scene};
 use std::path::Path;
 
 /// No-contact frames measured per signature (a check measures up to 24).

@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use fringe_app::models::adapted_card::{adapted_card, write_adapted};
 use fringe_app::models::labelled_data::read_sources;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
 use std::path::PathBuf;
 

@@ -5,10 +5,10 @@ use super::limits::SoftLimitArgs;
 use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::rig::device_open::{open_thorlabs, TraceTo};
-use fringe_rig::apt::config::{AptConfig, Controller, Timeouts};
 use fringe_rig::apt::Actuator;
-use fringe_rig::axis::{Axis, AxisStatus, StopMode};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{apt::Timeouts, AptConfig, Controller};
+use fringe_rig::{Axis, AxisStatus, StopMode};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::time::Duration;
 
 #[derive(clap::Args)]

@@ -16,13 +16,13 @@ use fringe_app::session::calibration_scan::{
     calibrate_run, spot_settings, CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
-use fringe_calibration::from_scan::ScanCalibration;
 use fringe_calibration::offsets::CHANNELS;
-use fringe_calibration::optical::DiscFit;
-use fringe_calibration::profile::profile_path;
-use fringe_rig::scan::engine::{new_run_id, RunTarget};
-use fringe_rig::scan::plan::Plan;
-use fringe_rig::store::documents::ExitStatus;
+use fringe_calibration::profile_path;
+use fringe_calibration::DiscFit;
+use fringe_calibration::ScanCalibration;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::Plan;
+use fringe_rig::{scan::new_run_id, RunTarget};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]

@@ -5,9 +5,9 @@ use anyhow::{bail, Context};
 use fringe_app::bringup::camera::{grab, Boxed};
 use fringe_app::rig::device_open::open_camera;
 use fringe_app::rig::device_spec::CameraSpec;
-use fringe_rig::camera::trace::{RecordingCamera, ReplayCamera, ReplayPace};
-use fringe_rig::camera::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
-use fringe_rig::units::{Decibels, Hertz, Microseconds};
+use fringe_rig::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
+use fringe_rig::{Decibels, Hertz, Microseconds};
+use fringe_rig::{RecordingCamera, ReplayCamera, ReplayPace};
 use std::path::PathBuf;
 use std::time::Duration;
 

@@ -15,9 +15,9 @@ use fringe_app::bringup::interface::Interface;
 use fringe_app::rig::device_open::TraceTo;
 use fringe_app::rig::force::nidaqmx::names::DaqNames;
 use fringe_app::rig::force::nidaqmx::{open_daq, DaqForce, DaqSpec};
-use fringe_rig::force::ForceSensor;
 use fringe_rig::nidaqmx::{DaqSettings, Terminal};
-use fringe_rig::units::{Hertz, Volts};
+use fringe_rig::ForceSensor;
+use fringe_rig::{Hertz, Volts};
 use std::path::PathBuf;
 use std::time::Duration;
 

@@ -8,9 +8,9 @@ use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::session::plans::DEMO;
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::scan::engine::{new_run_id, RunTarget};
-use fringe_rig::scan::plan::{Axis1d, Plan};
-use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::{scan::new_run_id, RunTarget};
+use fringe_rig::{scan::Axis1d, Plan};
 use std::path::PathBuf;
 use std::time::Instant;
 

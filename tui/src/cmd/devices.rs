@@ -2,7 +2,7 @@
 
 use crate::global::Global;
 use anyhow::Context;
-use fringe_rig::transport::serial::list_ports;
+use fringe_rig::list_ports;
 
 #[derive(clap::Args)]
 pub struct DevicesArgs {}
@@ -40,8 +40,7 @@ pub fn run(_args: DevicesArgs, _global: &Global) -> anyhow::Result<()> {
 
 #[cfg(feature = "aravis")]
 fn list_cameras() -> anyhow::Result<()> {
-    let cameras =
-        fringe_rig::camera::aravis::list_cameras().context("cannot list Aravis cameras")?;
+    let cameras = fringe_rig::list_cameras().context("cannot list Aravis cameras")?;
     println!("cameras (Aravis):");
     if cameras.is_empty() {
         println!("  (none found)");

@@ -8,14 +8,14 @@ use clap::Args;
 use fringe_app::models::choice::ForSensor;
 use fringe_app::models::labelled_data::{agreed, read_sources, scale_warnings};
 use fringe_app::models::verdict;
-use fringe_calibration::profile::Profile;
-use fringe_sensor_models::acceptance::judge;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_calibration::Profile;
 use fringe_sensor_models::eval::{evaluate, Evaluation};
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::predictor::Predictor;
+use fringe_sensor_models::judge;
 use fringe_sensor_models::report;
-use fringe_sensor_models::smoothing::Smoothing;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Predictor;
+use fringe_sensor_models::Smoothing;
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]

@@ -14,9 +14,12 @@ use fringe_app::bringup::netft;
 use fringe_app::rig::device_open::TraceTo;
 use fringe_app::rig::force::netft::{open_netft, NetFtScaling, NetFtSpec};
 use fringe_app::rig::host_port::HostPort;
-use fringe_rig::force::ForceSensor;
-use fringe_rig::netft::{Command, NetFt, NetFtConfig, DEFAULT_PORT};
-use fringe_rig::transport::DatagramLink;
+use fringe_rig::DatagramLink;
+use fringe_rig::ForceSensor;
+use fringe_rig::{
+    netft::{Command, DEFAULT_PORT},
+    NetFt, NetFtConfig,
+};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! Soft-limit options shared by every command that moves an axis.
 
-use fringe_rig::axis::SoftLimits;
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
+use fringe_rig::SoftLimits;
 
 /// `--min MM --max MM`: soft limits checked before any move is sent.
 #[derive(clap::Args)]

@@ -4,18 +4,18 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_app::models::choice::{self, ChoiceNote, ForSensor};
-use fringe_calibration::profile::Profile;
-use fringe_rig::store::frames::read_plain;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_calibration::Profile;
+use fringe_rig::store::read_plain;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::eval::frame_ref;
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::model_card::{CardSource, ModelCard};
 use fringe_sensor_models::onnx_graph;
-use fringe_sensor_models::prediction::Prediction;
-use fringe_sensor_models::predictor::Predictor;
-use fringe_sensor_models::preprocess::ReferenceSensor;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Prediction;
+use fringe_sensor_models::Predictor;
+use fringe_sensor_models::ReferenceSensor;
 use fringe_sensor_models::StateDict;
+use fringe_sensor_models::{CardSource, ModelCard};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -300,7 +300,7 @@ fn info(path: &Path) -> Result<()> {
     println!(
         "outputs:       force [Fx Fy Fz Mx My Mz Ft] (magnitudes), shape probabilities, contact x y (mm)"
     );
-    let refines = |m: &fringe_sensor_models::model::Model| {
+    let refines = |m: &fringe_sensor_models::Model| {
         if m.card.as_ref().is_some_and(|c| c.refines_contact) {
             ", and where the press lies from the window's centre"
         } else {

@@ -3,11 +3,11 @@
 use crate::global::Global;
 use crate::signals::{Again, Signal};
 use anyhow::Context;
-use fringe_rig::store::disk_space::human;
-use fringe_rig::store::documents::ExitStatus;
-use fringe_rig::store::run_list::list;
-use fringe_rig::store::run_size::bytes_on_disk;
-use fringe_rig::store::verify::verify;
+use fringe_rig::store::bytes_on_disk;
+use fringe_rig::store::human_bytes as human;
+use fringe_rig::store::list_runs as list;
+use fringe_rig::store::verify_run as verify;
+use fringe_rig::store::ExitStatus;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -134,7 +134,7 @@ pub struct ExportArgs {
 
 pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
     let ExportFormat::Reference = args.format;
-    let options = fringe_rig::store::export::ExportOptions {
+    let options = fringe_rig::store::ExportOptions {
         round: args.round,
         allow_unverified: args.allow_unverified,
         // Ctrl-C, SIGTERM or a hang-up stop the export and remove what it wrote.
@@ -146,17 +146,16 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
     // On a terminal the count is rewritten in place; otherwise one line per report.
     let terminal = std::io::stderr().is_terminal();
     let mut in_place = false;
-    let summary =
-        fringe_rig::store::export::export_reference(&args.runs, &args.out, &options, |k| {
-            if k % 250 == 0 {
-                if terminal {
-                    eprint!("\r{k} images");
-                    in_place = true;
-                } else {
-                    eprintln!("{k} images");
-                }
+    let summary = fringe_rig::store::export_reference(&args.runs, &args.out, &options, |k| {
+        if k % 250 == 0 {
+            if terminal {
+                eprint!("\r{k} images");
+                in_place = true;
+            } else {
+                eprintln!("{k} images");
             }
-        });
+        }
+    });
     if in_place {
         eprintln!();
     }

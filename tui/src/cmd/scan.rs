@@ -10,12 +10,15 @@ use anyhow::bail;
 use fringe_app::session::disk_space::{Recording, RoomForecast};
 use fringe_app::session::plans::{scan_plan, SHORT_GRID};
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
-use fringe_rig::operator::{Operator, Prompt, Reply};
-use fringe_rig::scan::control::{Request, ScanControl, ScanProgress, Status};
-use fringe_rig::scan::engine::{new_run_id, RunTarget};
-use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
-use fringe_rig::store::disk_space::human;
-use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::human_bytes as human;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::{scan::new_run_id, RunTarget};
+use fringe_rig::{scan::Targets, BenchLimits, Plan, ScanProgram};
+use fringe_rig::{
+    scan::{Request, ScanProgress, Status},
+    ScanControl,
+};
+use fringe_rig::{Operator, Prompt, Reply};
 use std::io::{BufRead, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -1,11 +1,11 @@
 //! `fringe sim render`: one simulated sensor frame as a PNG.
 
 use anyhow::{bail, Context};
-use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::physics::indenter::Shape;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_rig::{Millimetres, Newtons};
+use fringe_sim::Renderer;
+use fringe_sim::SensorConfig;
+use fringe_sim::Shape;
+use fringe_sim::{Contact, FrameRenderer, Scene};
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]

@@ -4,7 +4,7 @@
 
 use super::sim_render::load_sensor;
 use anyhow::Context;
-use fringe_sim::rig::{SimRigConfig, SimServe};
+use fringe_sim::{SimRigConfig, SimServe};
 use std::io::Write;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};

@@ -7,9 +7,9 @@ use crate::global::Global;
 use fringe_app::commission::host::{Host, ScanEnded};
 use fringe_app::workflow_error::BoxError;
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::ScanProgram;
-use fringe_rig::store::documents::ExitStatus;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::RunTarget;
+use fringe_rig::ScanProgram;
 
 /// The terminal's side of a commissioning or a health check: scans run as `fringe scan` runs
 /// them (Ctrl-C closes a run resumable, prompts on the terminal unless `--yes`), lines on

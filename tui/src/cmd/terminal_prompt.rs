@@ -2,7 +2,7 @@
 //! stage moved by hand (`fringe ystage --manual`, a rig file's `y.driver = "manual"`) asks
 //! through it; the scan's own prompts go through `scan::TerminalOperator`.
 
-use fringe_rig::operator::{Operator, Prompt, Reply};
+use fringe_rig::{Operator, Prompt, Reply};
 use std::io::{self, BufRead, Write};
 
 /// A prompt on a terminal: writes the question, reads one line.

@@ -4,9 +4,9 @@
 
 use anyhow::Result;
 use clap::Args;
-use fringe_sensor_models::augment::Pipeline;
-use fringe_sensor_models::lr_schedule::Schedule;
 use fringe_sensor_models::Architecture;
+use fringe_sensor_models::Pipeline;
+use fringe_sensor_models::Schedule;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -78,9 +78,9 @@ mod with_torch {
     use super::*;
     use crate::signals::{self, Again, Signal};
     use anyhow::{bail, Context};
-    use fringe_calibration::profile::Profile;
+    use fringe_calibration::Profile;
     use fringe_sensor_models::dataset;
-    use fringe_sensor_models::train::{train, Outcome, TrainConfig, TrainEvent};
+    use fringe_sensor_models::{train, TrainConfig, TrainEvent, TrainOutcome as Outcome};
     use std::io::{IsTerminal, Write};
     use std::time::Instant;
 
@@ -109,7 +109,7 @@ mod with_torch {
             bail!("--threads {}: use 1 to 256", a.threads);
         }
         if let Some(w) = a.force_window {
-            let range = fringe_sensor_models::contact_window::FORCE_WINDOW_MM;
+            let range = fringe_sensor_models::FORCE_WINDOW_MM;
             if !range.contains(&w) {
                 bail!(
                     "--force-window {w}: use a window of {} to {} mm (24 mm holds a press of the 8 N range)",

@@ -13,9 +13,9 @@ use fringe_app::models::choice::ForSensor;
 use fringe_app::session::live_validation::{LiveValidation, Validation};
 use fringe_app::session::plans::SHORT_GRID;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
-use fringe_rig::scan::engine::{new_run_id, RunTarget};
-use fringe_rig::scan::plan::Plan;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_rig::Plan;
+use fringe_rig::{scan::new_run_id, RunTarget};
+use fringe_sensor_models::BackendKind;
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -84,7 +84,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     if !global.no_tui && std::io::stdout().is_terminal() {
         return run_ui(&a, &model.path, config, &source, text, origin);
     }
-    let backend = fringe_sensor_models::predictor::Predictor::new(
+    let backend = fringe_sensor_models::Predictor::new(
         &model,
         a.backend,
         crate::cmd::arg_values::cap_threads(a.threads),

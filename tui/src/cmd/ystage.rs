@@ -8,9 +8,9 @@ use anyhow::{bail, Context};
 use fringe_app::rig::device_open::{open_axis, TraceTo};
 use fringe_app::rig::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
 use fringe_app::rig::host_port::HostPort;
-use fringe_rig::apt::config::{AptConfig, Controller};
 use fringe_rig::apt::Actuator;
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
+use fringe_rig::{AptConfig, Controller};
 use std::time::Duration;
 
 const DEFAULT_MAP: &str = "oriental-az";
@@ -180,7 +180,7 @@ mod tests {
     use clap::Parser;
     use fringe_app::rig::device_open::open_modbus;
     use fringe_app::RigConfig;
-    use fringe_rig::axis::Axis;
+    use fringe_rig::Axis;
 
     #[derive(Parser)]
     struct Cli {

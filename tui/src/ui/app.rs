@@ -12,12 +12,12 @@ use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
 use fringe_app::session::disk_space::Recording;
 use fringe_app::session::rig_control::{BenchCommand, BenchPhase, BenchSession};
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::operator::Reply;
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
-use fringe_rig::store::documents::ExitStatus;
-use fringe_rig::store::run_list::list;
-use fringe_rig::store::run_size::bytes_on_disk;
+use fringe_rig::store::bytes_on_disk;
+use fringe_rig::store::list_runs as list;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::Reply;
+use fringe_rig::RunTarget;
+use fringe_rig::{BenchLimits, ScanProgram};
 use std::path::{Path, PathBuf};
 
 /// How the UI starts.

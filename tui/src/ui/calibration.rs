@@ -4,7 +4,7 @@
 use super::state::{CalibrateView, CalibrationPhase, PressRow};
 use fringe_app::session::calibration_scan::{CalibrationGrid, CalibrationResult};
 use fringe_app::RigConfig;
-use fringe_rig::scan::plan::{Plan, ScanProgram};
+use fringe_rig::{Plan, ScanProgram};
 
 /// Side of the fitted-frame picture, px.
 pub const PICTURE_PX: u32 = 160;
@@ -28,7 +28,7 @@ pub fn ready_view(config: &RigConfig) -> CalibrateView {
         }
         Err(e) => ("?".into(), format!("no calibration plan: {e:#}")),
     };
-    let profile = fringe_calibration::profile::profile_path(&config.profile_dir(), &sensor)
+    let profile = fringe_calibration::profile_path(&config.profile_dir(), &sensor)
         .map(|p| p.display().to_string())
         .unwrap_or_else(|e| e.to_string());
     CalibrateView {

@@ -11,7 +11,7 @@ use super::view;
 use super::worker_panics;
 use crate::signals::{self, Again, Signal};
 use crossbeam_channel::{Receiver, RecvTimeoutError};
-use fringe_rig::scan::plan::Plan;
+use fringe_rig::Plan;
 use ratatui::crossterm::event::{self, Event as TermEvent, KeyEventKind};
 use ratatui::DefaultTerminal;
 use std::io::Write;

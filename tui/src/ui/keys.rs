@@ -7,7 +7,7 @@ use super::app::App;
 use super::binding::{self, char, code, ctrl, Binding, HelpRow, Scope};
 use super::screen::Screen;
 use super::screens;
-use fringe_rig::operator::Reply;
+use fringe_rig::Reply;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 
 #[derive(Debug, Clone, Copy, PartialEq)]

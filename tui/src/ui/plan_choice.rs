@@ -4,7 +4,7 @@
 
 use super::state::{Phase, PlanPoint, ScanView};
 use fringe_app::session::disk_space::Recording;
-use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram, Targets};
+use fringe_rig::{scan::Targets, BenchLimits, Plan, ScanProgram};
 use std::collections::VecDeque;
 use std::path::Path;
 

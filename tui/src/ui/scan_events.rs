@@ -4,8 +4,8 @@
 use super::session::Event;
 use super::state::{Dialog, Phase, ScanView, UiState};
 use fringe_app::Note;
-use fringe_rig::operator::Prompt;
-use fringe_rig::scan::control::ScanProgress;
+use fringe_rig::scan::ScanProgress;
+use fringe_rig::Prompt;
 use std::path::PathBuf;
 
 /// How a scan ended, for the screens that wait on it (the calibration fits its run).

@@ -9,12 +9,12 @@ use fringe_app::session::live_validation::LiveValidation;
 use fringe_app::session::live_view::LiveView;
 use fringe_app::session::worker_failure::guarded;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
-use fringe_rig::operator::{Operator, Prompt, Reply};
-use fringe_rig::scan::control::{ScanControl, ScanProgress};
-use fringe_rig::scan::engine::{new_run_id, RunTarget};
-use fringe_rig::scan::plan::ScanProgram;
-use fringe_rig::store::documents::ExitStatus;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::ScanProgram;
+use fringe_rig::{scan::new_run_id, RunTarget};
+use fringe_rig::{scan::ScanProgress, ScanControl};
+use fringe_rig::{Operator, Prompt, Reply};
+use fringe_sensor_models::BackendKind;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -81,7 +81,7 @@ pub fn evaluate_run(
     let model = fringe_sensor_models::builtin::open(&choice.path).map_err(|e| e.to_string())?;
     let source = fringe_sensor_models::dataset::read(dir).map_err(|e| e.to_string())?;
     let mut predictor =
-        fringe_sensor_models::predictor::Predictor::new(&model, choice.backend, choice.threads)
+        fringe_sensor_models::Predictor::new(&model, choice.backend, choice.threads)
             .map_err(|e| e.to_string())?;
     let eval = fringe_sensor_models::eval::evaluate(
         &model,
@@ -258,7 +258,7 @@ fn attach_model(
     if let Some(w) = model.missing_card_warning() {
         let _ = events.send(Event::Note(Note::Warning(w)));
     }
-    let predictor = fringe_sensor_models::predictor::Predictor::new(&model, m.backend, m.threads)
+    let predictor = fringe_sensor_models::Predictor::new(&model, m.backend, m.threads)
         .map_err(|e| e.to_string())?;
     let (v, notes) = session
         .attach_validation(model, predictor, run_id)

@@ -4,7 +4,7 @@
 //! polls a manual stage. A typed reading, which only the command line takes, is refused with what
 //! to use instead.
 
-use fringe_rig::operator::{Operator, Prompt, Reply};
+use fringe_rig::{Operator, Prompt, Reply};
 use std::io;
 
 /// Answers a manual stage's questions under the UI.

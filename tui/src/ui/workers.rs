@@ -20,7 +20,7 @@ pub type Verdict = (String, String);
 /// Verifies the run `dir` (named `name`); the verdict is sent on `tx`.
 pub fn verify(name: String, dir: PathBuf, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
-        let verdict = guarded("verify", || match fringe_rig::store::verify::verify(&dir) {
+        let verdict = guarded("verify", || match fringe_rig::store::verify_run(&dir) {
             Ok(r) if r.ok() => {
                 format!("ok: {} frames, {} force samples", r.frames, r.force_samples)
             }
@@ -45,9 +45,9 @@ pub fn export_dir(runs: &Path, name: &str) -> PathBuf {
 /// export` does) to `out`: progress, then where it went, are sent on `tx`.
 pub fn export(name: String, dir: PathBuf, out: PathBuf, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
-        let options = fringe_rig::store::export::ExportOptions::default();
+        let options = fringe_rig::store::ExportOptions::default();
         let outcome = guarded("export", || {
-            fringe_rig::store::export::export_reference(&[dir], &out, &options, |k| {
+            fringe_rig::store::export_reference(&[dir], &out, &options, |k| {
                 if k % 250 == 0 {
                     let _ = tx.send((name.clone(), format!("exporting: {k} images")));
                 }

@@ -1,10 +1,10 @@
 //! Helpers shared by the command-line tests (one set for every test file of this crate).
 #![allow(dead_code)] // each test binary uses its own subset
 
-use fringe_sensor_models::weights::format::read_weights;
-use fringe_sensor_models::weights::safetensors_file::write_safetensors;
-use fringe_sensor_models::weights::state_dict::StateDict;
-use fringe_sensor_models::weights::tensor::Tensor;
+use fringe_sensor_models::read_weights;
+use fringe_sensor_models::write_safetensors;
+use fringe_sensor_models::StateDict;
+use fringe_sensor_models::Tensor;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output};
@@ -170,15 +170,15 @@ impl<'a> TestRun<'a> {
 
     /// Writes the run under `root`; returns its directory.
     pub fn write(&self, root: &Path) -> PathBuf {
-        use fringe_rig::camera::{Frame, PixelFormat};
-        use fringe_rig::clock::HostTime;
-        use fringe_rig::store::documents::{
+        use fringe_rig::store::RunWriter;
+        use fringe_rig::store::{
             now_utc, ExitStatus, FrameRecord, Position, StartDocument, StopDocument,
         };
-        use fringe_rig::store::run_writer::RunWriter;
-        use fringe_rig::units::{Millimetres, Newtons, Wrench};
+        use fringe_rig::HostTime;
+        use fringe_rig::{Frame, PixelFormat};
+        use fringe_rig::{Millimetres, Newtons, Wrench};
         let start = StartDocument {
-            layout_version: fringe_rig::store::documents::LAYOUT_VERSION,
+            layout_version: fringe_rig::store::LAYOUT_VERSION,
             run_id: self.id.into(),
             started_utc: now_utc(),
             software: "test".into(),
@@ -190,8 +190,7 @@ impl<'a> TestRun<'a> {
             seed: None,
             sync_method: self.sync.into(),
             frames: Some(
-                fringe_rig::store::frames::FrameStorage::new(PixelFormat::Mono8, None)
-                    .expect("storage"),
+                fringe_rig::store::FrameStorage::new(PixelFormat::Mono8, None).expect("storage"),
             ),
         };
         let mut w = RunWriter::create(root, &start).expect("create");

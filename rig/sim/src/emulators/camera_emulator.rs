@@ -32,9 +32,9 @@
 //!   [`Camera`] trait.
 //! - `frame`: a rendered sensor image turned into the delivered frame (ROI, gain, pixel format).
 //!
-//! [`Camera`]: fringe_rig::camera::Camera
-//! [`Camera::trigger`]: fringe_rig::camera::Camera::trigger
-//! [`Camera::latch_timestamp`]: fringe_rig::camera::Camera::latch_timestamp
+//! [`Camera`]: fringe_rig::Camera
+//! [`Camera::trigger`]: fringe_rig::Camera::trigger
+//! [`Camera::latch_timestamp`]: fringe_rig::Camera::latch_timestamp
 //! [`SceneSource::scene_at`]: crate::scene::SceneSource::scene_at
 //! [`FrameRenderer::render_as`]: crate::scene::FrameRenderer::render_as
 
@@ -42,5 +42,6 @@ pub(crate) mod camera;
 mod frame;
 pub(crate) mod timing;
 
-pub use self::camera::{SimCamera, SimCameraConfig, SimCameraStats, FRAME_MEMORY};
-pub use self::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};
+pub use self::camera::{SimCamera, SimCameraConfig, FRAME_MEMORY};
+pub use self::timing::ExposureSchedule;
+pub(crate) use self::timing::{ExposureWindow, TriggerInput};

@@ -22,10 +22,10 @@ use crate::emulators::daqmx_library::{c_api, DaqSignals, DeviceModel, DeviceTimi
 use crate::ground_truth::records::{TruthRecord, TruthSink};
 use crate::scene::ForceReading;
 use fringe_rig::atical::{Calibration, GaugeReading, GaugeSource};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceError;
 use fringe_rig::nidaqmx::{CameraTrigger, DaqSettings, Library, NiDaq, Terminal};
-use fringe_rig::units::{Hertz, Volts, Wrench};
+use fringe_rig::ForceError;
+use fringe_rig::HostTime;
+use fringe_rig::{Hertz, Volts, Wrench};
 use nalgebra::{Matrix6, Vector6};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};

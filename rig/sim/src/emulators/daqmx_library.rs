@@ -13,9 +13,9 @@
 //! ([`crate::emulators::daq_emulator`]); the tests' fake `libnidaqmx.so` (`tests/fake-nidaqmx`) exports the
 //! same functions from a shared object.
 
-pub mod c_api;
+pub(crate) mod c_api;
 pub(crate) mod device;
 mod task;
 pub(crate) mod texts;
 
-pub use device::{DaqSignals, DeviceModel, DeviceTiming, PulseTrain, SimDevice};
+pub use device::{DaqSignals, DeviceModel, DeviceTiming, SimDevice};

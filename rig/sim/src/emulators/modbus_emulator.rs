@@ -1,6 +1,6 @@
 //! An emulated Modbus y stage: a drive described by a [`RegisterMap`] (the shipped `oriental-az`
 //! and `leadshine-pr` maps, or any other) moving a [`SimMotor`], served over Modbus TCP, Modbus RTU
-//! on a pseudo-terminal, or an in-process byte pipe, so the real [`fringe_rig::modbus::ModbusStage`]
+//! on a pseudo-terminal, or an in-process byte pipe, so the real [`fringe_rig::ModbusStage`]
 //! driver and third-party clients (pymodbus) run against it unchanged.
 //!
 //! [`ModbusCore`] is sans-io: a request PDU goes in, the response PDU comes out. It answers read
@@ -28,14 +28,9 @@
 //! own reply, as a drive on RS-485 does; a driver must keep the silent interval. Modbus TCP
 //! answers as soon as the request is in (no drive documents a response time there).
 
-pub mod core;
+pub(crate) mod core;
 pub(crate) mod framing;
 pub(crate) mod line_timing;
 pub(crate) mod server;
 
-pub use self::core::{
-    decode_request_pdu, ModbusCore, ServerRequest, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE,
-    ILLEGAL_FUNCTION,
-};
-pub use self::line_timing::RtuTiming;
 pub use self::server::ModbusEmulator;

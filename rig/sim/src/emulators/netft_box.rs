@@ -5,15 +5,15 @@
 
 pub use crate::emulators::netft_emulator::SimHttp;
 use crate::emulators::netft_emulator::{NetFtEmulator, NetFtEmulatorConfig};
-use fringe_rig::clock::HostTime;
-use fringe_rig::netft::rdt::Request;
-use fringe_rig::units::Wrench;
+use fringe_rig::netft::Request;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
 use std::io;
 use std::net::SocketAddr;
 use std::sync::Arc;
 
 /// Counts (Fx..Tz) for a given internal sample number.
-pub type CountsFn = Arc<dyn Fn(u32) -> [i32; 6] + Send + Sync>;
+pub(crate) type CountsFn = Arc<dyn Fn(u32) -> [i32; 6] + Send + Sync>;
 
 /// How the simulated sensor behaves.
 #[derive(Clone)]

@@ -1,5 +1,5 @@
 //! An emulated ATI Net F/T box: RDT over UDP (or an in-process datagram pipe) and its
-//! `netftapi2.xml` configuration page over HTTP, close enough that the real [`fringe_rig::netft::NetFt`]
+//! `netftapi2.xml` configuration page over HTTP, close enough that the real [`fringe_rig::NetFt`]
 //! driver and third-party clients (pynetft) cannot tell it from the box.
 //!
 //! [`NetFtCore`] is the sans-io box: RDT requests go in, datagrams that are due at a host time come

@@ -4,7 +4,7 @@
 
 use crate::ground_truth::records::FrameTruth;
 use fringe_rig::reference_layout::in_contact;
-use fringe_rig::store::documents::FrameRecord;
+use fringe_rig::store::FrameRecord;
 use std::collections::HashMap;
 
 /// How well the labels of a run match the truth.

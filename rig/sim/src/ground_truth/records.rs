@@ -23,10 +23,13 @@
 //! - `ft_bias`: `t_ns`, `power_cycle`, `fx_n`..`tz_nm` (power-up bias in effect).
 
 use crate::bench::{Bench, BenchTruth};
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
+#[cfg(test)]
 use std::fs::{File, OpenOptions};
-use std::io::{self, BufWriter, Write};
+use std::io;
+#[cfg(test)]
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -294,16 +297,18 @@ pub enum TruthError {
 }
 
 /// Ground truth appended to a JSON-lines file, flushed per record.
-pub struct TruthWriter {
+#[cfg(test)]
+pub(crate) struct TruthWriter {
     path: PathBuf,
     out: Mutex<BufWriter<File>>,
     /// The first write error, kept because [`TruthSink::record`] cannot return it.
     error: Mutex<Option<String>>,
 }
 
+#[cfg(test)]
 impl TruthWriter {
     /// Opens (creates or appends to) `path`.
-    pub fn create(path: &Path) -> Result<Arc<TruthWriter>, TruthError> {
+    pub(crate) fn create(path: &Path) -> Result<Arc<TruthWriter>, TruthError> {
         let file = OpenOptions::new()
             .create(true)
             .append(true)
@@ -319,16 +324,13 @@ impl TruthWriter {
         }))
     }
 
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The first error met while writing, if any (e.g. disk full).
-    pub fn error(&self) -> Option<String> {
+    pub(crate) fn error(&self) -> Option<String> {
         self.error.lock().unwrap_or_else(|e| e.into_inner()).clone()
     }
 }
 
+#[cfg(test)]
 impl TruthSink for TruthWriter {
     fn record(&self, record: TruthRecord) {
         let line = record.to_json();
@@ -344,7 +346,7 @@ impl TruthSink for TruthWriter {
 }
 
 /// Records the bench's true state at `t` into `sink`.
-pub fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
+pub(crate) fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
     let truth = bench.truth_at(t);
     let wrench = bench
         .config()
@@ -354,14 +356,14 @@ pub fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
 }
 
 /// A thread recording the bench's true state at a fixed period until dropped or stopped.
-pub struct BenchRecorder {
+pub(crate) struct BenchRecorder {
     stop: Arc<std::sync::atomic::AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl BenchRecorder {
     /// Records `bench` into `sink` every `period` (e.g. 1 ms) from now on.
-    pub fn spawn(
+    pub(crate) fn spawn(
         bench: Arc<Bench>,
         sink: Arc<dyn TruthSink>,
         period: std::time::Duration,
@@ -390,7 +392,7 @@ impl BenchRecorder {
     }
 
     /// Stops recording and waits for the thread.
-    pub fn stop(mut self) {
+    pub(crate) fn stop(mut self) {
         self.finish();
     }
 

@@ -26,19 +26,19 @@ use crate::physics::motion::{Kinematics, SimMotor};
 use crate::rig::SIM_CAL;
 use crate::scene::{FrameRenderer, LoadSource, Scene, SceneSource};
 use crossbeam_channel::{select, Receiver};
-use fringe_rig::acquire::camera_stream::CameraStream;
-use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 use fringe_rig::atical::{CalibratedSensor, Calibration};
-use fringe_rig::camera::{Camera, CameraSettings, Frame, TriggerMode};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceSample;
+use fringe_rig::mean_over;
 use fringe_rig::reference_layout::in_contact;
-use fringe_rig::scan::engine::recording::{labeler_for, LATCH_PERIOD};
-use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::sync::trigger::TriggerTiming;
-use fringe_rig::sync::window::mean_over;
-use fringe_rig::units::{
+use fringe_rig::scan::{labeler_for, LATCH_PERIOD};
+use fringe_rig::CameraStream;
+use fringe_rig::ForceSample;
+use fringe_rig::ForceStream;
+use fringe_rig::HostTime;
+use fringe_rig::SyncMethod;
+use fringe_rig::TriggerTiming;
+use fringe_rig::{Camera, CameraSettings, Frame, TriggerMode};
+use fringe_rig::{ExposureLabel, FrameLabeler, LabelOutcome};
+use fringe_rig::{
     Hertz, Microseconds, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons,
 };
 use std::collections::{HashMap, VecDeque};

@@ -5,13 +5,13 @@
 //! 25 fps), and two runs of one session each get their own records once.
 
 use crate::ground_truth::records::{TruthRecord, TruthSink, TRUTH_FILE};
-use fringe_rig::units::Wrench;
+use fringe_rig::Wrench;
 use std::sync::Mutex;
 
 /// Records held at most while no run takes them (the bench idles between scans, filming for the
 /// Bench screen): about 1.4 hours of frames at 50 fps, 30 MB. Past it, the frame and bench
 /// records, which no run filmed, are passed over; the few clock and bias records are kept.
-pub const MAX_PENDING: usize = 250_000;
+pub(crate) const MAX_PENDING: usize = 250_000;
 
 #[derive(Debug, Default)]
 struct Spooled {
@@ -86,7 +86,7 @@ impl TruthSink for TruthSpool {
 }
 
 /// A simulated run keeps its ground truth as `truth.jsonl` (frames matched by device timestamps).
-impl fringe_rig::scan::sidecar::RunSidecar for TruthSpool {
+impl fringe_rig::scan::RunSidecar for TruthSpool {
     fn file_name(&self) -> &str {
         TRUTH_FILE
     }
@@ -100,8 +100,8 @@ impl fringe_rig::scan::sidecar::RunSidecar for TruthSpool {
 mod tests {
     use super::*;
     use crate::ground_truth::records::{FrameFate, FrameTruth};
-    use fringe_rig::clock::HostTime;
-    use fringe_rig::scan::sidecar::RunSidecar;
+    use fringe_rig::scan::RunSidecar;
+    use fringe_rig::HostTime;
 
     fn frame(id: u64) -> TruthRecord {
         TruthRecord::Frame(FrameTruth {

@@ -29,24 +29,24 @@ use crate::optics::scratch_canvas::ScratchCanvas;
 use crate::optics::sensor::{SensorConfig, SensorGeometry};
 
 /// Colour of the LED light added after the polariser (cool white), R G B.
-pub const LED_COLOUR: [f32; 3] = [0.92, 0.97, 1.0];
+pub(crate) const LED_COLOUR: [f32; 3] = [0.92, 0.97, 1.0];
 
 /// Logistic slope that makes 1 / (1 + exp(-k x)) a close approximation of the normal CDF.
 const LOGISTIC_NORMAL: f64 = 1.702;
 
 /// Light is carried in 1/16 DN steps between the background and the output stage.
-pub const LIGHT_STEPS_PER_DN: f32 = 16.0;
+pub(crate) const LIGHT_STEPS_PER_DN: f32 = 16.0;
 
 /// `light` (DN) in 1/16 DN steps, as stored for the unloaded sensor.
 #[inline]
-pub fn quantise_light(light: f32) -> u16 {
+pub(crate) fn quantise_light(light: f32) -> u16 {
     // `as` saturates: negative light reads 0, overflow 65535.
     (light * LIGHT_STEPS_PER_DN + 0.5) as u16
 }
 
 /// The blurred colour table packed for the per-pixel loop: `f32` nodes, bilinear lookup.
 #[derive(Debug, Clone)]
-pub struct PackedColours {
+pub(crate) struct PackedColours {
     columns: usize,
     rows: usize,
     order_scale: f32,
@@ -57,7 +57,7 @@ pub struct PackedColours {
 
 impl PackedColours {
     /// Samples `table` at `columns` x `rows` nodes over its full range.
-    pub fn new(table: &BlurredColourTable, columns: usize, rows: usize) -> PackedColours {
+    pub(crate) fn new(table: &BlurredColourTable, columns: usize, rows: usize) -> PackedColours {
         let (columns, rows) = (columns.max(2), rows.max(2));
         let mut data = Vec::with_capacity(columns * rows);
         for j in 0..rows {
@@ -78,7 +78,7 @@ impl PackedColours {
 
     /// Colour at fringe order `order` spread over `sigma` orders (both clamped to the table).
     #[inline]
-    pub fn lookup(&self, order: f32, sigma: f32) -> [f32; 3] {
+    pub(crate) fn lookup(&self, order: f32, sigma: f32) -> [f32; 3] {
         let u = (order * self.order_scale).clamp(0.0, (self.columns - 1) as f32 - 1e-3);
         let v = (sigma * self.sigma_scale).clamp(0.0, (self.rows - 1) as f32 - 1e-3);
         let (i, j) = (u as usize, v as usize);
@@ -97,25 +97,25 @@ impl PackedColours {
 }
 
 /// Light below this illumination (DN) is treated as outside the disc.
-pub const DARK_DN: f32 = 0.01;
+pub(crate) const DARK_DN: f32 = 0.01;
 
 /// Linear light of a pixel that sees `illumination` times the fringe colour `rgb` plus `glow`.
 #[inline]
-pub fn pixel_light(illumination: f32, rgb: [f32; 3], glow: f32) -> [f32; 3] {
+pub(crate) fn pixel_light(illumination: f32, rgb: [f32; 3], glow: f32) -> [f32; 3] {
     [0, 1, 2].map(|c| channel_light(illumination, rgb[c], glow, c))
 }
 
 /// Channel `c` (0 red, 1 green, 2 blue) of [`pixel_light`], with that channel's colour `colour`.
 #[inline(always)]
-pub fn channel_light(illumination: f32, colour: f32, glow: f32, c: usize) -> f32 {
+pub(crate) fn channel_light(illumination: f32, colour: f32, glow: f32, c: usize) -> f32 {
     illumination * colour + glow * LED_COLOUR[c]
 }
 
-pub use fringe_rig::seeded::{splitmix64, uniform};
+pub(crate) use fringe_rig::seeded::{splitmix64, uniform};
 
 /// The unloaded sensor image and the per-pixel terms the renderer needs for loaded pixels.
 #[derive(Debug, Clone)]
-pub struct Background {
+pub(crate) struct Background {
     width: usize,
     height: usize,
     /// Light through the polariser at full fringe brightness, DN.
@@ -130,7 +130,7 @@ pub struct Background {
 
 impl Background {
     /// Builds the per-pixel terms of `config` seen through `geometry`.
-    pub fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Background {
+    pub(crate) fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Background {
         let (width, height) = (
             config.geometry.width as usize,
             config.geometry.height as usize,
@@ -193,42 +193,44 @@ impl Background {
         }
     }
 
-    pub fn width(&self) -> usize {
+    pub(crate) fn width(&self) -> usize {
         self.width
     }
 
-    pub fn height(&self) -> usize {
+    pub(crate) fn height(&self) -> usize {
         self.height
     }
 
     /// Light through the polariser at full fringe brightness at pixel index `k`, DN.
     #[inline]
-    pub fn illumination(&self, k: usize) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn illumination(&self, k: usize) -> f32 {
         self.illumination[k]
     }
 
     /// Light added after the polariser at pixel index `k`, DN.
     #[inline]
-    pub fn glow(&self, k: usize) -> f32 {
+    #[cfg(test)]
+    pub(crate) fn glow(&self, k: usize) -> f32 {
         self.glow[k]
     }
 
     /// Row `j`'s illumination and glow, DN.
     #[inline]
-    pub fn row_terms(&self, j: usize) -> (&[f32], &[f32]) {
+    pub(crate) fn row_terms(&self, j: usize) -> (&[f32], &[f32]) {
         let range = j * self.width..(j + 1) * self.width;
         (&self.illumination[range.clone()], &self.glow[range])
     }
 
     /// Residual fringe order at pixel index `k`.
     #[inline]
-    pub fn residual(&self, k: usize) -> f32 {
+    pub(crate) fn residual(&self, k: usize) -> f32 {
         self.residual[k]
     }
 
     /// Linear light of the unloaded sensor with fringe colours from `colours`, interleaved RGB
     /// in 1/16 DN steps, row by row.
-    pub fn unloaded_light<'a>(
+    pub(crate) fn unloaded_light<'a>(
         &'a self,
         colours: &'a PackedColours,
     ) -> impl Iterator<Item = u16> + 'a {
@@ -240,7 +242,7 @@ impl Background {
 
     /// Row `j`'s lit columns [start, end).
     #[inline]
-    pub fn span(&self, j: usize) -> (usize, usize) {
+    pub(crate) fn span(&self, j: usize) -> (usize, usize) {
         self.spans[j]
     }
 }
@@ -263,7 +265,7 @@ fn led_angle(config: &SensorConfig, n: u32) -> f64 {
 /// over the disc. The light left is 1 minus the sum over the dead LEDs, clamped to 0..=1. Its
 /// angles are in the sensor frame, so it turns and mirrors with the image like the hot spots.
 #[derive(Debug, Clone)]
-pub struct LedLoss {
+pub(crate) struct LedLoss {
     /// Per dead LED: (x cos a_k + y sin a_k) / R as an affine function [a_u, a_v, b] of the pixel
     /// position (u, v) px.
     lobes: Vec<[f64; 3]>,
@@ -273,7 +275,7 @@ pub struct LedLoss {
 
 impl LedLoss {
     /// The loss of `config`'s dead LEDs seen through `geometry`; `None` when every LED lights.
-    pub fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Option<LedLoss> {
+    pub(crate) fn new(config: &SensorConfig, geometry: &SensorGeometry) -> Option<LedLoss> {
         let dead = config.dead_leds();
         if dead.is_empty() || config.leds.count == 0 {
             return None;
@@ -298,7 +300,7 @@ impl LedLoss {
     }
 
     /// Fraction of the illumination left at image position (`u`, `v`) px.
-    pub fn remaining(&self, u: f64, v: f64) -> f64 {
+    pub(crate) fn remaining(&self, u: f64, v: f64) -> f64 {
         let lost: f64 = self
             .lobes
             .iter()

@@ -12,7 +12,7 @@ use crate::optics::colour::{spectral_colour_with, Polariser};
 
 /// Colour averaged over a Gaussian spread of fringe orders, tabulated over (N, sigma_N).
 #[derive(Debug, Clone, PartialEq)]
-pub struct BlurredColourTable {
+pub(crate) struct BlurredColourTable {
     max_order: f64,
     max_sigma: f64,
     columns: usize,
@@ -34,14 +34,9 @@ fn gaussian_weights(sigma_steps: f64, half: usize) -> Vec<f64> {
 }
 
 impl BlurredColourTable {
-    /// Default table: N in 0..=20 (1024 columns), sigma_N in 0..=2 (65 rows), film plate at 560 nm.
-    pub fn standard() -> BlurredColourTable {
-        BlurredColourTable::new(1024, 20.0, 65, 2.0, Polariser::FILM_560)
-    }
-
     /// `columns` (at least 2) fringe orders evenly over 0..=`max_order`, `rows` (at least 2) spreads
     /// evenly over 0..=`max_sigma`, colours behind `polariser`.
-    pub fn new(
+    pub(crate) fn new(
         columns: usize,
         max_order: f64,
         rows: usize,
@@ -92,18 +87,18 @@ impl BlurredColourTable {
     }
 
     /// Largest fringe order in the table; larger orders read the last column.
-    pub fn max_order(&self) -> f64 {
+    pub(crate) fn max_order(&self) -> f64 {
         self.max_order
     }
 
     /// Largest spread in the table; larger spreads read the last row.
-    pub fn max_sigma(&self) -> f64 {
+    pub(crate) fn max_sigma(&self) -> f64 {
         self.max_sigma
     }
 
     /// R, G, B in 0..=1 at fringe order `fringe_order` blurred over `sigma_n` fringe orders, bilinear
     /// in both; negative or NaN values read 0.
-    pub fn lookup(&self, fringe_order: f64, sigma_n: f64) -> [f32; 3] {
+    pub(crate) fn lookup(&self, fringe_order: f64, sigma_n: f64) -> [f32; 3] {
         let position = |value: f64, max: f64, count: usize| {
             let last = (count - 1) as f64;
             let pos = if value.is_nan() {

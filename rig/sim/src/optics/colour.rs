@@ -17,7 +17,7 @@
 use std::f64::consts::PI;
 
 /// Reference wavelength at which fringe orders are given, nm.
-pub const REFERENCE_WAVELENGTH_NM: f64 = 550.0;
+pub(crate) const REFERENCE_WAVELENGTH_NM: f64 = 550.0;
 
 /// Spectral sampling: 380..=780 nm in 1 nm steps.
 const LAMBDA_MIN_NM: f64 = 380.0;
@@ -29,12 +29,12 @@ fn gaussian(x: f64, centre: f64, sigma: f64) -> f64 {
 }
 
 /// Relative spectral power of the white LED (blue pump plus phosphor) at `lambda_nm`.
-pub fn led_spectrum(lambda_nm: f64) -> f64 {
+pub(crate) fn led_spectrum(lambda_nm: f64) -> f64 {
     gaussian(lambda_nm, 450.0, 10.0) + 1.2 * gaussian(lambda_nm, 565.0, 50.0)
 }
 
 /// Relative response of camera channel 0 = R, 1 = G, 2 = B at `lambda_nm`.
-pub fn camera_response(channel: usize, lambda_nm: f64) -> f64 {
+pub(crate) fn camera_response(channel: usize, lambda_nm: f64) -> f64 {
     match channel {
         0 => gaussian(lambda_nm, 600.0, 30.0),
         1 => gaussian(lambda_nm, 535.0, 35.0),
@@ -44,7 +44,7 @@ pub fn camera_response(channel: usize, lambda_nm: f64) -> f64 {
 
 /// The circular polariser in front of the mirrored layer.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Polariser {
+pub(crate) enum Polariser {
     /// Ideal quarter-wave plate at every wavelength: the unloaded sensor is black.
     Ideal,
     /// Film plate that is quarter-wave at `design_wavelength_nm` only
@@ -57,12 +57,13 @@ pub enum Polariser {
 
 impl Polariser {
     /// Film plate quarter-wave at 560 nm: faint bluish unloaded background.
-    pub const FILM_560: Polariser = Polariser::Film {
+    #[cfg(test)]
+    pub(crate) const FILM_560: Polariser = Polariser::Film {
         design_wavelength_nm: 560.0,
     };
 
     /// Fraction of the light that reaches the camera from the unloaded sensor at `lambda_nm`.
-    pub fn leak(self, lambda_nm: f64) -> f64 {
+    pub(crate) fn leak(self, lambda_nm: f64) -> f64 {
         match self {
             Polariser::Ideal => 0.0,
             Polariser::Film {
@@ -74,14 +75,15 @@ impl Polariser {
 
 /// R, G, B intensity (0 = dark, 1 = the channel's full unpolarised-through value) at fringe order N,
 /// computed by the spectral sum with an ideal quarter-wave plate.
-pub fn spectral_colour(fringe_order: f64) -> [f64; 3] {
+#[cfg(test)]
+pub(crate) fn spectral_colour(fringe_order: f64) -> [f64; 3] {
     spectral_colour_with(fringe_order, Polariser::Ideal)
 }
 
 /// [`spectral_colour`] behind `polariser`. The leak L(lambda) of a film plate fills the dark part of
 /// the fringe law: I = sin^2 + L (1 - sin^2), so the unloaded sensor shows L and full-wave bright
 /// orders stay at 1 (a first-order model of the imperfect plate, exact at N = 0).
-pub fn spectral_colour_with(fringe_order: f64, polariser: Polariser) -> [f64; 3] {
+pub(crate) fn spectral_colour_with(fringe_order: f64, polariser: Polariser) -> [f64; 3] {
     let mut num = [0.0; 3];
     let mut den = [0.0; 3];
     for k in 0..LAMBDA_STEPS {
@@ -102,7 +104,8 @@ pub fn spectral_colour_with(fringe_order: f64, polariser: Polariser) -> [f64; 3]
 }
 
 /// Colour contrast of an RGB triple: largest minus smallest channel.
-pub fn contrast(rgb: [f64; 3]) -> f64 {
+#[cfg(test)]
+pub(crate) fn contrast(rgb: [f64; 3]) -> f64 {
     let max = rgb.iter().copied().fold(f64::MIN, f64::max);
     let min = rgb.iter().copied().fold(f64::MAX, f64::min);
     max - min
@@ -110,24 +113,30 @@ pub fn contrast(rgb: [f64; 3]) -> f64 {
 
 /// [`spectral_colour`] baked into a table over 0..=`max_order`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ColourTable {
+#[cfg(test)]
+pub(crate) struct ColourTable {
     max_order: f64,
     entries: Vec<[f32; 3]>,
 }
 
+#[cfg(test)]
 impl ColourTable {
     /// Default table: 4096 entries up to N = 20.
-    pub fn standard() -> ColourTable {
+    pub(crate) fn standard() -> ColourTable {
         ColourTable::new(4096, 20.0)
     }
 
     /// `entries` (at least 2) samples evenly spaced over fringe orders 0..=`max_order`.
-    pub fn new(entries: usize, max_order: f64) -> ColourTable {
+    pub(crate) fn new(entries: usize, max_order: f64) -> ColourTable {
         ColourTable::with_polariser(entries, max_order, Polariser::Ideal)
     }
 
     /// [`ColourTable::new`] behind `polariser` (see [`spectral_colour_with`]).
-    pub fn with_polariser(entries: usize, max_order: f64, polariser: Polariser) -> ColourTable {
+    pub(crate) fn with_polariser(
+        entries: usize,
+        max_order: f64,
+        polariser: Polariser,
+    ) -> ColourTable {
         let entries = entries.max(2);
         let step = max_order / (entries - 1) as f64;
         let entries = (0..entries)
@@ -139,13 +148,8 @@ impl ColourTable {
         ColourTable { max_order, entries }
     }
 
-    /// Largest fringe order in the table; larger orders read the last entry.
-    pub fn max_order(&self) -> f64 {
-        self.max_order
-    }
-
     /// R, G, B in 0..=1 at `fringe_order`, interpolated linearly; negative or NaN orders read N = 0.
-    pub fn lookup(&self, fringe_order: f64) -> [f32; 3] {
+    pub(crate) fn lookup(&self, fringe_order: f64) -> [f32; 3] {
         let last = self.entries.len() - 1;
         let pos = if fringe_order.is_nan() {
             0.0

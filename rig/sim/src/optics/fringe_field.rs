@@ -21,7 +21,7 @@ use rustfft::FftPlanner;
 
 /// Fringe order per newton on the grid of the pressure map it was computed from.
 #[derive(Debug, Clone, PartialEq)]
-pub struct FringeField {
+pub(crate) struct FringeField {
     n: usize,
     cell_mm: f64,
     /// Row-major fringe order per newton.
@@ -70,7 +70,7 @@ fn fft_2d(data: &mut [Complex<f64>], m: usize, inverse: bool) {
 }
 
 /// D1 + i D2 in N/mm per cell for `pressure` (N/mm^2) seen through `layer`.
-pub fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f64>> {
+pub(crate) fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f64>> {
     let n = pressure.size();
     let cell = pressure.cell_mm();
     let m = 2 * n;
@@ -121,7 +121,11 @@ pub fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f
 impl FringeField {
     /// N_unit for the pressure map of a 1 N load (use [`PressureMap::new`] with force 1), seen
     /// through `layer` with material fringe value `f_sigma_n_per_m` (N/m per fringe).
-    pub fn new(unit_pressure: &PressureMap, layer: &Layer, f_sigma_n_per_m: f64) -> FringeField {
+    pub(crate) fn new(
+        unit_pressure: &PressureMap,
+        layer: &Layer,
+        f_sigma_n_per_m: f64,
+    ) -> FringeField {
         let d = integrated_stress(unit_pressure, layer);
         // D is in N/mm = 1000 N/m.
         let scale = 2.0 * 1000.0 / f_sigma_n_per_m;
@@ -141,42 +145,45 @@ impl FringeField {
     }
 
     /// Cells per side.
-    pub fn size(&self) -> usize {
+    pub(crate) fn size(&self) -> usize {
         self.n
     }
 
     /// Cell side, mm.
-    pub fn cell_mm(&self) -> f64 {
+    pub(crate) fn cell_mm(&self) -> f64 {
         self.cell_mm
     }
 
     /// Fringe order per newton at cell (i, j).
-    pub fn at(&self, i: usize, j: usize) -> f64 {
+    pub(crate) fn at(&self, i: usize, j: usize) -> f64 {
         self.values[j * self.n + i]
     }
 
     /// Largest fringe order per newton on the grid.
-    pub fn max(&self) -> f64 {
+    pub(crate) fn max(&self) -> f64 {
         self.values.iter().copied().fold(0.0, f64::max)
     }
 
     /// |grad N_unit| at cell (i, j), fringe orders per newton per mm.
-    pub fn gradient_at(&self, i: usize, j: usize) -> f64 {
+    pub(crate) fn gradient_at(&self, i: usize, j: usize) -> f64 {
         self.gradient[j * self.n + i]
     }
 
     /// Fringe order per newton at (x_mm, y_mm) in the indenter frame, bilinear between cell centres.
     /// Points beyond the grid take the value at the nearest grid edge.
-    pub fn sample(&self, x_mm: f64, y_mm: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn sample(&self, x_mm: f64, y_mm: f64) -> f64 {
         self.bilinear(&self.values, x_mm, y_mm)
     }
 
     /// |grad N_unit| (fringe orders per newton per mm) at (x_mm, y_mm), sampled like
     /// [`FringeField::sample`]. For a force F the blur spread is sigma_N = F |grad N_unit| sigma_blur.
-    pub fn sample_gradient(&self, x_mm: f64, y_mm: f64) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn sample_gradient(&self, x_mm: f64, y_mm: f64) -> f64 {
         self.bilinear(&self.gradient, x_mm, y_mm)
     }
 
+    #[cfg(test)]
     fn bilinear(&self, grid: &[f64], x_mm: f64, y_mm: f64) -> f64 {
         let at = |i: usize, j: usize| grid[j * self.n + i];
         let half = (self.n / 2) as f64;

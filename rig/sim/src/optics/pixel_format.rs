@@ -9,7 +9,7 @@
 //! The renderer writes BayerRG8 and Mono8 directly with these functions (no RGB frame in between);
 //! [`from_rgb`] converts an RGB image for renderers that only write RGB.
 
-use fringe_rig::camera::PixelFormat;
+use fringe_rig::PixelFormat;
 
 /// The colour channel (0 red, 1 green, 2 blue) a BayerRG8 sensor records at (`row`, `col`).
 #[inline(always)]

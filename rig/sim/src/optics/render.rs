@@ -42,14 +42,14 @@ use crate::optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
 use crate::physics::indenter::{PressureMap, Shape};
 use crate::scene::{Contact, FrameRenderer, Scene};
 use crate::session;
-use fringe_rig::camera::PixelFormat;
+use fringe_rig::PixelFormat;
 
 /// Sphere fields are cached by contact radius rounded to this step, mm.
-pub const SPHERE_RADIUS_STEP_MM: f64 = 0.05;
+pub(crate) const SPHERE_RADIUS_STEP_MM: f64 = 0.05;
 
 /// Standard deviation of a pixel's own footprint (a 1 px box has 0.29 px), px. Keeps dense
 /// fringes from aliasing in sharp frames.
-pub const PIXEL_SIGMA_PX: f64 = 0.3;
+pub(crate) const PIXEL_SIGMA_PX: f64 = 0.3;
 
 /// Output table rows: linear light 0..512 DN in 1/4 DN steps.
 const LUT_ROWS: usize = 2048;

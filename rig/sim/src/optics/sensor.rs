@@ -159,7 +159,7 @@ pub struct NoiseConfig {
 }
 
 /// Radius of the simulated bench's circular punch, mm (no sensor definition names a circle).
-pub const CIRCLE_RADIUS_MM: f64 = 4.0;
+pub(crate) const CIRCLE_RADIUS_MM: f64 = 4.0;
 
 /// Indenter sizes for the shape names of `fringe sim render --shape`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -33,8 +33,8 @@
 //! smooth cosine modes (wavelengths 15-60 mm) with a chosen RMS (default 20 um); first contact
 //! happens where the surface under the indenter centre is.
 
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::{Millimetres, Newtons};
+use fringe_rig::HostTime;
+use fringe_rig::{Millimetres, Newtons};
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 
@@ -102,13 +102,13 @@ pub enum ContactGeometry {
 }
 
 /// Bonded incompressible layer correction kappa(chi), chi = contact radius / layer thickness.
-pub fn layer_correction(chi: f64) -> f64 {
+pub(crate) fn layer_correction(chi: f64) -> f64 {
     let c = chi.max(0.0);
     1.0 + 1.133 * c + 1.283 * c * c + 0.769 * c.powi(3) + 0.0975 * c.powi(4)
 }
 
 /// The instantaneous elastic force at `depth` (0 when not touching).
-pub fn elastic_force(
+pub(crate) fn elastic_force(
     material: &ContactMaterial,
     geometry: ContactGeometry,
     depth: Millimetres,
@@ -131,7 +131,7 @@ pub fn elastic_force(
 }
 
 /// The contact radius at `depth`: the punch radius, or sqrt(R d) for a sphere (0 when lifted).
-pub fn contact_radius(geometry: ContactGeometry, depth: Millimetres) -> Millimetres {
+pub(crate) fn contact_radius(geometry: ContactGeometry, depth: Millimetres) -> Millimetres {
     if depth.0 <= 0.0 {
         return Millimetres(0.0);
     }
@@ -144,7 +144,7 @@ pub fn contact_radius(geometry: ContactGeometry, depth: Millimetres) -> Millimet
 /// The stateful viscoelastic contact: advanced in non-decreasing host time with the depth at each
 /// instant; deterministic given the depth history.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ContactModel {
+pub(crate) struct ContactModel {
     material: ContactMaterial,
     geometry: ContactGeometry,
     last: Option<HostTime>,
@@ -155,7 +155,7 @@ pub struct ContactModel {
 
 impl ContactModel {
     /// A relaxed, unloaded contact.
-    pub fn new(material: ContactMaterial, geometry: ContactGeometry) -> ContactModel {
+    pub(crate) fn new(material: ContactMaterial, geometry: ContactGeometry) -> ContactModel {
         let internal = vec![0.0; material.relaxation.len()];
         ContactModel {
             material,
@@ -167,16 +167,13 @@ impl ContactModel {
         }
     }
 
-    pub fn material(&self) -> &ContactMaterial {
-        &self.material
-    }
-
-    pub fn geometry(&self) -> ContactGeometry {
+    #[cfg(test)]
+    pub(crate) fn geometry(&self) -> ContactGeometry {
         self.geometry
     }
 
     /// Changes the indenter; the layer forgets its load history (change indenters while lifted).
-    pub fn set_geometry(&mut self, geometry: ContactGeometry) {
+    pub(crate) fn set_geometry(&mut self, geometry: ContactGeometry) {
         self.geometry = geometry;
         self.elastic = 0.0;
         self.internal.iter_mut().for_each(|h| *h = 0.0);
@@ -184,7 +181,7 @@ impl ContactModel {
 
     /// Advances to `t` where the depth is `depth` (linear in between from the previous call) and
     /// returns the force then. A `t` earlier than the previous call is treated as the same instant.
-    pub fn advance(&mut self, t: HostTime, depth: Millimetres) -> Newtons {
+    pub(crate) fn advance(&mut self, t: HostTime, depth: Millimetres) -> Newtons {
         let fe = elastic_force(&self.material, self.geometry, depth).0;
         let dt = match self.last {
             Some(last) if t > last => t.since(last).as_secs_f64(),
@@ -212,15 +209,10 @@ impl ContactModel {
     }
 
     /// The force after the last [`ContactModel::advance`].
-    pub fn force(&self) -> Newtons {
+    pub(crate) fn force(&self) -> Newtons {
         let f =
             self.material.long_term_fraction() * self.elastic + self.internal.iter().sum::<f64>();
         Newtons(f.max(0.0))
-    }
-
-    /// The depth of the last [`ContactModel::advance`].
-    pub fn depth(&self) -> Millimetres {
-        Millimetres(self.depth)
     }
 }
 
@@ -250,14 +242,14 @@ impl Default for SurfaceConfig {
 
 /// Height of the sensor surface above its nominal plane, a smooth seeded function of (x, y).
 #[derive(Debug, Clone, PartialEq)]
-pub struct SurfaceHeight {
+pub(crate) struct SurfaceHeight {
     /// (kx, ky, phase, amplitude mm) per mode.
     modes: Vec<(f64, f64, f64, f64)>,
 }
 
 impl SurfaceHeight {
     /// A surface drawn from `seed`; the RMS over random positions is `config.rms_um`.
-    pub fn new(config: &SurfaceConfig, seed: u64) -> SurfaceHeight {
+    pub(crate) fn new(config: &SurfaceConfig, seed: u64) -> SurfaceHeight {
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0x0005_eed5_u64.rotate_left(32));
         let n = config.modes.max(1);
         // A sum of n cosines with random phases and amplitude A has RMS A sqrt(n / 2).
@@ -280,14 +272,9 @@ impl SurfaceHeight {
         SurfaceHeight { modes }
     }
 
-    /// A perfectly flat surface.
-    pub fn flat() -> SurfaceHeight {
-        SurfaceHeight { modes: Vec::new() }
-    }
-
     /// Height above nominal at sensor-frame (x, y), mm (positive = the surface is higher, so an
     /// indenter touches it earlier).
-    pub fn height(&self, x: Millimetres, y: Millimetres) -> Millimetres {
+    pub(crate) fn height(&self, x: Millimetres, y: Millimetres) -> Millimetres {
         Millimetres(
             self.modes
                 .iter()

@@ -2,7 +2,7 @@
 //! (noise, drift, power-up bias): configuration shared by the bench and the sensor model
 //! ([`crate::physics::ft_sensor`], where the frames and the noise model are described).
 
-use fringe_rig::units::Wrench;
+use fringe_rig::Wrench;
 use nalgebra::{Rotation3, Vector3};
 
 /// How the F/T sensor and the indenter are mounted.

@@ -26,14 +26,14 @@
 use crate::ground_truth::records::{TruthRecord, TruthSink};
 use crate::scene::{ForceReading, LoadSource};
 use crate::session::salted;
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::sync::Arc;
 
-pub use crate::physics::ft_config::{FtMount, FtNoiseConfig};
+pub use crate::physics::ft_config::FtNoiseConfig;
 
 /// A standard normal deviate (Box-Muller).
 pub(crate) fn standard_normal(rng: &mut impl Rng) -> f64 {
@@ -168,6 +168,7 @@ impl ForceReading for SimFtSensor {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::ft_config::FtMount;
 
     struct Constant(Wrench);
     impl LoadSource for Constant {

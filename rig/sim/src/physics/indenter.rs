@@ -123,7 +123,11 @@ impl Shape {
 }
 
 /// Hertz contact radius a = (3 F R / (4 E*))^(1/3) in mm, for F in N, R in mm, E* in MPa (N/mm^2).
-pub fn hertz_contact_radius_mm(radius_mm: f64, force_n: f64, effective_modulus_mpa: f64) -> f64 {
+pub(crate) fn hertz_contact_radius_mm(
+    radius_mm: f64,
+    force_n: f64,
+    effective_modulus_mpa: f64,
+) -> f64 {
     (3.0 * force_n.max(0.0) * radius_mm / (4.0 * effective_modulus_mpa)).cbrt()
 }
 
@@ -132,7 +136,7 @@ pub fn hertz_contact_radius_mm(radius_mm: f64, force_n: f64, effective_modulus_m
 /// Cell (i, j) (column i, row j) has its centre at x = (i - n/2) cell, y = (j - n/2) cell, so cell
 /// (n/2, n/2) sits on the indenter centre. Values are N/mm^2 (MPa), row-major.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PressureMap {
+pub(crate) struct PressureMap {
     n: usize,
     cell_mm: f64,
     values: Vec<f64>,
@@ -143,7 +147,7 @@ impl PressureMap {
     ///
     /// Each cell averages the pressure law over 3 x 3 sub-samples. Returns an all-zero map when the
     /// outline misses every sub-sample (an indenter smaller than a cell). `n` below 2 is raised to 2.
-    pub fn new(shape: &Shape, n: usize, cell_mm: f64, force_n: f64) -> PressureMap {
+    pub(crate) fn new(shape: &Shape, n: usize, cell_mm: f64, force_n: f64) -> PressureMap {
         let n = n.max(2);
         let eps = 0.5 * cell_mm;
         let half = (n / 2) as f64;
@@ -173,34 +177,31 @@ impl PressureMap {
 
     /// A map whose whole force sits in the single cell (i, j): the discrete point load.
     /// Panics if (i, j) lies outside the `n` x `n` grid.
-    pub fn point(n: usize, cell_mm: f64, i: usize, j: usize, force_n: f64) -> PressureMap {
+    #[cfg(test)]
+    pub(crate) fn point(n: usize, cell_mm: f64, i: usize, j: usize, force_n: f64) -> PressureMap {
         let mut values = vec![0.0; n * n];
         values[j * n + i] = force_n / (cell_mm * cell_mm);
         PressureMap { n, cell_mm, values }
     }
 
     /// Cells per side.
-    pub fn size(&self) -> usize {
+    pub(crate) fn size(&self) -> usize {
         self.n
     }
 
     /// Cell side, mm.
-    pub fn cell_mm(&self) -> f64 {
+    pub(crate) fn cell_mm(&self) -> f64 {
         self.cell_mm
     }
 
-    /// Row-major pressures, N/mm^2.
-    pub fn values(&self) -> &[f64] {
-        &self.values
-    }
-
     /// Pressure of cell (i, j), N/mm^2.
-    pub fn at(&self, i: usize, j: usize) -> f64 {
+    pub(crate) fn at(&self, i: usize, j: usize) -> f64 {
         self.values[j * self.n + i]
     }
 
     /// Sum of pressure times cell area, N.
-    pub fn total_force_n(&self) -> f64 {
+    #[cfg(test)]
+    pub(crate) fn total_force_n(&self) -> f64 {
         self.values.iter().sum::<f64>() * self.cell_mm * self.cell_mm
     }
 }

@@ -10,11 +10,11 @@
 //! truth sees. Hard limit switches sit at fixed mechanical positions: a move that would pass one
 //! stops there with the limit flag set, as a real limit switch does.
 
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond};
+use fringe_rig::HostTime;
+use fringe_rig::{Millimetres, MillimetresPerSecond};
 use std::sync::Mutex;
 
-pub use fringe_rig::axis::Kinematics;
+pub(crate) use fringe_rig::Kinematics;
 
 /// Mechanical construction of a simulated axis.
 #[derive(Debug, Clone, PartialEq)]
@@ -365,7 +365,7 @@ impl SimMotor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::units::MillimetresPerSecondSquared;
+    use fringe_rig::MillimetresPerSecondSquared;
     use std::time::Duration;
 
     fn motor() -> SimMotor {

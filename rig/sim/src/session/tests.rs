@@ -8,8 +8,8 @@ use crate::physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
 use crate::scene::FrameRenderer;
 use crate::scene::{ForceReading, LoadSource};
 use crate::test_support::{disc_pixels, grey, quiet, render, small};
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Wrench;
+use fringe_rig::HostTime;
+use fringe_rig::Wrench;
 use std::sync::Arc;
 
 #[test]

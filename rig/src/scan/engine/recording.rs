@@ -27,10 +27,10 @@ pub const LATCH_PERIOD: Duration = Duration::from_millis(250);
 
 /// Exposure end to frame arrival assumed by `strobe` for a camera that gives no timestamp
 /// latches (sensor readout and transfer of a USB3 camera: a few ms).
-pub const ASSUMED_READOUT: Duration = Duration::from_millis(5);
+pub(crate) const ASSUMED_READOUT: Duration = Duration::from_millis(5);
 
 /// Strobe level of the ExposureActive channel, V (half the 3.3 V logic level).
-pub const STROBE_THRESHOLD_V: f64 = 1.65;
+pub(crate) const STROBE_THRESHOLD_V: f64 = 1.65;
 
 /// The labeler of synchronisation method `sync` for a camera with `settings` whose timestamps
 /// tick at `tick_hz`, taking latches from `cameras` (started with

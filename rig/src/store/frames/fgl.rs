@@ -37,14 +37,14 @@
 //! codes are canonical Huffman codes of at most [`MAX_CODE_BITS`] bits.
 
 /// Most contexts a file may have.
-pub const MAX_CONTEXTS: usize = 8;
+pub(crate) const MAX_CONTEXTS: usize = 8;
 /// Longest code, bits.
-pub const MAX_CODE_BITS: u32 = 12;
+pub(crate) const MAX_CODE_BITS: u32 = 12;
 /// Largest image accepted, px (a header is refused before anything of that size is allocated).
-pub const MAX_PIXELS: u64 = 1 << 28;
+pub(crate) const MAX_PIXELS: u64 = 1 << 28;
 
 /// Bytes of the header that [`header`] reads: magic, width, height, pattern.
-pub const HEADER_BYTES: usize = 13;
+pub(crate) const HEADER_BYTES: usize = 13;
 
 /// The first bytes of a file of each version: `FGL` and the version's digit.
 const MAGIC_PREFIX: &[u8; 3] = b"FGL";
@@ -348,7 +348,7 @@ fn checked_body(bytes: &[u8]) -> Result<&[u8], CodecError> {
 
 /// Checks an FGL file without keeping its pixels: a file of version 2 by its checksum (fast),
 /// one of version 1, which has none, by decoding it whole.
-pub fn check(bytes: &[u8]) -> Result<(), CodecError> {
+pub(crate) fn check(bytes: &[u8]) -> Result<(), CodecError> {
     let body = checked_body(bytes)?;
     if version(bytes)? == 1 {
         decode_body(body)?;

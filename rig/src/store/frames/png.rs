@@ -58,7 +58,7 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), FrameFileError> {
 }
 
 /// Reads the pixels of a PNG written by [`save_png`], checking its size and colour type.
-pub fn load_png(
+pub(crate) fn load_png(
     path: &Path,
     format: PixelFormat,
     width: u32,
@@ -75,7 +75,7 @@ pub fn load_png(
 }
 
 /// Decodes an image file (PNG, TIFF, ...), naming it in errors.
-pub fn open_image(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
+pub(crate) fn open_image(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
     image::ImageReader::open(path)
         .map_err(|source| FrameFileError::Io {
             path: path.to_path_buf(),
@@ -95,7 +95,7 @@ pub fn open_image(path: &Path) -> Result<image::DynamicImage, FrameFileError> {
 
 /// An image file's width, height and pixels, checked to be 8-bit RGB for RGB8 and 8-bit grey
 /// otherwise; `whose` names what says the format in the error ("the index says").
-pub fn read_pixels(
+pub(crate) fn read_pixels(
     path: &Path,
     format: PixelFormat,
     whose: &str,

@@ -2,12 +2,12 @@
 //! `frames.csv`, software-triggered when asked, the frame ids' gaps counted; and any opened
 //! camera wrapped by the trace recorder.
 
-use fringe_rig::acquire::frame_gaps::FrameGaps;
-use fringe_rig::camera::writer::FrameWriter;
-use fringe_rig::camera::{
+use fringe_rig::store::FrameFileError;
+use fringe_rig::FrameGaps;
+use fringe_rig::FrameWriter;
+use fringe_rig::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch, TriggerMode,
 };
-use fringe_rig::store::frames::error::FrameFileError;
 use std::path::Path;
 use std::time::Duration;
 

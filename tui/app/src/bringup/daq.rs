@@ -7,8 +7,8 @@ use crate::bringup::error::BringupError;
 use crate::bringup::force_stream::STALL;
 use crate::bringup::interface::Interface;
 use fringe_rig::atical::{CalibratedSensor, GaugeSource};
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceSensor;
+use fringe_rig::ForceSensor;
+use fringe_rig::HostTime;
 use std::time::Duration;
 
 /// What a bias left: the bias voltages and the mean reading after it.

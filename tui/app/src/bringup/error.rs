@@ -3,7 +3,7 @@
 //! are kept).
 
 use crate::bringup::interface::Interface;
-use fringe_rig::force::ForceError;
+use fringe_rig::ForceError;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::time::Duration;

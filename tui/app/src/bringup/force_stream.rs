@@ -4,9 +4,9 @@
 
 use crate::bringup::error::BringupError;
 use crate::bringup::interface::Interface;
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::{ForceSample, ForceSensor, StreamStats};
-use fringe_rig::units::Hertz;
+use fringe_rig::Hertz;
+use fringe_rig::HostTime;
+use fringe_rig::{ForceSample, ForceSensor, StreamStats};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
@@ -222,8 +222,8 @@ pub fn stream_to_csv<S: ForceSensor + ?Sized>(
 mod tests {
     use super::*;
     use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource};
-    use fringe_rig::force::ForceError;
-    use fringe_rig::units::{Volts, Wrench};
+    use fringe_rig::ForceError;
+    use fringe_rig::{Volts, Wrench};
 
     fn sample(tick: u64, strobe: Option<f64>) -> ForceSample {
         ForceSample {

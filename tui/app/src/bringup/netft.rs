@@ -5,7 +5,7 @@
 //! [`open_netft`](crate::rig::force::netft::open_netft) and prints what these return.
 
 use crate::bringup::error::BringupError;
-use fringe_rig::force::ForceSensor;
+use fringe_rig::ForceSensor;
 use std::time::{Duration, Instant};
 
 /// The reading after a software bias.

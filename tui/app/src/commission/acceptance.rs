@@ -15,16 +15,16 @@ use crate::models::choice::open_model;
 use crate::models::verdict;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{Context, WorkflowError};
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_plot::palette::{green_to_red, BLUE, GREY, ORANGE};
 use fringe_plot::{Axis, Chart, Corner, Series};
-use fringe_sensor_models::acceptance::{judge, Verdict};
-use fringe_sensor_models::backend::BackendKind;
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::{evaluate, Evaluation};
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::predictor::Predictor;
 use fringe_sensor_models::report;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Predictor;
+use fringe_sensor_models::{judge, Verdict};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -236,7 +236,7 @@ fn certificate(
     Ok(Certificate {
         format: CERTIFICATE_FORMAT,
         fringe_version: env!("CARGO_PKG_VERSION").to_string(),
-        issued_utc: fringe_rig::store::documents::now_utc(),
+        issued_utc: fringe_rig::store::now_utc(),
         sensor_id: c.journal.options.sensor.clone(),
         variant: base.card.as_ref().and_then(|card| card.variant.clone()),
         pass: v.pass,

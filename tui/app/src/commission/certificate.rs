@@ -3,7 +3,7 @@
 //! model's hash, the runs it used and fringe's version. The newest passing certificate of a
 //! unit names the model that `fringe validate` and `fringe eval` use for it by default.
 
-use fringe_rig::store::durable::write_atomic;
+use fringe_rig::store::write_atomic;
 use std::path::{Path, PathBuf};
 
 /// The certificate's file name in a commissioning directory.

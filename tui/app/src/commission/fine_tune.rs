@@ -5,8 +5,8 @@
 
 use super::scans::Commissioning;
 use crate::workflow_error::{refuse, WorkflowError};
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::weights::state_dict::StateDict;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::StateDict;
 use std::path::PathBuf;
 
 type Result<T> = std::result::Result<T, WorkflowError>;
@@ -56,12 +56,13 @@ pub(crate) fn run(
     base: &Model,
     runs: &[PathBuf],
 ) -> Result<Option<FineTune>> {
-    use fringe_sensor_models::adapt::fine_tune::{
-        fine_tune, finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome, MIN_HELD_OUT,
-    };
     use fringe_sensor_models::adapt::held_out_presses;
     use fringe_sensor_models::dataset;
-    use fringe_sensor_models::train::TrainEvent;
+    use fringe_sensor_models::TrainEvent;
+    use fringe_sensor_models::{
+        fine_tune, finished_fine_tune as finished, FineTuneConfig, FineTuneEvent, FineTuneOutcome,
+        MIN_HELD_OUT,
+    };
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::Instant;
 
@@ -250,8 +251,8 @@ pub(crate) fn run(
 /// Whether the checkpoint `path` was trained on `runs`.
 #[cfg(feature = "torch")]
 fn checkpoint_of(path: &std::path::Path, runs: &[PathBuf]) -> bool {
-    use fringe_sensor_models::model_card::ModelCard;
-    use fringe_sensor_models::train::{Checkpoint, TrainingRecord};
+    use fringe_sensor_models::ModelCard;
+    use fringe_sensor_models::{Checkpoint, TrainingRecord};
     ModelCard::read(&Checkpoint::at(path).card())
         .ok()
         .and_then(|card| card.other.get("training").cloned())

@@ -7,8 +7,8 @@ use super::press_choice::{PressedPoint, UsableDisc};
 use crate::rig::file::RigConfig;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::BoxError;
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::ScanProgram;
+use fringe_rig::RunTarget;
+use fringe_rig::ScanProgram;
 use std::path::PathBuf;
 
 /// How a scan the host ran ended.

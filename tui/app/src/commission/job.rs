@@ -22,10 +22,10 @@ use crate::session::calibration_scan::{
 };
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{refuse, Context, WorkflowError};
-use fringe_calibration::profile::Profile;
-use fringe_sensor_models::acceptance::Spec;
-use fringe_sensor_models::arch::Architecture;
-use fringe_sensor_models::model::Model;
+use fringe_calibration::Profile;
+use fringe_sensor_models::Architecture;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Spec;
 use std::path::{Path, PathBuf};
 
 /// Positions pressed per adaptive round when not given.

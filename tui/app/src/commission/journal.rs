@@ -5,11 +5,11 @@
 
 use crate::rig::file::RigConfig;
 use crate::session::disk_space::camera_frame;
-use fringe_rig::camera::format_name;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::store::documents::{ExitStatus, StopDocument};
-use fringe_rig::store::durable::write_atomic;
+use fringe_rig::format_name;
+use fringe_rig::store::write_atomic;
+use fringe_rig::store::{ExitStatus, StopDocument};
 use fringe_rig::store::{RunFile, RunReader};
+use fringe_rig::ConfigError;
 use std::path::{Path, PathBuf};
 
 /// The journal's file name in a commissioning directory.
@@ -175,7 +175,7 @@ impl Journal {
         Journal {
             format: JOURNAL_FORMAT,
             fringe_version: env!("CARGO_PKG_VERSION").to_string(),
-            started_utc: fringe_rig::store::documents::now_utc(),
+            started_utc: fringe_rig::store::now_utc(),
             options,
             calibration: None,
             rounds: Vec::new(),

@@ -3,12 +3,10 @@
 
 use super::scans::Commissioning;
 use crate::workflow_error::WorkflowError;
-use fringe_sensor_models::adapt::last_block::{
-    train_last_block, BlockConfig, BlockFit, BlockInputs,
-};
 use fringe_sensor_models::adapt::{fit_heads, held_out_presses, AdaptConfig};
 use fringe_sensor_models::dataset;
-use fringe_sensor_models::model::Model;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::{train_last_block, BlockConfig, BlockFit, BlockInputs};
 use std::path::PathBuf;
 use std::time::Instant;
 

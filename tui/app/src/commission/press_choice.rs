@@ -2,9 +2,9 @@
 //! stage mm, from the unit's profile), and a greedy choice that weighs each candidate's distance
 //! from every press made so far (coverage) by the error the model showed near it (need).
 
-use fringe_calibration::profile::Profile;
-use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::units::Millimetres;
+use fringe_calibration::Profile;
+use fringe_rig::BenchLimits;
+use fringe_rig::Millimetres;
 
 /// The part of the disc presses may reach, in stage coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -201,8 +201,8 @@ fn dist(a: &[f64; 2], b: &[f64; 2]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::axis::{Kinematics, SoftLimits};
-    use fringe_rig::units::{MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
+    use fringe_rig::{Kinematics, SoftLimits};
+    use fringe_rig::{MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 
     fn limits(max: f64) -> BenchLimits {
         let soft = SoftLimits::new(Millimetres(0.0), Millimetres(max)).expect("limits");

@@ -4,9 +4,9 @@
 
 use super::certificate::CurvePoint;
 use super::press_choice::PressedPoint;
-use fringe_sensor_models::acceptance::Spec;
 use fringe_sensor_models::dataset::Sample;
-use fringe_sensor_models::metrics::{Errors, Scored};
+use fringe_sensor_models::Spec;
+use fringe_sensor_models::{Errors, Scored};
 use std::collections::BTreeMap;
 
 /// What a round's scores say.

@@ -14,12 +14,12 @@ use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{refuse, Context, WorkflowError};
-use fringe_calibration::profile::Profile;
-use fringe_sensor_models::adapt::last_block::BlockFit;
+use fringe_calibration::Profile;
 use fringe_sensor_models::adapt::{fit_heads, head_scores, AdaptConfig, Adapted, Features};
 use fringe_sensor_models::dataset;
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::weights::state_dict::StateDict;
+use fringe_sensor_models::BlockFit;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::StateDict;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -431,7 +431,7 @@ fn sized_round(
 }
 
 /// The curve point meets every whole-set threshold of `spec` scaled by `margin`.
-fn meets(spec: &fringe_sensor_models::acceptance::Spec, p: &CurvePoint, margin: f64) -> bool {
+fn meets(spec: &fringe_sensor_models::Spec, p: &CurvePoint, margin: f64) -> bool {
     let t = &spec.all;
     t.fz_rmse_n.is_none_or(|v| p.fz_rmse_n <= margin * v)
         && t.contact_rmse_mm
@@ -446,11 +446,11 @@ mod tests {
     use crate::commission::host::{Host, ScanEnded};
     use crate::commission::journal::{Journal, Options};
     use crate::workflow_error::BoxError;
-    use fringe_rig::scan::engine::RunTarget;
-    use fringe_rig::scan::plan::ScanProgram;
-    use fringe_rig::store::documents::{now_utc, ExitStatus, StopDocument};
+    use fringe_rig::store::{now_utc, ExitStatus, StopDocument};
     use fringe_rig::store::{RunFile, RunReader};
-    use fringe_sensor_models::acceptance::Spec;
+    use fringe_rig::RunTarget;
+    use fringe_rig::ScanProgram;
+    use fringe_sensor_models::Spec;
 
     /// A bench whose every scan completes with frames that cannot be learnt from (as a round
     /// pressed on a camera of another frame size): the run is written ended completed, with

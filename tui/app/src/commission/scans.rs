@@ -6,10 +6,10 @@ use super::journal::{completed, run_state, Journal, RunState, ScanEntry};
 use crate::rig::file::RigConfig;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{refuse, Context, WorkflowError};
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::Plan;
-use fringe_rig::store::documents::ExitStatus;
-use fringe_sensor_models::acceptance::Spec;
+use fringe_rig::store::ExitStatus;
+use fringe_rig::Plan;
+use fringe_rig::RunTarget;
+use fringe_sensor_models::Spec;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

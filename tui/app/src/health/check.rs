@@ -17,16 +17,16 @@ use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{refuse, Context, WorkflowError};
-use fringe_calibration::health::signature::Signature;
-use fringe_calibration::profile::Profile;
+use fringe_calibration::health::Signature;
+use fringe_calibration::Profile;
 use fringe_calibration::ScanRun;
-use fringe_rig::scan::engine::RunTarget;
-use fringe_rig::scan::plan::Plan;
-use fringe_sensor_models::backend::BackendKind;
+use fringe_rig::Plan;
+use fringe_rig::RunTarget;
 use fringe_sensor_models::dataset;
 use fringe_sensor_models::eval::{evaluate, Row};
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::predictor::Predictor;
+use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::Predictor;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -92,7 +92,7 @@ pub fn run(
         out,
         &format!(
             "check-{sensor}-{}",
-            fringe_rig::store::documents::now_utc().replace([':', '.'], "-")
+            fringe_rig::store::now_utc().replace([':', '.'], "-")
         ),
     );
     let end = host.scan(
@@ -134,7 +134,7 @@ pub fn run(
     let entry = Entry {
         format: HISTORY_FORMAT,
         fringe_version: env!("CARGO_PKG_VERSION").to_string(),
-        checked_utc: fringe_rig::store::documents::now_utc(),
+        checked_utc: fringe_rig::store::now_utc(),
         sensor_id: sensor.clone(),
         certificate: dir.display().to_string(),
         run: run_dir.display().to_string(),

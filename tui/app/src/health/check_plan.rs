@@ -4,7 +4,7 @@
 
 use crate::commission::press_choice::{choose, tour};
 use crate::commission::press_plan::{press_plan, PressPlanError};
-use fringe_rig::scan::plan::Plan;
+use fringe_rig::Plan;
 
 /// Positions a check presses at most.
 pub(crate) const CHECK_POSITIONS: usize = 3;

@@ -23,7 +23,7 @@
 //! (BENCHMARKS.md, "Unit health").
 
 use crate::health::model_errors::ModelErrors;
-use fringe_calibration::health::change::Change;
+use fringe_calibration::health::Change;
 
 /// What a check calls for, from least to gravest.
 #[derive(
@@ -306,7 +306,7 @@ pub fn assess(m: &Measured<'_>, t: &Thresholds) -> Assessment {
         {
             let (from, to) = (
                 c.darkest_rim_deg,
-                c.darkest_rim_deg + fringe_calibration::health::change::RIM_SECTOR_DEG as f64,
+                c.darkest_rim_deg + fringe_calibration::health::RIM_SECTOR_DEG as f64,
             );
             let light = 100.0 * c.darkest_rim_ratio;
             Said {

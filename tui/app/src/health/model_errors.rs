@@ -104,7 +104,7 @@ pub(crate) fn at_positions<'a>(rows: &'a [Row], positions: &[[f64; 2]]) -> Vec<&
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_sensor_models::metrics::Scored;
+    use fringe_sensor_models::Scored;
 
     fn row(fz_true: f64, contact_true: [f64; 2], contact_pred: [f64; 2]) -> Row {
         Row {

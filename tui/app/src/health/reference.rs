@@ -9,8 +9,8 @@
 //! was calibrated again (an LED out, dimming, a scratch) would otherwise be taken as the unit's
 //! normal and hidden.
 
-use fringe_calibration::health::change::{Change, ChangeError};
-use fringe_calibration::health::signature::Signature;
+use fringe_calibration::health::Signature;
+use fringe_calibration::health::{Change, ChangeError};
 
 /// The changes of a check `now` against the commissioning's calibration `commissioned` and,
 /// when the unit was calibrated again after it, that calibration `recalibrated`: the geometry's
@@ -39,7 +39,7 @@ mod tests {
     use super::*;
     use crate::health::figures::{assess, Measured, Thresholds, Verdict};
     use crate::health::model_errors::ModelErrors;
-    use fringe_calibration::health::signature::{CELLS, INNER, RIM_BINS, SIDES};
+    use fringe_calibration::health::{CELLS, INNER, RIM_BINS, SIDES};
     use fringe_calibration::DiscFit;
 
     /// The signature of a unit with twelve LEDs (`lit`), its light scaled by `gain`, its disc

@@ -1,7 +1,7 @@
 //! The tests' unit that did not change: the figures of a check of a unit like the ones repeated
 //! checks of an unchanged simulated unit give (BENCHMARKS.md, "Unit health").
 
-use fringe_calibration::health::change::Change;
+use fringe_calibration::health::Change;
 
 /// The no-contact figures of an unchanged unit (the camera's drift in the brightness).
 pub(crate) fn unchanged() -> Change {

@@ -2,8 +2,8 @@
 //! with the unit they were adapted to, and how; the weights written with it.
 
 use fringe_sensor_models::adapt::Adapted;
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::model_card::ModelCard;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::ModelCard;
 use fringe_sensor_models::{write_safetensors_with_card, ModelFileError, StateDict};
 use std::path::{Path, PathBuf};
 

@@ -3,7 +3,7 @@
 
 use crate::commission::certificate::commissioned_model;
 use fringe_sensor_models::builtin;
-use fringe_sensor_models::model::{Model, ModelError};
+use fringe_sensor_models::{Model, ModelError};
 use std::path::{Path, PathBuf};
 
 /// A model that could not be opened or chosen.

@@ -2,10 +2,10 @@
 //! or reference-layout datasets read, one without a labelled frame refused; what they agree on
 //! of their sensor; and where a model would see them at another scale than it was trained on.
 
-use fringe_calibration::profile::Profile;
+use fringe_calibration::Profile;
 use fringe_sensor_models::dataset::{self, DatasetError, Source};
-use fringe_sensor_models::model::Model;
-use fringe_sensor_models::preprocess::ReferenceSensor;
+use fringe_sensor_models::Model;
+use fringe_sensor_models::ReferenceSensor;
 use std::path::PathBuf;
 
 /// Labelled data that cannot be used.

@@ -2,7 +2,7 @@
 //! with the cargo feature `torch`) a training resumed from its checkpoint, which takes the
 //! checkpoint's data and settings.
 
-use fringe_sensor_models::arch::Architecture;
+use fringe_sensor_models::Architecture;
 
 /// The architecture named `s`; the error lists the names there are.
 pub fn architecture(s: &str) -> Result<Architecture, String> {
@@ -18,8 +18,8 @@ pub use with_torch::{resume_settings, ResumeError};
 #[cfg(feature = "torch")]
 mod with_torch {
     use super::architecture;
-    use fringe_sensor_models::model_card::{CardError, ModelCard};
-    use fringe_sensor_models::train::{Checkpoint, TrainConfig, TrainingRecord};
+    use fringe_sensor_models::{CardError, ModelCard};
+    use fringe_sensor_models::{Checkpoint, TrainConfig, TrainingRecord};
     use std::path::{Path, PathBuf};
 
     /// A checkpoint a training cannot resume from.

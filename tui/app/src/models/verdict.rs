@@ -1,7 +1,7 @@
 //! A spec given on the command line (`--spec FILE`, or `paper` for the paper's custom-CNN row)
 //! and the verdict of an evaluation against it, as printed.
 
-use fringe_sensor_models::acceptance::{Spec, SpecError, Verdict};
+use fringe_sensor_models::{Spec, SpecError, Verdict};
 use std::path::Path;
 
 /// The name that stands for the paper's row instead of a file.

@@ -5,20 +5,20 @@
 //! [`open_force`](crate::rig::force::open_force).
 
 use crate::rig::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
-use fringe_rig::apt::config::AptConfig;
-use fringe_rig::apt::driver::open_serial;
-use fringe_rig::apt::ThorlabsAxis;
-use fringe_rig::axis::{Axis, AxisError};
-use fringe_rig::camera::{Camera, CameraError};
-use fringe_rig::force::ForceError;
-use fringe_rig::manual::ManualStage;
-use fringe_rig::modbus::{Framing, MapError, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::apt::open_serial;
 use fringe_rig::nidaqmx::DaqError;
-use fringe_rig::operator::Operator;
-use fringe_rig::trace::record::record_stream;
-use fringe_rig::transport::serial::SerialLink;
-use fringe_rig::transport::tcp::TcpLink;
-use fringe_rig::transport::ByteLink;
+use fringe_rig::record_stream;
+use fringe_rig::AptConfig;
+use fringe_rig::ByteLink;
+use fringe_rig::ForceError;
+use fringe_rig::ManualStage;
+use fringe_rig::Operator;
+use fringe_rig::SerialLink;
+use fringe_rig::TcpLink;
+use fringe_rig::ThorlabsAxis;
+use fringe_rig::{modbus::MapError, Framing, ModbusStage, RegisterMap, StageOptions};
+use fringe_rig::{Axis, AxisError};
+use fringe_rig::{Camera, CameraError};
 use std::io;
 use std::path::Path;
 use std::time::Duration;
@@ -192,7 +192,7 @@ pub fn open_camera(spec: &CameraSpec) -> Result<Box<dyn Camera>, DeviceError> {
     match spec {
         #[cfg(feature = "aravis")]
         CameraSpec::Aravis { id } => {
-            let camera = fringe_rig::camera::aravis::AravisCamera::open(id.as_deref())
+            let camera = fringe_rig::AravisCamera::open(id.as_deref())
                 .map_err(|e| DeviceError::Camera(Box::new(e)))?;
             Ok(Box::new(camera))
         }

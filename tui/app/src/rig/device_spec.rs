@@ -4,8 +4,8 @@
 //! opener, so that the same description opens the same driver with the same settings.
 
 use crate::rig::host_port::HostPort;
-use fringe_rig::apt::config::AptConfig;
-use fringe_rig::axis::SoftLimits;
+use fringe_rig::AptConfig;
+use fringe_rig::SoftLimits;
 
 /// A motion axis.
 #[derive(Debug, Clone, PartialEq)]

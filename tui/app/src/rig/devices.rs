@@ -7,12 +7,15 @@
 use crate::rig::device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
 use crate::rig::file::{AxisDriver, AxisSection, CameraDriver, RigConfig};
 use crate::rig::host_port::HostPort;
-use fringe_rig::apt::config::{AptConfig, Controller, HomeConfig, HomeDirection, HomeLimitSwitch};
-use fringe_rig::apt::status::LimitPolarity;
 use fringe_rig::apt::Actuator;
-use fringe_rig::axis::SoftLimits;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::apt::LimitPolarity;
+use fringe_rig::ConfigError;
+use fringe_rig::SoftLimits;
+use fringe_rig::{
+    apt::{HomeConfig, HomeDirection, HomeLimitSwitch},
+    AptConfig, Controller,
+};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 
 impl RigConfig {
     /// The axis `name` (`x`, `y` or `z`) of a real rig as a device description, with its soft

@@ -2,7 +2,7 @@
 //! open, or the simulated bench did not start.
 
 use crate::rig::device_open::DeviceError;
-use fringe_rig::config_file::ConfigError;
+use fringe_rig::ConfigError;
 
 /// A rig that could not be opened.
 #[derive(Debug, thiserror::Error)]
@@ -13,5 +13,5 @@ pub enum RigError {
     Device(#[from] DeviceError),
     #[cfg(feature = "sim")]
     #[error("the simulated bench did not start: {0}")]
-    Sim(#[source] fringe_sim::rig::SimRigError),
+    Sim(#[source] fringe_sim::SimRigError),
 }

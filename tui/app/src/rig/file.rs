@@ -14,15 +14,15 @@
 use crate::rig::force::section::check_force_section;
 use crate::rig::force::section::{ForceDriver, ForceSection};
 use fringe_rig::apt::Actuator;
-use fringe_rig::camera::{CameraSettings, PixelFormat, TriggerMode};
-use fringe_rig::config_file::{parse_toml, ConfigError};
 use fringe_rig::nidaqmx::DaqSettings;
-use fringe_rig::scan::plan::Plan;
-use fringe_rig::store::frames::FrameCodec;
-use fringe_rig::store::stored_part::{RecordingSection, StoredPart};
-use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::sync::trigger::TriggerTiming;
-use fringe_rig::units::{
+use fringe_rig::store::FrameCodec;
+use fringe_rig::store::{RecordingSection, StoredPart};
+use fringe_rig::Plan;
+use fringe_rig::SyncMethod;
+use fringe_rig::TriggerTiming;
+use fringe_rig::{parse_toml, ConfigError};
+use fringe_rig::{CameraSettings, PixelFormat, TriggerMode};
+use fringe_rig::{
     Decibels, Hertz, Microseconds, MillimetresPerSecond, MillimetresPerSecondSquared,
 };
 use serde::Deserialize;
@@ -155,7 +155,7 @@ const SIM_DAQ_RATE_HZ: f64 = 5000.0;
 fn sim_trigger_delay_us() -> f64 {
     #[cfg(feature = "sim")]
     {
-        let c = fringe_sim::emulators::camera_emulator::SimCameraConfig::default();
+        let c = fringe_sim::SimCameraConfig::default();
         c.trigger_latency_us + c.line_response_us
     }
     #[cfg(not(feature = "sim"))]
@@ -195,17 +195,17 @@ pub struct SimSection {
     pub force_path: SimForcePath,
     /// Scale of the simulated camera image (1 = 1920x1200; 0.25 = 480x300 for quick tests).
     pub image_scale: f64,
-    /// Faults injected on purpose (`[[sim.faults]]`, see fringe_sim::faults): what a user sees
+    /// Faults injected on purpose (`[[sim.faults]]`, see fringe_sim::FaultSpec): what a user sees
     /// and what a run keeps when a device fails.
     #[cfg(feature = "sim")]
-    pub faults: Vec<fringe_sim::faults::FaultSpec>,
+    pub faults: Vec<fringe_sim::FaultSpec>,
     /// Session of the bench (default 0): repeated checks of the same unchanged bench differ only
-    /// by their noise (see fringe_sim::session).
+    /// by their noise (see rig/sim/src/session.rs).
     pub session: u64,
-    /// What changed in the unit since it was accepted (`[sim.ageing]`, see fringe_sim::ageing;
+    /// What changed in the unit since it was accepted (`[sim.ageing]`, see fringe_sim::Ageing;
     /// default nothing).
     #[cfg(feature = "sim")]
-    pub ageing: fringe_sim::ageing::Ageing,
+    pub ageing: fringe_sim::Ageing,
 }
 
 impl Default for SimSection {
@@ -219,7 +219,7 @@ impl Default for SimSection {
             faults: Vec::new(),
             session: 0,
             #[cfg(feature = "sim")]
-            ageing: fringe_sim::ageing::Ageing::default(),
+            ageing: fringe_sim::Ageing::default(),
         }
     }
 }
@@ -766,8 +766,8 @@ fn wholly_simulated(f: &RigFile, origin: &str) -> Result<bool, ConfigError> {
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::apt::config::Controller;
-    use fringe_rig::units::Millimetres;
+    use fringe_rig::Controller;
+    use fringe_rig::Millimetres;
 
     const REFERENCE: &str = include_str!("../../rigs/reference-bench.toml");
     const SIMULATED: &str = include_str!("../../rigs/simulated.toml");
@@ -779,7 +779,7 @@ mod tests {
         assert_eq!(
             disc.stored_part(None).expect("stored part"),
             StoredPart::Disc {
-                margin_px: fringe_rig::store::frames::DISC_MARGIN_PX
+                margin_px: fringe_rig::store::DISC_MARGIN_PX
             }
         );
         for (text, key) in [
@@ -1043,7 +1043,7 @@ mod tests {
         assert_eq!(c.sync().expect("sync"), SyncMethod::Strobe);
         assert_eq!(
             c.sensor_id().expect("id"),
-            fringe_sim::optics::sensor::SensorConfig::layered().id
+            fringe_sim::SensorConfig::layered().id
         );
     }
 }

@@ -15,8 +15,8 @@ pub(crate) mod section;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
 use crate::rig::file::RigConfig;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::force::ForceSensor;
+use fringe_rig::ConfigError;
+use fringe_rig::ForceSensor;
 use netft::{open_netft, NetFtSpec};
 use nidaqmx::{open_daq, DaqSpec};
 use section::ForceDriver;
@@ -92,8 +92,8 @@ mod tests {
     use crate::rig::force::nidaqmx::DaqSpec;
     use crate::rig::force::{open_force, ForceSpec};
     use fringe_rig::nidaqmx::{DaqSettings, Terminal};
-    use fringe_rig::sync::method::SyncMethod;
-    use fringe_rig::units::{Hertz, Volts};
+    use fringe_rig::SyncMethod;
+    use fringe_rig::{Hertz, Volts};
     use std::path::{Path, PathBuf};
 
     /// A real rig whose `[force]` section is `force`.
@@ -379,7 +379,7 @@ mod tests {
     #[test]
     fn nis_refusals_at_open_name_the_key_or_flag_and_what_to_do() {
         use crate::rig::force::nidaqmx::daq_error;
-        use fringe_rig::nidaqmx::api::status;
+        use fringe_rig::nidaqmx;
         use fringe_rig::nidaqmx::{DaqError, DaqmxStatus, Setting};
         let ni = |code, text: &str| DaqmxStatus {
             code,
@@ -396,7 +396,7 @@ mod tests {
         for (setting, code, text, key, flag, advice) in [
             (
                 Setting::Device,
-                status::INVALID_DEVICE_ID,
+                nidaqmx::INVALID_DEVICE_ID,
                 "Device identifier is invalid.",
                 "key `force.device`",
                 "--device",
@@ -404,7 +404,7 @@ mod tests {
             ),
             (
                 Setting::Gauges,
-                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST,
                 "Physical channel specified does not exist on this device.",
                 "key `force.gauges`",
                 "--channels",
@@ -412,7 +412,7 @@ mod tests {
             ),
             (
                 Setting::Strobe,
-                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST,
                 "Physical channel specified does not exist on this device.",
                 "key `force.strobe`",
                 "--strobe",
@@ -452,7 +452,10 @@ mod tests {
             "Dev1",
             Setting::Device,
             "DAQmxReadAnalogF64",
-            ni(status::DEV_CANNOT_BE_ACCESSED, "Device cannot be accessed."),
+            ni(
+                nidaqmx::DEV_CANNOT_BE_ACCESSED,
+                "Device cannot be accessed.",
+            ),
         );
         let line = daq_error(&spec(DaqNames::RigFile), e).to_string();
         assert!(

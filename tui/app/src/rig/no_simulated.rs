@@ -2,10 +2,10 @@
 //! simulated are refused when they are read, so these answer only if that check is bypassed.
 
 use crate::rig::file::{RigConfig, NO_SIM};
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::units::Newtons;
+use fringe_rig::BenchLimits;
+use fringe_rig::ConfigError;
+use fringe_rig::ContactOrigin;
+use fringe_rig::Newtons;
 
 pub(crate) fn refused(rig: &RigConfig) -> ConfigError {
     rig.err(NO_SIM.into())

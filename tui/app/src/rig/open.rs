@@ -9,13 +9,13 @@ use crate::rig::file::RigConfig;
 use crate::rig::force::open_force;
 #[cfg(feature = "sim")]
 use crate::rig::simulated::SimBench;
-use fringe_rig::camera::CameraSettings;
-use fringe_rig::devices::Devices;
-use fringe_rig::operator::Operator;
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::sync::method::SyncMethod;
-use fringe_rig::sync::trigger::TriggerTiming;
+use fringe_rig::BenchLimits;
+use fringe_rig::CameraSettings;
+use fringe_rig::ContactOrigin;
+use fringe_rig::Devices;
+use fringe_rig::Operator;
+use fringe_rig::SyncMethod;
+use fringe_rig::TriggerTiming;
 use std::path::Path;
 
 /// The rig, opened.

@@ -6,11 +6,11 @@ use crate::rig::file::{AxisDriver, AxisSection, RigConfig};
 use crate::rig::force::section::ForceDriver;
 use crate::rig::simulated;
 use fringe_rig::atical::Calibration;
-use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::{BenchLimits, FtRating};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
+use fringe_rig::ConfigError;
+use fringe_rig::ContactOrigin;
+use fringe_rig::{scan::FtRating, BenchLimits};
+use fringe_rig::{Kinematics, SoftLimits};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 
 /// The largest force on the bench when the rig file does not say (or the transducer's rated
 /// range, when lower).

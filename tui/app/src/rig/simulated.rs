@@ -6,18 +6,18 @@ use crate::rig::error::RigError;
 use crate::rig::file::{AxisSection, RigConfig, SimForcePath};
 use crate::session::truth_score::TruthScore;
 use fringe_rig::atical::Calibration;
-use fringe_rig::axis::{Kinematics, SoftLimits};
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::devices::Devices;
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::{BenchLimits, FtRating};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
-use fringe_sim::bench::{AxisConfig, Bench};
-use fringe_sim::ground_truth::records::TruthSink;
-use fringe_sim::ground_truth::truth_spool::TruthSpool;
-use fringe_sim::optics::sensor::SensorConfig;
-use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
+use fringe_rig::ConfigError;
+use fringe_rig::ContactOrigin;
+use fringe_rig::Devices;
+use fringe_rig::{scan::FtRating, BenchLimits};
+use fringe_rig::{Kinematics, SoftLimits};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::NetFtEmulatorConfig;
+use fringe_sim::SensorConfig;
+use fringe_sim::TruthSink;
+use fringe_sim::TruthSpool;
+use fringe_sim::{AxisConfig, Bench};
+use fringe_sim::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -200,14 +200,14 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
 /// (`truth.jsonl`); `None` when no labelled frame has a truth record.
 pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
     let records = fringe_rig::store::RunReader::at(run_dir).frames()?;
-    let path = run_dir.join(fringe_sim::ground_truth::records::TRUTH_FILE);
-    let truth = fringe_sim::ground_truth::records::read_frames(&path).map_err(|e| match e {
-        fringe_sim::ground_truth::records::TruthError::Io { path, source } => {
+    let path = run_dir.join(fringe_sim::ground_truth::TRUTH_FILE);
+    let truth = fringe_sim::ground_truth::read_frames(&path).map_err(|e| match e {
+        fringe_sim::ground_truth::TruthError::Io { path, source } => {
             fringe_rig::store::StoreError::Io { path, source }
         }
     })?;
     Ok(
-        fringe_sim::ground_truth::label_score::score(&records, &truth).map(|s| TruthScore {
+        fringe_sim::ground_truth::score_labels(&records, &truth).map(|s| TruthScore {
             frames: s.frames,
             force_rms_n: s.force_rms_n,
             force_max_n: s.force_max_n,
@@ -218,12 +218,10 @@ pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store
 }
 
 /// Contact finding tuned for the simulated sensor's construction.
-pub fn spot_settings(
-    rig: &RigConfig,
-) -> Result<fringe_calibration::registration::contact_spot::SpotSettings, ConfigError> {
-    use fringe_calibration::registration::contact_spot::SpotSettings;
+pub fn spot_settings(rig: &RigConfig) -> Result<fringe_calibration::SpotSettings, ConfigError> {
+    use fringe_calibration::SpotSettings;
     Ok(match config(rig)?.sensor.variant {
-        fringe_sim::optics::sensor::Variant::Integrated => SpotSettings::integrated(),
+        fringe_sim::Variant::Integrated => SpotSettings::integrated(),
         _ => SpotSettings::layered(),
     })
 }
@@ -254,10 +252,7 @@ pub struct RegistrationTruth {
 
 impl SimBench {
     /// Compares a calibration from this bench's runs with the bench itself.
-    pub fn calibration_truth(
-        &self,
-        cal: &fringe_calibration::from_scan::ScanCalibration,
-    ) -> CalibrationTruth {
+    pub fn calibration_truth(&self, cal: &fringe_calibration::ScanCalibration) -> CalibrationTruth {
         let sim = self.config();
         let g = sim.sensor.geometry();
         let f = &cal.fit;
@@ -296,16 +291,13 @@ impl SimBench {
     /// optical centre, the disc radius as the crop radius, the frame size, and the registration
     /// against the bench's stages), for using a model on the simulated bench before a
     /// calibration has been made. Labelled as such in `source`.
-    pub fn design_profile(&self, sensor_id: &str) -> fringe_calibration::profile::Profile {
+    pub fn design_profile(&self, sensor_id: &str) -> fringe_calibration::Profile {
         design_profile(self.config(), sensor_id)
     }
 }
 
 /// [`SimBench::design_profile`] of the simulated rig `config` describes, without starting it.
-pub fn design_profile(
-    config: &SimRigConfig,
-    sensor_id: &str,
-) -> fringe_calibration::profile::Profile {
+pub fn design_profile(config: &SimRigConfig, sensor_id: &str) -> fringe_calibration::Profile {
     let b = &config.bench.geometry;
     sensor_profile(
         &config.sensor,
@@ -328,15 +320,15 @@ pub fn sensor_profile(
     sensor_id: &str,
     source: String,
     contact_origin_stage_mm: [f64; 2],
-) -> fringe_calibration::profile::Profile {
-    use fringe_calibration::profile::{ImageSize, Optical, Profile, Registration};
+) -> fringe_calibration::Profile {
+    use fringe_calibration::{ImageSize, Optical, Profile, Registration};
     let g = &sensor.geometry;
     let geometry = sensor.geometry();
     let centre = geometry.centre_px;
     let [ox, oy] = contact_origin_stage_mm;
     Profile {
         sensor_id: sensor_id.to_string(),
-        created_utc: fringe_rig::store::documents::now_utc(),
+        created_utc: fringe_rig::store::now_utc(),
         source,
         image: ImageSize {
             width: g.width,
@@ -382,9 +374,9 @@ mod tests {
     /// hot spots kept their full-size widths, and a calibration found no disc).
     #[test]
     fn a_unit_filmed_at_a_quarter_of_the_frame_size_is_found_where_it_is() {
-        use fringe_calibration::optical::grey::GreyImage;
-        use fringe_sim::optics::render::Renderer;
-        use fringe_sim::scene::{FrameRenderer, Scene};
+        use fringe_calibration::GreyImage;
+        use fringe_sim::Renderer;
+        use fringe_sim::{FrameRenderer, Scene};
         let sensor = concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/../../rig/sim/sensors/layered-3.toml"

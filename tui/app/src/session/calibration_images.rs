@@ -3,14 +3,17 @@
 //! chosen, averaged and fitted (centre, shift from the image centre, radius and crop radius),
 //! then the profile and its report image written.
 
-use fringe_calibration::frames::{self, FrameError};
-use fringe_calibration::optical::overlay::overlay;
-use fringe_calibration::optical::{self, grey::GreyImage, DiscFit, OpticalError};
-use fringe_calibration::profile::{Profile, ProfileError};
+use fringe_calibration::find_disc_in;
+use fringe_calibration::grey_average;
+use fringe_calibration::overlay;
+use fringe_calibration::spread;
+use fringe_calibration::FrameError;
+use fringe_calibration::{DiscFit, GreyImage, OpticalError};
+use fringe_calibration::{Profile, ProfileError};
 use fringe_rig::reference_layout::{
     in_contact, read_labels, LabelsError, CONTACT_THRESHOLD, LABELS,
 };
-use fringe_rig::units::Newtons;
+use fringe_rig::Newtons;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
@@ -142,13 +145,12 @@ pub fn fit_disc(
     chosen: &[PathBuf],
     max_frames: usize,
 ) -> Result<(GreyImage, DiscFit), CalibrationImagesError> {
-    let used = frames::spread(chosen, max_frames);
-    let average =
-        frames::grey_average(&used, None).map_err(|source| CalibrationImagesError::Frames {
-            context: dir.display().to_string(),
-            source,
-        })?;
-    let fit = optical::find_disc_in(&average).map_err(|source| CalibrationImagesError::Fit {
+    let used = spread(chosen, max_frames);
+    let average = grey_average(&used, None).map_err(|source| CalibrationImagesError::Frames {
+        context: dir.display().to_string(),
+        source,
+    })?;
+    let fit = find_disc_in(&average).map_err(|source| CalibrationImagesError::Fit {
         context: format!("{} ({} frames averaged)", dir.display(), used.len()),
         source,
     })?;

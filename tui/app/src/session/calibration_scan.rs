@@ -5,13 +5,14 @@
 
 use crate::rig::file::RigConfig;
 use crate::session::plans::CALIBRATION;
-use fringe_calibration::from_scan::{self, FromScanError, ScanCalibration};
-use fringe_calibration::optical::overlay::{overlay, overlay_scaled};
-use fringe_calibration::profile::{profile_path, Profile, ProfileError};
-use fringe_calibration::registration::contact_spot::{draw_spot, SpotSettings};
-use fringe_calibration::registration::plot::residual_plot;
-use fringe_calibration::scan_run::{ScanRun, ScanRunError};
-use fringe_rig::config_file::ConfigError;
+use fringe_calibration::calibrate;
+use fringe_calibration::residual_plot;
+use fringe_calibration::{draw_spot, SpotSettings};
+use fringe_calibration::{overlay, overlay_scaled};
+use fringe_calibration::{profile_path, Profile, ProfileError};
+use fringe_calibration::{FromScanError, ScanCalibration};
+use fringe_calibration::{ScanRun, ScanRunError};
+use fringe_rig::ConfigError;
 use std::path::{Path, PathBuf};
 
 /// The built-in grid: `points` x `points` light presses over +- `span_mm` around the nominal
@@ -219,7 +220,7 @@ pub fn calibrate_run(
     spot: SpotSettings,
 ) -> Result<CalibrationResult, CalibrationRunError> {
     let run = ScanRun::read(run_dir)?;
-    let cal = from_scan::calibrate(&run, max_frames, spot)?;
+    let cal = calibrate(&run, max_frames, spot)?;
     let mut profile = Profile::from_fit(sensor, &run_dir.display().to_string(), &cal.fit);
     profile.force_offsets = cal.offsets;
     profile.registration = cal.registration.as_ref().ok().map(|r| r.to_profile());

@@ -2,11 +2,11 @@
 //! "disc"`): the square of the sensor's calibration profile, and why it cannot be had.
 
 use crate::rig::file::RigConfig;
-use fringe_calibration::profile::Profile;
-use fringe_rig::camera::Cutout;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frames::FrameStorage;
+use fringe_calibration::Profile;
+use fringe_rig::store::FrameStorage;
+use fringe_rig::store::ProfileRef;
+use fringe_rig::ConfigError;
+use fringe_rig::Cutout;
 
 /// Why a scan's recording cannot be set up.
 #[derive(Debug, thiserror::Error)]

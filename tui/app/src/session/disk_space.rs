@@ -8,16 +8,16 @@
 
 use crate::rig::file::RigConfig;
 use crate::session::disc_cutout::{disc_cutout, RecordingError};
-use fringe_calibration::profile::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
-use fringe_rig::camera::format_name;
-use fringe_rig::scan::plan::{BenchLimits, Plan, ScanProgram};
-use fringe_rig::store::disk_space::{available_bytes, human};
-use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::frames::FrameStorage;
-use fringe_rig::store::run_size::{mean_stored_frame_bytes, RecordingTime, RunSize};
-use fringe_rig::store::stored_part::StoredPart;
+use fringe_calibration::{load_checked, profile_path, Expectation, Profile, MAX_AGE_DAYS};
+use fringe_rig::format_name;
+use fringe_rig::store::FrameStorage;
+use fringe_rig::store::ProfileRef;
 use fringe_rig::store::RunReader;
-use fringe_rig::units::Hertz;
+use fringe_rig::store::StoredPart;
+use fringe_rig::store::{available_bytes, human_bytes as human};
+use fringe_rig::store::{mean_stored_frame_bytes, RecordingTime, RunSize};
+use fringe_rig::Hertz;
+use fringe_rig::{BenchLimits, Plan, ScanProgram};
 use fringe_rig::{RunTarget, ScanSetup};
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -171,7 +171,7 @@ impl Recording {
     }
 
     /// The expected size of a run recording for `time` (a plan's
-    /// [`Estimate::recording_time`](fringe_rig::scan::plan::Estimate::recording_time)).
+    /// [`Estimate::recording_time`](fringe_rig::scan::Estimate::recording_time)).
     pub fn expected(&self, time: RecordingTime) -> RunSize {
         RunSize::expected(time, self.frame_rate, &self.storage, self.frame.px())
     }
@@ -416,7 +416,7 @@ pub(crate) fn check_room(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::camera::PixelFormat;
+    use fringe_rig::PixelFormat;
     use std::time::Duration;
 
     #[cfg(feature = "sim")]
@@ -476,10 +476,10 @@ mod tests {
     /// A scan of the built-in short grid on the simulated bench, whole BayerRG8 frames.
     #[cfg(feature = "sim")]
     fn short_grid() -> ScanSetup {
-        use fringe_rig::camera::CameraSettings;
-        use fringe_rig::scan::origin::ContactOrigin;
-        use fringe_rig::scan::plan::Plan;
-        use fringe_rig::units::Millimetres;
+        use fringe_rig::CameraSettings;
+        use fringe_rig::ContactOrigin;
+        use fringe_rig::Millimetres;
+        use fringe_rig::Plan;
         let limits = RigConfig::simulated().limits().expect("limits");
         let grid = crate::session::plans::SHORT_GRID;
         let program = Plan::parse(grid.text, "short-grid")
@@ -495,7 +495,7 @@ mod tests {
                 y: Millimetres(0.0),
                 source: "test".into(),
             },
-            sync: fringe_rig::sync::method::SyncMethod::Host,
+            sync: fringe_rig::SyncMethod::Host,
             trigger: None,
             sensor_id: "s1".into(),
             variant: None,
@@ -516,10 +516,10 @@ mod tests {
     #[cfg(feature = "sim")]
     #[test]
     fn a_new_run_is_sized_for_the_plan_and_a_resumed_one_for_its_points_left_at_its_own_frames() {
-        use fringe_rig::camera::Frame;
-        use fringe_rig::clock::HostTime;
-        use fringe_rig::store::documents::{now_utc, StartDocument, LAYOUT_VERSION};
-        use fringe_rig::store::run_writer::RunWriter;
+        use fringe_rig::store::RunWriter;
+        use fringe_rig::store::{now_utc, StartDocument, LAYOUT_VERSION};
+        use fringe_rig::Frame;
+        use fringe_rig::HostTime;
         let setup = short_grid();
         let root = std::env::temp_dir().join(format!("fringe-disk-room-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&root);

@@ -19,8 +19,8 @@
 //! since the bench opened, or the F/T restarted and its zero moved) a load cannot be told from
 //! a zero, so moves across the sensor and the tare are refused, saying to home z first.
 
-use fringe_rig::scan::clearance::Clearance;
-use fringe_rig::units::Newtons;
+use fringe_rig::scan::Clearance;
+use fringe_rig::Newtons;
 use std::time::{Duration, Instant};
 
 /// Why a motion or a tare is refused; each says what to do.
@@ -366,7 +366,7 @@ impl JogGuard {
     }
 
     /// A reading of the F/T (`fz_n`, the mean of the newest
-    /// [`fringe_rig::scan::clearance::LOAD_SAMPLES`], N) after `restarts` restarts of the device:
+    /// [`fringe_rig::scan::LOAD_SAMPLES`], N) after `restarts` restarts of the device:
     /// the no-contact reading taken or followed where it can be, and the moves across the sensor
     /// to stop now when it reads a load (forgotten here once returned).
     pub(crate) fn reading(&mut self, fz_n: f64, restarts: u64) -> Option<LoadStop> {

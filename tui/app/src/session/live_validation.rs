@@ -17,19 +17,17 @@
 //! counts and the metrics ([`RecordTap::cut`]), and their number is reported as `cut`.
 
 use crate::session::worker_failure::{guarded, inject};
-use fringe_calibration::profile::Profile;
-use fringe_rig::acquire::record_tap::RecordTap;
-use fringe_rig::camera::Frame;
-use fringe_rig::store::documents::FrameRecord;
+use fringe_calibration::Profile;
+use fringe_rig::store::FrameRecord;
+use fringe_rig::Frame;
+use fringe_rig::RecordTap;
 use fringe_sensor_models::dataset::{from_record, Sample};
 use fringe_sensor_models::eval::{keys, score, Evaluation, Row};
-use fringe_sensor_models::metrics::{Errors, Metrics};
-use fringe_sensor_models::model::{Model, ModelError};
-use fringe_sensor_models::prediction::Prediction;
-use fringe_sensor_models::predictor::{PredictError, Predictor};
-use fringe_sensor_models::preprocess::{
-    tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor,
-};
+use fringe_sensor_models::Prediction;
+use fringe_sensor_models::{tensor_image, thumbnail, FrameRef, PreprocessError, Preprocessor};
+use fringe_sensor_models::{Errors, Metrics};
+use fringe_sensor_models::{Model, ModelError};
+use fringe_sensor_models::{PredictError, Predictor};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -687,12 +685,12 @@ impl Worker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_calibration::profile::{ImageSize, Optical};
-    use fringe_rig::camera::PixelFormat;
-    use fringe_rig::clock::HostTime;
-    use fringe_rig::store::documents::Position;
-    use fringe_rig::units::{Millimetres, Newtons, Wrench};
-    use fringe_sensor_models::backend::BackendKind;
+    use fringe_calibration::{ImageSize, Optical};
+    use fringe_rig::store::Position;
+    use fringe_rig::HostTime;
+    use fringe_rig::PixelFormat;
+    use fringe_rig::{Millimetres, Newtons, Wrench};
+    use fringe_sensor_models::BackendKind;
     use std::path::Path;
 
     const SIDE: u32 = 64;
@@ -883,9 +881,9 @@ mod tests {
     #[test]
     fn a_two_stage_models_live_predictions_are_those_it_makes_frame_by_frame() {
         use fringe_sim::dataset::{pressed_frame, shape_named};
-        use fringe_sim::optics::render::Renderer;
-        use fringe_sim::optics::sensor::SensorConfig;
-        use fringe_sim::scene::{Contact, FrameRenderer};
+        use fringe_sim::Renderer;
+        use fringe_sim::SensorConfig;
+        use fringe_sim::{Contact, FrameRenderer};
 
         let sensor = SensorConfig::layered();
         let profile = crate::rig::simulated::sensor_profile(

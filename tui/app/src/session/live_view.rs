@@ -3,10 +3,10 @@
 //! [`MAX_RATE_HZ`] times a second; a worker thread makes the picture, so neither the recorder nor
 //! the front end's drawing ever downscales a frame.
 
-use fringe_rig::acquire::record_tap::RecordTap;
-use fringe_rig::camera::Frame;
-use fringe_rig::store::documents::FrameRecord;
-use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
+use fringe_rig::store::FrameRecord;
+use fringe_rig::Frame;
+use fringe_rig::RecordTap;
+use fringe_sensor_models::{thumbnail, FrameRef};
 use std::collections::VecDeque;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;

@@ -4,7 +4,7 @@
 //! when more come: a model slower than the camera skips a share of the frames however long the
 //! scan, which the operator should know, with what would keep up, before pressing.
 
-use fringe_rig::units::Hertz;
+use fringe_rig::Hertz;
 use std::time::Duration;
 
 /// Timed runs of the model's networks before the scan (after one to warm up).

@@ -113,7 +113,7 @@ pub fn scan_plan(
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::scan::plan::Plan;
+    use fringe_rig::Plan;
 
     #[test]
     fn every_built_in_plan_is_valid_on_the_simulated_bench() {

@@ -16,19 +16,19 @@ use crate::rig::error::RigError;
 use crate::rig::file::RigConfig;
 pub use crate::session::jog_guard::AxisId;
 use crate::session::jog_guard::{Heading, JogGuard, Polled, Refused};
-use fringe_rig::acquire::camera_stream::CameraStream;
-use fringe_rig::acquire::force_stream::ForceStream;
-use fringe_rig::acquire::frame_gaps::FrameGaps;
-use fringe_rig::axis::{Axis, AxisError, StopMode};
-use fringe_rig::camera::{CameraError, CameraSettings, Frame};
-use fringe_rig::devices::Devices;
-use fringe_rig::force::{ForceError, StreamStats};
-use fringe_rig::operator::Operator;
-use fringe_rig::scan::clearance::LOAD_SAMPLES;
-use fringe_rig::scan::plan::BenchLimits;
-use fringe_rig::scan::press::PressSettings;
-use fringe_rig::units::Millimetres;
-use fringe_sensor_models::preprocess::{thumbnail, FrameRef};
+use fringe_rig::scan::PressSettings;
+use fringe_rig::scan::LOAD_SAMPLES;
+use fringe_rig::BenchLimits;
+use fringe_rig::CameraStream;
+use fringe_rig::Devices;
+use fringe_rig::ForceStream;
+use fringe_rig::FrameGaps;
+use fringe_rig::Millimetres;
+use fringe_rig::Operator;
+use fringe_rig::{Axis, AxisError, StopMode};
+use fringe_rig::{CameraError, CameraSettings, Frame};
+use fringe_rig::{ForceError, StreamStats};
+use fringe_sensor_models::{thumbnail, FrameRef};
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender};
@@ -333,7 +333,7 @@ impl std::ops::DerefMut for HeldAxes {
 impl Drop for HeldAxes {
     fn drop(&mut self) {
         let [x, y, z] = &mut self.0;
-        fringe_rig::scan::panic_stop::stop_if_panicking([z.as_mut(), x.as_mut(), y.as_mut()]);
+        fringe_rig::scan::stop_if_panicking([z.as_mut(), x.as_mut(), y.as_mut()]);
     }
 }
 

@@ -12,32 +12,32 @@ use crate::session::disk_space::{camera_frame, check_room, parsed, FrameSize, Ro
 use crate::session::live_validation::{FrameSource, LiveValidation, BACKLOG_FRAMES};
 use crate::session::model_pace::{keeping_up, Pace, Setting, TIMING_RUNS};
 use crate::session::truth_score::TruthScore;
-use fringe_calibration::offsets::{ProfileOffsetCheck, ZeroTolerance};
-use fringe_calibration::profile::{
+use fringe_calibration::{
     load_checked, profile_path, Expectation, Profile, ProfileWarning, MAX_AGE_DAYS,
 };
-use fringe_rig::camera::CameraSettings;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::devices::Devices;
-use fringe_rig::operator::Operator;
-#[cfg(feature = "sim")]
-use fringe_rig::operator::{Prompt, Reply};
+use fringe_calibration::{ProfileOffsetCheck, ZeroTolerance};
 use fringe_rig::reference_layout::NO_CONTACT;
-use fringe_rig::scan::control::{ScanControl, ScanProgress};
-use fringe_rig::scan::failure::ScanError;
-use fringe_rig::scan::offset_check::OffsetCheck;
-use fringe_rig::scan::origin::ContactOrigin;
-use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
-use fringe_rig::scan::press::PressSettings;
-use fringe_rig::scan::sidecar::RunSidecar;
-use fringe_rig::scan::watchers::WatchSettings;
-use fringe_rig::store::documents::ProfileRef;
-use fringe_rig::store::stored_part::StoredPart;
+use fringe_rig::scan::OffsetCheck;
+use fringe_rig::scan::PressSettings;
+use fringe_rig::scan::RunSidecar;
+use fringe_rig::scan::WatchSettings;
+use fringe_rig::store::ProfileRef;
 use fringe_rig::store::StoreError;
-use fringe_rig::units::Millimetres;
+use fringe_rig::store::StoredPart;
+use fringe_rig::CameraSettings;
+use fringe_rig::ConfigError;
+use fringe_rig::ContactOrigin;
+use fringe_rig::Devices;
+use fringe_rig::Millimetres;
+use fringe_rig::Operator;
+use fringe_rig::ScanError;
 use fringe_rig::{run_scan, RunTarget, ScanOutcome, ScanSetup};
-use fringe_sensor_models::model::{Model, ModelError};
-use fringe_sensor_models::predictor::{PredictError, Predictor};
+use fringe_rig::{scan::ScanProgress, ScanControl};
+use fringe_rig::{BenchLimits, ScanProgram};
+#[cfg(feature = "sim")]
+use fringe_rig::{Prompt, Reply};
+use fringe_sensor_models::{Model, ModelError};
+use fringe_sensor_models::{PredictError, Predictor};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::SystemTime;
@@ -431,10 +431,7 @@ fn sim_record(sim: Option<&SimBench>) -> (Option<u64>, Vec<Arc<dyn RunSidecar>>)
 /// the caller's operator.
 #[cfg(feature = "sim")]
 struct BenchOperator<'a> {
-    bench: Option<(
-        Arc<fringe_sim::bench::Bench>,
-        fringe_sim::optics::sensor::SensorConfig,
-    )>,
+    bench: Option<(Arc<fringe_sim::Bench>, fringe_sim::SensorConfig)>,
     inner: &'a mut dyn Operator,
     progress: &'a (dyn Fn(ScanProgress) + Sync),
 }
@@ -442,7 +439,7 @@ struct BenchOperator<'a> {
 #[cfg(feature = "sim")]
 impl Operator for BenchOperator<'_> {
     fn ask(&mut self, prompt: &Prompt) -> Reply {
-        use fringe_sim::bench::MountedIndenter;
+        use fringe_sim::MountedIndenter;
         if let (Some((bench, sensor)), Prompt::ChangeIndenter { shape }) = (&self.bench, prompt) {
             return match sensor.indenter_tip(shape) {
                 Some(tip) => {
@@ -541,9 +538,9 @@ fn calibration_profile(
 #[cfg(all(test, feature = "sim"))]
 mod tests {
     use super::*;
-    use fringe_rig::operator::{Prompt, Reply};
-    use fringe_sim::bench::{Bench, BenchConfig, IndenterTip};
-    use fringe_sim::optics::sensor::SensorConfig;
+    use fringe_rig::{Prompt, Reply};
+    use fringe_sim::SensorConfig;
+    use fringe_sim::{Bench, BenchConfig, IndenterTip};
 
     /// Nobody at the bench: a prompt that reaches the operator aborts.
     struct Nobody;
@@ -593,11 +590,11 @@ mod tests {
                     "rectangle" => sensor.rectangle(),
                     _ => sensor.sphere(3.0),
                 };
-                let mounted = tip.shape_at(fringe_rig::units::Millimetres(0.5));
+                let mounted = tip.shape_at(fringe_rig::Millimetres(0.5));
                 match (mounted, rendered) {
                     (
-                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: a, .. },
-                        fringe_sim::physics::indenter::Shape::Sphere { radius_mm: b, .. },
+                        fringe_sim::Shape::Sphere { radius_mm: a, .. },
+                        fringe_sim::Shape::Sphere { radius_mm: b, .. },
                     ) => assert_eq!(a, b),
                     (a, b) => assert_eq!(a, b, "{shape}"),
                 }

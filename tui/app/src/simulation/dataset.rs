@@ -10,20 +10,20 @@
 //! when complete). The labels are written last, atomically.
 
 use crate::rig::simulated::sensor_profile;
-use fringe_calibration::profile::ProfileError;
-use fringe_rig::camera::{Frame, PixelFormat};
-use fringe_rig::clock::HostTime;
+use fringe_calibration::ProfileError;
 use fringe_rig::reference_layout::{LabelRow, LabelWriter, Shape, IMAGES, LABELS};
 use fringe_rig::reference_layout::{SIM_DATASET_DOC, SIM_DATASET_PROFILE};
-use fringe_rig::store::disk_space::available_bytes;
-use fringe_rig::store::durable::write_atomic;
-use fringe_rig::store::frames::error::FrameFileError;
-use fringe_rig::store::frames::png::save_png;
+use fringe_rig::store::available_bytes;
+use fringe_rig::store::save_png;
+use fringe_rig::store::write_atomic;
+use fringe_rig::store::FrameFileError;
 use fringe_rig::store::StoreError;
+use fringe_rig::HostTime;
+use fringe_rig::{Frame, PixelFormat};
 use fringe_sim::dataset::{frame, DatasetSpec, SyntheticFrame};
-use fringe_sim::optics::render::Renderer;
-use fringe_sim::optics::sensor::{SensorConfig, SensorConfigError};
-use fringe_sim::scene::FrameRenderer;
+use fringe_sim::FrameRenderer;
+use fringe_sim::Renderer;
+use fringe_sim::{SensorConfig, SensorConfigError};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;

@@ -2,11 +2,11 @@
 //! real Net F/T driver over real UDP against the simulated Net F/T box on loopback, a
 //! two-second press rising to 5 N, and what arrived.
 
-use fringe_rig::force::{ForceError, ForceSensor, StreamStats};
-use fringe_rig::netft::{NetFt, NetFtConfig, NetFtOptions};
-use fringe_rig::trace::record_datagrams;
-use fringe_rig::transport::udp::UdpLink;
-use fringe_sim::emulators::netft_box::{SimNetFt, SimOptions};
+use fringe_rig::record_datagrams;
+use fringe_rig::UdpLink;
+use fringe_rig::{ForceError, ForceSensor, StreamStats};
+use fringe_rig::{NetFt, NetFtConfig, NetFtOptions};
+use fringe_sim::{SimNetFt, SimOptions};
 use std::io;
 use std::path::Path;
 use std::sync::Arc;

@@ -13,7 +13,7 @@ use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, WARN};
 use fringe_app::session::rig_control::{
     AxisId, AxisState, BenchCommand, BenchPhase, BenchSession, BenchState,
 };
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};

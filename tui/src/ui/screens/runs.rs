@@ -11,7 +11,7 @@ use crate::ui::state::{RunRow, RunsView, Tab};
 use crate::ui::widgets::{panel, BAD, GOOD, WARN};
 use crate::ui::workers::{self, Verdict};
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_rig::store::disk_space::human;
+use fringe_rig::store::human_bytes as human;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::{Modifier, Style};

@@ -11,7 +11,7 @@ use crate::ui::state::{Phase, ScanView, Tab, UiState};
 use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, PENDING, WARN};
-use fringe_rig::store::disk_space::human;
+use fringe_rig::store::human_bytes as human;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};

@@ -13,10 +13,10 @@ use fringe_app::session::live_view::{LabelPoint, ViewState};
 use fringe_app::session::rig_control::{
     AxisId, AxisState, BenchPhase, BenchState, CameraState, ForcePoint, ForceState,
 };
-use fringe_rig::units::Millimetres;
+use fringe_rig::Millimetres;
 use fringe_sensor_models::dataset::Sample;
-use fringe_sensor_models::metrics::Errors;
-use fringe_sensor_models::prediction::{ForceVector, Prediction};
+use fringe_sensor_models::Errors;
+use fringe_sensor_models::{ForceVector, Prediction};
 use ratatui::backend::TestBackend;
 use ratatui::buffer::Buffer;
 use ratatui::style::{Color, Modifier};
@@ -806,7 +806,7 @@ fn the_plan_chooser_lists_the_plans_with_the_chosen_one_highlighted() {
 /// A check of a unit whose figures are `change`'s, at `utc`.
 fn check_entry(
     utc: &str,
-    change: &fringe_calibration::health::change::Change,
+    change: &fringe_calibration::health::Change,
 ) -> fringe_app::health::history::Entry {
     use fringe_app::health::figures::{assess, Measured, Thresholds};
     let a = assess(
@@ -837,7 +837,7 @@ fn check_entry(
 #[test]
 fn health_screen_lists_the_checks_and_the_chosen_one_s_figures_with_the_moved_ones_marked() {
     use fringe_app::health::figures::Verdict;
-    use fringe_calibration::health::change::Change;
+    use fringe_calibration::health::Change;
     let unchanged = Change {
         centre_shift_px: [0.003, -0.001],
         centre_sigma_px: [0.01, 0.01],

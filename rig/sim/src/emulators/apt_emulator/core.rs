@@ -2,15 +2,16 @@
 //! and no threads, so unit tests drive time by hand; [`super::server`] runs it on a link.
 
 use crate::physics::motion::{Kinematics, MotorStatus, SimMotor};
-use fringe_rig::apt::actuator::{Actuator, ACTUATORS};
-use fringe_rig::apt::config::{AptConfig, Controller};
-use fringe_rig::apt::ids::{bay_address, RACK, USB_UNIT};
-use fringe_rig::apt::message::{
+use fringe_rig::apt;
+use fringe_rig::apt::LimitPolarity;
+use fringe_rig::apt::{bay_address, RACK, USB_UNIT};
+use fringe_rig::apt::{Actuator, ACTUATORS};
+use fringe_rig::apt::{
     HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode, UStatusBlock, VelParams,
 };
-use fringe_rig::apt::status::{self as bits, LimitPolarity};
-use fringe_rig::clock::HostTime;
-use fringe_rig::units::Millimetres;
+use fringe_rig::HostTime;
+use fringe_rig::Millimetres;
+use fringe_rig::{AptConfig, Controller};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -185,7 +186,7 @@ struct Updates {
 
 /// The emulated controller state.
 #[derive(Debug)]
-pub struct EmulatorCore {
+pub(crate) struct EmulatorCore {
     config: AptEmulatorConfig,
     motor: Arc<SimMotor>,
     actuator: Actuator,
@@ -220,7 +221,7 @@ fn saturate_i32(x: f64) -> i32 {
 impl EmulatorCore {
     /// A controller at power-up driving `motor`; velocity and home parameters start from the
     /// motor's kinematics in the actuator's device units.
-    pub fn new(config: AptEmulatorConfig, motor: Arc<SimMotor>) -> EmulatorCore {
+    pub(crate) fn new(config: AptEmulatorConfig, motor: Arc<SimMotor>) -> EmulatorCore {
         let a = config.actuator;
         let k = motor.kinematics();
         let channel = config.channel;
@@ -258,23 +259,23 @@ impl EmulatorCore {
     }
 
     /// The configuration.
-    pub fn config(&self) -> &AptEmulatorConfig {
+    pub(crate) fn config(&self) -> &AptEmulatorConfig {
         &self.config
     }
 
     /// The counters so far.
-    pub fn counters(&self) -> EmulatorCounters {
+    pub(crate) fn counters(&self) -> EmulatorCounters {
         self.counters
     }
 
     /// Adds bytes dropped by the stream decoder to the counters.
-    pub fn note_dropped_bytes(&mut self, n: u64) {
+    pub(crate) fn note_dropped_bytes(&mut self, n: u64) {
         self.counters.dropped_bytes += n;
     }
 
     /// Counts a well-formed frame, sent to `dest`, of a message id the controller does not
     /// implement.
-    pub fn note_unknown(&mut self, dest: u8) {
+    pub(crate) fn note_unknown(&mut self, dest: u8) {
         if self.accepts(dest) {
             self.counters.unknown += 1;
         } else {
@@ -282,28 +283,13 @@ impl EmulatorCore {
         }
     }
 
-    /// The actuator whose scale is in use.
-    pub fn actuator(&self) -> Actuator {
-        self.actuator
-    }
-
-    /// The actuator type code last set by MOT_SET_TSTACTUATORTYPE (or the configured one).
-    pub fn actuator_code(&self) -> Option<u8> {
-        self.actuator_code
-    }
-
     /// True while update messages run.
-    pub fn updates_running(&self) -> bool {
+    pub(crate) fn updates_running(&self) -> bool {
         self.updates.is_some()
     }
 
-    /// True if the channel is enabled.
-    pub fn enabled(&self) -> bool {
-        self.enabled
-    }
-
     /// How long the server may wait for host bytes before calling [`EmulatorCore::tick`].
-    pub fn poll_interval(&self, now: HostTime) -> Duration {
+    pub(crate) fn poll_interval(&self, now: HostTime) -> Duration {
         let mut wait = Duration::from_millis(20);
         if self.motion.is_some() {
             wait = Duration::from_millis(2);
@@ -342,12 +328,12 @@ impl EmulatorCore {
     }
 
     /// The status word for a motor reading.
-    pub fn status_word(&self, st: &MotorStatus) -> u32 {
+    pub(crate) fn status_word(&self, st: &MotorStatus) -> u32 {
         let (fwd, rev) = match self.config.limit_polarity {
-            LimitPolarity::Bit0Forward => (bits::LIMIT_BIT0, bits::LIMIT_BIT1),
-            LimitPolarity::Bit0Reverse => (bits::LIMIT_BIT1, bits::LIMIT_BIT0),
+            LimitPolarity::Bit0Forward => (apt::LIMIT_BIT0, apt::LIMIT_BIT1),
+            LimitPolarity::Bit0Reverse => (apt::LIMIT_BIT1, apt::LIMIT_BIT0),
         };
-        let mut w = bits::MOTOR_CONNECTED;
+        let mut w = apt::MOTOR_CONNECTED;
         if st.forward_limit {
             w |= fwd;
         }
@@ -363,18 +349,18 @@ impl EmulatorCore {
                 self.direction > 0.0
             };
             w |= if forward {
-                bits::MOVING_FORWARD
+                apt::MOVING_FORWARD
             } else {
-                bits::MOVING_REVERSE
+                apt::MOVING_REVERSE
             };
         }
         if homing {
-            w |= bits::HOMING;
+            w |= apt::HOMING;
         } else if self.homed {
-            w |= bits::HOMED;
+            w |= apt::HOMED;
         }
         if self.enabled {
-            w |= bits::CHANNEL_ENABLED;
+            w |= apt::CHANNEL_ENABLED;
         }
         w
     }
@@ -454,7 +440,7 @@ impl EmulatorCore {
     }
 
     /// Handles one host packet arriving at `now`; returns the replies.
-    pub fn handle(&mut self, packet: &Packet, now: HostTime) -> Vec<Packet> {
+    pub(crate) fn handle(&mut self, packet: &Packet, now: HostTime) -> Vec<Packet> {
         if !self.accepts(packet.dest) {
             self.counters.not_for_us += 1;
             return Vec::new();
@@ -613,7 +599,7 @@ impl EmulatorCore {
 
     /// Advances to `now`: end-of-move messages for motions that finished, and the update
     /// message when one is due (or stops them when the keep-alive lapsed).
-    pub fn tick(&mut self, now: HostTime) -> Vec<Packet> {
+    pub(crate) fn tick(&mut self, now: HostTime) -> Vec<Packet> {
         let mut out = Vec::new();
         let st = self.motor.status_at(now);
         if let Some(motion) = self.motion {
@@ -736,15 +722,15 @@ impl EmulatorCore {
     }
 }
 
-const VEL: f64 = fringe_rig::apt::actuator::VELOCITY_SCALE;
-const ACC: f64 = fringe_rig::apt::actuator::ACCELERATION_SCALE;
+const VEL: f64 = fringe_rig::apt::VELOCITY_SCALE;
+const ACC: f64 = fringe_rig::apt::ACCELERATION_SCALE;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::physics::motion::MotorSpec;
-    use fringe_rig::apt::ids::{HOST, USB_UNIT};
-    use fringe_rig::units::{MillimetresPerSecond, MillimetresPerSecondSquared};
+    use fringe_rig::apt::{HOST, USB_UNIT};
+    use fringe_rig::{MillimetresPerSecond, MillimetresPerSecondSquared};
 
     fn zfs25() -> Actuator {
         Actuator::by_name("ZFS25B").expect("ZFS25 is known")
@@ -856,7 +842,7 @@ mod tests {
             panic!("{r:?}")
         };
         assert!((b.position - target).abs() <= 1, "{b:?}");
-        assert_eq!(b.status & (bits::MOVING_FORWARD | bits::MOVING_REVERSE), 0);
+        assert_eq!(b.status & (apt::MOVING_FORWARD | apt::MOVING_REVERSE), 0);
         assert!(c.tick(at(t0, 3.2)).is_empty(), "only one MOVE_COMPLETED");
     }
 
@@ -987,13 +973,13 @@ mod tests {
         c.handle(&host(Message::SetHomeParams(home)), t0);
         c.handle(&host(Message::MoveHome { channel: 1 }), t0);
         let st = motor.status_at(at(t0, 0.2));
-        assert_ne!(c.status_word(&st) & bits::HOMING, 0);
+        assert_ne!(c.status_word(&st) & apt::HOMING, 0);
         let t = first_homed(&mut c, t0, 400).expect("MOVE_HOMED within 4 s");
         let st = motor.status_at(t);
         assert!(st.position.0.abs() < 1e-9);
         let true_pos = motor.true_position_at(t).0;
         assert!((true_pos - 0.5).abs() < 1e-6, "{true_pos} {st:?}");
-        assert_ne!(c.status_word(&st) & bits::HOMED, 0);
+        assert_ne!(c.status_word(&st) & apt::HOMED, 0);
     }
 
     #[test]
@@ -1011,14 +997,14 @@ mod tests {
         c.handle(&host(Message::MoveHome { channel: 1 }), t0);
         let st = motor.status_at(at(t0, 1.0));
         let w = c.status_word(&st);
-        assert_ne!(w & bits::HOMING, 0);
-        assert_ne!(w & bits::MOVING_FORWARD, 0);
+        assert_ne!(w & apt::HOMING, 0);
+        assert_ne!(w & apt::MOVING_FORWARD, 0);
         // 24 mm to the forward switch at 8 mm/s with 4 mm/s^2: 5 s.
         let t = first_homed(&mut c, t0, 700).expect("MOVE_HOMED within 7 s");
         let st = motor.status_at(t);
         assert!(st.position.0.abs() < 1e-9 && st.forward_limit, "{st:?}");
         assert!((motor.true_position_at(t).0 - 25.0).abs() < 1e-9);
-        assert_ne!(c.status_word(&st) & bits::HOMED, 0);
+        assert_ne!(c.status_word(&st) & apt::HOMED, 0);
         assert_eq!(
             motor.kinematics(),
             before,
@@ -1064,6 +1050,6 @@ mod tests {
             panic!("{r:?}")
         };
         // Bit 0 is the forward limit by default, so the reverse limit is bit 1.
-        assert_eq!(b.status & 0x3, bits::LIMIT_BIT1);
+        assert_eq!(b.status & 0x3, apt::LIMIT_BIT1);
     }
 }

@@ -4,12 +4,12 @@
 
 use super::core::{AptEmulatorConfig, EmulatorCore, EmulatorCounters};
 use crate::physics::motion::SimMotor;
-use fringe_rig::apt::codec::encode;
-use fringe_rig::apt::message::Packet;
-use fringe_rig::apt::stream::{Decoded, Flow, StreamDecoder};
-use fringe_rig::clock::HostTime;
-use fringe_rig::transport::pty::PtyDevice;
-use fringe_rig::transport::ByteLink;
+use fringe_rig::apt::encode;
+use fringe_rig::apt::Packet;
+use fringe_rig::apt::{Decoded, Flow, StreamDecoder};
+use fringe_rig::ByteLink;
+use fringe_rig::HostTime;
+use fringe_rig::PtyDevice;
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};

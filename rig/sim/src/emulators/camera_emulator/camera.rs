@@ -9,10 +9,10 @@ use crate::ground_truth::records::{FrameFate, FrameTruth, TruthRecord, TruthSink
 use crate::physics::ft_sensor::mix_seed;
 use crate::scene::{FrameRenderer, SceneSource};
 use crossbeam_channel::{bounded, unbounded, Receiver, RecvTimeoutError, Sender, TrySendError};
-use fringe_rig::camera::{
+use fringe_rig::HostTime;
+use fringe_rig::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, Roi, TimestampLatch, TriggerMode,
 };
-use fringe_rig::clock::HostTime;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -2,7 +2,7 @@
 //! applied, converted to the configured pixel format. Pure functions, no threads.
 
 use crate::optics::pixel_format::grey;
-use fringe_rig::camera::{CameraSettings, PixelFormat, Roi};
+use fringe_rig::{CameraSettings, PixelFormat, Roi};
 
 /// The camera's 8-bit gain as a table: `None` at 0 dB.
 fn gain_table(gain_db: f64) -> Option<[u8; 256]> {
@@ -110,7 +110,7 @@ mod tests {
             finish_frame(&mut image.clone(), 3, &s, roi),
             vec![40, 41, 42, 50, 51, 52]
         );
-        s.gain = fringe_rig::units::Decibels(20.0 * 2f64.log10());
+        s.gain = fringe_rig::Decibels(20.0 * 2f64.log10());
         let full = Roi {
             x: 0,
             y: 0,
@@ -144,7 +144,7 @@ mod tests {
             height: 1,
         };
         assert_eq!(render_format(&s), PixelFormat::Mono8);
-        s.gain = fringe_rig::units::Decibels(20.0 * 2f64.log10());
+        s.gain = fringe_rig::Decibels(20.0 * 2f64.log10());
         assert_eq!(render_format(&s), PixelFormat::Rgb8);
         // Red saturates at 255 before the mix: grey(255, 200, 0), not 2 grey(200, 100, 0).
         assert_eq!(

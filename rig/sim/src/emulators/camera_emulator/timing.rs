@@ -1,7 +1,7 @@
 //! The simulated camera's time base: its device clock against host time, and the exposure
 //! windows it announces (the DAQ emulator samples them as the ExposureActive strobe). No threads.
 
-use fringe_rig::clock::HostTime;
+use fringe_rig::HostTime;
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 

@@ -6,7 +6,8 @@
 use super::device::SimDevice;
 use super::task::{AiChannel, CoChannel, SimTask};
 use super::texts::{description, Fault, INVALID_ATTRIBUTE_VALUE, INVALID_TASK};
-use fringe_rig::nidaqmx::api::{self, status, TaskHandle};
+use fringe_rig::nidaqmx;
+use fringe_rig::nidaqmx::TaskHandle;
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::ffi::{c_char, c_double, c_int, c_uint, c_void, CStr};
@@ -38,7 +39,7 @@ pub fn install(device: Arc<SimDevice>) {
 }
 
 /// Takes the device named `name` off the bus.
-pub fn remove(name: &str) {
+pub(crate) fn remove(name: &str) {
     registry().devices.remove(name);
 }
 
@@ -116,14 +117,14 @@ fn physical(list: &str, kind: &str) -> Result<Vec<(Arc<SimDevice>, u32)>, Fault>
         let part = part.trim_start_matches('/');
         let Some((dev, chan)) = part.split_once('/') else {
             return Err(Fault::new(
-                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST,
                 &[format!("Physical Channel Name: {part}")],
             ));
         };
         let device = device(dev).ok_or_else(|| {
             let known: Vec<String> = registry().devices.keys().cloned().collect();
             Fault::new(
-                status::INVALID_DEVICE_ID,
+                nidaqmx::INVALID_DEVICE_ID,
                 &[
                     format!("Device Specified: {dev}"),
                     format!("Suggested Device(s): {}", known.join(", ")),
@@ -132,13 +133,13 @@ fn physical(list: &str, kind: &str) -> Result<Vec<(Arc<SimDevice>, u32)>, Fault>
         })?;
         if device.unplugged() {
             return Err(Fault::new(
-                status::DEV_CANNOT_BE_ACCESSED,
+                nidaqmx::DEV_CANNOT_BE_ACCESSED,
                 &[format!("Device: {dev}")],
             ));
         }
         let no_channel = || {
             Fault::new(
-                status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST,
                 &[
                     format!("Device: {dev}"),
                     format!("Physical Channel Name: {chan}"),
@@ -219,7 +220,7 @@ extern "C" fn clear_task(handle: TaskHandle) -> c_int {
 
 extern "C" fn task_control(handle: TaskHandle, action: c_int) -> c_int {
     with_task(handle, |t| match action {
-        api::VAL_TASK_COMMIT | 2 | 4 => t.verify(),
+        nidaqmx::VAL_TASK_COMMIT | 2 | 4 => t.verify(),
         0 => t.start(),
         1 | 6 => {
             t.stop();
@@ -243,7 +244,7 @@ extern "C" fn create_ai_voltage_chan(
     // SAFETY: NI's contract: NUL-terminated strings.
     let channel = unsafe { text(channel) };
     with_task(handle, |t| {
-        if units != api::VAL_VOLTS {
+        if units != nidaqmx::VAL_VOLTS {
             return Err(Fault::new(
                 INVALID_ATTRIBUTE_VALUE,
                 &[
@@ -253,9 +254,9 @@ extern "C" fn create_ai_voltage_chan(
             ));
         }
         for (device, number) in physical(&channel, "ai")? {
-            if terminal == api::VAL_DIFF && !device.model.differential_positive(number) {
+            if terminal == nidaqmx::VAL_DIFF && !device.model.differential_positive(number) {
                 return Err(Fault::new(
-                    status::PHYSICAL_CHAN_DOES_NOT_EXIST,
+                    nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST,
                     &[
                         format!("Device: {}", device.name),
                         format!("Physical Channel Name: ai{number}"),
@@ -264,10 +265,10 @@ extern "C" fn create_ai_voltage_chan(
                 ));
             }
             if ![
-                api::VAL_DIFF,
-                api::VAL_RSE,
-                api::VAL_NRSE,
-                api::VAL_CFG_DEFAULT,
+                nidaqmx::VAL_DIFF,
+                nidaqmx::VAL_RSE,
+                nidaqmx::VAL_NRSE,
+                nidaqmx::VAL_CFG_DEFAULT,
             ]
             .contains(&terminal)
             {
@@ -313,7 +314,7 @@ extern "C" fn cfg_samp_clk_timing(
     samps: u64,
 ) -> c_int {
     with_task(handle, |t| {
-        if mode != api::VAL_CONT_SAMPS {
+        if mode != nidaqmx::VAL_CONT_SAMPS {
             return Err(Fault::new(
                 INVALID_ATTRIBUTE_VALUE,
                 &[
@@ -402,7 +403,7 @@ extern "C" fn get_dev_product_type(dev: *const c_char, buf: *mut c_char, size: c
         None => report(
             "",
             Err(Fault::new(
-                status::INVALID_DEVICE_ID,
+                nidaqmx::INVALID_DEVICE_ID,
                 &[format!("Device Specified: {name}")],
             )),
         ),
@@ -425,7 +426,7 @@ extern "C" fn create_co_pulse_chan_freq(
     with_task(handle, |t| {
         let mut found = physical(&counter, "ctr")?;
         if found.len() != 1
-            || units != api::VAL_HZ
+            || units != nidaqmx::VAL_HZ
             || !(freq.is_finite() && freq > 0.0 && duty > 0.0 && duty < 1.0)
         {
             return Err(Fault::new(
@@ -497,33 +498,39 @@ extern "C" fn set_co_pulse_term(
 /// [`fringe_rig::nidaqmx::Library::in_process`] or a shared object's exports.
 pub fn lookup(symbol: &str) -> Option<*const c_void> {
     let f: *const c_void = match symbol {
-        "DAQmxCreateTask" => create_task as api::CreateTask as *const c_void,
-        "DAQmxStartTask" => start_task as api::TaskFn as *const c_void,
-        "DAQmxStopTask" => stop_task as api::TaskFn as *const c_void,
-        "DAQmxClearTask" => clear_task as api::TaskFn as *const c_void,
-        "DAQmxTaskControl" => task_control as api::TaskControl as *const c_void,
+        "DAQmxCreateTask" => create_task as nidaqmx::CreateTask as *const c_void,
+        "DAQmxStartTask" => start_task as nidaqmx::TaskFn as *const c_void,
+        "DAQmxStopTask" => stop_task as nidaqmx::TaskFn as *const c_void,
+        "DAQmxClearTask" => clear_task as nidaqmx::TaskFn as *const c_void,
+        "DAQmxTaskControl" => task_control as nidaqmx::TaskControl as *const c_void,
         "DAQmxCreateAIVoltageChan" => {
-            create_ai_voltage_chan as api::CreateAiVoltageChan as *const c_void
+            create_ai_voltage_chan as nidaqmx::CreateAiVoltageChan as *const c_void
         }
-        "DAQmxCfgSampClkTiming" => cfg_samp_clk_timing as api::CfgSampClkTiming as *const c_void,
-        "DAQmxCfgInputBuffer" => cfg_input_buffer as api::CfgInputBuffer as *const c_void,
-        "DAQmxReadAnalogF64" => read_analog_f64 as api::ReadAnalogF64 as *const c_void,
+        "DAQmxCfgSampClkTiming" => {
+            cfg_samp_clk_timing as nidaqmx::CfgSampClkTiming as *const c_void
+        }
+        "DAQmxCfgInputBuffer" => cfg_input_buffer as nidaqmx::CfgInputBuffer as *const c_void,
+        "DAQmxReadAnalogF64" => read_analog_f64 as nidaqmx::ReadAnalogF64 as *const c_void,
         "DAQmxGetReadTotalSampPerChanAcquired" => {
-            get_read_total_samp_per_chan_acquired as api::GetU64 as *const c_void
+            get_read_total_samp_per_chan_acquired as nidaqmx::GetU64 as *const c_void
         }
         "DAQmxGetExtendedErrorInfo" => {
-            get_extended_error_info as api::GetExtendedErrorInfo as *const c_void
+            get_extended_error_info as nidaqmx::GetExtendedErrorInfo as *const c_void
         }
-        "DAQmxGetErrorString" => get_error_string as api::GetErrorString as *const c_void,
-        "DAQmxGetDevProductType" => get_dev_product_type as api::GetDevProductType as *const c_void,
+        "DAQmxGetErrorString" => get_error_string as nidaqmx::GetErrorString as *const c_void,
+        "DAQmxGetDevProductType" => {
+            get_dev_product_type as nidaqmx::GetDevProductType as *const c_void
+        }
         "DAQmxCreateCOPulseChanFreq" => {
-            create_co_pulse_chan_freq as api::CreateCoPulseChanFreq as *const c_void
+            create_co_pulse_chan_freq as nidaqmx::CreateCoPulseChanFreq as *const c_void
         }
-        "DAQmxCfgImplicitTiming" => cfg_implicit_timing as api::CfgImplicitTiming as *const c_void,
+        "DAQmxCfgImplicitTiming" => {
+            cfg_implicit_timing as nidaqmx::CfgImplicitTiming as *const c_void
+        }
         "DAQmxCfgDigEdgeStartTrig" => {
-            cfg_dig_edge_start_trig as api::CfgDigEdgeStartTrig as *const c_void
+            cfg_dig_edge_start_trig as nidaqmx::CfgDigEdgeStartTrig as *const c_void
         }
-        "DAQmxSetCOPulseTerm" => set_co_pulse_term as api::SetCoPulseTerm as *const c_void,
+        "DAQmxSetCOPulseTerm" => set_co_pulse_term as nidaqmx::SetCoPulseTerm as *const c_void,
         _ => return None,
     };
     Some(f)
@@ -534,9 +541,9 @@ mod tests {
     use super::*;
     use crate::emulators::daqmx_library::{DaqSignals, DeviceModel, DeviceTiming};
     use fringe_rig::atical::GaugeSource;
-    use fringe_rig::clock::HostTime;
     use fringe_rig::nidaqmx::{CameraTrigger, DaqSettings, Library, NiDaq};
-    use fringe_rig::units::Hertz;
+    use fringe_rig::Hertz;
+    use fringe_rig::HostTime;
     use std::sync::mpsc;
     use std::time::Duration;
 

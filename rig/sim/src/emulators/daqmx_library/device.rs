@@ -1,7 +1,7 @@
 //! A simulated NI data acquisition device: what its analogue inputs carry, its sample clock,
 //! its ADC, and whether it is still plugged in.
 
-use fringe_rig::clock::HostTime;
+use fringe_rig::HostTime;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;

@@ -14,8 +14,8 @@
 
 use super::device::{PulseTrain, SimDevice};
 use super::texts::{Fault, BUFFER_TOO_SMALL, INVALID_ATTRIBUTE_VALUE};
-use fringe_rig::clock::HostTime;
-use fringe_rig::nidaqmx::api::{self, status};
+use fringe_rig::nidaqmx;
+use fringe_rig::HostTime;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::collections::VecDeque;
@@ -114,7 +114,7 @@ impl SimTask {
     fn check_plugged(&self) -> Result<(), Fault> {
         match self.devices().find(|d| d.unplugged()) {
             Some(d) => Err(Fault::new(
-                status::DEV_CANNOT_BE_ACCESSED,
+                nidaqmx::DEV_CANNOT_BE_ACCESSED,
                 &[format!("Device: {}", d.name)],
             )),
             None => Ok(()),
@@ -179,7 +179,7 @@ impl SimTask {
             .is_err()
         {
             return Err(Fault::new(
-                status::RESOURCE_RESERVED,
+                nidaqmx::RESOURCE_RESERVED,
                 &[format!("Device: {}", device.name)],
             ));
         }
@@ -296,14 +296,14 @@ impl SimTask {
         loop {
             if ring.device_lost || acq.device.unplugged() {
                 let f = Fault::new(
-                    status::DEV_CANNOT_BE_ACCESSED,
+                    nidaqmx::DEV_CANNOT_BE_ACCESSED,
                     &[format!("Device: {}", acq.device.name)],
                 );
                 return (0, Err(f));
             }
             if ring.overwritten {
                 return (0, Err(Fault::new(
-                    status::SAMPLES_NO_LONGER_AVAILABLE,
+                    nidaqmx::SAMPLES_NO_LONGER_AVAILABLE,
                     &["Attempted to read samples that are no longer available. The requested sample was previously available, but has since been overwritten.".into(),
                       "Property: DAQmx_Read_RelativeTo".into(),
                       "Corresponding Value: DAQmx_Val_CurrReadPos".into(),
@@ -345,7 +345,7 @@ impl SimTask {
         for s in 0..scans {
             for c in 0..per_scan {
                 let v = ring.scans.pop_front().unwrap_or(0.0);
-                if fill_mode == api::VAL_GROUP_BY_SCAN_NUMBER {
+                if fill_mode == nidaqmx::VAL_GROUP_BY_SCAN_NUMBER {
                     out[s * per_scan + c] = v;
                 } else {
                     out[c * block + s] = v;
@@ -353,7 +353,7 @@ impl SimTask {
             }
         }
         if timed_out {
-            let f = Fault::new(status::SAMPLES_NOT_YET_AVAILABLE, &[
+            let f = Fault::new(nidaqmx::SAMPLES_NOT_YET_AVAILABLE, &[
                 format!("Attempted to read {num} samples per channel; {scans} were available before the timeout of {timeout_s} s."),
             ]);
             return (scans, Err(f));
@@ -391,7 +391,7 @@ impl Sampler {
 
     fn run(self) {
         // A DAQ samples on its own clock whatever the host runs: real-time when allowed.
-        let _ = fringe_rig::realtime::raise_current_thread("simulated NI-DAQmx device");
+        let _ = fringe_rig::raise_current_thread("simulated NI-DAQmx device");
         let timing = &self.device.timing;
         let transfer = timing.transfer_scans.max(1) as u64;
         let jitter_ns = timing.transfer_jitter_ms.max(0.0) * 1e6;

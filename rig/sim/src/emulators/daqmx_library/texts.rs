@@ -2,7 +2,7 @@
 //! documentation or its users quote them (`docs/nidaqmx.md`, section 4), in NI's extended
 //! layout (description, details, a blank line, the task name, the status code).
 
-use fringe_rig::nidaqmx::api::status;
+use fringe_rig::nidaqmx;
 
 /// `DAQmxErrorInvalidAttributeValue`.
 pub(crate) const INVALID_ATTRIBUTE_VALUE: i32 = -200077;
@@ -38,12 +38,12 @@ impl Fault {
 /// NI's description of `code`.
 pub(crate) fn description(code: i32) -> &'static str {
     match code {
-        status::SAMPLES_NO_LONGER_AVAILABLE => "The application is not able to keep up with the hardware acquisition. Increasing the buffer size, reading the data more frequently, or specifying a fixed number of samples to read instead of reading all available samples might correct the problem.",
-        status::SAMPLES_NOT_YET_AVAILABLE => "Some or all of the samples requested have not yet been acquired. To wait for the samples to become available use a longer read timeout or read later in your program.",
-        status::INVALID_DEVICE_ID => "Device identifier is invalid.",
-        status::PHYSICAL_CHAN_DOES_NOT_EXIST => "Physical channel specified does not exist on this device. Refer to the documentation for channels available on this device.",
-        status::DEV_CANNOT_BE_ACCESSED => "Device cannot be accessed. Possible causes: Device is no longer present in the system. Device is not powered.",
-        status::RESOURCE_RESERVED => "The specified resource is reserved. The operation could not be completed as specified.",
+        nidaqmx::SAMPLES_NO_LONGER_AVAILABLE => "The application is not able to keep up with the hardware acquisition. Increasing the buffer size, reading the data more frequently, or specifying a fixed number of samples to read instead of reading all available samples might correct the problem.",
+        nidaqmx::SAMPLES_NOT_YET_AVAILABLE => "Some or all of the samples requested have not yet been acquired. To wait for the samples to become available use a longer read timeout or read later in your program.",
+        nidaqmx::INVALID_DEVICE_ID => "Device identifier is invalid.",
+        nidaqmx::PHYSICAL_CHAN_DOES_NOT_EXIST => "Physical channel specified does not exist on this device. Refer to the documentation for channels available on this device.",
+        nidaqmx::DEV_CANNOT_BE_ACCESSED => "Device cannot be accessed. Possible causes: Device is no longer present in the system. Device is not powered.",
+        nidaqmx::RESOURCE_RESERVED => "The specified resource is reserved. The operation could not be completed as specified.",
         INVALID_TASK => "Task specified is invalid or does not exist.",
         BUFFER_TOO_SMALL => "Buffer is too small to fit read data.",
         INVALID_ATTRIBUTE_VALUE => "Requested value is not a supported value for this property. The property value may be invalid because it conflicts with another property.",

@@ -3,16 +3,19 @@
 //! threads; [`super::framing`] and [`super::server`] put it on a link.
 
 use crate::physics::motion::{Kinematics, SimMotor};
-use fringe_rig::clock::HostTime;
-use fringe_rig::modbus::map::{Field, RegisterMap, Role};
-use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::HostTime;
+use fringe_rig::{
+    modbus::{Field, Role},
+    RegisterMap,
+};
+use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Modbus exception codes the emulated drive answers with.
-pub const ILLEGAL_FUNCTION: u8 = 0x01;
-pub const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
-pub const ILLEGAL_DATA_VALUE: u8 = 0x03;
+pub(crate) const ILLEGAL_FUNCTION: u8 = 0x01;
+pub(crate) const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
+pub(crate) const ILLEGAL_DATA_VALUE: u8 = 0x03;
 
 /// How a register is used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -3,8 +3,8 @@
 //! between connections and the emulator handle.
 
 use super::core::ModbusCore;
-use fringe_rig::clock::HostTime;
-use fringe_rig::modbus::codec::{crc16, rtu_frame, tcp_frame, TcpHeader};
+use fringe_rig::modbus::{crc16, rtu_frame, tcp_frame, TcpHeader};
+use fringe_rig::HostTime;
 use std::sync::{Mutex, MutexGuard};
 
 /// The length of the RTU request frame starting at `buf[0]` (slave id), once enough bytes are

@@ -4,7 +4,7 @@
 //! than the silent interval (3.5 characters) after the previous frame on the line is not taken
 //! as a frame of its own: the drive answers neither.
 
-use fringe_rig::modbus::codec::{rtu_silent_interval, rtu_wire_time};
+use fringe_rig::modbus::{rtu_silent_interval, rtu_wire_time};
 use std::time::{Duration, Instant};
 
 /// A drive's RTU timing at one line speed.

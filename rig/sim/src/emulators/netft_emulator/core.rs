@@ -2,20 +2,20 @@
 //! sample clock and status word; its configuration and `netftapi2.xml` page text.
 
 use crate::scene::ForceReading;
-use fringe_rig::clock::HostTime;
-use fringe_rig::force::ForceError;
-use fringe_rig::ft_units::{newton_metres_per, newtons_per};
-use fringe_rig::netft::config::NetFtConfig;
-use fringe_rig::netft::rdt::{encode_datagram, Command, Record, Request};
-use fringe_rig::units::Wrench;
+use fringe_rig::netft::{encode_datagram, Command, Record, Request};
+use fringe_rig::ForceError;
+use fringe_rig::HostTime;
+use fringe_rig::NetFtConfig;
+use fringe_rig::Wrench;
+use fringe_rig::{newton_metres_per, newtons_per};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 
-pub const STATUS_ERROR_SUMMARY: u32 = 0x8000_0000;
+pub(crate) const STATUS_ERROR_SUMMARY: u32 = 0x8000_0000;
 /// Net F/T status bit 17: transducer saturation or A/D error.
-pub const STATUS_SATURATION: u32 = 0x0002_0000;
+pub(crate) const STATUS_SATURATION: u32 = 0x0002_0000;
 /// Net F/T status bit 16: a monitor (threshold) condition is latched; cleared by command 0x0041.
-pub const STATUS_THRESHOLD_LATCHED: u32 = 0x0001_0000;
+pub(crate) const STATUS_THRESHOLD_LATCHED: u32 = 0x0001_0000;
 
 /// How the emulated box is set up (what its `netftapi2.xml` says, and its sensor).
 #[derive(Debug, Clone, PartialEq)]
@@ -77,7 +77,7 @@ impl Default for NetFtEmulatorConfig {
 /// An emulator configuration that cannot work; says which field and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("Net F/T emulator configuration: {0}")]
-pub struct EmulatorConfigError(pub String);
+pub(crate) struct EmulatorConfigError(pub String);
 
 impl NetFtEmulatorConfig {
     fn check(&self) -> Result<(f64, f64), EmulatorConfigError> {
@@ -163,7 +163,7 @@ pub struct NetFtReport {
 
 /// One datagram the box sends now.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Outgoing<P> {
+pub(crate) struct Outgoing<P> {
     pub to: P,
     pub bytes: Vec<u8>,
 }
@@ -182,7 +182,7 @@ struct Stream<P> {
 }
 
 /// The sans-io box. `P` identifies a peer (a socket address for UDP, `()` in process).
-pub struct NetFtCore<P> {
+pub(crate) struct NetFtCore<P> {
     config: NetFtEmulatorConfig,
     reading: Box<dyn ForceReading>,
     power_up: HostTime,
@@ -204,7 +204,7 @@ pub struct NetFtCore<P> {
 
 impl<P: Clone> NetFtCore<P> {
     /// A box powered up at `power_up`, reading its load from `reading`.
-    pub fn new(
+    pub(crate) fn new(
         config: NetFtEmulatorConfig,
         reading: Box<dyn ForceReading>,
         power_up: HostTime,
@@ -228,28 +228,23 @@ impl<P: Clone> NetFtCore<P> {
         })
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &NetFtEmulatorConfig {
-        &self.config
-    }
-
     /// A status word OR-ed into every record from now on (fault injection); 0 clears it.
-    pub fn injected_status(&self) -> Arc<AtomicU32> {
+    pub(crate) fn injected_status(&self) -> Arc<AtomicU32> {
         self.injected.clone()
     }
 
     /// What the box did so far.
-    pub fn report(&self) -> &NetFtReport {
+    pub(crate) fn report(&self) -> &NetFtReport {
         &self.report
     }
 
     /// Host time of internal sample `n` (counted from power-up).
-    pub fn sample_time(&self, n: u64) -> HostTime {
+    pub(crate) fn sample_time(&self, n: u64) -> HostTime {
         HostTime(self.power_up.0 + (n as f64 * 1e9 / self.box_hz).round() as u64)
     }
 
     /// The internal sample taken last at or before `t`.
-    pub fn sample_index_at(&self, t: HostTime) -> u64 {
+    pub(crate) fn sample_index_at(&self, t: HostTime) -> u64 {
         let mut n = (t.since(self.power_up).as_nanos() as f64 * self.box_hz / 1e9).floor() as u64;
         // Guard the float rounding at sample boundaries: n must be the last sample at or before t.
         while n > 0 && self.sample_time(n) > t {
@@ -262,7 +257,7 @@ impl<P: Clone> NetFtCore<P> {
     }
 
     /// `ft_sequence` of internal sample `n`.
-    pub fn ft_sequence(&self, n: u64) -> u32 {
+    pub(crate) fn ft_sequence(&self, n: u64) -> u32 {
         self.config.ft_sequence_at_power_up.wrapping_add(n as u32)
     }
 
@@ -272,7 +267,7 @@ impl<P: Clone> NetFtCore<P> {
     }
 
     /// When the next datagram is due, if a stream runs.
-    pub fn next_due(&self) -> Option<HostTime> {
+    pub(crate) fn next_due(&self) -> Option<HostTime> {
         let s = self.stream.as_ref()?;
         // The datagram being filled goes out with its last record; `pending` is always shorter
         // than a datagram between polls.
@@ -289,7 +284,7 @@ impl<P: Clone> NetFtCore<P> {
     /// the transducer is powered up again (a new power-up bias) and `ft_sequence` starts again
     /// from its power-up value. Requests while it is down are lost; once up, it streams only
     /// when asked again.
-    pub fn reboot(&mut self, now: HostTime, down: std::time::Duration) {
+    pub(crate) fn reboot(&mut self, now: HostTime, down: std::time::Duration) {
         let down_ns = u64::try_from(down.as_nanos()).unwrap_or(u64::MAX);
         let up = HostTime(now.0.saturating_add(down_ns));
         self.stream = None;
@@ -303,12 +298,18 @@ impl<P: Clone> NetFtCore<P> {
     }
 
     /// Whether the box is down (rebooting) at `now`.
-    pub fn is_down(&self, now: HostTime) -> bool {
+    pub(crate) fn is_down(&self, now: HostTime) -> bool {
         self.down_until.is_some_and(|up| now < up)
     }
 
     /// Handles one received datagram at `now` (after sending what was due before it).
-    pub fn handle(&mut self, now: HostTime, bytes: &[u8], from: P, out: &mut Vec<Outgoing<P>>) {
+    pub(crate) fn handle(
+        &mut self,
+        now: HostTime,
+        bytes: &[u8],
+        from: P,
+        out: &mut Vec<Outgoing<P>>,
+    ) {
         if self.is_down(now) {
             self.report.lost_while_down += 1;
             return;
@@ -358,7 +359,7 @@ impl<P: Clone> NetFtCore<P> {
     }
 
     /// Sends everything due at `now`.
-    pub fn poll(&mut self, now: HostTime, out: &mut Vec<Outgoing<P>>) {
+    pub(crate) fn poll(&mut self, now: HostTime, out: &mut Vec<Outgoing<P>>) {
         let Some(mut s) = self.stream.take() else {
             return;
         };
@@ -429,7 +430,7 @@ impl<P: Clone> NetFtCore<P> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fringe_rig::netft::rdt::decode_datagram;
+    use fringe_rig::netft::decode_datagram;
 
     fn at(s: f64) -> HostTime {
         HostTime((1e9 + s * 1e9) as u64)

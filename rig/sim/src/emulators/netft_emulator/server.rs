@@ -4,9 +4,9 @@
 use super::core::{EmulatorConfigError, NetFtCore, NetFtEmulatorConfig, NetFtReport};
 use super::http_page::SimHttp;
 use crate::scene::ForceReading;
-use fringe_rig::clock::HostTime;
-use fringe_rig::transport::memory::{datagram_pair, MemoryDatagramLink};
-use fringe_rig::transport::DatagramLink;
+use fringe_rig::DatagramLink;
+use fringe_rig::HostTime;
+use fringe_rig::{datagram_pair, MemoryDatagramLink};
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -134,7 +134,7 @@ fn serve<T: Port>(
 ) -> io::Result<NetFtReport> {
     // The box keeps its own time, whatever else the host runs: real-time when allowed (the
     // driver's reader says so when it is not).
-    let _ = fringe_rig::realtime::raise_current_thread("emulated Net F/T");
+    let _ = fringe_rig::raise_current_thread("emulated Net F/T");
     let mut out = Vec::new();
     let mut buf = [0u8; 512];
     while !stop.load(Ordering::Relaxed) {

@@ -4,11 +4,11 @@ use crate::rig::device_open::{DeviceError, TraceTo, CONNECT_TIMEOUT};
 use crate::rig::file::RigConfig;
 use crate::rig::force::section::ForceSection;
 use crate::rig::host_port::HostPort;
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::netft::{self, Command, NetFt, NetFtConfig, NetFtOptions};
-use fringe_rig::trace::record::record_datagrams;
-use fringe_rig::transport::udp::UdpLink;
-use fringe_rig::transport::DatagramLink;
+use fringe_rig::record_datagrams;
+use fringe_rig::ConfigError;
+use fringe_rig::DatagramLink;
+use fringe_rig::UdpLink;
+use fringe_rig::{netft, netft::Command, NetFt, NetFtConfig, NetFtOptions};
 use std::io;
 
 /// An ATI Net F/T or Ethernet Axia over RDT/UDP.

@@ -8,12 +8,12 @@ use crate::rig::device_open::{DeviceError, TraceTo};
 use crate::rig::file::RigConfig;
 use crate::rig::force::section::{daq_settings, ForceSection};
 use fringe_rig::atical::{CalibratedSensor, Calibration, GaugeReading, GaugeSource, ToolTransform};
-use fringe_rig::config_file::ConfigError;
-use fringe_rig::force::ForceError;
 use fringe_rig::nidaqmx::{
     CameraTrigger, DaqError, DaqSettings, DaqStats, Library, NiDaq, Setting,
 };
-use fringe_rig::trace::RecordingGauges;
+use fringe_rig::ConfigError;
+use fringe_rig::ForceError;
+use fringe_rig::RecordingGauges;
 use names::DaqNames;
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -4,7 +4,7 @@
 
 use crate::rig::force::nidaqmx::names::DaqNames;
 use fringe_rig::nidaqmx::{DaqError, DaqSettings, Terminal};
-use fringe_rig::units::{Hertz, Volts};
+use fringe_rig::{Hertz, Volts};
 use serde::Deserialize;
 use std::path::PathBuf;
 
