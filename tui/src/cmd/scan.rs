@@ -69,7 +69,7 @@ pub fn run_ui() -> anyhow::Result<()> {
         runs: PathBuf::from("runs"),
         model: Some(model),
         model_from_rig: true,
-        tab: crate::ui::Tab::Scan,
+        tab: crate::ui::screens::scan::TAB,
         start: false,
     })
 }

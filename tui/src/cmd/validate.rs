@@ -167,7 +167,7 @@ fn run_ui(
             threads: crate::cmd::arg_values::cap_threads(a.threads),
         }),
         model_from_rig: a.model.is_none(),
-        tab: crate::ui::Tab::Validate,
+        tab: crate::ui::screens::validate::TAB,
         start: false,
     })
 }

@@ -163,16 +163,13 @@ impl App {
         )
     }
 
-    /// Runs the chosen plan (with live validation on the Validate screen).
-    pub fn run_scan(&mut self) {
+    /// Runs the chosen plan (with live validation, the chosen model's, when `validate`).
+    pub fn run_scan(&mut self, validate: bool) {
         if self.scan_active() {
             self.state.error = Some("a scan is already running".into());
             return;
         }
-        if self.state.tab == Tab::Bench {
-            self.state.tab = Tab::Scan;
-        }
-        let model = if self.state.tab == Tab::Validate || self.opts.tab == Tab::Validate {
+        let model = if validate {
             self.opts.model.clone()
         } else {
             None
@@ -340,22 +337,22 @@ impl App {
         }
     }
 
-    /// Opens the plan chooser on the Scan screen (not while a scan runs).
-    pub fn open_picker(&mut self) {
+    /// Opens the plan chooser (not while a scan runs); false when it did not.
+    pub fn open_picker(&mut self) -> bool {
         if self.scan_active() {
             self.state.error = Some("a scan is running: choose a plan when it ends".into());
-            return;
+            return false;
         }
         let current = self
             .plans
             .iter()
             .position(|p| p.text == self.opts.plan_text)
             .unwrap_or(0);
-        self.state.tab = Tab::Scan;
         self.state.picker = Some(Picker {
             items: self.plans.iter().map(|p| p.label.clone()).collect(),
             selected: current,
         });
+        true
     }
 
     /// Makes the plan chosen in the chooser the one `r` runs, or says why it cannot be.
