@@ -12,7 +12,9 @@
 //!   the newest frame; [`jog_guard`]: which of those motions the force allows.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels;
-//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves.
+//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves;
+//!   [`validation_report`]: its report (`fringe validate --report DIR`) and every frame
+//!   validated.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
 
 pub mod calibration_images;
@@ -27,4 +29,5 @@ pub mod plans;
 pub mod rig_control;
 pub(crate) mod scan;
 pub(crate) mod truth_score;
+pub mod validation_report;
 pub mod worker_failure;

@@ -12,11 +12,12 @@ use anyhow::{bail, Context, Result};
 use fringe_app::models::choice::ForSensor;
 use fringe_app::session::live_validation::{LiveValidation, Validation};
 use fringe_app::session::plans::SHORT_GRID;
+use fringe_app::session::validation_report;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
 use fringe_rig::scan::plan::Plan;
 use fringe_sensor_models::backend::BackendKind;
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -134,7 +135,13 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let v = live.finish(Duration::from_secs(10));
     print_summary(&v);
     if let Some(dir) = &a.report {
-        write_report(dir, &v, &end.outcome.run_dir)?;
+        let written = validation_report::write(dir, &v, &end.outcome.run_dir)?;
+        println!(
+            "report written to {} ({} frames in {})",
+            written.report.display(),
+            v.frames.len(),
+            written.frames.display()
+        );
     }
     if let Some(why) = &v.state.failure {
         bail!("live validation stopped: {why}");
@@ -172,24 +179,6 @@ fn run_ui(
     })
 }
 
-/// Writes the evaluation report and every validated frame into `dir`, and says where.
-fn write_report(dir: &Path, v: &Validation, run_dir: &Path) -> Result<()> {
-    let title = format!(
-        "Live validation of {} on run {}",
-        v.state.model,
-        run_dir.display()
-    );
-    let report = fringe_sensor_models::report::write(dir, &title, &v.evaluation)?;
-    let lines = write_frames(dir, v)?;
-    println!(
-        "report written to {} ({} frames in {})",
-        report.display(),
-        v.frames.len(),
-        lines.display()
-    );
-    Ok(())
-}
-
 fn print_summary(v: &Validation) {
     let s = &v.state;
     let e = &s.errors;
@@ -219,39 +208,4 @@ fn print_summary(v: &Validation) {
             100.0 * e.accuracy()
         );
     }
-}
-
-/// Every validated frame as one JSON line: ids, label, prediction, latency.
-fn write_frames(dir: &Path, v: &Validation) -> Result<PathBuf> {
-    let path = dir.join("validation.jsonl");
-    let mut out = std::io::BufWriter::new(
-        std::fs::File::create(&path)
-            .with_context(|| format!("{}: cannot create", path.display()))?,
-    );
-    for f in &v.frames {
-        let p = &f.prediction;
-        let line = serde_json::json!({
-            "frame_id": f.frame_id,
-            "record_index": f.record_index,
-            "t_s": f.t_s,
-            "measured": {
-                "fz_n": f.label.fz(),
-                "shape": f.label.shape,
-                "contact_mm": f.label.contact,
-                "stage_mm": f.label.stage_mm,
-            },
-            "predicted": {
-                "fz_n": p.force.fz.value(),
-                "shape": p.shape,
-                "probability": p.confidence(),
-                "contact_mm": p.contact_raw.map(|v| v.value()),
-            },
-            "latency_ms": f.latency_ms,
-            "waited_ms": f.waited_ms,
-        });
-        writeln!(out, "{line}").with_context(|| format!("{}: cannot write", path.display()))?;
-    }
-    out.flush()
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    Ok(path)
 }
