@@ -9,6 +9,7 @@ use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
 use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use fringe_app::runs::listing::{list_runs, ListedRun};
 use fringe_app::session::disk_space::Recording;
 use fringe_app::session::rig_control::{BenchCommand, BenchPhase, BenchSession};
 use fringe_app::{ProfileUse, RigConfig};
@@ -16,8 +17,6 @@ use fringe_rig::operator::Reply;
 use fringe_rig::scan::engine::RunTarget;
 use fringe_rig::scan::plan::{BenchLimits, ScanProgram};
 use fringe_rig::store::documents::ExitStatus;
-use fringe_rig::store::run_list::list;
-use fringe_rig::store::run_size::bytes_on_disk;
 use std::path::{Path, PathBuf};
 
 /// How the UI starts.
@@ -413,28 +412,31 @@ impl App {
     /// Lists the runs again, keeping the verdicts already shown.
     pub fn refresh_runs(&mut self) {
         let root = &self.opts.runs;
-        let rows = match list(root) {
+        let rows = match list_runs(root) {
             Ok((runs, _)) => runs
                 .into_iter()
-                .map(|r| RunRow {
-                    name: r.dir.file_name().map_or_else(
-                        || r.dir.display().to_string(),
-                        |n| n.to_string_lossy().into_owned(),
-                    ),
-                    status: match &r.stop {
-                        None => "unfinished".into(),
-                        Some(s) => match s.exit_status {
-                            ExitStatus::Completed => "completed".into(),
-                            ExitStatus::Aborted => "aborted".into(),
-                            ExitStatus::Failed => "failed".into(),
+                .map(
+                    |ListedRun {
+                         run: r,
+                         name,
+                         bytes,
+                     }| RunRow {
+                        name,
+                        status: match &r.stop {
+                            None => "unfinished".into(),
+                            Some(s) => match s.exit_status {
+                                ExitStatus::Completed => "completed".into(),
+                                ExitStatus::Aborted => "aborted".into(),
+                                ExitStatus::Failed => "failed".into(),
+                            },
                         },
+                        frames: r.frames as usize,
+                        bytes,
+                        verified: None,
+                        evaluated: None,
+                        exported: None,
                     },
-                    frames: r.frames as usize,
-                    bytes: bytes_on_disk(&r.dir).ok(),
-                    verified: None,
-                    evaluated: None,
-                    exported: None,
-                })
+                )
                 .collect(),
             Err(e) => {
                 self.state.error = Some(format!("{}: {e}", root.display()));
