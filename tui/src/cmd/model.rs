@@ -175,14 +175,16 @@ pub(crate) fn open_model(path: &Path) -> Result<Model> {
 /// The model a command runs ([`choice::choose_model`]): the commissioned model taken said on
 /// stdout, warnings on stderr.
 pub(crate) fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
-    Ok(choice::choose_model(
-        given,
-        sensor,
-        &mut |note| match note {
-            ChoiceNote::Commissioned(line) => println!("{line}"),
-            ChoiceNote::Warning(w) => eprintln!("warning: {w}"),
-        },
-    )?)
+    Ok(choice::choose_model(given, sensor, &mut say)?)
+}
+
+/// What the model choice tells the operator: the commissioned model taken on stdout, warnings
+/// on stderr.
+pub(crate) fn say(note: ChoiceNote) {
+    match note {
+        ChoiceNote::Commissioned(line) => println!("{line}"),
+        ChoiceNote::Warning(w) => eprintln!("warning: {w}"),
+    }
 }
 
 fn info(path: &Path) -> Result<()> {
