@@ -96,7 +96,9 @@ mod with_torch {
         NoData,
         #[error(transparent)]
         Profile(#[from] ProfileError),
-        #[error(transparent)]
+        /// Kept in the chain of causes as itself, for the front end that finds the command
+        /// that helps with it.
+        #[error("{0}")]
         Dataset(#[from] DatasetError),
         #[error(transparent)]
         Train(#[from] TrainError),
