@@ -5,7 +5,8 @@
 //!   design).
 //! - [`labelled_data`]: the labelled frames a model is evaluated or adapted on, read and
 //!   checked; what they agree on of their sensor; frames it would see at another scale.
-//! - [`adapted_card`]: the card of weights adapted to a unit: the unit, and how they were adapted.
+//! - [`adapted_card`]: the card of weights adapted to a unit: the unit, and how they were adapted;
+//!   [`adaptation`]: a model adapted to a unit and written (`fringe adapt`).
 //! - [`training`]: an architecture named on the command line; a training resumed from its
 //!   checkpoint's data and settings (cargo feature `torch`).
 //! - [`two_stage`]: a two-stage model joined from a model that finds the contact and window
@@ -15,6 +16,7 @@
 //! - [`verdict`]: a spec given by name (`paper`) or file, and an evaluation's verdict against it
 //!   in lines.
 
+pub mod adaptation;
 pub mod adapted_card;
 pub mod choice;
 pub mod image_prediction;
