@@ -1,12 +1,13 @@
 //! `fringe sim render`: one simulated sensor frame as a PNG.
 
 use anyhow::{bail, Context};
+use fringe_app::rig::simulated::{sensor_by_name, SensorNameError};
 use fringe_rig::units::{Millimetres, Newtons};
 use fringe_sim::optics::render::Renderer;
 use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::physics::indenter::Shape;
 use fringe_sim::scene::{Contact, FrameRenderer, Scene};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct SimRenderArgs {
@@ -72,13 +73,10 @@ pub struct SimRenderArgs {
 
 /// The sensor named on the command line: a variant name or a TOML file.
 pub fn load_sensor(name: &str) -> anyhow::Result<SensorConfig> {
-    match name {
-        "layered" => Ok(SensorConfig::layered()),
-        "integrated" => Ok(SensorConfig::integrated()),
-        path if path.ends_with(".toml") || Path::new(path).is_file() => {
-            Ok(SensorConfig::load(Path::new(path))?)
-        }
-        other => bail!(
+    match sensor_by_name(name) {
+        Ok(sensor) => Ok(sensor),
+        Err(SensorNameError::Load(e)) => Err(e.into()),
+        Err(SensorNameError::Unknown(other)) => bail!(
             "unknown --sensor `{other}`: use layered, integrated or the path of a sensor .toml file"
         ),
     }

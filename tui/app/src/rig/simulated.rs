@@ -15,7 +15,7 @@ use fringe_rig::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondS
 use fringe_sim::bench::{AxisConfig, Bench};
 use fringe_sim::ground_truth::records::TruthSink;
 use fringe_sim::ground_truth::truth_spool::TruthSpool;
-use fringe_sim::optics::sensor::SensorConfig;
+use fringe_sim::optics::sensor::{SensorConfig, SensorConfigError};
 use fringe_sim::rig::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
 use fringe_sim::NetFtEmulatorConfig;
 use std::path::Path;
@@ -39,24 +39,42 @@ impl SimBench {
     }
 }
 
-/// A sensor build of the simulator by name (layered, integrated) or file.
-pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+/// A sensor build of the simulator that could not be had by its name.
+#[derive(Debug, thiserror::Error)]
+pub enum SensorNameError {
+    /// The sensor file could not be read.
+    #[error("{0}")]
+    Load(#[source] SensorConfigError),
+    /// Neither a build's name nor a file.
+    #[error("{0:?}: use layered, integrated or the path of a sensor .toml file")]
+    Unknown(String),
+}
+
+/// A sensor build of the simulator by name (`layered`, `integrated`) or file (a `.toml` path or
+/// any file): the one reading of a sensor's name, for the rig file and the `--sensor` flags.
+pub fn sensor_by_name(name: &str) -> Result<SensorConfig, SensorNameError> {
     match name {
         "layered" => Ok(SensorConfig::layered()),
         "integrated" => Ok(SensorConfig::integrated()),
         path if path.ends_with(".toml") || Path::new(path).is_file() => {
-            SensorConfig::load(Path::new(path)).map_err(|e| ConfigError {
-                origin: origin.into(),
-                message: format!("key `sim.sensor`: {e}"),
-            })
+            SensorConfig::load(Path::new(path)).map_err(SensorNameError::Load)
         }
-        other => Err(ConfigError {
-            origin: origin.into(),
-            message: format!(
+        other => Err(SensorNameError::Unknown(other.to_string())),
+    }
+}
+
+/// A sensor build of the simulator by name (layered, integrated) or file, named by a rig file's
+/// `sim.sensor`.
+pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+    sensor_by_name(name).map_err(|e| ConfigError {
+        origin: origin.into(),
+        message: match e {
+            SensorNameError::Load(e) => format!("key `sim.sensor`: {e}"),
+            SensorNameError::Unknown(other) => format!(
                 "key `sim.sensor` = {other:?}: use layered, integrated or the path of a sensor .toml file"
             ),
-        }),
-    }
+        },
+    })
 }
 
 /// The simulated rig's configuration.
