@@ -2,11 +2,11 @@
 
 use anyhow::{bail, Context};
 use fringe_app::rig::simulated::{sensor_by_name, SensorNameError};
+use fringe_app::simulation::render::{render_png, Rendered};
 use fringe_rig::units::{Millimetres, Newtons};
-use fringe_sim::optics::render::Renderer;
 use fringe_sim::optics::sensor::SensorConfig;
 use fringe_sim::physics::indenter::Shape;
-use fringe_sim::scene::{Contact, FrameRenderer, Scene};
+use fringe_sim::scene::Contact;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -125,13 +125,11 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
         angle_deg: args.angle,
     });
     let id = config.id.clone();
-    let mut renderer = Renderer::new(config)?;
-    let mut rgb = Vec::new();
-    renderer.render(&Scene { contact }, args.frame, &mut rgb);
-    let (w, h) = (renderer.width(), renderer.height());
-    image::save_buffer(&args.out, &rgb, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    let [u, v] = renderer.geometry().to_pixel(args.x, args.y);
+    let Rendered {
+        width: w,
+        height: h,
+        pixel: [u, v],
+    } = render_png(config, contact, [args.x, args.y], args.frame, &args.out)?;
     println!(
         "wrote {} ({w}x{h}, sensor {id}, {} {} N at ({}, {}) mm, {} deg: image pixel ({u:.1}, {v:.1}))",
         args.out.display(),
