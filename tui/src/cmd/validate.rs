@@ -11,7 +11,7 @@ use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::models::choice::ForSensor;
 use fringe_app::session::live_validation::{LiveValidation, Validation};
-use fringe_app::session::plans::SHORT_GRID;
+use fringe_app::session::plans::scan_plan;
 use fringe_app::session::validation_report;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::scan::engine::{new_run_id, RunTarget};
@@ -62,13 +62,8 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     if let Some(report) = &a.report {
         fringe_rig::store::outside_runs(report).context("--report")?;
     }
-    let (text, origin) = match &a.plan {
-        Some(p) => (
-            fringe_app::session::plans::read_file(p)?,
-            p.display().to_string(),
-        ),
-        None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
-    };
+    // The plan file given, else the built-in short grid.
+    let (text, origin) = scan_plan(a.plan.as_deref(), None)?;
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
     let unit = config.sensor_id().ok();
