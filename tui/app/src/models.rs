@@ -13,6 +13,7 @@
 //!   networks (`fringe model pair`); [`onnx_export`]: a model's ONNX graph written with its card
 //!   (`fringe model export`); [`image_prediction`]: a model run on image files (`fringe model
 //!   run`).
+//! - [`run_evaluation`]: a model's figures on one run (the Runs screen).
 //! - [`verdict`]: a spec given by name (`paper`) or file, and an evaluation's verdict against it
 //!   in lines.
 
@@ -22,6 +23,7 @@ pub mod choice;
 pub mod image_prediction;
 pub mod labelled_data;
 pub mod onnx_export;
+pub mod run_evaluation;
 pub mod training;
 pub mod two_stage;
 pub mod verdict;
