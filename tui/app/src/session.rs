@@ -1,7 +1,8 @@
 //! Work on the opened rig: scans, the rig controlled by hand, and what is shown live.
 //!
 //! - `scan`: a scan session (profile -> contact origin, operator, progress, truth scoring);
-//!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth.
+//!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth;
+//!   [`scan_target`]: the run a scan goes to (new, or resumed).
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning;
 //!   [`calibration_images`]: the optical part of a profile from a folder of no-contact images.
 //! - [`plans`]: the built-in scan plans.
@@ -28,6 +29,7 @@ pub(crate) mod model_pace;
 pub mod plans;
 pub mod rig_control;
 pub(crate) mod scan;
+pub mod scan_target;
 pub(crate) mod truth_score;
 pub mod validation_report;
 pub mod worker_failure;
