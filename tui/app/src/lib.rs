@@ -15,7 +15,9 @@
 //! - [`health`]: a unit's health check against its certificate: the check's presses, the
 //!   figures and their thresholds, the verdict, the unit's history.
 //! - [`models`]: the policies that pick, open and judge models (which model runs, an adapted
-//!   model's card, the data a model is judged on, a spec and the verdict against it).
+//!   model's card, the data a model is judged on, a spec and the verdict against it; training,
+//!   a two-stage model joined, an ONNX export, a model run on images).
+//! - [`runs`]: the run store's jobs as a person sees them (the runs in a directory).
 //! - [`workflow_error`]: how a workflow (commissioning, a health check) fails, its causes kept.
 //!
 //! The surface, re-exported here: [`RigConfig`], [`RigSource`], [`SensorVariant`] (the rig file,
@@ -31,6 +33,7 @@ pub mod commission;
 pub mod health;
 pub mod models;
 pub mod rig;
+pub mod runs;
 pub mod session;
 #[cfg(feature = "sim")]
 pub mod simulation;

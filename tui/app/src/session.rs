@@ -1,7 +1,8 @@
 //! Work on the opened rig: scans, the rig controlled by hand, and what is shown live.
 //!
 //! - `scan`: a scan session (profile -> contact origin, operator, progress, truth scoring);
-//!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth.
+//!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth;
+//!   [`scan_target`]: the run a scan goes to (new, or resumed).
 //! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning;
 //!   [`calibration_images`]: the optical part of a profile from a folder of no-contact images.
 //! - [`plans`]: the built-in scan plans.
@@ -12,7 +13,9 @@
 //!   the newest frame; [`jog_guard`]: which of those motions the force allows.
 //! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
 //! - [`live_validation`]: a trained model run on the frames a scan records, against their labels;
-//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves.
+//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves;
+//!   [`validation_report`]: its report (`fringe validate --report DIR`) and every frame
+//!   validated.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
 
 pub mod calibration_images;
@@ -26,5 +29,7 @@ pub(crate) mod model_pace;
 pub mod plans;
 pub mod rig_control;
 pub(crate) mod scan;
+pub mod scan_target;
 pub(crate) mod truth_score;
+pub mod validation_report;
 pub mod worker_failure;

@@ -2,8 +2,12 @@
 //!
 //! - [`dataset`]: a synthetic training dataset in the reference layout, rendered straight from
 //!   the simulator (`fringe sim dataset`).
+//! - [`render`]: one simulated sensor frame written as a PNG (`fringe sim render`).
+//! - [`demo`]: the demonstration's simulated rig and plan, and its end (`fringe demo`).
 //! - [`selfcheck`]: the Net F/T driver against the simulated box on loopback (the self-check of
 //!   `fringe` with no command).
 
 pub mod dataset;
+pub mod demo;
+pub mod render;
 pub mod selfcheck;

@@ -2,13 +2,9 @@
 //! unit in pure Rust (no libtorch): its heads fitted again on the unit's labelled frames.
 
 use super::frames_progress::FramesProgress;
-use super::model::open_model;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Args;
-use fringe_app::models::adapted_card::{adapted_card, write_adapted};
-use fringe_app::models::labelled_data::read_sources;
-use fringe_calibration::Profile;
-use fringe_sensor_models::adapt::{adapt_heads, AdaptConfig};
+use fringe_app::models::adaptation::{self, AdaptRequest};
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -40,47 +36,23 @@ pub struct AdaptArgs {
 
 pub fn run(a: AdaptArgs) -> Result<()> {
     fringe_rig::store::outside_runs(&a.out).context("--out")?;
-    if a.out.extension().and_then(|e| e.to_str()) != Some("safetensors") {
-        bail!(
-            "--out {}: the adapted weights are written as safetensors: name the file *.safetensors",
-            a.out.display()
-        );
-    }
-    if a.out.exists() {
-        bail!(
-            "--out {}: the file exists; choose a new name (an adapted model never overwrites another)",
-            a.out.display()
-        );
-    }
-    let model = open_model(&a.model)?;
-    if let Some(w) = model.copy_warning() {
-        eprintln!("warning: {w}");
-    }
-    let profile = match &a.profile {
-        Some(p) => Some(Profile::load(p)?),
-        None => None,
-    };
-    let sources = read_sources(&a.data, "adapt on")?;
-    let config = AdaptConfig {
-        folds: a.folds as usize,
+    let request = AdaptRequest {
+        model: &a.model,
+        data: &a.data,
+        out: &a.out,
+        profile: a.profile.as_deref(),
+        folds: a.folds,
         seed: a.seed,
         threads: crate::cmd::arg_values::cap_threads(a.threads),
     };
     let mut progress = FramesProgress::new("reading features");
-    let adapted = adapt_heads(
-        &model,
-        &sources,
-        profile.as_ref(),
-        &config,
-        |done, total| progress.show(done, total),
+    let done = adaptation::adapt(
+        &request,
+        &mut |w| eprintln!("warning: {w}"),
+        &mut |done, total| progress.show(done, total),
     )?;
     progress.finish();
-    let unit = sources
-        .iter()
-        .find_map(|s| s.sensor_id.clone())
-        .or_else(|| profile.as_ref().map(|p| p.sensor_id.clone()));
-    let card = adapted_card(&model, &adapted, &a.data, a.folds, a.seed, unit.as_deref());
-    let card_path = write_adapted(&a.out, &adapted.weights, &card)?;
+    let (model, adapted) = (&done.base, &done.adapted);
     println!(
         "adapted {} ({}) on {} frames of {} presses",
         model.path.display(),
@@ -94,6 +66,6 @@ pub fn run(a: AdaptArgs) -> Result<()> {
             h.head, h.figure, h.before, h.after
         );
     }
-    println!("wrote {} and {}", a.out.display(), card_path.display());
+    println!("wrote {} and {}", a.out.display(), done.card.display());
     Ok(())
 }

@@ -13,15 +13,14 @@ use fringe_app::session::calibration_images::{
     choose_no_contact, fit_disc, image_files, write_profile,
 };
 use fringe_app::session::calibration_scan::{
-    calibrate_run, spot_settings, CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
+    calibrate_run, calibration_plan, completed, spot_settings, CalibrationGrid, WrittenProfile,
+    DEFAULT_MAX_FRAMES,
 };
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
 use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::profile_path;
 use fringe_calibration::DiscFit;
 use fringe_calibration::ScanCalibration;
-use fringe_rig::store::ExitStatus;
-use fringe_rig::Plan;
 use fringe_rig::{scan::new_run_id, RunTarget};
 use std::path::{Path, PathBuf};
 
@@ -171,29 +170,18 @@ fn calibration_scan(
     config: &RigConfig,
     global: &Global,
 ) -> anyhow::Result<SessionEnd> {
-    let limits = config.limits()?;
-    let (text, plan_name) = match &args.plan {
-        Some(path) => (
-            fringe_app::session::plans::read_file(path)?,
-            path.display().to_string(),
-        ),
-        None => (
-            CalibrationGrid {
-                sensor: args.sensor.clone(),
-                points: args.points,
-                span_mm: args.span,
-                force_n: args.force,
-                indenter: args.indenter.clone(),
-            }
-            .plan_text(config)?,
-            "built-in calibration grid".into(),
-        ),
+    let grid = CalibrationGrid {
+        sensor: args.sensor.clone(),
+        points: args.points,
+        span_mm: args.span,
+        force_n: args.force,
+        indenter: args.indenter.clone(),
     };
-    let plan = Plan::parse(&text, &plan_name)?;
-    let program = plan.program(&limits, &plan_name)?;
+    let plan = calibration_plan(args.plan.as_deref(), &grid, config)?;
     println!(
-        "plan: {plan_name}: {} presses, then the profile from the run",
-        program.points.len()
+        "plan: {}: {} presses, then the profile from the run",
+        plan.name,
+        plan.program.points.len()
     );
     let target = RunTarget::New {
         root: args.runs.clone(),
@@ -201,8 +189,8 @@ fn calibration_scan(
     };
     let end = execute(
         config,
-        program,
-        text,
+        plan.program,
+        plan.text,
         target,
         args.yes,
         ProfileUse::Ignore,
@@ -211,13 +199,7 @@ fn calibration_scan(
     )?;
     let outcome = &end.outcome;
     println!("calibration scan written to {}", outcome.run_dir.display());
-    if outcome.status != ExitStatus::Completed {
-        bail!(
-            "the calibration scan did not complete ({}); no profile written (the run is kept in {})",
-            outcome.reason,
-            outcome.run_dir.display()
-        );
-    }
+    completed(outcome)?;
     Ok(end)
 }
 

@@ -1,13 +1,10 @@
 //! `fringe camera`: grab frames from a GenICam camera (Aravis) or a recorded camera trace.
 
 use crate::global::Global;
-use anyhow::{bail, Context};
-use fringe_app::bringup::camera::{grab, Boxed};
-use fringe_app::rig::device_open::open_camera;
-use fringe_app::rig::device_spec::CameraSpec;
+use anyhow::bail;
+use fringe_app::bringup::camera::{grab, open_source, CameraSource};
 use fringe_rig::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
 use fringe_rig::{Decibels, Hertz, Microseconds};
-use fringe_rig::{RecordingCamera, ReplayCamera, ReplayPace};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -96,40 +93,15 @@ fn parse_roi(text: &str) -> Result<Roi, String> {
     }
 }
 
-fn open_aravis(id: &str) -> anyhow::Result<Box<dyn Camera>> {
-    Ok(open_camera(&CameraSpec::Aravis {
-        id: Some(id.to_string()),
-    })?)
-}
-
 pub fn run(args: CameraArgs, global: &Global) -> anyhow::Result<()> {
-    // Without --pixel-format: the camera's native format, or what a replayed trace holds.
-    let mut native = CameraSettings::default().pixel_format;
-    let source: Box<dyn Camera> = match (&args.aravis, &args.replay) {
-        (Some(id), _) => open_aravis(id)?,
-        (None, Some(dir)) => {
-            let replay =
-                ReplayCamera::open(dir, ReplayPace::AsFastAsPossible).with_context(|| {
-                    format!(
-                        "cannot open the camera trace {} (give a directory that --record-trace wrote)",
-                        dir.display()
-                    )
-                })?;
-            if let Some(&first) = replay.offered_formats().first() {
-                native = first;
-            }
-            Box::new(replay)
-        }
+    let source = match (&args.aravis, &args.replay) {
+        (Some(id), _) => CameraSource::Aravis(id),
+        (None, Some(dir)) => CameraSource::Replay(dir),
         (None, None) => bail!("give a camera source: --aravis ID or --replay TRACE_DIR"),
     };
-    let mut camera: Box<dyn Camera> = match &global.record_trace {
-        Some(dir) => Box::new(RecordingCamera::new(
-            Boxed(source),
-            &dir.join("camera"),
-            "camera",
-        )?),
-        None => source,
-    };
+    let (mut camera, offered) = open_source(&source, global.record_trace.as_deref())?;
+    // Without --pixel-format: the camera's native format, or what a replayed trace holds.
+    let native = offered.unwrap_or(CameraSettings::default().pixel_format);
     match args.action {
         CameraAction::Grab(grab) => run_grab(camera.as_mut(), &grab, native),
     }

@@ -5,12 +5,10 @@
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
-use anyhow::{bail, Context};
 use fringe_app::session::plans::DEMO;
-use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::store::ExitStatus;
+use fringe_app::simulation::demo::{completed, Demo};
+use fringe_app::ProfileUse;
 use fringe_rig::{scan::new_run_id, RunTarget};
-use fringe_rig::{scan::Axis1d, Plan};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -36,19 +34,7 @@ pub struct DemoArgs {
 
 pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
     let started = Instant::now();
-    let rig_text = format!(
-        "# fringe demo: the simulated bench\n[sim]\nseed = {}\nsensor = {}\n",
-        args.seed,
-        toml::Value::String(args.sensor.clone())
-    );
-    let config = RigConfig::parse(&rig_text, "fringe demo --sensor/--seed")?;
-    let mut plan = Plan::parse(DEMO.text, &DEMO.origin())?;
-    if args.quick {
-        plan.grid.x = Some(Axis1d::Points(vec![12.5]));
-        plan.indentation.force_targets.truncate(2);
-        plan.indentation.dwell = 0.3;
-    }
-    let plan_text = toml::to_string(&plan).context("the demo plan")?;
+    let demo = Demo::new(&args.sensor, args.seed, args.quick)?;
     println!(
         "fringe {}: demonstration on the simulated bench (sensor {}, seed {}); plan {}{}",
         env!("CARGO_PKG_VERSION"),
@@ -57,15 +43,15 @@ pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
         DEMO.origin(),
         if args.quick { ", quick" } else { "" }
     );
-    let program = plan.program(&config.limits()?, &DEMO.origin())?;
+    let program = demo.program()?;
     let target = RunTarget::New {
         root: args.out.clone(),
-        run_id: new_run_id(&plan.name),
+        run_id: new_run_id(&demo.plan.name),
     };
     let end = execute(
-        &config,
+        &demo.config,
         program,
-        plan_text,
+        demo.plan_text,
         target,
         true,
         ProfileUse::Ignore,
@@ -77,8 +63,6 @@ pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
         "run written to {dir} in {:.1} s; check it with `fringe verify {dir}`, list runs with `fringe runs`",
         started.elapsed().as_secs_f64()
     );
-    if end.outcome.status != ExitStatus::Completed {
-        bail!("the demonstration stopped: {}", end.outcome.reason);
-    }
+    completed(&end.outcome)?;
     Ok(())
 }

@@ -2,10 +2,10 @@
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
-use super::model::{choose_model, ReferenceChoice};
+use super::model::{choose_model, say, ReferenceChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use fringe_app::models::choice::ForSensor;
+use fringe_app::models::choice::{self, ForSensor};
 use fringe_app::models::labelled_data::{agreed, read_sources, scale_warnings};
 use fringe_app::models::verdict;
 use fringe_calibration::Profile;
@@ -72,7 +72,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         None => None,
     };
     let sources = read_sources(&a.data, "evaluate")?;
-    let profiles = profiles_dir();
+    let profiles = choice::profiles_dir(&mut say);
     let model = choose_model(
         a.model.as_deref(),
         &ForSensor {
@@ -127,19 +127,6 @@ pub fn run(a: EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// Where profiles and commissionings live: the rig file's `profiles` (./rig.toml), else
-/// `profiles`.
-fn profiles_dir() -> PathBuf {
-    match fringe_app::RigConfig::resolve(None) {
-        Ok((config, _)) => config.profile_dir(),
-        Err(e) => {
-            eprintln!("warning: {e}; looking for commissioned models in profiles/");
-            PathBuf::from("profiles")
-        }
-    }
-}
-
-/// Prints the model and its Table-2 figures.
 /// The figures of the smoothed predictions, said as such.
 fn print_smoothed(s: &Smoothing, eval: &Evaluation) {
     let e = s.errors(&eval.rows);
@@ -151,6 +138,7 @@ fn print_smoothed(s: &Smoothing, eval: &Evaluation) {
     println!("  contact RMSE: {:.4} mm", e.contact_rmse());
 }
 
+/// Prints the model and its Table-2 figures.
 fn print_figures(model: &Model, eval: &Evaluation) {
     let m = &eval.metrics;
     let s = m.macro_scores();

@@ -1,21 +1,18 @@
 //! `fringe model info|run|export`: what a model file is, its predictions on images, its ONNX
 //! graph.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use fringe_app::models::choice::{self, ChoiceNote, ForSensor};
-use fringe_calibration::Profile;
-use fringe_rig::store::read_plain;
-use fringe_sensor_models::builtin;
-use fringe_sensor_models::eval::frame_ref;
+use fringe_app::models::image_prediction::{ImagePredictor, ImageRun};
+use fringe_app::models::onnx_export::{self, Exported};
+use fringe_app::models::two_stage::{self, Networks};
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::BackendKind;
+use fringe_sensor_models::CardSource;
 use fringe_sensor_models::Model;
 use fringe_sensor_models::Prediction;
-use fringe_sensor_models::Predictor;
 use fringe_sensor_models::ReferenceSensor;
-use fringe_sensor_models::StateDict;
-use fringe_sensor_models::{CardSource, ModelCard};
 use std::path::{Path, PathBuf};
 
 #[derive(Args)]
@@ -123,84 +120,16 @@ pub fn run(args: ModelArgs) -> Result<()> {
     }
 }
 
-/// The file names of a two-stage model in its directory.
-const PAIR_CONTACT: &str = "model.safetensors";
-const PAIR_FORCE: &str = "force.safetensors";
-const PAIR_CONTACT_NET: &str = "contact.safetensors";
-
-/// Writes the two-stage model of `a`: the networks' weights and cards into `a.out`, the contact
-/// model's card naming its window networks, then opens it to check they run together.
+/// Writes the two-stage model of `a` and says what it reads with which network.
 fn pair(a: &PairArgs) -> Result<()> {
     fringe_rig::store::outside_runs(&a.out).context("--out")?;
-    let contact = open_model(&a.contact_model)?;
-    if a.force_model.is_none() && a.contact.is_none() {
-        bail!(
-            "give a force network (FORCE_MODEL), a contact network (--contact) or both: a \
-             two-stage model reads a window about the contact with at least one"
-        );
-    }
-    let weights_c = weights_of(&contact)?;
-    if contact.force_window_mm().is_some() {
-        bail!(
-            "{}: a force network cannot find the contact: give the model that finds it first \
-             (the keypoint CNN)",
-            a.contact_model.display()
-        );
-    }
-    if contact.force.is_some() || contact.contact_refiner.is_some() {
-        bail!("{}: already a two-stage model", a.contact_model.display());
-    }
-    let design = contact.card.as_ref().and_then(|c| c.variant.clone());
-    let of = format!("the contact model {}", a.contact_model.display());
-    let force = match &a.force_model {
-        Some(path) => {
-            let net = open_model(path)?;
-            if net.force_window_mm().is_none() {
-                bail!(
-                    "{}: not a force network (its card has no force_window_mm): train one with \
-                     `fringe train --force-window MM`",
-                    path.display()
-                );
-            }
-            net.check_design(design.as_deref(), &of)?;
-            Some(net)
-        }
-        None => None,
+    let nets = Networks {
+        contact_model: &a.contact_model,
+        force_model: a.force_model.as_deref(),
+        contact: a.contact.as_deref(),
     };
-    let refiner = match &a.contact {
-        Some(path) => {
-            let net = open_model(path)?;
-            if !net.card.as_ref().is_some_and(|c| c.refines_contact) || net.force.is_some() {
-                bail!(
-                    "{}: not a contact network (its card does not say refines_contact): train \
-                     one with `fringe train --arch keypoint --force-window MM`",
-                    path.display()
-                );
-            }
-            net.check_design(design.as_deref(), &of)?;
-            Some(net)
-        }
-        None => None,
-    };
-    // Every network is checked before anything is written.
-    for net in force.iter().chain(&refiner) {
-        weights_of(net)?;
-    }
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("{}: cannot create", a.out.display()))?;
-    let mut card = contact.travelling_card();
-    for (net, file, slot) in [
-        (&refiner, PAIR_CONTACT_NET, &mut card.contact_model),
-        (&force, PAIR_FORCE, &mut card.force_model),
-    ] {
-        if let Some(net) = net {
-            write_network(&a.out.join(file), weights_of(net)?, &net.travelling_card())?;
-            *slot = Some(file.to_string());
-        }
-    }
-    let out_c = a.out.join(PAIR_CONTACT);
-    write_network(&out_c, weights_c, &card)?;
-    let joined = builtin::open(&out_c)?;
+    let paired = two_stage::pair(&nets, &a.out, &mut warn)?;
+    let joined = &paired.joined;
     let placed = joined
         .contact_refiner
         .as_ref()
@@ -222,31 +151,15 @@ fn pair(a: &PairArgs) -> Result<()> {
     };
     println!(
         "two-stage model: {} (contact and shape: {}{placed}; {read})",
-        out_c.display(),
-        contact.describe()
+        paired.path.display(),
+        paired.contact_model.describe()
     );
     Ok(())
 }
 
-/// The weights of a network joined into a two-stage model.
-fn weights_of(net: &Model) -> Result<&StateDict> {
-    net.weights().ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: a two-stage model is made of weights files (.safetensors, .pth): export ONNX \
-             afterwards",
-            net.path.display()
-        )
-    })
-}
-
-/// One network of a two-stage model into `path`: its weights with the card embedded, and the
-/// card beside it (`<file>.json`), as training writes them.
-fn write_network(path: &Path, weights: &StateDict, card: &ModelCard) -> Result<()> {
-    fringe_sensor_models::write_safetensors_with_card(path, weights, Some(card))
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    let [json, _] = ModelCard::candidates(path);
-    let text = serde_json::to_string_pretty(card)?;
-    std::fs::write(&json, text + "\n").with_context(|| format!("{}: cannot write", json.display()))
+/// A warning on stderr.
+fn warn(w: String) {
+    eprintln!("warning: {w}");
 }
 
 /// Opens a model argument ([`choice::open_model`]), warning on stderr of a model without its
@@ -262,14 +175,16 @@ pub(crate) fn open_model(path: &Path) -> Result<Model> {
 /// The model a command runs ([`choice::choose_model`]): the commissioned model taken said on
 /// stdout, warnings on stderr.
 pub(crate) fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
-    Ok(choice::choose_model(
-        given,
-        sensor,
-        &mut |note| match note {
-            ChoiceNote::Commissioned(line) => println!("{line}"),
-            ChoiceNote::Warning(w) => eprintln!("warning: {w}"),
-        },
-    )?)
+    Ok(choice::choose_model(given, sensor, &mut say)?)
+}
+
+/// What the model choice tells the operator: the commissioned model taken on stdout, warnings
+/// on stderr.
+pub(crate) fn say(note: ChoiceNote) {
+    match note {
+        ChoiceNote::Commissioned(line) => println!("{line}"),
+        ChoiceNote::Warning(w) => eprintln!("warning: {w}"),
+    }
 }
 
 fn info(path: &Path) -> Result<()> {
@@ -348,34 +263,16 @@ fn info(path: &Path) -> Result<()> {
 }
 
 fn run_images(a: RunArgs) -> Result<()> {
-    let m = open_model(&a.model)?;
-    let profile = match &a.profile {
-        Some(p) => Some(Profile::load(p)?),
-        None => None,
+    let run = ImageRun {
+        model: &a.model,
+        profile: a.profile.as_deref(),
+        reference: a.reference_preprocessing.map(ReferenceChoice::sensor),
+        backend: a.backend,
+        threads: crate::cmd::arg_values::cap_threads(a.threads),
     };
-    let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
-    let config = m.preprocessing(profile.as_ref(), reference)?;
-    if let Some(w) = m.scale_warning(&config) {
-        eprintln!("warning: {w}");
-    }
-    let mut predictor = Predictor::new(
-        &m,
-        a.backend,
-        crate::cmd::arg_values::cap_threads(a.threads),
-    )?;
+    let mut predictor = ImagePredictor::open(&run, &mut warn)?;
     for image in &a.images {
-        let frame = read_plain(image)?;
-        if let Some(warning) = config.coverage_warning(frame.width, frame.height) {
-            eprintln!("warning: {}: {warning}", image.display());
-        }
-        let fref = frame_ref(&frame);
-        let tensor = config
-            .run(fref)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", image.display()))?;
-        let predicted = predictor.predict(&tensor, 1, &[fref], &config, profile.as_ref())?;
-        let Some(p) = predicted.into_iter().next() else {
-            bail!("{}: the model gave no output", image.display());
-        };
+        let p = predictor.predict(image, &mut warn)?;
         if a.json {
             println!("{}", json_line(image, &p));
         } else {
@@ -424,51 +321,17 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 
 fn export(path: &Path, out: &Path) -> Result<()> {
     fringe_rig::store::outside_runs(out).context("--onnx")?;
-    let m = open_model(path)?;
-    refuse_model_file(&m.path, out)?;
-    if let Some(w) = m.copy_warning() {
-        eprintln!("warning: {w}");
-    }
-    // The graph carries the model's card, so that `model info`, `model run` and eval read it
-    // with the input size, colour and classes it was trained with.
-    let bytes = onnx_graph::encode(&m.onnx_with_card()?);
-    let tmp = out.with_extension("onnx.partial");
-    std::fs::write(&tmp, &bytes).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, out).with_context(|| format!("{}: cannot write", out.display()))?;
+    let Exported { model: m, bytes } = onnx_export::export(path, out, &mut warn)?;
     println!(
         "{}: {} ONNX graph (opset {}), {} bytes, inputs `{}` [N,3,{},{}], outputs {}",
         out.display(),
         m.describe(),
         onnx_graph::OPSET,
-        bytes.len(),
+        bytes,
         onnx_graph::INPUT,
         m.input_size,
         m.input_size,
         onnx_graph::OUTPUTS.join(", ")
     );
-    Ok(())
-}
-
-/// Refuses an output that is one of the model's own files (its weights or its card,
-/// `<file>.json` or `<stem>.json`): writing the graph there would destroy the model.
-fn refuse_model_file(model: &Path, out: &Path) -> Result<()> {
-    let real = |p: &Path| std::fs::canonicalize(p).ok();
-    let Some(out_real) = real(out) else {
-        // It does not exist yet: it is no file of the model.
-        return Ok(());
-    };
-    let own = std::iter::once(model.to_path_buf()).chain(ModelCard::candidates(model));
-    if own
-        .collect::<Vec<_>>()
-        .iter()
-        .any(|f| real(f).as_ref() == Some(&out_real))
-    {
-        bail!(
-            "{}: that is a file of the model {} (its weights or its card): writing the ONNX graph there would destroy it; give another output, e.g. {}",
-            out.display(),
-            model.display(),
-            model.with_extension("onnx").display()
-        );
-    }
     Ok(())
 }

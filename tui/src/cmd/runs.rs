@@ -3,9 +3,8 @@
 use crate::global::Global;
 use crate::signals::{Again, Signal};
 use anyhow::Context;
-use fringe_rig::store::bytes_on_disk;
+use fringe_app::runs::listing::{list_runs, ListedRun};
 use fringe_rig::store::human_bytes as human;
-use fringe_rig::store::list_runs as list;
 use fringe_rig::store::verify_run as verify;
 use fringe_rig::store::ExitStatus;
 use std::io::IsTerminal;
@@ -31,8 +30,8 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
             args.root.display()
         );
     }
-    let (runs, unreadable) =
-        list(&args.root).with_context(|| format!("cannot list runs in {}", args.root.display()))?;
+    let (runs, unreadable) = list_runs(&args.root)
+        .with_context(|| format!("cannot list runs in {}", args.root.display()))?;
     if runs.is_empty() && unreadable.is_empty() {
         println!("no runs in {}", args.root.display());
         return Ok(());
@@ -41,7 +40,12 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
         "{:<32} {:<24} {:<16} {:>7} {:>8}  status",
         "run (directory)", "started (UTC)", "sensor", "frames", "size"
     );
-    for r in &runs {
+    for ListedRun {
+        run: r,
+        name,
+        bytes,
+    } in &runs
+    {
         let mut status = match &r.stop {
             None => "unfinished (resumable)".to_string(),
             Some(s) => match s.exit_status {
@@ -51,15 +55,11 @@ pub fn run_list(args: RunsArgs, _global: &Global) -> anyhow::Result<()> {
             },
         };
         // The directory is what the other commands take; a copied run keeps its run id.
-        let name = r.dir.file_name().map_or_else(
-            || r.dir.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        if name != r.start.run_id {
+        if *name != r.start.run_id {
             status.push_str(&format!(" (run id {})", r.start.run_id));
         }
-        // The bytes of its files; "?" when the directory cannot be read to the end.
-        let size = bytes_on_disk(&r.dir).map_or_else(|_| "?".to_string(), human);
+        // "?" when the directory cannot be read to the end.
+        let size = bytes.map_or_else(|| "?".to_string(), human);
         println!(
             "{:<32} {:<24} {:<16} {:>7} {:>8}  {status}",
             name, r.start.started_utc, r.start.sensor_id, r.frames, size

@@ -9,10 +9,11 @@ use crate::global::Global;
 use anyhow::bail;
 use fringe_app::session::disk_space::{Recording, RoomForecast};
 use fringe_app::session::plans::{scan_plan, SHORT_GRID};
+use fringe_app::session::scan_target::{scan_target, ScanTarget};
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::store::human_bytes as human;
 use fringe_rig::store::ExitStatus;
-use fringe_rig::{scan::new_run_id, RunTarget};
+use fringe_rig::RunTarget;
 use fringe_rig::{scan::Targets, BenchLimits, Plan, ScanProgram};
 use fringe_rig::{
     scan::{Request, ScanProgress, Status},
@@ -72,7 +73,7 @@ pub fn run_ui() -> anyhow::Result<()> {
         runs: PathBuf::from("runs"),
         model: Some(model),
         model_from_rig: true,
-        tab: crate::ui::Tab::Scan,
+        tab: crate::ui::screens::scan::TAB,
         start: false,
     })
 }
@@ -110,26 +111,17 @@ pub fn run(args: ScanArgs, global: &Global) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    if let Some(dir) = &args.resume {
-        if let Some(stop) = fringe_rig::store::RunWriter::finish_cut_close(dir)? {
+    let target = match scan_target(args.resume.as_deref(), &args.out, &plan.name)? {
+        ScanTarget::Run(target) => target,
+        ScanTarget::Closed { run, stop } => {
+            let dir = run.display();
             println!(
-                "{} had ended ({}: {}) but was stopped while writing its manifest; the manifest is now written and the run is whole: fringe verify {}",
-                dir.display(),
+                "{dir} had ended ({}: {}) but was stopped while writing its manifest; the manifest is now written and the run is whole: fringe verify {dir}",
                 format!("{:?}", stop.exit_status).to_lowercase(),
                 stop.reason,
-                dir.display()
             );
             return Ok(());
         }
-    }
-    let target = match &args.resume {
-        // Taken before the rig is opened: while another process writes the run, no device
-        // opens (a second connection sequence to controllers in the middle of its scan).
-        Some(dir) => RunTarget::resume(dir)?,
-        None => RunTarget::New {
-            root: args.out.clone(),
-            run_id: new_run_id(&plan.name),
-        },
     };
     let executed = execute(
         &config,

@@ -1,12 +1,13 @@
 //! `fringe sim render`: one simulated sensor frame as a PNG.
 
 use anyhow::{bail, Context};
+use fringe_app::rig::simulated::{sensor_by_name, SensorNameError};
+use fringe_app::simulation::render::{render_png, Rendered};
 use fringe_rig::{Millimetres, Newtons};
-use fringe_sim::Renderer;
+use fringe_sim::Contact;
 use fringe_sim::SensorConfig;
 use fringe_sim::Shape;
-use fringe_sim::{Contact, FrameRenderer, Scene};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct SimRenderArgs {
@@ -72,13 +73,10 @@ pub struct SimRenderArgs {
 
 /// The sensor named on the command line: a variant name or a TOML file.
 pub fn load_sensor(name: &str) -> anyhow::Result<SensorConfig> {
-    match name {
-        "layered" => Ok(SensorConfig::layered()),
-        "integrated" => Ok(SensorConfig::integrated()),
-        path if path.ends_with(".toml") || Path::new(path).is_file() => {
-            Ok(SensorConfig::load(Path::new(path))?)
-        }
-        other => bail!(
+    match sensor_by_name(name) {
+        Ok(sensor) => Ok(sensor),
+        Err(SensorNameError::Load(e)) => Err(e.into()),
+        Err(SensorNameError::Unknown(other)) => bail!(
             "unknown --sensor `{other}`: use layered, integrated or the path of a sensor .toml file"
         ),
     }
@@ -127,13 +125,11 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
         angle_deg: args.angle,
     });
     let id = config.id.clone();
-    let mut renderer = Renderer::new(config)?;
-    let mut rgb = Vec::new();
-    renderer.render(&Scene { contact }, args.frame, &mut rgb);
-    let (w, h) = (renderer.width(), renderer.height());
-    image::save_buffer(&args.out, &rgb, w, h, image::ColorType::Rgb8)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    let [u, v] = renderer.geometry().to_pixel(args.x, args.y);
+    let Rendered {
+        width: w,
+        height: h,
+        pixel: [u, v],
+    } = render_png(config, contact, [args.x, args.y], args.frame, &args.out)?;
     println!(
         "wrote {} ({w}x{h}, sensor {id}, {} {} N at ({}, {}) mm, {} deg: image pixel ({u:.1}, {v:.1}))",
         args.out.display(),

@@ -77,87 +77,40 @@ pub use with_torch::run;
 mod with_torch {
     use super::*;
     use crate::signals::{self, Again, Signal};
-    use anyhow::{bail, Context};
-    use fringe_calibration::Profile;
-    use fringe_sensor_models::dataset;
-    use fringe_sensor_models::{train, TrainConfig, TrainEvent, TrainOutcome as Outcome};
+    use anyhow::Context;
+    use fringe_app::models::training::{self, TrainRequest};
+    use fringe_sensor_models::{TrainConfig, TrainEvent, TrainOutcome as Outcome};
     use std::io::{IsTerminal, Write};
     use std::time::Instant;
 
-    fn check(a: &TrainArgs) -> Result<()> {
-        if let Some(e) = a.epochs {
-            if !(1..=100_000).contains(&e) {
-                bail!("--epochs {e}: use 1 to 100000");
-            }
-        }
-        if !(1..=4096).contains(&a.batch) {
-            bail!("--batch {}: use 1 to 4096", a.batch);
-        }
-        if !(a.lr.is_finite() && a.lr > 0.0 && a.lr <= 1.0) {
-            bail!(
-                "--lr {}: use a learning rate above 0 and at most 1 (the reference uses 1e-3)",
-                a.lr
-            );
-        }
-        if !(32..=1024).contains(&a.input_size) {
-            bail!(
-                "--input-size {}: use 32 to 1024 px (the paper uses 224)",
-                a.input_size
-            );
-        }
-        if !(1..=256).contains(&a.threads) {
-            bail!("--threads {}: use 1 to 256", a.threads);
-        }
-        if let Some(w) = a.force_window {
-            let range = fringe_sensor_models::FORCE_WINDOW_MM;
-            if !range.contains(&w) {
-                bail!(
-                    "--force-window {w}: use a window of {} to {} mm (24 mm holds a press of the 8 N range)",
-                    range.start(),
-                    range.end()
-                );
-            }
-        }
-        Ok(())
-    }
-
     pub fn run(a: TrainArgs) -> Result<()> {
         fringe_rig::store::outside_runs(&a.out).context("--out")?;
-        check(&a)?;
-        if let Some(init) = &a.init {
-            // Read before the data is prepared: a wrong file is found in a second, not minutes.
-            fringe_sensor_models::read_weights(init)
-                .with_context(|| format!("--init {}", init.display()))?;
-        }
-        let mut config = TrainConfig {
+        let request = TrainRequest {
+            data: a.data,
             arch: a.arch,
             pipeline: a.pipeline,
-            epochs: a.epochs.unwrap_or(40),
+            epochs: a.epochs,
             batch: a.batch,
             lr: a.lr,
             schedule: a.schedule,
             seed: a.seed,
             input_size: a.input_size,
+            out: a.out,
+            resume: a.resume,
+            profile: a.profile,
             threads: a.threads,
-            out: a.out.clone(),
-            init: a.init.clone(),
-            split: None,
-            augment: true,
-            freeze_batch_norm: false,
-            force_window_mm: a.force_window,
+            init: a.init,
+            force_window: a.force_window,
         };
-        let mut data = a.data.clone();
-        if let Some(cp) = &a.resume {
-            fringe_app::models::training::resume_settings(cp, a.epochs, &mut config, &mut data)?;
-        }
-        if data.is_empty() {
-            bail!("no data: name one or more run directories or reference-layout datasets");
-        }
-        let profile = match &a.profile {
-            Some(p) => Some(Profile::load(p)?),
-            None => None,
-        };
-        let sources = read_sources(&data)?;
+        let training = training::prepare(request, &mut |d, s| {
+            eprintln!(
+                "data: {} ({} labelled frames, {} left out without a trustworthy label)",
+                d.display(),
+                s.samples.len(),
+                s.skipped
+            )
+        })?;
+        let config = &training.config;
         // Ctrl-C once: finish the batch, save a checkpoint, say how to resume. Twice: quit now.
         let stop = signals::catch(&[Signal::Interrupt], Again::Ends);
         let mut progress = Progress {
@@ -170,33 +123,10 @@ mod with_torch {
             force_only: config.force_window_mm.is_some(),
             offset: config.reads_contact_offset(),
         };
-        let outcome = train(
-            &config,
-            &sources,
-            profile.as_ref(),
-            a.resume.as_deref(),
-            stop,
-            &mut |e| progress.show(e),
-        )?;
+        let outcome = training.run(stop, &mut |e| progress.show(e))?;
         let _ = std::io::stderr().flush();
-        report(outcome, &config);
+        report(outcome, config);
         Ok(())
-    }
-
-    /// Reads every dataset, saying how many labelled frames each has.
-    fn read_sources(data: &[PathBuf]) -> Result<Vec<dataset::Source>> {
-        let mut sources = Vec::with_capacity(data.len());
-        for d in data {
-            let s = dataset::read(d)?;
-            eprintln!(
-                "data: {} ({} labelled frames, {} left out without a trustworthy label)",
-                d.display(),
-                s.samples.len(),
-                s.skipped
-            );
-            sources.push(s);
-        }
-        Ok(sources)
     }
 
     /// The training's progress on stderr: bars on a terminal, fewer lines in a log.

@@ -11,12 +11,13 @@ use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::models::choice::ForSensor;
 use fringe_app::session::live_validation::{LiveValidation, Validation};
-use fringe_app::session::plans::SHORT_GRID;
+use fringe_app::session::plans::scan_plan;
+use fringe_app::session::validation_report;
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::Plan;
 use fringe_rig::{scan::new_run_id, RunTarget};
 use fringe_sensor_models::BackendKind;
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -61,13 +62,8 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     if let Some(report) = &a.report {
         fringe_rig::store::outside_runs(report).context("--report")?;
     }
-    let (text, origin) = match &a.plan {
-        Some(p) => (
-            fringe_app::session::plans::read_file(p)?,
-            p.display().to_string(),
-        ),
-        None => (SHORT_GRID.text.to_string(), SHORT_GRID.origin()),
-    };
+    // The plan file given, else the built-in short grid.
+    let (text, origin) = scan_plan(a.plan.as_deref(), None)?;
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
     let unit = config.sensor_id().ok();
@@ -134,7 +130,13 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let v = live.finish(Duration::from_secs(10));
     print_summary(&v);
     if let Some(dir) = &a.report {
-        write_report(dir, &v, &end.outcome.run_dir)?;
+        let written = validation_report::write(dir, &v, &end.outcome.run_dir)?;
+        println!(
+            "report written to {} ({} frames in {})",
+            written.report.display(),
+            v.frames.len(),
+            written.frames.display()
+        );
     }
     if let Some(why) = &v.state.failure {
         bail!("live validation stopped: {why}");
@@ -167,27 +169,9 @@ fn run_ui(
             threads: crate::cmd::arg_values::cap_threads(a.threads),
         }),
         model_from_rig: a.model.is_none(),
-        tab: crate::ui::Tab::Validate,
+        tab: crate::ui::screens::validate::TAB,
         start: false,
     })
-}
-
-/// Writes the evaluation report and every validated frame into `dir`, and says where.
-fn write_report(dir: &Path, v: &Validation, run_dir: &Path) -> Result<()> {
-    let title = format!(
-        "Live validation of {} on run {}",
-        v.state.model,
-        run_dir.display()
-    );
-    let report = fringe_sensor_models::report::write(dir, &title, &v.evaluation)?;
-    let lines = write_frames(dir, v)?;
-    println!(
-        "report written to {} ({} frames in {})",
-        report.display(),
-        v.frames.len(),
-        lines.display()
-    );
-    Ok(())
 }
 
 fn print_summary(v: &Validation) {
@@ -219,39 +203,4 @@ fn print_summary(v: &Validation) {
             100.0 * e.accuracy()
         );
     }
-}
-
-/// Every validated frame as one JSON line: ids, label, prediction, latency.
-fn write_frames(dir: &Path, v: &Validation) -> Result<PathBuf> {
-    let path = dir.join("validation.jsonl");
-    let mut out = std::io::BufWriter::new(
-        std::fs::File::create(&path)
-            .with_context(|| format!("{}: cannot create", path.display()))?,
-    );
-    for f in &v.frames {
-        let p = &f.prediction;
-        let line = serde_json::json!({
-            "frame_id": f.frame_id,
-            "record_index": f.record_index,
-            "t_s": f.t_s,
-            "measured": {
-                "fz_n": f.label.fz(),
-                "shape": f.label.shape,
-                "contact_mm": f.label.contact,
-                "stage_mm": f.label.stage_mm,
-            },
-            "predicted": {
-                "fz_n": p.force.fz.value(),
-                "shape": p.shape,
-                "probability": p.confidence(),
-                "contact_mm": p.contact_raw.map(|v| v.value()),
-            },
-            "latency_ms": f.latency_ms,
-            "waited_ms": f.waited_ms,
-        });
-        writeln!(out, "{line}").with_context(|| format!("{}: cannot write", path.display()))?;
-    }
-    out.flush()
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    Ok(path)
 }

@@ -9,11 +9,10 @@ use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
 use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use fringe_app::runs::listing::{list_runs, ListedRun};
 use fringe_app::session::disk_space::Recording;
 use fringe_app::session::rig_control::{BenchCommand, BenchPhase, BenchSession};
 use fringe_app::{ProfileUse, RigConfig};
-use fringe_rig::store::bytes_on_disk;
-use fringe_rig::store::list_runs as list;
 use fringe_rig::store::ExitStatus;
 use fringe_rig::Reply;
 use fringe_rig::RunTarget;
@@ -163,16 +162,13 @@ impl App {
         )
     }
 
-    /// Runs the chosen plan (with live validation on the Validate screen).
-    pub fn run_scan(&mut self) {
+    /// Runs the chosen plan (with live validation, the chosen model's, when `validate`).
+    pub fn run_scan(&mut self, validate: bool) {
         if self.scan_active() {
             self.state.error = Some("a scan is already running".into());
             return;
         }
-        if self.state.tab == Tab::Bench {
-            self.state.tab = Tab::Scan;
-        }
-        let model = if self.state.tab == Tab::Validate || self.opts.tab == Tab::Validate {
+        let model = if validate {
             self.opts.model.clone()
         } else {
             None
@@ -340,22 +336,22 @@ impl App {
         }
     }
 
-    /// Opens the plan chooser on the Scan screen (not while a scan runs).
-    pub fn open_picker(&mut self) {
+    /// Opens the plan chooser (not while a scan runs); false when it did not.
+    pub fn open_picker(&mut self) -> bool {
         if self.scan_active() {
             self.state.error = Some("a scan is running: choose a plan when it ends".into());
-            return;
+            return false;
         }
         let current = self
             .plans
             .iter()
             .position(|p| p.text == self.opts.plan_text)
             .unwrap_or(0);
-        self.state.tab = Tab::Scan;
         self.state.picker = Some(Picker {
             items: self.plans.iter().map(|p| p.label.clone()).collect(),
             selected: current,
         });
+        true
     }
 
     /// Makes the plan chosen in the chooser the one `r` runs, or says why it cannot be.
@@ -416,28 +412,31 @@ impl App {
     /// Lists the runs again, keeping the verdicts already shown.
     pub fn refresh_runs(&mut self) {
         let root = &self.opts.runs;
-        let rows = match list(root) {
+        let rows = match list_runs(root) {
             Ok((runs, _)) => runs
                 .into_iter()
-                .map(|r| RunRow {
-                    name: r.dir.file_name().map_or_else(
-                        || r.dir.display().to_string(),
-                        |n| n.to_string_lossy().into_owned(),
-                    ),
-                    status: match &r.stop {
-                        None => "unfinished".into(),
-                        Some(s) => match s.exit_status {
-                            ExitStatus::Completed => "completed".into(),
-                            ExitStatus::Aborted => "aborted".into(),
-                            ExitStatus::Failed => "failed".into(),
+                .map(
+                    |ListedRun {
+                         run: r,
+                         name,
+                         bytes,
+                     }| RunRow {
+                        name,
+                        status: match &r.stop {
+                            None => "unfinished".into(),
+                            Some(s) => match s.exit_status {
+                                ExitStatus::Completed => "completed".into(),
+                                ExitStatus::Aborted => "aborted".into(),
+                                ExitStatus::Failed => "failed".into(),
+                            },
                         },
+                        frames: r.frames as usize,
+                        bytes,
+                        verified: None,
+                        evaluated: None,
+                        exported: None,
                     },
-                    frames: r.frames as usize,
-                    bytes: bytes_on_disk(&r.dir).ok(),
-                    verified: None,
-                    evaluated: None,
-                    exported: None,
-                })
+                )
                 .collect(),
             Err(e) => {
                 self.state.error = Some(format!("{}: {e}", root.display()));

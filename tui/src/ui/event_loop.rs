@@ -83,7 +83,7 @@ fn run_loop(
     let input = input_thread()?;
     app.refresh_runs();
     if app.opts.start {
-        app.run_scan();
+        screens::scan::run(app);
     }
     let mut last_draw = Instant::now() - FRAME;
     let mut dirty = true;

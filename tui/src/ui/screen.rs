@@ -1,6 +1,7 @@
 //! What a screen is: its entry in the list ([`ScreenDef`]: name, help, drawing, footer hint)
 //! and what runs behind it while the UI runs ([`Screen`]: its keys, its threads, what it does
-//! when a scan ends). Each screen is one file under `screens/`.
+//! when a scan ends). Each screen is one file under `screens/` (its `TAB` and its `SCREEN`) and
+//! one name in the list of `screens.rs`.
 
 use super::app::App;
 use super::binding::HelpRow;
@@ -12,6 +13,7 @@ use ratatui::Frame;
 
 /// A screen as the list names it.
 pub struct ScreenDef {
+    /// The screen's own `TAB`.
     pub tab: Tab,
     /// Its name on the tab bar and in the help.
     pub title: &'static str,

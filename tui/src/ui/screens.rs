@@ -1,26 +1,29 @@
-//! The screens, in tab order: the one list a new screen is added to (its file goes beside
-//! these, its name in [`super::state::Tab`]).
-
-mod bench;
-mod calibrate;
-mod commission;
-mod health;
-mod runs;
-mod scan;
-mod validate;
+//! The screens, in tab order: the one list a new screen is added to. A screen is its file
+//! beside these (`screens/<name>.rs`, declaring its `TAB` and its `SCREEN`) and its name in the
+//! list below, which declares the module and gives its place: its tab order and its number key.
 
 use super::screen::ScreenDef;
 use super::state::Tab;
 
-pub const ALL: &[ScreenDef] = &[
-    scan::SCREEN,
-    validate::SCREEN,
-    runs::SCREEN,
-    bench::SCREEN,
-    calibrate::SCREEN,
-    commission::SCREEN,
-    health::SCREEN,
-];
+/// Declares each screen's module and lists their `SCREEN`s, in that order, as [`ALL`].
+macro_rules! screens {
+    ($($name:ident),+ $(,)?) => {
+        $(pub mod $name;)+
+
+        /// Every screen, in tab order.
+        pub const ALL: &[ScreenDef] = &[$($name::SCREEN),+];
+    };
+}
+
+screens! {
+    scan,
+    validate,
+    runs,
+    bench,
+    calibrate,
+    commission,
+    health,
+}
 
 /// Where `tab` is in [`ALL`].
 pub fn index(tab: Tab) -> usize {
@@ -32,17 +35,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_tab_has_one_screen() {
-        for tab in [
-            Tab::Scan,
-            Tab::Validate,
-            Tab::Runs,
-            Tab::Bench,
-            Tab::Calibrate,
-            Tab::Commission,
-            Tab::Health,
-        ] {
-            assert_eq!(ALL.iter().filter(|s| s.tab == tab).count(), 1, "{tab:?}");
+    fn every_screen_has_a_tab_and_a_title_of_its_own() {
+        for (i, s) in ALL.iter().enumerate() {
+            for other in &ALL[..i] {
+                assert_ne!(s.tab, other.tab, "{} and {}", s.title, other.title);
+                assert_ne!(s.title, other.title, "{:?} and {:?}", s.tab, other.tab);
+            }
+            assert_eq!(index(s.tab), i, "{}", s.title);
         }
     }
 }

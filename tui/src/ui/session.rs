@@ -5,6 +5,7 @@
 use super::stage_operator::UiStageOperator;
 use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
+use fringe_app::models::run_evaluation::evaluate_run;
 use fringe_app::session::live_validation::LiveValidation;
 use fringe_app::session::live_view::LiveView;
 use fringe_app::session::worker_failure::guarded;
@@ -73,25 +74,13 @@ impl ModelChoice {
 
 /// The Table-2 figures of `choice` on the run `dir` (through the run's own profile) as one
 /// short line (Fz RMSE, contact RMSE, shape accuracy); `progress` hears (frames done, in all).
-pub fn evaluate_run(
+pub fn run_figures(
     dir: &std::path::Path,
     choice: &ModelChoice,
     progress: &dyn Fn(usize, usize),
 ) -> Result<String, String> {
-    let model = fringe_sensor_models::builtin::open(&choice.path).map_err(|e| e.to_string())?;
-    let source = fringe_sensor_models::dataset::read(dir).map_err(|e| e.to_string())?;
-    let mut predictor =
-        fringe_sensor_models::Predictor::new(&model, choice.backend, choice.threads)
-            .map_err(|e| e.to_string())?;
-    let eval = fringe_sensor_models::eval::evaluate(
-        &model,
-        &mut predictor,
-        std::slice::from_ref(&source),
-        None,
-        None,
-        progress,
-    )
-    .map_err(|e| e.to_string())?;
+    let eval = evaluate_run(dir, &choice.path, choice.backend, choice.threads, progress)
+        .map_err(|e| e.to_string())?;
     let m = &eval.metrics.all;
     Ok(format!(
         "Fz {:.3} N · contact {:.2} mm · shape {:.1} %",

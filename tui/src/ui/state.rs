@@ -10,16 +10,17 @@ use std::time::Duration;
 /// Messages kept in the scan log.
 pub const LOG_LINES: usize = 200;
 
-/// The screens by name (their order and titles are `screens::ALL`).
+/// A screen by name: each screen file owns its own as `TAB` (`screens::scan::TAB`, ...), by
+/// which the command line and other code choose it; their order and titles are `screens::ALL`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Tab {
-    Scan,
-    Validate,
-    Runs,
-    Bench,
-    Calibrate,
-    Commission,
-    Health,
+pub struct Tab(&'static str);
+
+impl Tab {
+    /// The tab of the screen named `name` (its module's name; one screen each, as a test of
+    /// `screens::ALL` checks).
+    pub const fn named(name: &'static str) -> Tab {
+        Tab(name)
+    }
 }
 
 /// Where the scan is.
@@ -36,6 +37,20 @@ pub enum Phase {
         summary: String,
     },
     Failed(String),
+}
+
+impl Phase {
+    /// The keys that act on the scan now: the footer of the screens that show the scan (Scan,
+    /// Validate, Runs), whose keys act on every screen.
+    pub fn key_hint(&self) -> &'static str {
+        match self {
+            Phase::Ready => "r run the scan · l choose the plan",
+            Phase::Running => "p pause after this press · P pause now · a abort",
+            Phase::Paused(_) => "c continue · a abort",
+            Phase::Stopping(_) => "a abort",
+            Phase::Finished { .. } | Phase::Failed(_) => "r run again · l choose the plan",
+        }
+    }
 }
 
 /// A point of the plan on the stage, mm.

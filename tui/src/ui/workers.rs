@@ -67,7 +67,7 @@ pub fn export(name: String, dir: PathBuf, out: PathBuf, tx: Sender<Verdict>) {
 pub fn evaluate(name: String, dir: PathBuf, choice: ModelChoice, tx: Sender<Verdict>) {
     std::thread::spawn(move || {
         let figures = match guarded("evaluate", || {
-            session::evaluate_run(&dir, &choice, &|done, total| {
+            session::run_figures(&dir, &choice, &|done, total| {
                 if done % 100 == 0 {
                     let _ = tx.send((
                         name.clone(),

@@ -1,15 +1,79 @@
-//! Bringing up a camera (`fringe camera grab`): frames grabbed into a folder with their
-//! `frames.csv`, software-triggered when asked, the frame ids' gaps counted; and any opened
-//! camera wrapped by the trace recorder.
+//! Bringing up a camera (`fringe camera grab`): the camera opened (a GenICam camera or a
+//! recorded camera trace) and wrapped by the trace recorder when a trace is asked for; frames
+//! grabbed into a folder with their `frames.csv`, software-triggered when asked, the frame ids'
+//! gaps counted.
 
+use crate::rig::device_open::{open_camera, DeviceError};
+use crate::rig::device_spec::CameraSpec;
 use fringe_rig::store::FrameFileError;
 use fringe_rig::FrameGaps;
 use fringe_rig::FrameWriter;
 use fringe_rig::{
-    Camera, CameraError, CameraInfo, CameraSettings, Frame, TimestampLatch, TriggerMode,
+    Camera, CameraError, CameraInfo, CameraSettings, Frame, PixelFormat, TimestampLatch,
+    TriggerMode,
 };
-use std::path::Path;
+use fringe_rig::{CameraTraceError, RecordingCamera, ReplayCamera, ReplayPace};
+use std::path::{Path, PathBuf};
 use std::time::Duration;
+
+/// Where the frames come from.
+pub enum CameraSource<'a> {
+    /// A GenICam camera (Aravis) by id or address.
+    Aravis(&'a str),
+    /// A camera trace that `--record-trace` wrote, replayed as fast as it can be.
+    Replay(&'a Path),
+}
+
+/// A camera that could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum CameraOpenError {
+    #[error(transparent)]
+    Device(#[from] DeviceError),
+    #[error(
+        "cannot open the camera trace {} (give a directory that --record-trace wrote)",
+        .dir.display()
+    )]
+    Replay {
+        dir: PathBuf,
+        #[source]
+        source: CameraTraceError,
+    },
+    #[error("{0}")]
+    Record(#[source] CameraError),
+}
+
+/// The camera of `source`, its traffic recorded under `trace/camera` when `trace` is given, and
+/// the pixel format a replayed trace offers first (`None`: the camera's own).
+pub fn open_source(
+    source: &CameraSource<'_>,
+    trace: Option<&Path>,
+) -> Result<(Box<dyn Camera>, Option<PixelFormat>), CameraOpenError> {
+    let mut native = None;
+    let camera: Box<dyn Camera> = match source {
+        CameraSource::Aravis(id) => open_camera(&CameraSpec::Aravis {
+            id: Some(id.to_string()),
+        })?,
+        CameraSource::Replay(dir) => {
+            let replay =
+                ReplayCamera::open(dir, ReplayPace::AsFastAsPossible).map_err(|source| {
+                    CameraOpenError::Replay {
+                        dir: dir.to_path_buf(),
+                        source,
+                    }
+                })?;
+            native = replay.offered_formats().first().copied();
+            Box::new(replay)
+        }
+    };
+    let camera: Box<dyn Camera> = match trace {
+        Some(dir) => Box::new(
+            RecordingCamera::new(Boxed(camera), &dir.join("camera"), "camera")
+                .map_err(CameraOpenError::Record)?,
+        ),
+        None => camera,
+    };
+    Ok((camera, native))
+}
 
 /// Why a grab failed.
 #[derive(Debug, thiserror::Error)]

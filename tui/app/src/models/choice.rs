@@ -2,6 +2,7 @@
 //! a command runs when none is given.
 
 use crate::commission::certificate::commissioned_model;
+use crate::rig::file::RigConfig;
 use fringe_sensor_models::builtin;
 use fringe_sensor_models::{Model, ModelError};
 use std::path::{Path, PathBuf};
@@ -24,6 +25,20 @@ pub fn open_model(path: &Path) -> Result<Model, ChoiceError> {
         return Err(ChoiceError::NoSuchFile(path.to_path_buf()));
     }
     Ok(builtin::open(path)?)
+}
+
+/// Where profiles and commissionings live for a command that opens no rig: the rig file's
+/// `profiles` (./rig.toml), else `profiles`; `note` hears why the rig file could not say.
+pub fn profiles_dir(note: &mut dyn FnMut(ChoiceNote)) -> PathBuf {
+    match RigConfig::resolve(None) {
+        Ok((config, _)) => config.profile_dir(),
+        Err(e) => {
+            note(ChoiceNote::Warning(format!(
+                "{e}; looking for commissioned models in profiles/"
+            )));
+            PathBuf::from("profiles")
+        }
+    }
 }
 
 /// The sensor a model is chosen for: where its profiles live, its unit and its design, as far as

@@ -1,6 +1,7 @@
 //! Training a network (`fringe train`): an architecture named on the command line, and (builds
-//! with the cargo feature `torch`) a training resumed from its checkpoint, which takes the
-//! checkpoint's data and settings.
+//! with the cargo feature `torch`) the training itself: its settings checked, its data read
+//! ([`prepare`]), then trained ([`Prepared::run`]); a training resumed from its checkpoint takes
+//! the checkpoint's data and settings.
 
 use fringe_sensor_models::Architecture;
 
@@ -13,14 +14,208 @@ pub fn architecture(s: &str) -> Result<Architecture, String> {
 }
 
 #[cfg(feature = "torch")]
-pub use with_torch::{resume_settings, ResumeError};
+pub use with_torch::{prepare, Prepared, ResumeError, TrainRequest, TrainingError};
 
 #[cfg(feature = "torch")]
 mod with_torch {
     use super::architecture;
+    use fringe_calibration::{Profile, ProfileError};
+    use fringe_sensor_models::dataset::{self, DatasetError, Source};
+    use fringe_sensor_models::Architecture;
+    use fringe_sensor_models::ModelFileError;
+    use fringe_sensor_models::Pipeline;
+    use fringe_sensor_models::Schedule;
+    use fringe_sensor_models::{
+        train, Checkpoint, TrainConfig, TrainError, TrainEvent, TrainOutcome as Outcome,
+        TrainingRecord,
+    };
     use fringe_sensor_models::{CardError, ModelCard};
-    use fringe_sensor_models::{Checkpoint, TrainConfig, TrainingRecord};
     use std::path::{Path, PathBuf};
+    use std::sync::atomic::AtomicBool;
+
+    /// Epochs of a new training when none are asked for: the reference's.
+    const EPOCHS: usize = 40;
+
+    /// A training as the command line asks for it.
+    pub struct TrainRequest {
+        /// Run directories or reference-layout datasets (with `resume`, taken from the
+        /// checkpoint's card when empty).
+        pub data: Vec<PathBuf>,
+        pub arch: Architecture,
+        pub pipeline: Pipeline,
+        /// Epochs (none: 40, or with `resume` the checkpoint's).
+        pub epochs: Option<usize>,
+        pub batch: usize,
+        pub lr: f64,
+        pub schedule: Schedule,
+        pub seed: u64,
+        pub input_size: u32,
+        /// Checkpoints, split.json, loss.png and the final model go here.
+        pub out: PathBuf,
+        /// The checkpoint to continue from.
+        pub resume: Option<PathBuf>,
+        /// Calibration profile for datasets that carry none.
+        pub profile: Option<PathBuf>,
+        pub threads: usize,
+        /// Weights to start from.
+        pub init: Option<PathBuf>,
+        /// A force network's window side, mm.
+        pub force_window: Option<f64>,
+    }
+
+    /// A training that cannot start or did not end.
+    #[derive(Debug, thiserror::Error)]
+    pub enum TrainingError {
+        #[error("--epochs {0}: use 1 to 100000")]
+        Epochs(usize),
+        #[error("--batch {0}: use 1 to 4096")]
+        Batch(usize),
+        #[error("--lr {0}: use a learning rate above 0 and at most 1 (the reference uses 1e-3)")]
+        LearningRate(f64),
+        #[error("--input-size {0}: use 32 to 1024 px (the paper uses 224)")]
+        InputSize(u32),
+        #[error("--threads {0}: use 1 to 256")]
+        Threads(usize),
+        #[error(
+            "--force-window {mm}: use a window of {} to {} mm (24 mm holds a press of the 8 N range)",
+            .range.start(),
+            .range.end()
+        )]
+        ForceWindow {
+            mm: f64,
+            range: std::ops::RangeInclusive<f64>,
+        },
+        #[error("--init {}", .path.display())]
+        Init {
+            path: PathBuf,
+            #[source]
+            source: ModelFileError,
+        },
+        #[error(transparent)]
+        Resume(#[from] ResumeError),
+        #[error("no data: name one or more run directories or reference-layout datasets")]
+        NoData,
+        #[error(transparent)]
+        Profile(#[from] ProfileError),
+        /// Kept in the chain of causes as itself, for the front end that finds the command
+        /// that helps with it.
+        #[error("{0}")]
+        Dataset(#[from] DatasetError),
+        #[error(transparent)]
+        Train(#[from] TrainError),
+    }
+
+    /// Refuses settings out of their ranges.
+    fn check(r: &TrainRequest) -> Result<(), TrainingError> {
+        if let Some(e) = r.epochs {
+            if !(1..=100_000).contains(&e) {
+                return Err(TrainingError::Epochs(e));
+            }
+        }
+        if !(1..=4096).contains(&r.batch) {
+            return Err(TrainingError::Batch(r.batch));
+        }
+        if !(r.lr.is_finite() && r.lr > 0.0 && r.lr <= 1.0) {
+            return Err(TrainingError::LearningRate(r.lr));
+        }
+        if !(32..=1024).contains(&r.input_size) {
+            return Err(TrainingError::InputSize(r.input_size));
+        }
+        if !(1..=256).contains(&r.threads) {
+            return Err(TrainingError::Threads(r.threads));
+        }
+        if let Some(mm) = r.force_window {
+            let range = fringe_sensor_models::FORCE_WINDOW_MM;
+            if !range.contains(&mm) {
+                return Err(TrainingError::ForceWindow { mm, range });
+            }
+        }
+        Ok(())
+    }
+
+    /// A training ready to run: its settings checked and complete, its data read.
+    pub struct Prepared {
+        pub config: TrainConfig,
+        sources: Vec<Source>,
+        profile: Option<Profile>,
+        resume: Option<PathBuf>,
+    }
+
+    /// Checks the settings of `r`, takes a resumed training's data and settings from its
+    /// checkpoint, and reads every dataset; `read` hears each dataset read (as named, and what
+    /// it holds).
+    pub fn prepare(
+        r: TrainRequest,
+        read: &mut dyn FnMut(&Path, &Source),
+    ) -> Result<Prepared, TrainingError> {
+        check(&r)?;
+        if let Some(init) = &r.init {
+            // Read before the data is prepared: a wrong file is found in a second, not minutes.
+            fringe_sensor_models::read_weights(init).map_err(|source| TrainingError::Init {
+                path: init.clone(),
+                source,
+            })?;
+        }
+        let mut config = TrainConfig {
+            arch: r.arch,
+            pipeline: r.pipeline,
+            epochs: r.epochs.unwrap_or(EPOCHS),
+            batch: r.batch,
+            lr: r.lr,
+            schedule: r.schedule,
+            seed: r.seed,
+            input_size: r.input_size,
+            threads: r.threads,
+            out: r.out,
+            init: r.init,
+            split: None,
+            augment: true,
+            freeze_batch_norm: false,
+            force_window_mm: r.force_window,
+        };
+        let mut data = r.data;
+        if let Some(cp) = &r.resume {
+            resume_settings(cp, r.epochs, &mut config, &mut data)?;
+        }
+        if data.is_empty() {
+            return Err(TrainingError::NoData);
+        }
+        let profile = match &r.profile {
+            Some(p) => Some(Profile::load(p)?),
+            None => None,
+        };
+        let mut sources = Vec::with_capacity(data.len());
+        for d in &data {
+            let s = dataset::read(d)?;
+            read(d, &s);
+            sources.push(s);
+        }
+        Ok(Prepared {
+            config,
+            sources,
+            profile,
+            resume: r.resume,
+        })
+    }
+
+    impl Prepared {
+        /// Trains (or resumes); `stop` ends it after the current batch with a checkpoint to
+        /// resume from; `events` hears its progress.
+        pub fn run(
+            &self,
+            stop: &AtomicBool,
+            events: &mut dyn FnMut(TrainEvent),
+        ) -> Result<Outcome, TrainingError> {
+            Ok(train(
+                &self.config,
+                &self.sources,
+                self.profile.as_ref(),
+                self.resume.as_deref(),
+                stop,
+                events,
+            )?)
+        }
+    }
 
     /// A checkpoint a training cannot resume from.
     #[derive(Debug, thiserror::Error)]
@@ -45,7 +240,7 @@ mod with_torch {
 
     /// Takes the data (when none is named) and the settings from checkpoint `cp`'s card;
     /// `epochs` (--epochs) may extend the training.
-    pub fn resume_settings(
+    fn resume_settings(
         cp: &Path,
         epochs: Option<usize>,
         config: &mut TrainConfig,

@@ -13,11 +13,11 @@ use fringe_rig::{scan::FtRating, BenchLimits};
 use fringe_rig::{Kinematics, SoftLimits};
 use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons};
 use fringe_sim::NetFtEmulatorConfig;
-use fringe_sim::SensorConfig;
 use fringe_sim::TruthSink;
 use fringe_sim::TruthSpool;
 use fringe_sim::{AxisConfig, Bench};
 use fringe_sim::{ForcePath, SimRig, SimRigConfig, SIM_CAL};
+use fringe_sim::{SensorConfig, SensorConfigError};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -39,24 +39,42 @@ impl SimBench {
     }
 }
 
-/// A sensor build of the simulator by name (layered, integrated) or file.
-pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+/// A sensor build of the simulator that could not be had by its name.
+#[derive(Debug, thiserror::Error)]
+pub enum SensorNameError {
+    /// The sensor file could not be read.
+    #[error("{0}")]
+    Load(#[source] SensorConfigError),
+    /// Neither a build's name nor a file.
+    #[error("{0:?}: use layered, integrated or the path of a sensor .toml file")]
+    Unknown(String),
+}
+
+/// A sensor build of the simulator by name (`layered`, `integrated`) or file (a `.toml` path or
+/// any file): the one reading of a sensor's name, for the rig file and the `--sensor` flags.
+pub fn sensor_by_name(name: &str) -> Result<SensorConfig, SensorNameError> {
     match name {
         "layered" => Ok(SensorConfig::layered()),
         "integrated" => Ok(SensorConfig::integrated()),
         path if path.ends_with(".toml") || Path::new(path).is_file() => {
-            SensorConfig::load(Path::new(path)).map_err(|e| ConfigError {
-                origin: origin.into(),
-                message: format!("key `sim.sensor`: {e}"),
-            })
+            SensorConfig::load(Path::new(path)).map_err(SensorNameError::Load)
         }
-        other => Err(ConfigError {
-            origin: origin.into(),
-            message: format!(
+        other => Err(SensorNameError::Unknown(other.to_string())),
+    }
+}
+
+/// A sensor build of the simulator by name (layered, integrated) or file, named by a rig file's
+/// `sim.sensor`.
+pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+    sensor_by_name(name).map_err(|e| ConfigError {
+        origin: origin.into(),
+        message: match e {
+            SensorNameError::Load(e) => format!("key `sim.sensor`: {e}"),
+            SensorNameError::Unknown(other) => format!(
                 "key `sim.sensor` = {other:?}: use layered, integrated or the path of a sensor .toml file"
             ),
-        }),
-    }
+        },
+    })
 }
 
 /// The simulated rig's configuration.

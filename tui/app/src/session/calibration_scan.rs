@@ -4,7 +4,7 @@
 //! `fringe-calibration`), which the command line and the terminal UI write alike.
 
 use crate::rig::file::RigConfig;
-use crate::session::plans::CALIBRATION;
+use crate::session::plans::{read_file, PlanFileError, CALIBRATION};
 use fringe_calibration::calibrate;
 use fringe_calibration::residual_plot;
 use fringe_calibration::{draw_spot, SpotSettings};
@@ -12,7 +12,10 @@ use fringe_calibration::{overlay, overlay_scaled};
 use fringe_calibration::{profile_path, Profile, ProfileError};
 use fringe_calibration::{FromScanError, ScanCalibration};
 use fringe_calibration::{ScanRun, ScanRunError};
+use fringe_rig::store::ExitStatus;
 use fringe_rig::ConfigError;
+use fringe_rig::ScanOutcome;
+use fringe_rig::{Plan, ScanProgram};
 use std::path::{Path, PathBuf};
 
 /// The built-in grid: `points` x `points` light presses over +- `span_mm` around the nominal
@@ -71,6 +74,57 @@ pub enum CalibrationPlanError {
     Config(#[from] ConfigError),
     #[error("the built-in calibration plan ({path}): {message}")]
     Builtin { path: &'static str, message: String },
+    #[error(transparent)]
+    File(#[from] PlanFileError),
+}
+
+/// The calibration scan's plan: its text, its name in messages and its program.
+pub struct CalibrationPlan {
+    pub text: String,
+    pub name: String,
+    pub program: ScanProgram,
+}
+
+/// The calibration scan's plan on `config`'s rig: the plan file `file` if one is given, else
+/// `grid`.
+pub fn calibration_plan(
+    file: Option<&Path>,
+    grid: &CalibrationGrid,
+    config: &RigConfig,
+) -> Result<CalibrationPlan, CalibrationPlanError> {
+    let limits = config.limits()?;
+    let (text, name) = match file {
+        Some(path) => (read_file(path)?, path.display().to_string()),
+        None => (grid.plan_text(config)?, "built-in calibration grid".into()),
+    };
+    let program = Plan::parse(&text, &name)?.program(&limits, &name)?;
+    Ok(CalibrationPlan {
+        text,
+        name,
+        program,
+    })
+}
+
+/// A calibration scan that did not complete: no profile is made from it.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "the calibration scan did not complete ({reason}); no profile written (the run is kept in {})",
+    .run_dir.display()
+)]
+pub struct Incomplete {
+    pub reason: String,
+    pub run_dir: PathBuf,
+}
+
+/// The end of a calibration scan, refused unless it completed.
+pub fn completed(outcome: &ScanOutcome) -> Result<(), Incomplete> {
+    if outcome.status == ExitStatus::Completed {
+        return Ok(());
+    }
+    Err(Incomplete {
+        reason: outcome.reason.clone(),
+        run_dir: outcome.run_dir.clone(),
+    })
 }
 
 /// Contact finding for the sensor's construction: as given, else the simulated sensor's, else a

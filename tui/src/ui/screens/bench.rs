@@ -24,8 +24,12 @@ use ratatui::Frame;
 /// Side of the Bench screen's frame picture, px.
 const PICTURE_PX: u32 = 96;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("bench");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Bench,
+    tab: TAB,
     title: "Bench",
     help,
     draw: |f, area, s| draw(f, area, &s.bench),

@@ -25,8 +25,12 @@ use ratatui::Frame;
 /// A residual over this many px is shown as a warning.
 const RESIDUAL_WARN_PX: f64 = 3.0;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("calibrate");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Calibrate,
+    tab: TAB,
     title: "Calibrate",
     help,
     draw: |f, area, s| draw(f, area, &s.calibrate, &s.scan),

@@ -25,8 +25,12 @@ use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 use std::path::PathBuf;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("commission");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Commission,
+    tab: TAB,
     title: "Commission",
     help,
     draw: |f, area, s| draw(f, area, &s.commission, &s.scan),

@@ -18,8 +18,12 @@ use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState, Wrap};
 use ratatui::Frame;
 use std::time::SystemTime;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("health");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Health,
+    tab: TAB,
     title: "Health",
     help,
     draw: |f, area, s| draw(f, area, &s.health),

@@ -2,7 +2,6 @@
 //! the verdict of a verification, the model's figures of an evaluation and where an export went,
 //! when the user asked for them.
 
-use super::scan::key_hint;
 use crate::ui::app::App;
 use crate::ui::binding::{self, char, code, Binding, HelpRow, Scope};
 use crate::ui::screen::{Screen, ScreenDef};
@@ -18,12 +17,16 @@ use ratatui::style::{Modifier, Style};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("runs");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Runs,
+    tab: TAB,
     title: "Runs",
     help,
     draw: |f, area, s| draw(f, area, &s.runs),
-    hint: key_hint,
+    hint: |s| s.scan.phase.key_hint(),
     open: |_| Box::<Runs>::default(),
 };
 

@@ -2,6 +2,7 @@
 //! frame, the force chart and the scan's messages. Its keys choose, run, pause, continue and
 //! abort the scan on every screen (the scan goes on whichever screen is shown).
 
+use super::{bench, validate};
 use crate::clock_text::clock;
 use crate::ui::app::App;
 use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
@@ -19,12 +20,16 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Gauge, List, ListItem, Paragraph};
 use ratatui::Frame;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("scan");
+
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Scan,
+    tab: TAB,
     title: "Scan",
     help,
     draw,
-    hint: key_hint,
+    hint: |s| s.scan.phase.key_hint(),
     open: |_| Box::new(ScanKeys),
 };
 
@@ -87,6 +92,17 @@ fn help() -> Vec<HelpRow> {
     binding::help_rows(KEYS, Some(SCREEN.title))
 }
 
+/// Runs the chosen plan (`r` on any screen, or at once when the UI starts): the Bench screen
+/// gives way to this one, and on the Validate screen (or when the UI was opened on it) the plan
+/// runs with live validation.
+pub fn run(app: &mut App) {
+    if !app.scan_active() && app.state.tab == bench::TAB {
+        app.state.tab = TAB;
+    }
+    let validate = app.state.tab == validate::TAB || app.opts.tab == validate::TAB;
+    app.run_scan(validate);
+}
+
 /// The scan's keys (the scan itself is the [`App`]'s: every screen shows it).
 struct ScanKeys;
 
@@ -96,25 +112,18 @@ impl Screen for ScanKeys {
             return false;
         };
         match action {
-            Action::ChoosePlan => app.open_picker(),
-            Action::Run => app.run_scan(),
+            Action::ChoosePlan => {
+                if app.open_picker() {
+                    app.state.tab = TAB;
+                }
+            }
+            Action::Run => run(app),
             Action::Pause => app.pause(false),
             Action::PauseNow => app.pause(true),
             Action::Continue => app.resume(),
             Action::Abort => app.abort(),
         }
         true
-    }
-}
-
-/// The keys that act on the scan now.
-pub fn key_hint(s: &UiState) -> &'static str {
-    match s.scan.phase {
-        Phase::Ready => "r run the scan · l choose the plan",
-        Phase::Running => "p pause after this press · P pause now · a abort",
-        Phase::Paused(_) => "c continue · a abort",
-        Phase::Stopping(_) => "a abort",
-        Phase::Finished { .. } | Phase::Failed(_) => "r run again · l choose the plan",
     }
 }
 

@@ -2,7 +2,6 @@
 //! measured Fz over time, the contact points on the disc, the shape with its probability, the
 //! running metrics, the error by grid cell, the loop rate and the frames skipped.
 
-use super::scan::key_hint;
 use crate::ui::picture::Picture;
 use crate::ui::screen::{Plain, ScreenDef};
 use crate::ui::state::{Tab, UiState};
@@ -16,13 +15,17 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Wrap};
 use ratatui::Frame;
 
+/// This screen, by name: `UiState::tab` when it is shown; the command line and other code
+/// choose it by this.
+pub const TAB: Tab = Tab::named("validate");
+
 /// No keys of its own: `r` (Scan) runs the plan with live validation when this screen is shown.
 pub const SCREEN: ScreenDef = ScreenDef {
-    tab: Tab::Validate,
+    tab: TAB,
     title: "Validate",
     help: Vec::new,
     draw,
-    hint: key_hint,
+    hint: |s| s.scan.phase.key_hint(),
     open: |_| Box::new(Plain),
 };
 

@@ -3,9 +3,10 @@
 
 use super::draw;
 use crate::ui::keys;
+use crate::ui::screens;
 use crate::ui::state::{
     BenchView, CalibrateView, CalibrationPhase, CommissionPhase, CommissionView, Dialog,
-    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, Tab, UiState,
+    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, UiState,
 };
 use crate::ui::widgets;
 use fringe_app::session::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
@@ -68,7 +69,7 @@ fn grid() -> Vec<PlanPoint> {
 
 fn ready() -> UiState {
     UiState {
-        tab: Tab::Scan,
+        tab: screens::scan::TAB,
         help: false,
         rig: "simulated bench (no rig configured)".into(),
         scan: ScanView {
@@ -123,7 +124,7 @@ fn ready() -> UiState {
 /// The Bench screen after a jog of z that hit the force ceiling, with x not homed.
 fn on_bench() -> UiState {
     let mut s = ready();
-    s.tab = Tab::Bench;
+    s.tab = screens::bench::TAB;
     let axis = |p: f64, homed: bool, moving: bool, limits: (f64, f64)| AxisState {
         endpoint: "simulated".into(),
         position_mm: Some(p),
@@ -243,7 +244,7 @@ fn errors(n: u64, rmse: f64) -> Errors {
 
 fn validating() -> UiState {
     let mut s = running();
-    s.tab = Tab::Validate;
+    s.tab = screens::validate::TAB;
     s.model = Some("models/disc7.pth".into());
     let label = Sample {
         image: PathBuf::from("frames/000812.png"),
@@ -395,7 +396,7 @@ fn validate_screen_says_when_the_model_is_slower_than_the_camera() {
 #[test]
 fn validate_screen_without_a_model_says_how_to_choose_one() {
     let mut s = ready();
-    s.tab = Tab::Validate;
+    s.tab = screens::validate::TAB;
     let t = render(&s, 100, 20);
     let b = t.backend().buffer();
     assert!(find(b, "fringe validate --model FILE").is_some());
@@ -439,7 +440,7 @@ fn an_error_replaces_the_key_hints_in_red() {
 #[test]
 fn runs_screen_lists_runs_with_status_and_verdict() {
     let mut s = ready();
-    s.tab = Tab::Runs;
+    s.tab = screens::runs::TAB;
     s.runs.rows = vec![
         RunRow {
             name: "20261125-083000-short-grid".into(),
@@ -558,7 +559,7 @@ fn bench_shows_devices_jog_state_force_and_frame() {
 /// The Calibrate screen with a fit awaiting `w`: one press an outlier, one not located.
 fn calibrated() -> UiState {
     let mut s = ready();
-    s.tab = Tab::Calibrate;
+    s.tab = screens::calibrate::TAB;
     let c = &mut s.calibrate;
     c.phase = CalibrationPhase::Fitted;
     c.fit = vec![
@@ -593,7 +594,7 @@ fn commissioning() -> UiState {
     use fringe_app::commission::certificate::CurvePoint;
     use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
     let mut s = ready();
-    s.tab = Tab::Commission;
+    s.tab = screens::commission::TAB;
     s.scan.phase = Phase::Running;
     s.scan.done = 4;
     s.scan.total = 12;
@@ -754,7 +755,7 @@ fn every_screen_draws_at_any_terminal_size() {
         commissioning(),
     ];
     let mut runs = ready();
-    runs.tab = Tab::Runs;
+    runs.tab = screens::runs::TAB;
     runs.runs.rows.push(RunRow {
         name: "r".into(),
         status: "failed".into(),
@@ -858,7 +859,7 @@ fn health_screen_lists_the_checks_and_the_chosen_one_s_figures_with_the_moved_on
         ..unchanged.clone()
     };
     let mut s = ready();
-    s.tab = Tab::Health;
+    s.tab = screens::health::TAB;
     s.health = HealthView {
         sensor: "layered-3".into(),
         certificate: "profiles/layered-3.commission-2026-11-20T09-00-00Z (issued 2026-11-20T09:12:00Z, passed)".into(),
