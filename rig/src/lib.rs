@@ -37,8 +37,9 @@
 //!   their module's.
 //!
 //! Every type the public API hands out (errors, reports, plan sections) is re-exported too, so
-//! all of it can be named (`unnameable_types` is warned). No other module is public. Inside this crate, files import from the defining module, never
-//! through these re-exports (no import circle between files).
+//! all of it can be named (`unnameable_types` is warned). No other module is public. Inside
+//! this crate, files import from the defining module, never through these re-exports (no import
+//! circle between files).
 #![warn(unreachable_pub)]
 #![warn(unnameable_types)]
 
