@@ -26,11 +26,11 @@
 //! Every figure lands in `DIR/curves.csv` (a rerun or a new score replaces its own rows), the
 //! curves with the spec's threshold in `DIR/fz.png` and `DIR/contact.png`; the table is printed.
 
-use fringe_app::commission::press_choice::{
-    choose, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
+use fringe_app::commission::round_errors;
+use fringe_app::commission::{
+    choose_presses as choose, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
 };
-use fringe_app::commission::press_errors::round_errors;
-use fringe_app::rig::simulated::sensor_profile;
+use fringe_app::rig::sensor_profile;
 use fringe_rig::reference_layout::{
     LabelRow, LabelWriter, Shape as LabelShape, IMAGES, LABELS, SIM_DATASET_DOC,
     SIM_DATASET_PROFILE,

@@ -9,9 +9,15 @@
 //! - [`error`]: why a stream or a bias failed.
 //! - [`camera`]: frames grabbed into a folder (`fringe camera grab`).
 
-pub mod camera;
-pub mod daq;
+pub(crate) mod camera;
+pub(crate) mod daq;
 pub(crate) mod error;
-pub mod force_stream;
-pub mod interface;
-pub mod netft;
+pub(crate) mod force_stream;
+pub(crate) mod interface;
+pub(crate) mod netft;
+
+pub use camera::{grab, open_source, CameraSource};
+pub use daq::bias as bias_daq;
+pub use force_stream::{stream_to_csv, StreamReport};
+pub use interface::Interface;
+pub use netft::bias as bias_netft;

@@ -24,15 +24,29 @@
 //! - [`journal`]: what has been done, for `--resume`.
 //! - [`certificate`]: the outcome, and the unit's commissioned model.
 
-pub mod acceptance;
-pub mod certificate;
+pub(crate) mod acceptance;
+pub(crate) mod certificate;
 mod fine_tune;
-pub mod host;
-pub mod job;
-pub mod journal;
+pub(crate) mod host;
+pub(crate) mod job;
+pub(crate) mod journal;
 mod last_block;
-pub mod press_choice;
-pub mod press_errors;
+pub(crate) mod press_choice;
+pub(crate) mod press_errors;
 pub(crate) mod press_plan;
-pub mod rounds;
+pub(crate) mod rounds;
 pub(crate) mod scans;
+
+pub use acceptance::Accepted;
+pub use certificate::{commissioned_model, unfinished, CurvePoint};
+pub use host::{Host, ScanEnded};
+pub use job::{
+    prepare, run, NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES,
+    DEFAULT_SEED,
+};
+pub use journal::{Journal, Options, ScanEntry};
+pub use press_choice::{
+    choose as choose_presses, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
+};
+pub use press_errors::round_errors;
+pub use rounds::DEFAULT_BUDGET_MIN;

@@ -19,12 +19,17 @@
 //! The measurements compared (a frame set's optics, light and surface signature) belong to
 //! calibration: `fringe_calibration::health`.
 
-pub mod check;
+pub(crate) mod check;
 pub(crate) mod check_plan;
-pub mod figures;
-pub mod history;
-pub mod history_plot;
+pub(crate) mod figures;
+pub(crate) mod history;
+pub(crate) mod history_plot;
 pub(crate) mod model_errors;
 pub(crate) mod reference;
 #[cfg(test)]
 mod test_change;
+
+pub use check::{run, unit as unit_to_check};
+pub use figures::{assess, Measured, Rule, Thresholds, Verdict};
+pub use history::{history_path, read as read_history, Entry};
+pub use history_plot::write as write_history_plot;

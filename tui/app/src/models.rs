@@ -17,13 +17,25 @@
 //! - [`verdict`]: a spec given by name (`paper`) or file, and an evaluation's verdict against it
 //!   in lines.
 
-pub mod adaptation;
-pub mod adapted_card;
-pub mod choice;
-pub mod image_prediction;
-pub mod labelled_data;
-pub mod onnx_export;
-pub mod run_evaluation;
-pub mod training;
-pub mod two_stage;
-pub mod verdict;
+pub(crate) mod adaptation;
+pub(crate) mod adapted_card;
+pub(crate) mod choice;
+pub(crate) mod image_prediction;
+pub(crate) mod labelled_data;
+pub(crate) mod onnx_export;
+pub(crate) mod run_evaluation;
+pub(crate) mod training;
+pub(crate) mod two_stage;
+pub(crate) mod verdict;
+
+pub use adaptation::{adapt, AdaptRequest};
+pub use choice::{choose_model, open_model, profiles_dir, ChoiceNote, ForSensor};
+pub use image_prediction::{ImagePredictor, ImageRun};
+pub use labelled_data::{agreed, read_sources, scale_warnings};
+pub use onnx_export::{export as export_onnx, Exported};
+pub use run_evaluation::evaluate_run;
+pub use training::architecture;
+#[cfg(feature = "torch")]
+pub use training::{prepare as prepare_training, TrainRequest};
+pub use two_stage::{pair, Networks};
+pub use verdict::{lines as verdict_lines, load as load_spec, PAPER};

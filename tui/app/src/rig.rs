@@ -13,17 +13,29 @@
 //! - `simulated`: the simulated rig behind a rig file (public with the cargo feature `sim`, a
 //!   default).
 
-pub mod device_open;
-pub mod device_spec;
+pub(crate) mod device_open;
+pub(crate) mod device_spec;
 pub(crate) mod devices;
 pub(crate) mod error;
 pub(crate) mod file;
-pub mod force;
-pub mod host_port;
+pub(crate) mod force;
+pub(crate) mod host_port;
 pub(crate) mod open;
 pub(crate) mod setup;
 #[cfg(feature = "sim")]
-pub mod simulated;
+pub(crate) mod simulated;
 #[cfg(not(feature = "sim"))]
 #[path = "rig/no_simulated.rs"]
 pub(crate) mod simulated;
+
+pub use device_open::{open_axis, open_modbus, open_thorlabs, TraceTo};
+pub use device_spec::{AxisSpec, ModbusLink, ModbusSpec};
+pub use force::netft::{open_netft, NetFtScaling, NetFtSpec};
+pub use force::nidaqmx::names::DaqNames;
+pub use force::nidaqmx::{daq_error, open_daq, DaqForce, DaqSpec};
+pub use force::ForceSpec;
+pub use host_port::HostPort;
+#[cfg(feature = "sim")]
+pub use simulated::{
+    config as sim_config, sensor_by_name, sensor_profile, CalibrationTruth, SensorNameError,
+};

@@ -3,4 +3,6 @@
 //! - [`listing`]: the runs in a directory, each with the name the other commands take and the
 //!   bytes it takes on disk.
 
-pub mod listing;
+pub(crate) mod listing;
+
+pub use listing::{list_runs, ListedRun};

@@ -18,18 +18,39 @@
 //!   validated.
 //! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
 
-pub mod calibration_images;
-pub mod calibration_scan;
+pub(crate) mod calibration_images;
+pub(crate) mod calibration_scan;
 pub(crate) mod disc_cutout;
-pub mod disk_space;
+pub(crate) mod disk_space;
 pub(crate) mod jog_guard;
-pub mod live_validation;
-pub mod live_view;
+pub(crate) mod live_validation;
+pub(crate) mod live_view;
 pub(crate) mod model_pace;
-pub mod plans;
-pub mod rig_control;
+pub(crate) mod plans;
+pub(crate) mod rig_control;
 pub(crate) mod scan;
-pub mod scan_target;
+pub(crate) mod scan_target;
 pub(crate) mod truth_score;
-pub mod validation_report;
-pub mod worker_failure;
+pub(crate) mod validation_report;
+pub(crate) mod worker_failure;
+
+pub use calibration_images::{choose_no_contact, fit_disc, image_files, write_profile};
+pub use calibration_scan::{
+    calibrate_run, calibration_plan, completed as calibration_completed, spot_settings,
+    CalibrationGrid, CalibrationResult, WrittenProfile, DEFAULT_MAX_FRAMES,
+};
+pub use disk_space::{Recording, RoomForecast};
+pub use jog_guard::AxisId;
+pub use live_validation::{
+    CellErrors, FrameSource, FzPoint, Latest, LiveValidation, Validation, ValidationState,
+    BACKLOG_FRAMES, THREADS_PER_NETWORK,
+};
+pub use live_view::{LabelPoint, LiveView, ViewState};
+pub use plans::{read_file as read_plan_file, scan_plan, ALL as BUILTIN_PLANS, DEMO, SHORT_GRID};
+pub use rig_control::{
+    AxisState, BenchCommand, BenchPhase, BenchSession, BenchState, CameraState, ForcePoint,
+    ForceState,
+};
+pub use scan_target::{scan_target, ScanTarget};
+pub use validation_report::write as write_validation_report;
+pub use worker_failure::{guarded, panic_text};

@@ -7,7 +7,12 @@
 //! - [`selfcheck`]: the Net F/T driver against the simulated box on loopback (the self-check of
 //!   `fringe` with no command).
 
-pub mod dataset;
-pub mod demo;
-pub mod render;
-pub mod selfcheck;
+pub(crate) mod dataset;
+pub(crate) mod demo;
+pub(crate) mod render;
+pub(crate) mod selfcheck;
+
+pub use dataset::{write_dataset, DatasetError, DatasetEvent};
+pub use demo::{completed as demo_completed, Demo};
+pub use render::{render_png, Rendered};
+pub use selfcheck::netft_selfcheck;

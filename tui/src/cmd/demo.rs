@@ -5,8 +5,8 @@
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
-use fringe_app::session::plans::DEMO;
-use fringe_app::simulation::demo::{completed, Demo};
+use fringe_app::session::DEMO;
+use fringe_app::simulation::{demo_completed as completed, Demo};
 use fringe_app::ProfileUse;
 use fringe_rig::{scan::new_run_id, RunTarget};
 use std::path::PathBuf;

@@ -7,7 +7,7 @@
 //! renderer) replaces this with a short grid scan.
 
 use crate::global::Global;
-use fringe_app::simulation::selfcheck::netft_selfcheck;
+use fringe_app::simulation::netft_selfcheck;
 
 pub fn run(global: &Global) -> anyhow::Result<()> {
     println!(

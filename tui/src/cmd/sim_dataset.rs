@@ -4,7 +4,7 @@
 
 use super::sim_render::load_sensor;
 use anyhow::{anyhow, bail, Context};
-use fringe_app::simulation::dataset::{write_dataset, DatasetError, DatasetEvent};
+use fringe_app::simulation::{write_dataset, DatasetError, DatasetEvent};
 use fringe_rig::reference_layout::SIM_DATASET_DOC;
 use fringe_rig::store::human_bytes as human;
 use fringe_rig::Newtons;

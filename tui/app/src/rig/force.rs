@@ -9,8 +9,8 @@
 //! A new interface: its module here; a variant of [`ForceSpec`] with its arms, and its arms in
 //! [`open_force`] and `RigConfig::force_spec`; its `driver` and keys in [`section`].
 
-pub mod netft;
-pub mod nidaqmx;
+pub(crate) mod netft;
+pub(crate) mod nidaqmx;
 pub(crate) mod section;
 
 use crate::rig::device_open::{DeviceError, TraceTo};

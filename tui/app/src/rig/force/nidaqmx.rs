@@ -2,7 +2,7 @@
 //! file: its description, its opener, and its errors said in the terms of who described it (the
 //! rig file's keys or `fringe daq`'s flags).
 
-pub mod names;
+pub(crate) mod names;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
 use crate::rig::file::RigConfig;
