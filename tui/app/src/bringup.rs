@@ -16,8 +16,9 @@ pub(crate) mod force_stream;
 pub(crate) mod interface;
 pub(crate) mod netft;
 
-pub use camera::{grab, open_source, CameraSource};
-pub use daq::bias as bias_daq;
+pub use camera::{grab, open_source, CameraOpenError, CameraSource, GrabError, Grabbed};
+pub use daq::{bias as bias_daq, BiasReport};
+pub use error::BringupError;
 pub use force_stream::{stream_to_csv, StreamReport};
 pub use interface::Interface;
-pub use netft::bias as bias_netft;
+pub use netft::{bias as bias_netft, NetFtBias};

@@ -38,15 +38,20 @@ pub(crate) mod rounds;
 pub(crate) mod scans;
 
 pub use acceptance::Accepted;
-pub use certificate::{commissioned_model, unfinished, CurvePoint};
+pub use certificate::{
+    commissioned_model, unfinished, Certificate, CertificateError, Commissioned, CurvePoint,
+    Figures, ModelRef, UsedRuns,
+};
 pub use host::{Host, ScanEnded};
 pub use job::{
-    prepare, run, NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES,
-    DEFAULT_SEED,
+    prepare, run, NewCommissioning, Prepared, Request, DEFAULT_ACCEPTANCE_PRESSES,
+    DEFAULT_ROUND_PRESSES, DEFAULT_SEED,
 };
-pub use journal::{Journal, Options, ScanEntry};
+pub use journal::{FrameSettings, Journal, JournalError, Options, ScanEntry};
 pub use press_choice::{
-    choose as choose_presses, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
+    choose as choose_presses, DiscError, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM,
+    REACH_FRACTION,
 };
-pub use press_errors::round_errors;
+pub use press_errors::{round_errors, RoundErrors};
+pub use press_plan::PressPlanError;
 pub use rounds::DEFAULT_BUDGET_MIN;

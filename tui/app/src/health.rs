@@ -29,7 +29,9 @@ pub(crate) mod reference;
 #[cfg(test)]
 mod test_change;
 
-pub use check::{run, unit as unit_to_check};
-pub use figures::{assess, Measured, Rule, Thresholds, Verdict};
-pub use history::{history_path, read as read_history, Entry};
-pub use history_plot::write as write_history_plot;
+pub use check::{run, unit as unit_to_check, Checked};
+pub use check_plan::CheckPlanError;
+pub use figures::{assess, Assessment, Figure, Measured, Rule, Thresholds, Verdict};
+pub use history::{history_path, read as read_history, Entry, History, HistoryError};
+pub use history_plot::{write as write_history_plot, HistoryPlotError};
+pub use model_errors::ModelErrors;

@@ -27,6 +27,7 @@
 //!
 //! Inside this crate, files import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 pub mod bringup;
 pub mod commission;

@@ -28,14 +28,18 @@ pub(crate) mod training;
 pub(crate) mod two_stage;
 pub(crate) mod verdict;
 
-pub use adaptation::{adapt, AdaptRequest};
-pub use choice::{choose_model, open_model, profiles_dir, ChoiceNote, ForSensor};
-pub use image_prediction::{ImagePredictor, ImageRun};
-pub use labelled_data::{agreed, read_sources, scale_warnings};
-pub use onnx_export::{export as export_onnx, Exported};
-pub use run_evaluation::evaluate_run;
+pub use adaptation::{adapt, AdaptRequest, AdaptationError, AdaptedModel};
+pub use adapted_card::AdaptedWriteError;
+pub use choice::{choose_model, open_model, profiles_dir, ChoiceError, ChoiceNote, ForSensor};
+pub use image_prediction::{ImagePredictionError, ImagePredictor, ImageRun};
+pub use labelled_data::{agreed, read_sources, scale_warnings, LabelledDataError};
+pub use onnx_export::{export as export_onnx, Exported, OnnxExportError};
+pub use run_evaluation::{evaluate_run, RunEvaluationError};
 pub use training::architecture;
 #[cfg(feature = "torch")]
-pub use training::{prepare as prepare_training, TrainRequest};
-pub use two_stage::{pair, Networks};
+pub use training::{
+    prepare as prepare_training, Prepared as PreparedTraining, ResumeError, TrainRequest,
+    TrainingError,
+};
+pub use two_stage::{pair, Networks, Paired, TwoStageError};
 pub use verdict::{lines as verdict_lines, load as load_spec, PAPER};

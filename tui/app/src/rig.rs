@@ -28,14 +28,20 @@ pub(crate) mod simulated;
 #[path = "rig/no_simulated.rs"]
 pub(crate) mod simulated;
 
-pub use device_open::{open_axis, open_modbus, open_thorlabs, TraceTo};
-pub use device_spec::{AxisSpec, ModbusLink, ModbusSpec};
+pub use device_open::{open_axis, open_modbus, open_thorlabs, DeviceError, TraceTo};
+pub use device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
+pub use file::{
+    AxisDriver, AxisSection, CameraDriver, CameraSection, GeometrySection, HomeSection, RigFile,
+    SimForcePath, SimSection,
+};
 pub use force::netft::{open_netft, NetFtScaling, NetFtSpec};
 pub use force::nidaqmx::names::DaqNames;
-pub use force::nidaqmx::{daq_error, open_daq, DaqForce, DaqSpec};
+pub use force::nidaqmx::{daq_error, open_daq, DaqForce, DaqGauges, DaqSpec};
+pub use force::section::{ForceDriver, ForceSection};
 pub use force::ForceSpec;
-pub use host_port::HostPort;
+pub use host_port::{HostPort, HostPortError};
 #[cfg(feature = "sim")]
 pub use simulated::{
-    config as sim_config, sensor_by_name, sensor_profile, CalibrationTruth, SensorNameError,
+    config as sim_config, sensor_by_name, sensor_profile, CalibrationTruth, RegistrationTruth,
+    SensorNameError, SimBench,
 };

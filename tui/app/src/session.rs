@@ -34,23 +34,32 @@ pub(crate) mod truth_score;
 pub(crate) mod validation_report;
 pub(crate) mod worker_failure;
 
-pub use calibration_images::{choose_no_contact, fit_disc, image_files, write_profile};
+pub use calibration_images::{
+    choose_no_contact, fit_disc, image_files, write_profile, CalibrationImagesError,
+};
 pub use calibration_scan::{
     calibrate_run, calibration_plan, completed as calibration_completed, spot_settings,
-    CalibrationGrid, CalibrationResult, WrittenProfile, DEFAULT_MAX_FRAMES,
+    CalibrationGrid, CalibrationPlan, CalibrationPlanError, CalibrationResult, CalibrationRunError,
+    Incomplete as CalibrationIncomplete, WrittenProfile, DEFAULT_MAX_FRAMES,
 };
-pub use disk_space::{Recording, RoomForecast};
+pub use disc_cutout::RecordingError;
+pub use disk_space::{FrameSize, Recording, RoomError, RoomForecast};
 pub use jog_guard::AxisId;
 pub use live_validation::{
-    CellErrors, FrameSource, FzPoint, Latest, LiveValidation, Validation, ValidationState,
-    BACKLOG_FRAMES, THREADS_PER_NETWORK,
+    CellErrors, FrameSource, FzPoint, Latest, LiveValidation, ValidatedFrame, Validation,
+    ValidationState, BACKLOG_FRAMES, THREADS_PER_NETWORK,
 };
 pub use live_view::{LabelPoint, LiveView, ViewState};
-pub use plans::{read_file as read_plan_file, scan_plan, ALL as BUILTIN_PLANS, DEMO, SHORT_GRID};
+pub use plans::{
+    read_file as read_plan_file, scan_plan, BuiltinPlan, PlanFileError, ScanPlanError,
+    ALL as BUILTIN_PLANS, DEMO, SHORT_GRID,
+};
 pub use rig_control::{
     AxisState, BenchCommand, BenchPhase, BenchSession, BenchState, CameraState, ForcePoint,
     ForceState,
 };
 pub use scan_target::{scan_target, ScanTarget};
-pub use validation_report::write as write_validation_report;
+pub use validation_report::{
+    write as write_validation_report, ValidationReportError, Written as WrittenValidationReport,
+};
 pub use worker_failure::{guarded, panic_text};

@@ -12,7 +12,9 @@ pub(crate) mod demo;
 pub(crate) mod render;
 pub(crate) mod selfcheck;
 
-pub use dataset::{write_dataset, DatasetError, DatasetEvent};
-pub use demo::{completed as demo_completed, Demo};
-pub use render::{render_png, Rendered};
-pub use selfcheck::netft_selfcheck;
+pub use dataset::{
+    write_dataset, DatasetError, DatasetEvent, DatasetWritten, Rendered as DatasetRendered,
+};
+pub use demo::{completed as demo_completed, Demo, DemoError};
+pub use render::{render_png, RenderError, Rendered};
+pub use selfcheck::{netft_selfcheck, SelfCheck, SelfCheckError};
