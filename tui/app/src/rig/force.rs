@@ -59,7 +59,7 @@ impl ForceSpec {
 
 /// The force sensor `spec` describes, whatever its interface; `record_trace` records its
 /// traffic to `DIR/<name>.trace` ([`ForceSpec::trace_name`]).
-pub fn open_force(
+pub(crate) fn open_force(
     spec: &ForceSpec,
     record_trace: Option<&Path>,
 ) -> Result<Box<dyn ForceSensor>, DeviceError> {
