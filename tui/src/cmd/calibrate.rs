@@ -3,8 +3,8 @@
 //! image-to-stage registration, force offsets, with report images beside the profile.
 //!
 //! `fringe calibrate --images DIR --sensor ID`: the optical part from existing image files (PNG or
-//! TIFF): centre, shift from the image centre, radius and crop radius
-//! (`fringe_app::session::calibration_images`).
+//! TIFF): centre, shift from the image centre, radius and crop radius (`fringe_app::session::fit_disc`
+//! and its neighbours in `tui/app/src/session/calibration_images.rs`).
 
 use crate::cmd::scan::execute;
 use crate::global::Global;

@@ -2,7 +2,7 @@
 //! newest passing commissioning certificate) in at most two minutes of bench time: a few of its
 //! acceptance positions pressed again with every indenter; the optics, light and surface of its
 //! no-contact frames, its F/T zero and its model's errors compared; a verdict with the evidence,
-//! appended to the unit's history (the workflow: `fringe_app::health::check`). `--history`
+//! appended to the unit's history (the workflow: `fringe_app::health::run`). `--history`
 //! shows the history and plots it.
 
 use crate::cmd::terminal_host::Terminal;

@@ -1,7 +1,7 @@
 //! `fringe` with no command: a self-check that needs no hardware.
 //!
 //! It runs the real Net F/T driver over real UDP against the built-in simulated Net F/T box on
-//! loopback (a two-second press rising to 5 N; `fringe_app::simulation::selfcheck`), reports what
+//! loopback (a two-second press rising to 5 N; `fringe_app::simulation::netft_selfcheck`), reports what
 //! arrived, lists the serial ports of
 //! this machine and points to the bring-up commands. The full simulated bench (axes, camera,
 //! renderer) replaces this with a short grid scan.

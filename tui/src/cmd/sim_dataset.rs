@@ -1,5 +1,5 @@
 //! `fringe sim dataset`: synthetic training frames in the reference layout, rendered straight
-//! from the simulator (no motion; `fringe_app::simulation::dataset` writes them): this parses
+//! from the simulator (no motion; `fringe_app::simulation::write_dataset` writes them): this parses
 //! the flags and prints the progress and what was written.
 
 use super::sim_render::load_sensor;
