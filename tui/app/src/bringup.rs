@@ -2,12 +2,12 @@
 //! into a device description, opens it with the one opener (`crate::rig`) and prints what these
 //! return.
 //!
-//! - [`force_stream`]: an F/T sensor streamed into a CSV file (`fringe ft stream`, `fringe daq
-//!   stream`): one writer and one loop, the [`interface`] choosing the columns and the words.
-//! - [`netft`]: a Net F/T's software bias (`fringe ft bias`).
-//! - [`daq`]: an NI-DAQmx force path's bias (`fringe daq bias`).
-//! - [`error`]: why a stream or a bias failed.
-//! - [`camera`]: frames grabbed into a folder (`fringe camera grab`).
+//! - `force_stream`: an F/T sensor streamed into a CSV file (`fringe ft stream`, `fringe daq
+//!   stream`): one writer and one loop, the `interface` choosing the columns and the words.
+//! - `netft`: a Net F/T's software bias (`fringe ft bias`).
+//! - `daq`: an NI-DAQmx force path's bias (`fringe daq bias`).
+//! - `error`: why a stream or a bias failed.
+//! - `camera`: frames grabbed into a folder (`fringe camera grab`).
 
 pub(crate) mod camera;
 pub(crate) mod daq;

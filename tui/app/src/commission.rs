@@ -3,26 +3,26 @@
 //! spec on held-out presses, kept as a certificate beside the unit's profile.
 //!
 //! The job, step by step:
-//! - [`job`]: a commissioning asked ([`job::Request`]), prepared (its directory and journal,
+//! - `job`: a commissioning asked ([`job::Request`]), prepared (its directory and journal,
 //!   nothing moves) and run to its verdict; step 1, the calibration.
 //! - `scans` (private): a commissioning under way and the one way its scans run (started,
 //!   resumed, taken as done, or set aside and pressed again).
-//! - [`rounds`]: steps 2 and 3, rounds of presses where the model is weakest, each scored
+//! - `rounds`: steps 2 and 3, rounds of presses where the model is weakest, each scored
 //!   before it is adapted on, and the base model's checks.
 //! - `last_block`, `fine_tune` (private): step 3's other candidates, the custom CNN's last block
 //!   (pure Rust) and every layer (libtorch, the cargo feature `torch`).
-//! - [`acceptance`]: steps 4 and 5, the adapted model written, the acceptance scan judged, the
+//! - `acceptance`: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
-//! - [`host`]: what a commissioning needs from whoever runs it (scans, lines, progress).
+//! - `host`: what a commissioning needs from whoever runs it (scans, lines, progress).
 //!
 //! How they fail: `workflow_error`, beside this module.
 //!
 //! What they use:
-//! - [`press_choice`]: the usable disc in stage mm and where to press next.
-//! - [`press_plan`]: the scan plan of a round or of the acceptance scan.
-//! - [`press_errors`]: a round's presses scored by the model before it adapted on them.
-//! - [`journal`]: what has been done, for `--resume`.
-//! - [`certificate`]: the outcome, and the unit's commissioned model.
+//! - `press_choice`: the usable disc in stage mm and where to press next.
+//! - `press_plan`: the scan plan of a round or of the acceptance scan.
+//! - `press_errors`: a round's presses scored by the model before it adapted on them.
+//! - `journal`: what has been done, for `--resume`.
+//! - `certificate`: the outcome, and the unit's commissioned model.
 
 pub(crate) mod acceptance;
 pub(crate) mod certificate;

@@ -6,9 +6,9 @@
 //!   height and origin, the sensor's id.
 //! - `devices`: its device sections as device descriptions.
 //! - `open` and `error`: opening every device of the rig, real or simulated, and why it failed.
-//! - [`device_spec`]: what a device is and how it is reached, from a rig file section or a
-//!   command's flags; [`device_open`]: opening it; [`host_port`]: `HOST[:PORT]`, IPv6 included.
-//! - [`force`]: the F/T door, one module per interface (`force::netft`, `force::nidaqmx`) and
+//! - `device_spec`: what a device is and how it is reached, from a rig file section or a
+//!   command's flags; `device_open`: opening it; `host_port`: `HOST[:PORT]`, IPv6 included.
+//! - `force`: the F/T door, one module per interface (`force::netft`, `force::nidaqmx`) and
 //!   the rig file's `[force]` section (`force::section`).
 //! - `simulated`: the simulated rig behind a rig file (public with the cargo feature `sim`, a
 //!   default).

@@ -3,20 +3,20 @@
 //! - `scan`: a scan session (profile -> contact origin, operator, progress, truth scoring);
 //!   re-exported as `ScanSession`; `truth_score`: how a simulated run's labels match the truth;
 //!   [`scan_target`]: the run a scan goes to (new, or resumed).
-//! - [`calibration_scan`]: the calibration scan's built-in grid and contact-finding tuning;
-//!   [`calibration_images`]: the optical part of a profile from a folder of no-contact images.
-//! - [`plans`]: the built-in scan plans.
-//! - [`disk_space`]: room on disk for a scan: the camera frame a size estimate assumes, a run's
+//! - `calibration_scan`: the calibration scan's built-in grid and contact-finding tuning;
+//!   `calibration_images`: the optical part of a profile from a folder of no-contact images.
+//! - `plans`: the built-in scan plans.
+//! - `disk_space`: room on disk for a scan: the camera frame a size estimate assumes, a run's
 //!   expected size, and the refusal (by the session, before anything moves) of a run that will
 //!   not fit. `disc_cutout`: the part of each frame stored when only the disc's square is kept.
-//! - [`rig_control`]: the rig outside a scan: device states, jog, home, stop, tare, the force and
-//!   the newest frame; [`jog_guard`]: which of those motions the force allows.
-//! - [`live_view`]: the newest frame as a small picture and the labels, for displays.
-//! - [`live_validation`]: a trained model run on the frames a scan records, against their labels;
-//!   [`model_pace`]: whether a model keeps up with the camera, said before the rig moves;
-//!   [`validation_report`]: its report (`fringe validate --report DIR`) and every frame
+//! - `rig_control`: the rig outside a scan: device states, jog, home, stop, tare, the force and
+//!   the newest frame; `jog_guard`: which of those motions the force allows.
+//! - `live_view`: the newest frame as a small picture and the labels, for displays.
+//! - `live_validation`: a trained model run on the frames a scan records, against their labels;
+//!   `model_pace`: whether a model keeps up with the camera, said before the rig moves;
+//!   `validation_report`: its report (`fringe validate --report DIR`) and every frame
 //!   validated.
-//! - [`worker_failure`]: a worker thread's panic caught as text, and one injected for tests.
+//! - `worker_failure`: a worker thread's panic caught as text, and one injected for tests.
 
 pub(crate) mod calibration_images;
 pub(crate) mod calibration_scan;

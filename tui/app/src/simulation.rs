@@ -1,10 +1,10 @@
 //! The simulator's own jobs, outside a rig (cargo feature `sim`): what `fringe sim ...` runs.
 //!
-//! - [`dataset`]: a synthetic training dataset in the reference layout, rendered straight from
+//! - `dataset`: a synthetic training dataset in the reference layout, rendered straight from
 //!   the simulator (`fringe sim dataset`).
-//! - [`render`]: one simulated sensor frame written as a PNG (`fringe sim render`).
-//! - [`demo`]: the demonstration's simulated rig and plan, and its end (`fringe demo`).
-//! - [`selfcheck`]: the Net F/T driver against the simulated box on loopback (the self-check of
+//! - `render`: one simulated sensor frame written as a PNG (`fringe sim render`).
+//! - `demo`: the demonstration's simulated rig and plan, and its end (`fringe demo`).
+//! - `selfcheck`: the Net F/T driver against the simulated box on loopback (the self-check of
 //!   `fringe` with no command).
 
 pub(crate) mod dataset;

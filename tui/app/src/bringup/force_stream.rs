@@ -116,7 +116,7 @@ impl StreamReport {
 
 /// Streams `sensor` into the CSV file `csv` for `duration` (after taking a bias when `bias`),
 /// calling `progress` about once a second with the samples so far and the time; a silence of
-/// [`STALL`] ends it with an error. A file this call created and would leave with only its
+/// `STALL` ends it with an error. A file this call created and would leave with only its
 /// header is removed again (never a device such as /dev/null, nor a file that was there before).
 pub fn stream_to_csv<S: ForceSensor + ?Sized>(
     sensor: &mut S,

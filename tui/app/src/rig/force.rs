@@ -22,7 +22,7 @@ use nidaqmx::{open_daq, DaqSpec};
 use section::ForceDriver;
 use std::path::Path;
 
-/// A force/torque sensor: one variant per interface, all opened by [`open_force`].
+/// A force/torque sensor: one variant per interface, all opened by `open_force`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ForceSpec {
     /// An ATI Net F/T or Ethernet Axia over RDT/UDP.

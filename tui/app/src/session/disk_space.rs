@@ -132,7 +132,7 @@ impl RoomForecast {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Recording {
     pub storage: FrameStorage,
-    /// The camera frame ([`camera_frame`]).
+    /// The camera frame (`camera_frame`).
     pub frame: FrameSize,
     pub frame_rate: Hertz,
 }
@@ -142,7 +142,7 @@ impl Recording {
     /// rig `config` describes would record, read from the rig file and the profile directory only
     /// (no device is opened): the camera's pixel format and frame rate, `[recording] store` with
     /// the disc of the sensor's calibration profile (on the simulated bench without one, of its
-    /// design geometry, as a scan would), and [`camera_frame`].
+    /// design geometry, as a scan would), and `camera_frame`.
     pub fn from_rig_files(
         config: &RigConfig,
         plan: Option<&Plan>,

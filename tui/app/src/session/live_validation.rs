@@ -140,7 +140,7 @@ pub struct ValidationState {
     /// Why the worker stopped, if it failed.
     pub failure: Option<String>,
     /// Set before the scan when the model is slower than the camera allows: its time per frame
-    /// against the frame period, in one line ([`crate::session::model_pace`]).
+    /// against the frame period, in one line (`crate::session::model_pace`).
     pub behind: Option<String>,
 }
 
