@@ -10,8 +10,8 @@ use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
 use fringe_app::session::{
-    calibrate_run, calibration_completed as completed, calibration_plan, spot_settings,
-    CalibrationGrid, WrittenProfile, DEFAULT_MAX_FRAMES,
+    calibrate_run, calibration_completed, calibration_plan, spot_settings, CalibrationGrid,
+    WrittenProfile, DEFAULT_MAX_FRAMES,
 };
 use fringe_app::session::{choose_no_contact, fit_disc, image_files, write_profile};
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
@@ -197,7 +197,7 @@ fn calibration_scan(
     )?;
     let outcome = &end.outcome;
     println!("calibration scan written to {}", outcome.run_dir.display());
-    completed(outcome)?;
+    calibration_completed(outcome)?;
     Ok(end)
 }
 
