@@ -34,8 +34,8 @@ fn calibrates_the_simulated_bench_from_a_calibration_scan() {
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("9 presses"), "{t}");
-    let config = fringe_app::rig::simulated::config(&fringe_app::RigConfig::simulated())
-        .expect("sim config");
+    let config =
+        fringe_app::rig::sim_config(&fringe_app::RigConfig::simulated()).expect("sim config");
     let g = config.sensor.geometry();
     let b = &config.bench.geometry;
     let p = Profile::load(&out.join("layered-1.toml")).expect("profile");

@@ -508,7 +508,7 @@ fn a_unit_whose_disc_is_not_found_stops_at_calibration_with_what_to_do() {
 /// device of the rig is opened.
 #[test]
 fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
-    use fringe_app::commission::journal::{Journal, Options, ScanEntry};
+    use fringe_app::commission::{Journal, Options, ScanEntry};
     let dir = scratch("commission-held");
     let rig = dir.join("rig.toml");
     std::fs::write(&rig, common::QUICK_RIG).expect("rig");

@@ -26,11 +26,11 @@
 //! Every figure lands in `DIR/curves.csv` (a rerun or a new score replaces its own rows), the
 //! curves with the spec's threshold in `DIR/fz.png` and `DIR/contact.png`; the table is printed.
 
-use fringe_app::commission::press_choice::{
-    choose, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
+use fringe_app::commission::round_errors;
+use fringe_app::commission::{
+    choose_presses, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM, REACH_FRACTION,
 };
-use fringe_app::commission::press_errors::round_errors;
-use fringe_app::rig::simulated::sensor_profile;
+use fringe_app::rig::sensor_profile;
 use fringe_rig::reference_layout::{
     LabelRow, LabelWriter, Shape as LabelShape, IMAGES, LABELS, SIM_DATASET_DOC,
     SIM_DATASET_PROFILE,
@@ -312,13 +312,13 @@ fn main() -> Result<()> {
     };
     let limits = open_limits()?;
     let candidates = disc.lattice(LATTICE_MM, 0.0, &limits, &sensor.id)?;
-    let held_at = choose(
+    let held_at = choose_presses(
         &disc.lattice(LATTICE_MM, 0.5, &limits, &sensor.id)?,
         &[],
         HELD_OUT,
         COVERAGE_MM,
     );
-    let uniform = choose(&candidates, &[], candidates.len(), COVERAGE_MM);
+    let uniform = choose_presses(&candidates, &[], candidates.len(), COVERAGE_MM);
     eprintln!(
         "sensor {} ({}): usable reach {reach:.1} mm, {} candidate positions, {} held out",
         sensor.id,
@@ -416,7 +416,7 @@ fn main() -> Result<()> {
     let spec = Spec::paper();
     let mut round = 0;
     while errors.len() < MOST * shapes {
-        let picks = choose(&candidates, &errors, ROUND, COVERAGE_MM);
+        let picks = choose_presses(&candidates, &errors, ROUND, COVERAGE_MM);
         if picks.is_empty() {
             break;
         }

@@ -21,9 +21,7 @@
 //! median, 95th percentile, largest), how long frames waited in the queue, how late the offering thread fell behind the frame times,
 //! and the share of one core the offering thread used.
 
-use fringe_app::session::live_validation::{
-    FrameSource, LiveValidation, BACKLOG_FRAMES, THREADS_PER_NETWORK,
-};
+use fringe_app::session::{FrameSource, LiveValidation, BACKLOG_FRAMES, THREADS_PER_NETWORK};
 use fringe_rig::store::FrameRecord;
 use fringe_rig::store::RunReader;
 use fringe_rig::store::{in_whole_frame, FrameStorage, StoredFrame};

@@ -3,36 +3,55 @@
 //! spec on held-out presses, kept as a certificate beside the unit's profile.
 //!
 //! The job, step by step:
-//! - [`job`]: a commissioning asked ([`job::Request`]), prepared (its directory and journal,
+//! - `job`: a commissioning asked ([`job::Request`]), prepared (its directory and journal,
 //!   nothing moves) and run to its verdict; step 1, the calibration.
 //! - `scans` (private): a commissioning under way and the one way its scans run (started,
 //!   resumed, taken as done, or set aside and pressed again).
-//! - [`rounds`]: steps 2 and 3, rounds of presses where the model is weakest, each scored
+//! - `rounds`: steps 2 and 3, rounds of presses where the model is weakest, each scored
 //!   before it is adapted on, and the base model's checks.
 //! - `last_block`, `fine_tune` (private): step 3's other candidates, the custom CNN's last block
 //!   (pure Rust) and every layer (libtorch, the cargo feature `torch`).
-//! - [`acceptance`]: steps 4 and 5, the adapted model written, the acceptance scan judged, the
+//! - `acceptance`: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
-//! - [`host`]: what a commissioning needs from whoever runs it (scans, lines, progress).
+//! - `host`: what a commissioning needs from whoever runs it (scans, lines, progress).
 //!
 //! How they fail: `workflow_error`, beside this module.
 //!
 //! What they use:
-//! - [`press_choice`]: the usable disc in stage mm and where to press next.
-//! - [`press_plan`]: the scan plan of a round or of the acceptance scan.
-//! - [`press_errors`]: a round's presses scored by the model before it adapted on them.
-//! - [`journal`]: what has been done, for `--resume`.
-//! - [`certificate`]: the outcome, and the unit's commissioned model.
+//! - `press_choice`: the usable disc in stage mm and where to press next.
+//! - `press_plan`: the scan plan of a round or of the acceptance scan.
+//! - `press_errors`: a round's presses scored by the model before it adapted on them.
+//! - `journal`: what has been done, for `--resume`.
+//! - `certificate`: the outcome, and the unit's commissioned model.
 
-pub mod acceptance;
-pub mod certificate;
+pub(crate) mod acceptance;
+pub(crate) mod certificate;
 mod fine_tune;
-pub mod host;
-pub mod job;
-pub mod journal;
+pub(crate) mod host;
+pub(crate) mod job;
+pub(crate) mod journal;
 mod last_block;
-pub mod press_choice;
-pub mod press_errors;
+pub(crate) mod press_choice;
+pub(crate) mod press_errors;
 pub(crate) mod press_plan;
-pub mod rounds;
+pub(crate) mod rounds;
 pub(crate) mod scans;
+
+pub use acceptance::Accepted;
+pub use certificate::{
+    commissioned_model, unfinished, Certificate, CertificateError, Commissioned, CurvePoint,
+    Figures, ModelRef, UsedRuns,
+};
+pub use host::{Host, ScanEnded};
+pub use job::{
+    prepare, run, NewCommissioning, Prepared, Request, DEFAULT_ACCEPTANCE_PRESSES,
+    DEFAULT_ROUND_PRESSES, DEFAULT_SEED,
+};
+pub use journal::{FrameSettings, Journal, JournalError, Options, ScanEntry};
+pub use press_choice::{
+    choose as choose_presses, DiscError, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM,
+    REACH_FRACTION,
+};
+pub use press_errors::{round_errors, RoundErrors};
+pub use press_plan::PressPlanError;
+pub use rounds::DEFAULT_BUDGET_MIN;

@@ -20,13 +20,20 @@
 //! - [`runs`]: the run store's jobs as a person sees them (the runs in a directory).
 //! - [`workflow_error`]: how a workflow (commissioning, a health check) fails, its causes kept.
 //!
-//! The surface, re-exported here: [`RigConfig`], [`RigSource`], [`SensorVariant`] (the rig file,
-//! `rig::file`), [`OpenRig`] (`rig::open`), [`RigError`] (`rig::error`), [`ScanSession`] and its
-//! [`ProfileUse`], [`Note`], [`SessionEnd`], [`SessionError`] (`session::scan`), [`TruthScore`]
-//! (`session::truth_score`).
+//! The surface: the concept modules above are public namespaces, each a curated `pub use` list
+//! of what other crates use (`fringe_app::session::ValidationState`,
+//! `fringe_app::commission::Journal`) and of every type its functions hand out; the files inside
+//! them are private, so no public path is deeper than one level. Where a file's name said what a
+//! bare item does, the namespace re-exports it by a clearer name (`health::read_history`,
+//! `session::write_validation_report`, `models::export_onnx`, `bringup::bias_daq` and
+//! `bringup::bias_netft`). At the root: [`RigConfig`], [`RigSource`], [`SensorVariant`] (the rig
+//! file, `rig::file`), [`OpenRig`] (`rig::open`), [`RigError`] (`rig::error`), [`ScanSession`]
+//! and its [`ProfileUse`], [`Note`], [`SessionEnd`], [`SessionError`] (`session::scan`),
+//! [`TruthScore`] (`session::truth_score`).
 //!
 //! Inside this crate, files import from the defining module, never through these re-exports.
 #![warn(unreachable_pub)]
+#![warn(unnameable_types)]
 
 pub mod bringup;
 pub mod commission;

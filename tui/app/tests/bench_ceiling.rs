@@ -2,9 +2,7 @@
 //! into the gel in 5 mm steps (the biggest step the screen offers) must never take the force
 //! more than 1 N past the ceiling, and a retract must always go, over the ceiling or not.
 
-use fringe_app::session::rig_control::{
-    AxisId, BenchCommand, BenchPhase, BenchSession, BenchState,
-};
+use fringe_app::session::{AxisId, BenchCommand, BenchPhase, BenchSession, BenchState};
 use fringe_app::RigConfig;
 use fringe_rig::Millimetres;
 use fringe_rig::{Operator, Prompt, Reply};

@@ -7,7 +7,7 @@
 //! zero and the model's errors need the bench: `tui/tests/check_cli.rs` and
 //! `scripts/health-trials`.)
 
-use fringe_app::health::figures::{assess, Measured, Thresholds, Verdict};
+use fringe_app::health::{assess, Measured, Thresholds, Verdict};
 use fringe_app::RigConfig;
 use fringe_calibration::health::Change;
 use fringe_calibration::health::Signature;
@@ -32,7 +32,7 @@ fn rig(session: u64, ageing: &str) -> RigConfig {
 /// The signature of no-contact frames of the unit as `rig` builds it, frames spread over a
 /// minute of the session.
 fn signature(rig: &RigConfig, session: u64) -> Signature {
-    let built = fringe_app::rig::simulated::config(rig)
+    let built = fringe_app::rig::sim_config(rig)
         .expect("sim config")
         .as_built()
         .expect("as built");

@@ -4,7 +4,8 @@
 use super::frames_progress::FramesProgress;
 use anyhow::{Context, Result};
 use clap::Args;
-use fringe_app::models::adaptation::{self, AdaptRequest};
+use fringe_app::models;
+use fringe_app::models::AdaptRequest;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -46,7 +47,7 @@ pub fn run(a: AdaptArgs) -> Result<()> {
         threads: crate::cmd::arg_values::cap_threads(a.threads),
     };
     let mut progress = FramesProgress::new("reading features");
-    let done = adaptation::adapt(
+    let done = models::adapt(
         &request,
         &mut |w| eprintln!("warning: {w}"),
         &mut |done, total| progress.show(done, total),

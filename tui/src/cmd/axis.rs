@@ -4,7 +4,7 @@ use super::arg_values;
 use super::limits::SoftLimitArgs;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::rig::device_open::{open_thorlabs, TraceTo};
+use fringe_app::rig::{open_thorlabs, TraceTo};
 use fringe_rig::apt::Actuator;
 use fringe_rig::{apt::Timeouts, AptConfig, Controller};
 use fringe_rig::{Axis, AxisStatus, StopMode};

@@ -3,19 +3,17 @@
 //! image-to-stage registration, force offsets, with report images beside the profile.
 //!
 //! `fringe calibrate --images DIR --sensor ID`: the optical part from existing image files (PNG or
-//! TIFF): centre, shift from the image centre, radius and crop radius
-//! (`fringe_app::session::calibration_images`).
+//! TIFF): centre, shift from the image centre, radius and crop radius (`fringe_app::session::fit_disc`
+//! and its neighbours in `tui/app/src/session/calibration_images.rs`).
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::session::calibration_images::{
-    choose_no_contact, fit_disc, image_files, write_profile,
+use fringe_app::session::{
+    calibrate_run, calibration_completed, calibration_plan, spot_settings, CalibrationGrid,
+    WrittenProfile, DEFAULT_MAX_FRAMES,
 };
-use fringe_app::session::calibration_scan::{
-    calibrate_run, calibration_plan, completed, spot_settings, CalibrationGrid, WrittenProfile,
-    DEFAULT_MAX_FRAMES,
-};
+use fringe_app::session::{choose_no_contact, fit_disc, image_files, write_profile};
 use fringe_app::{ProfileUse, RigConfig, SessionEnd};
 use fringe_calibration::offsets::CHANNELS;
 use fringe_calibration::profile_path;
@@ -199,7 +197,7 @@ fn calibration_scan(
     )?;
     let outcome = &end.outcome;
     println!("calibration scan written to {}", outcome.run_dir.display());
-    completed(outcome)?;
+    calibration_completed(outcome)?;
     Ok(end)
 }
 
@@ -323,7 +321,7 @@ fn print_offsets(cal: &ScanCalibration) {
 
 /// On the simulated bench: the calibration against the simulator's truth.
 #[cfg(feature = "sim")]
-fn print_truth(t: &fringe_app::rig::simulated::CalibrationTruth) {
+fn print_truth(t: &fringe_app::rig::CalibrationTruth) {
     println!(
         "against the simulator's truth: centre off by {:.3} px, radius by {:+.3} px",
         t.centre_off_px, t.radius_off_px

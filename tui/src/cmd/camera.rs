@@ -2,7 +2,7 @@
 
 use crate::global::Global;
 use anyhow::bail;
-use fringe_app::bringup::camera::{grab, open_source, CameraSource};
+use fringe_app::bringup::{grab, open_source, CameraSource};
 use fringe_rig::{Camera, CameraSettings, PixelFormat, Roi, TriggerMode};
 use fringe_rig::{Decibels, Hertz, Microseconds};
 use std::path::PathBuf;

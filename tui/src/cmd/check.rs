@@ -2,16 +2,15 @@
 //! newest passing commissioning certificate) in at most two minutes of bench time: a few of its
 //! acceptance positions pressed again with every indenter; the optics, light and surface of its
 //! no-contact frames, its F/T zero and its model's errors compared; a verdict with the evidence,
-//! appended to the unit's history (the workflow: `fringe_app::health::check`). `--history`
+//! appended to the unit's history (the workflow: `fringe_app::health::run`). `--history`
 //! shows the history and plots it.
 
 use crate::cmd::terminal_host::Terminal;
 use crate::global::Global;
 use anyhow::{bail, Result};
-use fringe_app::health::check;
-use fringe_app::health::figures::Verdict;
-use fringe_app::health::history::{self, history_path};
-use fringe_app::health::history_plot;
+use fringe_app::health;
+use fringe_app::health::history_path;
+use fringe_app::health::Verdict;
 use fringe_app::RigConfig;
 use std::path::{Path, PathBuf};
 
@@ -40,7 +39,7 @@ pub struct CheckArgs {
 
 pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
-    let sensor = check::unit(&config, a.sensor.as_deref())?;
+    let sensor = health::unit_to_check(&config, a.sensor.as_deref())?;
     let profiles = config.profile_dir();
     if a.history {
         return show(&profiles, &sensor);
@@ -52,7 +51,7 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     );
     let mut host = Terminal::new(global, a.yes);
     let threads = crate::cmd::arg_values::cap_threads(a.threads);
-    let checked = check::run(&config, &sensor, &a.out, threads, &mut host)?;
+    let checked = health::run(&config, &sensor, &a.out, threads, &mut host)?;
     println!(
         "appended to {} (fringe check --history shows it)",
         checked.history.display()
@@ -71,7 +70,7 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
 /// `fringe check --history`: the unit's checks as a table, and the picture of them.
 fn show(profiles: &Path, sensor: &str) -> Result<()> {
     let path = history_path(profiles, sensor);
-    let h = history::read(&path)?;
+    let h = health::read_history(&path)?;
     for n in &h.notes {
         eprintln!("warning: {n}");
     }
@@ -102,7 +101,7 @@ fn show(profiles: &Path, sensor: &str) -> Result<()> {
             e.assessment.diagnosis
         );
     }
-    let out = history_plot::write(profiles, sensor, &h.entries)?;
+    let out = health::write_history_plot(profiles, sensor, &h.entries)?;
     println!(
         "wrote {} (each figure over the checks, its threshold in red)",
         out.display()

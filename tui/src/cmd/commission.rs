@@ -10,11 +10,11 @@
 use crate::cmd::terminal_host::Terminal;
 use crate::global::Global;
 use anyhow::{bail, Result};
-use fringe_app::commission::job::{
-    self, NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES,
-    DEFAULT_SEED,
+use fringe_app::commission;
+use fringe_app::commission::{
+    NewCommissioning, Request, DEFAULT_ACCEPTANCE_PRESSES, DEFAULT_ROUND_PRESSES, DEFAULT_SEED,
 };
-use fringe_app::models::verdict::PAPER;
+use fringe_app::models::PAPER;
 use fringe_app::RigConfig;
 use std::path::PathBuf;
 
@@ -99,7 +99,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
             seed: a.seed,
         }),
     };
-    let prepared = job::prepare(&request, &config, &mut |w| eprintln!("warning: {w}"))?;
+    let prepared = commission::prepare(&request, &config, &mut |w| eprintln!("warning: {w}"))?;
     if let Some(line) = prepared.resumed() {
         println!("{line}");
     }
@@ -110,7 +110,7 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
     );
     let mut host = Terminal::new(global, a.yes);
     let threads = crate::cmd::arg_values::cap_threads(a.threads);
-    let accepted = job::run(prepared, config, threads, &mut host)?;
+    let accepted = commission::run(prepared, config, threads, &mut host)?;
     if !accepted.pass {
         bail!(
             "sensor {} fails the spec ({}): {}; the certificate says where ({})",

@@ -9,12 +9,12 @@
 
 use super::arg_values;
 use crate::global::Global;
-use fringe_app::bringup::daq;
-use fringe_app::bringup::force_stream::{stream_to_csv, StreamReport};
-use fringe_app::bringup::interface::Interface;
-use fringe_app::rig::device_open::TraceTo;
-use fringe_app::rig::force::nidaqmx::names::DaqNames;
-use fringe_app::rig::force::nidaqmx::{open_daq, DaqForce, DaqSpec};
+use fringe_app::bringup;
+use fringe_app::bringup::Interface;
+use fringe_app::bringup::{stream_to_csv, StreamReport};
+use fringe_app::rig::DaqNames;
+use fringe_app::rig::TraceTo;
+use fringe_app::rig::{open_daq, DaqForce, DaqSpec};
 use fringe_rig::nidaqmx::{DaqSettings, Terminal};
 use fringe_rig::ForceSensor;
 use fringe_rig::{Hertz, Volts};
@@ -115,7 +115,7 @@ impl DaqArgs {
             named_by: DaqNames::Flags,
         };
         if let Err(e) = spec.settings.check() {
-            return Err(fringe_app::rig::force::nidaqmx::daq_error(&spec, e).into());
+            return Err(fringe_app::rig::daq_error(&spec, e).into());
         }
         Ok(spec)
     }
@@ -151,7 +151,7 @@ pub fn run(args: DaqArgs, global: &Global) -> anyhow::Result<()> {
             Ok(())
         }
         DaqAction::Bias => {
-            let b = daq::bias(&mut sensor)?;
+            let b = bringup::bias_daq(&mut sensor)?;
             let v = b.volts;
             println!(
                 "bias (V): {:.5} {:.5} {:.5} {:.5} {:.5} {:.5}; it holds for this command only (a scan takes its own bias)",
@@ -185,7 +185,7 @@ fn print_report(report: &StreamReport, rate: Hertz, sensor: &DaqForce) {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::rig::force::ForceSpec;
+    use fringe_app::rig::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

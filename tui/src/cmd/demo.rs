@@ -5,8 +5,8 @@
 
 use crate::cmd::scan::execute;
 use crate::global::Global;
-use fringe_app::session::plans::DEMO;
-use fringe_app::simulation::demo::{completed, Demo};
+use fringe_app::session::DEMO;
+use fringe_app::simulation::{demo_completed, Demo};
 use fringe_app::ProfileUse;
 use fringe_rig::{scan::new_run_id, RunTarget};
 use std::path::PathBuf;
@@ -63,6 +63,6 @@ pub fn run(args: DemoArgs, global: &Global) -> anyhow::Result<()> {
         "run written to {dir} in {:.1} s; check it with `fringe verify {dir}`, list runs with `fringe runs`",
         started.elapsed().as_secs_f64()
     );
-    completed(&end.outcome)?;
+    demo_completed(&end.outcome)?;
     Ok(())
 }

@@ -5,9 +5,9 @@ use super::frames_progress::FramesProgress;
 use super::model::{choose_model, say, ReferenceChoice};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use fringe_app::models::choice::{self, ForSensor};
-use fringe_app::models::labelled_data::{agreed, read_sources, scale_warnings};
-use fringe_app::models::verdict;
+use fringe_app::models;
+use fringe_app::models::ForSensor;
+use fringe_app::models::{agreed, read_sources, scale_warnings};
 use fringe_calibration::Profile;
 use fringe_sensor_models::eval::{evaluate, Evaluation};
 use fringe_sensor_models::judge;
@@ -61,7 +61,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     if let Some(report) = &a.report {
         fringe_rig::store::outside_runs(report).context("--report")?;
     }
-    let spec = a.spec.as_deref().map(verdict::load).transpose()?;
+    let spec = a.spec.as_deref().map(models::load_spec).transpose()?;
     let smoothing = a
         .smooth
         .map(Smoothing::new)
@@ -72,7 +72,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         None => None,
     };
     let sources = read_sources(&a.data, "evaluate")?;
-    let profiles = choice::profiles_dir(&mut say);
+    let profiles = models::profiles_dir(&mut say);
     let model = choose_model(
         a.model.as_deref(),
         &ForSensor {
@@ -113,7 +113,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     }
     if let Some(spec) = &spec {
         let v = judge(&eval, spec);
-        for line in verdict::lines(&v) {
+        for line in models::verdict_lines(&v) {
             println!("{line}");
         }
         if !v.pass {

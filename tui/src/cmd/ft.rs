@@ -8,12 +8,12 @@
 use super::arg_values;
 use crate::global::Global;
 use anyhow::Context;
-use fringe_app::bringup::force_stream::stream_to_csv;
-use fringe_app::bringup::interface::Interface;
-use fringe_app::bringup::netft;
-use fringe_app::rig::device_open::TraceTo;
-use fringe_app::rig::force::netft::{open_netft, NetFtScaling, NetFtSpec};
-use fringe_app::rig::host_port::HostPort;
+use fringe_app::bringup;
+use fringe_app::bringup::stream_to_csv;
+use fringe_app::bringup::Interface;
+use fringe_app::rig::HostPort;
+use fringe_app::rig::TraceTo;
+use fringe_app::rig::{open_netft, NetFtScaling, NetFtSpec};
 use fringe_rig::DatagramLink;
 use fringe_rig::ForceSensor;
 use fringe_rig::{
@@ -148,7 +148,7 @@ fn stream(
 }
 
 fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
-    let b = netft::bias(&mut sensor)?;
+    let b = bringup::bias_netft(&mut sensor)?;
     let (m, n) = (b.mean_after, b.records);
     println!("software bias sent to {}", sensor.describe());
     println!(
@@ -163,7 +163,7 @@ fn bias(mut sensor: NetFt<Box<dyn DatagramLink>>) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::rig::force::ForceSpec;
+    use fringe_app::rig::ForceSpec;
     use fringe_app::RigConfig;
 
     #[derive(Parser)]

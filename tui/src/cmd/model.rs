@@ -3,10 +3,11 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use fringe_app::models::choice::{self, ChoiceNote, ForSensor};
-use fringe_app::models::image_prediction::{ImagePredictor, ImageRun};
-use fringe_app::models::onnx_export::{self, Exported};
-use fringe_app::models::two_stage::{self, Networks};
+use fringe_app::models;
+use fringe_app::models::Exported;
+use fringe_app::models::Networks;
+use fringe_app::models::{ChoiceNote, ForSensor};
+use fringe_app::models::{ImagePredictor, ImageRun};
 use fringe_sensor_models::onnx_graph;
 use fringe_sensor_models::BackendKind;
 use fringe_sensor_models::CardSource;
@@ -128,7 +129,7 @@ fn pair(a: &PairArgs) -> Result<()> {
         force_model: a.force_model.as_deref(),
         contact: a.contact.as_deref(),
     };
-    let paired = two_stage::pair(&nets, &a.out, &mut warn)?;
+    let paired = models::pair(&nets, &a.out, &mut warn)?;
     let joined = &paired.joined;
     let placed = joined
         .contact_refiner
@@ -162,20 +163,20 @@ fn warn(w: String) {
     eprintln!("warning: {w}");
 }
 
-/// Opens a model argument ([`choice::open_model`]), warning on stderr of a model without its
+/// Opens a model argument ([`models::open_model`]), warning on stderr of a model without its
 /// card.
 pub(crate) fn open_model(path: &Path) -> Result<Model> {
-    let m = choice::open_model(path)?;
+    let m = models::open_model(path)?;
     if let Some(w) = m.missing_card_warning() {
         eprintln!("warning: {w}");
     }
     Ok(m)
 }
 
-/// The model a command runs ([`choice::choose_model`]): the commissioned model taken said on
+/// The model a command runs ([`models::choose_model`]): the commissioned model taken said on
 /// stdout, warnings on stderr.
 pub(crate) fn choose_model(given: Option<&Path>, sensor: &ForSensor<'_>) -> Result<Model> {
-    Ok(choice::choose_model(given, sensor, &mut say)?)
+    Ok(models::choose_model(given, sensor, &mut say)?)
 }
 
 /// What the model choice tells the operator: the commissioned model taken on stdout, warnings
@@ -321,7 +322,7 @@ fn json_line(image: &Path, p: &Prediction) -> serde_json::Value {
 
 fn export(path: &Path, out: &Path) -> Result<()> {
     fringe_rig::store::outside_runs(out).context("--onnx")?;
-    let Exported { model: m, bytes } = onnx_export::export(path, out, &mut warn)?;
+    let Exported { model: m, bytes } = models::export_onnx(path, out, &mut warn)?;
     println!(
         "{}: {} ONNX graph (opset {}), {} bytes, inputs `{}` [N,3,{},{}], outputs {}",
         out.display(),

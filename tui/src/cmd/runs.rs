@@ -3,7 +3,7 @@
 use crate::global::Global;
 use crate::signals::{Again, Signal};
 use anyhow::Context;
-use fringe_app::runs::listing::{list_runs, ListedRun};
+use fringe_app::runs::{list_runs, ListedRun};
 use fringe_rig::store::human_bytes as human;
 use fringe_rig::store::verify_run as verify;
 use fringe_rig::store::ExitStatus;

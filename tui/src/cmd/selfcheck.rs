@@ -1,13 +1,13 @@
 //! `fringe` with no command: a self-check that needs no hardware.
 //!
 //! It runs the real Net F/T driver over real UDP against the built-in simulated Net F/T box on
-//! loopback (a two-second press rising to 5 N; `fringe_app::simulation::selfcheck`), reports what
+//! loopback (a two-second press rising to 5 N; `fringe_app::simulation::netft_selfcheck`), reports what
 //! arrived, lists the serial ports of
 //! this machine and points to the bring-up commands. The full simulated bench (axes, camera,
 //! renderer) replaces this with a short grid scan.
 
 use crate::global::Global;
-use fringe_app::simulation::selfcheck::netft_selfcheck;
+use fringe_app::simulation::netft_selfcheck;
 
 pub fn run(global: &Global) -> anyhow::Result<()> {
     println!(

@@ -1,10 +1,10 @@
 //! `fringe sim dataset`: synthetic training frames in the reference layout, rendered straight
-//! from the simulator (no motion; `fringe_app::simulation::dataset` writes them): this parses
+//! from the simulator (no motion; `fringe_app::simulation::write_dataset` writes them): this parses
 //! the flags and prints the progress and what was written.
 
 use super::sim_render::load_sensor;
 use anyhow::{anyhow, bail, Context};
-use fringe_app::simulation::dataset::{write_dataset, DatasetError, DatasetEvent};
+use fringe_app::simulation::{write_dataset, DatasetError, DatasetEvent};
 use fringe_rig::reference_layout::SIM_DATASET_DOC;
 use fringe_rig::store::human_bytes as human;
 use fringe_rig::Newtons;

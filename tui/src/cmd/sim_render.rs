@@ -1,8 +1,8 @@
 //! `fringe sim render`: one simulated sensor frame as a PNG.
 
 use anyhow::{bail, Context};
-use fringe_app::rig::simulated::{sensor_by_name, SensorNameError};
-use fringe_app::simulation::render::{render_png, Rendered};
+use fringe_app::rig::{sensor_by_name, SensorNameError};
+use fringe_app::simulation::{render_png, Rendered};
 use fringe_rig::{Millimetres, Newtons};
 use fringe_sim::Contact;
 use fringe_sim::SensorConfig;

@@ -4,7 +4,7 @@
 use crate::cmd::frames_progress::FramesProgress;
 use crate::cmd::scan::execute;
 use crate::global::Global;
-use fringe_app::commission::host::{Host, ScanEnded};
+use fringe_app::commission::{Host, ScanEnded};
 use fringe_app::workflow_error::BoxError;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::store::ExitStatus;

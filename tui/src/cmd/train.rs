@@ -16,7 +16,7 @@ pub struct TrainArgs {
     data: Vec<PathBuf>,
     /// Network: custom (the paper's custom CNN), resnet18, or keypoint (the custom CNN's
     /// convolutions with 16 soft-argmax keypoints that keep where the fringes are).
-    #[arg(long, value_parser = fringe_app::models::training::architecture, default_value = "custom")]
+    #[arg(long, value_parser = fringe_app::models::architecture, default_value = "custom")]
     arch: Architecture,
     /// Augmentation: gray10 (grey + noise, 10 copies), rgb3 (RGB + noise, 3), rgb3-clean.
     #[arg(long, default_value = "gray10")]
@@ -78,7 +78,8 @@ mod with_torch {
     use super::*;
     use crate::signals::{self, Again, Signal};
     use anyhow::Context;
-    use fringe_app::models::training::{self, TrainRequest};
+    use fringe_app::models;
+    use fringe_app::models::TrainRequest;
     use fringe_sensor_models::{TrainConfig, TrainEvent, TrainOutcome as Outcome};
     use std::io::{IsTerminal, Write};
     use std::time::Instant;
@@ -102,7 +103,7 @@ mod with_torch {
             init: a.init,
             force_window: a.force_window,
         };
-        let training = training::prepare(request, &mut |d, s| {
+        let training = models::prepare_training(request, &mut |d, s| {
             eprintln!(
                 "data: {} ({} labelled frames, {} left out without a trustworthy label)",
                 d.display(),

@@ -9,10 +9,10 @@ use crate::cmd::model::choose_model;
 use crate::cmd::scan::execute;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
-use fringe_app::models::choice::ForSensor;
-use fringe_app::session::live_validation::{LiveValidation, Validation};
-use fringe_app::session::plans::scan_plan;
-use fringe_app::session::validation_report;
+use fringe_app::models::ForSensor;
+use fringe_app::session;
+use fringe_app::session::scan_plan;
+use fringe_app::session::{LiveValidation, Validation};
 use fringe_app::{Note, ProfileUse, RigConfig, RigSource};
 use fringe_rig::Plan;
 use fringe_rig::{scan::new_run_id, RunTarget};
@@ -49,7 +49,7 @@ pub struct ValidateArgs {
     /// Inference threads of each network (at most the machine's cores are used).
     #[arg(
         long,
-        default_value_t = fringe_app::session::live_validation::THREADS_PER_NETWORK,
+        default_value_t = fringe_app::session::THREADS_PER_NETWORK,
         value_parser = crate::cmd::arg_values::threads
     )]
     threads: usize,
@@ -130,7 +130,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let v = live.finish(Duration::from_secs(10));
     print_summary(&v);
     if let Some(dir) = &a.report {
-        let written = validation_report::write(dir, &v, &end.outcome.run_dir)?;
+        let written = session::write_validation_report(dir, &v, &end.outcome.run_dir)?;
         println!(
             "report written to {} ({} frames in {})",
             written.report.display(),

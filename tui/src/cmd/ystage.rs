@@ -5,9 +5,9 @@ use super::limits::SoftLimitArgs;
 use super::terminal_prompt::TerminalPrompt;
 use crate::global::Global;
 use anyhow::{bail, Context};
-use fringe_app::rig::device_open::{open_axis, TraceTo};
-use fringe_app::rig::device_spec::{AxisSpec, ModbusLink, ModbusSpec};
-use fringe_app::rig::host_port::HostPort;
+use fringe_app::rig::HostPort;
+use fringe_app::rig::{open_axis, TraceTo};
+use fringe_app::rig::{AxisSpec, ModbusLink, ModbusSpec};
 use fringe_rig::apt::Actuator;
 use fringe_rig::Millimetres;
 use fringe_rig::{AptConfig, Controller};
@@ -79,7 +79,7 @@ enum Action {
 }
 
 /// What the y stage is; add a variant and an arm in [`YstageArgs::spec`] for another kind of
-/// stage (and one in `fringe_app::rig::device_spec::AxisSpec` for another driver).
+/// stage (and one in `fringe_app::rig::AxisSpec` for another driver).
 enum StageKind {
     ModbusTcp(String),
     ModbusRtu(String),
@@ -178,7 +178,7 @@ pub fn run(args: YstageArgs, global: &Global) -> anyhow::Result<()> {
 mod tests {
     use super::*;
     use clap::Parser;
-    use fringe_app::rig::device_open::open_modbus;
+    use fringe_app::rig::open_modbus;
     use fringe_app::RigConfig;
     use fringe_rig::Axis;
 

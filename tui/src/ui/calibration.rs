@@ -2,7 +2,7 @@
 //! what the screen shows of a fitted calibration (made on the fitting thread, not in the draw).
 
 use super::state::{CalibrateView, CalibrationPhase, PressRow};
-use fringe_app::session::calibration_scan::{CalibrationGrid, CalibrationResult};
+use fringe_app::session::{CalibrationGrid, CalibrationResult};
 use fringe_app::RigConfig;
 use fringe_rig::{Plan, ScanProgram};
 

@@ -4,13 +4,14 @@
 
 use super::state::CommissionView;
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_app::commission::acceptance::Accepted;
-use fringe_app::commission::certificate::{unfinished, CurvePoint};
-use fringe_app::commission::host::{Host, ScanEnded};
-use fringe_app::commission::job::{self, Request};
-use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
-use fringe_app::commission::rounds::DEFAULT_BUDGET_MIN;
-use fringe_app::session::worker_failure::guarded;
+use fringe_app::commission;
+use fringe_app::commission::Accepted;
+use fringe_app::commission::Request;
+use fringe_app::commission::DEFAULT_BUDGET_MIN;
+use fringe_app::commission::{unfinished, CurvePoint};
+use fringe_app::commission::{Host, ScanEnded};
+use fringe_app::commission::{PressedPoint, UsableDisc};
+use fringe_app::session::guarded;
 use fringe_app::workflow_error::BoxError;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::RunTarget;
@@ -144,7 +145,7 @@ fn work(
     ends: Receiver<Result<ScanEnded, String>>,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<Accepted> {
-    let prepared = job::prepare(request, &config, &mut |w| eprintln!("warning: {w}"))?;
+    let prepared = commission::prepare(request, &config, &mut |w| eprintln!("warning: {w}"))?;
     let _ = tx.send(FromWorker::Started {
         dir: prepared.dir().to_path_buf(),
         thresholds: thresholds(prepared.spec()),
@@ -158,7 +159,7 @@ fn work(
         shown: None,
         stop,
     };
-    Ok(job::run(prepared, config, THREADS, &mut host)?)
+    Ok(commission::run(prepared, config, THREADS, &mut host)?)
 }
 
 /// The UI's side of a commissioning, on its thread.

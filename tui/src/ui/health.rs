@@ -2,8 +2,9 @@
 //! unit's history, read from the profiles (`fringe check` makes the checks).
 
 use super::state::HealthView;
-use fringe_app::commission::certificate::commissioned_model;
-use fringe_app::health::history::{self, history_path};
+use fringe_app::commission::commissioned_model;
+use fringe_app::health;
+use fringe_app::health::history_path;
 use fringe_app::RigConfig;
 use std::path::PathBuf;
 use std::time::SystemTime;
@@ -50,7 +51,7 @@ pub fn view(config: &RigConfig) -> HealthView {
         ),
     };
     let path = history_path(&profiles, &sensor);
-    let checks = match history::read(&path) {
+    let checks = match health::read_history(&path) {
         Ok(h) => {
             notes.extend(h.notes);
             h.entries

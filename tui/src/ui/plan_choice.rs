@@ -3,7 +3,7 @@
 //! what the Scan screen shows of it before it runs.
 
 use super::state::{Phase, PlanPoint, ScanView};
-use fringe_app::session::disk_space::Recording;
+use fringe_app::session::Recording;
 use fringe_rig::{scan::Targets, BenchLimits, Plan, ScanProgram};
 use std::collections::VecDeque;
 use std::path::Path;
@@ -24,7 +24,7 @@ pub struct PlanSource {
 /// `dir/*.toml` sorted by name (unreadable files are listed; choosing one says why it fails).
 pub fn available(first: PlanSource, dir: &Path) -> Vec<PlanSource> {
     let mut out = vec![first];
-    for p in fringe_app::session::plans::ALL {
+    for p in fringe_app::session::BUILTIN_PLANS {
         if out.iter().all(|s| s.text != p.text) {
             out.push(PlanSource {
                 label: format!("{} (built in)", p.name),
@@ -48,7 +48,7 @@ pub fn available(first: PlanSource, dir: &Path) -> Vec<PlanSource> {
         if out.iter().any(|s| s.origin == origin) {
             continue;
         }
-        let (text, unreadable) = match fringe_app::session::plans::read_file(&path) {
+        let (text, unreadable) = match fringe_app::session::read_plan_file(&path) {
             Ok(text) => (text, None),
             Err(e) => (String::new(), Some(e.to_string())),
         };
@@ -132,7 +132,7 @@ mod tests {
     }
 
     fn given() -> PlanSource {
-        let p = fringe_app::session::plans::SHORT_GRID;
+        let p = fringe_app::session::SHORT_GRID;
         PlanSource {
             label: "short-grid".into(),
             text: p.text.into(),
@@ -163,7 +163,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("fringe-plan-choice-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("dir");
-        let wide = fringe_app::session::plans::SHORT_GRID
+        let wide = fringe_app::session::SHORT_GRID
             .text
             .replace("name = \"short-grid\"", "name = \"wide\"");
         std::fs::write(dir.join("b-wide.toml"), &wide).expect("write");

@@ -5,10 +5,10 @@
 use super::stage_operator::UiStageOperator;
 use crate::hint;
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_app::models::run_evaluation::evaluate_run;
-use fringe_app::session::live_validation::LiveValidation;
-use fringe_app::session::live_view::LiveView;
-use fringe_app::session::worker_failure::guarded;
+use fringe_app::models::evaluate_run;
+use fringe_app::session::guarded;
+use fringe_app::session::LiveValidation;
+use fringe_app::session::LiveView;
 use fringe_app::{Note, ProfileUse, RigConfig, ScanSession, SessionEnd};
 use fringe_rig::store::ExitStatus;
 use fringe_rig::ScanProgram;
@@ -55,7 +55,7 @@ impl ModelChoice {
     /// another design, saying so); on the default backend.
     pub fn for_rig(config: &fringe_app::RigConfig) -> ModelChoice {
         let commissioned = config.sensor_id().ok().and_then(|unit| {
-            fringe_app::commission::certificate::commissioned_model(&config.profile_dir(), &unit)
+            fringe_app::commission::commissioned_model(&config.profile_dir(), &unit)
                 .0
                 .map(|c| c.model)
         });
@@ -67,7 +67,7 @@ impl ModelChoice {
                 })
                 .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
             backend: BackendKind::Tract,
-            threads: fringe_app::session::live_validation::THREADS_PER_NETWORK,
+            threads: fringe_app::session::THREADS_PER_NETWORK,
         }
     }
 }

@@ -1,9 +1,9 @@
 //! What the terminal UI shows, as plain data: the event loop fills it from what the scan and
 //! validation threads publish, the views draw it, and the snapshot tests build it by hand.
 
-use fringe_app::session::live_validation::ValidationState;
-use fringe_app::session::live_view::ViewState;
-use fringe_app::session::rig_control::{AxisId, BenchState};
+use fringe_app::session::ValidationState;
+use fringe_app::session::ViewState;
+use fringe_app::session::{AxisId, BenchState};
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -221,7 +221,7 @@ pub struct HealthView {
     /// The history file.
     pub history: String,
     /// Every check, oldest first.
-    pub checks: Vec<fringe_app::health::history::Entry>,
+    pub checks: Vec<fringe_app::health::Entry>,
     /// Lines of the history passed over (damaged, newer), and why the history cannot be read.
     pub notes: Vec<String>,
     /// The check whose figures are shown.
@@ -261,9 +261,9 @@ pub struct CommissionView {
     pub progress: Option<String>,
     /// The spec's thresholds: Fz RMSE (N), contact RMSE (mm), shape accuracy (share).
     pub thresholds: (Option<f64>, Option<f64>, Option<f64>),
-    pub curve: Vec<fringe_app::commission::certificate::CurvePoint>,
-    pub pressed: Vec<fringe_app::commission::press_choice::PressedPoint>,
-    pub disc: Option<fringe_app::commission::press_choice::UsableDisc>,
+    pub curve: Vec<fringe_app::commission::CurvePoint>,
+    pub pressed: Vec<fringe_app::commission::PressedPoint>,
+    pub disc: Option<fringe_app::commission::UsableDisc>,
 }
 
 impl CommissionView {

@@ -57,7 +57,7 @@ fn describe(info: &PanicHookInfo<'_>) -> String {
         .location()
         .map(|l| format!(" at {}:{}", l.file(), l.line()))
         .unwrap_or_default();
-    let message = fringe_app::session::worker_failure::panic_text(info.payload());
+    let message = fringe_app::session::panic_text(info.payload());
     format!("thread '{name}' panicked{at}: {message}")
 }
 

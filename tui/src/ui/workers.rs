@@ -7,10 +7,8 @@ use super::calibration;
 use super::session::{self, ModelChoice};
 use super::state::CalibrateView;
 use crossbeam_channel::Sender;
-use fringe_app::session::calibration_scan::{
-    calibrate_run, spot_settings, CalibrationResult, DEFAULT_MAX_FRAMES,
-};
-use fringe_app::session::worker_failure::guarded;
+use fringe_app::session::guarded;
+use fringe_app::session::{calibrate_run, spot_settings, CalibrationResult, DEFAULT_MAX_FRAMES};
 use fringe_app::RigConfig;
 use std::path::{Path, PathBuf};
 

@@ -147,7 +147,7 @@ pub fn grab(
 }
 
 /// A boxed camera as a camera, so that the trace recorder can wrap whichever source was opened.
-pub struct Boxed(pub Box<dyn Camera>);
+pub(crate) struct Boxed(pub Box<dyn Camera>);
 
 impl Camera for Boxed {
     fn info(&self) -> CameraInfo {

@@ -13,25 +13,25 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// How long the stream may stay silent before the command stops.
-pub const STALL: Duration = Duration::from_secs(1);
+pub(crate) const STALL: Duration = Duration::from_secs(1);
 
 /// The CSV columns of a Net F/T: host time, the RDT and F/T sequences, the force and torque.
-pub const NETFT_COLUMNS: &str =
+pub(crate) const NETFT_COLUMNS: &str =
     "host_time_s,rdt_sequence,ft_sequence,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
 
 /// The CSV columns of a DAQ: `fringe ft stream`'s host time and force columns, the DAQ's sample
 /// index in place of the Net F/T's sequences (and the strobe when one is read).
-pub const DAQ_COLUMNS: &str = "host_time_s,sample_index,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
+pub(crate) const DAQ_COLUMNS: &str = "host_time_s,sample_index,fx_n,fy_n,fz_n,tx_nm,ty_nm,tz_nm";
 
 /// Writes an F/T sensor's samples as CSV rows under a header.
-pub struct ForceCsv<W: Write> {
+pub(crate) struct ForceCsv<W: Write> {
     out: W,
     interface: Interface,
 }
 
 impl<W: Write> ForceCsv<W> {
     /// Writes the header of `interface`'s columns (a DAQ's with `strobe` adds `strobe_v`).
-    pub fn new(mut out: W, interface: Interface) -> io::Result<ForceCsv<W>> {
+    pub(crate) fn new(mut out: W, interface: Interface) -> io::Result<ForceCsv<W>> {
         match interface {
             Interface::NetFt => writeln!(out, "{NETFT_COLUMNS}")?,
             Interface::Daq { strobe } => writeln!(
@@ -45,7 +45,7 @@ impl<W: Write> ForceCsv<W> {
 
     /// One sample: host time (s), the sequence columns (a Net F/T's RDT and F/T sequences, a
     /// DAQ's sample index), Fx Fy Fz (N), Tx Ty Tz (N m) and a DAQ's strobe (V).
-    pub fn row(&mut self, s: &ForceSample) -> io::Result<()> {
+    pub(crate) fn row(&mut self, s: &ForceSample) -> io::Result<()> {
         write!(self.out, "{:.6},", s.host_time.seconds())?;
         match self.interface {
             Interface::NetFt => write!(
@@ -68,11 +68,12 @@ impl<W: Write> ForceCsv<W> {
         writeln!(self.out)
     }
 
-    pub fn flush(&mut self) -> io::Result<()> {
+    pub(crate) fn flush(&mut self) -> io::Result<()> {
         self.out.flush()
     }
 
-    pub fn into_inner(self) -> W {
+    #[cfg(test)]
+    pub(crate) fn into_inner(self) -> W {
         self.out
     }
 }
@@ -115,7 +116,7 @@ impl StreamReport {
 
 /// Streams `sensor` into the CSV file `csv` for `duration` (after taking a bias when `bias`),
 /// calling `progress` about once a second with the samples so far and the time; a silence of
-/// [`STALL`] ends it with an error. A file this call created and would leave with only its
+/// `STALL` ends it with an error. A file this call created and would leave with only its
 /// header is removed again (never a device such as /dev/null, nor a file that was there before).
 pub fn stream_to_csv<S: ForceSensor + ?Sized>(
     sensor: &mut S,

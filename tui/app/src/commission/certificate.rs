@@ -7,13 +7,13 @@ use fringe_rig::store::write_atomic;
 use std::path::{Path, PathBuf};
 
 /// The certificate's file name in a commissioning directory.
-pub const CERTIFICATE: &str = "certificate.json";
+pub(crate) const CERTIFICATE: &str = "certificate.json";
 /// The adapted model's file name in a commissioning directory (its card beside it, .json).
-pub const MODEL: &str = "model.safetensors";
+pub(crate) const MODEL: &str = "model.safetensors";
 /// The unit's profile as commissioned, in the commissioning directory.
-pub const PROFILE: &str = "profile.toml";
+pub(crate) const PROFILE: &str = "profile.toml";
 /// Format of the certificate this version writes; older ones are read, newer ones refused.
-pub const CERTIFICATE_FORMAT: u32 = 1;
+pub(crate) const CERTIFICATE_FORMAT: u32 = 1;
 
 /// The held-out figures (Table-2 metrics) of the acceptance scan.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -158,7 +158,7 @@ impl Certificate {
 
 /// The directory name of a commissioning of `sensor` started at `utc` (an RFC 3339 time):
 /// names sort in time order.
-pub fn directory_name(sensor: &str, utc: &str) -> String {
+pub(crate) fn directory_name(sensor: &str, utc: &str) -> String {
     let stamp: String = utc
         .chars()
         .map(|c| if c == ':' || c == '.' { '-' } else { c })
@@ -168,7 +168,7 @@ pub fn directory_name(sensor: &str, utc: &str) -> String {
 
 /// The commissioning directories of `sensor` under `profiles`, oldest first (none when the
 /// folder cannot be read).
-pub fn commissionings(profiles: &Path, sensor: &str) -> Vec<PathBuf> {
+pub(crate) fn commissionings(profiles: &Path, sensor: &str) -> Vec<PathBuf> {
     let prefix = format!("{sensor}.commission-");
     let mut dirs: Vec<PathBuf> = match std::fs::read_dir(profiles) {
         Ok(entries) => entries

@@ -13,9 +13,9 @@ use fringe_rig::ConfigError;
 use std::path::{Path, PathBuf};
 
 /// The journal's file name in a commissioning directory.
-pub const JOURNAL: &str = "journal.json";
+pub(crate) const JOURNAL: &str = "journal.json";
 /// Format of the journal this version writes; older ones are read, newer ones refused.
-pub const JOURNAL_FORMAT: u32 = 1;
+pub(crate) const JOURNAL_FORMAT: u32 = 1;
 
 /// What the commissioning was asked to do (fixed when it starts; `--resume` keeps them).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -238,7 +238,7 @@ impl Journal {
 
 /// Where a journal's scan stands on disk.
 #[derive(Debug, Clone, PartialEq)]
-pub enum RunState {
+pub(crate) enum RunState {
     /// Not started: start it as a new run with its id.
     Absent,
     /// Started and cut short: resume it.
@@ -248,7 +248,7 @@ pub enum RunState {
 }
 
 /// The state of the run `dir`.
-pub fn run_state(dir: &Path) -> Result<RunState, JournalError> {
+pub(crate) fn run_state(dir: &Path) -> Result<RunState, JournalError> {
     let run = RunReader::at(dir);
     if !run.is_run() {
         return Ok(RunState::Absent);
@@ -264,7 +264,7 @@ pub fn run_state(dir: &Path) -> Result<RunState, JournalError> {
 }
 
 /// A run that ended completed.
-pub fn completed(state: &RunState) -> bool {
+pub(crate) fn completed(state: &RunState) -> bool {
     matches!(state, RunState::Ended(s) if s.exit_status == ExitStatus::Completed)
 }
 

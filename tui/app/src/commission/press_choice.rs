@@ -164,7 +164,7 @@ pub fn choose(
 
 /// `points` in the order of a short path: from the one nearest `start`, always on to the
 /// nearest left (the stages move slowly; the choice's order would cross the disc each time).
-pub fn tour(points: &[[f64; 2]], start: [f64; 2]) -> Vec<[f64; 2]> {
+pub(crate) fn tour(points: &[[f64; 2]], start: [f64; 2]) -> Vec<[f64; 2]> {
     let mut left = points.to_vec();
     let mut at = start;
     let mut out = Vec::with_capacity(left.len());

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 /// Format of the entries this version writes; older ones are read, newer ones passed over with a
 /// note.
-pub const HISTORY_FORMAT: u32 = 1;
+pub(crate) const HISTORY_FORMAT: u32 = 1;
 
 /// The history file of `sensor` in the profile directory `profiles`.
 pub fn history_path(profiles: &Path, sensor: &str) -> PathBuf {
@@ -63,7 +63,7 @@ pub struct HistoryError {
 /// Appends `entry` to the history at `path` (made when missing), whole or not at all: one write
 /// of the line, then a sync. A file whose last line was torn gets a line break first, so the new
 /// entry stays readable.
-pub fn append(path: &Path, entry: &Entry) -> Result<(), HistoryError> {
+pub(crate) fn append(path: &Path, entry: &Entry) -> Result<(), HistoryError> {
     let err = |message: String| HistoryError {
         path: path.to_path_buf(),
         message,

@@ -26,11 +26,11 @@ pub(crate) fn thinned<T>(items: Vec<T>, max: usize) -> Vec<T> {
 pub struct ModelErrors {
     pub frames: usize,
     pub fz_rmse_n: f64,
-    /// Over the frames in contact pressed at least [`PRESSED_MIN_FZ_N`].
+    /// Over the frames in contact pressed at least `PRESSED_MIN_FZ_N`.
     pub contact_rmse_mm: f64,
     pub shape_accuracy: f64,
     /// Predicted over measured Fz, least squares through zero, over frames pressed at least
-    /// [`PRESSED_MIN_FZ_N`]: a unit whose material changed reads a force too high or too low.
+    /// `PRESSED_MIN_FZ_N`: a unit whose material changed reads a force too high or too low.
     pub force_gain: f64,
 }
 

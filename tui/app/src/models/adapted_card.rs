@@ -24,7 +24,7 @@ pub enum AdaptedWriteError {
 
 /// Adapted `weights` written to `path` (safetensors) with `card` in them and beside them
 /// (`<path>.json`, as `fringe adapt` and commissioning write them); the card's path.
-pub fn write_adapted(
+pub(crate) fn write_adapted(
     path: &Path,
     weights: &StateDict,
     card: &ModelCard,
@@ -41,7 +41,7 @@ pub fn write_adapted(
 
 /// The base model's card for the adapted weights: the unit they were adapted to, and how
 /// (adapted on `data`, `folds` folds over presses seeded with `seed`).
-pub fn adapted_card(
+pub(crate) fn adapted_card(
     model: &Model,
     adapted: &Adapted,
     data: &[PathBuf],

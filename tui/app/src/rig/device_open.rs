@@ -188,7 +188,7 @@ pub fn open_modbus(spec: &ModbusSpec, trace: TraceTo) -> Result<ModbusStage, Dev
 }
 
 /// A camera.
-pub fn open_camera(spec: &CameraSpec) -> Result<Box<dyn Camera>, DeviceError> {
+pub(crate) fn open_camera(spec: &CameraSpec) -> Result<Box<dyn Camera>, DeviceError> {
     match spec {
         #[cfg(feature = "aravis")]
         CameraSpec::Aravis { id } => {

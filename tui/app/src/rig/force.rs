@@ -9,8 +9,8 @@
 //! A new interface: its module here; a variant of [`ForceSpec`] with its arms, and its arms in
 //! [`open_force`] and `RigConfig::force_spec`; its `driver` and keys in [`section`].
 
-pub mod netft;
-pub mod nidaqmx;
+pub(crate) mod netft;
+pub(crate) mod nidaqmx;
 pub(crate) mod section;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
@@ -22,7 +22,7 @@ use nidaqmx::{open_daq, DaqSpec};
 use section::ForceDriver;
 use std::path::Path;
 
-/// A force/torque sensor: one variant per interface, all opened by [`open_force`].
+/// A force/torque sensor: one variant per interface, all opened by `open_force`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ForceSpec {
     /// An ATI Net F/T or Ethernet Axia over RDT/UDP.
@@ -59,7 +59,7 @@ impl ForceSpec {
 
 /// The force sensor `spec` describes, whatever its interface; `record_trace` records its
 /// traffic to `DIR/<name>.trace` ([`ForceSpec::trace_name`]).
-pub fn open_force(
+pub(crate) fn open_force(
     spec: &ForceSpec,
     record_trace: Option<&Path>,
 ) -> Result<Box<dyn ForceSensor>, DeviceError> {

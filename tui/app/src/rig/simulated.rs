@@ -65,7 +65,7 @@ pub fn sensor_by_name(name: &str) -> Result<SensorConfig, SensorNameError> {
 
 /// A sensor build of the simulator by name (layered, integrated) or file, named by a rig file's
 /// `sim.sensor`.
-pub fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
+pub(crate) fn sim_sensor(name: &str, origin: &str) -> Result<SensorConfig, ConfigError> {
     sensor_by_name(name).map_err(|e| ConfigError {
         origin: origin.into(),
         message: match e {
@@ -118,7 +118,7 @@ pub fn config(rig: &RigConfig) -> Result<SimRigConfig, ConfigError> {
 }
 
 /// Soft limits (the axes' travel), kinematics and contact height of the simulated bench.
-pub fn limits(rig: &RigConfig, max_force: Newtons) -> Result<BenchLimits, ConfigError> {
+pub(crate) fn limits(rig: &RigConfig, max_force: Newtons) -> Result<BenchLimits, ConfigError> {
     let c = config(rig)?;
     let b = &c.bench;
     let limits = |name: &str, a: &AxisConfig| {
@@ -175,7 +175,7 @@ fn ft_rating(rig: &RigConfig, c: &SimRigConfig) -> Result<FtRating, ConfigError>
 }
 
 /// The contact origin: the rig file's geometry keys, else the simulated bench's own.
-pub fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
+pub(crate) fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
     let g = &rig.file.geometry;
     let c = config(rig)?;
     Ok(ContactOrigin {
@@ -186,17 +186,17 @@ pub fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
 }
 
 /// The simulated sensor's id.
-pub fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
+pub(crate) fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
     Ok(config(rig)?.sensor.id)
 }
 
 /// The simulated sensor's design, `layered` or `integrated`.
-pub fn sensor_variant(rig: &RigConfig) -> Result<&'static str, ConfigError> {
+pub(crate) fn sensor_variant(rig: &RigConfig) -> Result<&'static str, ConfigError> {
     Ok(config(rig)?.sensor.variant.name())
 }
 
 /// Starts the simulated bench, its ground truth recorded.
-pub fn start(rig: &RigConfig) -> Result<(SimBench, Devices), RigError> {
+pub(crate) fn start(rig: &RigConfig) -> Result<(SimBench, Devices), RigError> {
     let config = config(rig)?;
     let truth = TruthSpool::new();
     let sink: Arc<dyn TruthSink> = truth.clone();
@@ -216,7 +216,9 @@ fn apply_sim_axis(s: &AxisSection, a: &mut AxisConfig) {
 
 /// Scores the labels of the simulated run in `run_dir` against the ground truth it keeps
 /// (`truth.jsonl`); `None` when no labelled frame has a truth record.
-pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
+pub(crate) fn score_run(
+    run_dir: &Path,
+) -> Result<Option<TruthScore>, fringe_rig::store::StoreError> {
     let records = fringe_rig::store::RunReader::at(run_dir).frames()?;
     let path = run_dir.join(fringe_sim::ground_truth::TRUTH_FILE);
     let truth = fringe_sim::ground_truth::read_frames(&path).map_err(|e| match e {
@@ -236,7 +238,9 @@ pub fn score_run(run_dir: &Path) -> Result<Option<TruthScore>, fringe_rig::store
 }
 
 /// Contact finding tuned for the simulated sensor's construction.
-pub fn spot_settings(rig: &RigConfig) -> Result<fringe_calibration::SpotSettings, ConfigError> {
+pub(crate) fn spot_settings(
+    rig: &RigConfig,
+) -> Result<fringe_calibration::SpotSettings, ConfigError> {
     use fringe_calibration::SpotSettings;
     Ok(match config(rig)?.sensor.variant {
         fringe_sim::Variant::Integrated => SpotSettings::integrated(),
@@ -315,7 +319,10 @@ impl SimBench {
 }
 
 /// [`SimBench::design_profile`] of the simulated rig `config` describes, without starting it.
-pub fn design_profile(config: &SimRigConfig, sensor_id: &str) -> fringe_calibration::Profile {
+pub(crate) fn design_profile(
+    config: &SimRigConfig,
+    sensor_id: &str,
+) -> fringe_calibration::Profile {
     let b = &config.bench.geometry;
     sensor_profile(
         &config.sensor,

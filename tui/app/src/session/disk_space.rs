@@ -36,17 +36,17 @@ impl FrameSize {
 }
 
 /// The reference camera's frame: a Basler daA1920-160uc.
-pub const REFERENCE_FRAME: FrameSize = FrameSize {
+pub(crate) const REFERENCE_FRAME: FrameSize = FrameSize {
     width: 1920,
     height: 1200,
 };
 
 /// A scan starts only with its expected size times this free, plus [`SPARE_BYTES`]: room for
 /// frames busier than the estimate assumes, and for everything else on the disk.
-pub const MARGIN: f64 = 1.2;
+pub(crate) const MARGIN: f64 = 1.2;
 
 /// Bytes left free beyond [`MARGIN`] times the expected size.
-pub const SPARE_BYTES: u64 = 1_000_000_000;
+pub(crate) const SPARE_BYTES: u64 = 1_000_000_000;
 
 /// The camera frame's size a size estimate assumes, chosen here only:
 ///
@@ -56,7 +56,7 @@ pub const SPARE_BYTES: u64 = 1_000_000_000;
 /// 2. else, on the simulated bench, the simulated sensor's image (`[sim] sensor` and
 ///    `image_scale`);
 /// 3. else the reference camera's 1920x1200 ([`REFERENCE_FRAME`]).
-pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize {
+pub(crate) fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize {
     if let Some(p) = profile {
         return FrameSize {
             width: p.image.width,
@@ -80,7 +80,7 @@ pub fn camera_frame(profile: Option<&Profile>, config: &RigConfig) -> FrameSize 
 
 /// What a refusal for want of disk space adds when the scan stores whole frames but could store
 /// only the disc's square.
-pub const STORE_DISC_ADVICE: &str = ", or store only the square around the sensor's disc \
+pub(crate) const STORE_DISC_ADVICE: &str = ", or store only the square around the sensor's disc \
      ([recording] store = \"disc\" in the rig file or the plan)";
 
 /// What a run of a plan will take on disk and what the disk it goes to has free, told before a
@@ -132,7 +132,7 @@ impl RoomForecast {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Recording {
     pub storage: FrameStorage,
-    /// The camera frame ([`camera_frame`]).
+    /// The camera frame (`camera_frame`).
     pub frame: FrameSize,
     pub frame_rate: Hertz,
 }
@@ -142,7 +142,7 @@ impl Recording {
     /// rig `config` describes would record, read from the rig file and the profile directory only
     /// (no device is opened): the camera's pixel format and frame rate, `[recording] store` with
     /// the disc of the sensor's calibration profile (on the simulated bench without one, of its
-    /// design geometry, as a scan would), and [`camera_frame`].
+    /// design geometry, as a scan would), and `camera_frame`.
     pub fn from_rig_files(
         config: &RigConfig,
         plan: Option<&Plan>,
@@ -248,7 +248,7 @@ pub(crate) fn parsed(profile: Option<&ProfileRef>) -> Option<Profile> {
 }
 
 /// The bytes that must be free for a run expected to take `expected_bytes`.
-pub fn needed_bytes(expected_bytes: u64) -> u64 {
+pub(crate) fn needed_bytes(expected_bytes: u64) -> u64 {
     ((expected_bytes as f64 * MARGIN) as u64).saturating_add(SPARE_BYTES)
 }
 
@@ -291,7 +291,7 @@ pub enum RoomError {
 }
 
 /// Free bytes of the filesystem that holds (or will hold) `dir`.
-pub fn free_bytes(dir: &Path) -> Result<u64, RoomError> {
+pub(crate) fn free_bytes(dir: &Path) -> Result<u64, RoomError> {
     available_bytes(dir).map_err(|source| RoomError::Unmeasured {
         dir: dir.to_path_buf(),
         source,

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 /// Why a motion or a tare is refused; each says what to do.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum Refused {
+pub(crate) enum Refused {
     /// A move into or across the sensor while the force is over the ceiling.
     #[error("{axis}: {what} is refused while the force ({force_n:.2} N) is over the ceiling {ceiling_n:.2} N; retract z first (←, or h to home z)")]
     OverCeiling {
@@ -49,7 +49,7 @@ pub enum Refused {
 
 /// What needs the indenter clear of the sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Act {
+pub(crate) enum Act {
     /// A move of x or y (a jog or homing).
     Across(AxisId),
     /// Zeroing the F/T (its no-contact offset).
@@ -74,7 +74,7 @@ impl Act {
 
 /// Why the F/T's no-contact reading is not known.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Unknown {
+pub(crate) enum Unknown {
     /// z has not been homed since the bench opened.
     NotHomed,
     /// The F/T restarted since the reading was taken: its zero moved.

@@ -47,12 +47,12 @@ pub const BACKLOG_FRAMES: usize = 10;
 
 /// The worker thread's name (and the name that injects a panic into it,
 /// [`crate::session::worker_failure`]).
-pub const WORKER_NAME: &str = "live-validation";
+pub(crate) const WORKER_NAME: &str = "live-validation";
 
 /// Predicted and measured Fz kept for the chart.
-pub const HISTORY: usize = 600;
+pub(crate) const HISTORY: usize = 600;
 /// Side of the raw-frame picture published with each prediction, px.
-pub const THUMBNAIL_PX: u32 = 96;
+pub(crate) const THUMBNAIL_PX: u32 = 96;
 
 /// One point of the Fz chart.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -140,13 +140,13 @@ pub struct ValidationState {
     /// Why the worker stopped, if it failed.
     pub failure: Option<String>,
     /// Set before the scan when the model is slower than the camera allows: its time per frame
-    /// against the frame period, in one line ([`crate::session::model_pace`]).
+    /// against the frame period, in one line (`crate::session::model_pace`).
     pub behind: Option<String>,
 }
 
 /// Why the validation worker stopped.
 #[derive(Debug, thiserror::Error)]
-pub enum ValidationError {
+pub(crate) enum ValidationError {
     #[error("frame {frame}: {source}")]
     Frame {
         frame: u64,
@@ -276,7 +276,7 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 /// The recorder's side: hands labelled frames to the worker without waiting.
-pub struct ValidationTap(Arc<Shared>);
+pub(crate) struct ValidationTap(Arc<Shared>);
 
 impl std::fmt::Debug for ValidationTap {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -487,7 +487,7 @@ struct Worker {
 
 /// Pictures (frame and network input) made per second at most: the screen needs no more, and
 /// every frame's pictures would take time from inference.
-pub const PICTURE_RATE_HZ: f64 = 10.0;
+pub(crate) const PICTURE_RATE_HZ: f64 = 10.0;
 
 impl Worker {
     fn run(mut self) {

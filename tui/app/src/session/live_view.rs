@@ -13,9 +13,9 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// Pictures made per second at most.
-pub const MAX_RATE_HZ: f64 = 10.0;
+pub(crate) const MAX_RATE_HZ: f64 = 10.0;
 /// Labels kept for the force chart.
-pub const LABELS: usize = 500;
+pub(crate) const LABELS: usize = 500;
 
 /// A label as the chart needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]

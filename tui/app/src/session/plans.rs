@@ -26,7 +26,7 @@ pub const SHORT_GRID: BuiltinPlan = BuiltinPlan {
 };
 
 /// The calibration scan of `fringe calibrate`.
-pub const CALIBRATION: BuiltinPlan = BuiltinPlan {
+pub(crate) const CALIBRATION: BuiltinPlan = BuiltinPlan {
     name: "calibration",
     path: "tui/app/plans/calibration.toml",
     text: include_str!("../../plans/calibration.toml"),
@@ -41,7 +41,7 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
 
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
 /// indenters): a template, not among the plans offered to run ([`ALL`]).
-pub const COMMISSION: BuiltinPlan = BuiltinPlan {
+pub(crate) const COMMISSION: BuiltinPlan = BuiltinPlan {
     name: "commission",
     path: "tui/app/plans/commission.toml",
     text: include_str!("../../plans/commission.toml"),
@@ -51,7 +51,8 @@ pub const COMMISSION: BuiltinPlan = BuiltinPlan {
 pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
 
 /// A built-in plan by name.
-pub fn by_name(name: &str) -> Option<BuiltinPlan> {
+#[cfg(test)]
+pub(crate) fn by_name(name: &str) -> Option<BuiltinPlan> {
     ALL.into_iter().find(|p| p.name == name)
 }
 

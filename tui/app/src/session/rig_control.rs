@@ -14,7 +14,7 @@
 
 use crate::rig::error::RigError;
 use crate::rig::file::RigConfig;
-pub use crate::session::jog_guard::AxisId;
+pub(crate) use crate::session::jog_guard::AxisId;
 use crate::session::jog_guard::{Heading, JogGuard, Polled, Refused};
 use fringe_rig::scan::PressSettings;
 use fringe_rig::scan::LOAD_SAMPLES;
@@ -44,7 +44,7 @@ const GUARD_TICK: Duration = Duration::from_millis(1);
 /// Pictures made per second at most.
 const PICTURE_HZ: f64 = 10.0;
 /// Seconds of force kept for the chart.
-pub const CHART_SECONDS: f64 = 20.0;
+pub(crate) const CHART_SECONDS: f64 = 20.0;
 /// Force points per second kept for the chart.
 const CHART_HZ: f64 = 50.0;
 /// Messages kept.
@@ -161,7 +161,7 @@ impl BenchState {
 
 /// What the bench could not do; each names the device and what to do.
 #[derive(Debug, thiserror::Error)]
-pub enum BenchError {
+pub(crate) enum BenchError {
     #[error("cannot open the rig: {0}")]
     Rig(#[from] RigError),
     #[error(transparent)]

@@ -11,7 +11,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The environment variable naming the worker whose panic is injected.
-pub const INJECT_PANIC_VAR: &str = "FRINGE_INJECT_PANIC";
+pub(crate) const INJECT_PANIC_VAR: &str = "FRINGE_INJECT_PANIC";
 
 /// The message a panic carried (`panic!("...")`'s text), or a word saying it carried none.
 pub fn panic_text(payload: &(dyn Any + Send)) -> String {
@@ -34,7 +34,7 @@ pub fn guarded<T>(worker: &str, work: impl FnOnce() -> T) -> Result<T, String> {
 static INJECTED: AtomicBool = AtomicBool::new(false);
 
 /// Panics when [`INJECT_PANIC_VAR`] names `worker`, the first time only.
-pub fn inject(worker: &str) {
+pub(crate) fn inject(worker: &str) {
     let asked = std::env::var(INJECT_PANIC_VAR).is_ok_and(|v| v == worker);
     if asked && !INJECTED.swap(true, Ordering::SeqCst) {
         panic!("a panic injected into the {worker} thread ({INJECT_PANIC_VAR}={worker})");

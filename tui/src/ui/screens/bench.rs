@@ -10,9 +10,7 @@ use crate::ui::stage_operator::UiStageOperator;
 use crate::ui::state::{BenchView, Tab, JOG_STEPS_MM};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, WARN};
-use fringe_app::session::rig_control::{
-    AxisId, AxisState, BenchCommand, BenchPhase, BenchSession, BenchState,
-};
+use fringe_app::session::{AxisId, AxisState, BenchCommand, BenchPhase, BenchSession, BenchState};
 use fringe_rig::Millimetres;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};

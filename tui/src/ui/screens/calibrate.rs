@@ -13,7 +13,7 @@ use crate::ui::state::{CalibrateView, CalibrationPhase, Phase, ScanView, Tab};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, WARN};
 use crate::ui::workers::{self, Calibrated};
 use crossbeam_channel::{unbounded, Receiver, Sender};
-use fringe_app::session::calibration_scan::CalibrationResult;
+use fringe_app::session::CalibrationResult;
 use fringe_app::ProfileUse;
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};

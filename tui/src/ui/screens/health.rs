@@ -9,7 +9,7 @@ use crate::ui::health;
 use crate::ui::screen::{Screen, ScreenDef};
 use crate::ui::state::{HealthView, Tab};
 use crate::ui::widgets::{panel, BAD, GOOD, WARN};
-use fringe_app::health::figures::{Rule, Verdict};
+use fringe_app::health::{Rule, Verdict};
 use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Modifier, Style};

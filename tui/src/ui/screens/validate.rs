@@ -8,7 +8,7 @@ use crate::ui::state::{Tab, UiState};
 use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{legend_panel, panel, BAD, GOOD, MEASURED, PREDICTED, WARN};
-use fringe_app::session::live_validation::ValidationState;
+use fringe_app::session::ValidationState;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
 use ratatui::text::{Line, Span};

@@ -9,11 +9,11 @@ use crate::ui::state::{
     HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, UiState,
 };
 use crate::ui::widgets;
-use fringe_app::session::live_validation::{CellErrors, FzPoint, Latest, ValidationState};
-use fringe_app::session::live_view::{LabelPoint, ViewState};
-use fringe_app::session::rig_control::{
+use fringe_app::session::{
     AxisId, AxisState, BenchPhase, BenchState, CameraState, ForcePoint, ForceState,
 };
+use fringe_app::session::{CellErrors, FzPoint, Latest, ValidationState};
+use fringe_app::session::{LabelPoint, ViewState};
 use fringe_rig::Millimetres;
 use fringe_sensor_models::dataset::Sample;
 use fringe_sensor_models::Errors;
@@ -591,8 +591,8 @@ fn calibrated() -> UiState {
 
 /// A commissioning of `layered-3` in its third round: two rounds scored, presses on the map.
 fn commissioning() -> UiState {
-    use fringe_app::commission::certificate::CurvePoint;
-    use fringe_app::commission::press_choice::{PressedPoint, UsableDisc};
+    use fringe_app::commission::CurvePoint;
+    use fringe_app::commission::{PressedPoint, UsableDisc};
     let mut s = ready();
     s.tab = screens::commission::TAB;
     s.scan.phase = Phase::Running;
@@ -808,8 +808,8 @@ fn the_plan_chooser_lists_the_plans_with_the_chosen_one_highlighted() {
 fn check_entry(
     utc: &str,
     change: &fringe_calibration::health::Change,
-) -> fringe_app::health::history::Entry {
-    use fringe_app::health::figures::{assess, Measured, Thresholds};
+) -> fringe_app::health::Entry {
+    use fringe_app::health::{assess, Measured, Thresholds};
     let a = assess(
         &Measured {
             change,
@@ -821,7 +821,7 @@ fn check_entry(
         },
         &Thresholds::default(),
     );
-    fringe_app::health::history::Entry {
+    fringe_app::health::Entry {
         format: 1,
         fringe_version: "0.1.0".into(),
         checked_utc: utc.into(),
@@ -837,7 +837,7 @@ fn check_entry(
 
 #[test]
 fn health_screen_lists_the_checks_and_the_chosen_one_s_figures_with_the_moved_ones_marked() {
-    use fringe_app::health::figures::Verdict;
+    use fringe_app::health::Verdict;
     use fringe_calibration::health::Change;
     let unchanged = Change {
         centre_shift_px: [0.003, -0.001],

@@ -2,7 +2,7 @@
 //! file: its description, its opener, and its errors said in the terms of who described it (the
 //! rig file's keys or `fringe daq`'s flags).
 
-pub mod names;
+pub(crate) mod names;
 
 use crate::rig::device_open::{DeviceError, TraceTo};
 use crate::rig::file::RigConfig;
@@ -107,7 +107,7 @@ pub fn open_daq(spec: &DaqSpec, trace: TraceTo) -> Result<DaqForce, DeviceError>
 /// The DAQ `spec` describes on an NI-DAQmx library already loaded (the simulated bench's
 /// in-process library; `spec.library` is not used) with its calibration already read
 /// (`spec.cal_file` is not read): the opener [`open_daq`] ends in.
-pub fn open_daq_with(
+pub(crate) fn open_daq_with(
     library: &Arc<Library>,
     calibration: Calibration,
     spec: &DaqSpec,
