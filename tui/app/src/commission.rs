@@ -13,6 +13,10 @@
 //!   (pure Rust) and every layer (libtorch, the cargo feature `torch`).
 //! - [`acceptance`]: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
+//! - `pruning` (private): what a passing commissioning keeps (the rounds' frames pruned,
+//!   their features kept) unless `--keep-runs`.
+//! - [`cost`]: what a commissioning will take (presses, bench time, computation, disk), told
+//!   before anything moves and by `--dry-run`.
 //! - [`host`]: what a commissioning needs from whoever runs it (scans, lines, progress).
 //!
 //! How they fail: `workflow_error`, beside this module.
@@ -26,6 +30,7 @@
 
 pub mod acceptance;
 pub mod certificate;
+pub mod cost;
 mod fine_tune;
 pub mod host;
 pub mod job;
@@ -34,5 +39,6 @@ mod last_block;
 pub mod press_choice;
 pub mod press_errors;
 pub(crate) mod press_plan;
+mod pruning;
 pub mod rounds;
 pub(crate) mod scans;

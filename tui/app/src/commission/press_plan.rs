@@ -1,5 +1,6 @@
 //! The scan plan of a commissioning round or acceptance scan: the built-in `commission` plan
-//! with its points and indenters replaced.
+//! with its points and indenters replaced, storing only the square around the unit's disc (all
+//! the model reads; the profile that places it is the calibration step's).
 
 use crate::session::plans::COMMISSION;
 
@@ -9,7 +10,8 @@ use crate::session::plans::COMMISSION;
 pub struct PressPlanError(String);
 
 /// The plan text that presses `points` (stage mm) with each of `shapes`, named `name`, headed
-/// by a comment saying `why`.
+/// by a comment saying `why`; its frames stored as the disc's square (`[recording] store =
+/// "disc"`, about half the bytes of whole frames).
 pub(crate) fn press_plan(
     name: &str,
     points: &[[f64; 2]],
@@ -36,7 +38,37 @@ pub(crate) fn press_plan(
         .collect();
     set(&mut plan, "indenters", "shapes", toml::Value::Array(names));
     plan.insert("name".into(), toml::Value::String(name.to_string()));
+    let mut recording = toml::Table::new();
+    recording.insert("store".into(), toml::Value::String("disc".into()));
+    plan.insert("recording".into(), toml::Value::Table(recording));
     let body = toml::to_string(&plan).map_err(|e| PressPlanError(e.to_string()))?;
     let why: String = why.lines().map(|l| format!("# {l}\n")).collect();
     Ok(format!("{why}{body}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_press_plan_presses_its_points_with_each_indenter_and_stores_the_disc_square() {
+        let shapes = ["pentagon".to_string(), "rectangle".to_string()];
+        let text = press_plan(
+            "round-1",
+            &[[12.0, 25.0], [14.0, 25.0]],
+            &shapes,
+            "why\nand how",
+        )
+        .expect("plan");
+        assert!(text.starts_with("# why\n# and how\n"), "{text}");
+        let plan = fringe_rig::Plan::parse(&text, "round-1").expect("parses");
+        assert_eq!(plan.name, "round-1");
+        let table: toml::Table = text.parse().expect("toml");
+        assert_eq!(table["recording"]["store"].as_str(), Some("disc"), "{text}");
+        assert_eq!(table["grid"]["points"].as_array().map(Vec::len), Some(2));
+        assert_eq!(
+            table["indenters"]["shapes"].as_array().map(Vec::len),
+            Some(2)
+        );
+    }
 }

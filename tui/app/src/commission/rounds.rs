@@ -207,6 +207,16 @@ pub(crate) fn adapt(
                 None => break,
             },
         };
+        // A round learnt from before is not read again: its features were kept (a journal of
+        // an older fringe kept none, and its round is read once more, then kept).
+        if entry.completed {
+            if let Some(features) = kept_features(c, &entry.run_id) {
+                let run_dir = c.dir.join("runs").join(&entry.run_id);
+                state.learn_from(c, base_weights, features, &run_dir, round)?;
+                round += 1;
+                continue;
+            }
+        }
         let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
         if let Some(e) = c.journal.rounds.get_mut(round) {
             e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
@@ -271,8 +281,8 @@ struct Rounds {
 }
 
 impl Rounds {
-    /// A round's run: its frames predicted by the current heads (the curve, the errors by
-    /// position), then added to the frames adapted on and the heads fitted again.
+    /// A round's run: its features read (and kept in the commissioning directory, so that a
+    /// resume does not read them again), then learnt from ([`Rounds::learn_from`]).
     fn learn(
         &mut self,
         c: &mut Commissioning<'_>,
@@ -288,6 +298,28 @@ impl Rounds {
         let features = Features::read(base, &[source], None, threads, |d, t| {
             host.frames("reading the round's features", d, t)
         })?;
+        // Kept so that a resume does not read them again; a round whose features could not
+        // be kept is read again then, and its frames are never pruned.
+        if let Some(id) = run_dir.file_name() {
+            if let Err(e) = features.save(&features_path(&c.dir, &id.to_string_lossy())) {
+                c.host.notice(format!("warning: {e}"));
+            }
+        }
+        c.compute_s += started.elapsed().as_secs_f64();
+        self.learn_from(c, base_weights, features, run_dir, round)
+    }
+
+    /// A round's features predicted by the current heads (the curve, the errors by position),
+    /// then added to the frames adapted on and the heads fitted again.
+    fn learn_from(
+        &mut self,
+        c: &mut Commissioning<'_>,
+        base_weights: &StateDict,
+        features: Features,
+        run_dir: &Path,
+        round: usize,
+    ) -> Result<()> {
+        let started = Instant::now();
         let scores = head_scores(&self.weights, &features)?;
         let errors = round_errors(
             round + 1,
@@ -324,6 +356,32 @@ impl Rounds {
         }
         c.compute_s += started.elapsed().as_secs_f64();
         Ok(())
+    }
+}
+
+/// Where the features of the round `run_id` are kept in the commissioning directory `dir`.
+pub(crate) fn features_path(dir: &Path, run_id: &str) -> PathBuf {
+    dir.join(FEATURES_DIR).join(format!("{run_id}.features"))
+}
+
+/// The commissioning directory's folder of each round's features, read once.
+pub(crate) const FEATURES_DIR: &str = "features";
+
+/// The features kept of the round `run_id`, when there are and they read; a file that does not
+/// read is said and passed over (the round is read from its run again).
+fn kept_features(c: &mut Commissioning<'_>, run_id: &str) -> Option<Features> {
+    let path = features_path(&c.dir, run_id);
+    if !path.is_file() {
+        return None;
+    }
+    match Features::load(&path) {
+        Ok(f) => Some(f),
+        Err(e) => {
+            c.host.notice(format!(
+                "warning: {e}; the round's features are read from its run again"
+            ));
+            None
+        }
     }
 }
 
@@ -560,6 +618,7 @@ mod tests {
                 host,
                 threads: 1,
                 compute_s: 0.0,
+                keep_runs: false,
             };
             match adapt(&mut c, &base, &profile) {
                 Ok(_) => panic!("adapted on a round without frames"),
