@@ -7,7 +7,7 @@ use super::certificate::{
 };
 use super::journal::ScanEntry;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
-use super::press_plan::press_plan;
+use super::press_plan::{disc_margin, press_plan};
 use super::pruning::prune_rounds;
 use super::rounds::{shapes, Adaptation};
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
@@ -202,6 +202,7 @@ fn acceptance_entry(
             c.journal.options.sensor,
             points.len()
         ),
+        disc_margin(profile),
     )?;
     let e = ScanEntry {
         run_id: "acceptance".into(),

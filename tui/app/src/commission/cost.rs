@@ -11,7 +11,7 @@
 
 use super::journal::{Journal, Options};
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
-use super::press_plan::press_plan;
+use super::press_plan::{disc_margin, press_plan};
 use crate::rig::file::RigConfig;
 use crate::session::calibration_scan::CalibrationGrid;
 use crate::session::disk_space::Recording;
@@ -190,7 +190,12 @@ pub fn forecast(
             config,
         )?);
     }
-    let disc = forecast_disc(config, &options.sensor)?;
+    let profile = forecast_profile(config, &options.sensor)?;
+    let margin = profile.as_ref().and_then(disc_margin);
+    let disc = match &profile {
+        Some(p) => Some(UsableDisc::from_profile(p)?),
+        None => None,
+    };
     let (centre, candidates) = match &disc {
         Some(d) => (
             d.centre_mm,
@@ -235,7 +240,7 @@ pub fn forecast(
             if points.is_empty() {
                 break None;
             }
-            let plan = press_plan(&name, &points, shapes, "forecast")?;
+            let plan = press_plan(&name, &points, shapes, "forecast", margin)?;
             let (program, est) = program_of(&plan, config, &name)?;
             if est <= budget - spent {
                 break Some((points, plan, program, est));
@@ -272,7 +277,7 @@ pub fn forecast(
                     None => candidates.clone(),
                 };
                 let points = tour(&choose(&held_out, &[], positions, 1e6), centre);
-                press_plan("acceptance", &points, shapes, "forecast")?
+                press_plan("acceptance", &points, shapes, "forecast", margin)?
             }
         };
         let n = plan_points(&plan).len();
@@ -305,9 +310,9 @@ pub fn forecast(
     })
 }
 
-/// The usable disc the rounds will press: of the unit's profile on file, else on the simulated
-/// bench of its design; `None` on a real rig before its first calibration.
-fn forecast_disc(config: &RigConfig, sensor: &str) -> Result<Option<UsableDisc>> {
+/// The profile the rounds will press by: the unit's on file, else on the simulated bench its
+/// design's; `None` on a real rig before its first calibration.
+fn forecast_profile(config: &RigConfig, sensor: &str) -> Result<Option<Profile>> {
     let on_file = fringe_calibration::profile_path(&config.profile_dir(), sensor)
         .ok()
         .filter(|p| p.is_file())
@@ -321,10 +326,7 @@ fn forecast_disc(config: &RigConfig, sensor: &str) -> Result<Option<UsableDisc>>
         )),
         None => None,
     };
-    Ok(match profile {
-        Some(p) => Some(UsableDisc::from_profile(&p)?),
-        None => None,
-    })
+    Ok(profile)
 }
 
 /// The stage positions of a press plan's `[grid] points`.

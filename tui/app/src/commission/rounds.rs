@@ -8,7 +8,7 @@ use super::journal::ScanEntry;
 use super::last_block;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
 use super::press_errors::round_errors;
-use super::press_plan::press_plan;
+use super::press_plan::{disc_margin, press_plan};
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
@@ -147,6 +147,7 @@ pub(crate) fn check_budget(config: &RigConfig, base: &Model, budget_min: f64) ->
         &points,
         &shapes,
         "the fewest presses an adaptation needs",
+        None,
     )?;
     let need_s = estimate_s(&plan, config)?;
     if need_s > 60.0 * budget_min {
@@ -191,6 +192,7 @@ pub(crate) fn adapt(
     ));
     let mut state = Rounds {
         disc,
+        disc_margin: disc_margin(profile),
         features: Features::empty(),
         weights: base_weights.clone(),
         adapted: None,
@@ -271,6 +273,8 @@ pub(crate) fn adapt(
 struct Rounds {
     /// Where presses go (the first round's path starts at its centre).
     disc: UsableDisc,
+    /// The margin of the disc's square the rounds store ([`disc_margin`]).
+    disc_margin: Option<f64>,
     features: Features,
     /// The heads as adapted so far (the base model's before any fit).
     weights: StateDict,
@@ -472,6 +476,7 @@ fn sized_round(
                 c.journal.options.sensor,
                 points.len()
             ),
+            state.disc_margin,
         )?;
         let estimate = estimate_s(&plan, &c.config)?;
         if estimate <= left {
@@ -583,8 +588,14 @@ mod tests {
             fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");
         let (base, _) = open_base(&base_path.display().to_string(), variant).expect("base");
         let disc = UsableDisc::from_profile(&profile).expect("disc");
-        let plan =
-            press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round").expect("plan");
+        let plan = press_plan(
+            "round-1",
+            &[disc.centre_mm],
+            &shapes(&base),
+            "a test round",
+            None,
+        )
+        .expect("plan");
         let mut journal = Journal::new(Options {
             sensor: "unit-1".into(),
             base: base_path.display().to_string(),
