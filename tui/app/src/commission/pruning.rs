@@ -4,13 +4,20 @@
 //! kept whole: the certificate cites them, `fringe eval` recomputes its figures from the
 //! acceptance scan and `fringe check` compares the unit with both.
 
-use super::rounds::features_path;
 use super::scans::Commissioning;
 use crate::workflow_error::{refuse, WorkflowError};
 use fringe_rig::store::{RunFile, RunReader};
 use std::path::{Path, PathBuf};
 
 type Result<T> = std::result::Result<T, WorkflowError>;
+
+/// The commissioning directory's folder of each round's features, read once.
+pub(crate) const FEATURES_DIR: &str = "features";
+
+/// Where the features of the round `run_id` are kept in the commissioning directory `dir`.
+pub(crate) fn features_path(dir: &Path, run_id: &str) -> PathBuf {
+    dir.join(FEATURES_DIR).join(format!("{run_id}.features"))
+}
 
 /// Removes the frame files of every round of `runs` whose features are kept, records which in
 /// the journal and says how much was freed.
@@ -50,7 +57,7 @@ pub(crate) fn prune_rounds(c: &mut Commissioning<'_>, runs: &[PathBuf]) -> Resul
         "pruned the frames of {} ({:.1} GB freed): their features are kept in {}/, their records in runs/ (--keep-runs keeps the frames)",
         pruned.join(", "),
         freed as f64 / 1e9,
-        c.dir.join(super::rounds::FEATURES_DIR).display()
+        c.dir.join(FEATURES_DIR).display()
     ));
     Ok(())
 }

@@ -9,6 +9,7 @@ use super::last_block;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
 use super::press_errors::round_errors;
 use super::press_plan::{disc_margin, press_plan};
+use super::pruning::features_path;
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
@@ -362,14 +363,6 @@ impl Rounds {
         Ok(())
     }
 }
-
-/// Where the features of the round `run_id` are kept in the commissioning directory `dir`.
-pub(crate) fn features_path(dir: &Path, run_id: &str) -> PathBuf {
-    dir.join(FEATURES_DIR).join(format!("{run_id}.features"))
-}
-
-/// The commissioning directory's folder of each round's features, read once.
-pub(crate) const FEATURES_DIR: &str = "features";
 
 /// The features kept of the round `run_id`, when there are and they read; a file that does not
 /// read is said and passed over (the round is read from its run again).
