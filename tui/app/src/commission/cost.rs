@@ -24,11 +24,13 @@ use fringe_rig::{Plan, ScanProgram};
 type Result<T> = std::result::Result<T, WorkflowError>;
 
 /// Computation per frame of a round (the network's body read for the heads' features) or of the
-/// acceptance scan (the whole network), s, on 2 threads of the 2-core machine BENCHMARKS.md
-/// measured it on, release build ("Commissioning: its cost, kept small").
+/// acceptance scan (the whole network), s, release build on 2 threads: an allowance, not yet a
+/// measurement of a whole commissioning (the keypoint CNN alone takes 1.9 ms a frame on 2
+/// threads, BENCHMARKS.md; reading and preprocessing a stored frame come on top).
 pub const COMPUTE_S_PER_FRAME: f64 = 0.012;
-/// A debug build's computation per frame, s (the same measurement, unoptimised).
-const DEBUG_COMPUTE_S_PER_FRAME: f64 = 0.030;
+/// A debug build's computation per frame, s: the commissionings of BENCHMARKS.md ("Commissioning
+/// a unit", debug build, half-size frames), 98 s for 5172 frames.
+const DEBUG_COMPUTE_S_PER_FRAME: f64 = 0.019;
 /// Full fine-tuning's computation on 2 cores, s (BENCHMARKS.md, "Full fine-tuning").
 const FINE_TUNE_S: f64 = 120.0;
 
