@@ -45,4 +45,4 @@ pub use plan::{
 };
 pub use press::{approach, press_to, retract, ForceGuard, PressError, PressPoint, PressSettings};
 pub use sidecar::RunSidecar;
-pub use watchers::WatchSettings;
+pub use watchers::{WatchSettings, REPRESS_EVENT, STOPPED_BY_WATCHERS_EVENT};

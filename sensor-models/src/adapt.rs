@@ -28,6 +28,7 @@ use fringe_rig::seeded::SplitMix64;
 use head_fit::{log_loss, ridge, softmax, Head};
 use nalgebra::DMatrix;
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 /// How the heads are fitted.
 #[derive(Debug, Clone, PartialEq)]
@@ -108,6 +109,23 @@ pub enum AdaptError {
     Width { have: usize, got: usize },
     #[error("the {0} head could not be fitted (the features are degenerate)")]
     Singular(&'static str),
+    #[error("{path}: {message}")]
+    Saved { path: PathBuf, message: String },
+}
+
+/// The first bytes of a features file ([`Features::save`]).
+const FEATURES_MAGIC: &[u8] = b"fringe-features\n";
+/// Format of the features file this version writes; older ones are read, newer ones refused.
+const FEATURES_FORMAT: u32 = 1;
+
+/// A features file's header (JSON): the frames' labels, then `rows x cols` little-endian f32.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SavedHeader {
+    format: u32,
+    rows: usize,
+    cols: usize,
+    samples: Vec<Sample>,
+    shapes: Vec<usize>,
 }
 
 /// The network body's features of labelled frames, beside their labels: read once, then fitted
@@ -176,6 +194,91 @@ impl Features {
         p.sort_unstable();
         p.dedup();
         p.len()
+    }
+
+    /// Writes the features and their labels to `path` (whole or not at all), so that they are
+    /// read once: a later fit or prediction [`Features::load`]s them instead of running the
+    /// network again (commissioning keeps each round's).
+    pub fn save(&self, path: &Path) -> Result<(), AdaptError> {
+        let failed = |message: String| AdaptError::Saved {
+            path: path.to_path_buf(),
+            message,
+        };
+        let header = SavedHeader {
+            format: FEATURES_FORMAT,
+            rows: self.matrix.nrows(),
+            cols: self.matrix.ncols(),
+            samples: self.samples.clone(),
+            shapes: self.shapes.clone(),
+        };
+        let json = serde_json::to_vec(&header).map_err(|e| failed(e.to_string()))?;
+        let mut bytes =
+            Vec::with_capacity(FEATURES_MAGIC.len() + 8 + json.len() + 4 * self.matrix.len());
+        bytes.extend_from_slice(FEATURES_MAGIC);
+        bytes.extend_from_slice(&(json.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&json);
+        for i in 0..self.matrix.nrows() {
+            for j in 0..self.matrix.ncols() {
+                // Read as f32 from the network: stored as it came, exactly.
+                bytes.extend_from_slice(&(self.matrix[(i, j)] as f32).to_le_bytes());
+            }
+        }
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| failed(e.to_string()))?;
+        }
+        fringe_rig::store::write_atomic(path, &bytes).map_err(|e| failed(e.to_string()))
+    }
+
+    /// Reads features [`Features::save`] wrote.
+    pub fn load(path: &Path) -> Result<Features, AdaptError> {
+        let failed = |message: String| AdaptError::Saved {
+            path: path.to_path_buf(),
+            message,
+        };
+        let bytes = std::fs::read(path).map_err(|e| failed(e.to_string()))?;
+        let rest = bytes
+            .strip_prefix(FEATURES_MAGIC)
+            .ok_or_else(|| failed("not a features file".into()))?;
+        let damaged = || failed("damaged features file".into());
+        let (len, rest) = rest.split_first_chunk::<8>().ok_or_else(damaged)?;
+        let len = usize::try_from(u64::from_le_bytes(*len)).map_err(|_| damaged())?;
+        if rest.len() < len {
+            return Err(damaged());
+        }
+        let (json, values) = rest.split_at(len);
+        #[derive(serde::Deserialize)]
+        struct Format {
+            format: u32,
+        }
+        let format: Format = serde_json::from_slice(json).map_err(|_| damaged())?;
+        if format.format > FEATURES_FORMAT {
+            return Err(failed(format!(
+                "features format {} is newer than this fringe reads ({FEATURES_FORMAT})",
+                format.format
+            )));
+        }
+        let h: SavedHeader = serde_json::from_slice(json).map_err(|_| damaged())?;
+        if h.samples.len() != h.rows
+            || h.shapes.len() != h.rows
+            || values.len() != 4 * h.rows * h.cols
+        {
+            return Err(damaged());
+        }
+        let value = |k: usize| {
+            let b = [
+                values[4 * k],
+                values[4 * k + 1],
+                values[4 * k + 2],
+                values[4 * k + 3],
+            ];
+            f64::from(f32::from_le_bytes(b))
+        };
+        let cols = h.cols;
+        Ok(Features {
+            matrix: DMatrix::from_fn(h.rows, cols, |i, j| value(i * cols + j)),
+            samples: h.samples,
+            shapes: h.shapes,
+        })
     }
 
     /// Adds `more`'s frames (read with the same model) after these.
@@ -626,7 +729,6 @@ fn fit_shape(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
 
     fn sample(press: &str) -> Sample {
         Sample {
@@ -657,5 +759,37 @@ mod tests {
         assert_eq!(used, [0, 1, 2, 3, 4]);
         assert_eq!(fold, folds(&samples, 5, 42), "seeded");
         assert_ne!(fold, folds(&samples, 5, 43), "another seed deals otherwise");
+    }
+
+    /// Features saved are read back as they were (f32 values exactly, labels whole), and a
+    /// file of a newer format or a damaged one is refused by name.
+    #[test]
+    fn saved_features_read_back_and_a_damaged_or_newer_file_is_refused() {
+        let dir = std::env::temp_dir().join(format!("fringe-features-{}", std::process::id()));
+        let path = dir.join("round-1.features");
+        let mut samples: Vec<Sample> = (0..3).map(|i| sample(&format!("p{i}"))).collect();
+        samples[1].contact = Some([1.25, -0.5]);
+        samples[2].force[2] = 4.5;
+        let matrix = DMatrix::from_fn(3, 4, |i, j| f64::from((i * 4 + j) as f32 * 0.1f32));
+        let features = Features::from_parts(matrix, samples, vec![0, 1, 2]);
+        features.save(&path).expect("save");
+        let back = Features::load(&path).expect("load");
+        assert_eq!(back.matrix, features.matrix);
+        assert_eq!(back.samples, features.samples);
+        assert_eq!(back.shapes, features.shapes);
+        let bytes = std::fs::read(&path).expect("bytes");
+        std::fs::write(&path, &bytes[..bytes.len() - 1]).expect("cut");
+        let e = Features::load(&path).expect_err("cut").to_string();
+        assert!(e.contains("damaged features file"), "{e}");
+        let mut newer = bytes.clone();
+        let at = newer
+            .windows(10)
+            .position(|w| w == b"\"format\":1")
+            .expect("format in the header");
+        newer[at + 9] = b'9';
+        std::fs::write(&path, &newer).expect("newer");
+        let e = Features::load(&path).expect_err("newer").to_string();
+        assert!(e.contains("features format 9 is newer"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

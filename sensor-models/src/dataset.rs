@@ -15,7 +15,7 @@ use fringe_rig::Newtons;
 use std::path::{Path, PathBuf};
 
 /// One labelled frame.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     pub image: PathBuf,
     /// How the image file's pixels are stored: the run's ([`FrameStorage`]); `None` for an

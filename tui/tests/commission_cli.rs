@@ -295,6 +295,124 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     assert_eq!(runs, 2);
 }
 
+/// Issue 62: a commissioning on a camera that loses bursts of frames runs unattended to its
+/// verdict. `--dry-run` says what it will take and makes nothing; the job says the same before
+/// anything moves; each point the drops spoilt is pressed again and recorded in its run (no
+/// prompt waits: standard input is closed, so one would abort); the pause and the progress give
+/// the same count of drops; after the pass the rounds' frames are pruned, their features kept.
+#[test]
+fn a_unit_is_commissioned_unattended_through_camera_drops() {
+    let dir = scratch("commission-drops");
+    let rig = unit_rig(&dir);
+    // Two half-second stalls of the camera (25 frames at 50 fps, over the 10 the watchers allow
+    // in 2 s) in every scan, 8 s and 20 s after its rig opens: while a press is filmed.
+    let mut rig_text = std::fs::read_to_string(&rig).expect("rig");
+    for after in [8.0, 20.0] {
+        rig_text.push_str(&format!(
+            "\n[[sim.faults]]\ndevice = \"camera\"\nfault = \"stall\"\nafter = {after}\nduration = 0.5\n"
+        ));
+    }
+    std::fs::write(&rig, rig_text).expect("rig with drops");
+    let profiles = dir.join("profiles");
+
+    let o = quick_commission(&dir, &rig)
+        .arg("--dry-run")
+        .stdin(Stdio::null())
+        .output()
+        .expect("dry run");
+    let dry = text(&o);
+    assert!(o.status.success(), "{dry}");
+    let cost = dry
+        .lines()
+        .find(|l| l.starts_with("what it takes"))
+        .unwrap_or_else(|| panic!("no cost line: {dry}"))
+        .to_string();
+    for said in [
+        "presses, bench time",
+        "computation about",
+        "written,",
+        "kept after a pass",
+    ] {
+        assert!(cost.contains(said), "{cost}");
+    }
+    assert!(
+        dry.contains("  calibration: 9 positions, 9 presses"),
+        "{dry}"
+    );
+    assert!(
+        dry.contains("  acceptance: 3 positions, 6 presses"),
+        "{dry}"
+    );
+    assert!(dry.contains("nothing was made and nothing moved"), "{dry}");
+    assert!(!profiles.exists(), "a dry run made {}", profiles.display());
+
+    let o = quick_commission(&dir, &rig)
+        .stdin(Stdio::null())
+        .output()
+        .expect("commission");
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(t.contains("verdict:        PASS"), "{t}");
+    // The same figures before anything moved.
+    let first_step = t.find("step 1: calibration").expect("step 1");
+    assert!(t[..first_step].contains(&cost), "{cost}\n{t}");
+    assert!(!t.contains("no answer on standard input"), "{t}");
+
+    // Each point the drops spoilt was pressed again, recorded in its run.
+    let c = commissioning(&profiles);
+    let mut represses = 0;
+    for run in std::fs::read_dir(c.join("runs")).expect("runs").flatten() {
+        let events = std::fs::read_to_string(run.path().join("events.jsonl")).unwrap_or_default();
+        represses += events
+            .lines()
+            .filter(|l| l.contains("\"re-press\"") && l.contains("camera dropped"))
+            .count();
+    }
+    assert!(represses >= 1, "no point was pressed again: {t}");
+    // The pause and the progress count the same drops.
+    let paused: Vec<&str> = t
+        .lines()
+        .filter(|l| l.starts_with("paused: camera dropped"))
+        .collect();
+    assert!(!paused.is_empty(), "{t}");
+    for line in &paused {
+        let total = line
+            .split('(')
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .unwrap_or_else(|| panic!("no count in {line}"));
+        assert!(
+            t.lines()
+                .any(|l| l.starts_with('[') && l.contains(&format!("  {total} dropped  "))),
+            "{line}: no progress line with {total} dropped\n{t}"
+        );
+    }
+
+    // After the pass: the rounds' frames pruned, their features and records kept; the
+    // calibration and acceptance scans whole.
+    let journal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(c.join("journal.json")).expect("journal"))
+            .expect("journal json");
+    let pruned = journal["pruned"].as_array().expect("pruned rounds").clone();
+    assert!(!pruned.is_empty(), "{journal}");
+    for id in pruned.iter().filter_map(|p| p.as_str()) {
+        assert!(c.join(format!("features/{id}.features")).is_file(), "{id}");
+        assert!(c.join(format!("runs/{id}/frames.jsonl")).is_file(), "{id}");
+        assert!(
+            !c.join(format!("runs/{id}/frames")).exists(),
+            "{id} kept its frames"
+        );
+    }
+    assert!(t.contains("pruned the frames of round-1"), "{t}");
+    let frames_of = |run: &str| {
+        std::fs::read_dir(c.join("runs").join(run).join("frames"))
+            .map(|d| d.count())
+            .unwrap_or(0)
+    };
+    assert!(frames_of("acceptance") > 0);
+    assert!(frames_of("calibration-layered-3") > 0);
+}
+
 #[test]
 fn bad_input_is_refused_before_anything_moves() {
     let dir = scratch("commission-bad");

@@ -23,6 +23,15 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+/// The kind of the run's event that records a point pressed again after the watchers
+/// interrupted it (camera drops, a stalled F/T stream, the force ceiling), with why and which
+/// try it is.
+pub const REPRESS_EVENT: &str = "re-press";
+
+/// The kind of the run's event that records a scan stopped because the watchers interrupted one
+/// point too many times in a row (the run closes failed: a resume goes on with it).
+pub const STOPPED_BY_WATCHERS_EVENT: &str = "stopped-by-watchers";
+
 /// Limits the watchers enforce.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WatchSettings {
@@ -56,8 +65,12 @@ pub(crate) enum Alarm {
         silence: Duration,
     },
     CameraDrops {
+        /// Frames dropped within `window`.
         dropped: u64,
         window: Duration,
+        /// Frames dropped since the scan (this session of it) started, as the progress shows
+        /// them: the one count both say.
+        total: u64,
     },
     /// The operator asked to stop now (pause now or abort).
     Requested,
@@ -76,9 +89,13 @@ impl std::fmt::Display for Alarm {
                 "no force/torque data for {} ms: motion stopped (check the F/T cable and stream)",
                 silence.as_millis()
             ),
-            Alarm::CameraDrops { dropped, window } => write!(
+            Alarm::CameraDrops {
+                dropped,
+                window,
+                total,
+            } => write!(
                 f,
-                "camera dropped {dropped} frames within {:.1} s",
+                "camera dropped {dropped} frames within {:.1} s ({total} dropped in this scan so far)",
                 window.as_secs_f64()
             ),
             Alarm::Requested => write!(f, "stop requested"),
@@ -160,6 +177,8 @@ impl SharedTare {
 
 struct Shared {
     alarm: Mutex<Option<Alarm>>,
+    /// Frames dropped within the drop window, filming or not (how steady the camera is now).
+    recent_drops: AtomicU64,
     /// Filming: camera drops count only then.
     filming: AtomicBool,
     stop: AtomicBool,
@@ -190,6 +209,7 @@ impl Watchers {
     ) -> Watchers {
         let shared = Arc::new(Shared {
             alarm: Mutex::new(None),
+            recent_drops: AtomicU64::new(0),
             filming: AtomicBool::new(false),
             stop: AtomicBool::new(false),
         });
@@ -208,6 +228,7 @@ impl Watchers {
                     // run records.
                     let _ = crate::realtime::raise_current_thread("watchers");
                     let mut drops: VecDeque<(Instant, u64)> = VecDeque::new();
+                    let mut filmed_from: Option<u64> = None;
                     let mut clock = SilenceClock::default();
                     while !shared.stop.load(Ordering::SeqCst) {
                         clock.look(HostTime::now());
@@ -221,17 +242,23 @@ impl Watchers {
                         {
                             drops.pop_front();
                         }
+                        // A late frame lowers the count it was first counted in.
+                        let recent = dropped.saturating_sub(drops.front().map_or(dropped, |d| d.1));
+                        shared.recent_drops.store(recent, Ordering::SeqCst);
+                        // While filming, only the drops since filming began count.
+                        let filmed_from = filmed_from.get_or_insert(dropped);
                         if !filming {
-                            drops.clear();
-                            drops.push_back((now, dropped));
+                            *filmed_from = dropped;
                         }
-                        let recent = dropped - drops.front().map_or(dropped, |d| d.1);
+                        let since = drops.front().map_or(dropped, |d| d.1).max(*filmed_from);
+                        let recent = dropped.saturating_sub(since);
                         let alarm = condition_of(&monitor, tare.get(), &settings, &clock)
                             .or_else(|| {
                                 (filming && recent > settings.max_drops).then_some(
                                     Alarm::CameraDrops {
                                         dropped: recent,
                                         window: settings.drop_window,
+                                        total: dropped,
                                     },
                                 )
                             })
@@ -274,6 +301,14 @@ impl Watchers {
             self.tare.get(),
             &self.settings,
             &SilenceClock::default(),
+        )
+    }
+
+    /// Frames the camera dropped within the drop window (filming or not), and the window.
+    pub(crate) fn recent_drops(&self) -> (u64, Duration) {
+        (
+            self.shared.recent_drops.load(Ordering::SeqCst),
+            self.settings.drop_window,
         )
     }
 

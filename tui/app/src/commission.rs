@@ -13,6 +13,10 @@
 //!   (pure Rust) and every layer (libtorch, the cargo feature `torch`).
 //! - `acceptance`: steps 4 and 5, the adapted model written, the acceptance scan judged, the
 //!   report and the certificate.
+//! - `pruning`: what a passing commissioning keeps (the rounds' frames pruned, their features
+//!   kept) unless `--keep-runs`.
+//! - `cost`: what a commissioning will take (presses, bench time, computation, disk), told
+//!   before anything moves and by `--dry-run`.
 //! - `host`: what a commissioning needs from whoever runs it (scans, lines, progress).
 //!
 //! How they fail: `workflow_error`, beside this module.
@@ -26,6 +30,7 @@
 
 pub(crate) mod acceptance;
 pub(crate) mod certificate;
+pub(crate) mod cost;
 mod fine_tune;
 pub(crate) mod host;
 pub(crate) mod job;
@@ -34,6 +39,7 @@ mod last_block;
 pub(crate) mod press_choice;
 pub(crate) mod press_errors;
 pub(crate) mod press_plan;
+mod pruning;
 pub(crate) mod rounds;
 pub(crate) mod scans;
 
@@ -42,9 +48,10 @@ pub use certificate::{
     commissioned_model, unfinished, Certificate, CertificateError, Commissioned, CurvePoint,
     Figures, ModelRef, UsedRuns,
 };
+pub use cost::{Cost, ScanCost};
 pub use host::{Host, ScanEnded};
 pub use job::{
-    prepare, run, NewCommissioning, Prepared, Request, DEFAULT_ACCEPTANCE_PRESSES,
+    dry_run, prepare, run, NewCommissioning, Prepared, Request, DEFAULT_ACCEPTANCE_PRESSES,
     DEFAULT_ROUND_PRESSES, DEFAULT_SEED,
 };
 pub use journal::{FrameSettings, Journal, JournalError, Options, ScanEntry};

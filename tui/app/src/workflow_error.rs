@@ -72,6 +72,7 @@ failed_from!(
     fringe_calibration::ProfileError,
     fringe_rig::store::StoreError,
     crate::session::calibration_scan::CalibrationPlanError,
+    crate::session::disc_cutout::RecordingError,
     crate::session::calibration_scan::CalibrationRunError,
     crate::health::check_plan::CheckPlanError,
     crate::health::history::HistoryError,

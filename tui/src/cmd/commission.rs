@@ -69,9 +69,18 @@ pub struct CommissionArgs {
     /// Inference threads (at most the machine's cores are used).
     #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
     threads: usize,
-    /// Answer every operator prompt with "continue".
+    /// Answer every operator prompt with "continue": unattended (a scan the engine stops by
+    /// itself, a point camera drops kept spoiling, is resumed by the job, at most twice).
     #[arg(long)]
     yes: bool,
+    /// Say what the commissioning would take (presses, bench time, computation, disk) and stop:
+    /// nothing is made, nothing moves.
+    #[arg(long)]
+    dry_run: bool,
+    /// Keep every round's frames after a pass (by default they are pruned, their features and
+    /// records kept; the calibration and acceptance scans are always kept whole).
+    #[arg(long)]
+    keep_runs: bool,
 }
 
 pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
@@ -99,7 +108,18 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
             seed: a.seed,
         }),
     };
-    let prepared = commission::prepare(&request, &config, &mut |w| eprintln!("warning: {w}"))?;
+    if a.dry_run {
+        let cost = commission::dry_run(&request, &config, a.keep_runs, &mut |w| {
+            eprintln!("warning: {w}")
+        })?;
+        for line in cost.lines() {
+            println!("{line}");
+        }
+        println!("dry run: nothing was made and nothing moved");
+        return Ok(());
+    }
+    let prepared = commission::prepare(&request, &config, &mut |w| eprintln!("warning: {w}"))?
+        .keep_runs(a.keep_runs);
     if let Some(line) = prepared.resumed() {
         println!("{line}");
     }

@@ -394,6 +394,9 @@ struct Bar {
     phase: String,
     last_line: Instant,
     drawn: bool,
+    /// The newest status line not yet printed as a line of its own (a pipe prints one every
+    /// few seconds).
+    unprinted: Option<String>,
 }
 
 impl Bar {
@@ -404,6 +407,7 @@ impl Bar {
             phase: String::new(),
             last_line: Instant::now(),
             drawn: false,
+            unprinted: None,
         }
     }
 
@@ -424,7 +428,14 @@ impl Bar {
                 self.phase = format!("point {}/{}: {}", point + 1, self.total, phase.name());
             }
             ScanProgress::Paused { reason } => {
-                self.clear();
+                // The status as it was when the scan paused stays shown above the reason (the
+                // engine sends it with the same counts the reason gives).
+                if self.drawn {
+                    eprintln!();
+                    self.drawn = false;
+                } else if let Some(line) = self.unprinted.take() {
+                    eprintln!("{line}");
+                }
                 println!("paused: {reason}");
             }
             ScanProgress::Resumed => {
@@ -458,6 +469,9 @@ impl Bar {
         } else if self.last_line.elapsed() >= Duration::from_secs(5) {
             eprintln!("{line}");
             self.last_line = Instant::now();
+            self.unprinted = None;
+        } else {
+            self.unprinted = Some(line);
         }
     }
 

@@ -98,4 +98,8 @@ impl Host for Terminal<'_> {
     fn frames_end(&mut self) {
         self.end_progress();
     }
+
+    fn unattended(&self) -> bool {
+        self.yes
+    }
 }

@@ -4,7 +4,9 @@
 
 use super::motions::Lateral;
 use super::recording::append_sidecar;
-use super::runner::{Ending, PointEnd, Runner, CHECKPOINT_TIMEOUT, MAX_WATCHER_RETRIES};
+use super::runner::{
+    Ending, PointEnd, Runner, CAMERA_SETTLE_TIMEOUT, CHECKPOINT_TIMEOUT, MAX_WATCHER_RETRIES,
+};
 use crate::acquire::recorder::Filming;
 use crate::clock::HostTime;
 use crate::operator::{Operator, Prompt, Reply};
@@ -12,7 +14,7 @@ use crate::scan::clearance::Motion;
 use crate::scan::control::{Phase, Request, ScanProgress};
 use crate::scan::failure::ScanError;
 use crate::scan::plan::ScanPoint;
-use crate::scan::watchers::Alarm;
+use crate::scan::watchers::{Alarm, REPRESS_EVENT, STOPPED_BY_WATCHERS_EVENT};
 use crate::store::documents::Position;
 use std::time::{Duration, Instant};
 
@@ -201,8 +203,9 @@ impl Runner<'_> {
     }
 
     /// After point `p` was interrupted by `alarm`: retracts, cuts its frames and pauses, so
-    /// that the point is done again; `Some` ends the scan (an abort, or too many watcher
-    /// interruptions of one point in a row).
+    /// that the point is pressed again (recorded as a `re-press` event; after camera drops, once
+    /// the camera keeps up again); `Some` ends the scan (an abort, or too many watcher
+    /// interruptions of one point in a row: a stop the run can be resumed from).
     fn point_interrupted(
         &mut self,
         p: &ScanPoint,
@@ -211,6 +214,23 @@ impl Runner<'_> {
     ) -> Result<Option<Ending>, ScanError> {
         self.context.set(None);
         self.watchers.set_filming(false);
+        // One count of the camera's drops for the pause's reason and the progress: the
+        // recorder's, as the progress shows it, taken once.
+        let alarm = match alarm {
+            Alarm::CameraDrops {
+                dropped, window, ..
+            } => {
+                let stats = self.recorder.stats();
+                let total = stats.dropped_frames;
+                self.status_with(stats);
+                Alarm::CameraDrops {
+                    dropped,
+                    window,
+                    total,
+                }
+            }
+            other => other,
+        };
         self.retract()?;
         self.tare_not_before = Some(HostTime::now());
         let cut = self.recorder.rollback(Duration::from_secs(10))?;
@@ -228,10 +248,25 @@ impl Runner<'_> {
             let times = if point == p.index { times + 1 } else { 1 };
             self.watcher_retries = (p.index, times);
             if times >= MAX_WATCHER_RETRIES {
-                return Ok(Some(Ending::Aborted(format!(
-                    "point {} was interrupted {times} times in a row by the watchers (last: {alarm}); the scan stops so that the cause can be fixed (the points done are kept)",
+                let why = format!(
+                    "point {} was interrupted {times} times in a row by the watchers (last: {alarm}); the scan stops so that the cause can be fixed (the points done are kept; resume the run to go on)",
                     p.index + 1
-                ))));
+                );
+                self.recorder
+                    .event(STOPPED_BY_WATCHERS_EVENT, Some(p.index), &why);
+                return Ok(Some(Ending::Stopped(why)));
+            }
+            self.recorder.event(
+                REPRESS_EVENT,
+                Some(p.index),
+                &format!(
+                    "point {} pressed again after: {alarm} (try {} of at most {MAX_WATCHER_RETRIES} in a row)",
+                    p.index + 1,
+                    times + 1
+                ),
+            );
+            if matches!(alarm, Alarm::CameraDrops { .. }) {
+                self.camera_settles();
             }
         }
         let reason = match alarm {
@@ -242,6 +277,32 @@ impl Runner<'_> {
             return Ok(Some(Ending::Aborted("aborted while paused".into())));
         }
         Ok(None)
+    }
+
+    /// Waits (at most [`CAMERA_SETTLE_TIMEOUT`]) until the camera has delivered a whole drop
+    /// window without losing a frame, so that a point spoilt by drops is not pressed again into
+    /// the same burst; says so once when it has to wait.
+    fn camera_settles(&mut self) {
+        let started = Instant::now();
+        let mut said = false;
+        while started.elapsed() < CAMERA_SETTLE_TIMEOUT {
+            if self.control.request() == Request::Abort {
+                return;
+            }
+            let (recent, window) = self.watchers.recent_drops();
+            // The window must have passed since the burst that stopped the point.
+            if recent == 0 {
+                return;
+            }
+            if !said && recent > 0 {
+                (self.progress)(ScanProgress::Message(format!(
+                    "waiting for the camera to keep up ({recent} frames dropped within {:.1} s) before the point is pressed again",
+                    window.as_secs_f64()
+                )));
+                said = true;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     pub(super) fn ask(

@@ -56,6 +56,10 @@ impl Drop for Axes {
 /// ever under `--yes`).
 pub(super) const MAX_WATCHER_RETRIES: u32 = 3;
 
+/// Longest wait, after camera drops spoilt a point, for the camera to deliver a whole drop
+/// window without losing a frame before the point is pressed again.
+pub(super) const CAMERA_SETTLE_TIMEOUT: Duration = Duration::from_secs(30);
+
 /// Longest wait for the recorder to make a checkpoint.
 pub(super) const CHECKPOINT_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -65,6 +69,9 @@ pub(super) const TARE_SAMPLES: usize = 500;
 pub(super) enum Ending {
     Completed,
     Aborted(String),
+    /// Stopped by the engine itself (a point the watchers kept interrupting): not the
+    /// operator's decision, so closed as a failed run is, which a resume goes on with.
+    Stopped(String),
 }
 
 pub(super) struct Runner<'a> {
@@ -215,6 +222,7 @@ impl<'a> Runner<'a> {
                 "interrupted, not aborted (a stop that keeps the run, a hung-up terminal, SIGHUP or SIGTERM); resume the run to go on".to_string(),
             ),
             Ok(Ending::Aborted(why)) => (ExitStatus::Aborted, why.clone()),
+            Ok(Ending::Stopped(why)) => (ExitStatus::Failed, why.clone()),
             Err(e) => (ExitStatus::Failed, e.to_string()),
         };
         self.recorder.event(
@@ -273,6 +281,13 @@ impl<'a> Runner<'a> {
         if !force && self.last_status.elapsed() < Duration::from_millis(250) {
             return;
         }
+        let stats: RecorderStats = self.recorder.stats();
+        self.status_with(stats);
+    }
+
+    /// Sends a status line now with the recorder's counts `stats` (the counts a pause's reason
+    /// gives too, so that both say the same).
+    pub(super) fn status_with(&mut self, stats: RecorderStats) {
         self.last_status = Instant::now();
         let total = self.setup.program.points.len() as u64;
         let left = total.saturating_sub(self.points_done);
@@ -284,7 +299,6 @@ impl<'a> Runner<'a> {
             let estimate = self.setup.program.estimate(&self.setup.limits).total;
             estimate.mul_f64(left as f64 / total.max(1) as f64)
         };
-        let stats: RecorderStats = self.recorder.stats();
         let force_n = self
             .monitor
             .mean_of_last(50)

@@ -7,7 +7,8 @@ use super::certificate::{
 };
 use super::journal::ScanEntry;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, LATTICE_MM};
-use super::press_plan::press_plan;
+use super::press_plan::{disc_margin, press_plan};
+use super::pruning::prune_rounds;
 use super::rounds::{shapes, Adaptation};
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::adapted_card::{adapted_card, write_adapted};
@@ -90,6 +91,9 @@ pub(crate) fn accept(
     let path = cert.write(&c.dir)?;
     for line in verdict::lines(&v) {
         c.say(line);
+    }
+    if v.pass && !c.keep_runs {
+        prune_rounds(c, &adaptation.runs)?;
     }
     c.say(format!("wrote {}", path.display()));
     c.say(format!("wrote {}", c.dir.join("report.md").display()));
@@ -198,6 +202,7 @@ fn acceptance_entry(
             c.journal.options.sensor,
             points.len()
         ),
+        disc_margin(profile),
     )?;
     let e = ScanEntry {
         run_id: "acceptance".into(),

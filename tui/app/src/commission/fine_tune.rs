@@ -3,6 +3,8 @@
 //! only when it beats the heads alone on that fold. Stopped (Ctrl-C, the screen's `s`), it goes
 //! on from its checkpoint when the commissioning is resumed; finished, a resume reuses it.
 
+#[cfg(feature = "torch")]
+use super::pruning::frames_kept;
 use super::scans::Commissioning;
 use crate::workflow_error::{refuse, WorkflowError};
 use fringe_sensor_models::Model;
@@ -110,6 +112,7 @@ pub(crate) fn run(
                     record: serde_json::json!({ "skipped": why }),
                 }));
             }
+            frames_kept(c, runs, "full fine-tuning (--fine-tune)")?;
             let resume = c
                 .journal
                 .fine_tune_checkpoint

@@ -49,6 +49,13 @@ pub trait Host {
     /// a computation that can stop with a checkpoint (only full fine-tuning, in `torch` builds).
     fn stop_requested(&mut self) -> bool;
 
+    /// Whether the scans' operator prompts are answered without a person (`--yes`): then a scan
+    /// the engine stopped by itself (a point the watchers kept interrupting) is resumed by the
+    /// job, a bounded number of times, instead of waiting for someone to resume it.
+    fn unattended(&self) -> bool {
+        false
+    }
+
     /// A round was scored and learnt from: the learning curve and every press so far with its
     /// error, on the usable disc.
     fn learnt(&mut self, _curve: &[CurvePoint], _pressed: &[PressedPoint], _disc: &UsableDisc) {}

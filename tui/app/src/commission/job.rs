@@ -10,6 +10,7 @@
 
 use super::acceptance::{accept, Accepted};
 use super::certificate::{directory_name, PROFILE};
+use super::cost::{forecast, Cost};
 use super::fine_tune;
 use super::host::Host;
 use super::journal::{FrameSettings, Journal, Options, ScanEntry};
@@ -87,6 +88,7 @@ pub struct Prepared {
     /// The base model, opened and checked.
     base: Model,
     resumed: bool,
+    keep_runs: bool,
 }
 
 impl Prepared {
@@ -97,6 +99,13 @@ impl Prepared {
     /// What the unit must meet.
     pub fn spec(&self) -> &Spec {
         &self.spec
+    }
+
+    /// Keeps every round's frames after a pass (`--keep-runs`); by default they are pruned,
+    /// their features kept.
+    pub fn keep_runs(mut self, keep: bool) -> Prepared {
+        self.keep_runs = keep;
+        self
     }
 
     /// What a resumed commissioning started as, in a line (`None` for a new one).
@@ -146,7 +155,48 @@ pub fn prepare(
         spec,
         base,
         resumed: matches!(request, Request::Resume { .. }),
+        keep_runs: false,
     })
+}
+
+/// What the commissioning `request` would take on the rig (presses, bench time, computation,
+/// disk), checked as [`prepare`] checks it, with nothing made and nothing moved: `fringe
+/// commission --dry-run`. `keep_runs`: every round's frames kept after a pass.
+pub fn dry_run(
+    request: &Request,
+    config: &RigConfig,
+    keep_runs: bool,
+    warn: &mut dyn FnMut(String),
+) -> Result<Cost> {
+    let sensor = config.sensor_id()?;
+    let (options, journal, base) = match request {
+        Request::Resume {
+            dir,
+            budget_min,
+            fine_tune,
+        } => {
+            let mut journal = Journal::read(dir)?;
+            if let Some(b) = budget_min {
+                journal.options.budget_min = checked_budget(*b)?;
+            }
+            journal.options.fine_tune |= *fine_tune;
+            let (base, warning) =
+                rounds::open_base(&journal.options.base, config.sensor_variant()?)?;
+            warning.into_iter().for_each(&mut *warn);
+            (journal.options.clone(), Some(journal), base)
+        }
+        Request::New(n) => {
+            let (options, base) = checked(n, config, &sensor, warn)?;
+            (options, None, base)
+        }
+    };
+    forecast(
+        &options,
+        journal.as_ref(),
+        &rounds::shapes(&base),
+        config,
+        keep_runs,
+    )
 }
 
 /// Runs the commissioning `prepared` on the rig to its verdict (a failing unit is an `Ok` whose
@@ -162,6 +212,7 @@ pub fn run(
         journal,
         spec,
         base,
+        keep_runs,
         ..
     } = prepared;
     let mut c = Commissioning {
@@ -172,7 +223,22 @@ pub fn run(
         host,
         threads,
         compute_s: 0.0,
+        keep_runs,
     };
+    // What it takes, said before anything moves (a rig that cannot say yet, a real one before
+    // its first calibration without a sensor centre, is told so and goes on).
+    match forecast(
+        &c.journal.options,
+        Some(&c.journal),
+        &rounds::shapes(&base),
+        &c.config,
+        keep_runs,
+    ) {
+        Ok(cost) => cost.lines().into_iter().for_each(|l| c.say(l)),
+        Err(e) => c.host.notice(format!(
+            "note: what the commissioning takes cannot be said yet: {e}"
+        )),
+    }
     let profile = calibrate(&mut c)?;
     let adapted = rounds::adapt(&mut c, &base, &profile)?;
     accept(&mut c, &base, &profile, adapted)
@@ -186,6 +252,29 @@ fn started(
     sensor: &str,
     warn: &mut dyn FnMut(String),
 ) -> Result<(PathBuf, Journal, Model)> {
+    let (options, opened) = checked(n, config, sensor, warn)?;
+    let journal = Journal::new(options);
+    let dir = config
+        .profile_dir()
+        .join(directory_name(sensor, &journal.started_utc));
+    std::fs::create_dir_all(dir.join("runs")).with_context(|| {
+        format!(
+            "cannot create the commissioning directory {}",
+            dir.display()
+        )
+    })?;
+    journal.write(&dir)?;
+    Ok((dir, journal, opened))
+}
+
+/// A new commissioning's options, checked (spec, budget, base) before anything moves; the base
+/// model opened.
+fn checked(
+    n: &NewCommissioning,
+    config: &RigConfig,
+    sensor: &str,
+    warn: &mut dyn FnMut(String),
+) -> Result<(Options, Model)> {
     let budget = checked_budget(n.budget_min.unwrap_or(DEFAULT_BUDGET_MIN))?;
     let (spec_text, spec_origin) = if n.spec == PAPER {
         (None, "the paper's custom-CNN row (Table 2)".to_string())
@@ -222,7 +311,7 @@ fn started(
         Some(_) => given,
         None => std::fs::canonicalize(&given).unwrap_or(given),
     };
-    let journal = Journal::new(Options {
+    let options = Options {
         sensor: sensor.to_string(),
         base: base.display().to_string(),
         budget_min: budget,
@@ -234,18 +323,8 @@ fn started(
         last_block: n.last_block,
         fine_tune: n.fine_tune,
         camera: Some(FrameSettings::of(config)?),
-    });
-    let dir = config
-        .profile_dir()
-        .join(directory_name(sensor, &journal.started_utc));
-    std::fs::create_dir_all(dir.join("runs")).with_context(|| {
-        format!(
-            "cannot create the commissioning directory {}",
-            dir.display()
-        )
-    })?;
-    journal.write(&dir)?;
-    Ok((dir, journal, opened))
+    };
+    Ok((options, opened))
 }
 
 fn checked_budget(minutes: f64) -> Result<f64> {

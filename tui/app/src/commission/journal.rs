@@ -151,6 +151,10 @@ pub struct Journal {
     /// stopped.
     #[serde(default)]
     pub fine_tune_checkpoint: Option<String>,
+    /// Rounds whose frames were pruned after the commissioning passed (their features and
+    /// records kept); empty in journals written before pruning.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pruned: Vec<String>,
 }
 
 /// A journal that cannot be used.
@@ -181,6 +185,7 @@ impl Journal {
             rounds: Vec::new(),
             acceptance: None,
             fine_tune_checkpoint: None,
+            pruned: Vec::new(),
         }
     }
 

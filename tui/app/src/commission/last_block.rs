@@ -1,6 +1,7 @@
 //! Step 3's second candidate: the custom CNN's last block trained again with its heads on the
 //! rounds' frames (pure Rust), kept only when it beats the heads alone on presses it never saw.
 
+use super::pruning::frames_kept;
 use super::scans::Commissioning;
 use crate::workflow_error::WorkflowError;
 use fringe_sensor_models::adapt::{fit_heads, held_out_presses, AdaptConfig};
@@ -26,6 +27,7 @@ pub(crate) fn train(
     let Some(base_weights) = base.weights() else {
         return Ok(None);
     };
+    frames_kept(c, runs, "--last-block")?;
     let started = Instant::now();
     let sources = runs
         .iter()

@@ -8,7 +8,8 @@ use super::journal::ScanEntry;
 use super::last_block;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
 use super::press_errors::round_errors;
-use super::press_plan::press_plan;
+use super::press_plan::{disc_margin, press_plan};
+use super::pruning::features_path;
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
@@ -147,6 +148,7 @@ pub(crate) fn check_budget(config: &RigConfig, base: &Model, budget_min: f64) ->
         &points,
         &shapes,
         "the fewest presses an adaptation needs",
+        None,
     )?;
     let need_s = estimate_s(&plan, config)?;
     if need_s > 60.0 * budget_min {
@@ -191,6 +193,7 @@ pub(crate) fn adapt(
     ));
     let mut state = Rounds {
         disc,
+        disc_margin: disc_margin(profile),
         features: Features::empty(),
         weights: base_weights.clone(),
         adapted: None,
@@ -207,6 +210,16 @@ pub(crate) fn adapt(
                 None => break,
             },
         };
+        // A round learnt from before is not read again: its features were kept (a journal of
+        // an older fringe kept none, and its round is read once more, then kept).
+        if entry.completed {
+            if let Some(features) = kept_features(c, &entry.run_id) {
+                let run_dir = c.dir.join("runs").join(&entry.run_id);
+                state.learn_from(c, base_weights, features, &run_dir, round)?;
+                round += 1;
+                continue;
+            }
+        }
         let (run_dir, took) = scan(c, &entry, ProfileUse::Consume)?;
         if let Some(e) = c.journal.rounds.get_mut(round) {
             e.took_s = Some(e.took_s.unwrap_or(0.0) + took);
@@ -261,6 +274,8 @@ pub(crate) fn adapt(
 struct Rounds {
     /// Where presses go (the first round's path starts at its centre).
     disc: UsableDisc,
+    /// The margin of the disc's square the rounds store ([`disc_margin`]).
+    disc_margin: Option<f64>,
     features: Features,
     /// The heads as adapted so far (the base model's before any fit).
     weights: StateDict,
@@ -271,8 +286,8 @@ struct Rounds {
 }
 
 impl Rounds {
-    /// A round's run: its frames predicted by the current heads (the curve, the errors by
-    /// position), then added to the frames adapted on and the heads fitted again.
+    /// A round's run: its features read (and kept in the commissioning directory, so that a
+    /// resume does not read them again), then learnt from ([`Rounds::learn_from`]).
     fn learn(
         &mut self,
         c: &mut Commissioning<'_>,
@@ -288,6 +303,28 @@ impl Rounds {
         let features = Features::read(base, &[source], None, threads, |d, t| {
             host.frames("reading the round's features", d, t)
         })?;
+        // Kept so that a resume does not read them again; a round whose features could not
+        // be kept is read again then, and its frames are never pruned.
+        if let Some(id) = run_dir.file_name() {
+            if let Err(e) = features.save(&features_path(&c.dir, &id.to_string_lossy())) {
+                c.host.notice(format!("warning: {e}"));
+            }
+        }
+        c.compute_s += started.elapsed().as_secs_f64();
+        self.learn_from(c, base_weights, features, run_dir, round)
+    }
+
+    /// A round's features predicted by the current heads (the curve, the errors by position),
+    /// then added to the frames adapted on and the heads fitted again.
+    fn learn_from(
+        &mut self,
+        c: &mut Commissioning<'_>,
+        base_weights: &StateDict,
+        features: Features,
+        run_dir: &Path,
+        round: usize,
+    ) -> Result<()> {
+        let started = Instant::now();
         let scores = head_scores(&self.weights, &features)?;
         let errors = round_errors(
             round + 1,
@@ -324,6 +361,24 @@ impl Rounds {
         }
         c.compute_s += started.elapsed().as_secs_f64();
         Ok(())
+    }
+}
+
+/// The features kept of the round `run_id`, when there are and they read; a file that does not
+/// read is said and passed over (the round is read from its run again).
+fn kept_features(c: &mut Commissioning<'_>, run_id: &str) -> Option<Features> {
+    let path = features_path(&c.dir, run_id);
+    if !path.is_file() {
+        return None;
+    }
+    match Features::load(&path) {
+        Ok(f) => Some(f),
+        Err(e) => {
+            c.host.notice(format!(
+                "warning: {e}; the round's features are read from its run again"
+            ));
+            None
+        }
     }
 }
 
@@ -414,6 +469,7 @@ fn sized_round(
                 c.journal.options.sensor,
                 points.len()
             ),
+            state.disc_margin,
         )?;
         let estimate = estimate_s(&plan, &c.config)?;
         if estimate <= left {
@@ -525,8 +581,14 @@ mod tests {
             fringe_sensor_models::builtin::commissioning_base(variant).expect("builtin base");
         let (base, _) = open_base(&base_path.display().to_string(), variant).expect("base");
         let disc = UsableDisc::from_profile(&profile).expect("disc");
-        let plan =
-            press_plan("round-1", &[disc.centre_mm], &shapes(&base), "a test round").expect("plan");
+        let plan = press_plan(
+            "round-1",
+            &[disc.centre_mm],
+            &shapes(&base),
+            "a test round",
+            None,
+        )
+        .expect("plan");
         let mut journal = Journal::new(Options {
             sensor: "unit-1".into(),
             base: base_path.display().to_string(),
@@ -560,6 +622,7 @@ mod tests {
                 host,
                 threads: 1,
                 compute_s: 0.0,
+                keep_runs: false,
             };
             match adapt(&mut c, &base, &profile) {
                 Ok(_) => panic!("adapted on a round without frames"),

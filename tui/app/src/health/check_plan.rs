@@ -77,6 +77,7 @@ pub(crate) fn check_plan(
                  compared with what it was accepted with",
                 positions.len()
             ),
+            None,
         )?;
         let estimate_s = estimate(&plan).map_err(CheckPlanError::Estimate)?;
         if estimate_s <= MAX_BENCH_S {
