@@ -330,7 +330,8 @@ fn a_unit_is_commissioned_unattended_through_camera_drops() {
     for said in [
         "presses, bench time",
         "computation about",
-        "written,",
+        "disk at most",
+        "written in all",
         "kept after a pass",
     ] {
         assert!(cost.contains(said), "{cost}");

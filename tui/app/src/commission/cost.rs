@@ -12,6 +12,7 @@
 use super::journal::{Journal, Options};
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
 use super::press_plan::{disc_margin, press_plan};
+use super::pruning::prunes_as_read;
 use crate::rig::file::RigConfig;
 use crate::session::calibration_scan::CalibrationGrid;
 use crate::session::disk_space::Recording;
@@ -54,6 +55,9 @@ pub struct Cost {
     pub compute_s: f64,
     /// The round's frames are kept after a pass (`--keep-runs`).
     pub keep_runs: bool,
+    /// Each round's frames go as soon as its features are kept (neither `--keep-runs` nor a
+    /// candidate that trains on frames, `--last-block`, `--fine-tune`).
+    pub prunes_as_read: bool,
     /// Full fine-tuning's share of `compute_s`, s.
     pub fine_tune_s: f64,
 }
@@ -70,6 +74,20 @@ impl Cost {
     /// Bytes written while the job runs (every scan whole).
     pub fn written_bytes(&self) -> u64 {
         self.scans.iter().map(|s| s.size.total_bytes()).sum()
+    }
+
+    /// The most bytes on disk at once: every scan whole, less each round's frames once read
+    /// when [`Cost::prunes_as_read`].
+    pub fn peak_bytes(&self) -> u64 {
+        let (mut now, mut peak) = (0u64, 0u64);
+        for s in &self.scans {
+            now += s.size.total_bytes();
+            peak = peak.max(now);
+            if self.prunes_as_read && s.name.starts_with("round-") {
+                now -= s.size.frames_bytes;
+            }
+        }
+        peak
     }
 
     /// Bytes kept after a pass: the rounds' frames pruned unless `keep_runs`.
@@ -124,7 +142,7 @@ impl Cost {
         out.insert(
             0,
             format!(
-                "what it takes (estimated from the plans' motion and the codec's bytes per frame): {} presses, bench time {}, computation about {} ({frames} frames{}), disk {} written, {} kept after a pass{}",
+                "what it takes (estimated from the plans' motion and the codec's bytes per frame): {} presses, bench time {}, computation about {} ({frames} frames{}), disk at most {} at once ({} written in all), {} kept after a pass{}",
                 self.presses(),
                 minutes(self.bench_s()),
                 minutes(self.compute_s),
@@ -133,12 +151,15 @@ impl Cost {
                 } else {
                     String::new()
                 },
+                human_bytes(self.peak_bytes()),
                 human_bytes(self.written_bytes()),
                 human_bytes(self.kept_bytes()),
                 if self.keep_runs {
                     " (--keep-runs: every round's frames kept)"
+                } else if self.prunes_as_read {
+                    " (each round's frames pruned once its features are kept; --keep-runs keeps them)"
                 } else {
-                    " (the rounds' frames pruned, their features kept; --keep-runs keeps them)"
+                    " (the rounds' frames pruned after a pass, their features kept; --keep-runs keeps them)"
                 }
             ),
         );
@@ -308,6 +329,7 @@ pub(crate) fn forecast(
         rounds_done: done.len(),
         compute_s: per_frame * computed as f64 + fine_tune_s,
         keep_runs,
+        prunes_as_read: prunes_as_read(keep_runs, options.last_block, options.fine_tune),
         fine_tune_s,
     })
 }
@@ -435,8 +457,25 @@ mod tests {
         let acceptance = cost.scans.last().expect("acceptance");
         assert_eq!((acceptance.positions, acceptance.presses), (10, 20));
         assert!(cost.kept_bytes() < cost.written_bytes());
+        // Each round's frames go once read: never two rounds' frames on disk at once.
+        let largest_round = rounds.iter().map(|r| r.size.frames_bytes).max().unwrap_or(0);
+        assert!(cost.prunes_as_read);
+        assert!(
+            cost.peak_bytes() <= cost.kept_bytes() + largest_round,
+            "peak {} kept {} round {largest_round}",
+            cost.peak_bytes(),
+            cost.kept_bytes()
+        );
         let kept = forecast(&options(10.0), None, &shapes, &config, true).expect("forecast");
         assert_eq!(kept.kept_bytes(), kept.written_bytes());
+        assert_eq!(kept.peak_bytes(), kept.written_bytes());
+        // A candidate that trains on the rounds' frames keeps them until the commissioning ends.
+        let mut block = options(10.0);
+        block.last_block = true;
+        let block = forecast(&block, None, &shapes, &config, false).expect("forecast");
+        assert!(!block.prunes_as_read);
+        assert_eq!(block.peak_bytes(), block.written_bytes());
+        assert_eq!(block.kept_bytes(), cost.kept_bytes());
         assert!(cost.compute_s > 0.0);
         // Twice the budget: more rounds, never over it.
         let more = forecast(&options(20.0), None, &shapes, &config, false).expect("forecast");

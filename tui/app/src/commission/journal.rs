@@ -151,8 +151,8 @@ pub struct Journal {
     /// stopped.
     #[serde(default)]
     pub fine_tune_checkpoint: Option<String>,
-    /// Rounds whose frames were pruned after the commissioning passed (their features and
-    /// records kept); empty in journals written before pruning.
+    /// Rounds whose frames were pruned (their features and records kept): once their features
+    /// were kept, or after the commissioning passed; empty in journals written before pruning.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub pruned: Vec<String>,
 }

@@ -9,7 +9,7 @@ use super::last_block;
 use super::press_choice::{choose, tour, PressedPoint, UsableDisc, COVERAGE_MM, LATTICE_MM};
 use super::press_errors::round_errors;
 use super::press_plan::{disc_margin, press_plan};
-use super::pruning::features_path;
+use super::pruning::{features_path, prune_read_round};
 use super::scans::{estimate_s, scan, set_aside, Commissioning};
 use crate::models::choice::open_model;
 use crate::rig::file::RigConfig;
@@ -240,6 +240,7 @@ pub(crate) fn adapt(
             e.completed = true;
         }
         c.journal.write(&c.dir)?;
+        prune_read_round(c, &run_dir)?;
         round += 1;
     }
     let Some(adapted) = state.adapted else {
