@@ -524,6 +524,7 @@ mod tests {
             metrics,
             rows: out,
             skipped: 0,
+            skipped_busy: 0,
         }
     }
 

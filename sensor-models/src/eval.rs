@@ -30,6 +30,9 @@ pub struct Evaluation {
     pub rows: Vec<Row>,
     /// Records left out by the sources (no trustworthy label).
     pub skipped: usize,
+    /// Frames live validation offered the model and skipped while it was busy (the newest
+    /// frames are run); 0 for a stored run, whose every frame is run.
+    pub skipped_busy: usize,
 }
 
 /// Why an evaluation stopped.
@@ -278,5 +281,6 @@ pub fn evaluate(
         metrics,
         rows,
         skipped: sources.iter().map(|s| s.skipped).sum(),
+        skipped_busy: 0,
     })
 }

@@ -60,10 +60,18 @@ pub fn markdown(title: &str, eval: &Evaluation) -> String {
     let s = m.macro_scores();
     let mut out = String::new();
     let _ = writeln!(out, "# {title}\n");
+    // Live validation offers only labelled frames: what it left out, it skipped while busy.
+    let left_out = match (eval.skipped, eval.skipped_busy) {
+        (n, 0) => format!("{n} left out: no trustworthy label"),
+        (0, busy) => format!("{busy} skipped: the model was still busy with an earlier frame"),
+        (n, busy) => format!(
+            "{n} left out: no trustworthy label; {busy} skipped: the model was still busy with an earlier frame"
+        ),
+    };
     let _ = writeln!(
         out,
-        "{} frames evaluated ({} left out: no trustworthy label), {} in contact.\n",
-        m.all.n, eval.skipped, m.all.n_contact
+        "{} frames evaluated ({left_out}), {} in contact.\n",
+        m.all.n, m.all.n_contact
     );
     let _ = writeln!(
         out,
@@ -252,6 +260,7 @@ mod tests {
             metrics,
             rows,
             skipped: 0,
+            skipped_busy: 0,
         }
     }
 
@@ -280,5 +289,33 @@ mod tests {
             assert_eq!(img.dimensions(), (PX, PX), "{png}");
         }
         assert!(md.ends_with("report.md"));
+    }
+
+    /// A live validation's frames skipped while the model was busy are said as such, never as
+    /// frames without a trustworthy label (which a stored run's report keeps saying).
+    #[test]
+    fn the_report_gives_the_reason_frames_were_left_out() {
+        let mut eval = evaluation();
+        let stored = markdown("t", &eval);
+        assert!(
+            stored
+                .contains("40 frames evaluated (0 left out: no trustworthy label), 40 in contact."),
+            "{stored}"
+        );
+        eval.skipped_busy = 131;
+        let live = markdown("t", &eval);
+        assert!(
+            live.contains("(131 skipped: the model was still busy with an earlier frame)"),
+            "{live}"
+        );
+        assert!(!live.contains("trustworthy"), "{live}");
+        eval.skipped = 4;
+        let both = markdown("t", &eval);
+        assert!(
+            both.contains(
+                "(4 left out: no trustworthy label; 131 skipped: the model was still busy"
+            ),
+            "{both}"
+        );
     }
 }

@@ -458,7 +458,11 @@ mod tests {
         assert_eq!((acceptance.positions, acceptance.presses), (10, 20));
         assert!(cost.kept_bytes() < cost.written_bytes());
         // Each round's frames go once read: never two rounds' frames on disk at once.
-        let largest_round = rounds.iter().map(|r| r.size.frames_bytes).max().unwrap_or(0);
+        let largest_round = rounds
+            .iter()
+            .map(|r| r.size.frames_bytes)
+            .max()
+            .unwrap_or(0);
         assert!(cost.prunes_as_read);
         assert!(
             cost.peak_bytes() <= cost.kept_bytes() + largest_round,

@@ -264,6 +264,7 @@ impl Shared {
             metrics: Metrics::new(self.classes.clone()),
             rows: Vec::new(),
             skipped: 0,
+            skipped_busy: 0,
         };
         for f in frames.iter() {
             self.tally(&mut state, &mut evaluation, &f.label, &f.prediction);
@@ -372,6 +373,7 @@ impl LiveValidation {
                 metrics: Metrics::new(model.classes.clone()),
                 rows: Vec::new(),
                 skipped: 0,
+                skipped_busy: 0,
             }),
             frames: Mutex::new(Vec::new()),
             classes: model.classes.clone(),
@@ -437,7 +439,7 @@ impl LiveValidation {
         self.close();
         let state = self.state();
         let mut evaluation = lock(&self.shared.evaluation).clone();
-        evaluation.skipped = state.skipped as usize;
+        evaluation.skipped_busy = state.skipped as usize;
         let frames = std::mem::take(&mut *lock(&self.shared.frames));
         Validation {
             evaluation,
