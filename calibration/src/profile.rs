@@ -139,6 +139,15 @@ pub fn profile_path(dir: &Path, sensor_id: &str) -> Result<PathBuf, ProfileError
 }
 
 impl Profile {
+    /// The radius of the disc the frames are cropped to, in stage millimetres, when the
+    /// profile holds a registration (the crop radius over the pixels per millimetre).
+    pub fn disc_radius_mm(&self) -> Option<f64> {
+        self.registration
+            .as_ref()
+            .filter(|r| r.px_per_mm > 0.0)
+            .map(|r| self.optical.crop_radius_px / r.px_per_mm)
+    }
+
     /// A new profile from an optical fit, dated now.
     pub fn from_fit(sensor_id: &str, source: &str, fit: &DiscFit) -> Profile {
         Profile {

@@ -113,7 +113,8 @@ impl Pane {
     }
 
     /// Quits with `q` and checks the terminal is back: primary screen, cursor shown, exit 0.
-    fn quit_cleanly(&self) {
+    /// The screen after quitting.
+    fn quit_cleanly(&self) -> String {
         self.keys("q");
         let screen = self.wait_for("fringe exited", Duration::from_secs(30));
         assert!(screen.contains("fringe exited 0"), "{screen}");
@@ -123,6 +124,7 @@ impl Pane {
         );
         assert_eq!(self.flag("alternate_on"), "0", "alternate screen left on");
         assert_eq!(self.flag("cursor_flag"), "1", "cursor left hidden");
+        screen
     }
 }
 
@@ -210,7 +212,14 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
         "{} label lines",
         labels.lines().count()
     );
-    pane.quit_cleanly();
+    // Quitting says where the session's run went.
+    let after = pane.quit_cleanly();
+    assert!(after.contains("fringe: 1 scan in this session:"), "{after}");
+    assert!(
+        after.contains("short-grid: completed: 6 of 6 points")
+            && after.contains(name.as_deref().unwrap_or("?")),
+        "{after}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -317,7 +326,7 @@ fn the_bench_screen_homes_and_jogs_z_within_its_soft_limits() {
     // Leaving the screen releases the bench; quitting leaves the terminal clean.
     pane.keys("1");
     pane.wait_for("ready: press r to run", Duration::from_secs(10));
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -431,7 +440,7 @@ fn the_bench_screen_refuses_moves_across_the_sensor_and_the_tare_in_contact() {
     pane.wait_for("F/T sensor tared", Duration::from_secs(10));
     pane.keys("1");
     pane.wait_for("ready: press r to run", Duration::from_secs(10));
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -462,7 +471,7 @@ fn the_bench_screen_says_when_the_net_ft_box_rebooted_and_tares_again_on_t() {
     pane.wait_for("F/T sensor tared", Duration::from_secs(10));
     pane.keys("1");
     pane.wait_for("ready: press r to run", Duration::from_secs(10));
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
 }
 
 #[test]
@@ -508,7 +517,7 @@ fn the_calibrate_screen_fits_a_profile_from_its_scan_and_writes_it_on_w() {
         profile.with_extension("png").exists(),
         "report image in {files:?}"
     );
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -555,7 +564,7 @@ fn live_validation_in_the_ui_with_the_default_model_shows_metrics_that_move() {
     pane.keys("2");
     let end = pane.wait_for("Fz RMSE", Duration::from_secs(5));
     assert!(frames(&end).is_some_and(|n| n > n0), "{end}");
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -690,7 +699,7 @@ fn a_commissioning_from_the_ui_stops_resumable_and_goes_on_without_pressing_agai
     // Stopped again in its first round, then the UI quits cleanly.
     pane.keys("s");
     pane.wait_answering("stopped: ", Duration::from_secs(120));
-    pane.quit_cleanly();
+    let _ = pane.quit_cleanly();
     let _ = std::fs::remove_dir_all(&dir);
 }
 

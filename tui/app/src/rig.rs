@@ -27,6 +27,7 @@ pub(crate) mod simulated;
 #[cfg(not(feature = "sim"))]
 #[path = "rig/no_simulated.rs"]
 pub(crate) mod simulated;
+pub(crate) mod unit_profile;
 
 pub use device_open::{open_axis, open_modbus, open_thorlabs, DeviceError, TraceTo};
 pub use device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
@@ -45,3 +46,4 @@ pub use simulated::{
     config as sim_config, sensor_by_name, sensor_profile, CalibrationTruth, RegistrationTruth,
     SensorNameError, SimBench,
 };
+pub use unit_profile::unit_profile;

@@ -67,7 +67,8 @@ pub fn run_ui() -> anyhow::Result<()> {
     let model = crate::ui::ModelChoice::for_rig(&config);
     crate::ui::run(crate::ui::UiOptions {
         config,
-        rig: source.describe(),
+        rig: source.short(),
+        rig_note: source.describe(),
         plan_text: SHORT_GRID.text.to_string(),
         plan_origin: SHORT_GRID.origin(),
         runs: PathBuf::from("runs"),

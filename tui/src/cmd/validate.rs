@@ -159,7 +159,8 @@ fn run_ui(
     }
     crate::ui::run(crate::ui::UiOptions {
         config,
-        rig: source.describe(),
+        rig: source.short(),
+        rig_note: source.describe(),
         plan_text: text,
         plan_origin: origin,
         runs: a.out.clone(),

@@ -22,7 +22,10 @@ use std::path::{Path, PathBuf};
 /// How the UI starts.
 pub struct UiOptions {
     pub config: RigConfig,
+    /// The rig in a few words (the header).
     pub rig: String,
+    /// The rig as the command line says it (with any advice): the Scan screen's first message.
+    pub rig_note: String,
     pub plan_text: String,
     pub plan_origin: String,
     pub runs: PathBuf,
@@ -47,6 +50,8 @@ pub struct App {
     /// The bench, open while the Bench screen is shown and no scan holds the devices.
     pub bench: Option<BenchSession>,
     pub quit: bool,
+    /// How each scan of this session ended, a line each, said when the UI ends.
+    pub ended: Vec<String>,
     /// The worker threads' panics while the UI ran ([`App::worker_failed`]), said again when it
     /// ends.
     pub worker_failures: Vec<String>,
@@ -58,12 +63,25 @@ impl App {
         // From the rig file and the profiles only; the Scan screen leaves the size out when
         // they cannot tell it (a scan then says why).
         let recording = Recording::from_rig_files(&opts.config, Some(&program.plan)).ok();
-        let scan = plan_choice::scan_view(
+        let mut scan = plan_choice::scan_view(
             program,
             limits,
             origin.map_or((0.0, 0.0), |o| (o.x.0, o.y.0)),
             recording.as_ref(),
         );
+        // The plan is drawn on the disc before it runs: the unit's profile on file (on the
+        // simulated bench, its design's); a scan then sends the geometry it opened with.
+        scan.disc_radius_mm = opts
+            .config
+            .sensor_id()
+            .ok()
+            .and_then(|id| {
+                fringe_app::rig::unit_profile(&opts.config, &id)
+                    .ok()
+                    .flatten()
+            })
+            .and_then(|p| p.disc_radius_mm());
+        scan.log(format!("rig: {}", opts.rig_note));
         let plans = plan_choice::available(
             PlanSource {
                 label: opts.plan_origin.clone(),
@@ -78,6 +96,7 @@ impl App {
             help: false,
             rig: opts.rig.clone(),
             scan,
+            scan_whole_disc: false,
             model: opts.model.as_ref().map(|m| m.path.display().to_string()),
             validation: None,
             runs: RunsView {
@@ -108,6 +127,7 @@ impl App {
             running: None,
             bench: None,
             quit: false,
+            ended: Vec::new(),
             worker_failures: Vec::new(),
         }
     }
@@ -148,6 +168,9 @@ impl App {
         if gone && self.scan_active() {
             let why = "the scan thread ended without telling how the scan ended".to_string();
             ends.extend(scan_events::apply(&mut self.state, Event::Failed(why)));
+        }
+        for end in &ends {
+            self.note_end(end);
         }
         if !ends.is_empty() {
             self.refresh_runs();
@@ -240,6 +263,13 @@ impl App {
             if let Some(t) = r.thread.take() {
                 let _ = t.join();
             }
+            // Its end, told as it stopped, is said when the UI ends.
+            let events: Vec<Event> = r.events.try_iter().collect();
+            for e in events {
+                if let Some(end) = scan_events::apply(&mut self.state, e) {
+                    self.note_end(&end);
+                }
+            }
             // The last validation state stays on screen.
             if let Some(v) = r
                 .validation
@@ -250,6 +280,20 @@ impl App {
                 self.state.validation = Some(v.state());
             }
         }
+    }
+
+    /// Keeps how a scan ended, for the lines said when the UI ends.
+    fn note_end(&mut self, end: &ScanEnd) {
+        let plan = &self.state.scan.plan;
+        self.ended.push(match end {
+            ScanEnd::Ended {
+                completed: true,
+                summary,
+                ..
+            } => format!("{plan}: completed: {summary}"),
+            ScanEnd::Ended { summary, .. } => format!("{plan}: stopped: {summary}"),
+            ScanEnd::Failed(why) => format!("{plan}: failed: {why}"),
+        });
     }
 
     /// Pauses the running scan after the current press, or `now` (z retracts).

@@ -43,6 +43,23 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
     let interrupted = signals::stop_requested() || result.is_err();
     app.stop_scan(interrupted);
     app.close_bench();
+    // Where this session's runs went, on the normal screen.
+    let mut out = std::io::stdout();
+    match app.ended.len() {
+        0 => {
+            let _ = writeln!(out, "fringe: no scan was run in this session");
+        }
+        n => {
+            let _ = writeln!(
+                out,
+                "fringe: {n} scan{} in this session:",
+                if n == 1 { "" } else { "s" }
+            );
+            for line in &app.ended {
+                let _ = writeln!(out, "  {line}");
+            }
+        }
+    }
     // A worker that failed while the UI ran is said again on the normal screen, and the exit
     // status says it.
     app.worker_failures.extend(worker_panics::take());

@@ -223,11 +223,7 @@ fn run(
 /// Tells the UI the disc: the contact origin and, with a registration, the disc's radius.
 fn send_geometry(session: &ScanSession, events: &Sender<Event>) {
     let geometry = session.geometry_profile();
-    let disc_radius_mm = geometry.as_ref().and_then(|(p, _)| {
-        p.registration
-            .as_ref()
-            .map(|r| p.optical.crop_radius_px / r.px_per_mm)
-    });
+    let disc_radius_mm = geometry.as_ref().and_then(|(p, _)| p.disc_radius_mm());
     let origin = &session.setup.origin;
     let _ = events.send(Event::Geometry {
         origin_mm: (origin.x.0, origin.y.0),

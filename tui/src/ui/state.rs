@@ -294,6 +294,8 @@ pub struct UiState {
     /// The rig, described.
     pub rig: String,
     pub scan: ScanView,
+    /// The Scan screen draws the whole disc even for a plan small on it (`d`).
+    pub scan_whole_disc: bool,
     /// The model chosen for validation (none: the Validate screen says how to choose one).
     pub model: Option<String>,
     pub validation: Option<ValidationState>,

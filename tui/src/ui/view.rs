@@ -42,7 +42,7 @@ pub fn draw(f: &mut Frame, s: &UiState) {
         tabs_area,
     );
     f.render_widget(
-        Paragraph::new(format!("fringe · {}", s.rig))
+        Paragraph::new(shortened(&format!("fringe · {}", s.rig), rig_area.width))
             .style(Style::new().add_modifier(Modifier::DIM)),
         rig_area,
     );
@@ -112,3 +112,14 @@ fn draw_picker(f: &mut Frame, p: &Picker) {
 
 #[cfg(test)]
 mod tests;
+
+/// `text` cut to `width` columns, ending in `…` when cut.
+pub(crate) fn shortened(text: &str, width: u16) -> String {
+    let width = usize::from(width);
+    if text.chars().count() <= width {
+        return text.to_string();
+    }
+    let mut out: String = text.chars().take(width.saturating_sub(1)).collect();
+    out.push('…');
+    out
+}

@@ -17,7 +17,6 @@ use crate::rig::file::RigConfig;
 use crate::session::calibration_scan::CalibrationGrid;
 use crate::session::disk_space::Recording;
 use crate::workflow_error::WorkflowError;
-use fringe_calibration::Profile;
 use fringe_rig::store::human_bytes;
 use fringe_rig::store::RunSize;
 use fringe_rig::{Plan, ScanProgram};
@@ -213,7 +212,8 @@ pub(crate) fn forecast(
             config,
         )?);
     }
-    let profile = forecast_profile(config, &options.sensor)?;
+    // The profile the rounds will press by.
+    let profile = crate::rig::unit_profile(config, &options.sensor)?;
     let margin = profile.as_ref().and_then(disc_margin);
     let disc = match &profile {
         Some(p) => Some(UsableDisc::from_profile(p)?),
@@ -332,25 +332,6 @@ pub(crate) fn forecast(
         prunes_as_read: prunes_as_read(keep_runs, options.last_block, options.fine_tune),
         fine_tune_s,
     })
-}
-
-/// The profile the rounds will press by: the unit's on file, else on the simulated bench its
-/// design's; `None` on a real rig before its first calibration.
-fn forecast_profile(config: &RigConfig, sensor: &str) -> Result<Option<Profile>> {
-    let on_file = fringe_calibration::profile_path(&config.profile_dir(), sensor)
-        .ok()
-        .filter(|p| p.is_file())
-        .and_then(|p| Profile::load(&p).ok());
-    let profile = match on_file {
-        Some(p) => Some(p),
-        #[cfg(feature = "sim")]
-        None if config.is_simulated() => Some(crate::rig::simulated::design_profile(
-            &crate::rig::simulated::config(config)?,
-            sensor,
-        )),
-        None => None,
-    };
-    Ok(profile)
 }
 
 /// The stage positions of a press plan's `[grid] points`.

@@ -278,6 +278,16 @@ pub enum RigSource {
 }
 
 impl RigSource {
+    /// The rig in a few words, for a header line: the file, or the simulated bench (the advice
+    /// [`RigSource::describe`] gives left out).
+    pub fn short(&self) -> String {
+        match self {
+            RigSource::File(p) => p.display().to_string(),
+            RigSource::Default(p) => format!("{} (working directory)", p.display()),
+            RigSource::Simulated => "simulated bench (no rig.toml)".into(),
+        }
+    }
+
     pub fn describe(&self) -> String {
         match self {
             RigSource::File(p) => p.display().to_string(),

@@ -9,7 +9,7 @@ use crate::ui::binding::{self, char, Binding, HelpRow, Scope};
 use crate::ui::picture::Picture;
 use crate::ui::screen::{Screen, ScreenDef};
 use crate::ui::state::{Phase, ScanView, Tab, UiState};
-use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
+use crate::ui::widgets::disc::{aspect, canvas_about, Disc, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
 use crate::ui::widgets::{panel, ACCENT, BAD, GOOD, MEASURED, PENDING, WARN};
 use fringe_rig::store::human_bytes as human;
@@ -17,7 +17,7 @@ use ratatui::crossterm::event::{KeyCode, KeyModifiers};
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Style};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Gauge, List, ListItem, Paragraph};
+use ratatui::widgets::{Gauge, Paragraph, Wrap};
 use ratatui::Frame;
 
 /// This screen, by name: `UiState::tab` when it is shown; the command line and other code
@@ -41,6 +41,7 @@ enum Action {
     PauseNow,
     Continue,
     Abort,
+    WholeDisc,
 }
 
 const KEYS: &[Binding<Action>] = &[
@@ -86,6 +87,14 @@ const KEYS: &[Binding<Action>] = &[
         label: "a",
         help: "abort the scan (z retracts, the run is closed)",
     },
+    Binding {
+        keys: &[char('d')],
+        scope: Scope::Shown,
+        action: Action::WholeDisc,
+        // Said where it applies: the plan panel's title, when the plan is small on its disc.
+        label: "",
+        help: "",
+    },
 ];
 
 fn help() -> Vec<HelpRow> {
@@ -122,6 +131,7 @@ impl Screen for ScanKeys {
             Action::PauseNow => app.pause(true),
             Action::Continue => app.resume(),
             Action::Abort => app.abort(),
+            Action::WholeDisc => app.state.scan_whole_disc = !app.state.scan_whole_disc,
         }
         true
     }
@@ -133,10 +143,14 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
         Layout::horizontal([Constraint::Percentage(40), Constraint::Percentage(60)]).areas(area);
     let [disc_area, log_area] =
         Layout::vertical([Constraint::Percentage(60), Constraint::Percentage(40)]).areas(left);
-    draw_plan(f, disc_area, v);
+    draw_plan(f, disc_area, v, s.scan_whole_disc);
     draw_log(f, log_area, v);
+    // The phase line (a scan's end with its summary) wraps: the panel grows to hold it.
+    let (phase, _) = phase_text(&v.phase);
+    let inner = usize::from(right.width.saturating_sub(2)).max(1);
+    let phase_rows = phase.chars().count().div_ceil(inner).max(1) as u16;
     let [status_area, gauge_area, bottom] = Layout::vertical([
-        Constraint::Length(7),
+        Constraint::Length(6 + phase_rows),
         Constraint::Length(1),
         Constraint::Min(0),
     ])
@@ -150,7 +164,7 @@ fn draw(f: &mut Frame, area: Rect, s: &UiState) {
 }
 
 /// The plan on the disc: all points and the path; done points green; the current one yellow.
-fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView) {
+fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView, whole_disc: bool) {
     let all: Vec<(f64, f64)> = v.points.iter().map(|p| (p.x_mm, p.y_mm)).collect();
     let done: Vec<(f64, f64)> = all.iter().copied().take(v.done as usize).collect();
     let current: Vec<(f64, f64)> = v
@@ -168,18 +182,24 @@ fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView) {
             Glyph::Dots
         }
     };
-    let extent = all
-        .iter()
-        .map(|(x, y)| ((x - v.origin_mm.0).powi(2) + (y - v.origin_mm.1).powi(2)).sqrt())
-        .fold(1.0f64, f64::max);
-    let radius = v.disc_radius_mm.unwrap_or(extent * 1.2).max(extent);
-    let title = format!("{}: {} points", v.plan, v.points.len());
+    let (centre, radius, disc, zoom) = plan_view(v, &all, whole_disc);
+    let title = match (v.disc_radius_mm, zoom) {
+        (Some(_), Some(z)) => format!(
+            "{}: {} points · ×{z:.0} on the disc · d: whole disc",
+            v.plan,
+            v.points.len()
+        ),
+        (Some(_), None) if close_up_helps(v, &all) => {
+            format!("{}: {} points · d: close up", v.plan, v.points.len())
+        }
+        _ => format!("{}: {} points", v.plan, v.points.len()),
+    };
     f.render_widget(
-        canvas(
+        canvas_about(
             panel(&title),
-            v.origin_mm,
+            centre,
             radius,
-            v.disc_radius_mm.is_some(),
+            disc,
             vec![
                 Layer {
                     coords: &all,
@@ -206,9 +226,72 @@ fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView) {
     );
 }
 
-/// The scan's messages, newest first; warnings in yellow.
+/// A plan this much smaller than the disc (its reach from its own centre over the disc's
+/// radius) is drawn close up, its points apart; the whole disc is a key away.
+const CLOSE_UP_BELOW: f64 = 0.4;
+
+/// Whether the plan `all` is small enough on `v`'s disc to be drawn close up.
+fn close_up_helps(v: &ScanView, all: &[(f64, f64)]) -> bool {
+    let (_, reach) = plan_reach(all);
+    v.disc_radius_mm
+        .is_some_and(|d| !all.is_empty() && reach < CLOSE_UP_BELOW * d)
+}
+
+/// The plan's centre (of its bounding box) and its reach from there, mm (at least 1 mm).
+fn plan_reach(all: &[(f64, f64)]) -> ((f64, f64), f64) {
+    let (mut lo, mut hi) = ((f64::MAX, f64::MAX), (f64::MIN, f64::MIN));
+    for (x, y) in all {
+        lo = (lo.0.min(*x), lo.1.min(*y));
+        hi = (hi.0.max(*x), hi.1.max(*y));
+    }
+    if all.is_empty() {
+        return ((0.0, 0.0), 1.0);
+    }
+    let c = ((lo.0 + hi.0) / 2.0, (lo.1 + hi.1) / 2.0);
+    let reach = all
+        .iter()
+        .map(|(x, y)| ((x - c.0).powi(2) + (y - c.1).powi(2)).sqrt())
+        .fold(1.0f64, f64::max);
+    (c, reach)
+}
+
+/// What the plan panel shows: its centre and radius, mm, the disc's outline, and the zoom when
+/// the plan is drawn close up (a plan small on its disc, unless the whole disc was asked for).
+fn plan_view(
+    v: &ScanView,
+    all: &[(f64, f64)],
+    whole_disc: bool,
+) -> ((f64, f64), f64, Option<Disc>, Option<f64>) {
+    let disc = v.disc_radius_mm.map(|radius| Disc {
+        centre: v.origin_mm,
+        radius,
+    });
+    match disc {
+        Some(d) if !whole_disc && close_up_helps(v, all) => {
+            let (c, reach) = plan_reach(all);
+            let radius = reach * 1.6;
+            (c, radius, disc, Some(d.radius / radius))
+        }
+        Some(d) => {
+            let extent = all
+                .iter()
+                .map(|(x, y)| ((x - d.centre.0).powi(2) + (y - d.centre.1).powi(2)).sqrt())
+                .fold(1.0f64, f64::max);
+            (d.centre, d.radius.max(extent), disc, None)
+        }
+        None => {
+            let extent = all
+                .iter()
+                .map(|(x, y)| ((x - v.origin_mm.0).powi(2) + (y - v.origin_mm.1).powi(2)).sqrt())
+                .fold(1.0f64, f64::max);
+            (v.origin_mm, extent * 1.2, None, None)
+        }
+    }
+}
+
+/// The scan's messages, newest first, each wrapped to the panel's width; warnings in yellow.
 fn draw_log(f: &mut Frame, area: Rect, v: &ScanView) {
-    let lines: Vec<ListItem> = v
+    let lines: Vec<Line> = v
         .log
         .iter()
         .rev()
@@ -219,11 +302,13 @@ fn draw_log(f: &mut Frame, area: Rect, v: &ScanView) {
             } else {
                 Style::new()
             };
-            ListItem::new(Line::styled(l.clone(), style))
+            Line::styled(l.clone(), style)
         })
         .collect();
     f.render_widget(
-        List::new(lines).block(panel("messages (newest first)")),
+        Paragraph::new(lines)
+            .wrap(Wrap { trim: false })
+            .block(panel("messages (newest first)")),
         area,
     );
 }
@@ -254,7 +339,9 @@ fn draw_status(f: &mut Frame, area: Rect, v: &ScanView) {
         )),
     ];
     f.render_widget(
-        Paragraph::new(status).block(panel(v.run_dir.as_deref().unwrap_or("scan"))),
+        Paragraph::new(status)
+            .wrap(Wrap { trim: false })
+            .block(panel(v.run_dir.as_deref().unwrap_or("scan"))),
         area,
     );
 }

@@ -7,6 +7,7 @@ use crate::ui::screen::{Plain, ScreenDef};
 use crate::ui::state::{Tab, UiState};
 use crate::ui::widgets::disc::{aspect, canvas, Glyph, Layer};
 use crate::ui::widgets::time_chart::{self, Series};
+use crate::ui::view::shortened;
 use crate::ui::widgets::{legend_panel, panel, BAD, GOOD, MEASURED, PREDICTED, WARN};
 use fringe_app::session::ValidationState;
 use ratatui::layout::{Constraint, Layout, Rect};
@@ -140,8 +141,14 @@ fn draw_metrics(f: &mut Frame, area: Rect, v: &ValidationState) {
             (None, None) => Line::from(""),
         },
     ];
+    // The backend always shown; a long model description cut to what fits.
+    let backend = v.backend.to_string();
+    let room = area.width.saturating_sub(backend.chars().count() as u16 + 7);
+    let title = format!("{} · {backend}", shortened(&v.model, room));
     f.render_widget(
-        Paragraph::new(text).block(panel(&format!("{} · {}", v.model, v.backend))),
+        Paragraph::new(text)
+            .wrap(Wrap { trim: false })
+            .block(panel(&title)),
         area,
     );
 }

@@ -72,6 +72,7 @@ fn ready() -> UiState {
         tab: screens::scan::TAB,
         help: false,
         rig: "simulated bench (no rig configured)".into(),
+        scan_whole_disc: false,
         scan: ScanView {
             plan: "short-grid".into(),
             points: grid(),
@@ -313,6 +314,79 @@ fn scan_screen_before_the_run_shows_the_plan_and_how_to_start() {
     assert!(
         find(b, "r run the scan").is_some(),
         "the footer says how to run"
+    );
+}
+
+/// Columns of the plan's point numbers `1`, `2`, `3` on one row of the Scan screen's plan
+/// panel (the left 40 %).
+fn first_row_numbers(b: &Buffer) -> Option<[usize; 3]> {
+    let panel = (b.area.width as usize * 2) / 5;
+    // Below the tab bar and the panel's title.
+    (2..b.area.height).find_map(|y| {
+        let cells: Vec<&str> = (0..panel).map(|x| b[(x as u16, y)].symbol()).collect();
+        let at = |d: &str| cells.iter().position(|c| *c == d);
+        match (at("1"), at("2"), at("3")) {
+            (Some(a), Some(b), Some(c)) if a < b && b < c => Some([a, b, c]),
+            _ => None,
+        }
+    })
+}
+
+/// A plan small on its disc (short-grid's 2 mm by 3 mm on a 25 mm disc) is drawn close up, its
+/// points well apart, with the disc's centre marked; `d` shows the whole disc with its outline.
+#[test]
+fn a_plan_small_on_the_disc_is_drawn_close_up_and_d_shows_the_whole_disc() {
+    let mut s = ready();
+    s.scan.disc_radius_mm = Some(25.0);
+    s.scan.points = [
+        (98.0, 48.5),
+        (100.0, 48.5),
+        (102.0, 48.5),
+        (102.0, 51.5),
+        (100.0, 51.5),
+        (98.0, 51.5),
+    ]
+    .iter()
+    .map(|&(x_mm, y_mm)| PlanPoint { x_mm, y_mm })
+    .collect();
+    s.scan.total = 6;
+    let t = render(&s, 180, 50);
+    let b = t.backend().buffer();
+    assert!(
+        find(b, "short-grid: 6 points · ×").is_some() && find(b, "d: whole disc").is_some(),
+        "{}",
+        rows(b).join("\n")
+    );
+    let close = first_row_numbers(b).expect("points 1, 2, 3 on a row");
+    assert!(
+        close[1] - close[0] >= 8 && close[2] - close[1] >= 8,
+        "close up, 2 mm apart: {close:?}\n{}",
+        rows(b).join("\n")
+    );
+    s.scan_whole_disc = true;
+    let t = render(&s, 180, 50);
+    let b = t.backend().buffer();
+    assert!(find(b, "short-grid: 6 points · d: close up").is_some());
+    let whole = first_row_numbers(b).expect("points 1, 2, 3 on a row");
+    assert!(
+        whole[2] - whole[0] < close[2] - close[0],
+        "{whole:?} {close:?}"
+    );
+    // The disc's outline: braille dots far from the plan, on both sides of it.
+    let outline_row = rows(b)[25].clone();
+    let dots: Vec<usize> = outline_row
+        .chars()
+        .take(72)
+        .enumerate()
+        .filter(|(_, c)| ('\u{2801}'..='\u{28ff}').contains(c))
+        .map(|(i, _)| i)
+        .collect();
+    assert!(
+        dots.first()
+            .is_some_and(|&a| a < whole[0].saturating_sub(10))
+            && dots.last().is_some_and(|&z| z > whole[2] + 10),
+        "{dots:?}\n{}",
+        rows(b).join("\n")
     );
 }
 

@@ -1,7 +1,7 @@
 //! Positions drawn on the sensor disc (Braille canvas): the plan's points with their path, or the
 //! measured and predicted contact points.
 
-use ratatui::style::Color;
+use ratatui::style::{Color, Style};
 use ratatui::symbols::Marker;
 use ratatui::widgets::canvas::{Canvas, Circle, Line, Points};
 use ratatui::widgets::Block;
@@ -36,6 +36,27 @@ pub(crate) fn canvas<'a>(
     layers: Vec<Layer<'a>>,
     aspect: f64,
 ) -> Canvas<'a, impl Fn(&mut ratatui::widgets::canvas::Context<'_>) + 'a> {
+    let disc = outline.then_some(Disc { centre, radius });
+    canvas_about(block, centre, radius, disc, layers, aspect)
+}
+
+/// The sensor disc: its centre and radius, mm.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Disc {
+    pub centre: (f64, f64),
+    pub radius: f64,
+}
+
+/// A canvas about `centre` showing `radius` mm around it, with the outline of `disc` (clipped
+/// where it leaves the view) and its centre marked when the view does not hold the whole disc.
+pub(crate) fn canvas_about<'a>(
+    block: Block<'a>,
+    centre: (f64, f64),
+    radius: f64,
+    disc: Option<Disc>,
+    layers: Vec<Layer<'a>>,
+    aspect: f64,
+) -> Canvas<'a, impl Fn(&mut ratatui::widgets::canvas::Context<'_>) + 'a> {
     let r = radius * 1.08;
     let rx = r * aspect.max(1.0);
     Canvas::default()
@@ -44,13 +65,20 @@ pub(crate) fn canvas<'a>(
         .x_bounds([centre.0 - rx, centre.0 + rx])
         .y_bounds([centre.1 - r, centre.1 + r])
         .paint(move |ctx| {
-            if outline {
+            if let Some(d) = disc {
                 ctx.draw(&Circle {
-                    x: centre.0,
-                    y: centre.1,
-                    radius,
+                    x: d.centre.0,
+                    y: d.centre.1,
+                    radius: d.radius,
                     color: Color::DarkGray,
                 });
+                if d.radius > radius * 1.01 {
+                    ctx.print(
+                        d.centre.0,
+                        d.centre.1,
+                        ratatui::text::Span::styled("+", Style::new().fg(Color::DarkGray)),
+                    );
+                }
             }
             for layer in &layers {
                 if layer.path {
@@ -65,7 +93,7 @@ pub(crate) fn canvas<'a>(
                     }
                 }
                 // Text is drawn over the dots and lines; later layers over earlier ones.
-                let style = ratatui::style::Style::new().fg(layer.color);
+                let style = Style::new().fg(layer.color);
                 match layer.glyph {
                     Glyph::Dots => ctx.draw(&Points {
                         coords: layer.coords,
