@@ -404,7 +404,7 @@ fn a_unit_is_commissioned_unattended_through_camera_drops() {
             "{id} kept its frames"
         );
     }
-    assert!(t.contains("pruned the frames of round-1"), "{t}");
+    assert!(t.contains("round-1: its frames pruned"), "{t}");
     let frames_of = |run: &str| {
         std::fs::read_dir(c.join("runs").join(run).join("frames"))
             .map(|d| d.count())

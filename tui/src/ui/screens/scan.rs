@@ -185,7 +185,7 @@ fn draw_plan(f: &mut Frame, area: Rect, v: &ScanView, whole_disc: bool) {
     let (centre, radius, disc, zoom) = plan_view(v, &all, whole_disc);
     let title = match (v.disc_radius_mm, zoom) {
         (Some(_), Some(z)) => format!(
-            "{}: {} points · ×{z:.0} on the disc · d: whole disc",
+            "{}: {} points · ×{z:.0} · d: whole disc",
             v.plan,
             v.points.len()
         ),
