@@ -164,7 +164,12 @@ fn the_built_in_scan_runs_from_the_ui_with_a_pause_and_the_terminal_is_restored(
     std::fs::write(dir.join("rig.toml"), common::QUICK_RIG).expect("rig file");
     let pane = Pane::start("scan", &dir, &fringe());
     let screen = pane.wait_for("ready: press r to run", Duration::from_secs(30));
-    assert!(screen.contains("short-grid: 6 points"), "{screen}");
+    // Before it runs, the plan is drawn on the unit's disc (its design's, on the simulated
+    // bench), close up: the plan is small on it.
+    assert!(
+        screen.contains("short-grid: 6 points · ×") && screen.contains("d: whole disc"),
+        "{screen}"
+    );
     pane.keys("r");
     pane.wait_for("point 1 of 6", Duration::from_secs(30));
     // Pause after the current press: the scan stops with z up and asks to resume.
