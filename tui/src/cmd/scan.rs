@@ -28,8 +28,8 @@ use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Default)]
 pub struct ScanArgs {
-    /// The scan plan (plan.toml). Without it: the built-in short grid, or with --resume the plan
-    /// stored in the run.
+    /// The scan plan (plan.toml), or a built-in plan's name (`fringe plans`). Without it: the
+    /// built-in short grid, or with --resume the plan stored in the run.
     #[arg(value_name = "PLAN")]
     plan: Option<PathBuf>,
     /// The rig file (default: ./rig.toml if present, else the simulated bench).
