@@ -265,7 +265,7 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
     }
     let e = program.estimate(limits);
     println!(
-        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {}, of which homing and the move to the first point up to {} (operator prompts not counted)",
+        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {}, of which homing and the move to the first point {} (operator prompts not counted)",
         e.lateral_path_mm,
         e.indenter_changes,
         e.manual_rows,
@@ -285,8 +285,13 @@ fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, o
             return;
         }
     };
+    let measured = forecast
+        .measured_on
+        .as_ref()
+        .map(|run| format!(" (a frame's bytes as stored by {})", run.display()))
+        .unwrap_or_default();
     println!(
-        "expected on disk: {}",
+        "expected on disk: {}{measured}",
         forecast.recording.describe(&forecast.size)
     );
     match &forecast.free {
