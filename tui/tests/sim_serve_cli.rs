@@ -107,6 +107,27 @@ fn served_devices_answer_the_bring_up_commands() {
     let rows = std::fs::read_to_string(&csv).expect("csv").lines().count();
     assert!(rows > 5000, "{rows} rows in 1 s at 7 kHz");
     let _ = std::fs::remove_file(&csv);
+    // As the README shows it: the scaling read from the box, whose page the server puts on TCP
+    // at the RDT port (nothing listens on port 80 here, where a real box serves it).
+    let (ip, port) = endpoints["netft"].rsplit_once(':').expect("ip:port");
+    assert_eq!(
+        endpoints["netft-http"],
+        format!("http://{ip}:{port}/netftapi2.xml")
+    );
+    let out = fringe(&[
+        "ft",
+        "--netft",
+        &endpoints["netft"],
+        "stream",
+        "--seconds",
+        "1",
+        "--csv",
+        csv.to_str().expect("utf-8"),
+    ]);
+    let report = text(&out);
+    assert!(out.status.success(), "{report}");
+    assert!(report.contains("lost packets: 0"), "{report}");
+    let _ = std::fs::remove_file(&csv);
 
     let out = fringe(&[
         "ystage",

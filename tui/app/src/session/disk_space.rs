@@ -504,7 +504,7 @@ mod tests {
         let size = recording.expected(RecordingTime::filming_throughout(Duration::from_secs(60)));
         let text = recording.describe(&size);
         assert!(
-            text.contains("3000 of 1920x1200 bayerrg8, 0.97 MB each")
+            text.contains("3000 of 1920x1200 bayerrg8, 968 kB each")
                 && text.contains("force log 25 MB"),
             "{text}"
         );
