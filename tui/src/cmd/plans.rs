@@ -19,9 +19,9 @@ pub fn run(args: PlansArgs, _global: &Global) -> anyhow::Result<()> {
     let (config, source) = RigConfig::resolve(args.rig.as_deref())?;
     let limits = config.limits()?;
     println!(
-        "built-in plans (run one with `fringe scan NAME`, see it with `fringe scan NAME --dry-run`; commented copies in tui/app/plans/); times on {}:",
-        source.describe()
+        "built-in plans (run one with `fringe scan NAME`, see it with `fringe scan NAME --dry-run`; commented copies in tui/app/plans/)"
     );
+    println!("times estimated for the rig: {}", source.describe());
     let summaries = plan_summaries(&limits);
     let width = summaries.iter().map(|s| s.plan.name.len()).max().unwrap_or(0);
     for s in summaries {
