@@ -405,7 +405,14 @@ mod tests {
         let mut w = LabelWriter::measured(Vec::new()).expect("writer");
         let noisy = LabelRow {
             image: "image_0.tiff".into(),
-            wrench: [0.300_000_01, -0.0, -1.999_999_847_412_109_2, 0.012_345_6, 0.0, -0.0],
+            wrench: [
+                0.300_000_01,
+                -0.0,
+                -1.999_999_847_412_109_2,
+                0.012_345_6,
+                0.0,
+                -0.0,
+            ],
             contact: Some([1.250_000_4, -2.0]),
             shape: Shape::parse("pentagon"),
         };

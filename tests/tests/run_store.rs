@@ -534,8 +534,8 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
 #[test]
 fn compressed_exports_read_back_the_same_pixels_in_pil() {
     use fringe_rig::store;
-    use fringe_rig::store::{estimate_export, export_reference, ExportOptions, ImageCompression};
     use fringe_rig::store::FrameStorage;
+    use fringe_rig::store::{estimate_export, export_reference, ExportOptions, ImageCompression};
     fringe_tests::require_python_module("PIL");
     let root = scratch("compressed-export");
     let run = bayer_run(

@@ -72,8 +72,14 @@ fn built_in_plans_are_listed_and_run_by_name() {
         "{grid}"
     );
     assert!(grid.contains("the main job"), "{grid}");
-    assert!(line("demo").contains("3 points, 3 presses to 1, 4, 9 N"), "{t}");
-    assert!(line("calibration").contains("9 points, 9 presses to 1.5 N"), "{t}");
+    assert!(
+        line("demo").contains("3 points, 3 presses to 1, 4, 9 N"),
+        "{t}"
+    );
+    assert!(
+        line("calibration").contains("9 points, 9 presses to 1.5 N"),
+        "{t}"
+    );
     assert!(!t.contains("commission "), "{t}");
     assert!(t.contains("fringe scan NAME"), "{t}");
 }

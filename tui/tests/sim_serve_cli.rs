@@ -182,7 +182,10 @@ fn an_axis_keeps_to_its_travel_and_rests_on_its_home_switch_without_a_fault() {
     assert!(out.status.success(), "{homed}");
     assert!(homed.contains("position: 0.0000"), "{homed}");
     assert!(homed.contains("homed: true"), "{homed}");
-    assert!(!homed.contains("faults:"), "a normal home is no fault:\n{homed}");
+    assert!(
+        !homed.contains("faults:"),
+        "a normal home is no fault:\n{homed}"
+    );
     let out = axis(&["status"]);
     let status = text(&out);
     assert!(out.status.success(), "{status}");

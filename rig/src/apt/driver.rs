@@ -523,9 +523,7 @@ impl ThorlabsAxis {
         let position = self.config.actuator.to_mm(o.position);
         // A homed axis at rest where homing left it sits on its home switch: no fault.
         let home_reverse = self.config.home.limit_switch == HomeLimitSwitch::Reverse;
-        let at_home = bits.homed()
-            && !bits.moving()
-            && position.0.abs() <= HOME_SWITCH_MM;
+        let at_home = bits.homed() && !bits.moving() && position.0.abs() <= HOME_SWITCH_MM;
         AxisStatus {
             position,
             moving: bits.moving(),

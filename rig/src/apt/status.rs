@@ -204,7 +204,11 @@ impl StatusBits {
 
     /// [`StatusBits::move_faults`] of an axis that homing left resting on its home switch (the
     /// reverse one when `home_reverse`): that switch is where the axis belongs, not a fault.
-    pub fn faults_resting_home(self, polarity: LimitPolarity, home_reverse: bool) -> Vec<&'static str> {
+    pub fn faults_resting_home(
+        self,
+        polarity: LimitPolarity,
+        home_reverse: bool,
+    ) -> Vec<&'static str> {
         StatusBits(self.0 & !Self::limit_bit(polarity, home_reverse)).move_faults(polarity)
     }
 }

@@ -261,8 +261,11 @@ fn get(url: &str, timeout: Duration) -> Result<String, (ForceError, Option<std::
             Some(e.kind()),
         )
     })?;
-    let io =
-        |e: std::io::Error| plain(err(format!("HTTP exchange with {addr} failed: {e} ({hint})")));
+    let io = |e: std::io::Error| {
+        plain(err(format!(
+            "HTTP exchange with {addr} failed: {e} ({hint})"
+        )))
+    };
     stream.set_read_timeout(Some(timeout)).map_err(io)?;
     stream.set_write_timeout(Some(timeout)).map_err(io)?;
     let request = format!(

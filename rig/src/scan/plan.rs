@@ -817,8 +817,8 @@ impl ScanProgram {
         } else {
             move_time(from_y, &bench.y_motion)
         };
-        let mut homing = move_time(from_z, &bench.z_motion).as_secs_f64()
-            + home_x.max(home_y).as_secs_f64();
+        let mut homing =
+            move_time(from_z, &bench.z_motion).as_secs_f64() + home_x.max(home_y).as_secs_f64();
         if let Some(first) = points.first() {
             let to_x = move_time(first.x.0, &bench.x_motion);
             let to_y = if bench.manual_y {

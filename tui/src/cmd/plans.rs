@@ -23,7 +23,11 @@ pub fn run(args: PlansArgs, _global: &Global) -> anyhow::Result<()> {
     );
     println!("times estimated for the rig: {}", source.describe());
     let summaries = plan_summaries(&limits);
-    let width = summaries.iter().map(|s| s.plan.name.len()).max().unwrap_or(0);
+    let width = summaries
+        .iter()
+        .map(|s| s.plan.name.len())
+        .max()
+        .unwrap_or(0);
     for s in summaries {
         let what = match &s.fit {
             Ok(f) => format!(

@@ -119,10 +119,10 @@ pub enum ExportFormat {
 /// `--compression` of `fringe export`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum Compression {
-    /// Deflate with the horizontal predictor (the smallest).
-    Deflate,
-    /// LZW with the horizontal predictor.
+    /// LZW with the horizontal predictor (the smallest at the export's pace).
     Lzw,
+    /// Deflate (its fastest level) with the horizontal predictor.
+    Deflate,
     /// Uncompressed (as exports were written before).
     None,
 }
@@ -143,7 +143,7 @@ pub struct ExportArgs {
     #[arg(long, value_name = "STEP", value_parser = crate::cmd::arg_values::round_step)]
     round: Option<f64>,
     /// How the TIFF images are compressed (all read by PIL and OpenCV).
-    #[arg(long, value_enum, default_value = "deflate")]
+    #[arg(long, value_enum, default_value = "lzw")]
     compression: Compression,
     /// Export runs that fail `fringe verify` too (their problems go into 0.export.json).
     #[arg(long)]
