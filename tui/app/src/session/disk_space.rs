@@ -516,6 +516,36 @@ mod tests {
         assert!(square.describe(&size).contains("disc squares of 1920x1200"));
     }
 
+    /// The main job's forecast holds against its measured run (BENCHMARKS.md, "Estimates against
+    /// the run": 61 s and 1.442 GB, 1517 frames), and a disk where it fits does not refuse it
+    /// (with a frame assumed at 1.21 MB it was refused below 3.4 GB free).
+    #[cfg(feature = "sim")]
+    #[test]
+    fn the_main_job_is_forecast_as_measured_and_not_refused_where_it_fits() {
+        let rig = RigConfig::simulated();
+        let limits = rig.limits().expect("limits");
+        let grid = crate::session::plans::SHORT_GRID;
+        let program = Plan::parse(grid.text, "short-grid")
+            .and_then(|p| p.program(&limits, "short-grid"))
+            .expect("program");
+        let empty = std::env::temp_dir().join(format!("fringe-forecast-{}", std::process::id()));
+        let mut forecast = RoomForecast::new(&rig, &program, &limits, &empty).expect("forecast");
+        assert_eq!(forecast.measured_on, None, "no run there to measure");
+        let total = program.estimate(&limits).total.as_secs_f64();
+        assert!((total / 61.0 - 1.0).abs() < 0.15, "{total} s against 61 s");
+        let bytes = forecast.size.total_bytes() as f64;
+        assert!((bytes / 1.442e9 - 1.0).abs() < 0.15, "{bytes} B");
+        assert!(
+            (forecast.size.frames as f64 / 1517.0 - 1.0).abs() < 0.05,
+            "{:?}",
+            forecast.size
+        );
+        forecast.free = Ok(3_000_000_000);
+        assert_eq!(forecast.refusal(), None);
+        forecast.free = Ok(2_000_000_000);
+        assert!(forecast.refusal().is_some());
+    }
+
     /// A scan of the built-in short grid on the simulated bench, whole BayerRG8 frames.
     #[cfg(feature = "sim")]
     fn short_grid() -> ScanSetup {
