@@ -11,7 +11,9 @@ pub(crate) mod driver;
 pub(crate) mod rdt;
 pub(crate) mod stream;
 
-pub use config::{fetch_config, netftapi2_url, parse_http_response, HttpError, NetFtConfig};
+pub use config::{
+    fetch_box_config, fetch_config, netftapi2_url, parse_http_response, HttpError, NetFtConfig,
+};
 pub use driver::{BiasMode, NetFt, NetFtOptions};
 pub use rdt::{
     decode_datagram, encode_datagram, Command, RdtError, Record, Records, Request, DEFAULT_PORT,

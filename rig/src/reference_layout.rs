@@ -9,7 +9,9 @@
 //! Indentor_Shape. Forces in N, torques in N m (the reference mixed N m and N mm: fringe writes
 //! N m everywhere), Ft = |F| = sqrt(Fx^2 + Fy^2 + Fz^2), positions = the contact point in mm from
 //! the sensor centre, `NaN` and shape `None` without contact. Values are written in full
-//! precision unless rounding is asked for; negative zero is written as 0.
+//! precision ([`LabelWriter::new`] without a step, the simulator's exact labels), rounded to a
+//! step asked for, or at the precision of the measurement ([`LabelWriter::measured`], what run
+//! exports write: [`MEASURED_DECIMALS`]); negative zero is written as 0.
 
 use crate::units::Newtons;
 use std::io::Write;
@@ -97,18 +99,45 @@ impl LabelRow {
     }
 }
 
+/// Decimals of the labels a run export writes, column by column after the image name (Fx, Fy,
+/// Fz, Mx, My, Mz, Ft, X, Y): forces in N to 1 mN and torques in N m to 10 uN m, ten times finer
+/// than the resolution of the reference F/T transducer (ATI Mini40 SI-40-2: 1/100 N in Fx and
+/// Fy, 1/50 N in Fz, 1/4000 N m) and of the simulated one, so averaging over an exposure loses
+/// nothing; contact positions in mm to 1 um, finer than the stages' repeatability. The float
+/// noise of a sum of samples (`1.9999998474121092`) is below them all.
+pub const MEASURED_DECIMALS: [usize; 9] = [3, 3, 3, 5, 5, 5, 3, 3, 3];
+
+/// How the values of a labels file are written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Precision {
+    /// As computed (shortest text that reads back the same number), or rounded to a step.
+    Step(Option<f64>),
+    /// [`MEASURED_DECIMALS`].
+    Measured,
+}
+
 /// Writes `0.labels.csv` rows, the header first.
 pub struct LabelWriter<W: Write> {
     csv: csv::Writer<W>,
-    round: Option<f64>,
+    precision: Precision,
 }
 
 impl<W: Write> LabelWriter<W> {
-    /// A writer into `out`, rounding values to `round` when given (the reference trained on 0.1).
+    /// A writer into `out`, rounding values to `round` when given (the reference trained on 0.1),
+    /// else writing them in full.
     pub fn new(out: W, round: Option<f64>) -> std::io::Result<LabelWriter<W>> {
+        Self::with(out, Precision::Step(round))
+    }
+
+    /// A writer into `out` at the precision of the measurement ([`MEASURED_DECIMALS`]).
+    pub fn measured(out: W) -> std::io::Result<LabelWriter<W>> {
+        Self::with(out, Precision::Measured)
+    }
+
+    fn with(out: W, precision: Precision) -> std::io::Result<LabelWriter<W>> {
         let mut csv = csv::WriterBuilder::new().from_writer(out);
         csv.write_record(COLUMNS).map_err(into_io)?;
-        Ok(LabelWriter { csv, round })
+        Ok(LabelWriter { csv, precision })
     }
 
     pub fn write(&mut self, row: &LabelRow) -> std::io::Result<()> {
@@ -116,7 +145,14 @@ impl<W: Write> LabelWriter<W> {
         let values = row.wrench.into_iter().chain([row.ft(), x, y]);
         let mut fields = Vec::with_capacity(COLUMNS.len());
         fields.push(row.image.clone());
-        fields.extend(values.map(|v| format_value(v, self.round)));
+        match self.precision {
+            Precision::Step(round) => fields.extend(values.map(|v| format_value(v, round))),
+            Precision::Measured => fields.extend(
+                values
+                    .zip(MEASURED_DECIMALS)
+                    .map(|(v, decimals)| format_decimals(v, decimals)),
+            ),
+        }
         fields.push(row.shape.as_str().to_string());
         self.csv.write_record(&fields).map_err(into_io)
     }
@@ -151,6 +187,24 @@ pub fn format_value(v: f64, round: Option<f64>) -> String {
             format!("{r:.decimals$}")
         }
         _ => format!("{v}"),
+    }
+}
+
+/// A value to `decimals` places without trailing zeros (`2`, `-0.034`, `NaN`); negative zero,
+/// and a value that rounds to zero, written as 0.
+pub fn format_decimals(v: f64, decimals: usize) -> String {
+    if v.is_nan() {
+        return "NaN".into();
+    }
+    let text = format!("{v:.decimals$}");
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &text
+    };
+    match text {
+        "-0" => "0".into(),
+        t => t.to_string(),
     }
 }
 
@@ -339,6 +393,35 @@ mod tests {
         assert_eq!(back[1].shape, Shape::NoContact);
         assert_eq!(back[1].contact, None);
         assert!(in_contact(Newtons(back[0].wrench[2])) && !in_contact(Newtons(back[1].wrench[2])));
+    }
+
+    #[test]
+    fn measured_labels_carry_no_float_noise() {
+        assert_eq!(format_decimals(1.999_999_847_412_109_2, 3), "2");
+        assert_eq!(format_decimals(-0.000_4, 3), "0");
+        assert_eq!(format_decimals(-0.034_04, 3), "-0.034");
+        assert_eq!(format_decimals(f64::NAN, 3), "NaN");
+        assert_eq!(format_decimals(12.0, 5), "12");
+        let mut w = LabelWriter::measured(Vec::new()).expect("writer");
+        let noisy = LabelRow {
+            image: "image_0.tiff".into(),
+            wrench: [
+                0.300_000_01,
+                -0.0,
+                -1.999_999_847_412_109_2,
+                0.012_345_6,
+                0.0,
+                -0.0,
+            ],
+            contact: Some([1.250_000_4, -2.0]),
+            shape: Shape::parse("pentagon"),
+        };
+        w.write(&noisy).expect("row");
+        let text = String::from_utf8(w.finish().expect("finish")).expect("utf-8");
+        assert_eq!(
+            text.lines().nth(1),
+            Some("image_0.tiff,0.3,0,-2,0.01235,0,0,2.022,1.25,-2,pentagon")
+        );
     }
 
     #[test]

@@ -62,7 +62,10 @@ pub use documents::{
 };
 pub use durable::write_atomic;
 pub use error::StoreError;
-pub use export::{export_reference, ExportOptions, ExportSummary, ExportedRun};
+pub use export::{
+    estimate_export, export_reference, ExportEstimate, ExportOptions, ExportSummary, ExportedRun,
+    ImageCompression,
+};
 pub use force_log::{
     check_header as check_force_log_header, decode_all as decode_force_log, ForceLogError,
 };

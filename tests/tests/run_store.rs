@@ -528,6 +528,83 @@ fn bayer_runs_old_and_new_read_and_export_the_mosaic_the_camera_gave() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// Exports compress their TIFF images (deflate by default, LZW, or none) and every one reads
+/// back as the same pixels in the paper's code's reader, PIL; the estimate before an export
+/// counts its images and measures its bytes from the run's own frames.
+#[test]
+fn compressed_exports_read_back_the_same_pixels_in_pil() {
+    use fringe_rig::store;
+    use fringe_rig::store::FrameStorage;
+    use fringe_rig::store::{estimate_export, export_reference, ExportOptions, ImageCompression};
+    fringe_tests::require_python_module("PIL");
+    let root = scratch("compressed-export");
+    let run = bayer_run(
+        &root,
+        &StartDocument {
+            layout_version: fringe_rig::store::LAYOUT_VERSION,
+            frames: Some(FrameStorage::new(PixelFormat::BayerRg8, None).expect("storage")),
+            ..start("run-tiff")
+        },
+    );
+    let records = RunReader::at(&run).frames().expect("records");
+    for compression in [
+        ImageCompression::Deflate,
+        ImageCompression::Lzw,
+        ImageCompression::None,
+    ] {
+        let out = root.join(format!("export-{}", compression.name()));
+        let options = ExportOptions {
+            compression,
+            ..ExportOptions::default()
+        };
+        let estimate = estimate_export(std::slice::from_ref(&run), &options).expect("estimate");
+        assert_eq!((estimate.images, estimate.sampled), (4, 4), "{estimate:?}");
+        export_reference(std::slice::from_ref(&run), &out, &options, |_| {}).expect("export");
+        let images = out.join("0.images");
+        let written: u64 = (0..4)
+            .map(|k| {
+                std::fs::metadata(images.join(format!("image_{k}.tiff")))
+                    .expect("image")
+                    .len()
+            })
+            .sum();
+        assert_eq!(
+            estimate.bytes,
+            written + 4 * 90,
+            "{}: the sampled images are all the images",
+            compression.name()
+        );
+        // The compression tag: 8 (Adobe deflate), 5 (LZW), 1 (none), as PIL reports it.
+        let script = "import sys\nfrom PIL import Image\nfor p in sys.argv[1:]:\n    im = Image.open(p)\n    sys.stdout.write(im.info.get('compression', 'raw') + ' ' + im.convert('RGB').tobytes().hex() + '\\n')\n";
+        let out = std::process::Command::new(fringe_tests::python())
+            .arg("-c")
+            .arg(script)
+            .args((0..4).map(|k| images.join(format!("image_{k}.tiff"))))
+            .output()
+            .expect("python");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let lines = String::from_utf8(out.stdout).expect("utf-8");
+        let want = match compression {
+            ImageCompression::Deflate => "tiff_adobe_deflate",
+            ImageCompression::Lzw => "tiff_lzw",
+            ImageCompression::None => "raw",
+        };
+        for (k, (line, r)) in lines.lines().zip(&records).enumerate() {
+            let (tag, hex) = line.split_once(' ').expect("tag and pixels");
+            assert_eq!(tag, want, "image_{k}");
+            let rgb = store::to_rgb8(&mosaic_of(r.frame_id), 8, 4);
+            let hex_want: String = rgb.iter().map(|b| format!("{b:02x}")).collect();
+            assert_eq!(hex, hex_want, "image_{k} ({want}) read by PIL");
+        }
+        assert_eq!(lines.lines().count(), 4);
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 #[test]
 fn a_run_of_a_newer_layout_is_refused_naming_the_versions() {
     let root = scratch("newer-layout");

@@ -73,6 +73,7 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
         max_force: Newtons(20.0),
         ft_rating: None,
         contact_z: Millimetres(b.geometry.z_touch_mm),
+        start: None,
     };
     let plan = Plan::parse(plan_text, "plan.toml").expect("plan");
     let program = plan.program(&limits, "plan.toml").expect("program");

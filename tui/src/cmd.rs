@@ -17,6 +17,7 @@ pub mod frames_progress;
 pub mod ft;
 pub mod limits;
 pub mod model;
+pub mod plans;
 pub mod runs;
 pub mod scan;
 #[cfg(feature = "sim")]

@@ -44,6 +44,8 @@ enum Command {
     Axis(cmd::axis::AxisArgs),
     /// Grab frames from a camera (Aravis) or a recorded camera trace.
     Camera(cmd::camera::CameraArgs),
+    /// List the built-in scan plans by name: points, presses, estimated time.
+    Plans(cmd::plans::PlansArgs),
     /// Run a scan plan (grid of points and force levels) into a run directory; --dry-run shows it.
     Scan(cmd::scan::ScanArgs),
     /// The demonstration on the simulated bench: three presses to 1, 4 and 9 N, filmed,
@@ -118,6 +120,7 @@ fn main() -> ExitCode {
         None if !global.no_tui && std::io::stdout().is_terminal() => cmd::scan::run_ui(),
         None => cmd::scan::run(cmd::scan::ScanArgs::main_job(), &global),
         Some(Command::Scan(args)) => cmd::scan::run(args, &global),
+        Some(Command::Plans(args)) => cmd::plans::run(args, &global),
         #[cfg(feature = "sim")]
         Some(Command::Demo(args)) => cmd::demo::run(args, &global),
         #[cfg(feature = "sim")]

@@ -29,6 +29,61 @@ fn a_dry_run_prints_points_path_and_duration_and_moves_nothing() {
     assert!(!dir.join("runs").exists(), "a dry run writes no run");
 }
 
+/// `fringe scan NAME` runs the built-in plan of that name (the error for a missing plan file
+/// lists them by name), unless a file of that name is there; `fringe plans` lists them.
+#[test]
+fn built_in_plans_are_listed_and_run_by_name() {
+    let dir = scratch("by-name");
+    let dry = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_fringe"))
+            .current_dir(&dir)
+            .args(args)
+            .output()
+            .expect("run");
+        let t = text(&out);
+        assert!(out.status.success(), "{args:?}: {t}");
+        t
+    };
+    let t = dry(&["scan", "short-grid", "--dry-run"]);
+    assert!(
+        t.contains("plan: built-in plan short-grid (tui/app/plans/short-grid.toml)"),
+        "{t}"
+    );
+    assert!(t.contains("6 points"), "{t}");
+    let t = dry(&["scan", "demo", "--dry-run"]);
+    assert!(t.contains("plan: built-in plan demo"), "{t}");
+    assert!(t.contains("3 points"), "{t}");
+    // A file of that name wins over the built-in plan.
+    std::fs::write(dir.join("demo"), plan("[11.0, 12.5]")).expect("plan");
+    let t = dry(&["scan", "demo", "--dry-run"]);
+    assert!(t.contains("plan: demo\n"), "{t}");
+    assert!(t.contains("2 points"), "{t}");
+    // The list: every built-in plan by name with its points, presses and time, and no template.
+    let t = dry(&["plans"]);
+    let line = |name: &str| {
+        t.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("{name} not listed:\n{t}"))
+            .to_string()
+    };
+    let grid = line("short-grid");
+    assert!(
+        grid.contains("6 points, 6 presses to 1, 4 N, about 0:0"),
+        "{grid}"
+    );
+    assert!(grid.contains("the main job"), "{grid}");
+    assert!(
+        line("demo").contains("3 points, 3 presses to 1, 4, 9 N"),
+        "{t}"
+    );
+    assert!(
+        line("calibration").contains("9 points, 9 presses to 1.5 N"),
+        "{t}"
+    );
+    assert!(!t.contains("commission "), "{t}");
+    assert!(t.contains("fringe scan NAME"), "{t}");
+}
+
 /// `--no-tui` is taken after the command as before it (`fringe scan --no-tui` was refused as
 /// an unexpected argument: the flag was the top level's only).
 #[test]

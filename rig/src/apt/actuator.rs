@@ -18,6 +18,9 @@ pub struct Actuator {
     pub microsteps_per_mm: f64,
     /// Code for MOT_SET_TSTACTUATORTYPE, where the controller has one for this actuator.
     pub type_code: Option<u8>,
+    /// Travel between its limit switches, where its name says it (ZFS25: 25 mm); `None` for
+    /// the DRV013, DRV014 and DRV001, whose travel fringe does not know.
+    pub travel: Option<Millimetres>,
 }
 
 const ZFS: f64 = 24.0 * 2048.0 * 400.0 / 9.0;
@@ -31,81 +34,97 @@ pub const ACTUATORS: &[Actuator] = &[
         name: "ZFS06",
         microsteps_per_mm: ZFS,
         type_code: Some(0x40),
+        travel: Some(Millimetres(6.0)),
     },
     Actuator {
         name: "ZFS13",
         microsteps_per_mm: ZFS,
         type_code: Some(0x41),
+        travel: Some(Millimetres(13.0)),
     },
     Actuator {
         name: "ZFS25",
         microsteps_per_mm: ZFS,
         type_code: Some(0x42),
+        travel: Some(Millimetres(25.0)),
     },
     Actuator {
         name: "ZST206",
         microsteps_per_mm: ZST,
         type_code: Some(0x30),
+        travel: Some(Millimetres(6.0)),
     },
     Actuator {
         name: "ZST213",
         microsteps_per_mm: ZST,
         type_code: Some(0x31),
+        travel: Some(Millimetres(13.0)),
     },
     Actuator {
         name: "ZST225",
         microsteps_per_mm: ZST,
         type_code: Some(0x32),
+        travel: Some(Millimetres(25.0)),
     },
     Actuator {
         name: "DRV013",
         microsteps_per_mm: DRV,
         type_code: Some(0x50),
+        travel: None,
     },
     Actuator {
         name: "DRV014",
         microsteps_per_mm: DRV,
         type_code: Some(0x51),
+        travel: None,
     },
     Actuator {
         name: "DRV225",
         microsteps_per_mm: DRV,
         type_code: Some(0xB0),
+        travel: Some(Millimetres(25.0)),
     },
     Actuator {
         name: "DRV250",
         microsteps_per_mm: DRV,
         type_code: Some(0xB1),
+        travel: Some(Millimetres(50.0)),
     },
     Actuator {
         name: "DRV208",
         microsteps_per_mm: DRV_FINE,
         type_code: Some(0xB2),
+        travel: Some(Millimetres(8.0)),
     },
     Actuator {
         name: "DRV001",
         microsteps_per_mm: DRV_FINE,
         type_code: None,
+        travel: None,
     },
     Actuator {
         name: "NRT100",
         microsteps_per_mm: DRV,
         type_code: Some(0xB3),
+        travel: Some(Millimetres(100.0)),
     },
     Actuator {
         name: "NRT150",
         microsteps_per_mm: DRV,
         type_code: Some(0xB4),
+        travel: Some(Millimetres(150.0)),
     },
     Actuator {
         name: "LTS150",
         microsteps_per_mm: DRV,
         type_code: None,
+        travel: Some(Millimetres(150.0)),
     },
     Actuator {
         name: "LTS300",
         microsteps_per_mm: DRV,
         type_code: None,
+        travel: Some(Millimetres(300.0)),
     },
 ];
 

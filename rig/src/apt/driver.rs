@@ -7,7 +7,7 @@
 //! controllers get no update messages; the axis polls MOT_REQ_STATUSUPDATE instead.
 
 use super::codec::encode;
-use super::config::AptConfig;
+use super::config::{AptConfig, HomeLimitSwitch};
 use super::ids::id;
 use super::io_thread::{is_end_of_move, lock, Command, IoThread, Observed, Shared};
 use super::message::{HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode as AptStop};
@@ -23,6 +23,10 @@ use std::io;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// How near its home position (0 after homing) a homed axis still rests on its home switch, mm:
+/// there the switch's bit is where the axis belongs, not a fault.
+const HOME_SWITCH_MM: f64 = 0.05;
 
 /// Opens a Thorlabs controller's serial port: 115200 8N1 with RTS/CTS, then the open sequence
 /// (wait 50 ms, purge both buffers, wait 50 ms, pulse RTS).
@@ -516,12 +520,20 @@ impl ThorlabsAxis {
     fn to_status(&self, o: Observed) -> AxisStatus {
         let bits = StatusBits(o.status);
         let polarity = self.config.limit_polarity;
+        let position = self.config.actuator.to_mm(o.position);
+        // A homed axis at rest where homing left it sits on its home switch: no fault.
+        let home_reverse = self.config.home.limit_switch == HomeLimitSwitch::Reverse;
+        let at_home = bits.homed() && !bits.moving() && position.0.abs() <= HOME_SWITCH_MM;
         AxisStatus {
-            position: self.config.actuator.to_mm(o.position),
+            position,
             moving: bits.moving(),
             homed: bits.homed(),
             flags: bits.names(polarity),
-            faults: bits.move_faults(polarity),
+            faults: if at_home {
+                bits.faults_resting_home(polarity, home_reverse)
+            } else {
+                bits.move_faults(polarity)
+            },
         }
     }
 

@@ -193,6 +193,24 @@ impl StatusBits {
     pub fn move_faults(self, polarity: LimitPolarity) -> Vec<&'static str> {
         StatusBits(self.0 & (FAULT_MASK | LIMIT_BIT0 | LIMIT_BIT1)).names(polarity)
     }
+
+    /// The bit of the reverse (`reverse` true) or forward hardware limit switch.
+    pub fn limit_bit(polarity: LimitPolarity, reverse: bool) -> u32 {
+        match (polarity, reverse) {
+            (LimitPolarity::Bit0Forward, true) | (LimitPolarity::Bit0Reverse, false) => LIMIT_BIT1,
+            (LimitPolarity::Bit0Forward, false) | (LimitPolarity::Bit0Reverse, true) => LIMIT_BIT0,
+        }
+    }
+
+    /// [`StatusBits::move_faults`] of an axis that homing left resting on its home switch (the
+    /// reverse one when `home_reverse`): that switch is where the axis belongs, not a fault.
+    pub fn faults_resting_home(
+        self,
+        polarity: LimitPolarity,
+        home_reverse: bool,
+    ) -> Vec<&'static str> {
+        StatusBits(self.0 & !Self::limit_bit(polarity, home_reverse)).move_faults(polarity)
+    }
 }
 
 #[cfg(test)]
@@ -247,6 +265,20 @@ mod tests {
         assert!(StatusBits(CHANNEL_ENABLED | HOMED | SETTLED)
             .faults(LimitPolarity::Bit0Forward)
             .is_empty());
+        // Homed and resting on the home switch: the switch is no fault, the others still are.
+        let home = StatusBits(CHANNEL_ENABLED | LIMIT_BIT1 | HOMED | OVERCURRENT);
+        assert_eq!(
+            home.faults_resting_home(LimitPolarity::Bit0Forward, true),
+            vec!["overcurrent"]
+        );
+        assert_eq!(
+            home.faults_resting_home(LimitPolarity::Bit0Forward, false),
+            vec!["reverse limit switch", "overcurrent"]
+        );
+        assert_eq!(
+            StatusBits(LIMIT_BIT0 | HOMED).faults_resting_home(LimitPolarity::Bit0Reverse, true),
+            Vec::<&str>::new()
+        );
         assert!(StatusBits(MOVING_REVERSE).moving());
         assert!(!StatusBits(HOMED).moving());
     }

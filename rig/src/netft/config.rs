@@ -134,6 +134,27 @@ pub fn fetch_config(url: &str, timeout: Duration) -> Result<NetFtConfig, ForceEr
     NetFtConfig::from_netftapi2(&body, url)
 }
 
+/// The configuration of the box at `host` (as a URL writes it, `[v6]` bracketed) whose RDT port
+/// is `rdt_port`: its page on HTTP port 80 ([`netftapi2_url`]), where a Net F/T serves it. Where
+/// nothing listens on port 80 of that host (the connection refused at once, as on a computer
+/// that runs an emulated box, which serves the page over TCP on its RDT port number: `fringe sim
+/// serve`), the same page on TCP port `rdt_port`; if that fails too, the error of port 80.
+pub fn fetch_box_config(
+    host: &str,
+    rdt_port: u16,
+    timeout: Duration,
+) -> Result<NetFtConfig, ForceError> {
+    let url = netftapi2_url(host);
+    match get(&url, timeout) {
+        Ok(body) => NetFtConfig::from_netftapi2(&body, &url),
+        Err((e, Some(std::io::ErrorKind::ConnectionRefused))) if rdt_port != 80 => {
+            let beside = format!("http://{host}:{rdt_port}/netftapi2.xml");
+            fetch_config(&beside, timeout).map_err(|_| e)
+        }
+        Err((e, _)) => Err(e),
+    }
+}
+
 /// A URL or HTTP reply this minimal client cannot use.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum HttpError {
@@ -212,25 +233,39 @@ fn parse_port(p: &str, url: &str) -> Result<u16, HttpError> {
 
 /// GETs `url` over HTTP/1.0 with `std::net::TcpStream` and returns the body of a 200 reply.
 pub(crate) fn http_get(url: &str, timeout: Duration) -> Result<String, ForceError> {
+    get(url, timeout).map_err(|(e, _)| e)
+}
+
+/// [`http_get`], with how the connection failed when it could not be made.
+fn get(url: &str, timeout: Duration) -> Result<String, (ForceError, Option<std::io::ErrorKind>)> {
+    let plain = |e: ForceError| (e, None);
     let err = |message: String| ForceError::Config {
         origin: url.to_string(),
         message,
     };
-    let parsed = HttpUrl::parse(url).map_err(|e| err(e.to_string()))?;
+    let parsed = HttpUrl::parse(url).map_err(|e| plain(err(e.to_string())))?;
     let addr = (parsed.host.as_str(), parsed.port)
         .to_socket_addrs()
         .map_err(|e| {
-            err(format!(
+            plain(err(format!(
                 "cannot resolve {}: {e} (check the sensor's host name or give its IP address)",
                 parsed.host
-            ))
+            )))
         })?
         .next()
-        .ok_or_else(|| err(format!("{} resolves to no address", parsed.host)))?;
+        .ok_or_else(|| plain(err(format!("{} resolves to no address", parsed.host))))?;
     let hint = "check the sensor is powered and reachable (ping it, open the URL in a browser), or pass --cpf and --cpt";
-    let mut stream = TcpStream::connect_timeout(&addr, timeout)
-        .map_err(|e| err(format!("cannot connect to {addr}: {e} ({hint})")))?;
-    let io = |e: std::io::Error| err(format!("HTTP exchange with {addr} failed: {e} ({hint})"));
+    let mut stream = TcpStream::connect_timeout(&addr, timeout).map_err(|e| {
+        (
+            err(format!("cannot connect to {addr}: {e} ({hint})")),
+            Some(e.kind()),
+        )
+    })?;
+    let io = |e: std::io::Error| {
+        plain(err(format!(
+            "HTTP exchange with {addr} failed: {e} ({hint})"
+        )))
+    };
     stream.set_read_timeout(Some(timeout)).map_err(io)?;
     stream.set_write_timeout(Some(timeout)).map_err(io)?;
     let request = format!(
@@ -240,7 +275,7 @@ pub(crate) fn http_get(url: &str, timeout: Duration) -> Result<String, ForceErro
     stream.write_all(request.as_bytes()).map_err(io)?;
     let mut reply = Vec::new();
     stream.read_to_end(&mut reply).map_err(io)?;
-    parse_http_response(&reply).map_err(|e| err(e.to_string()))
+    parse_http_response(&reply).map_err(|e| plain(err(e.to_string())))
 }
 
 /// Extracts the body of an HTTP response (status 200 required; chunked transfer handled).

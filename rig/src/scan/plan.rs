@@ -262,6 +262,10 @@ pub struct BenchLimits {
     /// z of first contact, roughly: the known height of the sensor surface. z grows towards the
     /// sensor, so every safe height lies below it and the approach goes up from there.
     pub contact_z: Millimetres,
+    /// How far each axis is from its home switch when a scan starts (x, y, z), when that is known
+    /// before it opens (the simulated bench's power-up positions); `None`: unknown, and an
+    /// estimate takes the middle of each travel.
+    pub start: Option<[Millimetres; 3]>,
 }
 
 /// The rated range of an F/T transducer in Fz, from its calibration.
@@ -708,9 +712,64 @@ pub(crate) fn move_time(distance: f64, k: &Kinematics) -> Duration {
     seconds(secs)
 }
 
+/// Time of a move of `distance` from rest that is stopped at once where it ends (the approach
+/// stops on first contact, without decelerating).
+fn time_to_stop_at(distance: f64, k: &Kinematics) -> f64 {
+    let d = distance.abs();
+    let (v, a) = (
+        k.velocity.0.abs().max(1e-9),
+        k.acceleration.0.abs().max(1e-9),
+    );
+    if d <= v * v / (2.0 * a) {
+        (2.0 * d / a).sqrt()
+    } else {
+        d / v + v / (2.0 * a)
+    }
+}
+
 /// Seconds as a duration, saturating (an estimate never panics on a huge or odd number).
 fn seconds(secs: f64) -> Duration {
     Duration::try_from_secs_f64(secs.max(0.0)).unwrap_or(Duration::MAX)
+}
+
+/// How a press goes, as the engine makes it (`scan::press`, `engine::indentation`) with the
+/// default [`PressSettings`](crate::scan::press::PressSettings): what the estimate of a press
+/// counts beyond the plan's moves and dwells.
+mod pressing {
+    /// Newton steps of one force target (measured on the simulated layered sensor: two, the
+    /// first from the assumed stiffness, the second from the measured one).
+    pub(super) const NEWTON_STEPS: f64 = 2.0;
+    /// z travel of one Newton step, mm (about half the force step over the sensor's 10 N/mm).
+    pub(super) const STEP_MM: f64 = 0.075;
+    /// The pause after each step and after first contact, and one force reading (50 samples at
+    /// 5 kHz), s.
+    pub(super) const SETTLE_S: f64 = 0.060 + 0.010;
+    /// The stiffness a press assumes until it has measured one, N/mm: how deep the largest target
+    /// goes past contact, for the retract.
+    pub(super) const STIFFNESS_N_PER_MM: f64 = 10.0;
+    /// First contact lies this far past the sensor's nominal surface, mm (0.3 N on the layered
+    /// sensor: 0.04 to 0.10 mm measured).
+    pub(super) const CONTACT_PAST_MM: f64 = 0.05;
+}
+
+/// The force (or depth) targets one press goes through, as the engine ramps force targets:
+/// steps of at most half a second of the ramp rate (at least 0.2 N) from the contact threshold.
+fn press_steps(targets: &Targets, ramp_rate: f64, contact_threshold: f64) -> usize {
+    match targets {
+        Targets::Depth(t) => t.len(),
+        Targets::Force(t) => {
+            let step = (ramp_rate * 0.5).max(0.2);
+            let mut f = contact_threshold;
+            let mut n = 0usize;
+            for target in t {
+                let gap = (target.0 - f).abs();
+                // Saturating: an absurd plan is a huge estimate, never a loop without end.
+                n = n.saturating_add(((gap / step).ceil() as usize).max(1));
+                f = target.0;
+            }
+            n
+        }
+    }
 }
 
 /// The estimate of a dry run.
@@ -718,8 +777,9 @@ fn seconds(secs: f64) -> Duration {
 pub struct Estimate {
     /// Everything: homing, moves, presses.
     pub total: Duration,
-    /// Of which homing x, y (unless moved by hand) and z in turn, each from the far end of its
-    /// travel (where the axes are at the start is unknown), and the move to the first point.
+    /// Of which homing z, then x and y (unless moved by hand) at once, z down to the safe height
+    /// and the move to the first point: each axis from where it starts when that is known
+    /// ([`BenchLimits::start`]), else from the middle of its travel.
     pub homing: Duration,
     /// Of which the indentations (approach, ramps, dwells, retract): the time the scan films,
     /// since frames are stored only while the indenter presses.
@@ -738,15 +798,27 @@ impl ScanProgram {
 
     /// [`ScanProgram::estimate`] of the points from index `first` on (what a resumed run has
     /// left): homing, the move to point `first`, and the points after it.
+    ///
+    /// The time follows the moves the engine makes with the bench's kinematics (trapezoidal
+    /// profiles, as the axes and the simulator move): homing z, then x and y together, z down to
+    /// the safe height; per point the lateral move (x and y together), the approach to first
+    /// contact (stopped there), the force targets in the engine's ramp steps (each a few Newton
+    /// steps with their settling, [`pressing`]), the dwells and the retract to the safe height.
     pub fn estimate_from(&self, bench: &BenchLimits, first: usize) -> Estimate {
         let plan = &self.plan;
         let points = self.points.get(first..).unwrap_or_default();
-        let far = |l: &SoftLimits| l.min.0.abs().max(l.max.0.abs());
-        let mut homing = move_time(far(&bench.x), &bench.x_motion).as_secs_f64()
-            + move_time(far(&bench.z), &bench.z_motion).as_secs_f64();
-        if !bench.manual_y {
-            homing += move_time(far(&bench.y), &bench.y_motion).as_secs_f64();
-        }
+        let start = bench.start.map(|s| s.map(|m| m.0.abs()));
+        let middle = |l: &SoftLimits| (l.max.0 - l.min.0).abs() / 2.0;
+        let [from_x, from_y, from_z] =
+            start.unwrap_or([middle(&bench.x), middle(&bench.y), middle(&bench.z)]);
+        let home_x = move_time(from_x, &bench.x_motion);
+        let home_y = if bench.manual_y {
+            Duration::ZERO
+        } else {
+            move_time(from_y, &bench.y_motion)
+        };
+        let mut homing =
+            move_time(from_z, &bench.z_motion).as_secs_f64() + home_x.max(home_y).as_secs_f64();
         if let Some(first) = points.first() {
             let to_x = move_time(first.x.0, &bench.x_motion);
             let to_y = if bench.manual_y {
@@ -760,20 +832,32 @@ impl ScanProgram {
         let ind = &plan.indentation;
         let (mut secs, mut path) = (0.0f64, 0.0f64);
         let (mut changes, mut rows) = (0, 0);
-        let approach = (bench.contact_z.0 - plan.approach.safe_z).abs();
-        // Per indentation: approach, ramps through the targets, dwell at each, retract.
-        let ramps: f64 = match &self.targets {
-            Targets::Force(t) => t.last().map_or(0.0, |m| m.0) / ind.ramp_rate,
-            Targets::Depth(t) => t.last().map_or(0.0, |m| m.0) / ind.ramp_rate,
+        let contact_past = pressing::CONTACT_PAST_MM;
+        let approach = (bench.contact_z.0 - plan.approach.safe_z).abs() + contact_past;
+        let (n_targets, deepest) = match &self.targets {
+            Targets::Force(t) => (
+                t.len(),
+                t.iter().map(|f| f.0).fold(0.0, f64::max) / pressing::STIFFNESS_N_PER_MM,
+            ),
+            Targets::Depth(t) => (t.len(), t.iter().map(|d| d.0).fold(0.0, f64::max)),
         };
-        let n_targets = match &self.targets {
-            Targets::Force(t) => t.len(),
-            Targets::Depth(t) => t.len(),
+        let steps = press_steps(
+            &self.targets,
+            ind.ramp_rate,
+            plan.approach.contact_threshold,
+        ) as f64;
+        let z = &bench.z_motion;
+        let newton_step = move_time(pressing::STEP_MM, z).as_secs_f64() + pressing::SETTLE_S;
+        let pressing_s = match &self.targets {
+            Targets::Force(_) => steps * pressing::NEWTON_STEPS * newton_step,
+            // Depth targets are driven at the ramp rate (mm/s), then settled.
+            Targets::Depth(_) => deepest / ind.ramp_rate.max(1e-9) + steps * pressing::SETTLE_S,
         };
-        let per_press = move_time(approach, &bench.z_motion).as_secs_f64()
-            + 2.0 * ramps
+        let per_press = time_to_stop_at(approach, z)
+            + pressing::SETTLE_S
+            + pressing_s
             + n_targets as f64 * ind.dwell
-            + move_time(approach + 1.0, &bench.z_motion).as_secs_f64();
+            + move_time(approach + deepest, z).as_secs_f64();
         let mut at: Option<(f64, f64)> = None;
         let mut filming = 0.0f64;
         for p in points {
@@ -868,6 +952,7 @@ force_ceiling = 10.0
             max_force: Newtons(20.0),
             ft_rating: None,
             contact_z: Millimetres(5.0),
+            start: None,
         }
     }
 
@@ -907,14 +992,28 @@ force_ceiling = 10.0
             "{est:?}"
         );
         assert!(est.total > Duration::from_secs(12 * 5), "{est:?}");
-        // Homing x and z from the far ends of travel (12 mm and 25 mm at 2 mm/s, 4 mm/s^2:
-        // 6.5 s and 13 s; y is moved by hand), then to the first point (-5 mm: 3 s) and up to
-        // safe z.
+        // Where the axes start is unknown: homing z from the middle of its travel (12.5 mm at
+        // 2 mm/s, 4 mm/s^2: 6.75 s), then x from the middle of its (12 mm: 6.5 s; y is moved by
+        // hand), then to the first point (-5 mm: 3 s) and up to safe z.
         let safe_z = program.plan.approach.safe_z;
-        let want = 6.5 + 13.0 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
+        let want = 6.75 + 6.5 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
         assert!(
             (est.homing.as_secs_f64() - want).abs() < 1e-6,
             "{est:?} (want {want} s)"
+        );
+        // Where they start known (the simulated bench's power-up positions): from there, x and
+        // y at once after z.
+        let known = BenchLimits {
+            start: Some([Millimetres(8.0), Millimetres(25.0), Millimetres(3.0)]),
+            manual_y: false,
+            ..bench()
+        };
+        let est_known = program.estimate(&known);
+        // z 3 mm: 2 s; x 8 mm: 4.5 s, y 25 mm: 13 s together; to the first point (-5, 0): 3 s.
+        let want = 2.0 + 13.0 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
+        assert!(
+            (est_known.homing.as_secs_f64() - want).abs() < 1e-6,
+            "{est_known:?} (want {want} s)"
         );
         assert!(est.total > est.homing);
         assert!(
@@ -1204,7 +1303,7 @@ force_ceiling = 10.0
         );
         // Homing ends at the first point as written (5 mm: 3 s), not at a grid corner.
         let safe_z = program.plan.approach.safe_z;
-        let want = 6.5 + 13.0 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
+        let want = 6.75 + 6.5 + 3.0 + move_time(safe_z, &bench().z_motion).as_secs_f64();
         assert!((est.homing.as_secs_f64() - want).abs() < 1e-6, "{est:?}");
     }
 

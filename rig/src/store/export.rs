@@ -19,14 +19,45 @@ use std::io::Cursor;
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// How the exported TIFF images are compressed. All three are baseline TIFF as libtiff (PIL,
+/// OpenCV) reads it: LZW or deflate (Adobe, at its fastest level) with the horizontal
+/// predictor, or none. Measured on the main job's frames (BENCHMARKS.md, "Export"): LZW 2.6 MB
+/// an image, deflate at its fastest level 4.3 MB (its default level would give 2.6 MB at a
+/// quarter of the speed), uncompressed 6.9 MB.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ImageCompression {
+    /// LZW with the horizontal predictor: the smallest at the pace of the export (the default).
+    #[default]
+    Lzw,
+    /// Deflate (its fastest level) with the horizontal predictor.
+    Deflate,
+    /// Uncompressed, as exports were written before.
+    None,
+}
+
+impl ImageCompression {
+    /// How messages name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ImageCompression::Deflate => "deflate",
+            ImageCompression::Lzw => "LZW",
+            ImageCompression::None => "uncompressed",
+        }
+    }
+}
+
 /// Export options.
 #[derive(Debug, Clone, Default)]
 pub struct ExportOptions {
     /// Set (by a signal handler) to stop the export: what was written is removed and an error
     /// returned, as for any failed export.
     pub cancel: Option<&'static AtomicBool>,
-    /// Round forces, torques and positions to this step (the reference trained on 0.1).
+    /// Round forces, torques and positions to this step (the reference trained on 0.1); without
+    /// it they are written at the precision of the measurement
+    /// ([`MEASURED_DECIMALS`](crate::reference_layout::MEASURED_DECIMALS)).
     pub round: Option<f64>,
+    /// How the TIFF images are compressed.
+    pub compression: ImageCompression,
     /// Export runs that fail verify too (their problems are recorded in `0.export.json`): a
     /// record whose frame is missing or damaged is left out, the others exported. Records that
     /// name a file outside their run (or a link, a FIFO) are refused even so.
@@ -251,8 +282,11 @@ fn write_export(
     let images = dir.join(IMAGES);
     std::fs::create_dir(&images).map_err(|e| StoreError::io(&images, e))?;
     let labels = dir.join(LABELS);
-    let csv =
-        LabelWriter::new(Vec::new(), options.round).map_err(|e| StoreError::io(&labels, e))?;
+    let csv = match options.round {
+        Some(_) => LabelWriter::new(Vec::new(), options.round),
+        None => LabelWriter::measured(Vec::new()),
+    }
+    .map_err(|e| StoreError::io(&labels, e))?;
     let mut writer = ExportWriter {
         dir,
         images,
@@ -405,16 +439,132 @@ impl ExportWriter<'_> {
     /// Writes `image` as TIFF image `name`.
     fn write_image(&self, image: &image::DynamicImage, name: &str) -> Result<(), StoreError> {
         let target = self.images.join(name);
-        let mut tiff = Vec::new();
-        image
-            .write_to(&mut Cursor::new(&mut tiff), image::ImageFormat::Tiff)
-            .map_err(|e| StoreError::Content {
+        let tiff =
+            encode_tiff(image, self.options.compression).map_err(|e| StoreError::Content {
                 path: target.clone(),
                 message: e.to_string(),
             })?;
         write_synced(&target, &tiff)
     }
 }
+
+/// `image` (RGB8 or grey) as a TIFF file compressed as `compression` says.
+pub(crate) fn encode_tiff(
+    image: &image::DynamicImage,
+    compression: ImageCompression,
+) -> Result<Vec<u8>, tiff::TiffError> {
+    use tiff::encoder::{colortype, Compression, DeflateLevel, Predictor, TiffEncoder};
+    let mut out = Cursor::new(Vec::new());
+    let (method, predictor) = match compression {
+        ImageCompression::Deflate => (
+            Compression::Deflate(DeflateLevel::Fast),
+            Predictor::Horizontal,
+        ),
+        ImageCompression::Lzw => (Compression::Lzw, Predictor::Horizontal),
+        ImageCompression::None => (Compression::Uncompressed, Predictor::None),
+    };
+    let mut encoder = TiffEncoder::new(&mut out)?
+        .with_compression(method)
+        .with_predictor(predictor);
+    let (w, h) = (image.width(), image.height());
+    match image {
+        image::DynamicImage::ImageLuma8(g) => {
+            encoder.write_image::<colortype::Gray8>(w, h, g.as_raw())?
+        }
+        other => encoder.write_image::<colortype::RGB8>(w, h, other.to_rgb8().as_raw())?,
+    }
+    Ok(out.into_inner())
+}
+
+/// What an export of some runs will write, said before it starts: the images it will hold,
+/// their bytes and the time to write them, measured by exporting a few of the runs' own frames
+/// (spread over them) in memory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportEstimate {
+    /// Images the export will write (valid records with a force label).
+    pub images: u64,
+    /// Frames exported in memory to measure the rest.
+    pub sampled: u64,
+    /// Bytes of the images and the labels.
+    pub bytes: u64,
+    /// Time to write them all, at the sampled frames' pace (reading, demosaicing, encoding) plus
+    /// writing the bytes.
+    pub time: std::time::Duration,
+}
+
+/// Frames sampled for an [`ExportEstimate`].
+const ESTIMATE_SAMPLES: usize = 5;
+
+/// Bytes of one row of `0.labels.csv` at the precision of the measurement, about.
+const LABEL_ROW_BYTES: u64 = 90;
+
+/// Estimates the export of `runs` with `options` (their compression): counts the images it will
+/// write and exports [`ESTIMATE_SAMPLES`] of their frames, spread over the runs, in memory.
+pub fn estimate_export(
+    runs: &[PathBuf],
+    options: &ExportOptions,
+) -> Result<ExportEstimate, StoreError> {
+    // (run, its storage, the records it will export)
+    let mut exportable = Vec::with_capacity(runs.len());
+    for run in runs {
+        let reader = RunReader::at(run);
+        let storage = reader.start()?.frame_storage();
+        let mut seen = HashSet::new();
+        let records: Vec<FrameRecord> = reader
+            .frames()?
+            .into_iter()
+            .filter(|r| seen.insert(r.index) && r.valid && r.wrench.is_some())
+            .collect();
+        exportable.push((run, storage, records));
+    }
+    let images: u64 = exportable.iter().map(|(_, _, r)| r.len() as u64).sum();
+    let mut sampled = 0u64;
+    let (mut sample_bytes, mut sample_time) = (0u64, std::time::Duration::ZERO);
+    for k in 0..ESTIMATE_SAMPLES.min(images as usize) {
+        // The k-th of evenly spaced images over all the runs.
+        let mut at = (k as u64 * images / ESTIMATE_SAMPLES.min(images as usize) as u64) as usize;
+        let Some((run, storage, record)) = exportable.iter().find_map(|(run, storage, records)| {
+            if at < records.len() {
+                Some((run, storage, &records[at]))
+            } else {
+                at -= records.len();
+                None
+            }
+        }) else {
+            break;
+        };
+        let started = std::time::Instant::now();
+        let source = RunReader::at(run).frame_file(record)?;
+        let Ok(Ok(image)) = read_frame(run, storage, &source, record) else {
+            continue;
+        };
+        let Ok(tiff) = encode_tiff(&image, options.compression) else {
+            continue;
+        };
+        sample_time += started.elapsed();
+        sample_bytes += tiff.len() as u64;
+        sampled += 1;
+    }
+    let per = |total: f64| {
+        if sampled == 0 {
+            0.0
+        } else {
+            total / sampled as f64
+        }
+    };
+    let image_bytes = per(sample_bytes as f64) * images as f64;
+    let bytes = image_bytes as u64 + images * LABEL_ROW_BYTES;
+    let time = per(sample_time.as_secs_f64()) * images as f64 + bytes as f64 / WRITE_BYTES_PER_S;
+    Ok(ExportEstimate {
+        images,
+        sampled,
+        bytes,
+        time: std::time::Duration::try_from_secs_f64(time).unwrap_or(std::time::Duration::MAX),
+    })
+}
+
+/// The pace of writing the images to disk (each synced) that an estimate assumes, bytes/s.
+const WRITE_BYTES_PER_S: f64 = 200e6;
 
 /// The frame of `record` (at `source`, inside `run`, stored as `storage` says) as the reference
 /// code reads images; `Ok(Err(reason))` when it is missing or damaged (the reason without the

@@ -169,9 +169,10 @@ mod tests {
             size.total_bytes(),
             3000 * each + 300_000 * 80 + 16 + 3000 * RECORD_BYTES_PER_FRAME
         );
-        // A minute of whole BayerRG8 frames of the reference camera, in FGL: about 3.7 GB.
+        // A minute of whole BayerRG8 frames of the reference camera, in FGL: about 2.9 GB (the
+        // record_bench stored 3019 such frames in 2.84 GB, BENCHMARKS.md).
         assert!(
-            (3e9..5e9).contains(&(size.total_bytes() as f64)),
+            (2.7e9..3.2e9).contains(&(size.total_bytes() as f64)),
             "{size:?}"
         );
         // Filming half of it: half the frames and records, the same force log.

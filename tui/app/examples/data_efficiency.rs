@@ -137,6 +137,7 @@ fn open_limits() -> Result<BenchLimits> {
         max_force: Newtons(20.0),
         ft_rating: None,
         contact_z: Millimetres(15.0),
+        start: None,
     })
 }
 

@@ -5,7 +5,7 @@
 //!   [`scan_target`]: the run a scan goes to (new, or resumed).
 //! - `calibration_scan`: the calibration scan's built-in grid and contact-finding tuning;
 //!   `calibration_images`: the optical part of a profile from a folder of no-contact images.
-//! - `plans`: the built-in scan plans.
+//! - `plans`: the built-in scan plans, by name, and each one's summary on a rig (`fringe plans`).
 //! - `disk_space`: room on disk for a scan: the camera frame a size estimate assumes, a run's
 //!   expected size, and the refusal (by the session, before anything moves) of a run that will
 //!   not fit. `disc_cutout`: the part of each frame stored when only the disc's square is kept.
@@ -51,8 +51,9 @@ pub use live_validation::{
 };
 pub use live_view::{LabelPoint, LiveView, ViewState};
 pub use plans::{
-    read_file as read_plan_file, scan_plan, BuiltinPlan, PlanFileError, ScanPlanError,
-    ALL as BUILTIN_PLANS, DEMO, SHORT_GRID,
+    by_name as builtin_plan, read_file as read_plan_file, scan_plan, summaries as plan_summaries,
+    BuiltinPlan, PlanFileError, PlanFit, PlanSummary, ScanPlanError, ALL as BUILTIN_PLANS, DEMO,
+    SHORT_GRID,
 };
 pub use rig_control::{
     AxisState, BenchCommand, BenchPhase, BenchSession, BenchState, CameraState, ForcePoint,

@@ -7,7 +7,7 @@ use anyhow::{bail, Context};
 use fringe_app::rig::{open_thorlabs, TraceTo};
 use fringe_rig::apt::Actuator;
 use fringe_rig::{apt::Timeouts, AptConfig, Controller};
-use fringe_rig::{Axis, AxisStatus, StopMode};
+use fringe_rig::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
 use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::time::Duration;
 
@@ -17,7 +17,8 @@ pub struct AxisArgs {
     #[arg(long, value_name = "PATH")]
     port: String,
     /// Actuator model: ZFS06/13/25, ZST206/213/225, DRV013/014/225/250/208/001, NRT100/150,
-    /// LTS150/300.
+    /// LTS150/300. Its travel (0 at the home switch) is the soft limits unless --min/--max are
+    /// given.
     #[arg(long, value_name = "NAME")]
     actuator: String,
     /// Controller: kst101, kst201, bsc201, bsc202, bsc203.
@@ -104,7 +105,17 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
     config.acceleration = MillimetresPerSecondSquared(args.acceleration);
     config.home.velocity = MillimetresPerSecond(args.velocity.min(1.0));
     config.timeouts = Timeouts::default();
-    config.soft_limits = args.limits.limits()?;
+    // Without --min/--max the actuator's travel (0 at the home switch) is the soft limits: a
+    // move past it would drive into a limit switch.
+    let given = args.limits.limits()?;
+    let travel = match (&given, actuator.travel) {
+        (None, Some(t)) => Some((
+            t,
+            SoftLimits::new(Millimetres(0.0), t).map_err(|e| anyhow::anyhow!("{e}"))?,
+        )),
+        _ => None,
+    };
+    config.soft_limits = given.or_else(|| travel.map(|(_, l)| l));
     let mut axis = open_thorlabs(
         &args.port,
         config,
@@ -120,11 +131,21 @@ pub fn run(args: AxisArgs, global: &Global) -> anyhow::Result<()> {
         );
     }
     let timeout = args.timeout;
+    let refused = |e: AxisError| -> anyhow::Error {
+        match (&e, travel) {
+            (AxisError::SoftLimit { .. }, Some((t, _))) => anyhow::anyhow!(
+                "{e}: the {}'s travel is {} mm (0 at its home switch), its soft limits when --min and --max are not given; to move elsewhere give both (--min MM --max MM)",
+                actuator.name,
+                t.0
+            ),
+            _ => e.into(),
+        }
+    };
     let status = match args.action {
         Action::Status => axis.status()?,
         Action::Home => axis.home(timeout)?,
-        Action::Move { mm } => axis.move_to(Millimetres(mm), timeout)?,
-        Action::MoveRel { mm } => axis.move_by(Millimetres(mm), timeout)?,
+        Action::Move { mm } => axis.move_to(Millimetres(mm), timeout).map_err(refused)?,
+        Action::MoveRel { mm } => axis.move_by(Millimetres(mm), timeout).map_err(refused)?,
         Action::Stop { immediate } => {
             axis.stop(if immediate {
                 StopMode::Immediate

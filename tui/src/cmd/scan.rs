@@ -28,8 +28,8 @@ use std::time::{Duration, Instant};
 
 #[derive(clap::Args, Default)]
 pub struct ScanArgs {
-    /// The scan plan (plan.toml). Without it: the built-in short grid, or with --resume the plan
-    /// stored in the run.
+    /// The scan plan (plan.toml), or a built-in plan's name (`fringe plans`). Without it: the
+    /// built-in short grid, or with --resume the plan stored in the run.
     #[arg(value_name = "PLAN")]
     plan: Option<PathBuf>,
     /// The rig file (default: ./rig.toml if present, else the simulated bench).
@@ -266,7 +266,7 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
     }
     let e = program.estimate(limits);
     println!(
-        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {}, of which homing and the move to the first point up to {} (operator prompts not counted)",
+        "path: {:.1} mm of lateral moves; {} indenter change(s); {} manual y row(s); estimated duration {}, of which homing and the move to the first point {} (operator prompts not counted)",
         e.lateral_path_mm,
         e.indenter_changes,
         e.manual_rows,
@@ -286,8 +286,13 @@ fn print_room(config: &RigConfig, program: &ScanProgram, limits: &BenchLimits, o
             return;
         }
     };
+    let measured = forecast
+        .measured_on
+        .as_ref()
+        .map(|run| format!(" (a frame's bytes as stored by {})", run.display()))
+        .unwrap_or_default();
     println!(
-        "expected on disk: {}",
+        "expected on disk: {}{measured}",
         forecast.recording.describe(&forecast.size)
     );
     match &forecast.free {

@@ -17,8 +17,8 @@ pub struct SimServeArgs {
     /// Also make PATH a symbolic link to the z controller's pseudo-terminal.
     #[arg(long, value_name = "PATH")]
     apt_z: Option<std::path::PathBuf>,
-    /// UDP address of the emulated Net F/T (its netftapi2.xml is served over HTTP on the same
-    /// IP, ephemeral port).
+    /// UDP address of the emulated Net F/T (its netftapi2.xml is served over HTTP on TCP at the
+    /// same address, where `fringe ft --netft IP` finds it; an ephemeral port if that is taken).
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:49152")]
     netft: SocketAddr,
     /// TCP address of the emulated Modbus y drive (also served as RTU on a pseudo-terminal).

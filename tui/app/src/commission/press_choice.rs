@@ -221,6 +221,7 @@ mod tests {
             max_force: Newtons(20.0),
             ft_rating: None,
             contact_z: Millimetres(15.0),
+            start: None,
         }
     }
 

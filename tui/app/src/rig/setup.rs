@@ -95,6 +95,8 @@ impl RigConfig {
             // A Net F/T's rated range is known to its box only; a DAQ's is in its .cal file.
             ft_rating: self.daq_rating()?,
             contact_z: Millimetres(contact_z),
+            // Where a real bench's axes are before they home is unknown.
+            start: None,
         })
     }
 

@@ -129,17 +129,29 @@ pub(crate) fn limits(rig: &RigConfig, max_force: Newtons) -> Result<BenchLimits,
         velocity: MillimetresPerSecond(a.velocity_mm_s),
         acceleration: MillimetresPerSecondSquared(a.acceleration_mm_s2),
     };
+    // The y stage is a Modbus drive: its moves (and its homing, at the speed they leave in the
+    // drive) run at its register map's profile, which the driver writes with every move.
+    let y_motion = fringe_rig::RegisterMap::load(&c.y_map)
+        .ok()
+        .and_then(|m| m.profile)
+        .map_or(k(&b.y), |p| Kinematics {
+            velocity: MillimetresPerSecond(p.speed_mm_s),
+            acceleration: MillimetresPerSecondSquared(p.accel_mm_s2.min(p.decel_mm_s2)),
+        });
     Ok(BenchLimits {
         x: limits("x", &b.x)?,
         y: limits("y", &b.y)?,
         z: limits("z", &b.z)?,
         x_motion: k(&b.x),
-        y_motion: k(&b.y),
+        y_motion,
         z_motion: k(&b.z),
         manual_y: false,
         max_force,
         ft_rating: Some(ft_rating(rig, &c)?),
         contact_z: Millimetres(b.geometry.z_touch_mm),
+        // A scan opens a new simulated bench, its axes where they power up (mm from the reverse
+        // limit switch, where they home).
+        start: Some([b.x, b.y, b.z].map(|a| Millimetres(a.power_up_mm))),
     })
 }
 

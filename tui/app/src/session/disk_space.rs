@@ -90,6 +90,10 @@ pub(crate) const STORE_DISC_ADVICE: &str = ", or store only the square around th
 pub struct RoomForecast {
     pub recording: Recording,
     pub size: RunSize,
+    /// The run whose stored frames gave the bytes of a frame (the newest run of this sensor
+    /// stored the same way under the same directory); `None`: the codec's measured bytes per
+    /// pixel ([`FrameStorage::expected_frame_bytes`]).
+    pub measured_on: Option<PathBuf>,
     /// Free bytes on the filesystem holding the run's directory.
     pub free: Result<u64, RoomError>,
 }
@@ -104,10 +108,19 @@ impl RoomForecast {
         out: &Path,
     ) -> Result<RoomForecast, RecordingError> {
         let recording = Recording::from_rig_files(config, Some(&program.plan))?;
-        let size = recording.expected(program.estimate(limits).recording_time());
+        let time = program.estimate(limits).recording_time();
+        let measured = config
+            .sensor_id()
+            .ok()
+            .and_then(|id| measured_frame_bytes(out, &id, &recording.storage));
+        let size = match &measured {
+            Some((bytes, _)) => RunSize::with_frame_bytes(time, recording.frame_rate, *bytes),
+            None => recording.expected(time),
+        };
         Ok(RoomForecast {
             recording,
             size,
+            measured_on: measured.map(|(_, run)| run),
             free: free_bytes(out),
         })
     }
@@ -198,6 +211,32 @@ impl Recording {
             human(size.records_bytes)
         )
     }
+}
+
+/// The mean bytes of a stored frame in the newest run under `root` that filmed sensor
+/// `sensor_id` and stored its frames as `storage` says (pixel format, codec, cutout): what this
+/// sensor and camera take, measured, with the run; `None` when there is no such run with frames.
+pub(crate) fn measured_frame_bytes(
+    root: &Path,
+    sensor_id: &str,
+    storage: &FrameStorage,
+) -> Option<(u64, PathBuf)> {
+    let mut newest: Option<(String, PathBuf)> = None;
+    for entry in std::fs::read_dir(root).ok()?.flatten() {
+        let dir = entry.path();
+        let Ok(start) = RunReader::at(&dir).start() else {
+            continue;
+        };
+        if start.sensor_id != sensor_id || start.frame_storage() != *storage {
+            continue;
+        }
+        if newest.as_ref().is_none_or(|(t, _)| start.started_utc > *t) {
+            newest = Some((start.started_utc, dir));
+        }
+    }
+    let (_, dir) = newest?;
+    let bytes = mean_stored_frame_bytes(&dir).ok()??;
+    Some((bytes, dir))
 }
 
 /// One frame's bytes: "1.73 MB", "350 kB".
@@ -332,7 +371,11 @@ fn planned_run(
                 frame,
                 frame_rate: rate,
             };
-            let size = recording.expected(setup.program.estimate(&setup.limits).recording_time());
+            let time = setup.program.estimate(&setup.limits).recording_time();
+            let size = match measured_frame_bytes(root, &setup.sensor_id, &recording.storage) {
+                Some((bytes, _)) => RunSize::with_frame_bytes(time, rate, bytes),
+                None => recording.expected(time),
+            };
             let mut advice = "free space there, write the run on another disk (--out DIR; --runs DIR of fringe calibrate), or run a smaller plan".to_string();
             if may_store_disc && setup.cutout.is_none() {
                 advice.push_str(STORE_DISC_ADVICE);
@@ -461,7 +504,7 @@ mod tests {
         let size = recording.expected(RecordingTime::filming_throughout(Duration::from_secs(60)));
         let text = recording.describe(&size);
         assert!(
-            text.contains("3000 of 1920x1200 bayerrg8, 1.21 MB each")
+            text.contains("3000 of 1920x1200 bayerrg8, 968 kB each")
                 && text.contains("force log 25 MB"),
             "{text}"
         );
@@ -471,6 +514,36 @@ mod tests {
         let minute = RecordingTime::filming_throughout(Duration::from_secs(60));
         assert!(square.expected(minute).total_bytes() < size.total_bytes());
         assert!(square.describe(&size).contains("disc squares of 1920x1200"));
+    }
+
+    /// The main job's forecast holds against its measured run (BENCHMARKS.md, "Estimates against
+    /// the run": 61 s and 1.442 GB, 1517 frames), and a disk where it fits does not refuse it
+    /// (with a frame assumed at 1.21 MB it was refused below 3.4 GB free).
+    #[cfg(feature = "sim")]
+    #[test]
+    fn the_main_job_is_forecast_as_measured_and_not_refused_where_it_fits() {
+        let rig = RigConfig::simulated();
+        let limits = rig.limits().expect("limits");
+        let grid = crate::session::plans::SHORT_GRID;
+        let program = Plan::parse(grid.text, "short-grid")
+            .and_then(|p| p.program(&limits, "short-grid"))
+            .expect("program");
+        let empty = std::env::temp_dir().join(format!("fringe-forecast-{}", std::process::id()));
+        let mut forecast = RoomForecast::new(&rig, &program, &limits, &empty).expect("forecast");
+        assert_eq!(forecast.measured_on, None, "no run there to measure");
+        let total = program.estimate(&limits).total.as_secs_f64();
+        assert!((total / 61.0 - 1.0).abs() < 0.15, "{total} s against 61 s");
+        let bytes = forecast.size.total_bytes() as f64;
+        assert!((bytes / 1.442e9 - 1.0).abs() < 0.15, "{bytes} B");
+        assert!(
+            (forecast.size.frames as f64 / 1517.0 - 1.0).abs() < 0.05,
+            "{:?}",
+            forecast.size
+        );
+        forecast.free = Ok(3_000_000_000);
+        assert_eq!(forecast.refusal(), None);
+        forecast.free = Ok(2_000_000_000);
+        assert!(forecast.refusal().is_some());
     }
 
     /// A scan of the built-in short grid on the simulated bench, whole BayerRG8 frames.

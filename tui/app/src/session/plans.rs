@@ -9,6 +9,8 @@ pub struct BuiltinPlan {
     /// Where the file lives in the source tree, for messages.
     pub path: &'static str,
     pub text: &'static str,
+    /// What it is for, in one line (`fringe plans`).
+    pub about: &'static str,
 }
 
 impl BuiltinPlan {
@@ -23,6 +25,7 @@ pub const SHORT_GRID: BuiltinPlan = BuiltinPlan {
     name: "short-grid",
     path: "tui/app/plans/short-grid.toml",
     text: include_str!("../../plans/short-grid.toml"),
+    about: "the main job (fringe with no command): a short indentation grid",
 };
 
 /// The calibration scan of `fringe calibrate`.
@@ -30,6 +33,7 @@ pub(crate) const CALIBRATION: BuiltinPlan = BuiltinPlan {
     name: "calibration",
     path: "tui/app/plans/calibration.toml",
     text: include_str!("../../plans/calibration.toml"),
+    about: "the calibration scan of fringe calibrate: light presses around the centre",
 };
 
 /// The demonstration of `fringe demo` on the simulated bench.
@@ -37,6 +41,7 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
     name: "demo",
     path: "tui/app/plans/demo.toml",
     text: include_str!("../../plans/demo.toml"),
+    about: "the demonstration of fringe demo: three presses to 1, 4 and 9 N",
 };
 
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
@@ -45,15 +50,81 @@ pub(crate) const COMMISSION: BuiltinPlan = BuiltinPlan {
     name: "commission",
     path: "tui/app/plans/commission.toml",
     text: include_str!("../../plans/commission.toml"),
+    about: "the presses of fringe commission (a template)",
 };
 
 /// Every built-in plan offered to run.
 pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
 
 /// A built-in plan by name.
-#[cfg(test)]
-pub(crate) fn by_name(name: &str) -> Option<BuiltinPlan> {
+pub fn by_name(name: &str) -> Option<BuiltinPlan> {
     ALL.into_iter().find(|p| p.name == name)
+}
+
+/// A built-in plan as `fringe plans` lists it: how many places it presses, how many presses,
+/// and how long it takes on the rig (the scan's own estimate, homing included).
+#[derive(Debug)]
+pub struct PlanSummary {
+    pub plan: BuiltinPlan,
+    /// The plan on this rig, or why it cannot run there (outside its soft limits...).
+    pub fit: Result<PlanFit, fringe_rig::ConfigError>,
+}
+
+/// What a built-in plan does on a rig.
+#[derive(Debug, Clone)]
+pub struct PlanFit {
+    /// Distinct stage positions pressed.
+    pub points: usize,
+    /// Indentations: positions times indenters times repetitions.
+    pub presses: usize,
+    /// Force (N) or depth (mm past contact) targets of each press.
+    pub targets: String,
+    pub estimate: fringe_rig::scan::Estimate,
+}
+
+/// Every built-in plan offered to run, summarised for the rig within `limits`.
+pub fn summaries(limits: &fringe_rig::BenchLimits) -> Vec<PlanSummary> {
+    ALL.into_iter()
+        .map(|plan| PlanSummary {
+            plan,
+            fit: fit(&plan, limits),
+        })
+        .collect()
+}
+
+fn fit(
+    plan: &BuiltinPlan,
+    limits: &fringe_rig::BenchLimits,
+) -> Result<PlanFit, fringe_rig::ConfigError> {
+    let origin = plan.origin();
+    let program = fringe_rig::Plan::parse(plan.text, &origin)?.program(limits, &origin)?;
+    let mut places: Vec<(u64, u64)> = program
+        .points
+        .iter()
+        .map(|p| (p.x.0.to_bits(), p.y.0.to_bits()))
+        .collect();
+    places.sort_unstable();
+    places.dedup();
+    let list = |v: Vec<f64>| {
+        v.iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let targets = match &program.targets {
+        fringe_rig::scan::Targets::Force(t) => {
+            format!("{} N", list(t.iter().map(|t| t.0).collect()))
+        }
+        fringe_rig::scan::Targets::Depth(t) => {
+            format!("{} mm deep", list(t.iter().map(|t| t.0).collect()))
+        }
+    };
+    Ok(PlanFit {
+        points: places.len(),
+        presses: program.points.len(),
+        targets,
+        estimate: program.estimate(limits),
+    })
 }
 
 /// A plan file that cannot be read, with what to do.
@@ -83,6 +154,14 @@ pub fn read_file(path: &std::path::Path) -> Result<String, PlanFileError> {
     })
 }
 
+/// The built-in plan `path` names when no file of that name exists (a file always wins).
+fn builtin_named(path: &std::path::Path) -> Option<BuiltinPlan> {
+    if path.exists() {
+        return None;
+    }
+    by_name(path.to_str()?)
+}
+
 /// Why the plan of a scan could not be had.
 #[derive(Debug, thiserror::Error)]
 pub enum ScanPlanError {
@@ -92,13 +171,17 @@ pub enum ScanPlanError {
     Run(#[source] fringe_rig::store::StoreError),
 }
 
-/// The plan a scan runs and a name for messages: the plan file given, else the plan stored in
+/// The plan a scan runs and a name for messages: the plan file given (or, when no such file
+/// exists, the built-in plan of that name: `fringe scan short-grid`), else the plan stored in
 /// the run it resumes, else the built-in short grid.
 pub fn scan_plan(
     file: Option<&std::path::Path>,
     resume: Option<&std::path::Path>,
 ) -> Result<(String, String), ScanPlanError> {
     if let Some(path) = file {
+        if let Some(plan) = builtin_named(path) {
+            return Ok((plan.text.to_string(), plan.origin()));
+        }
         let text = read_file(path).map_err(ScanPlanError::File)?;
         return Ok((text, path.display().to_string()));
     }

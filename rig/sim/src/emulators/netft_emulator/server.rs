@@ -211,14 +211,23 @@ impl NetFtEmulator {
         })?;
         socket.set_nonblocking(true)?;
         let addr = socket.local_addr()?;
-        let http_at = http_addr.unwrap_or_else(|| SocketAddr::new(addr.ip(), 0));
-        let http =
-            SimHttp::bind(http_at, "/netftapi2.xml", config.netftapi2_xml()).map_err(|e| {
-                io::Error::new(
-                    e.kind(),
-                    format!("emulated Net F/T: cannot serve http on {http_at}: {e}"),
-                )
-            })?;
+        // Without an address given, the page is served over TCP on the RDT port's number (where
+        // fringe's Net F/T client looks when nothing listens on port 80, which a real box uses),
+        // else, that port being taken, on an ephemeral one.
+        let page = || config.netftapi2_xml();
+        let http = match http_addr {
+            Some(at) => SimHttp::bind(at, "/netftapi2.xml", page()),
+            None => SimHttp::bind(addr, "/netftapi2.xml", page()).or_else(|_| {
+                SimHttp::bind(SocketAddr::new(addr.ip(), 0), "/netftapi2.xml", page())
+            }),
+        }
+        .map_err(|e| {
+            let at = http_addr.unwrap_or(addr);
+            io::Error::new(
+                e.kind(),
+                format!("emulated Net F/T: cannot serve http on {at}: {e}"),
+            )
+        })?;
         let mut emulator = Self::new_handle(Some(addr), Some(http), config, &core);
         let (stop, power) = (emulator.stop.clone(), emulator.power.clone());
         emulator.thread = Some(

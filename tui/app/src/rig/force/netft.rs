@@ -45,7 +45,8 @@ impl NetFtSpec {
 pub enum NetFtScaling {
     /// Given (rig file `cpf`/`cpt`, `--cpf`/`--cpt`), checked when described.
     Given(NetFtConfig),
-    /// Read from the box: `url`, or http://HOST/netftapi2.xml when `None`.
+    /// Read from the box: `url`, or http://HOST/netftapi2.xml when `None` (where nothing
+    /// listens on port 80, the page on TCP at the RDT port: an emulated box's).
     FromBox { url: Option<String> },
 }
 
@@ -57,15 +58,18 @@ pub fn open_netft(
     let device = "force";
     let config = match &spec.scaling {
         NetFtScaling::Given(config) => config.clone(),
-        NetFtScaling::FromBox { url } => {
-            let url = url
-                .clone()
-                .unwrap_or_else(|| netft::netftapi2_url(&spec.address.url_host()));
-            netft::fetch_config(&url, CONNECT_TIMEOUT).map_err(|source| DeviceError::Force {
-                device: device.into(),
-                source: Box::new(source),
-            })?
+        NetFtScaling::FromBox { url } => match url {
+            Some(url) => netft::fetch_config(url, CONNECT_TIMEOUT),
+            None => netft::fetch_box_config(
+                &spec.address.url_host(),
+                spec.address.port,
+                CONNECT_TIMEOUT,
+            ),
         }
+        .map_err(|source| DeviceError::Force {
+            device: device.into(),
+            source: Box::new(source),
+        })?,
     };
     let address = spec.address.to_string();
     let link: Box<dyn DatagramLink> =
