@@ -290,6 +290,26 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     assert!(t.contains("2 checks of sensor layered-3"), "{t}");
     assert!(t.contains("recalibrate"), "{t}");
     assert!(dir.join("profiles/layered-3.health.png").is_file());
+    // The unit is listed with its certificate, its last check's verdict (recalibrate: act on it
+    // and check again now) and the commissioned model validate runs for it.
+    let o = fringe(&["units", "--rig", arg(rig)]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let unit = t
+        .split("\n\n")
+        .find(|b| b.starts_with("layered-3 ("))
+        .unwrap_or_else(|| panic!("layered-3 not listed: {t}"));
+    assert!(unit.contains("certificate:   PASS"), "{unit}");
+    assert!(
+        unit.contains("last check:    recalibrate") && unit.contains("(2 checks)"),
+        "{unit}"
+    );
+    assert!(unit.contains("next check:    now"), "{unit}");
+    assert!(
+        unit.contains("validate uses: its commissioned model")
+            && unit.contains("model.safetensors"),
+        "{unit}"
+    );
     // Each check's run is kept like any run.
     let runs = std::fs::read_dir(dir.join("runs")).expect("runs").count();
     assert_eq!(runs, 2);
