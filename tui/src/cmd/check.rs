@@ -63,6 +63,10 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
         "appended to {} (fringe check --history shows it)",
         checked.history.display()
     );
+    println!(
+        "report: {} (one file: opens in any browser)",
+        checked.report.display()
+    );
     let assessment = checked.assessment;
     if assessment.verdict != Verdict::Ok {
         bail!(

@@ -123,20 +123,32 @@ pub fn run(a: EvalArgs) -> Result<()> {
     if let Some(s) = smoothing {
         print_smoothed(&s, &eval);
     }
+    let verdict = spec.as_ref().map(|spec| judge(&eval, spec));
+    let spec_origin = a
+        .spec
+        .as_deref()
+        .unwrap_or(Path::new(""))
+        .display()
+        .to_string();
     if let Some(dir) = &a.report {
         let title = format!("Evaluation of {}", model.path.display());
-        let path = report::write(dir, &title, &eval)?;
+        let path = report::write_judged(
+            dir,
+            &title,
+            &eval,
+            verdict.as_ref().map(|v| (v, spec_origin.as_str())),
+        )?;
         println!("report:         {}", path.display());
+        println!("                {}", path.with_extension("html").display());
     }
-    if let Some(spec) = &spec {
-        let v = judge(&eval, spec);
+    if let Some(v) = verdict {
         for line in models::verdict_lines(&v) {
             println!("{line}");
         }
         if !v.pass {
             bail!(
                 "the model fails the spec {}: {}",
-                a.spec.as_deref().unwrap_or(Path::new("")).display(),
+                spec_origin,
                 v.failures().join("; ")
             );
         }
