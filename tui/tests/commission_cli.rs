@@ -6,8 +6,8 @@
 
 mod common;
 use common::{
-    arg, fringe, fringe_command, printed_figure, quick_commission, refused_in, scratch, text,
-    unit_rig_at,
+    arg, fringe, fringe_command, printed_figure, quick_commission, refused_in, rendered, scratch,
+    shows_a_report, text, unit_rig_at,
 };
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -112,6 +112,16 @@ fn a_unit_is_commissioned_through_a_kill_recomputed_by_eval_and_checked_over_its
         "profile.toml",
     ] {
         assert!(cut.join(f).is_file(), "{f} missing");
+    }
+    // The report as one page a browser shows: the verdict, the spec, the weak cells, the plots
+    // inside it, which millimetres are which.
+    let page = std::fs::read_to_string(cut.join("report.html")).expect("report.html");
+    assert!(page.contains("Verdict: PASS against"), "{page}");
+    assert!(page.contains("Weak cells") && page.contains("The spec"));
+    assert!(page.matches("src=\"data:image/png;base64,").count() >= 5);
+    assert!(page.contains("stage millimetres") && page.contains("sensor millimetres"));
+    if let Some(shot) = rendered(&cut.join("report.html"), 1200, 2400) {
+        shows_a_report(&shot, true);
     }
 
     // `fringe eval` on the acceptance run recomputes the certificate's figures.
@@ -259,6 +269,22 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("verdict: ok"), "{t}");
+    // Its report, one page a browser shows.
+    let report = t
+        .lines()
+        .find_map(|l| l.strip_prefix("report: "))
+        .and_then(|l| l.split(" (").next())
+        .map(|p| dir.join(p))
+        .unwrap_or_else(|| panic!("no report line: {t}"));
+    let page = std::fs::read_to_string(&report).expect("the check's report");
+    assert!(
+        page.contains("Verdict: ok: the unit is as it was accepted"),
+        "{page}"
+    );
+    assert!(page.contains("src=\"data:image/png;base64,"));
+    if let Some(shot) = rendered(&report, 1200, 2400) {
+        shows_a_report(&shot, true);
+    }
     let said = announced_s(&t);
     assert!(said > 10.0 && said <= 120.0, "{t}");
 
