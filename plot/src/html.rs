@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 const STYLE: &str = "body{font-family:sans-serif;max-width:62em;margin:2em auto;padding:0 1em;color:#222;line-height:1.4}\
 h1{font-size:1.6em;border-bottom:2px solid #ccc;padding-bottom:.2em}h2{font-size:1.25em;margin-top:1.6em}\
 table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:left}\
-th{background:#eee}td.n{text-align:right;font-variant-numeric:tabular-nums}\
+th{background:#eee}td{white-space:nowrap}td:last-child{white-space:normal}td.n{text-align:right;font-variant-numeric:tabular-nums}\
 .verdict{font-size:1.3em;font-weight:bold;padding:.6em 1em;margin:1em 0;border-radius:4px}\
 .pass{background:#d9f2d9;border:2px solid #2e7d32;color:#1b5e20}.fail{background:#fde0e0;border:2px solid #c62828;color:#8e0000}\
 .note{background:#f4f4f4;border-left:4px solid #888;padding:.5em 1em}img{max-width:100%;height:auto;border:1px solid #ddd}\
@@ -89,11 +89,15 @@ impl Page {
 
     /// A table: its header and rows (a cell that reads as a number is set right-aligned).
     pub fn table<S: AsRef<str>>(&mut self, header: &[&str], rows: &[Vec<S>]) -> &mut Page {
-        self.body.push_str("<table>\n<tr>");
-        for h in header {
-            let _ = write!(self.body, "<th>{}</th>", escape(h));
+        self.body.push_str("<table>\n");
+        // A header of empty cells (a table of names and values) is left out.
+        if header.iter().any(|h| !h.is_empty()) {
+            self.body.push_str("<tr>");
+            for h in header {
+                let _ = write!(self.body, "<th>{}</th>", escape(h));
+            }
+            self.body.push_str("</tr>\n");
         }
-        self.body.push_str("</tr>\n");
         for row in rows {
             self.body.push_str("<tr>");
             for cell in row {

@@ -303,10 +303,10 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     assert!(t.contains("because: the F/T zero moved"), "{t}");
     let zero = t
         .lines()
-        .find(|l| l.trim_start().starts_with("force_zero_n"))
-        .and_then(|l| l.split_whitespace().nth(1))
+        .find(|l| l.trim_start().starts_with("force zero "))
+        .and_then(|l| l.split_whitespace().nth(2))
         .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or_else(|| panic!("no force_zero_n figure: {t}"));
+        .unwrap_or_else(|| panic!("no force zero figure: {t}"));
     assert!((zero - 0.1).abs() < 0.04, "{t}");
 
     // Both checks are in the unit's history, and plotted.

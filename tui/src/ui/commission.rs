@@ -65,13 +65,12 @@ fn existing(config: &RigConfig, sensor: &str) -> Option<(bool, String)> {
     let unit = listed.units.into_iter().find(|u| u.id == sensor)?;
     let c = unit.certificate?;
     let mut said = format!(
-        "certificate {} against {}: Fz {:.2} N, contact {:.2} mm, shape {:.1} % ({})",
+        "certificate {} against {}: Fz {:.2} N, contact {:.2} mm, shape {:.1} %",
         c.describe(),
         c.spec_origin,
         c.fz_rmse_n,
         c.contact_rmse_mm,
         100.0 * c.shape_accuracy,
-        c.dir.display()
     );
     if let Some(p) = unit.passing {
         said.push_str(&format!(" · last pass {}", p.describe()));

@@ -423,13 +423,8 @@ fn write_html(
         ],
     );
     page.heading("The spec");
-    let spec_rows: Vec<Vec<String>> = match &cert.spec {
-        serde_json::Value::Object(m) => m
-            .iter()
-            .map(|(k, v)| vec![k.clone(), v.to_string()])
-            .collect(),
-        other => vec![vec!["spec".to_string(), other.to_string()]],
-    };
+    let mut spec_rows: Vec<Vec<String>> = Vec::new();
+    spec_lines("", &cert.spec, &mut spec_rows);
     page.paragraph(&format!("From {}.", cert.spec_origin));
     page.table(&["key", "value"], &spec_rows);
     page.heading("Learning curve");
@@ -488,6 +483,35 @@ fn write_html(
     std::fs::write(&path, page.finish())
         .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
+}
+
+/// A spec (as the certificate keeps it, JSON) as rows of key and value: nested keys joined with
+/// dots (`all.fz_rmse_n`), lists numbered, nothing left as JSON text.
+fn spec_lines(key: &str, v: &serde_json::Value, out: &mut Vec<Vec<String>>) {
+    let join = |k: &str| {
+        if key.is_empty() {
+            k.to_string()
+        } else {
+            format!("{key}.{k}")
+        }
+    };
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, v) in m {
+                spec_lines(&join(k), v, out);
+            }
+        }
+        serde_json::Value::Array(items) if items.is_empty() => {
+            out.push(vec![key.to_string(), "none".to_string()]);
+        }
+        serde_json::Value::Array(items) => {
+            for (n, v) in items.iter().enumerate() {
+                spec_lines(&join(&(n + 1).to_string()), v, out);
+            }
+        }
+        serde_json::Value::Null => out.push(vec![key.to_string(), "not set".to_string()]),
+        other => out.push(vec![key.to_string(), other.to_string()]),
+    }
 }
 
 /// The adaptive presses on the stage over the usable disc (grey circle, its centre marked), each

@@ -5,7 +5,7 @@
 
 use crate::health::figures::{Rule, Verdict};
 use crate::health::history::Entry;
-use crate::health::history_plot::{named, plot};
+use crate::health::history_plot::plot;
 use crate::workflow_error::{Context, WorkflowError};
 use fringe_plot::html::Page;
 use std::path::{Path, PathBuf};
@@ -82,11 +82,7 @@ fn page(entry: &Entry, history: &[Entry]) -> Result<Page, fringe_plot::PlotError
         .figures
         .iter()
         .map(|f| {
-            let (name, unit) = named(&f.key, &f.unit);
-            let unit = match unit {
-                "ratio" | "count" | "share" => "",
-                u => u,
-            };
+            let (name, unit) = f.name_and_unit();
             let with_unit = |v: f64| {
                 if unit.is_empty() {
                     format!("{v:.3}")

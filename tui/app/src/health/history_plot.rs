@@ -1,7 +1,7 @@
 //! A unit's history of checks as one picture (`fringe check --history`, a check's HTML report):
 //! every figure over the checks' dates with its threshold (`<profiles>/<sensor>.health.png`).
 
-use crate::health::figures::Rule;
+use crate::health::figures::{spelled as named, Rule};
 use crate::health::history::Entry;
 use crate::units::schedule::days;
 use fringe_plot::palette::{BLUE, RED};
@@ -115,31 +115,6 @@ pub(crate) fn plot(entries: &[Entry]) -> Result<RgbImage, PlotError> {
         })
         .collect();
     fringe_plot::panels(&charts, 4, (560, 420))
-}
-
-/// A figure's key without its unit ("centre_shift_px" -> "centre shift"), and the unit spelled
-/// for a reader ("deg" -> "°", a ratio's "x" -> "ratio", a count's "" -> "count", a drop in
-/// accuracy's "" -> "share").
-pub(crate) fn named(key: &str, unit: &str) -> (String, &'static str) {
-    let name = key
-        .trim_end_matches("_px")
-        .trim_end_matches("_deg")
-        .trim_end_matches("_n")
-        .replace('_', " ")
-        .replace("fz rmse", "Fz RMSE")
-        .replace("contact rmse", "contact RMSE");
-    let unit = match unit {
-        "deg" => "°",
-        "x" => "ratio",
-        "" if key.ends_with("_cells") => "count",
-        // An accuracy's drop: a share of the frames.
-        "" => "share",
-        "px" => "px",
-        "N" => "N",
-        "mm" => "mm",
-        _ => "as measured",
-    };
-    (name, unit)
 }
 
 /// A check's time as days since 1970-01-01 (fractions for the time of day).

@@ -28,7 +28,7 @@ pub const SCREEN: ScreenDef = ScreenDef {
     title: "Units",
     help,
     draw: |f, area, s| draw(f, area, &s.units),
-    hint: |_| "Up/Down choose a unit · fringe commission/check --unit ID works on one",
+    hint: |_| "Up/Down choose a unit · --unit ID on a command works on it",
     open: |app| {
         Box::new(Units {
             seen: units::changed(&app.opts.config),
@@ -197,7 +197,7 @@ fn draw(f: &mut Frame, area: Rect, v: &UnitsView) {
             "certificate",
             "last check",
             "next check",
-            "validate uses (model)",
+            "validate uses",
         ])
         .style(Style::new().add_modifier(Modifier::BOLD)),
     )
