@@ -9,7 +9,8 @@
 //! (`fonts/`, its licence beside it), so no font is looked up on the system.
 //!
 //! Everything is re-exported here except the colours, which keep their module as a namespace
-//! ([`palette`]: `palette::BLUE`, `palette::SERIES`).
+//! ([`palette`]: `palette::BLUE`, `palette::SERIES`), and the self-contained HTML page the
+//! reports embed their plots in ([`html`]: `html::Page`, `html::escape`).
 
 #![warn(unreachable_pub)]
 #![warn(unnameable_types)]
@@ -17,6 +18,7 @@
 mod canvas;
 mod error;
 mod font;
+pub mod html;
 mod matrix;
 mod overlay;
 pub mod palette;

@@ -45,6 +45,21 @@ pub(crate) fn label(v: f64, decimals: usize) -> String {
     }
 }
 
+/// `YYYY-MM-DD` of `days` since 1970-01-01 (H. Hinnant's civil_from_days; the fraction of a
+/// day is dropped).
+pub(crate) fn date(days: f64) -> String {
+    let z = days.floor() as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -57,6 +72,8 @@ mod tests {
         assert_eq!(values(0.5, 3.5, 1.0), vec![1.0, 2.0, 3.0]);
         assert_eq!(values(-0.3, 0.3, 0.2).len(), 3);
         assert_eq!(decimals(0.05), 2);
+        assert_eq!(date(0.0), "1970-01-01");
+        assert_eq!(date(20_428.7), "2025-12-06");
         assert_eq!(decimals(0.2), 1);
         assert_eq!(decimals(5.0), 0);
         assert_eq!(label(-0.0001, 2), "0.00");

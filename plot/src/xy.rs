@@ -72,6 +72,7 @@ pub struct Axis {
     range: Option<[f64; 2]>,
     integers: bool,
     from_zero: bool,
+    dates: bool,
 }
 
 impl Axis {
@@ -82,7 +83,15 @@ impl Axis {
             range: None,
             integers: false,
             from_zero: false,
+            dates: false,
         }
+    }
+
+    /// Dates: values are days since 1970-01-01 (UTC, fractions for the time of day), ticks fall
+    /// on whole days labelled `YYYY-MM-DD`, and the data of a single day sits in the middle.
+    pub fn dates(mut self) -> Axis {
+        self.dates = true;
+        self
     }
 
     /// Shows `lo` to `hi`.
@@ -389,6 +398,14 @@ impl Chart {
             if axis.integers {
                 return [lo.floor() - 0.5, hi.ceil() + 0.5];
             }
+            if axis.dates {
+                if hi - lo < 1.0 {
+                    let mid = 0.5 * (lo + hi);
+                    return [mid - 1.0, mid + 1.0];
+                }
+                let pad = (0.08 * (hi - lo)).max(0.5);
+                return [lo - pad, hi + pad];
+            }
             if hi - lo < 1e-9 * (1.0 + lo.abs()) {
                 let d = (0.1 * lo.abs()).max(1e-3);
                 return [lo - d, hi + d];
@@ -426,8 +443,8 @@ impl Chart {
         let mut ctx = self.context(area, xr, yr)?;
         let x_dec = ticks::decimals(tick_step(&self.x, xr));
         let y_dec = ticks::decimals(tick_step(&self.y, yr));
-        let x_fmt = |v: &f64| ticks::label(*v, x_dec);
-        let y_fmt = |v: &f64| ticks::label(*v, y_dec);
+        let x_fmt = |v: &f64| tick_label(&self.x, *v, x_dec);
+        let y_fmt = |v: &f64| tick_label(&self.y, *v, y_dec);
         ctx.configure_mesh()
             .x_desc(self.x.label.as_str())
             .y_desc(self.y.label.as_str())
@@ -541,8 +558,21 @@ impl Chart {
     }
 }
 
-/// The tick step of `axis` over `range`: about six round ticks, whole numbers for counts.
+/// A tick's label: a date on a date axis, else the value with `decimals`.
+fn tick_label(axis: &Axis, v: f64, decimals: usize) -> String {
+    if axis.dates {
+        ticks::date(v)
+    } else {
+        ticks::label(v, decimals)
+    }
+}
+
+/// The tick step of `axis` over `range`: about six round ticks, whole numbers for counts, whole
+/// days (about four: a date is a long label) for dates.
 fn tick_step(axis: &Axis, range: [f64; 2]) -> f64 {
+    if axis.dates {
+        return ticks::step(range[1] - range[0], 4.0).round().max(1.0);
+    }
     let s = ticks::step(range[1] - range[0], 6.0);
     if axis.integers {
         s.round().max(1.0)

@@ -1,10 +1,14 @@
 //! An evaluation's report: `report.md` (Table-2 figures beside the paper's, breakdowns by grid
 //! position and force level, the confusion matrix) and its plots, `fz.png` (predicted against
 //! measured Fz), `contact.png` (each labelled contact joined to its prediction, over the disc)
-//! and `confusion.png`, drawn by `fringe-plot`.
+//! and `confusion.png`, drawn by `fringe-plot`; and the same as one self-contained page,
+//! `report.html` (the plots embedded, a verdict against a spec when one was judged), which opens
+//! in any browser with nothing else installed.
 
+use crate::acceptance::Verdict;
 use crate::eval::Evaluation;
 use crate::metrics::{Errors, Metrics};
+use fringe_plot::html::Page;
 use fringe_plot::palette::{BLACK, BLUE, GREY, RED};
 use fringe_plot::{Axis, Chart, Corner, Matrix, PlotError, Series};
 use image::RgbImage;
@@ -204,26 +208,201 @@ pub fn confusion_plot(m: &Metrics) -> Result<RgbImage, PlotError> {
     .render(PX)
 }
 
-/// Writes `report.md` and the plots into `dir` (created); returns the report's path.
+/// Which coordinates are which, said in every report that shows positions.
+pub const COORDINATES: &str = "Coordinates: contact positions (contact x and y, the contact error) are sensor millimetres, on the sensor's surface from its centre, as the unit's calibration profile maps the image to it; grid positions and press positions are stage millimetres, where the stage put the indenter.";
+
+/// Writes `report.md`, `report.html` and the plots into `dir` (created); returns the Markdown
+/// report's path.
 pub fn write(dir: &Path, title: &str, eval: &Evaluation) -> Result<PathBuf, ReportError> {
+    write_judged(dir, title, eval, None)
+}
+
+/// [`write`], with the verdict against a spec (and where the spec came from) at the head of
+/// `report.html`.
+pub fn write_judged(
+    dir: &Path,
+    title: &str,
+    eval: &Evaluation,
+    verdict: Option<(&Verdict, &str)>,
+) -> Result<PathBuf, ReportError> {
     let err = |p: &Path, e: &dyn std::fmt::Display| ReportError {
         path: p.display().to_string(),
         message: e.to_string(),
     };
     std::fs::create_dir_all(dir).map_err(|e| err(dir, &e))?;
+    let mut page = Page::new(title);
+    if let Some((v, origin)) = verdict {
+        verdict_html(&mut page, v, origin);
+    }
+    let html = dir.join("report.html");
     for (name, img) in [
         ("fz.png", fz_plot(eval)),
         ("contact.png", contact_plot(eval)),
         ("confusion.png", confusion_plot(&eval.metrics)),
     ] {
         let p = dir.join(name);
-        img.map_err(|e| err(&p, &e))?
-            .save(&p)
-            .map_err(|e| err(&p, &e))?;
+        let img = img.map_err(|e| err(&p, &e))?;
+        img.save(&p).map_err(|e| err(&p, &e))?;
+        if name == "fz.png" {
+            evaluation_html(&mut page, eval);
+        }
+        page.image(caption(name), &img)
+            .map_err(|e| err(&html, &e))?;
     }
+    std::fs::write(&html, page.finish()).map_err(|e| err(&html, &e))?;
     let p = dir.join("report.md");
     std::fs::write(&p, markdown(title, eval)).map_err(|e| err(&p, &e))?;
     Ok(p)
+}
+
+fn caption(png: &str) -> &'static str {
+    match png {
+        "fz.png" => "Predicted against measured Fz (N)",
+        "contact.png" => "Contact: each labelled contact joined to its prediction (sensor mm)",
+        _ => "Shape confusion matrix",
+    }
+}
+
+/// A verdict against a spec on a page: PASS or FAIL in its box, every check, and the groups
+/// (grid cells, force levels, shapes) that miss a whole-set threshold, worst first.
+pub fn verdict_html(page: &mut Page, v: &Verdict, spec_origin: &str) {
+    page.verdict(
+        v.pass,
+        &format!(
+            "Verdict: {} against {spec_origin}",
+            if v.pass { "PASS" } else { "FAIL" }
+        ),
+    );
+    page.heading("The spec's checks");
+    let rows: Vec<Vec<String>> = v
+        .checks
+        .iter()
+        .map(|c| {
+            vec![
+                c.figure.to_string(),
+                c.over.clone(),
+                fmt(c.value, 4),
+                format!(
+                    "{} {}",
+                    if c.at_most { "at most" } else { "at least" },
+                    fmt(c.limit, 4)
+                ),
+                c.frames.to_string(),
+                if c.pass { "ok" } else { "FAIL" }.to_string(),
+            ]
+        })
+        .collect();
+    page.table(
+        &["figure", "over", "value", "threshold", "frames", ""],
+        &rows,
+    );
+    weak_html(page, v);
+}
+
+/// The weak cells: groups that miss a threshold the whole set is held to.
+fn weak_html(page: &mut Page, v: &Verdict) {
+    page.heading("Weak cells");
+    if v.weak.is_empty() {
+        page.paragraph(
+            "None: every grid cell, force level and shape meets the whole set's thresholds.",
+        );
+        return;
+    }
+    page.paragraph("Groups of frames (grid cells in stage mm, force levels, shapes) that miss a threshold the whole set is held to, worst first: where to look.");
+    let rows: Vec<Vec<String>> = v
+        .weak
+        .iter()
+        .map(|w| {
+            vec![
+                w.group.clone(),
+                w.figure.to_string(),
+                fmt(w.value, 4),
+                fmt(w.limit, 4),
+                w.frames.to_string(),
+            ]
+        })
+        .collect();
+    page.table(&["group", "figure", "value", "limit", "frames"], &rows);
+}
+
+/// An evaluation's figures on a page (its plots follow): Table 2 beside the paper's rows, the
+/// macro scores, the confusion matrix and the breakdowns, and which coordinates are which.
+pub fn evaluation_html(page: &mut Page, eval: &Evaluation) {
+    let m = &eval.metrics;
+    let s = m.macro_scores();
+    page.heading("Figures");
+    page.paragraph(&format!(
+        "{} frames evaluated ({} left out: no trustworthy label), {} in contact. Macro precision {}, recall {}, F1 {}.",
+        m.all.n,
+        eval.skipped,
+        m.all.n_contact,
+        fmt(s.precision, 4),
+        fmt(s.recall, 4),
+        fmt(s.f1, 4)
+    ));
+    let header = [
+        "",
+        "frames",
+        "Fz MSE (N^2)",
+        "Fz RMSE (N)",
+        "contact RMSE (mm)",
+        "shape accuracy",
+    ];
+    let mut rows = vec![errors_cells("this model", &m.all)];
+    for (name, mse, rmse, c, a) in PAPER {
+        rows.push(vec![
+            name.to_string(),
+            String::new(),
+            mse.to_string(),
+            rmse.to_string(),
+            c.to_string(),
+            a.to_string(),
+        ]);
+    }
+    page.table(&header, &rows);
+    page.note(COORDINATES);
+    page.heading("Confusion matrix (rows: labelled, columns: predicted)");
+    let mut head: Vec<&str> = vec![""];
+    head.extend(m.classes.iter().map(String::as_str));
+    let rows: Vec<Vec<String>> = m
+        .classes
+        .iter()
+        .zip(&m.confusion)
+        .map(|(name, row)| {
+            let mut r = vec![name.clone()];
+            r.extend(row.iter().map(u64::to_string));
+            r
+        })
+        .collect();
+    page.table(&head, &rows);
+    for (heading, prefix) in [
+        ("By force level", "force "),
+        ("By grid position (stage mm)", "grid "),
+    ] {
+        let rows: Vec<Vec<String>> = m
+            .by_key
+            .iter()
+            .filter(|(k, _)| k.starts_with(prefix))
+            .map(|(k, e)| errors_cells(k.trim_start_matches(prefix), e))
+            .collect();
+        if !rows.is_empty() {
+            page.heading(heading);
+            page.table(&header, &rows);
+        }
+    }
+    page.heading("Plots");
+}
+
+/// An errors row's cells: name, frames, Fz MSE, Fz RMSE, contact RMSE, accuracy.
+fn errors_cells(name: &str, e: &Errors) -> Vec<String> {
+    vec![
+        name.to_string(),
+        e.n.to_string(),
+        fmt(e.fz_mse(), 4),
+        fmt(e.fz_rmse(), 4),
+        fmt(e.contact_rmse(), 4),
+        fmt(e.accuracy(), 4),
+    ]
 }
 
 #[cfg(test)]
@@ -289,6 +468,13 @@ mod tests {
             assert_eq!(img.dimensions(), (PX, PX), "{png}");
         }
         assert!(md.ends_with("report.md"));
+        let html = std::fs::read_to_string(dir.path().join("report.html")).expect("html");
+        assert_eq!(
+            html.matches("data:image/png;base64,").count(),
+            3,
+            "three plots embedded"
+        );
+        assert!(html.contains("sensor millimetres") && html.contains("stage millimetres"));
     }
 
     /// A live validation's frames skipped while the model was busy are said as such, never as

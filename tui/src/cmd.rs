@@ -31,5 +31,7 @@ pub mod sim_serve;
 pub mod terminal_host;
 pub mod terminal_prompt;
 pub mod train;
+pub mod unit_arg;
+pub mod units;
 pub mod validate;
 pub mod ystage;

@@ -78,6 +78,9 @@ enum Command {
     /// optics, light, surface, F/T zero and the model's errors; a verdict (ok, calibrate again,
     /// commission again, replace) with its evidence, kept in the unit's history (--history).
     Check(cmd::check::CheckArgs),
+    /// Every sensor unit known: its design, certificate (verdict, date, model), last check and
+    /// verdict, when the next check is due, and the model validate runs for it.
+    Units(cmd::units::UnitsArgs),
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
@@ -140,6 +143,7 @@ fn main() -> ExitCode {
         Some(Command::Adapt(args)) => cmd::adapt::run(args),
         Some(Command::Commission(args)) => cmd::commission::run(args, &global),
         Some(Command::Check(args)) => cmd::check::run(args, &global),
+        Some(Command::Units(args)) => cmd::units::run(args),
         Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
         #[cfg(feature = "sim")]

@@ -6,8 +6,8 @@
 
 mod common;
 use common::{
-    arg, fringe, fringe_command, printed_figure, quick_commission, refused_in, scratch, text,
-    unit_rig_at,
+    arg, fringe, fringe_command, printed_figure, quick_commission, refused_in, rendered, scratch,
+    shows_a_report, text, unit_rig_at,
 };
 use std::path::{Path, PathBuf};
 use std::process::Stdio;
@@ -112,6 +112,16 @@ fn a_unit_is_commissioned_through_a_kill_recomputed_by_eval_and_checked_over_its
         "profile.toml",
     ] {
         assert!(cut.join(f).is_file(), "{f} missing");
+    }
+    // The report as one page a browser shows: the verdict, the spec, the weak cells, the plots
+    // inside it, which millimetres are which.
+    let page = std::fs::read_to_string(cut.join("report.html")).expect("report.html");
+    assert!(page.contains("Verdict: PASS against"), "{page}");
+    assert!(page.contains("Weak cells") && page.contains("The spec"));
+    assert!(page.matches("src=\"data:image/png;base64,").count() >= 5);
+    assert!(page.contains("stage millimetres") && page.contains("sensor millimetres"));
+    if let Some(shot) = rendered(&cut.join("report.html"), 1200, 2400) {
+        shows_a_report(&shot, true);
     }
 
     // `fringe eval` on the acceptance run recomputes the certificate's figures.
@@ -259,6 +269,22 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     let t = text(&o);
     assert!(o.status.success(), "{t}");
     assert!(t.contains("verdict: ok"), "{t}");
+    // Its report, one page a browser shows.
+    let report = t
+        .lines()
+        .find_map(|l| l.strip_prefix("report: "))
+        .and_then(|l| l.split(" (").next())
+        .map(|p| dir.join(p))
+        .unwrap_or_else(|| panic!("no report line: {t}"));
+    let page = std::fs::read_to_string(&report).expect("the check's report");
+    assert!(
+        page.contains("Verdict: ok: the unit is as it was accepted"),
+        "{page}"
+    );
+    assert!(page.contains("src=\"data:image/png;base64,"));
+    if let Some(shot) = rendered(&report, 1200, 2400) {
+        shows_a_report(&shot, true);
+    }
     let said = announced_s(&t);
     assert!(said > 10.0 && said <= 120.0, "{t}");
 
@@ -277,10 +303,10 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     assert!(t.contains("because: the F/T zero moved"), "{t}");
     let zero = t
         .lines()
-        .find(|l| l.trim_start().starts_with("force_zero_n"))
-        .and_then(|l| l.split_whitespace().nth(1))
+        .find(|l| l.trim_start().starts_with("force zero "))
+        .and_then(|l| l.split_whitespace().nth(2))
         .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or_else(|| panic!("no force_zero_n figure: {t}"));
+        .unwrap_or_else(|| panic!("no force zero figure: {t}"));
     assert!((zero - 0.1).abs() < 0.04, "{t}");
 
     // Both checks are in the unit's history, and plotted.
@@ -290,6 +316,26 @@ fn checks_of_the_commissioned_unit(dir: &Path, rig: &Path) {
     assert!(t.contains("2 checks of sensor layered-3"), "{t}");
     assert!(t.contains("recalibrate"), "{t}");
     assert!(dir.join("profiles/layered-3.health.png").is_file());
+    // The unit is listed with its certificate, its last check's verdict (recalibrate: act on it
+    // and check again now) and the commissioned model validate runs for it.
+    let o = fringe(&["units", "--rig", arg(rig)]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let unit = t
+        .split("\n\n")
+        .find(|b| b.starts_with("layered-3 ("))
+        .unwrap_or_else(|| panic!("layered-3 not listed: {t}"));
+    assert!(unit.contains("certificate:   PASS"), "{unit}");
+    assert!(
+        unit.contains("last check:    recalibrate") && unit.contains("(2 checks)"),
+        "{unit}"
+    );
+    assert!(unit.contains("next check:    now"), "{unit}");
+    assert!(
+        unit.contains("validate uses: its commissioned model")
+            && unit.contains("model.safetensors"),
+        "{unit}"
+    );
     // Each check's run is kept like any run.
     let runs = std::fs::read_dir(dir.join("runs")).expect("runs").count();
     assert_eq!(runs, 2);

@@ -14,13 +14,16 @@
 //! - `check`: the check itself (`fringe check`): the unit's certificate found, its presses
 //!   run through a [`crate::commission::host::Host`], every figure compared, the verdict
 //!   appended to the history.
-//! - `history_plot`: the history as one picture, each figure over the checks.
+//! - `history_plot`: the history as one picture, each figure over the checks' dates.
+//! - `check_report`: a check's report, one self-contained HTML page
+//!   (`<profiles>/<sensor>.checks/`).
 //!
 //! The measurements compared (a frame set's optics, light and surface signature) belong to
 //! calibration: `fringe_calibration::health`.
 
 pub(crate) mod check;
 pub(crate) mod check_plan;
+pub(crate) mod check_report;
 pub(crate) mod figures;
 pub(crate) mod history;
 pub(crate) mod history_plot;

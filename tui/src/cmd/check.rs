@@ -1,4 +1,4 @@
-//! `fringe check [--rig R] [--sensor ID]`: a unit checked against what it was accepted with (its
+//! `fringe check [--rig R] [--unit FILE|ID]`: a unit checked against what it was accepted with (its
 //! newest passing commissioning certificate) in at most two minutes of bench time: a few of its
 //! acceptance positions pressed again with every indenter; the optics, light and surface of its
 //! no-contact frames, its F/T zero and its model's errors compared; a verdict with the evidence,
@@ -6,6 +6,7 @@
 //! shows the history and plots it.
 
 use crate::cmd::terminal_host::Terminal;
+use crate::cmd::unit_arg::{self, UnitArg};
 use crate::global::Global;
 use anyhow::{bail, Result};
 use fringe_app::health;
@@ -19,8 +20,10 @@ pub struct CheckArgs {
     /// The rig file (default: ./rig.toml if present, else the simulated bench).
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
-    /// The unit to check (default: the rig's sensor). It must be the one under the camera.
-    #[arg(long, value_name = "ID")]
+    #[command(flatten)]
+    unit: UnitArg,
+    /// The unit to check, as --unit (kept from before --unit).
+    #[arg(long, value_name = "ID", conflicts_with = "unit")]
     sensor: Option<String>,
     /// Show the unit's history of checks and plot it (<profiles>/<sensor>.health.png); nothing
     /// moves.
@@ -39,7 +42,11 @@ pub struct CheckArgs {
 
 pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
-    let sensor = health::unit_to_check(&config, a.sensor.as_deref())?;
+    let config = match (&a.unit.unit, &a.sensor) {
+        (None, Some(s)) => unit_arg::on("--sensor", Some(s), config)?,
+        _ => a.unit.on(config)?,
+    };
+    let sensor = health::unit_to_check(&config, None)?;
     let profiles = config.profile_dir();
     if a.history {
         return show(&profiles, &sensor);
@@ -55,6 +62,10 @@ pub fn run(a: CheckArgs, global: &Global) -> Result<()> {
     println!(
         "appended to {} (fringe check --history shows it)",
         checked.history.display()
+    );
+    println!(
+        "report: {} (one file: opens in any browser)",
+        checked.report.display()
     );
     let assessment = checked.assessment;
     if assessment.verdict != Verdict::Ok {

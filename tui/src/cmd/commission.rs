@@ -1,4 +1,4 @@
-//! `fringe commission [--rig R] [--base MODEL] [--budget MINUTES] [--spec FILE|paper]`: a sensor
+//! `fringe commission [--rig R] [--unit FILE|ID] [--base MODEL] [--budget MINUTES] [--spec FILE|paper]`: a sensor
 //! unit taken from first light to a verdict in one job. The calibration scan and the unit's
 //! profile; rounds of presses chosen where the model errs most or has not pressed, each round
 //! predicted by the model as adapted so far before it is adapted on (the learning curve);
@@ -8,6 +8,7 @@
 //! runs already recorded.
 
 use crate::cmd::terminal_host::Terminal;
+use crate::cmd::unit_arg::UnitArg;
 use crate::global::Global;
 use anyhow::{bail, Result};
 use fringe_app::commission;
@@ -24,6 +25,8 @@ pub struct CommissionArgs {
     /// rig's sensor (its `sensor` key, or the simulated sensor's id).
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
+    #[command(flatten)]
+    unit: UnitArg,
     /// The model to adapt: a weights file of the paper's networks, or `builtin:NAME`. Default:
     /// the keypoint CNN that ships for the sensor's design (builtin:layered-keypoint,
     /// builtin:integrated).
@@ -85,6 +88,7 @@ pub struct CommissionArgs {
 
 pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let config = a.unit.on(config)?;
     let sensor = config.sensor_id()?;
     println!(
         "fringe {}: commissioning of sensor {sensor} on rig: {}",
@@ -124,8 +128,16 @@ pub fn run(a: CommissionArgs, global: &Global) -> Result<()> {
         println!("{line}");
     }
     println!("commissioning directory: {}", prepared.dir().display());
+    // The same rig and unit again: a resume on another is refused.
+    let again: String = [
+        ("--rig", a.rig.as_ref().map(|r| r.display().to_string())),
+        ("--unit", a.unit.unit.clone()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, v)| v.map(|v| format!(" {flag} {v}")))
+    .collect();
     println!(
-        "  (after Ctrl-C or a crash: fringe commission --resume {})",
+        "  (after Ctrl-C or a crash: fringe commission{again} --resume {})",
         prepared.dir().display()
     );
     let mut host = Terminal::new(global, a.yes);

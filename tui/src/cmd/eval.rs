@@ -1,8 +1,9 @@
-//! `fringe eval --model MODEL DATA... [--report DIR]`: a model's Table-2 figures on runs or
+//! `fringe eval [--model MODEL] [--unit FILE|ID] DATA... [--report DIR]`: a model's Table-2 figures on runs or
 //! reference-layout datasets.
 
 use super::frames_progress::FramesProgress;
 use super::model::{choose_model, say, ReferenceChoice};
+use super::unit_arg::UnitArg;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use fringe_app::models;
@@ -27,6 +28,10 @@ pub struct EvalArgs {
     /// `builtin:integrated-two-stage`). A model of another design than the data's is refused.
     #[arg(long)]
     model: Option<PathBuf>,
+    /// The unit the data is of (its id or one of its files, as `fringe units` lists them): its
+    /// commissioned model is the default. Data that names another sensor is refused.
+    #[command(flatten)]
+    unit: UnitArg,
     /// Run directories or reference-layout datasets (0.images/ + 0.labels.csv).
     #[arg(required = true)]
     data: Vec<PathBuf>,
@@ -73,13 +78,25 @@ pub fn run(a: EvalArgs) -> Result<()> {
     };
     let sources = read_sources(&a.data, "evaluate")?;
     let profiles = models::profiles_dir(&mut say);
+    let named = a.unit.named()?;
+    let data_unit = agreed(&sources, |s| s.sensor_id.as_deref());
+    if let (Some(u), Some(d)) = (&named, data_unit) {
+        if u.id != d {
+            bail!(
+                "--unit {}: the data is of sensor {d}, not {}: give the unit the data was recorded on",
+                u.id,
+                u.id
+            );
+        }
+    }
     let model = choose_model(
         a.model.as_deref(),
         &ForSensor {
             profiles: &profiles,
-            unit: agreed(&sources, |s| s.sensor_id.as_deref()),
+            unit: named.as_ref().map(|u| u.id.as_str()).or(data_unit),
             // Evaluation refuses a model of another design source by source too.
-            variant: agreed(&sources, |s| s.variant.as_deref()),
+            variant: agreed(&sources, |s| s.variant.as_deref())
+                .or(named.as_ref().and_then(|u| u.design.as_deref())),
             whose: "the data's sensor",
         },
     )?;
@@ -106,20 +123,32 @@ pub fn run(a: EvalArgs) -> Result<()> {
     if let Some(s) = smoothing {
         print_smoothed(&s, &eval);
     }
+    let verdict = spec.as_ref().map(|spec| judge(&eval, spec));
+    let spec_origin = a
+        .spec
+        .as_deref()
+        .unwrap_or(Path::new(""))
+        .display()
+        .to_string();
     if let Some(dir) = &a.report {
         let title = format!("Evaluation of {}", model.path.display());
-        let path = report::write(dir, &title, &eval)?;
+        let path = report::write_judged(
+            dir,
+            &title,
+            &eval,
+            verdict.as_ref().map(|v| (v, spec_origin.as_str())),
+        )?;
         println!("report:         {}", path.display());
+        println!("                {}", path.with_extension("html").display());
     }
-    if let Some(spec) = &spec {
-        let v = judge(&eval, spec);
+    if let Some(v) = verdict {
         for line in models::verdict_lines(&v) {
             println!("{line}");
         }
         if !v.pass {
             bail!(
                 "the model fails the spec {}: {}",
-                a.spec.as_deref().unwrap_or(Path::new("")).display(),
+                spec_origin,
                 v.failures().join("; ")
             );
         }

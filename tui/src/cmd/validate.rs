@@ -1,4 +1,4 @@
-//! `fringe validate --no-tui [--model M] [--plan P] [--rig R] [--report DIR]`: live validation
+//! `fringe validate --no-tui [--model M] [--plan P] [--rig R] [--unit FILE|ID] [--report DIR]`: live validation
 //! without the terminal UI. A scan plan drives the rig (the built-in short grid by default);
 //! every labelled frame it records is offered to the model, and each prediction is set against
 //! that frame's synchronised F/T label. At the end: the paper's metrics, the loop rate and the
@@ -7,6 +7,7 @@
 
 use crate::cmd::model::choose_model;
 use crate::cmd::scan::execute;
+use crate::cmd::unit_arg::UnitArg;
 use crate::global::Global;
 use anyhow::{bail, Context, Result};
 use fringe_app::models::ForSensor;
@@ -36,6 +37,8 @@ pub struct ValidateArgs {
     /// The rig file (default: ./rig.toml if present, else the simulated bench).
     #[arg(long, value_name = "FILE")]
     rig: Option<PathBuf>,
+    #[command(flatten)]
+    unit: UnitArg,
     /// Directory that receives the run the plan records.
     #[arg(long, value_name = "DIR", default_value = "runs")]
     out: PathBuf,
@@ -66,6 +69,7 @@ pub fn run(a: ValidateArgs, global: &Global) -> Result<()> {
     let (text, origin) = scan_plan(a.plan.as_deref(), None)?;
     let plan = Plan::parse(&text, &origin)?;
     let (config, source) = RigConfig::resolve(a.rig.as_deref())?;
+    let config = a.unit.on(config)?;
     let unit = config.sensor_id().ok();
     let model = choose_model(
         a.model.as_deref(),

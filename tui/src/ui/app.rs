@@ -9,6 +9,7 @@ use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
 use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use super::units;
 use fringe_app::runs::{list_runs, ListedRun};
 use fringe_app::session::Recording;
 use fringe_app::session::{BenchCommand, BenchPhase, BenchSession};
@@ -114,6 +115,7 @@ impl App {
             calibrate: calibration::ready_view(&opts.config),
             commission: commission::ready_view(&opts.config),
             health: health::view(&opts.config),
+            units: units::view(&opts.config),
             dialog: None,
             picker: None,
             error: None,

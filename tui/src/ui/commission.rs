@@ -12,6 +12,7 @@ use fringe_app::commission::{unfinished, CurvePoint};
 use fringe_app::commission::{Host, ScanEnded};
 use fringe_app::commission::{PressedPoint, UsableDisc};
 use fringe_app::session::guarded;
+use fringe_app::units;
 use fringe_app::workflow_error::BoxError;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::RunTarget;
@@ -52,8 +53,30 @@ pub fn ready_view(config: &RigConfig) -> CommissionView {
         Spec::paper().all.describe()
     );
     v.resumable = unfinished(&config.profile_dir(), &sensor).map(|d| d.display().to_string());
+    v.existing = existing(config, &sensor);
     v.sensor = sensor;
     v
+}
+
+/// The unit's newest certificate (made here or by `fringe commission`), in words, and whether it
+/// passed: what the Commission screen shows before anything is started.
+fn existing(config: &RigConfig, sensor: &str) -> Option<(bool, String)> {
+    let listed = units::list(config, &fringe_rig::store::now_utc());
+    let unit = listed.units.into_iter().find(|u| u.id == sensor)?;
+    let c = unit.certificate?;
+    let mut said = format!(
+        "certificate {} against {}: Fz {:.2} N, contact {:.2} mm, shape {:.1} %",
+        c.describe(),
+        c.spec_origin,
+        c.fz_rmse_n,
+        c.contact_rmse_mm,
+        100.0 * c.shape_accuracy,
+    );
+    if let Some(p) = unit.passing {
+        said.push_str(&format!(" · last pass {}", p.describe()));
+    }
+    said.push_str(&format!(" · validate uses {}", unit.validate.describe()));
+    Some((c.pass, said))
 }
 
 /// The spec's whole-set thresholds.

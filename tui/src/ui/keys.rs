@@ -243,8 +243,8 @@ mod tests {
             help_rows().into_iter().map(|r| (r.keys, r.what)).collect();
         let expected = [
             (
-                "1-7 / Tab",
-                "Scan, Validate, Runs, Bench, Calibrate, Commission, Health screens",
+                "1-8 / Tab",
+                "Scan, Validate, Runs, Bench, Calibrate, Commission, Health, Units screens",
             ),
             ("l", "choose the scan plan (built in, ./plans/*.toml)"),
             ("r", "run the scan plan (with live validation on Validate)"),
@@ -295,6 +295,10 @@ mod tests {
             (
                 "Up / Down (Health)",
                 "choose a check: its figures against their thresholds",
+            ),
+            (
+                "Up / Down (Units)",
+                "choose a unit: its certificate, checks and model",
             ),
             ("Enter", "answer a dialog: continue"),
             ("?", "show or hide these keys"),

@@ -23,6 +23,7 @@ screens! {
     calibrate,
     commission,
     health,
+    units,
 }
 
 /// Where `tab` is in [`ALL`].

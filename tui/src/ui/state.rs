@@ -228,6 +228,21 @@ pub struct HealthView {
     pub selected: usize,
 }
 
+/// The Units screen: every unit known with its certificate, checks and model
+/// (`fringe_app::units::list`, as `fringe units` prints it).
+#[derive(Debug, Clone, Default)]
+pub struct UnitsView {
+    /// Where the units' profiles, certificates and histories are.
+    pub profiles: String,
+    /// The rig's sensor, when it names one.
+    pub on_rig: Option<String>,
+    pub units: Vec<fringe_app::units::UnitView>,
+    /// What could not be read.
+    pub notes: Vec<String>,
+    /// The unit whose details are shown.
+    pub selected: usize,
+}
+
 /// Where the Commission screen's commissioning is.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub enum CommissionPhase {
@@ -255,6 +270,9 @@ pub struct CommissionView {
     pub dir: Option<String>,
     /// The newest unfinished commissioning of the unit, which `c` goes on with.
     pub resumable: Option<String>,
+    /// The unit's newest certificate, made here or on the command line, in words; whether it
+    /// passed.
+    pub existing: Option<(bool, String)>,
     /// What the commissioning said, newest last.
     pub log: VecDeque<String>,
     /// The computation under way (features, evaluation), as a line.
@@ -304,6 +322,7 @@ pub struct UiState {
     pub calibrate: CalibrateView,
     pub commission: CommissionView,
     pub health: HealthView,
+    pub units: UnitsView,
     pub dialog: Option<Dialog>,
     pub picker: Option<Picker>,
     /// The newest error, shown until the next key.

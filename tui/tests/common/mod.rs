@@ -579,3 +579,71 @@ pub fn coarse_sensor(dir: &Path, design: &str) -> PathBuf {
     .expect("write sensor file");
     path
 }
+
+/// `html` rendered headless by Debian's `chromium` into a `width` x `height` screenshot (kept
+/// beside it as `<name>.png`, for a look). `None` when chromium is not installed and this is
+/// not CI; under CI (`CI` set: `.ci/run` sets it and installs chromium) its absence fails.
+pub fn rendered(html: &Path, width: u32, height: u32) -> Option<image::RgbImage> {
+    let found = |b: &&&str| {
+        Command::new("which")
+            .arg(b)
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    let Some(browser) = ["chromium", "chromium-browser"].iter().find(found) else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "chromium is not installed, and CI renders the HTML reports: apt-get install chromium (.ci/run does)"
+        );
+        eprintln!(
+            "skipped: chromium is not installed (apt-get install chromium renders the reports)"
+        );
+        return None;
+    };
+    let shot = html.with_extension("png");
+    let profile = html.with_extension("chromium-profile");
+    let html = std::fs::canonicalize(html).expect("the report");
+    let out = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--hide-scrollbars",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("--window-size={width},{height}"))
+        .arg(format!("file://{}", html.display()))
+        .output()
+        .expect("run chromium");
+    let _ = std::fs::remove_dir_all(&profile);
+    assert!(shot.is_file(), "no screenshot: {}", text(&out));
+    Some(image::open(&shot).expect("the screenshot").to_rgb8())
+}
+
+/// The pixels of `img` of colour `c`.
+pub fn pixels_of(img: &image::RgbImage, c: [u8; 3]) -> usize {
+    img.pixels().filter(|p| p.0 == c).count()
+}
+
+/// A report page's screenshot shows the report: far from blank, and its verdict box (the pale
+/// green of a pass or pale red of a fail, `fringe_plot::html`) drawn.
+pub fn shows_a_report(img: &image::RgbImage, pass: bool) {
+    let white = pixels_of(img, [255, 255, 255]);
+    let total = (img.width() * img.height()) as usize;
+    assert!(
+        white < total * 97 / 100,
+        "blank: {white} of {total} px white"
+    );
+    let verdict = if pass {
+        [0xd9, 0xf2, 0xd9]
+    } else {
+        [0xfd, 0xe0, 0xe0]
+    };
+    assert!(
+        pixels_of(img, verdict) > 5_000,
+        "no verdict box ({}) drawn",
+        if pass { "pass" } else { "fail" }
+    );
+}

@@ -229,6 +229,34 @@ pub enum SensorConfigError {
 }
 
 impl SensorConfig {
+    /// The simulated units that ship with fringe, by id: each design's reference build
+    /// (`layered-1`, `integrated-1`: the builds `layered` and `integrated`) and the other units of
+    /// each design (`rig/sim/sensors/<id>.toml`, built into the binary), so a unit is had by its
+    /// id alone.
+    pub const UNITS: [&'static str; 6] = [
+        "layered-1",
+        "layered-2",
+        "layered-3",
+        "integrated-1",
+        "integrated-2",
+        "integrated-3",
+    ];
+
+    /// The simulated unit `id` (one of [`SensorConfig::UNITS`]), or `None` for an id that is none of them.
+    pub fn unit(id: &str) -> Option<SensorConfig> {
+        let text = match id {
+            "layered-1" => return Some(SensorConfig::layered()),
+            "integrated-1" => return Some(SensorConfig::integrated()),
+            "layered-2" => include_str!("../../sensors/layered-2.toml"),
+            "layered-3" => include_str!("../../sensors/layered-3.toml"),
+            "integrated-2" => include_str!("../../sensors/integrated-2.toml"),
+            "integrated-3" => include_str!("../../sensors/integrated-3.toml"),
+            _ => return None,
+        };
+        // The files are the ones the tests load from rig/sim/sensors/: they parse.
+        SensorConfig::from_toml_str(text, &format!("built-in unit {id}")).ok()
+    }
+
     /// Sensor 1: 1 mm film at the contact side, sharp, few fringes.
     pub fn layered() -> SensorConfig {
         SensorConfig {
@@ -822,6 +850,24 @@ mod tests {
         assert_eq!(integrated, SensorConfig::integrated());
         let e = SensorConfig::load(&dir.join("missing.toml")).expect_err("missing");
         assert!(e.to_string().contains("missing.toml"));
+    }
+
+    /// Every built-in unit is had by its id, and is the unit its file in rig/sim/sensors/ holds.
+    #[test]
+    fn every_unit_is_had_by_its_id() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sensors");
+        for id in SensorConfig::UNITS {
+            let unit = SensorConfig::unit(id).expect(id);
+            assert_eq!(unit.id, id);
+            let file = match id {
+                "layered-1" => "layered".to_string(),
+                "integrated-1" => "integrated".to_string(),
+                other => other.to_string(),
+            };
+            let loaded = SensorConfig::load(&dir.join(format!("{file}.toml"))).expect(id);
+            assert_eq!(unit, loaded, "{id}");
+        }
+        assert!(SensorConfig::unit("layered-9").is_none());
     }
 
     /// The other units of each design (`layered-2.toml`, ...) load, are named as their files, and

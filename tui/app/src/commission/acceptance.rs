@@ -17,6 +17,7 @@ use crate::models::verdict;
 use crate::session::scan::ProfileUse;
 use crate::workflow_error::{Context, WorkflowError};
 use fringe_calibration::Profile;
+use fringe_plot::html::Page;
 use fringe_plot::palette::{green_to_red, BLUE, GREY, ORANGE};
 use fringe_plot::{Axis, Chart, Corner, Series};
 use fringe_sensor_models::dataset;
@@ -87,7 +88,7 @@ pub(crate) fn accept(
     c.compute_s += started.elapsed().as_secs_f64();
     let v = judge(&eval, &c.spec);
     let cert = certificate(c, base, &adaptation, &eval, &v, &run_dir, presses)?;
-    write_report(c, &cert, &eval, &adaptation)?;
+    write_report(c, &cert, &eval, &adaptation, &v)?;
     let path = cert.write(&c.dir)?;
     for line in verdict::lines(&v) {
         c.say(line);
@@ -97,6 +98,10 @@ pub(crate) fn accept(
     }
     c.say(format!("wrote {}", path.display()));
     c.say(format!("wrote {}", c.dir.join("report.md").display()));
+    c.say(format!(
+        "wrote {} (one file: opens in any browser)",
+        c.dir.join("report.html").display()
+    ));
     Ok(Accepted {
         sensor: cert.sensor_id,
         pass: v.pass,
@@ -278,12 +283,14 @@ fn certificate(
 }
 
 /// `report.md` (the evaluation's report with the commissioning's verdict, learning curve and
-/// press map before it) and its plots.
+/// press map before it) and its plots, and the same as one self-contained page, `report.html`
+/// (the verdict, the spec and its checks, the weak cells, the plots embedded).
 fn write_report(
     c: &Commissioning<'_>,
     cert: &Certificate,
     eval: &Evaluation,
     a: &Adaptation,
+    v: &Verdict,
 ) -> Result<()> {
     let title = format!("Acceptance of sensor {}", cert.sensor_id);
     let path = report::write(&c.dir, &title, eval)?;
@@ -297,7 +304,7 @@ fn write_report(
     let fz = curve(|p| p.fz_rmse_n);
     let contact = curve(|p| p.contact_rmse_mm);
     let presses = || Axis::new("presses adapted on").integers().from_zero();
-    fringe_plot::panels(
+    let learning = fringe_plot::panels(
         &[
             Chart::new(
                 "Fz error on unseen presses",
@@ -315,13 +322,15 @@ fn write_report(
         2,
         (640, 480),
     )
-    .context("learning.png")?
-    .save(c.dir.join("learning.png"))
     .context("learning.png")?;
-    press_map(&a.pressed, &a.disc)
-        .context("presses.png")?
+    learning
+        .save(c.dir.join("learning.png"))
+        .context("learning.png")?;
+    let presses_png = press_map(&a.pressed, &a.disc).context("presses.png")?;
+    presses_png
         .save(c.dir.join("presses.png"))
         .context("presses.png")?;
+    write_html(c, cert, eval, a, v, &learning, &presses_png)?;
     let mut md = format!(
         "# Commissioning of sensor {}\n\nVerdict: **{}** against {}.\n\n",
         cert.sensor_id,
@@ -362,6 +371,147 @@ fn write_report(
     md.push_str(&evaluation.replacen("# ", "## ", 1));
     std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
+}
+
+/// `report.html`: the commissioning on one page that opens anywhere (nothing fetched).
+fn write_html(
+    c: &Commissioning<'_>,
+    cert: &Certificate,
+    eval: &Evaluation,
+    a: &Adaptation,
+    v: &Verdict,
+    learning: &image::RgbImage,
+    presses: &image::RgbImage,
+) -> Result<()> {
+    let path = c.dir.join("report.html");
+    let mut page = Page::new(format!("Commissioning of sensor {}", cert.sensor_id));
+    report::verdict_html(&mut page, v, &cert.spec_origin);
+    page.heading("The unit and the job");
+    let f = &cert.figures;
+    page.table(
+        &["", ""],
+        &[
+            vec!["sensor".to_string(), cert.sensor_id.clone()],
+            vec![
+                "design".to_string(),
+                cert.variant.clone().unwrap_or_else(|| "not known".into()),
+            ],
+            vec!["issued (UTC)".to_string(), cert.issued_utc.clone()],
+            vec!["fringe".to_string(), cert.fringe_version.clone()],
+            vec!["adapted model".to_string(), c.dir.join(&cert.model).display().to_string()],
+            vec!["adaptation".to_string(), cert.adaptation.clone()],
+            vec![
+                "base model".to_string(),
+                format!("{} (sha256 {})", cert.base_model.path, cert.base_model.sha256),
+            ],
+            vec![
+                "held-out acceptance".to_string(),
+                format!(
+                    "{} presses, {} frames: Fz RMSE {:.3} N, contact RMSE {:.2} mm, shape accuracy {:.1} %, macro F1 {:.3}",
+                    f.presses,
+                    f.frames,
+                    f.fz_rmse_n,
+                    f.contact_rmse_mm,
+                    100.0 * f.shape_accuracy,
+                    f.macro_f1
+                ),
+            ],
+            vec![
+                "time".to_string(),
+                format!("bench {:.0} s, computation {:.0} s", cert.bench_s, cert.compute_s),
+            ],
+        ],
+    );
+    page.heading("The spec");
+    let mut spec_rows: Vec<Vec<String>> = Vec::new();
+    spec_lines("", &cert.spec, &mut spec_rows);
+    page.paragraph(&format!("From {}.", cert.spec_origin));
+    page.table(&["key", "value"], &spec_rows);
+    page.heading("Learning curve");
+    page.paragraph(
+        "Each round's presses predicted by the model adapted on every press before them.",
+    );
+    let rows: Vec<Vec<String>> = a
+        .curve
+        .iter()
+        .map(|p| {
+            vec![
+                p.round.to_string(),
+                p.presses_before.to_string(),
+                p.frames.to_string(),
+                format!("{:.3}", p.fz_rmse_n),
+                format!("{:.2}", p.contact_rmse_mm),
+                format!("{:.1} %", 100.0 * p.shape_accuracy),
+            ]
+        })
+        .collect();
+    page.table(
+        &[
+            "round",
+            "presses before",
+            "frames",
+            "Fz RMSE (N)",
+            "contact RMSE (mm)",
+            "shape accuracy",
+        ],
+        &rows,
+    );
+    page.image("Learning curve", learning)
+        .context("report.html")?;
+    page.heading("Presses");
+    page.note("The press map is in stage millimetres: where the stage put the indenter, over the usable disc found by the calibration.");
+    page.image(
+        "Adaptive presses on the stage (stage mm), each coloured by its error before adaptation",
+        presses,
+    )
+    .context("report.html")?;
+    report::evaluation_html(&mut page, eval);
+    for (caption, img) in [
+        ("Predicted against measured Fz (N)", report::fz_plot(eval)),
+        (
+            "Contact: each labelled contact joined to its prediction (sensor mm)",
+            report::contact_plot(eval),
+        ),
+        (
+            "Shape confusion matrix",
+            report::confusion_plot(&eval.metrics),
+        ),
+    ] {
+        page.image(caption, &img.context("report.html")?)
+            .context("report.html")?;
+    }
+    std::fs::write(&path, page.finish())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// A spec (as the certificate keeps it, JSON) as rows of key and value: nested keys joined with
+/// dots (`all.fz_rmse_n`), lists numbered, nothing left as JSON text.
+fn spec_lines(key: &str, v: &serde_json::Value, out: &mut Vec<Vec<String>>) {
+    let join = |k: &str| {
+        if key.is_empty() {
+            k.to_string()
+        } else {
+            format!("{key}.{k}")
+        }
+    };
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, v) in m {
+                spec_lines(&join(k), v, out);
+            }
+        }
+        serde_json::Value::Array(items) if items.is_empty() => {
+            out.push(vec![key.to_string(), "none".to_string()]);
+        }
+        serde_json::Value::Array(items) => {
+            for (n, v) in items.iter().enumerate() {
+                spec_lines(&join(&(n + 1).to_string()), v, out);
+            }
+        }
+        serde_json::Value::Null => out.push(vec![key.to_string(), "not set".to_string()]),
+        other => out.push(vec![key.to_string(), other.to_string()]),
+    }
 }
 
 /// The adaptive presses on the stage over the usable disc (grey circle, its centre marked), each

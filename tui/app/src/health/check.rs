@@ -9,6 +9,7 @@ use crate::commission::host::Host;
 use crate::commission::journal::Journal;
 use crate::commission::scans::estimate_s;
 use crate::health::check_plan::{acceptance_positions, check_plan, MAX_BENCH_S};
+use crate::health::check_report;
 use crate::health::figures::{assess, Assessment, Measured, Thresholds, Verdict};
 use crate::health::history::{self, history_path, Entry, HISTORY_FORMAT};
 use crate::health::model_errors::{at_any, at_positions, thinned, ModelErrors, EVAL_FRAMES};
@@ -37,6 +38,8 @@ pub struct Checked {
     pub assessment: Assessment,
     /// The unit's history file.
     pub history: PathBuf,
+    /// The check's report (HTML, one file).
+    pub report: PathBuf,
 }
 
 /// Checks `sensor` on the rig of `config` (its run into `out`), telling `host` what it does, and
@@ -145,9 +148,15 @@ pub fn run(
     };
     let path = history_path(&profiles, &sensor);
     history::append(&path, &entry)?;
+    let mut entries = history::read(&path)?.entries;
+    if entries.last() != Some(&entry) {
+        entries.push(entry.clone());
+    }
+    let report = check_report::write(&profiles, &entry, &entries)?;
     Ok(Checked {
         assessment,
         history: path,
+        report,
     })
 }
 

@@ -121,25 +121,64 @@ impl Figure {
         }
     }
 
-    /// `key = value unit (at most / at least threshold)`.
+    /// The figure's name and its unit for a reader (`centre shift`, `px`; a ratio, a count or a
+    /// share has no unit: empty).
+    pub fn name_and_unit(&self) -> (String, &'static str) {
+        let (name, unit) = spelled(&self.key, &self.unit);
+        match unit {
+            "ratio" | "count" | "share" => (name, ""),
+            u => (name, u),
+        }
+    }
+
+    /// `name value unit (at most / at least threshold unit)`, then `ok`, or `MOVED:` and what
+    /// its move means: `centre shift  0.0008 px  (at most 0.4906 px)  ok`. The unit is said once
+    /// (the key's own suffix is not repeated); a ratio, a count and a share have none.
     pub fn describe(&self) -> String {
+        let (name, unit) = self.name_and_unit();
+        let threshold = format!("{:.4} {unit}", self.threshold);
         format!(
-            "{:<22} {:>9.4} {:<4} ({} {:.4}){}",
-            self.key,
+            "{:<22} {:>9.4} {:<4} ({} {}){}",
+            name,
             self.value,
-            self.unit,
+            unit,
             match self.rule {
                 Rule::AtMost => "at most",
                 Rule::AtLeast => "at least",
             },
-            self.threshold,
+            threshold.trim_end(),
             if self.moved {
                 format!("  MOVED: {}", self.finding)
             } else {
-                String::new()
+                "  ok".to_string()
             }
         )
     }
+}
+
+/// A figure's key without its unit ("centre_shift_px" -> "centre shift"), and the unit spelled
+/// for a reader ("deg" -> "°", a ratio's "x" -> "ratio", a count's "" -> "count", a drop in
+/// accuracy's "" -> "share").
+pub(crate) fn spelled(key: &str, unit: &str) -> (String, &'static str) {
+    let name = key
+        .trim_end_matches("_px")
+        .trim_end_matches("_deg")
+        .trim_end_matches("_n")
+        .replace('_', " ")
+        .replace("fz rmse", "Fz RMSE")
+        .replace("contact rmse", "contact RMSE");
+    let unit = match unit {
+        "deg" => "°",
+        "x" => "ratio",
+        "" if key.ends_with("_cells") => "count",
+        // An accuracy's drop: a share of the frames.
+        "" => "share",
+        "px" => "px",
+        "N" => "N",
+        "mm" => "mm",
+        _ => "as measured",
+    };
+    (name, unit)
 }
 
 /// The thresholds of the figures.

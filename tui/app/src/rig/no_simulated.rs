@@ -6,6 +6,7 @@ use fringe_rig::BenchLimits;
 use fringe_rig::ConfigError;
 use fringe_rig::ContactOrigin;
 use fringe_rig::Newtons;
+use std::path::Path;
 
 pub(crate) fn refused(rig: &RigConfig) -> ConfigError {
     rig.err(NO_SIM.into())
@@ -25,4 +26,14 @@ pub(crate) fn sensor_id(rig: &RigConfig) -> Result<String, ConfigError> {
 
 pub(crate) fn sensor_variant(rig: &RigConfig) -> Result<&'static str, ConfigError> {
     Err(refused(rig))
+}
+
+/// No simulated units in this build.
+pub(crate) fn units() -> Vec<(String, &'static str)> {
+    Vec::new()
+}
+
+/// No simulator's sensor files in this build.
+pub(crate) fn sensor_file(_path: &Path) -> Option<(String, &'static str)> {
+    None
 }

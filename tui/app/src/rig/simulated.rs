@@ -50,9 +50,13 @@ pub enum SensorNameError {
     Unknown(String),
 }
 
-/// A sensor build of the simulator by name (`layered`, `integrated`) or file (a `.toml` path or
-/// any file): the one reading of a sensor's name, for the rig file and the `--sensor` flags.
+/// A sensor build of the simulator by name (`layered`, `integrated`), by a built-in unit's id
+/// (`layered-2`, ...: `SensorConfig::UNITS`) or file (a `.toml` path or any file): the one
+/// reading of a sensor's name, for the rig file, `--unit` and the `--sensor` flags.
 pub fn sensor_by_name(name: &str) -> Result<SensorConfig, SensorNameError> {
+    if let Some(unit) = SensorConfig::unit(name) {
+        return Ok(unit);
+    }
     match name {
         "layered" => Ok(SensorConfig::layered()),
         "integrated" => Ok(SensorConfig::integrated()),
@@ -195,6 +199,21 @@ pub(crate) fn origin(rig: &RigConfig) -> Result<ContactOrigin, ConfigError> {
         y: Millimetres(g.y_centre.unwrap_or(c.bench.geometry.y_centre_mm)),
         source: "simulated bench geometry".into(),
     })
+}
+
+/// The units the simulated bench can carry (`SensorConfig::UNITS`), each with its design.
+pub(crate) fn units() -> Vec<(String, &'static str)> {
+    SensorConfig::UNITS
+        .iter()
+        .filter_map(|id| SensorConfig::unit(id).map(|c| (c.id, c.variant.name())))
+        .collect()
+}
+
+/// A simulator's sensor file (its id and design), or `None` when `path` is no sensor file.
+pub(crate) fn sensor_file(path: &Path) -> Option<(String, &'static str)> {
+    SensorConfig::load(path)
+        .ok()
+        .map(|c| (c.id, c.variant.name()))
 }
 
 /// The simulated sensor's id.

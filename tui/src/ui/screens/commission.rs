@@ -304,6 +304,9 @@ fn key_hint(v: &CommissionView) -> &'static str {
         (CommissionPhase::Running(_), _) => "s stop (resumable)",
         (CommissionPhase::Stopping, _) => "",
         (_, true) => "r commission the sensor · c go on with the unfinished one",
+        (_, false) if v.existing.as_ref().is_some_and(|e| e.0) => {
+            "r commission it again (it has a passing certificate)"
+        }
         (_, false) => "r commission the sensor",
     }
 }
@@ -364,12 +367,19 @@ fn draw(f: &mut Frame, area: Rect, v: &CommissionView, scan: &ScanView) {
         Line::from(format!(
             "sensor {} · {}",
             v.sensor,
-            v.dir.as_deref().map_or_else(
-                || "no commissioning started here yet".to_string(),
-                |d| format!("directory {d}")
-            )
+            match (&v.dir, &v.existing) {
+                (Some(d), _) => format!("directory {d}"),
+                (None, Some(_)) => "commissioned before (below); r commissions it again".to_string(),
+                (None, None) => "no commissioning started here yet".to_string(),
+            }
         )),
     ];
+    if let (Some((pass, said)), CommissionPhase::Ready) = (&v.existing, &v.phase) {
+        lines.push(Line::from(Span::styled(
+            said.clone(),
+            Style::new().fg(if *pass { GOOD } else { BAD }),
+        )));
+    }
     if matches!(v.phase, CommissionPhase::Ready) {
         lines.push(Line::from(v.plan.clone()));
     }

@@ -181,14 +181,19 @@ fn draw(f: &mut Frame, area: Rect, v: &HealthView) {
             Rule::AtMost => format!("<= {:.3}", fig.threshold),
             Rule::AtLeast => format!(">= {:.3}", fig.threshold),
         };
+        let limit = match fig.name_and_unit().1 {
+            "" => limit,
+            unit => format!("{limit} {unit}"),
+        };
         let (mark, style) = if fig.moved {
             ("MOVED", Style::new().fg(BAD))
         } else {
             ("ok", Style::new().fg(GOOD))
         };
+        let (name, unit) = fig.name_and_unit();
         Row::new(vec![
-            Cell::from(fig.key.clone()),
-            Cell::from(format!("{:.3} {}", fig.value, fig.unit)),
+            Cell::from(name),
+            Cell::from(format!("{:.3} {unit}", fig.value)),
             Cell::from(limit),
             Cell::from(mark).style(style),
         ])
@@ -220,7 +225,7 @@ fn draw(f: &mut Frame, area: Rect, v: &HealthView) {
         [
             Constraint::Length(20),
             Constraint::Length(12),
-            Constraint::Length(10),
+            Constraint::Length(13),
             Constraint::Min(5),
         ],
     )

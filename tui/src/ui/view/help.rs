@@ -15,7 +15,7 @@ pub(crate) fn draw(f: &mut Frame) {
         .iter()
         .map(|r| r.keys.chars().count())
         .fold(KEYS_WIDTH, usize::max);
-    let area = centred(f.area(), 92, rows.len() as u16 + 2);
+    let area = centred(f.area(), 96, rows.len() as u16 + 2);
     let lines: Vec<Line> = rows
         .iter()
         .map(|r| Line::from(format!(" {:<width$} {}", r.keys, r.what)))

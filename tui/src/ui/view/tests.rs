@@ -6,7 +6,7 @@ use crate::ui::keys;
 use crate::ui::screens;
 use crate::ui::state::{
     BenchView, CalibrateView, CalibrationPhase, CommissionPhase, CommissionView, Dialog,
-    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, UiState,
+    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, UiState, UnitsView,
 };
 use crate::ui::widgets;
 use fringe_app::session::{
@@ -116,6 +116,7 @@ fn ready() -> UiState {
         },
         commission: CommissionView::default(),
         health: HealthView::default(),
+        units: UnitsView::default(),
         dialog: None,
         picker: None,
         error: None,
@@ -696,6 +697,7 @@ fn commissioning() -> UiState {
         phase: CommissionPhase::Running("round 3: 6 positions x 2 indenters".into()),
         dir: Some("profiles/layered-3.commission-2026-11-28T01-29-27-699Z".into()),
         resumable: None,
+        existing: None,
         log,
         progress: None,
         thresholds: (Some(0.49), Some(1.47), Some(0.953)),
@@ -802,10 +804,10 @@ fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
 fn help_lists_every_key() {
     let mut s = ready();
     s.help = true;
-    let t = render(&s, 100, 30);
+    let t = render(&s, 100, 32);
     let b = t.backend().buffer();
     let rows = keys::help_rows();
-    assert_eq!(rows.len(), 28, "{rows:?}");
+    assert_eq!(rows.len(), 29, "{rows:?}");
     for row in rows {
         let line = format!("{} ", row.keys);
         assert!(find(b, &line).is_some(), "help names {}", row.keys);
@@ -955,4 +957,107 @@ fn health_screen_lists_the_checks_and_the_chosen_one_s_figures_with_the_moved_on
     assert_eq!(b[(x, y)].fg, widgets::BAD);
     assert!(find(b, "centre_shift_px").is_some());
     assert!(find(b, "damaged entry passed over").is_some());
+}
+
+/// A passing certificate's summary, as `fringe_app::units` gives it.
+fn certificate_view(pass: bool, issued: &str) -> fringe_app::units::CertificateView {
+    fringe_app::units::CertificateView {
+        dir: "profiles/layered-2.commission-2026-12-06T14-41-43-691Z".into(),
+        pass,
+        issued_utc: issued.into(),
+        model: "profiles/layered-2.commission-2026-12-06T14-41-43-691Z/model.safetensors".into(),
+        spec_origin: "paper".into(),
+        fz_rmse_n: 0.41,
+        contact_rmse_mm: 0.69,
+        shape_accuracy: 0.993,
+    }
+}
+
+#[test]
+fn units_screen_lists_every_unit_with_its_certificate_check_and_model() {
+    use fringe_app::health::Verdict;
+    use fringe_app::units::{CheckView, NextCheck, UnitView, ValidateModel};
+    let mut s = ready();
+    s.tab = screens::units::TAB;
+    let commissioned = UnitView {
+        id: "layered-2".into(),
+        design: Some("layered".into()),
+        simulated: true,
+        profile: None,
+        certificate: Some(certificate_view(true, "2026-12-06T15:30:00.000Z")),
+        passing: None,
+        last_check: Some(CheckView {
+            checked_utc: "2026-12-06T16:00:00.000Z".into(),
+            verdict: Verdict::Recalibrate,
+            diagnosis: "the F/T zero moved by (+0.000, +0.000, +0.100) N".into(),
+        }),
+        checks: 2,
+        next_check: NextCheck::Now(Verdict::Recalibrate),
+        validate: ValidateModel::Commissioned(
+            "profiles/layered-2.commission-2026-12-06T14-41-43-691Z/model.safetensors".into(),
+        ),
+    };
+    let new = UnitView {
+        id: "layered-3".into(),
+        design: Some("layered".into()),
+        simulated: true,
+        profile: None,
+        certificate: None,
+        passing: None,
+        last_check: None,
+        checks: 0,
+        next_check: NextCheck::NotCommissioned,
+        validate: ValidateModel::Shipped {
+            model: "builtin:layered-two-stage".into(),
+            design_known: true,
+        },
+    };
+    s.units = UnitsView {
+        profiles: "profiles".into(),
+        on_rig: Some("layered-2".into()),
+        units: vec![commissioned, new],
+        notes: Vec::new(),
+        selected: 0,
+    };
+    for width in [100, 200] {
+        let t = render(&s, width, 30);
+        let b = t.backend().buffer();
+        assert!(
+            find(b, "layered-2 *").is_some(),
+            "the rig's unit marked at {width}"
+        );
+        let (x, y) = find(b, "PASS 2026-12-06").expect("the certificate");
+        assert_eq!(b[(x, y)].fg, widgets::GOOD);
+        let (x, y) = find(b, "recalibrate 2026-12-06").expect("the last check");
+        assert_eq!(b[(x, y)].fg, widgets::WARN);
+        assert!(find(b, "commissioned").is_some(), "{width}");
+        assert!(find(b, "shipped").is_some(), "{width}");
+        assert!(
+            find(b, "validate uses: its commissioned model").is_some(),
+            "{width}"
+        );
+        assert!(find(b, "next check: now").is_some(), "{width}");
+    }
+}
+
+#[test]
+fn commission_shows_the_unit_s_certificate_made_on_the_command_line() {
+    let mut s = ready();
+    s.tab = screens::commission::TAB;
+    s.commission = CommissionView {
+        sensor: "layered-2".into(),
+        plan: "base model builtin:layered-keypoint".into(),
+        existing: Some((
+            true,
+            "certificate PASS 2026-12-06 15:30 UTC against paper: Fz 0.41 N".into(),
+        )),
+        ..CommissionView::default()
+    };
+    let t = render(&s, 150, 30);
+    let b = t.backend().buffer();
+    assert!(find(b, "no commissioning started here yet").is_none());
+    assert!(find(b, "commissioned before (below); r commissions it again").is_some());
+    let (x, y) = find(b, "certificate PASS 2026-12-06 15:30 UTC").expect("the certificate");
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    assert!(find(b, "r commission it again").is_some(), "the hint");
 }
