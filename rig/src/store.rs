@@ -57,8 +57,8 @@ pub(crate) mod verify;
 
 pub use disk_space::{available_bytes, human as human_bytes};
 pub use documents::{
-    now_utc, Checkpoint, Event, ExitStatus, Exposure, FrameRecord, Position, ProfileRef,
-    StartDocument, StopDocument, LAYOUT_VERSION,
+    now_utc, utc_date, utc_days, Checkpoint, Event, ExitStatus, Exposure, FrameRecord, Position,
+    ProfileRef, StartDocument, StopDocument, LAYOUT_VERSION,
 };
 pub use durable::write_atomic;
 pub use error::StoreError;

@@ -237,6 +237,32 @@ pub fn now_utc() -> String {
     rfc3339_utc(SystemTime::now())
 }
 
+/// `YYYY-MM-DD` of `days` since 1970-01-01 (the date part of [`rfc3339_utc`]).
+pub fn utc_date(days: i64) -> String {
+    let (y, m, d) = civil_from_days(days);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+/// Days since 1970-01-01 of the date an RFC 3339 time (`2026-12-06T14:00:00Z`) or a bare
+/// `YYYY-MM-DD` begins with (H. Hinnant's days_from_civil); `None` when it is no date.
+pub fn utc_days(utc: &str) -> Option<i64> {
+    let d = utc.get(..10)?;
+    let mut parts = d.split('-');
+    let y: i64 = parts.next()?.parse().ok()?;
+    let m: i64 = parts.next()?.parse().ok()?;
+    let dd: i64 = parts.next()?.parse().ok()?;
+    if !(1..=12).contains(&m) || !(1..=31).contains(&dd) {
+        return None;
+    }
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = (m + 9) % 12;
+    let doy = (153 * mp + 2) / 5 + dd - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    Some(era * 146_097 + doe - 719_468)
+}
+
 /// Year, month, day of the proleptic Gregorian calendar from days since 1970-01-01
 /// (H. Hinnant's civil_from_days algorithm).
 fn civil_from_days(z: i64) -> (i64, u32, u32) {
@@ -256,6 +282,21 @@ fn civil_from_days(z: i64) -> (i64, u32, u32) {
 mod tests {
     use super::*;
     use std::time::Duration;
+
+    #[test]
+    fn dates_go_round() {
+        for d in ["1970-01-01", "2024-02-29", "2026-12-31", "2027-01-01"] {
+            assert_eq!(utc_date(utc_days(d).expect(d)), d);
+        }
+        assert_eq!(
+            utc_date(utc_days("2026-12-30T10:00:00Z").expect("d") + 7),
+            "2027-01-06"
+        );
+        assert_eq!(utc_days("2026-13-01"), None);
+        // The date rfc3339_utc writes reads back as the same day.
+        let t = SystemTime::UNIX_EPOCH + Duration::from_secs(20_000 * 86_400 + 3_600);
+        assert_eq!(utc_days(&rfc3339_utc(t)), Some(20_000));
+    }
 
     #[test]
     fn only_relative_plain_paths_are_frame_files() {

@@ -3,9 +3,9 @@
 
 use crate::health::figures::{spelled as named, Rule};
 use crate::health::history::Entry;
-use crate::units::schedule::days;
 use fringe_plot::palette::{BLUE, RED};
 use fringe_plot::{Axis, Chart, PlotError, Series};
+use fringe_rig::store::utc_days;
 use image::RgbImage;
 use std::path::{Path, PathBuf};
 
@@ -119,7 +119,7 @@ pub(crate) fn plot(entries: &[Entry]) -> Result<RgbImage, PlotError> {
 
 /// A check's time as days since 1970-01-01 (fractions for the time of day).
 fn day_of(utc: &str) -> Option<f64> {
-    let day = days(utc)?;
+    let day = utc_days(utc)?;
     let hours: f64 = utc.get(11..13).and_then(|h| h.parse().ok()).unwrap_or(0.0);
     let minutes: f64 = utc.get(14..16).and_then(|m| m.parse().ok()).unwrap_or(0.0);
     Some(day as f64 + (hours + minutes / 60.0) / 24.0)
