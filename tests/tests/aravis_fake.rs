@@ -116,7 +116,7 @@ fn aravis_free_run_frames_have_increasing_ids_and_timestamps_at_the_frame_rate()
         .expect("configure");
     cam.start().expect("start");
     let mut frames = Vec::new();
-    while frames.len() < 6 {
+    while frames.len() < 11 {
         let f = cam
             .next_frame(Duration::from_secs(2))
             .expect("frame")
@@ -130,15 +130,23 @@ fn aravis_free_run_frames_have_increasing_ids_and_timestamps_at_the_frame_rate()
         assert!(w[1].id > w[0].id, "ids {} then {}", w[0].id, w[1].id);
         assert!(w[1].host_arrival > w[0].host_arrival);
     }
-    // Device timestamps (ns) advance by about one frame period per frame id.
-    let first = &frames[0];
-    let last = &frames[frames.len() - 1];
-    let period_ns =
-        (last.device_timestamp - first.device_timestamp) as f64 / (last.id - first.id) as f64;
+    // Device timestamps (ns) advance by about one frame period per frame id. Aravis' fake
+    // camera stamps a frame when its own thread makes it, so on a loaded machine a frame can
+    // come late (one stretched interval: 54.6 ms in place of 40 in one CI run); the typical
+    // interval, the median over ten, is the rate the camera was set to.
+    let mut periods: Vec<f64> = frames
+        .windows(2)
+        .map(|w| {
+            (w[1].device_timestamp as f64 - w[0].device_timestamp as f64)
+                / (w[1].id - w[0].id) as f64
+        })
+        .collect();
+    periods.sort_by(f64::total_cmp);
+    let period_ns = periods[periods.len() / 2];
     let expected = 1e9 / rate;
     assert!(
         (period_ns - expected).abs() < 0.2 * expected,
-        "period {period_ns} ns, expected {expected}"
+        "median period {period_ns} ns, expected {expected}; all: {periods:?}"
     );
 }
 
