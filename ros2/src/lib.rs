@@ -1,0 +1,19 @@
+//! ROS 2 without a ROS install, free of I/O: the messages fringe's stream publishes, encoded as
+//! ROS 2 does (classic CDR, little endian, behind the 4-byte encapsulation header), their type
+//! hashes (REP-2011, `RIHS01_...`) and the names rmw_zenoh gives their topics and entities
+//! (key expressions, liveliness tokens, QoS). The Zenoh session and the MCAP file are the
+//! application's; this crate only makes the bytes and the strings they carry.
+
+#![warn(unreachable_pub)]
+#![warn(unnameable_types)]
+
+mod messages;
+mod names;
+mod type_hash;
+
+pub use messages::{
+    encode, Classification, CompressedImage, EncodeError, Header, ObjectHypothesis, Point,
+    PointStamped, RosMessage, Time, Vector3, Wrench, WrenchStamped,
+};
+pub use names::{mangle, node_token, publisher_token, topic_key, Qos, Reliability};
+pub use type_hash::{type_hash, MessageType};
