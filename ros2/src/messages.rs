@@ -296,4 +296,36 @@ mod tests {
         assert_eq!(u32::from_le_bytes(body[20..24].try_into().expect("4")), 9);
         assert_eq!(&body[24..33], b"pentagon\0");
     }
+
+    /// The bytes `rosbags` 0.11.9 (`serialize_cdr`, an independent implementation) gives for
+    /// this message.
+    #[test]
+    fn a_wrench_s_bytes_equal_rosbags_s() {
+        let m = WrenchStamped {
+            header: Header {
+                stamp: Time { sec: 1, nanosec: 2 },
+                frame_id: "fringe".into(),
+            },
+            wrench: Wrench {
+                force: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: -1.5,
+                },
+                torque: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                },
+            },
+        };
+        let mut want = vec![0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 7, 0, 0, 0];
+        want.extend_from_slice(b"fringe\0");
+        want.extend_from_slice(&[0; 5]);
+        for v in [0.0f64, 0.0, -1.5, 0.0, 0.0, 0.0] {
+            want.extend_from_slice(&v.to_le_bytes());
+        }
+        assert_eq!(want.len(), 76);
+        assert_eq!(encode(&m).expect("encode"), want);
+    }
 }

@@ -149,3 +149,45 @@ mod tests {
         );
     }
 }
+
+/// Every name this module makes is a key expression Zenoh accepts (canonical, no wildcard).
+#[cfg(test)]
+mod zenoh_check {
+    use super::*;
+    use crate::messages::{
+        Classification, CompressedImage, PointStamped, RosMessage, WrenchStamped,
+    };
+    use zenoh::key_expr::KeyExpr;
+
+    #[test]
+    fn every_name_is_a_canonical_zenoh_key_expression() {
+        let zid = "1f2e3d4c5b6a79880102030405060708";
+        let mut names = vec![node_token(0, zid, 0, "/fringe", "fringe_stream")];
+        for (topic, t) in [
+            ("/fringe/wrench", WrenchStamped::TYPE),
+            ("/fringe/contact", PointStamped::TYPE),
+            ("/fringe/shape", Classification::TYPE),
+            ("/fringe/image/compressed", CompressedImage::TYPE),
+        ] {
+            names.push(topic_key(0, topic, t));
+            for qos in [Qos::DEFAULT, Qos::SENSOR_DATA] {
+                names.push(publisher_token(
+                    0,
+                    zid,
+                    0,
+                    1,
+                    "/fringe",
+                    "fringe_stream",
+                    topic,
+                    t,
+                    qos,
+                ));
+            }
+        }
+        for n in names {
+            let k = KeyExpr::try_from(n.as_str()).unwrap_or_else(|e| panic!("{n}: {e}"));
+            assert_eq!(k.as_str(), n, "not canonical");
+            assert!(!n.contains('*'), "{n}");
+        }
+    }
+}
