@@ -16,4 +16,4 @@ pub use messages::{
     PointStamped, RosMessage, Time, Vector3, Wrench, WrenchStamped,
 };
 pub use names::{mangle, node_token, publisher_token, topic_key, Qos, Reliability};
-pub use type_hash::{type_hash, MessageType};
+pub use type_hash::{msg_definition, type_hash, MessageType};

@@ -193,6 +193,64 @@ fn description_json(t: &'static MessageType) -> String {
     String::from_utf8(out).unwrap_or_default()
 }
 
+impl FieldType {
+    /// The field's type as a `.msg` file writes it: `float64`, `uint8[]`, `std_msgs/Header`.
+    fn msg_type(self) -> String {
+        match self {
+            FieldType::Int32 => "int32".into(),
+            FieldType::Uint32 => "uint32".into(),
+            FieldType::Float64 => "float64".into(),
+            FieldType::String => "string".into(),
+            FieldType::Uint8Sequence => "uint8[]".into(),
+            FieldType::Nested(t) => t.short_name(),
+            FieldType::NestedSequence(t) => format!("{}[]", t.short_name()),
+        }
+    }
+}
+
+impl MessageType {
+    /// `pkg/Type`, as `.msg` files and MCAP's `MSG:` lines name a type.
+    fn short_name(&self) -> String {
+        self.name.replacen("/msg/", "/", 1)
+    }
+
+    /// The type's own `.msg` text: a `type name` line per field.
+    fn msg_text(&self) -> String {
+        self.fields
+            .iter()
+            .map(|f| format!("{} {}\n", f.ty.msg_type(), f.name))
+            .collect()
+    }
+
+    /// Every type this one refers to, transitively, depth first, each once.
+    fn dependencies(&'static self, into: &mut Vec<&'static MessageType>) {
+        for f in self.fields {
+            if let Some(t) = f.ty.nested() {
+                if !into.iter().any(|d| d.name == t.name) {
+                    into.push(t);
+                    t.dependencies(into);
+                }
+            }
+        }
+    }
+}
+
+/// The message definition of `t` as ROS 2 bags and MCAP files carry it (schema encoding
+/// `ros2msg`): the type's `.msg` text, then each type it refers to after a line of 80 `=` and a
+/// line `MSG: pkg/Type`. Readers need every dependency, `builtin_interfaces/Time` included.
+pub fn msg_definition(t: &'static MessageType) -> String {
+    let mut out = t.msg_text();
+    let mut deps = Vec::new();
+    t.dependencies(&mut deps);
+    for d in deps {
+        out.push_str(&"=".repeat(80));
+        out.push('\n');
+        out.push_str(&format!("MSG: {}\n", d.short_name()));
+        out.push_str(&d.msg_text());
+    }
+    out
+}
+
 /// `RIHS01_<sha256 hex>` of the type `t` (REP-2011).
 pub fn type_hash(t: &'static MessageType) -> String {
     let digest = Sha256::digest(description_json(t).as_bytes());
@@ -245,6 +303,36 @@ mod tests {
         ] {
             assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
         }
+    }
+
+    #[test]
+    fn a_message_definition_carries_every_type_it_refers_to() {
+        let d = msg_definition(WrenchStamped::TYPE);
+        let bar = "=".repeat(80);
+        assert_eq!(
+            d,
+            format!(
+                "std_msgs/Header header\ngeometry_msgs/Wrench wrench\n\
+                 {bar}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
+                 {bar}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
+                 {bar}\nMSG: geometry_msgs/Wrench\ngeometry_msgs/Vector3 force\ngeometry_msgs/Vector3 torque\n\
+                 {bar}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+            )
+        );
+        let c = msg_definition(Classification::TYPE);
+        assert!(
+            c.starts_with("std_msgs/Header header\nvision_msgs/ObjectHypothesis[] results\n"),
+            "{c}"
+        );
+        assert!(
+            c.contains("MSG: vision_msgs/ObjectHypothesis\nstring class_id\nfloat64 score\n"),
+            "{c}"
+        );
+        let i = msg_definition(CompressedImage::TYPE);
+        assert!(
+            i.starts_with("std_msgs/Header header\nstring format\nuint8[] data\n"),
+            "{i}"
+        );
     }
 
     #[test]
