@@ -77,6 +77,7 @@ pub struct PointStamped {
 pub struct CompressedImage {
     pub header: Header,
     pub format: String,
+    #[serde(with = "serde_bytes")]
     pub data: Vec<u8>,
 }
 
@@ -327,5 +328,25 @@ mod tests {
         }
         assert_eq!(want.len(), 76);
         assert_eq!(encode(&m).expect("encode"), want);
+    }
+
+    #[test]
+    fn an_image_s_bytes_are_one_block() {
+        let m = CompressedImage {
+            header: Header {
+                stamp: Time { sec: 3, nanosec: 4 },
+                frame_id: "f".into(),
+            },
+            format: "png".into(),
+            data: vec![9, 8, 7],
+        };
+        let b = encode(&m).expect("encode");
+        let body = &b[4..];
+        // stamp 8, "f" (4 + 2), pad to 16, "png" (4 + 4) to 24, data: length 3 and the bytes.
+        assert_eq!(&body[12..14], b"f\0");
+        assert_eq!(u32::from_le_bytes(body[16..20].try_into().expect("4")), 4);
+        assert_eq!(&body[20..24], b"png\0");
+        assert_eq!(u32::from_le_bytes(body[24..28].try_into().expect("4")), 3);
+        assert_eq!(&body[28..], &[9, 8, 7]);
     }
 }
