@@ -9,6 +9,8 @@
 
 mod messages;
 mod names;
+#[cfg(feature = "zenoh")]
+mod node;
 mod type_hash;
 
 pub use messages::{
@@ -16,4 +18,6 @@ pub use messages::{
     PointStamped, RosMessage, Time, Vector3, Wrench, WrenchStamped,
 };
 pub use names::{mangle, node_token, publisher_token, topic_key, Qos, Reliability};
+#[cfg(feature = "zenoh")]
+pub use node::{Node, NodeConfig, NodeError, Publisher};
 pub use type_hash::{msg_definition, type_hash, MessageType};
