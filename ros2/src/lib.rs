@@ -11,6 +11,8 @@ mod messages;
 mod names;
 #[cfg(feature = "zenoh")]
 mod node;
+#[cfg(feature = "mcap")]
+mod recorder;
 mod type_hash;
 
 pub use messages::{
@@ -20,4 +22,6 @@ pub use messages::{
 pub use names::{mangle, node_token, publisher_token, topic_key, Qos, Reliability};
 #[cfg(feature = "zenoh")]
 pub use node::{Node, NodeConfig, NodeError, Publisher};
+#[cfg(feature = "mcap")]
+pub use recorder::{Channel, RecordError, Recorder};
 pub use type_hash::{msg_definition, type_hash, MessageType};
