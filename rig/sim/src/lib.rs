@@ -87,6 +87,7 @@ pub mod ground_truth;
 mod optics;
 mod physics;
 mod rig;
+mod robot;
 mod scene;
 mod session;
 #[cfg(test)]
@@ -131,4 +132,5 @@ pub use physics::indenter::Shape;
 pub use physics::motion::{MotorSpec, MotorStatus, SimMotor};
 pub use physics::stress::Layer;
 pub use rig::{ForcePath, ServeEndpoints, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
+pub use robot::{Robot, RobotConfig, RobotError, RobotPress};
 pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource};
