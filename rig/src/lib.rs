@@ -108,6 +108,7 @@ pub use scan::failure::ScanError;
 pub use scan::origin::ContactOrigin;
 pub use scan::plan::{BenchLimits, Plan, ScanProgram};
 pub use scan::setup::ScanSetup;
+pub use sync::camera_clock::{CameraClock, CameraClockOptions, Exposure};
 pub use sync::method::SyncMethod;
 pub use sync::strobe::StrobeWindow;
 pub use sync::trigger::TriggerTiming;

@@ -4,6 +4,8 @@
 //!   and rate).
 //! - [`one_way`]: fitting it from device timestamps and host arrival times (lower convex hull,
 //!   TICSync).
+//! - [`camera_clock`]: the camera's clock on host time, fitted from frames and latches (where a
+//!   frame's exposure lies).
 //! - [`latch`]: fitting it from timestamp-latch exchanges (host before, device value, host after).
 //! - [`strobe`]: exposure windows found in a sampled exposure-active channel, in sample index.
 //! - [`trigger`]: exposure windows of a camera triggered by the DAQ's counter, in sample index.
@@ -12,6 +14,7 @@
 //!
 //! Methods and facts: docs of the shared project, hardware.md section E.
 
+pub(crate) mod camera_clock;
 pub(crate) mod clock_map;
 pub(crate) mod latch;
 pub(crate) mod method;

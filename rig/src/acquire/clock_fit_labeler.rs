@@ -9,15 +9,9 @@
 //!   the least-delayed sample; that minimum delay (a driver callback's latency) is a constant this
 //!   method cannot see ([`ClockFitOptions::force_latency`] takes it from a strobe calibration;
 //!   the error estimate leaves it out).
-//! - **Camera clock**: frame device timestamps (exposure start, Basler chunk timestamp) against
-//!   frame arrivals, fitted the same way, from every frame the camera delivers. That line is late
-//!   by the constant exposure + readout + transfer time; timestamp-latch exchanges, taken by the
-//!   camera stream thread between frames ([`super::camera_stream::CameraStream::spawn_with_latches`])
-//!   and fitted by [`crate::sync::latch`], calibrate that constant: the one-way line is shifted
-//!   onto the latch line at the latches' centre, or, when the latches know the clock rate better
-//!   than the arrivals do (a short history, or delivery delays that vary by many ms), the latch
-//!   line is used as it is. Without latches the exposure end is placed at
-//!   the least-delayed arrival (readout taken as zero) and the error says so.
+//! - **Camera clock**: frame device timestamps against frame arrivals, calibrated by
+//!   timestamp latches when the camera gives them: [`crate::sync::camera_clock`], the one camera
+//!   clock (`fringe stream` places exposures with it too).
 //! - **Window**: [device timestamp, + exposure time] in camera ticks -> host time (camera map)
 //!   -> fractional force sample index (force map), and the six-axis force averaged over it with
 //!   [`crate::sync::window::mean_over`] (interpolated at the edges).
@@ -29,8 +23,8 @@ use super::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 use crate::camera::{Frame, TimestampLatch};
 use crate::clock::HostTime;
 use crate::force::ForceSample;
+use crate::sync::camera_clock::{CameraClock, CameraClockOptions};
 use crate::sync::clock_map::ClockMap;
-use crate::sync::latch::{self, LatchFit};
 use crate::sync::method::SyncMethod;
 use crate::sync::one_way::{self, lower_hull, OneWayFit, OneWayOptions};
 use crate::sync::window::{mean_over, WindowError, WindowMean};
@@ -107,16 +101,6 @@ pub(crate) enum Placement {
     Unavailable(String),
 }
 
-/// The camera clock as currently known.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct CameraClock {
-    /// Camera ticks -> host time of the event they stamp.
-    map: ClockMap,
-    /// 1-sigma error of a mapped time, ns.
-    error_ns: f64,
-    calibrated: bool,
-}
-
 /// Maps both clocks to host time and averages the force over each frame's exposure window.
 pub(crate) struct ClockFitLabeler {
     options: ClockFitOptions,
@@ -130,47 +114,8 @@ pub(crate) struct ClockFitLabeler {
     force_fit: Option<OneWayFit>,
     force_fit_at: Option<HostTime>,
     newest_arrival: Option<HostTime>,
-    /// (device timestamp, arrival) of every frame seen, oldest first.
-    frames: VecDeque<(u64, HostTime)>,
-    first_frame: Option<HostTime>,
-    frames_at_fit: usize,
-    camera_fit: Option<OneWayFit>,
-    latch_source: Option<Receiver<TimestampLatch>>,
-    latches: VecDeque<TimestampLatch>,
-    latch_fit: Option<LatchFit>,
-    camera: Option<CameraClock>,
+    camera: CameraClock,
     last_error_ns: Option<f64>,
-}
-
-/// The spread of the latch `ticks` about their mean, in ns at `ns_per_tick`: the root of the
-/// sum of squared distances.
-fn tick_spread_ns(ticks: &[u64], ns_per_tick: f64) -> f64 {
-    let mean_tick = ticks.iter().map(|&t| t as f64).sum::<f64>() / ticks.len() as f64;
-    ticks
-        .iter()
-        .map(|&t| ((t as f64 - mean_tick) * ns_per_tick).powi(2))
-        .sum::<f64>()
-        .sqrt()
-}
-
-/// The one-way line `ow` shifted onto the latch line `lf` at the latches' centre (`ticks`);
-/// what is left between the two lines at the latches adds to the latch line's error `line`.
-fn one_way_on_latch_line(ow: &OneWayFit, lf: &LatchFit, ticks: &[u64], line: f64) -> CameraClock {
-    let diffs: Vec<f64> = ticks
-        .iter()
-        .map(|&t| ow.map.host_ns(t) - lf.map.host_ns(t))
-        .collect();
-    let offset = diffs.iter().sum::<f64>() / diffs.len().max(1) as f64;
-    let disagreement = (diffs.iter().map(|d| (d - offset).powi(2)).sum::<f64>()
-        / diffs.len().max(1) as f64)
-        .sqrt();
-    let mut map = ow.map;
-    map.host_at_origin_ns -= offset;
-    CameraClock {
-        map,
-        error_ns: (line * line + disagreement * disagreement).sqrt(),
-        calibrated: true,
-    }
 }
 
 impl ClockFitLabeler {
@@ -179,6 +124,17 @@ impl ClockFitLabeler {
         options: ClockFitOptions,
         latches: Option<Receiver<TimestampLatch>>,
     ) -> ClockFitLabeler {
+        let camera = CameraClock::new(
+            CameraClockOptions {
+                exposure: options.exposure,
+                tick_hz: options.camera_tick_hz,
+                fit_window: options.fit_window,
+                refit_every: options.refit_every,
+                assumed_readout: options.assumed_readout,
+                uncalibrated_latency_error: options.uncalibrated_latency_error,
+            },
+            latches,
+        );
         ClockFitLabeler {
             options,
             samples: VecDeque::new(),
@@ -188,14 +144,7 @@ impl ClockFitLabeler {
             force_fit: None,
             force_fit_at: None,
             newest_arrival: None,
-            frames: VecDeque::new(),
-            first_frame: None,
-            frames_at_fit: 0,
-            camera_fit: None,
-            latch_source: latches,
-            latches: VecDeque::new(),
-            latch_fit: None,
-            camera: None,
+            camera,
             last_error_ns: None,
         }
     }
@@ -240,44 +189,7 @@ impl ClockFitLabeler {
 
     /// Notes a frame's device timestamp and arrival for the camera clock fit.
     pub(crate) fn observe_frame(&mut self, frame: &Frame) {
-        self.first_frame.get_or_insert(frame.host_arrival);
-        if self
-            .frames
-            .back()
-            .is_some_and(|&(d, _)| frame.device_timestamp <= d)
-        {
-            // The camera clock restarted: the old pairs belong to another clock.
-            self.frames.clear();
-            self.camera_fit = None;
-            self.camera = None;
-        }
-        self.frames
-            .push_back((frame.device_timestamp, frame.host_arrival));
-        let horizon = frame.host_arrival.0.saturating_sub(self.window_ns());
-        while self.frames.front().is_some_and(|p| p.1 .0 < horizon) {
-            self.frames.pop_front();
-        }
-    }
-
-    fn drain_latches(&mut self) -> bool {
-        let Some(source) = &self.latch_source else {
-            return false;
-        };
-        let mut got = false;
-        while let Ok(l) = source.try_recv() {
-            self.latches.push_back(l);
-            got = true;
-        }
-        let newest = self.latches.back().map_or(0, |l| l.host_after.0);
-        let horizon = newest.saturating_sub(self.window_ns());
-        while self
-            .latches
-            .front()
-            .is_some_and(|l| l.host_before.0 < horizon)
-        {
-            self.latches.pop_front();
-        }
-        got
+        self.camera.observe(frame);
     }
 
     fn refit_force(&mut self) {
@@ -312,107 +224,9 @@ impl ClockFitLabeler {
         }
     }
 
-    /// Refits the camera clock when frames or latches came in since the last fit.
-    fn refit_camera(&mut self) {
-        let new_latches = self.drain_latches();
-        let stale = self.frames.len() != self.frames_at_fit;
-        if !(stale || new_latches) && self.camera.is_some() {
-            return;
-        }
-        self.refit_camera_one_way();
-        if new_latches || self.latch_fit.is_none() {
-            let all: Vec<TimestampLatch> = self.latches.iter().copied().collect();
-            self.latch_fit = latch::fit(&all, "camera").ok();
-        }
-        let Some(ow) = &self.camera_fit else {
-            return;
-        };
-        self.camera = Some(match &self.latch_fit {
-            Some(lf) => self.latch_calibrated_clock(ow, lf),
-            None => self.uncalibrated_clock(ow),
-        });
-    }
-
-    /// Refits the one-way line of the frames when enough new frames came in (about every
-    /// `refit_every`), the frames were cut back, or there is no fit yet; at least 10 frames.
-    fn refit_camera_one_way(&mut self) {
-        let refit_frames = self.camera_fit.is_none()
-            || self.frames.len() < self.frames_at_fit
-            || self.frames.len() >= self.frames_at_fit + self.frames_per_refit();
-        if refit_frames && self.frames.len() >= 10 {
-            let pairs: Vec<(u64, HostTime)> = self.frames.iter().copied().collect();
-            let options = OneWayOptions {
-                clock: "camera".into(),
-                nominal_ns_per_tick: 1e9 / self.options.camera_tick_hz,
-                max_early_ns: 5e6,
-            };
-            if let Ok(fit) = one_way::fit(&pairs, &options) {
-                self.camera_fit = Some(fit);
-                self.frames_at_fit = self.frames.len();
-            }
-        }
-    }
-
-    /// The camera clock from the latch line `lf`, or from the one-way line `ow` moved onto it
-    /// when the frames know the rate better than the latches.
-    fn latch_calibrated_clock(&self, ow: &OneWayFit, lf: &LatchFit) -> CameraClock {
-        // The latch line's own error at its centre: each kept midpoint is uniform within
-        // its half round trip, or scattered as the residuals say, whichever is larger.
-        let per_latch = lf.rms_residual_ns.max(lf.half_round_trip_ns / 3f64.sqrt());
-        let line = per_latch / (lf.used as f64).sqrt();
-        let ticks: Vec<u64> = self.latches.iter().map(|l| l.device_ticks).collect();
-        // Which line knows the rate better: the one-way line (frames over a long span
-        // with steady delays) or the latch line (latches over a short one, or frames
-        // delivered with widely varying delays)?
-        let latch_rate_error = per_latch / tick_spread_ns(&ticks, lf.map.ns_per_tick).max(1.0);
-        let frames_span_ns = match (self.frames.front(), self.frames.back()) {
-            (Some(a), Some(b)) => (b.0 - a.0) as f64 * ow.map.ns_per_tick,
-            _ => 0.0,
-        };
-        let one_way_rate_error = 2.0 * ow.hull_gap_ns / frames_span_ns.max(1.0);
-        if latch_rate_error < one_way_rate_error {
-            CameraClock {
-                map: lf.map,
-                error_ns: line,
-                calibrated: true,
-            }
-        } else {
-            one_way_on_latch_line(ow, lf, &ticks, line)
-        }
-    }
-
-    /// The camera clock from the one-way line `ow` alone: the least-delayed frame arrived the
-    /// assumed readout after its exposure ended.
-    fn uncalibrated_clock(&self, ow: &OneWayFit) -> CameraClock {
-        let exposure_ns =
-            self.options.exposure.0 * 1e3 + self.options.assumed_readout.as_nanos() as f64;
-        let mut map = ow.map;
-        map.host_at_origin_ns -= exposure_ns;
-        let unseen = self.options.uncalibrated_latency_error.as_nanos() as f64;
-        CameraClock {
-            map,
-            error_ns: (ow.hull_gap_ns.powi(2) + unseen * unseen).sqrt(),
-            calibrated: false,
-        }
-    }
-
-    /// Frames between camera refits (about `refit_every` at the observed frame rate).
-    fn frames_per_refit(&self) -> usize {
-        let (Some(a), Some(b)) = (self.frames.front(), self.frames.back()) else {
-            return 1;
-        };
-        let span = b.1 .0.saturating_sub(a.1 .0) as f64;
-        if span <= 0.0 {
-            return 1;
-        }
-        let rate = (self.frames.len() - 1) as f64 / span;
-        ((rate * self.options.refit_every.as_nanos() as f64) as usize).max(1)
-    }
-
     fn waiting_for_latches(&self, now: HostTime) -> bool {
-        self.latch_source.is_some()
-            && self.latch_fit.is_none()
-            && self.first_frame.is_some_and(|t| {
+        self.camera.awaits_latches()
+            && self.camera.first_frame().is_some_and(|t| {
                 now.0.saturating_sub(t.0) < self.options.latch_wait.as_nanos() as u64
             })
     }
@@ -420,13 +234,13 @@ impl ClockFitLabeler {
     /// Where `frame`'s exposure lies in the force stream and on the host time base, as the
     /// clock fits place it now.
     pub(crate) fn place(&mut self, frame: &Frame) -> Placement {
-        if self.frames.is_empty() {
+        if self.camera.is_empty() {
             self.observe_frame(frame);
         }
         self.refit_force();
-        self.refit_camera();
+        let camera = self.camera.fitted();
         let now = self.newest_arrival.unwrap_or(frame.host_arrival);
-        let (Some(force), Some(camera)) = (&self.force_fit, self.camera) else {
+        let (Some(force), Some(camera)) = (&self.force_fit, camera) else {
             // Fits need a second of force data and ten frames.
             return if now.0.saturating_sub(frame.host_arrival.0) < 10_000_000_000 {
                 Placement::NotYet
@@ -437,10 +251,8 @@ impl ClockFitLabeler {
         if !camera.calibrated && self.waiting_for_latches(now) {
             return Placement::NotYet;
         }
-        let start_ticks = frame.device_timestamp;
-        let exposure_ticks = self.options.exposure.0 * 1e-6 * self.options.camera_tick_hz;
-        let start_host = camera.map.host_ns(start_ticks);
-        let end_host = camera.map.host_ns_f(start_ticks as f64 + exposure_ticks);
+        let exposure = self.camera.place(&camera, frame);
+        let [start_host, end_host] = exposure.host_ns;
         let latency = self.options.force_latency.as_nanos() as f64;
         let force_error = force.hull_gap_ns;
         Placement::Window(PlacedWindow {
