@@ -84,6 +84,9 @@ enum Command {
     /// Live validation: a model run on every frame a scan plan records, against the frame's
     /// synchronised F/T label; --no-tui --report DIR writes the metrics and plots.
     Validate(cmd::validate::ValidateArgs),
+    /// Stream a unit off the bench: the camera and the unit's model only, each frame's force,
+    /// contact and shape published as a ROS 2 node over Zenoh (rmw_zenoh) and recorded to MCAP.
+    Stream(cmd::stream::StreamArgs),
     /// Train the paper's networks on runs or datasets, split by press, with the paper's
     /// augmentation (cargo feature `torch`).
     Train(cmd::train::TrainArgs),
@@ -146,6 +149,7 @@ fn main() -> ExitCode {
         Some(Command::Units(args)) => cmd::units::run(args),
         Some(Command::Train(args)) => cmd::train::run(args),
         Some(Command::Validate(args)) => cmd::validate::run(args, &global),
+        Some(Command::Stream(args)) => cmd::stream::run(args),
         #[cfg(feature = "sim")]
         Some(Command::Sim(SimCommand::Render(args))) => cmd::sim_render::run(args),
         #[cfg(feature = "sim")]

@@ -18,6 +18,8 @@
 //!   model's card, the data a model is judged on, a spec and the verdict against it; training,
 //!   a two-stage model joined, an ONNX export, a model run on images).
 //! - [`runs`]: the run store's jobs as a person sees them (the runs in a directory).
+//! - [`stream`]: a unit off the bench: the camera and the unit's model only, each frame's
+//!   prediction published as ROS 2 messages over Zenoh and recorded to MCAP (`fringe stream`).
 //! - [`units`]: the units a lab holds, by name: a unit chosen by its id or file and put on the
 //!   rig, and every unit known with its certificate, last check, next check and model.
 //! - [`workflow_error`]: how a workflow (commissioning, a health check) fails, its causes kept.
@@ -46,6 +48,7 @@ pub mod runs;
 pub mod session;
 #[cfg(feature = "sim")]
 pub mod simulation;
+pub mod stream;
 pub mod units;
 pub mod workflow_error;
 

@@ -33,7 +33,7 @@ pub use device_open::{open_axis, open_modbus, open_thorlabs, DeviceError, TraceT
 pub use device_spec::{AxisSpec, CameraSpec, ModbusLink, ModbusSpec};
 pub use file::{
     AxisDriver, AxisSection, CameraDriver, CameraSection, GeometrySection, HomeSection, RigFile,
-    SimForcePath, SimSection,
+    SimForcePath, SimSection, StreamSection,
 };
 pub use force::netft::{open_netft, NetFtScaling, NetFtSpec};
 pub use force::nidaqmx::names::DaqNames;
@@ -41,6 +41,7 @@ pub use force::nidaqmx::{daq_error, open_daq, DaqForce, DaqGauges, DaqSpec};
 pub use force::section::{ForceDriver, ForceSection};
 pub use force::ForceSpec;
 pub use host_port::{HostPort, HostPortError};
+pub use open::OpenCamera;
 #[cfg(feature = "sim")]
 pub use simulated::{
     config as sim_config, sensor_by_name, sensor_profile, CalibrationTruth, RegistrationTruth,

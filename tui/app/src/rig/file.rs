@@ -264,6 +264,25 @@ pub struct RigFile {
     pub geometry: GeometrySection,
     pub recording: RecordingSection,
     pub sim: SimSection,
+    pub stream: StreamSection,
+}
+
+/// `fringe stream`'s ROS 2 node and recording (`[stream]`; its flags override each key).
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct StreamSection {
+    /// The node's namespace, `/fringe` by default: topics `<namespace>/wrench`, ...
+    pub namespace: Option<String>,
+    /// ROS domain id (0 by default).
+    pub domain: Option<u32>,
+    /// The frame id in every message's header (`fringe_sensor` by default).
+    pub frame_id: Option<String>,
+    /// Zenoh endpoints to connect to (`tcp/localhost:7447`, rmw_zenoh's router, by default).
+    pub connect: Vec<String>,
+    /// Zenoh endpoints to listen on (`tcp/localhost:0` by default).
+    pub listen: Vec<String>,
+    /// Frames a second published as `<namespace>/image/compressed` (0, none, by default).
+    pub image_hz: Option<f64>,
 }
 
 /// Where the rig configuration came from.
@@ -538,6 +557,11 @@ impl RigConfig {
     /// format).
     pub fn frame_codec(&self, plan: Option<&Plan>) -> Result<Option<FrameCodec>, ConfigError> {
         self.recording(plan).codec().map_err(|m| self.err(m))
+    }
+
+    /// `[stream]`: the stream's node and recording settings.
+    pub fn stream_section(&self) -> &StreamSection {
+        &self.file.stream
     }
 
     /// Camera settings from [camera].

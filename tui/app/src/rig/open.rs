@@ -144,3 +144,65 @@ impl RigConfig {
         })
     }
 }
+
+/// The rig's camera alone, opened: what a sensor on a robot has (`fringe stream`).
+pub struct OpenCamera {
+    pub camera: Box<dyn fringe_rig::Camera>,
+    /// The rig file's camera settings, free-running: no DAQ triggers the camera here.
+    pub settings: CameraSettings,
+    /// Set when the rig file has the camera triggered: it free-runs at its frame rate instead.
+    pub free_run_note: Option<String>,
+    pub sensor_id: String,
+    /// The camera as the rig file describes it (or the simulated bench's).
+    pub description: String,
+    /// The simulated bench, when simulated (it films the sensor; its motors are the simulated
+    /// robot's), and its ground truth.
+    #[cfg(feature = "sim")]
+    pub sim: Option<SimBench>,
+}
+
+impl RigConfig {
+    /// Opens the camera only (no stage, no force sensor): the simulated bench's camera when the
+    /// rig is simulated, else the rig file's `[camera]`. A camera the rig file has triggered (by
+    /// the DAQ or a line) free-runs at its frame rate: nothing triggers it without the bench.
+    pub fn open_camera(&self) -> Result<OpenCamera, RigError> {
+        let sensor_id = self.sensor_id()?;
+        let mut settings = self.camera_settings()?;
+        let free_run_note = match &settings.trigger {
+            fringe_rig::TriggerMode::FreeRun => None,
+            other => Some(format!(
+                "the rig file has the camera triggered ({other:?}); without the bench it free-runs at {:.0} fps",
+                settings.frame_rate.0
+            )),
+        };
+        settings.trigger = fringe_rig::TriggerMode::FreeRun;
+        if self.simulated {
+            #[cfg(feature = "sim")]
+            {
+                let (sim, devices) = crate::rig::simulated::start(self)?;
+                let description = format!("simulated camera filming sensor {sensor_id}");
+                return Ok(OpenCamera {
+                    camera: devices.camera,
+                    settings,
+                    free_run_note,
+                    sensor_id,
+                    description,
+                    sim: Some(sim),
+                });
+            }
+            #[cfg(not(feature = "sim"))]
+            return Err(RigError::Config(crate::rig::simulated::refused(self)));
+        }
+        let spec = self.camera_spec()?;
+        let camera = open_camera(&spec)?;
+        Ok(OpenCamera {
+            camera,
+            settings,
+            free_run_note,
+            sensor_id,
+            description: spec.describe(),
+            #[cfg(feature = "sim")]
+            sim: None,
+        })
+    }
+}

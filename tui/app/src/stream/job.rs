@@ -1,0 +1,668 @@
+//! The running stream (see the namespace): the camera read on its own thread (timestamp latches
+//! taken between frames), a worker that places each frame's exposure by the camera clock, runs
+//! the model on it and sends its messages out, an image thread for the lower-rate pictures, and
+//! on the simulated bench the robot.
+//!
+//! Frames wait for the worker in arrival order; when more than [`BACKLOG_FRAMES`] wait, the
+//! oldest is skipped and counted (a robot wants the newest contact state, not a growing delay).
+
+use crate::rig::error::RigError;
+use crate::rig::file::RigConfig;
+use crate::rig::open::OpenCamera;
+use crate::stream::health_watch::{HealthWatch, Said, StreamHealth, FREE_CONFIDENCE};
+use crate::stream::latency::{figures, FrameLatency, LatencyFigures};
+use crate::stream::outlets::{header, put_one, McapOutlet, Messages, Published, Ros2Outlet};
+use crate::stream::request::StreamRequest;
+use crate::stream::stream_error::StreamError;
+use fringe_calibration::Profile;
+use fringe_rig::reference_layout::NO_CONTACT;
+use fringe_rig::{CameraClock, CameraClockOptions, CameraStream, Frame, HostTime};
+use fringe_ros2::{CompressedImage, Publisher};
+use fringe_sensor_models::{Errors, FrameRef, Model, Prediction, Predictor, Preprocessor};
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// Frames that may wait for the model before the oldest is skipped: 100 ms at 50 fps, enough to
+/// ride over a slow frame now and then without adding a growing delay.
+pub const BACKLOG_FRAMES: usize = 5;
+
+/// The camera clock is latched this often between frame reads.
+const LATCH_PERIOD: Duration = Duration::from_millis(250);
+
+/// What a running stream shows.
+#[derive(Debug, Clone, Default)]
+pub struct StreamState {
+    /// The model, as `fringe model info` names it, and its backend.
+    pub model: String,
+    pub backend: &'static str,
+    /// The camera and the unit.
+    pub camera: String,
+    pub sensor: String,
+    /// Frames the camera delivered, and those it lost (gaps in its frame ids).
+    pub frames: u64,
+    pub dropped_by_camera: u64,
+    /// Frames the model ran on, and those it was too busy for.
+    pub ran: u64,
+    pub skipped: u64,
+    /// Predictions a second over the last second.
+    pub rate_hz: f64,
+    /// The newest prediction and its latency (exposure end to published), ms.
+    pub latest: Option<Prediction>,
+    pub latest_latency_ms: Option<f64>,
+    /// Whether a Zenoh router or peer is connected (`None`: not publishing).
+    pub connected: Option<bool>,
+    /// The namespace the topics are under (`None`: not publishing).
+    pub namespace: Option<String>,
+    pub published: Published,
+    /// The recording, when one is made.
+    pub mcap: Option<PathBuf>,
+    /// On the simulated bench: the robot's presses so far.
+    pub robot_presses: Option<usize>,
+    /// The unit's health figures, measured on frames the model calls free (every 30 s).
+    pub health: Option<StreamHealth>,
+    /// Warnings, each said once (the front end shows them as they come).
+    pub warnings: Vec<String>,
+    /// Why the worker stopped, if it failed.
+    pub failure: Option<String>,
+    /// Seconds since the stream started.
+    pub elapsed_s: f64,
+}
+
+/// What a finished stream leaves.
+#[derive(Debug, Clone)]
+pub struct StreamSummary {
+    pub state: StreamState,
+    /// Exposure end to published, with each stage (frames whose exposure the camera clock placed).
+    pub latency: Option<LatencyFigures>,
+    /// Whether timestamp latches calibrated the camera clock (else readout was assumed).
+    pub clock_calibrated: bool,
+    /// The recording written.
+    pub mcap: Option<PathBuf>,
+    /// On the simulated bench: frames scored against the truth, and the errors as `fringe eval`
+    /// computes them.
+    pub truth: Option<(usize, Errors)>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A frame waiting for the worker.
+struct Waiting {
+    frame: Frame,
+}
+
+/// A frame picked for the image topic.
+struct ImageJob {
+    frame: Frame,
+    stamp_unix_ns: i64,
+}
+
+struct Shared {
+    state: Mutex<StreamState>,
+    stop: Arc<AtomicBool>,
+    /// Each frame's latency, and (device timestamp, prediction) for the truth.
+    latencies: Mutex<Vec<FrameLatency>>,
+    /// (device timestamp, header stamp in Unix ns, prediction) of each frame streamed.
+    streamed: Mutex<Vec<(u64, i64, Prediction)>>,
+    calibrated: AtomicBool,
+    mcap: Mutex<Option<McapOutlet>>,
+    /// Whether predictions are kept for scoring against the truth (the simulated robot's).
+    keep_streamed: bool,
+}
+
+impl Shared {
+    fn warn(&self, line: String) {
+        let mut s = lock(&self.state);
+        if !s.warnings.contains(&line) {
+            s.warnings.push(line);
+        }
+    }
+}
+
+/// A running stream.
+pub struct Stream {
+    shared: Arc<Shared>,
+    worker: Option<JoinHandle<()>>,
+    imager: Option<JoinHandle<()>>,
+    camera: Option<CameraStream>,
+    classes: Vec<String>,
+    frame_id: String,
+    #[cfg(feature = "sim")]
+    robot: Option<crate::stream::robot_truth::RobotTruth>,
+    /// Kept alive while the stream runs (the simulated bench films the sensor).
+    #[cfg(feature = "sim")]
+    _sim: Option<crate::rig::simulated::SimBench>,
+}
+
+/// The unit's calibration profile: the one on file, or on the simulated bench its design's.
+fn profile_of(config: &RigConfig, sensor: &str) -> Result<Profile, StreamError> {
+    crate::rig::unit_profile(config, sensor)
+        .map_err(RigError::Config)?
+        .ok_or_else(|| StreamError::NoProfile {
+            sensor: sensor.to_string(),
+            dir: config.profile_dir(),
+        })
+}
+
+impl Stream {
+    /// Opens the camera, the model, the node and the recording, and starts streaming; the notes
+    /// say what was opened and anything the operator should know.
+    pub fn start(request: StreamRequest) -> Result<(Stream, Vec<String>), StreamError> {
+        let StreamRequest {
+            config,
+            model,
+            backend,
+            threads,
+            ros2,
+            mcap,
+            image_hz,
+            robot_seed,
+        } = request;
+        ros2.check().map_err(StreamError::Settings)?;
+        let mut notes = Vec::new();
+        let OpenCamera {
+            camera,
+            settings,
+            free_run_note,
+            sensor_id,
+            description,
+            #[cfg(feature = "sim")]
+            sim,
+        } = config.open_camera()?;
+        notes.extend(free_run_note);
+        let profile = profile_of(&config, &sensor_id)?;
+        let preprocessing = model.preprocessing(Some(&profile), None)?;
+        if let Some(w) = model.scale_warning(&preprocessing) {
+            notes.push(w);
+        }
+        let predictor = Predictor::new(&model, backend, threads)?;
+        let tick_hz = camera.info().tick_frequency;
+        let (node, image_publisher) = if ros2.publish {
+            let (n, i) = Ros2Outlet::open(&ros2)?;
+            notes.push(format!(
+                "ROS 2 node {}/{} on domain {} (Zenoh: connect {}; listen {}): topics {}",
+                ros2.namespace.trim_end_matches('/'),
+                crate::stream::request::Ros2Settings::NODE,
+                ros2.domain,
+                ros2.connect.join(", "),
+                ros2.listen.join(", "),
+                crate::stream::outlets::TOPICS
+                    .iter()
+                    .filter(|(t, _)| image_hz > 0.0 || !t.starts_with("image"))
+                    .map(|(t, ty)| format!("{}/{t} ({ty})", ros2.namespace.trim_end_matches('/')))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            (Some(n), Some(i))
+        } else {
+            (None, None)
+        };
+        let recording = match &mcap {
+            Some(path) => Some(McapOutlet::create(
+                path,
+                &ros2.namespace,
+                cfg!(feature = "sim") && config.is_simulated(),
+            )?),
+            None => None,
+        };
+        let classes = model.classes.clone();
+        let state = StreamState {
+            model: format!("{} ({})", model.path.display(), model.describe()),
+            backend: predictor.backend_name(),
+            camera: description,
+            sensor: sensor_id,
+            connected: node.as_ref().map(|_| false),
+            namespace: ros2.publish.then(|| ros2.namespace.clone()),
+            mcap: mcap.clone(),
+            ..StreamState::default()
+        };
+        let shared = Arc::new(Shared {
+            state: Mutex::new(state),
+            stop: Arc::new(AtomicBool::new(false)),
+            latencies: Mutex::new(Vec::new()),
+            streamed: Mutex::new(Vec::new()),
+            calibrated: AtomicBool::new(false),
+            mcap: Mutex::new(recording),
+            keep_streamed: cfg!(feature = "sim") && config.is_simulated(),
+        });
+        #[cfg(feature = "sim")]
+        let robot = match &sim {
+            Some(sim) => {
+                let r = crate::stream::robot_truth::RobotTruth::start(sim, &classes, robot_seed)?;
+                notes.push(format!(
+                    "simulated bench: the simulator's robot presses the sensor at random places and forces with {} (seed {robot_seed}); each frame is scored against the simulator's truth",
+                    r.shapes.join(", ")
+                ));
+                Some(r)
+            }
+            None => None,
+        };
+        #[cfg(not(feature = "sim"))]
+        let _ = robot_seed;
+        let camera_stream = CameraStream::spawn_with_latches(camera, &settings, LATCH_PERIOD)?;
+        let clock = CameraClock::new(
+            CameraClockOptions::new(settings.exposure, tick_hz as f64),
+            Some(camera_stream.subscribe_latches()),
+        );
+        let (image_tx, image_rx) = crossbeam_channel::bounded::<ImageJob>(1);
+        let imager = if image_hz > 0.0 {
+            Some(spawn_imager(
+                shared.clone(),
+                image_publisher,
+                image_rx,
+                ros2.frame_id.clone(),
+            )?)
+        } else {
+            None
+        };
+        let started = Instant::now();
+        let health = {
+            let to = shared.clone();
+            HealthWatch::start(
+                profile.clone(),
+                Box::new(move |said| match said {
+                    Said::Figures(h) => lock(&to.state).health = Some(h),
+                    Said::Warning(w) => to.warn(w),
+                }),
+                shared.stop.clone(),
+                started,
+            )
+            .map_err(|source| StreamError::Thread {
+                what: "health watch",
+                source,
+            })?
+        };
+        let worker = Worker {
+            shared: shared.clone(),
+            health,
+            frames: camera_stream.frames().clone(),
+            clock,
+            pre: Preprocessor::new(preprocessing),
+            predictor,
+            model,
+            profile,
+            node,
+            frame_id: ros2.frame_id.clone(),
+            image_every: (image_hz > 0.0).then(|| Duration::from_secs_f64(1.0 / image_hz)),
+            image_tx,
+            last_image: None,
+            waiting: VecDeque::new(),
+            last_id: None,
+            recent: VecDeque::new(),
+            started,
+            connected_checked: None,
+        };
+        let worker = std::thread::Builder::new()
+            .name("stream".into())
+            .spawn(move || worker.run())
+            .map_err(|source| StreamError::Thread {
+                what: "stream",
+                source,
+            })?;
+        Ok((
+            Stream {
+                shared,
+                worker: Some(worker),
+                imager,
+                camera: Some(camera_stream),
+                classes,
+                frame_id: ros2.frame_id.clone(),
+                #[cfg(feature = "sim")]
+                robot,
+                #[cfg(feature = "sim")]
+                _sim: sim,
+            },
+            notes,
+        ))
+    }
+
+    /// The state now (a copy: the stream goes on).
+    pub fn state(&self) -> StreamState {
+        let mut s = lock(&self.shared.state).clone();
+        #[cfg(feature = "sim")]
+        if let Some(r) = &self.robot {
+            s.robot_presses = Some(r.presses());
+        }
+        if let Some(e) = self.camera.as_ref().and_then(|c| c.error()) {
+            s.failure.get_or_insert(format!("camera: {e}"));
+        }
+        s
+    }
+
+    /// Whether the stream stopped by itself (the worker or the camera failed).
+    pub fn failed(&self) -> bool {
+        self.state().failure.is_some()
+    }
+
+    /// Stops the stream: the camera, the worker, the robot; finishes the recording; the summary.
+    pub fn finish(mut self) -> Result<StreamSummary, StreamError> {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        if let Some(w) = self.worker.take() {
+            let _ = w.join();
+        }
+        if let Some(i) = self.imager.take() {
+            let _ = i.join();
+        }
+        let camera_error = self.camera.take().and_then(|c| c.stop().err());
+        let mut recording = lock(&self.shared.mcap).take();
+        #[cfg(feature = "sim")]
+        let truth = match self.robot.as_mut() {
+            Some(r) => {
+                r.stop();
+                let scored = r.score(&self.classes, &lock(&self.shared.streamed));
+                // The truth beside the predictions, frame by frame, stamped alike.
+                if let Some(m) = recording.as_mut() {
+                    for (stamp, sample) in &scored.frames {
+                        m.write_truth(*stamp, sample, &self.frame_id)?;
+                    }
+                }
+                Some((scored.frames.len(), scored.errors))
+            }
+            None => None,
+        };
+        #[cfg(not(feature = "sim"))]
+        let truth = None;
+        let mut state = self.state();
+        if let Some(e) = camera_error {
+            state.warnings.push(format!("camera: stopping it: {e}"));
+        }
+        let mcap = match recording {
+            Some(r) => Some(r.finish()?),
+            None => None,
+        };
+        let latency = figures(&lock(&self.shared.latencies));
+        Ok(StreamSummary {
+            state,
+            latency,
+            clock_calibrated: self.shared.calibrated.load(Ordering::Relaxed),
+            mcap,
+            truth,
+        })
+    }
+}
+
+impl Drop for Stream {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        if let Some(w) = self.worker.take() {
+            let _ = w.join();
+        }
+        if let Some(i) = self.imager.take() {
+            let _ = i.join();
+        }
+        if let Some(c) = self.camera.take() {
+            let _ = c.stop();
+        }
+        // A recording not finished is finished here, so that its summary is written.
+        if let Some(r) = lock(&self.shared.mcap).take() {
+            let _ = r.finish();
+        }
+    }
+}
+
+/// The image thread: PNG-encodes the frames picked for the image topic and publishes and
+/// records them, away from the worker (encoding a full frame takes longer than a frame period).
+fn spawn_imager(
+    shared: Arc<Shared>,
+    mut publisher: Option<Publisher<CompressedImage>>,
+    jobs: crossbeam_channel::Receiver<ImageJob>,
+    frame_id: String,
+) -> Result<JoinHandle<()>, StreamError> {
+    std::thread::Builder::new()
+        .name("stream-images".into())
+        .spawn(move || {
+            while !shared.stop.load(Ordering::Relaxed) {
+                let Ok(job) = jobs.recv_timeout(Duration::from_millis(100)) else {
+                    continue;
+                };
+                let data = match png(&job.frame) {
+                    Ok(d) => d,
+                    Err(e) => {
+                        shared.warn(format!("image topic: {e}"));
+                        continue;
+                    }
+                };
+                let msg = CompressedImage {
+                    header: header(job.stamp_unix_ns, &frame_id),
+                    format: "png".into(),
+                    data,
+                };
+                let now = HostTime::now().unix_nanos();
+                if let Some(p) = publisher.as_mut() {
+                    match put_one(p, &msg, now) {
+                        Ok(()) => lock(&shared.state).published.image += 1,
+                        Err(e) => shared.warn(format!("image topic: {e}")),
+                    }
+                }
+                if let Some(m) = lock(&shared.mcap).as_mut() {
+                    if let Err(e) = m.write_image(&msg, now) {
+                        shared.warn(format!("recording the image: {e}"));
+                    }
+                }
+            }
+        })
+        .map_err(|source| StreamError::Thread {
+            what: "image",
+            source,
+        })
+}
+
+/// A frame as PNG (fast compression; colour as the camera gives it, Bayer frames demosaiced),
+/// as `sensor_msgs/CompressedImage` carries it.
+fn png(frame: &Frame) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    let picture =
+        fringe_sensor_models::thumbnail(FrameRef::from(frame), frame.width.max(frame.height))
+            .map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new_with_quality(
+        &mut out,
+        image::codecs::png::CompressionType::Fast,
+        image::codecs::png::FilterType::Sub,
+    )
+    .write_image(
+        picture.as_raw(),
+        picture.width(),
+        picture.height(),
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(out)
+}
+
+struct Worker {
+    shared: Arc<Shared>,
+    health: HealthWatch,
+    frames: crossbeam_channel::Receiver<Frame>,
+    clock: CameraClock,
+    pre: Preprocessor,
+    predictor: Predictor,
+    model: Model,
+    profile: Profile,
+    node: Option<Ros2Outlet>,
+    frame_id: String,
+    image_every: Option<Duration>,
+    image_tx: crossbeam_channel::Sender<ImageJob>,
+    last_image: Option<Instant>,
+    waiting: VecDeque<Waiting>,
+    last_id: Option<u64>,
+    recent: VecDeque<Instant>,
+    started: Instant,
+    connected_checked: Option<Instant>,
+}
+
+impl Worker {
+    fn run(mut self) {
+        let mut input = vec![0f32; self.pre.config.tensor_len()];
+        while !self.shared.stop.load(Ordering::Relaxed) {
+            if self.waiting.is_empty() {
+                match self.frames.recv_timeout(Duration::from_millis(100)) {
+                    Ok(f) => self.arrived(f),
+                    Err(crossbeam_channel::RecvTimeoutError::Timeout) => {
+                        self.check_connected();
+                        continue;
+                    }
+                    Err(crossbeam_channel::RecvTimeoutError::Disconnected) => break,
+                }
+            }
+            while let Ok(f) = self.frames.try_recv() {
+                self.arrived(f);
+            }
+            let Some(next) = self.waiting.pop_front() else {
+                continue;
+            };
+            if let Err(why) = self.one(next, &mut input) {
+                lock(&self.shared.state).failure = Some(why);
+                break;
+            }
+            self.check_connected();
+        }
+        // The worker is done (stopped, failed or the camera gone): so is everything else.
+        self.shared.stop.store(true, Ordering::Relaxed);
+        self.health.join();
+    }
+
+    /// A frame from the camera: into the clock fit and the queue (the oldest waiting skipped
+    /// when the queue is full).
+    fn arrived(&mut self, frame: Frame) {
+        self.clock.observe(&frame);
+        let mut s = lock(&self.shared.state);
+        s.frames += 1;
+        if let Some(last) = self.last_id {
+            s.dropped_by_camera += frame.id.saturating_sub(last + 1);
+        }
+        self.last_id = Some(frame.id);
+        self.waiting.push_back(Waiting { frame });
+        while self.waiting.len() > BACKLOG_FRAMES {
+            self.waiting.pop_front();
+            s.skipped += 1;
+        }
+    }
+
+    fn check_connected(&mut self) {
+        let Some(node) = &self.node else {
+            return;
+        };
+        if self
+            .connected_checked
+            .is_some_and(|t| t.elapsed() < Duration::from_secs(1))
+        {
+            return;
+        }
+        self.connected_checked = Some(Instant::now());
+        let now = node.connected();
+        let mut s = lock(&self.shared.state);
+        if s.connected != Some(now) {
+            s.connected = Some(now);
+        }
+    }
+
+    /// Runs the model on one frame and sends its messages out.
+    fn one(&mut self, w: Waiting, input: &mut [f32]) -> Result<(), String> {
+        let frame = &w.frame;
+        let taken = Instant::now();
+        let exposure = self.clock.exposure(frame);
+        let fref = FrameRef::from(frame);
+        self.pre
+            .run_into(fref, 0.0, input)
+            .map_err(|e| format!("frame {}: {e}", frame.id))?;
+        let prediction = self
+            .predictor
+            .predict(input, 1, &[fref], &self.pre.config, Some(&self.profile))
+            .map_err(|e| e.to_string())?
+            .into_iter()
+            .next()
+            .ok_or_else(|| {
+                format!(
+                    "{}: the network gave no prediction",
+                    self.model.path.display()
+                )
+            })?;
+        let modelled = Instant::now();
+        if prediction.shape == NO_CONTACT && prediction.confidence() >= FREE_CONFIDENCE {
+            self.health.offer(frame, prediction.force.fz.value());
+        }
+        // The header's stamp: the middle of the exposure (the arrival until the clock is fitted).
+        let stamp = exposure.map_or(frame.host_arrival.0 as f64, |e| {
+            (e.host_ns[0] + e.host_ns[1]) / 2.0
+        });
+        let stamp_unix_ns = HostTime(stamp.max(0.0) as u64).unix_nanos();
+        let messages = Messages::of(&prediction, stamp_unix_ns, &self.frame_id);
+        let now_unix = HostTime::now().unix_nanos();
+        let mut published = Published::default();
+        if let Some(node) = self.node.as_mut() {
+            if let Err(e) = node.put(&messages, now_unix, &mut published) {
+                published.failed += 1;
+                self.shared.warn(format!("publishing: {e}"));
+            }
+        }
+        if let Some(m) = lock(&self.shared.mcap).as_mut() {
+            if let Err(e) = m.write(&messages, now_unix) {
+                return Err(format!("recording: {e}"));
+            }
+        }
+        let done = HostTime::now();
+        if let Some(every) = self.image_every {
+            if self.last_image.is_none_or(|t| t.elapsed() >= every) {
+                self.last_image = Some(Instant::now());
+                let _ = self.image_tx.try_send(ImageJob {
+                    frame: w.frame.clone(),
+                    stamp_unix_ns,
+                });
+            }
+        }
+        // Where the time went, from the end of the exposure.
+        let latency_ms = exposure.map(|e| {
+            let ms = |a: f64, b: f64| ((b - a) * 1e-6).max(0.0);
+            let arrival = frame.host_arrival.0 as f64;
+            let taken_ns = HostTime::from_instant(taken).0 as f64;
+            let modelled_ns = HostTime::from_instant(modelled).0 as f64;
+            self.shared
+                .calibrated
+                .store(e.calibrated, Ordering::Relaxed);
+            FrameLatency {
+                stages_ms: [
+                    ms(e.host_ns[1], arrival),
+                    ms(arrival, taken_ns),
+                    ms(taken_ns, modelled_ns),
+                    ms(modelled_ns, done.0 as f64),
+                ],
+            }
+        });
+        if let Some(l) = latency_ms {
+            lock(&self.shared.latencies).push(l);
+        }
+        if self.shared.keep_streamed {
+            lock(&self.shared.streamed).push((
+                frame.device_timestamp,
+                stamp_unix_ns,
+                prediction.clone(),
+            ));
+        }
+        let now = Instant::now();
+        self.recent.push_back(now);
+        while self
+            .recent
+            .front()
+            .is_some_and(|t| now.duration_since(*t) > Duration::from_secs(1))
+        {
+            self.recent.pop_front();
+        }
+        let mut s = lock(&self.shared.state);
+        s.ran += 1;
+        s.rate_hz = self.recent.len() as f64;
+        s.latest = Some(prediction);
+        s.latest_latency_ms = latency_ms.map(|l| l.total_ms());
+        s.published.wrench += published.wrench;
+        s.published.contact += published.contact;
+        s.published.shape += published.shape;
+        s.published.failed += published.failed;
+        s.elapsed_s = self.started.elapsed().as_secs_f64();
+        Ok(())
+    }
+}

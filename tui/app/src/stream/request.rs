@@ -1,0 +1,100 @@
+//! What a stream is asked for.
+
+use crate::rig::file::RigConfig;
+use fringe_sensor_models::{BackendKind, Model};
+use std::path::PathBuf;
+
+/// The ROS 2 node: its namespace, domain and frame id, and the Zenoh endpoints.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ros2Settings {
+    /// `/fringe`: topics `/fringe/wrench`, `/fringe/contact`, `/fringe/shape`.
+    pub namespace: String,
+    pub domain: u32,
+    /// The frame id in every header.
+    pub frame_id: String,
+    /// Zenoh endpoints to connect to (rmw_zenoh's router: `tcp/localhost:7447`).
+    pub connect: Vec<String>,
+    /// Zenoh endpoints to listen on.
+    pub listen: Vec<String>,
+    /// Whether the messages go out over Zenoh (`--no-ros2` keeps them to the recording).
+    pub publish: bool,
+}
+
+impl Ros2Settings {
+    pub const DEFAULT_NAMESPACE: &'static str = "/fringe";
+    pub const DEFAULT_FRAME_ID: &'static str = "fringe_sensor";
+    pub const DEFAULT_CONNECT: &'static str = "tcp/localhost:7447";
+    pub const DEFAULT_LISTEN: &'static str = "tcp/localhost:0";
+    /// The node's name.
+    pub const NODE: &'static str = "fringe_stream";
+
+    /// The rig file's `[stream]` settings, each defaulted.
+    pub fn from_rig(config: &RigConfig) -> Ros2Settings {
+        let s = config.stream_section();
+        let or_default = |v: &Vec<String>, d: &str| {
+            if v.is_empty() {
+                vec![d.to_string()]
+            } else {
+                v.clone()
+            }
+        };
+        Ros2Settings {
+            namespace: s
+                .namespace
+                .clone()
+                .unwrap_or_else(|| Self::DEFAULT_NAMESPACE.into()),
+            domain: s.domain.unwrap_or(0),
+            frame_id: s
+                .frame_id
+                .clone()
+                .unwrap_or_else(|| Self::DEFAULT_FRAME_ID.into()),
+            connect: or_default(&s.connect, Self::DEFAULT_CONNECT),
+            listen: or_default(&s.listen, Self::DEFAULT_LISTEN),
+            publish: true,
+        }
+    }
+
+    /// Checks the namespace as ROS 2 names it: `/`, or `/` then words of letters, digits and
+    /// underscores separated by single `/`, not starting with a digit.
+    pub fn check(&self) -> Result<(), String> {
+        let ns = &self.namespace;
+        let words_ok = ns == "/"
+            || (ns.starts_with('/')
+                && !ns.ends_with('/')
+                && ns[1..].split('/').all(|w| {
+                    !w.is_empty()
+                        && !w.starts_with(|c: char| c.is_ascii_digit())
+                        && w.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                }));
+        if !words_ok {
+            return Err(format!(
+                "namespace {ns:?}: a ROS 2 namespace is `/` or `/` then names of letters, digits and underscores separated by `/` (such as /fringe or /gripper/left_finger)"
+            ));
+        }
+        if self.domain > 232 {
+            return Err(format!(
+                "domain {}: ROS 2 domain ids are 0 to 232",
+                self.domain
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A stream to run.
+pub struct StreamRequest {
+    /// The rig (its camera and unit: the simulated bench when simulated).
+    pub config: RigConfig,
+    /// The model (chosen by `crate::models::choose_model`).
+    pub model: Model,
+    pub backend: BackendKind,
+    /// Inference threads of each network.
+    pub threads: usize,
+    pub ros2: Ros2Settings,
+    /// Record the same messages to this MCAP file.
+    pub mcap: Option<PathBuf>,
+    /// Frames a second published as compressed images (0: none).
+    pub image_hz: f64,
+    /// On the simulated bench, the robot's seed.
+    pub robot_seed: u64,
+}

@@ -1,0 +1,194 @@
+//! On the simulated bench the simulator plays a robot: it presses the sensor at random places,
+//! forces and indenters (`fringe_sim::Robot`, driving the bench's motors), and the simulator's
+//! ground truth of every frame (the normal force and contact point at mid-exposure) is kept
+//! beside the stream. Each streamed prediction is scored against it with the label rules and
+//! the scoring `fringe eval` applies to a run's frames: Fz, contact and shape, per frame, no
+//! smoothing.
+
+use crate::rig::simulated::SimBench;
+use crate::stream::stream_error::StreamError;
+use fringe_rig::reference_layout::NO_CONTACT;
+use fringe_rig::HostTime;
+use fringe_sensor_models::dataset::{label, Sample};
+use fringe_sensor_models::eval::score;
+use fringe_sensor_models::{Errors, Prediction};
+use fringe_sim::ground_truth::{FrameTruth, TruthRecord};
+use fringe_sim::{Robot, RobotConfig, RobotPress, TruthSpool};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+/// How often the robot is advanced.
+const TICK: Duration = Duration::from_millis(5);
+/// How often the ground truth is gathered.
+const GATHER_EVERY: usize = 200;
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The stream scored against the truth.
+pub(crate) struct Scored {
+    /// Each frame matched: its header stamp (Unix ns) and its true label.
+    pub frames: Vec<(i64, Sample)>,
+    pub errors: Errors,
+}
+
+/// What the robot did and what the bench really showed, shared with the stream.
+#[derive(Default)]
+struct Truth {
+    presses: Vec<RobotPress>,
+    /// Frames' truth by exposure start (camera ticks), as a run's labels are matched.
+    frames: HashMap<u64, FrameTruth>,
+}
+
+/// The robot at work and the truth it leaves.
+pub(crate) struct RobotTruth {
+    stop: Arc<AtomicBool>,
+    truth: Arc<Mutex<Truth>>,
+    spool: Arc<TruthSpool>,
+    thread: Option<JoinHandle<()>>,
+    /// The indenters it presses.
+    pub shapes: Vec<String>,
+}
+
+impl RobotTruth {
+    /// Starts the robot on `sim`, pressing with the indenters among `classes` the sensor has.
+    pub(crate) fn start(
+        sim: &SimBench,
+        classes: &[String],
+        seed: u64,
+    ) -> Result<RobotTruth, StreamError> {
+        let sensor = sim.config().sensor.clone();
+        let shapes: Vec<String> = classes
+            .iter()
+            .filter(|c| c.as_str() != NO_CONTACT && sensor.indenter_tip(c).is_some())
+            .cloned()
+            .collect();
+        let mut robot = Robot::new(
+            sim.bench().clone(),
+            sensor,
+            RobotConfig {
+                seed,
+                shapes: shapes.clone(),
+                ..RobotConfig::default()
+            },
+        )?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let truth = Arc::new(Mutex::new(Truth::default()));
+        let spool = sim.truth.clone();
+        spool.pass_over_unfilmed();
+        let thread = {
+            let (stop, truth, spool) = (stop.clone(), truth.clone(), spool.clone());
+            std::thread::Builder::new()
+                .name("sim-robot".into())
+                .spawn(move || {
+                    let mut n = 0usize;
+                    while !stop.load(Ordering::Relaxed) {
+                        robot.tick(HostTime::now());
+                        n += 1;
+                        if n % GATHER_EVERY == 0 {
+                            gather(&spool, &truth, robot.presses());
+                        }
+                        std::thread::sleep(TICK);
+                    }
+                    gather(&spool, &truth, robot.presses());
+                })
+                .map_err(|source| StreamError::Thread {
+                    what: "simulated robot",
+                    source,
+                })?
+        };
+        Ok(RobotTruth {
+            stop,
+            truth,
+            spool,
+            thread: Some(thread),
+            shapes,
+        })
+    }
+
+    /// Stops the robot (where it is) and gathers the last of the truth.
+    pub(crate) fn stop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        let presses = lock(&self.truth).presses.clone();
+        gather(&self.spool, &self.truth, &presses);
+    }
+
+    /// Presses made so far.
+    pub(crate) fn presses(&self) -> usize {
+        lock(&self.truth).presses.len()
+    }
+
+    /// Scores the `streamed` predictions (device timestamp, header stamp, prediction) against
+    /// the truth: each frame matched with its true label, and the errors as `fringe eval`
+    /// computes them.
+    pub(crate) fn score(&self, classes: &[String], streamed: &[(u64, i64, Prediction)]) -> Scored {
+        let truth = lock(&self.truth);
+        let mut errors = Errors::default();
+        let mut frames = Vec::new();
+        for (ticks, stamp, p) in streamed {
+            let Some(t) = truth.frames.get(ticks) else {
+                continue;
+            };
+            let Some(sample) = sample_of(t, &truth.presses) else {
+                continue;
+            };
+            let Some(shape_true) = classes.iter().position(|c| *c == sample.shape) else {
+                continue;
+            };
+            errors.add(&score(classes, shape_true, &sample, p));
+            frames.push((*stamp, sample));
+        }
+        Scored { frames, errors }
+    }
+}
+
+impl Drop for RobotTruth {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Takes the frame records waiting in `spool` into `truth`, and the robot's presses.
+fn gather(spool: &TruthSpool, truth: &Mutex<Truth>, presses: &[RobotPress]) {
+    let records = spool.take();
+    let mut t = lock(truth);
+    for r in records {
+        if let TruthRecord::Frame(f) = r {
+            t.frames.insert(f.exposure_start_ticks, f);
+        }
+    }
+    t.presses = presses.to_vec();
+}
+
+/// The label a run would give this frame, from the truth: the normal force at mid-exposure,
+/// the contact point, and the indenter of the press under way (the label rules of
+/// `fringe_sensor_models::dataset::label`). `None` for a frame the robot's presses do not
+/// explain (touching before the first press).
+fn sample_of(t: &FrameTruth, presses: &[RobotPress]) -> Option<Sample> {
+    let (force, shape, contact) = match t.contact {
+        Some((fz, x, y)) => {
+            let press = presses.iter().rev().find(|p| p.start <= t.exposure_start)?;
+            label([0.0, 0.0, fz, 0.0, 0.0, 0.0], &press.shape, Some([x, y]))
+        }
+        None => label([0.0; 6], NO_CONTACT, None),
+    };
+    Some(Sample {
+        image: Default::default(),
+        storage: None,
+        force,
+        shape,
+        contact,
+        press: String::new(),
+        stage_mm: None,
+    })
+}
