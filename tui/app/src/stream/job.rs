@@ -130,7 +130,9 @@ pub struct Stream {
     worker: Option<JoinHandle<()>>,
     imager: Option<JoinHandle<()>>,
     camera: Option<CameraStream>,
+    #[cfg(feature = "sim")]
     classes: Vec<String>,
+    #[cfg(feature = "sim")]
     frame_id: String,
     #[cfg(feature = "sim")]
     robot: Option<crate::stream::robot_truth::RobotTruth>,
@@ -210,6 +212,7 @@ impl Stream {
             )?),
             None => None,
         };
+        #[cfg(feature = "sim")]
         let classes = model.classes.clone();
         let state = StreamState {
             model: format!("{} ({})", model.path.display(), model.describe()),
@@ -310,7 +313,9 @@ impl Stream {
                 worker: Some(worker),
                 imager,
                 camera: Some(camera_stream),
+                #[cfg(feature = "sim")]
                 classes,
+                #[cfg(feature = "sim")]
                 frame_id: ros2.frame_id.clone(),
                 #[cfg(feature = "sim")]
                 robot,
@@ -339,6 +344,27 @@ impl Stream {
         self.state().failure.is_some()
     }
 
+    /// Stops the robot, scores the stream against the truth and puts the truth in `recording`
+    /// beside the predictions, frame by frame, stamped alike.
+    #[cfg(feature = "sim")]
+    #[allow(clippy::type_complexity)]
+    fn score_truth(
+        &mut self,
+        mut recording: Option<McapOutlet>,
+    ) -> Result<(Option<McapOutlet>, Option<(usize, Errors)>), StreamError> {
+        let Some(r) = self.robot.as_mut() else {
+            return Ok((recording, None));
+        };
+        r.stop();
+        let scored = r.score(&self.classes, &lock(&self.shared.streamed));
+        if let Some(m) = recording.as_mut() {
+            for (stamp, sample) in &scored.frames {
+                m.write_truth(*stamp, sample, &self.frame_id)?;
+            }
+        }
+        Ok((recording, Some((scored.frames.len(), scored.errors))))
+    }
+
     /// Stops the stream: the camera, the worker, the robot; finishes the recording; the summary.
     pub fn finish(mut self) -> Result<StreamSummary, StreamError> {
         self.shared.stop.store(true, Ordering::Relaxed);
@@ -349,22 +375,9 @@ impl Stream {
             let _ = i.join();
         }
         let camera_error = self.camera.take().and_then(|c| c.stop().err());
-        let mut recording = lock(&self.shared.mcap).take();
+        let recording = lock(&self.shared.mcap).take();
         #[cfg(feature = "sim")]
-        let truth = match self.robot.as_mut() {
-            Some(r) => {
-                r.stop();
-                let scored = r.score(&self.classes, &lock(&self.shared.streamed));
-                // The truth beside the predictions, frame by frame, stamped alike.
-                if let Some(m) = recording.as_mut() {
-                    for (stamp, sample) in &scored.frames {
-                        m.write_truth(*stamp, sample, &self.frame_id)?;
-                    }
-                }
-                Some((scored.frames.len(), scored.errors))
-            }
-            None => None,
-        };
+        let (recording, truth) = self.score_truth(recording)?;
         #[cfg(not(feature = "sim"))]
         let truth = None;
         let mut state = self.state();

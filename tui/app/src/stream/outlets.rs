@@ -20,6 +20,7 @@ use fringe_ros2::{
     ObjectHypothesis, Point, PointStamped, Publisher, Qos, RecordError, Recorder, RosMessage, Time,
     Vector3, Wrench, WrenchStamped,
 };
+#[cfg(feature = "sim")]
 use fringe_sensor_models::dataset::Sample;
 use fringe_sensor_models::Prediction;
 use std::path::{Path, PathBuf};
@@ -168,12 +169,14 @@ pub(crate) struct McapOutlet {
     contact: Channel<PointStamped>,
     shape: Channel<Classification>,
     image: Channel<CompressedImage>,
+    #[cfg(feature = "sim")]
     truth: Option<TruthChannels>,
 }
 
 /// The simulator's truth beside the predictions: `<ns>/truth/wrench` (the true normal force as
 /// z), `<ns>/truth/contact` (in contact only) and `<ns>/truth/shape` (the true class, score 1),
 /// each stamped as the prediction of the same frame.
+#[cfg(feature = "sim")]
 struct TruthChannels {
     wrench: Channel<WrenchStamped>,
     contact: Channel<PointStamped>,
@@ -194,6 +197,9 @@ impl McapOutlet {
         let contact = recorder.channel(&topic("contact"), Qos::SENSOR_DATA)?;
         let shape = recorder.channel(&topic("shape"), Qos::SENSOR_DATA)?;
         let image = recorder.channel(&topic("image/compressed"), Qos::SENSOR_DATA)?;
+        #[cfg(not(feature = "sim"))]
+        let _ = truth;
+        #[cfg(feature = "sim")]
         let truth = if truth {
             Some(TruthChannels {
                 wrench: recorder.channel(&topic("truth/wrench"), Qos::DEFAULT)?,
@@ -209,11 +215,13 @@ impl McapOutlet {
             contact,
             shape,
             image,
+            #[cfg(feature = "sim")]
             truth,
         })
     }
 
     /// Records the truth of the frame stamped `stamp` (Unix ns), logged at its stamp.
+    #[cfg(feature = "sim")]
     pub(crate) fn write_truth(
         &mut self,
         stamp: i64,

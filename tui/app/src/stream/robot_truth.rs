@@ -89,7 +89,8 @@ impl RobotTruth {
                     while !stop.load(Ordering::Relaxed) {
                         robot.tick(HostTime::now());
                         n += 1;
-                        if n % GATHER_EVERY == 0 {
+                        if n == GATHER_EVERY {
+                            n = 0;
                             gather(&spool, &truth, robot.presses());
                         }
                         std::thread::sleep(TICK);
