@@ -6,7 +6,10 @@
 
 mod common;
 
-use common::{constant_model, scratch, text, CONSTANT_CONTACT_MM, CONSTANT_FZ_N};
+use common::{
+    constant_model, constant_model_of_class, scratch, text, unit_rig_at, CONSTANT_CONTACT_MM,
+    CONSTANT_FZ_N,
+};
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -33,7 +36,7 @@ fn figure(s: &str, key: &str) -> f64 {
     let n: String = s[at..]
         .trim_start()
         .chars()
-        .take_while(|c| c.is_ascii_digit() || *c == '.' || *c == '-')
+        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | '-' | '+'))
         .collect();
     n.parse()
         .unwrap_or_else(|_| panic!("a number after {key:?} in {s}"))
@@ -278,4 +281,52 @@ fn the_python_example_prints_the_streamed_wrench_without_ros() {
     for l in &wrenches {
         assert!(l.ends_with(&format!("Fz {CONSTANT_FZ_N:7.3} N")), "{l}");
     }
+}
+
+#[test]
+fn a_camera_that_moved_since_the_unit_s_calibration_is_said_while_streaming() {
+    let dir = scratch("stream-health");
+    // A model that calls every frame free, so that every frame serves the health watch.
+    let model = constant_model_of_class(&dir, 0, "free.safetensors");
+    let rig = unit_rig_at(&dir, 0.25);
+    let text_of_rig = std::fs::read_to_string(&rig).expect("rig");
+    std::fs::write(
+        &rig,
+        text_of_rig.replace("[camera]\n", "[camera]\nframe_rate = 25.0\n"),
+    )
+    .expect("rig");
+    // The unit's profile as calibrated, then the camera knocked 6 px to the right since.
+    let config = fringe_app::RigConfig::load(&rig).expect("rig file");
+    let mut profile = fringe_app::rig::unit_profile(&config, "layered-3")
+        .expect("profile")
+        .expect("the design's profile");
+    profile.optical.centre_x_px -= 6.0;
+    let path = fringe_calibration::profile_path(&dir.join("profiles"), "layered-3").expect("path");
+    std::fs::create_dir_all(dir.join("profiles")).expect("profiles");
+    profile.save(&path).expect("save the profile");
+    let out = common::fringe_command()
+        .current_dir(&dir)
+        .args(["stream", "--no-ros2", "--seconds", "15", "--rig"])
+        .arg(&rig)
+        .arg("--model")
+        .arg(&model)
+        .arg("--mcap")
+        .arg(dir.join("s.mcap"))
+        .output()
+        .expect("run fringe stream");
+    let printed = text(&out);
+    assert!(out.status.success(), "{printed}");
+    assert!(
+        printed.contains("warning: the optical centre is (+")
+            && printed.contains("px from the unit's profile"),
+        "{printed}"
+    );
+    let shift = figure(&printed, "optical centre (");
+    assert!((shift - 6.0).abs() < 0.5, "{printed}");
+    assert!(!printed.contains("the light changed"), "{printed}");
+    // The model reads 2 N on frames it calls free: its no-contact baseline is off, and said.
+    assert!(
+        printed.contains("on frames it calls free of contact the model reads Fz +2.000 N"),
+        "{printed}"
+    );
 }

@@ -295,6 +295,17 @@ fn print_summary(sum: &StreamSummary) {
             println!("against the simulator's truth: no frame matched yet (stream longer)");
         }
     }
+    if let Some(h) = &s.health {
+        println!(
+            "the unit's health on frames the model calls free (at {:.0} s): optical centre ({:+.2}, {:+.2}) px from its profile (moved beyond {:.2} px), brightness {:.1} % of the stream's start, Fz read on them {:+.3} N",
+            h.at_s,
+            h.centre_shift_px[0],
+            h.centre_shift_px[1],
+            h.centre_limit_px,
+            100.0 * h.brightness_ratio,
+            h.free_fz_n
+        );
+    }
     if let Some(m) = &sum.mcap {
         println!("recorded to {}", m.display());
     }

@@ -302,6 +302,12 @@ pub const CONSTANT_CONTACT_MM: [f64; 2] = [0.5, -0.5];
 /// The custom CNN with every head weight zero: it answers Fz = 2 N, shape "pentagon" and contact
 /// (0.5, -0.5) mm whatever it sees.
 pub fn constant_model(dir: &Path) -> PathBuf {
+    constant_model_of_class(dir, 1, "constant.safetensors")
+}
+
+/// As [`constant_model`], answering the shape class `class` (0 `None`, 1 `pentagon`, 2
+/// `rectangle`) whatever it sees, written to `dir/name`.
+pub fn constant_model_of_class(dir: &Path, class: usize, name: &str) -> PathBuf {
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../sensor-models/tests/fixtures/custom/model.safetensors");
     let sd = read_weights(&fixture).expect("fixture weights");
@@ -318,14 +324,14 @@ pub fn constant_model(dir: &Path) -> PathBuf {
             }
             "class_head.bias" => {
                 t.data.iter_mut().for_each(|v| *v = 0.0);
-                t.data[1] = 10.0;
+                t.data[class] = 10.0;
             }
             "point_head.bias" => t.data = CONSTANT_CONTACT_MM.map(|v| v as f32).to_vec(),
             _ => {}
         }
         out.insert(k, Tensor::new(t.shape.clone(), t.data).expect("same shape"));
     }
-    let path = dir.join("constant.safetensors");
+    let path = dir.join(name);
     write_safetensors(&path, &out).expect("write model");
     path
 }

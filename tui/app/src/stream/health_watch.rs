@@ -19,10 +19,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 /// A free frame kept at most this often.
-pub(crate) const SAMPLE_EVERY: Duration = Duration::from_secs(1);
+pub(crate) const SAMPLE_EVERY: Duration = Duration::from_millis(250);
 /// The figures are measured this often.
 pub(crate) const MEASURE_EVERY: Duration = Duration::from_secs(30);
-/// Free frames a measurement averages (as a check's signature).
+/// Free frames a measurement averages (as a check's signature): the last 6 s of free frames.
 pub(crate) const FRAMES: usize = 24;
 /// A frame counts as free when the model gives no contact at least this probability.
 pub(crate) const FREE_CONFIDENCE: f64 = 0.95;
