@@ -96,6 +96,9 @@ fn a_robot_s_zenoh_peer_takes_every_topic_and_the_recording_holds_the_truth_besi
         "{printed}"
     );
     assert!(figure(&printed, "p50") > 0.0, "{printed}");
+    // The camera clock places each exposure where the simulator's camera made it.
+    let placed_us = figure(&printed, "against the simulator's truth: within");
+    assert!(placed_us < 500.0, "{printed}");
 
     // The peer decoded every topic (those put before its route was made aside).
     assert_eq!(report["bad"], serde_json::json!([]), "{report}");

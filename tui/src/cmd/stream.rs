@@ -282,6 +282,11 @@ fn print_summary(sum: &StreamSummary) {
             .collect();
         println!("  by stage, p50/p99 ms: {}", stages.join(", "));
     }
+    if let Some([p50, p99]) = sum.exposure_error_us {
+        println!(
+            "exposure ends placed by the camera clock against the simulator's truth: within {p50:.0} µs (p50), {p99:.0} µs (p99)"
+        );
+    }
     if let Some((n, e)) = &sum.truth {
         if e.n > 0 {
             println!(

@@ -82,6 +82,9 @@ pub struct StreamSummary {
     pub clock_calibrated: bool,
     /// The recording written.
     pub mcap: Option<PathBuf>,
+    /// On the simulated bench: the exposure ends the camera clock placed against the truth's,
+    /// median and 99th percentile of the distance, µs.
+    pub exposure_error_us: Option<[f64; 2]>,
     /// On the simulated bench: frames scored against the truth, and the errors as `fringe eval`
     /// computes them.
     pub truth: Option<(usize, Errors)>,
@@ -107,8 +110,9 @@ struct Shared {
     stop: Arc<AtomicBool>,
     /// Each frame's latency, and (device timestamp, prediction) for the truth.
     latencies: Mutex<Vec<FrameLatency>>,
-    /// (device timestamp, header stamp in Unix ns, prediction) of each frame streamed.
-    streamed: Mutex<Vec<(u64, i64, Prediction)>>,
+    /// Each frame streamed, for the truth.
+    #[cfg(feature = "sim")]
+    streamed: Mutex<Vec<crate::stream::robot_truth::Streamed>>,
     calibrated: AtomicBool,
     mcap: Mutex<Option<McapOutlet>>,
     /// Whether predictions are kept for scoring against the truth (the simulated robot's).
@@ -134,6 +138,8 @@ pub struct Stream {
     classes: Vec<String>,
     #[cfg(feature = "sim")]
     frame_id: String,
+    /// On the simulated bench: how far the camera clock placed exposures from the truth.
+    exposure_error_us: Option<[f64; 2]>,
     #[cfg(feature = "sim")]
     robot: Option<crate::stream::robot_truth::RobotTruth>,
     /// Kept alive while the stream runs (the simulated bench films the sensor).
@@ -228,6 +234,7 @@ impl Stream {
             state: Mutex::new(state),
             stop: Arc::new(AtomicBool::new(false)),
             latencies: Mutex::new(Vec::new()),
+            #[cfg(feature = "sim")]
             streamed: Mutex::new(Vec::new()),
             calibrated: AtomicBool::new(false),
             mcap: Mutex::new(recording),
@@ -317,6 +324,7 @@ impl Stream {
                 classes,
                 #[cfg(feature = "sim")]
                 frame_id: ros2.frame_id.clone(),
+                exposure_error_us: None,
                 #[cfg(feature = "sim")]
                 robot,
                 #[cfg(feature = "sim")]
@@ -362,6 +370,7 @@ impl Stream {
                 m.write_truth(*stamp, sample, &self.frame_id)?;
             }
         }
+        self.exposure_error_us = scored.exposure_error_us;
         Ok((recording, Some((scored.frames.len(), scored.errors))))
     }
 
@@ -394,6 +403,7 @@ impl Stream {
             latency,
             clock_calibrated: self.shared.calibrated.load(Ordering::Relaxed),
             mcap,
+            exposure_error_us: self.exposure_error_us,
             truth,
         })
     }
@@ -650,12 +660,14 @@ impl Worker {
         if let Some(l) = latency_ms {
             lock(&self.shared.latencies).push(l);
         }
+        #[cfg(feature = "sim")]
         if self.shared.keep_streamed {
-            lock(&self.shared.streamed).push((
-                frame.device_timestamp,
+            lock(&self.shared.streamed).push(crate::stream::robot_truth::Streamed {
+                ticks: frame.device_timestamp,
                 stamp_unix_ns,
-                prediction.clone(),
-            ));
+                exposure_host_ns: exposure.map(|e| e.host_ns),
+                prediction: prediction.clone(),
+            });
         }
         let now = Instant::now();
         self.recent.push_back(now);

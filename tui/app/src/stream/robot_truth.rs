@@ -6,6 +6,7 @@
 //! smoothing.
 
 use crate::rig::simulated::SimBench;
+use crate::stream::latency::percentile;
 use crate::stream::stream_error::StreamError;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::HostTime;
@@ -29,11 +30,26 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// A frame the stream sent out, kept for the truth.
+pub(crate) struct Streamed {
+    /// Its device timestamp (exposure start, camera ticks): the truth's key.
+    pub ticks: u64,
+    /// Its header stamp, Unix ns.
+    pub stamp_unix_ns: i64,
+    /// Its exposure on the host clock as the camera clock placed it, ns (`None` before the
+    /// clock was fitted).
+    pub exposure_host_ns: Option<[f64; 2]>,
+    pub prediction: Prediction,
+}
+
 /// The stream scored against the truth.
 pub(crate) struct Scored {
     /// Each frame matched: its header stamp (Unix ns) and its true label.
     pub frames: Vec<(i64, Sample)>,
     pub errors: Errors,
+    /// How far the placed exposure ends were from the true ones: median and 99th percentile,
+    /// µs (`None` when no frame was placed).
+    pub exposure_error_us: Option<[f64; 2]>,
 }
 
 /// What the robot did and what the bench really showed, shared with the stream.
@@ -129,14 +145,19 @@ impl RobotTruth {
     /// Scores the `streamed` predictions (device timestamp, header stamp, prediction) against
     /// the truth: each frame matched with its true label, and the errors as `fringe eval`
     /// computes them.
-    pub(crate) fn score(&self, classes: &[String], streamed: &[(u64, i64, Prediction)]) -> Scored {
+    pub(crate) fn score(&self, classes: &[String], streamed: &[Streamed]) -> Scored {
         let truth = lock(&self.truth);
         let mut errors = Errors::default();
         let mut frames = Vec::new();
-        for (ticks, stamp, p) in streamed {
-            let Some(t) = truth.frames.get(ticks) else {
+        let mut placed_off_us = Vec::new();
+        for f in streamed {
+            let Some(t) = truth.frames.get(&f.ticks) else {
                 continue;
             };
+            if let Some([_, end]) = f.exposure_host_ns {
+                placed_off_us.push((end - t.exposure_end.0 as f64).abs() * 1e-3);
+            }
+            let (stamp, p) = (&f.stamp_unix_ns, &f.prediction);
             let Some(sample) = sample_of(t, &truth.presses) else {
                 continue;
             };
@@ -146,7 +167,18 @@ impl RobotTruth {
             errors.add(&score(classes, shape_true, &sample, p));
             frames.push((*stamp, sample));
         }
-        Scored { frames, errors }
+        placed_off_us.sort_by(f64::total_cmp);
+        let exposure_error_us = (!placed_off_us.is_empty()).then(|| {
+            [
+                percentile(&placed_off_us, 50.0),
+                percentile(&placed_off_us, 99.0),
+            ]
+        });
+        Scored {
+            frames,
+            errors,
+            exposure_error_us,
+        }
     }
 }
 
