@@ -116,6 +116,7 @@ struct Shared {
     calibrated: AtomicBool,
     mcap: Mutex<Option<McapOutlet>>,
     /// Whether predictions are kept for scoring against the truth (the simulated robot's).
+    #[cfg(feature = "sim")]
     keep_streamed: bool,
 }
 
@@ -238,7 +239,8 @@ impl Stream {
             streamed: Mutex::new(Vec::new()),
             calibrated: AtomicBool::new(false),
             mcap: Mutex::new(recording),
-            keep_streamed: cfg!(feature = "sim") && config.is_simulated(),
+            #[cfg(feature = "sim")]
+            keep_streamed: config.is_simulated(),
         });
         #[cfg(feature = "sim")]
         let robot = match &sim {
