@@ -24,6 +24,7 @@ pub(crate) struct Field {
 /// The field types fringe's messages use (`type_description_interfaces/msg/FieldType` ids).
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum FieldType {
+    Uint8,
     Int32,
     Uint32,
     Float64,
@@ -42,6 +43,7 @@ impl FieldType {
     fn type_id(self) -> u8 {
         match self {
             FieldType::Nested(_) => 1,
+            FieldType::Uint8 => 3,
             FieldType::Int32 => 6,
             FieldType::Uint32 => 7,
             FieldType::Float64 => 11,
@@ -197,6 +199,7 @@ impl FieldType {
     /// The field's type as a `.msg` file writes it: `float64`, `uint8[]`, `std_msgs/Header`.
     fn msg_type(self) -> String {
         match self {
+            FieldType::Uint8 => "uint8".into(),
             FieldType::Int32 => "int32".into(),
             FieldType::Uint32 => "uint32".into(),
             FieldType::Float64 => "float64".into(),
@@ -340,6 +343,38 @@ mod tests {
         assert_eq!(
             WrenchStamped::TYPE.dds_name(),
             "geometry_msgs::msg::dds_::WrenchStamped_"
+        );
+    }
+
+    /// The raw image and the log line (`/rosout`'s type): the hashes `rosbags` 0.11.9's
+    /// `hash_rihs01` gives with its Jazzy type store, and their definitions.
+    #[test]
+    fn image_and_log_hashes_are_those_ros_2_gives() {
+        use crate::messages::{Image, Log};
+        for (t, want) in [
+            (
+                Image::TYPE,
+                "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
+            ),
+            (
+                Log::TYPE,
+                "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac",
+            ),
+        ] {
+            assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
+        }
+        let i = msg_definition(Image::TYPE);
+        assert!(
+            i.starts_with(
+                "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+                 uint8 is_bigendian\nuint32 step\nuint8[] data\n"
+            ),
+            "{i}"
+        );
+        let l = msg_definition(Log::TYPE);
+        assert!(
+            l.starts_with("builtin_interfaces/Time stamp\nuint8 level\nstring name\n"),
+            "{l}"
         );
     }
 }
