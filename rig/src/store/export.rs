@@ -387,7 +387,7 @@ impl ExportWriter<'_> {
                 self.counts.skipped_invalid += 1;
                 continue;
             }
-            let image = match read_frame(run, &storage, &source, &record)? {
+            let image = match read_frame(run, &storage, &record)? {
                 Ok(image) => image,
                 Err(reason) if self.options.allow_unverified => {
                     left_out.push(format!(
@@ -534,8 +534,7 @@ pub fn estimate_export(
             break;
         };
         let started = std::time::Instant::now();
-        let source = RunReader::at(run).frame_file(record)?;
-        let Ok(Ok(image)) = read_frame(run, storage, &source, record) else {
+        let Ok(Ok(image)) = read_frame(run, storage, record) else {
             continue;
         };
         let Ok(tiff) = encode_tiff(&image, options.compression) else {
@@ -566,24 +565,18 @@ pub fn estimate_export(
 /// The pace of writing the images to disk (each synced) that an estimate assumes, bytes/s.
 const WRITE_BYTES_PER_S: f64 = 200e6;
 
-/// The frame of `record` (at `source`, inside `run`, stored as `storage` says) as the reference
-/// code reads images; `Ok(Err(reason))` when it is missing or damaged (the reason without the
-/// file's path), an error when the record names what is not the run's own regular file (a link,
-/// a FIFO), which no export reads.
+/// The frame of `record` (inside `run`, stored as `storage` says) as the reference code reads
+/// images; `Ok(Err(reason))` when it is missing or damaged (the reason without the file's path),
+/// an error when the record names what is not the run's own regular file (a link, a FIFO),
+/// which no export reads.
 fn read_frame(
     run: &Path,
     storage: &FrameStorage,
-    source: &Path,
     record: &FrameRecord,
 ) -> Result<Result<image::DynamicImage, String>, StoreError> {
-    match super::own_file::check_in(run, Path::new(&record.file)) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Err("missing".into())),
-        Err(e) => return Err(StoreError::io(source, e)),
-    }
-    let stored = match storage.read(source) {
+    let stored = match RunReader::at(run).stored_frame(storage, record)? {
         Ok(stored) => stored,
-        Err(e) => return Ok(Err(e.reason())),
+        Err(reason) => return Ok(Err(reason)),
     };
     Ok(reference_image(stored).ok_or_else(|| "its pixels do not fill it".to_string()))
 }
