@@ -182,9 +182,10 @@ pub fn export_reference(
     }
 }
 
-/// Removes what earlier exports to the same destination left when their process was killed
-/// (`.<name>.partial-<pid>` of a pid that is no longer running).
-fn remove_stale_partials(parent: &Path, staging: &Path) {
+/// Removes what earlier exports to the same destination left when their process was killed:
+/// `.<name>.partial-<pid>` (a directory or a file) of a pid that is no longer running, where
+/// `staging` is this process's `.<name>.partial-<pid>` in `parent`.
+pub fn remove_stale_partials(parent: &Path, staging: &Path) {
     let Some(ours) = staging
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -207,8 +208,17 @@ fn remove_stale_partials(parent: &Path, staging: &Path) {
             continue;
         };
         let alive = Path::new("/proc").join(pid.to_string()).exists();
-        if !alive && entry.file_type().is_ok_and(|t| t.is_dir()) {
-            let _ = std::fs::remove_dir_all(entry.path());
+        if alive {
+            continue;
+        }
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => {
+                let _ = std::fs::remove_dir_all(entry.path());
+            }
+            Ok(t) if t.is_file() => {
+                let _ = std::fs::remove_file(entry.path());
+            }
+            _ => {}
         }
     }
 }
