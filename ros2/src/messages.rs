@@ -459,3 +459,117 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod type_hash_tests {
+    use super::*;
+    use crate::type_hash::{description_json, msg_definition, type_hash};
+
+    /// The hashes a ROS 2 Jazzy install writes to `share/<pkg>/msg/<Type>.json` (WrenchStamped,
+    /// PointStamped and CompressedImage found so in public sources) and `rosbags` 0.11.9's
+    /// `hash_rihs01` gives (all of them, checked in session 64's research).
+    #[test]
+    fn type_hashes_are_those_ros_2_gives() {
+        for (t, want) in [
+            (
+                WrenchStamped::TYPE,
+                "RIHS01_8dc3deaf06b2ab281f9f9a742a8961c328ca7cec16e3fd6586d3a5c83fa78f77",
+            ),
+            (
+                PointStamped::TYPE,
+                "RIHS01_4c0296af86e01e562e9e0405d138a01537247580076c58ea38d7923ac1045897",
+            ),
+            (
+                CompressedImage::TYPE,
+                "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a",
+            ),
+            (
+                Classification::TYPE,
+                "RIHS01_f74db28d0eaef3afb78f48bf2161cd709a1383a0309d3454383b25be11345143",
+            ),
+            (
+                ObjectHypothesis::TYPE,
+                "RIHS01_51da43cec11c01957a64d1e05a24acd18aae7745ec30b74348ad5f6d634f7f90",
+            ),
+            (
+                Header::TYPE,
+                "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
+            ),
+            (
+                Time::TYPE,
+                "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
+            ),
+        ] {
+            assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
+        }
+    }
+
+    #[test]
+    fn a_message_definition_carries_every_type_it_refers_to() {
+        let d = msg_definition(WrenchStamped::TYPE);
+        let bar = "=".repeat(80);
+        assert_eq!(
+            d,
+            format!(
+                "std_msgs/Header header\ngeometry_msgs/Wrench wrench\n\
+                 {bar}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
+                 {bar}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
+                 {bar}\nMSG: geometry_msgs/Wrench\ngeometry_msgs/Vector3 force\ngeometry_msgs/Vector3 torque\n\
+                 {bar}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+            )
+        );
+        let c = msg_definition(Classification::TYPE);
+        assert!(
+            c.starts_with("std_msgs/Header header\nvision_msgs/ObjectHypothesis[] results\n"),
+            "{c}"
+        );
+        assert!(
+            c.contains("MSG: vision_msgs/ObjectHypothesis\nstring class_id\nfloat64 score\n"),
+            "{c}"
+        );
+        let i = msg_definition(CompressedImage::TYPE);
+        assert!(
+            i.starts_with("std_msgs/Header header\nstring format\nuint8[] data\n"),
+            "{i}"
+        );
+    }
+
+    #[test]
+    fn dds_names_are_rmw_s() {
+        assert_eq!(
+            WrenchStamped::TYPE.dds_name(),
+            "geometry_msgs::msg::dds_::WrenchStamped_"
+        );
+    }
+
+    /// The raw image and the log line (`/rosout`'s type): the hashes `rosbags` 0.11.9's
+    /// `hash_rihs01` gives with its Jazzy type store, and their definitions.
+    #[test]
+    fn image_and_log_hashes_are_those_ros_2_gives() {
+        for (t, want) in [
+            (
+                Image::TYPE,
+                "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
+            ),
+            (
+                Log::TYPE,
+                "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac",
+            ),
+        ] {
+            assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
+        }
+        let i = msg_definition(Image::TYPE);
+        assert!(
+            i.starts_with(
+                "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+                 uint8 is_bigendian\nuint32 step\nuint8[] data\n"
+            ),
+            "{i}"
+        );
+        let l = msg_definition(Log::TYPE);
+        assert!(
+            l.starts_with("builtin_interfaces/Time stamp\nuint8 level\nstring name\n"),
+            "{l}"
+        );
+    }
+}
