@@ -309,7 +309,7 @@ fn run_export_mcap(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
         )),
     };
     // What it will write, before it starts (a run that cannot be read is the export's to report).
-    if let Ok(e) = estimate_mcap_export(run, &options) {
+    if let Ok(e) = estimate_mcap_export(run, &args.out, &options) {
         println!(
             "export: {} frames, {} F/T samples, {} labels ({} in contact), {} events; expected {} (MCAP, zstd; measured on {} of the frames) in about {}",
             e.counts.frames,

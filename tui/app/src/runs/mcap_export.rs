@@ -337,13 +337,17 @@ pub fn export_mcap(
     })
 }
 
-/// Estimates the export of the run in `run`: its messages, and the bytes and time of
-/// [`ESTIMATE_FRAMES`] of its frames (spread over the run) and up to [`ESTIMATE_SAMPLES`] of its
-/// force samples written to a scratch file, scaled to the run.
+/// Estimates the export of the run in `run` to `out` (refused as the export would refuse it):
+/// its messages, and the bytes and time of [`ESTIMATE_FRAMES`] of its frames (spread over the
+/// run) and up to [`ESTIMATE_SAMPLES`] of its force samples written to a scratch file, scaled to
+/// the run.
 pub fn estimate_mcap_export(
     run: &Path,
+    out: &Path,
     options: &McapExportOptions,
 ) -> Result<McapExportEstimate, McapExportError> {
+    // Nothing to estimate for an export that will be refused.
+    check_destination(out)?;
     let content = RunContent::read(run)?;
     let counts = content.counts();
     let topics = RunTopics::new(&options.namespace, &options.frame_id);
@@ -548,4 +552,221 @@ fn check_destination(out: &Path) -> Result<(PathBuf, PathBuf), McapExportError> 
     };
     let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
     Ok((parent, staging))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fringe_rig::store::{
+        now_utc, ExitStatus, Exposure, Position, RunWriter, StartDocument, StopDocument,
+        LAYOUT_VERSION,
+    };
+    use fringe_rig::{Frame, HostTime, Millimetres, Newtons, PixelFormat, Wrench};
+    use std::io::Write;
+
+    /// Unix ns of 2026-12-06T10:00:00.000Z, the first process's host time zero.
+    const T1: i64 = 1_796_551_200_000_000_000;
+    /// The second process's, an hour later.
+    const T2: i64 = T1 + 3_600_000_000_000;
+
+    fn utc(unix: i64) -> String {
+        let secs = unix / 1_000_000_000;
+        let ms = unix % 1_000_000_000 / 1_000_000;
+        let rem = secs % 86_400;
+        format!(
+            "{}T{:02}:{:02}:{:02}.{ms:03}Z",
+            fringe_rig::store::utc_date(secs / 86_400),
+            rem / 3600,
+            rem / 60 % 60,
+            rem % 60
+        )
+    }
+
+    /// A run written by two processes (a resume): frames at host 5 s and 6 s, then, after the
+    /// host clock started again, at 2 s and 3 s; force samples and events likewise, each event
+    /// with the UTC time its process's clock gives.
+    fn resumed_run(root: &Path) -> PathBuf {
+        let start = StartDocument {
+            layout_version: LAYOUT_VERSION,
+            run_id: "resumed".into(),
+            started_utc: utc(T1),
+            software: "test".into(),
+            sensor_id: "s1".into(),
+            variant: None,
+            plan: String::new(),
+            rig: String::new(),
+            calibration_profile: None,
+            seed: None,
+            sync_method: "host".into(),
+            frames: Some(FrameStorage::new(PixelFormat::Mono8, None).expect("storage")),
+        };
+        let mut w = RunWriter::create(root, &start).expect("run");
+        let p = Position {
+            x: Millimetres(0.0),
+            y: Millimetres(0.0),
+            z: Millimetres(0.0),
+        };
+        let samples = |hosts: std::ops::Range<u64>| -> Vec<ForceSample> {
+            hosts
+                .map(|k| ForceSample {
+                    device_tick: k,
+                    transport_seq: None,
+                    host_time: HostTime(k * 1_000_000_000),
+                    wrench: Wrench {
+                        fz: Newtons(-(k as f64)),
+                        ..Wrench::default()
+                    },
+                    status: 0,
+                    strobe: None,
+                })
+                .collect()
+        };
+        w.append_force(&samples(4..8)).expect("force");
+        w.append_force(&samples(1..5)).expect("force");
+        for (index, host_s) in [5u64, 6, 2, 3].into_iter().enumerate() {
+            let index = index as u64;
+            let arrival = host_s * 1_000_000_000;
+            let frame = Frame {
+                id: index,
+                device_timestamp: index,
+                host_arrival: HostTime(arrival),
+                width: 2,
+                height: 2,
+                format: PixelFormat::Mono8,
+                data: vec![index as u8; 4],
+            };
+            let file = w.save_frame_image(&frame, index).expect("frame");
+            w.append_frame(&FrameRecord {
+                index,
+                frame_id: index,
+                file,
+                device_timestamp: index,
+                host_arrival_ns: arrival,
+                exposure: Some(Exposure {
+                    start_ns: arrival as f64 - 3e6,
+                    end_ns: arrival as f64 - 1e6,
+                    error_ns: 0.0,
+                }),
+                exposure_ticks: None,
+                point: index,
+                commanded: p,
+                measured: p,
+                wrench: Some(Wrench::default()),
+                shape: "None".into(),
+                contact: None,
+                valid: true,
+                notes: vec![],
+            })
+            .expect("record");
+        }
+        let dir = w.dir().to_path_buf();
+        let mut events = std::fs::OpenOptions::new()
+            .append(true)
+            .open(dir.join("events.jsonl"))
+            .expect("events");
+        for (host_s, epoch) in [(4i64, T1), (7, T1), (1, T2), (4, T2)] {
+            let host = host_s * 1_000_000_000;
+            let e = Event {
+                host_ns: host as u64,
+                utc: utc(epoch + host),
+                kind: "point-done".into(),
+                point: None,
+                message: String::new(),
+            };
+            writeln!(events, "{}", serde_json::to_string(&e).expect("json")).expect("event");
+        }
+        drop(events);
+        w.finish(&StopDocument {
+            exit_status: ExitStatus::Completed,
+            reason: "done".into(),
+            stopped_utc: now_utc(),
+            frames: 4,
+            dropped_frames: 0,
+            force_samples: 8,
+            lost_force_samples: 0,
+            points_done: 4,
+            sync_method: Some("host".into()),
+            sync_error_ns: None,
+        })
+        .expect("finish");
+        dir
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("fringe-app-mcap-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch");
+        dir
+    }
+
+    /// Each process of a resumed run keeps its own offset: the frames, the samples and the events
+    /// written after the resume an hour later, though their host times are smaller.
+    #[test]
+    fn a_resumed_run_s_processes_each_map_to_their_own_unix_time() {
+        let dir = scratch("resumed");
+        let run = resumed_run(&dir.join("runs"));
+        let out = dir.join("run.mcap");
+        let summary =
+            export_mcap(&run, &out, &McapExportOptions::default(), |_| {}).expect("export");
+        assert_eq!(summary.clock.processes, 2);
+        assert_eq!(summary.clock.source, ClockSource::Events);
+        assert_eq!(
+            summary.counts,
+            McapCounts {
+                frames: 4,
+                force_samples: 8,
+                labels: 4,
+                contacts: 0,
+                events: 4,
+            }
+        );
+        let bytes = std::fs::read(&out).expect("the file");
+        let mut times: BTreeMap<String, Vec<i64>> = BTreeMap::new();
+        for m in mcap::MessageStream::new(&bytes).expect("mcap") {
+            let m = m.expect("a message");
+            times
+                .entry(m.channel.topic.clone())
+                .or_default()
+                .push(m.log_time as i64);
+        }
+        // Every event's window holds the offset exactly: its middle is half a millisecond on.
+        let half = 500_000;
+        let frame = |epoch: i64, s: i64| epoch + s * 1_000_000_000 - 2_000_000 + half;
+        assert_eq!(
+            times["/fringe/image"],
+            [frame(T1, 5), frame(T1, 6), frame(T2, 2), frame(T2, 3)]
+        );
+        assert_eq!(times["/fringe/wrench"], times["/fringe/image"]);
+        let at = |epoch: i64, s: i64| epoch + s * 1_000_000_000 + half;
+        let mut ft: Vec<i64> = (4..8).map(|s| at(T1, s)).collect();
+        ft.extend((1..5).map(|s| at(T2, s)));
+        assert_eq!(times["/fringe/ft"], ft);
+        assert_eq!(
+            times["/fringe/events"],
+            [at(T1, 4), at(T1, 7), at(T2, 1), at(T2, 4)]
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A signal during the export: an error, no file at the destination, no partial file beside.
+    #[test]
+    fn an_interrupted_export_leaves_nothing() {
+        static STOP: AtomicBool = AtomicBool::new(true);
+        let dir = scratch("interrupted");
+        let run = resumed_run(&dir.join("runs"));
+        let out = dir.join("run.mcap");
+        let options = McapExportOptions {
+            cancel: Some(&STOP),
+            ..McapExportOptions::default()
+        };
+        let err = export_mcap(&run, &out, &options, |_| {}).expect_err("interrupted");
+        assert!(matches!(err, McapExportError::Interrupted { .. }), "{err}");
+        let left: Vec<String> = std::fs::read_dir(&dir)
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(left, ["runs"]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
