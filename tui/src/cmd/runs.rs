@@ -378,8 +378,8 @@ fn run_export_mcap(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
     );
     match s.clock.source {
         ClockSource::Events => println!(
-            "stamps: Unix time of the recording host, within {:.1} ms (the run's events){}",
-            s.clock.uncertainty.as_secs_f64() * 1e3,
+            "stamps: Unix time of the recording host, within {} us (the run's events){}",
+            s.clock.uncertainty.as_micros(),
             if s.clock.processes > 1 {
                 format!(", {} processes (resumed)", s.clock.processes)
             } else {

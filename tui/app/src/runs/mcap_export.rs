@@ -317,7 +317,12 @@ pub fn export_mcap(
         Err(e) => {
             // Best effort: the error that stopped the export is the one to report.
             let _ = std::fs::remove_file(&staging);
-            return Err(e);
+            return Err(match e {
+                McapExportError::Interrupted { .. } => McapExportError::Interrupted {
+                    path: out.to_path_buf(),
+                },
+                e => e,
+            });
         }
     };
     let bytes = std::fs::metadata(out).map_err(|e| io(out, e))?.len();
