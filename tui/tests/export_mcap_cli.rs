@@ -325,6 +325,22 @@ fn an_mcap_export_takes_one_verified_run_and_leaves_nothing_when_refused() {
     ]);
     assert!(!round.status.success());
     assert!(text(&round).contains("--round"), "{}", text(&round));
+    let named = export(&[
+        arg(&a),
+        "--format",
+        "mcap",
+        "--namespace",
+        "/my robot",
+        "--out",
+        arg(&mcap),
+    ]);
+    assert!(!named.status.success());
+    assert!(
+        text(&named).contains("is not a ROS 2 namespace"),
+        "{}",
+        text(&named)
+    );
+    assert!(!mcap.exists());
     let inside = export(&[arg(&a), "--format", "mcap", "--out", arg(&b.join("x.mcap"))]);
     assert!(!inside.status.success(), "{}", text(&inside));
     assert!(!b.join("x.mcap").exists());

@@ -59,6 +59,8 @@ pub enum McapExportError {
     Store(#[from] StoreError),
     #[error(transparent)]
     Record(#[from] RecordError),
+    #[error(transparent)]
+    Name(#[from] fringe_ros2::NameError),
     #[error("{}: the file exists; an export never replaces one (choose a new name, or remove it first)", path.display())]
     Exists { path: PathBuf },
     #[error("{}: not a file name to create (give the .mcap file to write)", path.display())]
@@ -277,6 +279,7 @@ pub fn export_mcap(
     mut progress: impl FnMut(McapProgress),
 ) -> Result<McapExportSummary, McapExportError> {
     let (parent, staging) = check_destination(out)?;
+    let topics = RunTopics::new(&options.namespace, &options.frame_id)?;
     let _lock = match RunReader::at(run).is_run() {
         true => RunLock::read(run)?,
         false => None,
@@ -293,7 +296,6 @@ pub fn export_mcap(
     let content = RunContent::read(run)?;
     std::fs::create_dir_all(&parent).map_err(|e| io(&parent, e))?;
     remove_stale_partials(&parent, &staging);
-    let topics = RunTopics::new(&options.namespace, &options.frame_id);
     let written = write_run(&content, &staging, &topics, options, &mut progress).and_then(
         |(counts, left_out)| {
             // Whole on disk before it takes its name.
@@ -355,7 +357,7 @@ pub fn estimate_mcap_export(
     check_destination(out)?;
     let content = RunContent::read(run)?;
     let counts = content.counts();
-    let topics = RunTopics::new(&options.namespace, &options.frame_id);
+    let topics = RunTopics::new(&options.namespace, &options.frame_id)?;
     let times = content.times();
     let scratch = std::env::temp_dir().join(format!(
         "fringe-mcap-estimate-{}-{}.mcap",

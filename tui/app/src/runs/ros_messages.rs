@@ -20,8 +20,8 @@ use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::store::{Event, FrameRecord, StoredFrame};
 use fringe_rig::{ForceSample, PixelFormat};
 use fringe_ros2::{
-    Classification, Header, Image, Log, ObjectHypothesis, Point, PointStamped, Time, Vector3,
-    Wrench, WrenchStamped,
+    Classification, Header, Image, Log, NameError, ObjectHypothesis, Point, PointStamped, Time,
+    Vector3, Wrench, WrenchStamped,
 };
 
 /// The topics of an exported run under a namespace (`/fringe`), and the frames their headers
@@ -44,12 +44,20 @@ pub struct RunTopics {
 
 impl RunTopics {
     /// The topics under `namespace` (`/fringe`; a missing leading `/` is added, a trailing one
-    /// dropped), with the sensor's frame `frame_id`.
-    pub fn new(namespace: &str, frame_id: &str) -> RunTopics {
-        let ns = format!("/{}", namespace.trim_matches('/'));
+    /// dropped; refused unless ROS 2 would take it), with the sensor's frame `frame_id` (not
+    /// empty).
+    pub fn new(namespace: &str, frame_id: &str) -> Result<RunTopics, NameError> {
+        let ns = fringe_ros2::namespace(namespace)?;
+        if frame_id.is_empty() || frame_id.contains(char::is_whitespace) {
+            return Err(NameError {
+                name: frame_id.to_string(),
+                what: "frame id",
+                why: "it is empty or holds spaces",
+            });
+        }
         let ns = ns.trim_end_matches('/');
         let topic = |name: &str| format!("{ns}/{name}");
-        RunTopics {
+        Ok(RunTopics {
             image: topic("image"),
             ft: topic("ft"),
             wrench: topic("wrench"),
@@ -59,7 +67,7 @@ impl RunTopics {
             sensor_frame: frame_id.to_string(),
             camera_frame: format!("{frame_id}_camera"),
             ft_frame: format!("{frame_id}_ft"),
-        }
+        })
     }
 }
 
@@ -330,8 +338,14 @@ mod tests {
 
     #[test]
     fn a_label_becomes_wrench_contact_in_metres_and_shape() {
-        let topics = RunTopics::new("fringe/", "fringe_sensor");
+        let topics = RunTopics::new("fringe/", "fringe_sensor").expect("topics");
         assert_eq!(topics.wrench, "/fringe/wrench");
+        assert_eq!(
+            RunTopics::new("/", "s").expect("the root namespace").image,
+            "/image"
+        );
+        assert!(RunTopics::new("/my robot", "s").is_err());
+        assert!(RunTopics::new("/fringe", "").is_err());
         assert_eq!(topics.image, "/fringe/image");
         let m = label(
             &record(Some([1.5, -2.25]), "pentagon"),
