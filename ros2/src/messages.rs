@@ -281,6 +281,82 @@ pub fn encode<M: RosMessage>(m: &M) -> Result<Vec<u8>, EncodeError> {
     Ok(out)
 }
 
+/// The raw image and the log line (`/rosout`'s type) against `rosbags` 0.11.9: their bytes
+/// (`serialize_cdr`) and type hashes (`hash_rihs01` with its Jazzy type store).
+#[cfg(test)]
+mod image_and_log {
+    use super::*;
+    use crate::type_hash::{msg_definition, type_hash};
+
+    /// A 3x2 mono8 image and a log line: a `uint8` field takes one byte, unaligned, and the
+    /// strings and sequences after it align to 4.
+    #[test]
+    fn their_bytes_equal_rosbags_s() {
+        let image = Image {
+            header: Header {
+                stamp: Time { sec: 1, nanosec: 2 },
+                frame_id: "cam".into(),
+            },
+            height: 2,
+            width: 3,
+            encoding: "mono8".into(),
+            is_bigendian: 0,
+            step: 3,
+            data: vec![1, 2, 3, 4, 5, 6],
+        };
+        assert_eq!(
+            encode(&image).expect("encode"),
+            vec![
+                0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 4, 0, 0, 0, 99, 97, 109, 0, 2, 0, 0, 0, 3, 0,
+                0, 0, 6, 0, 0, 0, 109, 111, 110, 111, 56, 0, 0, 0, 3, 0, 0, 0, 6, 0, 0, 0, 1, 2, 3,
+                4, 5, 6
+            ]
+        );
+        let log = Log {
+            stamp: Time { sec: 5, nanosec: 6 },
+            level: Log::WARN,
+            name: "fringe".into(),
+            msg: "pause".into(),
+            file: String::new(),
+            function: String::new(),
+            line: 0,
+        };
+        assert_eq!(
+            encode(&log).expect("encode"),
+            vec![
+                0, 1, 0, 0, 5, 0, 0, 0, 6, 0, 0, 0, 30, 0, 0, 0, 7, 0, 0, 0, 102, 114, 105, 110,
+                103, 101, 0, 0, 6, 0, 0, 0, 112, 97, 117, 115, 101, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0,
+                0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
+            ]
+        );
+    }
+
+    #[test]
+    fn their_hashes_and_definitions_are_those_ros_2_gives() {
+        assert_eq!(
+            type_hash(Image::TYPE),
+            "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47"
+        );
+        assert_eq!(
+            type_hash(Log::TYPE),
+            "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac"
+        );
+        let i = msg_definition(Image::TYPE);
+        assert!(
+            i.starts_with(
+                "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+                 uint8 is_bigendian\nuint32 step\nuint8[] data\n"
+            ),
+            "{i}"
+        );
+        let l = msg_definition(Log::TYPE);
+        assert!(
+            l.starts_with("builtin_interfaces/Time stamp\nuint8 level\nstring name\n"),
+            "{l}"
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -415,161 +491,88 @@ mod tests {
         assert_eq!(&body[28..], &[9, 8, 7]);
     }
 
-    /// The bytes `rosbags` 0.11.9 (`serialize_cdr`) gives for a 3x2 mono8 image and a log line:
-    /// a `uint8` field takes one byte, unaligned, and the strings and sequences after it align
-    /// to 4.
-    #[test]
-    fn an_image_and_a_log_line_s_bytes_equal_rosbags_s() {
-        let image = Image {
-            header: Header {
-                stamp: Time { sec: 1, nanosec: 2 },
-                frame_id: "cam".into(),
-            },
-            height: 2,
-            width: 3,
-            encoding: "mono8".into(),
-            is_bigendian: 0,
-            step: 3,
-            data: vec![1, 2, 3, 4, 5, 6],
+    mod types {
+        use crate::messages::{
+            Classification, CompressedImage, Header, ObjectHypothesis, PointStamped, RosMessage,
+            Time, WrenchStamped,
         };
-        assert_eq!(
-            encode(&image).expect("encode"),
-            vec![
-                0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 4, 0, 0, 0, 99, 97, 109, 0, 2, 0, 0, 0, 3, 0,
-                0, 0, 6, 0, 0, 0, 109, 111, 110, 111, 56, 0, 0, 0, 3, 0, 0, 0, 6, 0, 0, 0, 1, 2, 3,
-                4, 5, 6
-            ]
-        );
-        let log = Log {
-            stamp: Time { sec: 5, nanosec: 6 },
-            level: Log::WARN,
-            name: "fringe".into(),
-            msg: "pause".into(),
-            file: String::new(),
-            function: String::new(),
-            line: 0,
-        };
-        assert_eq!(
-            encode(&log).expect("encode"),
-            vec![
-                0, 1, 0, 0, 5, 0, 0, 0, 6, 0, 0, 0, 30, 0, 0, 0, 7, 0, 0, 0, 102, 114, 105, 110,
-                103, 101, 0, 0, 6, 0, 0, 0, 112, 97, 117, 115, 101, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0,
-                0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
-            ]
-        );
-    }
-}
+        use crate::type_hash::{msg_definition, type_hash};
 
-#[cfg(test)]
-mod type_hash_tests {
-    use super::*;
-    use crate::type_hash::{description_json, msg_definition, type_hash};
-
-    /// The hashes a ROS 2 Jazzy install writes to `share/<pkg>/msg/<Type>.json` (WrenchStamped,
-    /// PointStamped and CompressedImage found so in public sources) and `rosbags` 0.11.9's
-    /// `hash_rihs01` gives (all of them, checked in session 64's research).
-    #[test]
-    fn type_hashes_are_those_ros_2_gives() {
-        for (t, want) in [
-            (
-                WrenchStamped::TYPE,
-                "RIHS01_8dc3deaf06b2ab281f9f9a742a8961c328ca7cec16e3fd6586d3a5c83fa78f77",
-            ),
-            (
-                PointStamped::TYPE,
-                "RIHS01_4c0296af86e01e562e9e0405d138a01537247580076c58ea38d7923ac1045897",
-            ),
-            (
-                CompressedImage::TYPE,
-                "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a",
-            ),
-            (
-                Classification::TYPE,
-                "RIHS01_f74db28d0eaef3afb78f48bf2161cd709a1383a0309d3454383b25be11345143",
-            ),
-            (
-                ObjectHypothesis::TYPE,
-                "RIHS01_51da43cec11c01957a64d1e05a24acd18aae7745ec30b74348ad5f6d634f7f90",
-            ),
-            (
-                Header::TYPE,
-                "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-            ),
-            (
-                Time::TYPE,
-                "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-            ),
-        ] {
-            assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
+        /// The hashes a ROS 2 Jazzy install writes to `share/<pkg>/msg/<Type>.json` (WrenchStamped,
+        /// PointStamped and CompressedImage found so in public sources) and `rosbags` 0.11.9's
+        /// `hash_rihs01` gives (all of them, checked in session 64's research).
+        #[test]
+        fn type_hashes_are_those_ros_2_gives() {
+            for (t, want) in [
+                (
+                    WrenchStamped::TYPE,
+                    "RIHS01_8dc3deaf06b2ab281f9f9a742a8961c328ca7cec16e3fd6586d3a5c83fa78f77",
+                ),
+                (
+                    PointStamped::TYPE,
+                    "RIHS01_4c0296af86e01e562e9e0405d138a01537247580076c58ea38d7923ac1045897",
+                ),
+                (
+                    CompressedImage::TYPE,
+                    "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a",
+                ),
+                (
+                    Classification::TYPE,
+                    "RIHS01_f74db28d0eaef3afb78f48bf2161cd709a1383a0309d3454383b25be11345143",
+                ),
+                (
+                    ObjectHypothesis::TYPE,
+                    "RIHS01_51da43cec11c01957a64d1e05a24acd18aae7745ec30b74348ad5f6d634f7f90",
+                ),
+                (
+                    Header::TYPE,
+                    "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
+                ),
+                (
+                    Time::TYPE,
+                    "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
+                ),
+            ] {
+                assert_eq!(type_hash(t), want, "{}", t.name);
+            }
         }
-    }
 
-    #[test]
-    fn a_message_definition_carries_every_type_it_refers_to() {
-        let d = msg_definition(WrenchStamped::TYPE);
-        let bar = "=".repeat(80);
-        assert_eq!(
-            d,
-            format!(
-                "std_msgs/Header header\ngeometry_msgs/Wrench wrench\n\
-                 {bar}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
-                 {bar}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
-                 {bar}\nMSG: geometry_msgs/Wrench\ngeometry_msgs/Vector3 force\ngeometry_msgs/Vector3 torque\n\
-                 {bar}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
-            )
-        );
-        let c = msg_definition(Classification::TYPE);
-        assert!(
-            c.starts_with("std_msgs/Header header\nvision_msgs/ObjectHypothesis[] results\n"),
-            "{c}"
-        );
-        assert!(
-            c.contains("MSG: vision_msgs/ObjectHypothesis\nstring class_id\nfloat64 score\n"),
-            "{c}"
-        );
-        let i = msg_definition(CompressedImage::TYPE);
-        assert!(
-            i.starts_with("std_msgs/Header header\nstring format\nuint8[] data\n"),
-            "{i}"
-        );
-    }
-
-    #[test]
-    fn dds_names_are_rmw_s() {
-        assert_eq!(
-            WrenchStamped::TYPE.dds_name(),
-            "geometry_msgs::msg::dds_::WrenchStamped_"
-        );
-    }
-
-    /// The raw image and the log line (`/rosout`'s type): the hashes `rosbags` 0.11.9's
-    /// `hash_rihs01` gives with its Jazzy type store, and their definitions.
-    #[test]
-    fn image_and_log_hashes_are_those_ros_2_gives() {
-        for (t, want) in [
-            (
-                Image::TYPE,
-                "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
-            ),
-            (
-                Log::TYPE,
-                "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac",
-            ),
-        ] {
-            assert_eq!(type_hash(t), want, "{}: {}", t.name, description_json(t));
+        #[test]
+        fn a_message_definition_carries_every_type_it_refers_to() {
+            let d = msg_definition(WrenchStamped::TYPE);
+            let bar = "=".repeat(80);
+            assert_eq!(
+                d,
+                format!(
+                    "std_msgs/Header header\ngeometry_msgs/Wrench wrench\n\
+                     {bar}\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
+                     {bar}\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n\
+                     {bar}\nMSG: geometry_msgs/Wrench\ngeometry_msgs/Vector3 force\ngeometry_msgs/Vector3 torque\n\
+                     {bar}\nMSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+                )
+            );
+            let c = msg_definition(Classification::TYPE);
+            assert!(
+                c.starts_with("std_msgs/Header header\nvision_msgs/ObjectHypothesis[] results\n"),
+                "{c}"
+            );
+            assert!(
+                c.contains("MSG: vision_msgs/ObjectHypothesis\nstring class_id\nfloat64 score\n"),
+                "{c}"
+            );
+            let i = msg_definition(CompressedImage::TYPE);
+            assert!(
+                i.starts_with("std_msgs/Header header\nstring format\nuint8[] data\n"),
+                "{i}"
+            );
         }
-        let i = msg_definition(Image::TYPE);
-        assert!(
-            i.starts_with(
-                "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
-                 uint8 is_bigendian\nuint32 step\nuint8[] data\n"
-            ),
-            "{i}"
-        );
-        let l = msg_definition(Log::TYPE);
-        assert!(
-            l.starts_with("builtin_interfaces/Time stamp\nuint8 level\nstring name\n"),
-            "{l}"
-        );
+
+        #[test]
+        fn dds_names_are_rmw_s() {
+            assert_eq!(
+                WrenchStamped::TYPE.dds_name(),
+                "geometry_msgs::msg::dds_::WrenchStamped_"
+            );
+        }
     }
 }

@@ -1,9 +1,7 @@
 //! ROS 2 type hashes (REP-2011): `RIHS01_` and the SHA-256 of the type's description, a JSON
 //! document of the type and every type it refers to, written as `rosidl` writes it (fields in
 //! their order, the referenced types sorted by name, `", "` and `": "` as separators). No Rust
-//! crate computes these; the values are checked against those a ROS install and `rosbags` give
-//! (the tests are in `messages.rs`'s, beside the types they hash: a test here importing the
-//! messages would make an import circle of the two files).
+//! crate computes these; the values are checked against those a ROS install and `rosbags` give.
 
 use serde::ser::{SerializeMap, SerializeSeq};
 use serde::{Serialize, Serializer};
@@ -187,7 +185,7 @@ impl serde_json::ser::Formatter for PythonSeparators {
 }
 
 /// The text hashed for `t` (see the module).
-pub(crate) fn description_json(t: &'static MessageType) -> String {
+fn description_json(t: &'static MessageType) -> String {
     let mut out = Vec::new();
     let mut ser = serde_json::Serializer::with_formatter(&mut out, PythonSeparators);
     // Writing to a Vec cannot fail, and every key is a string.

@@ -251,11 +251,12 @@ struct Channels {
 impl Channels {
     fn open(r: &mut Recorder, t: &RunTopics) -> Result<Channels, RecordError> {
         Ok(Channels {
+            // Sensor data, as the stream offers its topics; the events reliable, as /rosout.
             image: r.channel(&t.image, Qos::SENSOR_DATA)?,
             ft: r.channel(&t.ft, Qos::SENSOR_DATA)?,
-            wrench: r.channel(&t.wrench, Qos::DEFAULT)?,
-            contact: r.channel(&t.contact, Qos::DEFAULT)?,
-            shape: r.channel(&t.shape, Qos::DEFAULT)?,
+            wrench: r.channel(&t.wrench, Qos::SENSOR_DATA)?,
+            contact: r.channel(&t.contact, Qos::SENSOR_DATA)?,
+            shape: r.channel(&t.shape, Qos::SENSOR_DATA)?,
             events: r.channel(&t.events, Qos::DEFAULT)?,
         })
     }
