@@ -63,8 +63,8 @@ pub use documents::{
 pub use durable::write_atomic;
 pub use error::StoreError;
 pub use export::{
-    estimate_export, export_reference, ExportEstimate, ExportOptions, ExportSummary, ExportedRun,
-    ImageCompression,
+    estimate_export, export_reference, remove_stale_partials, ExportEstimate, ExportOptions,
+    ExportSummary, ExportedRun, ImageCompression,
 };
 pub use force_log::{
     check_header as check_force_log_header, decode_all as decode_force_log, ForceLogError,

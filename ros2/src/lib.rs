@@ -16,10 +16,12 @@ mod recorder;
 mod type_hash;
 
 pub use messages::{
-    encode, Classification, CompressedImage, EncodeError, Header, ObjectHypothesis, Point,
-    PointStamped, RosMessage, Time, Vector3, Wrench, WrenchStamped,
+    encode, Classification, CompressedImage, EncodeError, Header, Image, Log, ObjectHypothesis,
+    Point, PointStamped, RosMessage, Time, Vector3, Wrench, WrenchStamped,
 };
-pub use names::{mangle, node_token, publisher_token, topic_key, Qos, Reliability};
+pub use names::{
+    mangle, namespace, node_token, publisher_token, topic_key, NameError, Qos, Reliability,
+};
 #[cfg(feature = "zenoh")]
 pub use node::{Node, NodeConfig, NodeError, Publisher};
 #[cfg(feature = "mcap")]

@@ -95,6 +95,41 @@ pub struct Classification {
     pub results: Vec<ObjectHypothesis>,
 }
 
+/// `sensor_msgs/msg/Image`: raw pixels, `step` bytes a row, `encoding` as
+/// `sensor_msgs/image_encodings.hpp` names it (`mono8`, `rgb8`, `bayer_rggb8`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Image {
+    pub header: Header,
+    pub height: u32,
+    pub width: u32,
+    pub encoding: String,
+    pub is_bigendian: u8,
+    pub step: u32,
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+}
+
+/// `rcl_interfaces/msg/Log`: a log line as `/rosout` carries it (Foxglove's Log panel shows
+/// it); `level` one of [`Log::DEBUG`] to [`Log::FATAL`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Log {
+    pub stamp: Time,
+    pub level: u8,
+    pub name: String,
+    pub msg: String,
+    pub file: String,
+    pub function: String,
+    pub line: u32,
+}
+
+impl Log {
+    pub const DEBUG: u8 = 10;
+    pub const INFO: u8 = 20;
+    pub const WARN: u8 = 30;
+    pub const ERROR: u8 = 40;
+    pub const FATAL: u8 = 50;
+}
+
 const fn field(name: &'static str, ty: FieldType) -> Field {
     Field { name, ty }
 }
@@ -169,6 +204,30 @@ static CLASSIFICATION: MessageType = MessageType {
         field("results", FieldType::NestedSequence(&OBJECT_HYPOTHESIS)),
     ],
 };
+static IMAGE: MessageType = MessageType {
+    name: "sensor_msgs/msg/Image",
+    fields: &[
+        field("header", FieldType::Nested(&HEADER)),
+        field("height", FieldType::Uint32),
+        field("width", FieldType::Uint32),
+        field("encoding", FieldType::String),
+        field("is_bigendian", FieldType::Uint8),
+        field("step", FieldType::Uint32),
+        field("data", FieldType::Uint8Sequence),
+    ],
+};
+static LOG: MessageType = MessageType {
+    name: "rcl_interfaces/msg/Log",
+    fields: &[
+        field("stamp", FieldType::Nested(&TIME)),
+        field("level", FieldType::Uint8),
+        field("name", FieldType::String),
+        field("msg", FieldType::String),
+        field("file", FieldType::String),
+        field("function", FieldType::String),
+        field("line", FieldType::Uint32),
+    ],
+};
 
 impl RosMessage for Time {
     const TYPE: &'static MessageType = &TIME;
@@ -190,6 +249,12 @@ impl RosMessage for ObjectHypothesis {
 }
 impl RosMessage for Classification {
     const TYPE: &'static MessageType = &CLASSIFICATION;
+}
+impl RosMessage for Image {
+    const TYPE: &'static MessageType = &IMAGE;
+}
+impl RosMessage for Log {
+    const TYPE: &'static MessageType = &LOG;
 }
 
 /// A message that could not be encoded.
@@ -214,6 +279,82 @@ pub fn encode<M: RosMessage>(m: &M) -> Result<Vec<u8>, EncodeError> {
     out.extend_from_slice(&CDR_LE);
     out.extend_from_slice(&body);
     Ok(out)
+}
+
+/// The raw image and the log line (`/rosout`'s type) against `rosbags` 0.11.9: their bytes
+/// (`serialize_cdr`) and type hashes (`hash_rihs01` with its Jazzy type store).
+#[cfg(test)]
+mod image_and_log {
+    use super::*;
+    use crate::type_hash::{msg_definition, type_hash};
+
+    /// A 3x2 mono8 image and a log line: a `uint8` field takes one byte, unaligned, and the
+    /// strings and sequences after it align to 4.
+    #[test]
+    fn their_bytes_equal_rosbags_s() {
+        let image = Image {
+            header: Header {
+                stamp: Time { sec: 1, nanosec: 2 },
+                frame_id: "cam".into(),
+            },
+            height: 2,
+            width: 3,
+            encoding: "mono8".into(),
+            is_bigendian: 0,
+            step: 3,
+            data: vec![1, 2, 3, 4, 5, 6],
+        };
+        assert_eq!(
+            encode(&image).expect("encode"),
+            vec![
+                0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 4, 0, 0, 0, 99, 97, 109, 0, 2, 0, 0, 0, 3, 0,
+                0, 0, 6, 0, 0, 0, 109, 111, 110, 111, 56, 0, 0, 0, 3, 0, 0, 0, 6, 0, 0, 0, 1, 2, 3,
+                4, 5, 6
+            ]
+        );
+        let log = Log {
+            stamp: Time { sec: 5, nanosec: 6 },
+            level: Log::WARN,
+            name: "fringe".into(),
+            msg: "pause".into(),
+            file: String::new(),
+            function: String::new(),
+            line: 0,
+        };
+        assert_eq!(
+            encode(&log).expect("encode"),
+            vec![
+                0, 1, 0, 0, 5, 0, 0, 0, 6, 0, 0, 0, 30, 0, 0, 0, 7, 0, 0, 0, 102, 114, 105, 110,
+                103, 101, 0, 0, 6, 0, 0, 0, 112, 97, 117, 115, 101, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0,
+                0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
+            ]
+        );
+    }
+
+    #[test]
+    fn their_hashes_and_definitions_are_those_ros_2_gives() {
+        assert_eq!(
+            type_hash(Image::TYPE),
+            "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47"
+        );
+        assert_eq!(
+            type_hash(Log::TYPE),
+            "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac"
+        );
+        let i = msg_definition(Image::TYPE);
+        assert!(
+            i.starts_with(
+                "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+                 uint8 is_bigendian\nuint32 step\nuint8[] data\n"
+            ),
+            "{i}"
+        );
+        let l = msg_definition(Log::TYPE);
+        assert!(
+            l.starts_with("builtin_interfaces/Time stamp\nuint8 level\nstring name\n"),
+            "{l}"
+        );
+    }
 }
 
 #[cfg(test)]

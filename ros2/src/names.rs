@@ -19,6 +19,47 @@ pub fn topic_key(domain: u32, topic: &str, t: &'static MessageType) -> String {
     format!("{domain}/{inner}/{}/{}", t.dds_name(), type_hash(t))
 }
 
+/// A name ROS 2 would refuse, and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{name}` is not a ROS 2 {what}: {why}")]
+pub struct NameError {
+    pub name: String,
+    pub what: &'static str,
+    pub why: &'static str,
+}
+
+/// `ns` as a fully qualified ROS 2 namespace, checked as rcl checks one (`rmw_validate_namespace`):
+/// `/`-separated tokens of ASCII letters, digits and underscores, none empty or starting with a
+/// digit. A missing leading `/` is added and a trailing one dropped (`fringe/` gives `/fringe`);
+/// `/` alone is the root namespace.
+pub fn namespace(ns: &str) -> Result<String, NameError> {
+    let refuse = |why| NameError {
+        name: ns.to_string(),
+        what: "namespace",
+        why,
+    };
+    let inner = ns.strip_prefix('/').unwrap_or(ns);
+    let inner = inner.strip_suffix('/').unwrap_or(inner);
+    if inner.is_empty() {
+        return match ns {
+            "/" => Ok("/".into()),
+            _ => Err(refuse("it is empty (the root namespace is `/`)")),
+        };
+    }
+    for token in inner.split('/') {
+        if token.is_empty() {
+            return Err(refuse("it has an empty part (`//`)"));
+        }
+        if !token.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(refuse("only letters, digits, `_` and `/` may be used"));
+        }
+        if token.starts_with(|c: char| c.is_ascii_digit()) {
+            return Err(refuse("a part may not start with a digit"));
+        }
+    }
+    Ok(format!("/{inner}"))
+}
+
 /// How a publisher delivers (rmw's reliability).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reliability {
@@ -188,6 +229,21 @@ mod zenoh_check {
             let k = KeyExpr::try_from(n.as_str()).unwrap_or_else(|e| panic!("{n}: {e}"));
             assert_eq!(k.as_str(), n, "not canonical");
             assert!(!n.contains('*'), "{n}");
+        }
+    }
+
+    #[test]
+    fn namespaces_are_checked_as_rcl_checks_them() {
+        assert_eq!(namespace("/fringe").as_deref(), Ok("/fringe"));
+        assert_eq!(namespace("fringe/").as_deref(), Ok("/fringe"));
+        assert_eq!(
+            namespace("/robot_1/fringe").as_deref(),
+            Ok("/robot_1/fringe")
+        );
+        assert_eq!(namespace("/").as_deref(), Ok("/"));
+        for bad in ["", "/a//b", "/my robot", "/fringe-1", "/1robot"] {
+            let e = namespace(bad).expect_err(bad);
+            assert!(e.to_string().contains("is not a ROS 2 namespace"), "{e}");
         }
     }
 }

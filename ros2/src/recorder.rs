@@ -142,6 +142,22 @@ impl Recorder {
             .map_err(|e| self.failed(format!("a message of {}", M::TYPE.name), e))
     }
 
+    /// Writes a metadata record `name` holding `entries` (what the recording is of: a run's id,
+    /// its sensor, how its times were placed); readers list them with the file's summary.
+    pub fn metadata(
+        &mut self,
+        name: &str,
+        entries: BTreeMap<String, String>,
+    ) -> Result<(), RecordError> {
+        let record = mcap::records::Metadata {
+            name: name.to_string(),
+            metadata: entries,
+        };
+        self.writer
+            .write_metadata(&record)
+            .map_err(|e| self.failed(format!("the metadata {name}"), e))
+    }
+
     /// Writes the summary and the index and closes the file: its path.
     pub fn finish(mut self) -> Result<PathBuf, RecordError> {
         self.writer
@@ -238,6 +254,30 @@ mod tests {
             assert_eq!(m.sequence, k as u32 + 1);
         }
         assert_eq!(messages[5].channel.topic, "/fringe/shape");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn metadata_is_listed_in_the_summary() {
+        let dir = std::env::temp_dir().join(format!("fringe-ros2-meta-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("run.mcap");
+        let mut r = Recorder::create(&path).expect("create");
+        r.metadata(
+            "fringe_run",
+            BTreeMap::from([("run_id".to_string(), "cli-1".to_string())]),
+        )
+        .expect("metadata");
+        r.finish().expect("finish");
+        let bytes = std::fs::read(&path).expect("read");
+        let summary = mcap::Summary::read(&bytes)
+            .expect("summary")
+            .expect("a summary");
+        assert_eq!(summary.metadata_indexes.len(), 1);
+        let index = &summary.metadata_indexes[0];
+        assert_eq!(index.name, "fringe_run");
+        let m = mcap::read::metadata(&bytes, index).expect("metadata");
+        assert_eq!(m.metadata["run_id"], "cli-1");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -24,6 +24,7 @@ pub(crate) struct Field {
 /// The field types fringe's messages use (`type_description_interfaces/msg/FieldType` ids).
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum FieldType {
+    Uint8,
     Int32,
     Uint32,
     Float64,
@@ -42,6 +43,7 @@ impl FieldType {
     fn type_id(self) -> u8 {
         match self {
             FieldType::Nested(_) => 1,
+            FieldType::Uint8 => 3,
             FieldType::Int32 => 6,
             FieldType::Uint32 => 7,
             FieldType::Float64 => 11,
@@ -197,6 +199,7 @@ impl FieldType {
     /// The field's type as a `.msg` file writes it: `float64`, `uint8[]`, `std_msgs/Header`.
     fn msg_type(self) -> String {
         match self {
+            FieldType::Uint8 => "uint8".into(),
             FieldType::Int32 => "int32".into(),
             FieldType::Uint32 => "uint32".into(),
             FieldType::Float64 => "float64".into(),

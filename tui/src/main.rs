@@ -59,7 +59,8 @@ enum Command {
     Runs(cmd::runs::RunsArgs),
     /// Check a run directory: records, frames, force log and checksums.
     Verify(cmd::runs::VerifyArgs),
-    /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv).
+    /// Export runs as a dataset (the reference pipeline's 0.images/ + 0.labels.csv), or a run as
+    /// an MCAP file for Foxglove and ROS 2 (--format mcap).
     Export(cmd::runs::ExportArgs),
     /// Calibrate a sensor build: the calibration scan on the rig (or --images DIR for the optics
     /// only) and its profile: centre, crop radius, image-to-stage geometry, force offsets.

@@ -182,9 +182,10 @@ pub fn export_reference(
     }
 }
 
-/// Removes what earlier exports to the same destination left when their process was killed
-/// (`.<name>.partial-<pid>` of a pid that is no longer running).
-fn remove_stale_partials(parent: &Path, staging: &Path) {
+/// Removes what earlier exports to the same destination left when their process was killed:
+/// `.<name>.partial-<pid>` (a directory or a file) of a pid that is no longer running, where
+/// `staging` is this process's `.<name>.partial-<pid>` in `parent`.
+pub fn remove_stale_partials(parent: &Path, staging: &Path) {
     let Some(ours) = staging
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -207,8 +208,17 @@ fn remove_stale_partials(parent: &Path, staging: &Path) {
             continue;
         };
         let alive = Path::new("/proc").join(pid.to_string()).exists();
-        if !alive && entry.file_type().is_ok_and(|t| t.is_dir()) {
-            let _ = std::fs::remove_dir_all(entry.path());
+        if alive {
+            continue;
+        }
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => {
+                let _ = std::fs::remove_dir_all(entry.path());
+            }
+            Ok(t) if t.is_file() => {
+                let _ = std::fs::remove_file(entry.path());
+            }
+            _ => {}
         }
     }
 }
@@ -387,7 +397,7 @@ impl ExportWriter<'_> {
                 self.counts.skipped_invalid += 1;
                 continue;
             }
-            let image = match read_frame(run, &storage, &source, &record)? {
+            let image = match read_frame(run, &storage, &record)? {
                 Ok(image) => image,
                 Err(reason) if self.options.allow_unverified => {
                     left_out.push(format!(
@@ -534,8 +544,7 @@ pub fn estimate_export(
             break;
         };
         let started = std::time::Instant::now();
-        let source = RunReader::at(run).frame_file(record)?;
-        let Ok(Ok(image)) = read_frame(run, storage, &source, record) else {
+        let Ok(Ok(image)) = read_frame(run, storage, record) else {
             continue;
         };
         let Ok(tiff) = encode_tiff(&image, options.compression) else {
@@ -566,24 +575,18 @@ pub fn estimate_export(
 /// The pace of writing the images to disk (each synced) that an estimate assumes, bytes/s.
 const WRITE_BYTES_PER_S: f64 = 200e6;
 
-/// The frame of `record` (at `source`, inside `run`, stored as `storage` says) as the reference
-/// code reads images; `Ok(Err(reason))` when it is missing or damaged (the reason without the
-/// file's path), an error when the record names what is not the run's own regular file (a link,
-/// a FIFO), which no export reads.
+/// The frame of `record` (inside `run`, stored as `storage` says) as the reference code reads
+/// images; `Ok(Err(reason))` when it is missing or damaged (the reason without the file's path),
+/// an error when the record names what is not the run's own regular file (a link, a FIFO),
+/// which no export reads.
 fn read_frame(
     run: &Path,
     storage: &FrameStorage,
-    source: &Path,
     record: &FrameRecord,
 ) -> Result<Result<image::DynamicImage, String>, StoreError> {
-    match super::own_file::check_in(run, Path::new(&record.file)) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Err("missing".into())),
-        Err(e) => return Err(StoreError::io(source, e)),
-    }
-    let stored = match storage.read(source) {
+    let stored = match RunReader::at(run).stored_frame(storage, record)? {
         Ok(stored) => stored,
-        Err(e) => return Ok(Err(e.reason())),
+        Err(reason) => return Ok(Err(reason)),
     };
     Ok(reference_image(stored).ok_or_else(|| "its pixels do not fill it".to_string()))
 }

@@ -12,6 +12,7 @@ use super::documents::{
 };
 use super::error::StoreError;
 use super::force_log;
+use super::frames::{FrameStorage, StoredFrame};
 use super::layout::{RunFile, START};
 use super::own_file;
 use crate::force::ForceSample;
@@ -113,6 +114,25 @@ impl RunReader {
     /// checks it).
     pub fn frame_path(&self, record: &FrameRecord) -> PathBuf {
         self.dir.join(&record.file)
+    }
+
+    /// The stored frame of `record` (pixels as the camera delivered them, inside the part the
+    /// run keeps), read as `storage` (the run's [`StartDocument::frame_storage`]) says:
+    /// `Ok(Err(reason))` when its file is missing or damaged (the reason without the file's
+    /// path), an error when the record names a path outside the run or what is not the run's
+    /// own regular file (a link, a FIFO), which no reader reads.
+    pub fn stored_frame(
+        &self,
+        storage: &FrameStorage,
+        record: &FrameRecord,
+    ) -> Result<Result<StoredFrame, String>, StoreError> {
+        let source = self.frame_file(record)?;
+        match own_file::check_in(&self.dir, Path::new(&record.file)) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Err("missing".into())),
+            Err(e) => return Err(StoreError::io(&source, e)),
+        }
+        Ok(storage.read(&source).map_err(|e| e.reason()))
     }
 }
 

@@ -4,6 +4,7 @@ use crate::clock_text::clock;
 use crate::global::Global;
 use crate::signals::{Again, Signal};
 use anyhow::Context;
+use fringe_app::runs::{estimate_mcap_export, export_mcap, ClockSource, McapExportOptions};
 use fringe_app::runs::{list_runs, ListedRun};
 use fringe_rig::store::human_bytes as human;
 use fringe_rig::store::verify_run as verify;
@@ -114,6 +115,13 @@ pub fn run_verify(args: VerifyArgs, _global: &Global) -> anyhow::Result<()> {
 pub enum ExportFormat {
     /// `0.images/image_K.tiff` + `0.labels.csv`, as the paper's training code reads.
     Reference,
+    /// One run as an MCAP file as ROS 2 records it (ros2msg schemas, CDR, zstd), for Foxglove,
+    /// `ros2 bag`, rosbags: NS/image (sensor_msgs/Image, the frames as stored: mono8, rgb8 or
+    /// bayer_rggb8), NS/ft (geometry_msgs/WrenchStamped, every F/T sample, raw), NS/wrench,
+    /// NS/contact (geometry_msgs/PointStamped, metres, only in contact) and NS/shape
+    /// (vision_msgs/Classification): the labels; NS/events (rcl_interfaces/Log). Stamps are
+    /// the recording host's Unix time.
+    Mcap,
 }
 
 /// `--compression` of `fringe export`.
@@ -128,15 +136,23 @@ pub enum Compression {
 }
 
 #[derive(clap::Args)]
+#[command(after_help = MCAP_TOPICS)]
 pub struct ExportArgs {
-    /// Run directories, exported in the order given.
+    /// Run directories, exported in the order given (one run for --format mcap).
     #[arg(required = true)]
     runs: Vec<PathBuf>,
     #[arg(long, value_enum, default_value = "reference")]
     format: ExportFormat,
-    /// Output directory (created).
-    #[arg(long, value_name = "DIR")]
+    /// Output directory (created); for --format mcap, the .mcap file (created, never replaced).
+    #[arg(long, value_name = "DIR|FILE")]
     out: PathBuf,
+    /// --format mcap: the topics' namespace.
+    #[arg(long, value_name = "NS", default_value = "/fringe")]
+    namespace: String,
+    /// --format mcap: the sensor's frame id (the labels'); the images are in ID_camera, the F/T
+    /// samples in ID_ft.
+    #[arg(long, value_name = "ID", default_value = "fringe_sensor")]
+    frame_id: String,
     /// Round forces, torques and positions to this step (the reference trained on 0.1); without
     /// it they are written at the measurement's precision (forces to 1 mN, torques to 10 uN m,
     /// positions to 1 um).
@@ -150,8 +166,24 @@ pub struct ExportArgs {
     allow_unverified: bool,
 }
 
-pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
-    let ExportFormat::Reference = args.format;
+/// The topics of `--format mcap`, after `fringe export --help`.
+const MCAP_TOPICS: &str = "\
+--format mcap writes these topics (NS is --namespace, /fringe by default):
+  NS/image    sensor_msgs/msg/Image            every frame, its pixels as stored (mono8, rgb8,
+                                               bayer_rggb8: lossless; Foxglove demosaics)
+  NS/ft       geometry_msgs/msg/WrenchStamped  every F/T sample at its full rate, raw (N, N m)
+  NS/wrench   geometry_msgs/msg/WrenchStamped  each frame's label: the force over its exposure
+  NS/contact  geometry_msgs/msg/PointStamped   the label's contact point, metres, in contact only
+  NS/shape    vision_msgs/msg/Classification   the label's indenter (None off contact)
+  NS/events   rcl_interfaces/msg/Log           the run's events (pauses, warnings, points done)
+Frames and labels are stamped at the middle of the frame's exposure; every stamp is the Unix
+time of the host that recorded the run (its monotonic clock placed by the events' wall-clock
+times), so the file lines up with a robot's logs from the same clock.";
+
+pub fn run_export(args: ExportArgs, global: &Global) -> anyhow::Result<()> {
+    if let ExportFormat::Mcap = args.format {
+        return run_export_mcap(args, global);
+    }
     let options = fringe_rig::store::ExportOptions {
         round: args.round,
         compression: match args.compression {
@@ -249,6 +281,114 @@ pub fn run_export(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
             profiles.len(),
             summary.provenance.display()
         );
+    }
+    Ok(())
+}
+
+/// `fringe export RUN --format mcap --out FILE`.
+fn run_export_mcap(args: ExportArgs, _global: &Global) -> anyhow::Result<()> {
+    let [run] = args.runs.as_slice() else {
+        anyhow::bail!(
+            "--format mcap exports one run into one file, {} were given (export each to its own file)",
+            args.runs.len()
+        );
+    };
+    if args.round.is_some() {
+        anyhow::bail!(
+            "--round is for --format reference; an MCAP export keeps every value as measured"
+        );
+    }
+    let options = McapExportOptions {
+        namespace: args.namespace.clone(),
+        frame_id: args.frame_id.clone(),
+        allow_unverified: args.allow_unverified,
+        // Ctrl-C, SIGTERM or a hang-up stop the export and remove what it wrote.
+        cancel: Some(crate::signals::catch(
+            &[Signal::Interrupt, Signal::Terminate, Signal::HangUp],
+            Again::Counts,
+        )),
+    };
+    // What it will write, before it starts (a run that cannot be read is the export's to report).
+    if let Ok(e) = estimate_mcap_export(run, &args.out, &options) {
+        println!(
+            "export: {} frames, {} F/T samples, {} labels ({} in contact), {} events; expected {} (MCAP, zstd; measured on {} of the frames) in about {}",
+            e.counts.frames,
+            e.counts.force_samples,
+            e.counts.labels,
+            e.counts.contacts,
+            e.counts.events,
+            human(e.bytes),
+            e.sampled_frames,
+            clock(e.time)
+        );
+    }
+    let terminal = std::io::stderr().is_terminal();
+    let mut in_place = false;
+    let summary = export_mcap(run, &args.out, &options, |p| {
+        if p.frames % 250 == 0 || p.frames == p.of {
+            if terminal {
+                eprint!("\r{} of {} frames", p.frames, p.of);
+                in_place = true;
+            } else {
+                eprintln!("{} of {} frames", p.frames, p.of);
+            }
+        }
+    });
+    if in_place {
+        eprintln!();
+    }
+    let s = summary.with_context(|| format!("cannot export {} to MCAP", run.display()))?;
+    if !s.problems.is_empty() {
+        eprintln!(
+            "warning: {} fails verify ({} problem(s), exported as --allow-unverified asked; see `fringe verify {}`)",
+            run.display(),
+            s.problems.len(),
+            run.display()
+        );
+        for p in &s.problems {
+            eprintln!("  {p}");
+        }
+    }
+    let c = s.counts;
+    println!(
+        "exported {} to {} ({}): {} frames, {} F/T samples, {} labels ({} in contact), {} events",
+        run.display(),
+        s.path.display(),
+        human(s.bytes),
+        c.frames,
+        c.force_samples,
+        c.labels,
+        c.contacts,
+        c.events
+    );
+    if s.without_label > 0 {
+        println!(
+            "{} frames have no label (not valid, or no force over their exposure): their image only",
+            s.without_label
+        );
+    }
+    println!(
+        "topics: {} {} {} {} {} {}",
+        s.topics.image,
+        s.topics.ft,
+        s.topics.wrench,
+        s.topics.contact,
+        s.topics.shape,
+        s.topics.events
+    );
+    match s.clock.source {
+        ClockSource::Events => println!(
+            "stamps: Unix time of the recording host, within {} us (the run's events){}",
+            s.clock.uncertainty.as_micros(),
+            if s.clock.processes > 1 {
+                format!(", {} processes (resumed)", s.clock.processes)
+            } else {
+                String::new()
+            }
+        ),
+        ClockSource::StartDocument => println!(
+            "stamps: Unix time of the recording host from the run's start time (the run has no events: to a fraction of a second)"
+        ),
     }
     Ok(())
 }
