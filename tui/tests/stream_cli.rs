@@ -213,12 +213,18 @@ fn a_stream_that_would_send_nothing_or_to_a_bad_namespace_is_refused() {
     assert!(text(&out).contains("give --mcap FILE"), "{}", text(&out));
     let out = common::fringe_command()
         .current_dir(&dir)
-        .args(["stream", "--namespace", "fringe/left", "--seconds", "1"])
+        .args([
+            "stream",
+            "--namespace",
+            "/fringe/left finger",
+            "--seconds",
+            "1",
+        ])
         .output()
         .expect("run");
     assert!(!out.status.success());
     assert!(
-        text(&out).contains("namespace \"fringe/left\": a ROS 2 namespace is `/`"),
+        text(&out).contains("`/fringe/left finger` is not a ROS 2 namespace: only letters, digits, `_` and `/` may be used"),
         "{}",
         text(&out)
     );

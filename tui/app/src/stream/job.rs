@@ -167,7 +167,7 @@ impl Stream {
             model,
             backend,
             threads,
-            ros2,
+            mut ros2,
             mcap,
             image_hz,
             robot_seed,

@@ -54,28 +54,20 @@ impl Ros2Settings {
         }
     }
 
-    /// Checks the namespace as ROS 2 names it: `/`, or `/` then words of letters, digits and
-    /// underscores separated by single `/`, not starting with a digit.
-    pub fn check(&self) -> Result<(), String> {
-        let ns = &self.namespace;
-        let words_ok = ns == "/"
-            || (ns.starts_with('/')
-                && !ns.ends_with('/')
-                && ns[1..].split('/').all(|w| {
-                    !w.is_empty()
-                        && !w.starts_with(|c: char| c.is_ascii_digit())
-                        && w.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-                }));
-        if !words_ok {
-            return Err(format!(
-                "namespace {ns:?}: a ROS 2 namespace is `/` or `/` then names of letters, digits and underscores separated by `/` (such as /fringe or /gripper/left_finger)"
-            ));
-        }
+    /// Checks the namespace as rcl does (`fringe_ros2::namespace`; `fringe/left` is taken as
+    /// `/fringe/left`) and the domain id, and the frame id is not empty.
+    pub fn check(&mut self) -> Result<(), String> {
+        self.namespace = fringe_ros2::namespace(&self.namespace).map_err(|e| e.to_string())?;
         if self.domain > 232 {
             return Err(format!(
                 "domain {}: ROS 2 domain ids are 0 to 232",
                 self.domain
             ));
+        }
+        if self.frame_id.trim().is_empty() {
+            return Err(
+                "the frame id is empty: give --frame-id NAME (fringe_sensor by default)".into(),
+            );
         }
         Ok(())
     }
