@@ -35,6 +35,16 @@ pub struct Header {
     pub frame_id: String,
 }
 
+impl Header {
+    /// A header stamped `unix_ns` nanoseconds after the Unix epoch, in the frame `frame_id`.
+    pub fn at_unix_nanos(unix_ns: u64, frame_id: &str) -> Header {
+        Header {
+            stamp: Time::from_unix_nanos(unix_ns),
+            frame_id: frame_id.to_string(),
+        }
+    }
+}
+
 /// `geometry_msgs/msg/Vector3`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Vector3 {

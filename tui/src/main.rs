@@ -5,6 +5,7 @@ mod cmd;
 mod global;
 mod hint;
 mod signals;
+mod stream_text;
 mod ui;
 
 use clap::{Parser, Subcommand};

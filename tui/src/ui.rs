@@ -34,6 +34,7 @@ pub mod screens;
 mod session;
 mod stage_operator;
 mod state;
+mod streaming;
 mod units;
 mod view;
 mod widgets;

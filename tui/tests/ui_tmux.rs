@@ -800,3 +800,94 @@ fn a_workers_panic_is_shown_in_the_ui_the_scan_stops_and_the_keys_still_work() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The frames the Stream screen says ran ("N of M frames run").
+fn streamed_frames(screen: &str) -> Option<u64> {
+    let at = screen.find(" of ")?;
+    let before = &screen[..at];
+    let start = before.rfind(|c: char| !c.is_ascii_digit())? + 1;
+    let n: u64 = before[start..].parse().ok()?;
+    screen[at..].contains("frames run").then_some(n)
+}
+
+#[test]
+fn the_stream_screen_streams_records_holds_the_camera_from_scans_and_says_its_summary() {
+    let dir = scratch("stream");
+    // The quick bench at 25 fps and the constant model, so that a debug build keeps up; the
+    // node publishes to a free port of its own (no router there: it publishes anyway).
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port");
+    let rig = format!(
+        "{}[stream]\nconnect = [\"tcp/127.0.0.1:{port}\"]\nlisten = [\"tcp/127.0.0.1:0\"]\nnamespace = \"/left_finger\"\n",
+        common::QUICK_RIG.replace("[camera]\ndriver = \"sim\"\n", "[camera]\ndriver = \"sim\"\nframe_rate = 25.0\n")
+    );
+    std::fs::write(dir.join("rig.toml"), rig).expect("rig file");
+    let model = common::constant_model(&dir);
+    let command = format!("{} validate --model {}", fringe(), model.display());
+    let pane = Pane::start("stream", &dir, &command);
+    pane.wait_for("press r to run the scan plan", Duration::from_secs(30));
+    pane.keys("9");
+    let ready = pane.wait_for("s streams: the camera", Duration::from_secs(10));
+    assert!(ready.contains("constant.safetensors"), "{ready}");
+    assert!(
+        ready.contains("/left_finger/fringe_stream on domain"),
+        "{ready}"
+    );
+    // m: stream and record.
+    pane.keys("m");
+    let first = pane.wait_until("streamed frames", Duration::from_secs(60), |s| {
+        streamed_frames(s).is_some_and(|n| n > 0)
+    });
+    let n0 = streamed_frames(&first).unwrap_or(0);
+    let later = pane.wait_until("more streamed frames", Duration::from_secs(30), |s| {
+        streamed_frames(s).is_some_and(|n| n > n0 + 25)
+    });
+    assert!(
+        later.contains("Fz  +2.000 N"),
+        "the constant model's Fz: {later}"
+    );
+    assert!(later.contains("/left_finger/wrench"), "{later}");
+    assert!(later.contains("recording to "), "{later}");
+    assert!(
+        later.contains("latency, exposure end to published"),
+        "{later}"
+    );
+    // The simulator's truth scores the stream as it goes.
+    pane.wait_until("the stream scored", Duration::from_secs(30), |s| {
+        s.contains("against the simulator's truth (")
+    });
+    // A scan waits for the stream (it holds the camera), and so does the bench.
+    pane.keys("r");
+    pane.wait_for("the stream holds the camera", Duration::from_secs(5));
+    pane.keys("4");
+    pane.wait_for(
+        "the stream holds the camera: stop it",
+        Duration::from_secs(5),
+    );
+    assert!(runs(&dir).is_empty(), "no scan ran");
+    // Back, and stop it: its summary.
+    pane.keys("9");
+    pane.keys("s");
+    let stopped = pane.wait_for("stream stopped", Duration::from_secs(30));
+    assert!(stopped.contains("streamed "), "{stopped}");
+    let recordings: Vec<PathBuf> = std::fs::read_dir(dir.join("streams"))
+        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.path()).collect())
+        .unwrap_or_default();
+    assert_eq!(recordings.len(), 1, "{stopped}");
+    let recording = &recordings[0];
+    assert_eq!(recording.extension().and_then(|e| e.to_str()), Some("mcap"));
+    let bytes = std::fs::read(recording).expect("the recording");
+    assert!(
+        bytes.starts_with(b"\x89MCAP0\r\n") && bytes.ends_with(b"\x89MCAP0\r\n"),
+        "a whole MCAP file"
+    );
+    let after = pane.quit_cleanly();
+    assert!(
+        after.contains("fringe: a stream in this session:"),
+        "{after}"
+    );
+    assert!(after.contains("recorded to "), "{after}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

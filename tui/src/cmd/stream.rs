@@ -10,7 +10,7 @@ use crate::cmd::unit_arg::UnitArg;
 use crate::signals::{self, Again, Signal};
 use anyhow::{bail, Context, Result};
 use fringe_app::models::ForSensor;
-use fringe_app::stream::{Ros2Settings, Stage, Stream, StreamRequest, StreamState, StreamSummary};
+use fringe_app::stream::{Ros2Settings, Stream, StreamRequest, StreamState, StreamSummary};
 use fringe_app::RigConfig;
 use fringe_sensor_models::BackendKind;
 use std::path::PathBuf;
@@ -98,18 +98,11 @@ pub fn run(a: StreamArgs) -> Result<()> {
     if let Some(ns) = &a.namespace {
         ros2.namespace = ns.clone();
     }
-    let env_domain = std::env::var("ROS_DOMAIN_ID")
-        .ok()
-        .filter(|v| !v.trim().is_empty());
-    match (a.domain, env_domain) {
-        (Some(d), _) => ros2.domain = d,
-        (None, Some(v)) => {
-            ros2.domain = v
-                .trim()
-                .parse()
-                .with_context(|| format!("ROS_DOMAIN_ID={v:?}: give a domain id 0 to 232"))?
-        }
-        (None, None) => {}
+    match a.domain {
+        Some(d) => ros2.domain = d,
+        None => ros2
+            .domain_from_env(std::env::var("ROS_DOMAIN_ID").ok().as_deref())
+            .map_err(anyhow::Error::msg)?,
     }
     if let Some(f) = &a.frame_id {
         ros2.frame_id = f.clone();
@@ -237,81 +230,7 @@ fn status_line(s: &StreamState) -> String {
 }
 
 fn print_summary(sum: &StreamSummary) {
-    let s = &sum.state;
-    println!(
-        "streamed {} frames of {} the camera gave ({} skipped: the model was busy; {} lost by the camera) with {} on {}",
-        s.ran, s.frames, s.skipped, s.dropped_by_camera, s.backend, s.model
-    );
-    if let Some(ns) = &s.namespace {
-        let p = &s.published;
-        println!(
-            "published under {ns}: wrench {}, contact {}, shape {}, image {}{}",
-            p.wrench,
-            p.contact,
-            p.shape,
-            p.image,
-            if p.failed > 0 {
-                format!(" ({} failed)", p.failed)
-            } else {
-                String::new()
-            }
-        );
-    }
-    if let Some(l) = &sum.latency {
-        println!(
-            "latency, end of exposure to published ({} frames): p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms; most of it {} (p50 {:.1} ms){}",
-            l.frames,
-            l.p50_ms,
-            l.p99_ms,
-            l.max_ms,
-            l.dominant().name(),
-            l.stage_p50_ms[Stage::ALL
-                .iter()
-                .position(|s| *s == l.dominant())
-                .unwrap_or(0)],
-            if sum.clock_calibrated {
-                ""
-            } else {
-                "; the camera gave no timestamp latches, so its readout time is not in these figures"
-            }
-        );
-        let stages: Vec<String> = Stage::ALL
-            .iter()
-            .zip(l.stage_p50_ms.iter().zip(&l.stage_p99_ms))
-            .map(|(s, (p50, p99))| format!("{} {p50:.1}/{p99:.1}", s.name()))
-            .collect();
-        println!("  by stage, p50/p99 ms: {}", stages.join(", "));
-    }
-    if let Some([p50, p99]) = sum.exposure_error_us {
-        println!(
-            "exposure ends placed by the camera clock against the simulator's truth: within {p50:.0} µs (p50), {p99:.0} µs (p99)"
-        );
-    }
-    if let Some((n, e)) = &sum.truth {
-        if e.n > 0 {
-            println!(
-                "against the simulator's truth ({n} frames, {} in contact): Fz RMSE {:.3} N, contact RMSE {:.3} mm, shape accuracy {:.1} %",
-                e.n_contact,
-                e.fz_rmse(),
-                e.contact_rmse(),
-                100.0 * e.accuracy()
-            );
-        } else {
-            println!("against the simulator's truth: no frame matched yet (stream longer)");
-        }
-    }
-    if let Some(h) = &s.health {
-        println!(
-            "the unit's health on frames the model calls free (at {:.0} s): optical centre ({:+.2}, {:+.2}) px from its profile (moved beyond {:.2} px), brightness {:.1} % of the stream's start, Fz read on them {:+.3} N",
-            h.at_s,
-            h.centre_shift_px[0],
-            h.centre_shift_px[1],
-            h.centre_limit_px,
-            100.0 * h.brightness_ratio,
-            h.free_fz_n
-        );
-    }
-    if let Some(m) = &sum.mcap {
-        println!("recorded to {}", m.display());
+    for line in crate::stream_text::summary_lines(sum) {
+        println!("{line}");
     }
 }

@@ -9,10 +9,12 @@ use super::plan_choice::{self, PlanSource};
 use super::scan_events::{self, ScanEnd};
 use super::session::{self, Event, ModelChoice, Running, ScanRequest};
 use super::state::{BenchView, Phase, Picker, RunRow, RunsView, Tab, UiState};
+use super::streaming;
 use super::units;
 use fringe_app::runs::{list_runs, ListedRun};
 use fringe_app::session::Recording;
 use fringe_app::session::{BenchCommand, BenchPhase, BenchSession};
+use fringe_app::stream::Stream;
 use fringe_app::{ProfileUse, RigConfig};
 use fringe_rig::store::ExitStatus;
 use fringe_rig::Reply;
@@ -50,6 +52,11 @@ pub struct App {
     running: Option<Running>,
     /// The bench, open while the Bench screen is shown and no scan holds the devices.
     pub bench: Option<BenchSession>,
+    /// The stream (the camera and the unit's model, publishing), started on the Stream screen;
+    /// it runs whichever screen is shown until stopped, and holds the camera meanwhile.
+    pub stream: Option<Stream>,
+    /// How each stream of this session ended, its summary's lines, said when the UI ends.
+    pub streamed: Vec<Vec<String>>,
     pub quit: bool,
     /// How each scan of this session ended, a line each, said when the UI ends.
     pub ended: Vec<String>,
@@ -112,6 +119,16 @@ impl App {
                 ..RunsView::default()
             },
             bench: BenchView::default(),
+            stream: streaming::ready_view(
+                &opts.config,
+                &opts
+                    .model
+                    .clone()
+                    .unwrap_or_else(|| ModelChoice::for_rig(&opts.config))
+                    .path
+                    .display()
+                    .to_string(),
+            ),
             calibrate: calibration::ready_view(&opts.config),
             commission: commission::ready_view(&opts.config),
             health: health::view(&opts.config),
@@ -128,6 +145,8 @@ impl App {
             opts,
             running: None,
             bench: None,
+            stream: None,
+            streamed: Vec::new(),
             quit: false,
             ended: Vec::new(),
             worker_failures: Vec::new(),
@@ -187,10 +206,25 @@ impl App {
         )
     }
 
+    /// Why a scan cannot start now (another runs, or the stream holds the camera), if it
+    /// cannot.
+    pub fn scan_refused(&self) -> Option<String> {
+        if self.scan_active() {
+            Some("a scan is already running".into())
+        } else if self.stream.is_some() {
+            Some(
+                "the stream holds the camera: stop it on the Stream screen (s) before a scan"
+                    .into(),
+            )
+        } else {
+            None
+        }
+    }
+
     /// Runs the chosen plan (with live validation, the chosen model's, when `validate`).
     pub fn run_scan(&mut self, validate: bool) {
-        if self.scan_active() {
-            self.state.error = Some("a scan is already running".into());
+        if let Some(why) = self.scan_refused() {
+            self.state.error = Some(why);
             return;
         }
         let model = if validate {
@@ -230,6 +264,12 @@ impl App {
     ) {
         self.stop_scan(false);
         self.close_bench();
+        if self.stream.is_some() {
+            self.stop_stream();
+            self.state
+                .scan
+                .log("the stream was stopped: the scan needs the camera");
+        }
         self.state.validation = None;
         // The Scan screen shows the plan that runs (a calibration or commissioning scan too).
         let recording = Recording::from_rig_files(&self.opts.config, Some(&program.plan)).ok();
@@ -436,6 +476,32 @@ impl App {
         if let Some(b) = self.bench.take() {
             b.close();
             self.state.bench.bench.phase = BenchPhase::Closed;
+        }
+    }
+
+    /// Stops the stream, if one runs (the camera is given back, the recording finished); its
+    /// summary stays on the Stream screen and is said again when the UI ends.
+    pub fn stop_stream(&mut self) {
+        let Some(stream) = self.stream.take() else {
+            return;
+        };
+        let view = &mut self.state.stream;
+        view.running = false;
+        match stream.finish() {
+            Ok(summary) => {
+                let lines = crate::stream_text::summary_lines(&summary);
+                view.state = Some(summary.state);
+                view.log("stream stopped");
+                for line in &lines {
+                    view.log(line.clone());
+                }
+                self.streamed.push(lines);
+            }
+            Err(e) => {
+                let line = format!("the stream failed as it stopped: {e}");
+                view.log(line.clone());
+                self.streamed.push(vec![line]);
+            }
         }
     }
 

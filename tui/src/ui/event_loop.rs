@@ -43,6 +43,7 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
     let interrupted = signals::stop_requested() || result.is_err();
     app.stop_scan(interrupted);
     app.close_bench();
+    app.stop_stream();
     // Where this session's runs went, on the normal screen.
     let mut out = std::io::stdout();
     match app.ended.len() {
@@ -58,6 +59,12 @@ pub fn run(opts: UiOptions) -> anyhow::Result<()> {
             for line in &app.ended {
                 let _ = writeln!(out, "  {line}");
             }
+        }
+    }
+    for lines in &app.streamed {
+        let _ = writeln!(out, "fringe: a stream in this session:");
+        for line in lines {
+            let _ = writeln!(out, "  {line}");
         }
     }
     // A worker that failed while the UI ran is said again on the normal screen, and the exit

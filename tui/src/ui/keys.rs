@@ -223,7 +223,7 @@ pub fn help_rows() -> Vec<HelpRow> {
     let titles: Vec<&str> = screens::ALL.iter().map(|s| s.title).collect();
     let mut rows = vec![HelpRow {
         keys: format!("1-{} / Tab", titles.len()),
-        what: format!("{} screens", titles.join(", ")),
+        what: titles.join(", "),
     }];
     for s in screens::ALL {
         rows.extend((s.help)());
@@ -243,8 +243,8 @@ mod tests {
             help_rows().into_iter().map(|r| (r.keys, r.what)).collect();
         let expected = [
             (
-                "1-8 / Tab",
-                "Scan, Validate, Runs, Bench, Calibrate, Commission, Health, Units screens",
+                "1-9 / Tab",
+                "Scan, Validate, Runs, Bench, Calibrate, Commission, Health, Units, Stream",
             ),
             ("l", "choose the scan plan (built in, ./plans/*.toml)"),
             ("r", "run the scan plan (with live validation on Validate)"),
@@ -299,6 +299,14 @@ mod tests {
             (
                 "Up / Down (Units)",
                 "choose a unit: its certificate, checks and model",
+            ),
+            (
+                "s (Stream)",
+                "start or stop the stream (the camera and the model, over ROS 2)",
+            ),
+            (
+                "m (Stream)",
+                "start the stream, recording it to streams/*.mcap",
             ),
             ("Enter", "answer a dialog: continue"),
             ("?", "show or hide these keys"),

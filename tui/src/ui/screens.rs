@@ -24,6 +24,7 @@ screens! {
     commission,
     health,
     units,
+    stream,
 }
 
 /// Where `tab` is in [`ALL`].

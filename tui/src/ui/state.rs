@@ -4,6 +4,7 @@
 use fringe_app::session::ValidationState;
 use fringe_app::session::ViewState;
 use fringe_app::session::{AxisId, BenchState};
+use fringe_app::stream::StreamState;
 use std::collections::VecDeque;
 use std::time::Duration;
 
@@ -164,6 +165,29 @@ impl BenchView {
     }
 }
 
+/// The Stream screen.
+#[derive(Debug, Clone, Default)]
+pub struct StreamView {
+    /// The stream's state: the running one's, or the last one's when it stopped.
+    pub state: Option<StreamState>,
+    /// Whether a stream runs now.
+    pub running: bool,
+    /// The model a stream runs (before one starts: the one it would run).
+    pub model: String,
+    /// Where it would publish: the node, its domain and endpoints, from the rig file.
+    pub node: String,
+    /// Why a stream cannot start now (a scan holds the camera), when it cannot.
+    pub held: Option<String>,
+    /// What the stream said: what it opened, its warnings, its summary.
+    pub log: VecDeque<String>,
+}
+
+impl StreamView {
+    pub fn log(&mut self, line: impl Into<String>) {
+        keep_line(&mut self.log, line.into());
+    }
+}
+
 /// Where the calibration is.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CalibrationPhase {
@@ -319,6 +343,7 @@ pub struct UiState {
     pub validation: Option<ValidationState>,
     pub runs: RunsView,
     pub bench: BenchView,
+    pub stream: StreamView,
     pub calibrate: CalibrateView,
     pub commission: CommissionView,
     pub health: HealthView,

@@ -71,13 +71,6 @@ impl RunTopics {
     }
 }
 
-fn header(unix_ns: u64, frame_id: &str) -> Header {
-    Header {
-        stamp: Time::from_unix_nanos(unix_ns),
-        frame_id: frame_id.to_string(),
-    }
-}
-
 fn wrench(w: &fringe_rig::Wrench) -> Wrench {
     let [fx, fy, fz, tx, ty, tz] = w.to_array();
     Wrench {
@@ -110,7 +103,7 @@ pub(crate) fn image(frame: StoredFrame, unix_ns: u64, topics: &RunTopics) -> Ima
         PixelFormat::Rgb8 => 3,
     };
     Image {
-        header: header(unix_ns, &topics.camera_frame),
+        header: Header::at_unix_nanos(unix_ns, &topics.camera_frame),
         height: frame.height,
         width: frame.width,
         encoding: encoding(frame.format).into(),
@@ -123,7 +116,7 @@ pub(crate) fn image(frame: StoredFrame, unix_ns: u64, topics: &RunTopics) -> Ima
 /// A raw force sample on `NS/ft`.
 pub(crate) fn ft_sample(sample: &ForceSample, unix_ns: u64, topics: &RunTopics) -> WrenchStamped {
     WrenchStamped {
-        header: header(unix_ns, &topics.ft_frame),
+        header: Header::at_unix_nanos(unix_ns, &topics.ft_frame),
         wrench: wrench(&sample.wrench),
     }
 }
@@ -155,7 +148,7 @@ pub(crate) fn label(
         return None;
     }
     let w = record.wrench?;
-    let h = header(unix_ns, &topics.sensor_frame);
+    let h = Header::at_unix_nanos(unix_ns, &topics.sensor_frame);
     let contact = record
         .contact
         .filter(|_| record.shape != NO_CONTACT)

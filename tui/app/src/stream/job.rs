@@ -11,13 +11,13 @@ use crate::rig::file::RigConfig;
 use crate::rig::open::OpenCamera;
 use crate::stream::health_watch::{HealthWatch, Said, StreamHealth, FREE_CONFIDENCE};
 use crate::stream::latency::{figures, FrameLatency, LatencyFigures};
-use crate::stream::outlets::{header, put_one, McapOutlet, Messages, Published, Ros2Outlet};
+use crate::stream::outlets::{put_one, McapOutlet, Messages, Published, Ros2Outlet};
 use crate::stream::request::StreamRequest;
 use crate::stream::stream_error::StreamError;
 use fringe_calibration::Profile;
 use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::{CameraClock, CameraClockOptions, CameraStream, Frame, HostTime};
-use fringe_ros2::{CompressedImage, Publisher};
+use fringe_ros2::{CompressedImage, Header, Publisher};
 use fringe_sensor_models::{Errors, FrameRef, Model, Prediction, Predictor, Preprocessor};
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -29,6 +29,12 @@ use std::time::{Duration, Instant};
 /// Frames that may wait for the model before the oldest is skipped: 100 ms at 50 fps, enough to
 /// ride over a slow frame now and then without adding a growing delay.
 pub const BACKLOG_FRAMES: usize = 5;
+
+/// The latency a running stream shows is over this many frames (10 s at 50 fps).
+pub const RECENT_FRAMES: usize = 500;
+
+/// The predicted Fz a running stream keeps for its chart, s.
+pub const HISTORY_SECONDS: f64 = 10.0;
 
 /// The camera clock is latched this often between frame reads.
 const LATCH_PERIOD: Duration = Duration::from_millis(250);
@@ -53,6 +59,16 @@ pub struct StreamState {
     /// The newest prediction and its latency (exposure end to published), ms.
     pub latest: Option<Prediction>,
     pub latest_latency_ms: Option<f64>,
+    /// The latency over the last [`RECENT_FRAMES`] frames the camera clock placed.
+    pub recent_latency: Option<LatencyFigures>,
+    /// (seconds since the start, predicted Fz in N) of the last [`HISTORY_SECONDS`].
+    pub fz_history: VecDeque<(f64, f64)>,
+    /// On the simulated bench: the true Fz of the frames scored so far, as `fz_history`
+    /// (the truth is gathered about once a second, so it trails the predictions).
+    pub true_fz: VecDeque<(f64, f64)>,
+    /// On the simulated bench: frames scored against the truth so far, and their errors as
+    /// `fringe eval` computes them.
+    pub truth: Option<(usize, Errors)>,
     /// Whether a Zenoh router or peer is connected (`None`: not publishing).
     pub connected: Option<bool>,
     /// The namespace the topics are under (`None`: not publishing).
@@ -143,6 +159,9 @@ pub struct Stream {
     exposure_error_us: Option<[f64; 2]>,
     #[cfg(feature = "sim")]
     robot: Option<crate::stream::robot_truth::RobotTruth>,
+    /// On the simulated bench: the stream scored against the truth as it goes.
+    #[cfg(feature = "sim")]
+    live: Mutex<crate::stream::robot_truth::LiveScore>,
     /// Kept alive while the stream runs (the simulated bench films the sensor).
     #[cfg(feature = "sim")]
     _sim: Option<crate::rig::simulated::SimBench>,
@@ -194,12 +213,8 @@ impl Stream {
         let (node, image_publisher) = if ros2.publish {
             let (n, i) = Ros2Outlet::open(&ros2)?;
             notes.push(format!(
-                "ROS 2 node {}/{} on domain {} (Zenoh: connect {}; listen {}): topics {}",
-                ros2.namespace.trim_end_matches('/'),
-                crate::stream::request::Ros2Settings::NODE,
-                ros2.domain,
-                ros2.connect.join(", "),
-                ros2.listen.join(", "),
+                "{}: topics {}",
+                ros2.describe(),
                 crate::stream::outlets::TOPICS
                     .iter()
                     .filter(|(t, _)| image_hz > 0.0 || !t.starts_with("image"))
@@ -330,6 +345,8 @@ impl Stream {
                 #[cfg(feature = "sim")]
                 robot,
                 #[cfg(feature = "sim")]
+                live: Mutex::default(),
+                #[cfg(feature = "sim")]
                 _sim: sim,
             },
             notes,
@@ -342,6 +359,14 @@ impl Stream {
         #[cfg(feature = "sim")]
         if let Some(r) = &self.robot {
             s.robot_presses = Some(r.presses());
+            let mut live = lock(&self.live);
+            r.score_new(&self.classes, &lock(&self.shared.streamed), &mut live);
+            s.truth = Some((live.n, live.errors.clone()));
+            s.true_fz = live.true_fz.clone();
+        }
+        {
+            let latencies = lock(&self.shared.latencies);
+            s.recent_latency = figures(&latencies[latencies.len().saturating_sub(RECENT_FRAMES)..]);
         }
         if let Some(e) = self.camera.as_ref().and_then(|c| c.error()) {
             s.failure.get_or_insert(format!("camera: {e}"));
@@ -392,6 +417,10 @@ impl Stream {
         #[cfg(not(feature = "sim"))]
         let truth = None;
         let mut state = self.state();
+        // The whole stream scored, the frames the live score was still waiting for among them.
+        if truth.is_some() {
+            state.truth = truth.clone();
+        }
         if let Some(e) = camera_error {
             state.warnings.push(format!("camera: stopping it: {e}"));
         }
@@ -453,7 +482,7 @@ fn spawn_imager(
                     }
                 };
                 let msg = CompressedImage {
-                    header: header(job.stamp_unix_ns, &frame_id),
+                    header: Header::at_unix_nanos(job.stamp_unix_ns.max(0) as u64, &frame_id),
                     format: "png".into(),
                     data,
                 };
@@ -668,6 +697,7 @@ impl Worker {
                 ticks: frame.device_timestamp,
                 stamp_unix_ns,
                 exposure_host_ns: exposure.map(|e| e.host_ns),
+                t_s: self.started.elapsed().as_secs_f64(),
                 prediction: prediction.clone(),
             });
         }
@@ -680,16 +710,26 @@ impl Worker {
         {
             self.recent.pop_front();
         }
+        let elapsed_s = self.started.elapsed().as_secs_f64();
         let mut s = lock(&self.shared.state);
         s.ran += 1;
         s.rate_hz = self.recent.len() as f64;
+        s.fz_history
+            .push_back((elapsed_s, prediction.force.fz.value()));
+        while s
+            .fz_history
+            .front()
+            .is_some_and(|(t, _)| elapsed_s - t > HISTORY_SECONDS)
+        {
+            s.fz_history.pop_front();
+        }
         s.latest = Some(prediction);
         s.latest_latency_ms = latency_ms.map(|l| l.total_ms());
         s.published.wrench += published.wrench;
         s.published.contact += published.contact;
         s.published.shape += published.shape;
         s.published.failed += published.failed;
-        s.elapsed_s = self.started.elapsed().as_secs_f64();
+        s.elapsed_s = elapsed_s;
         Ok(())
     }
 }

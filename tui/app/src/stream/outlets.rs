@@ -17,7 +17,7 @@
 use crate::stream::request::Ros2Settings;
 use fringe_ros2::{
     Channel, Classification, CompressedImage, Header, Node, NodeConfig, NodeError,
-    ObjectHypothesis, Point, PointStamped, Publisher, Qos, RecordError, Recorder, RosMessage, Time,
+    ObjectHypothesis, Point, PointStamped, Publisher, Qos, RecordError, Recorder, RosMessage,
     Vector3, Wrench, WrenchStamped,
 };
 #[cfg(feature = "sim")]
@@ -40,18 +40,10 @@ pub(crate) struct Messages {
     pub shape: Classification,
 }
 
-/// A header stamped at `unix_ns`.
-pub(crate) fn header(unix_ns: i64, frame_id: &str) -> Header {
-    Header {
-        stamp: Time::from_unix_nanos(unix_ns.max(0) as u64),
-        frame_id: frame_id.to_string(),
-    }
-}
-
 impl Messages {
     /// The messages of `p`, stamped at `unix_ns` in `frame_id`.
     pub(crate) fn of(p: &Prediction, unix_ns: i64, frame_id: &str) -> Messages {
-        let h = header(unix_ns, frame_id);
+        let h = Header::at_unix_nanos(unix_ns.max(0) as u64, frame_id);
         let f = &p.force;
         Messages {
             wrench: WrenchStamped {
@@ -231,7 +223,7 @@ impl McapOutlet {
         let Some(ch) = self.truth.as_mut() else {
             return Ok(());
         };
-        let h = header(stamp, frame_id);
+        let h = Header::at_unix_nanos(stamp.max(0) as u64, frame_id);
         let t = stamp.max(0) as u64;
         let f = &sample.force;
         let wrench = WrenchStamped {

@@ -54,6 +54,34 @@ impl Ros2Settings {
         }
     }
 
+    /// Takes the domain from `ROS_DOMAIN_ID`'s value, as ROS 2 does when the domain is not
+    /// given otherwise (`None` or blank: the domain stays).
+    pub fn domain_from_env(&mut self, value: Option<&str>) -> Result<(), String> {
+        let Some(v) = value.filter(|v| !v.trim().is_empty()) else {
+            return Ok(());
+        };
+        self.domain = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("ROS_DOMAIN_ID={v:?}: give a domain id 0 to 232"))?;
+        Ok(())
+    }
+
+    /// The node as the operator reads it: its name, domain and endpoints.
+    pub fn describe(&self) -> String {
+        if !self.publish {
+            return "not publishing over ROS 2 (recording only)".into();
+        }
+        format!(
+            "ROS 2 node {}/{} on domain {} (Zenoh: connect {}; listen {})",
+            self.namespace.trim_end_matches('/'),
+            Self::NODE,
+            self.domain,
+            self.connect.join(", "),
+            self.listen.join(", "),
+        )
+    }
+
     /// Checks the namespace as rcl does (`fringe_ros2::namespace`; `fringe/left` is taken as
     /// `/fringe/left`) and the domain id, and the frame id is not empty.
     pub fn check(&mut self) -> Result<(), String> {

@@ -12,10 +12,10 @@ use fringe_rig::reference_layout::NO_CONTACT;
 use fringe_rig::HostTime;
 use fringe_sensor_models::dataset::{label, Sample};
 use fringe_sensor_models::eval::score;
-use fringe_sensor_models::{Errors, Prediction};
+use fringe_sensor_models::{Errors, Prediction, Scored};
 use fringe_sim::ground_truth::{FrameTruth, TruthRecord};
 use fringe_sim::{Robot, RobotConfig, RobotPress, TruthSpool};
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -39,11 +39,13 @@ pub(crate) struct Streamed {
     /// Its exposure on the host clock as the camera clock placed it, ns (`None` before the
     /// clock was fitted).
     pub exposure_host_ns: Option<[f64; 2]>,
+    /// Seconds since the stream started when it was sent (the live chart's time).
+    pub t_s: f64,
     pub prediction: Prediction,
 }
 
 /// The stream scored against the truth.
-pub(crate) struct Scored {
+pub(crate) struct ScoredStream {
     /// Each frame matched: its header stamp (Unix ns) and its true label.
     pub frames: Vec<(i64, Sample)>,
     pub errors: Errors,
@@ -52,12 +54,58 @@ pub(crate) struct Scored {
     pub exposure_error_us: Option<[f64; 2]>,
 }
 
+/// The stream scored as it goes: the frames matched so far and their errors, and the true Fz
+/// of the last seconds for a live chart.
+#[derive(Debug, Default)]
+pub(crate) struct LiveScore {
+    /// The first streamed frame not judged yet.
+    next: usize,
+    /// Frames scored, and their errors as `fringe eval` computes them.
+    pub n: usize,
+    pub errors: Errors,
+    /// (seconds since the stream started, true Fz in N) of the last [`LIVE_SECONDS`].
+    pub true_fz: VecDeque<(f64, f64)>,
+}
+
+/// How much of the true Fz the live score keeps, s.
+pub(crate) const LIVE_SECONDS: f64 = 10.0;
+
 /// What the robot did and what the bench really showed, shared with the stream.
 #[derive(Default)]
 struct Truth {
     presses: Vec<RobotPress>,
     /// Frames' truth by exposure start (camera ticks), as a run's labels are matched.
     frames: HashMap<u64, FrameTruth>,
+    /// The latest exposure start gathered: a frame before it without truth never gets any.
+    latest_ticks: Option<u64>,
+}
+
+/// One streamed frame against its truth.
+struct Judged {
+    /// How far the camera clock placed its exposure end from the true one, µs.
+    placed_off_us: Option<f64>,
+    /// Its true label and its scores (`None`: a frame the robot's presses do not explain, or of
+    /// a shape the model does not know).
+    scored: Option<(Sample, Scored)>,
+}
+
+impl Truth {
+    /// Judges `f` against the truth (`None`: no truth for it, yet or ever).
+    fn judge(&self, classes: &[String], f: &Streamed) -> Option<Judged> {
+        let t = self.frames.get(&f.ticks)?;
+        let placed_off_us = f
+            .exposure_host_ns
+            .map(|[_, end]| (end - t.exposure_end.0 as f64).abs() * 1e-3);
+        let scored = sample_of(t, &self.presses).and_then(|sample| {
+            let shape_true = classes.iter().position(|c| *c == sample.shape)?;
+            let scored = score(classes, shape_true, &sample, &f.prediction);
+            Some((sample, scored))
+        });
+        Some(Judged {
+            placed_off_us,
+            scored,
+        })
+    }
 }
 
 /// The robot at work and the truth it leaves.
@@ -145,27 +193,20 @@ impl RobotTruth {
     /// Scores the `streamed` predictions (device timestamp, header stamp, prediction) against
     /// the truth: each frame matched with its true label, and the errors as `fringe eval`
     /// computes them.
-    pub(crate) fn score(&self, classes: &[String], streamed: &[Streamed]) -> Scored {
+    pub(crate) fn score(&self, classes: &[String], streamed: &[Streamed]) -> ScoredStream {
         let truth = lock(&self.truth);
         let mut errors = Errors::default();
         let mut frames = Vec::new();
         let mut placed_off_us = Vec::new();
         for f in streamed {
-            let Some(t) = truth.frames.get(&f.ticks) else {
+            let Some(judged) = truth.judge(classes, f) else {
                 continue;
             };
-            if let Some([_, end]) = f.exposure_host_ns {
-                placed_off_us.push((end - t.exposure_end.0 as f64).abs() * 1e-3);
+            placed_off_us.extend(judged.placed_off_us);
+            if let Some((sample, scored)) = judged.scored {
+                errors.add(&scored);
+                frames.push((f.stamp_unix_ns, sample));
             }
-            let (stamp, p) = (&f.stamp_unix_ns, &f.prediction);
-            let Some(sample) = sample_of(t, &truth.presses) else {
-                continue;
-            };
-            let Some(shape_true) = classes.iter().position(|c| *c == sample.shape) else {
-                continue;
-            };
-            errors.add(&score(classes, shape_true, &sample, p));
-            frames.push((*stamp, sample));
         }
         placed_off_us.sort_by(f64::total_cmp);
         let exposure_error_us = (!placed_off_us.is_empty()).then(|| {
@@ -174,10 +215,45 @@ impl RobotTruth {
                 percentile(&placed_off_us, 99.0),
             ]
         });
-        Scored {
+        ScoredStream {
             frames,
             errors,
             exposure_error_us,
+        }
+    }
+
+    /// Scores the frames streamed since the last call whose truth has been gathered into
+    /// `live` (a frame waits for its truth, gathered about once a second; one the truth has
+    /// passed without a record is left out, as [`RobotTruth::score`] leaves it out).
+    pub(crate) fn score_new(
+        &self,
+        classes: &[String],
+        streamed: &[Streamed],
+        live: &mut LiveScore,
+    ) {
+        let truth = lock(&self.truth);
+        for f in streamed.get(live.next..).unwrap_or_default() {
+            match truth.judge(classes, f) {
+                Some(judged) => {
+                    if let Some((sample, scored)) = judged.scored {
+                        live.errors.add(&scored);
+                        live.n += 1;
+                        live.true_fz.push_back((f.t_s, sample.fz()));
+                    }
+                }
+                None if truth.latest_ticks.is_some_and(|l| l >= f.ticks) => {}
+                None => break,
+            }
+            live.next += 1;
+        }
+        if let Some(&(newest, _)) = live.true_fz.back() {
+            while live
+                .true_fz
+                .front()
+                .is_some_and(|(t, _)| newest - t > LIVE_SECONDS)
+            {
+                live.true_fz.pop_front();
+            }
         }
     }
 }
@@ -197,6 +273,7 @@ fn gather(spool: &TruthSpool, truth: &Mutex<Truth>, presses: &[RobotPress]) {
     let mut t = lock(truth);
     for r in records {
         if let TruthRecord::Frame(f) = r {
+            t.latest_ticks = t.latest_ticks.max(Some(f.exposure_start_ticks));
             t.frames.insert(f.exposure_start_ticks, f);
         }
     }

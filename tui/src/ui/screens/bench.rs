@@ -156,6 +156,14 @@ impl Screen for Bench {
             );
             return false;
         }
+        if app.stream.is_some() {
+            app.close_bench();
+            app.state.bench.held = Some(
+                "the stream holds the camera: stop it on the Stream screen (s) to use the bench"
+                    .into(),
+            );
+            return false;
+        }
         app.state.bench.held = None;
         if shown && app.bench.is_none() {
             app.state.bench.bench = Default::default();

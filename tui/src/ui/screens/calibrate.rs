@@ -87,8 +87,8 @@ impl Default for Calibration {
 impl Calibration {
     /// Runs the built-in calibration grid; its end fits the profile ([`Screen::scan_ended`]).
     fn run(&mut self, app: &mut App) {
-        if app.scan_active() {
-            app.state.error = Some("a scan is already running".into());
+        if let Some(why) = app.scan_refused() {
+            app.state.error = Some(why);
             return;
         }
         match calibration::plan(&app.opts.config) {

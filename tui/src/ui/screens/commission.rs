@@ -93,6 +93,10 @@ impl Commissioner {
             app.state.error = Some("a scan is running: commission when it ends".into());
             return;
         }
+        if let Some(why) = app.scan_refused() {
+            app.state.error = Some(why);
+            return;
+        }
         let ready = work::ready_view(&app.opts.config);
         app.state.commission = CommissionView {
             phase: CommissionPhase::Running("starting".into()),
@@ -147,13 +151,12 @@ impl Commissioner {
             }
             FromWorker::Scan(order) => {
                 let Some(worker) = &self.worker else { return };
-                let active = app.scan_active();
                 let refused = if self.stop {
                     Some("stopped by the operator before its next scan".to_string())
-                } else if active {
+                } else if app.scan_active() {
                     Some("another scan is running".to_string())
                 } else {
-                    None
+                    app.scan_refused()
                 };
                 if let Some(why) = refused {
                     let _ = worker.ends.send(Err(why));

@@ -6,7 +6,8 @@ use crate::ui::keys;
 use crate::ui::screens;
 use crate::ui::state::{
     BenchView, CalibrateView, CalibrationPhase, CommissionPhase, CommissionView, Dialog,
-    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, UiState, UnitsView,
+    HealthView, Phase, Picker, PlanPoint, PressRow, RunRow, RunsView, ScanView, StreamView,
+    UiState, UnitsView,
 };
 use crate::ui::widgets;
 use fringe_app::session::{
@@ -14,6 +15,7 @@ use fringe_app::session::{
 };
 use fringe_app::session::{CellErrors, FzPoint, Latest, ValidationState};
 use fringe_app::session::{LabelPoint, ViewState};
+use fringe_app::stream::{LatencyFigures, Published, StreamHealth, StreamState};
 use fringe_rig::Millimetres;
 use fringe_sensor_models::dataset::Sample;
 use fringe_sensor_models::Errors;
@@ -103,6 +105,7 @@ fn ready() -> UiState {
             ..RunsView::default()
         },
         bench: BenchView::default(),
+        stream: StreamView::default(),
         calibrate: CalibrateView {
             sensor: "layered-1".into(),
             plan: "built-in calibration grid: 9 light presses".into(),
@@ -804,10 +807,10 @@ fn calibrate_shows_the_fit_residuals_offsets_and_how_to_accept() {
 fn help_lists_every_key() {
     let mut s = ready();
     s.help = true;
-    let t = render(&s, 100, 32);
+    let t = render(&s, 100, 34);
     let b = t.backend().buffer();
     let rows = keys::help_rows();
-    assert_eq!(rows.len(), 29, "{rows:?}");
+    assert_eq!(rows.len(), 31, "{rows:?}");
     for row in rows {
         let line = format!("{} ", row.keys);
         assert!(find(b, &line).is_some(), "help names {}", row.keys);
@@ -829,6 +832,7 @@ fn every_screen_draws_at_any_terminal_size() {
         on_bench(),
         calibrated(),
         commissioning(),
+        streaming(),
     ];
     let mut runs = ready();
     runs.tab = screens::runs::TAB;
@@ -1060,4 +1064,121 @@ fn commission_shows_the_unit_s_certificate_made_on_the_command_line() {
     let (x, y) = find(b, "certificate PASS 2026-12-06 15:30 UTC").expect("the certificate");
     assert_eq!(b[(x, y)].fg, widgets::GOOD);
     assert!(find(b, "r commission it again").is_some(), "the hint");
+}
+
+/// A stream on the simulated bench, 42 s in: the robot pressing with a sphere, Zenoh
+/// connected, recording, 3 frames skipped, scored against the truth.
+fn streaming() -> UiState {
+    let mut s = ready();
+    s.tab = screens::stream::TAB;
+    let v = &mut s.stream;
+    v.running = true;
+    v.model = "builtin:layered (ResNet-18, 4 classes)".into();
+    v.node = "ROS 2 node /fringe/fringe_stream on domain 0 (Zenoh: connect tcp/localhost:7447; listen tcp/localhost:0)".into();
+    v.log("stream started");
+    v.log("warning: the unit's light moved: brightness 83 % of the stream's start");
+    v.state = Some(StreamState {
+        model: "builtin:layered (ResNet-18, 4 classes)".into(),
+        backend: "tract",
+        camera: "simulated camera".into(),
+        sensor: "layered-1".into(),
+        frames: 2103,
+        dropped_by_camera: 1,
+        ran: 2099,
+        skipped: 3,
+        rate_hz: 50.0,
+        latest: Some(prediction(3.25, "sphere", 0.97, [2.5, -1.25])),
+        latest_latency_ms: Some(11.4),
+        recent_latency: Some(LatencyFigures {
+            frames: 500,
+            p50_ms: 10.9,
+            p99_ms: 16.0,
+            max_ms: 21.5,
+            stage_p50_ms: [6.6, 0.1, 3.9, 0.3],
+            stage_p99_ms: [6.9, 2.0, 8.1, 0.9],
+        }),
+        fz_history: (0..50)
+            .map(|i| (32.0 + 0.2 * i as f64, 3.0 + 0.01 * i as f64))
+            .collect(),
+        true_fz: (0..45).map(|i| (32.0 + 0.2 * i as f64, 3.1)).collect(),
+        truth: Some((2000, errors(2000, 0.21))),
+        connected: Some(true),
+        namespace: Some("/fringe".into()),
+        published: Published {
+            wrench: 2099,
+            contact: 1400,
+            shape: 2099,
+            image: 0,
+            failed: 0,
+        },
+        mcap: Some(PathBuf::from(
+            "streams/stream-2026-12-06T21-00-00-000Z.mcap",
+        )),
+        robot_presses: Some(17),
+        health: Some(StreamHealth {
+            centre_shift_px: [0.4, -0.2],
+            centre_limit_px: 1.2,
+            brightness_ratio: 0.83,
+            free_fz_n: 0.04,
+            at_s: 30.0,
+        }),
+        warnings: Vec::new(),
+        failure: None,
+        elapsed_s: 42.0,
+    });
+    s
+}
+
+#[test]
+fn stream_screen_shows_the_prediction_the_latency_what_is_published_and_the_truth() {
+    let t = render(&streaming(), 160, 46);
+    insta::assert_snapshot!("stream_running", t.backend());
+    let b = t.backend().buffer();
+    let (x, y) = find(b, "+3.250 N").expect("Fz");
+    assert_eq!(b[(x, y)].fg, widgets::PREDICTED);
+    assert!(find(b, "in contact at (+2.50, -1.25) mm").is_some());
+    assert!(find(b, "sphere  97 %").is_some());
+    assert!(find(b, "50 frames/s · 2099 of 2103 frames run").is_some());
+    let (x, y) = find(b, "3 skipped").expect("skipped");
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
+    assert!(find(b, "11.4 ms now · last 500 frames p50 10.9 ms, p99 16.0 ms").is_some());
+    // The stage that dominates, in bold.
+    let (x, y) = find(b, "camera readout and transfer 6.6 ms").expect("stages");
+    assert!(b[(x, y)].modifier.contains(Modifier::BOLD));
+    assert!(find(
+        b,
+        "/fringe/wrench 2099 · /fringe/contact 1400 · /fringe/shape 2099"
+    )
+    .is_some());
+    let (x, y) = find(b, "connected").expect("connection");
+    assert_eq!(b[(x, y)].fg, widgets::GOOD);
+    assert!(find(
+        b,
+        "recording to streams/stream-2026-12-06T21-00-00-000Z.mcap"
+    )
+    .is_some());
+    assert!(find(b, "Fz RMSE 0.210 N").is_some());
+    assert!(find(b, "the robot's presses 17").is_some());
+    assert!(find(b, "brightness 83.0 % of the start").is_some());
+    let (x, y) = find(b, "warning: the unit's light moved").expect("warning");
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
+    assert!(find(b, "s stop the stream").is_some());
+}
+
+#[test]
+fn stream_screen_before_a_stream_says_what_s_and_m_do_and_what_would_run() {
+    let mut s = ready();
+    s.tab = screens::stream::TAB;
+    s.stream.model = "builtin:layered (ResNet-18, 4 classes)".into();
+    s.stream.node = "ROS 2 node /fringe/fringe_stream on domain 0".into();
+    s.stream.held = Some("a scan holds the camera: the stream can start when it ends".into());
+    let t = render(&s, 160, 46);
+    let b = t.backend().buffer();
+    assert!(find(b, "s streams: the camera and the unit's model only").is_some());
+    assert!(find(b, "m streams and records the messages to an MCAP file").is_some());
+    assert!(find(b, "model: builtin:layered (ResNet-18, 4 classes)").is_some());
+    assert!(find(b, "ROS 2 node /fringe/fringe_stream on domain 0").is_some());
+    let (x, y) = find(b, "a scan holds the camera").expect("held");
+    assert_eq!(b[(x, y)].fg, widgets::WARN);
+    assert!(find(b, "s stream · m stream and record to MCAP").is_some());
 }
