@@ -870,8 +870,8 @@ fn the_stream_screen_streams_records_holds_the_camera_from_scans_and_says_its_su
     // Back, and stop it: its summary.
     pane.keys("9");
     pane.keys("s");
-    let stopped = pane.wait_for("stream stopped", Duration::from_secs(30));
-    assert!(stopped.contains("streamed "), "{stopped}");
+    let stopped = pane.wait_for("recorded to streams/", Duration::from_secs(30));
+    assert!(stopped.contains("s stream · m stream and record"), "{stopped}");
     let recordings: Vec<PathBuf> = std::fs::read_dir(dir.join("streams"))
         .map(|d| d.filter_map(|e| e.ok()).map(|e| e.path()).collect())
         .unwrap_or_default();
@@ -889,5 +889,7 @@ fn the_stream_screen_streams_records_holds_the_camera_from_scans_and_says_its_su
         "{after}"
     );
     assert!(after.contains("recorded to "), "{after}");
+    assert!(after.contains("  streamed "), "{after}");
+    assert!(after.contains("published under /left_finger: wrench"), "{after}");
     let _ = std::fs::remove_dir_all(&dir);
 }

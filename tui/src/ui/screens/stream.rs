@@ -506,9 +506,22 @@ fn draw_log(f: &mut Frame, area: Rect, v: &StreamView) {
             )));
         }
     }
-    let room = usize::from(area.height.saturating_sub(2)).saturating_sub(text.len());
-    let skip = v.log.len().saturating_sub(room);
-    for line in v.log.iter().skip(skip) {
+    // The newest messages that fit below, each as many rows as it wraps to.
+    let width = usize::from(area.width.saturating_sub(2)).max(1);
+    let rows = |line: &str| line.chars().count().div_ceil(width).max(1);
+    let mut room = usize::from(area.height.saturating_sub(2))
+        .saturating_sub(text.iter().map(|l| rows(&l.to_string())).sum());
+    let mut shown = 0;
+    for line in v.log.iter().rev() {
+        match room.checked_sub(rows(line)) {
+            Some(left) => {
+                room = left;
+                shown += 1;
+            }
+            None => break,
+        }
+    }
+    for line in v.log.iter().skip(v.log.len() - shown) {
         let style = if line.starts_with("warning") || line.starts_with("the stream stopped") {
             Style::new().fg(WARN)
         } else {
