@@ -4,7 +4,6 @@
 use crate::optical::grey::{self, GreyImage};
 use fringe_rig::store;
 use fringe_rig::store::FrameStorage;
-use fringe_rig::PixelFormat;
 use std::path::{Path, PathBuf};
 
 /// A frame file that could not be used, naming it.
@@ -98,14 +97,7 @@ fn decode(
         message: e.to_string(),
     })?;
     let (w, h) = (stored.width, stored.height);
-    let image = match stored.format {
-        PixelFormat::Mono8 => image::GrayImage::from_raw(w, h, stored.data).map(Into::into),
-        PixelFormat::Rgb8 => image::RgbImage::from_raw(w, h, stored.data).map(Into::into),
-        PixelFormat::BayerRg8 => {
-            image::RgbImage::from_raw(w, h, store::to_rgb8(&stored.data, w as usize, h as usize))
-                .map(Into::into)
-        }
-    };
+    let image = store::pixels_to_image(w, h, stored.format, stored.data);
     let image = image.ok_or_else(|| FrameError::Stored {
         path: path.to_path_buf(),
         message: format!("{w}x{h} pixels do not match the file's bytes"),

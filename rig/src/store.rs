@@ -77,8 +77,8 @@ pub use frames::fgl::{
 };
 pub use frames::png::save_png;
 pub use frames::{
-    in_whole_frame, read_plain, CutoutError, Encoding, FrameCodec, FrameStorage, StoredFrame,
-    DISC_MARGIN_PX,
+    in_whole_frame, pixels_to_image, read_plain, CutoutError, Encoding, FrameCodec, FrameStorage,
+    StoredFrame, DISC_MARGIN_PX,
 };
 pub use layout::{outside_runs, run_holding, InsideRun, RunFile};
 pub use manifest::write as write_manifest;

@@ -871,7 +871,10 @@ fn the_stream_screen_streams_records_holds_the_camera_from_scans_and_says_its_su
     pane.keys("9");
     pane.keys("s");
     let stopped = pane.wait_for("recorded to streams/", Duration::from_secs(30));
-    assert!(stopped.contains("s stream · m stream and record"), "{stopped}");
+    assert!(
+        stopped.contains("s stream · m stream and record"),
+        "{stopped}"
+    );
     let recordings: Vec<PathBuf> = std::fs::read_dir(dir.join("streams"))
         .map(|d| d.filter_map(|e| e.ok()).map(|e| e.path()).collect())
         .unwrap_or_default();
@@ -890,6 +893,9 @@ fn the_stream_screen_streams_records_holds_the_camera_from_scans_and_says_its_su
     );
     assert!(after.contains("recorded to "), "{after}");
     assert!(after.contains("  streamed "), "{after}");
-    assert!(after.contains("published under /left_finger: wrench"), "{after}");
+    assert!(
+        after.contains("published under /left_finger: wrench"),
+        "{after}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

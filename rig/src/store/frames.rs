@@ -93,6 +93,27 @@ pub struct FrameStorage {
     pub encoding: Encoding,
 }
 
+/// Pixels of `format` as an image: grey as grey, RGB as RGB, a Bayer mosaic demosaiced to RGB;
+/// `None` when `data` does not hold `width` x `height` of them. The one reading of a frame's
+/// pixels as a picture (a stored frame's, a live frame's).
+pub fn pixels_to_image(
+    width: u32,
+    height: u32,
+    format: PixelFormat,
+    data: Vec<u8>,
+) -> Option<image::DynamicImage> {
+    match format {
+        PixelFormat::Mono8 => image::GrayImage::from_raw(width, height, data).map(Into::into),
+        PixelFormat::Rgb8 => image::RgbImage::from_raw(width, height, data).map(Into::into),
+        PixelFormat::BayerRg8 => image::RgbImage::from_raw(
+            width,
+            height,
+            debayer::to_rgb8(&data, width as usize, height as usize),
+        )
+        .map(Into::into),
+    }
+}
+
 /// A stored frame read back: the pixels as the camera delivered them (inside the cutout).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredFrame {
@@ -535,6 +556,29 @@ pub(crate) fn from_planes(planes: &[u8], width: u32, height: u32) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Grey stays grey, RGB stays RGB, a Bayer mosaic is demosaiced to RGB of the same size;
+    /// pixels that do not fill the size are no image.
+    #[test]
+    fn pixels_read_as_an_image_of_their_format() {
+        let grey = pixels_to_image(4, 2, PixelFormat::Mono8, (0..8).collect()).expect("grey");
+        assert_eq!(grey.as_luma8().map(|g| g.get_pixel(3, 1).0), Some([7]));
+        let rgb = pixels_to_image(2, 1, PixelFormat::Rgb8, vec![1, 2, 3, 4, 5, 6]).expect("rgb");
+        assert_eq!(rgb.as_rgb8().map(|g| g.get_pixel(1, 0).0), Some([4, 5, 6]));
+        // A flat mosaic: red sites 200, green 100, blue 50, read back as that colour.
+        let mosaic: Vec<u8> = (0..16)
+            .map(|i| match (i / 4 % 2, i % 2) {
+                (0, 0) => 200,
+                (1, 1) => 50,
+                _ => 100,
+            })
+            .collect();
+        let bayer = pixels_to_image(4, 4, PixelFormat::BayerRg8, mosaic).expect("bayer");
+        let rgb = bayer.as_rgb8().expect("demosaiced to RGB");
+        assert_eq!((rgb.width(), rgb.height()), (4, 4));
+        assert_eq!(rgb.get_pixel(1, 1).0, [200, 100, 50]);
+        assert!(pixels_to_image(4, 4, PixelFormat::Mono8, vec![0; 15]).is_none());
+    }
 
     /// A stored cutout goes back where the camera saw it, in a frame black elsewhere; one that
     /// does not fit the frame it names is refused.

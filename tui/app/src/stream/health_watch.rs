@@ -11,7 +11,7 @@
 use crate::health::figures::Thresholds;
 use fringe_calibration::health::Signature;
 use fringe_calibration::{GreyImage, Profile};
-use fringe_rig::{Frame, PixelFormat};
+use fringe_rig::Frame;
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -63,20 +63,12 @@ pub(crate) struct HealthWatch {
 
 /// A frame as grey values: the optics' measurements read grey.
 fn grey(frame: &Frame) -> Option<GreyImage> {
-    let (w, h) = (frame.width, frame.height);
-    let image = match frame.format {
-        PixelFormat::Mono8 => {
-            image::DynamicImage::ImageLuma8(image::GrayImage::from_raw(w, h, frame.data.clone())?)
-        }
-        PixelFormat::Rgb8 => {
-            image::DynamicImage::ImageRgb8(image::RgbImage::from_raw(w, h, frame.data.clone())?)
-        }
-        PixelFormat::BayerRg8 => image::DynamicImage::ImageRgb8(image::RgbImage::from_raw(
-            w,
-            h,
-            fringe_rig::store::to_rgb8(&frame.data, w as usize, h as usize),
-        )?),
-    };
+    let image = fringe_rig::store::pixels_to_image(
+        frame.width,
+        frame.height,
+        frame.format,
+        frame.data.clone(),
+    )?;
     Some(GreyImage::from_image(&image))
 }
 
