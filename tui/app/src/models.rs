@@ -30,7 +30,9 @@ pub(crate) mod verdict;
 
 pub use adaptation::{adapt, AdaptRequest, AdaptationError, AdaptedModel};
 pub use adapted_card::AdaptedWriteError;
-pub use choice::{choose_model, open_model, profiles_dir, ChoiceError, ChoiceNote, ForSensor};
+pub use choice::{
+    choose_model, default_model_path, open_model, profiles_dir, ChoiceError, ChoiceNote, ForSensor,
+};
 pub use image_prediction::{ImagePredictionError, ImagePredictor, ImageRun};
 pub use labelled_data::{agreed, read_sources, scale_warnings, LabelledDataError};
 pub use onnx_export::{export as export_onnx, Exported, OnnxExportError};

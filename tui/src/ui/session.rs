@@ -54,18 +54,20 @@ impl ModelChoice {
     /// for its design (else `default`, which live validation then refuses when it is of
     /// another design, saying so); on the default backend.
     pub fn for_rig(config: &fringe_app::RigConfig) -> ModelChoice {
-        let commissioned = config.sensor_id().ok().and_then(|unit| {
-            fringe_app::commission::commissioned_model(&config.profile_dir(), &unit)
-                .0
-                .map(|c| c.model)
-        });
+        let unit = config.sensor_id().ok();
+        let variant = config.sensor_variant().ok().flatten();
+        let path = fringe_app::models::default_model_path(
+            &fringe_app::models::ForSensor {
+                profiles: &config.profile_dir(),
+                unit: unit.as_deref(),
+                variant,
+                whose: "this sensor",
+            },
+            &mut |_| {},
+        )
+        .unwrap_or_else(|_| PathBuf::from(fringe_sensor_models::builtin::DEFAULT));
         ModelChoice {
-            path: commissioned
-                .or_else(|| {
-                    let design = config.sensor_variant().ok().flatten();
-                    fringe_sensor_models::builtin::for_design(design).ok()
-                })
-                .unwrap_or_else(|| PathBuf::from(fringe_sensor_models::builtin::DEFAULT)),
+            path,
             backend: BackendKind::Tract,
             threads: fringe_app::session::THREADS_PER_NETWORK,
         }

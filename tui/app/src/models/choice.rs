@@ -59,6 +59,31 @@ pub enum ChoiceNote {
     Warning(String),
 }
 
+/// Where the model a command runs without `--model` is (not opened): the newest passing
+/// commissioning's model of the unit under `profiles`, else the model that ships for the
+/// sensor's design (an error for a design none ships for). `note` hears which commissioned model
+/// was taken and why a certificate was passed over.
+pub fn default_model_path(
+    sensor: &ForSensor<'_>,
+    note: &mut dyn FnMut(ChoiceNote),
+) -> Result<PathBuf, ChoiceError> {
+    if let Some(unit) = sensor.unit {
+        let (found, notes) = commissioned_model(sensor.profiles, unit);
+        for n in notes {
+            note(ChoiceNote::Warning(n));
+        }
+        if let Some(c) = found {
+            note(ChoiceNote::Commissioned(format!(
+                "model: sensor {unit}'s commissioned model {} (certificate of {}; give --model to run another)",
+                c.model.display(),
+                c.certificate.issued_utc
+            )));
+            return Ok(c.model);
+        }
+    }
+    Ok(builtin::for_design(sensor.variant)?)
+}
+
 /// The model a command runs when `given` is `None`: the newest passing commissioning's model of
 /// the unit under `profiles`, else the model that ships for the sensor's design. A model whose
 /// card names another design than the sensor's is refused; one adapted to another unit is run
@@ -68,27 +93,9 @@ pub fn choose_model(
     sensor: &ForSensor<'_>,
     note: &mut dyn FnMut(ChoiceNote),
 ) -> Result<Model, ChoiceError> {
-    let (profiles, unit) = (sensor.profiles, sensor.unit);
-    let path = match (given, unit) {
-        (Some(p), _) => p.to_path_buf(),
-        (None, Some(unit)) => {
-            let (found, notes) = commissioned_model(profiles, unit);
-            for n in notes {
-                note(ChoiceNote::Warning(n));
-            }
-            match found {
-                Some(c) => {
-                    note(ChoiceNote::Commissioned(format!(
-                        "model: sensor {unit}'s commissioned model {} (certificate of {}; give --model to run another)",
-                        c.model.display(),
-                        c.certificate.issued_utc
-                    )));
-                    c.model
-                }
-                None => builtin::for_design(sensor.variant)?,
-            }
-        }
-        (None, None) => builtin::for_design(sensor.variant)?,
+    let path = match given {
+        Some(p) => p.to_path_buf(),
+        None => default_model_path(sensor, note)?,
     };
     let model = open_model(&path)?;
     if let Some(w) = model.missing_card_warning() {
@@ -100,7 +107,7 @@ pub fn choose_model(
         .as_ref()
         .filter(|c| c.other.contains_key("adaptation"))
         .and_then(|c| c.sensor_id.clone());
-    if let (Some(for_unit), Some(unit)) = (adapted_to, unit) {
+    if let (Some(for_unit), Some(unit)) = (adapted_to, sensor.unit) {
         if for_unit != unit {
             note(ChoiceNote::Warning(format!(
                 "{} was adapted to sensor {for_unit}, and this is sensor {unit}: its figures here are not the ones it was accepted with",
