@@ -158,6 +158,11 @@ impl Recorder {
             .map_err(|e| self.failed(format!("the metadata {name}"), e))
     }
 
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Writes the summary and the index and closes the file: its path.
     pub fn finish(mut self) -> Result<PathBuf, RecordError> {
         self.writer

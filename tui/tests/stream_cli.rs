@@ -339,3 +339,168 @@ fn a_camera_that_moved_since_the_unit_s_calibration_is_said_while_streaming() {
         "{printed}"
     );
 }
+
+/// The recording as the `mcap` package reads it: the message count of its summary (`None`: no
+/// summary, the file did not read back whole) and the wrench messages it holds.
+fn mcap_read_back(path: &Path) -> (Option<u64>, u64) {
+    let script = r#"
+import sys
+from mcap.reader import make_reader
+with open(sys.argv[1], "rb") as f:
+    reader = make_reader(f)
+    try:
+        summary = reader.get_summary()
+        count = summary.statistics.message_count if summary and summary.statistics else -1
+    except Exception:
+        count = -1
+    f.seek(0)
+    wrenches = sum(1 for _ in make_reader(f).iter_messages(topics=["/fringe/wrench"]))
+print(count, wrenches)
+"#;
+    let out = Command::new(python())
+        .args(["-c", script])
+        .arg(path)
+        .output()
+        .expect("python with the mcap package (FRINGE_PYTHON)");
+    let printed = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{}: {printed}{}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut numbers = printed.split_whitespace().map(|n| n.parse::<i64>().ok());
+    let count = numbers.next().flatten().expect("the message count");
+    let wrenches = numbers.next().flatten().expect("the wrench count");
+    (u64::try_from(count).ok(), wrenches as u64)
+}
+
+#[test]
+fn ctrl_c_stops_the_stream_with_its_recording_whole_and_its_summary() {
+    let dir = scratch("stream-sigint");
+    let model = constant_model(&dir);
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, RIG).expect("rig");
+    let mcap = dir.join("stream.mcap");
+    let mut stream = common::fringe_command()
+        .current_dir(&dir)
+        .args(["stream", "--no-ros2", "--rig"])
+        .arg(&rig)
+        .arg("--model")
+        .arg(&model)
+        .arg("--mcap")
+        .arg(&mcap)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start fringe stream");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let out = stream.stdout.take().expect("stdout");
+    let reader = std::thread::spawn(move || {
+        let mut all = Vec::new();
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            let _ = tx.send(line.clone());
+            all.push(line);
+        }
+        all.join("\n")
+    });
+    // Until a status line says 25 frames ran (a second at 25 fps).
+    loop {
+        let line = rx
+            .recv_timeout(std::time::Duration::from_secs(120))
+            .unwrap_or_else(|_| panic!("fringe stream printed no status line"));
+        if line.contains(" Hz  frames ") && figure(&line, " Hz  frames ") >= 25.0 {
+            break;
+        }
+    }
+    // SAFETY: kill(2) on the child's pid; the child is ours and has not been waited for.
+    unsafe {
+        libc::kill(stream.id() as libc::pid_t, libc::SIGINT);
+    }
+    let status = stream.wait().expect("fringe stream ends");
+    let printed = reader.join().expect("stdout");
+    assert!(status.success(), "{printed}");
+    assert!(printed.contains("stopping (signal)"), "{printed}");
+    let streamed = figure(&printed, "streamed") as u64;
+    assert!(streamed >= 25, "{printed}");
+    assert!(
+        printed.contains(&format!("recorded to {}", mcap.display())),
+        "{printed}"
+    );
+    // The file was closed with its summary, and holds every frame's wrench.
+    let (summary, wrenches) = mcap_read_back(&mcap);
+    assert!(
+        summary.is_some_and(|n| n >= 2 * streamed),
+        "{summary:?}: {printed}"
+    );
+    assert_eq!(wrenches, streamed, "{printed}");
+}
+
+/// The recording's disk fills up while it streams: the recording is closed whole and said,
+/// the stream goes on to its end; a recording started with less room than it keeps is refused.
+/// The disk is a tmpfs mounted in a private mount namespace (`unshare -rm`, as faults_cli's full
+/// disk), of 40 MB, filled to below the reserve once the stream runs.
+#[test]
+fn a_recording_whose_disk_fills_up_is_closed_whole_and_the_stream_goes_on() {
+    let dir = scratch("stream-disk-full");
+    let model = constant_model(&dir);
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, RIG).expect("rig");
+    let rec = dir.join("rec");
+    std::fs::create_dir_all(&rec).expect("rec dir");
+    let script = r#"
+set -u
+mount -t tmpfs -o size=40m fringe-test "$REC" || exit 90
+"$FRINGE" stream --no-ros2 --seconds 8 --rig "$RIG" --model "$MODEL" --mcap "$REC/stream.mcap" >"$DIR/out.txt" 2>&1 &
+stream=$!
+while ! grep -q " Hz  frames " "$DIR/out.txt" && kill -0 "$stream" 2>/dev/null; do sleep 0.05; done
+dd if=/dev/zero of="$REC/filler" bs=1M count=30 2>/dev/null
+wait "$stream"
+echo $? >"$DIR/rc"
+cp "$REC/stream.mcap" "$DIR/stream.mcap"
+"$FRINGE" stream --no-ros2 --seconds 2 --rig "$RIG" --model "$MODEL" --mcap "$REC/second.mcap" >"$DIR/refused.txt" 2>&1
+echo $? >"$DIR/refused.rc"
+"#;
+    let status = Command::new("unshare")
+        .args(["-rm", "sh", "-c", script])
+        .env("REC", &rec)
+        .env("DIR", &dir)
+        .env("RIG", &rig)
+        .env("MODEL", &model)
+        .env("FRINGE", env!("CARGO_BIN_EXE_fringe"))
+        .status()
+        .expect("unshare (util-linux) runs the test in its own mount namespace");
+    assert!(
+        status.success(),
+        "the namespace script failed ({status}): 90 = tmpfs mount refused"
+    );
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+    let printed = read("out.txt");
+    assert_eq!(read("rc").trim(), "0", "{printed}");
+    assert!(
+        printed.contains("left (the recording keeps 16 MB)"),
+        "{printed}"
+    );
+    assert!(
+        printed.contains("reads back whole; the stream goes on without it"),
+        "{printed}"
+    );
+    // The stream went on to its end (8 s at 25 fps).
+    let streamed = figure(&printed, "streamed") as u64;
+    assert!(streamed >= 150, "{printed}");
+    // The recording reads back whole, with what it took before it was closed.
+    let (summary, wrenches) = mcap_read_back(&dir.join("stream.mcap"));
+    assert!(summary.is_some(), "no summary: {printed}");
+    assert!(
+        wrenches >= 25 && wrenches < streamed,
+        "{wrenches} of {streamed}: {printed}"
+    );
+    // With less room than the recording keeps, none is started.
+    let refused = read("refused.txt");
+    assert_ne!(read("refused.rc").trim(), "0", "{refused}");
+    assert!(
+        refused.contains("--mcap: the disk holding")
+            && refused.contains("free some space or record elsewhere"),
+        "{refused}"
+    );
+}

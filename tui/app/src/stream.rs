@@ -30,7 +30,10 @@ mod robot_truth;
 mod stream_error;
 
 pub use health_watch::StreamHealth;
-pub use job::{Stream, StreamState, StreamSummary, BACKLOG_FRAMES, HISTORY_SECONDS, RECENT_FRAMES};
+pub use job::{
+    Stream, StreamState, StreamSummary, BACKLOG_FRAMES, HISTORY_SECONDS, RECENT_FRAMES,
+    RECORDING_RESERVE_BYTES,
+};
 pub use latency::{LatencyFigures, Stage};
 pub use outlets::{Published, TOPICS};
 pub use request::{Ros2Settings, StreamRequest};

@@ -218,14 +218,13 @@ fn status_line(s: &StreamState) -> String {
     let robot = s
         .robot_presses
         .map_or(String::new(), |n| format!("; robot presses {n}"));
+    let published = match s.namespace {
+        Some(_) => format!("  published {}", s.published.wrench),
+        None => String::new(),
+    };
     format!(
-        "{:6.1} s  {:4.0} Hz  frames {} (skipped {}, camera lost {})  {latest}{latency}  published {}{robot}",
-        s.elapsed_s,
-        s.rate_hz,
-        s.ran,
-        s.skipped,
-        s.dropped_by_camera,
-        s.published.wrench
+        "{:6.1} s  {:4.0} Hz  frames {} (skipped {}, camera lost {})  {latest}{latency}{published}{robot}",
+        s.elapsed_s, s.rate_hz, s.ran, s.skipped, s.dropped_by_camera,
     )
 }
 

@@ -36,6 +36,14 @@ pub const RECENT_FRAMES: usize = 500;
 /// The predicted Fz a running stream keeps for its chart, s.
 pub const HISTORY_SECONDS: f64 = 10.0;
 
+/// Room the recording keeps on its disk: below it, the recording is closed (its summary and
+/// index written, so that it reads back whole) and the stream goes on publishing. It holds the
+/// chunk being filled (at most 768 KiB before compression) and the summary many times over.
+pub const RECORDING_RESERVE_BYTES: u64 = 16_000_000;
+
+/// How often the recording's disk is looked at.
+const DISK_CHECK_PERIOD: Duration = Duration::from_secs(1);
+
 /// The camera clock is latched this often between frame reads.
 const LATCH_PERIOD: Duration = Duration::from_millis(250);
 
@@ -131,6 +139,9 @@ struct Shared {
     streamed: Mutex<Vec<crate::stream::robot_truth::Streamed>>,
     calibrated: AtomicBool,
     mcap: Mutex<Option<McapOutlet>>,
+    /// The recording, once closed before the stream ended (its disk filled up, or a write
+    /// failed), and whether it was closed whole.
+    closed_early: Mutex<Option<(PathBuf, bool)>>,
     /// Whether predictions are kept for scoring against the truth (the simulated robot's).
     #[cfg(feature = "sim")]
     keep_streamed: bool,
@@ -143,6 +154,48 @@ impl Shared {
             s.warnings.push(line);
         }
     }
+
+    /// Closes the recording before the stream ends, because `why`: its summary and index
+    /// written when the disk still takes them, so that it reads back whole; the stream goes on
+    /// publishing. Said once.
+    fn close_recording(&self, why: &str) {
+        let Some(recording) = lock(&self.mcap).take() else {
+            return;
+        };
+        let at_s = lock(&self.state).elapsed_s;
+        let path = recording.path().to_path_buf();
+        let line = match recording.finish() {
+            Ok(_) => {
+                *lock(&self.closed_early) = Some((path.clone(), true));
+                format!(
+                    "{why}: the recording {} was closed at {at_s:.0} s and reads back whole; the stream goes on without it",
+                    path.display()
+                )
+            }
+            Err(e) => {
+                *lock(&self.closed_early) = Some((path.clone(), false));
+                format!(
+                    "{why}: the recording {} could not be closed ({e}); what it holds up to its last whole chunk reads with a streaming MCAP reader; the stream goes on without it",
+                    path.display()
+                )
+            }
+        };
+        self.warn(line);
+    }
+}
+
+/// Why the recording at `path` cannot go on: its disk has less room than it keeps.
+fn disk_short(path: &std::path::Path) -> Option<String> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    let free = fringe_rig::store::available_bytes(dir.unwrap_or(std::path::Path::new("."))).ok()?;
+    (free < RECORDING_RESERVE_BYTES).then(|| {
+        format!(
+            "the disk holding {} has {} left (the recording keeps {})",
+            path.display(),
+            fringe_rig::store::human_bytes(free),
+            fringe_rig::store::human_bytes(RECORDING_RESERVE_BYTES)
+        )
+    })
 }
 
 /// A running stream.
@@ -226,6 +279,11 @@ impl Stream {
         } else {
             (None, None)
         };
+        if let Some(why) = mcap.as_deref().and_then(disk_short) {
+            return Err(StreamError::Settings(format!(
+                "--mcap: {why}: free some space or record elsewhere"
+            )));
+        }
         let recording = match &mcap {
             Some(path) => Some(McapOutlet::create(
                 path,
@@ -254,6 +312,7 @@ impl Stream {
             streamed: Mutex::new(Vec::new()),
             calibrated: AtomicBool::new(false),
             mcap: Mutex::new(recording),
+            closed_early: Mutex::new(None),
             #[cfg(feature = "sim")]
             keep_streamed: config.is_simulated(),
         });
@@ -323,6 +382,7 @@ impl Stream {
             recent: VecDeque::new(),
             started,
             connected_checked: None,
+            disk_checked: None,
         };
         let worker = std::thread::Builder::new()
             .name("stream".into())
@@ -426,7 +486,9 @@ impl Stream {
         }
         let mcap = match recording {
             Some(r) => Some(r.finish()?),
-            None => None,
+            None => lock(&self.shared.closed_early)
+                .clone()
+                .map(|(path, _)| path),
         };
         let latency = figures(&lock(&self.shared.latencies));
         Ok(StreamSummary {
@@ -493,10 +555,11 @@ fn spawn_imager(
                         Err(e) => shared.warn(format!("image topic: {e}")),
                     }
                 }
-                if let Some(m) = lock(&shared.mcap).as_mut() {
-                    if let Err(e) = m.write_image(&msg, now) {
-                        shared.warn(format!("recording the image: {e}"));
-                    }
+                let written = lock(&shared.mcap)
+                    .as_mut()
+                    .map(|m| m.write_image(&msg, now));
+                if let Some(Err(e)) = written {
+                    shared.close_recording(&format!("recording an image failed ({e})"));
                 }
             }
         })
@@ -548,6 +611,7 @@ struct Worker {
     recent: VecDeque<Instant>,
     started: Instant,
     connected_checked: Option<Instant>,
+    disk_checked: Option<Instant>,
 }
 
 impl Worker {
@@ -595,6 +659,24 @@ impl Worker {
         while self.waiting.len() > BACKLOG_FRAMES {
             self.waiting.pop_front();
             s.skipped += 1;
+        }
+    }
+
+    /// Closes the recording, whole, once its disk has less room than it keeps (looked at once
+    /// a second).
+    fn check_disk(&mut self) {
+        if self
+            .disk_checked
+            .is_some_and(|t| t.elapsed() < DISK_CHECK_PERIOD)
+        {
+            return;
+        }
+        self.disk_checked = Some(Instant::now());
+        let path = lock(&self.shared.mcap)
+            .as_ref()
+            .map(|m| m.path().to_path_buf());
+        if let Some(why) = path.as_deref().and_then(disk_short) {
+            self.shared.close_recording(&why);
         }
     }
 
@@ -655,11 +737,14 @@ impl Worker {
                 self.shared.warn(format!("publishing: {e}"));
             }
         }
-        if let Some(m) = lock(&self.shared.mcap).as_mut() {
-            if let Err(e) = m.write(&messages, now_unix) {
-                return Err(format!("recording: {e}"));
-            }
+        let written = lock(&self.shared.mcap)
+            .as_mut()
+            .map(|m| m.write(&messages, now_unix));
+        if let Some(Err(e)) = written {
+            self.shared
+                .close_recording(&format!("recording failed ({e})"));
         }
+        self.check_disk();
         let done = HostTime::now();
         if let Some(every) = self.image_every {
             if self.last_image.is_none_or(|t| t.elapsed() >= every) {

@@ -212,6 +212,11 @@ impl McapOutlet {
         })
     }
 
+    /// The file being written.
+    pub(crate) fn path(&self) -> &Path {
+        self.recorder.path()
+    }
+
     /// Records the truth of the frame stamped `stamp` (Unix ns), logged at its stamp.
     #[cfg(feature = "sim")]
     pub(crate) fn write_truth(
