@@ -140,8 +140,8 @@ struct Shared {
     calibrated: AtomicBool,
     mcap: Mutex<Option<McapOutlet>>,
     /// The recording, once closed before the stream ended (its disk filled up, or a write
-    /// failed), and whether it was closed whole.
-    closed_early: Mutex<Option<(PathBuf, bool)>>,
+    /// failed; the warning says whether it was closed whole).
+    closed_early: Mutex<Option<PathBuf>>,
     /// Whether predictions are kept for scoring against the truth (the simulated robot's).
     #[cfg(feature = "sim")]
     keep_streamed: bool,
@@ -164,16 +164,15 @@ impl Shared {
         };
         let at_s = lock(&self.state).elapsed_s;
         let path = recording.path().to_path_buf();
+        *lock(&self.closed_early) = Some(path.clone());
         let line = match recording.finish() {
             Ok(_) => {
-                *lock(&self.closed_early) = Some((path.clone(), true));
                 format!(
                     "{why}: the recording {} was closed at {at_s:.0} s and reads back whole; the stream goes on without it",
                     path.display()
                 )
             }
             Err(e) => {
-                *lock(&self.closed_early) = Some((path.clone(), false));
                 format!(
                     "{why}: the recording {} could not be closed ({e}); what it holds up to its last whole chunk reads with a streaming MCAP reader; the stream goes on without it",
                     path.display()
@@ -486,9 +485,7 @@ impl Stream {
         }
         let mcap = match recording {
             Some(r) => Some(r.finish()?),
-            None => lock(&self.shared.closed_early)
-                .clone()
-                .map(|(path, _)| path),
+            None => lock(&self.shared.closed_early).clone(),
         };
         let latency = figures(&lock(&self.shared.latencies));
         Ok(StreamSummary {
