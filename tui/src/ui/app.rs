@@ -99,6 +99,14 @@ impl App {
             },
             Path::new("plans"),
         );
+        // The model the Runs and Stream screens name: the one given, else the rig's choice.
+        let model_shown = opts
+            .model
+            .clone()
+            .unwrap_or_else(|| ModelChoice::for_rig(&opts.config))
+            .path
+            .display()
+            .to_string();
         let state = UiState {
             tab: opts.tab,
             help: false,
@@ -109,26 +117,11 @@ impl App {
             validation: None,
             runs: RunsView {
                 root: opts.runs.display().to_string(),
-                model: opts
-                    .model
-                    .clone()
-                    .unwrap_or_else(|| ModelChoice::for_rig(&opts.config))
-                    .path
-                    .display()
-                    .to_string(),
+                model: model_shown.clone(),
                 ..RunsView::default()
             },
             bench: BenchView::default(),
-            stream: streaming::ready_view(
-                &opts.config,
-                &opts
-                    .model
-                    .clone()
-                    .unwrap_or_else(|| ModelChoice::for_rig(&opts.config))
-                    .path
-                    .display()
-                    .to_string(),
-            ),
+            stream: streaming::ready_view(&opts.config, &model_shown),
             calibrate: calibration::ready_view(&opts.config),
             commission: commission::ready_view(&opts.config),
             health: health::view(&opts.config),
