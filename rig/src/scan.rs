@@ -8,6 +8,8 @@
 //!   in `points.rs`, `no_contact.rs`, `motions.rs` and `indentation.rs` beside it.
 //! - [`control`]: pause/resume/abort requests, operator prompts, progress.
 //! - [`watchers`]: force ceiling, F/T silence and camera drops, acted on at once.
+//! - [`silence`]: the F/T stream's silence as a watching thread can vouch for it (a pause of the
+//!   host is not the sensor going quiet).
 //! - [`clearance`]: no load at the safe height, at a tare or on a lateral move.
 //! - [`offset_check`]: the zero-load check against the sensor's profile, called at every offset
 //!   measurement.
@@ -31,6 +33,7 @@ pub(crate) mod press;
 pub(crate) mod resume_check;
 pub(crate) mod setup;
 pub(crate) mod sidecar;
+pub(crate) mod silence;
 pub(crate) mod watchers;
 
 pub use clearance::{Clearance, Motion, UnderLoad, LOAD_SAMPLES};

@@ -10,7 +10,7 @@ use fringe_rig::{ForceError, ForceSample, ForceSensor, StreamStats};
 use fringe_rig::{Millimetres, Newtons};
 use fringe_rig::{MillimetresPerSecond, MillimetresPerSecondSquared, Wrench};
 use fringe_sim::{MotorSpec, SimMotor};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -81,6 +81,11 @@ struct Spring {
     motor: Arc<SimMotor>,
     n: u64,
     next: Instant,
+    /// Set by a test: the reader is held this long (ms) once, as a busy host holds a thread,
+    /// and then delivers what came in meanwhile.
+    hold_ms: Arc<AtomicU64>,
+    /// Set by a test: the sensor delivers nothing from then on.
+    dead: Arc<AtomicBool>,
 }
 
 impl ForceSensor for Spring {
@@ -90,7 +95,15 @@ impl ForceSensor for Spring {
     fn start(&mut self) -> Result<(), ForceError> {
         Ok(())
     }
-    fn next_sample(&mut self, _t: Duration) -> Result<Option<ForceSample>, ForceError> {
+    fn next_sample(&mut self, timeout: Duration) -> Result<Option<ForceSample>, ForceError> {
+        if self.dead.load(Ordering::SeqCst) {
+            std::thread::sleep(timeout);
+            return Ok(None);
+        }
+        let hold = self.hold_ms.swap(0, Ordering::SeqCst);
+        if hold > 0 {
+            std::thread::sleep(Duration::from_millis(hold));
+        }
         let now = Instant::now();
         if self.next > now {
             std::thread::sleep(self.next - now);
@@ -123,6 +136,17 @@ impl ForceSensor for Spring {
 }
 
 fn rig() -> (MotorAxis, ForceStream) {
+    let (z, stream, _) = rig_with_faults();
+    (z, stream)
+}
+
+/// The held and dead switches of the spring's stream.
+struct Faults {
+    hold_ms: Arc<AtomicU64>,
+    dead: Arc<AtomicBool>,
+}
+
+fn rig_with_faults() -> (MotorAxis, ForceStream, Faults) {
     let motor = Arc::new(SimMotor::new(MotorSpec {
         name: "z".into(),
         travel: Millimetres(25.0),
@@ -132,14 +156,20 @@ fn rig() -> (MotorAxis, ForceStream) {
             acceleration: MillimetresPerSecondSquared(20.0),
         },
     }));
+    let faults = Faults {
+        hold_ms: Arc::new(AtomicU64::new(0)),
+        dead: Arc::new(AtomicBool::new(false)),
+    };
     let stream = ForceStream::spawn(Box::new(Spring {
         motor: motor.clone(),
         n: 0,
         next: Instant::now(),
+        hold_ms: faults.hold_ms.clone(),
+        dead: faults.dead.clone(),
     }))
     .expect("stream");
     std::thread::sleep(Duration::from_millis(30));
-    (MotorAxis(motor), stream)
+    (MotorAxis(motor), stream, faults)
 }
 
 #[test]
@@ -225,4 +255,37 @@ fn cancel_stops_the_approach_and_a_missing_surface_is_reported() {
     t.join().expect("thread");
     assert!(matches!(err, PressError::Cancelled));
     assert!(!z.status().expect("status").moving);
+}
+
+#[test]
+fn a_reading_waits_out_a_held_reader_and_a_dead_stream_is_said_after_the_silence_limit() {
+    let (_z, stream, faults) = rig_with_faults();
+    let monitor = stream.monitor();
+    let settings = PressSettings::default();
+    let guard = ForceGuard::new(&monitor, &settings, Arc::new(AtomicBool::new(false)))
+        .with_tare(Newtons(BIAS));
+    // The host holds the F/T reader 90 ms; the reading is asked for 75 ms into it, when the
+    // newest sample is already older than the 50 ms limit. The reader runs again 15 ms later
+    // with what the sensor sent meanwhile: the reading waits for it instead of stopping a scan.
+    faults.hold_ms.store(90, Ordering::SeqCst);
+    std::thread::sleep(Duration::from_millis(75));
+    let stale = monitor.silence().expect("samples arrived");
+    assert!(stale > Duration::from_millis(50), "not held yet: {stale:?}");
+    let force = guard.pressing_force().expect("the held reader's samples");
+    assert!(force.0.abs() < 0.05, "{force}");
+    assert!(monitor.silence().expect("samples") < Duration::from_millis(50));
+
+    // A sensor that stops: a reading asked for once its newest sample is past the limit says
+    // so when it has watched the stream for the limit itself, not later.
+    faults.dead.store(true, Ordering::SeqCst);
+    std::thread::sleep(Duration::from_millis(60));
+    let asked = Instant::now();
+    let err = guard.pressing_force().expect_err("a dead stream");
+    let waited = asked.elapsed();
+    assert!(
+        err.to_string().contains("no data for") && err.to_string().contains("check the cable"),
+        "{err}"
+    );
+    assert!(waited >= Duration::from_millis(40), "said after {waited:?}");
+    assert!(waited < Duration::from_secs(2), "said after {waited:?}");
 }

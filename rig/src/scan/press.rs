@@ -10,6 +10,7 @@
 //!   force is within tolerance (the soft layer relaxes, so a few steps are normal).
 //! - Every wait checks the force ceiling (stop at once, retract) and the cancel flag.
 
+use super::silence::{await_fresh_sample, Silent, FORCE_SILENCE};
 use crate::acquire::force_stream::ForceMonitor;
 use crate::axis::{Axis, AxisError, StopMode};
 use crate::units::{Millimetres, Newtons};
@@ -135,21 +136,23 @@ impl<'a> ForceGuard<'a> {
         }
     }
 
-    /// The pressing force averaged over the configured number of samples.
+    /// The pressing force averaged over the configured number of samples. Called with z at
+    /// rest: a stream whose newest sample is older than the silence limit gets that long of this
+    /// thread's own running time to deliver (a host that held the F/T reader is not a stalled
+    /// sensor); one that stays quiet is an error.
     pub fn pressing_force(&self) -> Result<Newtons, PressError> {
-        if let Some(e) = self.monitor.error() {
-            return Err(self.force_error(e));
-        }
-        match self.monitor.silence() {
-            None => return Err(self.force_error("no samples yet".into())),
-            Some(s) if s > Duration::from_millis(50) => {
-                return Err(self.force_error(format!(
-                    "no data for {} ms (check the cable and the stream)",
-                    s.as_millis()
-                )))
-            }
-            _ => {}
-        }
+        await_fresh_sample(self.monitor, FORCE_SILENCE, || {
+            self.cancel.load(Ordering::SeqCst)
+        })
+        .map_err(|silent| match silent {
+            Silent::Stopped => PressError::Cancelled,
+            Silent::Failed(e) => self.force_error(e),
+            Silent::NoSamples => self.force_error("no samples yet".into()),
+            Silent::For(s) => self.force_error(format!(
+                "no data for {} ms (check the cable and the stream)",
+                s.as_millis()
+            )),
+        })?;
         let (_, mean) = self
             .monitor
             .mean_of_last(self.settings.average_samples)
