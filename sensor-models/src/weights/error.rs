@@ -3,12 +3,27 @@
 use super::pickle::PickleError;
 use std::path::{Path, PathBuf};
 
-/// A model file that could not be read (or written), with the file's path.
+/// A model file that could not be read (or written), with the file's path. What the file
+/// itself holds (tensor and entry names, class names) can hold any character: the message shows
+/// control characters escaped, so it stays one line.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {kind}", path.display())]
+#[error("{}: {}", path.display(), one_line(&kind.to_string()))]
 pub struct ModelFileError {
     pub path: PathBuf,
     pub kind: ModelFileErrorKind,
+}
+
+/// `text` with its control characters (a newline, a NUL) written as escapes.
+fn one_line(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 /// What was wrong with the file.
@@ -69,5 +84,22 @@ impl ModelFileErrorKind {
             )),
             error => ModelFileErrorKind::Pickle { part, error },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_from_the_file_with_control_characters_stay_on_one_line() {
+        let e = ModelFileError {
+            path: PathBuf::from("m.pth"),
+            kind: ModelFileErrorKind::Foreign("entries: data.p\nl, a\u{0}b".into()),
+        };
+        assert_eq!(
+            e.to_string(),
+            "m.pth: not a PyTorch or safetensors file: starts with entries: data.p\\nl, a\\0b"
+        );
     }
 }
