@@ -75,7 +75,7 @@ pub use frames::fgl::{
     decode as decode_fgl, encode as encode_fgl, header as fgl_header, CodecError, GreyImage,
     Pattern as FglPattern,
 };
-pub use frames::png::save_png;
+pub use frames::png::{save_png, write_png};
 pub use frames::{
     in_whole_frame, pixels_to_image, read_plain, CutoutError, Encoding, FrameCodec, FrameStorage,
     StoredFrame, DISC_MARGIN_PX,

@@ -8,7 +8,6 @@
 //! same copies.
 
 use crate::preprocess::Colour;
-#[cfg(feature = "torch")]
 use fringe_rig::seeded::{mix, SplitMix64};
 use std::fmt;
 use std::str::FromStr;
@@ -89,16 +88,14 @@ pub struct UnknownPipeline(pub String);
 
 /// One augmented copy: its rotation and the seed of its noise.
 #[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg(feature = "torch")]
-pub(crate) struct Augmentation {
+pub struct Augmentation {
     /// Counter-clockwise on screen, degrees in [0, 360).
     pub rotation_deg: f64,
     pub noise_seed: u64,
 }
 
 /// The augmentation of copy `copy` of frame `frame` under `seed`.
-#[cfg(feature = "torch")]
-pub(crate) fn augmentation(seed: u64, frame: usize, copy: usize) -> Augmentation {
+pub fn augmentation(seed: u64, frame: usize, copy: usize) -> Augmentation {
     let mut rng = SplitMix64::new(mix(mix(seed, frame as u64), copy as u64));
     Augmentation {
         rotation_deg: rng.range(0.0..360.0),
@@ -109,8 +106,7 @@ pub(crate) fn augmentation(seed: u64, frame: usize, copy: usize) -> Augmentation
 /// Adds Gaussian noise of `sigma_dn` grey levels to a normalised network input (mean 0.5,
 /// std 0.5: one grey level is 2/255). A grey input gets the same noise in its three
 /// channels, as a grey image repeated to three channels would.
-#[cfg(feature = "torch")]
-pub(crate) fn add_noise(tensor: &mut [f32], colour: Colour, sigma_dn: f64, seed: u64) {
+pub fn add_noise(tensor: &mut [f32], colour: Colour, sigma_dn: f64, seed: u64) {
     if sigma_dn <= 0.0 {
         return;
     }
@@ -138,8 +134,7 @@ pub(crate) fn add_noise(tensor: &mut [f32], colour: Colour, sigma_dn: f64, seed:
 /// A contact label turned with its image by `rotation_deg` counter-clockwise on screen. Labels
 /// are in the stage frame; when the profile's registration says the camera sees that frame
 /// mirror-reversed, an image turned counter-clockwise turns the label clockwise.
-#[cfg(feature = "torch")]
-pub(crate) fn rotate_label(contact_mm: [f64; 2], rotation_deg: f64, mirror: bool) -> [f64; 2] {
+pub fn rotate_label(contact_mm: [f64; 2], rotation_deg: f64, mirror: bool) -> [f64; 2] {
     let angle = if mirror { -rotation_deg } else { rotation_deg };
     crate::preprocess::rotate_contact(contact_mm, angle)
 }
@@ -161,7 +156,6 @@ mod tests {
     }
 
     #[test]
-    #[cfg(feature = "torch")]
     fn copies_are_seeded_and_spread_over_the_circle() {
         assert_eq!(augmentation(42, 3, 1), augmentation(42, 3, 1));
         assert_ne!(augmentation(42, 3, 1), augmentation(42, 3, 2));
@@ -177,7 +171,6 @@ mod tests {
     }
 
     #[test]
-    #[cfg(feature = "torch")]
     fn noise_has_five_grey_levels_and_grey_channels_stay_equal() {
         let plane = 100_000;
         let mut t = vec![0.0f32; 3 * plane];
@@ -195,7 +188,6 @@ mod tests {
     }
 
     #[test]
-    #[cfg(feature = "torch")]
     fn a_mirrored_view_turns_the_label_the_other_way() {
         let a = rotate_label([1.0, 0.0], 90.0, false);
         assert!((a[0]).abs() < 1e-12 && (a[1] - 1.0).abs() < 1e-12, "{a:?}");

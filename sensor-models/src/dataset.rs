@@ -10,7 +10,7 @@ use fringe_rig::reference_layout::{
 };
 use fringe_rig::store::FrameRecord;
 use fringe_rig::store::FrameStorage;
-use fringe_rig::store::{RunFile, RunReader};
+use fringe_rig::store::{RunFile, RunReader, StartDocument};
 use fringe_rig::Newtons;
 use std::path::{Path, PathBuf};
 
@@ -123,20 +123,28 @@ pub fn read(path: &Path) -> Result<Source, DatasetError> {
     }
 }
 
+/// The calibration profile a run was labelled with (the copy in its start document `start`),
+/// which its frames are preprocessed with; `None` for a run recorded without one.
+pub fn run_profile(
+    run: &RunReader,
+    start: &StartDocument,
+) -> Result<Option<Profile>, DatasetError> {
+    start
+        .calibration_profile
+        .as_ref()
+        .map(|p| {
+            toml::from_str::<Profile>(&p.content).map_err(|e| DatasetError::Profile {
+                path: run.path(RunFile::Start).display().to_string(),
+                message: e.to_string(),
+            })
+        })
+        .transpose()
+}
+
 fn read_run(run: &RunReader) -> Result<Source, DatasetError> {
     let start = run.start()?;
     let records = run.frames()?;
-    let profile = match &start.calibration_profile {
-        Some(p) => {
-            Some(
-                toml::from_str::<Profile>(&p.content).map_err(|e| DatasetError::Profile {
-                    path: run.path(RunFile::Start).display().to_string(),
-                    message: e.to_string(),
-                })?,
-            )
-        }
-        None => None,
-    };
+    let profile = run_profile(run, &start)?;
     let storage = Some(start.frame_storage());
     let mut samples = Vec::with_capacity(records.len());
     let mut skipped = 0;

@@ -56,7 +56,6 @@ mod predictor;
 mod preprocess;
 pub mod report;
 mod smoothing;
-#[cfg(feature = "torch")]
 mod split;
 #[cfg(feature = "torch")]
 mod torch_net;
@@ -78,7 +77,7 @@ pub use adapt::fine_tune::{
 };
 pub use adapt::last_block::{train_last_block, BlockConfig, BlockFit, BlockInputs};
 pub use arch::{recognise, ArchError, Architecture, Conv, Keypoints, Layer};
-pub use augment::{Pipeline, UnknownPipeline};
+pub use augment::{add_noise, augmentation, rotate_label, Augmentation, Pipeline, UnknownPipeline};
 #[cfg(feature = "onnxruntime")]
 pub use backend::onnxruntime::OrtBackend;
 pub use backend::tract::{profile as profile_tract, OpProfile, OpTime, TractBackend};
@@ -95,7 +94,6 @@ pub use preprocess::{
     Preprocessing, Preprocessor, ReferenceSensor,
 };
 pub use smoothing::{Smoothing, SmoothingError};
-#[cfg(feature = "torch")]
 pub use split::{Side, Split, SplitError, SplitSpec};
 #[cfg(feature = "torch")]
 pub use torch_net::state::StateError;

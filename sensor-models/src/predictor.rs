@@ -190,21 +190,7 @@ impl Predictor {
         disc: &Preprocessing,
         profile: Option<&Profile>,
     ) -> Result<Vec<Prediction>, PredictError> {
-        let raw =
-            self.disc
-                .run(input, n, self.input_size)
-                .map_err(|source| PredictError::Inference {
-                    model: self.path.clone(),
-                    source,
-                })?;
-        let mut out = predictions(&raw, &self.classes);
-        if out.len() != n {
-            return Err(PredictError::Outputs {
-                model: self.path.clone(),
-                got: out.len(),
-                want: n,
-            });
-        }
+        let mut out = self.disc_predictions(input, n)?;
         if !self.windows.is_empty() && frames.len() != n {
             return Err(PredictError::Frames {
                 model: self.path.clone(),
@@ -214,6 +200,48 @@ impl Predictor {
         }
         for stage in &mut self.windows {
             stage.read(&mut out, frames, disc, profile)?;
+        }
+        Ok(out)
+    }
+
+    /// The predictions of `n` inputs made elsewhere (preprocessed for this model, one after
+    /// another) by a one-network model; a two-stage model, which reads the frames themselves,
+    /// is refused ([`PredictError::Frames`]: give it frames through [`Predictor::predict`]).
+    pub fn predict_inputs(
+        &mut self,
+        input: &[f32],
+        n: usize,
+    ) -> Result<Vec<Prediction>, PredictError> {
+        if !self.windows.is_empty() {
+            return Err(PredictError::Frames {
+                model: self.path.clone(),
+                frames: 0,
+                inputs: n,
+            });
+        }
+        self.disc_predictions(input, n)
+    }
+
+    /// The whole-disc network's predictions of `n` inputs.
+    fn disc_predictions(
+        &mut self,
+        input: &[f32],
+        n: usize,
+    ) -> Result<Vec<Prediction>, PredictError> {
+        let raw =
+            self.disc
+                .run(input, n, self.input_size)
+                .map_err(|source| PredictError::Inference {
+                    model: self.path.clone(),
+                    source,
+                })?;
+        let out = predictions(&raw, &self.classes);
+        if out.len() != n {
+            return Err(PredictError::Outputs {
+                model: self.path.clone(),
+                got: out.len(),
+                want: n,
+            });
         }
         Ok(out)
     }

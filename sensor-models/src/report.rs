@@ -255,6 +255,57 @@ pub fn write_judged(
     Ok(p)
 }
 
+/// Writes `eval`'s rows to the CSV file `path`, one per frame in the order evaluated (a run's
+/// labelled frames in record order): the press, the stage position, and each label beside its
+/// prediction (Fz in N; shapes by name from `classes`; the contact in mm, the label's empty
+/// without contact, the contact head's output whatever the shape). Figures are written in full
+/// (the shortest text that reads back as the same number).
+pub fn write_predictions(
+    path: &Path,
+    eval: &Evaluation,
+    classes: &[String],
+) -> Result<(), ReportError> {
+    let err = |e: &dyn std::fmt::Display| ReportError {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    };
+    let mut w = csv::Writer::from_path(path).map_err(|e| err(&e))?;
+    w.write_record([
+        "press",
+        "stage_x_mm",
+        "stage_y_mm",
+        "fz_true",
+        "fz_pred",
+        "shape_true",
+        "shape_pred",
+        "contact_true_x_mm",
+        "contact_true_y_mm",
+        "contact_pred_x_mm",
+        "contact_pred_y_mm",
+    ])
+    .map_err(|e| err(&e))?;
+    let name = |i: usize| classes.get(i).cloned().unwrap_or_else(|| i.to_string());
+    let figure = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    for r in &eval.rows {
+        let s = &r.scored;
+        w.write_record([
+            r.press.clone(),
+            figure(r.stage_mm.map(|p| p[0])),
+            figure(r.stage_mm.map(|p| p[1])),
+            s.fz_true.to_string(),
+            s.fz_pred.to_string(),
+            name(s.shape_true),
+            name(s.shape_pred),
+            figure(s.contact_true.map(|c| c[0])),
+            figure(s.contact_true.map(|c| c[1])),
+            s.contact_pred[0].to_string(),
+            s.contact_pred[1].to_string(),
+        ])
+        .map_err(|e| err(&e))?;
+    }
+    w.flush().map_err(|e| err(&e))
+}
+
 fn caption(png: &str) -> &'static str {
     match png {
         "fz.png" => "Predicted against measured Fz (N)",

@@ -38,6 +38,10 @@ pub struct EvalArgs {
     /// Write report.md and its plots here.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
+    /// Write every frame's label and prediction to this CSV file (one row per frame evaluated,
+    /// in order: press, stage position, Fz, shape and contact, true and predicted).
+    #[arg(long, value_name = "FILE")]
+    predictions: Option<PathBuf>,
     /// Calibration profile for data that carries none (reference-layout datasets).
     #[arg(long, value_name = "FILE")]
     profile: Option<PathBuf>,
@@ -65,6 +69,9 @@ pub struct EvalArgs {
 pub fn run(a: EvalArgs) -> Result<()> {
     if let Some(report) = &a.report {
         fringe_rig::store::outside_runs(report).context("--report")?;
+    }
+    if let Some(file) = &a.predictions {
+        fringe_rig::store::outside_runs(file).context("--predictions")?;
     }
     let spec = a.spec.as_deref().map(models::load_spec).transpose()?;
     let smoothing = a
@@ -122,6 +129,10 @@ pub fn run(a: EvalArgs) -> Result<()> {
     print_figures(&model, &eval);
     if let Some(s) = smoothing {
         print_smoothed(&s, &eval);
+    }
+    if let Some(file) = &a.predictions {
+        report::write_predictions(file, &eval, &model.classes)?;
+        println!("predictions:    {}", file.display());
     }
     let verdict = spec.as_ref().map(|spec| judge(&eval, spec));
     let spec_origin = a

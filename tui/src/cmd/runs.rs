@@ -122,6 +122,11 @@ pub enum ExportFormat {
     /// (vision_msgs/Classification): the labels; NS/events (rcl_interfaces/Log). Stamps are
     /// the recording host's Unix time.
     Mcap,
+    /// WebDataset shards for training at scale: tar files of --shard-size samples, each a frame
+    /// as stored in PNG (KEY.png; the raw Bayer mosaic in grey) and its labels in JSON
+    /// (KEY.json: forces as recorded, contact, shape, press, the calibration geometry), with
+    /// shards.json listing them; WebDataset readers stream them from object storage.
+    Webdataset,
 }
 
 /// `--compression` of `fringe export`.
@@ -161,6 +166,9 @@ pub struct ExportArgs {
     /// How the TIFF images are compressed (all read by PIL and OpenCV).
     #[arg(long, value_enum, default_value = "lzw")]
     compression: Compression,
+    /// --format webdataset: samples in each shard.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    shard_size: usize,
     /// Export runs that fail `fringe verify` too (their problems go into 0.export.json).
     #[arg(long)]
     allow_unverified: bool,
@@ -183,6 +191,9 @@ times), so the file lines up with a robot's logs from the same clock.";
 pub fn run_export(args: ExportArgs, global: &Global) -> anyhow::Result<()> {
     if let ExportFormat::Mcap = args.format {
         return run_export_mcap(args, global);
+    }
+    if let ExportFormat::Webdataset = args.format {
+        return run_export_webdataset(args);
     }
     let options = fringe_rig::store::ExportOptions {
         round: args.round,
@@ -282,6 +293,53 @@ pub fn run_export(args: ExportArgs, global: &Global) -> anyhow::Result<()> {
             summary.provenance.display()
         );
     }
+    Ok(())
+}
+
+/// `fringe export RUN... --format webdataset --shard-size N --out DIR`.
+fn run_export_webdataset(args: ExportArgs) -> anyhow::Result<()> {
+    if args.round.is_some() {
+        anyhow::bail!(
+            "--round is for --format reference; WebDataset shards keep every value as measured"
+        );
+    }
+    let options = fringe_app::runs::ShardOptions {
+        shard_size: args.shard_size,
+        cancel: Some(crate::signals::catch(
+            &[Signal::Interrupt, Signal::Terminate, Signal::HangUp],
+            Again::Counts,
+        )),
+    };
+    let terminal = std::io::stderr().is_terminal();
+    let mut in_place = false;
+    let summary = fringe_app::runs::export_shards(&args.runs, &args.out, &options, |k| {
+        if k % 250 == 0 {
+            if terminal {
+                eprint!("\r{k} samples");
+                in_place = true;
+            } else {
+                eprintln!("{k} samples");
+            }
+        }
+    });
+    if in_place {
+        eprintln!();
+    }
+    let summary = summary?;
+    if summary.skipped_damaged > 0 {
+        eprintln!(
+            "warning: {} records left out, their frames missing or damaged (see `fringe verify RUN`)",
+            summary.skipped_damaged
+        );
+    }
+    println!(
+        "exported {} samples in {} shards of up to {} to {}",
+        summary.samples,
+        summary.shards.len(),
+        args.shard_size,
+        args.out.display()
+    );
+    println!("index: {}", summary.index.display());
     Ok(())
 }
 

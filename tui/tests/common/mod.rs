@@ -84,12 +84,15 @@ pub fn shared(name: &str, make: impl FnOnce(&Path)) -> PathBuf {
     let prefix = format!("{name}-");
     let dir = root.join(format!("{prefix}{:x}-{built:x}", binary.len()));
     if !dir.is_dir() {
+        // Each maker its own: processes (nextest) and threads (cargo test) alike.
+        static MAKERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let partial = root.join(format!(
-            "{}.partial-{}",
+            "{}.partial-{}-{}",
             dir.file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default(),
-            std::process::id()
+            std::process::id(),
+            MAKERS.fetch_add(1, std::sync::atomic::Ordering::SeqCst)
         ));
         let _ = std::fs::remove_dir_all(&partial);
         std::fs::create_dir_all(&partial).expect("shared test data directory");

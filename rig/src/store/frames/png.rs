@@ -43,18 +43,36 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), FrameFileError> {
     };
     let file = File::create(path).map_err(io)?;
     let mut out = BufWriter::with_capacity(1 << 20, file);
-    PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
-        .write_image(
-            &frame.data,
-            frame.width,
-            frame.height,
-            colour_type(frame.format),
-        )
-        .map_err(|source| FrameFileError::Image {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    write_png(
+        &mut out,
+        frame.width,
+        frame.height,
+        frame.format,
+        &frame.data,
+    )
+    .map_err(|source| FrameFileError::Image {
+        path: path.to_path_buf(),
+        source,
+    })?;
     out.flush().map_err(io)
+}
+
+/// Writes `width` x `height` pixels of `format` as a PNG to `out`, as the run store writes its
+/// PNG frames (fast deflate, the Sub filter; lossless): one channel as grey (a Bayer mosaic as
+/// stored), RGB8 as RGB.
+pub fn write_png(
+    out: impl Write,
+    width: u32,
+    height: u32,
+    format: PixelFormat,
+    data: &[u8],
+) -> Result<(), image::ImageError> {
+    PngEncoder::new_with_quality(out, CompressionType::Fast, FilterType::Sub).write_image(
+        data,
+        width,
+        height,
+        colour_type(format),
+    )
 }
 
 /// Reads the pixels of a PNG written by [`save_png`], checking its size and colour type.
