@@ -8,7 +8,7 @@ use fringe_app::models::{choose_model, open_model, profiles_dir, ChoiceNote, For
 use fringe_calibration::Profile;
 use fringe_rig::store::StoredFrame;
 use fringe_rig::PixelFormat;
-use fringe_sensor_models::eval::frame_ref;
+use fringe_sensor_models::eval::{frame_ref, BATCH};
 use fringe_sensor_models::{BackendKind, Prediction, Predictor, Preprocessing};
 use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -16,9 +16,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-
-/// Frames run through the network at once.
-const BATCH: usize = 8;
 
 /// A model and its predictor (the network on its backend).
 #[pyclass(module = "fringe._native", frozen)]
@@ -364,7 +361,7 @@ impl Model {
     }
 
     /// The model's predictions on inputs already preprocessed for it (frames x 3 x size x size,
-    /// float32, as `inputs_of` gives them). A two-stage model reads the frames themselves:
+    /// float32, as `inputs_of` gives them), run in batches of eight as `fringe eval` runs them. A two-stage model reads the frames themselves:
     /// give it frames (`predict_frames`) or a run (`predict_run`).
     fn predict_inputs<'py>(
         &self,
@@ -386,11 +383,15 @@ impl Model {
             )));
         }
         let data: Vec<f32> = inputs.as_array().iter().copied().collect();
-        let n = shape[0];
+        let per = 3 * s * s;
         let predicted = py
             .detach(|| {
                 let mut predictor = self.predictor.lock().unwrap_or_else(|p| p.into_inner());
-                predictor.predict_inputs(&data, n)
+                let mut out = Vec::with_capacity(shape[0]);
+                for chunk in data.chunks(BATCH * per) {
+                    out.extend(predictor.predict_inputs(chunk, chunk.len() / per)?);
+                }
+                Ok::<_, fringe_sensor_models::PredictError>(out)
             })
             .map_err(model_error)?;
         self.predictions(py, predicted, None)

@@ -11,8 +11,10 @@ use fringe_calibration::Profile;
 use fringe_rig::reference_layout::CONTACT_THRESHOLD;
 use fringe_rig::store::{read_plain, StoredFrame};
 
-/// Frames run through the network at once.
-const BATCH: usize = 8;
+/// Frames run through the network at once. The network's sums run in an order that depends on
+/// the batch's size, so whoever wants `fringe eval`'s predictions bit for bit runs these batches
+/// (the Python package does).
+pub const BATCH: usize = 8;
 
 /// One evaluated frame.
 #[derive(Debug, Clone, PartialEq)]
