@@ -96,7 +96,7 @@ class Model:
         - Network inputs (float32, frames x 3 x size x size, as ``run.inputs(model)`` gives
           them) run as they are (one-network models).
         - Camera frames (``uint8``; one frame or a batch; rows x columns x 3 RGB8, or rows x
-          columns with ``pixel_format`` ``"mono8"`` or ``"bayer_rg8"``) are preprocessed with
+          columns with ``pixel_format`` ``"mono8"`` or ``"bayerrg8"``) are preprocessed with
           the calibration profile in file ``profile``, else as the model's card says.
         """
         if isinstance(frames, np.ndarray) and frames.dtype == np.float32:
@@ -121,7 +121,7 @@ class Model:
             else:
                 raise ValueError(
                     "one-channel frames: say what they hold, pixel_format=\"mono8\" or "
-                    "\"bayer_rg8\" (a run's run.pixel_format)"
+                    "\"bayerrg8\" (a run's run.pixel_format)"
                 )
         batch = [np.ascontiguousarray(f, dtype=np.uint8) for f in batch]
         return self._native.predict_frames(

@@ -159,14 +159,11 @@ impl Model {
 }
 
 fn pixel_format_named(name: &str) -> PyResult<PixelFormat> {
-    match name.to_ascii_lowercase().as_str() {
-        "mono8" => Ok(PixelFormat::Mono8),
-        "rgb8" => Ok(PixelFormat::Rgb8),
-        "bayerrg8" | "bayer_rg8" => Ok(PixelFormat::BayerRg8),
-        other => Err(PyValueError::new_err(format!(
-            "pixel format {other:?}: give \"rgb8\", \"mono8\" or \"bayer_rg8\""
-        ))),
-    }
+    fringe_rig::parse_format_name(name).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "pixel format {name:?}: give \"rgb8\", \"mono8\" or \"bayerrg8\" (a run's run.pixel_format)"
+        ))
+    })
 }
 
 #[pymethods]

@@ -236,6 +236,16 @@ def eval_figures(run_dir, model_name, predictions_csv):
         check(float(row["contact_pred_x_mm"]) == from_inputs["contact_raw_x_mm"][k]
               and float(row["contact_pred_y_mm"]) == from_inputs["contact_raw_y_mm"][k],
               f"frame {frame}: contact")
+    # Camera frames given as arrays, in the run's pixel format, with its profile as a file: the
+    # same predictions (a disc-crop run's frames are cutouts, which only the run itself places).
+    if run.crop is None:
+        profile = Path(predictions_csv).with_suffix(".profile.toml")
+        profile.write_text(json.loads((Path(run_dir) / "start.json").read_text())["calibration_profile"]["content"])
+        first = [int(i) for i in t["index"][:8]]
+        on_frames = model.predict([run.frame(i) for i in first], pixel_format=run.pixel_format,
+                                  profile=profile)
+        check(np.array_equal(on_frames["fz"], from_run["fz"][:8]),
+              "predict(frames) differs from predict_run on the same frames")
     err = from_run["fz"] - t["force"][:, 2]
     correct = sum(1 for s, p in zip(t["shape"], from_run["shape"]) if s == p)
     n = len(err)

@@ -42,7 +42,7 @@ pub fn format_name(format: PixelFormat) -> &'static str {
 }
 
 /// Parses a name written by [`format_name`].
-pub(crate) fn parse_format_name(name: &str) -> Option<PixelFormat> {
+pub fn parse_format_name(name: &str) -> Option<PixelFormat> {
     match name {
         "mono8" => Some(PixelFormat::Mono8),
         "rgb8" => Some(PixelFormat::Rgb8),

@@ -89,7 +89,7 @@ pub use camera::trace::{
 };
 pub use camera::writer::FrameWriter;
 pub use camera::{
-    format_name, Camera, CameraError, CameraInfo, CameraSettings, Cutout, Frame,
+    format_name, parse_format_name, Camera, CameraError, CameraInfo, CameraSettings, Cutout, Frame,
     InvalidCameraSetting, PixelFormat, Roi, TimestampLatch, TriggerMode,
 };
 pub use clock::HostTime;
