@@ -7,13 +7,16 @@ fringe reads them.
     loader = torch.utils.data.DataLoader(train, batch_size=32, shuffle=True, num_workers=2)
 
 The split is the one ``fringe train`` makes (the same seed gives the same sides): every frame of a
-press is on one side, so no press is trained on and tested on. Frames are decoded and
-preprocessed by fringe's Rust code with the interpreter released, a batch at a time
-(``__getitems__``), in each ``DataLoader`` worker.
+press is on one side, so no press is trained on and tested on. The inputs are the ones ``fringe
+train`` trains on, made by its Rust code with the interpreter released, a batch at a time
+(``__getitems__``), in each ``DataLoader`` worker; each frame is decoded once for all its
+augmented copies, and what is made is kept for the next epochs, shared by the workers.
 """
 
 import json
 import os
+import random
+import time
 
 import numpy as np
 import torch
@@ -37,8 +40,9 @@ class Dataset(torch.utils.data.Dataset):
     """The labelled frames of ``runs`` on one side (``train``, ``val``, ``test``) of fringe's split
     by press.
 
-    Each item is a dict: ``input`` (3 x size x size float32, fringe's one preprocessing with the
-    run's calibration profile), ``force`` (7 magnitudes, N and N m), ``fz``, ``shape`` (the class
+    Each item is a dict: ``input`` (3 x size x size float32: what ``fringe train`` trains on,
+    fringe's one preprocessing with the run's calibration profile, kept as 8-bit grey levels),
+    ``force`` (7 magnitudes, N and N m), ``fz``, ``shape`` (the class
     index in ``classes``), ``contact`` (mm; zeros without contact), ``in_contact``, and where it
     came from (``run``, ``frame``). Give ``model`` (a ``fringe.Model``) to preprocess as that
     model's card says, or ``size`` and ``colour``.
@@ -49,11 +53,18 @@ class Dataset(torch.utils.data.Dataset):
     a uniform angle about its optical centre, its contact label turned with it; the angles
     and noise come from ``augment_seed``, the frame and the copy alone, so every epoch and every
     process sees the same copies. The pipeline sets the colour.
+
+    ``cache`` (on by default) keeps every input once made, as ``fringe train`` keeps its
+    training set: in shared memory, so the ``DataLoader``'s workers share it, ``len(dataset)``
+    x size x size bytes for grey inputs (three times that for RGB). A frame asked for is
+    decoded once and all its copies made at once, so the first epoch does ``fringe train``'s
+    preparation and the later ones read memory. With ``cache=False`` each item is made when
+    asked (its frame decoded for each copy), for sets larger than memory.
     """
 
     def __init__(self, runs, side="train", *, model=None, size=None, colour="grey",
                  split_seed=42, fractions=(0.8, 0.1, 0.1), classes=None, augment=None,
-                 augment_seed=42):
+                 augment_seed=42, cache=True):
         if side not in SIDES:
             raise ValueError(f"side {side!r}: give train, val or test")
         self.runs = [r if isinstance(r, Run) else Run(r) for r in runs]
@@ -98,20 +109,31 @@ class Dataset(torch.utils.data.Dataset):
         self.in_contact = ~np.isnan(c).any(axis=1)
         self.contact = np.nan_to_num(c).astype(np.float32)
         self.presses = press
+        self.cache = bool(cache)
+        if self.cache:
+            n, s = len(self.frame), self.size
+            planes = 1 if self.colour == "grey" else 3
+            self._levels = torch.zeros((n, self.copies, planes, s, s), dtype=torch.uint8)
+            self._contacts = torch.zeros((n, self.copies, 2), dtype=torch.float64)
+            self._made = torch.zeros(n, dtype=torch.uint8)
+            # The process making each frame (its pid; 0: none yet), so two workers do not
+            # make one frame twice.
+            self._maker = torch.zeros(n, dtype=torch.int64)
+            for t in (self._levels, self._contacts, self._made, self._maker):
+                t.share_memory_()
 
     def __len__(self):
         return len(self.frame) * self.copies
 
-    def _items(self, positions, inputs, contacts=None):
+    def _items(self, bases, inputs, contacts):
         out = []
-        for k, (p, x) in enumerate(zip(positions, inputs)):
-            contact = self.contact[p] if contacts is None else np.nan_to_num(contacts[k]).astype(np.float32)
+        for k, (p, x) in enumerate(zip(bases, inputs)):
             out.append({
                 "input": torch.from_numpy(np.ascontiguousarray(x)),
                 "force": torch.from_numpy(self.force[p]),
                 "fz": torch.tensor(self.force[p][2]),
                 "shape": torch.tensor(self.shape[p]),
-                "contact": torch.from_numpy(contact),
+                "contact": torch.from_numpy(np.nan_to_num(contacts[k]).astype(np.float32)),
                 "in_contact": torch.tensor(bool(self.in_contact[p])),
                 "run": torch.tensor(self.run_of[p]),
                 "frame": torch.tensor(self.frame[p]),
@@ -122,34 +144,98 @@ class Dataset(torch.utils.data.Dataset):
         return self.__getitems__([position])[0]
 
     def __getitems__(self, positions):
-        """A batch: its frames decoded and preprocessed in Rust, run by run, the interpreter
-        released."""
+        """A batch: the inputs made in Rust, run by run, the interpreter released (or read from
+        the cache)."""
         positions = [int(p) for p in positions]
-        if self.augment is not None:
-            return self._augmented(positions)
-        inputs = [None] * len(positions)
-        by_run = {}
-        for slot, p in enumerate(positions):
-            by_run.setdefault(int(self.run_of[p]), []).append(slot)
-        for k, slots in by_run.items():
-            frames = [int(self.frame[positions[s]]) for s in slots]
-            x, _ = self.runs[k]._native.inputs_at(self.size, self.colour, frames, False)
-            for s, xi in zip(slots, x):
-                inputs[s] = xi
-        return self._items(positions, inputs)
-
-    def _augmented(self, positions):
+        for p in positions:
+            if not 0 <= p < len(self):
+                raise IndexError(f"item {p} of a dataset of {len(self)}")
         bases = [p // self.copies for p in positions]
-        inputs, contacts = [None] * len(positions), [None] * len(positions)
+        copies = [p % self.copies for p in positions]
+        if self.cache:
+            self._make(sorted({b for b in bases if not self._made[b]}))
+            levels = self._levels[bases, copies].numpy()
+            contacts = self._contacts[bases, copies].numpy()
+        else:
+            levels, contacts = self._made_now(list(zip(bases, copies)))
+        return self._items(bases, _native.expand_inputs(levels), contacts)
+
+    def _made_now(self, wanted):
+        """The inputs and contact labels of (item, copy) pairs ``wanted``, made in Rust run by
+        run, in their order."""
+        levels, contacts = [None] * len(wanted), [None] * len(wanted)
         by_run = {}
-        for slot, p in enumerate(positions):
-            by_run.setdefault(int(self.run_of[bases[slot]]), []).append(slot)
+        for slot, (b, _) in enumerate(wanted):
+            by_run.setdefault(int(self.run_of[b]), []).append(slot)
         for k, slots in by_run.items():
-            wanted = [(int(self.frame[bases[s]]), bases[s], positions[s] % self.copies) for s in slots]
-            x, c = self.runs[k]._native.augmented(self.size, self.augment, self.augment_seed, wanted)
+            # A frame's copies one after another: the Rust side decodes it once for them.
+            slots.sort(key=lambda s: wanted[s])
+            asked = [(int(self.frame[wanted[s][0]]), wanted[s][0], wanted[s][1]) for s in slots]
+            x, c = self.runs[k]._native.training_inputs(
+                self.size, self.augment, self.colour, self.augment_seed, asked)
             for j, s in enumerate(slots):
-                inputs[s], contacts[s] = x[j], c[j]
-        return self._items(bases, inputs, contacts)
+                levels[s], contacts[s] = x[j], c[j]
+        return np.stack(levels), np.stack(contacts)
+
+    def _make(self, items):
+        """Every copy of ``items`` made and kept in the cache (a frame decoded once for all).
+        A frame another live process is making is waited for instead of made again; while
+        waiting, this process makes a frame no one has made yet (an epoch asks for them all)."""
+        if not items:
+            return
+        me = os.getpid()
+        mine = [b for b in items if not self._made[b] and not _alive(int(self._maker[b]), me)]
+        for b in mine:
+            self._maker[b] = me
+        if mine:
+            wanted = [(b, c) for b in mine for c in range(self.copies)]
+            levels, contacts = self._made_now(wanted)
+            n = self.copies
+            for k, b in enumerate(mine):
+                self._levels[b] = torch.from_numpy(levels[k * n:(k + 1) * n])
+                self._contacts[b] = torch.from_numpy(contacts[k * n:(k + 1) * n])
+                # Flagged after its copies are written: another worker reads it only then (two
+                # workers that claimed one frame at once write the same bytes).
+                self._made[b] = 1
+        waiting = [b for b in items if not self._made[b]]
+        while waiting:
+            spare = torch.nonzero((self._made == 0) & (self._maker == 0)).flatten()
+            if len(spare):
+                # At random, so two waiting workers seldom pick the same frame; not torch's
+                # generator, which the caller's own random transforms draw from.
+                self._make([int(spare[_picker().randrange(len(spare))])])
+            else:
+                time.sleep(0.002)
+            gone = [b for b in waiting if not self._made[b] and not _alive(int(self._maker[b]), me)]
+            if gone:
+                # Its maker ended before it was done (a worker stopped mid-epoch): make it here.
+                self._make(gone)
+            waiting = [b for b in waiting if not self._made[b]]
+
+
+_pick = {}
+
+
+def _picker():
+    """This process's own generator (forked workers would share a module-level one's state)."""
+    me = os.getpid()
+    if me not in _pick:
+        _pick.clear()
+        _pick[me] = random.Random(me)
+    return _pick[me]
+
+
+def _alive(pid, me):
+    """Whether another process ``pid`` is running (0: none)."""
+    if pid in (0, me):
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def card(arch, classes, size, colour, runs, **other):

@@ -23,6 +23,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::Run>()?;
     m.add_class::<model::Model>()?;
     m.add_function(wrap_pyfunction!(run::split_runs, m)?)?;
+    m.add_function(wrap_pyfunction!(run::expand_inputs, m)?)?;
     m.add("FringeError", py.get_type::<errors::FringeError>())?;
     m.add("RunError", py.get_type::<errors::RunError>())?;
     m.add("FrameError", py.get_type::<errors::FrameError>())?;

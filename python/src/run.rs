@@ -6,10 +6,12 @@ use fringe_calibration::Profile;
 use fringe_rig::store::{FrameRecord, FrameStorage, RunReader, StartDocument, StoredFrame};
 use fringe_sensor_models::dataset::{self, Sample};
 use fringe_sensor_models::eval::frame_ref;
-use fringe_sensor_models::{add_noise, augmentation, rotate_label, Pipeline};
+use fringe_sensor_models::expand_inputs as expand_inputs_into;
+use fringe_sensor_models::{augmentation, rotate_label, Pipeline};
+use fringe_sensor_models::{stored_len, stored_planes, InputMaker};
 use fringe_sensor_models::{Colour, Preprocessing, Preprocessor};
 use fringe_sensor_models::{Side, Split, SplitSpec};
-use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyIndexError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -167,6 +169,9 @@ type Frames<'py> = Vec<Bound<'py, PyArrayDyn<u8>>>;
 
 /// Network inputs as a NumPy array.
 type Inputs<'py> = Bound<'py, PyArrayDyn<f32>>;
+
+/// Training inputs as kept, 8-bit, as a NumPy array.
+type Levels<'py> = Bound<'py, PyArrayDyn<u8>>;
 
 /// One axis of a wrench.
 type Axis = fn(&fringe_rig::Wrench) -> f64;
@@ -477,65 +482,117 @@ impl Run {
         inputs_array(py, prepared.inputs, prepared.kept.len(), size).map(|a| (a, prepared.kept))
     }
 
-    /// Augmented copies of labelled frames, as `fringe train --pipeline` makes them (the paper's
-    /// offline augmentation): for each (frame, item, copy) of `copies`, the frame preprocessed at
-    /// `size` px turned by the copy's angle about the optical centre, with the pipeline's noise,
-    /// the angle and noise drawn from (`seed`, item, copy) alone; and its contact label turned
-    /// with it (NaN without contact). Returns (inputs, contacts).
-    fn augmented<'py>(
+    /// The inputs `fringe train` trains on, as it keeps them (8-bit grey levels: inputs x
+    /// planes x size x size, one plane for grey, three for RGB), and their contact labels.
+    /// For each (frame, item, copy) of `wanted`: the frame preprocessed at `size` px, and with
+    /// a `pipeline` (the paper's offline augmentation, as `fringe train --pipeline` makes it)
+    /// turned by the copy's angle about the optical centre and made noisy, the angle and noise
+    /// drawn from (`seed`, item, copy) alone, its contact label turned with it (NaN without
+    /// contact). Without a pipeline, the frame as it is in `colour`. A frame wanted for
+    /// several copies in a row is decoded once. Returns (inputs, contacts).
+    #[pyo3(signature = (size, pipeline, colour, seed, wanted))]
+    fn training_inputs<'py>(
         &self,
         py: Python<'py>,
         size: u32,
-        pipeline: &str,
+        pipeline: Option<&str>,
+        colour: &str,
         seed: u64,
-        copies: Vec<(usize, usize, usize)>,
-    ) -> PyResult<(Inputs<'py>, Bound<'py, PyArrayDyn<f64>>)> {
-        let pipeline: Pipeline =
-            pipeline
-                .parse()
-                .map_err(|e: fringe_sensor_models::UnknownPipeline| {
-                    PyValueError::new_err(e.to_string())
-                })?;
+        wanted: Vec<(usize, usize, usize)>,
+    ) -> PyResult<(Levels<'py>, Bound<'py, PyArrayDyn<f64>>)> {
+        let pipeline: Option<Pipeline> = pipeline
+            .map(|p| {
+                p.parse()
+                    .map_err(|e: fringe_sensor_models::UnknownPipeline| {
+                        PyValueError::new_err(e.to_string())
+                    })
+            })
+            .transpose()?;
+        let colour = pipeline.map_or_else(|| colour_named(colour), |p| Ok(p.colour()))?;
         let profile = self.profile.as_ref().ok_or_else(|| {
             run_error(format!(
-                "{}: the run has no calibration profile: its frames cannot be turned about their \
-                 optical centre",
+                "{}: the run has no calibration profile, so its frames have no optical centre \
+                 to crop about or turn about",
                 self.reader.dir().display()
             ))
         })?;
-        let config = Preprocessing::from_profile(profile, pipeline.colour(), size)
+        let config = Preprocessing::from_profile(profile, colour, size)
             .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mirror = profile.registration.as_ref().is_some_and(|r| r.mirror);
-        for &(frame, _, _) in &copies {
+        for &(frame, _, _) in &wanted {
             self.record_at(frame as isize)?;
         }
-        let per = config.tensor_len();
+        let per = stored_len(colour, size);
+        let noise = pipeline.map_or(0.0, Pipeline::noise_dn);
         let made = py.detach(|| {
-            let mut pre = Preprocessor::new(config.clone());
-            let mut inputs = vec![0f32; per * copies.len()];
-            let mut contacts = Vec::with_capacity(2 * copies.len());
-            for (&(frame, item, copy), out) in copies.iter().zip(inputs.chunks_exact_mut(per)) {
-                let stored = self.stored(frame).map_err(|Unreadable(m)| m)?;
-                let aug = augmentation(seed, item, copy);
-                pre.run_into(frame_ref(&stored), aug.rotation_deg, out)
+            let mut maker = InputMaker::new();
+            let mut levels = vec![0u8; per * wanted.len()];
+            let mut contacts = Vec::with_capacity(2 * wanted.len());
+            let mut decoded: Option<(usize, StoredFrame)> = None;
+            for (&(frame, item, copy), out) in wanted.iter().zip(levels.chunks_exact_mut(per)) {
+                let stored = match decoded {
+                    Some((f, ref s)) if f == frame => s,
+                    _ => {
+                        let s = self.stored(frame).map_err(|Unreadable(m)| m)?;
+                        &decoded.insert((frame, s)).1
+                    }
+                };
+                let aug = pipeline.map(|_| augmentation(seed, item, copy));
+                maker
+                    .make(frame_ref(stored), config.clone(), aug, noise, out)
                     .map_err(|e| format!("{}: frame {frame}: {e}", self.reader.dir().display()))?;
-                add_noise(out, pipeline.colour(), pipeline.noise_dn(), aug.noise_seed);
                 let r = &self.records[frame];
+                let angle = aug.map_or(0.0, |a| a.rotation_deg);
                 let c = dataset::from_record(r, &self.start.run_id, PathBuf::new(), None)
                     .and_then(|s| s.contact)
-                    .map(|c| rotate_label(c, aug.rotation_deg, mirror))
+                    .map(|c| rotate_label(c, angle, mirror))
                     .unwrap_or([f64::NAN; 2]);
                 contacts.extend(c);
             }
-            Ok::<_, String>((inputs, contacts))
+            Ok::<_, String>((levels, contacts))
         });
-        let (inputs, contacts) = made.map_err(FrameError::new_err)?;
-        let n = copies.len();
+        let (levels, contacts) = made.map_err(FrameError::new_err)?;
+        let (n, s) = (wanted.len(), size as usize);
         Ok((
-            inputs_array(py, inputs, n, size)?,
+            levels
+                .into_pyarray(py)
+                .reshape(vec![n, stored_planes(colour), s, s])?,
             contacts.into_pyarray(py).reshape(vec![n, 2])?,
         ))
     }
+}
+
+/// Training inputs as `fringe train` keeps them (inputs x planes x size x size, 8-bit) as the
+/// normalised floats a network takes: inputs x 3 x size x size, grey repeated.
+#[pyfunction]
+pub fn expand_inputs<'py>(
+    py: Python<'py>,
+    levels: numpy::PyReadonlyArrayDyn<'py, u8>,
+) -> PyResult<Inputs<'py>> {
+    let shape = levels.shape().to_vec();
+    let (n, planes, size) = match shape[..] {
+        [n, p @ (1 | 3), h, w] if h == w => (n, p, h),
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "inputs of shape {shape:?}: give inputs x planes (1 or 3) x size x size"
+            )))
+        }
+    };
+    let colour = if planes == 1 {
+        Colour::Grey
+    } else {
+        Colour::Rgb
+    };
+    let size = u32::try_from(size).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let levels = levels
+        .as_slice()
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let out = py.detach(|| {
+        let mut out = Vec::new();
+        expand_inputs_into(levels, colour, size, &mut out);
+        out
+    });
+    inputs_array(py, out, n, size)
 }
 
 /// Inputs as NumPy: frames x 3 x size x size.

@@ -383,10 +383,18 @@ def dataset(run_dir):
     batch = next(iter(loader))
     check(batch["input"].shape == (8, 3, 64, 64) and batch["input"].dtype == torch.float32,
           f"batch {batch['input'].shape}")
-    # An item is what run.inputs gives for its frame.
+    # An item is what fringe train trains on: what run.inputs gives for its frame (fringe
+    # eval's input), kept as 8-bit grey levels (rounded half away from zero) as fringe train
+    # keeps it.
     item = train[3]
     want = run.inputs(size=64, colour="grey", indices=[int(item["frame"])])[0]
-    check(np.array_equal(item["input"].numpy(), want), "an item's input differs from run.inputs")
+    levels = np.clip(np.floor((want * np.float32(0.5) + np.float32(0.5)) * np.float32(255)
+                              + np.float32(0.5)), 0, 255).astype(np.uint8)
+    kept = levels.astype(np.float32) / np.float32(127.5) - np.float32(1)
+    check(np.array_equal(item["input"].numpy(), kept), "an item's input is not run.inputs kept in 8 bits")
+    # Made when asked, without the cache, it is the same.
+    uncached = Dataset([run], "train", size=64, cache=False)
+    check(np.array_equal(uncached[3]["input"].numpy(), kept), "an uncached item differs")
     # The paper's pipelines: ten seeded copies of each frame, each turned with its label.
     aug = Dataset([run], "train", size=64, augment="gray10")
     check(len(aug) == 10 * len(train), f"{len(aug)} copies of {len(train)} frames")
@@ -396,6 +404,18 @@ def dataset(run_dir):
     check(all(np.array_equal(a["input"].numpy(), b["input"].numpy())
               for a, b in zip(copies, (again[10 * k + c] for c in range(10)))), "copies are not seeded")
     check(not np.array_equal(copies[0]["input"].numpy(), copies[1]["input"].numpy()), "copies are equal")
+    # A copy made alone (no cache: its frame decoded for it) is the one made with its frame's
+    # other copies, shared by the DataLoader's workers.
+    alone = Dataset([run], "train", size=64, augment="gray10", cache=False)
+    check(all(np.array_equal(alone[10 * k + c]["input"].numpy(), copies[c]["input"].numpy())
+              and np.array_equal(alone[10 * k + c]["contact"].numpy(), copies[c]["contact"].numpy())
+              for c in (0, 7)), "a copy made alone differs from the cached one")
+    fresh = Dataset([run], "train", size=64, augment="gray10")
+    seen = torch.cat([b["input"] for b in torch.utils.data.DataLoader(
+        fresh, batch_size=16, shuffle=False, num_workers=2)])
+    check(bool(fresh._made.all()), "the workers' inputs did not reach the shared cache")
+    check(torch.equal(seen[10 * k:10 * k + 10], torch.stack([c["input"] for c in copies])),
+          "the DataLoader's copies differ from the dataset's")
     r0 = float(np.hypot(*train[k]["contact"].numpy()))
     for c in copies:
         r = float(np.hypot(*c["contact"].numpy()))

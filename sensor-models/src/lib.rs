@@ -14,8 +14,9 @@
 //!   included).
 //! - [`dataset`]: labelled frames from runs and reference-layout datasets, with the label rules.
 //! - `split` (cargo feature `torch`): train / validation / test by physical indentation;
-//!   `augment`: the paper's augmentation pipelines; `training_set` (feature `torch`): a split
-//!   side's network inputs and targets.
+//!   `augment`: the paper's augmentation pipelines; `training_input`: the 8-bit inputs training
+//!   takes, one at a time; `training_set` (feature `torch`): a split side's network inputs and
+//!   targets.
 //! - `torch_net` (cargo feature `torch`): the networks in libtorch, built from `arch`; `train`
 //!   (same feature): the training loop on libtorch, checkpoints, resume.
 //! - [`adapt`]: a model adapted to one sensor unit in pure Rust (its heads fitted again on the
@@ -61,6 +62,7 @@ mod split;
 mod torch_net;
 #[cfg(feature = "torch")]
 mod train;
+mod training_input;
 #[cfg(feature = "torch")]
 mod training_set;
 mod weights;
@@ -103,6 +105,7 @@ pub use train::{
     train, Checkpoint, EpochRecord, Outcome as TrainOutcome, TrainConfig, TrainError, TrainEvent,
     TrainingRecord,
 };
+pub use training_input::{expand_inputs, stored_len, stored_planes, InputMaker};
 #[cfg(feature = "torch")]
 pub use training_set::TrainingSetError;
 pub use weights::error::{ModelFileError, ModelFileErrorKind};

@@ -1,17 +1,18 @@
 //! The network inputs and targets of one side of a split, made once before training: every
 //! frame read and preprocessed (the one preprocessing, with its source's calibration profile),
-//! and on the training side augmented into the pipeline's copies. Inputs are kept as 8-bit
-//! grey levels (one plane for grey inputs, three for RGB), a quarter of the memory of floats;
-//! a batch turns them back into normalised floats.
+//! and on the training side augmented into the pipeline's copies. Inputs are made and kept as
+//! [`crate::training_input`] makes them: 8-bit grey levels, a batch turned back into normalised
+//! floats.
 //!
 //! Targets follow the reference's training rules: Fz rounded to 0.1 N, contact x, y rounded to
 //! 0.1 mm, shape as its class index ("None" = 0).
 
-use crate::augment::{add_noise, augmentation, rotate_label, Pipeline};
+use crate::augment::{augmentation, rotate_label, Pipeline};
 use crate::contact_window::ContactWindow;
 use crate::dataset::Sample;
 use crate::eval::{frame_ref, read_frame, EvalError};
-use crate::preprocess::{Colour, Preprocessing, Preprocessor};
+use crate::preprocess::{Colour, Preprocessing};
+use crate::training_input::{expand_inputs, stored_len, InputMaker};
 use fringe_rig::seeded::{mix, SplitMix64};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -84,16 +85,8 @@ fn round1(v: f64) -> f32 {
 }
 
 impl TrainingSet {
-    /// Planes stored per input: one for grey, three for RGB.
-    fn planes(colour: Colour) -> usize {
-        match colour {
-            Colour::Grey => 1,
-            Colour::Rgb => 3,
-        }
-    }
-
     fn stride(&self) -> usize {
-        Self::planes(self.colour) * (self.input_size as usize).pow(2)
+        stored_len(self.colour, self.input_size)
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -125,7 +118,7 @@ impl TrainingSet {
             noise: pipeline.map_or(0.0, Pipeline::noise_dn),
             colour,
             input_size,
-            stride: Self::planes(colour) * (input_size as usize).pow(2),
+            stride: stored_len(colour, input_size),
             seed,
             stop,
             progress,
@@ -152,21 +145,11 @@ impl TrainingSet {
 
     /// Inputs `indices` as one normalised NCHW batch (three channels; grey repeated).
     pub(crate) fn batch(&self, indices: &[usize], out: &mut Vec<f32>) {
-        let plane = (self.input_size as usize).pow(2);
         let stride = self.stride();
         out.clear();
-        out.reserve(indices.len() * 3 * plane);
-        let norm = |v: u8| f32::from(v) / 127.5 - 1.0;
         for &i in indices {
             let px = &self.pixels[i * stride..(i + 1) * stride];
-            match self.colour {
-                Colour::Grey => {
-                    for _ in 0..3 {
-                        out.extend(px.iter().map(|&v| norm(v)));
-                    }
-                }
-                Colour::Rgb => out.extend(px.iter().map(|&v| norm(v))),
-            }
+            expand_inputs(px, self.colour, self.input_size, out);
         }
     }
 }
@@ -244,8 +227,7 @@ impl Job<'_, '_> {
         px: &mut [u8],
         tg: &mut [Target],
     ) -> Result<(), TrainingSetError> {
-        let mut pre: Option<Preprocessor> = None;
-        let mut tensor = Vec::new();
+        let mut maker = InputMaker::new();
         for (k, (px, tg)) in px
             .chunks_mut(self.copies * self.stride)
             .zip(tg.chunks_mut(self.copies))
@@ -254,21 +236,20 @@ impl Job<'_, '_> {
             if self.stop.load(Ordering::Relaxed) {
                 return Err(TrainingSetError::Stopped);
             }
-            self.item(first + k, &mut pre, &mut tensor, px, tg)?;
+            self.item(first + k, &mut maker, px, tg)?;
             let n = self.done.fetch_add(1, Ordering::Relaxed) + 1;
             (self.progress)(n, self.items.len());
         }
         Ok(())
     }
 
-    /// Item `index`'s copies into `px` and `tg`: its frame read once, then each copy
-    /// preprocessed (turned by the copy's augmentation), made noisy and stored with its target.
-    /// `pre` is the thread's preprocessor, kept while the preprocessing stays the same.
+    /// Item `index`'s copies into `px` and `tg`: its frame read once, then each copy made by
+    /// the thread's `maker` (turned by the copy's augmentation, made noisy) and stored with its
+    /// target.
     fn item(
         &self,
         index: usize,
-        pre: &mut Option<Preprocessor>,
-        tensor: &mut Vec<f32>,
+        maker: &mut InputMaker,
         px: &mut [u8],
         tg: &mut [Target],
     ) -> Result<(), TrainingSetError> {
@@ -280,23 +261,13 @@ impl Job<'_, '_> {
             let aug = self.pipeline.map(|_| augmentation(self.seed, index, copy));
             let angle = aug.map_or(0.0, |a| a.rotation_deg);
             let config = self.preprocessing(it, index, copy)?;
-            let pre = match &mut *pre {
-                Some(p) if p.config == config => p,
-                slot => slot.insert(Preprocessor::new(config)),
-            };
-            tensor.resize(pre.config.tensor_len(), 0.0);
-            pre.run_into(frame, angle, tensor)
+            let out = &mut px[copy * self.stride..(copy + 1) * self.stride];
+            maker
+                .make(frame, config, aug, self.noise, out)
                 .map_err(|source| EvalError::Frame {
                     path: s.image.display().to_string(),
                     source,
                 })?;
-            if let Some(a) = aug {
-                add_noise(tensor, self.colour, self.noise, a.noise_seed);
-            }
-            quantise(
-                tensor,
-                &mut px[copy * self.stride..(copy + 1) * self.stride],
-            );
             let contact = match it.window {
                 // A force network's contact target: where the labelled contact lies from its
                 // window's centre (the copy's jitter undone), turned with the image, unrounded.
@@ -375,13 +346,6 @@ fn jitter(seed: u64, index: usize, copy: usize) -> [f64; 2] {
         WINDOW_JITTER_MM * rng.normal(),
         WINDOW_JITTER_MM * rng.normal(),
     ]
-}
-
-/// A normalised input (-1 to 1) as 8-bit grey levels into `out`.
-fn quantise(tensor: &[f32], out: &mut [u8]) {
-    for (o, v) in out.iter_mut().zip(tensor) {
-        *o = ((v * 0.5 + 0.5) * 255.0).round().clamp(0.0, 255.0) as u8;
-    }
 }
 
 #[cfg(test)]
