@@ -22,23 +22,68 @@ import numpy as np
 import torch
 
 from . import _native
-from .run import Run
 
 SIDES = ("train", "val", "test")
 NO_CONTACT = "None"
 
 
-def classes_of(runs):
+class Source:
+    """A run or a reference-layout dataset (``0.images/`` + ``0.labels.csv``, as ``fringe export``
+    and ``fringe sim dataset`` write it), its labelled frames read as ``fringe train`` reads them:
+    the same samples, label rules, frame reader and calibration profile."""
+
+    def __init__(self, path):
+        self.path = os.fspath(getattr(path, "path", path))
+        self._native = _native.Source(self.path)
+        profile = self._native.profile_json()
+        self.profile = json.loads(profile) if profile is not None else None
+
+    def __len__(self):
+        return len(self._native)
+
+    def __reduce__(self):
+        # Opened again where it is unpickled (a DataLoader worker started by spawn).
+        return (Source, (self.path,))
+
+    def __repr__(self):
+        return f"fringe.torch.Source({self.path!r}: {len(self)} labelled frames)"
+
+    @property
+    def name(self):
+        """The run's id (its directory's name), or the dataset directory's name."""
+        return os.path.basename(os.path.normpath(self.path))
+
+    @property
+    def sensor_id(self):
+        return self._native.sensor_id
+
+    @property
+    def variant(self):
+        return self._native.variant
+
+    def training_labels(self):
+        """The labelled frames with the labels ``fringe train`` trains them to (``index``: the
+        frame's record in a run, its row in a dataset), and the press of each."""
+        return self._native.training_labels()
+
+
+def _source(data):
+    return data if isinstance(data, Source) else Source(data)
+
+
+def classes_of(sources):
     """The shape classes ``fringe train`` gives data: "None", then the shapes it holds, sorted."""
     names = set()
-    for run in runs:
-        names.update(s for s in run.training_labels()["shape"] if s != NO_CONTACT)
+    for source in sources:
+        names.update(s for s in _source(source).training_labels()["shape"] if s != NO_CONTACT)
     return [NO_CONTACT] + sorted(names)
 
 
 class Dataset(torch.utils.data.Dataset):
     """The labelled frames of ``runs`` on one side (``train``, ``val``, ``test``) of fringe's split
-    by press.
+    by press. ``runs`` are run directories, ``fringe.Run``s, reference-layout datasets (as
+    ``fringe export`` and ``fringe sim dataset`` write) or ``Source``s, read as ``fringe train``
+    reads them.
 
     Each item is a dict: ``input`` (3 x size x size float32: what ``fringe train`` trains on,
     fringe's one preprocessing with the run's calibration profile, kept as 8-bit grey levels),
@@ -67,8 +112,8 @@ class Dataset(torch.utils.data.Dataset):
                  augment_seed=42, cache=True):
         if side not in SIDES:
             raise ValueError(f"side {side!r}: give train, val or test")
-        self.runs = [r if isinstance(r, Run) else Run(r) for r in runs]
-        if not self.runs:
+        self.sources = [_source(r) for r in runs]
+        if not self.sources:
             raise ValueError("no runs given")
         if model is not None:
             size, colour = model.input_size, model.colour
@@ -82,11 +127,11 @@ class Dataset(torch.utils.data.Dataset):
             colour = "grey" if augment == "gray10" else "rgb"
         self.size, self.colour, self.side = int(size), colour, side
         self.split_seed, self.fractions = split_seed, tuple(fractions)
-        self.classes = list(classes) if classes is not None else classes_of(self.runs)
-        sides = _native.split_runs([r._native for r in self.runs], split_seed, self.fractions)
+        self.classes = list(classes) if classes is not None else classes_of(self.sources)
+        sides = _native.split_sources([r._native for r in self.sources], split_seed, self.fractions)
         want = SIDES.index(side)
-        run_of, frame, force, shape, contact, press = [], [], [], [], [], []
-        for k, (run, s) in enumerate(zip(self.runs, sides)):
+        run_of, sample, frame, force, shape, contact, press = [], [], [], [], [], [], []
+        for k, (run, s) in enumerate(zip(self.sources, sides)):
             t = run.training_labels()
             on = np.asarray(s, dtype=np.int64) == want
             for j in np.flatnonzero(on):
@@ -96,12 +141,14 @@ class Dataset(torch.utils.data.Dataset):
                         f"is none of the classes {self.classes}"
                     )
                 run_of.append(k)
+                sample.append(int(j))
                 frame.append(int(t["index"][j]))
                 force.append(t["force"][j])
                 shape.append(self.classes.index(t["shape"][j]))
                 contact.append(t["contact_mm"][j])
                 press.append(t["press"][j])
         self.run_of = np.asarray(run_of, dtype=np.int64)
+        self.sample = np.asarray(sample, dtype=np.int64)
         self.frame = np.asarray(frame, dtype=np.int64)
         self.force = np.asarray(force, dtype=np.float32).reshape(-1, 7)
         self.shape = np.asarray(shape, dtype=np.int64)
@@ -170,8 +217,8 @@ class Dataset(torch.utils.data.Dataset):
         for k, slots in by_run.items():
             # A frame's copies one after another: the Rust side decodes it once for them.
             slots.sort(key=lambda s: wanted[s])
-            asked = [(int(self.frame[wanted[s][0]]), wanted[s][0], wanted[s][1]) for s in slots]
-            x, c = self.runs[k]._native.training_inputs(
+            asked = [(int(self.sample[wanted[s][0]]), wanted[s][0], wanted[s][1]) for s in slots]
+            x, c = self.sources[k]._native.training_inputs(
                 self.size, self.augment, self.colour, self.augment_seed, asked)
             for j, s in enumerate(slots):
                 levels[s], contacts[s] = x[j], c[j]
@@ -239,7 +286,8 @@ def _alive(pid, me):
 
 
 def card(arch, classes, size, colour, runs, **other):
-    """A model card for a network trained on ``runs``: what fringe reads to run it (architecture,
+    """A model card for a network trained on ``runs`` (``Source``s or ``fringe.Run``s): what
+    fringe reads to run it (architecture,
     classes, input size, colour, preprocessing from the sensor's profile, the sensor's design and
     scale) and ``other`` (training record, split, figures)."""
     c = {

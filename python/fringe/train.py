@@ -28,13 +28,13 @@ from torch.utils.data import DataLoader
 from torch.utils.data.distributed import DistributedSampler
 
 from .nets import ARCHITECTURES, build
-from .run import Run
-from .torch import Dataset, card, classes_of, save_model
+from .torch import Dataset, Source, card, classes_of, save_model
 
 
 def arguments(argv=None):
     p = argparse.ArgumentParser(prog="python -m fringe.train", description=__doc__.split("\n\n")[0])
-    p.add_argument("runs", nargs="+", help="run directories")
+    p.add_argument("runs", nargs="+",
+                   help="run directories, or reference-layout datasets (fringe export, fringe sim dataset)")
     p.add_argument("--arch", choices=[a for a in ARCHITECTURES if a != "keypoint"] + ["keypoint"],
                    default="custom")
     p.add_argument("--out", required=True, help="the model file to write (.safetensors)")
@@ -43,6 +43,8 @@ def arguments(argv=None):
                    help="stop after this many optimiser steps in all")
     p.add_argument("--batch", type=int, default=32, help="the global batch (over all processes)")
     p.add_argument("--lr", type=float, default=1e-3)
+    p.add_argument("--init", default=None, metavar="FILE.safetensors",
+                   help="start from these weights (a model of the same architecture and classes)")
     p.add_argument("--size", type=int, default=112, help="input side, px")
     p.add_argument("--colour", choices=["grey", "rgb"], default="grey")
     p.add_argument("--augment", choices=["gray10", "rgb3", "rgb3-clean"], default=None,
@@ -134,12 +136,38 @@ def evaluate(net, loader, device):
             "shape_accuracy": correct / n}
 
 
+def initial_weights(net, path, arch, classes):
+    """Loads ``path``'s weights into ``net``, refusing a model of another architecture or
+    classes (its card says)."""
+    from safetensors import safe_open
+    from safetensors.torch import load_file
+
+    if not os.path.exists(path):
+        raise SystemExit(f"--init {path}: no such file")
+    with safe_open(path, "pt") as f:
+        meta = f.metadata() or {}
+    card_text = meta.get("fringe.model_card")
+    stem = os.path.splitext(path)[0]
+    if card_text is None and os.path.exists(stem + ".json"):
+        with open(stem + ".json") as f:
+            card_text = f.read()
+    if card_text is not None:
+        c = json.loads(card_text)
+        if c.get("architecture", arch) != arch or c.get("classes", classes) != classes:
+            raise SystemExit(f"--init {path}: a {c.get('architecture')} on classes "
+                             f"{c.get('classes')}, not {arch} on {classes}")
+    missing, unexpected = net.load_state_dict(load_file(path), strict=False)
+    if missing or unexpected:
+        raise SystemExit(f"--init {path}: its weights are not those of {arch} "
+                         f"(missing {missing[:3]}, unexpected {unexpected[:3]})")
+
+
 def main(argv=None):
     a = arguments(argv)
     procs = Processes()
     if a.batch % procs.world:
         raise SystemExit(f"--batch {a.batch} does not share evenly over {procs.world} processes")
-    runs = [Run(r) for r in a.runs]
+    runs = [Source(r) for r in a.runs]
     classes = classes_of(runs)
     if a.augment is not None:
         a.colour = "grey" if a.augment == "gray10" else "rgb"
@@ -156,7 +184,10 @@ def main(argv=None):
                         num_workers=a.workers, persistent_workers=a.workers > 0)
     val_loader = DataLoader(val, batch_size=64, num_workers=0)
     torch.manual_seed(a.seed)
-    net = build(a.arch, len(classes)).to(procs.device)
+    net = build(a.arch, len(classes))
+    if a.init is not None and not a.resume:
+        initial_weights(net, a.init, a.arch, classes)
+    net = net.to(procs.device)
     model = DistributedDataParallel(net, device_ids=[procs.local] if procs.cuda else None) \
         if procs.world > 1 else net
     opt = torch.optim.Adam(model.parameters(), lr=a.lr)
@@ -244,7 +275,7 @@ def main(argv=None):
         made = {"what": f"python -m fringe.train {' '.join(sys.argv[1:] if argv is None else argv)}",
                 "processes": procs.world, "device": procs.device.type}
         c = card(a.arch, classes, a.size, a.colour, runs,
-                 training={"runs": [r.run_id for r in runs], "steps": step, "batch": a.batch,
+                 training={"runs": [r.name for r in runs], "steps": step, "init": a.init, "batch": a.batch,
                            "lr": a.lr, "seed": a.seed, "pipeline": a.augment,
                            "split": {"seed": a.split_seed, "by": "press",
                                      "fractions": list(train.fractions)},

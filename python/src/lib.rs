@@ -4,6 +4,8 @@
 //!
 //! - [`run`]: a run directory (`fringe.Run`): its documents, frames as stored, labels, events,
 //!   and network inputs.
+//! - [`source`]: a run or a reference-layout dataset read as `fringe train` reads it, and the
+//!   inputs it trains on (`fringe.torch.Dataset`), split by press.
 //! - [`model`]: a model (`fringe.Model`): opened or chosen as the command line does, run on
 //!   frames or inputs.
 //! - [`errors`]: the exceptions Python sees.
@@ -14,6 +16,7 @@
 mod errors;
 mod model;
 mod run;
+mod source;
 
 use pyo3::prelude::*;
 
@@ -22,8 +25,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<run::Run>()?;
     m.add_class::<model::Model>()?;
-    m.add_function(wrap_pyfunction!(run::split_runs, m)?)?;
-    m.add_function(wrap_pyfunction!(run::expand_inputs, m)?)?;
+    m.add_class::<source::Source>()?;
+    m.add_function(wrap_pyfunction!(source::split_sources, m)?)?;
+    m.add_function(wrap_pyfunction!(source::expand_inputs, m)?)?;
     m.add("FringeError", py.get_type::<errors::FringeError>())?;
     m.add("RunError", py.get_type::<errors::RunError>())?;
     m.add("FrameError", py.get_type::<errors::FrameError>())?;

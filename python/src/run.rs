@@ -2,16 +2,13 @@
 //! its frame codecs, so Python gets the frames and labels fringe itself reads, bit for bit.
 
 use crate::errors::{run_error, FrameError};
+use crate::source::{colour_named, labels_dict};
 use fringe_calibration::Profile;
 use fringe_rig::store::{FrameRecord, FrameStorage, RunReader, StartDocument, StoredFrame};
 use fringe_sensor_models::dataset::{self, Sample};
 use fringe_sensor_models::eval::frame_ref;
-use fringe_sensor_models::expand_inputs as expand_inputs_into;
-use fringe_sensor_models::{augmentation, rotate_label, Pipeline};
-use fringe_sensor_models::{stored_len, stored_planes, InputMaker};
-use fringe_sensor_models::{Colour, Preprocessing, Preprocessor};
-use fringe_sensor_models::{Side, Split, SplitSpec};
-use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use fringe_sensor_models::{Preprocessing, Preprocessor};
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods};
 use pyo3::exceptions::{PyIndexError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -167,12 +164,6 @@ impl Run {
 /// Frames as NumPy arrays.
 type Frames<'py> = Vec<Bound<'py, PyArrayDyn<u8>>>;
 
-/// Network inputs as a NumPy array.
-type Inputs<'py> = Bound<'py, PyArrayDyn<f32>>;
-
-/// Training inputs as kept, 8-bit, as a NumPy array.
-type Levels<'py> = Bound<'py, PyArrayDyn<u8>>;
-
 /// One axis of a wrench.
 type Axis = fn(&fringe_rig::Wrench) -> f64;
 
@@ -205,16 +196,6 @@ fn column<'py>(
         .map(|r| of(r).unwrap_or(f64::NAN))
         .collect::<Vec<f64>>()
         .into_pyarray(py)
-}
-
-fn colour_named(name: &str) -> PyResult<Colour> {
-    match name {
-        "grey" | "gray" => Ok(Colour::Grey),
-        "rgb" => Ok(Colour::Rgb),
-        other => Err(PyValueError::new_err(format!(
-            "colour {other:?}: give \"grey\" or \"rgb\""
-        ))),
-    }
 }
 
 #[pymethods]
@@ -427,31 +408,8 @@ impl Run {
     /// contact under the noise floor), and the press each belongs to (frames of one press never
     /// land on two sides of a split).
     fn training_labels<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let mut index = Vec::new();
-        let mut force = Vec::new();
-        let mut contact = Vec::new();
-        let mut stage = Vec::new();
-        let mut shape = Vec::new();
-        let mut press = Vec::new();
-        for (i, s) in self.samples() {
-            {
-                index.push(i as u64);
-                force.extend(s.force);
-                contact.extend(s.contact.unwrap_or([f64::NAN; 2]));
-                stage.extend(s.stage_mm.unwrap_or([f64::NAN; 2]));
-                shape.push(s.shape);
-                press.push(s.press);
-            }
-        }
-        let n = index.len();
-        let d = PyDict::new(py);
-        d.set_item("index", index.into_pyarray(py))?;
-        d.set_item("force", force.into_pyarray(py).reshape([n, 7])?)?;
-        d.set_item("contact_mm", contact.into_pyarray(py).reshape([n, 2])?)?;
-        d.set_item("stage_mm", stage.into_pyarray(py).reshape([n, 2])?)?;
-        d.set_item("shape", shape)?;
-        d.set_item("press", press)?;
-        Ok(d)
+        let samples = self.samples();
+        labels_dict(py, samples.iter().map(|(i, s)| (*i as u64, s)))
     }
 
     /// What a network sees of frames `indices` (all when `None`): float32, frames x 3 x size x
@@ -481,118 +439,6 @@ impl Run {
             .map_err(FrameError::new_err)?;
         inputs_array(py, prepared.inputs, prepared.kept.len(), size).map(|a| (a, prepared.kept))
     }
-
-    /// The inputs `fringe train` trains on, as it keeps them (8-bit grey levels: inputs x
-    /// planes x size x size, one plane for grey, three for RGB), and their contact labels.
-    /// For each (frame, item, copy) of `wanted`: the frame preprocessed at `size` px, and with
-    /// a `pipeline` (the paper's offline augmentation, as `fringe train --pipeline` makes it)
-    /// turned by the copy's angle about the optical centre and made noisy, the angle and noise
-    /// drawn from (`seed`, item, copy) alone, its contact label turned with it (NaN without
-    /// contact). Without a pipeline, the frame as it is in `colour`. A frame wanted for
-    /// several copies in a row is decoded once. Returns (inputs, contacts).
-    #[pyo3(signature = (size, pipeline, colour, seed, wanted))]
-    fn training_inputs<'py>(
-        &self,
-        py: Python<'py>,
-        size: u32,
-        pipeline: Option<&str>,
-        colour: &str,
-        seed: u64,
-        wanted: Vec<(usize, usize, usize)>,
-    ) -> PyResult<(Levels<'py>, Bound<'py, PyArrayDyn<f64>>)> {
-        let pipeline: Option<Pipeline> = pipeline
-            .map(|p| {
-                p.parse()
-                    .map_err(|e: fringe_sensor_models::UnknownPipeline| {
-                        PyValueError::new_err(e.to_string())
-                    })
-            })
-            .transpose()?;
-        let colour = pipeline.map_or_else(|| colour_named(colour), |p| Ok(p.colour()))?;
-        let profile = self.profile.as_ref().ok_or_else(|| {
-            run_error(format!(
-                "{}: the run has no calibration profile, so its frames have no optical centre \
-                 to crop about or turn about",
-                self.reader.dir().display()
-            ))
-        })?;
-        let config = Preprocessing::from_profile(profile, colour, size)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let mirror = profile.registration.as_ref().is_some_and(|r| r.mirror);
-        for &(frame, _, _) in &wanted {
-            self.record_at(frame as isize)?;
-        }
-        let per = stored_len(colour, size);
-        let noise = pipeline.map_or(0.0, Pipeline::noise_dn);
-        let made = py.detach(|| {
-            let mut maker = InputMaker::new();
-            let mut levels = vec![0u8; per * wanted.len()];
-            let mut contacts = Vec::with_capacity(2 * wanted.len());
-            let mut decoded: Option<(usize, StoredFrame)> = None;
-            for (&(frame, item, copy), out) in wanted.iter().zip(levels.chunks_exact_mut(per)) {
-                let stored = match decoded {
-                    Some((f, ref s)) if f == frame => s,
-                    _ => {
-                        let s = self.stored(frame).map_err(|Unreadable(m)| m)?;
-                        &decoded.insert((frame, s)).1
-                    }
-                };
-                let aug = pipeline.map(|_| augmentation(seed, item, copy));
-                maker
-                    .make(frame_ref(stored), config.clone(), aug, noise, out)
-                    .map_err(|e| format!("{}: frame {frame}: {e}", self.reader.dir().display()))?;
-                let r = &self.records[frame];
-                let angle = aug.map_or(0.0, |a| a.rotation_deg);
-                let c = dataset::from_record(r, &self.start.run_id, PathBuf::new(), None)
-                    .and_then(|s| s.contact)
-                    .map(|c| rotate_label(c, angle, mirror))
-                    .unwrap_or([f64::NAN; 2]);
-                contacts.extend(c);
-            }
-            Ok::<_, String>((levels, contacts))
-        });
-        let (levels, contacts) = made.map_err(FrameError::new_err)?;
-        let (n, s) = (wanted.len(), size as usize);
-        Ok((
-            levels
-                .into_pyarray(py)
-                .reshape(vec![n, stored_planes(colour), s, s])?,
-            contacts.into_pyarray(py).reshape(vec![n, 2])?,
-        ))
-    }
-}
-
-/// Training inputs as `fringe train` keeps them (inputs x planes x size x size, 8-bit) as the
-/// normalised floats a network takes: inputs x 3 x size x size, grey repeated.
-#[pyfunction]
-pub fn expand_inputs<'py>(
-    py: Python<'py>,
-    levels: numpy::PyReadonlyArrayDyn<'py, u8>,
-) -> PyResult<Inputs<'py>> {
-    let shape = levels.shape().to_vec();
-    let (n, planes, size) = match shape[..] {
-        [n, p @ (1 | 3), h, w] if h == w => (n, p, h),
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "inputs of shape {shape:?}: give inputs x planes (1 or 3) x size x size"
-            )))
-        }
-    };
-    let colour = if planes == 1 {
-        Colour::Grey
-    } else {
-        Colour::Rgb
-    };
-    let size = u32::try_from(size).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let levels = levels
-        .as_slice()
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    let out = py.detach(|| {
-        let mut out = Vec::new();
-        expand_inputs_into(levels, colour, size, &mut out);
-        out
-    });
-    inputs_array(py, out, n, size)
 }
 
 /// Inputs as NumPy: frames x 3 x size x size.
@@ -604,41 +450,4 @@ pub(crate) fn inputs_array(
 ) -> PyResult<Bound<'_, PyArrayDyn<f32>>> {
     let s = size as usize;
     inputs.into_pyarray(py).reshape(vec![n, 3, s, s])
-}
-
-/// fringe's split by press over the labelled frames of `runs` (the split of `fringe train`: no
-/// press on two sides, each stratum of shape and force level shared by the fractions): for each
-/// run, the side of each of its `training_labels()` frames, 0 train, 1 validation, 2 test.
-#[pyfunction]
-#[pyo3(signature = (runs, seed = 42, fractions = (0.8, 0.1, 0.1)))]
-pub fn split_runs<'py>(
-    py: Python<'py>,
-    runs: Vec<PyRef<'py, Run>>,
-    seed: u64,
-    fractions: (f64, f64, f64),
-) -> PyResult<Vec<Bound<'py, PyArray1<u8>>>> {
-    let per_run: Vec<Vec<Sample>> = runs
-        .iter()
-        .map(|r| r.samples().into_iter().map(|(_, s)| s).collect())
-        .collect();
-    let all: Vec<Sample> = per_run.iter().flatten().cloned().collect();
-    let spec = SplitSpec {
-        seed,
-        fractions: [fractions.0, fractions.1, fractions.2],
-    };
-    let split = Split::new(&all, spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    Ok(per_run
-        .iter()
-        .map(|samples| {
-            samples
-                .iter()
-                .map(|s| match split.side_of(&s.press) {
-                    Some(Side::Train) => 0,
-                    Some(Side::Val) => 1,
-                    Some(Side::Test) | None => 2,
-                })
-                .collect::<Vec<u8>>()
-                .into_pyarray(py)
-        })
-        .collect())
 }

@@ -18,6 +18,9 @@ json; its PNG frames, read by Pillow) and against what `fringe eval` prints.
     check_package.py bad-card MODEL            fringe.Model refuses MODEL (its card does not match)
     check_package.py dataset RUN               fringe.torch.Dataset: the split by press, batches,
                                                the augmentation pipelines
+    check_package.py reference DS              fringe.torch.Source and Dataset over a reference-layout
+                                               dataset DS (fringe sim dataset): its labels as its
+                                               0.labels.csv says, split, inputs kept in 8 bits
     check_package.py shards DIR RUN...         the WebDataset shards in DIR, read by webdataset,
                                                hold RUN's frames and labels
 
@@ -427,6 +430,37 @@ def dataset(run_dir):
                       "presses": len(presses["train"])}))
 
 
+def reference(ds_dir):
+    import csv
+
+    import torch
+
+    from fringe.torch import Dataset, Source
+
+    with open(Path(ds_dir) / "0.labels.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    source = Source(ds_dir)
+    t = source.training_labels()
+    check(len(source) == len(rows) == len(t["index"]), f"{len(source)} frames of {len(rows)} rows")
+    check(source.variant == "layered" and source.profile is not None, "the dataset's design and profile")
+    for i, row in enumerate(rows):
+        check(abs(t["force"][i][2] - abs(float(row["Fz"]))) < 1e-9, f"row {i}: Fz {t['force'][i][2]} for {row['Fz']}")
+        if t["shape"][i] != "None":
+            check(t["shape"][i] == row["Indentor_Shape"], f"row {i}: shape {t['shape'][i]}")
+            c = (float(row["X_Position_mm"]), float(row["Y_Position_mm"]))
+            check(np.allclose(t["contact_mm"][i], c, atol=1e-9), f"row {i}: contact {t['contact_mm'][i]} for {c}")
+    sides = {s: Dataset([ds_dir], s, size=64) for s in ("train", "val", "test")}
+    frames = sorted(int(f) for d in sides.values() for f in d.frame)
+    check(frames == list(range(len(rows))), "the sides do not hold every row once")
+    check(all(len(d) > 0 for d in sides.values()), f"an empty side: {[len(d) for d in sides.values()]}")
+    x = sides["train"][0]["input"]
+    levels = (x + 1) * 127.5
+    check(torch.allclose(levels, levels.round(), atol=1e-3), "inputs are not kept 8-bit levels")
+    alone = Dataset([ds_dir], "train", size=64, cache=False)[0]["input"]
+    check(torch.equal(alone, x), "an uncached item differs")
+    print(json.dumps({"frames": len(rows), "sides": {s: len(d) for s, d in sides.items()}}))
+
+
 COMMANDS = {
     "same-as-fringe": same_as_fringe,
     "same-run": same_run,
@@ -440,6 +474,7 @@ COMMANDS = {
     "bad-card": bad_card,
     "shards": shards,
     "dataset": dataset,
+    "reference": reference,
 }
 
 if __name__ == "__main__":

@@ -101,7 +101,7 @@ pub fn force_level(fz: f64) -> String {
 
 /// Reads a sample's frame file as the camera delivered it, as its run stored it (or as an
 /// ordinary image file).
-pub(crate) fn read_frame(s: &Sample) -> Result<StoredFrame, EvalError> {
+pub fn read_frame(s: &Sample) -> Result<StoredFrame, EvalError> {
     match &s.storage {
         Some(storage) => storage.read(&s.image),
         None => read_plain(&s.image),

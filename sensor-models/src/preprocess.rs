@@ -25,7 +25,7 @@ use fringe_calibration::Profile;
 use fringe_rig::store::read_plain;
 use fringe_rig::PixelFormat;
 use resample::{resample, Scratch, Window};
-use source::{pixels, Channels, Pixels, Rotated};
+use source::{pixels, Channels, Dense, Pixels, Rotated};
 use std::path::Path;
 
 /// The network input's default side, pixels.
@@ -318,9 +318,10 @@ impl Preprocessing {
         let base = pixels(frame, channels, half);
         let s = base.scale();
         let centre = [full_centre[0] * s, full_centre[1] * s];
+        // A turned crop reads within its masked circle only (the window below masks it).
         let src: Box<dyn Pixels> = if rotation_deg != 0.0 {
             Box::new(Rotated {
-                base,
+                base: Dense::around(base.as_ref(), centre, self.crop_radius_px * s),
                 centre,
                 angle: rotation_deg.to_radians(),
             })

@@ -283,6 +283,13 @@ fn inputs_and_predictions_from_python_score_as_fringe_eval_and_the_model_is_the_
 
 /// `python -m fringe.train` as one process, or under torchrun as `procs` processes (gloo).
 fn train(run: &Path, out: &Path, procs: usize) -> String {
+    let (ok, t) = train_with(run, out, procs, &[]);
+    assert!(ok, "{t}");
+    t
+}
+
+/// `python -m fringe.train` with `more` arguments: whether it succeeded, and what it said.
+fn train_with(run: &Path, out: &Path, procs: usize, more: &[&str]) -> (bool, String) {
     let mut cmd = Command::new(python());
     if procs > 1 {
         cmd.args(["-m", "torch.distributed.run", "--standalone"])
@@ -303,22 +310,14 @@ fn train(run: &Path, out: &Path, procs: usize) -> String {
             "--max-steps",
             "4",
         ])
-        .args([
-            "--epochs",
-            "1",
-            "--workers",
-            "0",
-            "--log-every",
-            "1",
-            "--out",
-        ])
+        .args(["--epochs", "1", "--workers", "0", "--log-every", "1"])
+        .args(more)
+        .arg("--out")
         .arg(out)
         .env("OMP_NUM_THREADS", "1")
         .output()
         .expect("run python -m fringe.train");
-    let t = text(&o);
-    assert!(o.status.success(), "{t}");
-    t
+    (o.status.success(), text(&o))
 }
 
 #[test]
@@ -431,4 +430,49 @@ fn the_torch_dataset_splits_by_press_and_makes_the_papers_augmented_copies() {
     let (fgl, _, _) = runs();
     let got = check(&["dataset", arg(&fgl)]);
     assert!(got["presses"].as_u64().expect("presses") >= 1, "{got}");
+}
+
+#[test]
+fn a_reference_layout_dataset_trains_from_python_as_fringe_train_reads_it() {
+    let dir = scratch("reference");
+    let ds = dir.join("ds");
+    let out = fringe(&[
+        "sim",
+        "dataset",
+        "--sensor",
+        "layered",
+        "--count",
+        "40",
+        "--seed",
+        "3",
+        "--out",
+        arg(&ds),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let got = check(&["reference", arg(&ds)]);
+    assert_eq!(got["frames"], 40, "{got}");
+    // Trained on it, then trained on from those weights (the second stage of a recipe).
+    let first = dir.join("first.safetensors");
+    let said = train(&ds, &first, 1);
+    assert!(said.contains("training custom on"), "{said}");
+    let second = dir.join("second.safetensors");
+    let (ok, said) = train_with(&ds, &second, 1, &["--init", arg(&first), "--lr", "2e-4"]);
+    assert!(ok, "{said}");
+    let card: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("second.json")).expect("card"))
+            .expect("card json");
+    assert_eq!(card["training"]["init"], arg(&first), "{card}");
+    assert_eq!(card["variant"], "layered", "{card}");
+    // Weights of another architecture are refused, naming the file.
+    let (ok, said) = train_with(
+        &ds,
+        &dir.join("third.safetensors"),
+        1,
+        &["--init", arg(&first), "--arch", "resnet18"],
+    );
+    assert!(!ok, "{said}");
+    assert!(
+        said.contains("first.safetensors") && said.contains("not resnet18"),
+        "{said}"
+    );
 }

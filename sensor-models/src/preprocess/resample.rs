@@ -296,7 +296,7 @@ mod tests {
                                 let inside_image =
                                     x >= 0 && y >= 0 && x < width as i64 && y < height as i64;
                                 if inside_circle && inside_image {
-                                    src.pixel(x, y, &mut px);
+                                    src.row(y, x, &mut px);
                                     want += f64::from(*wy) * f64::from(*wx) * f64::from(px[k]);
                                 }
                             }

@@ -80,10 +80,6 @@ pub(crate) trait Pixels {
     /// Writes pixels `x0..x0 + out.len() / channels` of row `y` into `out`; the range lies
     /// inside the source.
     fn row(&self, y: i64, x0: i64, out: &mut [f32]);
-    /// One pixel (inside the source).
-    fn pixel(&self, x: i64, y: i64, out: &mut [f32]) {
-        self.row(y, x, out);
-    }
 }
 
 /// The frame read in `channels`, at full resolution, or as Bayer superpixels when `half` is
@@ -240,30 +236,90 @@ impl Pixels for BayerFull<'_> {
     }
 }
 
+/// The square of `base` about `centre` (its pixel coordinates) that a rotation about it within
+/// `radius` reads, read once into memory: a turned copy samples four pixels for each one it
+/// makes, so reading them from the frame each time (a colour conversion, a superpixel's
+/// average) cost four times the work. The values are the base's own, so a rotation reads the
+/// same numbers.
+pub(crate) struct Dense {
+    size: (i64, i64),
+    scale: f64,
+    channels: Channels,
+    /// The region's first column and row, and its width and height, in the base's pixels.
+    x0: i64,
+    y0: i64,
+    w: usize,
+    h: usize,
+    data: Vec<f32>,
+}
+
+impl Dense {
+    /// Reads the pixels of `base` within `radius` (plus the two a bilinear sample reaches past
+    /// it) of `centre`.
+    pub(crate) fn around(base: &dyn Pixels, centre: [f64; 2], radius: f64) -> Dense {
+        let (bw, bh) = base.size();
+        let c = base.channels().count();
+        let span = |mid: f64, len: i64| {
+            let lo = ((mid - radius).floor() as i64 - 2).clamp(0, len);
+            let hi = ((mid + radius).ceil() as i64 + 2).clamp(lo, len);
+            (lo, hi)
+        };
+        let (x0, x1) = span(centre[0], bw);
+        let (y0, y1) = span(centre[1], bh);
+        let (w, h) = ((x1 - x0) as usize, (y1 - y0) as usize);
+        let mut data = vec![0f32; w * h * c];
+        if w > 0 {
+            for (k, row) in data.chunks_exact_mut(w * c).enumerate() {
+                base.row(y0 + k as i64, x0, row);
+            }
+        }
+        Dense {
+            size: (bw, bh),
+            scale: base.scale(),
+            channels: base.channels(),
+            x0,
+            y0,
+            w,
+            h,
+            data,
+        }
+    }
+
+    /// Pixel (x, y) of the base, if the region holds it.
+    fn at(&self, x: i64, y: i64) -> Option<&[f32]> {
+        let (cx, cy) = (x - self.x0, y - self.y0);
+        if cx < 0 || cy < 0 || cx as usize >= self.w || cy as usize >= self.h {
+            return None;
+        }
+        let c = self.channels.count();
+        let i = (cy as usize * self.w + cx as usize) * c;
+        Some(&self.data[i..i + c])
+    }
+}
+
 /// `base` rotated by `angle` (radians, counter-clockwise as seen on screen) about `centre`
 /// (in the base's pixel coordinates, pixel centres at i + 0.5), sampled bilinearly; outside the
 /// base reads black.
-pub(crate) struct Rotated<'a> {
-    pub(crate) base: Box<dyn Pixels + 'a>,
+pub(crate) struct Rotated {
+    pub(crate) base: Dense,
     pub(crate) centre: [f64; 2],
     pub(crate) angle: f64,
 }
 
-impl Pixels for Rotated<'_> {
+impl Pixels for Rotated {
     fn size(&self) -> (i64, i64) {
-        self.base.size()
+        self.base.size
     }
     fn scale(&self) -> f64 {
-        self.base.scale()
+        self.base.scale
     }
     fn channels(&self) -> Channels {
-        self.base.channels()
+        self.base.channels
     }
     fn row(&self, y: i64, x0: i64, out: &mut [f32]) {
         let c = self.channels().count();
-        let (w, h) = self.base.size();
+        let (w, h) = self.base.size;
         let (sin, cos) = self.angle.sin_cos();
-        let mut corner = [0f32; 3];
         let dy = y as f64 + 0.5 - self.centre[1];
         for (k, o) in out.chunks_exact_mut(c).enumerate() {
             let dx = (x0 + k as i64) as f64 + 0.5 - self.centre[0];
@@ -284,8 +340,13 @@ impl Pixels for Rotated<'_> {
                 if wgt == 0.0 || cx < 0 || cy < 0 || cx >= w || cy >= h {
                     continue;
                 }
-                self.base.pixel(cx, cy, &mut corner[..c]);
-                for (v, s) in o.iter_mut().zip(&corner[..c]) {
+                // Within the rotation's radius, so inside the region read (the crop's mask
+                // reads no pixel past it).
+                let Some(corner) = self.base.at(cx, cy) else {
+                    debug_assert!(false, "a turned copy read ({cx}, {cy}) past its region");
+                    continue;
+                };
+                for (v, s) in o.iter_mut().zip(corner) {
                     *v += wgt * s;
                 }
             }
