@@ -8,12 +8,16 @@
 //!   inputs it trains on (`fringe.torch.Dataset`), split by press.
 //! - [`model`]: a model (`fringe.Model`): opened or chosen as the command line does, run on
 //!   frames or inputs.
+//! - [`inputs`], [`labels`]: network inputs and training labels as Python gets them, shared by
+//!   the above.
 //! - [`errors`]: the exceptions Python sees.
 //!
 //! Long work (decoding, preprocessing, inference) runs with the interpreter released, so the
 //! threads of a `DataLoader` worker, or of any Python program, go on meanwhile.
 
 mod errors;
+mod inputs;
+mod labels;
 mod model;
 mod run;
 mod source;

@@ -3,7 +3,8 @@
 //! backend with its card's preprocessing.
 
 use crate::errors::{model_error, FrameError};
-use crate::run::{inputs_array, Run};
+use crate::inputs::inputs_array;
+use crate::run::Run;
 use fringe_app::models::{choose_model, open_model, profiles_dir, ChoiceNote, ForSensor};
 use fringe_calibration::Profile;
 use fringe_rig::store::StoredFrame;

@@ -2,7 +2,8 @@
 //! its frame codecs, so Python gets the frames and labels fringe itself reads, bit for bit.
 
 use crate::errors::{run_error, FrameError};
-use crate::source::{colour_named, labels_dict};
+use crate::inputs::{colour_named, inputs_array};
+use crate::labels::labels_dict;
 use fringe_calibration::Profile;
 use fringe_rig::store::{FrameRecord, FrameStorage, RunReader, StartDocument, StoredFrame};
 use fringe_sensor_models::dataset::{self, Sample};
@@ -439,15 +440,4 @@ impl Run {
             .map_err(FrameError::new_err)?;
         inputs_array(py, prepared.inputs, prepared.kept.len(), size).map(|a| (a, prepared.kept))
     }
-}
-
-/// Inputs as NumPy: frames x 3 x size x size.
-pub(crate) fn inputs_array(
-    py: Python<'_>,
-    inputs: Vec<f32>,
-    n: usize,
-    size: u32,
-) -> PyResult<Bound<'_, PyArrayDyn<f32>>> {
-    let s = size as usize;
-    inputs.into_pyarray(py).reshape(vec![n, 3, s, s])
 }

@@ -4,6 +4,8 @@
 //! reader, preprocessing and augmentation as `fringe train`, so its inputs are `fringe train`'s.
 
 use crate::errors::{run_error, FrameError};
+use crate::inputs::{colour_named, inputs_array};
+use crate::labels::labels_dict;
 use fringe_rig::store::{RunReader, StoredFrame};
 use fringe_sensor_models::dataset::{self, Sample, Source as Samples};
 use fringe_sensor_models::eval::{frame_ref, read_frame};
@@ -29,47 +31,6 @@ pub struct Source {
     source: Samples,
     /// Each sample's frame: its record's index in a run, its row in a dataset's labels.
     index: Vec<u64>,
-}
-
-/// A colour by name.
-pub(crate) fn colour_named(name: &str) -> PyResult<Colour> {
-    match name {
-        "grey" | "gray" => Ok(Colour::Grey),
-        "rgb" => Ok(Colour::Rgb),
-        other => Err(PyValueError::new_err(format!(
-            "colour {other:?}: give \"grey\" or \"rgb\""
-        ))),
-    }
-}
-
-/// The dict of `training_labels()` from each sample with its frame index.
-pub(crate) fn labels_dict<'py, 'a>(
-    py: Python<'py>,
-    samples: impl Iterator<Item = (u64, &'a Sample)>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let mut index = Vec::new();
-    let mut force = Vec::new();
-    let mut contact = Vec::new();
-    let mut stage = Vec::new();
-    let mut shape = Vec::new();
-    let mut press = Vec::new();
-    for (i, s) in samples {
-        index.push(i);
-        force.extend(s.force);
-        contact.extend(s.contact.unwrap_or([f64::NAN; 2]));
-        stage.extend(s.stage_mm.unwrap_or([f64::NAN; 2]));
-        shape.push(s.shape.clone());
-        press.push(s.press.clone());
-    }
-    let n = index.len();
-    let d = PyDict::new(py);
-    d.set_item("index", index.into_pyarray(py))?;
-    d.set_item("force", force.into_pyarray(py).reshape([n, 7])?)?;
-    d.set_item("contact_mm", contact.into_pyarray(py).reshape([n, 2])?)?;
-    d.set_item("stage_mm", stage.into_pyarray(py).reshape([n, 2])?)?;
-    d.set_item("shape", shape)?;
-    d.set_item("press", press)?;
-    Ok(d)
 }
 
 impl Source {
@@ -264,7 +225,7 @@ pub fn expand_inputs<'py>(
         expand_inputs_into(levels, colour, size, &mut out);
         out
     });
-    crate::run::inputs_array(py, out, n, size)
+    inputs_array(py, out, n, size)
 }
 
 /// fringe's split by press over the labelled frames of `sources` (the split of `fringe train`:
