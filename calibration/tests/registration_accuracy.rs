@@ -130,6 +130,7 @@ fn run(case: Case) -> Vec<bool> {
             x: Millimetres(sensor[0]),
             y: Millimetres(sensor[1]),
             angle_deg: 0.0,
+            shear: None,
         };
         let frames: Vec<RgbImage> = (0..FRAMES_PER_PRESS)
             .map(|k| render(&mut prep.renderer, Some(contact), 100 + 10 * n as u64 + k))
@@ -367,6 +368,7 @@ fn a_press_that_missed_the_sensor_is_an_error() {
         x: Millimetres(45.0),
         y: Millimetres(0.0),
         angle_deg: 0.0,
+        shear: None,
     };
     let frames: Vec<RgbImage> = (0..2)
         .map(|k| render(&mut prep.renderer, Some(missed), 50 + k))
@@ -406,6 +408,7 @@ fn presses_towards_the_crop_edge_are_located_or_refused() {
                 x: Millimetres(x),
                 y: Millimetres(y),
                 angle_deg: 0.0,
+                shear: None,
             };
             let frames: Vec<RgbImage> = (0..2)
                 .map(|k| render(&mut prep.renderer, Some(c), 300 + k))

@@ -527,6 +527,7 @@ fn frames_show_the_scene_at_mid_exposure() {
                     x: Millimetres(0.0),
                     y: Millimetres(0.0),
                     angle_deg: 0.0,
+                    shear: None,
                 }),
             }
         }

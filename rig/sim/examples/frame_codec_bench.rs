@@ -468,6 +468,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 x: Millimetres(12.0 * a.cos()),
                 y: Millimetres(8.0 * a.sin()),
                 angle_deg: 60.0 * s,
+                shear: None,
             });
             let scene = Scene { contact };
             for (format, all, cropped, bpp) in [

@@ -69,6 +69,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     x: Millimetres(15.0 * a.cos()),
                     y: Millimetres(10.0 * a.sin()),
                     angle_deg: 90.0 * s,
+                    shear: None,
                 });
                 let t = Instant::now();
                 renderer.render_as(&Scene { contact }, k as u64, format, &mut out);

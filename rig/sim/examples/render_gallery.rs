@@ -41,6 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     x: Millimetres(4.0),
                     y: Millimetres(3.0),
                     angle_deg: 15.0,
+                    shear: None,
                 };
                 let mut rgb = Vec::new();
                 renderer.render(

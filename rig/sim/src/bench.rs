@@ -22,7 +22,9 @@ use crate::physics::contact::{
 use crate::physics::ft_config::{FtMount, FtNoiseConfig};
 use crate::physics::indenter::Shape;
 use crate::physics::motion::{Kinematics, MotorSpec, SimMotor};
-use crate::scene::{Contact, LoadSource, Scene, SceneSource};
+use crate::physics::sliding::Tangential;
+use crate::physics::traction::partial_slip_onset;
+use crate::scene::{Contact, LoadSource, Scene, SceneSource, Shear};
 use fringe_rig::HostTime;
 use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench};
 use std::collections::VecDeque;
@@ -238,6 +240,19 @@ impl Default for BenchConfig {
     }
 }
 
+/// How a contact holds against its tangential force (docs/photoelastic-sim.md, "Shear and
+/// slip").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlipState {
+    /// All, or all but a tenth, of the contact sticks.
+    Stick,
+    /// A slipping zone covers a tenth or more of the contact; the rest sticks.
+    PartialSlip,
+    /// The whole contact slides.
+    GrossSlip,
+}
+
 /// The true state of the bench at an instant (ground truth).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BenchTruth {
@@ -251,6 +266,13 @@ pub struct BenchTruth {
     pub depth: Millimetres,
     /// Normal force (positive = pressing).
     pub normal_force: Newtons,
+    /// Tangential force the indenter applies to the surface, sensor frame [x, y], N.
+    pub shear_n: [f64; 2],
+    /// Share of the friction limit the tangential force uses: |Q| / (mu_s P) while the contact
+    /// sticks, 1 while it slides.
+    pub friction_used: f64,
+    /// The indenter slides over the surface (gross slip).
+    pub sliding: bool,
     pub indenter: MountedIndenter,
 }
 
@@ -269,6 +291,9 @@ impl BenchTruth {
             y: Millimetres(mix(a.y.0, b.y.0)),
             depth: Millimetres(mix(a.depth.0, b.depth.0)),
             normal_force: Newtons(mix(a.normal_force.0, b.normal_force.0)),
+            shear_n: [0, 1].map(|k| mix(a.shear_n[k], b.shear_n[k])),
+            friction_used: mix(a.friction_used, b.friction_used),
+            sliding: b.sliding,
             indenter: b.indenter,
         }
     }
@@ -277,10 +302,39 @@ impl BenchTruth {
     pub fn in_contact(&self) -> bool {
         self.normal_force.0 > 0.0
     }
+
+    /// How the contact holds (`None` without contact): gross slip while the indenter slides;
+    /// partial slip while it sticks with a tenth or more of its contact slipping (the share of
+    /// the friction used past the outline's [`partial_slip_onset`]); stick otherwise.
+    pub fn slip_state(&self) -> Option<SlipState> {
+        if !self.in_contact() {
+            return None;
+        }
+        Some(if self.sliding {
+            SlipState::GrossSlip
+        } else if self.friction_used >= partial_slip_onset(&self.indenter.tip.shape_at(self.depth))
+        {
+            SlipState::PartialSlip
+        } else {
+            SlipState::Stick
+        })
+    }
+
+    /// The push along the surface the camera sees (`None` without one).
+    pub fn shear(&self) -> Option<Shear> {
+        let [qx, qy] = self.shear_n;
+        let q = qx.hypot(qy);
+        (q > 0.0 && self.in_contact()).then(|| Shear {
+            force: Newtons(q),
+            direction_deg: qy.atan2(qx).to_degrees(),
+            friction_used: self.friction_used,
+        })
+    }
 }
 
 struct State {
     model: ContactModel,
+    tangential: Tangential,
     indenter: MountedIndenter,
     history: VecDeque<BenchTruth>,
 }
@@ -316,6 +370,7 @@ impl Bench {
         let bench = Bench {
             state: Mutex::new(State {
                 model,
+                tangential: Tangential::new(&config.material),
                 indenter: config.indenter,
                 history: VecDeque::new(),
             }),
@@ -432,6 +487,9 @@ impl Bench {
             y,
             depth,
             normal_force: Newtons(0.0),
+            shear_n: [0.0; 2],
+            friction_used: 0.0,
+            sliding: false,
             indenter,
         }
     }
@@ -446,6 +504,7 @@ impl Bench {
         let span = t.0 - last.0;
         let step_ns = (self.config.max_step_ms.max(1e-3) * 1e6) as u64;
         let n = span.div_ceil(step_ns.max(1)).clamp(1, MAX_STEPS);
+        let mut previous = last;
         for k in 1..=n {
             let tk = HostTime(last.0 + span * k / n);
             let mut truth = self.kinematic_truth(tk, s.indenter);
@@ -456,6 +515,18 @@ impl Bench {
                 Millimetres(-1.0)
             };
             truth.normal_force = s.model.advance(tk, depth);
+            let radius = contact_radius(s.indenter.tip.geometry(), depth).0;
+            let tangential = s.tangential.advance(
+                &self.config.material,
+                tk.since(previous).as_secs_f64(),
+                [truth.x.0, truth.y.0],
+                truth.normal_force.0,
+                radius,
+            );
+            truth.shear_n = tangential.force;
+            truth.friction_used = tangential.friction_used;
+            truth.sliding = tangential.sliding;
+            previous = tk;
             s.history.push_back(truth);
         }
         let keep_ns = (self.config.history_ms.max(1.0) * 1e6) as u64;
@@ -494,14 +565,21 @@ impl Bench {
             x: truth.x,
             y: truth.y,
             angle_deg: truth.indenter.angle_deg,
+            shear: truth.shear(),
         })
     }
 }
 
 impl LoadSource for Bench {
     fn true_wrench_at(&self, t: HostTime) -> Wrench {
-        let n = self.truth_at(t).normal_force.0;
-        Wrench::from_array(self.unit_wrench.map(|u| u * n))
+        let truth = self.truth_at(t);
+        let n = truth.normal_force.0;
+        let [qx, qy] = truth.shear_n;
+        if qx == 0.0 && qy == 0.0 {
+            return Wrench::from_array(self.unit_wrench.map(|u| u * n));
+        }
+        // The surface pushes the tip back against the push, and up.
+        self.config.mount.wrench_from_tip_force([-qx, -qy, n])
     }
 }
 
@@ -600,5 +678,75 @@ mod tests {
         // A query in the past interpolates the history, it does not rewind the model.
         let earlier = bench.truth_at(after(t0, 14.9));
         assert!(earlier.normal_force.0 >= truth.normal_force.0);
+    }
+
+    #[test]
+    fn pressing_then_moving_x_shears_the_contact_until_it_slides_and_the_ft_feels_it() {
+        let config = BenchConfig {
+            surface: SurfaceConfig {
+                rms_um: 0.0,
+                ..SurfaceConfig::default()
+            },
+            ..BenchConfig::default()
+        };
+        let bench = Bench::new(config);
+        let t0 = HostTime::now();
+        // 2 mm left of the sensor centre, press 1 mm, then after 15 s move +x by 4 mm at the
+        // stage's speed.
+        let (x, y) = bench.stage_xy_for(Millimetres(-2.0), Millimetres(0.0));
+        bench.motor_x().move_to(t0, Millimetres(x.0 - 25.0));
+        bench.motor_y().move_to(t0, Millimetres(y.0 - 25.0));
+        bench.motor_z().move_to(t0, Millimetres(10.0 + 1.0));
+        let pressed = bench.truth_at(after(t0, 15.0));
+        assert!(
+            pressed.normal_force.0 > 3.0 && pressed.shear_n == [0.0, 0.0],
+            "{pressed:?}"
+        );
+        assert_eq!(pressed.slip_state(), Some(SlipState::Stick));
+        assert!(Bench::contact_of(&pressed)
+            .expect("contact")
+            .shear
+            .is_none());
+        bench
+            .motor_x()
+            .move_to(after(t0, 15.0), Millimetres(x.0 - 25.0 + 4.0));
+        let mut seen = Vec::new();
+        for k in 1..=400 {
+            let t = after(t0, 15.0 + 0.01 * k as f64);
+            seen.push((bench.truth_at(t), bench.true_wrench_at(t)));
+        }
+        assert!((seen[399].0.x.0 - 2.0).abs() < 1e-6, "{:?}", seen[399].0);
+        let (seen, wrenches): (Vec<BenchTruth>, Vec<Wrench>) = seen.into_iter().unzip();
+        let states: Vec<SlipState> = seen.iter().filter_map(|t| t.slip_state()).collect();
+        let first = |s: SlipState| states.iter().position(|&x| x == s).expect("state reached");
+        assert!(
+            first(SlipState::PartialSlip) < first(SlipState::GrossSlip),
+            "partial slip did not come before gross slip"
+        );
+        let at = seen.iter().position(|t| t.sliding).expect("it slid");
+        let sliding = &seen[at];
+        let mu = bench.config().material.friction;
+        // The push is along +x; the surface pushes the tip back along -x.
+        assert!(
+            (sliding.shear_n[0] - mu.kinetic_coefficient * sliding.normal_force.0).abs() < 0.05,
+            "{sliding:?}"
+        );
+        let w = wrenches[at];
+        let expected = bench.config().mount.wrench_from_tip_force([
+            -sliding.shear_n[0],
+            -sliding.shear_n[1],
+            sliding.normal_force.0,
+        ]);
+        assert!(
+            (w.fx.0 - expected.fx.0).abs() < 1e-9 && w.fx.0.abs() > 1.0,
+            "{w:?} vs {expected:?} from {sliding:?}"
+        );
+        let shear = Bench::contact_of(sliding)
+            .and_then(|c| c.shear)
+            .expect("shear");
+        assert!(
+            shear.direction_deg.abs() < 1e-6 && shear.friction_used == 1.0,
+            "{shear:?}"
+        );
     }
 }

@@ -205,6 +205,7 @@ pub fn frame(spec: &DatasetSpec, sensor: &SensorConfig, index: u64) -> Synthetic
                 x: Millimetres(r * bearing.cos()),
                 y: Millimetres(r * bearing.sin()),
                 angle_deg,
+                shear: None,
             },
         )
     });
@@ -324,6 +325,7 @@ mod tests {
                 x: Millimetres(3.0),
                 y: Millimetres(-2.0),
                 angle_deg: 0.0,
+                shear: None,
             }
         };
         let a = pressed_frame(5, 17, Some(("rectangle", contact(6.0))));

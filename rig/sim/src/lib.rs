@@ -96,6 +96,7 @@ mod test_support;
 pub use ageing::{Ageing, AgeingError};
 pub use bench::{
     AxisConfig, Bench, BenchConfig, BenchGeometry, BenchTruth, IndenterTip, MountedIndenter,
+    SlipState,
 };
 pub use emulators::apt_emulator::core::{EmulatorCounters, UpdateMessage};
 pub use emulators::apt_emulator::server::EmulatorError;
@@ -126,6 +127,7 @@ pub use optics::sensor::{
     SensorConfig, SensorConfigError, SensorGeometry, SurfaceFinish, Variant,
 };
 pub use physics::contact::{ContactGeometry, ContactMaterial, PronyTerm, SurfaceConfig};
+pub use physics::friction::Friction;
 pub use physics::ft_config::FtMount;
 pub use physics::ft_sensor::{FtNoiseConfig, SimFtSensor};
 pub use physics::indenter::Shape;
@@ -133,4 +135,4 @@ pub use physics::motion::{MotorSpec, MotorStatus, SimMotor};
 pub use physics::stress::Layer;
 pub use rig::{ForcePath, ServeEndpoints, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
 pub use robot::{Robot, RobotConfig, RobotError, RobotPress};
-pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource};
+pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource, Shear};

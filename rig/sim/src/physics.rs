@@ -3,8 +3,11 @@
 //! force/torque sensor that measures it.
 
 pub(crate) mod contact;
+pub(crate) mod friction;
 pub(crate) mod ft_config;
 pub(crate) mod ft_sensor;
 pub(crate) mod indenter;
 pub(crate) mod motion;
+pub(crate) mod sliding;
 pub(crate) mod stress;
+pub(crate) mod traction;

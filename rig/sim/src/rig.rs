@@ -161,6 +161,8 @@ impl SimRigConfig {
         let mut c = self.seeded();
         self.ageing.apply_to_sensor(&mut c.sensor);
         self.ageing.apply_to_bench(&mut c.bench);
+        // The gel's friction is the sensor unit's.
+        c.bench.material.friction = c.sensor.surface.friction();
         Ok(c)
     }
 

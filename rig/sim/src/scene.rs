@@ -26,6 +26,21 @@ pub struct Contact {
     pub y: Millimetres,
     /// Indenter rotation about the load axis, degrees.
     pub angle_deg: f64,
+    /// The indenter's push along the surface, if any (`None`: a normal press).
+    pub shear: Option<Shear>,
+}
+
+/// The tangential force an indenter applies to the sensor surface, and how much of the friction
+/// it uses (docs/photoelastic-sim.md, "Shear and slip").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shear {
+    /// Magnitude of the tangential force on the sensor surface, N.
+    pub force: Newtons,
+    /// Its direction in the sensor frame, degrees counter-clockwise from +x.
+    pub direction_deg: f64,
+    /// Share of the friction limit the traction uses, 0 to 1: 0 is full stick, the stick zone
+    /// shrinks as it grows, 1 is gross slip (the whole contact slides, the traction mu p).
+    pub friction_used: f64,
 }
 
 /// Everything the camera sees that changes with time.

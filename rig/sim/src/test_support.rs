@@ -40,6 +40,7 @@ pub(crate) fn contact(shape: Shape, force: f64, x: f64, y: f64, angle_deg: f64) 
         x: Millimetres(x),
         y: Millimetres(y),
         angle_deg,
+        shear: None,
     }
 }
 

@@ -194,6 +194,7 @@ impl Presser {
                             x: Millimetres(pos[0]),
                             y: Millimetres(pos[1]),
                             angle_deg: 0.0,
+                            shear: None,
                         },
                     ))
                 }

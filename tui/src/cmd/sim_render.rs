@@ -7,6 +7,7 @@ use fringe_rig::{Millimetres, Newtons};
 use fringe_sim::Contact;
 use fringe_sim::SensorConfig;
 use fringe_sim::Shape;
+use fringe_sim::Shear;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -57,6 +58,20 @@ pub struct SimRenderArgs {
         allow_negative_numbers = true
     )]
     angle: f64,
+    /// Tangential force the indenter pushes the surface with, N (0: a normal press).
+    #[arg(long, value_name = "N", default_value_t = 0.0)]
+    shear: f64,
+    /// Direction of the push in the sensor frame, degrees counter-clockwise from +x.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    shear_direction: f64,
+    /// Share of the friction limit the push uses, 0 (full stick) to 1 (gross slip).
+    #[arg(long, value_name = "0..1", default_value_t = 0.5)]
+    friction_used: f64,
     /// PNG file to write.
     #[arg(long, value_name = "FILE.png")]
     out: PathBuf,
@@ -97,7 +112,21 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
     if !(args.force.is_finite() && (0.0..=100.0).contains(&args.force)) {
         bail!("--force {}: use 0 to 100 N", args.force);
     }
-    for (name, v) in [("--x", args.x), ("--y", args.y), ("--angle", args.angle)] {
+    if !(args.shear.is_finite() && (0.0..=100.0).contains(&args.shear)) {
+        bail!("--shear {}: use 0 to 100 N", args.shear);
+    }
+    if !(args.friction_used.is_finite() && (0.0..=1.0).contains(&args.friction_used)) {
+        bail!(
+            "--friction-used {}: use 0 (full stick) to 1 (gross slip)",
+            args.friction_used
+        );
+    }
+    for (name, v) in [
+        ("--x", args.x),
+        ("--y", args.y),
+        ("--angle", args.angle),
+        ("--shear-direction", args.shear_direction),
+    ] {
         if !v.is_finite() {
             bail!("{name} {v}: not a number");
         }
@@ -123,6 +152,11 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
         x: Millimetres(args.x),
         y: Millimetres(args.y),
         angle_deg: args.angle,
+        shear: (args.shear > 0.0).then_some(Shear {
+            force: Newtons(args.shear),
+            direction_deg: args.shear_direction,
+            friction_used: args.friction_used,
+        }),
     });
     let id = config.id.clone();
     let Rendered {
@@ -130,8 +164,16 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
         height: h,
         pixel: [u, v],
     } = render_png(config, contact, [args.x, args.y], args.frame, &args.out)?;
+    let push = if args.shear > 0.0 {
+        format!(
+            ", pushed {} N towards {} deg using {} of the friction",
+            args.shear, args.shear_direction, args.friction_used
+        )
+    } else {
+        String::new()
+    };
     println!(
-        "wrote {} ({w}x{h}, sensor {id}, {} {} N at ({}, {}) mm, {} deg: image pixel ({u:.1}, {v:.1}))",
+        "wrote {} ({w}x{h}, sensor {id}, {} {} N at ({}, {}) mm, {} deg{push}: image pixel ({u:.1}, {v:.1}))",
         args.out.display(),
         args.shape,
         args.force,

@@ -16,8 +16,11 @@
 
 use crate::physics::indenter::PressureMap;
 use crate::physics::stress::Layer;
+use crate::physics::traction::TractionMap;
 use rustfft::num_complex::Complex;
 use rustfft::FftPlanner;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Fringe order per newton on the grid of the pressure map it was computed from.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,42 +72,42 @@ fn fft_2d(data: &mut [Complex<f64>], m: usize, inverse: bool) {
     }
 }
 
-/// D1 + i D2 in N/mm per cell for `pressure` (N/mm^2) seen through `layer`.
-pub(crate) fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f64>> {
-    let n = pressure.size();
-    let cell = pressure.cell_mm();
+/// The spectrum (2-D FFT on the zero-padded `2n` x `2n` periodic grid) of a kernel given at
+/// cell offsets (dx, dy) in -(n-1)..=(n-1); the load's own cell (0, 0) contributes 0.
+fn kernel_spectrum(n: usize, kernel: impl Fn(isize, isize) -> Complex<f64>) -> Vec<Complex<f64>> {
     let m = 2 * n;
-    let area = cell * cell;
-    let reg2 = 0.25 * cell * cell;
-
-    let mut p = vec![Complex::new(0.0, 0.0); m * m];
-    for j in 0..n {
-        for i in 0..n {
-            p[j * m + i] = Complex::new(pressure.at(i, j) * area, 0.0);
-        }
-    }
-    // Kernel at offsets -(n-1)..=(n-1), wrapped into the m x m periodic array.
     let mut k = vec![Complex::new(0.0, 0.0); m * m];
     let span = n as isize - 1;
     for dy in -span..=span {
         for dx in -span..=span {
             if dx == 0 && dy == 0 {
-                // e^(2 i phi) averages to zero over the load's own cell.
                 continue;
             }
-            let (x, y) = (dx as f64 * cell, dy as f64 * cell);
-            let r2 = x * x + y * y;
-            let g = layer.kernel((r2 + reg2).sqrt());
-            // cos 2 phi = (x^2 - y^2) / r^2, sin 2 phi = 2 x y / r^2.
-            let value = Complex::new(g * (x * x - y * y) / r2, g * 2.0 * x * y / r2);
             let iu = dx.rem_euclid(m as isize) as usize;
             let ju = dy.rem_euclid(m as isize) as usize;
-            k[ju * m + iu] = value;
+            k[ju * m + iu] = kernel(dx, dy);
+        }
+    }
+    fft_2d(&mut k, m, false);
+    k
+}
+
+/// The linear convolution of a load map (`load(i, j)`: N per cell on an `n` x `n` grid) with
+/// the kernel whose [`kernel_spectrum`] is `spectrum`, on the `n` x `n` grid.
+fn convolve(
+    n: usize,
+    load: impl Fn(usize, usize) -> f64,
+    spectrum: &[Complex<f64>],
+) -> Vec<Complex<f64>> {
+    let m = 2 * n;
+    let mut p = vec![Complex::new(0.0, 0.0); m * m];
+    for j in 0..n {
+        for i in 0..n {
+            p[j * m + i] = Complex::new(load(i, j), 0.0);
         }
     }
     fft_2d(&mut p, m, false);
-    fft_2d(&mut k, m, false);
-    for (a, b) in p.iter_mut().zip(&k) {
+    for (a, b) in p.iter_mut().zip(spectrum) {
         *a *= *b;
     }
     fft_2d(&mut p, m, true);
@@ -116,6 +119,89 @@ pub(crate) fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Co
         }
     }
     out
+}
+
+/// D1 + i D2 in N/mm per cell for `pressure` (N/mm^2) seen through `layer`.
+pub(crate) fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Complex<f64>> {
+    let n = pressure.size();
+    let cell = pressure.cell_mm();
+    let area = cell * cell;
+    let reg2 = 0.25 * cell * cell;
+    // e^(2 i phi) averages to zero over the load's own cell.
+    let spectrum = kernel_spectrum(n, |dx, dy| {
+        let (x, y) = (dx as f64 * cell, dy as f64 * cell);
+        let r2 = x * x + y * y;
+        let g = layer.kernel((r2 + reg2).sqrt());
+        // cos 2 phi = (x^2 - y^2) / r^2, sin 2 phi = 2 x y / r^2.
+        Complex::new(g * (x * x - y * y) / r2, g * 2.0 * x * y / r2)
+    });
+    convolve(n, |i, j| pressure.at(i, j) * area, &spectrum)
+}
+
+/// Spectra of the through-layer Cerruti kernels (unit tangential load along +x, along +y) of a
+/// layer on a grid, computed once per process for each (layer, grid): the quadrature behind
+/// them takes a fraction of a second.
+type TangentialSpectra = Arc<[Vec<Complex<f64>>; 2]>;
+
+fn tangential_spectra(layer: &Layer, n: usize, cell: f64) -> TangentialSpectra {
+    type Key = (u64, u64, u64, usize, u64);
+    static CACHE: OnceLock<Mutex<HashMap<Key, TangentialSpectra>>> = OnceLock::new();
+    let key = (
+        layer.z0_mm.to_bits(),
+        layer.z1_mm.to_bits(),
+        layer.nu.to_bits(),
+        n,
+        cell.to_bits(),
+    );
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return Arc::clone(found);
+    }
+    // The +x kernel on one quadrant (D1 is odd in x and even in y, D2 even in x and odd in
+    // y), at the cell offset pushed out to the regularised radius sqrt(r^2 + (cell / 2)^2).
+    let span = n - 1;
+    let reg2 = 0.25 * cell * cell;
+    let mut quadrant = vec![[0.0f64; 2]; n * n];
+    for dy in 0..=span {
+        for dx in 0..=span {
+            if dx == 0 && dy == 0 {
+                continue;
+            }
+            let (x, y) = (dx as f64 * cell, dy as f64 * cell);
+            let r2 = x * x + y * y;
+            let stretch = ((r2 + reg2) / r2).sqrt();
+            quadrant[dy * n + dx] = layer.tangential_kernel(x * stretch, y * stretch);
+        }
+    }
+    let along_x = |dx: isize, dy: isize| {
+        let [d1, d2] = quadrant[dy.unsigned_abs() * n + dx.unsigned_abs()];
+        Complex::new(d1 * dx.signum() as f64, d2 * dy.signum() as f64)
+    };
+    // A load along +y is the +x load with x and y exchanged: D1 changes sign, D2 does not.
+    let along_y = |dx: isize, dy: isize| {
+        let c = along_x(dy, dx);
+        Complex::new(-c.re, c.im)
+    };
+    let spectra = Arc::new([kernel_spectrum(n, along_x), kernel_spectrum(n, along_y)]);
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, Arc::clone(&spectra));
+    spectra
+}
+
+/// D1 + i D2 in N/mm per cell of `traction` (per unit tangential force) seen through `layer`,
+/// for the force along the indenter frame's +x and along its +y.
+pub(crate) fn tangential_stress(traction: &TractionMap, layer: &Layer) -> [Vec<Complex<f64>>; 2] {
+    let n = traction.size();
+    let cell = traction.cell_mm();
+    let area = cell * cell;
+    let spectra = tangential_spectra(layer, n, cell);
+    let load = |i: usize, j: usize| traction.at(i, j) * area;
+    [
+        convolve(n, load, &spectra[0]),
+        convolve(n, load, &spectra[1]),
+    ]
 }
 
 impl FringeField {
@@ -131,6 +217,20 @@ impl FringeField {
         let scale = 2.0 * 1000.0 / f_sigma_n_per_m;
         let values: Vec<f64> = d.iter().map(|c| scale * c.norm()).collect();
         FringeField::from_values(unit_pressure.size(), unit_pressure.cell_mm(), values)
+    }
+
+    /// The fringe order of depth-integrated stress differences `stress` (D1 + i D2, N/mm per
+    /// cell, row-major on an `n` x `n` grid of `cell_mm`) through material fringe value
+    /// `f_sigma_n_per_m`, with its gradient: a field of one load, not per newton.
+    pub(crate) fn from_stress(
+        n: usize,
+        cell_mm: f64,
+        stress: impl Iterator<Item = Complex<f64>>,
+        f_sigma_n_per_m: f64,
+    ) -> FringeField {
+        let scale = 2.0 * 1000.0 / f_sigma_n_per_m;
+        let values = stress.map(|c| scale * c.norm()).collect();
+        FringeField::from_values(n, cell_mm, values)
     }
 
     /// Field from row-major values on an `n` x `n` grid (n at least 2), with its gradient.
@@ -203,6 +303,7 @@ impl FringeField {
 mod tests {
     use super::*;
     use crate::physics::indenter::Shape;
+    use crate::physics::traction::DEFAULT_EDGE_RADIUS_MM;
     use std::f64::consts::PI;
 
     const N: usize = 256;
@@ -230,6 +331,81 @@ mod tests {
         }
         eprintln!("point-load max error relative to the kernel peak {worst:e}");
         assert!(worst < 1e-10, "{worst}");
+    }
+
+    #[test]
+    fn single_cell_traction_reproduces_the_cerruti_kernel_both_ways() {
+        let (ci, cj) = (60, 75);
+        let layer = Layer::LAYERED;
+        let d = tangential_stress(&TractionMap::point(N, CELL, ci, cj), &layer);
+        let peak = layer.tangential_kernel(0.5 * CELL, 0.0)[0].abs();
+        let mut worst: f64 = 0.0;
+        for j in (0..N).step_by(7) {
+            for i in (0..N).step_by(5) {
+                let (x, y) = ((i as f64 - ci as f64) * CELL, (j as f64 - cj as f64) * CELL);
+                let r2 = x * x + y * y;
+                let (along_x, along_y) = if r2 == 0.0 {
+                    (Complex::new(0.0, 0.0), Complex::new(0.0, 0.0))
+                } else {
+                    let k = ((r2 + 0.25 * CELL * CELL) / r2).sqrt();
+                    let [a1, a2] = layer.tangential_kernel(k * x, k * y);
+                    // Along +y: the +x kernel seen with x and y exchanged, D1 negated.
+                    let [b1, b2] = layer.tangential_kernel(k * y, k * x);
+                    (Complex::new(a1, a2), Complex::new(-b1, b2))
+                };
+                worst = worst.max((d[0][j * N + i] - along_x).norm() / peak);
+                worst = worst.max((d[1][j * N + i] - along_y).norm() / peak);
+            }
+        }
+        assert!(worst < 1e-9, "{worst}");
+    }
+
+    #[test]
+    fn a_push_along_y_is_a_push_along_x_turned_a_quarter() {
+        // Stress differences turn with twice the angle: a load turned by +90 degrees gives at P
+        // what the unturned load gives at P turned back, times e^(i 180) = -1.
+        let traction = TractionMap::new(&Shape::Circle { radius_mm: 3.0 }, N, CELL, 0.5, 0.5);
+        let [along_x, along_y] = tangential_stress(&traction, &Layer::INTEGRATED);
+        let c = (N / 2) as isize;
+        let mut worst: f64 = 0.0;
+        let peak = along_x.iter().fold(0.0f64, |m, v| m.max(v.norm()));
+        for dy in (-40..=40).step_by(3) {
+            for dx in (-40..=40).step_by(4) {
+                // (x, y) turned back by 90 degrees is (y, -x).
+                let p = ((c + dy) * N as isize + c + dx) as usize;
+                let q = ((c - dx) * N as isize + c + dy) as usize;
+                worst = worst.max((along_y[p] + along_x[q]).norm() / peak);
+            }
+        }
+        assert!(worst < 1e-9, "{worst}");
+    }
+
+    #[test]
+    fn a_sideways_push_makes_the_fringes_of_a_press_lopsided() {
+        // A 4 N press of a 4 mm circular punch, pushed along +x with 2 N: the stress difference
+        // ahead of the punch differs from that behind it, where a press alone is symmetric.
+        let shape = Shape::Circle { radius_mm: 4.0 };
+        let layer = Layer::LAYERED;
+        let normal = integrated_stress(&PressureMap::new(&shape, N, CELL, 1.0), &layer);
+        let traction = TractionMap::new(&shape, N, CELL, 0.4, DEFAULT_EDGE_RADIUS_MM);
+        let [along_x, _] = tangential_stress(&traction, &layer);
+        let at = |v: &[Complex<f64>], x_mm: f64| {
+            let i = (N as f64 / 2.0 + x_mm / CELL).round() as usize;
+            v[(N / 2) * N + i]
+        };
+        let combined = |x_mm: f64| (at(&normal, x_mm) * 4.0 + at(&along_x, x_mm) * 2.0).norm();
+        let alone = |x_mm: f64| (at(&normal, x_mm) * 4.0).norm();
+        for x in [2.8, 4.4, 6.0] {
+            assert!(
+                (alone(x) - alone(-x)).abs() < 1e-9 * alone(x),
+                "{x}: press not symmetric"
+            );
+            let (ahead, behind) = (combined(x), combined(-x));
+            assert!(
+                (ahead - behind).abs() > 0.05 * ahead.max(behind),
+                "{x} mm: ahead {ahead}, behind {behind}"
+            );
+        }
     }
 
     #[test]

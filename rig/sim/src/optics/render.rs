@@ -36,13 +36,15 @@ use crate::optics::background::{
 };
 use crate::optics::blurred_colour::BlurredColourTable;
 use crate::optics::colour::Polariser;
-use crate::optics::fringe_field::FringeField;
+use crate::optics::fringe_field::{integrated_stress, tangential_stress, FringeField};
 use crate::optics::pixel_format::{bayer_channel, grey};
 use crate::optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
 use crate::physics::indenter::{PressureMap, Shape};
-use crate::scene::{Contact, FrameRenderer, Scene};
+use crate::physics::traction::{TractionMap, DEFAULT_EDGE_RADIUS_MM};
+use crate::scene::{Contact, FrameRenderer, Scene, Shear};
 use crate::session;
 use fringe_rig::PixelFormat;
+use rustfft::num_complex::Complex;
 
 /// Sphere fields are cached by contact radius rounded to this step, mm.
 pub(crate) const SPHERE_RADIUS_STEP_MM: f64 = 0.05;
@@ -192,6 +194,16 @@ const SKIP_BELOW_FRINGES: f32 = 0.002;
 
 /// Most fields kept in the cache (flat punches and spheres together).
 const FIELD_CACHE_LIMIT: usize = 96;
+
+/// Tangential traction is computed for the shares of the friction used 0, 1/8, ..., 1 and
+/// interpolated between them.
+const TRACTION_LEVELS: usize = 8;
+
+/// Most traction levels kept (each holds two stress fields of the grid).
+const TRACTION_CACHE_LIMIT: usize = 48;
+
+/// Depth-integrated stress differences D1 + i D2 of a unit load, row-major on the field grid.
+type StressField = Vec<Complex<f32>>;
 
 /// Fringe order per newton and its gradient per mm, packed for the per-pixel loop.
 #[derive(Debug, Clone)]
@@ -423,6 +435,11 @@ pub struct Renderer {
     colours: PackedColours,
     background: Background,
     fields: HashMap<FieldKey, Arc<PackedField>>,
+    /// Per shape: D1 + i D2 of a 1 N press (for contacts pushed sideways).
+    stresses: HashMap<FieldKey, Arc<StressField>>,
+    /// Per shape and traction level: D1 + i D2 of a 1 N tangential force along the indenter
+    /// frame's +x and +y.
+    tractions: HashMap<(FieldKey, usize), Arc<[StressField; 2]>>,
     /// 1 / f_sigma scale applied to fields computed at f_sigma = 1 N/m.
     f_sigma_n_per_m: f64,
     blur_sigma_mm: f64,
@@ -499,6 +516,8 @@ impl Renderer {
             background,
             unloaded,
             fields: HashMap::new(),
+            stresses: HashMap::new(),
+            tractions: HashMap::new(),
             f_sigma_n_per_m,
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
             noise,
@@ -560,6 +579,86 @@ impl Renderer {
         packed
     }
 
+    /// The field `contact` is drawn with and the factor on it: a press alone scales the field of
+    /// a 1 N press of its shape by its force; a press pushed sideways gets a field of its own
+    /// loads (factor 1).
+    fn contact_field(&mut self, contact: &Contact) -> (Arc<PackedField>, f64) {
+        match contact.shear {
+            Some(shear) if shear.force.0 > 0.0 && contact.force.0 > 0.0 => {
+                (Arc::new(self.sheared_field(contact, &shear)), 1.0)
+            }
+            _ => (self.field(&contact.shape), contact.force.0),
+        }
+    }
+
+    /// The field of a press of `contact.force` pushed sideways by `shear`: the stress
+    /// differences of the press, and of the tangential traction interpolated between the two
+    /// nearest levels of the friction used, added before the fringe order is taken (the two
+    /// load systems superpose in stress, not in fringe order).
+    fn sheared_field(&mut self, contact: &Contact, shear: &Shear) -> PackedField {
+        let (key, quantised) = field_key(&contact.shape);
+        let normal = self.stress(key, &quantised);
+        let level = shear.friction_used.clamp(0.0, 1.0) * TRACTION_LEVELS as f64;
+        let below = (level.floor() as usize).min(TRACTION_LEVELS - 1);
+        let w = (level - below as f64) as f32;
+        let low = self.traction(key, &quantised, below);
+        let high = self.traction(key, &quantised, below + 1);
+        // The push's direction in the indenter frame (turned by the indenter's angle).
+        let (s, c) = (shear.direction_deg - contact.angle_deg)
+            .to_radians()
+            .sin_cos();
+        let (p, q) = (contact.force.0 as f32, shear.force.0 as f32);
+        let (qx, qy) = (q * c as f32, q * s as f32);
+        let stress = (0..normal.len()).map(|i| {
+            let t = |f: &[StressField; 2]| f[0][i] * qx + f[1][i] * qy;
+            let d = normal[i] * p + t(&low) * (1.0 - w) + t(&high) * w;
+            Complex::new(f64::from(d.re), f64::from(d.im))
+        });
+        let n = self.config.field.cells;
+        let field =
+            FringeField::from_stress(n, self.config.field.cell_mm, stress, self.f_sigma_n_per_m);
+        PackedField::new(&field, 1.0)
+    }
+
+    /// D1 + i D2 of a 1 N press of `shape` (`key`), computed on first use.
+    fn stress(&mut self, key: FieldKey, shape: &Shape) -> Arc<StressField> {
+        if let Some(found) = self.stresses.get(&key) {
+            return Arc::clone(found);
+        }
+        if self.stresses.len() >= FIELD_CACHE_LIMIT {
+            self.stresses
+                .retain(|k, _| matches!(k, FieldKey::Pentagon(_) | FieldKey::Rectangle(..)));
+        }
+        let (n, cell) = (self.config.field.cells, self.config.field.cell_mm);
+        let map = PressureMap::new(shape, n, cell, 1.0);
+        let d = integrated_stress(&map, &self.config.layer());
+        let field = Arc::new(narrow(&d));
+        self.stresses.insert(key, Arc::clone(&field));
+        field
+    }
+
+    /// D1 + i D2 of a 1 N tangential force along +x and +y of the indenter frame on `shape`
+    /// (`key`) at traction level `level` (of [`TRACTION_LEVELS`]), computed on first use.
+    fn traction(&mut self, key: FieldKey, shape: &Shape, level: usize) -> Arc<[StressField; 2]> {
+        if let Some(found) = self.tractions.get(&(key, level)) {
+            return Arc::clone(found);
+        }
+        if self.tractions.len() >= TRACTION_CACHE_LIMIT {
+            self.tractions
+                .retain(|(k, _), _| matches!(k, FieldKey::Pentagon(_) | FieldKey::Rectangle(..)));
+            if self.tractions.len() >= TRACTION_CACHE_LIMIT {
+                self.tractions.clear();
+            }
+        }
+        let (n, cell) = (self.config.field.cells, self.config.field.cell_mm);
+        let ratio = level as f64 / TRACTION_LEVELS as f64;
+        let map = TractionMap::new(shape, n, cell, ratio, DEFAULT_EDGE_RADIUS_MM);
+        let [x, y] = tangential_stress(&map, &self.config.layer());
+        let fields = Arc::new([narrow(&x), narrow(&y)]);
+        self.tractions.insert((key, level), Arc::clone(&fields));
+        fields
+    }
+
     /// The affine pixel -> indenter-frame map of `contact`.
     fn contact_affine(&self, contact: &Contact) -> ([[f32; 2]; 2], [f32; 2]) {
         let (s, c) = contact.angle_deg.to_radians().sin_cos();
@@ -582,10 +681,11 @@ impl Renderer {
         )
     }
 
-    /// `contact` mapped onto the image with `field`, for one frame.
-    fn contact_map<'a>(&self, c: &Contact, field: &'a PackedField) -> ContactMap<'a> {
+    /// `contact` mapped onto the image with `field` times `factor` (see
+    /// [`Renderer::contact_field`]), for one frame.
+    fn contact_map<'a>(&self, c: &Contact, field: &'a PackedField, factor: f64) -> ContactMap<'a> {
         let (a, b) = self.contact_affine(c);
-        let force = c.force.0.max(0.0) as f32;
+        let force = factor.max(0.0) as f32;
         let spread = force * self.blur_sigma_mm as f32;
         let reach = field.reach_mm(force, spread, self.skip_below);
         let [pu, pv] = self.geometry.to_pixel(c.x.0, c.y.0);
@@ -604,13 +704,13 @@ impl Renderer {
     /// birefringence): the values the frame's colours are looked up at, i.e. at the centre of
     /// each pixel's 2x2 block.
     pub fn fringe_order_map(&mut self, contact: &Contact) -> Vec<f32> {
-        let field = self.field(&contact.shape);
+        let (field, factor) = self.contact_field(contact);
         let (a, b) = self.contact_affine(contact);
         let map = ContactMap {
             field: &field,
             a,
             b,
-            force: contact.force.0 as f32,
+            force: factor as f32,
             spread: 0.0,
             centre_px: [0.0, 0.0],
             reach_px: f32::INFINITY,
@@ -740,6 +840,13 @@ fn colour_table(polariser: Polariser) -> Arc<BlurredColourTable> {
     table
 }
 
+/// A stress field kept in single precision (as the packed fields are).
+fn narrow(d: &[Complex<f64>]) -> StressField {
+    d.iter()
+        .map(|c| Complex::new(c.re as f32, c.im as f32))
+        .collect()
+}
+
 /// N_unit of `shape` at f_sigma = 1 N/m on the configured grid.
 fn unit_field(config: &SensorConfig, shape: &Shape) -> FringeField {
     let map = PressureMap::new(shape, config.field.cells, config.field.cell_mm, 1.0);
@@ -780,12 +887,14 @@ impl Renderer {
         let (w, h) = (self.background.width(), self.background.height());
         debug_assert_eq!(L::BYTES, L::FORMAT.bytes_per_pixel());
         out.resize(w * h * L::BYTES, 0);
-        let field = scene.contact.map(|c| (c, self.field(&c.shape)));
+        let field = scene.contact.map(|c| (c, self.contact_field(&c)));
         let (gain, offset) = self.drift.at(frame_index, self.session);
         let gain_q = (f64::from(gain) * f64::from(1u32 << GAIN_BITS)).round() as i32;
         let offset_q = (offset * LIGHT_STEPS_PER_DN).round() as i32;
         self.fold_gain(gain_q, offset_q);
-        let contact = field.as_ref().map(|(c, field)| self.contact_map(c, field));
+        let contact = field
+            .as_ref()
+            .map(|(c, (field, factor))| self.contact_map(c, field, *factor));
         let params = FrameParams {
             contact,
             lut: &self.frame_lut,

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use crate::bench::IndenterTip;
 use crate::optics::scratch::Scratch;
+use crate::physics::friction::Friction;
 use crate::physics::indenter::Shape;
 use crate::physics::stress::Layer;
 
@@ -131,14 +132,50 @@ pub struct LedConfig {
     pub out: Vec<u32>,
 }
 
-/// The contact surface's flaws.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+/// The contact surface: its friction against the indenters and its flaws.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SurfaceFinish {
     /// Grooves on the contact surface (default none; `[[surface.scratches]]`, see
     /// [`crate::optics::scratch`]).
     #[serde(default)]
     pub scratches: Vec<Scratch>,
+    /// Static friction coefficient against the indenters (default 1.0): an indenter pushed
+    /// along the surface starts sliding at this many times its normal force.
+    #[serde(default = "default_friction_static")]
+    pub friction_static: f64,
+    /// Kinetic friction coefficient (default 0.8, at most `friction_static`): a sliding
+    /// indenter carries this many times its normal force.
+    #[serde(default = "default_friction_kinetic")]
+    pub friction_kinetic: f64,
+}
+
+fn default_friction_static() -> f64 {
+    Friction::default().static_coefficient
+}
+
+fn default_friction_kinetic() -> f64 {
+    Friction::default().kinetic_coefficient
+}
+
+impl Default for SurfaceFinish {
+    fn default() -> Self {
+        SurfaceFinish {
+            scratches: Vec::new(),
+            friction_static: default_friction_static(),
+            friction_kinetic: default_friction_kinetic(),
+        }
+    }
+}
+
+impl SurfaceFinish {
+    /// The friction these keys give.
+    pub fn friction(&self) -> Friction {
+        Friction {
+            static_coefficient: self.friction_static,
+            kinetic_coefficient: self.friction_kinetic,
+        }
+    }
 }
 
 /// Sensor noise, brightness drift and LED flicker.
@@ -569,6 +606,24 @@ impl SensorConfig {
                 "leds.out",
                 k.to_string(),
                 "each must be an LED index below leds.count (0-based, ring order from phase_deg)",
+            );
+        }
+        let f = &self.surface;
+        if !(f.friction_static.is_finite() && (0.05..=5.0).contains(&f.friction_static)) {
+            return bad(
+                "surface.friction_static",
+                f.friction_static.to_string(),
+                "must be in 0.05..=5",
+            );
+        }
+        if !(f.friction_kinetic.is_finite()
+            && f.friction_kinetic > 0.0
+            && f.friction_kinetic <= f.friction_static)
+        {
+            return bad(
+                "surface.friction_kinetic",
+                f.friction_kinetic.to_string(),
+                "must be above 0 and at most surface.friction_static",
             );
         }
         for (n, scratch) in self.surface.scratches.iter().enumerate() {

@@ -33,6 +33,7 @@
 //! smooth cosine modes (wavelengths 15-60 mm) with a chosen RMS (default 20 um); first contact
 //! happens where the surface under the indenter centre is.
 
+use crate::physics::friction::Friction;
 use fringe_rig::HostTime;
 use fringe_rig::{Millimetres, Newtons};
 use rand::{Rng, SeedableRng};
@@ -47,6 +48,24 @@ pub struct PronyTerm {
     pub tau_s: f64,
 }
 
+impl PronyTerm {
+    /// Over a step of `dt` s with the elastic force changing linearly: the decay of the term's
+    /// internal force, e^(-dt / tau), and the share of the change it takes up,
+    /// (tau / dt)(1 - e^(-dt / tau)) (1 for an instantaneous change).
+    pub(crate) fn step(&self, dt: f64) -> (f64, f64) {
+        let tau = self.tau_s.max(1e-9);
+        let x = dt / tau;
+        let decay = (-x).exp();
+        // (1 - e^-x) / x, -> 1 as x -> 0.
+        let ramp = if x < 1e-9 {
+            1.0 - 0.5 * x
+        } else {
+            (1.0 - decay) / x
+        };
+        (decay, ramp)
+    }
+}
+
 /// The soft layer's material and thickness.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
@@ -58,6 +77,10 @@ pub struct ContactMaterial {
     pub layer_thickness_mm: f64,
     /// Relaxing terms; the long-term fraction is 1 - sum of the weights.
     pub relaxation: Vec<PronyTerm>,
+    /// Friction against the indenters: the sensor's own (its file's `[surface]`), set by the
+    /// simulated rig when it builds the bench, so not a key of the bench's configuration.
+    #[serde(skip)]
+    pub friction: Friction,
 }
 
 impl Default for ContactMaterial {
@@ -76,6 +99,7 @@ impl Default for ContactMaterial {
                     tau_s: 10.0,
                 },
             ],
+            friction: Friction::default(),
         }
     }
 }
@@ -189,15 +213,7 @@ impl ContactModel {
         };
         let dfe = fe - self.elastic;
         for (h, term) in self.internal.iter_mut().zip(&self.material.relaxation) {
-            let tau = term.tau_s.max(1e-9);
-            let x = dt / tau;
-            let decay = (-x).exp();
-            // (1 - e^-x) / x, -> 1 as x -> 0.
-            let ramp = if x < 1e-9 {
-                1.0 - 0.5 * x
-            } else {
-                (1.0 - decay) / x
-            };
+            let (decay, ramp) = term.step(dt);
             *h = decay * *h + term.weight * dfe * ramp;
         }
         self.elastic = fe;

@@ -16,7 +16,7 @@
 use std::f64::consts::PI;
 
 /// Sub-samples per cell side when rasterising a pressure map (anti-aliases the outline).
-const SUBSAMPLES: usize = 3;
+pub(crate) const SUBSAMPLES: usize = 3;
 
 /// An indenter tip.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -921,6 +921,7 @@ mod tests {
                             x: Millimetres(x),
                             y: Millimetres(y),
                             angle_deg: 0.0,
+                            shear: None,
                         },
                     )
                 });

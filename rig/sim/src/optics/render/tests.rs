@@ -302,3 +302,107 @@ fn spheres_grow_with_force_and_reuse_cached_fields() {
     area(&mut r, 9.0);
     assert_eq!(r.fields.len(), fields_before + 2);
 }
+
+/// `c` pushed along the surface with `force` N in direction `direction_deg` (sensor frame),
+/// using `friction_used` of the friction.
+fn pushed(mut c: Contact, force: f64, direction_deg: f64, friction_used: f64) -> Contact {
+    c.shear = Some(Shear {
+        force: fringe_rig::Newtons(force),
+        direction_deg,
+        friction_used,
+    });
+    c
+}
+
+/// Sum of the fringe order over the pixels whose sensor-frame point lies ahead of (`ahead`) or
+/// behind the point (x, y) along the unit direction (dx, dy).
+fn order_beside(r: &Renderer, map: &[f32], (x, y): (f64, f64), (dx, dy): (f64, f64)) -> [f64; 2] {
+    let g = r.geometry();
+    let w = r.width() as usize;
+    let mut sums = [0.0; 2];
+    for (i, j) in disc_pixels(r, 0.9) {
+        let [sx, sy] = g.to_sensor(i as f64 + 0.5, j as f64 + 0.5);
+        let along = (sx - x) * dx + (sy - y) * dy;
+        sums[usize::from(along < 0.0)] += f64::from(map[j * w + i]);
+    }
+    sums
+}
+
+#[test]
+fn a_push_along_the_surface_makes_the_fringes_lopsided_towards_it() {
+    for variant in [SensorConfig::layered(), SensorConfig::integrated()] {
+        let mut c = quiet(variant);
+        c.optics.blur_px = 0.0;
+        let mut r = Renderer::new(c).expect("renderer");
+        let press = contact(r.config().pentagon(), 5.0, 3.0, -2.0, 25.0);
+        // No push, or a push of 0 N, is the press alone, bit for bit.
+        let alone = r.fringe_order_map(&press);
+        assert!(alone == r.fringe_order_map(&pushed(press, 0.0, 40.0, 0.3)));
+        let [ahead0, behind0] = order_beside(&r, &alone, (3.0, -2.0), (1.0, 0.0));
+        for (direction, (dx, dy)) in [(0.0, (1.0, 0.0)), (180.0, (-1.0, 0.0)), (90.0, (0.0, 1.0))] {
+            let map = r.fringe_order_map(&pushed(press, 2.0, direction, 0.4));
+            let [ahead, behind] = order_beside(&r, &map, (3.0, -2.0), (dx, dy));
+            let [a0, b0] = if direction == 90.0 {
+                order_beside(&r, &alone, (3.0, -2.0), (dx, dy))
+            } else if direction == 0.0 {
+                [ahead0, behind0]
+            } else {
+                [behind0, ahead0]
+            };
+            let lopsided = (ahead - behind) / (ahead + behind);
+            let before = (a0 - b0) / (a0 + b0);
+            eprintln!(
+                "{}: push towards {direction} deg: (ahead - behind) / sum {lopsided:+.3}, press alone {before:+.3}",
+                r.config().id
+            );
+            assert!(
+                (lopsided - before).abs() > 0.03,
+                "{}: a 2 N push towards {direction} deg left the fringes as they were ({lopsided} vs {before})",
+                r.config().id
+            );
+        }
+        // Pushing the other way tips the balance the other way.
+        let east = r.fringe_order_map(&pushed(press, 2.0, 0.0, 0.4));
+        let west = r.fringe_order_map(&pushed(press, 2.0, 180.0, 0.4));
+        let [e_ahead, e_behind] = order_beside(&r, &east, (3.0, -2.0), (1.0, 0.0));
+        let [w_ahead, w_behind] = order_beside(&r, &west, (3.0, -2.0), (1.0, 0.0));
+        assert!(
+            (e_ahead - e_behind - (ahead0 - behind0)) * (w_ahead - w_behind - (ahead0 - behind0))
+                < 0.0,
+            "pushes east and west moved the balance the same way"
+        );
+    }
+}
+
+#[test]
+fn a_pushed_contact_turned_with_its_push_turns_the_image() {
+    let mut c = quiet(SensorConfig::layered());
+    c.leds.count = 0;
+    c.optics.residual_birefringence = 0.0;
+    c.optics.blur_px = 0.0;
+    let mut r = Renderer::new(c).expect("renderer");
+    let g = r.geometry();
+    let shape = r.config().rectangle();
+    let theta = 35.0f64;
+    let (s, co) = theta.to_radians().sin_cos();
+    let a = r.fringe_order_map(&pushed(contact(shape, 5.0, 0.0, 0.0, 10.0), 2.0, 20.0, 0.5));
+    let b = r.fringe_order_map(&pushed(
+        contact(shape, 5.0, 0.0, 0.0, 10.0 + theta),
+        2.0,
+        20.0 + theta,
+        0.5,
+    ));
+    let w = r.width() as usize;
+    let (mut diff, mut base, mut count) = (0.0, 0.0, 0.0);
+    for (i, j) in disc_pixels(&r, 0.5) {
+        let [sx, sy] = g.to_sensor(i as f64 + 0.5, j as f64 + 0.5);
+        let [u, v] = g.to_pixel(co * sx + s * sy, -s * sx + co * sy);
+        let (iu, jv) = (u as usize, v as usize);
+        diff += f64::from((b[j * w + i] - a[jv * w + iu]).abs());
+        base += f64::from((b[j * w + i] - a[j * w + i]).abs());
+        count += 1.0;
+    }
+    let (diff, base) = (diff / count, base / count);
+    eprintln!("turned push vs image turned {diff} orders, unturned {base}");
+    assert!(diff < 0.2 * base, "{diff} vs {base}");
+}
