@@ -99,6 +99,11 @@ class Dataset(torch.utils.data.Dataset):
     and noise come from ``augment_seed``, the frame and the copy alone, so every epoch and every
     process sees the same copies. The pipeline sets the colour.
 
+    ``targets`` says what ``fz`` and ``contact`` hold: ``"recorded"`` (the default), the labels
+    as recorded; ``"rounded"``, the targets ``fringe train`` trains to, as the paper's reference
+    rounds them: |Fz| to 0.1 N and the (turned) contact to 0.1 mm, half away from zero.
+    ``force`` is always as recorded.
+
     ``cache`` (on by default) keeps every input once made, as ``fringe train`` keeps its
     training set: in shared memory, so the ``DataLoader``'s workers share it, ``len(dataset)``
     x size x size bytes for grey inputs (three times that for RGB). A frame asked for is
@@ -109,9 +114,12 @@ class Dataset(torch.utils.data.Dataset):
 
     def __init__(self, runs, side="train", *, model=None, size=None, colour="grey",
                  split_seed=42, fractions=(0.8, 0.1, 0.1), classes=None, augment=None,
-                 augment_seed=42, cache=True):
+                 augment_seed=42, cache=True, targets="recorded"):
         if side not in SIDES:
             raise ValueError(f"side {side!r}: give train, val or test")
+        if targets not in ("recorded", "rounded"):
+            raise ValueError(f"targets={targets!r}: give recorded or rounded")
+        self.targets = targets
         self.sources = [_source(r) for r in runs]
         if not self.sources:
             raise ValueError("no runs given")
@@ -151,6 +159,7 @@ class Dataset(torch.utils.data.Dataset):
         self.sample = np.asarray(sample, dtype=np.int64)
         self.frame = np.asarray(frame, dtype=np.int64)
         self.force = np.asarray(force, dtype=np.float32).reshape(-1, 7)
+        self._fz64 = np.asarray(force, dtype=np.float64).reshape(-1, 7)[:, 2]
         self.shape = np.asarray(shape, dtype=np.int64)
         c = np.asarray(contact, dtype=np.float64).reshape(-1, 2)
         self.in_contact = ~np.isnan(c).any(axis=1)
@@ -174,13 +183,19 @@ class Dataset(torch.utils.data.Dataset):
 
     def _items(self, bases, inputs, contacts):
         out = []
+        contacts = np.nan_to_num(contacts)
+        if self.targets == "rounded":
+            contacts = _round1(contacts)
         for k, (p, x) in enumerate(zip(bases, inputs)):
+            fz = self.force[p][2]
+            if self.targets == "rounded":
+                fz = _round1(self._fz64[p])
             out.append({
                 "input": torch.from_numpy(np.ascontiguousarray(x)),
                 "force": torch.from_numpy(self.force[p]),
-                "fz": torch.tensor(self.force[p][2]),
+                "fz": torch.tensor(np.float32(fz)),
                 "shape": torch.tensor(self.shape[p]),
-                "contact": torch.from_numpy(np.nan_to_num(contacts[k]).astype(np.float32)),
+                "contact": torch.from_numpy(contacts[k].astype(np.float32)),
                 "in_contact": torch.tensor(bool(self.in_contact[p])),
                 "run": torch.tensor(self.run_of[p]),
                 "frame": torch.tensor(self.frame[p]),
@@ -258,6 +273,15 @@ class Dataset(torch.utils.data.Dataset):
                 # Its maker ended before it was done (a worker stopped mid-epoch): make it here.
                 self._make(gone)
             waiting = [b for b in waiting if not self._made[b]]
+
+
+def _round1(v):
+    """``v`` rounded to 0.1, half away from zero (Rust's ``f64::round``, as ``fringe train``
+    rounds its targets), from the recorded float64 value."""
+    x = np.asarray(v, dtype=np.float64) * 10.0
+    whole = np.trunc(x)
+    # x - trunc(x) is exact, so halves are found exactly.
+    return (whole + np.where(np.abs(x - whole) >= 0.5, np.sign(x), 0.0)) / 10.0
 
 
 _pick = {}

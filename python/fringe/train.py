@@ -10,7 +10,10 @@ contact, equal weights), the optimiser Adam. Every process sees its share of eac
 (``--batch``, split evenly; a ``DistributedSampler`` over the training side's frames), so N
 processes train the weights one process would with the same global batch. A checkpoint
 (``FILE.checkpoint.pt``) is written every ``--checkpoint-every`` steps and at each epoch's end;
-``--resume`` goes on from it. The weights of the epoch with the lowest validation loss are saved.
+``--resume`` goes on from it. The weights of the epoch with the lowest validation loss (fringe's
+loss over the validation side, as ``fringe train`` reports it) are saved. The targets are
+``fringe train``'s (``--targets rounded``: |Fz| to 0.1 N, contact to 0.1 mm, as the paper's
+reference rounds them); ``--targets recorded`` trains to the labels as recorded.
 """
 
 import argparse
@@ -49,6 +52,9 @@ def arguments(argv=None):
     p.add_argument("--colour", choices=["grey", "rgb"], default="grey")
     p.add_argument("--augment", choices=["gray10", "rgb3", "rgb3-clean"], default=None,
                    help="one of the paper's augmentation pipelines on the training side (sets the colour)")
+    p.add_argument("--targets", choices=["rounded", "recorded"], default="rounded",
+                   help="Fz and contact targets: rounded as fringe train rounds them (0.1 N, 0.1 mm), "
+                        "or as recorded")
     p.add_argument("--seed", type=int, default=0, help="initial weights and batch order")
     p.add_argument("--split-seed", type=int, default=42, help="fringe's split by press")
     p.add_argument("--workers", type=int, default=2, help="DataLoader workers per process")
@@ -113,26 +119,34 @@ def losses(out, batch, contact_rows_in_global_batch, world):
 
 
 def evaluate(net, loader, device):
-    """Fz RMSE (N), contact RMSE (mm) and shape accuracy over a side, and its loss."""
+    """Fz RMSE (N), contact RMSE (mm) and shape accuracy over a side, and its loss as ``fringe
+    train`` computes it: each batch's loss (batches of 64) weighted by its frames."""
     net.eval()
     n = n_contact = correct = 0
-    sq_fz = sq_c = 0.0
+    sq_fz = sq_c = loss_sum = 0.0
     with torch.no_grad():
         for b in loader:
             b = {k: v.to(device) for k, v in b.items()}
             force, logits, contact = net(b["input"])
-            n += len(b["fz"])
+            rows = len(b["fz"])
+            n += rows
             sq_fz += ((force[:, 2].float() - b["fz"]) ** 2).sum().item()
             correct += (logits.argmax(1) == b["shape"]).sum().item()
             on = b["in_contact"]
             n_contact += int(on.sum())
-            sq_c += ((contact.float()[on] - b["contact"][on]) ** 2).sum().item() / 2.0
+            sq_on = ((contact.float()[on] - b["contact"][on]) ** 2).sum().item()
+            sq_c += sq_on / 2.0
+            batch_loss = F.mse_loss(force[:, 2].float(), b["fz"]).item() + \
+                F.cross_entropy(logits.float(), b["shape"]).item()
+            if int(on.sum()):
+                batch_loss += sq_on / (2.0 * int(on.sum()))
+            loss_sum += batch_loss * rows
     net.train()
     if n == 0:
         return None
     fz_rmse = math.sqrt(sq_fz / n)
     c_rmse = math.sqrt(sq_c / n_contact) if n_contact else float("nan")
-    return {"frames": n, "fz_rmse_n": fz_rmse, "contact_rmse_mm": c_rmse,
+    return {"frames": n, "loss": loss_sum / n, "fz_rmse_n": fz_rmse, "contact_rmse_mm": c_rmse,
             "shape_accuracy": correct / n}
 
 
@@ -172,9 +186,10 @@ def main(argv=None):
     if a.augment is not None:
         a.colour = "grey" if a.augment == "gray10" else "rgb"
     train = Dataset(runs, "train", size=a.size, colour=a.colour, split_seed=a.split_seed,
-                    classes=classes, augment=a.augment, augment_seed=a.split_seed)
+                    classes=classes, augment=a.augment, augment_seed=a.split_seed,
+                    targets=a.targets)
     val = Dataset(runs, "val", size=a.size, colour=a.colour, split_seed=a.split_seed,
-                  classes=classes)
+                  classes=classes, targets=a.targets)
     if len(train) < a.batch:
         raise SystemExit(f"{len(train)} training frames, fewer than one batch of {a.batch}")
     per = a.batch // procs.world
@@ -256,13 +271,14 @@ def main(argv=None):
         finished_epoch = step >= (epoch + 1) * steps_per_epoch
         figures = evaluate(net, val_loader, procs.device) if procs.main else None
         if procs.main and figures is not None:
-            log(f"epoch {epoch + 1}: validation Fz RMSE {figures['fz_rmse_n']:.4f} N, contact "
+            log(f"epoch {epoch + 1}: validation loss {figures['loss']:.4f}, Fz RMSE "
+                f"{figures['fz_rmse_n']:.4f} N, contact "
                 f"RMSE {figures['contact_rmse_mm']:.4f} mm, shape {figures['shape_accuracy']:.4f}")
         if procs.main:
             history.append({"epoch": epoch + 1, "step": step, "validation": figures})
-            score = None if figures is None else figures["fz_rmse_n"]
-            if best is None or score is None or score <= best["fz_rmse_n"]:
-                best = {"epoch": epoch + 1, "fz_rmse_n": score, "state": {
+            score = None if figures is None else figures["loss"]
+            if best is None or score is None or best.get("loss") is None or score <= best["loss"]:
+                best = {"epoch": epoch + 1, "loss": score, "state": {
                     k: v.detach().cpu().clone() for k, v in net.state_dict().items()}}
         if finished_epoch:
             epoch += 1
@@ -277,6 +293,7 @@ def main(argv=None):
         c = card(a.arch, classes, a.size, a.colour, runs,
                  training={"runs": [r.name for r in runs], "steps": step, "init": a.init, "batch": a.batch,
                            "lr": a.lr, "seed": a.seed, "pipeline": a.augment,
+                           "targets": a.targets,
                            "split": {"seed": a.split_seed, "by": "press",
                                      "fractions": list(train.fractions)},
                            "history": history,

@@ -424,10 +424,32 @@ def dataset(run_dir):
         r = float(np.hypot(*c["contact"].numpy()))
         check(abs(r - r0) < 1e-4, f"a turned contact is {r} mm from the centre, the label {r0} mm")
     check(len({tuple(np.round(c["contact"].numpy(), 3)) for c in copies}) > 5, "the labels were not turned")
+    # fringe train's targets: |Fz| and the turned contact rounded to 0.1 (N, mm), half away
+    # from zero, from the recorded values (decimal's ROUND_HALF_UP rounds halves away from 0).
+    rounded = Dataset([run], "train", size=64, augment="gray10", targets="rounded")
+    for c in (0, 3, 7):
+        got, exact = rounded[10 * k + c], copies[c]
+        check(torch.equal(got["input"], exact["input"]) and torch.equal(got["force"], exact["force"]),
+              "rounded targets changed the input or the force")
+        want_fz = _round_tenth(float(t["force"][int(np.flatnonzero(t["index"] == int(got["frame"]))[0])][2]))
+        check(float(got["fz"]) == np.float32(want_fz), f"rounded Fz {float(got['fz'])}, want {want_fz}")
+    alone_rounded = Dataset([run], "train", size=64, augment="gray10", targets="rounded", cache=False)
+    for c in range(10):
+        turned = alone._made_now([(k, c)])[1][0]
+        want = np.float32([_round_tenth(float(v)) for v in turned])
+        check(np.array_equal(alone_rounded[10 * k + c]["contact"].numpy(), want),
+              f"copy {c}: rounded contact {alone_rounded[10 * k + c]['contact']}, want {want}")
     rgb = Dataset([run], "train", size=64, augment="rgb3-clean")
     check(len(rgb) == 3 * len(train) and rgb.colour == "rgb", "rgb3-clean")
     print(json.dumps({"train": len(train), "val": len(sides["val"]), "test": len(sides["test"]),
                       "presses": len(presses["train"])}))
+
+
+def _round_tenth(v):
+    """``v`` to 0.1, halves away from zero, computed in decimal from the float's exact value."""
+    from decimal import ROUND_HALF_UP, Decimal
+
+    return float(Decimal(v * 10.0).quantize(Decimal(1), rounding=ROUND_HALF_UP)) / 10.0
 
 
 def reference(ds_dir):
