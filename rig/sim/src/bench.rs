@@ -23,8 +23,7 @@ use crate::physics::ft_config::{FtMount, FtNoiseConfig};
 use crate::physics::indenter::Shape;
 use crate::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use crate::physics::sliding::Tangential;
-use crate::physics::traction::partial_slip_onset;
-use crate::scene::{Contact, LoadSource, Scene, SceneSource, Shear};
+use crate::scene::{Contact, LoadSource, Scene, SceneSource, Shear, SlipState};
 use fringe_rig::HostTime;
 use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench};
 use std::collections::VecDeque;
@@ -240,19 +239,6 @@ impl Default for BenchConfig {
     }
 }
 
-/// How a contact holds against its tangential force (docs/photoelastic-sim.md, "Shear and
-/// slip").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SlipState {
-    /// All, or all but a tenth, of the contact sticks.
-    Stick,
-    /// A slipping zone covers a tenth or more of the contact; the rest sticks.
-    PartialSlip,
-    /// The whole contact slides.
-    GrossSlip,
-}
-
 /// The true state of the bench at an instant (ground truth).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BenchTruth {
@@ -303,21 +289,9 @@ impl BenchTruth {
         self.normal_force.0 > 0.0
     }
 
-    /// How the contact holds (`None` without contact): gross slip while the indenter slides;
-    /// partial slip while it sticks with a tenth or more of its contact slipping (the share of
-    /// the friction used past the outline's [`partial_slip_onset`]); stick otherwise.
+    /// How the contact holds (`None` without contact; see [`Contact::slip_state`]).
     pub fn slip_state(&self) -> Option<SlipState> {
-        if !self.in_contact() {
-            return None;
-        }
-        Some(if self.sliding {
-            SlipState::GrossSlip
-        } else if self.friction_used >= partial_slip_onset(&self.indenter.tip.shape_at(self.depth))
-        {
-            SlipState::PartialSlip
-        } else {
-            SlipState::Stick
-        })
+        Bench::contact_of(self).map(|c| c.slip_state())
     }
 
     /// The push along the surface the camera sees (`None` without one).
@@ -328,6 +302,7 @@ impl BenchTruth {
             force: Newtons(q),
             direction_deg: qy.atan2(qx).to_degrees(),
             friction_used: self.friction_used,
+            sliding: self.sliding,
         })
     }
 }

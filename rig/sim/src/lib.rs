@@ -96,7 +96,6 @@ mod test_support;
 pub use ageing::{Ageing, AgeingError};
 pub use bench::{
     AxisConfig, Bench, BenchConfig, BenchGeometry, BenchTruth, IndenterTip, MountedIndenter,
-    SlipState,
 };
 pub use emulators::apt_emulator::core::{EmulatorCounters, UpdateMessage};
 pub use emulators::apt_emulator::server::EmulatorError;
@@ -135,4 +134,6 @@ pub use physics::motion::{MotorSpec, MotorStatus, SimMotor};
 pub use physics::stress::Layer;
 pub use rig::{ForcePath, ServeEndpoints, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
 pub use robot::{Robot, RobotConfig, RobotError, RobotPress};
-pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource, Shear};
+pub use scene::{
+    Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource, Shear, SlipState,
+};

@@ -8,6 +8,7 @@
 
 use crate::optics::pixel_format;
 use crate::physics::indenter::Shape;
+use crate::physics::traction::partial_slip_onset;
 use fringe_rig::HostTime;
 use fringe_rig::PixelFormat;
 use fringe_rig::{Millimetres, Newtons, Wrench};
@@ -41,6 +42,57 @@ pub struct Shear {
     /// Share of the friction limit the traction uses, 0 to 1: 0 is full stick, the stick zone
     /// shrinks as it grows, 1 is gross slip (the whole contact slides, the traction mu p).
     pub friction_used: f64,
+    /// The indenter slides over the surface (gross slip).
+    pub sliding: bool,
+}
+
+/// How a contact holds against its tangential force (docs/photoelastic-sim.md, "Shear and
+/// slip").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlipState {
+    /// All, or all but a tenth, of the contact sticks.
+    Stick,
+    /// A slipping zone covers a tenth or more of the contact; the rest sticks.
+    PartialSlip,
+    /// The whole contact slides.
+    GrossSlip,
+}
+
+impl SlipState {
+    /// The state's name in ground-truth files and labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlipState::Stick => "stick",
+            SlipState::PartialSlip => "partial_slip",
+            SlipState::GrossSlip => "gross_slip",
+        }
+    }
+
+    /// The state named `name` ([`SlipState::name`]).
+    pub fn named(name: &str) -> Option<SlipState> {
+        [
+            SlipState::Stick,
+            SlipState::PartialSlip,
+            SlipState::GrossSlip,
+        ]
+        .into_iter()
+        .find(|s| s.name() == name)
+    }
+}
+
+impl Contact {
+    /// How the contact holds: gross slip while the indenter slides; partial slip while it
+    /// sticks with a tenth or more of its contact slipping (the share of the friction used at
+    /// or past the outline's [`partial_slip_onset`]); stick otherwise, a press without a push
+    /// included.
+    pub fn slip_state(&self) -> SlipState {
+        match self.shear {
+            Some(s) if s.sliding => SlipState::GrossSlip,
+            Some(s) if s.friction_used >= partial_slip_onset(&self.shape) => SlipState::PartialSlip,
+            _ => SlipState::Stick,
+        }
+    }
 }
 
 /// Everything the camera sees that changes with time.

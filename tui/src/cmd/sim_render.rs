@@ -156,6 +156,7 @@ pub fn run(args: SimRenderArgs) -> anyhow::Result<()> {
             force: Newtons(args.shear),
             direction_deg: args.shear_direction,
             friction_used: args.friction_used,
+            sliding: args.friction_used >= 1.0,
         }),
     });
     let id = config.id.clone();

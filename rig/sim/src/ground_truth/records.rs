@@ -9,13 +9,18 @@
 //! - `bench` (sampled by [`record_bench`], or every period by a [`BenchRecorder`] thread):
 //!   `t_ns`; `motor_x_mm`, `motor_y_mm`, `motor_z_mm` (mechanical, from the reverse limits);
 //!   `contact_x_mm`, `contact_y_mm` (indenter centre, sensor frame); `depth_mm` (`null` off the disc); `normal_n` (positive = pressing);
-//!   `fx_n`..`tz_nm` (true wrench, F/T frame, no noise or bias); `indenter`, `angle_deg`.
+//!   `fx_n`..`tz_nm` (true wrench, F/T frame, no noise or bias); `indenter`, `angle_deg`;
+//!   `shear_x_n`, `shear_y_n` (tangential force the indenter applies to the surface, sensor
+//!   frame), `friction_used` (|Q| / (mu_s P) while sticking, 1 sliding), `sliding`.
 //! - `frame` (camera emulator, every exposure): `id`; `exposure_start_ns`, `exposure_end_ns`
 //!   (host); `exposure_start_ticks`, `exposure_end_ticks` (device clock); `arrival_ns` (host,
 //!   `null` if never delivered); `fate` (`delivered`, `dropped` = lost at random on the link,
 //!   `render_busy` = the renderer was still busy, `no_buffer` = the host did not fetch frames);
 //!   `contact_force_n`, `contact_x_mm`, `contact_y_mm` (scene at mid-exposure, `null` when no
-//!   contact).
+//!   contact); `shear_x_n`, `shear_y_n` (its tangential force, sensor frame, 0 for a press
+//!   without a push) and `slip` (`stick`, `partial_slip`, `gross_slip`), `null` when no contact.
+//!   Files written before shear was simulated have none of the three: read as a press without
+//!   a push.
 //! - `camera_clock`: `t_ns`, `ticks_at_ref`, `ref_ns`, `drift_ppm` (device ticks =
 //!   ticks_at_ref + (t - ref) (1 + drift_ppm 1e-6)).
 //! - `daq_clock`: `start_ns`, `rate_hz`, `drift_ppm` (sample n is taken at host
@@ -23,6 +28,7 @@
 //! - `ft_bias`: `t_ns`, `power_cycle`, `fx_n`..`tz_nm` (power-up bias in effect).
 
 use crate::bench::{Bench, BenchTruth};
+use crate::scene::SlipState;
 use fringe_rig::HostTime;
 use fringe_rig::Wrench;
 #[cfg(test)]
@@ -68,6 +74,9 @@ pub struct FrameTruth {
     pub fate: FrameFate,
     /// Normal force and sensor-frame contact point at mid-exposure, if touching.
     pub contact: Option<(f64, f64, f64)>,
+    /// Tangential force on the surface (sensor frame, N) and how the contact holds, at
+    /// mid-exposure, if touching.
+    pub shear: Option<([f64; 2], SlipState)>,
 }
 
 /// One ground-truth record.
@@ -124,7 +133,8 @@ impl TruthRecord {
             TruthRecord::Bench { truth, wrench } => format!(
                 "{{\"kind\":\"bench\",\"t_ns\":{},\"motor_x_mm\":{},\"motor_y_mm\":{},\"motor_z_mm\":{},\
                  \"contact_x_mm\":{},\"contact_y_mm\":{},\"depth_mm\":{},\"normal_n\":{},{},\
-                 \"indenter\":\"{}\",\"angle_deg\":{}}}",
+                 \"indenter\":\"{}\",\"angle_deg\":{},\"shear_x_n\":{},\"shear_y_n\":{},\
+                 \"friction_used\":{},\"sliding\":{}}}",
                 truth.t.0,
                 num(truth.motors[0].0),
                 num(truth.motors[1].0),
@@ -135,17 +145,26 @@ impl TruthRecord {
                 num(truth.normal_force.0),
                 wrench_keys(wrench),
                 truth.indenter.tip.name(),
-                num(truth.indenter.angle_deg)
+                num(truth.indenter.angle_deg),
+                num(truth.shear_n[0]),
+                num(truth.shear_n[1]),
+                num(truth.friction_used),
+                truth.sliding
             ),
             TruthRecord::Frame(f) => {
                 let (cf, cx, cy) = match f.contact {
                     Some((n, x, y)) => (num(n), num(x), num(y)),
                     None => ("null".into(), "null".into(), "null".into()),
                 };
+                let (qx, qy, slip) = match f.shear {
+                    Some(([qx, qy], slip)) => (num(qx), num(qy), format!("\"{}\"", slip.name())),
+                    None => ("null".into(), "null".into(), "null".into()),
+                };
                 format!(
                     "{{\"kind\":\"frame\",\"id\":{},\"exposure_start_ns\":{},\"exposure_end_ns\":{},\
                      \"exposure_start_ticks\":{},\"exposure_end_ticks\":{},\"arrival_ns\":{},\
-                     \"fate\":\"{}\",\"contact_force_n\":{},\"contact_x_mm\":{},\"contact_y_mm\":{}}}",
+                     \"fate\":\"{}\",\"contact_force_n\":{},\"contact_x_mm\":{},\"contact_y_mm\":{},\
+                     \"shear_x_n\":{},\"shear_y_n\":{},\"slip\":{}}}",
                     f.id,
                     f.exposure_start.0,
                     f.exposure_end.0,
@@ -155,7 +174,10 @@ impl TruthRecord {
                     f.fate.name(),
                     cf,
                     cx,
-                    cy
+                    cy,
+                    qx,
+                    qy,
+                    slip
                 )
             }
             TruthRecord::CameraClock {
@@ -214,6 +236,16 @@ impl FrameTruth {
             (Some(n), Some(x), Some(y)) => Some((n, x, y)),
             _ => None,
         };
+        // Older files have no shear keys: a contact there is a press without a push.
+        let slip = v.get("slip").and_then(serde_json::Value::as_str);
+        let shear = match (contact, slip) {
+            (None, _) => None,
+            (Some(_), None) => Some(([0.0; 2], SlipState::Stick)),
+            (Some(_), Some(name)) => Some((
+                [f("shear_x_n").unwrap_or(0.0), f("shear_y_n").unwrap_or(0.0)],
+                SlipState::named(name)?,
+            )),
+        };
         Some(FrameTruth {
             id: u("id")?,
             exposure_start: HostTime(u("exposure_start_ns")?),
@@ -223,6 +255,7 @@ impl FrameTruth {
             arrival: u("arrival_ns").map(HostTime),
             fate,
             contact,
+            shear,
         })
     }
 }
@@ -433,6 +466,7 @@ mod tests {
             arrival: None,
             fate: FrameFate::RenderBusy,
             contact: None,
+            shear: None,
         }));
         // Read while the writer is still open: flushed per record.
         let text = std::fs::read_to_string(&path).expect("read");
@@ -464,6 +498,18 @@ mod tests {
                 arrival: Some(HostTime(9_000_000)),
                 fate: FrameFate::Delivered,
                 contact: Some((3.25, -2.5, 0.125)),
+                shear: Some(([1.5, -0.25], SlipState::PartialSlip)),
+            },
+            FrameTruth {
+                id: 14,
+                exposure_start: HostTime(1_000),
+                exposure_end: HostTime(2_001_000),
+                exposure_start_ticks: 987_654_321,
+                exposure_end_ticks: 989_654_321,
+                arrival: Some(HostTime(9_000_000)),
+                fate: FrameFate::Delivered,
+                contact: Some((3.25, -2.5, 0.125)),
+                shear: Some(([0.0, 0.0], SlipState::Stick)),
             },
             FrameTruth {
                 id: 13,
@@ -474,12 +520,20 @@ mod tests {
                 arrival: None,
                 fate: FrameFate::RenderBusy,
                 contact: None,
+                shear: None,
             },
         ];
         for f in frames {
             let line = TruthRecord::Frame(f).to_json();
             assert_eq!(FrameTruth::from_json(&line), Some(f), "{line}");
         }
+        // A line written before shear was simulated: a contact there is a press without a push.
+        let old = "{\"kind\":\"frame\",\"id\":3,\"exposure_start_ns\":1,\"exposure_end_ns\":2,\
+                   \"exposure_start_ticks\":1,\"exposure_end_ticks\":2,\"arrival_ns\":5,\
+                   \"fate\":\"delivered\",\"contact_force_n\":2.0,\"contact_x_mm\":1.0,\"contact_y_mm\":0.5}";
+        let read = FrameTruth::from_json(old).expect("an old frame line");
+        assert_eq!(read.contact, Some((2.0, 1.0, 0.5)));
+        assert_eq!(read.shear, Some(([0.0, 0.0], SlipState::Stick)));
         let bench = Bench::new(BenchConfig::default());
         let log = TruthLog::new();
         record_bench(&bench, log.as_ref(), HostTime(5));

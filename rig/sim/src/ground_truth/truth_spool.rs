@@ -113,6 +113,7 @@ mod tests {
             arrival: Some(HostTime(id * 20_000_000 + 9_000_000)),
             fate: FrameFate::Delivered,
             contact: Some((2.5, -1.25, 3.0)),
+            shear: None,
         })
     }
 

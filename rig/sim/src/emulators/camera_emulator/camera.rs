@@ -7,7 +7,7 @@ use super::frame::{finish_frame, render_format};
 use super::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};
 use crate::ground_truth::records::{FrameFate, FrameTruth, TruthRecord, TruthSink};
 use crate::physics::ft_sensor::mix_seed;
-use crate::scene::{FrameRenderer, SceneSource};
+use crate::scene::{FrameRenderer, SceneSource, SlipState};
 use crossbeam_channel::{bounded, unbounded, Receiver, RecvTimeoutError, Sender, TrySendError};
 use fringe_rig::HostTime;
 use fringe_rig::{
@@ -129,13 +129,8 @@ impl Shared {
         }
     }
 
-    fn record(
-        &self,
-        job: &Job,
-        arrival: Option<HostTime>,
-        fate: FrameFate,
-        contact: Option<(f64, f64, f64)>,
-    ) {
+    fn record(&self, job: &Job, arrival: Option<HostTime>, fate: FrameFate, seen: Seen) {
+        let (contact, shear) = seen;
         if let Some(sink) = &self.truth {
             sink.record(TruthRecord::Frame(FrameTruth {
                 id: job.window.id,
@@ -146,6 +141,7 @@ impl Shared {
                 arrival,
                 fate,
                 contact,
+                shear,
             }));
         }
     }
@@ -458,23 +454,27 @@ fn dispatch(shared: &Shared, render: &Sender<Job>, job: Job, rng: &mut StdRng) {
     shared.stats().exposures += 1;
     if rng.gen::<f64>() < shared.config.drop_probability {
         shared.stats().dropped += 1;
-        shared.record(&job, None, FrameFate::Dropped, None);
+        shared.record(&job, None, FrameFate::Dropped, (None, None));
         return;
     }
     match render.try_send(job) {
         Ok(()) => {}
         Err(TrySendError::Full(job)) | Err(TrySendError::Disconnected(job)) => {
             shared.stats().render_busy += 1;
-            shared.record(&job, None, FrameFate::RenderBusy, None);
+            shared.record(&job, None, FrameFate::RenderBusy, (None, None));
         }
     }
 }
+
+/// What an exposure saw at its middle, for the ground truth: the contact (normal force, x, y)
+/// and its tangential force with how it holds.
+type Seen = (Option<(f64, f64, f64)>, Option<([f64; 2], SlipState)>);
 
 struct Rendered {
     job: Job,
     frame: Frame,
     due: HostTime,
-    contact: Option<(f64, f64, f64)>,
+    seen: Seen,
 }
 
 fn render_loop(
@@ -514,12 +514,19 @@ fn render_loop(
             data,
         };
         let contact = scene_now.contact.map(|c| (c.force.0, c.x.0, c.y.0));
+        let shear = scene_now.contact.map(|c| {
+            let q = c.shear.map_or([0.0; 2], |s| {
+                let (sin, cos) = s.direction_deg.to_radians().sin_cos();
+                [s.force.0 * cos, s.force.0 * sin]
+            });
+            (q, c.slip_state())
+        });
         if out
             .send(Rendered {
                 job,
                 frame,
                 due,
-                contact,
+                seen: (contact, shear),
             })
             .is_err()
         {
@@ -539,11 +546,11 @@ fn delivery_loop(shared: Arc<Shared>, rendered: Receiver<Rendered>, frames: Send
         match frames.try_send(r.frame) {
             Ok(()) => {
                 shared.stats().delivered += 1;
-                shared.record(&r.job, Some(arrival), FrameFate::Delivered, r.contact);
+                shared.record(&r.job, Some(arrival), FrameFate::Delivered, r.seen);
             }
             Err(_) => {
                 shared.stats().no_buffer += 1;
-                shared.record(&r.job, None, FrameFate::NoBuffer, r.contact);
+                shared.record(&r.job, None, FrameFate::NoBuffer, r.seen);
             }
         }
     }

@@ -310,6 +310,7 @@ fn pushed(mut c: Contact, force: f64, direction_deg: f64, friction_used: f64) ->
         force: fringe_rig::Newtons(force),
         direction_deg,
         friction_used,
+        sliding: false,
     });
     c
 }
