@@ -3,7 +3,9 @@
 //! `cargo run --release -p fringe-sim --example render_bench [-- FRAMES] [--bayer | --mono]`
 //! (default 200 frames per case, RGB8; `--bayer` / `--mono`: the BayerRG8 / Mono8 frames the
 //! simulated camera renders in those formats). For each sensor and shape it renders a contact moving across the disc with a changing
-//! force and angle, and prints mean, p95 and max wall-clock milliseconds per frame, and the CPU
+//! force and angle (`pushed`: a pentagon pushed along the surface too, with a tangential force,
+//! direction and share of the friction that change every frame, so every frame builds its own
+//! field), and prints mean, p95 and max wall-clock milliseconds per frame, and the CPU
 //! time per frame summed over all threads (from getrusage: independent of other processes
 //! competing for the cores, unlike the wall clock). Exits non-zero if a mean exceeds 20 ms (a
 //! 50 Hz camera in real time).
@@ -12,7 +14,7 @@ use fringe_rig::PixelFormat;
 use fringe_rig::{Millimetres, Newtons};
 use fringe_sim::Renderer;
 use fringe_sim::SensorConfig;
-use fringe_sim::{Contact, FrameRenderer, Scene};
+use fringe_sim::{Contact, FrameRenderer, Scene, Shear};
 use std::time::Instant;
 
 /// User plus system CPU time of this process so far, ms.
@@ -54,6 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let shapes = [
             ("pentagon", renderer.config().pentagon()),
             ("rectangle", renderer.config().rectangle()),
+            ("pushed", renderer.config().pentagon()),
             ("none", renderer.config().rectangle()),
         ];
         let mut out = Vec::new();
@@ -69,7 +72,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     x: Millimetres(15.0 * a.cos()),
                     y: Millimetres(10.0 * a.sin()),
                     angle_deg: 90.0 * s,
-                    shear: None,
+                    shear: (name == "pushed").then_some(Shear {
+                        force: Newtons(0.3 + 2.7 * s),
+                        direction_deg: 360.0 * s,
+                        friction_used: s,
+                        sliding: s > 0.9,
+                    }),
                 });
                 let t = Instant::now();
                 renderer.render_as(&Scene { contact }, k as u64, format, &mut out);
