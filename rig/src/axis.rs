@@ -95,6 +95,10 @@ pub enum AxisError {
     },
     #[error("axis {axis}: cancelled by the operator")]
     Cancelled { axis: String },
+    /// A move the axis cannot make as asked (a speed above its configured one, a stage moved
+    /// by hand asked for a speed).
+    #[error("axis {axis}: {message}")]
+    Motion { axis: String, message: String },
 }
 
 fn status_suffix(flags: &[&'static str]) -> String {
@@ -110,6 +114,73 @@ fn status_suffix(flags: &[&'static str]) -> String {
 pub struct Kinematics {
     pub velocity: MillimetresPerSecond,
     pub acceleration: MillimetresPerSecondSquared,
+}
+
+impl Kinematics {
+    /// Refuses a motion that is not a positive speed and acceleration within `limit` (the
+    /// axis's configured kinematics), naming `axis`; nothing is sent then.
+    pub fn check_within(&self, axis: &str, limit: &Kinematics) -> Result<(), AxisError> {
+        let (v, a) = (self.velocity.0, self.acceleration.0);
+        if !(v.is_finite() && v > 0.0 && a.is_finite() && a > 0.0) {
+            return Err(AxisError::Motion {
+                axis: axis.to_string(),
+                message: format!(
+                    "speed {v} mm/s and acceleration {a} mm/s² must be positive numbers; nothing was sent"
+                ),
+            });
+        }
+        // A rounding of the limit's own value is not above it.
+        let above = |x: f64, max: f64| x > max * (1.0 + 1e-9);
+        if above(v, limit.velocity.0) || above(a, limit.acceleration.0) {
+            return Err(AxisError::Motion {
+                axis: axis.to_string(),
+                message: format!(
+                    "speed {v:.4} mm/s and acceleration {a:.4} mm/s² exceed the configured {:.4} mm/s and {:.4} mm/s²; nothing was sent (lower them, or raise the axis's configured kinematics)",
+                    limit.velocity.0, limit.acceleration.0
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// How far a rest-to-rest trapezoidal move of `distance` (mm, either sign) has gone after
+    /// `elapsed` seconds: where a stepper controller that was sent the move puts the axis.
+    pub fn travelled(&self, distance: f64, elapsed: f64) -> f64 {
+        let d = distance.abs();
+        let (v, a) = (
+            self.velocity.0.abs().max(1e-12),
+            self.acceleration.0.abs().max(1e-12),
+        );
+        let t = elapsed.max(0.0);
+        // The peak speed: the cruise speed, or less on a move too short to reach it.
+        let peak = v.min((a * d).sqrt());
+        let ramp = peak / a;
+        let ramp_d = 0.5 * a * ramp * ramp;
+        let cruise = (d - 2.0 * ramp_d).max(0.0) / peak;
+        let s = if t <= ramp {
+            0.5 * a * t * t
+        } else if t <= ramp + cruise {
+            ramp_d + peak * (t - ramp)
+        } else {
+            let u = (t - ramp - cruise).min(ramp);
+            ramp_d + peak * cruise + peak * u - 0.5 * a * u * u
+        };
+        s.min(d) * distance.signum()
+    }
+
+    /// The time a rest-to-rest trapezoidal move of `distance` takes, s.
+    pub fn move_seconds(&self, distance: f64) -> f64 {
+        let d = distance.abs();
+        let (v, a) = (
+            self.velocity.0.abs().max(1e-9),
+            self.acceleration.0.abs().max(1e-9),
+        );
+        if d <= v * v / a {
+            2.0 * (d / a).sqrt()
+        } else {
+            d / v + v / a
+        }
+    }
 }
 
 /// Soft limits in millimetres, checked before any move is sent.
@@ -186,6 +257,16 @@ pub trait Axis: Send {
     /// Starts a relative move; the resulting target is checked against the soft limits first.
     fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError>;
 
+    /// Starts an absolute move at `motion` (speed and acceleration) instead of the configured
+    /// kinematics, for this move only (a slide under force control); later moves go at the
+    /// configured kinematics again. Refused, nothing sent, for a motion above the configured one
+    /// ([`Kinematics::check_within`]) or on an axis that cannot set its speed.
+    fn begin_move_to_at(
+        &mut self,
+        target: Millimetres,
+        motion: Kinematics,
+    ) -> Result<(), AxisError>;
+
     /// Waits until the current motion has ended, and returns the final status. A timeout leaves
     /// the motion pending: waiting again continues to wait for the same motion.
     fn wait_idle(&mut self, timeout: Duration) -> Result<AxisStatus, AxisError>;
@@ -212,6 +293,50 @@ pub trait Axis: Send {
     fn move_by(&mut self, delta: Millimetres, timeout: Duration) -> Result<AxisStatus, AxisError> {
         self.begin_move_by(delta)?;
         self.wait_idle(timeout)
+    }
+}
+
+#[cfg(test)]
+mod kinematics_tests {
+    use super::*;
+
+    fn k(v: f64, a: f64) -> Kinematics {
+        Kinematics {
+            velocity: MillimetresPerSecond(v),
+            acceleration: MillimetresPerSecondSquared(a),
+        }
+    }
+
+    #[test]
+    fn a_trapezoid_ramps_cruises_and_ends_where_it_was_sent() {
+        // 2 mm/s, 4 mm/s²: 0.5 s of ramp (0.5 mm) each end, 4 mm of cruise (2 s).
+        let m = k(2.0, 4.0);
+        assert!((m.move_seconds(5.0) - 3.0).abs() < 1e-12);
+        assert!((m.travelled(5.0, 0.25) - 0.125).abs() < 1e-12);
+        assert!((m.travelled(5.0, 1.5) - 2.5).abs() < 1e-12);
+        assert!((m.travelled(5.0, 2.75) - (5.0 - 0.125)).abs() < 1e-12);
+        assert_eq!(m.travelled(5.0, 10.0), 5.0);
+        assert_eq!(m.travelled(-5.0, 10.0), -5.0);
+        assert!((m.travelled(-5.0, 1.5) + 2.5).abs() < 1e-12);
+        // Too short to reach the speed: a triangle, half way at half time.
+        let short = m.move_seconds(0.5);
+        assert!((m.travelled(0.5, short / 2.0) - 0.25).abs() < 1e-12);
+        assert_eq!(m.travelled(5.0, -1.0), 0.0);
+    }
+
+    #[test]
+    fn motions_above_the_configured_ones_are_refused_naming_the_axis() {
+        let limit = k(2.0, 4.0);
+        assert!(k(2.0, 4.0).check_within("x", &limit).is_ok());
+        assert!(k(0.5, 1.0).check_within("x", &limit).is_ok());
+        let e = k(3.0, 4.0).check_within("x", &limit).expect_err("too fast");
+        assert!(
+            e.to_string().starts_with("axis x: speed 3.0000 mm/s"),
+            "{e}"
+        );
+        assert!(k(1.0, 5.0).check_within("x", &limit).is_err());
+        assert!(k(0.0, 1.0).check_within("x", &limit).is_err());
+        assert!(k(f64::NAN, 1.0).check_within("x", &limit).is_err());
     }
 }
 

@@ -75,7 +75,7 @@ pub use acquire::labeler::{ExposureLabel, FrameLabeler, LabelOutcome};
 pub use acquire::record_tap::RecordTap;
 pub use acquire::recorder::{
     Filming, FrameContext, PendingCheckpoint, Recorder, RecorderError, RecorderFailure,
-    RecorderStats,
+    RecorderStats, SlidePath,
 };
 pub use apt::{AptConfig, Controller, ThorlabsAxis};
 pub use axis::{Axis, AxisError, AxisStatus, InvalidSoftLimits, Kinematics, SoftLimits, StopMode};

@@ -4,7 +4,7 @@
 //! ([`Operator::answer`]: a typed line). The front end supplies the operator: the command line's
 //! reads lines from stdin, the UI's answers through the UI, and tests script the answers.
 
-use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
+use crate::axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
 use crate::operator::Operator;
 use crate::units::Millimetres;
 use std::io;
@@ -159,6 +159,17 @@ impl Axis for ManualStage {
     fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError> {
         let from = self.current()?;
         self.begin_move_to(from + delta)
+    }
+
+    fn begin_move_to_at(
+        &mut self,
+        _target: Millimetres,
+        _motion: Kinematics,
+    ) -> Result<(), AxisError> {
+        Err(AxisError::Motion {
+            axis: self.axis.clone(),
+            message: "moved by hand: it cannot move at a chosen speed under force control; slide along a motorised axis".into(),
+        })
     }
 
     fn wait_idle(&mut self, _timeout: Duration) -> Result<AxisStatus, AxisError> {

@@ -18,6 +18,8 @@
 //!   bench's).
 //! - [`resume_check`]: what a resume may not change (plan, sync, sensor, camera, geometry).
 //! - [`sidecar`]: files a caller adds to a run (the engine never names where they come from).
+//! - [`slide`]: slides after a press (directions, distance, speeds), and how the stage axes
+//!   share one straight trapezoid.
 //! - [`press`]: first contact found by force, closed-loop presses to force targets on the F/T
 //!   reading, retract; every step checks the force ceiling and a cancel flag.
 
@@ -34,6 +36,7 @@ pub(crate) mod resume_check;
 pub(crate) mod setup;
 pub(crate) mod sidecar;
 pub(crate) mod silence;
+pub(crate) mod slide;
 pub(crate) mod watchers;
 
 pub use clearance::{Clearance, Motion, UnderLoad, LOAD_SAMPLES};
@@ -48,4 +51,5 @@ pub use plan::{
 };
 pub use press::{approach, press_to, retract, ForceGuard, PressError, PressPoint, PressSettings};
 pub use sidecar::RunSidecar;
+pub use slide::{Direction, Slide, SlideMotion, SlideSection};
 pub use watchers::{WatchSettings, REPRESS_EVENT, STOPPED_BY_WATCHERS_EVENT};

@@ -1,6 +1,7 @@
 //! The scan engine on the simulated bench: a small grid end to end with labels scored against
 //! the simulator's ground truth, pause/resume and abort at every phase of an indentation, the
-//! force ceiling watcher.
+//! force ceiling watcher, slides (the normal force held, labels where the indenter was, the
+//! tangential ceiling, the disc).
 
 use fringe_rig::scan::PressSettings;
 use fringe_rig::scan::RunSidecar;
@@ -86,6 +87,9 @@ fn setup(rig: &SimRig, plan_text: &str) -> ScanSetup {
             y: Millimetres(b.geometry.y_centre_mm),
             source: "simulated bench".into(),
         },
+        disc_radius: Some(Millimetres(
+            rig.config.sensor.geometry.disc_radius_px / rig.config.sensor.geometry.px_per_mm,
+        )),
         sync: SyncMethod::Strobe,
         trigger: None,
         sensor_id: rig.config.sensor.id.clone(),
@@ -1523,4 +1527,251 @@ fn no_no_contact_offset_is_taken_under_load() {
     assert_eq!(tares(&events), vec![Some(0)], "a tare under load");
     let (x, _) = true_xz(&rig);
     assert!((x - 11.0).abs() < 1e-6, "x moved to {x}");
+}
+
+/// A plan at `x`, `y` (stage mm) pressing to `force` N, then sliding as `slide` says.
+fn slide_plan(x: f64, y: f64, force: f64, slide: &str, tangential_ceiling: f64) -> String {
+    format!(
+        "{}tangential_ceiling = {tangential_ceiling}\n[slide]\n{slide}\n",
+        plan(
+            &format!("[{x}]"),
+            &format!("[{y}]"),
+            &format!("force_targets = [{force}]"),
+            0.3
+        )
+    )
+}
+
+/// The stage position over the sensor centre on the simulated bench.
+fn centre(rig: &SimRig) -> (f64, f64) {
+    let g = &rig.bench.config().geometry;
+    (g.x_centre_mm, g.y_centre_mm)
+}
+
+#[test]
+fn a_slide_holds_the_normal_force_and_every_frame_is_labelled_where_the_indenter_was() {
+    let dir = tempfile_dir("slide");
+    let (rig, devices, truth) = bench(61);
+    let (cx, cy) = centre(&rig);
+    // From 1 mm left of the centre, 2 mm along +x at 1 mm/s, holding 3 N.
+    let text = slide_plan(
+        cx - 1.0,
+        cy,
+        3.0,
+        "directions = [\"x\"]\ndistance = 2.0\nspeeds = [1.0]\ndwell = 0.3",
+        12.0,
+    );
+    let setup = setup(&rig, &text);
+    let (mut operator, _) = scripted(Reply::Continue);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "slide".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Completed, "{out:?}");
+    let report = verify(&out.run_dir).expect("verify");
+    assert!(report.ok(), "{report:?}");
+    let events = events(&out.run_dir);
+    let slid = events
+        .iter()
+        .find(|e| e.kind == "slide")
+        .expect("a slide event");
+    assert!(
+        slid.message
+            .starts_with("slid 2.000 mm at 0 degrees at 1.000 mm/s holding 3.00 N"),
+        "{}",
+        slid.message
+    );
+    let records = records(&out.run_dir);
+    let truths: BTreeMap<u64, _> = truth.frames().into_iter().map(|t| (t.id, t)).collect();
+    // The frames of the slide: commanded x strictly between where it started and ended.
+    let sliding: Vec<_> = records
+        .iter()
+        .filter(|r| r.commanded.x.0 > cx - 0.999 && r.commanded.x.0 < cx + 0.999)
+        .collect();
+    assert!(
+        sliding.len() > 60,
+        "{} frames while sliding 2 s",
+        sliding.len()
+    );
+    let (mut normal_sq, mut contact_worst, mut gross, mut tangential_err_sq) =
+        (0.0f64, 0.0f64, 0usize, 0.0f64);
+    for r in &sliding {
+        let w = r.wrench.expect("every sliding frame labelled");
+        let t = truths.get(&r.frame_id).expect("truth of the frame");
+        let (p, tx, ty) = t.contact.expect("in contact all along the slide");
+        normal_sq += (-w.fz.0 - 3.0).powi(2);
+        // The label's contact is where the slide had taken the indenter mid-exposure.
+        let c = r.contact.expect("contact label");
+        contact_worst = contact_worst.max((c[0] - tx).hypot(c[1] - ty));
+        let (q, slip) = t.shear.expect("a sheared contact");
+        if slip == fringe_sim::SlipState::GrossSlip {
+            gross += 1;
+        }
+        // The F/T's tangential force is the push on the surface, as large.
+        tangential_err_sq += (w.fx.0.hypot(w.fy.0) - q[0].hypot(q[1])).powi(2);
+        assert!(p > 1.5, "normal force {p} N while sliding");
+    }
+    let n = sliding.len() as f64;
+    let normal_rms = (normal_sq / n).sqrt();
+    let tangential_rms = (tangential_err_sq / n).sqrt();
+    assert!(
+        normal_rms < 0.3,
+        "normal force RMS {normal_rms:.3} N off 3 N while sliding"
+    );
+    assert!(
+        contact_worst < 0.05,
+        "contact label {contact_worst:.3} mm off the truth"
+    );
+    assert!(
+        tangential_rms < 0.15,
+        "tangential label RMS {tangential_rms:.3} N off the truth"
+    );
+    assert!(gross > 20, "{gross} frames of gross slip in a 2 mm slide");
+    // It ended where it was sent, and the frames after it say so.
+    let last = records
+        .iter()
+        .rev()
+        .find(|r| r.contact.is_some())
+        .expect("last contact");
+    // (Positions are stored as 32-bit floats.)
+    assert!((last.commanded.x.0 - (cx + 1.0)).abs() < 1e-5, "{last:?}");
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_tangential_force_over_its_ceiling_stops_the_slide_at_once_and_lifts() {
+    let dir = tempfile_dir("tangential-ceiling");
+    let (rig, devices, _truth) = bench(67);
+    let (cx, cy) = centre(&rig);
+    // 4 N pressed: the contact sticks up to about 4 N of push, far past a 1.5 N ceiling.
+    let text = slide_plan(
+        cx - 1.0,
+        cy,
+        4.0,
+        "directions = [\"x\"]\ndistance = 2.0\nspeeds = [1.0]",
+        1.5,
+    );
+    let setup = setup(&rig, &text);
+    // The bench's true push, every millisecond of the scan.
+    let watching = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let watcher = {
+        let (bench, watching) = (rig.bench.clone(), watching.clone());
+        std::thread::spawn(move || {
+            let mut peak = 0.0f64;
+            while watching.load(std::sync::atomic::Ordering::SeqCst) {
+                let q = bench.truth_at(fringe_rig::HostTime::now()).shear_n;
+                peak = peak.max(q[0].hypot(q[1]));
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            peak
+        })
+    };
+    let (mut operator, prompts) = scripted(Reply::Abort);
+    let out = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "tangential".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect("scan");
+    assert_eq!(out.status, ExitStatus::Aborted);
+    let events = events(&out.run_dir);
+    let e = events
+        .iter()
+        .find(|e| e.kind == "point-interrupted")
+        .expect("interrupted");
+    assert!(
+        e.message
+            .contains("above the tangential ceiling 1.50 N: motion stopped and z lifted"),
+        "{}",
+        e.message
+    );
+    let prompts = prompts.lock().unwrap_or_else(|p| p.into_inner()).clone();
+    assert!(
+        matches!(prompts.last(), Some(Prompt::Resume { reason }) if reason.contains("tangential")),
+        "{prompts:?}"
+    );
+    // Never more than 1 N past the ceiling, in the bench's truth.
+    watching.store(false, std::sync::atomic::Ordering::SeqCst);
+    let peak = watcher.join().expect("watcher");
+    assert!(
+        peak > 1.5,
+        "the push reached {peak:.2} N: the ceiling was never tested"
+    );
+    assert!(peak < 1.5 + 1.0, "the push peaked at {peak:.2} N");
+    // x stopped short of the slide's end; z back at the safe height.
+    let now = fringe_rig::HostTime::now();
+    let x = rig.bench.motor_x().true_position_at(now).0;
+    assert!(x < cx + 0.9, "x went on to {x}");
+    assert!((rig.bench.motor_z().true_position_at(now).0 - 14.0).abs() < 0.01);
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_slide_that_would_leave_the_disc_is_refused_before_the_run_exists() {
+    let dir = tempfile_dir("off-disc");
+    let (rig, devices, _truth) = bench(71);
+    let (cx, cy) = centre(&rig);
+    // A sensor with a disc 20 mm across (the simulated one, 54 mm, is wider than the stage's
+    // travel): from 8 mm off its centre along +y, 3 mm further, 1 mm past its edge.
+    let radius = 10.0;
+    let distance = 3.0;
+    let text = slide_plan(
+        cx,
+        cy + 8.0,
+        3.0,
+        &format!("directions = [\"y\"]\ndistance = {distance}\nspeeds = [1.0]"),
+        12.0,
+    );
+    let setup = ScanSetup {
+        disc_radius: Some(Millimetres(radius)),
+        ..setup(&rig, &text)
+    };
+    let (mut operator, _) = scripted(Reply::Continue);
+    let err = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "off".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    )
+    .expect_err("refused");
+    let t = err.to_string();
+    assert!(
+        t.contains("the slide of point 1")
+            && t.contains(&format!(
+                "ends at contact [0.000, {:.3}] mm, {:.3} mm from the sensor centre, off the disc (radius {radius:.3} mm",
+                radius + 1.0,
+                radius + 1.0
+            )),
+        "{t}"
+    );
+    assert!(!dir.join("off").exists(), "the run was made");
+    let now = fringe_rig::HostTime::now();
+    let x0 = rig.config.bench.x.power_up_mm;
+    assert!(
+        (rig.bench.motor_x().true_position_at(now).0 - x0).abs() < 1e-9,
+        "x moved"
+    );
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -355,6 +355,69 @@ fn soft_limits_refuse_before_sending_and_the_hard_limit_is_a_fault() {
     assert!(m.true_position_at(HostTime::now()).0.abs() < 1e-9);
 }
 
+/// A move at a chosen speed (a slide) sets the controller's velocity parameters and reads them
+/// back, runs the slower trapezoid, and the next move at the configured kinematics sets those
+/// back first; a speed above the configured one is refused with nothing sent.
+#[test]
+fn a_move_at_a_chosen_speed_runs_at_it_and_the_next_move_at_the_configured_one() {
+    let m = motor(1.0);
+    let (host, device) = byte_pair("apt-x", "apt-x-emulator");
+    let emu = AptEmulator::spawn(
+        emulator_config(Duration::from_secs(3)),
+        m.clone(),
+        Box::new(device),
+    )
+    .expect("spawn");
+    let mut axis = ThorlabsAxis::connect(Box::new(host), driver_config()).expect("connect");
+    axis.home(Duration::from_secs(5)).expect("home");
+    let slow = Kinematics {
+        velocity: MillimetresPerSecond(0.5),
+        acceleration: MillimetresPerSecondSquared(2.0),
+    };
+    // 1 mm at 0.5 mm/s, 2 mm/s^2: 0.25 s ramps of 0.0625 mm, 0.875 mm of cruise in 1.75 s:
+    // 2.25 s.
+    let (_, setting) = timed(|| {
+        axis.begin_move_to_at(Millimetres(1.0), slow)
+            .expect("the velocity parameters are set and read back")
+    });
+    let (st, took) = timed(|| axis.wait_idle(Duration::from_secs(5)).expect("slow move"));
+    assert!((st.position.0 - 1.0).abs() <= one_step(), "{st}");
+    assert!(
+        (2.23..2.4).contains(&took),
+        "the 2.25 s slow move took {took} s (sent after {setting} s)"
+    );
+    let k = m.kinematics();
+    assert!((k.velocity.0 - 0.5).abs() < 1e-6, "{k:?}");
+    // Back at the configured 2 mm/s, 4 mm/s^2: 0.5 mm is a triangle of 2 sqrt(0.5 / 4) s.
+    let (st, took) = timed(|| {
+        axis.move_to(Millimetres(0.5), Duration::from_secs(5))
+            .expect("move at the configured kinematics")
+    });
+    assert!((st.position.0 - 0.5).abs() <= one_step(), "{st}");
+    assert!(
+        (0.69..0.85).contains(&took),
+        "the 0.71 s move took {took} s"
+    );
+    assert!((m.kinematics().velocity.0 - 2.0).abs() < 1e-6);
+    let motions = emu.counters().motions;
+    let fast = Kinematics {
+        velocity: MillimetresPerSecond(3.0),
+        acceleration: MillimetresPerSecondSquared(4.0),
+    };
+    let err = axis
+        .begin_move_to_at(Millimetres(1.0), fast)
+        .expect_err("above the configured speed");
+    assert!(matches!(err, AxisError::Motion { .. }), "{err}");
+    assert!(
+        err.to_string()
+            .contains("exceed the configured 2.0000 mm/s"),
+        "{err}"
+    );
+    std::thread::sleep(Duration::from_millis(50));
+    assert_eq!(emu.counters().motions, motions, "nothing was sent");
+    assert!((m.kinematics().velocity.0 - 2.0).abs() < 1e-6);
+}
+
 #[test]
 fn real_driver_over_a_pseudo_terminal() {
     let m = motor(1.0);

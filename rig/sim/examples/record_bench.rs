@@ -171,6 +171,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         contact: [2.0, -1.0],
         shape: "pentagon".into(),
         tare: [0.0; 6],
+        slide: None,
     }));
     let recorder = Recorder::spawn(
         writer,

@@ -41,6 +41,15 @@ impl Axis for MotorAxis {
         self.0.move_by(HostTime::now(), delta);
         Ok(())
     }
+    fn begin_move_to_at(
+        &mut self,
+        target: Millimetres,
+        motion: Kinematics,
+    ) -> Result<(), AxisError> {
+        self.0.set_kinematics(motion);
+        self.0.move_to(HostTime::now(), target);
+        Ok(())
+    }
     fn wait_idle(&mut self, timeout: Duration) -> Result<AxisStatus, AxisError> {
         let until = Instant::now() + timeout;
         loop {

@@ -10,6 +10,7 @@
 use super::frame_gaps::FrameGaps;
 use super::labeler::{FrameLabeler, LabelOutcome};
 use super::record_tap::RecordTap;
+use crate::axis::Kinematics;
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
@@ -17,6 +18,7 @@ use crate::reference_layout::{in_contact, NO_CONTACT};
 use crate::store::documents::{Exposure, FrameRecord, Position};
 use crate::store::error::StoreError;
 use crate::store::run_writer::RunWriter;
+use crate::units::Millimetres;
 use crate::units::Wrench;
 use crossbeam_channel::{bounded, select, unbounded, Receiver, Sender};
 use std::collections::VecDeque;
@@ -38,6 +40,43 @@ pub struct Filming {
     pub shape: String,
     /// Raw no-contact reading subtracted from every label.
     pub tare: [f64; 6],
+    /// The indenter is sliding: a frame's stage position and contact are where the slide had
+    /// taken it at the middle of the frame's exposure, not `commanded` and `contact`.
+    pub slide: Option<SlidePath>,
+}
+
+/// A slide under way: the straight trapezoid the stage axes were sent, from when.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlidePath {
+    /// When the axes were sent the slide.
+    pub sent: HostTime,
+    /// The stage position (x, y) it starts from, and the contact there.
+    pub from: [f64; 2],
+    pub contact_from: [f64; 2],
+    /// The unit vector along the slide (x, y), its length (mm) and its trapezoid.
+    pub unit: [f64; 2],
+    pub distance: f64,
+    pub along: Kinematics,
+}
+
+impl SlidePath {
+    /// The stage position (x, y) and the contact at `t`.
+    pub fn at(&self, t: HostTime) -> ([f64; 2], [f64; 2]) {
+        let elapsed = if t >= self.sent {
+            t.since(self.sent).as_secs_f64()
+        } else {
+            0.0
+        };
+        let s = self.along.travelled(self.distance, elapsed);
+        let moved = [self.unit[0] * s, self.unit[1] * s];
+        (
+            [self.from[0] + moved[0], self.from[1] + moved[1]],
+            [
+                self.contact_from[0] + moved[0],
+                self.contact_from[1] + moved[1],
+            ],
+        )
+    }
 }
 
 /// Shared between the scan (writer) and the recorder (reader): `None` when not filming.
@@ -172,6 +211,7 @@ impl Recorder {
             local: RecorderStats::default(),
             gaps: FrameGaps::default(),
             arrivals: VecDeque::new(),
+            recent_ticks: VecDeque::new(),
             batch: Vec::with_capacity(256),
         };
         let handle = std::thread::Builder::new()
@@ -277,7 +317,13 @@ struct State {
     gaps: FrameGaps,
     arrivals: VecDeque<HostTime>,
     batch: Vec<ForceSample>,
+    /// The device tick and host arrival of the newest force samples ([`RECENT_TICKS`] of them):
+    /// where a frame's exposure window, given in ticks, lies on the host's time base.
+    recent_ticks: VecDeque<(u64, HostTime)>,
 }
+
+/// Force samples whose host arrival is kept to place exposure windows (5 s at 5 kHz).
+const RECENT_TICKS: usize = 25_000;
 
 impl State {
     fn run(
@@ -353,11 +399,38 @@ impl State {
 
     fn sample(&mut self, s: ForceSample) -> Result<(), StoreError> {
         self.labeler.push_sample(&s);
+        // A device restart starts its ticks again: the old ones no longer place anything.
+        if self
+            .recent_ticks
+            .back()
+            .is_some_and(|(t, _)| *t >= s.device_tick)
+        {
+            self.recent_ticks.clear();
+        }
+        if self.recent_ticks.len() >= RECENT_TICKS {
+            self.recent_ticks.pop_front();
+        }
+        self.recent_ticks.push_back((s.device_tick, s.host_time));
         self.batch.push(s);
         if self.batch.len() >= 250 {
             self.flush_force()?;
         }
         Ok(())
+    }
+
+    /// The host arrival of the force sample at `tick` (interpolated between the samples around
+    /// it), when it is among the newest samples.
+    fn host_time_of_tick(&self, tick: f64) -> Option<HostTime> {
+        let ticks = &self.recent_ticks;
+        let after = ticks.partition_point(|(t, _)| (*t as f64) < tick);
+        let (t1, h1) = *ticks.get(after)?;
+        let Some(&(t0, h0)) = after.checked_sub(1).and_then(|i| ticks.get(i)) else {
+            return ((t1 as f64) == tick).then_some(h1);
+        };
+        let share = (tick - t0 as f64) / (t1 - t0).max(1) as f64;
+        Some(HostTime(
+            (h0.0 as f64 + share * (h1.0 as f64 - h0.0 as f64)).round() as u64,
+        ))
     }
 
     fn flush_force(&mut self) -> Result<(), StoreError> {
@@ -443,6 +516,28 @@ impl State {
         };
         let file = self.writer.save_frame_image(frame, index)?;
         let in_contact = wrench.is_some_and(|w| in_contact(w.fz));
+        // A sliding indenter is where its slide had taken it mid-exposure: on the host's time
+        // base as the method gives it, else where the force samples of the window's middle
+        // arrived (else, last, the frame's arrival).
+        let (commanded, contact) = match &filming.slide {
+            Some(path) => {
+                let mid = match (exposure, exposure_ticks) {
+                    (Some(e), _) => HostTime(((e.start_ns + e.end_ns) / 2.0).max(0.0) as u64),
+                    (None, Some([a, b])) => self
+                        .host_time_of_tick((a + b) / 2.0)
+                        .unwrap_or(frame.host_arrival),
+                    (None, None) => frame.host_arrival,
+                };
+                let ([x, y], contact) = path.at(mid);
+                let commanded = Position {
+                    x: Millimetres(x),
+                    y: Millimetres(y),
+                    ..filming.commanded
+                };
+                (commanded, contact)
+            }
+            None => (filming.commanded, filming.contact),
+        };
         let record = FrameRecord {
             index,
             frame_id: frame.id,
@@ -452,7 +547,7 @@ impl State {
             exposure,
             exposure_ticks,
             point: filming.point,
-            commanded: filming.commanded,
+            commanded,
             measured: filming.measured,
             wrench,
             shape: if in_contact {
@@ -460,7 +555,7 @@ impl State {
             } else {
                 NO_CONTACT.into()
             },
-            contact: in_contact.then_some(filming.contact),
+            contact: in_contact.then_some(contact),
             valid: wrench.is_some() && notes.is_empty(),
             notes,
         };

@@ -13,7 +13,7 @@ use super::io_thread::{is_end_of_move, lock, Command, IoThread, Observed, Shared
 use super::message::{HomeParams, HwInfo, Message, Packet, StatusBlock, StopMode as AptStop};
 use super::pending::{Pending, IDLE_STOP};
 use super::status::StatusBits;
-use crate::axis::{Axis, AxisError, AxisStatus, StopMode};
+use crate::axis::{Axis, AxisError, AxisStatus, Kinematics, StopMode};
 use crate::transport::serial::{Parity, SerialLink, SerialSettings};
 use crate::transport::ByteLink;
 use crate::units::Millimetres;
@@ -71,6 +71,10 @@ pub struct ThorlabsAxis {
     /// last status, whichever is later (its first status may come a whole period after
     /// HW_START_UPDATEMSGS, and then one every 100 ms).
     pub(super) motion_sent: Instant,
+    /// The velocity parameters the controller holds when they are not the configured ones (a
+    /// move at a chosen speed set them): the next move at the configured kinematics sets those
+    /// back first.
+    pub(super) kinematics_set: Option<Kinematics>,
 }
 
 impl ThorlabsAxis {
@@ -122,6 +126,7 @@ impl ThorlabsAxis {
             unacked_stops: 0,
             updates_at_start: 0,
             motion_sent: Instant::now(),
+            kinematics_set: None,
         };
         axis.initialise()?;
         Ok(axis)
@@ -183,15 +188,24 @@ impl ThorlabsAxis {
     }
 
     fn set_velocity_params(&mut self) -> Result<(), AxisError> {
+        self.write_velocity_params(Kinematics {
+            velocity: self.config.velocity,
+            acceleration: self.config.acceleration,
+        })
+    }
+
+    /// Sets the controller's velocity parameters to `k` (MOT_SET_VELPARAMS) and reads them back
+    /// (MOT_REQ_VELPARAMS): a difference is a configuration mismatch.
+    fn write_velocity_params(&mut self, k: Kinematics) -> Result<(), AxisError> {
         let a = self.config.actuator;
         let wanted = super::message::VelParams {
             channel: self.config.channel as u16,
             min_velocity: 0,
             acceleration: a
-                .acceleration_to_device(self.config.acceleration)
+                .acceleration_to_device(k.acceleration)
                 .map_err(|e| self.device(e.to_string()))?,
             max_velocity: a
-                .velocity_to_device(self.config.velocity)
+                .velocity_to_device(k.velocity)
                 .map_err(|e| self.device(e.to_string()))?,
         };
         self.send(Message::SetVelParams(wanted))?;
@@ -216,7 +230,7 @@ impl ThorlabsAxis {
             diffs.push(format!(
                 "acceleration: expected {} ({:.4}), read back {} ({:.4})",
                 wanted.acceleration,
-                self.config.acceleration,
+                k.acceleration,
                 got.acceleration,
                 a.acceleration_from_device(got.acceleration)
             ));
@@ -225,7 +239,7 @@ impl ThorlabsAxis {
             diffs.push(format!(
                 "max velocity: expected {} ({:.4}), read back {} ({:.4})",
                 wanted.max_velocity,
-                self.config.velocity,
+                k.velocity,
                 got.max_velocity,
                 a.velocity_from_device(got.max_velocity)
             ));
@@ -596,6 +610,65 @@ impl Drop for ThorlabsAxis {
     }
 }
 
+impl ThorlabsAxis {
+    /// Starts MOT_MOVE_ABSOLUTE to `target`, at `motion` when given (its velocity parameters set
+    /// and read back first), else at the configured kinematics.
+    fn start_move_to(
+        &mut self,
+        target: Millimetres,
+        motion: Option<Kinematics>,
+    ) -> Result<(), AxisError> {
+        if let Some(limits) = &self.config.soft_limits {
+            limits.check(&self.config.axis, target)?;
+        }
+        if let Some(k) = motion {
+            k.check_within(&self.config.axis, &self.configured())?;
+        }
+        let position = self
+            .config
+            .actuator
+            .to_steps(target)
+            .map_err(|e| self.device(e.to_string()))?;
+        self.finish_stop()?;
+        match motion.filter(|k| *k != self.configured()) {
+            None => self.configured_kinematics()?,
+            Some(k) if self.kinematics_set != Some(k) => {
+                self.write_velocity_params(k)?;
+                self.kinematics_set = Some(k);
+            }
+            Some(_) => {}
+        }
+        self.clear_events();
+        self.send(Message::MoveAbsolute {
+            channel: self.config.channel as u16,
+            position,
+        })?;
+        let at = match motion {
+            Some(k) => format!(" at {:.3}", k.velocity),
+            None => String::new(),
+        };
+        self.pending = Some(Pending::Move(format!("moving to {target:.4}{at}")));
+        Ok(())
+    }
+
+    /// The configured speed and acceleration.
+    fn configured(&self) -> Kinematics {
+        Kinematics {
+            velocity: self.config.velocity,
+            acceleration: self.config.acceleration,
+        }
+    }
+
+    /// Sets the configured velocity parameters back when a move at a chosen speed changed them.
+    fn configured_kinematics(&mut self) -> Result<(), AxisError> {
+        if self.kinematics_set.is_some() {
+            self.set_velocity_params()?;
+            self.kinematics_set = None;
+        }
+        Ok(())
+    }
+}
+
 impl Axis for ThorlabsAxis {
     fn name(&self) -> &str {
         &self.config.axis
@@ -607,6 +680,7 @@ impl Axis for ThorlabsAxis {
 
     fn begin_home(&mut self) -> Result<(), AxisError> {
         self.finish_stop()?;
+        self.configured_kinematics()?;
         self.clear_events();
         self.send(Message::MoveHome {
             channel: self.config.channel,
@@ -616,22 +690,15 @@ impl Axis for ThorlabsAxis {
     }
 
     fn begin_move_to(&mut self, target: Millimetres) -> Result<(), AxisError> {
-        if let Some(limits) = &self.config.soft_limits {
-            limits.check(&self.config.axis, target)?;
-        }
-        let position = self
-            .config
-            .actuator
-            .to_steps(target)
-            .map_err(|e| self.device(e.to_string()))?;
-        self.finish_stop()?;
-        self.clear_events();
-        self.send(Message::MoveAbsolute {
-            channel: self.config.channel as u16,
-            position,
-        })?;
-        self.pending = Some(Pending::Move(format!("moving to {target:.4}")));
-        Ok(())
+        self.start_move_to(target, None)
+    }
+
+    fn begin_move_to_at(
+        &mut self,
+        target: Millimetres,
+        motion: Kinematics,
+    ) -> Result<(), AxisError> {
+        self.start_move_to(target, Some(motion))
     }
 
     fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError> {
@@ -647,6 +714,7 @@ impl Axis for ThorlabsAxis {
         if let Some(limits) = &self.config.soft_limits {
             limits.check(&self.config.axis, target)?;
         }
+        self.configured_kinematics()?;
         self.clear_events();
         self.send(Message::MoveRelative {
             channel: self.config.channel as u16,

@@ -7,10 +7,10 @@
 //! timeout passes.
 
 use super::codec::{self, CodecError, Framing, Parsed, Reply, Request, TcpHeader};
-use super::map::{RegisterMap, Role, Write};
-use crate::axis::{Axis, AxisError, AxisStatus, SoftLimits, StopMode};
+use super::map::{Profile, RegisterMap, Role, Write};
+use crate::axis::{Axis, AxisError, AxisStatus, Kinematics, SoftLimits, StopMode};
 use crate::transport::ByteLink;
-use crate::units::Millimetres;
+use crate::units::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
 use std::time::{Duration, Instant};
 
 /// Driver settings that are not part of the register map.
@@ -399,7 +399,12 @@ impl ModbusStage {
     }
 
     /// Sends one positioning command: `steps` absolute or relative, then the trigger.
-    fn send_move(&mut self, steps: i64, relative: bool) -> Result<(), AxisError> {
+    fn send_move(
+        &mut self,
+        steps: i64,
+        relative: bool,
+        profile: Option<Profile>,
+    ) -> Result<(), AxisError> {
         let mut regs = Vec::new();
         for w in self.map.preset.clone() {
             self.push(&mut regs, w.address, w.words, w.value);
@@ -413,7 +418,7 @@ impl ModbusStage {
             self.push(&mut regs, op.address, op.words, value);
         }
         self.push(&mut regs, self.map.registers.target_position, 2, steps);
-        if let Some(profile) = self.map.profile {
+        if let Some(profile) = profile {
             for (field, physical) in [
                 (self.map.registers.speed, profile.speed_mm_s),
                 (self.map.registers.acceleration, profile.accel_mm_s2),
@@ -590,7 +595,46 @@ impl Axis for ModbusStage {
             limits.check(&self.axis, target)?;
         }
         let steps = self.to_steps(target)?;
-        self.send_move(steps, false)?;
+        self.send_move(steps, false, self.map.profile)?;
+        self.start(MotionKind::Move {
+            target_steps: steps,
+        });
+        Ok(())
+    }
+
+    fn begin_move_to_at(
+        &mut self,
+        target: Millimetres,
+        motion: Kinematics,
+    ) -> Result<(), AxisError> {
+        let (Some(profile), Some(_)) = (self.map.profile, self.map.registers.speed) else {
+            return Err(AxisError::Motion {
+                axis: self.axis.clone(),
+                message: format!(
+                    "the register map {} writes no speed with a move ([profile] and registers.speed): the stage cannot move at a chosen speed; nothing was sent",
+                    self.map.source
+                ),
+            });
+        };
+        motion.check_within(
+            &self.axis,
+            &Kinematics {
+                velocity: MillimetresPerSecond(profile.speed_mm_s),
+                acceleration: MillimetresPerSecondSquared(
+                    profile.accel_mm_s2.min(profile.decel_mm_s2),
+                ),
+            },
+        )?;
+        if let Some(limits) = self.options.limits {
+            limits.check(&self.axis, target)?;
+        }
+        let steps = self.to_steps(target)?;
+        let chosen = Profile {
+            speed_mm_s: motion.velocity.0,
+            accel_mm_s2: motion.acceleration.0,
+            decel_mm_s2: motion.acceleration.0,
+        };
+        self.send_move(steps, false, Some(chosen))?;
         self.start(MotionKind::Move {
             target_steps: steps,
         });
@@ -610,7 +654,11 @@ impl Axis for ModbusStage {
             .as_ref()
             .is_some_and(|o| o.relative.is_some());
         let target_steps = poll.steps + delta_steps;
-        self.send_move(if relative { delta_steps } else { target_steps }, relative)?;
+        self.send_move(
+            if relative { delta_steps } else { target_steps },
+            relative,
+            self.map.profile,
+        )?;
         self.start(MotionKind::Move { target_steps });
         Ok(())
     }

@@ -109,6 +109,10 @@ pub enum Phase {
     Pressing(usize),
     /// Holding target `k` (filmed).
     Dwell(usize),
+    /// Sliding sideways, z holding the force (filmed).
+    Sliding,
+    /// Holding at the end of a slide (filmed).
+    SlideDwell,
     /// Back to the safe height.
     Retract,
 }
@@ -120,6 +124,8 @@ impl Phase {
             Phase::Approach => "approach".into(),
             Phase::Pressing(k) => format!("pressing to target {}", k + 1),
             Phase::Dwell(k) => format!("dwell at target {}", k + 1),
+            Phase::Sliding => "sliding".into(),
+            Phase::SlideDwell => "dwell after the slide".into(),
             Phase::Retract => "retract".into(),
         }
     }

@@ -15,6 +15,7 @@ mod no_contact;
 mod points;
 pub(crate) mod recording;
 mod runner;
+mod sliding;
 
 use self::recording::{append_sidecar, finish_recorder, start_recording, Streams};
 use self::runner::{Axes, Ending, Runner, RunnerParts, MOVE_TIMEOUT};
@@ -122,6 +123,8 @@ pub fn run_scan(
         .limits
         .approach_limit(safe_z)
         .map_err(|e| ScanError::Setup(format!("the plan: {e}")))?;
+    // So is a slide that would leave the disc.
+    setup.check_slides_on_disc().map_err(ScanError::Setup)?;
     // Open the run first: a bad resume target must fail before anything moves.
     let opened = open_run(setup, &description, target)?;
     let run_dir = opened.writer.dir().to_path_buf();

@@ -99,6 +99,9 @@ fn axis_advice(a: &AxisError) -> String {
         AxisError::SoftLimit { .. } | AxisError::NotANumber { .. } => {
             "check the plan against the rig file's soft limits".into()
         }
+        AxisError::Motion { .. } => {
+            "check the plan's [slide] speeds against the rig file's axis kinematics".into()
+        }
         _ => format!("check axis {axis}'s controller: its power, its cable and its fault lights"),
     }
 }
@@ -113,6 +116,7 @@ fn axis_name(a: &AxisError) -> &str {
         | AxisError::Fault { axis, .. }
         | AxisError::Mismatch { axis, .. }
         | AxisError::Io { axis, .. }
+        | AxisError::Motion { axis, .. }
         | AxisError::Cancelled { axis } => axis,
     }
 }

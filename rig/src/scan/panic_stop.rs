@@ -43,6 +43,13 @@ mod tests {
         fn begin_move_by(&mut self, _: Millimetres) -> Result<(), AxisError> {
             Ok(())
         }
+        fn begin_move_to_at(
+            &mut self,
+            _: Millimetres,
+            _: crate::axis::Kinematics,
+        ) -> Result<(), AxisError> {
+            Ok(())
+        }
         fn wait_idle(&mut self, _: Duration) -> Result<AxisStatus, AxisError> {
             self.status()
         }

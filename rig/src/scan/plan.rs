@@ -21,6 +21,8 @@
 //! repetitions = 1
 //! [safety]
 //! force_ceiling = 12.0      # N
+//! # tangential_ceiling = 8.0  # N of |Fx, Fy| (default: force_ceiling)
+//! # [slide]                 # optional: slide at each force target (see `scan::slide`)
 //! [recording]               # optional; overrides the rig file's [recording] key by key
 //! store = "disc"            # "frame" (whole frames) or "disc" (the square around the disc)
 //! disc_margin_px = 40.0
@@ -33,11 +35,12 @@
 //! point's y differs from the previous point's), then repetitions; `order` is refused with
 //! `points`.
 
+use super::slide::{Slide, SlideSection, MAX_SLIDE, MAX_SLIDES, MIN_SLIDE_SPEED};
 use crate::axis::{Kinematics, SoftLimits};
 use crate::config_file::{load_toml, parse_toml, ConfigError};
 use crate::store::run_size::RecordingTime;
 use crate::store::stored_part::RecordingSection;
-use crate::units::{Millimetres, Newtons};
+use crate::units::{Millimetres, MillimetresPerSecond, Newtons};
 use std::path::Path;
 use std::time::Duration;
 
@@ -205,6 +208,16 @@ pub struct IndentationSection {
 #[serde(deny_unknown_fields)]
 pub struct SafetySection {
     pub force_ceiling: f64,
+    /// The largest tangential force |Fx, Fy|, N; not given: the force ceiling.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tangential_ceiling: Option<f64>,
+}
+
+impl SafetySection {
+    /// The tangential ceiling: as given, else the force ceiling.
+    pub fn tangential(&self) -> Newtons {
+        Newtons(self.tangential_ceiling.unwrap_or(self.force_ceiling))
+    }
 }
 
 /// A scan plan as written.
@@ -217,6 +230,9 @@ pub struct Plan {
     pub approach: ApproachSection,
     pub indentation: IndentationSection,
     pub safety: SafetySection,
+    /// Slides at each force target ([`crate::scan::slide`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slide: Option<SlideSection>,
     /// What the scan stores of each frame, over the rig file's `[recording]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub recording: Option<RecordingSection>,
@@ -242,6 +258,9 @@ pub struct ScanPoint {
     pub change_indenter: bool,
     /// y differs from the previous point's (a manual y stage asks the operator).
     pub new_row: bool,
+    /// The press slides after its target (a plan with `[slide]`): it presses to the slide's
+    /// force only.
+    pub slide: Option<Slide>,
 }
 
 /// What the bench can do, for validation and duration estimates.
@@ -336,6 +355,8 @@ pub struct ScanProgram {
     pub targets: Targets,
     /// The dwell at each target (checked: 0 ..= [`MAX_DWELL`]).
     pub dwell: Duration,
+    /// The dwell at the end of each slide (zero without slides).
+    pub slide_dwell: Duration,
     pub points: Vec<ScanPoint>,
 }
 
@@ -365,20 +386,25 @@ impl Plan {
         self.check_forces(bench).map_err(err)?;
         let targets = self.targets().map_err(err)?;
         self.check_pressing(&targets).map_err(err)?;
+        self.check_tangential_ceiling(bench).map_err(err)?;
+        let presses = self.presses(&targets, bench).map_err(err)?;
         if let Some(r) = &self.recording {
             r.stored_part().map_err(err)?;
             r.codec().map_err(err)?;
         }
         // The size check comes before anything is allocated for the points.
-        self.check_count(&lateral).map_err(err)?;
+        self.check_count(&lateral, presses.len()).map_err(err)?;
+        self.check_slide_ends(&lateral, &presses, bench)
+            .map_err(err)?;
         let points = match &lateral {
-            Lateral::Grid { xs, ys } => self.expand(xs, ys),
-            Lateral::Points(points) => self.expand_points(points),
+            Lateral::Grid { xs, ys } => self.expand(xs, ys, &presses),
+            Lateral::Points(points) => self.expand_points(points, &presses),
         };
         Ok(ScanProgram {
             plan: self.clone(),
             targets,
             dwell: Duration::from_secs_f64(self.indentation.dwell),
+            slide_dwell: Duration::from_secs_f64(self.slide.as_ref().map_or(0.0, |s| s.dwell)),
             points,
         })
     }
@@ -558,7 +584,7 @@ impl Plan {
     }
 
     /// Checks that the plan holds at most [`MAX_POINTS`] indentations, without allocating them.
-    fn check_count(&self, lateral: &Lateral) -> Result<(), String> {
+    fn check_count(&self, lateral: &Lateral, presses: usize) -> Result<(), String> {
         let shapes = self.indenters.shapes.len();
         let repetitions = self.indentation.repetitions;
         let (positions, described) = match lateral {
@@ -568,18 +594,150 @@ impl Plan {
             ),
             Lateral::Points(points) => (points.len() as u128, format!("{} points", points.len())),
         };
-        let count = shapes as u128 * positions * u128::from(repetitions);
+        let count = shapes as u128 * positions * presses as u128 * u128::from(repetitions);
         if count > MAX_POINTS as u128 {
+            let slides = if self.slide.is_some() {
+                format!(" x {presses} slides")
+            } else {
+                String::new()
+            };
             return Err(format!(
-                "the plan has {count} indentations ({shapes} shapes x {described} x {repetitions} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid"
+                "the plan has {count} indentations ({shapes} shapes x {described}{slides} x {repetitions} repetitions); at most {MAX_POINTS} (weeks of bench time) in one plan: split it into several plans or a coarser grid"
             ));
         }
         Ok(())
     }
 
+    /// Checks `safety.tangential_ceiling` when given: positive and at most the rig's force.
+    fn check_tangential_ceiling(&self, bench: &BenchLimits) -> Result<(), String> {
+        let Some(t) = self.safety.tangential_ceiling else {
+            return Ok(());
+        };
+        if !(t.is_finite() && t > 0.0) || t > bench.max_force.0 {
+            return Err(format!(
+                "key safety.tangential_ceiling: {} N must be positive and at most the rig's {:.1} N",
+                shown(t),
+                bench.max_force.0
+            ));
+        }
+        Ok(())
+    }
+
+    /// The presses made at each position: one per force target and slide (direction x speed)
+    /// with `[slide]`, else one press through all the targets (`None`).
+    fn presses(
+        &self,
+        targets: &Targets,
+        bench: &BenchLimits,
+    ) -> Result<Vec<Option<Slide>>, String> {
+        let Some(slide) = &self.slide else {
+            return Ok(vec![None]);
+        };
+        let Targets::Force(forces) = targets else {
+            return Err(
+                "section [slide]: a slide holds the normal force in closed loop: give indentation.force_targets, not depth_targets".into(),
+            );
+        };
+        if slide.directions.is_empty() || slide.speeds.is_empty() {
+            return Err(
+                "section [slide]: give at least one direction (e.g. directions = [\"x\"]) and one speed (e.g. speeds = [1.0], mm/s)".into(),
+            );
+        }
+        let per_target = slide.directions.len().saturating_mul(slide.speeds.len());
+        if per_target > MAX_SLIDES {
+            return Err(format!(
+                "section [slide]: {} directions x {} speeds is {per_target} slides per target; at most {MAX_SLIDES}",
+                slide.directions.len(),
+                slide.speeds.len()
+            ));
+        }
+        let d = slide.distance;
+        if !(d.is_finite() && d > 0.0 && d <= MAX_SLIDE.0) {
+            return Err(format!(
+                "key slide.distance: {} mm must be above 0 and at most {} mm",
+                shown(d),
+                MAX_SLIDE.0
+            ));
+        }
+        if !(slide.dwell.is_finite()
+            && slide.dwell >= 0.0
+            && slide.dwell <= MAX_DWELL.as_secs_f64())
+        {
+            return Err(format!(
+                "key slide.dwell: {} s must be a number from 0 to {} s",
+                shown(slide.dwell),
+                MAX_DWELL.as_secs()
+            ));
+        }
+        let mut degrees = Vec::new();
+        for direction in &slide.directions {
+            degrees.push(direction.degrees("slide.directions")?);
+        }
+        let mut presses = Vec::new();
+        for force in forces {
+            for &direction_deg in &degrees {
+                for &speed in &slide.speeds {
+                    let s = Slide {
+                        force: *force,
+                        direction_deg,
+                        distance: Millimetres(d),
+                        speed: MillimetresPerSecond(speed),
+                    };
+                    check_slide_motion(&s, bench)?;
+                    presses.push(Some(s));
+                }
+            }
+        }
+        Ok(presses)
+    }
+
+    /// Checks that every slide ends inside the x and y soft limits from every position.
+    fn check_slide_ends(
+        &self,
+        lateral: &Lateral,
+        presses: &[Option<Slide>],
+        bench: &BenchLimits,
+    ) -> Result<(), String> {
+        if self.slide.is_none() {
+            return Ok(());
+        }
+        let check = |x: f64, y: f64| -> Result<(), String> {
+            for s in presses.iter().flatten() {
+                let (ex, ey) = s.end_from(Millimetres(x), Millimetres(y));
+                for (axis, v, limits) in [("x", ex, &bench.x), ("y", ey, &bench.y)] {
+                    if limits.check(axis, v).is_err() {
+                        return Err(format!(
+                            "section [slide]: the slide of {} mm at {} degrees from [{}, {}] ends at {axis} = {:.3} mm, outside the {axis} soft limits {:.3} .. {:.3} mm of the rig: shorten slide.distance or move the point",
+                            shown(s.distance.0),
+                            shown(s.direction_deg),
+                            shown(x),
+                            shown(y),
+                            v.0,
+                            limits.min.0,
+                            limits.max.0
+                        ));
+                    }
+                }
+            }
+            Ok(())
+        };
+        match lateral {
+            Lateral::Grid { xs, ys } => {
+                // The corners of the grid bound every point's slide.
+                let (x0, x1) = min_max(xs);
+                let (y0, y1) = min_max(ys);
+                for (x, y) in [(x0, y0), (x0, y1), (x1, y0), (x1, y1)] {
+                    check(x, y)?;
+                }
+                Ok(())
+            }
+            Lateral::Points(points) => points.iter().try_for_each(|&[x, y]| check(x, y)),
+        }
+    }
+
     /// The points in execution order: indenter, then y row, then x (snake or raster), then
     /// repetition.
-    fn expand(&self, xs: &[f64], ys: &[f64]) -> Vec<ScanPoint> {
+    fn expand(&self, xs: &[f64], ys: &[f64], presses: &[Option<Slide>]) -> Vec<ScanPoint> {
         let mut points = Vec::new();
         let mut last: Option<(String, f64)> = None;
         for shape in &self.indenters.shapes {
@@ -591,19 +749,22 @@ impl Plan {
                     xs.to_vec()
                 };
                 for x in row_xs {
-                    for repetition in 0..self.indentation.repetitions {
-                        let change_indenter = last.as_ref().is_none_or(|(s, _)| s != shape);
-                        let new_row = last.as_ref().is_none_or(|(_, ly)| ly != y);
-                        points.push(ScanPoint {
-                            index: points.len() as u64,
-                            shape: shape.clone(),
-                            x: Millimetres(x),
-                            y: Millimetres(*y),
-                            repetition,
-                            change_indenter,
-                            new_row,
-                        });
-                        last = Some((shape.clone(), *y));
+                    for slide in presses {
+                        for repetition in 0..self.indentation.repetitions {
+                            let change_indenter = last.as_ref().is_none_or(|(s, _)| s != shape);
+                            let new_row = last.as_ref().is_none_or(|(_, ly)| ly != y);
+                            points.push(ScanPoint {
+                                index: points.len() as u64,
+                                shape: shape.clone(),
+                                x: Millimetres(x),
+                                y: Millimetres(*y),
+                                repetition,
+                                change_indenter,
+                                new_row,
+                                slide: *slide,
+                            });
+                            last = Some((shape.clone(), *y));
+                        }
                     }
                 }
             }
@@ -613,24 +774,27 @@ impl Plan {
 
     /// The points of `grid.points` in execution order: indenter, then the points as written,
     /// then repetition.
-    fn expand_points(&self, positions: &[[f64; 2]]) -> Vec<ScanPoint> {
+    fn expand_points(&self, positions: &[[f64; 2]], presses: &[Option<Slide>]) -> Vec<ScanPoint> {
         let mut points = Vec::new();
         let mut last: Option<(&str, f64)> = None;
         for shape in &self.indenters.shapes {
             for &[x, y] in positions {
-                for repetition in 0..self.indentation.repetitions {
-                    let change_indenter = last.is_none_or(|(s, _)| s != shape);
-                    let new_row = last.is_none_or(|(_, ly)| ly != y);
-                    points.push(ScanPoint {
-                        index: points.len() as u64,
-                        shape: shape.clone(),
-                        x: Millimetres(x),
-                        y: Millimetres(y),
-                        repetition,
-                        change_indenter,
-                        new_row,
-                    });
-                    last = Some((shape, y));
+                for slide in presses {
+                    for repetition in 0..self.indentation.repetitions {
+                        let change_indenter = last.is_none_or(|(s, _)| s != shape);
+                        let new_row = last.is_none_or(|(_, ly)| ly != y);
+                        points.push(ScanPoint {
+                            index: points.len() as u64,
+                            shape: shape.clone(),
+                            x: Millimetres(x),
+                            y: Millimetres(y),
+                            repetition,
+                            change_indenter,
+                            new_row,
+                            slide: *slide,
+                        });
+                        last = Some((shape, y));
+                    }
                 }
             }
         }
@@ -697,19 +861,51 @@ fn check_points(points: &[[f64; 2]], bench: &BenchLimits) -> Result<(), String> 
     Ok(())
 }
 
+/// The smallest and largest of `values` (not empty).
+fn min_max(values: &[f64]) -> (f64, f64) {
+    values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        })
+}
+
+/// Checks a slide's speed against the bench: at least [`MIN_SLIDE_SPEED`], each axis's share
+/// within its speed, and no y share on a y stage moved by hand.
+fn check_slide_motion(s: &Slide, bench: &BenchLimits) -> Result<(), String> {
+    let v = s.speed.0;
+    if !(v.is_finite() && v >= MIN_SLIDE_SPEED) {
+        return Err(format!(
+            "key slide.speeds: {} mm/s must be a number of at least {MIN_SLIDE_SPEED} mm/s",
+            shown(v)
+        ));
+    }
+    let m = s.motion(&bench.x_motion, &bench.y_motion);
+    if bench.manual_y && m.y.is_some() {
+        return Err(format!(
+            "key slide.directions: {} degrees moves y, which is moved by hand on this rig: slide along x only (\"x\" or \"-x\")",
+            shown(s.direction_deg)
+        ));
+    }
+    for (axis, share, limit) in [("x", m.x, &bench.x_motion), ("y", m.y, &bench.y_motion)] {
+        if let Some(k) = share {
+            if k.velocity.0 > limit.velocity.0 * (1.0 + 1e-9) {
+                return Err(format!(
+                    "key slide.speeds: {} mm/s at {} degrees asks {axis} for {:.3} mm/s, above its {:.3} mm/s in the rig file",
+                    shown(v),
+                    shown(s.direction_deg),
+                    k.velocity.0,
+                    limit.velocity.0
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Time of a trapezoidal move of `distance` with `k` (rest to rest).
 pub(crate) fn move_time(distance: f64, k: &Kinematics) -> Duration {
-    let d = distance.abs();
-    let (v, a) = (
-        k.velocity.0.abs().max(1e-9),
-        k.acceleration.0.abs().max(1e-9),
-    );
-    let secs = if d <= v * v / a {
-        2.0 * (d / a).sqrt()
-    } else {
-        d / v + v / a
-    };
-    seconds(secs)
+    seconds(k.move_seconds(distance))
 }
 
 /// Time of a move of `distance` from rest that is stopped at once where it ends (the approach
@@ -858,6 +1054,20 @@ impl ScanProgram {
             + pressing_s
             + n_targets as f64 * ind.dwell
             + move_time(approach + deepest, z).as_secs_f64();
+        // A press that slides goes to its one force, dwells, slides, dwells again and lifts.
+        let slide_dwell = self.slide_dwell.as_secs_f64();
+        let per_slide = |s: &Slide| {
+            let one = Targets::Force(vec![s.force]);
+            let steps = press_steps(&one, ind.ramp_rate, plan.approach.contact_threshold) as f64;
+            let motion = s.motion(&bench.x_motion, &bench.y_motion);
+            time_to_stop_at(approach, z)
+                + pressing::SETTLE_S
+                + steps * pressing::NEWTON_STEPS * newton_step
+                + ind.dwell
+                + motion.seconds(s.distance.0)
+                + slide_dwell
+                + move_time(approach + s.force.0 / pressing::STIFFNESS_N_PER_MM, z).as_secs_f64()
+        };
         let mut at: Option<(f64, f64)> = None;
         let mut filming = 0.0f64;
         for p in points {
@@ -878,9 +1088,17 @@ impl ScanProgram {
                     })
                     .as_secs_f64();
             }
-            at = Some((p.x.0, p.y.0));
-            secs += per_press;
-            filming += per_press;
+            let press = p.slide.as_ref().map_or(per_press, per_slide);
+            // A slide ends away from the point: the next lateral move starts there.
+            at = Some(match &p.slide {
+                Some(s) => {
+                    let (x, y) = s.end_from(p.x, p.y);
+                    (x.0, y.0)
+                }
+                None => (p.x.0, p.y.0),
+            });
+            secs += press;
+            filming += press;
         }
         Estimate {
             total: seconds(secs + homing),
@@ -1436,6 +1654,189 @@ force_ceiling = 10.0
             "{written}"
         );
         assert_eq!(Plan::parse(&written, "p").expect("reparse"), points);
+    }
+
+    /// [`PLAN`] with a `[slide]` section (and the tangential ceiling) on a bench with a
+    /// motorised y stage.
+    fn sliding(slide: &str) -> String {
+        format!("{PLAN}tangential_ceiling = 6.0\n[slide]\n{slide}\n")
+    }
+
+    fn motorised() -> BenchLimits {
+        BenchLimits {
+            manual_y: false,
+            ..bench()
+        }
+    }
+
+    #[test]
+    fn a_plan_that_slides_presses_once_per_target_direction_and_speed() {
+        let text =
+            sliding("directions = [\"x\", 90.0]\ndistance = 2.0\nspeeds = [0.5, 1.0]\ndwell = 0.5");
+        let plan = Plan::parse(&text, "plan.toml").expect("parse");
+        assert_eq!(plan.safety.tangential(), Newtons(6.0));
+        let program = plan.program(&motorised(), "plan.toml").expect("valid");
+        // 2 shapes x 6 positions x (2 targets x 2 directions x 2 speeds).
+        assert_eq!(program.points.len(), 2 * 6 * 8);
+        assert_eq!(program.slide_dwell, Duration::from_millis(500));
+        let first: Vec<(f64, f64, f64, f64)> = program.points[..8]
+            .iter()
+            .map(|p| {
+                let s = p.slide.expect("every press slides");
+                (p.x.0, s.force.0, s.direction_deg, s.speed.0)
+            })
+            .collect();
+        assert_eq!(
+            first,
+            vec![
+                (-5.0, 1.0, 0.0, 0.5),
+                (-5.0, 1.0, 0.0, 1.0),
+                (-5.0, 1.0, 90.0, 0.5),
+                (-5.0, 1.0, 90.0, 1.0),
+                (-5.0, 4.0, 0.0, 0.5),
+                (-5.0, 4.0, 0.0, 1.0),
+                (-5.0, 4.0, 90.0, 0.5),
+                (-5.0, 4.0, 90.0, 1.0),
+            ]
+        );
+        assert!(program.points[8].slide.is_some() && program.points[8].x.0 == 0.0);
+        assert_eq!(program.points.iter().map(|p| p.index).max(), Some(95));
+        // Each press's estimate holds its slide: 2 mm at the speed (with the 4 mm/s^2 ramps)
+        // and the dwell after it, beyond the press to one target.
+        let plain = Plan::parse(
+            &format!("{PLAN}[slide]\ndirections = [\"x\"]\ndistance = 0.001\nspeeds = [2.0]\n"),
+            "p",
+        )
+        .expect("parse")
+        .program(&motorised(), "p")
+        .expect("valid");
+        let est = program.estimate(&motorised());
+        let one_slide_each = plain.estimate(&motorised());
+        let slides: f64 = [0.5, 1.0]
+            .iter()
+            .map(|v| 2.0 * (2.0 / v + v / 4.0 + 0.5))
+            .sum::<f64>()
+            * 2.0
+            * 12.0;
+        // The plain plan presses each target once per position, the sliding one four times.
+        assert!(
+            est.filming.as_secs_f64() > slides + one_slide_each.filming.as_secs_f64(),
+            "{est:?} vs {one_slide_each:?} + {slides} s of slides"
+        );
+        // Slides end away from their points: the path between presses counts the way back.
+        assert!(est.lateral_path_mm > one_slide_each.lateral_path_mm + 2.0 * 6.0 * 12.0);
+        let written = toml::to_string(&plan).expect("serialize");
+        assert_eq!(Plan::parse(&written, "p").expect("reparse"), plan);
+    }
+
+    #[test]
+    fn slides_are_checked_against_the_rig_before_anything_runs() {
+        let refused = |slide: &str, bench: &BenchLimits| {
+            Plan::parse(&sliding(slide), "plan.toml")
+                .expect("parse")
+                .program(bench, "plan.toml")
+                .expect_err("refused")
+                .to_string()
+        };
+        let ok = "directions = [\"x\"]\ndistance = 2.0\nspeeds = [1.0]";
+        assert!(Plan::parse(&sliding(ok), "p")
+            .expect("parse")
+            .program(&motorised(), "p")
+            .is_ok());
+        // y is moved by hand on bench(): only x slides.
+        let e = refused(
+            "directions = [\"-y\"]\ndistance = 2.0\nspeeds = [1.0]",
+            &bench(),
+        );
+        assert!(
+            e.contains("key slide.directions: 270 degrees moves y, which is moved by hand"),
+            "{e}"
+        );
+        assert!(Plan::parse(
+            &sliding("directions = [\"-x\"]\ndistance = 2.0\nspeeds = [1.0]"),
+            "p"
+        )
+        .expect("parse")
+        .program(&bench(), "p")
+        .is_ok());
+        // The x stage runs at 2 mm/s: 3 mm/s along x, or 2.5 mm/s at 30 degrees (2.17 on x).
+        let e = refused(
+            "directions = [\"x\"]\ndistance = 2.0\nspeeds = [3.0]",
+            &motorised(),
+        );
+        assert!(
+            e.contains(
+                "key slide.speeds: 3 mm/s at 0 degrees asks x for 3.000 mm/s, above its 2.000 mm/s"
+            ),
+            "{e}"
+        );
+        assert!(refused(
+            "directions = [30.0]\ndistance = 2.0\nspeeds = [2.5]",
+            &motorised()
+        )
+        .contains("asks x for 2.165"));
+        // From x = 5 mm, 8 mm along +x ends at 13 mm, past the 12 mm soft limit.
+        let e = refused(
+            "directions = [\"x\"]\ndistance = 8.0\nspeeds = [1.0]",
+            &motorised(),
+        );
+        assert!(e.contains("the slide of 8 mm at 0 degrees from [5, 0] ends at x = 13.000 mm, outside the x soft limits"), "{e}");
+        for (slide, key) in [
+            (
+                "directions = [\"z\"]\ndistance = 2.0\nspeeds = [1.0]",
+                "key slide.directions: \"z\" is not a direction",
+            ),
+            (
+                "directions = [\"x\"]\ndistance = 0.0\nspeeds = [1.0]",
+                "key slide.distance: 0 mm",
+            ),
+            (
+                "directions = [\"x\"]\ndistance = 25.0\nspeeds = [1.0]",
+                "key slide.distance: 25 mm",
+            ),
+            (
+                "directions = [\"x\"]\ndistance = 2.0\nspeeds = []",
+                "section [slide]: give at least one direction",
+            ),
+            (
+                "directions = [\"x\"]\ndistance = 2.0\nspeeds = [0.0]",
+                "key slide.speeds: 0 mm/s",
+            ),
+            (
+                "directions = [\"x\"]\ndistance = 2.0\nspeeds = [1.0]\ndwell = -1.0",
+                "key slide.dwell: -1 s",
+            ),
+        ] {
+            let e = refused(slide, &motorised());
+            assert!(e.contains(key), "{slide}: {e}");
+        }
+        // A slide holds a force: depth targets cannot slide.
+        let depth = sliding(ok).replace("force_targets = [1.0, 4.0]", "depth_targets = [0.5]");
+        let e = Plan::parse(&depth, "p")
+            .expect("parse")
+            .program(&motorised(), "p")
+            .expect_err("depth");
+        assert!(
+            e.to_string()
+                .contains("give indentation.force_targets, not depth_targets"),
+            "{e}"
+        );
+        let ceiling = sliding(ok).replace("tangential_ceiling = 6.0", "tangential_ceiling = -1.0");
+        let e = Plan::parse(&ceiling, "p")
+            .expect("parse")
+            .program(&motorised(), "p")
+            .expect_err("ceiling");
+        assert!(
+            e.to_string()
+                .contains("key safety.tangential_ceiling: -1 N must be positive"),
+            "{e}"
+        );
+        // Without the key, the tangential ceiling is the force ceiling.
+        let plan = Plan::parse(PLAN, "p").expect("parse");
+        assert_eq!(plan.safety.tangential(), Newtons(10.0));
+        assert!(!toml::to_string(&plan)
+            .expect("serialize")
+            .contains("tangential"));
     }
 
     #[test]

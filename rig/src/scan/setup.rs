@@ -13,6 +13,7 @@ use crate::store::documents::ProfileRef;
 use crate::store::frames::FrameCodec;
 use crate::sync::method::SyncMethod;
 use crate::sync::trigger::TriggerTiming;
+use crate::units::Millimetres;
 use std::sync::Arc;
 
 /// Everything a scan needs besides the devices.
@@ -23,6 +24,9 @@ pub struct ScanSetup {
     pub plan_text: String,
     pub limits: BenchLimits,
     pub origin: ContactOrigin,
+    /// The radius of the sensor's disc around `origin`, when known (a calibration profile, the
+    /// simulated sensor's design): a plan that slides must stay on it.
+    pub disc_radius: Option<Millimetres>,
     pub sync: SyncMethod,
     /// The DAQ-triggered camera's timing, for `trigger`.
     pub trigger: Option<TriggerTiming>,
@@ -51,4 +55,49 @@ pub struct ScanSetup {
     pub offset_check: Option<Arc<dyn OffsetCheck>>,
     /// What the caller sees of the recording as it happens (live display, live validation).
     pub taps: Vec<Arc<dyn RecordTap>>,
+}
+
+impl ScanSetup {
+    /// Refuses a plan whose slides would take the indenter off the sensor's disc (either end of
+    /// a slide's line farther from the centre than the disc's radius), or that slides where the
+    /// disc is not known.
+    pub fn check_slides_on_disc(&self) -> Result<(), String> {
+        let mut slides = self
+            .program
+            .points
+            .iter()
+            .filter_map(|p| Some((p, p.slide?)));
+        let Some(radius) = self.disc_radius else {
+            return match slides.next() {
+                Some(_) => Err(format!(
+                    "the plan slides, but the disc of sensor {} is not known here (no calibration profile): calibrate it first (`fringe calibrate --sensor {}`), so that no slide can leave the disc",
+                    self.sensor_id, self.sensor_id
+                )),
+                None => Ok(()),
+            };
+        };
+        for (p, s) in slides {
+            let start = self.origin.contact_mm(p.x, p.y);
+            let (ex, ey) = s.end_from(p.x, p.y);
+            let end = self.origin.contact_mm(ex, ey);
+            for (which, c) in [("starts", start), ("ends", end)] {
+                let r = c[0].hypot(c[1]);
+                if r > radius.0 {
+                    return Err(format!(
+                        "the plan: the slide of point {} (stage x {:.3}, y {:.3} mm; {:.3} mm at {} degrees) {which} at contact [{:.3}, {:.3}] mm, {r:.3} mm from the sensor centre, off the disc (radius {:.3} mm, {}): shorten slide.distance or move the point",
+                        p.index + 1,
+                        p.x.0,
+                        p.y.0,
+                        s.distance.0,
+                        s.direction_deg,
+                        c[0],
+                        c[1],
+                        radius.0,
+                        self.origin.source
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }

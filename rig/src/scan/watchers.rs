@@ -2,7 +2,8 @@
 //! when allowed, as the F/T reader: [`crate::realtime`]).
 //!
 //! - force above the ceiling: trips at once (the press loop stops z and backs off; the scan
-//!   retracts);
+//!   retracts); the same for the tangential force |Fx, Fy| above its ceiling (a slide stops x,
+//!   y and z at once; the scan lifts);
 //! - no F/T data for longer than the silence limit (50 ms): trips, motion stops. The silence
 //!   counts only while the watcher itself ran: after a pause of its own thread (the host held
 //!   every thread, the F/T path with it), it counts from when it runs again ([`SilenceClock`]);
@@ -37,6 +38,8 @@ pub const STOPPED_BY_WATCHERS_EVENT: &str = "stopped-by-watchers";
 #[derive(Debug, Clone, PartialEq)]
 pub struct WatchSettings {
     pub ceiling: Newtons,
+    /// The largest tangential force |Fx, Fy| of the tared reading.
+    pub tangential_ceiling: Newtons,
     /// Longest gap in the F/T stream tolerated.
     pub force_silence: Duration,
     /// Dropped frames tolerated within `drop_window` while filming.
@@ -48,6 +51,7 @@ impl Default for WatchSettings {
     fn default() -> Self {
         WatchSettings {
             ceiling: Newtons(12.0),
+            tangential_ceiling: Newtons(12.0),
             force_silence: FORCE_SILENCE,
             max_drops: 10,
             drop_window: Duration::from_secs(2),
@@ -59,6 +63,11 @@ impl Default for WatchSettings {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Alarm {
     Ceiling {
+        force: Newtons,
+        ceiling: Newtons,
+    },
+    /// The tangential force |Fx, Fy| above its ceiling.
+    TangentialCeiling {
         force: Newtons,
         ceiling: Newtons,
     },
@@ -85,6 +94,11 @@ impl std::fmt::Display for Alarm {
                 "force {:.2} N above the ceiling {:.2} N: z stopped and retracted",
                 force.0, ceiling.0
             ),
+            Alarm::TangentialCeiling { force, ceiling } => write!(
+                f,
+                "tangential force {:.2} N above the tangential ceiling {:.2} N: motion stopped and z lifted",
+                force.0, ceiling.0
+            ),
             Alarm::ForceSilent { silence } => write!(
                 f,
                 "no force/torque data for {} ms: motion stopped (check the F/T cable and stream)",
@@ -104,18 +118,30 @@ impl std::fmt::Display for Alarm {
     }
 }
 
-/// The pressing force's zero (the tared no-contact Fz, N), shared with the watchers.
+/// The forces' zero (the no-contact Fx, Fy, Fz, N), shared with the watchers.
 #[derive(Debug, Clone, Default)]
-pub(crate) struct SharedTare(Arc<AtomicU64>);
+pub(crate) struct SharedTare(Arc<Mutex<[f64; 3]>>);
 
 impl SharedTare {
-    pub(crate) fn set(&self, fz: f64) {
-        self.0.store(fz.to_bits(), Ordering::SeqCst);
+    /// Takes the zero from a no-contact reading (Fx, Fy, Fz, Mx, My, Mz).
+    pub(crate) fn set(&self, reading: &[f64; 6]) {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner()) = [reading[0], reading[1], reading[2]];
     }
 
+    /// The zero of Fz: the pressing force is this minus Fz.
     pub(crate) fn get(&self) -> f64 {
-        f64::from_bits(self.0.load(Ordering::SeqCst))
+        self.forces()[2]
     }
+
+    /// The zero of Fx, Fy and Fz.
+    pub(crate) fn forces(&self) -> [f64; 3] {
+        *self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// The tangential force |Fx, Fy| of a reading (Fx, Fy, Fz, ...) against the zero `tare`.
+pub(crate) fn tangential_of(mean: &[f64; 6], tare: [f64; 3]) -> Newtons {
+    Newtons((mean[0] - tare[0]).hypot(mean[1] - tare[1]))
 }
 
 struct Shared {
@@ -195,7 +221,7 @@ impl Watchers {
                         }
                         let since = drops.front().map_or(dropped, |d| d.1).max(*filmed_from);
                         let recent = dropped.saturating_sub(since);
-                        let alarm = condition_of(&monitor, tare.get(), &settings, &clock)
+                        let alarm = condition_of(&monitor, tare.forces(), &settings, &clock)
                             .or_else(|| {
                                 (filming && recent > settings.max_drops).then_some(
                                     Alarm::CameraDrops {
@@ -241,7 +267,7 @@ impl Watchers {
     pub(crate) fn condition(&self) -> Option<Alarm> {
         condition_of(
             &self.monitor,
-            self.tare.get(),
+            self.tare.forces(),
             &self.settings,
             &SilenceClock::default(),
         )
@@ -281,10 +307,10 @@ impl Drop for Watchers {
     }
 }
 
-/// Force ceiling and F/T silence (as `clock` counts it), as they are now.
+/// Force ceilings and F/T silence (as `clock` counts it), as they are now.
 fn condition_of(
     monitor: &ForceMonitor,
-    tare_fz: f64,
+    tare: [f64; 3],
     settings: &WatchSettings,
     clock: &SilenceClock,
 ) -> Option<Alarm> {
@@ -296,9 +322,16 @@ fn condition_of(
         }
     }
     let (_, mean) = monitor.mean_of_last(5)?;
-    let force = Newtons(tare_fz - mean[2]);
-    (force > settings.ceiling).then_some(Alarm::Ceiling {
-        force,
-        ceiling: settings.ceiling,
+    let force = Newtons(tare[2] - mean[2]);
+    if force > settings.ceiling {
+        return Some(Alarm::Ceiling {
+            force,
+            ceiling: settings.ceiling,
+        });
+    }
+    let tangential = tangential_of(&mean, tare);
+    (tangential > settings.tangential_ceiling).then_some(Alarm::TangentialCeiling {
+        force: tangential,
+        ceiling: settings.tangential_ceiling,
     })
 }

@@ -28,7 +28,7 @@
 //! - `ft_bias`: `t_ns`, `power_cycle`, `fx_n`..`tz_nm` (power-up bias in effect).
 
 use crate::bench::{Bench, BenchTruth};
-use crate::scene::SlipState;
+use crate::scene::{LoadSource, SlipState};
 use fringe_rig::HostTime;
 use fringe_rig::Wrench;
 #[cfg(test)]
@@ -381,10 +381,8 @@ impl TruthSink for TruthWriter {
 /// Records the bench's true state at `t` into `sink`.
 pub(crate) fn record_bench(bench: &Bench, sink: &dyn TruthSink, t: HostTime) {
     let truth = bench.truth_at(t);
-    let wrench = bench
-        .config()
-        .mount
-        .wrench_from_normal_force(truth.normal_force.0);
+    // What the F/T truly feels, a push included.
+    let wrench = bench.true_wrench_at(t);
     sink.record(TruthRecord::Bench { truth, wrench });
 }
 

@@ -1,8 +1,10 @@
 //! One indentation: approach to first contact, the force or depth targets pressed in turn, the
-//! dwell filmed at each, the retract; a press that failed, as the point's end.
+//! dwell filmed at each (a press that slides: its one force, the dwell, the slide and the dwell
+//! at its end), the retract; a press that failed, as the point's end.
 
 use super::motions::settled;
 use super::runner::{PointEnd, Runner, POLL};
+use super::sliding::SlideEnd;
 use crate::acquire::recorder::Filming;
 use crate::axis::StopMode;
 use crate::scan::control::Phase;
@@ -42,6 +44,33 @@ impl Runner<'_> {
                 contact.z.0, contact.force.0
             ),
         );
+        if let Some(s) = p.slide {
+            // One force, then the slide.
+            self.phase(i, Phase::Pressing(0));
+            let pressing = Instant::now();
+            let ramp_rate = self.setup.program.plan.indentation.ramp_rate;
+            let reached = self.press_force_ramp(&guard, contact, contact.force, s.force, ramp_rate);
+            self.excluded += pressing.elapsed();
+            let reached = match reached {
+                Ok(r) => r,
+                Err(e) => return self.press_failed(e),
+            };
+            if let Some(alarm) = self.hold(i, 0, reached.z, filming)? {
+                return Ok(PointEnd::Interrupted(alarm));
+            }
+            match self.slide(i, &s, &guard, contact, reached, filming)? {
+                SlideEnd::Done => {}
+                SlideEnd::Interrupted(alarm) => return Ok(PointEnd::Interrupted(alarm)),
+            }
+            self.phase(i, Phase::SlideDwell);
+            let dwelling = Instant::now();
+            let dwelt = self.dwell(self.setup.program.slide_dwell);
+            self.excluded += dwelling.elapsed();
+            if let Some(alarm) = dwelt {
+                return Ok(PointEnd::Interrupted(alarm));
+            }
+            return self.retract_after_point(i);
+        }
         let n = match &self.setup.program.targets {
             Targets::Force(t) => t.len(),
             Targets::Depth(t) => t.len(),

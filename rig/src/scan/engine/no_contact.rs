@@ -36,7 +36,7 @@ impl Runner<'_> {
             format!("at the tare before point {}", point + 1)
         };
         self.clearance.follow(mean[2], restarts, from);
-        self.tare.set(mean[2]);
+        self.tare.set(&mean);
         if restarts > self.force_restarts_seen {
             self.force_restarts_seen = restarts;
             let warning = format!(
@@ -84,7 +84,7 @@ impl Runner<'_> {
         let Some((_, mean)) = self.monitor.mean_of_last(TARE_SAMPLES) else {
             return false;
         };
-        self.tare.set(mean[2]);
+        self.tare.set(&mean);
         true
     }
 

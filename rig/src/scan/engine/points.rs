@@ -157,6 +157,7 @@ impl Runner<'_> {
             contact,
             shape: p.shape.clone(),
             tare,
+            slide: None,
         };
         self.context.set(Some(filming.clone()));
         self.watchers.set_filming(true);
@@ -339,7 +340,9 @@ impl Runner<'_> {
                 return Ok(false);
             }
             match self.watchers.condition() {
-                Some(Alarm::Ceiling { .. }) if self.retare_after_restart() => {
+                Some(Alarm::Ceiling { .. } | Alarm::TangentialCeiling { .. })
+                    if self.retare_after_restart() =>
+                {
                     std::thread::sleep(Duration::from_millis(50));
                 }
                 Some(condition) => {

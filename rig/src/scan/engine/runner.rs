@@ -149,8 +149,20 @@ impl<'a> Runner<'a> {
             .limits
             .approach_limit(parts.safe_z)
             .map_err(|e| ScanError::Setup(format!("the plan: {e}")))?;
+        // Wait for the force stream before the first reading.
+        let started = Instant::now();
+        while parts.monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        // z is homed, away from the sensor: what the F/T reads now is no contact, the zero the
+        // watchers start from (from no zero at all, the F/T's own offset would read as a load).
+        let (_, homed) = parts.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
+            ScanError::Setup(format!("{}: no force samples", parts.monitor.device()))
+        })?;
+        tare.set(&homed);
         let watch = WatchSettings {
             ceiling: press.ceiling,
+            tangential_ceiling: setup.program.plan.safety.tangential(),
             ..setup.watch.clone()
         };
         let watchers = Watchers::spawn(
@@ -164,16 +176,6 @@ impl<'a> Runner<'a> {
         if !watchers.running() {
             return Err(ScanError::Setup("cannot start the watcher thread".into()));
         }
-        // Wait for the force stream before the first reading.
-        let started = Instant::now();
-        while parts.monitor.stats().received < 500 && started.elapsed() < Duration::from_secs(3) {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        // z is homed, away from the sensor: what the F/T reads now is no contact.
-        let (_, homed) = parts.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
-            ScanError::Setup(format!("{}: no force samples", parts.monitor.device()))
-        })?;
-        tare.set(homed[2]);
         let clearance = Clearance::new(
             homed[2],
             parts.monitor.stats().restarts,

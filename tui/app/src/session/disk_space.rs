@@ -568,6 +568,7 @@ mod tests {
                 y: Millimetres(0.0),
                 source: "test".into(),
             },
+            disc_radius: None,
             sync: fringe_rig::SyncMethod::Host,
             trigger: None,
             sensor_id: "s1".into(),

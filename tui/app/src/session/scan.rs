@@ -181,11 +181,15 @@ impl ScanSession {
             .frame_codec(Some(&program.plan))
             .map_err(RigError::from)?;
         let camera_frame = camera_frame(parsed(profile.as_ref()).as_ref(), config);
+        let disc_radius = parsed(profile.as_ref())
+            .and_then(|p| p.disc_radius_mm())
+            .map(Millimetres);
         let setup = ScanSetup {
             program,
             plan_text,
             limits: rig.limits.clone(),
             origin,
+            disc_radius,
             sync: rig.sync,
             trigger: rig.trigger,
             sensor_id: rig.sensor_id.clone(),
