@@ -130,6 +130,48 @@ fn driver_over_modbus_tcp_with_two_clients() {
     assert!(err.to_string().contains("illegal data address"), "{err}");
 }
 
+/// A move at a chosen speed (a slide) writes that speed and acceleration with the move, which
+/// the drive runs; the next move writes the map's profile again; a speed above the profile's is
+/// refused with nothing sent.
+#[test]
+fn a_move_at_a_chosen_speed_writes_it_and_the_next_move_the_maps_profile() {
+    let emulator =
+        ModbusEmulator::spawn_tcp(loopback(), map("oriental-az"), motor(10.0)).expect("emulator");
+    let addr = emulator.addr().expect("tcp").to_string();
+    let link = TcpLink::connect(&addr, Duration::from_secs(1)).expect("connect");
+    let mut y = stage(Box::new(link), Framing::Tcp, "oriental-az");
+    let slow = Kinematics {
+        velocity: MillimetresPerSecond(1.0),
+        acceleration: MillimetresPerSecondSquared(10.0),
+    };
+    let from = y.status().expect("status").position.0;
+    let t0 = Instant::now();
+    y.begin_move_to_at(Millimetres(from + 1.0), slow)
+        .expect("a speed within the profile");
+    let k = emulator.motor().kinematics();
+    assert!((k.velocity.0 - 1.0).abs() < 1e-9, "{k:?}");
+    assert!((k.acceleration.0 - 10.0).abs() < 1e-9, "{k:?}");
+    let s = y.wait_idle(Duration::from_secs(5)).expect("slow move");
+    // 1 mm at 1 mm/s with 10 mm/s^2 ramps: 1.1 s (5 mm/s would take 0.3 s).
+    let took = t0.elapsed().as_secs_f64();
+    assert!((1.08..1.4).contains(&took), "the 1.1 s move took {took} s");
+    assert!((s.position.0 - (from + 1.0)).abs() <= 1.0 / 200.0, "{s}");
+    y.move_to(Millimetres(from), Duration::from_secs(5))
+        .expect("back at the profile's speed");
+    let k = emulator.motor().kinematics();
+    assert!((k.velocity.0 - 5.0).abs() < 1e-9, "{k:?}");
+    let requests = emulator.requests();
+    let fast = Kinematics {
+        velocity: MillimetresPerSecond(6.0),
+        acceleration: MillimetresPerSecondSquared(10.0),
+    };
+    let err = y
+        .begin_move_to_at(Millimetres(from + 1.0), fast)
+        .expect_err("faster than the profile");
+    assert!(matches!(err, AxisError::Motion { .. }), "{err}");
+    assert_eq!(emulator.requests(), requests, "nothing sent");
+}
+
 #[test]
 fn driver_over_modbus_rtu_on_a_pseudo_terminal() {
     let m = map("leadshine-pr");

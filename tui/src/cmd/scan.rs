@@ -242,6 +242,15 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
         plan.safety.force_ceiling,
         plan.approach.safe_z
     );
+    if let Some(slide) = &plan.slide {
+        println!(
+            "slides: each force target pressed once per direction and speed, slid {} mm at {} mm/s with z holding the force, then held {} s; tangential ceiling {} N",
+            slide.distance,
+            join(slide.speeds.iter().copied()),
+            slide.dwell,
+            plan.safety.tangential().0
+        );
+    }
     println!(
         "{:>5}  {:>9}  {:>9}  {:<10} {:>4}  notes",
         "point", "x mm", "y mm", "indenter", "rep"
@@ -253,6 +262,12 @@ fn print_dry_run(program: &ScanProgram, limits: &BenchLimits) {
         }
         if p.new_row && limits.manual_y {
             notes.push(format!("prompt: move y to {:.3} mm", p.y.0));
+        }
+        if let Some(s) = &p.slide {
+            notes.push(format!(
+                "{} N, slide {} mm at {} degrees at {} mm/s",
+                s.force.0, s.distance.0, s.direction_deg, s.speed.0
+            ));
         }
         println!(
             "{:>5}  {:>9.3}  {:>9.3}  {:<10} {:>4}  {}",
