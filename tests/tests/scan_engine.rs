@@ -1622,6 +1622,9 @@ fn a_slide_holds_the_normal_force_and_every_frame_is_labelled_where_the_indenter
     let n = sliding.len() as f64;
     let normal_rms = (normal_sq / n).sqrt();
     let tangential_rms = (tangential_err_sq / n).sqrt();
+    eprintln!(
+        "slide: {n} frames, normal force RMS {normal_rms:.3} N off 3 N, contact label at most {contact_worst:.4} mm off, tangential label RMS {tangential_rms:.3} N, {gross} frames of gross slip"
+    );
     assert!(
         normal_rms < 0.3,
         "normal force RMS {normal_rms:.3} N off 3 N while sliding"
@@ -1708,6 +1711,7 @@ fn a_tangential_force_over_its_ceiling_stops_the_slide_at_once_and_lifts() {
     // Never more than 1 N past the ceiling, in the bench's truth.
     watching.store(false, std::sync::atomic::Ordering::SeqCst);
     let peak = watcher.join().expect("watcher");
+    eprintln!("tangential ceiling 1.5 N: the push peaked at {peak:.3} N");
     assert!(
         peak > 1.5,
         "the push reached {peak:.2} N: the ceiling was never tested"
