@@ -15,7 +15,8 @@
 //!   standing still (a held push: consecutive frames have the same field);
 //! - `none`: the unloaded sensor.
 //!
-//! Before them, for each sensor, the first push with a fresh renderer (`stall`): frames paced
+//! The push fields of both punches are computed before the cases (`Renderer::prepare_push`,
+//! timed apart). Before them, for each sensor, the first push with a fresh renderer (`stall`): frames paced
 //! at 50 Hz, a pentagon pressed for 1 s and then pushed for 2 s with the share of the friction
 //! rising from 0 to 1 (every traction level in turn), and the slowest frame (a frame that
 //! waits for fields built on first use is a dropped frame in a live run). Exits non-zero if a
@@ -169,8 +170,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let start = Instant::now();
         let mut renderer = Renderer::new(config)?;
+        let startup = start.elapsed();
+        // The push fields of both flat punches now, so that no case below computes them (a
+        // press would otherwise have them computed in the background during its frames).
+        let start = Instant::now();
+        for shape in [renderer.config().pentagon(), renderer.config().rectangle()] {
+            renderer.prepare_push(&shape);
+        }
         println!(
-            "{id}: start-up {:.0} ms, {}x{} {format:?}, {} threads",
+            "{id}: start-up {:.0} ms, push fields of both punches {:.0} ms, {}x{} {format:?}, \
+             {} threads",
+            startup.as_secs_f64() * 1e3,
             start.elapsed().as_secs_f64() * 1e3,
             renderer.width(),
             renderer.height(),

@@ -235,6 +235,12 @@ fn tangential_spectra(layer: &Layer, n: usize, cell: f64) -> TangentialSpectra {
     spectra
 }
 
+/// Computes the Cerruti kernel spectra of `layer` on an `n` x `n` grid of `cell` mm now, if
+/// this process has not yet: the first [`tangential_stress`] on that grid then does not.
+pub(crate) fn prepare_tangential(layer: &Layer, n: usize, cell: f64) {
+    tangential_spectra(layer, n, cell);
+}
+
 /// D1 + i D2 in N/mm per cell of `traction` (per unit tangential force) seen through `layer`,
 /// for the force along the indenter frame's +x and along its +y.
 pub(crate) fn tangential_stress(traction: &TractionMap, layer: &Layer) -> [Vec<Complex<f64>>; 2] {

@@ -2,22 +2,25 @@
 //! press and of a 1 N tangential force along the indenter frame's +x and +y at each traction
 //! level (docs/photoelastic-sim.md, "Shear and slip"), computed ahead of need.
 //!
-//! A level takes a traction map and two FFT convolutions on the field grid (about 0.1 s at full
-//! size), and the first one of a process the Cerruti kernel spectra (a fraction of a second):
-//! computed when a push first needs them they stalled the frame that did. So when a contact
-//! with an outline first appears ([`PushStress::prepare`]), a background thread at background
-//! priority ([`NICE`]) computes the outline's press and all its levels, the press and the lowest levels
-//! first (a push starts from stick). A frame never waits for that thread: a field it needs that
-//! is not ready yet it computes itself ([`OutlineStress::press`], [`OutlineStress::level`]),
-//! as before, and whichever of the two copies is stored first is kept. Both are the same
-//! deterministic computation, so the frame is the same whoever computed its fields: it never
-//! depends on how far the background thread got (the same seed, scene and frame give the same
-//! bytes). Interpolating between the levels that happen to be ready instead would draw another
-//! field than the one asked for, different from run to run; and blocking on the background
-//! thread's copy could wait on a thread that, at background priority on a busy machine, barely
-//! runs.
+//! A level takes a traction map and two FFT convolutions on the field grid (about 40 ms at
+//! full size), the press one convolution, and the first level of a process and grid the
+//! Cerruti kernel spectra (about 0.2 s). Computed when a push first needed them, they stalled
+//! the frame that did (frames of 0.3 s). So a background thread at background priority
+//! ([`NICE`]) computes the spectra as the renderer starts and, when a contact with an outline
+//! first appears ([`PushStress::prepare`]), the outline's press and all its levels, lowest
+//! first (a push starts from stick); [`PushStress::compute_now`] does it at once on the
+//! calling thread.
+//!
+//! A frame never waits for that thread: a field it needs that is not ready yet it computes
+//! itself ([`OutlineStress::press`], [`OutlineStress::level`]), only that one, and whichever of
+//! the two copies is stored first is kept. Both are the same deterministic computation, so a
+//! frame never depends on how far the background thread got (the same seed, scene and frame
+//! give the same bytes). Interpolating between the levels that happen to be ready instead would
+//! draw another field than the one asked for, different from run to run; and blocking on the
+//! background thread's copy could wait on a thread that, at background priority on a busy
+//! machine, barely runs.
 
-use crate::optics::fringe_field::{integrated_stress, tangential_stress};
+use crate::optics::fringe_field::{integrated_stress, prepare_tangential, tangential_stress};
 use crate::physics::indenter::{PressureMap, Shape};
 use crate::physics::stress::Layer;
 use crate::physics::traction::{TractionBasis, DEFAULT_EDGE_RADIUS_MM};
@@ -132,6 +135,11 @@ impl OutlineStress {
         }
     }
 
+    /// Computes every field not computed yet, on this thread.
+    pub(crate) fn fill(&self) {
+        while self.fill_next() {}
+    }
+
     /// Whether every field is computed.
     #[cfg(test)]
     pub(crate) fn complete(&self) -> bool {
@@ -161,34 +169,53 @@ pub(crate) struct PushStress<K> {
 }
 
 impl<K: Copy + PartialEq> PushStress<K> {
-    /// An empty store for fields on `grid`, with a background thread if `background`.
+    /// An empty store for fields on `grid`, with a background thread if `background`, which
+    /// starts with the layer's Cerruti kernel spectra (once per process and grid; the most
+    /// costly part of a first push, about 0.2 s at full size).
     pub(crate) fn new(grid: Grid, background: bool) -> PushStress<K> {
-        PushStress {
+        let mut store = PushStress {
             grid,
             outlines: Vec::new(),
             worker: None,
             thread: None,
             background,
-        }
+        };
+        store.start();
+        store
     }
 
     /// The fields of outline `shape` (`key`), kept as the most recently used; the least
     /// recently used outline beyond [`OUTLINE_LIMIT`] is dropped (the background thread drops
     /// its work on it too). A new outline is handed to the background thread.
     pub(crate) fn outline(&mut self, key: K, shape: &Shape) -> Arc<OutlineStress> {
+        let (outline, new) = self.entry(key, shape);
+        if new {
+            self.request(&outline);
+        }
+        outline
+    }
+
+    /// The fields of outline `shape` (`key`), all computed now on this thread (not handed to
+    /// the background thread).
+    pub(crate) fn compute_now(&mut self, key: K, shape: &Shape) {
+        self.entry(key, shape).0.fill();
+    }
+
+    /// The entry of outline `shape` (`key`), made the most recently used, and whether it is
+    /// new; the least recently used beyond [`OUTLINE_LIMIT`] is dropped.
+    fn entry(&mut self, key: K, shape: &Shape) -> (Arc<OutlineStress>, bool) {
         if let Some(at) = self.outlines.iter().position(|(k, _)| *k == key) {
             let entry = self.outlines.remove(at);
             let found = Arc::clone(&entry.1);
             self.outlines.push(entry);
-            return found;
+            return (found, false);
         }
         if self.outlines.len() >= OUTLINE_LIMIT {
             self.outlines.remove(0);
         }
         let outline = Arc::new(OutlineStress::new(*shape, self.grid));
         self.outlines.push((key, Arc::clone(&outline)));
-        self.request(&outline);
-        outline
+        (outline, true)
     }
 
     /// Makes sure the fields of `shape` (`key`) are on their way: a contact with that outline
@@ -199,25 +226,32 @@ impl<K: Copy + PartialEq> PushStress<K> {
         }
     }
 
-    /// Hands `outline` to the background thread, starting it on first use.
-    fn request(&mut self, outline: &Arc<OutlineStress>) {
-        if !self.background {
+    /// Starts the background thread (if wanted and not running).
+    fn start(&mut self) {
+        if !self.background || self.worker.is_some() {
             return;
         }
-        if self.worker.is_none() {
-            let (tx, rx) = channel();
-            let started = std::thread::Builder::new()
-                .name("push-stress".into())
-                .spawn(move || precompute(rx));
-            match started {
-                Ok(thread) => {
-                    self.worker = Some(tx);
-                    self.thread = Some(thread);
-                }
-                // Without the thread every field is computed when a frame needs it.
-                Err(_) => self.background = false,
+        let (tx, rx) = channel();
+        let grid = self.grid;
+        let started = std::thread::Builder::new()
+            .name("push-stress".into())
+            .spawn(move || {
+                background_priority();
+                prepare_tangential(&grid.layer, grid.cells, grid.cell_mm);
+                precompute(rx);
+            });
+        match started {
+            Ok(thread) => {
+                self.worker = Some(tx);
+                self.thread = Some(thread);
             }
+            // Without the thread every field is computed when a frame needs it.
+            Err(_) => self.background = false,
         }
+    }
+
+    /// Hands `outline` to the background thread.
+    fn request(&mut self, outline: &Arc<OutlineStress>) {
         if let Some(tx) = &self.worker {
             if tx.send(Arc::downgrade(outline)).is_err() {
                 self.worker = None;
@@ -230,7 +264,6 @@ impl<K: Copy + PartialEq> PushStress<K> {
 /// kept, one field at a time, until every outline's are computed; ends when the store is
 /// dropped.
 fn precompute(requests: Receiver<Weak<OutlineStress>>) {
-    background_priority();
     let mut pending: Vec<Weak<OutlineStress>> = Vec::new();
     loop {
         loop {
@@ -342,5 +375,9 @@ mod tests {
             "{keys:?}"
         );
         assert!(Arc::ptr_eq(&first, &store.outline(0, &circle(1.0))));
+        // Computed now: every field, before the call returns.
+        store.compute_now(9, &circle(9.0));
+        assert!(store.outline(9, &circle(9.0)).complete());
+        assert!(!first.complete());
     }
 }

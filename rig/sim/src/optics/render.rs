@@ -660,6 +660,16 @@ impl Renderer {
         self.f_sigma_n_per_m
     }
 
+    /// Computes now, on this thread, everything a push of `shape` is drawn from (the stresses
+    /// of its press and of its traction at every level), for instance for the mounted
+    /// indenter before filming: no frame of its pushes computes them. Otherwise a flat punch
+    /// has them computed in the background from the first frame it presses in, and a frame
+    /// that needs one not computed yet computes it itself.
+    pub fn prepare_push(&mut self, shape: &Shape) {
+        let (key, quantised) = field_key(shape);
+        self.push.compute_now(key, &quantised);
+    }
+
     /// The field of `shape`, computed on first use.
     fn field(&mut self, shape: &Shape) -> Arc<PackedField> {
         let (key, quantised) = field_key(shape);
