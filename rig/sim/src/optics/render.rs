@@ -6,7 +6,10 @@
 //! the blurred colour table over (N, sigma_N), the per-pixel [`Background`] (illumination,
 //! vignetting, rim, LED hot spots, residual birefringence), a tile of Gaussian noise and a gamma
 //! table. Spheres change their Hertz contact radius with force: their fields are computed on first
-//! use and cached by the contact radius rounded to [`SPHERE_RADIUS_STEP_MM`].
+//! use and cached by the contact radius rounded to [`SPHERE_RADIUS_STEP_MM`]. A contact pushed
+//! sideways is drawn from a field of its own loads, built each frame from the stresses of its
+//! press and traction ([`crate::optics::push_stress`], computed ahead of need) and kept while
+//! the push is held.
 //!
 //! Per frame, at half resolution (one sample per 2x2 block of lit pixels, at the block centre):
 //! map the point to the indenter frame (inverse of the [`SensorGeometry`], then the contact's
