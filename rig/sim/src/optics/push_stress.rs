@@ -32,8 +32,8 @@ use std::sync::{Arc, OnceLock, Weak};
 /// many steps, one level more) and interpolated between them.
 pub(crate) const TRACTION_LEVELS: usize = 8;
 
-/// Most outlines whose fields are kept (each holds a press field and `TRACTION_LEVELS + 1`
-/// levels of two fields: about 23 MB at 384 x 384 cells).
+/// Most outlines whose fields are kept (each holds a press field, `TRACTION_LEVELS + 1` levels
+/// of two fields and the traction basis: about 25 MB at 384 x 384 cells).
 pub(crate) const OUTLINE_LIMIT: usize = 4;
 
 /// D1 + i D2 of a unit load, row-major on the field grid, in single precision (as the packed
