@@ -7,6 +7,7 @@ mod blurred_colour;
 pub(crate) mod colour;
 pub(crate) mod fringe_field;
 pub(crate) mod pixel_format;
+pub(crate) mod push_stress;
 pub(crate) mod render;
 pub(crate) mod scratch;
 mod scratch_canvas;

@@ -6,7 +6,10 @@
 //! the blurred colour table over (N, sigma_N), the per-pixel [`Background`] (illumination,
 //! vignetting, rim, LED hot spots, residual birefringence), a tile of Gaussian noise and a gamma
 //! table. Spheres change their Hertz contact radius with force: their fields are computed on first
-//! use and cached by the contact radius rounded to [`SPHERE_RADIUS_STEP_MM`].
+//! use and cached by the contact radius rounded to [`SPHERE_RADIUS_STEP_MM`]. A contact pushed
+//! sideways is drawn from a field of its own loads, built each frame from the stresses of its
+//! press and traction ([`crate::optics::push_stress`], computed ahead of need) and kept while
+//! the push is held.
 //!
 //! Per frame, at half resolution (one sample per 2x2 block of lit pixels, at the block centre):
 //! map the point to the indenter frame (inverse of the [`SensorGeometry`], then the contact's
@@ -36,11 +39,11 @@ use crate::optics::background::{
 };
 use crate::optics::blurred_colour::BlurredColourTable;
 use crate::optics::colour::Polariser;
-use crate::optics::fringe_field::{integrated_stress, tangential_stress, FringeField};
+use crate::optics::fringe_field::FringeField;
 use crate::optics::pixel_format::{bayer_channel, grey};
+use crate::optics::push_stress::{Grid, PushStress, TractionField, TRACTION_LEVELS};
 use crate::optics::sensor::{SensorConfig, SensorConfigError, SensorGeometry};
 use crate::physics::indenter::{PressureMap, Shape};
-use crate::physics::traction::{TractionMap, DEFAULT_EDGE_RADIUS_MM};
 use crate::scene::{Contact, FrameRenderer, Scene, Shear};
 use crate::session;
 use fringe_rig::PixelFormat;
@@ -195,16 +198,6 @@ const SKIP_BELOW_FRINGES: f32 = 0.002;
 /// Most fields kept in the cache (flat punches and spheres together).
 const FIELD_CACHE_LIMIT: usize = 96;
 
-/// Tangential traction is computed for the shares of the friction used 0, 1/8, ..., 1 and
-/// interpolated between them.
-const TRACTION_LEVELS: usize = 8;
-
-/// Most traction levels kept (each holds two stress fields of the grid).
-const TRACTION_CACHE_LIMIT: usize = 48;
-
-/// Depth-integrated stress differences D1 + i D2 of a unit load, row-major on the field grid.
-type StressField = Vec<Complex<f32>>;
-
 /// Fringe order per newton and its gradient per mm, packed for the per-pixel loop.
 #[derive(Debug, Clone)]
 struct PackedField {
@@ -235,11 +228,8 @@ impl PackedField {
         let mut beyond = vec![[0.0f32; 2]; n + 1];
         for j in 0..n {
             for i in 0..n {
-                let d = (i as f64 - half as f64)
-                    .hypot(j as f64 - half as f64)
-                    .floor() as usize;
                 let [v, g] = data[j * n + i];
-                let slot = &mut beyond[d.min(n)];
+                let slot = &mut beyond[ring(n, i, j)];
                 slot[0] = slot[0].max(v);
                 slot[1] = slot[1].max(g);
             }
@@ -256,6 +246,80 @@ impl PackedField {
             data,
             cell_mm: field.cell_mm() as f32,
             beyond,
+        }
+    }
+
+    /// The field of a press pushed sideways, filled into `self` (its buffers reused): fringe
+    /// order 2 |D| / f_sigma (`scale` = 2000 / f_sigma, D in N/mm) of the stress differences
+    /// D = P D_n + (1 - w) T(low) + w T(high), T(f) = qx f_x + qy f_y (`loads` = [P, qx, qy, w]),
+    /// and its gradient by central differences (one-sided on the grid edges), on an `n` x `n`
+    /// grid of `cell_mm`; `rings` holds each cell's [`ring`].
+    ///
+    /// The same sums as [`FringeField::from_stress`] and [`PackedField::new`] of that field, in
+    /// single precision from D on (they went through double precision: the fields differ in
+    /// float rounding), in two passes over the grid without allocating.
+    #[allow(clippy::too_many_arguments)]
+    fn fill_pushed(
+        &mut self,
+        n: usize,
+        cell_mm: f64,
+        rings: &[u16],
+        [p, qx, qy, w]: [f32; 4],
+        scale: f32,
+        normal: &[Complex<f32>],
+        low: &TractionField,
+        high: &TractionField,
+    ) {
+        let cells = n * n;
+        self.n = n;
+        self.inv_cell = (1.0 / cell_mm) as f32;
+        self.half = (n / 2) as f32;
+        self.last = (n - 1) as f32;
+        self.cell_mm = cell_mm as f32;
+        self.data.clear();
+        self.data.resize(cells, [0.0; 2]);
+        let data = &mut self.data[..cells];
+        let t = |f: &[Complex<f32>; 2]| f[0] * qx + f[1] * qy;
+        for (((out, &d_n), lo), hi) in data.iter_mut().zip(normal).zip(low).zip(high) {
+            let d = d_n * p + t(lo) * (1.0 - w) + t(hi) * w;
+            out[0] = scale * (d.re * d.re + d.im * d.im).sqrt();
+        }
+        // Per mm over one cell (edges) and over two (inside).
+        let (one, two) = ((1.0 / cell_mm) as f32, (1.0 / (2.0 * cell_mm)) as f32);
+        for j in 0..n {
+            let (j0, j1) = (j.saturating_sub(1), (j + 1).min(n - 1));
+            let across = if j1 - j0 == 2 { two } else { one };
+            for i in 0..n {
+                let (i0, i1) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let along = if i1 - i0 == 2 { two } else { one };
+                let gx = (data[j * n + i1][0] - data[j * n + i0][0]) * along;
+                let gy = (data[j1 * n + i][0] - data[j0 * n + i][0]) * across;
+                data[j * n + i][1] = (gx * gx + gy * gy).sqrt();
+            }
+        }
+        self.beyond.clear();
+        self.beyond.resize(n + 1, [0.0; 2]);
+        for (&[v, g], &r) in data.iter().zip(rings) {
+            let slot = &mut self.beyond[usize::from(r)];
+            slot[0] = slot[0].max(v);
+            slot[1] = slot[1].max(g);
+        }
+        for k in (0..n).rev() {
+            self.beyond[k][0] = self.beyond[k][0].max(self.beyond[k + 1][0]);
+            self.beyond[k][1] = self.beyond[k][1].max(self.beyond[k + 1][1]);
+        }
+    }
+
+    /// A field of no cells, to be filled.
+    fn empty() -> PackedField {
+        PackedField {
+            n: 0,
+            inv_cell: 0.0,
+            half: 0.0,
+            last: 0.0,
+            data: Vec::new(),
+            cell_mm: 0.0,
+            beyond: Vec::new(),
         }
     }
 
@@ -293,6 +357,26 @@ impl PackedField {
         }
         out
     }
+}
+
+/// The ring of cell (i, j) of an `n` x `n` grid: its whole cells of distance from the centre
+/// cell, at most n.
+fn ring(n: usize, i: usize, j: usize) -> usize {
+    let half = n / 2;
+    let d = (i as f64 - half as f64)
+        .hypot(j as f64 - half as f64)
+        .floor() as usize;
+    d.min(n)
+}
+
+/// Everything a pushed contact's field is a function of (with the renderer's grid, layer and
+/// f_sigma): its outline, the lower of the two traction levels it mixes and the exact loads
+/// [P, qx, qy, w] it is combined with, as bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct PushKey {
+    outline: FieldKey,
+    below: usize,
+    loads: [u32; 4],
 }
 
 /// Cache key of a field: shape kind and its sizes (sphere: rounded contact radius).
@@ -435,11 +519,14 @@ pub struct Renderer {
     colours: PackedColours,
     background: Background,
     fields: HashMap<FieldKey, Arc<PackedField>>,
-    /// Per shape: D1 + i D2 of a 1 N press (for contacts pushed sideways).
-    stresses: HashMap<FieldKey, Arc<StressField>>,
-    /// Per shape and traction level: D1 + i D2 of a 1 N tangential force along the indenter
-    /// frame's +x and +y.
-    tractions: HashMap<(FieldKey, usize), Arc<[StressField; 2]>>,
+    /// Per outline: D1 + i D2 of a 1 N press and of the tangential traction at each level (for
+    /// contacts pushed sideways), computed ahead of need.
+    push: PushStress<FieldKey>,
+    /// The field of the last pushed contact drawn and what it is a function of: a held push
+    /// draws it again; another push refills its buffers.
+    pushed: Option<(PushKey, Arc<PackedField>)>,
+    /// Each field cell's [`ring`], row-major.
+    rings: Vec<u16>,
     /// 1 / f_sigma scale applied to fields computed at f_sigma = 1 N/m.
     f_sigma_n_per_m: f64,
     blur_sigma_mm: f64,
@@ -516,8 +603,22 @@ impl Renderer {
             background,
             unloaded,
             fields: HashMap::new(),
-            stresses: HashMap::new(),
-            tractions: HashMap::new(),
+            push: PushStress::new(
+                Grid {
+                    cells: config.field.cells,
+                    cell_mm: config.field.cell_mm,
+                    layer: config.layer(),
+                },
+                true,
+            ),
+            pushed: None,
+            rings: (0..config.field.cells * config.field.cells)
+                .map(|k| {
+                    let n = config.field.cells;
+                    // n <= 2048 (SensorConfig::validate), so a ring fits.
+                    u16::try_from(ring(n, k % n, k / n)).unwrap_or(u16::MAX)
+                })
+                .collect(),
             f_sigma_n_per_m,
             blur_sigma_mm: blur_sigma_px / config.geometry.px_per_mm,
             noise,
@@ -562,6 +663,16 @@ impl Renderer {
         self.f_sigma_n_per_m
     }
 
+    /// Computes now, on this thread, everything a push of `shape` is drawn from (the stresses
+    /// of its press and of its traction at every level), for instance for the mounted
+    /// indenter before filming: no frame of its pushes computes them. Otherwise a flat punch
+    /// has them computed in the background from the first frame it presses in, and a frame
+    /// that needs one not computed yet computes it itself.
+    pub fn prepare_push(&mut self, shape: &Shape) {
+        let (key, quantised) = field_key(shape);
+        self.push.compute_now(key, &quantised);
+    }
+
     /// The field of `shape`, computed on first use.
     fn field(&mut self, shape: &Shape) -> Arc<PackedField> {
         let (key, quantised) = field_key(shape);
@@ -581,82 +692,68 @@ impl Renderer {
 
     /// The field `contact` is drawn with and the factor on it: a press alone scales the field of
     /// a 1 N press of its shape by its force; a press pushed sideways gets a field of its own
-    /// loads (factor 1).
+    /// loads (factor 1). A pressing flat punch has its push fields prepared in the background
+    /// (a sphere's outline changes with its force: its are computed once it is pushed).
     fn contact_field(&mut self, contact: &Contact) -> (Arc<PackedField>, f64) {
         match contact.shear {
             Some(shear) if shear.force.0 > 0.0 && contact.force.0 > 0.0 => {
-                (Arc::new(self.sheared_field(contact, &shear)), 1.0)
+                (self.sheared_field(contact, &shear), 1.0)
             }
-            _ => (self.field(&contact.shape), contact.force.0),
+            _ => {
+                if contact.force.0 > 0.0 && !matches!(contact.shape, Shape::Sphere { .. }) {
+                    let (key, quantised) = field_key(&contact.shape);
+                    self.push.prepare(key, &quantised);
+                }
+                (self.field(&contact.shape), contact.force.0)
+            }
         }
     }
 
     /// The field of a press of `contact.force` pushed sideways by `shear`: the stress
     /// differences of the press, and of the tangential traction interpolated between the two
     /// nearest levels of the friction used, added before the fringe order is taken (the two
-    /// load systems superpose in stress, not in fringe order).
-    fn sheared_field(&mut self, contact: &Contact, shear: &Shear) -> PackedField {
+    /// load systems superpose in stress, not in fringe order). The same push as the last
+    /// frame's (a held push) reuses its field.
+    fn sheared_field(&mut self, contact: &Contact, shear: &Shear) -> Arc<PackedField> {
         let (key, quantised) = field_key(&contact.shape);
-        let normal = self.stress(key, &quantised);
         let level = shear.friction_used.clamp(0.0, 1.0) * TRACTION_LEVELS as f64;
         let below = (level.floor() as usize).min(TRACTION_LEVELS - 1);
         let w = (level - below as f64) as f32;
-        let low = self.traction(key, &quantised, below);
-        let high = self.traction(key, &quantised, below + 1);
         // The push's direction in the indenter frame (turned by the indenter's angle).
         let (s, c) = (shear.direction_deg - contact.angle_deg)
             .to_radians()
             .sin_cos();
         let (p, q) = (contact.force.0 as f32, shear.force.0 as f32);
-        let (qx, qy) = (q * c as f32, q * s as f32);
-        let stress = (0..normal.len()).map(|i| {
-            let t = |f: &[StressField; 2]| f[0][i] * qx + f[1][i] * qy;
-            let d = normal[i] * p + t(&low) * (1.0 - w) + t(&high) * w;
-            Complex::new(f64::from(d.re), f64::from(d.im))
-        });
-        let n = self.config.field.cells;
-        let field =
-            FringeField::from_stress(n, self.config.field.cell_mm, stress, self.f_sigma_n_per_m);
-        PackedField::new(&field, 1.0)
-    }
-
-    /// D1 + i D2 of a 1 N press of `shape` (`key`), computed on first use.
-    fn stress(&mut self, key: FieldKey, shape: &Shape) -> Arc<StressField> {
-        if let Some(found) = self.stresses.get(&key) {
-            return Arc::clone(found);
-        }
-        if self.stresses.len() >= FIELD_CACHE_LIMIT {
-            self.stresses
-                .retain(|k, _| matches!(k, FieldKey::Pentagon(_) | FieldKey::Rectangle(..)));
-        }
-        let (n, cell) = (self.config.field.cells, self.config.field.cell_mm);
-        let map = PressureMap::new(shape, n, cell, 1.0);
-        let d = integrated_stress(&map, &self.config.layer());
-        let field = Arc::new(narrow(&d));
-        self.stresses.insert(key, Arc::clone(&field));
-        field
-    }
-
-    /// D1 + i D2 of a 1 N tangential force along +x and +y of the indenter frame on `shape`
-    /// (`key`) at traction level `level` (of [`TRACTION_LEVELS`]), computed on first use.
-    fn traction(&mut self, key: FieldKey, shape: &Shape, level: usize) -> Arc<[StressField; 2]> {
-        if let Some(found) = self.tractions.get(&(key, level)) {
-            return Arc::clone(found);
-        }
-        if self.tractions.len() >= TRACTION_CACHE_LIMIT {
-            self.tractions
-                .retain(|(k, _), _| matches!(k, FieldKey::Pentagon(_) | FieldKey::Rectangle(..)));
-            if self.tractions.len() >= TRACTION_CACHE_LIMIT {
-                self.tractions.clear();
+        let loads = [p, q * c as f32, q * s as f32, w];
+        let push = PushKey {
+            outline: key,
+            below,
+            loads: loads.map(f32::to_bits),
+        };
+        if let Some((held, field)) = &self.pushed {
+            if *held == push {
+                return Arc::clone(field);
             }
         }
-        let (n, cell) = (self.config.field.cells, self.config.field.cell_mm);
-        let ratio = level as f64 / TRACTION_LEVELS as f64;
-        let map = TractionMap::new(shape, n, cell, ratio, DEFAULT_EDGE_RADIUS_MM);
-        let [x, y] = tangential_stress(&map, &self.config.layer());
-        let fields = Arc::new([narrow(&x), narrow(&y)]);
-        self.tractions.insert((key, level), Arc::clone(&fields));
-        fields
+        let outline = self.push.outline(key, &quantised);
+        // The last field's buffers, unless a caller still holds it.
+        let mut packed = match self.pushed.take().map(|(_, field)| Arc::try_unwrap(field)) {
+            Some(Ok(field)) => field,
+            _ => PackedField::empty(),
+        };
+        packed.fill_pushed(
+            self.config.field.cells,
+            self.config.field.cell_mm,
+            &self.rings,
+            loads,
+            (2.0 * 1000.0 / self.f_sigma_n_per_m) as f32,
+            outline.press(),
+            outline.level(below),
+            outline.level(below + 1),
+        );
+        let field = Arc::new(packed);
+        self.pushed = Some((push, Arc::clone(&field)));
+        field
     }
 
     /// The affine pixel -> indenter-frame map of `contact`.
@@ -838,13 +935,6 @@ fn colour_table(polariser: Polariser) -> Arc<BlurredColourTable> {
     let table = Arc::new(BlurredColourTable::new(1024, 20.0, 65, 2.0, polariser));
     tables.push((polariser, Arc::clone(&table)));
     table
-}
-
-/// A stress field kept in single precision (as the packed fields are).
-fn narrow(d: &[Complex<f64>]) -> StressField {
-    d.iter()
-        .map(|c| Complex::new(c.re as f32, c.im as f32))
-        .collect()
 }
 
 /// N_unit of `shape` at f_sigma = 1 N/m on the configured grid.

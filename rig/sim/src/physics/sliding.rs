@@ -40,7 +40,7 @@ pub(crate) struct TangentialState {
 
 /// The stateful tangential contact, advanced in steps with the indenter's position and the
 /// normal force.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub(crate) struct Tangential {
     /// Where the indenter centre would sit with the gel unstrained (sensor frame, mm); `None`
     /// while lifted.
@@ -50,17 +50,73 @@ pub(crate) struct Tangential {
     /// The Prony terms' internal forces, N.
     internal: Vec<[f64; 2]>,
     state: TangentialState,
+    /// Scratch of [`Tangential::advance`], one entry per Prony term, kept so that a step
+    /// allocates nothing: each term's (decay, ramp) over the step, and its internal force
+    /// after the step being tried.
+    factors: Vec<(f64, f64)>,
+    trial: Vec<[f64; 2]>,
+}
+
+/// The state, not the scratch.
+impl PartialEq for Tangential {
+    fn eq(&self, other: &Tangential) -> bool {
+        self.anchor == other.anchor
+            && self.elastic == other.elastic
+            && self.internal == other.internal
+            && self.state == other.state
+    }
 }
 
 impl Tangential {
     /// A lifted indenter.
     pub(crate) fn new(material: &ContactMaterial) -> Tangential {
+        let terms = material.relaxation.len();
         Tangential {
             anchor: None,
             elastic: [0.0; 2],
-            internal: vec![[0.0; 2]; material.relaxation.len()],
+            internal: vec![[0.0; 2]; terms],
             state: TangentialState::default(),
+            factors: Vec::with_capacity(terms),
+            trial: Vec::with_capacity(terms),
         }
+    }
+
+    /// Lifts the indenter: forgets the anchor, the forces and the relaxation (what
+    /// [`Tangential::new`] starts from), keeping the buffers.
+    fn lift(&mut self, material: &ContactMaterial) {
+        self.anchor = None;
+        self.elastic = [0.0; 2];
+        self.internal.clear();
+        self.internal.resize(material.relaxation.len(), [0.0; 2]);
+        self.state = TangentialState::default();
+    }
+
+    /// The force after a step to `position` with the anchor at `anchor`, elastic stiffness
+    /// `stiffness` and long-term fraction `g_inf`, the step's factors in `self.factors`: the
+    /// elastic force it returns, the Prony terms' internal forces it leaves in `self.trial`.
+    fn try_step(
+        &mut self,
+        material: &ContactMaterial,
+        position: [f64; 2],
+        anchor: [f64; 2],
+        stiffness: f64,
+        g_inf: f64,
+    ) -> ([f64; 2], [f64; 2]) {
+        let elastic = [0, 1].map(|k| stiffness * (position[k] - anchor[k]));
+        let last = self.elastic;
+        self.trial.clear();
+        self.trial.extend(
+            self.internal
+                .iter()
+                .zip(&material.relaxation)
+                .zip(&self.factors)
+                .map(|((h, term), &(decay, ramp))| {
+                    [0, 1].map(|k| decay * h[k] + term.weight * (elastic[k] - last[k]) * ramp)
+                }),
+        );
+        let force =
+            [0, 1].map(|k| g_inf * elastic[k] + self.trial.iter().map(|h| h[k]).sum::<f64>());
+        (elastic, force)
     }
 
     /// Advances `dt_s` seconds to the indenter centre at `position` (sensor frame, mm) pressing
@@ -74,33 +130,18 @@ impl Tangential {
         radius_mm: f64,
     ) -> TangentialState {
         if !(normal_n > 0.0 && radius_mm > 0.0) {
-            *self = Tangential::new(material);
+            self.lift(material);
             return self.state;
         }
         let anchor = *self.anchor.get_or_insert(position);
         let nu = material.poisson_ratio;
         let shear_modulus = material.youngs_modulus_mpa / (2.0 * (1.0 + nu));
         let stiffness = 8.0 * shear_modulus * radius_mm / (2.0 - nu);
-        let factors: Vec<(f64, f64)> = material.relaxation.iter().map(|t| t.step(dt_s)).collect();
+        self.factors.clear();
+        self.factors
+            .extend(material.relaxation.iter().map(|t| t.step(dt_s)));
         let g_inf = material.long_term_fraction();
-        // The force after the step with the anchor at `anchor`, and the internal forces.
-        let step = |anchor: [f64; 2]| {
-            let elastic = [0, 1].map(|k| stiffness * (position[k] - anchor[k]));
-            let internal: Vec<[f64; 2]> = self
-                .internal
-                .iter()
-                .zip(&material.relaxation)
-                .zip(&factors)
-                .map(|((h, term), &(decay, ramp))| {
-                    [0, 1]
-                        .map(|k| decay * h[k] + term.weight * (elastic[k] - self.elastic[k]) * ramp)
-                })
-                .collect();
-            let force =
-                [0, 1].map(|k| g_inf * elastic[k] + internal.iter().map(|h| h[k]).sum::<f64>());
-            (elastic, internal, force)
-        };
-        let (mut elastic, mut internal, mut force) = step(anchor);
+        let (mut elastic, mut force) = self.try_step(material, position, anchor, stiffness, g_inf);
         let f = material.friction;
         let limit = if self.state.sliding {
             f.kinetic_coefficient
@@ -117,18 +158,18 @@ impl Tangential {
                 + material
                     .relaxation
                     .iter()
-                    .zip(&factors)
+                    .zip(&self.factors)
                     .map(|(t, &(_, ramp))| t.weight * ramp)
                     .sum::<f64>();
             let sliding_limit = f.kinetic_coefficient * normal_n;
             let s = (magnitude - sliding_limit) / (instantaneous * stiffness);
             let u = [force[0] / magnitude, force[1] / magnitude];
             anchor = [anchor[0] + s * u[0], anchor[1] + s * u[1]];
-            (elastic, internal, force) = step(anchor);
+            (elastic, force) = self.try_step(material, position, anchor, stiffness, g_inf);
         }
         self.anchor = Some(anchor);
         self.elastic = elastic;
-        self.internal = internal;
+        std::mem::swap(&mut self.internal, &mut self.trial);
         let used = if sliding {
             1.0
         } else {

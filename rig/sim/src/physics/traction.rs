@@ -80,22 +80,21 @@ pub(crate) struct TractionMap {
     stick_fraction: f64,
 }
 
-impl TractionMap {
-    /// The traction of `shape` (on an `n` x `n` grid of `cell_mm` cells centred on it) carrying
-    /// a tangential force `ratio` times the friction limit mu P (`ratio` in 0..=1; 0 gives the
-    /// full-stick shape, 1 gross slip), flat punch edges rounded over `edge_radius_mm`.
-    pub(crate) fn new(
-        shape: &Shape,
-        n: usize,
-        cell_mm: f64,
-        ratio: f64,
-        edge_radius_mm: f64,
-    ) -> TractionMap {
-        let ratio = if ratio.is_finite() {
-            ratio.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+/// What the traction maps of one shape share at every ratio Q / (mu P): the friction limit per
+/// unit mu P and the stick shape per unit Q, cell by cell (the costly part of a map: sub-samples
+/// of every cell).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TractionBasis {
+    n: usize,
+    cell_mm: f64,
+    limit: Vec<f64>,
+    stick: Vec<f64>,
+}
+
+impl TractionBasis {
+    /// The basis of `shape` on an `n` x `n` grid of `cell_mm` cells centred on it, flat punch
+    /// edges rounded over `edge_radius_mm`.
+    pub(crate) fn new(shape: &Shape, n: usize, cell_mm: f64, edge_radius_mm: f64) -> TractionBasis {
         let pressure = PressureMap::new(shape, n, cell_mm, 1.0);
         let n = pressure.size();
         let half = (n / 2) as f64;
@@ -124,19 +123,38 @@ impl TractionMap {
         }
         normalise(&mut limit, area);
         normalise(&mut stick, area);
+        TractionBasis {
+            n,
+            cell_mm,
+            limit,
+            stick,
+        }
+    }
+
+    /// The traction carrying a tangential force `ratio` times the friction limit mu P
+    /// (`ratio` in 0..=1; 0 gives the full-stick shape, 1 gross slip).
+    pub(crate) fn map(&self, ratio: f64) -> TractionMap {
+        let ratio = if ratio.is_finite() {
+            ratio.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (n, cell_mm) = (self.n, self.cell_mm);
+        let area = cell_mm * cell_mm;
+        let (limit, stick) = (&self.limit, &self.stick);
         let contact_cells = limit.iter().filter(|&&p| p > 0.0).count().max(1);
         let carried = |lambda: f64| -> f64 {
             limit
                 .iter()
-                .zip(&stick)
+                .zip(stick)
                 .map(|(&p, &s)| p.min(lambda * s))
                 .sum::<f64>()
                 * area
         };
         let (values, stick_fraction) = if ratio <= 0.0 {
-            (stick, 1.0)
+            (stick.clone(), 1.0)
         } else if ratio >= 1.0 {
-            (limit, 0.0)
+            (limit.clone(), 0.0)
         } else {
             // carried(lambda) rises from 0 to 1 with lambda: bracket and bisect.
             let (mut lo, mut hi) = (0.0, ratio.max(1e-12));
@@ -155,7 +173,7 @@ impl TractionMap {
             let mut sticking = 0usize;
             let values = limit
                 .iter()
-                .zip(&stick)
+                .zip(stick)
                 .map(|(&p, &s)| {
                     if p > 0.0 && lambda * s < p {
                         sticking += 1;
@@ -171,6 +189,22 @@ impl TractionMap {
             values,
             stick_fraction,
         }
+    }
+}
+
+impl TractionMap {
+    /// The traction of `shape` (on an `n` x `n` grid of `cell_mm` cells centred on it) carrying
+    /// a tangential force `ratio` times the friction limit mu P (`ratio` in 0..=1; 0 gives the
+    /// full-stick shape, 1 gross slip), flat punch edges rounded over `edge_radius_mm`. The maps
+    /// of one shape at several ratios share a [`TractionBasis`].
+    pub(crate) fn new(
+        shape: &Shape,
+        n: usize,
+        cell_mm: f64,
+        ratio: f64,
+        edge_radius_mm: f64,
+    ) -> TractionMap {
+        TractionBasis::new(shape, n, cell_mm, edge_radius_mm).map(ratio)
     }
 
     /// A unit tangential force on the one cell (i, j) of an `n` x `n` grid.

@@ -407,3 +407,116 @@ fn a_pushed_contact_turned_with_its_push_turns_the_image() {
     eprintln!("turned push vs image turned {diff} orders, unturned {base}");
     assert!(diff < 0.2 * base, "{diff} vs {base}");
 }
+
+#[test]
+fn a_held_push_draws_what_a_fresh_renderer_draws_bit_for_bit() {
+    let mut r = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+    let press = contact(r.config().pentagon(), 5.0, 3.0, -2.0, 25.0);
+    let held = pushed(press, 1.5, 40.0, 0.3);
+    // Pushes that differ from `held` in one thing each: the field must not be taken for its.
+    let others = [
+        pushed(press, 1.5, 41.0, 0.3),
+        pushed(press, 1.6, 40.0, 0.3),
+        pushed(press, 1.5, 40.0, 0.31),
+        pushed(
+            contact(r.config().pentagon(), 5.1, 3.0, -2.0, 25.0),
+            1.5,
+            40.0,
+            0.3,
+        ),
+        pushed(
+            contact(r.config().pentagon(), 5.0, 3.0, -2.0, 26.0),
+            1.5,
+            40.0,
+            0.3,
+        ),
+        pushed(
+            contact(r.config().rectangle(), 5.0, 3.0, -2.0, 25.0),
+            1.5,
+            40.0,
+            0.3,
+        ),
+    ];
+    let fresh = |c: Contact| {
+        let mut f = Renderer::new(small(SensorConfig::layered())).expect("renderer");
+        render(&mut f, Some(c), 9)
+    };
+    let first = render(&mut r, Some(held), 9);
+    assert!(
+        first == fresh(held),
+        "a pushed frame differs from a fresh renderer's"
+    );
+    // Held: the same field, not rebuilt, and the same frame.
+    let (a, _) = r.contact_field(&held);
+    let (b, _) = r.contact_field(&held);
+    assert!(Arc::ptr_eq(&a, &b), "a held push rebuilt its field");
+    drop((a, b));
+    assert!(render(&mut r, Some(held), 9) == first);
+    for other in others {
+        let frame = render(&mut r, Some(other), 9);
+        assert!(frame != first, "{other:?} drew the held push");
+        assert!(
+            frame == fresh(other),
+            "{other:?} differs from a fresh renderer's"
+        );
+        // Back to the held push: rebuilt (in the last field's buffers), bit for bit.
+        assert!(render(&mut r, Some(held), 9) == first);
+    }
+}
+
+#[test]
+fn the_pushed_field_is_the_fringe_field_of_the_summed_stresses() {
+    use crate::optics::push_stress::{Grid, PushStress};
+    let config = small(SensorConfig::integrated());
+    let mut r = Renderer::new(config.clone()).expect("renderer");
+    let shape = r.config().rectangle();
+    let c = pushed(contact(shape, 4.0, 0.0, 0.0, 30.0), 2.0, 75.0, 0.55);
+    let (field, factor) = r.contact_field(&c);
+    assert_eq!(factor, 1.0);
+    // The double-precision sum of FringeField::from_stress and PackedField::new.
+    let (n, cell) = (config.field.cells, config.field.cell_mm);
+    let mut store = PushStress::new(
+        Grid {
+            cells: n,
+            cell_mm: cell,
+            layer: config.layer(),
+        },
+        false,
+    );
+    let (key, quantised) = field_key(&shape);
+    let outline = store.outline(key, &quantised);
+    // 0.55 of the friction: 0.4 of the way from level 4 to level 5; the push 45 degrees off
+    // the indenter's x axis.
+    let (w, q) = (0.55f64 * 8.0 - 4.0, std::f64::consts::FRAC_1_SQRT_2 * 2.0);
+    let (normal, low, high) = (outline.press(), outline.level(4), outline.level(5));
+    let stress = (0..n * n).map(|i| {
+        let t = |f: &[Complex<f32>; 2]| {
+            let (x, y) = (f[0], f[1]);
+            Complex::new(f64::from(x.re + y.re) * q, f64::from(x.im + y.im) * q)
+        };
+        let d_n = Complex::new(f64::from(normal[i].re), f64::from(normal[i].im));
+        d_n * 4.0 + t(&low[i]) * (1.0 - w) + t(&high[i]) * w
+    });
+    let expected = PackedField::new(
+        &FringeField::from_stress(n, cell, stress, r.f_sigma_n_per_m()),
+        1.0,
+    );
+    let peak = expected
+        .data
+        .iter()
+        .fold([0.0f32; 2], |m, v| [m[0].max(v[0]), m[1].max(v[1])]);
+    assert!(peak[0] > 1.0 && peak[1] > 1.0, "{peak:?}");
+    let mut worst = [0.0f32; 2];
+    for (got, want) in field.data.iter().zip(&expected.data) {
+        for k in 0..2 {
+            worst[k] = worst[k].max((got[k] - want[k]).abs() / peak[k]);
+        }
+    }
+    assert!(worst[0] < 1e-5 && worst[1] < 1e-4, "{worst:?} of {peak:?}");
+    assert_eq!(field.beyond.len(), expected.beyond.len());
+    let reach = |f: &PackedField| f.reach_mm(1.0, 0.05, 0.01);
+    assert!(
+        (reach(&field) - reach(&expected)).abs() <= expected.cell_mm,
+        "reach"
+    );
+}
