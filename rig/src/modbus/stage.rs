@@ -398,6 +398,21 @@ impl ModbusStage {
         Millimetres(steps as f64 / self.map.steps_per_mm)
     }
 
+    /// Starts an absolute move to `target` (checked against the soft limits by the caller) with
+    /// `profile` written with it.
+    fn start_move_to(
+        &mut self,
+        target: Millimetres,
+        profile: Option<Profile>,
+    ) -> Result<(), AxisError> {
+        let steps = self.to_steps(target)?;
+        self.send_move(steps, false, profile)?;
+        self.start(MotionKind::Move {
+            target_steps: steps,
+        });
+        Ok(())
+    }
+
     /// Sends one positioning command: `steps` absolute or relative, then the trigger.
     fn send_move(
         &mut self,
@@ -594,12 +609,7 @@ impl Axis for ModbusStage {
         if let Some(limits) = self.options.limits {
             limits.check(&self.axis, target)?;
         }
-        let steps = self.to_steps(target)?;
-        self.send_move(steps, false, self.map.profile)?;
-        self.start(MotionKind::Move {
-            target_steps: steps,
-        });
-        Ok(())
+        self.start_move_to(target, self.map.profile)
     }
 
     fn begin_move_to_at(
@@ -628,17 +638,12 @@ impl Axis for ModbusStage {
         if let Some(limits) = self.options.limits {
             limits.check(&self.axis, target)?;
         }
-        let steps = self.to_steps(target)?;
         let chosen = Profile {
             speed_mm_s: motion.velocity.0,
             accel_mm_s2: motion.acceleration.0,
             decel_mm_s2: motion.acceleration.0,
         };
-        self.send_move(steps, false, Some(chosen))?;
-        self.start(MotionKind::Move {
-            target_steps: steps,
-        });
-        Ok(())
+        self.start_move_to(target, Some(chosen))
     }
 
     fn begin_move_by(&mut self, delta: Millimetres) -> Result<(), AxisError> {

@@ -153,9 +153,24 @@ pub(crate) fn integrated_stress(pressure: &PressureMap, layer: &Layer) -> Vec<Co
 /// computed once per process for each (layer, grid): every press field of the grid (each
 /// outline, each sphere radius) uses it.
 fn normal_spectrum(layer: &Layer, n: usize, cell: f64) -> Arc<Vec<Complex<f64>>> {
-    type Key = (u64, u64, u64, usize, u64);
-    type Spectrum = Arc<Vec<Complex<f64>>>;
-    static CACHE: OnceLock<Mutex<HashMap<Key, Spectrum>>> = OnceLock::new();
+    static CACHE: GridCache<Vec<Complex<f64>>> = OnceLock::new();
+    per_layer_and_grid(&CACHE, layer, n, cell, || {
+        normal_spectrum_of(layer, n, cell)
+    })
+}
+
+/// A cache of what is computed once per process for each (layer, grid).
+type GridCache<T> = OnceLock<Mutex<HashMap<(u64, u64, u64, usize, u64), Arc<T>>>>;
+
+/// The value `cache` holds for `layer` on an `n` x `n` grid of `cell` mm, made by `make` the
+/// first time.
+fn per_layer_and_grid<T>(
+    cache: &GridCache<T>,
+    layer: &Layer,
+    n: usize,
+    cell: f64,
+    make: impl FnOnce() -> T,
+) -> Arc<T> {
     let key = (
         layer.z0_mm.to_bits(),
         layer.z1_mm.to_bits(),
@@ -163,24 +178,28 @@ fn normal_spectrum(layer: &Layer, n: usize, cell: f64) -> Arc<Vec<Complex<f64>>>
         n,
         cell.to_bits(),
     );
-    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    let cache = cache.get_or_init(|| Mutex::new(HashMap::new()));
     if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
         return Arc::clone(found);
     }
+    let made = Arc::new(make());
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, Arc::clone(&made));
+    made
+}
+
+fn normal_spectrum_of(layer: &Layer, n: usize, cell: f64) -> Vec<Complex<f64>> {
     let reg2 = 0.25 * cell * cell;
     // e^(2 i phi) averages to zero over the load's own cell.
-    let spectrum = Arc::new(kernel_spectrum(n, |dx, dy| {
+    kernel_spectrum(n, |dx, dy| {
         let (x, y) = (dx as f64 * cell, dy as f64 * cell);
         let r2 = x * x + y * y;
         let g = layer.kernel((r2 + reg2).sqrt());
         // cos 2 phi = (x^2 - y^2) / r^2, sin 2 phi = 2 x y / r^2.
         Complex::new(g * (x * x - y * y) / r2, g * 2.0 * x * y / r2)
-    }));
-    cache
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .insert(key, Arc::clone(&spectrum));
-    spectrum
+    })
 }
 
 /// Spectra of the through-layer Cerruti kernels (unit tangential load along +x, along +y) of a
@@ -189,19 +208,13 @@ fn normal_spectrum(layer: &Layer, n: usize, cell: f64) -> Arc<Vec<Complex<f64>>>
 type TangentialSpectra = Arc<[Vec<Complex<f64>>; 2]>;
 
 fn tangential_spectra(layer: &Layer, n: usize, cell: f64) -> TangentialSpectra {
-    type Key = (u64, u64, u64, usize, u64);
-    static CACHE: OnceLock<Mutex<HashMap<Key, TangentialSpectra>>> = OnceLock::new();
-    let key = (
-        layer.z0_mm.to_bits(),
-        layer.z1_mm.to_bits(),
-        layer.nu.to_bits(),
-        n,
-        cell.to_bits(),
-    );
-    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
-    if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
-        return Arc::clone(found);
-    }
+    static CACHE: GridCache<[Vec<Complex<f64>>; 2]> = OnceLock::new();
+    per_layer_and_grid(&CACHE, layer, n, cell, || {
+        tangential_spectra_of(layer, n, cell)
+    })
+}
+
+fn tangential_spectra_of(layer: &Layer, n: usize, cell: f64) -> [Vec<Complex<f64>>; 2] {
     // The +x kernel on one quadrant (D1 is odd in x and even in y, D2 even in x and odd in
     // y), at the cell offset pushed out to the regularised radius sqrt(r^2 + (cell / 2)^2).
     let span = n - 1;
@@ -227,12 +240,7 @@ fn tangential_spectra(layer: &Layer, n: usize, cell: f64) -> TangentialSpectra {
         let c = along_x(dy, dx);
         Complex::new(-c.re, c.im)
     };
-    let spectra = Arc::new([kernel_spectrum(n, along_x), kernel_spectrum(n, along_y)]);
-    cache
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .insert(key, Arc::clone(&spectra));
-    spectra
+    [kernel_spectrum(n, along_x), kernel_spectrum(n, along_y)]
 }
 
 /// Computes the Cerruti kernel spectra of `layer` on an `n` x `n` grid of `cell` mm now, if
