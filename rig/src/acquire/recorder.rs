@@ -18,6 +18,7 @@ use crate::reference_layout::{in_contact, NO_CONTACT};
 use crate::store::documents::{Exposure, FrameRecord, Position};
 use crate::store::error::StoreError;
 use crate::store::run_writer::RunWriter;
+use crate::sync::one_way::{self, OneWayOptions};
 use crate::units::Millimetres;
 use crate::units::Wrench;
 use crossbeam_channel::{bounded, select, unbounded, Receiver, Sender};
@@ -322,8 +323,8 @@ struct State {
     recent_ticks: VecDeque<(u64, HostTime)>,
 }
 
-/// Force samples whose host arrival is kept to place exposure windows (5 s at 5 kHz).
-const RECENT_TICKS: usize = 25_000;
+/// Force samples whose host arrival is kept to place exposure windows (2 s at 5 kHz).
+const RECENT_TICKS: usize = 10_000;
 
 impl State {
     fn run(
@@ -418,19 +419,24 @@ impl State {
         Ok(())
     }
 
-    /// The host arrival of the force sample at `tick` (interpolated between the samples around
-    /// it), when it is among the newest samples.
-    fn host_time_of_tick(&self, tick: f64) -> Option<HostTime> {
-        let ticks = &self.recent_ticks;
-        let after = ticks.partition_point(|(t, _)| (*t as f64) < tick);
-        let (t1, h1) = *ticks.get(after)?;
-        let Some(&(t0, h0)) = after.checked_sub(1).and_then(|i| ticks.get(i)) else {
-            return ((t1 as f64) == tick).then_some(h1);
+    /// Host time of the force stream's `tick`: the one-way fit of the newest samples' ticks
+    /// and arrivals (`sync::one_way`, as the clock-fit method maps them), so samples that
+    /// arrive in blocks (a DAQ read) are placed by the least-delayed of them, not by when
+    /// their block came; `None` without a second of samples to fit.
+    fn host_time_of_tick(&mut self, tick: f64) -> Option<HostTime> {
+        let (&first, &last) = (self.recent_ticks.front()?, self.recent_ticks.back()?);
+        let ticks = last.0.saturating_sub(first.0);
+        let span_ns = last.1 .0 as f64 - first.1 .0 as f64;
+        if ticks == 0 || span_ns < 1e9 {
+            return None;
+        }
+        let options = OneWayOptions {
+            clock: "force sample counter".into(),
+            nominal_ns_per_tick: span_ns / ticks as f64,
+            max_early_ns: 5e6,
         };
-        let share = (tick - t0 as f64) / (t1 - t0).max(1) as f64;
-        Some(HostTime(
-            (h0.0 as f64 + share * (h1.0 as f64 - h0.0 as f64)).round() as u64,
-        ))
+        let fit = one_way::fit(self.recent_ticks.make_contiguous(), &options).ok()?;
+        Some(HostTime(fit.map.host_ns_f(tick).round().max(0.0) as u64))
     }
 
     fn flush_force(&mut self) -> Result<(), StoreError> {
@@ -517,8 +523,8 @@ impl State {
         let file = self.writer.save_frame_image(frame, index)?;
         let in_contact = wrench.is_some_and(|w| in_contact(w.fz));
         // A sliding indenter is where its slide had taken it mid-exposure: on the host's time
-        // base as the method gives it, else where the force samples of the window's middle
-        // arrived (else, last, the frame's arrival).
+        // base as the method gives it, else through the fit of the force samples' ticks to
+        // their arrivals (else, last, the frame's arrival).
         let (commanded, contact) = match &filming.slide {
             Some(path) => {
                 let mid = match (exposure, exposure_ticks) {
