@@ -17,7 +17,11 @@ pub(crate) fn labels_dict<'py, 'a>(
     let mut stage = Vec::new();
     let mut shape = Vec::new();
     let mut press = Vec::new();
+    let mut shear = Vec::new();
+    let mut slip = Vec::new();
     for (i, s) in samples {
+        shear.extend(s.shear.unwrap_or([f64::NAN; 2]));
+        slip.push(s.slip.map(|s| s.name()));
         index.push(i);
         force.extend(s.force);
         contact.extend(s.contact.unwrap_or([f64::NAN; 2]));
@@ -33,5 +37,7 @@ pub(crate) fn labels_dict<'py, 'a>(
     d.set_item("stage_mm", stage.into_pyarray(py).reshape([n, 2])?)?;
     d.set_item("shape", shape)?;
     d.set_item("press", press)?;
+    d.set_item("shear_n", shear.into_pyarray(py).reshape([n, 2])?)?;
+    d.set_item("slip", slip)?;
     Ok(d)
 }

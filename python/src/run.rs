@@ -6,6 +6,7 @@ use crate::inputs::{colour_named, inputs_array};
 use crate::labels::labels_dict;
 use fringe_calibration::Profile;
 use fringe_rig::store::{FrameRecord, FrameStorage, RunReader, StartDocument, StoredFrame};
+use fringe_rig::{slip_labels, Slip};
 use fringe_sensor_models::dataset::{self, Sample};
 use fringe_sensor_models::eval::frame_ref;
 use fringe_sensor_models::{Preprocessing, Preprocessor};
@@ -69,11 +70,13 @@ impl Run {
     /// The frames fringe trains and evaluates on, by record, with their samples (the label rules
     /// of `fringe train` and `fringe eval`).
     pub(crate) fn samples(&self) -> Vec<(usize, Sample)> {
+        let slips = slip_labels(&self.records);
         self.records
             .iter()
+            .zip(slips)
             .enumerate()
-            .filter_map(|(i, r)| {
-                dataset::from_record(r, &self.start.run_id, self.reader.frame_path(r), None)
+            .filter_map(|(i, (r, slip))| {
+                dataset::from_record(r, &self.start.run_id, self.reader.frame_path(r), None, slip)
                     .map(|s| (i, s))
             })
             .collect()
@@ -349,6 +352,15 @@ impl Run {
         d.set_item(
             "shape",
             r.iter().map(|r| r.shape.clone()).collect::<Vec<String>>(),
+        )?;
+        d.set_item("shear_x_n", column(py, r, |rec| rec.shear.map(|q| q[0])))?;
+        d.set_item("shear_y_n", column(py, r, |rec| rec.shear.map(|q| q[1])))?;
+        d.set_item(
+            "slip",
+            slip_labels(r)
+                .into_iter()
+                .map(|s| s.map(Slip::name))
+                .collect::<Vec<Option<&str>>>(),
         )?;
         d.set_item(
             "exposure_start_ns",

@@ -61,7 +61,7 @@ impl Source {
                 .iter()
                 .enumerate()
                 .filter(|(_, r)| {
-                    dataset::from_record(r, &start.run_id, PathBuf::new(), None).is_some()
+                    dataset::from_record(r, &start.run_id, PathBuf::new(), None, None).is_some()
                 })
                 .map(|(i, _)| i as u64)
                 .collect::<Vec<u64>>()

@@ -87,3 +87,56 @@ pub trait ForceSensor: Send {
     /// Counters since `start`.
     fn stats(&self) -> StreamStats;
 }
+
+/// How the F/T sensor's axes sit on the bench, to turn its readings into forces in the sensor's
+/// frame (x, y along the stage axes, z up, away from the photoelastic sensor): a rig file's
+/// `[force] x_axis_deg` and `z_toward_tool`, the simulated bench's from its mount.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FtAxes {
+    /// The F/T x axis from the stage's +x, counter-clockwise seen from above, degrees.
+    pub x_axis_deg: f64,
+    /// The F/T z axis points down, at the tool (ATI's tool frame); otherwise up.
+    pub z_toward_tool: bool,
+}
+
+impl FtAxes {
+    /// The tangential force the indenter applies to the sensor's surface, sensor frame [x, y],
+    /// N, from a tared reading `force` = [Fx, Fy, Fz] in the F/T frame. The F/T reads the
+    /// force on the tool: the surface pushes the indenter back, so the push on the surface is
+    /// its opposite.
+    pub fn surface_shear(&self, force: [f64; 3]) -> [f64; 2] {
+        // Undo the turn about the F/T z, then the flip about x (the tool frame's y and z point
+        // against the stage's).
+        let (s, c) = self.x_axis_deg.to_radians().sin_cos();
+        let x = c * force[0] - s * force[1];
+        let y = s * force[0] + c * force[1];
+        let y = if self.z_toward_tool { -y } else { y };
+        [-x, -y]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FtAxes;
+
+    #[test]
+    fn the_push_on_the_surface_is_read_back_in_the_sensor_frame() {
+        // ATI's tool frame on the default mount: a push along +x makes the tool feel -x (Fx
+        // negative); along +y the tool feels -y, which the flipped frame reads as +Fy.
+        let tool = FtAxes {
+            x_axis_deg: 0.0,
+            z_toward_tool: true,
+        };
+        assert_eq!(tool.surface_shear([-1.5, 0.0, -3.0]), [1.5, 0.0]);
+        assert_eq!(tool.surface_shear([0.0, 0.8, -3.0]), [0.0, 0.8]);
+        // An F/T turned by 90 degrees, z up: its x axis is the stage's +y.
+        let turned = FtAxes {
+            x_axis_deg: 90.0,
+            z_toward_tool: false,
+        };
+        let [x, y] = turned.surface_shear([-2.0, 0.0, 3.0]);
+        assert!(x.abs() < 1e-12 && (y - 2.0).abs() < 1e-12, "{x} {y}");
+        let [x, y] = turned.surface_shear([0.0, -1.0, 3.0]);
+        assert!((x + 1.0).abs() < 1e-12 && y.abs() < 1e-12, "{x} {y}");
+    }
+}

@@ -737,6 +737,8 @@ mod tests {
             force: [0.0; 7],
             shape: "None".into(),
             contact: None,
+            shear: None,
+            slip: None,
             press: press.into(),
             stage_mm: None,
         }

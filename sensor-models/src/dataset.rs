@@ -11,7 +11,7 @@ use fringe_rig::reference_layout::{
 use fringe_rig::store::FrameRecord;
 use fringe_rig::store::FrameStorage;
 use fringe_rig::store::{RunFile, RunReader, StartDocument};
-use fringe_rig::Newtons;
+use fringe_rig::{slip_labels, Newtons, Slip};
 use std::path::{Path, PathBuf};
 
 /// One labelled frame.
@@ -27,6 +27,15 @@ pub struct Sample {
     pub shape: String,
     /// mm from the sensor centre (+x right, +y up in the camera view).
     pub contact: Option<[f64; 2]>,
+    /// The tangential force the indenter applied to the surface, sensor frame [x, y], N,
+    /// signed (`FrameRecord::shear`); `None` where the data does not know it (runs recorded
+    /// without the F/T's axes, the reference layout).
+    #[serde(default)]
+    pub shear: Option<[f64; 2]>,
+    /// How the contact held (`fringe_rig::slip_labels`); `None` without contact or where the
+    /// data cannot say.
+    #[serde(default)]
+    pub slip: Option<Slip>,
     /// The physical indentation the frame belongs to (run and grid point): frames of one press
     /// never land on two sides of a split.
     pub press: String,
@@ -90,20 +99,26 @@ pub fn label(
 
 /// The sample a run's frame record makes (the label rules applied), or None when the record has
 /// no trustworthy label. Runs read from disk and live validation both label frames here.
+/// `slip` is the record's slip label, which takes the frames around it
+/// ([`fringe_rig::slip_labels`]; `None` where they are not at hand, as live).
 pub fn from_record(
     r: &FrameRecord,
     run_id: &str,
     image: PathBuf,
     storage: Option<FrameStorage>,
+    slip: Option<Slip>,
 ) -> Option<Sample> {
     let w = r.wrench.filter(|_| r.valid)?;
     let (force, shape, contact) = label(w.to_array(), &r.shape, r.contact);
+    let touching = contact.is_some();
     Some(Sample {
         image,
         storage,
         force,
         shape,
         contact,
+        shear: r.shear,
+        slip: slip.filter(|_| touching),
         press: format!("{run_id}#{}", r.point),
         stage_mm: Some([r.commanded.x.value(), r.commanded.y.value()]),
     })
@@ -148,8 +163,9 @@ fn read_run(run: &RunReader) -> Result<Source, DatasetError> {
     let storage = Some(start.frame_storage());
     let mut samples = Vec::with_capacity(records.len());
     let mut skipped = 0;
-    for r in &records {
-        match from_record(r, &start.run_id, run.frame_path(r), storage) {
+    let slips = slip_labels(&records);
+    for (r, slip) in records.iter().zip(slips) {
+        match from_record(r, &start.run_id, run.frame_path(r), storage, slip) {
             Some(s) => samples.push(s),
             None => skipped += 1,
         }
@@ -176,6 +192,8 @@ fn read_reference(dir: &Path) -> Result<Source, DatasetError> {
             contact,
             // The reference layout does not say which frames share a press: each frame is its
             // own (a split of such a dataset cannot keep presses together).
+            shear: None,
+            slip: None,
             press: format!("{}#{}", dir.display(), row.image),
             stage_mm: None,
         });

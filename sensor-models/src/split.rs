@@ -220,6 +220,8 @@ mod tests {
             force: [0.0, 0.0, fz, 0.0, 0.0, 0.0, fz],
             shape: shape.to_string(),
             contact: (shape != "None").then_some([1.0, 2.0]),
+            shear: None,
+            slip: None,
             press: press.to_string(),
             stage_mm: None,
         }

@@ -428,6 +428,8 @@ mod tests {
             force: [0.0, 0.0, 3.04, 0.0, 0.0, 0.0, 3.04],
             shape: "pentagon".into(),
             contact: Some([4.0, 0.0]),
+            shear: None,
+            slip: None,
             press: "p".into(),
             stage_mm: None,
         };
@@ -481,6 +483,8 @@ mod tests {
             force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
             shape: "pentagon".into(),
             contact: Some(contact),
+            shear: None,
+            slip: None,
             press: "p".into(),
             stage_mm: None,
         }

@@ -31,6 +31,7 @@ fn start(id: &str) -> StartDocument {
         rig: "simulated = true\n".into(),
         calibration_profile: None,
         seed: Some(42),
+        ft_axes: None,
         sync_method: "strobe".into(),
         // A run of layout 1 (before the storage was recorded): RGB8 frames in RGB PNGs.
         frames: None,
@@ -70,6 +71,7 @@ fn record(index: u64, file: String, fz: f64) -> FrameRecord {
             fz: Newtons(fz),
             ..Wrench::default()
         }),
+        shear: None,
         shape: "pentagon".into(),
         contact: Some([index as f64, 0.0]),
         valid: true,

@@ -715,6 +715,7 @@ fn a_resume_beside_another_writer_of_its_run_opens_no_device() {
         rig: common::QUICK_RIG.into(),
         calibration_profile: None,
         seed: None,
+        ft_axes: None,
         sync_method: "strobe".into(),
         frames: None,
     };

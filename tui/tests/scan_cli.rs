@@ -643,6 +643,7 @@ fn a_resume_of_a_run_another_process_writes_opens_no_device() {
         rig: QUICK_RIG.into(),
         calibration_profile: None,
         seed: None,
+        ft_axes: None,
         sync_method: "strobe".into(),
         frames: None,
     };

@@ -145,6 +145,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rig: "simulated bench".into(),
         calibration_profile: None,
         seed: Some(config.seed),
+        ft_axes: None,
         sync_method: "strobe".into(),
         frames: Some(FrameStorage::new(pixel_format, cutout)?.with_codec(codec)?),
     };

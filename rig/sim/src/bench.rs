@@ -23,8 +23,9 @@ use crate::physics::ft_config::{FtMount, FtNoiseConfig};
 use crate::physics::indenter::Shape;
 use crate::physics::motion::{Kinematics, MotorSpec, SimMotor};
 use crate::physics::sliding::Tangential;
-use crate::scene::{Contact, LoadSource, Scene, SceneSource, Shear, SlipState};
+use crate::scene::{Contact, LoadSource, Scene, SceneSource, Shear};
 use fringe_rig::HostTime;
+use fringe_rig::Slip;
 use fringe_rig::{Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Newtons, Wrench};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -290,7 +291,7 @@ impl BenchTruth {
     }
 
     /// How the contact holds (`None` without contact; see [`Contact::slip_state`]).
-    pub fn slip_state(&self) -> Option<SlipState> {
+    pub fn slip_state(&self) -> Option<Slip> {
         Bench::contact_of(self).map(|c| c.slip_state())
     }
 
@@ -677,7 +678,7 @@ mod tests {
             pressed.normal_force.0 > 3.0 && pressed.shear_n == [0.0, 0.0],
             "{pressed:?}"
         );
-        assert_eq!(pressed.slip_state(), Some(SlipState::Stick));
+        assert_eq!(pressed.slip_state(), Some(Slip::Stick));
         assert!(Bench::contact_of(&pressed)
             .expect("contact")
             .shear
@@ -692,10 +693,10 @@ mod tests {
         }
         assert!((seen[399].0.x.0 - 2.0).abs() < 1e-6, "{:?}", seen[399].0);
         let (seen, wrenches): (Vec<BenchTruth>, Vec<Wrench>) = seen.into_iter().unzip();
-        let states: Vec<SlipState> = seen.iter().filter_map(|t| t.slip_state()).collect();
-        let first = |s: SlipState| states.iter().position(|&x| x == s).expect("state reached");
+        let states: Vec<Slip> = seen.iter().filter_map(|t| t.slip_state()).collect();
+        let first = |s: Slip| states.iter().position(|&x| x == s).expect("state reached");
         assert!(
-            first(SlipState::PartialSlip) < first(SlipState::GrossSlip),
+            first(Slip::PartialSlip) < first(Slip::GrossSlip),
             "partial slip did not come before gross slip"
         );
         let at = seen.iter().position(|t| t.sliding).expect("it slid");

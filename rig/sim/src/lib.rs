@@ -134,6 +134,4 @@ pub use physics::motion::{MotorSpec, MotorStatus, SimMotor};
 pub use physics::stress::Layer;
 pub use rig::{ForcePath, ServeEndpoints, SimRig, SimRigConfig, SimRigError, SimServe, SIM_CAL};
 pub use robot::{Robot, RobotConfig, RobotError, RobotPress};
-pub use scene::{
-    Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource, Shear, SlipState,
-};
+pub use scene::{Contact, ForceReading, FrameRenderer, LoadSource, Scene, SceneSource, Shear};

@@ -11,7 +11,7 @@ use crate::physics::indenter::Shape;
 use crate::physics::traction::partial_slip_onset;
 use fringe_rig::HostTime;
 use fringe_rig::PixelFormat;
-use fringe_rig::{Millimetres, Newtons, Wrench};
+use fringe_rig::{Millimetres, Newtons, Slip, Wrench};
 
 /// An indenter pressing on the sensor, in the sensor frame: millimetres from the sensor disc's
 /// centre, +x and +y along the stage's x and y axes, angle counter-clockwise about the load axis
@@ -46,51 +46,16 @@ pub struct Shear {
     pub sliding: bool,
 }
 
-/// How a contact holds against its tangential force (docs/photoelastic-sim.md, "Shear and
-/// slip").
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SlipState {
-    /// All, or all but a tenth, of the contact sticks.
-    Stick,
-    /// A slipping zone covers a tenth or more of the contact; the rest sticks.
-    PartialSlip,
-    /// The whole contact slides.
-    GrossSlip,
-}
-
-impl SlipState {
-    /// The state's name in ground-truth files and labels.
-    pub fn name(self) -> &'static str {
-        match self {
-            SlipState::Stick => "stick",
-            SlipState::PartialSlip => "partial_slip",
-            SlipState::GrossSlip => "gross_slip",
-        }
-    }
-
-    /// The state named `name` ([`SlipState::name`]).
-    pub fn named(name: &str) -> Option<SlipState> {
-        [
-            SlipState::Stick,
-            SlipState::PartialSlip,
-            SlipState::GrossSlip,
-        ]
-        .into_iter()
-        .find(|s| s.name() == name)
-    }
-}
-
 impl Contact {
     /// How the contact holds: gross slip while the indenter slides; partial slip while it
     /// sticks with a tenth or more of its contact slipping (the share of the friction used at
     /// or past the outline's [`partial_slip_onset`]); stick otherwise, a press without a push
     /// included.
-    pub fn slip_state(&self) -> SlipState {
+    pub fn slip_state(&self) -> Slip {
         match self.shear {
-            Some(s) if s.sliding => SlipState::GrossSlip,
-            Some(s) if s.friction_used >= partial_slip_onset(&self.shape) => SlipState::PartialSlip,
-            _ => SlipState::Stick,
+            Some(s) if s.sliding => Slip::GrossSlip,
+            Some(s) if s.friction_used >= partial_slip_onset(&self.shape) => Slip::PartialSlip,
+            _ => Slip::Stick,
         }
     }
 }

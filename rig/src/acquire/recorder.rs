@@ -556,6 +556,9 @@ impl State {
             commanded,
             measured: filming.measured,
             wrench,
+            shear: wrench
+                .zip(self.writer.ft_axes())
+                .map(|(w, axes)| axes.surface_shear([w.fx.0, w.fy.0, w.fz.0])),
             shape: if in_contact {
                 filming.shape.clone()
             } else {

@@ -342,6 +342,7 @@ fn open_run(
                         .and_then(|s| s.with_codec(setup.codec))
                         .map_err(|e| ScanError::Setup(format!("storing frames: {e}")))?,
                 ),
+                ft_axes: setup.ft_axes,
             };
             Ok(OpenedRun {
                 writer: RunWriter::create(&root, &start)?,

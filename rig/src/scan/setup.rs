@@ -3,6 +3,7 @@
 
 use crate::acquire::record_tap::RecordTap;
 use crate::camera::{CameraSettings, Cutout};
+use crate::force::FtAxes;
 use crate::scan::offset_check::OffsetCheck;
 use crate::scan::origin::ContactOrigin;
 use crate::scan::plan::{BenchLimits, ScanProgram};
@@ -28,6 +29,9 @@ pub struct ScanSetup {
     /// simulated sensor's design): a plan that slides must stay on it.
     pub disc_radius: Option<Millimetres>,
     pub sync: SyncMethod,
+    /// How the F/T's axes sit on the bench, for shear labels in the sensor's frame; `None`
+    /// when the rig does not say (frames then carry no shear).
+    pub ft_axes: Option<FtAxes>,
     /// The DAQ-triggered camera's timing, for `trigger`.
     pub trigger: Option<TriggerTiming>,
     pub sensor_id: String,

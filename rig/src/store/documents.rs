@@ -4,6 +4,7 @@ use super::error::StoreError;
 use super::frames::{Encoding, FrameStorage};
 use super::layout::FRAMES;
 use crate::camera::{parse_format_name, PixelFormat};
+use crate::force::FtAxes;
 use crate::units::{Millimetres, Wrench};
 use std::path::{Component, Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -43,6 +44,11 @@ pub struct StartDocument {
     /// in runs of layout 1 ([`StartDocument::frame_storage`] says how they stored them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frames: Option<FrameStorage>,
+    /// How the F/T's axes sit on the bench, which turns its readings into the sensor's frame
+    /// ([`FrameRecord::shear`]); absent when the rig did not say (and in runs recorded before
+    /// shear was labelled).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ft_axes: Option<FtAxes>,
 }
 
 impl StartDocument {
@@ -127,8 +133,15 @@ pub struct FrameRecord {
     pub point: u64,
     pub commanded: Position,
     pub measured: Position,
-    /// Six-axis force averaged over the exposure (N, N m).
+    /// Six-axis force averaged over the exposure (N, N m), tared, in the F/T's frame.
     pub wrench: Option<Wrench>,
+    /// The tangential force the indenter applied to the sensor's surface over the exposure,
+    /// in the sensor's frame (x, y along the stage axes), N, signed: the wrench's force turned
+    /// by the run's [`StartDocument::ft_axes`]. Absent when the run does not know the F/T's
+    /// axes (runs recorded before shear was labelled, a rig file without `[force]
+    /// x_axis_deg`) or the frame has no force label.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shear: Option<[f64; 2]>,
     /// "None" when |Fz| is under the noise floor, otherwise the indenter's name.
     pub shape: String,
     /// Contact point in mm relative to the sensor centre; `None` when there is no contact.
@@ -320,6 +333,7 @@ mod tests {
                 z: Millimetres(0.0),
             },
             wrench: None,
+            shear: None,
             shape: "None".into(),
             contact: None,
             valid: true,

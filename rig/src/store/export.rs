@@ -668,6 +668,7 @@ mod tests {
                 ty: NewtonMetres(-0.034),
                 tz: NewtonMetres(0.0),
             }),
+            shear: None,
             shape: "pentagon".into(),
             contact,
             valid: true,

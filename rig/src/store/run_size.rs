@@ -243,6 +243,7 @@ mod tests {
             commanded: position,
             measured: position,
             wrench: Some(Wrench::from_arrays([-third; 3], [third; 3])),
+            shear: None,
             shape: "rectangle".into(),
             contact: Some([-third, third]),
             valid: true,

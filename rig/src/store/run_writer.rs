@@ -22,6 +22,7 @@ use super::{force_log, manifest};
 use crate::camera::Frame;
 use crate::clock::HostTime;
 use crate::force::ForceSample;
+use crate::force::FtAxes;
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -66,6 +67,8 @@ pub struct RunWriter {
     last_checkpoint: Option<Checkpoint>,
     /// How the run stores its frames (its start document's, never today's default).
     storage: FrameStorage,
+    /// How the run's F/T axes sit (its start document's), for the frames' shear.
+    ft_axes: Option<FtAxes>,
     /// This process's hold on the run: no other writes it meanwhile (released last).
     _lock: RunLock,
 }
@@ -117,6 +120,7 @@ impl RunWriter {
             force_samples: 0,
             last_checkpoint: None,
             storage: start.frame_storage(),
+            ft_axes: start.ft_axes,
             _lock: lock,
         };
         sync_dir(&writer.dir)?;
@@ -177,6 +181,11 @@ impl RunWriter {
     }
 
     /// Index the next frame record must have.
+    /// How the run's F/T axes sit on the bench (its start document's), if known.
+    pub fn ft_axes(&self) -> Option<FtAxes> {
+        self.ft_axes
+    }
+
     pub fn next_index(&self) -> u64 {
         self.next_index
     }
@@ -573,6 +582,7 @@ impl Survey {
             force_samples: existing.force_samples,
             last_checkpoint: existing.checkpoint.clone(),
             storage: existing.start.frame_storage(),
+            ft_axes: existing.start.ft_axes,
             _lock: lock,
         };
         writer.remove_images_from(writer.next_index)?;

@@ -420,6 +420,8 @@ mod tests {
                     force: [0.0, 0.0, k as f64, 0.0, 0.0, 0.0, 0.0],
                     shape: if k == 0 { NO_CONTACT } else { "pentagon" }.into(),
                     contact: (k > 0).then_some([0.0, 0.0]),
+                    shear: None,
+                    slip: None,
                     press: p.to_string(),
                     stage_mm: None,
                 })

@@ -608,6 +608,8 @@ mod tests {
             force: [0.1, -0.2, 3.0, 0.01, 0.02, 0.0, 0.3],
             shape: "pentagon".into(),
             contact: Some([1.5, -2.0]),
+            shear: None,
+            slip: None,
             press: "a".into(),
             stage_mm: None,
         };

@@ -191,6 +191,7 @@ impl<'a> TestRun<'a> {
             rig: String::new(),
             calibration_profile: None,
             seed: None,
+            ft_axes: None,
             sync_method: self.sync.into(),
             frames: Some(
                 fringe_rig::store::FrameStorage::new(PixelFormat::Mono8, None).expect("storage"),
@@ -232,6 +233,7 @@ impl<'a> TestRun<'a> {
                         fz: Newtons(-(kind as f64) * 2.5),
                         ..Wrench::default()
                     }),
+                    shear: None,
                     shape: if kind == 1 { "rectangle" } else { "None" }.into(),
                     contact: (kind == 1).then_some([1.5, -2.0]),
                     valid: true,

@@ -28,8 +28,9 @@
 //! - `ft_bias`: `t_ns`, `power_cycle`, `fx_n`..`tz_nm` (power-up bias in effect).
 
 use crate::bench::{Bench, BenchTruth};
-use crate::scene::{LoadSource, SlipState};
+use crate::scene::LoadSource;
 use fringe_rig::HostTime;
+use fringe_rig::Slip;
 use fringe_rig::Wrench;
 #[cfg(test)]
 use std::fs::{File, OpenOptions};
@@ -76,7 +77,7 @@ pub struct FrameTruth {
     pub contact: Option<(f64, f64, f64)>,
     /// Tangential force on the surface (sensor frame, N) and how the contact holds, at
     /// mid-exposure, if touching.
-    pub shear: Option<([f64; 2], SlipState)>,
+    pub shear: Option<([f64; 2], Slip)>,
 }
 
 /// One ground-truth record.
@@ -240,10 +241,10 @@ impl FrameTruth {
         let slip = v.get("slip").and_then(serde_json::Value::as_str);
         let shear = match (contact, slip) {
             (None, _) => None,
-            (Some(_), None) => Some(([0.0; 2], SlipState::Stick)),
+            (Some(_), None) => Some(([0.0; 2], Slip::Stick)),
             (Some(_), Some(name)) => Some((
                 [f("shear_x_n").unwrap_or(0.0), f("shear_y_n").unwrap_or(0.0)],
-                SlipState::named(name)?,
+                Slip::named(name)?,
             )),
         };
         Some(FrameTruth {
@@ -496,7 +497,7 @@ mod tests {
                 arrival: Some(HostTime(9_000_000)),
                 fate: FrameFate::Delivered,
                 contact: Some((3.25, -2.5, 0.125)),
-                shear: Some(([1.5, -0.25], SlipState::PartialSlip)),
+                shear: Some(([1.5, -0.25], Slip::PartialSlip)),
             },
             FrameTruth {
                 id: 14,
@@ -507,7 +508,7 @@ mod tests {
                 arrival: Some(HostTime(9_000_000)),
                 fate: FrameFate::Delivered,
                 contact: Some((3.25, -2.5, 0.125)),
-                shear: Some(([0.0, 0.0], SlipState::Stick)),
+                shear: Some(([0.0, 0.0], Slip::Stick)),
             },
             FrameTruth {
                 id: 13,
@@ -531,7 +532,7 @@ mod tests {
                    \"fate\":\"delivered\",\"contact_force_n\":2.0,\"contact_x_mm\":1.0,\"contact_y_mm\":0.5}";
         let read = FrameTruth::from_json(old).expect("an old frame line");
         assert_eq!(read.contact, Some((2.0, 1.0, 0.5)));
-        assert_eq!(read.shear, Some(([0.0, 0.0], SlipState::Stick)));
+        assert_eq!(read.shear, Some(([0.0, 0.0], Slip::Stick)));
         let bench = Bench::new(BenchConfig::default());
         let log = TruthLog::new();
         record_bench(&bench, log.as_ref(), HostTime(5));

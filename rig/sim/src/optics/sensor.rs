@@ -980,3 +980,26 @@ mod tests {
         assert!(units >= 4, "{units} unit builds in {}", dir.display());
     }
 }
+
+#[cfg(test)]
+mod slip_onset_tests {
+    use super::SensorConfig;
+    use crate::physics::traction::partial_slip_onset;
+    use fringe_rig::Millimetres;
+
+    /// The rig labels partial slip from its table of the indenters' onsets; the simulator's
+    /// ground truth computes them from its traction model. They must agree for every indenter
+    /// of both designs.
+    #[test]
+    fn the_rigs_table_of_partial_slip_onsets_matches_the_traction_model() {
+        for sensor in [SensorConfig::layered(), SensorConfig::integrated()] {
+            for name in ["pentagon", "rectangle", "circle", "sphere"] {
+                let tip = sensor.indenter_tip(name).expect("tip");
+                let model = partial_slip_onset(&tip.shape_at(Millimetres(1.0)));
+                let table = fringe_rig::partial_slip_onset(name).expect("in the table");
+                eprintln!("{name}: model {model:.3}, table {table:.3}");
+                assert!((model - table).abs() <= 0.02, "{name}: {model} vs {table}");
+            }
+        }
+    }
+}

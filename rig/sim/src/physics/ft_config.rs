@@ -2,7 +2,7 @@
 //! (noise, drift, power-up bias): configuration shared by the bench and the sensor model
 //! ([`crate::physics::ft_sensor`], where the frames and the noise model are described).
 
-use fringe_rig::Wrench;
+use fringe_rig::{FtAxes, Wrench};
 use nalgebra::{Rotation3, Vector3};
 
 /// How the F/T sensor and the indenter are mounted.
@@ -44,6 +44,15 @@ impl FtMount {
         // Sensor axes = flip, then a turn about the (new) z: v_s = Rz(-theta) * flip * v_world.
         let turn = Rotation3::from_axis_angle(&Vector3::z_axis(), -self.rotation_deg.to_radians());
         turn * flip
+    }
+
+    /// How the F/T's axes sit on the bench, as a rig file would say it (`[force]
+    /// x_axis_deg`, `z_toward_tool`).
+    pub fn axes(&self) -> FtAxes {
+        FtAxes {
+            x_axis_deg: self.rotation_deg,
+            z_toward_tool: self.z_toward_tool,
+        }
     }
 
     /// r from the F/T origin to the contact point, metres, in the F/T frame.

@@ -94,6 +94,8 @@ mod tests {
             force: [0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0],
             shape: "pentagon".into(),
             contact: Some([0.0, 0.0]),
+            shear: None,
+            slip: None,
             press: press.into(),
             stage_mm: Some(at),
         }

@@ -605,6 +605,7 @@ mod tests {
             rig: String::new(),
             calibration_profile: None,
             seed: None,
+            ft_axes: None,
             sync_method: "host".into(),
             frames: Some(FrameStorage::new(PixelFormat::Mono8, None).expect("storage")),
         };
@@ -660,6 +661,7 @@ mod tests {
                 commanded: p,
                 measured: p,
                 wrench: Some(Wrench::default()),
+                shear: None,
                 shape: "None".into(),
                 contact: None,
                 valid: true,

@@ -322,6 +322,7 @@ mod tests {
                 ty: NewtonMetres(0.0),
                 tz: NewtonMetres(-0.002),
             }),
+            shear: None,
             shape: shape.into(),
             contact,
             valid: true,

@@ -187,6 +187,7 @@ mod tests {
             rig: String::new(),
             calibration_profile: None,
             seed: None,
+            ft_axes: None,
             sync_method: "host".into(),
             frames: None,
         }

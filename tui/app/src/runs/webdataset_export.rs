@@ -236,7 +236,7 @@ fn write_all(
                 message: e.to_string(),
             })?;
             let trainable =
-                dataset::from_record(record, &start.run_id, PathBuf::new(), None).is_some();
+                dataset::from_record(record, &start.run_id, PathBuf::new(), None, None).is_some();
             let labels = sample_json(start, record, profile.as_ref(), trainable);
             let k = key(&start.run_id, record.index);
             let shard = match &mut current {

@@ -570,6 +570,7 @@ mod tests {
             },
             disc_radius: None,
             sync: fringe_rig::SyncMethod::Host,
+            ft_axes: None,
             trigger: None,
             sensor_id: "s1".into(),
             variant: None,
@@ -631,6 +632,7 @@ mod tests {
             rig: String::new(),
             calibration_profile: None,
             seed: None,
+            ft_axes: None,
             sync_method: "host".into(),
             frames: Some(FrameStorage::new(PixelFormat::Rgb8, None).expect("storage")),
         };

@@ -539,6 +539,7 @@ impl Worker {
             &self.source.run_id,
             record.file.clone().into(),
             None,
+            None,
         ) else {
             return Ok(());
         };
@@ -759,6 +760,7 @@ mod tests {
                 fz: Newtons(-fz),
                 ..Wrench::default()
             }),
+            shear: None,
             shape: "pentagon".into(),
             contact: Some([0.0, 0.0]),
             valid: true,

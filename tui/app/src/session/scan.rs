@@ -184,6 +184,19 @@ impl ScanSession {
         let disc_radius = parsed(profile.as_ref())
             .and_then(|p| p.disc_radius_mm())
             .map(Millimetres);
+        // How the F/T's axes sit: the simulated mount's, else the rig file's.
+        #[cfg(feature = "sim")]
+        let ft_axes = match &rig.sim {
+            Some(sim) => Some(sim.config().bench.mount.axes()),
+            None => config.file.force.ft_axes(),
+        };
+        #[cfg(not(feature = "sim"))]
+        let ft_axes = config.file.force.ft_axes();
+        if ft_axes.is_none() && program.points.iter().any(|p| p.slide.is_some()) {
+            notes.push(Note::Warning(
+                "the plan slides, but the rig file does not say how the F/T's axes sit on the bench: frames will carry no shear (tangential force in the sensor's frame) or slip label; add `x_axis_deg` (and `z_toward_tool` if its z points up) to [force]".into(),
+            ));
+        }
         let setup = ScanSetup {
             program,
             plan_text,
@@ -191,6 +204,7 @@ impl ScanSession {
             origin,
             disc_radius,
             sync: rig.sync,
+            ft_axes,
             trigger: rig.trigger,
             sensor_id: rig.sensor_id.clone(),
             variant: config.sensor_variant().ok().flatten().map(str::to_string),

@@ -298,6 +298,8 @@ fn sample_of(t: &FrameTruth, presses: &[RobotPress]) -> Option<Sample> {
         force,
         shape,
         contact,
+        shear: None,
+        slip: None,
         press: String::new(),
         stage_mm: None,
     })

@@ -257,6 +257,8 @@ fn validating() -> UiState {
         force: [0.1, 0.1, 4.9, 0.0, 0.0, 0.0, 4.9],
         shape: "sphere".into(),
         contact: Some([2.0, -1.0]),
+        shear: None,
+        slip: None,
         press: "run/4".into(),
         stage_mm: Some([104.0, 50.0]),
     };

@@ -7,9 +7,10 @@ use super::frame::{finish_frame, render_format};
 use super::timing::{DeviceClock, ExposureSchedule, ExposureWindow, TriggerInput};
 use crate::ground_truth::records::{FrameFate, FrameTruth, TruthRecord, TruthSink};
 use crate::physics::ft_sensor::mix_seed;
-use crate::scene::{FrameRenderer, SceneSource, SlipState};
+use crate::scene::{FrameRenderer, SceneSource};
 use crossbeam_channel::{bounded, unbounded, Receiver, RecvTimeoutError, Sender, TrySendError};
 use fringe_rig::HostTime;
+use fringe_rig::Slip;
 use fringe_rig::{
     Camera, CameraError, CameraInfo, CameraSettings, Frame, Roi, TimestampLatch, TriggerMode,
 };
@@ -468,7 +469,7 @@ fn dispatch(shared: &Shared, render: &Sender<Job>, job: Job, rng: &mut StdRng) {
 
 /// What an exposure saw at its middle, for the ground truth: the contact (normal force, x, y)
 /// and its tangential force with how it holds.
-type Seen = (Option<(f64, f64, f64)>, Option<([f64; 2], SlipState)>);
+type Seen = (Option<(f64, f64, f64)>, Option<([f64; 2], Slip)>);
 
 struct Rendered {
     job: Job,

@@ -4,7 +4,7 @@
 
 use crate::rig::force::nidaqmx::names::DaqNames;
 use fringe_rig::nidaqmx::{DaqError, DaqSettings, Terminal};
-use fringe_rig::{Hertz, Volts};
+use fringe_rig::{FtAxes, Hertz, Volts};
 use serde::Deserialize;
 use std::path::PathBuf;
 
@@ -68,9 +68,23 @@ pub struct ForceSection {
     /// terminal its pulses leave on (the counter's default output when absent).
     pub trigger_counter: Option<String>,
     pub trigger_terminal: Option<String>,
+    /// How the F/T's axes sit on the bench, for shear labels in the sensor's frame: its x axis
+    /// from the stage's +x, counter-clockwise seen from above (degrees), and whether its z
+    /// points down at the tool (ATI's tool frame, the default). Without `x_axis_deg` frames
+    /// carry no shear label.
+    pub x_axis_deg: Option<f64>,
+    pub z_toward_tool: Option<bool>,
 }
 
 impl ForceSection {
+    /// How the F/T's axes sit on the bench, when the section says (`x_axis_deg`).
+    pub(crate) fn ft_axes(&self) -> Option<FtAxes> {
+        self.x_axis_deg.map(|x_axis_deg| FtAxes {
+            x_axis_deg,
+            z_toward_tool: self.z_toward_tool.unwrap_or(true),
+        })
+    }
+
     /// The Net F/T's keys given.
     fn netft_keys(&self) -> Vec<&'static str> {
         [
@@ -122,6 +136,19 @@ pub(crate) fn check_force_section(force: &ForceSection) -> Result<(), String> {
         }
     }
     let driver = force.driver;
+    if let Some(a) = force.x_axis_deg {
+        if !a.is_finite() {
+            return Err(format!(
+                "key `force.x_axis_deg` = {a}: must be a number of degrees (the F/T's x axis from the stage's +x, counter-clockwise seen from above)"
+            ));
+        }
+    }
+    if force.z_toward_tool.is_some() && force.x_axis_deg.is_none() {
+        return Err("key `force.z_toward_tool` needs `force.x_axis_deg` (the F/T's x axis from the stage's +x, counter-clockwise seen from above, degrees)".into());
+    }
+    if driver == ForceDriver::Sim && force.x_axis_deg.is_some() {
+        return Err("key `force.x_axis_deg` on the simulated bench: its F/T's axes are those of its mount; remove the key".into());
+    }
     // A simulated force sensor predates the DAQ's keys and has always ignored the Net F/T's.
     let foreign = match driver {
         ForceDriver::Netft | ForceDriver::Sim => force.daq_keys(),
@@ -180,5 +207,6 @@ pub(crate) fn daq_settings(f: &ForceSection) -> Result<DaqSettings, (String, Str
 }
 
 /// The `[force]` keys each driver takes, for messages.
-const NETFT_KEYS: &str = "address, cpf, cpt, force_unit, torque_unit, max_force";
-const DAQ_KEYS: &str = "device, gauges, strobe, terminal, range_v, rate_hz, buffer_scans, cal_file, library, tool_translation_m, tool_rotation_deg, max_force";
+const NETFT_KEYS: &str =
+    "address, cpf, cpt, force_unit, torque_unit, max_force, x_axis_deg, z_toward_tool";
+const DAQ_KEYS: &str = "device, gauges, strobe, terminal, range_v, rate_hz, buffer_scans, cal_file, library, tool_translation_m, tool_rotation_deg, max_force, x_axis_deg, z_toward_tool";
