@@ -1708,9 +1708,14 @@ fn a_slides_frames_carry_its_signed_shear_and_when_it_slipped() {
     let rms = sq.map(|s| (s / n as f64).sqrt());
     // The push is along 120 degrees: -x and +y in the sensor's frame.
     assert!(largest[0] < -1.0 && largest[1] > 1.8, "{largest:?}");
-    let first = |of: &dyn Fn(&(Option<Slip>, Slip)) -> bool| states.iter().position(of);
-    let onset_label = first(&|s| s.0 == Some(Slip::GrossSlip)).expect("gross slip labelled");
-    let onset_truth = first(&|s| s.1 == Slip::GrossSlip).expect("gross slip in the truth");
+    let onset_label = states
+        .iter()
+        .position(|s| s.0 == Some(Slip::GrossSlip))
+        .expect("gross slip labelled");
+    let onset_truth = states
+        .iter()
+        .position(|s| s.1 == Slip::GrossSlip)
+        .expect("gross slip in the truth");
     let agree = states.iter().filter(|s| s.0 == Some(s.1)).count();
     let gross_agree = states
         .iter()
