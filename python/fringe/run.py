@@ -13,6 +13,7 @@ LABEL_COLUMNS = (
     "index", "frame_id", "point", "valid",
     "fx", "fy", "fz", "mx", "my", "mz",
     "contact_x_mm", "contact_y_mm", "shape",
+    "shear_x_n", "shear_y_n", "slip",
     "exposure_start_ns", "exposure_end_ns", "exposure_error_ns",
     "exposure_start_tick", "exposure_end_tick",
     "host_arrival_ns", "device_timestamp",
@@ -164,7 +165,9 @@ class Run:
         """Every label as a NumPy array (or a list of strings), one entry per frame record:
         forces and moments as recorded (signed, N and N m, averaged over the frame's exposure;
         NaN where none), contact point (mm from the sensor centre; NaN without contact), shape,
-        exposure window (host ns, and in the F/T stream's sample index under strobe sync),
+        shear (the push on the surface in the sensor's frame, N, signed; NaN where the run does
+        not know the F/T's axes), slip state (``stick``, ``partial_slip``, ``gross_slip``, or
+        ``None`` without contact or where it cannot be told), exposure window (host ns, and in the F/T stream's sample index under strobe sync),
         arrival time, stage positions, validity and notes."""
         return self._native.label_columns()
 
@@ -180,8 +183,8 @@ class Run:
         """The frames fringe trains and evaluates on and their labels under fringe's label rules
         (force magnitudes ``[Fx Fy Fz Mx My Mz |F|]``, no contact under the noise floor): a dict
         with ``index`` (frame), ``force`` (n x 7), ``contact_mm`` (n x 2, NaN without contact),
-        ``stage_mm``, ``shape`` and ``press`` (frames of one press never land on two sides of a
-        split)."""
+        ``stage_mm``, ``shape``, ``press`` (frames of one press never land on two sides of a
+        split), ``shear_n`` (n x 2, signed, sensor frame; NaN where unknown) and ``slip``."""
         return self._native.training_labels()
 
     def events(self):

@@ -130,6 +130,14 @@ def same_as_fringe(run_dir, mcap_path):
             want = math.nan if c is None else c[k]
             check((math.isnan(want) and math.isnan(row[col])) or row[col] == want,
                   f"record {i}: {col}")
+        q = r.get("shear")
+        for k, col in enumerate(("shear_x_n", "shear_y_n")):
+            want = math.nan if q is None else q[k]
+            check((math.isnan(want) and math.isnan(row[col])) or row[col] == want,
+                  f"record {i}: {col}")
+        check(row["slip"] in (None, "stick", "partial_slip", "gross_slip"), f"record {i}: slip {row['slip']!r}")
+        if q is None:
+            check(row["slip"] is None, f"record {i}: a slip label without the shear it comes from")
         e = r.get("exposure")
         if e is not None:
             check(row["exposure_start_ns"] == e["start_ns"] and row["exposure_end_ns"] == e["end_ns"],

@@ -11,5 +11,5 @@ pub(crate) mod sensor;
 pub(crate) mod transform;
 
 pub use calfile::{CalError, Calibration};
-pub use sensor::{CalibratedSensor, GaugeReading, GaugeSource};
+pub use sensor::{CalibratedSensor, GaugeReading, GaugeSource, SATURATION_SHARE};
 pub use transform::ToolTransform;

@@ -196,6 +196,60 @@ impl GaugeSource for Scripted {
     }
 }
 
+/// A gauge at the limit of the DAQ's input range is clipped there: the forces the matrix makes
+/// of it are nonsense (on the simulated bench, a 4 N press read as 280 N pulling while a slide
+/// pushed sideways), so the sensor refuses the scan, naming the gauge and what to do.
+#[test]
+fn a_saturated_gauge_is_refused_not_converted() {
+    let cal = Calibration::load(&data("mini40-v1.0.cal")).expect("load");
+    let fine = [0.5, 0.4, -0.3, 0.2, 0.1, -0.05];
+    let mut clipped = fine;
+    clipped[3] = -9.999;
+    let scans = VecDeque::from(vec![
+        scan(1, fine, 0.0),
+        scan(2, clipped, 0.0),
+        scan(3, fine, 0.0),
+    ]);
+    let mut sensor = CalibratedSensor::new(
+        Scripted {
+            scans,
+            started: false,
+        },
+        cal,
+    )
+    .with_saturation(Volts(10.0));
+    sensor.start().expect("start");
+    assert!(sensor
+        .next_sample(Duration::from_millis(10))
+        .expect("a scan within range converts")
+        .is_some());
+    let err = sensor
+        .next_sample(Duration::from_millis(10))
+        .expect_err("a clipped gauge is refused")
+        .to_string();
+    assert!(
+        err.contains("gauge 4")
+            && err.contains("-9.999 V")
+            && err.contains("saturated")
+            && err.contains("force.range_v"),
+        "{err}"
+    );
+    // Without a known range (a replay of old traces), scans convert as before.
+    let cal = Calibration::load(&data("mini40-v1.0.cal")).expect("load");
+    let mut blind = CalibratedSensor::new(
+        Scripted {
+            scans: VecDeque::from(vec![scan(1, clipped, 0.0)]),
+            started: false,
+        },
+        cal,
+    );
+    blind.start().expect("start");
+    assert!(blind
+        .next_sample(Duration::from_millis(10))
+        .expect("converted")
+        .is_some());
+}
+
 #[test]
 fn calibrated_sensor_biases_converts_and_passes_the_strobe_through() {
     let cal = Calibration::load(&data("mini40-v1.0.cal")).expect("load");

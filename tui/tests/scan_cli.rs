@@ -76,6 +76,11 @@ fn built_in_plans_are_listed_and_run_by_name() {
         line("demo").contains("3 points, 3 presses to 1, 4, 9 N"),
         "{t}"
     );
+    // Each (force, direction, speed) of a slide is a press of its own.
+    assert!(
+        line("slides").contains("4 points, 48 presses to 1.5, 3 N"),
+        "{t}"
+    );
     assert!(
         line("calibration").contains("9 points, 9 presses to 1.5 N"),
         "{t}"

@@ -58,7 +58,14 @@ pub struct CalibratedSensor<S: GaugeSource> {
     bias_scans: usize,
     last_index: Option<u64>,
     stats: StreamStats,
+    /// The gauges' limit, volts (the DAQ's input range), when known: a gauge read at it is
+    /// saturated.
+    limit: Option<f64>,
 }
+
+/// A gauge read at this share of its limit or beyond is saturated: the ADC clips there, and
+/// what the gauges would have read past it is lost.
+pub const SATURATION_SHARE: f64 = 0.995;
 
 impl<S: GaugeSource> CalibratedSensor<S> {
     /// A sensor converting `source`'s voltages with `calibration` (no bias, no tool transform).
@@ -71,6 +78,40 @@ impl<S: GaugeSource> CalibratedSensor<S> {
             bias_scans: 1,
             last_index: None,
             stats: StreamStats::default(),
+            limit: None,
+        }
+    }
+
+    /// Refuses scans with a gauge at [`SATURATION_SHARE`] of `range` (the DAQ's input range,
+    /// +- volts) or beyond: a clipped gauge turns the calibration matrix's forces into
+    /// nonsense (a normal force read as tens of newtons pulling), which no force check could
+    /// then trust.
+    pub fn with_saturation(mut self, range: Volts) -> Self {
+        self.limit = Some(range.0);
+        self
+    }
+
+    /// An error when a gauge of `r` is saturated.
+    fn check_saturation(&self, r: &GaugeReading) -> Result<(), ForceError> {
+        let Some(limit) = self.limit else {
+            return Ok(());
+        };
+        match r
+            .gauges
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.0.abs() >= SATURATION_SHARE * limit)
+        {
+            Some((i, v)) => Err(ForceError::Device {
+                device: self.source.describe(),
+                message: format!(
+                    "gauge {} (of 6, in the .cal file's order) read {:+.3} V at scan {}, the limit of the +-{limit} V input range: it is saturated and the forces cannot be read; the transducer is overloaded (take the load off), or its output needs a larger range (`force.range_v`)",
+                    i + 1,
+                    v.0,
+                    r.index
+                ),
+            }),
+            None => Ok(()),
         }
     }
 
@@ -148,6 +189,7 @@ impl<S: GaugeSource> ForceSensor for CalibratedSensor<S> {
         let Some(r) = self.read(timeout)? else {
             return Ok(None);
         };
+        self.check_saturation(&r)?;
         let volts = r.gauges.map(|v| v.0);
         let w = self
             .calibration
@@ -177,6 +219,7 @@ impl<S: GaugeSource> ForceSensor for CalibratedSensor<S> {
                     "no gauge scan arrived to take the bias from; check that acquisition is running"
                         .into(),
             })?;
+            self.check_saturation(&r)?;
             for (s, v) in sum.iter_mut().zip(r.gauges) {
                 *s += v.0;
             }

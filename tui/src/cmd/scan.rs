@@ -217,6 +217,20 @@ pub fn execute(
             "labels against the simulator's ground truth: normal force RMS {:.3} N (max {:.3} N) over {} frames; contact point RMS {:.3} mm over {} frames in contact",
             s.force_rms_n, s.force_max_n, s.frames, s.contact_rms_mm, s.contact_frames
         );
+        if s.shear_frames > 0 {
+            println!(
+                "shear labels: RMS {:.3} N (x), {:.3} N (y) over {} frames; slip state as the truth's on {} of {} frames; gross slip starts in {} presses at most {} frames off ({} missed, {} false)",
+                s.shear_rms_n[0],
+                s.shear_rms_n[1],
+                s.shear_frames,
+                s.slip_agree,
+                s.slip_frames,
+                s.onsets,
+                s.onset_max_frames,
+                s.onsets_missed,
+                s.onsets_false
+            );
+        }
     }
     Ok(end)
 }

@@ -264,6 +264,14 @@ pub(crate) fn score_run(
             force_max_n: s.force_max_n,
             contact_frames: s.contact_frames,
             contact_rms_mm: s.contact_rms_mm,
+            shear_frames: s.shear_frames,
+            shear_rms_n: s.shear_rms_n,
+            slip_frames: s.slip_frames,
+            slip_agree: s.slip_agree,
+            onsets: s.onsets,
+            onset_max_frames: s.onset_max_frames,
+            onsets_missed: s.onsets_missed,
+            onsets_false: s.onsets_false,
         }),
     )
 }

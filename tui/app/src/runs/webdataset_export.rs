@@ -9,6 +9,7 @@
 
 use fringe_calibration::Profile;
 use fringe_rig::store::{write_png, FrameRecord, RunReader, StartDocument, StoreError};
+use fringe_rig::{slip_labels, Slip};
 use fringe_sensor_models::dataset;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -75,6 +76,7 @@ fn sample_json(
     record: &FrameRecord,
     profile: Option<&Profile>,
     trainable: bool,
+    slip: Option<Slip>,
 ) -> serde_json::Value {
     let storage = start.frame_storage();
     let wrench = record.wrench.map(|w| w.to_array());
@@ -97,6 +99,9 @@ fn sample_json(
         "contact_x_mm": record.contact.map(|c| c[0]),
         "contact_y_mm": record.contact.map(|c| c[1]),
         "shape": record.shape,
+        "shear_x_n": record.shear.map(|q| q[0]),
+        "shear_y_n": record.shear.map(|q| q[1]),
+        "slip": slip.map(Slip::name),
         "exposure": record.exposure,
         "host_arrival_ns": record.host_arrival_ns,
         "commanded": record.commanded,
@@ -207,7 +212,8 @@ fn write_all(
     let mut png = Vec::new();
     for (reader, start, records, profile) in opened {
         let storage = start.frame_storage();
-        for record in records {
+        let slips = slip_labels(&records);
+        for (record, slip) in records.iter().zip(slips) {
             if options
                 .cancel
                 .as_ref()
@@ -237,7 +243,7 @@ fn write_all(
             })?;
             let trainable =
                 dataset::from_record(record, &start.run_id, PathBuf::new(), None, None).is_some();
-            let labels = sample_json(start, record, profile.as_ref(), trainable);
+            let labels = sample_json(start, record, profile.as_ref(), trainable, slip);
             let k = key(&start.run_id, record.index);
             let shard = match &mut current {
                 Some(s) => s,

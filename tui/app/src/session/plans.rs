@@ -44,6 +44,14 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
     about: "the demonstration of fringe demo: three presses to 1, 4 and 9 N",
 };
 
+/// Presses that slide: shear and slip data.
+pub const SLIDES: BuiltinPlan = BuiltinPlan {
+    name: "slides",
+    path: "tui/app/plans/slides.toml",
+    text: include_str!("../../plans/slides.toml"),
+    about: "presses that slide (x, -y, 135 degrees at 0.5 and 2 mm/s under 1.5 and 3 N): shear and slip data",
+};
+
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
 /// indenters): a template, not among the plans offered to run ([`ALL`]).
 pub(crate) const COMMISSION: BuiltinPlan = BuiltinPlan {
@@ -54,7 +62,7 @@ pub(crate) const COMMISSION: BuiltinPlan = BuiltinPlan {
 };
 
 /// Every built-in plan offered to run.
-pub const ALL: [BuiltinPlan; 3] = [SHORT_GRID, CALIBRATION, DEMO];
+pub const ALL: [BuiltinPlan; 4] = [SHORT_GRID, CALIBRATION, DEMO, SLIDES];
 
 /// A built-in plan by name.
 pub fn by_name(name: &str) -> Option<BuiltinPlan> {
@@ -139,7 +147,7 @@ pub struct PlanFileError {
 fn advice(e: &std::io::Error) -> &'static str {
     match e.kind() {
         std::io::ErrorKind::NotFound => {
-            " (check the path; the built-in plans are short-grid, calibration and demo, with commented copies in tui/app/plans/)"
+            " (check the path; the built-in plans are short-grid, calibration, demo and slides, with commented copies in tui/app/plans/)"
         }
         std::io::ErrorKind::PermissionDenied => " (make the file readable by your user)",
         _ => " (a plan is a TOML text file; see tui/app/plans/ for examples)",

@@ -131,7 +131,9 @@ pub(crate) fn open_daq_with(
         ),
     };
     let bias_scans = (spec.settings.rate.0 * DAQ_BIAS_S).round().max(1.0) as usize;
-    let sensor = CalibratedSensor::new(gauges, calibration).with_bias_scans(bias_scans);
+    let sensor = CalibratedSensor::new(gauges, calibration)
+        .with_bias_scans(bias_scans)
+        .with_saturation(spec.settings.range);
     Ok(match spec.tool {
         Some(tool) => sensor.with_tool(tool),
         None => sensor,
