@@ -1756,6 +1756,72 @@ fn a_slides_frames_carry_its_signed_shear_and_when_it_slipped() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A slide that pushes a gauge of the DAQ to the limit of its input range: the clipped gauge
+/// would make the force nonsense (the servo would press on, the ceilings would not see it), so
+/// the force path stops, and with it the slide; the true normal force never ran away.
+#[test]
+fn a_gauge_saturated_by_a_slide_stops_the_scan_before_the_force_runs_away() {
+    let dir = tempfile_dir("saturated");
+    // An indenter on a long tool (120 mm): a push of a newton or two turns the F/T enough to
+    // drive a gauge to the DAQ's +-10 V.
+    let mut config = SimRigConfig::default();
+    config.bench.mount.tool_length_mm = 120.0;
+    let (rig, devices, _truth) = bench_with(79, config);
+    let (cx, cy) = centre(&rig);
+    let text = slide_plan(
+        cx - 1.0,
+        cy,
+        3.0,
+        "directions = [\"x\"]\ndistance = 2.0\nspeeds = [1.0]",
+        12.0,
+    );
+    let setup = setup(&rig, &text);
+    let watching = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let watcher = {
+        let (bench, watching) = (rig.bench.clone(), watching.clone());
+        std::thread::spawn(move || {
+            let (mut normal, mut push) = (0.0f64, 0.0f64);
+            while watching.load(std::sync::atomic::Ordering::SeqCst) {
+                let t = bench.truth_at(fringe_rig::HostTime::now());
+                normal = normal.max(t.normal_force.0);
+                push = push.max(t.shear_n[0].hypot(t.shear_n[1]));
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            (normal, push)
+        })
+    };
+    let (mut operator, _) = scripted(Reply::Abort);
+    let result = run_scan(
+        &setup,
+        devices,
+        RunTarget::New {
+            root: dir.clone(),
+            run_id: "saturated".into(),
+        },
+        &ScanControl::new(),
+        &mut operator,
+        &|_| {},
+    );
+    watching.store(false, std::sync::atomic::Ordering::SeqCst);
+    let (normal, push) = watcher.join().expect("watcher");
+    let said = match &result {
+        Ok(out) => format!("{out:?}"),
+        Err(e) => e.to_string(),
+    };
+    eprintln!("saturated gauge: {said}; true normal force at most {normal:.2} N, push {push:.2} N");
+    assert!(said.contains("saturated"), "{said}");
+    assert!(
+        push > 0.5,
+        "the slide never pushed ({push:.2} N): nothing was tested"
+    );
+    assert!(
+        normal < 3.0 + 1.0,
+        "the normal force ran away to {normal:.2} N"
+    );
+    drop(rig);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn a_tangential_force_over_its_ceiling_stops_the_slide_at_once_and_lifts() {
     let dir = tempfile_dir("tangential-ceiling");

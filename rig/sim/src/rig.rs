@@ -44,7 +44,7 @@ use fringe_rig::ForceSensor;
 use fringe_rig::{apt::Actuator, ThorlabsAxis};
 use fringe_rig::{AptConfig, Controller};
 use fringe_rig::{Framing, ModbusStage, RegisterMap, StageOptions};
-use fringe_rig::{Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared};
+use fringe_rig::{Hertz, Millimetres, MillimetresPerSecond, MillimetresPerSecondSquared, Volts};
 use fringe_rig::{NetFt, NetFtOptions};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -426,7 +426,9 @@ impl Wiring<'_> {
                         "camera trigger: the DAQ's ctr0 at {rate} Hz on PFI12, wired to the camera's {CAMERA_TRIGGER_LINE}"
                     ));
                 }
-                Ok((Box::new(CalibratedSensor::new(daq, cal)), None, trigger))
+                let range = Volts(self.config.daq.range_v);
+                let sensor = CalibratedSensor::new(daq, cal).with_saturation(range);
+                Ok((Box::new(sensor), None, trigger))
             }
             ForcePath::Netft => {
                 let emulator_config = NetFtEmulatorConfig::default();

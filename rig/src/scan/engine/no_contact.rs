@@ -19,9 +19,10 @@ impl Runner<'_> {
             self.wait_for_fresh_samples(after)?;
             self.tare_not_before = None;
         }
-        let (_, mean) = self.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
-            ScanError::Setup(format!("{}: no force samples", self.monitor.device()))
-        })?;
+        let (_, mean) = self
+            .monitor
+            .mean_of_last(TARE_SAMPLES)
+            .ok_or_else(|| super::runner::no_samples(&self.monitor))?;
         let restarts = self.monitor.stats().restarts;
         // Never a no-contact offset under load: it would hide the load from every label and
         // from the ceiling. After a device restart its zero moved: the reading starts again here.

@@ -156,9 +156,10 @@ impl<'a> Runner<'a> {
         }
         // z is homed, away from the sensor: what the F/T reads now is no contact, the zero the
         // watchers start from (from no zero at all, the F/T's own offset would read as a load).
-        let (_, homed) = parts.monitor.mean_of_last(TARE_SAMPLES).ok_or_else(|| {
-            ScanError::Setup(format!("{}: no force samples", parts.monitor.device()))
-        })?;
+        let (_, homed) = parts
+            .monitor
+            .mean_of_last(TARE_SAMPLES)
+            .ok_or_else(|| no_samples(&parts.monitor))?;
         tare.set(&homed);
         let watch = WatchSettings {
             ceiling: press.ceiling,
@@ -314,5 +315,17 @@ impl<'a> Runner<'a> {
             frames_recorded: stats.frames_recorded,
             dropped_frames: stats.dropped_frames,
         }));
+    }
+}
+
+/// Why there is no force sample to read: the stream's own error when it failed (a saturated
+/// gauge, a lost device), else that none came.
+pub(super) fn no_samples(monitor: &ForceMonitor) -> ScanError {
+    match monitor.error() {
+        Some(e) => ScanError::Setup(format!(
+            "{}: the force stream stopped: {e}",
+            monitor.device()
+        )),
+        None => ScanError::Setup(format!("{}: no force samples", monitor.device())),
     }
 }

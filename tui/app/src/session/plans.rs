@@ -45,7 +45,7 @@ pub const DEMO: BuiltinPlan = BuiltinPlan {
 };
 
 /// Presses that slide: shear and slip data.
-pub const SLIDES: BuiltinPlan = BuiltinPlan {
+pub(crate) const SLIDES: BuiltinPlan = BuiltinPlan {
     name: "slides",
     path: "tui/app/plans/slides.toml",
     text: include_str!("../../plans/slides.toml"),
