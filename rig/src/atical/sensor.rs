@@ -63,9 +63,10 @@ pub struct CalibratedSensor<S: GaugeSource> {
     limit: Option<f64>,
 }
 
-/// A gauge read at this share of its limit or beyond is saturated: the ADC clips there, and
-/// what the gauges would have read past it is lost.
-pub const SATURATION_SHARE: f64 = 0.995;
+/// A gauge read at this share of its limit or beyond is saturated: the ADC clips at the end of
+/// its range (within a few of its steps: 305 uV of 10 V at 16 bits), and what the gauge would
+/// have read past it is lost. A reading short of it, however near, is still a reading.
+pub const SATURATION_SHARE: f64 = 0.9999;
 
 impl<S: GaugeSource> CalibratedSensor<S> {
     /// A sensor converting `source`'s voltages with `calibration` (no bias, no tool transform).
@@ -82,7 +83,7 @@ impl<S: GaugeSource> CalibratedSensor<S> {
         }
     }
 
-    /// Refuses scans with a gauge at [`SATURATION_SHARE`] of `range` (the DAQ's input range,
+    /// Refuses scans with a gauge at the end of `range` (the DAQ's input range,
     /// +- volts) or beyond: a clipped gauge turns the calibration matrix's forces into
     /// nonsense (a normal force read as tens of newtons pulling), which no force check could
     /// then trust.
