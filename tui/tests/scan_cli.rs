@@ -78,7 +78,7 @@ fn built_in_plans_are_listed_and_run_by_name() {
     );
     // Each (force, direction, speed) of a slide is a press of its own.
     assert!(
-        line("slides").contains("4 points, 48 presses to 1.5, 3 N"),
+        line("slides").contains("4 points, 48 presses to 1.5, 2.5 N"),
         "{t}"
     );
     assert!(

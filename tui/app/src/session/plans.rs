@@ -49,7 +49,7 @@ pub(crate) const SLIDES: BuiltinPlan = BuiltinPlan {
     name: "slides",
     path: "tui/app/plans/slides.toml",
     text: include_str!("../../plans/slides.toml"),
-    about: "presses that slide (x, -y, 135 degrees at 0.5 and 2 mm/s under 1.5 and 3 N): shear and slip data",
+    about: "presses that slide (x, -y, 135 degrees at 0.5 and 2 mm/s under 1.5 and 2.5 N): shear and slip data",
 };
 
 /// The presses of `fringe commission` (its rounds and acceptance scan replace the points and the
