@@ -174,14 +174,15 @@ mod tests {
         // The given plan first, short-grid not repeated, then the other built-in plans, then
         // the files by name.
         assert_eq!(labels[0], "short-grid");
-        assert_eq!(labels.len(), 5, "{labels:?}");
+        assert_eq!(labels.len(), 6, "{labels:?}");
         assert_eq!(labels[1], "calibration (built in)");
         assert_eq!(labels[2], "demo (built in)");
-        assert!(labels[3].ends_with("a-broken.toml"), "{labels:?}");
-        assert!(labels[4].ends_with("b-wide.toml"), "{labels:?}");
+        assert_eq!(labels[3], "slides (built in)");
+        assert!(labels[4].ends_with("a-broken.toml"), "{labels:?}");
+        assert!(labels[5].ends_with("b-wide.toml"), "{labels:?}");
 
         let limits = limits();
-        let program = load(&plans[4], &limits).expect("the wide plan loads");
+        let program = load(&plans[5], &limits).expect("the wide plan loads");
         let recording = Recording::from_rig_files(&fringe_app::RigConfig::simulated(), None)
             .expect("the simulated bench's recording");
         let view = scan_view(&program, &limits, (12.5, 25.0), Some(&recording));
@@ -195,7 +196,7 @@ mod tests {
         assert_eq!(view.points.len(), 6);
         assert_eq!(view.targets, "1, 4 N");
         assert!(view.estimate.as_secs() > 10);
-        let err = load(&plans[3], &limits).expect_err("a broken plan is refused");
+        let err = load(&plans[4], &limits).expect_err("a broken plan is refused");
         assert!(err.to_string().contains("a-broken.toml"), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
     }

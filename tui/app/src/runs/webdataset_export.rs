@@ -212,7 +212,7 @@ fn write_all(
     let mut png = Vec::new();
     for (reader, start, records, profile) in opened {
         let storage = start.frame_storage();
-        let slips = slip_labels(&records);
+        let slips = slip_labels(records);
         for (record, slip) in records.iter().zip(slips) {
             if options
                 .cancel
