@@ -180,12 +180,12 @@ impl RunWriter {
         self.storage
     }
 
-    /// Index the next frame record must have.
     /// How the run's F/T axes sit on the bench (its start document's), if known.
     pub fn ft_axes(&self) -> Option<FtAxes> {
         self.ft_axes
     }
 
+    /// Index the next frame record must have.
     pub fn next_index(&self) -> u64 {
         self.next_index
     }
