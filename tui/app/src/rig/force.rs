@@ -463,4 +463,37 @@ mod tests {
             "{line}"
         );
     }
+
+    /// `[force] x_axis_deg` and `z_toward_tool` say how the F/T's axes sit on the bench, for
+    /// shear in the sensor's frame; refused where they cannot mean anything.
+    #[test]
+    fn the_f_t_axes_come_from_the_force_section_and_are_checked() {
+        let netft = "driver = \"netft\"\naddress = \"192.168.1.1\"";
+        let c = parse(&format!(
+            "{netft}\nx_axis_deg = 90.0\nz_toward_tool = false"
+        ))
+        .expect("parses");
+        assert_eq!(
+            c.file.force.ft_axes(),
+            Some(fringe_rig::FtAxes {
+                x_axis_deg: 90.0,
+                z_toward_tool: false
+            })
+        );
+        // ATI's tool frame unless told otherwise; nothing without the angle.
+        let c = parse(&format!("{netft}\nx_axis_deg = 0.0")).expect("parses");
+        assert_eq!(c.file.force.ft_axes().map(|a| a.z_toward_tool), Some(true));
+        assert_eq!(parse(netft).expect("parses").file.force.ft_axes(), None);
+        let e = parse(&format!("{netft}\nz_toward_tool = true")).expect_err("no angle");
+        assert!(
+            e.contains("`force.z_toward_tool` needs `force.x_axis_deg`"),
+            "{e}"
+        );
+        let e = parse(&format!("{netft}\nx_axis_deg = nan")).expect_err("not a number");
+        assert!(e.contains("`force.x_axis_deg` = NaN"), "{e}");
+        let e = RigConfig::parse("[force]\nx_axis_deg = 0.0\n", "rig.toml")
+            .expect_err("the simulated bench's axes are its mount's")
+            .to_string();
+        assert!(e.contains("force.x_axis_deg") && e.contains("mount"), "{e}");
+    }
 }
