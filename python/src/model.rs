@@ -113,6 +113,18 @@ impl Model {
         d.set_item("my", col(|p| p.force.my.0).into_pyarray(py))?;
         d.set_item("mz", col(|p| p.force.mz.0).into_pyarray(py))?;
         d.set_item("ft", col(|p| p.force.ft.0).into_pyarray(py))?;
+        // A model with shear heads: the signed shear in the sensor's frame, as `run.labels()`
+        // names it (fx and fy are then the same numbers).
+        if self.model.has_shear() {
+            let shear = |k: usize| {
+                predicted
+                    .iter()
+                    .map(|p| p.shear.map_or(f64::NAN, |q| q[k].0))
+                    .collect::<Vec<f64>>()
+            };
+            d.set_item("shear_x_n", shear(0).into_pyarray(py))?;
+            d.set_item("shear_y_n", shear(1).into_pyarray(py))?;
+        }
         d.set_item(
             "contact_x_mm",
             col(|p| p.contact.map_or(f64::NAN, |c| c[0].0)).into_pyarray(py),

@@ -512,6 +512,10 @@ mod tests {
                 shape_pred,
                 contact_true: (shape_true > 0).then_some([0.0, 0.0]),
                 contact_pred: [dx, 0.0],
+                shear_true: None,
+                shear_pred: None,
+                slip_true: None,
+                slip_pred: None,
             };
             metrics.add(&scored, &[crate::eval::force_level(fz_true)]);
             out.push(Row {
@@ -525,6 +529,7 @@ mod tests {
             rows: out,
             skipped: 0,
             skipped_busy: 0,
+            labels_know_shear: false,
         }
     }
 

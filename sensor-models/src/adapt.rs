@@ -394,6 +394,10 @@ pub fn head_scores(weights: &StateDict, features: &Features) -> Result<Vec<Score
                 shape_pred: c.row(i).transpose().argmax().0,
                 contact_true: s.contact,
                 contact_pred: [p[(i, 0)], p[(i, 1)]],
+                shear_true: None,
+                shear_pred: None,
+                slip_true: None,
+                slip_pred: None,
             }
         })
         .collect())

@@ -56,6 +56,7 @@ mod prediction;
 mod predictor;
 mod preprocess;
 pub mod report;
+mod slip_head;
 mod smoothing;
 mod split;
 #[cfg(feature = "torch")]
@@ -94,6 +95,10 @@ pub use predictor::{PredictError, Predictor};
 pub use preprocess::{
     rotate_contact, tensor_image, thumbnail, Centre, Colour, FrameRef, PreprocessError,
     Preprocessing, Preprocessor, ReferenceSensor,
+};
+pub use slip_head::{
+    fit as fit_slip_head, FitError as SlipFitError, OnsetScore, Reading, Sequence, SlipHead,
+    SlipHeadError, SlipTracker,
 };
 pub use smoothing::{Smoothing, SmoothingError};
 pub use split::{Side, Split, SplitError, SplitSpec};

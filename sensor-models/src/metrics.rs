@@ -20,6 +20,14 @@ pub struct Scored {
     pub contact_true: Option<[f64; 2]>,
     /// The contact head's output, mm.
     pub contact_pred: [f64; 2],
+    /// The signed shear, labelled (where the data knows it) and predicted (by a model with
+    /// shear heads), x and y in the sensor's frame, N.
+    pub shear_true: Option<[f64; 2]>,
+    pub shear_pred: Option<[f64; 2]>,
+    /// How the contact held, labelled and reported (by a model with a slip head, over the
+    /// frames of the press up to this one).
+    pub slip_true: Option<fringe_rig::Slip>,
+    pub slip_pred: Option<fringe_rig::Slip>,
 }
 
 /// Running sums of the errors.
@@ -30,6 +38,9 @@ pub struct Errors {
     pub n_contact: u64,
     pub sum_sq_contact: f64,
     pub correct: u64,
+    /// Rows whose shear was scored, and the sums of squared errors of its x and y.
+    pub n_shear: u64,
+    pub sum_sq_shear: [f64; 2],
 }
 
 impl Errors {
@@ -42,6 +53,18 @@ impl Errors {
                 (s.contact_pred[0] - x).powi(2) + (s.contact_pred[1] - y).powi(2);
         }
         self.correct += u64::from(s.shape_pred == s.shape_true);
+        if let (Some(t), Some(p)) = (s.shear_true, s.shear_pred) {
+            self.n_shear += 1;
+            for k in 0..2 {
+                self.sum_sq_shear[k] += (p[k] - t[k]).powi(2);
+            }
+        }
+    }
+
+    /// Shear RMSE along x and y, N, over the rows whose shear was scored (`None` when none
+    /// was).
+    pub fn shear_rmse(&self) -> Option<[f64; 2]> {
+        (self.n_shear > 0).then(|| self.sum_sq_shear.map(|s| (s / self.n_shear as f64).sqrt()))
     }
 
     /// Fz mean squared error, N^2 (NaN before any row).
@@ -148,6 +171,10 @@ mod tests {
             shape_pred: shape.1,
             contact_true: contact,
             contact_pred: [1.0, 1.0],
+            shear_true: None,
+            shear_pred: None,
+            slip_true: None,
+            slip_pred: None,
         }
     }
 

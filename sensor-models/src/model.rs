@@ -78,6 +78,12 @@ pub enum ModelError {
     )]
     WindowNetworkAlone { path: String },
     #[error(
+        "{path}: the model has no shear heads (its card does not say \"shear\": true), so it \
+         cannot give the tangential force; train one on runs that record shear (`fringe scan \
+         slides`, then `fringe train RUN...`), or leave shear out"
+    )]
+    NoShearHeads { path: String },
+    #[error(
         "{path}: named as a window network (force_model, contact_model) of {of}, but its card \
          gives no force_window_mm: name a network trained with `fringe train --force-window`"
     )]
@@ -330,6 +336,32 @@ impl Model {
             });
         }
         Ok(())
+    }
+
+    /// Whether the force the model gives carries the signed shear: the card's `shear` of the
+    /// network that reads the force (a two-stage model's force network).
+    pub fn has_shear(&self) -> bool {
+        let reads_force = self.force.as_deref().unwrap_or(self);
+        reads_force.card.as_ref().is_some_and(|c| c.shear)
+    }
+
+    /// The model's slip head (its card's `slip`), when it has shear heads to feed it.
+    pub fn slip_head(&self) -> Option<crate::slip_head::SlipHead> {
+        self.card
+            .as_ref()
+            .and_then(|c| c.slip.clone())
+            .filter(|_| self.has_shear())
+    }
+
+    /// Refuses a model without shear heads where the tangential force is asked for.
+    pub fn require_shear(&self) -> Result<(), ModelError> {
+        if self.has_shear() {
+            Ok(())
+        } else {
+            Err(ModelError::NoShearHeads {
+                path: self.path.display().to_string(),
+            })
+        }
     }
 
     /// The weights by name, when the model is one of the paper's networks: a weights file, or

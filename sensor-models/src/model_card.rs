@@ -111,6 +111,16 @@ pub struct ModelCard {
     /// the force network's on the contact it places.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_model: Option<String>,
+    /// The force head's Fx and Fy are the signed tangential force the indenter applies to the
+    /// surface, N, in the sensor's frame (the contact's axes): trained on runs that record it
+    /// (`FrameRecord::shear`). Without it (every model trained before 2026-12-07, and models
+    /// trained on presses alone) they are magnitudes no loss trained, and the model has no shear.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shear: bool,
+    /// The slip head fitted after the network ([`crate::slip_head`]): stick, partial or gross
+    /// slip from the model's readings of a frame and the two before it. Only with `shear`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slip: Option<crate::slip_head::SlipHead>,
     /// Everything else (training runs, split, losses, figures).
     #[serde(flatten)]
     pub other: serde_json::Map<String, serde_json::Value>,
@@ -277,7 +287,21 @@ impl ModelCard {
                     ),
                 );
             }
-        } else if self.refines_contact {
+        }
+        if let Some(head) = &self.slip {
+            if !self.shear {
+                return refuse(
+                    "slip",
+                    "a slip head".into(),
+                    "a slip head reads the shear: only a card that says \"shear\": true has one"
+                        .into(),
+                );
+            }
+            if let Err(e) = head.check() {
+                return refuse("slip", "a slip head".into(), e.to_string());
+            }
+        }
+        if self.force_window_mm.is_none() && self.refines_contact {
             return refuse(
                 "refines_contact",
                 "true".into(),

@@ -5,8 +5,9 @@ use crate::backend::RawOutputs;
 use fringe_rig::{Millimetres, NewtonMetres, Newtons};
 
 /// The force vector the networks predict: magnitudes, as the reference post-processing trains
-/// them (every column replaced by its absolute value). Torques are in the unit of the training
-/// labels (N m for fringe's runs).
+/// them (every column replaced by its absolute value), except Fx and Fy of a model with shear
+/// heads (its card's `shear`), which are the signed tangential force ([`Prediction::shear`]).
+/// Torques are in the unit of the training labels (N m for fringe's runs).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct ForceVector {
     pub fx: Newtons,
@@ -47,6 +48,14 @@ pub struct Prediction {
     pub contact: Option<[Millimetres; 2]>,
     /// The contact head's output whatever the shape head says.
     pub contact_raw: [Millimetres; 2],
+    /// The tangential force the indenter applies to the surface, x and y in the sensor's frame
+    /// (the contact's axes), signed: a model with shear heads only (its card's `shear`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shear: Option<[Newtons; 2]>,
+    /// How the contact holds, from this frame and the ones before it: a model with a slip head
+    /// (its card's `slip`), run over a sequence of frames, and only where it says contact.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slip: Option<fringe_rig::Slip>,
 }
 
 impl Prediction {
@@ -67,8 +76,9 @@ pub(crate) fn softmax(logits: &[f32]) -> Vec<f64> {
     e.iter().map(|v| v / sum).collect()
 }
 
-/// The predictions of a batch, with `classes` naming the shape classes in order ("None" first).
-pub(crate) fn predictions(raw: &RawOutputs, classes: &[String]) -> Vec<Prediction> {
+/// The predictions of a batch, with `classes` naming the shape classes in order ("None" first);
+/// `shear`: the force head's Fx and Fy are the signed shear (the card's `shear`).
+pub(crate) fn predictions(raw: &RawOutputs, classes: &[String], shear: bool) -> Vec<Prediction> {
     raw.force
         .iter()
         .zip(&raw.shape_logits)
@@ -96,6 +106,8 @@ pub(crate) fn predictions(raw: &RawOutputs, classes: &[String]) -> Vec<Predictio
                 probabilities: p.iter().enumerate().map(|(i, &v)| (name(i), v)).collect(),
                 contact: (best != 0).then_some(contact_raw),
                 contact_raw,
+                shear: shear.then(|| [Newtons(f64::from(force[0])), Newtons(f64::from(force[1]))]),
+                slip: None,
             }
         })
         .collect()
@@ -113,7 +125,13 @@ mod tests {
             contact: vec![[1.5, -2.0]],
         };
         let names: Vec<String> = ["None", "pentagon", "rectangle"].map(String::from).into();
-        let p = &predictions(&raw, &names)[0];
+        let p = &predictions(&raw, &names, false)[0];
+        assert_eq!(p.shear, None);
+        let signed = &predictions(&raw, &names, true)[0];
+        assert_eq!(
+            signed.shear,
+            Some([Newtons(0.1f32 as f64), Newtons(0.2f32 as f64)])
+        );
         assert_eq!(p.shape, "rectangle");
         let total: f64 = p.probabilities.iter().map(|(_, v)| v).sum();
         assert!((total - 1.0).abs() < 1e-12);
@@ -123,6 +141,6 @@ mod tests {
             shape_logits: vec![vec![5.0, 0.0, 0.0]],
             ..raw
         };
-        assert_eq!(predictions(&none, &names)[0].contact, None);
+        assert_eq!(predictions(&none, &names, false)[0].contact, None);
     }
 }

@@ -16,7 +16,7 @@ use crate::model::{Model, ModelError};
 use crate::prediction::{predictions, ForceVector, Prediction};
 use crate::preprocess::{Colour, FrameRef, PreprocessError, Preprocessing, Preprocessor};
 use fringe_calibration::Profile;
-use fringe_rig::Millimetres;
+use fringe_rig::{Millimetres, Newtons};
 use std::time::{Duration, Instant};
 
 /// Why frames could not be turned into predictions.
@@ -59,6 +59,8 @@ struct WindowStage {
     window_mm: f64,
     /// Its force head gives the model's force (the force network's).
     reads_force: bool,
+    /// Its force head's Fx, Fy are the signed shear (its card's `shear`).
+    shear: bool,
     /// Its contact head reads the press's offset from the window's centre (a card saying
     /// `refines_contact`): the model's contact is moved by it.
     reads_contact: bool,
@@ -80,6 +82,8 @@ pub struct Predictor {
     /// The window networks in the order they run: the contact network (placing the contact the
     /// force network's window is then centred on), then the force network.
     windows: Vec<WindowStage>,
+    /// The force the model gives carries the signed shear ([`Model::has_shear`]).
+    shear: bool,
 }
 
 impl Predictor {
@@ -99,6 +103,7 @@ impl Predictor {
                     })?,
                 reads_force,
                 reads_contact,
+                shear: net.card.as_ref().is_some_and(|c| c.shear),
                 input_size: net.input_size,
                 colour: net.colour,
                 pre: None,
@@ -121,6 +126,7 @@ impl Predictor {
             input_size: model.input_size,
             threads,
             windows,
+            shear: model.has_shear(),
         })
     }
 
@@ -204,6 +210,12 @@ impl Predictor {
         Ok(out)
     }
 
+    /// Whether the model's force head gives the signed shear (the card's `shear` of the network
+    /// that reads the force: a two-stage model's force network).
+    pub fn has_shear(&self) -> bool {
+        self.shear
+    }
+
     /// The predictions of `n` inputs made elsewhere (preprocessed for this model, one after
     /// another) by a one-network model; a two-stage model, which reads the frames themselves,
     /// is refused ([`PredictError::Frames`]: give it frames through [`Predictor::predict`]).
@@ -235,7 +247,7 @@ impl Predictor {
                     model: self.path.clone(),
                     source,
                 })?;
-        let out = predictions(&raw, &self.classes);
+        let out = predictions(&raw, &self.classes, self.shear);
         if out.len() != n {
             return Err(PredictError::Outputs {
                 model: self.path.clone(),
@@ -266,6 +278,7 @@ impl WindowStage {
         if self.reads_force {
             for p in out.iter_mut().filter(|p| p.contact.is_none()) {
                 p.force = ForceVector::from_array([0.0; 7]);
+                p.shear = self.shear.then_some([Newtons(0.0); 2]);
             }
         }
         let pressed: Vec<usize> = (0..out.len())
@@ -332,6 +345,9 @@ impl WindowStage {
             let p = &mut out[i];
             if self.reads_force {
                 p.force = ForceVector::from_array(*force);
+                p.shear = self
+                    .shear
+                    .then(|| [Newtons(f64::from(force[0])), Newtons(f64::from(force[1]))]);
             }
             if self.reads_contact {
                 let [x, y] = p.contact_raw;

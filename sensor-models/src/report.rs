@@ -478,6 +478,10 @@ mod tests {
                 shape_pred: usize::from(k != 3),
                 contact_true: Some(t),
                 contact_pred: [t[0] + off, t[1]],
+                shear_true: None,
+                shear_pred: None,
+                slip_true: None,
+                slip_pred: None,
             };
             metrics.add(&scored, &[]);
             rows.push(Row {
@@ -491,6 +495,7 @@ mod tests {
             rows,
             skipped: 0,
             skipped_busy: 0,
+            labels_know_shear: false,
         }
     }
 

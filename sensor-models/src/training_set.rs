@@ -45,6 +45,9 @@ pub(crate) struct Target {
     /// force network's window: the labelled contact's offset from the window's centre (mm, the
     /// label's axes, turned with the image), what its contact head learns to read.
     pub contact: Option<[f32; 2]>,
+    /// The signed shear the indenter applies to the surface, N, in the contact's axes turned
+    /// with the image (unrounded); `None` where the frame's data does not know it.
+    pub shear: Option<[f32; 2]>,
     /// The item it was made from.
     pub item: usize,
 }
@@ -130,6 +133,7 @@ impl TrainingSet {
                 fz: 0.0,
                 class: 0,
                 contact: None,
+                shear: None,
                 item: 0,
             };
             items.len() * job.copies
@@ -281,10 +285,16 @@ impl Job<'_, '_> {
                     [round1(x), round1(y)]
                 }),
             };
+            // A force vector turns with the image as a contact point does (the same axes).
+            let shear = s.shear.map(|q| {
+                let [x, y] = rotate_label(q, angle, it.mirror);
+                [x as f32, y as f32]
+            });
             tg[copy] = Target {
                 fz: round1(s.fz()),
                 class: self.class_of[index],
                 contact,
+                shear,
                 item: index,
             };
         }

@@ -770,6 +770,12 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
         ("refines_contact", r#""refines_contact": true"#),
         ("force_model", r#""force_model": """#),
         ("contact_model", r#""contact_model": "\n""#),
+        // A slip head reads the shear: a card without shear heads has none.
+        (
+            "slip",
+            r#""slip": {"features": [], "mean": [], "scale": [], "hidden_weights": [],
+                "hidden_bias": [], "weights": [], "bias": [], "confirm_frames": 1}"#,
+        ),
     ] {
         std::fs::write(&card, format!("{{{json}}}")).expect("card");
         let out = fringe(&["model", "info", arg(&window)]);
@@ -786,5 +792,50 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
     std::fs::write(&card, r#"{"force_window_mm": 24.0, "input_size": 112}"#).expect("card");
     let out = fringe(&["model", "info", arg(&window)]);
     assert!(out.status.success(), "{}", text(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A model without shear heads asked for the tangential force (`fringe eval --shear`) is
+/// refused before a frame is read, naming the model and what to do; without the flag it is
+/// evaluated as before.
+#[test]
+fn a_model_without_shear_heads_asked_for_shear_is_refused() {
+    let dir = scratch("no-shear");
+    let data = dir.join("data");
+    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
+    frame(&data.join("0.images/image_0.tiff"), 1.0);
+    std::fs::write(
+        data.join("0.labels.csv"),
+        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n\
+         image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
+    )
+    .expect("labels");
+    let eval = |extra: &[&str]| {
+        let mut args = vec![
+            "eval",
+            arg(&data),
+            "--model",
+            "builtin:layered-keypoint",
+            "--reference-preprocessing",
+            "layered",
+        ];
+        args.extend_from_slice(extra);
+        fringe(&args)
+    };
+    let out = eval(&["--shear"]);
+    let t = text(&out);
+    assert!(!out.status.success(), "accepted: {t}");
+    assert!(
+        t.contains("the model has no shear heads") && t.contains("fringe scan slides"),
+        "{t}"
+    );
+    assert!(
+        !t.contains("evaluating"),
+        "refused before reading frames: {t}"
+    );
+    let out = eval(&[]);
+    let t = text(&out);
+    assert!(out.status.success(), "{t}");
+    assert!(t.contains("Fz RMSE") && !t.contains("shear"), "{t}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -202,6 +202,7 @@ pub fn fine_tune(
         // statistics; a few hundred batches of one unit would replace them.
         freeze_batch_norm: true,
         force_window_mm: None,
+        every: 1,
     };
     let (model, history) = match train(&train_config, &sources, None, resume, stop, &mut |e| {
         events(FineTuneEvent::Train(e))

@@ -67,6 +67,10 @@ mod tests {
             shape_pred: 1,
             contact_true: Some([0.0, 0.0]),
             contact_pred: [0.735, 0.0],
+            shear_true: None,
+            shear_pred: None,
+            slip_true: None,
+            slip_pred: None,
         });
         let h = HeldOut::of(&e);
         assert!((h.fz_rmse_n - 0.98).abs() < 1e-9);

@@ -408,6 +408,10 @@ fn held_out(p: &Params, data: &BlockInputs, frames: &[usize], d: Dims) -> HeldOu
             shape_pred: argmax,
             contact_true: s.contact,
             contact_pred: [f64::from(f.outputs[2][0]), f64::from(f.outputs[2][1])],
+            shear_true: None,
+            shear_pred: None,
+            slip_true: None,
+            slip_pred: None,
         });
     }
     HeldOut::of(&e)

@@ -25,6 +25,10 @@ pub struct EpochRecord {
     /// (`force_window_mm`), which trains Fz alone.
     pub val_contact_rmse_mm: f64,
     pub val_shape_accuracy: f64,
+    /// Shear RMSE along x and y on the validation side, N (absent where the data knows no
+    /// shear, and in records before shear heads).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub val_shear_rmse_n: Option<[f64; 2]>,
     /// The learning rate of the epoch (absent in records before schedules).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lr: Option<f64>,
@@ -72,6 +76,9 @@ pub struct TrainingRecord {
     /// Test-side figures of the final model (fringe eval's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub evaluation: Option<serde_json::Value>,
+    /// The training side's every Nth frame was trained on (absent in records before: all).
+    #[serde(default = "every_frame", skip_serializing_if = "is_every_frame")]
+    pub every: usize,
     /// The weights the training started from (`--init`), when not a random initialisation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init: Option<PathBuf>,
@@ -172,4 +179,12 @@ impl Checkpoint {
         })?;
         Ok((weights, card, record, optimizer))
     }
+}
+
+fn every_frame() -> usize {
+    1
+}
+
+fn is_every_frame(n: &usize) -> bool {
+    *n == 1
 }

@@ -14,6 +14,8 @@
 //!   (`fringe model export`); `image_prediction`: a model run on image files (`fringe model
 //!   run`).
 //! - `run_evaluation`: a model's figures on one run (the Runs screen).
+//! - `slip_fit`: a model's slip head fitted on runs of slides and written with it (`fringe
+//!   model slip`).
 //! - `verdict`: a spec given by name (`paper`) or file, and an evaluation's verdict against it
 //!   in lines.
 
@@ -24,6 +26,7 @@ pub(crate) mod image_prediction;
 pub(crate) mod labelled_data;
 pub(crate) mod onnx_export;
 pub(crate) mod run_evaluation;
+pub(crate) mod slip_fit;
 pub(crate) mod training;
 pub(crate) mod two_stage;
 pub(crate) mod verdict;
@@ -37,6 +40,7 @@ pub use image_prediction::{ImagePredictionError, ImagePredictor, ImageRun};
 pub use labelled_data::{agreed, read_sources, scale_warnings, LabelledDataError};
 pub use onnx_export::{export as export_onnx, Exported, OnnxExportError};
 pub use run_evaluation::{evaluate_run, RunEvaluationError};
+pub use slip_fit::{fit_slip, SlipFitFailure, SlipFitRequest, SlipFitted};
 pub use training::architecture;
 #[cfg(feature = "torch")]
 pub use training::{

@@ -59,6 +59,11 @@ pub struct EvalArgs {
     /// `paper` for the paper's custom-CNN row; the exit status is 1 when the model fails it.
     #[arg(long, value_name = "FILE|paper")]
     spec: Option<PathBuf>,
+    /// Refuse a model without shear heads (its card's `shear`): the tangential force is what
+    /// the evaluation is for. Without it a model that has them is scored on shear wherever the
+    /// data records it, and one that has none is scored on the rest.
+    #[arg(long)]
+    shear: bool,
     /// Also give the figures with the force and contact of each frame read from the last N
     /// frames of its press (the least-squares line through their readings, at the frame: causal,
     /// no lag on a steady ramp); the per-frame figures and the spec's verdict stay per frame.
@@ -107,6 +112,9 @@ pub fn run(a: EvalArgs) -> Result<()> {
             whose: "the data's sensor",
         },
     )?;
+    if a.shear {
+        model.require_shear()?;
+    }
     let reference = a.reference_preprocessing.map(ReferenceChoice::sensor);
     for w in scale_warnings(&model, &sources, profile.as_ref(), reference) {
         eprintln!("warning: {w}");
@@ -199,4 +207,44 @@ fn print_figures(model: &Model, eval: &Evaluation) {
         "macro:          precision {:.4}, recall {:.4}, F1 {:.4}",
         s.precision, s.recall, s.f1
     );
+    if let Some(line) = shear_line(model, eval) {
+        println!("{line}");
+    }
+    if let Some(s) = fringe_sensor_models::eval::slip_onsets(&eval.rows) {
+        println!("slip onsets:    {}", onset_summary(&s));
+    }
+}
+
+/// Slip onsets found, how far off, the false ones, F1, and the frames' states, in one line.
+pub(crate) fn onset_summary(s: &fringe_sensor_models::OnsetScore) -> String {
+    let tol = fringe_sensor_models::eval::SLIP_ONSET_TOLERANCE_FRAMES;
+    let off = match (s.mean_offset(), s.max_offset()) {
+        (Some(mean), Some(max)) => format!(", {mean:.2} frames off on average, {max} at most"),
+        _ => String::new(),
+    };
+    format!(
+        "{} of {} found within {tol} frames{off}; {} false; F1 {:.3}; state as labelled on {:.1} % of {} frames",
+        s.found,
+        s.labelled,
+        s.false_onsets,
+        s.f1(),
+        100.0 * s.agree as f64 / s.frames.max(1) as f64,
+        s.frames
+    )
+}
+
+/// The shear figures, or why there are none where the data records shear.
+pub(crate) fn shear_line(model: &Model, eval: &Evaluation) -> Option<String> {
+    let e = &eval.metrics.all;
+    match e.shear_rmse() {
+        Some([x, y]) => Some(format!(
+            "shear RMSE:     Fx {x:.4} N, Fy {y:.4} N over {} frames (signed, the sensor's frame)",
+            e.n_shear
+        )),
+        None if !model.has_shear() && eval.labels_know_shear => Some(
+            "shear:          not scored: the model has no shear heads (its card does not say \"shear\")"
+                .to_string(),
+        ),
+        None => None,
+    }
 }

@@ -35,6 +35,26 @@ enum ModelCommand {
     /// `fringe train --force-window` into a two-stage model: a force network, a contact network
     /// (--contact) or both, copied into --out with the first's card naming them.
     Pair(PairArgs),
+    /// Fit a model's slip head (stick, partial slip, gross slip from its readings of a frame
+    /// and the two before it) on runs of slides (`fringe scan slides`), and write the model
+    /// with it: `fringe eval`, `validate` and `stream` then report slip. The model needs shear
+    /// heads (trained on runs that record shear).
+    Slip(SlipArgs),
+}
+
+#[derive(Args)]
+struct SlipArgs {
+    /// The model: a weights file with shear heads (`fringe train`'s model.safetensors).
+    model: PathBuf,
+    /// Runs of slides whose frames carry slip labels.
+    #[arg(required = true)]
+    data: Vec<PathBuf>,
+    /// The model file to write, with the slip head in its card (and the card beside it).
+    #[arg(long, value_name = "FILE.safetensors")]
+    out: PathBuf,
+    /// Inference threads (at most the machine's cores are used).
+    #[arg(long, default_value_t = 2, value_parser = crate::cmd::arg_values::threads)]
+    threads: usize,
 }
 
 #[derive(Args)]
@@ -118,7 +138,36 @@ pub fn run(args: ModelArgs) -> Result<()> {
         ModelCommand::Run(a) => run_images(a),
         ModelCommand::Export(a) => export(&a.model, &a.onnx),
         ModelCommand::Pair(a) => pair(&a),
+        ModelCommand::Slip(a) => slip(&a),
     }
+}
+
+/// Fits and writes the slip head of `a`, and says how it fits its own data.
+fn slip(a: &SlipArgs) -> Result<()> {
+    fringe_rig::store::outside_runs(&a.out).context("--out")?;
+    let mut progress = crate::cmd::frames_progress::FramesProgress::new("reading the slides");
+    let fitted = models::fit_slip(
+        &models::SlipFitRequest {
+            model: &a.model,
+            data: &a.data,
+            out: &a.out,
+            threads: crate::cmd::arg_values::cap_threads(a.threads),
+        },
+        &mut |done, total| progress.show(done, total),
+    )?;
+    progress.finish();
+    println!(
+        "slip head:      fitted on {} frames of {} presses; gross slip reported after {} frame(s) in a row",
+        fitted.frames, fitted.presses, fitted.head.confirm_frames
+    );
+    if let Some(s) = &fitted.on_fitting_data {
+        println!(
+            "on that data:   {} (the fitting data itself: evaluate on other runs for a held-out figure)",
+            crate::cmd::eval::onset_summary(s)
+        );
+    }
+    println!("model:          {}", fitted.path.display());
+    Ok(())
 }
 
 /// Writes the two-stage model of `a` and says what it reads with which network.

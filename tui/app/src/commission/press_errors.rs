@@ -109,6 +109,10 @@ mod tests {
             shape_pred: 1,
             contact_true: Some([0.0, 0.0]),
             contact_pred: [contact_err, 0.0],
+            shear_true: None,
+            shear_pred: None,
+            slip_true: None,
+            slip_pred: None,
         }
     }
 

@@ -61,6 +61,8 @@ mod with_torch {
         pub init: Option<PathBuf>,
         /// A force network's window side, mm.
         pub force_window: Option<f64>,
+        /// Train on every Nth frame of the training side.
+        pub every: usize,
     }
 
     /// A training that cannot start or did not end.
@@ -76,6 +78,8 @@ mod with_torch {
         InputSize(u32),
         #[error("--threads {0}: use 1 to 256")]
         Threads(usize),
+        #[error("--every {0}: use 1 (every frame) to 10000")]
+        Every(usize),
         #[error(
             "--force-window {mm}: use a window of {} to {} mm (24 mm holds a press of the 8 N range)",
             .range.start(),
@@ -120,6 +124,9 @@ mod with_torch {
         }
         if !(32..=1024).contains(&r.input_size) {
             return Err(TrainingError::InputSize(r.input_size));
+        }
+        if !(1..=10_000).contains(&r.every) {
+            return Err(TrainingError::Every(r.every));
         }
         if !(1..=256).contains(&r.threads) {
             return Err(TrainingError::Threads(r.threads));
@@ -172,6 +179,7 @@ mod with_torch {
             augment: true,
             freeze_batch_norm: false,
             force_window_mm: r.force_window,
+            every: r.every,
         };
         let mut data = r.data;
         if let Some(cp) = &r.resume {
@@ -275,6 +283,7 @@ mod with_torch {
         config.schedule = record.schedule;
         config.seed = record.seed;
         config.force_window_mm = record.force_window_mm;
+        config.every = record.every;
         if let Some(arch) = card.architecture.as_deref() {
             config.arch = architecture(arch).map_err(ResumeError::Architecture)?;
         }

@@ -28,6 +28,7 @@ use fringe_sensor_models::{tensor_image, thumbnail, FrameRef, PreprocessError, P
 use fringe_sensor_models::{Errors, Metrics};
 use fringe_sensor_models::{Model, ModelError};
 use fringe_sensor_models::{PredictError, Predictor};
+use fringe_sensor_models::{Reading, SlipTracker};
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
@@ -242,6 +243,7 @@ impl Shared {
             }
         }
         evaluation.metrics.add(&scored, &keys(label));
+        evaluation.labels_know_shear |= label.shear.is_some();
         evaluation.rows.push(Row {
             scored,
             stage_mm: label.stage_mm,
@@ -265,6 +267,7 @@ impl Shared {
             rows: Vec::new(),
             skipped: 0,
             skipped_busy: 0,
+            labels_know_shear: false,
         };
         for f in frames.iter() {
             self.tally(&mut state, &mut evaluation, &f.label, &f.prediction);
@@ -374,10 +377,14 @@ impl LiveValidation {
                 rows: Vec::new(),
                 skipped: 0,
                 skipped_busy: 0,
+                labels_know_shear: false,
             }),
             frames: Mutex::new(Vec::new()),
             classes: model.classes.clone(),
         });
+        let model_slip = model
+            .slip_head()
+            .map(|head| (SlipTracker::new(head), String::new()));
         let worker = Worker {
             shared: shared.clone(),
             model,
@@ -387,6 +394,7 @@ impl LiveValidation {
             started: Instant::now(),
             recent: VecDeque::new(),
             pictured: None,
+            slip: model_slip,
         };
         let handle = std::thread::Builder::new()
             .name(WORKER_NAME.into())
@@ -485,6 +493,9 @@ struct Worker {
     recent: VecDeque<Instant>,
     /// When the pictures of the newest prediction were last made (at most [`PICTURE_RATE_HZ`]).
     pictured: Option<Instant>,
+    /// The model's slip head over the frames of the current press (a model with one), and
+    /// the press.
+    slip: Option<(SlipTracker, String)>,
 }
 
 /// Pictures (frame and network input) made per second at most: the screen needs no more, and
@@ -544,11 +555,20 @@ impl Worker {
             return Ok(());
         };
         let fref = FrameRef::from(frame);
-        let Some(prediction) = self.infer(fref, frame.id, input)?.into_iter().next() else {
+        let Some(mut prediction) = self.infer(fref, frame.id, input)?.into_iter().next() else {
             return Err(ValidationError::NoPrediction {
                 model: self.model.path.clone(),
             });
         };
+        if let Some((tracker, press)) = &mut self.slip {
+            // The slip head reads the frames of one press in order (a frame skipped while the
+            // model was busy is not read).
+            if *press != label.press {
+                tracker.reset();
+                press.clone_from(&label.press);
+            }
+            prediction.slip = tracker.next(Reading::of_prediction(&prediction));
+        }
         let latency_ms = t0.elapsed().as_secs_f64() * 1e3;
         let now = Instant::now();
         self.count_rate(now);

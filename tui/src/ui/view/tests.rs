@@ -234,6 +234,8 @@ fn prediction(fz: f64, shape: &str, p: f64, at: [f64; 2]) -> Prediction {
         probabilities: vec![("None".into(), 1.0 - p), (shape.into(), p)],
         contact: Some([Millimetres(at[0]), Millimetres(at[1])]),
         contact_raw: [Millimetres(at[0]), Millimetres(at[1])],
+        shear: None,
+        slip: None,
     }
 }
 
@@ -244,6 +246,7 @@ fn errors(n: u64, rmse: f64) -> Errors {
         n_contact: n,
         sum_sq_contact: 0.25 * n as f64,
         correct: n - 1,
+        ..Errors::default()
     }
 }
 
