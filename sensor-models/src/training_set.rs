@@ -438,7 +438,8 @@ mod tests {
             force: [0.0, 0.0, 3.04, 0.0, 0.0, 0.0, 3.04],
             shape: "pentagon".into(),
             contact: Some([4.0, 0.0]),
-            shear: None,
+            // A push along the contact's own direction, unrounded.
+            shear: Some([1.234, 0.0]),
             slip: None,
             press: "p".into(),
             stage_mm: None,
@@ -448,6 +449,7 @@ mod tests {
         assert_eq!(plain.len(), 1);
         assert_eq!(plain.targets[0].fz, 3.0);
         assert_eq!(plain.targets[0].class, 1);
+        assert_eq!(plain.targets[0].shear, Some([1.234, 0.0]));
         let set = prepare(&s, &pre, Some(Pipeline::Gray10));
         assert_eq!(set.len(), 10);
         let mut batch = Vec::new();
@@ -469,6 +471,12 @@ mod tests {
                 diff.abs() < 12.0,
                 "copy {k}: image at {angle_img:.0} deg, label at {angle_label:.0} deg"
             );
+            // The shear turns with the image as the contact does: still along the contact,
+            // still 1.234 N.
+            let [qx, qy] = set.targets[k].shear.expect("shear");
+            let along = (f64::from(qx) * f64::from(x) + f64::from(qy) * f64::from(y))
+                / f64::from(x).hypot(f64::from(y));
+            assert!((along - 1.234).abs() < 2e-3, "copy {k}: {qx}, {qy}");
         }
     }
 
