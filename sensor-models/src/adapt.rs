@@ -92,6 +92,12 @@ pub enum AdaptError {
          graph or a TorchScript module"
     )]
     NotWeights(String),
+    #[error(
+        "{0}: the model has shear heads, and adaptation fits its force head again on the \
+         F/T's magnitudes, which would undo them: fine-tune it with `fringe train --init` on \
+         the unit's runs instead"
+    )]
+    ShearHeads(String),
     #[error("{path}: {source}")]
     Features {
         path: String,
@@ -419,6 +425,9 @@ fn read_features(
     threads: usize,
     progress: impl FnMut(usize, usize),
 ) -> Result<Features, AdaptError> {
+    if model.has_shear() {
+        return Err(AdaptError::ShearHeads(model.path.display().to_string()));
+    }
     let proto = model
         .onnx()
         .ok()

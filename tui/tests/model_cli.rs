@@ -684,6 +684,36 @@ fn adapt_refuses_too_few_presses_and_writes_safetensors_only() {
     let t = text(&o);
     assert!(!o.status.success(), "{t}");
     assert!(t.contains("too few to adapt on"), "{t}");
+
+    // A model with shear heads: refitting its force head on the F/T's magnitudes would undo
+    // them, so adaptation refuses it and says what to do instead.
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../sensor-models/models");
+    let sheared = dir.join("sheared.safetensors");
+    std::fs::copy(models.join("layered-custom.safetensors"), &sheared).expect("copy");
+    let mut card: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(models.join("layered-custom.json")).expect("card"),
+    )
+    .expect("json");
+    card["shear"] = serde_json::Value::Bool(true);
+    std::fs::write(dir.join("sheared.safetensors.json"), card.to_string()).expect("card");
+    let o = fringe(&[
+        "adapt",
+        arg(&few),
+        "--model",
+        arg(&sheared),
+        "--profile",
+        arg(&profile),
+        "--out",
+        arg(&out),
+    ]);
+    let t = text(&o);
+    assert!(!o.status.success(), "{t}");
+    assert!(
+        t.contains("sheared.safetensors: the model has shear heads")
+            && t.contains("fringe train --init"),
+        "{t}"
+    );
+    assert!(!out.exists());
 }
 
 /// A card's `force_window_mm` of -5, 0 or 1e300 mm (once accepted by `model info` and `model

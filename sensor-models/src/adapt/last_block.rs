@@ -49,6 +49,9 @@ impl BlockInputs {
         every: usize,
         progress: impl FnMut(usize, usize),
     ) -> Result<Option<BlockInputs>, AdaptError> {
+        if model.has_shear() {
+            return Err(AdaptError::ShearHeads(model.path.display().to_string()));
+        }
         let Some(proto) = model
             .onnx()
             .ok()
