@@ -867,5 +867,19 @@ fn a_model_without_shear_heads_asked_for_shear_is_refused() {
     let t = text(&out);
     assert!(out.status.success(), "{t}");
     assert!(t.contains("Fz RMSE") && !t.contains("shear"), "{t}");
+    // A slip head reads the shear: none is fitted on a model without shear heads.
+    let fitted = dir.join("slip.safetensors");
+    let out = fringe(&[
+        "model",
+        "slip",
+        "builtin:layered-keypoint",
+        arg(&data),
+        "--out",
+        arg(&fitted),
+    ]);
+    let t = text(&out);
+    assert!(!out.status.success(), "accepted: {t}");
+    assert!(t.contains("the model has no shear heads"), "{t}");
+    assert!(!fitted.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,12 +4,13 @@
 
 use crate::models::choice::{open_model, ChoiceError};
 use crate::models::labelled_data::{read_sources, LabelledDataError};
+use crate::models::two_stage::{write_network, TwoStageError};
 use fringe_sensor_models::eval::{
     evaluate, slip_onsets, slip_sequences, EvalError, SLIP_ONSET_TOLERANCE_FRAMES,
 };
 use fringe_sensor_models::{
-    fit_slip_head, BackendKind, ModelCard, ModelError, ModelFileError, OnsetScore, Predictor,
-    SlipFitError, SlipHead,
+    fit_slip_head, BackendKind, ModelCard, ModelError, OnsetScore, Predictor, SlipFitError,
+    SlipHead,
 };
 use std::path::{Path, PathBuf};
 
@@ -60,18 +61,8 @@ pub enum SlipFitFailure {
         .0.display()
     )]
     NotWeights(PathBuf),
-    #[error("{}: cannot write: {source}", .path.display())]
-    WriteWeights {
-        path: PathBuf,
-        source: ModelFileError,
-    },
-    #[error("{}: cannot write the card: {source}", .path.display())]
-    WriteCard {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("the card cannot be written: {0}")]
-    Card(#[from] serde_json::Error),
+    #[error(transparent)]
+    Write(#[from] TwoStageError),
 }
 
 /// Fits the slip head of `r.model` on `r.data` and writes the model with it to `r.out`;
@@ -124,7 +115,7 @@ pub fn fit_slip(
             "fringe_version": env!("CARGO_PKG_VERSION"),
         }),
     );
-    write(r.out, weights, &card)?;
+    write_network(r.out, weights, &card)?;
     // The head as written, over its own data: how well it fits (a held-out figure is
     // `fringe eval` on other units' runs).
     let written = open_model(r.out)?;
@@ -136,25 +127,5 @@ pub fn fit_slip(
         frames,
         presses: sequences.len(),
         on_fitting_data: slip_onsets(&again.rows),
-    })
-}
-
-/// The model's weights with `card` embedded, and the card beside (`<file>.json`).
-fn write(
-    path: &Path,
-    weights: &fringe_sensor_models::StateDict,
-    card: &ModelCard,
-) -> Result<(), SlipFitFailure> {
-    fringe_sensor_models::write_safetensors_with_card(path, weights, Some(card)).map_err(
-        |source| SlipFitFailure::WriteWeights {
-            path: path.to_path_buf(),
-            source,
-        },
-    )?;
-    let [json, _] = ModelCard::candidates(path);
-    let text = serde_json::to_string_pretty(card)?;
-    std::fs::write(&json, text + "\n").map_err(|source| SlipFitFailure::WriteCard {
-        path: json.clone(),
-        source,
     })
 }

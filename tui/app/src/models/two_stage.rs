@@ -182,9 +182,14 @@ fn weights_of(net: &Model) -> Result<&StateDict, TwoStageError> {
         .ok_or_else(|| TwoStageError::NotWeights(net.path.clone()))
 }
 
-/// One network of a two-stage model into `path`: its weights with the card embedded, and the
-/// card beside it (`<file>.json`), as training writes them.
-fn write_network(path: &Path, weights: &StateDict, card: &ModelCard) -> Result<(), TwoStageError> {
+/// A network into `path`: its weights with the card embedded, and the card beside it
+/// (`<file>.json`), as training writes them (a two-stage model's networks, a model with its
+/// slip head).
+pub(crate) fn write_network(
+    path: &Path,
+    weights: &StateDict,
+    card: &ModelCard,
+) -> Result<(), TwoStageError> {
     fringe_sensor_models::write_safetensors_with_card(path, weights, Some(card)).map_err(
         |source| TwoStageError::WriteWeights {
             path: path.to_path_buf(),
