@@ -28,6 +28,7 @@ pub mod sim_dataset;
 pub mod sim_render;
 #[cfg(feature = "sim")]
 pub mod sim_serve;
+pub mod slip_onsets;
 pub mod stream;
 pub mod terminal_host;
 pub mod terminal_prompt;

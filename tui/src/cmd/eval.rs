@@ -211,30 +211,12 @@ fn print_figures(model: &Model, eval: &Evaluation) {
         println!("{line}");
     }
     if let Some(s) = fringe_sensor_models::eval::slip_onsets(&eval.rows) {
-        println!("slip onsets:    {}", onset_summary(&s));
+        println!("slip onsets:    {}", super::slip_onsets::onset_summary(&s));
     }
 }
 
-/// Slip onsets found, how far off, the false ones, F1, and the frames' states, in one line.
-pub(crate) fn onset_summary(s: &fringe_sensor_models::OnsetScore) -> String {
-    let tol = fringe_sensor_models::eval::SLIP_ONSET_TOLERANCE_FRAMES;
-    let off = match (s.mean_offset(), s.max_offset()) {
-        (Some(mean), Some(max)) => format!(", {mean:.2} frames off on average, {max} at most"),
-        _ => String::new(),
-    };
-    format!(
-        "{} of {} found within {tol} frames{off}; {} false; F1 {:.3}; state as labelled on {:.1} % of {} frames",
-        s.found,
-        s.labelled,
-        s.false_onsets,
-        s.f1(),
-        100.0 * s.agree as f64 / s.frames.max(1) as f64,
-        s.frames
-    )
-}
-
 /// The shear figures, or why there are none where the data records shear.
-pub(crate) fn shear_line(model: &Model, eval: &Evaluation) -> Option<String> {
+fn shear_line(model: &Model, eval: &Evaluation) -> Option<String> {
     let e = &eval.metrics.all;
     match e.shear_rmse() {
         Some([x, y]) => Some(format!(

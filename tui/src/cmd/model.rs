@@ -163,7 +163,7 @@ fn slip(a: &SlipArgs) -> Result<()> {
     if let Some(s) = &fitted.on_fitting_data {
         println!(
             "on that data:   {} (the fitting data itself: evaluate on other runs for a held-out figure)",
-            crate::cmd::eval::onset_summary(s)
+            crate::cmd::slip_onsets::onset_summary(s)
         );
     }
     println!("model:          {}", fitted.path.display());
