@@ -32,6 +32,19 @@ fn frame(path: &Path, strength: f64) {
 }
 
 /// A profile of a 1920x1200 sensor with its optical centre 30 px right of the image centre.
+/// A reference-layout dataset at `data` of one labelled frame: a 2 N pentagon press.
+fn one_press_dataset(data: &Path) -> PathBuf {
+    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
+    frame(&data.join("0.images/image_0.tiff"), 1.0);
+    std::fs::write(
+        data.join("0.labels.csv"),
+        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n\
+         image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
+    )
+    .expect("labels");
+    data.to_path_buf()
+}
+
 fn sample_profile(id: &str) -> Profile {
     Profile {
         sensor_id: id.into(),
@@ -735,15 +748,7 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
     )
     .expect("card");
     // A dataset for eval: one labelled frame.
-    let data = dir.join("data");
-    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
-    frame(&data.join("0.images/image_0.tiff"), 1.0);
-    std::fs::write(
-        data.join("0.labels.csv"),
-        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n\
-         image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
-    )
-    .expect("labels");
+    let data = one_press_dataset(&dir.join("data"));
     let paired = dir.join("pair");
     for bad in ["-5", "0", "1e300", "1.5", "101"] {
         std::fs::write(&card, format!(r#"{{"force_window_mm": {bad}}}"#)).expect("card");
@@ -831,15 +836,7 @@ fn a_card_field_outside_its_range_is_refused_by_every_command_naming_the_card_an
 #[test]
 fn a_model_without_shear_heads_asked_for_shear_is_refused() {
     let dir = scratch("no-shear");
-    let data = dir.join("data");
-    std::fs::create_dir_all(data.join("0.images")).expect("dataset dir");
-    frame(&data.join("0.images/image_0.tiff"), 1.0);
-    std::fs::write(
-        data.join("0.labels.csv"),
-        "New_Image_Name,Fx,Fy,Fz,Mx,My,Mz,Ft,X_Position_mm,Y_Position_mm,Indentor_Shape\n\
-         image_0.tiff,0.1,0.1,-2.0,0,0,0,2.0,1.0,-2.0,pentagon\n",
-    )
-    .expect("labels");
+    let data = one_press_dataset(&dir.join("data"));
     let eval = |extra: &[&str]| {
         let mut args = vec![
             "eval",
